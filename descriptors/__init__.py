@@ -1,0 +1,63 @@
+"""Descriptor backends, selected by name.
+
+Built-in backends are listed in ``BACKENDS``. Third-party backends register through the entry point group
+``vpr_smr.descriptors`` (``name = "package.module:Class"``) or are named in the configuration by a dotted
+path ``package.module:Class``.
+"""
+
+from __future__ import annotations
+
+import importlib
+from importlib.metadata import entry_points
+
+from .base import Backend, CheckpointError, TorchBackend
+
+ENTRY_POINT_GROUP = "vpr_smr.descriptors"
+
+# name -> "module:Class" within this package; imported lazily so that a backend's imports cost nothing until used.
+BACKENDS: dict[str, str] = {
+    "sad": "sad:SAD",
+    "hog": "hog:HOG",
+    "efficientnet_lite0_gem": "efficientnet_lite:EfficientNetLite0GeM",
+    "netvlad": "netvlad:NetVLAD",
+    "apgem": "apgem:APGeM",
+    "cosplace": "cosplace:CosPlace",
+    "eigenplaces": "cosplace:EigenPlaces",
+    "mixvpr": "mixvpr:MixVPR",
+    "salad": "salad:SALAD",
+    "precomputed": "precomputed:Precomputed",
+}
+
+__all__ = ["BACKENDS", "Backend", "CheckpointError", "TorchBackend", "available_backends", "backend_class"]
+
+
+def _import(target: str, package: str | None = None) -> type[Backend]:
+    module_name, _, class_name = target.partition(":")
+    module = importlib.import_module(module_name, package)
+    return getattr(module, class_name)
+
+
+def available_backends() -> list[str]:
+    names = set(BACKENDS) | {ep.name for ep in entry_points(group=ENTRY_POINT_GROUP)}
+    return sorted(names)
+
+
+def backend_class(name: str) -> type[Backend]:
+    """Resolve a backend by built-in name, entry point name, or dotted path ``package.module:Class``."""
+    if name in BACKENDS:
+        return _import("." + BACKENDS[name], __name__)
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        if ep.name == name:
+            return ep.load()
+    if ":" in name:
+        try:
+            cls = _import(name)
+        except (ImportError, AttributeError) as error:
+            raise ValueError(f"cannot import descriptor backend {name!r}: {error}") from None
+        if not (isinstance(cls, type) and issubclass(cls, Backend)):
+            raise ValueError(f"{name!r} is not a subclass of vpr_smr.descriptors.Backend")
+        return cls
+    raise ValueError(
+        f"unknown descriptor backend {name!r}; available: {', '.join(available_backends())}, "
+        "or a dotted path package.module:Class"
+    )

@@ -1,0 +1,134 @@
+"""Match removal and precision-recall (SPEC section 8), in paper and standard mode.
+
+A curve is two arrays, recall and precision, whose first point is ``(R=0, P=1)``. Both modes share
+``keep_mask`` and ``compare_curves``; only the curve differs, selected by the ``mode`` parameter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from sklearn.metrics import auc
+
+MODES = ("paper", "standard")
+PAPER_THRESHOLDS = 1999
+KEPT_CLASSES = (0, 2)  # predicted correct after sequence matching
+
+
+@dataclass(frozen=True)
+class Curve:
+    recall: np.ndarray
+    precision: np.ndarray
+
+
+def keep_mask(
+    predicted: np.ndarray | None = None, confidence: np.ndarray | None = None, trust: float = 0.0, n: int = 0
+) -> np.ndarray:
+    """Which queries keep their sequence match, before any distance threshold.
+
+    Without a predictor every query is kept. With one, a query is kept when its predicted class is 0 or 2;
+    with a trust level ``p`` the predictor only acts where its highest class probability is ``>= p``.
+    """
+    if predicted is None:
+        return np.ones(n, dtype=bool)
+    keep = np.isin(predicted, KEPT_CLASSES)
+    if trust > 0:
+        if confidence is None:
+            raise ValueError("a trust level needs the predictor's class probabilities")
+        keep |= np.asarray(confidence) < trust
+    return keep
+
+
+def _precision_recall(tp: np.ndarray, fp: np.ndarray, positives: int) -> Curve:
+    tp = tp.astype(np.float64)
+    has_tp = tp > 0
+    precision = np.where(has_tp, tp / np.maximum(tp + fp, 1), 0.0)
+    recall = np.where(has_tp, tp / max(positives, 1), 0.0)
+    return Curve(np.concatenate([[0.0], recall]), np.concatenate([[1.0], precision]))
+
+
+def paper_curve(
+    distances: np.ndarray,
+    correct: np.ndarray,
+    keep: np.ndarray,
+    sequence_min: float,
+    sequence_max: float,
+    n_thresholds: int = PAPER_THRESHOLDS,
+) -> Curve:
+    """The authors' curve: a fixed grid of thresholds over ``[S.min(), S.max()]`` of the split.
+
+    Recall's denominator is the number of queries whose sequence match is correct; ``(0, 0)`` where TP = 0.
+    """
+    thresholds = np.linspace(sequence_min, sequence_max, n_thresholds)
+    correct = np.asarray(correct, dtype=bool)
+    tp = np.searchsorted(np.sort(distances[keep & correct]), thresholds, side="right")
+    fp = np.searchsorted(np.sort(distances[keep & ~correct]), thresholds, side="right")
+    return _precision_recall(tp, fp, int(correct.sum()))
+
+
+def standard_curve(distances: np.ndarray, correct: np.ndarray, keep: np.ndarray) -> Curve:
+    """The exact curve: one point per distinct distance of a kept match, recall over all queries."""
+    correct = np.asarray(correct, dtype=bool)
+    kept_distances = distances[keep]
+    order = np.argsort(kept_distances, kind="stable")
+    sorted_distances = kept_distances[order]
+    hits = correct[keep][order]
+    tp = np.cumsum(hits)
+    fp = np.cumsum(~hits)
+    # One point per threshold: the last of each run of equal distances.
+    last = np.r_[sorted_distances[1:] != sorted_distances[:-1], True] if len(order) else np.zeros(0, bool)
+    return _precision_recall(tp[last], fp[last], len(distances))
+
+
+def curve(
+    mode: str,
+    distances: np.ndarray,
+    correct: np.ndarray,
+    keep: np.ndarray,
+    sequence_min: float,
+    sequence_max: float,
+) -> Curve:
+    if mode == "paper":
+        return paper_curve(distances, correct, keep, sequence_min, sequence_max)
+    if mode == "standard":
+        return standard_curve(distances, correct, keep)
+    raise ValueError(f"unknown metric mode {mode!r}; choose one of {', '.join(MODES)}")
+
+
+@dataclass(frozen=True)
+class Comparison:
+    max_recall: float
+    auc_baseline: float
+    auc_predictor: float
+    aoc_baseline: float
+    aoc_predictor: float
+    reduction_pct: float
+    baseline_cut: Curve
+
+
+def cut_curve(curve_: Curve, max_recall: float) -> Curve:
+    inside = curve_.recall <= max_recall
+    return Curve(curve_.recall[inside], curve_.precision[inside])
+
+
+def area(curve_: Curve) -> float:
+    """Area under the curve by the trapezoid rule (``sklearn.metrics.auc``)."""
+    if len(curve_.recall) < 2:
+        return 0.0
+    return float(auc(curve_.recall, curve_.precision))
+
+
+def compare_curves(baseline: Curve, predictor: Curve) -> Comparison:
+    """AOC at the predictor's maximum recall: the baseline is cut to ``R <= R_max``, ``AOC = R_max - AUC``."""
+    max_recall = float(predictor.recall[-1])
+    baseline_cut = cut_curve(baseline, max_recall)
+    auc_base, auc_pred = area(baseline_cut), area(predictor)
+    aoc_base, aoc_pred = max_recall - auc_base, max_recall - auc_pred
+    reduction = 100.0 * (aoc_base - aoc_pred) / aoc_base if aoc_base > 0 else 0.0
+    return Comparison(max_recall, auc_base, auc_pred, aoc_base, aoc_pred, reduction, baseline_cut)
+
+
+def recall_at_full_precision(curve_: Curve) -> float:
+    """Highest recall of a point whose precision is exactly 1."""
+    return float(curve_.recall[curve_.precision == 1.0].max())
