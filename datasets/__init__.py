@@ -8,11 +8,17 @@ from typing import Any
 
 from .base import DatasetError, Traverse, TraversePair, read_image
 from .folders import folder_pair
+from .nordland import nordland
 from .nordland_sample import nordland_sample
+from .robotcar import robotcar
+from .sfu_mountain import sfu_mountain
 
 LOADERS: dict[str, Callable[..., TraversePair]] = {
     "folders": folder_pair,
     "nordland_sample": nordland_sample,
+    "nordland": nordland,
+    "robotcar": robotcar,
+    "sfu_mountain": sfu_mountain,
 }
 
 __all__ = ["DatasetError", "LOADERS", "Traverse", "TraversePair", "load_dataset", "read_image"]
@@ -22,8 +28,9 @@ def slice_pair(pair: TraversePair, lo: int, hi: int, splits: dict[str, tuple[int
     """Frames ``lo .. hi-1`` of both traverses, with split ranges relative to the slice."""
     return replace(
         pair,
-        reference=Traverse(pair.reference.name, pair.reference.images[lo:hi]),
-        query=Traverse(pair.query.name, pair.query.images[lo:hi]),
+        # replace() keeps the traverse's class, e.g. RobotCar's demosaicing reader
+        reference=replace(pair.reference, images=pair.reference.images[lo:hi]),
+        query=replace(pair.query, images=pair.query.images[lo:hi]),
         splits=dict(splits),
     )
 
@@ -48,7 +55,7 @@ def load_dataset(name: str, conf: dict[str, Any]) -> TraversePair:
     if frames is None:
         if splits:
             kwargs["splits"] = splits
-    elif loader_name == "folders":
+    else:
         kwargs["splits"] = {}  # the splits apply to the slice, below
     try:
         pair = loader(**kwargs)

@@ -24,15 +24,20 @@ def list_files(paths: Sequence[Path | str], limit: int = MAX_LISTED) -> str:
     return shown + (f" and {len(paths) - limit} more" if len(paths) > limit else "")
 
 
-def read_image(path: Path | str) -> np.ndarray:
-    """Read an image as RGB ``uint8`` of shape ``H x W x 3``; an unreadable file raises naming it."""
+def imread(path: Path | str, flags: int = cv2.IMREAD_COLOR) -> np.ndarray:
+    """``cv2.imread(path, flags)`` (OpenCV's channel order); a missing or undecodable file raises naming it."""
     path = Path(path)
     if not path.is_file():
         raise DatasetError(f"image not found: {path}")
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    image = cv2.imread(str(path), flags)
     if image is None:
         raise DatasetError(f"cannot decode image {path}: the file is corrupt or not an image")
-    return cv2.cvtColor(image, cv2.COLOR_BGR2RGB)
+    return image
+
+
+def read_image(path: Path | str) -> np.ndarray:
+    """Read an image as RGB ``uint8`` of shape ``H x W x 3``; an unreadable file raises naming it."""
+    return cv2.cvtColor(imread(path, cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
 
 
 @dataclass(frozen=True)

@@ -19,4 +19,5 @@ def nordland_sample(
     root: Path | str = DEFAULT_ROOT, splits: dict[str, tuple[int, int]] | None = None, tolerance: int = 2
 ) -> TraversePair:
     """Summer is the reference, winter the query."""
-    return folder_pair("nordland_sample", Path(root) / "summer", Path(root) / "winter", splits or SPLITS, tolerance)
+    splits = SPLITS if splits is None else splits
+    return folder_pair("nordland_sample", Path(root) / "summer", Path(root) / "winter", splits, tolerance)

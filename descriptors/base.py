@@ -53,6 +53,10 @@ class Backend:
         if checkpoint is not None:
             raise CheckpointError(f"backend {self.name!r} takes no checkpoint, but one was given: {checkpoint}")
 
+    def precomputed(self, pair: Any) -> tuple[np.ndarray, np.ndarray] | None:
+        """Descriptors that need no images (e.g. files computed elsewhere); ``None``: compute from images."""
+        return None
+
     def describe(self, image: np.ndarray) -> np.ndarray:
         """Descriptor of one image (a convenience; the pipeline batches)."""
         return self.forward(torch.as_tensor(self.preprocess(image))[None])[0]
@@ -98,7 +102,7 @@ def state_dict_problems(model: torch.nn.Module, state_dict: dict[str, Any], limi
     misshaped = [
         f"{k}: file {tuple(state_dict[k].shape)}, model {tuple(expected[k].shape)}"
         for k in expected
-        if k in state_dict and hasattr(state_dict[k], "shape") and tuple(state_dict[k].shape) != tuple(expected[k].shape)
+        if k in state_dict and tuple(getattr(state_dict[k], "shape", ())) != tuple(expected[k].shape)
     ]
     lines = []
     for title, keys in (("missing keys", missing), ("unexpected keys", unexpected), ("wrong shapes", misshaped)):

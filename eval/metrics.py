@@ -124,7 +124,8 @@ def compare_curves(baseline: Curve, predictor: Curve) -> Comparison:
     max_recall = float(predictor.recall[-1])
     baseline_cut = cut_curve(baseline, max_recall)
     auc_base, auc_pred = area(baseline_cut), area(predictor)
-    aoc_base, aoc_pred = max_recall - auc_base, max_recall - auc_pred
+    # Precision <= 1, so AUC <= R_max: a negative AOC is rounding error of the trapezoid sum.
+    aoc_base, aoc_pred = max(0.0, max_recall - auc_base), max(0.0, max_recall - auc_pred)
     reduction = 100.0 * (aoc_base - aoc_pred) / aoc_base if aoc_base > 0 else 0.0
     return Comparison(max_recall, auc_base, auc_pred, aoc_base, aoc_pred, reduction, baseline_cut)
 

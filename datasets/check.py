@@ -1,0 +1,326 @@
+"""Check a dataset on disk: frames found per traverse and per split, missing and unreadable images.
+
+``check_dataset(pair)`` builds a report, ``format_report`` turns it into text, and ``main`` backs the
+command ``vpr-smr dataset check NAME --root DIR``. The layout helpers (``require_root``, ``require_images``,
+``read_list``) are shared by the benchmark loaders so that every loader fails with the same kind of message:
+what is missing, where, and how to fix it.
+"""
+
+from __future__ import annotations
+
+import inspect
+import os
+import sys
+from collections import Counter
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import cv2
+
+from .base import MAX_LISTED, DatasetError, Traverse, TraversePair, list_files
+
+MAX_HINT_DIRS = 200  # folders looked into when guessing a mis-set root (a root may hold many files)
+
+
+# --- layout checks shared by the loaders ---
+
+
+def require_root(dataset: str, root: Path | str, fix: str) -> Path:
+    """The root as a Path; raise naming it and the fix when it is not an existing folder."""
+    root = Path(root).expanduser()
+    if not root.exists():
+        raise DatasetError(f"dataset {dataset!r}: root folder {root} does not exist; {fix}")
+    if not root.is_dir():
+        raise DatasetError(f"dataset {dataset!r}: root {root} is not a folder; {fix}")
+    return root
+
+
+def _relative(path: Path, root: Path) -> str:
+    try:
+        return path.relative_to(root).as_posix()
+    except ValueError:
+        return str(path)
+
+
+def unique(paths: Sequence[Path]) -> list[Path]:
+    """Paths in first-seen order without repeats (RobotCar lists repeat frames)."""
+    return list(dict.fromkeys(paths))
+
+
+def missing_folders(paths: Sequence[Path]) -> list[Path]:
+    """The parent folders of ``paths`` that do not exist, in first-seen order."""
+    # Plain strings: pathlib is slow over the 55184 Nordland paths.
+    folders = dict.fromkeys(os.path.dirname(p) for p in paths)
+    return [Path(folder) for folder in folders if not os.path.isdir(folder)]
+
+
+def missing_files(paths: Sequence[Path]) -> list[Path]:
+    """The ``paths`` that are not files, once each, in first-seen order."""
+    return [p for p in unique(paths) if not os.path.isfile(p)]
+
+
+def _relative_names(paths: Sequence[Path], root: Path) -> list[Path | str]:
+    """``paths`` for ``list_files``: the shown ones relative to root (the others are only counted)."""
+    return [_relative(p, root) for p in paths[:MAX_LISTED]] + list(paths[MAX_LISTED:])
+
+
+def _root_hint(root: Path, wanted: Path) -> str:
+    """Where ``wanted`` (a folder relative to root) is, if root is one level too high or too low."""
+    candidates = []
+    try:
+        children = [c for c in sorted(root.iterdir())[:MAX_HINT_DIRS] if c.is_dir()]
+    except OSError:
+        children = []
+    candidates.extend(children)
+    candidates.append(root.parent)
+    for candidate in candidates:
+        if (candidate / wanted).is_dir():
+            return f" ({wanted.as_posix()}/ is in {candidate}: did you mean root = {candidate}?)"
+    return ""
+
+
+def require_images(dataset: str, root: Path, images: Sequence[Path], fix: str) -> None:
+    """Raise when folders or files named by the frame lists are missing (first few, then a count)."""
+    folders = missing_folders(images)
+    if folders:
+        hint = _root_hint(root, folders[0].relative_to(root)) if folders[0].is_relative_to(root) else ""
+        raise DatasetError(
+            f"dataset {dataset!r}: {len(folders)} image folder(s) missing under root {root}: "
+            f"{list_files(_relative_names(folders, root))}{hint}; {fix}"
+        )
+    missing = missing_files(images)
+    if missing:
+        wanted = len(unique(images))
+        raise DatasetError(
+            f"dataset {dataset!r}: {len(missing)} of the {wanted} images named by the frame lists are "
+            f"missing under root {root}: {list_files(_relative_names(missing, root))}. "
+            "Complete the download, or give shorter frame lists; "
+            f"`vpr-smr dataset check {dataset} --root {root}` reports what is missing per split"
+        )
+
+
+def checked_pair(
+    dataset: str,
+    root: Path,
+    fix: str,
+    reference: Traverse,
+    query: Traverse,
+    splits: dict[str, tuple[int, int]],
+    tolerance: int,
+    check_files: bool,
+) -> TraversePair:
+    """A loader's pair named ``dataset``; with ``check_files``, first raise when images are missing
+    (``require_images`` over both traverses)."""
+    if check_files:
+        require_images(dataset, root, [*reference.images, *query.images], fix)
+    return TraversePair(name=dataset, reference=reference, query=query, tolerance=tolerance, splits=dict(splits))
+
+
+def read_list(dataset: str, list_file: Path | str, option: str) -> list[str]:
+    """The non-blank, non-``#`` lines of a frame list; a missing or empty list raises naming ``option``."""
+    list_file = Path(list_file).expanduser()
+    if not list_file.is_file():
+        raise DatasetError(f"dataset {dataset!r}: frame list {list_file} not found; fix or remove {option}")
+    lines = [line.strip() for line in list_file.read_text().splitlines()]
+    lines = [line for line in lines if line and not line.startswith("#")]
+    if not lines:
+        raise DatasetError(f"dataset {dataset!r}: frame list {list_file} names no frames; fix {option}")
+    return lines
+
+
+# --- the report ---
+
+
+@dataclass
+class TraverseCheck:
+    """What was found of one traverse; indices are frame positions (a repeated file counts at each one)."""
+
+    role: str  # "reference" or "query"
+    name: str
+    frames: int
+    missing: list[int] = field(default_factory=list)
+    unreadable: list[int] = field(default_factory=list)
+    errors: dict[Path, str] = field(default_factory=dict)  # reason per unreadable file
+    missing_files: list[Path] = field(default_factory=list)  # unique, in frame order
+    missing_folders: list[Path] = field(default_factory=list)
+    sizes: Counter[str] = field(default_factory=Counter)  # "WxHxC" -> number of files
+
+    @property
+    def bad(self) -> set[int]:
+        return set(self.missing) | set(self.unreadable)
+
+    @property
+    def found(self) -> int:
+        return self.frames - len(self.bad)
+
+
+@dataclass
+class SplitCheck:
+    name: str
+    lo: int
+    hi: int
+    reference: int  # usable reference frames in [lo, hi)
+    query: int
+    both: int  # positions where both images are usable
+
+    @property
+    def frames(self) -> int:
+        return self.hi - self.lo
+
+
+@dataclass
+class DatasetReport:
+    dataset: str
+    frames: int
+    tolerance: int
+    traverses: list[TraverseCheck]
+    splits: list[SplitCheck]
+    decoded: bool
+
+    @property
+    def ok(self) -> bool:
+        return all(not t.bad for t in self.traverses)
+
+    @property
+    def status(self) -> int:
+        return 0 if self.ok else 1
+
+
+def _decode(traverse: Traverse, index: int) -> tuple[str | None, str | None]:
+    """(size, None) or (None, reason); reads via Traverse.read, so RobotCar mosaics are demosaiced too."""
+    try:
+        image = traverse.read(index)
+    except (DatasetError, cv2.error, ValueError, OSError) as error:
+        return None, str(error)
+    if image.size == 0:
+        return None, "empty image"
+    channels = image.shape[2] if image.ndim == 3 else 1
+    return f"{image.shape[1]}x{image.shape[0]}x{channels}", None
+
+
+def _check_traverse(role: str, traverse: Traverse, decode: bool, workers: int) -> TraverseCheck:
+    report = TraverseCheck(role, traverse.name, len(traverse))
+    first_index: dict[Path, int] = {}
+    for i, path in enumerate(traverse.images):
+        first_index.setdefault(path, i)
+    report.missing_folders = missing_folders(list(first_index))
+    present = []
+    for path in first_index:
+        if os.path.isfile(path):
+            present.append(path)
+        else:
+            report.missing_files.append(path)
+    unreadable: set[Path] = set()
+    if decode and present:
+        # Decode each file once; OpenCV releases the GIL, so threads overlap the reads.
+        with ThreadPoolExecutor(max_workers=max(1, workers)) as pool:
+            results = pool.map(lambda p: _decode(traverse, first_index[p]), present)
+            for path, (size, reason) in zip(present, results, strict=True):
+                if reason is None:
+                    report.sizes[size] += 1
+                else:
+                    report.errors[path] = reason
+                    unreadable.add(path)
+    missing = set(report.missing_files)
+    for i, path in enumerate(traverse.images):
+        if path in missing:
+            report.missing.append(i)
+        elif path in unreadable:
+            report.unreadable.append(i)
+    return report
+
+
+def check_dataset(pair: TraversePair, decode: bool = True, workers: int = 4) -> DatasetReport:
+    """Look for every image of both traverses and (``decode``) try to read each one."""
+    traverses = [
+        _check_traverse("reference", pair.reference, decode, workers),
+        _check_traverse("query", pair.query, decode, workers),
+    ]
+    ref_bad, query_bad = traverses[0].bad, traverses[1].bad
+    splits = []
+    for name, (lo, hi) in pair.splits.items():
+        frames = range(lo, hi)
+        ref_ok = sum(1 for i in frames if i not in ref_bad)
+        query_ok = sum(1 for i in frames if i not in query_bad)
+        both = sum(1 for i in frames if i not in ref_bad and i not in query_bad)
+        splits.append(SplitCheck(name, lo, hi, ref_ok, query_ok, both))
+    return DatasetReport(pair.name, len(pair), pair.tolerance, traverses, splits, decode)
+
+
+def format_report(report: DatasetReport) -> str:
+    """Human-readable text of a report; problems list the first few files, then a count."""
+    verb = "found and readable" if report.decoded else "found (not decoded)"
+    lines = [f"dataset {report.dataset!r}: {report.frames} aligned frames, tolerance {report.tolerance}"]
+    for t in report.traverses:
+        line = f"  {t.role} {t.name}: {t.found} of {t.frames} frames {verb}"
+        if t.missing:
+            line += f", {len(t.missing)} missing ({len(t.missing_files)} files)"
+        if t.unreadable:
+            line += f", {len(t.unreadable)} unreadable ({len(t.errors)} files)"
+        lines.append(line)
+        if t.sizes:
+            sizes = ", ".join(f"{size} ({n})" for size, n in t.sizes.most_common())
+            lines.append(f"    image sizes (W x H x channels): {sizes}")
+    for s in report.splits:
+        lines.append(
+            f"  split {s.name} [{s.lo}, {s.hi}): {s.frames} frames; reference {s.reference}, "
+            f"query {s.query}, both {s.both}"
+            + ("" if s.both == s.frames else f" ({s.frames - s.both} incomplete)")
+        )
+    for t in report.traverses:
+        if t.missing_folders:
+            lines.append(f"  missing folders ({t.role} {t.name}): {list_files(t.missing_folders)}")
+        if t.missing_files:
+            count = len(t.missing_files)
+            lines.append(f"  missing files ({t.role} {t.name}, {count}): {list_files(t.missing_files)}")
+        if t.errors:
+            shown = [f"{path} ({reason})" for path, reason in t.errors.items()]
+            lines.append(f"  unreadable files ({t.role} {t.name}, {len(shown)}): {list_files(shown)}")
+    if report.ok:
+        lines.append("status: OK")
+    else:
+        missing = sum(len(t.missing_files) for t in report.traverses)
+        unreadable = sum(len(t.errors) for t in report.traverses)
+        lines.append(f"status: PROBLEMS ({missing} missing files, {unreadable} unreadable files)")
+    return "\n".join(lines)
+
+
+def main(
+    loader_name: str, root: str | None = None, decode: bool = True, workers: int = 4, **options: Any
+) -> int:
+    """``vpr-smr dataset check NAME --root DIR``: print the report; 0 if all is well, 1 on problems found,
+    2 when the dataset cannot be loaded at all (unknown loader, bad options, missing root or frame lists)."""
+    from . import LOADERS  # here, not at the top: the package imports the loaders, which import this module
+
+    if loader_name not in LOADERS:
+        choices = ", ".join(sorted(LOADERS))
+        print(f"unknown dataset loader {loader_name!r}; choose one of {choices}", file=sys.stderr)
+        return 2
+    loader = LOADERS[loader_name]
+    parameters = inspect.signature(loader).parameters
+    kwargs = dict(options)
+    if root is not None:
+        if "root" not in parameters:
+            print(f"dataset loader {loader_name!r} takes no root; give its own options", file=sys.stderr)
+            return 2
+        kwargs["root"] = root
+    if "check_files" in parameters:
+        kwargs["check_files"] = False  # report missing files per split instead of stopping at the first error
+    if "name" in parameters:
+        kwargs.setdefault("name", loader_name)
+    try:
+        inspect.signature(loader).bind(**kwargs)
+    except TypeError as error:
+        print(f"bad options for dataset loader {loader_name!r}: {error}", file=sys.stderr)
+        return 2
+    try:
+        pair = loader(**kwargs)
+    except DatasetError as error:
+        print(f"error: {error}", file=sys.stderr)
+        return 2
+    report = check_dataset(pair, decode=decode, workers=workers)
+    print(format_report(report))
+    return report.status

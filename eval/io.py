@@ -1,0 +1,108 @@
+"""HDF5 and JSON files of the pipeline: written to a temporary name and renamed, with provenance attributes."""
+
+from __future__ import annotations
+
+import json
+import os
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import fields
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from .attributes import QueryFeatures
+
+
+def package_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("vpr-smr")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+@contextmanager
+def atomic_h5(path: Path | str, provenance: dict[str, Any] | None = None) -> Iterator[h5py.File]:
+    """Open ``path.tmp`` for writing, rename to ``path`` only when the block finishes without error."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        with h5py.File(tmp, "w") as f:
+            f.attrs["vpr_smr_version"] = package_version()
+            for key, value in (provenance or {}).items():
+                f.attrs[key] = json.dumps(value, sort_keys=True) if isinstance(value, dict | list) else value
+            yield f
+        tmp.replace(path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+
+
+def write_json(path: Path | str, data: dict[str, Any]) -> None:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1, sort_keys=True, default=_jsonable))
+    os.replace(tmp, path)
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value)}")
+
+
+def write_distance_matrix(path: Path | str, distance_matrix: np.ndarray, provenance: dict[str, Any]) -> None:
+    with atomic_h5(path, provenance) as f:
+        f.create_dataset("distance_matrix", data=distance_matrix.astype(np.float32))
+
+
+def read_distance_matrix(path: Path | str) -> np.ndarray:
+    """A references x queries matrix from our HDF5 file (``distance_matrix``) or a user's ``.npy``."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"distance matrix not found: {path}")
+    if path.suffix == ".npy":
+        try:
+            return np.load(path, allow_pickle=False)
+        except ValueError as error:
+            raise ValueError(f"cannot read {path} as a numeric .npy array: {error}") from None
+    with h5py.File(path, "r") as f:
+        if "distance_matrix" not in f:
+            raise ValueError(f"{path} has no 'distance_matrix' dataset")
+        return f["distance_matrix"][()]
+
+
+def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:
+    with atomic_h5(path, provenance) as f:
+        for field in fields(QueryFeatures):
+            f[field.name] = getattr(features, field.name)
+
+
+def read_features(path: Path | str) -> QueryFeatures:
+    with h5py.File(path, "r") as f:
+        values = {field.name: f[field.name][()] for field in fields(QueryFeatures)}
+    values["sequence_min"] = float(values["sequence_min"])
+    values["sequence_max"] = float(values["sequence_max"])
+    return QueryFeatures(**values)
+
+
+def read_provenance(path: Path | str) -> dict[str, Any]:
+    with h5py.File(path, "r") as f:
+        return {key: _maybe_json(value) for key, value in f.attrs.items()}
+
+
+def _maybe_json(value: Any) -> Any:
+    if isinstance(value, str) and value[:1] in "[{":
+        try:
+            return json.loads(value)
+        except json.JSONDecodeError:
+            return value
+    return value.item() if isinstance(value, np.generic) else value

@@ -1,0 +1,1 @@
+"""The command line (``vpr-smr``) and the Snakemake workflow that calls it."""

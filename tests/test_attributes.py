@@ -1,0 +1,101 @@
+"""Attributes against a hand-worked example and against a naive per-query implementation of SPEC section 5."""
+
+import numpy as np
+import pytest
+from vpr_smr.eval.attributes import EPS, labels_from_correctness, query_attributes, query_features
+
+D = np.array([[1, 2, 4], [2, 1, 2], [4, 4, 1], [4, 2, 2]], dtype=float)
+
+
+def test_attributes_by_hand():
+    # Every column max is 4, so Dn = D / 4. Worked by hand for L = 2 (see the notes in each line).
+    attributes, references = query_attributes(D, 2, n_ranks=3)
+    e = EPS
+    # Query 1: W = Dn[:, 0:2]; diagonals [.25,.25], [.5,1], [1,.5]; full [.5,1.5,1.5]; past [.25,.5,1];
+    # rowpast [.25,.5,1,1]; ranks 0,1,2 (stable); blocks of L=2 diagonals {0,1}, {2}; groups of width 2.
+    expected_q1 = [
+        [.25 / (.25 + e), .25 / (.25 + e), .25 / (1.0 + e), .25 / (3.5 / 3 + e)],
+        [.5 / (.5 + e), .5 / (1.0 + e), .5 / (1.0 + e), .5 / (3.5 / 3 + e)],
+        [1 / (1 + e), .5 / (.5 + e), 1 / (1.5 + e), 1 / (3.5 / 3 + e)],
+    ]
+    # Query 2: W = Dn[:, 1:3]; diagonals [.5,.5], [.25,.25], [1,.5]; full [1,.5,1.5]; past [.5,.25,1];
+    # rowpast [.5,.25,1,.5]; rank 0 is diagonal 1, whose block {0,1} has mean full .75 and group {0,1,2} mean 1.
+    expected_q2_rank0 = [.25 / (.25 + e), .25 / (.25 + e), .25 / (.75 + e), .25 / (1 + e)]
+    np.testing.assert_allclose(attributes[0], expected_q1, rtol=1e-12)
+    np.testing.assert_allclose(attributes[1, 0], expected_q2_rank0, rtol=1e-12)
+    np.testing.assert_array_equal(references[0], [1, 2, 3])
+    np.testing.assert_array_equal(references[1], [2, 1, 3])
+
+
+def naive_attributes(distance_matrix, seq_len, n_ranks):
+    """A literal transcription of SPEC section 5, one query at a time (test only)."""
+    dn = distance_matrix / np.where(distance_matrix.max(0) == 0, 1, distance_matrix.max(0))
+    n_ref, n_query = dn.shape
+    n_diag = n_ref - seq_len + 1
+    out, refs = [], []
+    for a in range(seq_len - 1, n_query):
+        window = dn[:, a - seq_len + 1 : a + 1]
+        diag = np.array([[window[d + c, c] for c in range(seq_len)] for d in range(n_diag)])
+        full, past = diag.sum(1), diag[:, :-1].sum(1)
+        rowpast = window[:, :-1].sum(1)
+        order = sorted(range(n_diag), key=lambda d: (full[d], d))
+        rows = []
+        for k in range(n_ranks):
+            i = order[k]
+            lo = seq_len * (i // seq_len)
+            block = np.mean([full[m] for m in range(lo, min(n_diag - 1, lo + seq_len - 1) + 1)])
+            group = np.mean([full[m] for m in range(max(0, i - 2), min(n_diag - 1, i + 2) + 1)])
+            rows.append([
+                sorted(past)[k] / (sorted(rowpast)[k] + EPS),
+                sorted(window[:, -1])[k] / (diag[i, -1] + EPS),
+                past[i] / (block + EPS),
+                past[i] / (group + EPS),
+            ])
+        out.append(rows)
+        refs.append([order[k] + seq_len - 1 for k in range(n_ranks)])
+    return np.array(out), np.array(refs)
+
+
+@pytest.mark.parametrize("shape, seq_len, block", [((30, 25), 2, 1024), ((41, 33), 4, 7), ((12, 50), 5, 3),
+                                                   ((8, 8), 8, 1024)])
+def test_vectorised_equals_naive(shape, seq_len, block):
+    rng = np.random.default_rng(seq_len)
+    matrix = rng.random(shape) * 3
+    n_ranks = min(4, shape[0] - seq_len + 1)
+    attributes, references = query_attributes(matrix, seq_len, n_ranks=4, block_queries=block)
+    expected, expected_refs = naive_attributes(matrix, seq_len, n_ranks)
+    np.testing.assert_allclose(attributes, expected, rtol=1e-10)
+    np.testing.assert_array_equal(references, expected_refs)
+
+
+def test_zero_column_is_divided_by_one():
+    matrix = np.random.default_rng(1).random((10, 6))
+    matrix[:, 3] = 0
+    attributes, _ = query_attributes(matrix, 3)
+    expected, _ = naive_attributes(matrix, 3, 4)
+    np.testing.assert_allclose(attributes, expected, rtol=1e-10)
+    assert np.all(np.isfinite(attributes))
+
+
+def test_labels_by_hand():
+    np.testing.assert_array_equal(
+        labels_from_correctness([True, True, False, False], [True, False, True, False]), [0, 1, 2, 3]
+    )
+
+
+def test_query_features_labels():
+    # References x queries, L = 2, tolerance 0. Query 1: single-frame best is reference 1 (correct), but the
+    # sequence diagonal ending at reference 3 sums lower -> label 1. Query 2: single best reference 0 (wrong),
+    # sequence ends at reference 2 (correct) -> label 2. Query 3: both at reference 3 -> label 0.
+    matrix = np.array([
+        [5, 5, 0.5, 5],
+        [5, 1.0, 5, 5],
+        [0.1, 5, 0.6, 5],
+        [5, 1.05, 5, 0.1],
+    ])
+    features = query_features(matrix, 2, tolerance=0)
+    np.testing.assert_array_equal(features.queries, [1, 2, 3])
+    np.testing.assert_array_equal(features.single_match, [1, 0, 3])
+    np.testing.assert_array_equal(features.sequence_match, [3, 2, 3])
+    np.testing.assert_array_equal(features.labels, [1, 2, 0])
+    np.testing.assert_allclose(features.sequence_distance, [0.1 + 1.05, 1.0 + 0.6, 0.6 + 0.1])

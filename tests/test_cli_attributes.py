@@ -1,0 +1,45 @@
+"""`vpr-smr attributes` on a user's own distance matrix (.npy -> .csv)."""
+
+import csv
+
+import numpy as np
+import pytest
+from vpr_smr.eval.attributes import EPS
+from vpr_smr.pipeline.cli import main
+
+D = np.array([[1, 2, 4], [2, 1, 2], [4, 4, 1], [4, 2, 2]], dtype=float)
+
+
+def test_csv_by_hand(tmp_path):
+    np.save(tmp_path / "D.npy", D)
+    assert main(["attributes", "--distances", str(tmp_path / "D.npy"), "--seq-len", "2",
+                 "--out", str(tmp_path / "a.csv")]) == 0
+    rows = list(csv.DictReader(open(tmp_path / "a.csv")))
+    assert list(rows[0]) == ["query", "A1", "A2", "A3", "A4", "label"]
+    assert [r["query"] for r in rows] == ["1", "2"]  # query 0 has no sequence match for L = 2
+    # rank-0 attributes of query 1, worked by hand in test_attributes.py
+    expected = [.25 / (.25 + EPS), .25 / (.25 + EPS), .25 / (1 + EPS), .25 / (3.5 / 3 + EPS)]
+    np.testing.assert_allclose([float(rows[0][k]) for k in ("A1", "A2", "A3", "A4")], expected, rtol=1e-8)
+    # query 1: single-frame 1, sequence 1 -> label 0; query 2: single 2, sequence 2 -> label 0 (tolerance 2)
+    assert [r["label"] for r in rows] == ["0", "0"]
+
+
+@pytest.mark.parametrize("array, message", [
+    (np.zeros((4, 4, 2)), "2-D"),
+    (np.full((4, 4), np.inf), "non-finite"),
+    (np.zeros((3, 8)), "too small for sequence length 4"),
+    (np.array(["a", "b"]), "numeric"),
+])
+def test_bad_matrices_give_clear_errors(tmp_path, capsys, array, message):
+    np.save(tmp_path / "D.npy", array)
+    out = tmp_path / "a.csv"
+    assert main(["attributes", "--distances", str(tmp_path / "D.npy"), "--seq-len", "4", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and "D.npy" in err
+    assert not out.exists() and not list(tmp_path.glob("*.tmp"))
+
+
+def test_missing_file(tmp_path, capsys):
+    assert main(["attributes", "--distances", str(tmp_path / "nope.npy"), "--seq-len", "4",
+                 "--out", str(tmp_path / "a.csv")]) == 2
+    assert "distance matrix not found" in capsys.readouterr().err
