@@ -1,0 +1,210 @@
+"""AP-GeM (Revaud et al., ICCV 2019): ResNet-101 + GeM + FC + L2, with the optional learned whitening.
+
+Our own implementation with the module tree of naver/deep-image-retrieval
+(``dirtorch/nets/rmac_resnet.py`` ``ResNet_RMAC``, ``backbones/resnet.py``, ``layers/pooling.py``
+``GeneralizedMeanPoolingP``), so that the state dict of ``Resnet-101-AP-GeM.pt`` loads with ``strict=True``:
+``conv1``, ``bn1``, ``layer1..4``, ``adpool.p`` (the learned GeM power, shape ``(1,)``) and ``fc``
+(2048 -> 2048).
+
+The official file is a pickle that also holds scikit-learn PCA objects, so it is first converted by
+``convert.convert_apgem`` into a plain tensor file ``{"state_dict", "whitening", "model_options",
+"preprocess"}`` that loads with ``weights_only=True``.
+
+Pipeline (``ResNet_RMAC.forward``): the ResNet trunk up to layer4, GeM ``(mean x^p)^(1/p)`` with ``x`` clamped
+at 1e-6, the FC layer and L2. Whitening (``dirtorch/utils/common.py`` ``whiten_features`` with
+``use_sklearn=True``), in float64 as the official numpy code: ``(x - mean_) @ components_[:v].T``, divided by
+``whitenm * explained_variance_[:v] ** whitenp`` when the PCA was fitted with ``whiten=True``, then L2. The
+official evaluation (``test_dir.py``) whitens with ``Landmarks_clean`` and ``whitenp = 0.25``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+from .base import IMAGENET_MEAN, IMAGENET_STD, CheckpointError, TorchBackend, load_tensor_file, to_tensor
+
+EXPECTED_FILE = "Resnet-101-AP-GeM.pt converted with vpr_smr.descriptors.convert.convert_apgem"
+
+
+class GeM(nn.Module):
+    """Generalized-mean pooling with a learned power ``p`` of shape ``(1,)`` (dirtorch's ``adpool``)."""
+
+    def __init__(self, p: float = 3.0, eps: float = 1e-6) -> None:
+        super().__init__()
+        self.p = nn.Parameter(torch.ones(1) * p)
+        self.eps = eps
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """``(N, C, H, W)`` -> ``(N, C)``."""
+        return F.adaptive_avg_pool2d(x.clamp(min=self.eps).pow(self.p), 1).pow(1.0 / self.p).flatten(1)
+
+
+class Whitening(nn.Module):
+    """Learned PCA whitening, applied in float64; its tensors are non-persistent (not in the state dict)."""
+
+    def __init__(self, mean: torch.Tensor, projection: torch.Tensor, scale: torch.Tensor) -> None:
+        super().__init__()
+        self.register_buffer("mean", mean.double(), persistent=False)
+        self.register_buffer("projection", projection.double(), persistent=False)  # (v, D): components_[:v]
+        self.register_buffer("scale", scale.double(), persistent=False)  # (v,)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        white = (x.double() - self.mean) @ self.projection.T / self.scale
+        return F.normalize(white, p=2, dim=-1).to(x.dtype)
+
+
+class APGeMNet(nn.Module):
+    """ResNet-101 trunk (torchvision's Bottleneck has dirtorch's names and strides) + ``adpool`` + ``fc``."""
+
+    def __init__(self, out_dim: int = 2048, norm_features: bool = False, without_fc: bool = False) -> None:
+        super().__init__()
+        from torchvision.models import resnet101
+
+        trunk = resnet101(weights=None)
+        self.conv1, self.bn1, self.relu, self.maxpool = trunk.conv1, trunk.bn1, trunk.relu, trunk.maxpool
+        self.layer1, self.layer2 = trunk.layer1, trunk.layer2
+        self.layer3, self.layer4 = trunk.layer3, trunk.layer4
+        self.adpool = GeM(3.0)
+        self.fc = nn.Linear(2048, out_dim)
+        # Options of ResNet_RMAC stored in the file's model_options; the released model uses neither.
+        self.norm_features = norm_features
+        self.without_fc = without_fc
+        self.whitening: Whitening | None = None
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        x = self.maxpool(self.relu(self.bn1(self.conv1(x))))
+        x = self.layer4(self.layer3(self.layer2(self.layer1(x))))
+        x = self.adpool(x)
+        if self.norm_features:
+            x = F.normalize(x, p=2, dim=1)
+        if not self.without_fc:
+            x = self.fc(x)
+        x = F.normalize(x, p=2, dim=-1)
+        if self.whitening is not None:
+            x = self.whitening(x)
+        return x
+
+
+def _fill_batch_norm_counters(state_dict: dict[str, Any], model: nn.Module) -> dict[str, Any]:
+    """Add ``num_batches_tracked`` when a file has none (saved before PyTorch 0.4.1; unused in eval)."""
+    expected = model.state_dict()
+    counters = [k for k in expected if k.endswith("num_batches_tracked")]
+    if counters and not any(k in state_dict for k in counters):
+        state_dict = {**state_dict, **{k: expected[k].clone() for k in counters}}
+    return state_dict
+
+
+class APGeM(TorchBackend):
+    """ResNet-101 AP-GeM, 2048-d descriptors (fewer with ``whitenv``)."""
+
+    name: ClassVar[str] = "apgem"
+    default_conf: ClassVar[dict[str, Any]] = {
+        # Longest image side in pixels; null keeps the full image, as the official evaluation does.
+        "max_size": None,
+        # Name of a whitening stored in the file (the release has "Landmarks_clean", which the official
+        # test_dir.py applies by default); null: no whitening.
+        "whiten": None,
+        "whitenp": 0.25,  # official test_dir.py default (the sklearn-style whitening would be 0.5)
+        "whitenv": None,  # number of components kept; null: all
+        "whitenm": 1.0,
+    }
+
+    def __init__(self, conf: dict[str, Any] | None = None) -> None:
+        super().__init__(conf)
+        # The file's `preprocess` may override these (dirtorch's load_model does the same).
+        self.mean, self.std = IMAGENET_MEAN, IMAGENET_STD
+
+    def build_model(self) -> nn.Module:
+        return APGeMNet()
+
+    def preprocess(self, image: np.ndarray) -> torch.Tensor:
+        """RGB uint8 ``H x W x 3`` -> normalised ``3 x H x W`` tensor at full size (or ``max_size``)."""
+        image = np.ascontiguousarray(image)
+        if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
+            raise ValueError(f"apgem: expected an RGB uint8 H x W x 3 image, got {image.dtype} {image.shape}")
+        size = None
+        max_size = self.conf["max_size"]
+        if max_size and max(image.shape[:2]) > int(max_size):
+            scale = int(max_size) / max(image.shape[:2])
+            size = (max(1, round(image.shape[0] * scale)), max(1, round(image.shape[1] * scale)))
+        return to_tensor(image, size, mean=self.mean, std=self.std)
+
+    def prepare(self) -> None:
+        super().prepare()
+        whitening = getattr(self.model, "whitening", None)
+        if whitening is not None:
+            whitening.double()  # ``half`` mode must not round the whitening, computed in float64 officially
+
+    def load(self, checkpoint: Path | str | None) -> None:
+        """Load a converted AP-GeM file (see ``convert.convert_apgem``), or a plain state dict."""
+        if checkpoint is None:
+            raise CheckpointError(f"backend 'apgem' needs a checkpoint: set `checkpoint` to {EXPECTED_FILE}")
+        path = Path(checkpoint)
+        try:
+            data = load_tensor_file(path)
+        except CheckpointError as error:
+            raise CheckpointError(f"{error}\n  The official Resnet-101-AP-GeM.pt is such a file: convert it "
+                                  "once with vpr_smr.descriptors.convert.convert_apgem(in_path, out_path)."
+                                  ) from None
+        if not isinstance(data, dict):
+            raise CheckpointError(f"checkpoint {path} holds a {type(data).__name__}, not a dict "
+                                  f"(expected {EXPECTED_FILE})")
+        state_dict = data["state_dict"] if isinstance(data.get("state_dict"), dict) else data
+        state_dict = {k.removeprefix("module."): v for k, v in state_dict.items()}
+
+        options = data.get("model_options") or {}
+        self._check_options(options, path)
+        model = self.model
+        fc = state_dict.get("fc.weight")
+        if getattr(fc, "ndim", 0) == 2 and fc.shape[0] != model.fc.out_features:
+            model.fc = nn.Linear(2048, int(fc.shape[0]))  # out_dim is a dirtorch option; 2048 in the release
+        model.norm_features = bool(options.get("norm_features", False))
+        model.without_fc = bool(options.get("without_fc", False))
+        model.whitening = None
+        try:
+            self.load_state_dict(_fill_batch_norm_counters(state_dict, self.model), str(path))
+        except CheckpointError as error:
+            raise CheckpointError(f"{error}\n  (expected {EXPECTED_FILE}: keys conv1.*, bn1.*, layer1-4.*, "
+                                  "adpool.p, fc.weight, fc.bias)") from None
+
+        preprocess = data.get("preprocess") or {}
+        if preprocess.get("mean") is not None and preprocess.get("std") is not None:
+            self.mean = tuple(float(v) for v in preprocess["mean"])
+            self.std = tuple(float(v) for v in preprocess["std"])
+        if self.conf["whiten"]:
+            self.model.whitening = self._whitening(data.get("whitening") or {}, path)
+        self.prepare()
+
+    def _check_options(self, options: dict[str, Any], path: Path) -> None:
+        """Refuse files of another dirtorch architecture than the one implemented here."""
+        arch = options.get("arch", "resnet101_rmac")
+        pooling = str(options.get("pooling", "gem"))
+        center_bias = float(options.get("center_bias") or 0)
+        if arch != "resnet101_rmac" or not pooling.startswith("gem") or center_bias > 0:
+            raise CheckpointError(
+                f"checkpoint {path} is a dirtorch model with arch={arch!r}, pooling={pooling!r}, "
+                f"center_bias={center_bias}; backend 'apgem' implements resnet101_rmac with GeM pooling "
+                f"only (expected {EXPECTED_FILE})"
+            )
+
+    def _whitening(self, stored: dict[str, Any], path: Path) -> Whitening:
+        name = self.conf["whiten"]
+        if name not in stored:
+            available = ", ".join(sorted(stored)) or "none"
+            raise CheckpointError(f"checkpoint {path} has no whitening {name!r} (it has: {available}); "
+                                  "set `whiten` to one of them or null")
+        pca = stored[name]
+        keep = int(self.conf["whitenv"]) if self.conf["whitenv"] else None
+        projection = pca["components"][:keep]
+        if pca.get("whiten", True):
+            variance = pca["explained_variance"][:keep].double()
+            scale = float(self.conf["whitenm"]) * variance ** float(self.conf["whitenp"])
+        else:
+            scale = torch.ones(projection.shape[0], dtype=torch.float64)
+        return Whitening(pca["mean"], projection, scale)

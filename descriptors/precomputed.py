@@ -1,0 +1,58 @@
+"""Descriptors computed elsewhere: the ``.npy`` files of VPR-methods-evaluation's ``--save_descriptors``.
+
+That tool writes ``database_descriptors.npy`` (references) and ``queries_descriptors.npy`` (queries), one row
+per image in the sorted order of each folder. Point ``folder`` at the directory holding both (or give
+``database`` and ``queries`` paths); the dataset's frames must be the same images in the same order.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from ..datasets import TraversePair
+from .base import Backend, CheckpointError
+
+DATABASE_FILE = "database_descriptors.npy"
+QUERIES_FILE = "queries_descriptors.npy"
+
+
+class Precomputed(Backend):
+    name: ClassVar[str] = "precomputed"
+    default_conf: ClassVar[dict[str, Any]] = {"folder": None, "database": None, "queries": None, "distance": "l2"}
+
+    def __init__(self, conf: dict[str, Any] | None = None) -> None:
+        super().__init__(conf)
+        if self.conf["distance"] not in ("l2", "cosine", "mad"):
+            raise ValueError(f"precomputed: distance must be l2, cosine or mad, got {self.conf['distance']!r}")
+        self.distance = self.conf["distance"]  # per instance: whatever metric the method was designed for
+
+    def paths(self) -> tuple[Path, Path]:
+        folder = self.conf["folder"]
+        database = self.conf["database"] or (Path(folder) / DATABASE_FILE if folder else None)
+        queries = self.conf["queries"] or (Path(folder) / QUERIES_FILE if folder else None)
+        if database is None or queries is None:
+            raise CheckpointError(
+                "backend 'precomputed' needs `folder` (holding database_descriptors.npy and queries_descriptors.npy) "
+                "or both `database` and `queries` in the method's settings"
+            )
+        return Path(database), Path(queries)
+
+    def precomputed(self, pair: TraversePair) -> tuple[np.ndarray, np.ndarray]:
+        arrays = []
+        for path, traverse in zip(self.paths(), (pair.reference, pair.query), strict=True):
+            if not path.is_file():
+                raise CheckpointError(f"precomputed descriptors not found: {path}")
+            values = np.load(path, allow_pickle=False)
+            if values.ndim != 2 or len(values) != len(traverse):
+                raise CheckpointError(
+                    f"{path} holds an array of shape {values.shape}, but dataset {pair.name!r} has {len(traverse)} "
+                    f"{traverse.name} frames: expected ({len(traverse)}, dim), one row per frame in the same order"
+                )
+            arrays.append(values.astype(np.float32))
+        if arrays[0].shape[1] != arrays[1].shape[1]:
+            raise CheckpointError(f"database and query descriptors differ in size: {arrays[0].shape[1]} and "
+                                  f"{arrays[1].shape[1]}")
+        return arrays[0], arrays[1]

@@ -1,0 +1,177 @@
+"""SALAD: DINOv2 ViT-B/14 features aggregated by optimal transport (Izquierdo & Civera, CVPR 2024).
+
+Our own implementation of the model in serizba/salad (``models/backbones/dinov2.py``,
+``models/aggregators/salad.py``, loaded as in ``eval.py``/``hubconf.py``), with the same module tree so that
+the released ``dino_salad.ckpt`` (a plain state dict: ``backbone.model.*``, ``aggregator.*``) loads with
+``strict=True``.
+
+Pipeline: the image is resized to 322 x 322 (PIL bilinear, as the official evaluation) and normalised with
+ImageNet mean/std; DINOv2 runs all 12 blocks and its final LayerNorm; the class token gives the 256-d global
+token and the 23 x 23 patch tokens are softly assigned to 64 clusters (plus a dustbin) by 3 log-space Sinkhorn
+iterations; each cluster's 128-d weighted sum is L2-normalised, the token is L2-normalised, and the
+concatenation (256 + 128 * 64 = 8448 values) is L2-normalised.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+import torch
+from torch import nn
+from torch.nn import functional as F
+
+from .base import CheckpointError, TorchBackend, load_tensor_file, to_tensor
+from .dinov2 import DinoVisionTransformer
+from .layers import pil_resize
+
+EXPECTED_FILE = "dino_salad.ckpt"
+
+
+def log_sinkhorn_with_dustbin(scores: torch.Tensor, dustbin: torch.Tensor,
+                              num_iters: int = 3) -> torch.Tensor:
+    """Log transport plan between ``m`` clusters plus a dustbin row and ``n`` features, times ``n + m``.
+
+    ``scores``: ``(B, m, n)``; ``dustbin``: scalar score of the extra row. The target marginals are
+    ``1 / (n + m)`` per feature, the source marginals ``1 / (n + m)`` per cluster and ``(n - m) / (n + m)``
+    for the dustbin (both sum to ``n / (n + m)``). Sinkhorn starts from zero log-potentials and updates the
+    row potentials, then the column potentials, ``num_iters`` times (regularisation 1). The result is
+    ``log P + log(n + m)``: each feature's column then sums to 1 (a soft assignment), as in the official code.
+    """
+    batch, m, n = scores.shape
+    if n <= m:
+        raise ValueError(f"SALAD needs more local features ({n}) than clusters ({m}); use a larger image")
+    log_scale = math.log(n + m)
+    couplings = torch.cat((scores, dustbin.to(scores.dtype).reshape(1, 1, 1).expand(batch, 1, n)), dim=1)
+    log_mu = torch.full((m + 1,), -log_scale, dtype=scores.dtype, device=scores.device)
+    log_mu[-1] += math.log(n - m)
+    log_nu = torch.full((n,), -log_scale, dtype=scores.dtype, device=scores.device)
+    u = torch.zeros(batch, m + 1, dtype=scores.dtype, device=scores.device)
+    v = torch.zeros(batch, n, dtype=scores.dtype, device=scores.device)
+    for _ in range(num_iters):
+        u = log_mu - torch.logsumexp(couplings + v[:, None, :], dim=2)
+        v = log_nu - torch.logsumexp(couplings + u[:, :, None], dim=1)
+    return couplings + u[:, :, None] + v[:, None, :] + log_scale
+
+
+class SALADAggregator(nn.Module):
+    """Optimal-transport aggregation; submodule indices match the official ``nn.Sequential`` layouts."""
+
+    def __init__(self, num_channels: int = 768, num_clusters: int = 64, cluster_dim: int = 128,
+                 token_dim: int = 256, hidden: int = 512, sinkhorn_iters: int = 3) -> None:
+        super().__init__()
+        self.num_clusters = num_clusters
+        self.cluster_dim = cluster_dim
+        self.sinkhorn_iters = sinkhorn_iters
+        # Dropout (index 1, training only) is kept so that the Conv2d indices are 0 and 3, as in the file.
+        self.token_features = nn.Sequential(
+            nn.Linear(num_channels, hidden), nn.ReLU(), nn.Linear(hidden, token_dim)
+        )
+        self.cluster_features = nn.Sequential(
+            nn.Conv2d(num_channels, hidden, 1), nn.Dropout(0.3), nn.ReLU(), nn.Conv2d(hidden, cluster_dim, 1)
+        )
+        self.score = nn.Sequential(
+            nn.Conv2d(num_channels, hidden, 1), nn.Dropout(0.3), nn.ReLU(), nn.Conv2d(hidden, num_clusters, 1)
+        )
+        self.dust_bin = nn.Parameter(torch.tensor(1.0))
+
+    def forward(self, features: torch.Tensor, token: torch.Tensor) -> torch.Tensor:
+        """Patch tokens ``(B, C, h, w)`` and class token ``(B, C)`` -> descriptors ``(B, g + m * l)``."""
+        local = self.cluster_features(features).flatten(2)  # (B, l, n)
+        scores = self.score(features).flatten(2)  # (B, m, n)
+        token = self.token_features(token)  # (B, g)
+        # Soft assignment of each feature to the clusters; dropping the dustbin row discards its mass.
+        assignment = log_sinkhorn_with_dustbin(scores, self.dust_bin, self.sinkhorn_iters).exp()[:, :-1, :]
+        clusters = torch.einsum("bln,bmn->blm", local, assignment)  # (B, l, m)
+        # Per-cluster L2 over the l channels; flattened channel-major (index l * m + cluster) as officially.
+        clusters = F.normalize(clusters, p=2, dim=1).flatten(1)
+        return F.normalize(torch.cat((F.normalize(token, p=2, dim=-1), clusters), dim=-1), p=2, dim=-1)
+
+
+class DINOv2Backbone(nn.Module):
+    """SALAD's backbone wrapper: the ViT lives in ``model`` (keys ``backbone.model.*``)."""
+
+    def __init__(self, **vit_kwargs: Any) -> None:
+        super().__init__()
+        self.model = DinoVisionTransformer(**vit_kwargs)
+
+    def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        batch, _, height, width = x.shape
+        tokens = self.model(x, norm=True)  # SALAD uses norm_layer=True: the final LayerNorm is applied
+        patch = self.model.patch_size
+        features = tokens[:, 1:].reshape(batch, height // patch, width // patch, -1).permute(0, 3, 1, 2)
+        return features, tokens[:, 0]
+
+
+class SALADNet(nn.Module):
+    def __init__(self, embed_dim: int = 768, depth: int = 12, num_heads: int = 12, patch_size: int = 14,
+                 num_clusters: int = 64, cluster_dim: int = 128, token_dim: int = 256) -> None:
+        super().__init__()
+        self.backbone = DINOv2Backbone(embed_dim=embed_dim, depth=depth, num_heads=num_heads,
+                                       patch_size=patch_size)
+        self.aggregator = SALADAggregator(embed_dim, num_clusters, cluster_dim, token_dim)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.aggregator(*self.backbone(x))
+
+
+class SALAD(TorchBackend):
+    """DINOv2 + SALAD, 8448-d descriptors. Checkpoint: the official ``dino_salad.ckpt``."""
+
+    name: ClassVar[str] = "salad"
+    default_conf: ClassVar[dict[str, Any]] = {
+        "image_size": [322, 322],  # (H, W); the official evaluation uses 322 x 322 (23 x 23 patches)
+        "num_clusters": 64,
+        "cluster_dim": 128,
+        "token_dim": 256,
+        # ViT-B/14; change only for checkpoints trained with another DINOv2 size (without registers).
+        "embed_dim": 768,
+        "depth": 12,
+        "num_heads": 12,
+    }
+    patch_size: ClassVar[int] = 14
+
+    def build_model(self) -> nn.Module:
+        height, width = (int(s) for s in self.conf["image_size"])
+        if height % self.patch_size or width % self.patch_size:
+            raise ValueError(f"salad: image_size {[height, width]} must be multiples of {self.patch_size}")
+        return SALADNet(
+            embed_dim=int(self.conf["embed_dim"]), depth=int(self.conf["depth"]),
+            num_heads=int(self.conf["num_heads"]), patch_size=self.patch_size,
+            num_clusters=int(self.conf["num_clusters"]), cluster_dim=int(self.conf["cluster_dim"]),
+            token_dim=int(self.conf["token_dim"]),
+        )
+
+    def preprocess(self, image: np.ndarray) -> torch.Tensor:
+        """RGB uint8 ``H x W x 3`` -> ``3 x 322 x 322`` normalised tensor.
+
+        The official ``eval.py`` applies ``T.Resize(size, BILINEAR)`` to PIL images, i.e. PIL's bilinear
+        resize on uint8 (which filters when shrinking), then ``ToTensor`` and ImageNet ``Normalize``; we call
+        PIL directly so the resized pixels are identical.
+        """
+        height, width = (int(s) for s in self.conf["image_size"])
+        image = np.ascontiguousarray(image)
+        if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
+            raise ValueError(f"salad: expected an RGB uint8 H x W x 3 image, got {image.dtype} {image.shape}")
+        image = pil_resize(image, (height, width), "bilinear")
+        return to_tensor(image)
+
+    def load(self, checkpoint: Path | str | None) -> None:
+        if checkpoint is None:
+            raise CheckpointError(f"backend 'salad' needs a checkpoint: set `checkpoint` to {EXPECTED_FILE}")
+        path = Path(checkpoint)
+        data = load_tensor_file(path)
+        # The release is a plain state dict; checkpoints from the official Lightning training wrap it.
+        if isinstance(data, dict) and isinstance(data.get("state_dict"), dict):
+            data = data["state_dict"]
+        if not isinstance(data, dict):
+            raise CheckpointError(f"checkpoint {path} holds a {type(data).__name__}, not a state dict "
+                                  f"(expected the official {EXPECTED_FILE})")
+        try:
+            self.load_state_dict(data, str(path))
+        except CheckpointError as error:
+            raise CheckpointError(f"{error}\n  (expected the official {EXPECTED_FILE} from serizba/salad, "
+                                  f"keys backbone.model.* and aggregator.*)") from None
+        self.prepare()

