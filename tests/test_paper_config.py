@@ -1,0 +1,67 @@
+"""configs/paper.yaml: fails at once while roots and checkpoints are empty; plans 3 datasets x 7 methods."""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+from test_datasets_benchmarks import (
+    SAMPLE_NAMES,
+    nordland_lists,
+    nordland_tree,
+    robotcar_list,
+    robotcar_tree,
+    sfu_tree,
+    write_lines,
+)
+from vpr_smr.pipeline.cli import main
+
+PAPER = Path(__file__).resolve().parents[1] / "configs" / "paper.yaml"
+METHODS = ("apgem", "cosplace", "eigenplaces", "mixvpr", "netvlad", "sad", "salad")
+
+
+def test_empty_settings_are_named(capsys):
+    assert main(["run", str(PAPER), "-n"]) == 2
+    err = capsys.readouterr().err
+    for name in ("nordland", "robotcar", "sfu_mountain"):
+        assert f"datasets.{name}.root is not set" in err
+    for method in METHODS:
+        if method != "sad":
+            assert f"methods.{method}.checkpoint is not set" in err
+    assert "methods.sad" not in err
+
+
+def test_dry_run_plans_every_job(tmp_path):
+    conf = yaml.safe_load(PAPER.read_text())
+    names = SAMPLE_NAMES[:24]
+    nordland_tree(tmp_path / "nordland", names)
+    lists = nordland_lists(tmp_path, names)
+    stamps = list(range(1000, 1024))
+    robotcar_tree(tmp_path / "robotcar", {"2015-10-29-12-18-17": stamps, "2014-11-21-16-07-03": stamps})
+    sfu = sfu_tree(tmp_path / "sfu", {"part_a": 14, "part_b": 10})
+    splits = {"train": [0, 8], "val": [8, 16], "test": [16, 24]}
+    conf["datasets"]["nordland"].update(root=str(tmp_path / "nordland"), splits=splits, **{
+        k: str(v) for k, v in lists.items()})
+    conf["datasets"]["robotcar"].update(root=str(tmp_path / "robotcar"), splits=splits,
+                                        reference_list=str(robotcar_list(tmp_path / "rain.csv", stamps)),
+                                        query_list=str(robotcar_list(tmp_path / "dusk.csv", stamps)))
+    conf["datasets"]["sfu_mountain"].update(root=str(tmp_path / "sfu"), splits=splits,
+                                            reference_list=str(write_lines(tmp_path / "dry.txt", sfu["dry"])),
+                                            query_list=str(write_lines(tmp_path / "dusk.txt", sfu["dusk"])))
+    for method, settings in conf["methods"].items():
+        if "checkpoint" in settings:
+            settings["checkpoint"] = str(tmp_path / f"{method}.pth")
+            (tmp_path / f"{method}.pth").write_bytes(b"")  # -n plans jobs only: the files need only exist
+    conf["output"] = str(tmp_path / "results")
+    config = tmp_path / "paper.yaml"
+    config.write_text(yaml.safe_dump(conf))
+    result = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", str(config), "-n"], cwd=tmp_path,
+                            capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    counts = dict(re.findall(r"^(\w+)\s+(\d+)$", result.stdout, flags=re.MULTILINE))
+    assert counts == {"all": "1", "descriptors": "21", "distances": "63", "attributes": "63", "train": "3",
+                      "evaluate": "21", "tables": "1", "total": "173"}
+    for dataset in ("nordland", "robotcar", "sfu_mountain"):
+        for method in METHODS:
+            assert f"descriptors/{dataset}/{method}.h5" in result.stdout
