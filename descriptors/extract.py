@@ -57,9 +57,29 @@ def build_backend(method: str, conf: dict[str, Any]) -> tuple[Backend, str | Non
     return backend, digest
 
 
+def default_loading(backend: Backend, batch_size: int | None, num_workers: int | None) -> tuple[int, int]:
+    """Batch size and decoding workers when the configuration leaves them unset (``null``).
+
+    Measured on a 2-core CPU (benchmarks/extraction.py): CPU convolutions run fastest on small batches, and
+    each worker takes a core from the network, so the CPU gets batches of 8 and one worker per spare core;
+    a GPU gets batches of 32 and up to 4 workers.
+    """
+    import os
+
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    on_gpu = backend.device.type == "cuda"
+    if batch_size is None:
+        batch_size = 32 if on_gpu else 8
+    if num_workers is None:
+        num_workers = min(4, cores - 1) if on_gpu else min(2, max(0, cores - 1))
+    return batch_size, num_workers
+
+
 def compute_descriptors(
-    traverse: Traverse, backend: Backend, batch_size: int = 32, num_workers: int = 2, desc: str = ""
+    traverse: Traverse, backend: Backend, batch_size: int | None = None, num_workers: int | None = None,
+    desc: str = "",
 ) -> np.ndarray:
+    batch_size, num_workers = default_loading(backend, batch_size, num_workers)
     loader = DataLoader(
         TraverseImages(traverse, backend),
         batch_size=batch_size,
@@ -92,7 +112,12 @@ def is_done(path: Path, provenance: dict[str, Any]) -> bool:
 
 
 def main(
-    pair: TraversePair, method: str, conf: dict[str, Any], out: Path | str, batch_size: int = 32, num_workers: int = 2
+    pair: TraversePair,
+    method: str,
+    conf: dict[str, Any],
+    out: Path | str,
+    batch_size: int | None = None,
+    num_workers: int | None = None,
 ) -> Path:
     """Write ``out`` (HDF5) with the descriptors of both traverses; skip if already done with this provenance."""
     from ..eval.io import atomic_h5

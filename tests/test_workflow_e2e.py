@@ -28,7 +28,6 @@ methods:
   hog: {{backend: hog}}
   effnet: {{backend: efficientnet_lite0_gem, checkpoint: package, image_size: [64, 128]}}
 predictor: {{max_iter: 300}}
-extraction: {{batch_size: 32, num_workers: 1}}
 """
 
 
