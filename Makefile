@@ -1,4 +1,6 @@
 # The two commands of the README: `make demo` and `make test`. Both create .venv on first use.
+SHELL := /bin/bash
+.SHELLFLAGS := -o pipefail -c
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -6,9 +8,12 @@ STAMP := $(VENV)/.installed-stamp
 
 .PHONY: demo test test-fast lint bench install clean-results
 
+# The grep drops pip's notes about unused local index folders of this machine's pip configuration;
+# pip's own exit status still decides (pipefail).
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
-	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[dev]'
+	$(BIN)/python -m pip install --quiet --disable-pip-version-check -e '.[dev]' 2>&1 \
+		| { grep -v '^WARNING: Location' || true; }
 	touch $(STAMP)
 
 install: $(STAMP)

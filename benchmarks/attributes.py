@@ -14,6 +14,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_attributes import naive_attributes  # noqa: E402
+
 from vpr_smr.eval.attributes import query_attributes  # noqa: E402
 
 

@@ -19,6 +19,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import torch
+
 from vpr_smr.datasets import Traverse
 from vpr_smr.descriptors import backend_class
 from vpr_smr.descriptors.extract import compute_descriptors

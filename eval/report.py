@@ -137,7 +137,7 @@ def figures(evaluations: Sequence[dict[str, Any]], predictors: Sequence[dict[str
                 ax.set(title=f"{evaluation['meta']['method']}\nAOC {numbers['aoc_vpr_sm']:.3f} -> "
                              f"{numbers['aoc_vpr_sm_pred']:.3f}", xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
             axes[0][0].set_ylabel("precision")
-            axes[0][0].legend(loc="lower left", fontsize=8)
+            axes[0][-1].legend(loc="upper right", fontsize=8)
             fig.suptitle(f"{dataset}, L={seq_len}, {mode} mode ({split})")
             fig.tight_layout()
             written.append(_save(fig, out_dir / f"pr_{dataset}_L{seq_len}_{mode}.png"))
@@ -147,7 +147,7 @@ def figures(evaluations: Sequence[dict[str, Any]], predictors: Sequence[dict[str
                 ax.plot(trust_curve["recall"], trust_curve["precision"], label=f"trust >= {level}")
             ax.set(title=evaluation["meta"]["method"], xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
         axes[0][0].set_ylabel("precision")
-        axes[0][0].legend(loc="lower left", fontsize=7)
+        axes[0][-1].legend(loc="upper right", fontsize=7)
         fig.suptitle(f"{dataset}, L={seq_len}: predictor trust levels (paper mode, {split})")
         fig.tight_layout()
         written.append(_save(fig, out_dir / f"trust_{dataset}_L{seq_len}.png"))

@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+
 from vpr_smr.descriptors import CheckpointError, backend_class
 from vpr_smr.descriptors.apgem import APGeM, GeM
 from vpr_smr.descriptors.convert import PCAStandIn, RestrictedUnpickler, convert_apgem

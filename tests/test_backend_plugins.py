@@ -6,6 +6,7 @@ import textwrap
 import numpy as np
 import pytest
 import torch
+
 from vpr_smr.datasets import load_dataset
 from vpr_smr.descriptors import available_backends, backend_class, extract
 from vpr_smr.descriptors.base import CheckpointError

@@ -1,5 +1,6 @@
 import cv2
 import numpy as np
+
 from vpr_smr.datasets import read_image
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 from vpr_smr.descriptors import backend_class

@@ -4,6 +4,7 @@ import csv
 
 import numpy as np
 import pytest
+
 from vpr_smr.eval.attributes import EPS
 from vpr_smr.pipeline.cli import main
 

@@ -1,6 +1,7 @@
 import textwrap
 
 import pytest
+
 from vpr_smr.pipeline.config import ConfigError, load_config
 from vpr_smr.pipeline.workflow import preflight
 

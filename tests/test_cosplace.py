@@ -4,20 +4,14 @@ preprocessing."""
 from __future__ import annotations
 
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
-try:
-    from vpr_smr.descriptors import cosplace
-    from vpr_smr.descriptors.base import CheckpointError
-except ImportError:  # an uninstalled checkout: import the package folder directly
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from descriptors import cosplace
-    from descriptors.base import CheckpointError
+from vpr_smr.descriptors import cosplace
+from vpr_smr.descriptors.base import CheckpointError
 
 KEYS = Path(__file__).parent / "data" / "keys"
 KEY_FILES = sorted(KEYS.glob("cosplace_*.json")) + sorted(KEYS.glob("eigenplaces_*.json"))

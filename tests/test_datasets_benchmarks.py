@@ -13,6 +13,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
+
 from vpr_smr.datasets import DatasetError, Traverse, load_dataset, read_image
 from vpr_smr.datasets import check as check_module
 from vpr_smr.datasets.nordland import REFERENCE_LIST as NORDLAND_LIST

@@ -2,6 +2,7 @@ import shutil
 
 import numpy as np
 import pytest
+
 from vpr_smr.datasets import DatasetError, load_dataset, read_image
 from vpr_smr.datasets.folders import folder_pair
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT, SPLITS, nordland_sample

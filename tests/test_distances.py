@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from vpr_smr.eval.distances import distance_matrix
 
 

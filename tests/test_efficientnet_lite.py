@@ -7,7 +7,6 @@ produced that file), not from the module under test.
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import cv2
@@ -16,28 +15,17 @@ import pytest
 import torch
 import torch.nn.functional as F
 
+from vpr_smr.descriptors import CheckpointError, backend_class
+from vpr_smr.descriptors.efficientnet_lite import (
+    EfficientNetLite0,
+    EfficientNetLite0GeM,
+    EfficientNetLite0GeMNet,
+    SameConv2d,
+    gem,
+    package_weights_path,
+)
+
 ROOT = Path(__file__).resolve().parents[1]
-try:
-    from vpr_smr.descriptors import CheckpointError, backend_class
-    from vpr_smr.descriptors.efficientnet_lite import (
-        EfficientNetLite0,
-        EfficientNetLite0GeM,
-        EfficientNetLite0GeMNet,
-        SameConv2d,
-        gem,
-        package_weights_path,
-    )
-except ImportError:  # running from a source checkout without `pip install -e .`
-    sys.path.insert(0, str(ROOT))
-    from descriptors import CheckpointError, backend_class
-    from descriptors.efficientnet_lite import (
-        EfficientNetLite0,
-        EfficientNetLite0GeM,
-        EfficientNetLite0GeMNet,
-        SameConv2d,
-        gem,
-        package_weights_path,
-    )
 
 torch.set_num_threads(1)  # the test machines are small and shared
 

@@ -3,6 +3,7 @@ import shutil
 import h5py
 import numpy as np
 import pytest
+
 from vpr_smr.datasets import DatasetError
 from vpr_smr.datasets.folders import folder_pair
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT

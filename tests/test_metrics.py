@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+
 from vpr_smr.eval.metrics import (
     compare_curves,
     keep_mask,

@@ -4,20 +4,14 @@ from __future__ import annotations
 
 import collections
 import json
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 import torch
 
-try:
-    from vpr_smr.descriptors import mixvpr
-    from vpr_smr.descriptors.base import CheckpointError
-except ImportError:  # an uninstalled checkout: import the package folder directly
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-    from descriptors import mixvpr
-    from descriptors.base import CheckpointError
+from vpr_smr.descriptors import mixvpr
+from vpr_smr.descriptors.base import CheckpointError
 
 KEYS = Path(__file__).parent / "data" / "keys"
 SMALL = (64, 64)  # 4 x 4 trunk output: keeps CPU tests fast

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import torch
+
 from vpr_smr.descriptors import CheckpointError, backend_class
 from vpr_smr.descriptors.netvlad import NetVLAD, NetVLADPool
 

@@ -15,6 +15,7 @@ from test_datasets_benchmarks import (
     sfu_tree,
     write_lines,
 )
+
 from vpr_smr.pipeline.cli import main
 
 PAPER = Path(__file__).resolve().parents[1] / "configs" / "paper.yaml"

@@ -1,6 +1,7 @@
 import numpy as np
 import pytest
 from sklearn.datasets import make_classification
+
 from vpr_smr.eval.predictor import SMRPredictor, cross_validated_f1, oversample, smote_neighbours
 
 

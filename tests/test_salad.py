@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -12,18 +11,12 @@ import pytest
 import torch
 import torch.nn.functional as F
 
+from vpr_smr.descriptors import backend_class
+from vpr_smr.descriptors.base import CheckpointError
+from vpr_smr.descriptors.dinov2 import DinoVisionTransformer, interpolate_pos_embed
+from vpr_smr.descriptors.salad import SALAD, SALADAggregator, SALADNet, log_sinkhorn_with_dustbin
+
 ROOT = Path(__file__).resolve().parents[1]
-try:
-    from vpr_smr.descriptors import backend_class
-    from vpr_smr.descriptors.base import CheckpointError
-    from vpr_smr.descriptors.dinov2 import DinoVisionTransformer, interpolate_pos_embed
-    from vpr_smr.descriptors.salad import SALAD, SALADAggregator, SALADNet, log_sinkhorn_with_dustbin
-except ImportError:  # running from a source checkout without `pip install -e .`
-    sys.path.insert(0, str(ROOT))
-    from descriptors import backend_class
-    from descriptors.base import CheckpointError
-    from descriptors.dinov2 import DinoVisionTransformer, interpolate_pos_embed
-    from descriptors.salad import SALAD, SALADAggregator, SALADNet, log_sinkhorn_with_dustbin
 
 KEYS_FILE = ROOT / "tests" / "data" / "keys" / "salad_dino_salad.json"
 TINY = {"embed_dim": 16, "depth": 2, "num_heads": 2, "num_clusters": 4, "cluster_dim": 3, "token_dim": 5}

@@ -1,5 +1,6 @@
 import numpy as np
 import pytest
+
 from vpr_smr.eval.sequence import is_correct, sequence_matches, sequence_matrix, single_frame_matches
 
 # A 4 x 3 matrix (references x queries) worked through by hand.

@@ -8,6 +8,7 @@ import sys
 import cv2
 import numpy as np
 import pytest
+
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 
 pytestmark = pytest.mark.slow
