@@ -12,6 +12,7 @@ the ratio, on the CPU and, when one is present, on the GPU.
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -23,6 +24,8 @@ import torch
 from vpr_smr.datasets import Traverse
 from vpr_smr.descriptors import backend_class
 from vpr_smr.descriptors.extract import compute_descriptors
+
+os.environ.setdefault("TQDM_DISABLE", "1")  # the pipeline's progress bars would interleave with the table
 
 # Backend -> settings for the benchmark; full-size backends get a typical 480x640 frame.
 BACKENDS = {

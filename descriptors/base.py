@@ -15,6 +15,9 @@ from typing import Any, ClassVar
 import numpy as np
 import torch
 
+COMMON_SETTINGS = ("checkpoint", "device", "half", "distance")  # accepted by every backend
+DISTANCES = ("l2", "cosine", "mad")
+
 
 class CheckpointError(ValueError):
     """A checkpoint is missing or does not fit the backend; the message names the file and the setting."""
@@ -25,20 +28,26 @@ class Backend:
 
     name: ClassVar[str] = ""
     default_conf: ClassVar[dict[str, Any]] = {}
-    # "l2": squared Euclidean on L2-normalised descriptors; "mad": mean absolute difference (SAD).
-    distance: ClassVar[str] = "l2"
+    # "l2": squared Euclidean on L2-normalised descriptors; "cosine": 1 - cos; "mad": mean absolute difference
+    # (SAD). The class sets the method's own metric; the setting ``distance`` overrides it per method.
+    distance: str = "l2"
     # Learned backends need a checkpoint path in the configuration (``checkpoint: ...``).
     needs_checkpoint: ClassVar[bool] = False
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
         conf = dict(conf or {})
-        unknown = sorted(set(conf) - set(self.default_conf) - {"checkpoint", "device", "half"})
+        unknown = sorted(set(conf) - set(self.default_conf) - set(COMMON_SETTINGS))
         if unknown:
             raise ValueError(
-                f"backend {self.name!r} has no setting {', '.join(unknown)}; "
-                f"its settings are {', '.join(sorted(self.default_conf)) or 'none'} (and checkpoint, device, half)"
+                f"backend {self.name!r} has no setting {', '.join(unknown)}; its settings are "
+                f"{', '.join(sorted(self.default_conf)) or 'none'} (and {', '.join(COMMON_SETTINGS)})"
             )
         self.conf = {**self.default_conf, **conf}
+        if self.conf.get("distance") is not None:
+            if self.conf["distance"] not in DISTANCES:
+                raise ValueError(f"backend {self.name!r}: distance must be one of {', '.join(DISTANCES)}, "
+                                 f"got {self.conf['distance']!r}")
+            self.distance = self.conf["distance"]
         self.device = torch.device(self.conf.get("device") or ("cuda" if torch.cuda.is_available() else "cpu"))
         self.half = bool(self.conf.get("half", False)) and self.device.type == "cuda"
 

@@ -57,21 +57,31 @@ def build_backend(method: str, conf: dict[str, Any]) -> tuple[Backend, str | Non
     return backend, digest
 
 
-def default_loading(backend: Backend, batch_size: int | None, num_workers: int | None) -> tuple[int, int]:
+CPU_BATCH_ELEMENTS = 8 * 3 * 112 * 224  # a CPU batch holds about this many input values (see below)
+
+
+def default_loading(
+    backend: Backend, batch_size: int | None, num_workers: int | None, sample: torch.Tensor | None = None
+) -> tuple[int, int]:
     """Batch size and decoding workers when the configuration leaves them unset (``null``).
 
-    Measured on a 2-core CPU (benchmarks/extraction.py): CPU convolutions run fastest on small batches, and
-    each worker takes a core from the network, so the CPU gets batches of 8 and one worker per spare core;
-    a GPU gets batches of 32 and up to 4 workers.
+    Measured on a 2-core CPU (benchmarks/extraction.py): CPU networks run fastest on batches of about
+    600k input values (8 images of 112x224; a single 480x640 frame), and decoding workers only pay off when
+    there are cores to spare beyond the network's threads. A GPU gets batches of 32 and up to 4 workers.
+    ``sample`` is one preprocessed image, which sets the CPU batch size.
     """
     import os
 
     cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
     on_gpu = backend.device.type == "cuda"
     if batch_size is None:
-        batch_size = 32 if on_gpu else 8
+        if on_gpu:
+            batch_size = 32
+        else:
+            elements = sample.numel() if sample is not None else CPU_BATCH_ELEMENTS // 8
+            batch_size = int(min(64, max(1, round(CPU_BATCH_ELEMENTS / elements))))
     if num_workers is None:
-        num_workers = min(4, cores - 1) if on_gpu else min(2, max(0, cores - 1))
+        num_workers = min(4, cores - 1) if on_gpu else min(4, cores // 4)
     return batch_size, num_workers
 
 
@@ -79,9 +89,11 @@ def compute_descriptors(
     traverse: Traverse, backend: Backend, batch_size: int | None = None, num_workers: int | None = None,
     desc: str = "",
 ) -> np.ndarray:
-    batch_size, num_workers = default_loading(backend, batch_size, num_workers)
+    images = TraverseImages(traverse, backend)
+    sample = images[0] if batch_size is None and len(images) else None
+    batch_size, num_workers = default_loading(backend, batch_size, num_workers, sample)
     loader = DataLoader(
-        TraverseImages(traverse, backend),
+        images,
         batch_size=batch_size,
         num_workers=num_workers,
         pin_memory=backend.device.type == "cuda",

@@ -21,13 +21,7 @@ QUERIES_FILE = "queries_descriptors.npy"
 
 class Precomputed(Backend):
     name: ClassVar[str] = "precomputed"
-    default_conf: ClassVar[dict[str, Any]] = {"folder": None, "database": None, "queries": None, "distance": "l2"}
-
-    def __init__(self, conf: dict[str, Any] | None = None) -> None:
-        super().__init__(conf)
-        if self.conf["distance"] not in ("l2", "cosine", "mad"):
-            raise ValueError(f"precomputed: distance must be l2, cosine or mad, got {self.conf['distance']!r}")
-        self.distance = self.conf["distance"]  # per instance: whatever metric the method was designed for
+    default_conf: ClassVar[dict[str, Any]] = {"folder": None, "database": None, "queries": None}
 
     def paths(self) -> tuple[Path, Path]:
         folder = self.conf["folder"]

@@ -29,7 +29,7 @@ class SAD(Backend):
 
     name: ClassVar[str] = "sad"
     default_conf: ClassVar[dict[str, Any]] = {"width": 64, "height": 32, "patch": 8}
-    distance: ClassVar[str] = "mad"
+    distance = "mad"
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
         grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)

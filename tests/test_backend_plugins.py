@@ -115,3 +115,13 @@ def test_config_without_checkpoint_fails_before_work(tmp_path, capsys):
     assert main(["run", str(config)]) == 2
     assert "methods.salad.checkpoint is not set" in capsys.readouterr().err
     assert not (tmp_path / "results").exists()
+
+
+def test_distance_setting_overrides_the_backend_default():
+    assert backend_class("sad")().distance == "mad"
+    assert backend_class("hog")().distance == "l2"
+    assert backend_class("hog")({"distance": "cosine"}).distance == "cosine"
+    with pytest.raises(ValueError, match="distance must be one of l2, cosine, mad"):
+        backend_class("hog")({"distance": "manhattan"})
+    with pytest.raises(ValueError, match="backend 'hog' has no setting colour"):
+        backend_class("hog")({"colour": 1})
