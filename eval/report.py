@@ -141,14 +141,16 @@ def figures(evaluations: Sequence[dict[str, Any]], predictors: Sequence[dict[str
             fig.suptitle(f"{dataset}, L={seq_len}, {mode} mode ({split})")
             fig.tight_layout()
             written.append(_save(fig, out_dir / f"pr_{dataset}_L{seq_len}_{mode}.png"))
+        modes = items[0]["splits"][split]["modes"]
+        trust_mode = "paper" if "paper" in modes else next(iter(modes))  # the paper's figure is in paper mode
         fig, axes = plt.subplots(1, len(items), figsize=(3.2 * len(items), 3.2), squeeze=False)
         for ax, evaluation in zip(axes[0], items, strict=True):
-            for level, trust_curve in evaluation["splits"][split]["modes"]["paper"]["trust"].items():
+            for level, trust_curve in evaluation["splits"][split]["modes"][trust_mode]["trust"].items():
                 ax.plot(trust_curve["recall"], trust_curve["precision"], label=f"trust >= {level}")
             ax.set(title=evaluation["meta"]["method"], xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
         axes[0][0].set_ylabel("precision")
         axes[0][-1].legend(loc="upper right", fontsize=7)
-        fig.suptitle(f"{dataset}, L={seq_len}: predictor trust levels (paper mode, {split})")
+        fig.suptitle(f"{dataset}, L={seq_len}: predictor trust levels ({trust_mode} mode, {split})")
         fig.tight_layout()
         written.append(_save(fig, out_dir / f"trust_{dataset}_L{seq_len}.png"))
         matrix = np.sum([np.array(e["splits"][split]["confusion_matrix"]) for e in items], axis=0)

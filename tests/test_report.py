@@ -49,3 +49,30 @@ def test_latex_colours_reductions(rows):
     assert r"\textcolor{red}{-14.22}" in text and r"\textcolor{green}{25.46}" in text
     assert r"Oxford RobotCar & VPR+SM & 0.0950" in text and r"& 5 / 7\\" in text
     assert r"Reduction (\%)" in text
+
+
+def test_tables_and_figures_with_standard_mode_only(tmp_path):
+    import json
+
+    import numpy as np
+
+    from vpr_smr.eval.attributes import query_features
+    from vpr_smr.eval.evaluate import evaluate_split
+    from vpr_smr.eval.io import write_json
+    from vpr_smr.eval.predictor import SMRPredictor
+    from vpr_smr.eval.report import main
+
+    rng = np.random.default_rng(0)
+    matrix = rng.random((60, 60)) + 0.7 * (1 - np.eye(60))  # the diagonal is often, not always, the best
+    features = query_features(matrix, 4)
+    predictor = SMRPredictor(hidden_layer_sizes=(8,), max_iter=50).fit(features.attributes[:, 0], features.labels)
+    result = evaluate_split(features, predictor, modes=("standard",), trust_levels=(0.0, 0.9))
+    evaluation = {"meta": {"dataset": "d", "method": "m", "seq_len": 4}, "splits": {"test": result}}
+    write_json(tmp_path / "e.json", evaluation)
+    write_json(tmp_path / "p.json", {"meta": {"dataset": "d", "seq_len": 4}, "n_train": 57, "f1_cv": 0.5,
+                                     "f1_val": 0.4, "f1_test": 0.3})
+    main([tmp_path / "e.json"], [tmp_path / "p.json"], tmp_path / "out")
+    assert (tmp_path / "out" / "tables" / "table1.csv").read_text().splitlines()[1].startswith("d,m,4,standard,")
+    assert sorted(p.name for p in (tmp_path / "out" / "figures").iterdir()) == [
+        "confusion_d_L4.png", "pr_d_L4_standard.png", "trust_d_L4.png"]
+    assert json.loads((tmp_path / "e.json").read_text())["splits"]["test"]["n_queries"] == 57
