@@ -166,6 +166,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     return workflow.run(args.config, cores=args.cores, dry_run=args.dry_run, extra=args.snakemake_args)
 
 
+def _required(parser: argparse.ArgumentParser, *options: str) -> None:
+    for option in options:
+        parser.add_argument(option, required=True)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vpr-smr", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
@@ -201,18 +206,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=cmd_dataset_check)
 
     p = sub.add_parser("descriptors", help="compute a method's descriptors of a dataset (HDF5)")
-    p.add_argument("--config", required=True)
-    p.add_argument("--dataset", required=True)
-    p.add_argument("--method", required=True)
-    p.add_argument("--out", required=True)
+    _required(p, "--config", "--dataset", "--method", "--out")
     p.set_defaults(func=cmd_descriptors)
 
     p = sub.add_parser("distances", help="reference x query distance matrix of one split (HDF5)")
-    p.add_argument("--config", required=True)
-    p.add_argument("--dataset", required=True)
-    p.add_argument("--split", required=True)
-    p.add_argument("--descriptors", required=True)
-    p.add_argument("--out", required=True)
+    _required(p, "--config", "--dataset", "--split", "--descriptors", "--out")
     p.set_defaults(func=cmd_distances)
 
     p = sub.add_parser("attributes", help="sequence matching, SMR attributes and labels of a distance matrix")
@@ -223,8 +221,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_attributes)
 
     p = sub.add_parser("train", help="train the predictor on the pooled train features of every method")
-    p.add_argument("--config", required=True)
-    p.add_argument("--dataset", required=True)
+    _required(p, "--config", "--dataset")
     p.add_argument("--seq-len", type=int, required=True)
     p.add_argument("--train", nargs="+", required=True)
     p.add_argument("--val", nargs="*")
@@ -233,13 +230,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_train)
 
     p = sub.add_parser("evaluate", help="match removal and precision-recall of one method")
-    p.add_argument("--config", required=True)
-    p.add_argument("--dataset", required=True)
-    p.add_argument("--method", required=True)
+    _required(p, "--config", "--dataset", "--method")
     p.add_argument("--seq-len", type=int, required=True)
     p.add_argument("--features", nargs="+", required=True, metavar="SPLIT=PATH")
-    p.add_argument("--predictor", required=True)
-    p.add_argument("--out", required=True)
+    _required(p, "--predictor", "--out")
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("tables", help="paper-style tables and figures")
