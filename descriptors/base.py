@@ -15,8 +15,9 @@ from typing import Any, ClassVar
 import numpy as np
 import torch
 
+from ..eval.distances import METRICS
+
 COMMON_SETTINGS = ("checkpoint", "device", "half", "distance")  # accepted by every backend
-DISTANCES = ("l2", "cosine", "mad")
 
 
 class CheckpointError(ValueError):
@@ -44,8 +45,8 @@ class Backend:
             )
         self.conf = {**self.default_conf, **conf}
         if self.conf.get("distance") is not None:
-            if self.conf["distance"] not in DISTANCES:
-                raise ValueError(f"backend {self.name!r}: distance must be one of {', '.join(DISTANCES)}, "
+            if self.conf["distance"] not in METRICS:
+                raise ValueError(f"backend {self.name!r}: distance must be one of {', '.join(METRICS)}, "
                                  f"got {self.conf['distance']!r}")
             self.distance = self.conf["distance"]
         self.device = torch.device(self.conf.get("device") or ("cuda" if torch.cuda.is_available() else "cpu"))

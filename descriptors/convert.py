@@ -15,9 +15,7 @@ globals its scalars need.
 from __future__ import annotations
 
 import collections
-import os
 import pickle
-import tempfile
 import zipfile
 from collections.abc import Callable
 from pathlib import Path
@@ -171,16 +169,11 @@ def apgem_tensors(checkpoint: Any, source: Path | str) -> dict[str, Any]:
 
 def _save_atomic(content: Any, out_path: Path) -> None:
     """``torch.save`` to a temporary file next to ``out_path``, check it reads back safely, then rename."""
-    out_path.parent.mkdir(parents=True, exist_ok=True)
-    handle, temporary = tempfile.mkstemp(prefix=f".{out_path.name}.", suffix=".tmp", dir=out_path.parent)
-    os.close(handle)
-    try:
+    from ..eval.io import atomic_path
+
+    with atomic_path(out_path) as temporary:
         torch.save(content, temporary)
         torch.load(temporary, map_location="cpu", weights_only=True)  # the promise of the conversion
-        os.replace(temporary, out_path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
 
 
 def convert_apgem(in_path: Path | str, out_path: Path | str) -> Path:

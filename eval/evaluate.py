@@ -11,7 +11,7 @@ from sklearn.metrics import confusion_matrix
 
 from .attributes import QueryFeatures
 from .io import read_features, read_provenance, write_json
-from .metrics import MODES, compare_curves, curve, keep_mask, recall_at_full_precision
+from .metrics import MODES, Curve, compare_curves, curve, keep_mask, recall_at_full_precision
 from .predictor import SMRPredictor, macro_f1
 
 LABELS = (0, 1, 2, 3)
@@ -60,8 +60,8 @@ def evaluate_split(
             "reduction_pct": comparison.reduction_pct,
             "recall_at_100_precision_vpr_sm": recall_at_full_precision(baseline),
             "recall_at_100_precision_vpr_sm_pred": recall_at_full_precision(with_predictor),
-            "curve_vpr_sm": {"recall": baseline.recall, "precision": baseline.precision},
-            "curve_vpr_sm_pred": {"recall": with_predictor.recall, "precision": with_predictor.precision},
+            "curve_vpr_sm": _curve_dict(baseline),
+            "curve_vpr_sm_pred": _curve_dict(with_predictor),
             "trust": {
                 str(level): _curve_dict(curve(mode, distances, correct, keep_mask(predicted, confidence, level),
                                               *s_range))
@@ -71,7 +71,7 @@ def evaluate_split(
     return result
 
 
-def _curve_dict(curve_: Any) -> dict[str, Any]:
+def _curve_dict(curve_: Curve) -> dict[str, Any]:
     return {"recall": curve_.recall, "precision": curve_.precision}
 
 

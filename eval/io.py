@@ -26,29 +26,31 @@ def package_version() -> str:
 
 
 @contextmanager
-def atomic_h5(path: Path | str, provenance: dict[str, Any] | None = None) -> Iterator[h5py.File]:
-    """Open ``path.tmp`` for writing, rename to ``path`` only when the block finishes without error."""
+def atomic_path(path: Path | str) -> Iterator[Path]:
+    """``path.tmp`` to write to: renamed to ``path`` when the block finishes, removed if it fails."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
     try:
-        with h5py.File(tmp, "w") as f:
-            f.attrs["vpr_smr_version"] = package_version()
-            for key, value in (provenance or {}).items():
-                f.attrs[key] = json.dumps(value, sort_keys=True) if isinstance(value, dict | list) else value
-            yield f
-        tmp.replace(path)
+        yield tmp
+        os.replace(tmp, path)
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        tmp.unlink(missing_ok=True)
+
+
+@contextmanager
+def atomic_h5(path: Path | str, provenance: dict[str, Any] | None = None) -> Iterator[h5py.File]:
+    """An HDF5 file written through ``atomic_path``, with the package version and ``provenance`` as attributes."""
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["vpr_smr_version"] = package_version()
+        for key, value in (provenance or {}).items():
+            f.attrs[key] = json.dumps(value, sort_keys=True) if isinstance(value, dict | list) else value
+        yield f
 
 
 def write_json(path: Path | str, data: dict[str, Any]) -> None:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(data, indent=1, sort_keys=True, default=_jsonable))
-    os.replace(tmp, path)
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(data, indent=1, sort_keys=True, default=_jsonable))
 
 
 def _jsonable(value: Any) -> Any:

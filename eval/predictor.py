@@ -118,17 +118,12 @@ class SMRPredictor:
 
     def save(self, path: Path | str, **attrs: Any) -> None:
         """Write the fitted arrays to HDF5 (temporary name, then rename)."""
-        path = Path(path)
-        tmp = path.with_name(path.name + ".tmp")
-        with h5py.File(tmp, "w") as f:
+        from .io import atomic_h5
+
+        with atomic_h5(path, {**attrs, "params": self.get_params(), "n_iter": self.n_iter_}) as f:
             f["mean"], f["scale"], f["classes"] = self.mean_, self.scale_, self.classes_
             for i, (w, b) in enumerate(zip(self.coefs_, self.intercepts_, strict=True)):
                 f[f"layers/{i}/weights"], f[f"layers/{i}/bias"] = w, b
-            f.attrs["params"] = _json(self.get_params())
-            f.attrs["n_iter"] = self.n_iter_
-            for key, value in attrs.items():
-                f.attrs[key] = _json(value) if isinstance(value, dict | list) else value
-        tmp.replace(path)
 
     @classmethod
     def load(cls, path: Path | str) -> SMRPredictor:
@@ -145,11 +140,6 @@ class SMRPredictor:
             predictor.n_iter_ = int(f.attrs["n_iter"])
         return predictor
 
-
-def _json(value: Any) -> str:
-    import json
-
-    return json.dumps(value, sort_keys=True)
 
 
 def macro_f1(labels: np.ndarray, predicted: np.ndarray) -> float:

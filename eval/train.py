@@ -52,7 +52,6 @@ def main(
             report[f"n_{name}"] = int(len(y))
     report["n_iter"] = predictor.n_iter_
     out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     predictor.save(out, report=report)
     write_json(out.with_suffix(".json"), report)
     return report

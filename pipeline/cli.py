@@ -60,12 +60,11 @@ def cmd_attributes(args: argparse.Namespace) -> None:
     import numpy as np
 
     from ..eval.attributes import ATTRIBUTE_NAMES, query_features
-    from ..eval.io import read_distance_matrix, read_provenance, write_features
+    from ..eval.io import atomic_path, read_distance_matrix, read_provenance, write_features
 
     matrix = read_distance_matrix(args.distances)
-    if matrix.ndim != 2 or not np.issubdtype(matrix.dtype, np.number):
-        raise ValueError(f"{args.distances}: expected a 2-D numeric matrix (references x queries), "
-                         f"got shape {matrix.shape} of {matrix.dtype}")
+    if not np.issubdtype(matrix.dtype, np.number):  # shape and values are checked by query_features
+        raise ValueError(f"{args.distances}: expected a numeric matrix (references x queries), got {matrix.dtype}")
     start = time.perf_counter()
     try:
         features = query_features(matrix, args.seq_len, args.tolerance)
@@ -73,13 +72,11 @@ def cmd_attributes(args: argparse.Namespace) -> None:
         raise ValueError(f"{args.distances}: {error}") from None
     seconds = time.perf_counter() - start
     out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     if out.suffix == ".csv":
-        tmp = out.with_name(out.name + ".tmp")
         table = np.column_stack([features.queries, features.attributes[:, 0, :], features.labels])
         header = ",".join(("query", *ATTRIBUTE_NAMES, "label"))
-        np.savetxt(tmp, table, delimiter=",", header=header, comments="", fmt=["%d", *["%.9g"] * 4, "%d"])
-        tmp.replace(out)
+        with atomic_path(out) as tmp:
+            np.savetxt(tmp, table, delimiter=",", header=header, comments="", fmt=["%d", *["%.9g"] * 4, "%d"])
     else:
         provenance = read_provenance(args.distances) if Path(args.distances).suffix != ".npy" else {}
         provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
