@@ -30,8 +30,10 @@ test-fast: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check .
 
+# Full-size speed and memory measurements (minutes; see benchmarks/README.md). CI runs them small, in the tests.
 bench: $(STAMP)
 	$(BIN)/python benchmarks/attributes.py
+	$(BIN)/python benchmarks/live.py
 
 clean-results:
 	rm -rf results .snakemake

@@ -1,43 +1,109 @@
-"""Attributes of every query: the vectorised implementation against a per-query loop, in one process.
+"""`vpr-smr attributes` on an R x R float32 .npy (issue 9, goals a, b, d), ratios against baselines in one run.
 
-Prints the time of each and the speed-up as a ratio; the baseline is the literal per-query transcription of
-SPEC section 5 used by the tests (tests/test_attributes.py::naive_attributes).
+(a) the command's wall time against a fresh process that loads the same file and sums it (goal: within 15x),
+    and against per-query loops (goal: at least 1000x faster), extrapolated from a sample of queries: the literal
+    per-query transcription of SPEC 5 that the tests use (``naive_attributes``, the issue's "about 50 ms per
+    query") and the same loop with numpy inside each query (argsort of the whole column, as the authors' code);
+(b) the command's peak memory against the matrix's size (goal: at most 2x the matrix + 300 MB);
+(d) the time per query at L = 2 against L = 10 (goal: within 1.5x), in this process.
+
+    python benchmarks/attributes.py            # 9000 x 9000, L = 4 (324 MB on disk under a temporary folder)
+    python benchmarks/attributes.py --small    # 400 x 400: checks that it runs (CI)
 """
 
 from __future__ import annotations
 
+import argparse
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from common import is_small, machine, python, run_measured  # noqa: E402
 from test_attributes import naive_attributes  # noqa: E402
 
-from vpr_smr.eval.attributes import query_attributes  # noqa: E402
+from vpr_smr.eval.attributes import EPS, GROUP_HALF_WIDTH, query_features  # noqa: E402
+
+LOAD_AND_SUM = "import sys, numpy as np; print(np.load(sys.argv[1]).sum())"
 
 
-def best_of(fn, repeats: int, *args) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn(*args)
-        times.append(time.perf_counter() - start)
-    return min(times)
+def numpy_per_query(distance_matrix: np.ndarray, seq_len: int, queries: np.ndarray, n_ranks: int = 4) -> None:
+    """The authors' loop, one query at a time: normalise the window, sum its diagonals, argsort the whole column
+    of sums, sort the past, row and current values, then the block and group rates per rank (SPEC 5)."""
+    n_diag = distance_matrix.shape[0] - seq_len + 1
+    for a in queries:
+        window = np.asarray(distance_matrix[:, a - seq_len + 1 : a + 1], dtype=np.float64)
+        window = window / window.max(axis=0)
+        diagonals = np.stack([window[c : c + n_diag, c] for c in range(seq_len)], axis=1)
+        full, past = diagonals.sum(axis=1), diagonals[:, :-1].sum(axis=1)
+        order = np.argsort(full)
+        a1 = np.sort(past)[:n_ranks] / (np.sort(window[:, :-1].sum(axis=1))[:n_ranks] + EPS)
+        a2 = np.sort(window[:, -1])[:n_ranks] / (diagonals[order[:n_ranks], -1] + EPS)
+        rates = []
+        for i in order[:n_ranks]:
+            lo = seq_len * (i // seq_len)
+            block = full[lo : min(n_diag, lo + seq_len)].mean()
+            group = full[max(0, i - GROUP_HALF_WIDTH) : i + GROUP_HALF_WIDTH + 1].mean()
+            rates.append((past[i] / (block + EPS), past[i] / (group + EPS)))
+        np.argmin(distance_matrix[:, a])  # single-frame match
+        del a1, a2, rates
 
 
 def main() -> None:
-    rng = np.random.default_rng(0)
-    print(f"{'R x Q':>12} {'L':>3} {'loop s':>9} {'vectorised s':>13} {'ratio':>7}")
-    for size, seq_len in ((300, 4), (1000, 4), (1000, 10)):
-        matrix = rng.random((size, size))
-        loop = best_of(naive_attributes, 1, matrix, seq_len, 4)
-        fast = best_of(query_attributes, 3, matrix, seq_len, 4)
-        print(f"{size:>5} x {size:<5} {seq_len:>3} {loop:>9.3f} {fast:>13.4f} {loop / fast:>6.0f}x")
-    matrix = rng.random((2576, 2576))  # the demo's test split
-    fast = best_of(query_attributes, 1, matrix, 4, 4)
-    print(f"2576 x 2576 (demo test split), L=4: {fast:.2f} s, {1e6 * fast / 2573:.0f} µs per query")
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--size", type=int, default=9000)
+    parser.add_argument("--seq-len", type=int, default=4)
+    parser.add_argument("--sample", type=int, default=40, help="queries timed for the authors' loop")
+    parser.add_argument("--small", action="store_true", help="a tiny size (also VPR_SMR_BENCH_SMALL=1)")
+    args = parser.parse_args()
+    size = 400 if is_small(args.small) else args.size
+    sample = min(args.sample, 10) if is_small(args.small) else args.sample
+    n_queries = size - args.seq_len + 1
+    print(f"{machine()}; {size} x {size} float32, L = {args.seq_len}")
+    with tempfile.TemporaryDirectory(prefix="vpr-smr-bench-") as folder:
+        path = Path(folder) / "D.npy"
+        matrix = np.random.default_rng(0).random((size, size), dtype=np.float32)
+        np.save(path, matrix)
+        matrix_mb = path.stat().st_size / 2**20
+        del matrix
+        run_measured(python(LOAD_AND_SUM, str(path)))  # warm the page cache for both
+        sum_s, sum_rss, _ = run_measured(python(LOAD_AND_SUM, str(path)))
+        command = [sys.executable, "-m", "vpr_smr.pipeline.cli", "attributes", "--distances", str(path),
+                   "--seq-len", str(args.seq_len), "--out", str(Path(folder) / "features.h5")]
+        cmd_s, cmd_rss, _ = run_measured(command)
+        matrix = np.load(path, mmap_mode="r")
+        queries = np.linspace(args.seq_len - 1, size - 1, sample).astype(int)
+        start = time.perf_counter()
+        numpy_per_query(matrix, args.seq_len, queries)
+        authors_s = (time.perf_counter() - start) / sample * n_queries
+        literal_sample = max(2, sample // 4)
+        start = time.perf_counter()
+        naive_attributes(np.asarray(matrix[:, : literal_sample + args.seq_len - 1], dtype=np.float64), args.seq_len, 4)
+        literal_s = (time.perf_counter() - start) / literal_sample * n_queries
+        per_query = {}
+        for seq_len in (2, 10):
+            start = time.perf_counter()
+            query_features(matrix, seq_len)
+            per_query[seq_len] = (time.perf_counter() - start) / (size - seq_len + 1)
+        del matrix
+    print(f"fresh process, load + sum:       {sum_s:8.2f} s, peak {sum_rss / 2**20:6.0f} MB")
+    print(f"vpr-smr attributes:              {cmd_s:8.2f} s, peak {cmd_rss / 2**20:6.0f} MB "
+          f"(matrix {matrix_mb:.0f} MB)")
+    print(f"literal per-query loop:          {literal_s:8.1f} s (extrapolated from {literal_sample} queries, "
+          f"{1e3 * literal_s / n_queries:.1f} ms per query)")
+    print(f"numpy per-query loop:            {authors_s:8.1f} s (extrapolated from {sample} queries, "
+          f"{1e3 * authors_s / n_queries:.2f} ms per query)")
+    print(f"per query, L = 2 / L = 10:       {1e6 * per_query[2]:.0f} / {1e6 * per_query[10]:.0f} µs")
+    print(f"ratio (a) attributes / load+sum: {cmd_s / sum_s:.1f}x (goal <= 15x)")
+    print(f"ratio (a) literal loop / attributes: {literal_s / cmd_s:.1f}x (goal >= 1000x)")
+    print(f"ratio (a) numpy loop / attributes:   {authors_s / cmd_s:.1f}x")
+    print(f"ratio (b) peak / matrix:         {cmd_rss / 2**20 / matrix_mb:.2f}x; peak - 2 x matrix = "
+          f"{cmd_rss / 2**20 - 2 * matrix_mb:.0f} MB (goal <= 300 MB)")
+    print(f"ratio (d) L=10 / L=2 per query:  {per_query[10] / per_query[2]:.2f}x (goal within 1.5x)")
 
 
 if __name__ == "__main__":

@@ -10,6 +10,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from ..eval.sequence import DEFAULT_TOLERANCE
+
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".ppm", ".tif", ".tiff")
 MAX_LISTED = 5  # an error lists this many files, then a count
 
@@ -64,7 +66,7 @@ class TraversePair:
     name: str
     reference: Traverse
     query: Traverse
-    tolerance: int = 2
+    tolerance: int = DEFAULT_TOLERANCE
     splits: dict[str, tuple[int, int]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
@@ -77,6 +79,9 @@ class TraversePair:
         if len(self.reference) == 0:
             raise DatasetError(f"dataset {self.name!r}: no frames found")
         for split, (lo, hi) in self.splits.items():
+            if lo >= hi:
+                raise DatasetError(f"dataset {self.name!r}: split {split!r} = [{lo}, {hi}) is empty; give it a "
+                                   "range [lo, hi) with lo < hi in the configuration's splits")
             if not 0 <= lo < hi <= len(self.reference):
                 raise DatasetError(
                     f"dataset {self.name!r}: split {split!r} = [{lo}, {hi}) is outside the {len(self.reference)} "
@@ -113,11 +118,22 @@ class TraversePair:
 
 
 def sorted_images(folder: Path | str) -> tuple[Path, ...]:
-    """The image files of a folder, sorted by name."""
+    """The image files of a folder, sorted by name; any other file (but hidden ones) is an error naming it.
+
+    A stray file would shift the frame alignment of everything after it, so it is not skipped silently.
+    """
     folder = Path(folder)
     if not folder.is_dir():
-        raise DatasetError(f"image folder not found: {folder}")
-    return tuple(sorted(p for p in folder.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES))
+        note = "" if folder.is_absolute() else f" (a relative path, looked for from the working folder {Path.cwd()})"
+        raise DatasetError(f"image folder not found: {folder}{note}")
+    files = sorted(p for p in folder.iterdir() if not p.name.startswith("."))
+    others = [p.name for p in files if p.suffix.lower() not in IMAGE_SUFFIXES]
+    if others:
+        raise DatasetError(
+            f"image folder {folder} holds {len(others)} files that are not images ({list_files(others)}); "
+            f"move them out, or give a frame list (reference_list / query_list) naming the frames"
+        )
+    return tuple(files)
 
 
 def images_from_list(folder: Path | str, list_file: Path | str) -> tuple[Path, ...]:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .base import DatasetError, Traverse, TraversePair, images_from_list, list_files, sorted_images
+from .base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair, images_from_list, list_files, sorted_images
 
 
 def folder_pair(
@@ -12,7 +12,7 @@ def folder_pair(
     reference: Path | str,
     query: Path | str,
     splits: dict[str, tuple[int, int]],
-    tolerance: int = 2,
+    tolerance: int = DEFAULT_TOLERANCE,
     reference_list: Path | str | None = None,
     query_list: Path | str | None = None,
 ) -> TraversePair:

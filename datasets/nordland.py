@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .base import DatasetError, Traverse, TraversePair
+from .base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair
 from .check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists"
@@ -34,7 +34,7 @@ def nordland(
     reference: str = "summer",
     query: str = "winter",
     splits: dict[str, tuple[int, int]] | None = None,
-    tolerance: int = 2,
+    tolerance: int = DEFAULT_TOLERANCE,
     check_files: bool = True,
 ) -> TraversePair:
     """Summer (``reference``) against winter (``query``) over the frames of the lists, in list order.

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .base import TraversePair
+from .base import DEFAULT_TOLERANCE, TraversePair
 from .folders import folder_pair
 
 DEFAULT_ROOT = Path(__file__).resolve().parents[1] / "data" / "nordland_sample"
@@ -16,7 +16,9 @@ SPLITS = {"train": (0, 500), "val": (500, 1000), "test": (1000, 3576)}
 
 
 def nordland_sample(
-    root: Path | str = DEFAULT_ROOT, splits: dict[str, tuple[int, int]] | None = None, tolerance: int = 2
+    root: Path | str = DEFAULT_ROOT,
+    splits: dict[str, tuple[int, int]] | None = None,
+    tolerance: int = DEFAULT_TOLERANCE,
 ) -> TraversePair:
     """Summer is the reference, winter the query."""
     splits = SPLITS if splits is None else splits

@@ -18,7 +18,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .base import DatasetError, Traverse, TraversePair, imread
+from .base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair, imread
 from .check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists" / "from_VPRSNN"
@@ -114,7 +114,7 @@ def robotcar(
     reference_run: str = REFERENCE_RUN,
     query_run: str = QUERY_RUN,
     splits: dict[str, tuple[int, int]] | None = None,
-    tolerance: int = 2,
+    tolerance: int = DEFAULT_TOLERANCE,
     check_files: bool = True,
 ) -> TraversePair:
     """Rain (reference) against Dusk (query): frame i of both lists shows the same place.

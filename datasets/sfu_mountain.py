@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path, PurePosixPath
 
-from .base import DatasetError, Traverse, TraversePair
+from .base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair
 from .check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists" / "from_VPRSNN"
@@ -46,7 +46,7 @@ def sfu_mountain(
     reference_list: Path | str = REFERENCE_LIST,
     query_list: Path | str = QUERY_LIST,
     splits: dict[str, tuple[int, int]] | None = None,
-    tolerance: int = 2,
+    tolerance: int = DEFAULT_TOLERANCE,
     check_files: bool = True,
 ) -> TraversePair:
     """Dry (reference) against dusk (query), in list order.

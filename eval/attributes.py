@@ -1,27 +1,47 @@
-"""The four SMR attributes of every query and its label (SPEC sections 5 and 6, paper mode).
+"""Sequence matching, the four SMR attributes of every query and its label (SPEC sections 4, 5 and 6, paper mode).
 
-Everything is vectorised over queries: the work is split into blocks of query columns only to bound memory,
-and the only Python loops run over the ``L`` kernel taps and those blocks.
+The matrix is read in blocks of query columns (any 2-D array-like that slices by columns: ``np.ndarray``,
+``np.memmap``, ``h5py.Dataset``), so no full-size float64 copy of it ever exists. Within a block, the cost per query
+does not depend on the sequence length ``L`` or on a sort of the whole column:
+
+1. *Screening.* Running sums along the diagonals (a prefix sum over the block's columns, in diagonal coordinates)
+   give every diagonal sum ``full_d``, ``past_d``, the row sums and ``S`` as a difference of two prefix sums, in
+   float32. Partial selection finds a bound on each query's ``K``-th smallest screened value: the ``K``-th smallest
+   of the minima of strided groups of 32 values (one reduction, then ``np.partition`` of a 32 times shorter row).
+2. *Exact recomputation.* Every candidate within a rigorous bound of the float32 rounding error of that ``K``-th
+   value is recomputed in float64 exactly as the definition does it (``0 + x_0 + x_1 + ...`` in this order), and the
+   ``K`` best are taken by a stable sort on (value, diagonal): SPEC 5's tie rule, equal ``full_d`` lowest diagonal
+   first. Only a handful of candidates per query pass the bound (all of them only when values tie massively), so
+   this costs ``O(K L)`` per query; so do A3/A4, whose block and group means take ``L + 5`` exact ``full_m`` each.
+
+Every reported number is therefore the float64 value of the definition, bit for bit, whatever the block size or the
+screening precision (float32 only decides which few candidates are recomputed): block-wise equals whole-matrix
+exactly, and the live matcher (``eval.live``), which runs the same code on one window, equals the batch.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided
 
-from .sequence import (
-    check_distance_matrix,
-    diagonal_sums,
-    is_correct,
-    sequence_matches,
-    sequence_matrix,
-    single_frame_matches,
-)
+from .sequence import DEFAULT_TOLERANCE, check_finite, check_shape, diagonal_sums, is_correct, sequence_matrix
+
+__all__ = [
+    "ATTRIBUTE_NAMES", "EPS", "QueryFeatures", "block_features", "diagonal_sums", "is_correct",
+    "labels_from_correctness", "normalise_columns", "query_attributes", "query_features", "read_columns",
+    "sequence_matrix",
+]
 
 EPS = 1e-6
 GROUP_HALF_WIDTH = 2  # W in the paper: the group of diagonal i is i-W .. i+W
 ATTRIBUTE_NAMES = ("A1", "A2", "A3", "A4")  # minimum sum, minimum value, block sum, group sum rates
+BLOCK_VALUES = 1 << 20  # about 1 M values (4 MB of float32) per block of query columns: measured fastest
+SCREEN_GROUP = 32
+TRANSPOSE_ROWS = 256
 
 
 @dataclass(frozen=True)
@@ -44,6 +64,7 @@ class QueryFeatures:
     rank_correct: np.ndarray  # (N, K) bool
     sequence_min: float  # S.min() of the whole split
     sequence_max: float  # S.max() of the whole split
+    all_single_correct: np.ndarray  # (Q,) bool: single-frame correctness of every query, the first L-1 included
 
 
 def normalise_columns(distance_matrix: np.ndarray) -> np.ndarray:
@@ -53,75 +74,6 @@ def normalise_columns(distance_matrix: np.ndarray) -> np.ndarray:
     return distance_matrix / col_max
 
 
-def _window_means(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Mean of ``values[lo[i] .. hi[i]]`` (inclusive) along axis 0, for each row index ``i``."""
-    cumsum = np.concatenate([np.zeros((1, values.shape[1])), np.cumsum(values, axis=0)])
-    return (cumsum[hi + 1] - cumsum[lo]) / (hi - lo + 1)[:, None]
-
-
-def _smallest_sorted(values: np.ndarray, count: int) -> np.ndarray:
-    """The ``count`` smallest values of each column, ascending."""
-    if count >= values.shape[0]:
-        return np.sort(values, axis=0)[:count]
-    return np.partition(values, np.arange(count), axis=0)[:count]
-
-
-def attribute_block(normalised: np.ndarray, seq_len: int, n_ranks: int) -> tuple[np.ndarray, np.ndarray]:
-    """Attributes for all queries of ``normalised`` (columns already divided by their maxima).
-
-    Returns ``attributes`` of shape ``(Q - L + 1, K, 4)`` and the rank-``k`` diagonal indices ``(Q - L + 1, K)``.
-    """
-    n_ref = normalised.shape[0]
-    n_diag = n_ref - seq_len + 1
-    full = diagonal_sums(normalised, seq_len)  # full_d per query column
-    past = diagonal_sums(normalised, seq_len, seq_len - 1)  # past_d
-    cols = full.shape[1]
-    row_past = np.zeros((n_ref, cols))
-    for c in range(seq_len - 1):
-        row_past += normalised[:, c : c + cols]
-    current = normalised[:, seq_len - 1 :]  # W[:, L-1] of each query
-
-    order = np.argsort(full, axis=0, kind="stable")[:n_ranks]  # (K, cols), ties -> lower diagonal
-    col_index = np.arange(cols)
-    a1 = _smallest_sorted(past, n_ranks) / (_smallest_sorted(row_past, n_ranks) + EPS)
-    a2 = _smallest_sorted(current, n_ranks) / (current[order + seq_len - 1, col_index] + EPS)
-
-    diag = np.arange(n_diag)
-    block_lo = seq_len * (diag // seq_len)
-    block_hi = np.minimum(n_diag - 1, block_lo + seq_len - 1)
-    group_lo = np.maximum(0, diag - GROUP_HALF_WIDTH)
-    group_hi = np.minimum(n_diag - 1, diag + GROUP_HALF_WIDTH)
-    # block_i / group_i: the sum over L entries of the entry-wise mean of the diagonals, i.e. the mean of full_m.
-    block = _window_means(full, block_lo, block_hi)
-    group = _window_means(full, group_lo, group_hi)
-    past_ranked = past[order, col_index]
-    a3 = past_ranked / (block[order, col_index] + EPS)
-    a4 = past_ranked / (group[order, col_index] + EPS)
-    attributes = np.stack([a1, a2, a3, a4], axis=-1).transpose(1, 0, 2)  # (cols, K, 4)
-    return attributes, order.T
-
-
-def query_attributes(
-    distance_matrix: np.ndarray, seq_len: int, n_ranks: int = 4, block_queries: int = 1024
-) -> tuple[np.ndarray, np.ndarray]:
-    """Paper-mode attributes of ranks ``0 .. K-1`` for every query ``a >= L - 1``.
-
-    Returns ``(attributes (Q-L+1, K, 4), rank_references (Q-L+1, K))``; ``K`` is at most the number of
-    diagonals ``R - L + 1``.
-    """
-    check_distance_matrix(distance_matrix, seq_len)
-    normalised = normalise_columns(np.asarray(distance_matrix, dtype=np.float64))
-    n_ranks = min(n_ranks, normalised.shape[0] - seq_len + 1)
-    n_cols = normalised.shape[1] - seq_len + 1
-    attributes = np.empty((n_cols, n_ranks, 4))
-    diagonals = np.empty((n_cols, n_ranks), dtype=np.int64)
-    for start in range(0, n_cols, block_queries):
-        stop = min(n_cols, start + block_queries)
-        block = normalised[:, start : stop + seq_len - 1]
-        attributes[start:stop], diagonals[start:stop] = attribute_block(block, seq_len, n_ranks)
-    return attributes, diagonals + seq_len - 1
-
-
 def labels_from_correctness(single_correct: np.ndarray, sequence_correct: np.ndarray) -> np.ndarray:
     """0 correct before and after, 1 correct before only, 2 correct after only, 3 wrong both."""
     single_correct = np.asarray(single_correct, dtype=bool)
@@ -129,29 +81,332 @@ def labels_from_correctness(single_correct: np.ndarray, sequence_correct: np.nda
     return np.where(single_correct, np.where(sequence_correct, 0, 1), np.where(sequence_correct, 2, 3))
 
 
+# --- screening: running sums along diagonals --------------------------------------------------------------------
+
+
+def _diagonal_view(array: np.ndarray, row: int, col: int, shape: tuple[int, int]) -> np.ndarray:
+    """Read-only ``view[j, d] = array[row + j, col - j + d]`` (the caller keeps the indices in range)."""
+    item = array.strides[1]
+    return as_strided(array[row:, col:], shape=shape, strides=(array.strides[0] - item, item), writeable=False)
+
+
+def _diagonal_prefix(x: np.ndarray, n_queries: int) -> np.ndarray:
+    """Prefix sums along the diagonals of the block ``x`` (columns of D as rows, shape ``(Wb, R)``).
+
+    ``out[q + 1, s] = sum_{q' <= q} x[q', s + q' - (w - 1)]`` (terms outside ``x`` are 0) with ``w = n_queries``,
+    so that the sum of the ``n`` entries of diagonal ``d`` starting at block column ``j`` is
+    ``out[j + n, s] - out[j, s]`` with ``s = d - j + w - 1``. One pass over the block; the Python loop runs over
+    its columns only.
+    """
+    n_cols, n_ref = x.shape
+    width = n_ref + n_queries - 1
+    out = np.empty((n_cols + 1, width), dtype=x.dtype)
+    out[0] = 0
+    for q in range(n_cols):  # np.cumsum(axis=0) is 3 times slower than this loop of row additions
+        lo = n_queries - 1 - q  # s at which column q's row 0 lies
+        s0, s1 = max(lo, 0), min(lo + n_ref, width)
+        np.add(out[q, s0:s1], x[q, s0 - lo : s1 - lo], out=out[q + 1, s0:s1])
+        out[q + 1, :s0] = out[q, :s0]
+        out[q + 1, s1:] = out[q, s1:]
+    return out
+
+
+def _window_sums(prefix: np.ndarray, n_terms: int, n_queries: int, n_diag: int) -> np.ndarray:
+    """``out[j, d]`` = screened sum of the first ``n_terms`` entries of diagonal ``d`` from block column ``j``,
+    padded for ``_select``."""
+    shape = (n_queries, n_diag)
+    out = _padded(n_queries, n_diag, prefix.dtype)
+    np.subtract(_diagonal_view(prefix, n_terms, n_queries - 1, shape), _diagonal_view(prefix, 0, n_queries - 1, shape),
+                out=out[:, :n_diag])
+    return out
+
+
+def _group_size(n_values: int) -> int:
+    """Values per screening group: 32, strided (group g holds values g, g + G, g + 2G, ...), on long rows."""
+    return SCREEN_GROUP if n_values >= 16 * SCREEN_GROUP else 1
+
+
+def _padded(n_rows: int, n_values: int, dtype: np.dtype) -> np.ndarray:
+    """An ``(n_rows, n_values + pad)`` array whose pad columns hold +inf, as ``_select`` expects."""
+    group = _group_size(n_values)
+    out = np.empty((n_rows, -(-n_values // group) * group), dtype=dtype)
+    out[:, n_values:] = np.inf
+    return out
+
+
+def _select(
+    approx: np.ndarray, n_values: int, count: int, margin: float,
+    exact: Callable[[np.ndarray, np.ndarray], np.ndarray], largest: bool = False,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``count`` smallest (``largest``: the largest, ``count`` 1 only) exact values of each row of a screened
+    ``approx`` and their column indices, ties to the lowest index (a stable sort).
+
+    ``approx`` holds ``n_values`` screened values per row, then padding (+inf; -inf when ``largest``). Every
+    value whose exact value can be among the ``count`` best lies within ``margin`` (twice the bound on
+    ``|approx - exact|``) of the ``count``-th best screened value; the ``count``-th best of the groups' best values
+    bounds that from above. One reduction over the groups finds it; only the groups within ``margin`` of it are
+    scanned, and only their candidates are recomputed by ``exact(rows, cols)`` in float64.
+    """
+    n_rows, width = approx.shape
+    group = _group_size(n_values)
+    n_groups = width // group
+    grouped = approx.reshape(n_rows, group, n_groups)
+    heads = -grouped.max(axis=1) if largest else grouped.min(axis=1)
+    if count == 1:
+        bound = heads.min(axis=1)
+    elif count >= n_groups:
+        bound = heads.max(axis=1)
+    else:
+        bound = np.partition(heads, count - 1, axis=1)[:, count - 1]
+    limit = bound + bound.dtype.type(margin)
+    g_rows, g_cols = np.nonzero(heads <= limit[:, None])
+    cols = g_cols[:, None] + n_groups * np.arange(group)
+    values = approx[g_rows[:, None], cols]
+    hit = (-values if largest else values) <= limit[g_rows, None]
+    rows, cols = np.broadcast_to(g_rows[:, None], cols.shape)[hit], cols[hit]
+    values = -exact(rows, cols) if largest else exact(rows, cols)
+    order = np.lexsort((cols, values, rows))  # by row, then value, then column
+    rows, cols, values = rows[order], cols[order], values[order]
+    keep = np.arange(len(rows)) - np.searchsorted(rows, rows) < count  # position within its row
+    values, cols = values[keep].reshape(n_rows, count), cols[keep].reshape(n_rows, count)
+    return (-values if largest else values), cols
+
+
+def _error_bound(dtype: np.dtype, n_cols: int, seq_len: int, magnitude: float) -> float:
+    """Bound on ``|screened - exact|`` of a window sum: float rounding of prefix sums over ``n_cols`` values of size
+    at most ``magnitude`` (both ends, Higham's gamma_n), of the screened inputs, and of the float64 reference sum."""
+    unit = float(np.finfo(dtype).eps) / 2
+    return magnitude * (unit * (2.2 * n_cols * n_cols + 6 * seq_len + 4) + 1.2e-16 * seq_len * seq_len)
+
+
+# --- one block of query columns ---------------------------------------------------------------------------------
+
+
+def _block_dtype(dtype: np.dtype) -> np.dtype:
+    """float32 and float64 blocks are used as they are; anything else numeric is read as float64 (exactly)."""
+    if dtype.kind not in "biuf":
+        raise ValueError(f"expected a numeric matrix (references x queries), got dtype {dtype}")
+    return dtype if dtype in (np.float32, np.float64) else np.dtype(np.float64)
+
+
+def read_columns(matrix: Any, start: int, stop: int) -> np.ndarray:
+    """Columns ``start .. stop - 1`` of a references x queries matrix, as rows: ``(stop - start, R)``, contiguous.
+
+    The transpose is done in slabs of rows, which keeps it in the cache (twice as fast as one strided copy); an
+    ``np.ndarray``/``np.memmap`` is read slab by slab, anything else (``h5py.Dataset``) in one read of the block.
+    """
+    n_ref = matrix.shape[0]
+    dtype = _block_dtype(np.dtype(matrix.dtype))
+    source = matrix if isinstance(matrix, np.ndarray) else np.asarray(matrix[:, start:stop])
+    offset = start if source is matrix else 0
+    out = np.empty((stop - start, n_ref), dtype=dtype)
+    for row in range(0, n_ref, TRANSPOSE_ROWS):
+        out[:, row : row + TRANSPOSE_ROWS] = source[row : row + TRANSPOSE_ROWS, offset : offset + stop - start].T
+    return out
+
+
+def block_features(
+    columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, where: str = ""
+) -> dict[str, np.ndarray]:
+    """Everything ``query_features`` reports for the queries of one block of ``Wb`` consecutive query columns.
+
+    ``columns`` is ``(Wb, R)``: row ``q`` is column ``c + q`` of the distance matrix (all references), as
+    ``read_columns`` returns it. The block's queries are ``c + L - 1 .. c + Wb - 1`` (``w = Wb - L + 1`` of them).
+    Returns arrays over those queries: ``attributes (w, K, 4)``, ``rank_diagonals (w, K)``, ``single_match``,
+    ``sequence_diagonal``, ``sequence_distance`` and ``sequence_max`` (``max_i S[i, j]``). ``n_ranks`` must not
+    exceed ``R - L + 1``. ``where`` names the block in the error raised on NaN or inf.
+    """
+    raw = np.asarray(columns)
+    raw = raw.astype(_block_dtype(raw.dtype), copy=False)
+    n_cols, n_ref = raw.shape
+    n_queries, n_diag, k = n_cols - seq_len + 1, n_ref - seq_len + 1, n_ranks
+
+    raw_max, raw_min = raw.max(axis=1), raw.min(axis=1)  # NaN and inf show up here: no separate pass
+    if not (np.all(np.isfinite(raw_max)) and np.all(np.isfinite(raw_min))):
+        check_finite(raw, where=where)
+    col_max = raw_max.astype(np.float64)
+    col_max[col_max == 0] = 1.0  # as normalise_columns
+    magnitude_raw = float(max(np.abs(raw_max).max(), np.abs(raw_min).max()))
+    magnitude = float((np.maximum(np.abs(raw_max), np.abs(raw_min)) / np.abs(col_max)).max()) * (1 + 1e-6)
+
+    def value(j: np.ndarray, r: np.ndarray, normalised: bool) -> np.ndarray:
+        """D[r, j] (block column j) in float64, divided by its column maximum as normalise_columns does."""
+        v = raw[j, r].astype(np.float64)
+        return v / col_max[j] if normalised else v
+
+    def diagonal_sum(j: np.ndarray, d: np.ndarray, n_terms: int, normalised: bool) -> np.ndarray:
+        """``0 + x_0 + x_1 + ...`` along diagonal d from block column j, in diagonal_sums' order."""
+        acc = np.zeros(len(j))
+        for c in range(n_terms):
+            acc += value(j + c, d + c, normalised)
+        return acc
+
+    def row_sum(j: np.ndarray, r: np.ndarray, n_terms: int) -> np.ndarray:
+        acc = np.zeros(len(j))
+        for c in range(n_terms):
+            acc += value(j + c, r, True)
+        return acc
+
+    screen = np.dtype(screen_dtype)
+    if screen.itemsize < 8 and not (1e-30 < magnitude_raw < 1e30 and magnitude < 1e30):
+        screen = np.dtype(np.float64)  # float32 would under- or overflow
+    margin = 2 * _error_bound(screen, n_cols, seq_len, magnitude)
+    margin_raw = 2 * _error_bound(screen, n_cols, seq_len, magnitude_raw)
+    x = _padded(n_cols, n_ref, screen)  # the normalised block, padded for the current column's values
+    np.divide(raw, col_max.astype(screen)[:, None], out=x[:, :n_ref])
+
+    # Diagonal sums of the normalised window: full_d (L terms) ranks the diagonals, past_d (L-1 terms) gives A1.
+    prefix = _diagonal_prefix(x[:, :n_ref], n_queries)
+    full = _window_sums(prefix, seq_len, n_queries, n_diag)
+    _, rank_diagonals = _select(full, n_diag, k, margin, lambda j, d: diagonal_sum(j, d, seq_len, True))
+    del full
+    past = _window_sums(prefix, seq_len - 1, n_queries, n_diag)
+    del prefix
+    past_sorted, _ = _select(past, n_diag, k, margin, lambda j, d: diagonal_sum(j, d, seq_len - 1, True))
+    del past
+
+    # Row sums over the L-1 past columns of the window: a prefix sum over the block's columns.
+    row_prefix = np.empty((n_cols + 1, n_ref), dtype=screen)
+    row_prefix[0] = 0
+    for q in range(n_cols):
+        np.add(row_prefix[q], x[q, :n_ref], out=row_prefix[q + 1])
+    row_past = _padded(n_queries, n_ref, screen)
+    np.subtract(row_prefix[seq_len - 1 : seq_len - 1 + n_queries], row_prefix[:n_queries], out=row_past[:, :n_ref])
+    del row_prefix
+    row_past_sorted, _ = _select(row_past, n_ref, k, margin, lambda j, r: row_sum(j, r, seq_len - 1))
+    del row_past
+
+    current_sorted, _ = _select(x[seq_len - 1 :], n_ref, k, margin, lambda j, r: value(j + seq_len - 1, r, True))
+    del x
+    single_match = np.argmin(raw[seq_len - 1 :], axis=1)  # first index on ties, as np.argmin of the column
+
+    # S on the raw distances: its argmin is the sequence match, its extremes the split's threshold range.
+    prefix = _diagonal_prefix(raw.astype(screen, copy=False), n_queries)
+    s_approx = _window_sums(prefix, seq_len, n_queries, n_diag)
+    del prefix
+    s_min, s_arg = _select(s_approx, n_diag, 1, margin_raw, lambda j, d: diagonal_sum(j, d, seq_len, False))
+    s_approx[:, n_diag:] = -np.inf
+    s_max, _ = _select(s_approx, n_diag, 1, margin_raw, lambda j, d: diagonal_sum(j, d, seq_len, False), largest=True)
+    del s_approx
+
+    # A2..A4 of the ranked diagonals: a few values each, recomputed exactly.
+    j = np.repeat(np.arange(n_queries), k)
+    i = rank_diagonals.ravel()
+    past_ranked = diagonal_sum(j, i, seq_len - 1, True).reshape(n_queries, k)
+    last = value(j + seq_len - 1, i + seq_len - 1, True).reshape(n_queries, k)  # diag_i[L-1]
+    block_lo = seq_len * (i // seq_len)
+    block_mean = _mean_full(diagonal_sum, j, block_lo, np.minimum(n_diag - 1, block_lo + seq_len - 1), seq_len)
+    group_mean = _mean_full(diagonal_sum, j, np.maximum(0, i - GROUP_HALF_WIDTH),
+                            np.minimum(n_diag - 1, i + GROUP_HALF_WIDTH), seq_len)
+    attributes = np.stack([
+        past_sorted / (row_past_sorted + EPS),
+        current_sorted / (last + EPS),
+        past_ranked / (block_mean.reshape(n_queries, k) + EPS),
+        past_ranked / (group_mean.reshape(n_queries, k) + EPS),
+    ], axis=-1)
+    return {
+        "attributes": attributes,
+        "rank_diagonals": rank_diagonals.astype(np.int64),
+        "single_match": single_match.astype(np.int64),
+        "sequence_diagonal": s_arg[:, 0].astype(np.int64),
+        "sequence_distance": s_min[:, 0],
+        "sequence_max": s_max[:, 0],
+    }
+
+
+def _mean_full(diagonal_sum: Callable[..., np.ndarray], j: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+               seq_len: int) -> np.ndarray:
+    """Mean of ``full_m`` over the diagonals ``m = lo .. hi`` (inclusive) of block column ``j``: the block and
+    group sums of SPEC 5 (a sum over ``L`` entries of the entry-wise mean of those diagonals)."""
+    width = int((hi - lo).max()) + 1
+    total = np.zeros(len(j))
+    for t in range(width):
+        inside = lo + t <= hi
+        total += np.where(inside, diagonal_sum(j, np.minimum(lo + t, hi), seq_len, True), 0.0)
+    return total / (hi - lo + 1)
+
+
+# --- whole split ------------------------------------------------------------------------------------------------
+
+
+def _as_matrix(distance_matrix: Any) -> Any:
+    """The matrix itself when it is a lazy 2-D array (memmap, h5py.Dataset), else as a numpy array."""
+    if hasattr(distance_matrix, "shape") and hasattr(distance_matrix, "dtype") and hasattr(distance_matrix, "ndim"):
+        return distance_matrix
+    return np.asarray(distance_matrix)
+
+
+def default_block_queries(n_ref: int) -> int:
+    """Query columns per block: about ``BLOCK_VALUES`` values per block, at least 16 columns."""
+    return max(16, BLOCK_VALUES // max(n_ref, 1))
+
+
+def _run_blocks(distance_matrix: Any, seq_len: int, n_ranks: int, block_queries: int | None,
+                screen_dtype: Any) -> tuple[dict[str, np.ndarray], int]:
+    matrix = _as_matrix(distance_matrix)
+    check_shape(tuple(matrix.shape), seq_len)
+    _block_dtype(np.dtype(matrix.dtype))
+    n_ref, n_query = matrix.shape
+    n_ranks = min(n_ranks, n_ref - seq_len + 1)
+    n_out = n_query - seq_len + 1
+    step = block_queries or default_block_queries(n_ref)
+    parts: list[dict[str, np.ndarray]] = []
+    for start in range(0, n_out, step):
+        stop = min(n_out, start + step)
+        columns = read_columns(matrix, start, stop + seq_len - 1)
+        parts.append(block_features(columns, seq_len, n_ranks, screen_dtype,
+                                    where=f" in query columns {start}..{stop + seq_len - 2}"))
+    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}, n_ranks
+
+
+def query_attributes(
+    distance_matrix: Any, seq_len: int, n_ranks: int = 4, block_queries: int | None = None
+) -> tuple[np.ndarray, np.ndarray]:
+    """Paper-mode attributes of ranks ``0 .. K-1`` for every query ``a >= L - 1``.
+
+    Returns ``(attributes (Q-L+1, K, 4), rank_references (Q-L+1, K))``; ``K`` is at most the number of
+    diagonals ``R - L + 1``.
+    """
+    result, _ = _run_blocks(distance_matrix, seq_len, n_ranks, block_queries, np.float32)
+    return result["attributes"], result["rank_diagonals"] + seq_len - 1
+
+
 def query_features(
-    distance_matrix: np.ndarray, seq_len: int, tolerance: int = 2, n_ranks: int = 4
+    distance_matrix: Any, seq_len: int, tolerance: int = DEFAULT_TOLERANCE, n_ranks: int = 4,
+    block_queries: int | None = None,
+    screen_dtype: Any = np.float32,
 ) -> QueryFeatures:
-    """Sequence matching, attributes and labels of one split's ``R x Q`` distance matrix."""
-    distance_matrix = np.asarray(distance_matrix, dtype=np.float64)
-    sequence = sequence_matrix(distance_matrix, seq_len)
-    queries = np.arange(seq_len - 1, distance_matrix.shape[1])
-    single = single_frame_matches(distance_matrix)[queries]
-    seq_match, seq_dist = sequence_matches(sequence, seq_len)
-    attributes, rank_refs = query_attributes(distance_matrix, seq_len, n_ranks)
+    """Sequence matching, attributes and labels of one split's ``R x Q`` distance matrix.
+
+    ``distance_matrix`` is any 2-D numeric array-like that supports column slicing (``np.ndarray``, a memory-mapped
+    ``.npy``, an ``h5py.Dataset``); it is read ``block_queries`` columns at a time. ``screen_dtype`` only decides
+    which candidates are recomputed in float64: the results are the same for float32 and float64.
+    """
+    result, _ = _run_blocks(distance_matrix, seq_len, n_ranks, block_queries, screen_dtype)
+    n_query = _as_matrix(distance_matrix).shape[1]
+    queries = np.arange(seq_len - 1, n_query)
+    rank_refs = result["rank_diagonals"] + seq_len - 1
+    single = result["single_match"]
+    seq_match = result["sequence_diagonal"] + seq_len - 1
     single_correct = is_correct(single, queries, tolerance)
     sequence_correct = is_correct(seq_match, queries, tolerance)
     return QueryFeatures(
         queries=queries,
-        attributes=attributes,
+        attributes=result["attributes"],
         rank_references=rank_refs,
         single_match=single,
         sequence_match=seq_match,
-        sequence_distance=seq_dist,
+        sequence_distance=result["sequence_distance"],
         labels=labels_from_correctness(single_correct, sequence_correct),
         single_correct=single_correct,
         sequence_correct=sequence_correct,
         rank_correct=is_correct(rank_refs, queries[:, None], tolerance),
-        sequence_min=float(sequence.min()),
-        sequence_max=float(sequence.max()),
+        sequence_min=float(result["sequence_distance"].min()),
+        sequence_max=float(result["sequence_max"].max()),
+        # Paper mode's single-frame recall@1 counts every query of the split (SPEC 8): the first L-1 too.
+        all_single_correct=np.concatenate([
+            is_correct(np.argmin(read_columns(_as_matrix(distance_matrix), 0, seq_len - 1), axis=1),
+                       np.arange(seq_len - 1), tolerance),
+            single_correct,
+        ]),
     )

@@ -1,16 +1,73 @@
-"""Reference x query distance matrices (SPEC section 3)."""
+"""Reference x query distance matrices (SPEC section 3), in memory or written block by block to chunked HDF5."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Any
+
+import h5py
 import numpy as np
-import torch
+
+from .io import atomic_h5
 
 METRICS = ("l2", "cosine", "mad")
+# Chunks of the stored matrix: whole chunk columns are what the attributes stage reads (blocks of about 2^20 / R
+# query columns, all references). 4096 x 64 float32 is 1 MB, inside HDF5's advised range; a 27592-reference column
+# block touches 7 chunks (7 MB), which the reader's 64 MB chunk cache keeps for the next block's overlap.
+CHUNK_ROWS, CHUNK_COLUMNS = 4096, 64
+BLOCK_VALUES = 1 << 24  # distances computed per block of query columns (64 MB of float32)
 
 
-def l2_normalise(descriptors: np.ndarray) -> np.ndarray:
+def l2_normalise(descriptors: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     norms = np.linalg.norm(descriptors, axis=1, keepdims=True)
-    return descriptors / np.where(norms == 0, 1.0, norms)
+    return np.divide(descriptors, np.where(norms == 0, 1.0, norms).astype(descriptors.dtype), out=out)
+
+
+def _check_metric(metric: str) -> None:
+    if metric not in METRICS:
+        raise ValueError(f"unknown distance metric {metric!r}; choose one of {', '.join(METRICS)}")
+
+
+def prepare_references(reference: np.ndarray, metric: str, in_place: bool = False) -> np.ndarray:
+    """Reference descriptors as ``distance_columns`` takes them: float32, L2-normalised for ``l2`` and ``cosine``.
+
+    ``in_place`` normalises an array the caller owns without a second copy (large traverses).
+    """
+    _check_metric(metric)
+    reference = np.ascontiguousarray(reference, dtype=np.float32)
+    if reference.ndim != 2:
+        raise ValueError(f"reference descriptors must be 2-D (frames x dimension), got shape {reference.shape}")
+    if metric in ("l2", "cosine"):
+        return l2_normalise(reference, out=reference if in_place else None)
+    return reference
+
+
+def distance_columns(reference: np.ndarray, query: np.ndarray, metric: str, block: int = 512) -> np.ndarray:
+    """``D[:, q]`` for a block of query descriptors, ``reference`` prepared by ``prepare_references``; float32."""
+    query = np.ascontiguousarray(query, dtype=np.float32)
+    if query.ndim != 2 or reference.shape[1] != query.shape[1]:
+        raise ValueError(
+            f"descriptors must be 2-D with the same dimension, got {reference.shape} and {query.shape}"
+        )
+    if metric in ("l2", "cosine"):
+        query = l2_normalise(query)
+        if metric == "cosine":
+            return (1.0 - reference @ query.T).astype(np.float32)
+        import faiss
+
+        # pairwise_distances(xq, xb) is what IndexFlatL2 computes for every pair: squared L2.
+        return np.ascontiguousarray(faiss.pairwise_distances(query, reference).T, dtype=np.float32)
+    if metric == "mad":
+        import torch
+
+        ref_t, query_t = torch.from_numpy(reference), torch.from_numpy(query)
+        out = np.empty((len(reference), len(query)), dtype=np.float32)
+        for start in range(0, len(reference), block):  # bounded memory, cdist does the work
+            out[start : start + block] = torch.cdist(ref_t[start : start + block], query_t, p=1).numpy()
+        out /= reference.shape[1]
+        return out
+    _check_metric(metric)
+    raise AssertionError  # unreachable
 
 
 def distance_matrix(reference: np.ndarray, query: np.ndarray, metric: str = "l2", block: int = 512) -> np.ndarray:
@@ -20,24 +77,57 @@ def distance_matrix(reference: np.ndarray, query: np.ndarray, metric: str = "l2"
     - ``cosine``: ``1 - cos``, of the same normalised descriptors;
     - ``mad``: mean absolute difference (SAD).
     """
-    reference = np.ascontiguousarray(reference, dtype=np.float32)
-    query = np.ascontiguousarray(query, dtype=np.float32)
+    _check_metric(metric)
+    reference = np.asarray(reference)
+    query = np.asarray(query)
     if reference.ndim != 2 or query.ndim != 2 or reference.shape[1] != query.shape[1]:
         raise ValueError(
             f"descriptors must be 2-D with the same dimension, got {reference.shape} and {query.shape}"
         )
-    if metric in ("l2", "cosine"):
-        import faiss
+    return distance_columns(prepare_references(reference, metric), query, metric, block)
 
-        reference, query = l2_normalise(reference), l2_normalise(query)
-        if metric == "cosine":
-            return (1.0 - reference @ query.T).astype(np.float32)
-        # pairwise_distances(xq, xb) is what IndexFlatL2 computes for every pair: squared L2.
-        return np.ascontiguousarray(faiss.pairwise_distances(query, reference).T, dtype=np.float32)
-    if metric == "mad":
-        ref_t, query_t = torch.from_numpy(reference), torch.from_numpy(query)
-        out = np.empty((len(reference), len(query)), dtype=np.float32)
-        for start in range(0, len(reference), block):  # bounded memory, cdist does the work
-            out[start : start + block] = torch.cdist(ref_t[start : start + block], query_t, p=1).numpy()
-        return out / reference.shape[1]
-    raise ValueError(f"unknown distance metric {metric!r}; choose one of {', '.join(METRICS)}")
+
+def distance_chunks(n_ref: int, n_query: int) -> tuple[int, int]:
+    return min(n_ref, CHUNK_ROWS), min(n_query, CHUNK_COLUMNS)
+
+
+def write_distance_blocks(out: Any, reference: np.ndarray, query: Any, metric: str, query_offset: int = 0,
+                          block_queries: int | None = None) -> None:
+    """Fill ``out`` (``R x Q``, an ``h5py.Dataset`` or array) with the distances of ``query[query_offset + q]``,
+    computed ``block_queries`` chunk-aligned query columns at a time; ``reference`` from ``prepare_references``."""
+    n_ref, n_query = out.shape
+    step = block_queries or max(CHUNK_COLUMNS, BLOCK_VALUES // max(n_ref, 1) // CHUNK_COLUMNS * CHUNK_COLUMNS)
+    for start in range(0, n_query, step):
+        stop = min(n_query, start + step)
+        out[:, start:stop] = distance_columns(reference, query[query_offset + start : query_offset + stop], metric)
+
+
+def main(descriptors: Path | str, out: Path | str, split: str, split_range: tuple[int, int],
+         block_queries: int | None = None) -> Path:
+    """The ``distances`` stage: the R x Q matrix of one split of a descriptor file, to chunked HDF5.
+
+    ``descriptors`` holds ``reference`` and ``query`` (frames x dimension) and the attributes ``distance``,
+    ``dataset``, ``method``, ``checkpoint_sha256``, ``frames_sha256``; frames ``split_range = (lo, hi)`` of both
+    traverses form the split. Only the split's references and one block of queries are in memory at a time.
+    """
+    descriptors, out = Path(descriptors), Path(out)
+    lo, hi = (int(v) for v in split_range)
+    with h5py.File(descriptors, "r") as f:
+        missing = [k for k in ("reference", "query") if k not in f]
+        missing += [f"attribute {k!r}" for k in ("distance", "dataset", "method", "checkpoint_sha256",
+                                                  "frames_sha256") if k not in f.attrs]
+        if missing:
+            raise ValueError(f"{descriptors} lacks {', '.join(missing)}: run the descriptors stage again")
+        for name in ("reference", "query"):
+            if not 0 <= lo < hi <= len(f[name]):
+                raise ValueError(f"{descriptors}: split {split!r} covers frames {lo}..{hi - 1}, but {name!r} has "
+                                 f"{len(f[name])} frames; were these descriptors computed for this dataset?")
+        metric = f.attrs["distance"]
+        metric = metric.decode() if isinstance(metric, bytes) else str(metric)
+        provenance = {k: f.attrs[k] for k in ("dataset", "method", "checkpoint_sha256", "frames_sha256")}
+        reference = prepare_references(f["reference"][lo:hi], metric, in_place=True)
+        with atomic_h5(out, {**provenance, "split": split, "split_range": [lo, hi], "metric": metric}) as g:
+            dataset = g.create_dataset("distance_matrix", shape=(hi - lo, hi - lo), dtype=np.float32,
+                                       chunks=distance_chunks(hi - lo, hi - lo))
+            write_distance_blocks(dataset, reference, f["query"], metric, lo, block_queries)
+    return out

@@ -15,6 +15,11 @@ import numpy as np
 
 from .attributes import QueryFeatures
 
+# A column block of a chunked distance matrix touches every chunk row; cache them so that the L-1 columns that
+# consecutive blocks share are not read twice (64 MB holds one chunk column of a 27592-reference matrix).
+CHUNK_CACHE_BYTES = 64 << 20
+CHUNK_CACHE_SLOTS = 10007
+
 
 def package_version() -> str:
     from importlib.metadata import PackageNotFoundError, version
@@ -67,19 +72,48 @@ def write_distance_matrix(path: Path | str, distance_matrix: np.ndarray, provena
 
 
 def read_distance_matrix(path: Path | str) -> np.ndarray:
-    """A references x queries matrix from our HDF5 file (``distance_matrix``) or a user's ``.npy``."""
+    """A references x queries matrix from our HDF5 file (``distance_matrix``) or a user's ``.npy``, in memory."""
+    with open_distance_matrix(path) as matrix:
+        return np.asarray(matrix[()] if isinstance(matrix, h5py.Dataset) else np.array(matrix))
+
+
+@contextmanager
+def open_distance_matrix(path: Path | str) -> Iterator[Any]:
+    """The references x queries matrix of ``path``, lazily: a read-only memory map of a ``.npy``, or the
+    ``distance_matrix`` dataset of our HDF5 file (read by column blocks, see ``eval.attributes.read_columns``).
+
+    Raises ``FileNotFoundError``/``ValueError`` naming the file when it is missing, neither a ``.npy`` nor HDF5, has
+    no ``distance_matrix`` dataset, or does not hold a 2-D numeric matrix.
+    """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"distance matrix not found: {path}")
     if path.suffix == ".npy":
         try:
-            return np.load(path, allow_pickle=False)
+            matrix = np.load(path, mmap_mode="r", allow_pickle=False)
         except ValueError as error:
             raise ValueError(f"cannot read {path} as a numeric .npy array: {error}") from None
-    with h5py.File(path, "r") as f:
+        _check_matrix(path, matrix)
+        try:
+            yield matrix
+        finally:
+            del matrix  # the memory map closes when its last reference goes
+        return
+    if not h5py.is_hdf5(path):
+        raise ValueError(f"{path} is neither a .npy file nor HDF5; give a references x queries matrix as either")
+    with h5py.File(path, "r", rdcc_nbytes=CHUNK_CACHE_BYTES, rdcc_nslots=CHUNK_CACHE_SLOTS) as f:
         if "distance_matrix" not in f:
             raise ValueError(f"{path} has no 'distance_matrix' dataset")
-        return f["distance_matrix"][()]
+        matrix = f["distance_matrix"]
+        _check_matrix(path, matrix)
+        yield matrix
+
+
+def _check_matrix(path: Path, matrix: Any) -> None:
+    if not np.issubdtype(matrix.dtype, np.number) or matrix.dtype.kind == "c":
+        raise ValueError(f"{path}: expected a numeric matrix (references x queries), got {matrix.dtype}")
+    if matrix.ndim != 2:
+        raise ValueError(f"{path}: distance matrix must be 2-D (references x queries), got shape {matrix.shape}")
 
 
 def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:

@@ -8,24 +8,33 @@ from __future__ import annotations
 
 import numpy as np
 
+DEFAULT_TOLERANCE = 2  # SPEC 1: a match is correct within 2 frames, for every dataset (the one place it is set)
 
-def check_distance_matrix(distance_matrix: np.ndarray, seq_len: int, name: str = "distance matrix") -> None:
-    """Raise ValueError with a clear message when ``distance_matrix`` cannot be sequence-matched."""
+def check_shape(shape: tuple[int, ...], seq_len: int, name: str = "distance matrix") -> None:
+    """Raise ValueError with a clear message when a matrix of ``shape`` cannot be sequence-matched."""
     if seq_len < 2:
         raise ValueError(f"sequence length must be at least 2, got {seq_len}")
-    if distance_matrix.ndim != 2:
-        raise ValueError(
-            f"{name} must be 2-D (references x queries), got shape {tuple(distance_matrix.shape)}"
-        )
-    n_ref, n_query = distance_matrix.shape
+    if len(shape) != 2:
+        raise ValueError(f"{name} must be 2-D (references x queries), got shape {tuple(shape)}")
+    n_ref, n_query = shape
     if n_ref < seq_len or n_query < seq_len:
         raise ValueError(
             f"{name} of shape {n_ref}x{n_query} is too small for sequence length {seq_len}: "
             f"it needs at least {seq_len} references and {seq_len} queries"
         )
-    if not np.all(np.isfinite(distance_matrix)):
-        bad = int(np.size(distance_matrix) - np.count_nonzero(np.isfinite(distance_matrix)))
-        raise ValueError(f"{name} has {bad} non-finite values (NaN or inf); distances must be finite")
+
+
+def check_finite(values: np.ndarray, name: str = "distance matrix", where: str = "") -> None:
+    """Raise ValueError when ``values`` (the whole matrix or one block of it, described by ``where``) has NaN/inf."""
+    if np.issubdtype(values.dtype, np.inexact) and not np.all(np.isfinite(values)):
+        bad = int(np.size(values) - np.count_nonzero(np.isfinite(values)))
+        raise ValueError(f"{name} has {bad} non-finite values (NaN or inf){where}; distances must be finite")
+
+
+def check_distance_matrix(distance_matrix: np.ndarray, seq_len: int, name: str = "distance matrix") -> None:
+    """Raise ValueError with a clear message when ``distance_matrix`` cannot be sequence-matched."""
+    check_shape(np.shape(distance_matrix), seq_len, name)
+    check_finite(np.asarray(distance_matrix), name)
 
 
 def diagonal_sums(matrix: np.ndarray, seq_len: int, n_terms: int | None = None) -> np.ndarray:

@@ -3,94 +3,80 @@
 from __future__ import annotations
 
 import argparse
+import json
 import logging
+import signal
 import sys
-import time
 from pathlib import Path
 from typing import Any
 
-from .config import ConfigError, load_config
+from ..eval.sequence import DEFAULT_TOLERANCE
+from .config import ConfigError, load_config, schema_default
 
 log = logging.getLogger("vpr_smr")
 
 
-def _dataset(conf: dict[str, Any], name: str):
-    from ..datasets import load_dataset
+def _json_object(text: str, option: str) -> dict[str, Any]:
+    """A JSON object given on the command line, or ``@file`` holding one."""
+    if text.startswith("@"):
+        text = Path(text[1:]).read_text()
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{option} is not valid JSON: {error}") from None
+    if not isinstance(value, dict):
+        raise ValueError(f"{option} must be a JSON object of settings")
+    return value
 
-    if name not in conf["datasets"]:
-        raise ConfigError(f"dataset {name!r} is not in the configuration; it has {', '.join(conf['datasets'])}")
-    return load_dataset(name, conf["datasets"][name])
 
-
-def _method(conf: dict[str, Any], name: str) -> dict[str, Any]:
-    if name not in conf["methods"]:
-        raise ConfigError(f"method {name!r} is not in the configuration; it has {', '.join(conf['methods'])}")
-    return conf["methods"][name]
+def _stage_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The dataset's and the method's settings: given as JSON (the workflow) or taken from ``--config``."""
+    if args.config:
+        conf = load_config(args.config)
+        for section, name in (("datasets", args.dataset), ("methods", args.method)):
+            if name not in conf[section]:
+                raise ConfigError(f"{args.config}: {section} has no {name!r}; it has {', '.join(conf[section])}")
+        return conf["datasets"][args.dataset], conf["methods"][args.method]
+    if not (args.dataset_settings and args.method_settings):
+        raise ConfigError("give --config, or both --dataset-settings and --method-settings")
+    return (_json_object(args.dataset_settings, "--dataset-settings"),
+            _json_object(args.method_settings, "--method-settings"))
 
 
 def cmd_descriptors(args: argparse.Namespace) -> None:
+    from ..datasets import load_dataset
     from ..descriptors import extract
 
-    conf = load_config(args.config)
-    pair = _dataset(conf, args.dataset)
-    extraction = conf["extraction"]
-    extract.main(pair, args.method, _method(conf, args.method), args.out,
-                 batch_size=extraction["batch_size"], num_workers=extraction["num_workers"])
+    if args.threads:
+        import torch
+
+        torch.set_num_threads(args.threads)
+    dataset, method = _stage_settings(args)
+    pair = load_dataset(args.dataset, dataset)
+    if args.frames_sha256 and pair.fingerprint() != args.frames_sha256:
+        raise ConfigError(f"dataset {args.dataset!r}: its frames changed on disk since the workflow was planned "
+                          "(the frame lists' SHA-256 differs); run the workflow again")
+    extract.main(pair, args.method, method, args.out, batch_size=args.batch_size, num_workers=args.num_workers)
 
 
 def cmd_distances(args: argparse.Namespace) -> None:
-    import h5py
+    from ..eval import distances
 
-    from ..eval.distances import distance_matrix
-    from ..eval.io import write_distance_matrix
-
-    conf = load_config(args.config)
-    pair = _dataset(conf, args.dataset)
-    lo, hi = pair.split_range(args.split)
-    with h5py.File(args.descriptors, "r") as f:
-        metric = f.attrs["distance"]
-        reference, query = f["reference"][lo:hi], f["query"][lo:hi]
-        provenance = {k: f.attrs[k] for k in ("dataset", "method", "checkpoint_sha256", "frames_sha256")}
-    matrix = distance_matrix(reference, query, metric)
-    write_distance_matrix(args.out, matrix, {**provenance, "split": args.split, "split_range": [lo, hi],
-                                             "metric": metric})
+    distances.main(args.descriptors, args.out, args.split, tuple(args.frames))
 
 
 def cmd_attributes(args: argparse.Namespace) -> None:
-    import numpy as np
+    from ..eval import features
 
-    from ..eval.attributes import ATTRIBUTE_NAMES, query_features
-    from ..eval.io import atomic_path, read_distance_matrix, read_provenance, write_features
-
-    matrix = read_distance_matrix(args.distances)
-    if not np.issubdtype(matrix.dtype, np.number):  # shape and values are checked by query_features
-        raise ValueError(f"{args.distances}: expected a numeric matrix (references x queries), got {matrix.dtype}")
-    start = time.perf_counter()
-    try:
-        features = query_features(matrix, args.seq_len, args.tolerance)
-    except ValueError as error:
-        raise ValueError(f"{args.distances}: {error}") from None
-    seconds = time.perf_counter() - start
-    out = Path(args.out)
-    if out.suffix == ".csv":
-        table = np.column_stack([features.queries, features.attributes[:, 0, :], features.labels])
-        header = ",".join(("query", *ATTRIBUTE_NAMES, "label"))
-        with atomic_path(out) as tmp:
-            np.savetxt(tmp, table, delimiter=",", header=header, comments="", fmt=["%d", *["%.9g"] * 4, "%d"])
-    else:
-        provenance = read_provenance(args.distances) if Path(args.distances).suffix != ".npy" else {}
-        provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
-        write_features(out, features, {**provenance, "seq_len": args.seq_len, "tolerance": args.tolerance,
-                                       "attributes_seconds": seconds})
-    log.info("%d queries, %.1f µs per query", len(features.queries), 1e6 * seconds / max(len(features.queries), 1))
+    features.main(args.distances, args.out, args.seq_len, args.tolerance)
 
 
 def cmd_train(args: argparse.Namespace) -> None:
     from ..eval import train
 
-    conf = load_config(args.config)
-    report = train.main(args.train, args.out, conf["predictor"], val=args.val or (), test=args.test or (),
-                        meta={"dataset": args.dataset, "seq_len": args.seq_len})
+    params = _json_object(args.predictor, "--predictor") if args.predictor else {}
+    report = train.main(args.train, args.out, params, val=args.val or (), test=args.test or (),
+                        meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)))
     log.info("predictor macro F1: cv %.3f, val %s, test %s", report["f1_cv"], report.get("f1_val"),
              report.get("f1_test"))
 
@@ -98,9 +84,8 @@ def cmd_train(args: argparse.Namespace) -> None:
 def cmd_evaluate(args: argparse.Namespace) -> None:
     from ..eval import evaluate
 
-    conf = load_config(args.config)
     paths = dict(item.split("=", 1) for item in args.features)
-    evaluate.main(paths, args.predictor, args.out, tuple(conf["modes"]), tuple(conf["trust_levels"]),
+    evaluate.main(paths, args.predictors, args.out, tuple(args.modes), tuple(args.trust_levels),
                   meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len})
 
 
@@ -160,7 +145,8 @@ def cmd_dataset_check(args: argparse.Namespace) -> int:
 def cmd_run(args: argparse.Namespace) -> int:
     from . import workflow
 
-    return workflow.run(args.config, cores=args.cores, dry_run=args.dry_run, extra=args.snakemake_args)
+    return workflow.run(args.config, cores=args.cores, dry_run=args.dry_run, extra=args.snakemake_args,
+                        overrides=args.set, profile=args.profile)
 
 
 def _required(parser: argparse.ArgumentParser, *options: str) -> None:
@@ -171,13 +157,17 @@ def _required(parser: argparse.ArgumentParser, *options: str) -> None:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vpr-smr", description=__doc__)
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
+    parser.add_argument("--debug", action="store_true", help="show the Python traceback of an error")
     sub = parser.add_subparsers(dest="command", required=True)
 
     p = sub.add_parser("run", help="run the whole workflow of a configuration with Snakemake")
     p.add_argument("config")
-    p.add_argument("--cores", type=int, default=2)
+    p.add_argument("--cores", type=int, help="default: the profile's (local: 2)")
+    p.add_argument("--config", dest="set", action="append", metavar="KEY=VALUE",
+                   help="override a setting, dotted keys for nested ones: --config predictor.max_iter=500")
+    p.add_argument("--profile", default="local", help="a shipped profile (local, slurm) or a profile folder")
     p.add_argument("-n", "--dry-run", action="store_true")
-    p.add_argument("snakemake_args", nargs=argparse.REMAINDER, help="passed on to snakemake after --")
+    p.epilog = "Arguments after a lone -- go to snakemake unchanged, e.g. vpr-smr run c.yaml -- --forceall"
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser("checkpoint", help="checkpoint tools")
@@ -203,34 +193,48 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=cmd_dataset_check)
 
     p = sub.add_parser("descriptors", help="compute a method's descriptors of a dataset (HDF5)")
-    _required(p, "--config", "--dataset", "--method", "--out")
+    _required(p, "--dataset", "--method", "--out")
+    p.add_argument("--config", help="take the dataset's and method's settings from this configuration file")
+    p.add_argument("--dataset-settings", help="the dataset's settings as a JSON object (or @file)")
+    p.add_argument("--method-settings", help="the method's settings as a JSON object (or @file)")
+    p.add_argument("--frames-sha256", help="fail unless the dataset's frame lists have this fingerprint")
+    p.add_argument("--batch-size", type=int)
+    p.add_argument("--num-workers", type=int)
+    p.add_argument("--threads", type=int, help="CPU threads of the network")
     p.set_defaults(func=cmd_descriptors)
 
     p = sub.add_parser("distances", help="reference x query distance matrix of one split (HDF5)")
-    _required(p, "--config", "--dataset", "--split", "--descriptors", "--out")
+    _required(p, "--descriptors", "--split", "--out")
+    p.add_argument("--frames", type=int, nargs=2, required=True, metavar=("LO", "HI"),
+                   help="the split's frames lo..hi-1 of both traverses")
     p.set_defaults(func=cmd_distances)
 
     p = sub.add_parser("attributes", help="sequence matching, SMR attributes and labels of a distance matrix")
     p.add_argument("--distances", required=True, help="our .h5 or a references x queries .npy")
     p.add_argument("--seq-len", type=int, required=True)
-    p.add_argument("--tolerance", type=int, default=2)
+    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
     p.add_argument("--out", required=True, help=".csv (query,A1,A2,A3,A4,label) or .h5 (everything)")
     p.set_defaults(func=cmd_attributes)
 
     p = sub.add_parser("train", help="train the predictor on the pooled train features of every method")
-    _required(p, "--config", "--dataset")
+    _required(p, "--dataset")
     p.add_argument("--seq-len", type=int, required=True)
+    p.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
+    p.add_argument("--seeds", type=int, default=1, help="train seeds 0..N-1 (seed 0: the authors' recipe)")
     p.add_argument("--train", nargs="+", required=True)
     p.add_argument("--val", nargs="*")
     p.add_argument("--test", nargs="*")
-    p.add_argument("--out", required=True)
+    p.add_argument("--out", required=True, help="the seed-0 predictor (.h5); other seeds beside it")
     p.set_defaults(func=cmd_train)
 
     p = sub.add_parser("evaluate", help="match removal and precision-recall of one method")
-    _required(p, "--config", "--dataset", "--method")
+    _required(p, "--dataset", "--method")
     p.add_argument("--seq-len", type=int, required=True)
     p.add_argument("--features", nargs="+", required=True, metavar="SPLIT=PATH")
-    _required(p, "--predictor", "--out")
+    p.add_argument("--predictors", nargs="+", required=True, help="one per seed, seed 0 first")
+    p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=("paper", "standard"))
+    p.add_argument("--trust-levels", nargs="+", type=float, default=schema_default("trust_levels"))
+    _required(p, "--out")
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("tables", help="paper-style tables and figures")
@@ -243,15 +247,33 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    # `run ... -- <snakemake arguments>`: split by hand, so that our own options may come in any order.
+    extra = argv[argv.index("--") + 1 :] if "--" in argv else []
+    argv = argv[: argv.index("--")] if "--" in argv else argv
     args = build_parser().parse_args(argv)
+    args.snakemake_args = extra
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
                         format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    # A stage stopped by SIGTERM unwinds like Ctrl-C, so that its temporary files are removed on the way out.
+    signal.signal(signal.SIGTERM, _interrupt)
     try:
         status = args.func(args)
-    except (ConfigError, ValueError, FileNotFoundError, OSError) as error:
-        print(f"vpr-smr {args.command}: error: {error}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print(f"vpr-smr {args.command}: interrupted; nothing was written under a final name", file=sys.stderr)
+        return 130
+    except Exception as error:
+        if args.debug:
+            raise
+        known = isinstance(error, ConfigError | ValueError | OSError)
+        hint = "" if known else f" ({type(error).__name__}; run with --debug for the traceback)"
+        print(f"vpr-smr {args.command}: error: {error}{hint}", file=sys.stderr)
         return 2
     return int(status or 0)
+
+
+def _interrupt(signum: int, _frame: Any) -> None:
+    raise KeyboardInterrupt
 
 
 if __name__ == "__main__":

@@ -23,6 +23,14 @@ def _fill_defaults(schema: dict[str, Any], value: dict[str, Any]) -> None:
             _fill_defaults(sub, value[key])
 
 
+def schema_default(*keys: str) -> Any:
+    """The schema's default of a setting, e.g. ``schema_default("predictor", "seeds")``."""
+    node = json.loads(SCHEMA_PATH.read_text())
+    for key in keys:
+        node = node["properties"][key]
+    return node["default"]
+
+
 def validate(conf: dict[str, Any], source: str = "configuration") -> dict[str, Any]:
     import jsonschema
 
@@ -37,7 +45,8 @@ def validate(conf: dict[str, Any], source: str = "configuration") -> dict[str, A
     return conf
 
 
-def load_config(path: Path | str) -> dict[str, Any]:
+def read_config(path: Path | str) -> dict[str, Any]:
+    """The YAML mapping of ``path``, unvalidated."""
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"configuration file not found: {path}")
@@ -47,7 +56,34 @@ def load_config(path: Path | str) -> dict[str, Any]:
         raise ConfigError(f"{path} is not valid YAML: {error}") from None
     if not isinstance(conf, dict):
         raise ConfigError(f"{path} must hold a mapping of settings")
-    return validate(conf, str(path))
+    return conf
+
+
+def parse_overrides(items: list[str] | None) -> dict[str, Any]:
+    """``["predictor.max_iter=50", "seq_lens=[2, 4]"]`` -> nested dict; values parsed as YAML, as in the file."""
+    overrides: dict[str, Any] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise ConfigError(f"--config {item!r} is not of the form key=value (dotted keys reach nested settings)")
+        node = overrides
+        *parents, last = key.split(".")
+        for part in parents:
+            node = node.setdefault(part, {})
+        node[last] = yaml.safe_load(value)
+    return overrides
+
+
+def merge(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
+    """Nested update, as Snakemake merges ``--config`` into the configuration file."""
+    out = dict(base)
+    for key, value in overrides.items():
+        out[key] = merge(out[key], value) if isinstance(value, dict) and isinstance(out.get(key), dict) else value
+    return out
+
+
+def load_config(path: Path | str, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+    return validate(merge(read_config(path), overrides or {}), str(path))
 
 
 def run_dir(conf: dict[str, Any]) -> Path:

@@ -1,61 +1,138 @@
-"""Running the Snakemake workflow, and the checks that make a bad configuration fail before any job runs."""
+"""Running the Snakemake workflow that ships inside the package (Snakefile, rules, schema, profiles)."""
 
 from __future__ import annotations
 
+import fcntl
+import os
+import signal
+import socket
 import subprocess
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-from .config import ConfigError, load_config, run_dir
+import yaml
 
-REPO = Path(__file__).resolve().parents[1]
-SNAKEFILE = REPO / "Snakefile"
-PROFILE = REPO / "pipeline" / "profiles" / "local"
+from .config import ConfigError, load_config, parse_overrides, run_dir
+from .plan import preflight
+
+PACKAGE = Path(__file__).resolve().parent
+SNAKEFILE = PACKAGE / "Snakefile"
+PROFILES = PACKAGE / "profiles"
 
 
-def preflight(conf: dict[str, Any]) -> None:
-    """Every dataset loads and every method has its backend and checkpoint; else one error listing them all."""
-    from ..datasets import DatasetError, load_dataset
-    from ..descriptors import backend_class
+def profile_path(profile: str) -> Path:
+    """A profile shipped with the package (``local``, ``slurm``) or a folder of the user's."""
+    path = PROFILES / profile if (PROFILES / profile).is_dir() else Path(profile)
+    if not path.is_dir():
+        shipped = ", ".join(sorted(p.name for p in PROFILES.iterdir() if p.is_dir()))
+        raise FileNotFoundError(f"profile not found: {profile} (shipped profiles: {shipped}; or give a folder)")
+    return path
 
-    problems = []
-    for name, dataset in conf["datasets"].items():
-        if "root" in dataset and not dataset["root"]:
-            problems.append(f"datasets.{name}.root is not set: give the folder where dataset {name!r} is on disk")
-            continue
+
+LOCK_NAME = ".vpr-smr.lock"
+
+
+@contextmanager
+def run_lock(folder: Path) -> Iterator[None]:
+    """Hold the run folder for this process; a second run of it fails at once, naming the holder.
+
+    An ``flock`` dies with its process, so a lock left by a killed run is never in the way.
+    """
+    folder.mkdir(parents=True, exist_ok=True)
+    handle = open(folder / LOCK_NAME, "a+")
+    try:
         try:
-            load_dataset(name, dataset)
-        except DatasetError as error:
-            problems.append(str(error))
-    for name, method in conf["methods"].items():
-        try:
-            cls = backend_class(method["backend"])
-        except (ValueError, ImportError) as error:
-            problems.append(f"methods.{name}.backend: {error}")
-            continue
-        checkpoint = method.get("checkpoint")
-        if cls.needs_checkpoint and not checkpoint:
-            problems.append(f"methods.{name}.checkpoint is not set: backend {method['backend']!r} needs the path "
-                            "of its downloaded checkpoint file")
-        elif cls.needs_checkpoint and checkpoint != "package" and not Path(checkpoint).is_file():
-            problems.append(f"methods.{name}.checkpoint: file not found: {checkpoint}")
-    if problems:
-        raise ConfigError("the configuration cannot run:\n  " + "\n  ".join(problems))
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            holder = handle.read().strip() or "another process"
+            raise ConfigError(f"the run folder {folder} is in use by {holder}; wait for that run to finish "
+                              "or stop it (or give this configuration another `run` name)") from None
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"process {os.getpid()} on {socket.gethostname()} (vpr-smr run, working folder {Path.cwd()})")
+        handle.flush()
+        yield
+    finally:
+        handle.close()
 
 
-def run(config: Path | str, cores: int = 2, dry_run: bool = False, extra: list[str] | None = None) -> int:
-    """Run the workflow of ``config``; print where the tables and figures are."""
-    conf = load_config(config)
-    preflight(conf)
+def snakemake_command(config: Path | str, overrides: dict[str, Any], cores: int | None, profile: str,
+                      dry_run: bool, extra: list[str]) -> list[str]:
     command = [sys.executable, "-m", "snakemake", "--snakefile", str(SNAKEFILE), "--configfile", str(config),
-               "--profile", str(PROFILE), "--cores", str(cores)]
+               "--profile", str(profile_path(profile))]
+    if cores is not None:
+        command += ["--cores", str(cores)]
+    if overrides:
+        # Each top-level key as YAML: Snakemake merges nested mappings into the file's settings, as we do.
+        command += ["--config", *(f"{key}={yaml.safe_dump(value, default_flow_style=True).strip()}"
+                                  for key, value in overrides.items())]
     if dry_run:
         command.append("--dry-run")
-    command += [a for a in (extra or []) if a != "--"]
-    status = subprocess.call(command)
-    if status == 0 and not dry_run:
+    return command + [a for a in extra if a != "--"]
+
+
+def run(config: Path | str, cores: int | None = None, dry_run: bool = False, extra: list[str] | None = None,
+        overrides: list[str] | None = None, profile: str = "local") -> int:
+    """Run the workflow of ``config`` (with ``key=value`` overrides); print where the results are."""
+    parsed = parse_overrides(overrides)
+    conf = load_config(config, parsed)
+    preflight(conf)  # a clean error before Snakemake starts; the Snakefile checks again for direct callers
+    command = snakemake_command(config, parsed, cores, profile, dry_run, list(extra or []))
+    if dry_run:
+        return _snakemake(command)
+    # Our lock on the run folder replaces Snakemake's lock on the working folder: it names the run that holds
+    # it and cannot outlive a killed run, so no `--unlock` is ever needed.
+    with run_lock(run_dir(conf)):
+        status = _snakemake(command + ["--nolock"])
+    if status == 0:
         out = run_dir(conf)
-        print(f"\ntables:  {out / 'tables'} (table1.csv, table1.md, table1.tex, predictor.csv)")
-        print(f"figures: {out / 'figures'}")
+        print(f"\ntables:  {out / 'tables'}\nfigures: {out / 'figures'}")
+        if (out / "report.html").is_file():
+            print(f"report:  {out / 'report.html'}")
+    return status
+
+
+def _descendants(pid: int) -> list[int]:
+    """Every process below ``pid`` (from /proc), deepest last."""
+    children: dict[int, list[int]] = {}
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+        except OSError:  # the process ended while we looked
+            continue
+        children.setdefault(int(fields[1]), []).append(int(stat.parent.name))
+    found, queue = [], [pid]
+    while queue:
+        for child in children.get(queue.pop(), []):
+            found.append(child)
+            queue.append(child)
+    return found
+
+
+def _snakemake(command: list[str]) -> int:
+    # Jobs call `vpr-smr <stage>`: the one installed beside this interpreter comes first on their PATH.
+    env = {**os.environ, "PATH": os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])}
+    # Snakemake stays in our process group, so that a signal to the whole group (Ctrl-C, a SIGKILL of the
+    # group) reaches it and its jobs too.
+    process = subprocess.Popen(command, env=env)
+
+    def stop(signum: int, _frame: Any) -> None:
+        # On SIGTERM Snakemake alone would wait for its running jobs to finish and go on writing results:
+        # stop the jobs too (they remove their temporary files), then Snakemake.
+        for pid in [*reversed(_descendants(process.pid)), process.pid]:
+            try:
+                os.kill(pid, signal.SIGTERM)
+            except ProcessLookupError:
+                pass
+
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        status = process.wait()
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     return status

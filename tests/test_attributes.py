@@ -1,5 +1,7 @@
 """Attributes against a hand-worked example and against a naive per-query implementation of SPEC section 5."""
 
+from dataclasses import fields
+
 import numpy as np
 import pytest
 
@@ -100,3 +102,106 @@ def test_query_features_labels():
     np.testing.assert_array_equal(features.sequence_match, [3, 2, 3])
     np.testing.assert_array_equal(features.labels, [1, 2, 0])
     np.testing.assert_allclose(features.sequence_distance, [0.1 + 1.05, 1.0 + 0.6, 0.6 + 0.1])
+
+
+def naive_sequence(distance_matrix, seq_len):
+    """S by its definition and each query's sequence match, distance and single-frame match (test only)."""
+    n_ref, n_query = distance_matrix.shape
+    s = np.array([[sum(distance_matrix[i + k, j + k] for k in range(seq_len)) for j in range(n_query - seq_len + 1)]
+                  for i in range(n_ref - seq_len + 1)])
+    best = [min(range(s.shape[0]), key=lambda i: (s[i, j], i)) for j in range(s.shape[1])]
+    return s, np.array(best) + seq_len - 1, s.min(0), distance_matrix.argmin(0)[seq_len - 1 :]
+
+
+def assert_same_features(a, b):
+    for field in fields(a):
+        np.testing.assert_array_equal(getattr(a, field.name), getattr(b, field.name), err_msg=field.name)
+
+
+@pytest.mark.parametrize("shape, seq_len", [((700, 90), 3), ((40, 60), 5), ((600, 45), 10)])
+def test_query_features_equal_naive(shape, seq_len):
+    rng = np.random.default_rng(shape[0])
+    matrix = (rng.random(shape) * 2).astype(np.float32)
+    features = query_features(matrix, seq_len, tolerance=1)
+    s, match, distance, single = naive_sequence(matrix.astype(float), seq_len)
+    expected, expected_refs = naive_attributes(matrix.astype(float), seq_len, 4)
+    np.testing.assert_array_equal(features.sequence_match, match)
+    np.testing.assert_allclose(features.sequence_distance, distance, rtol=1e-12)
+    np.testing.assert_array_equal(features.single_match, single)
+    assert features.sequence_min == pytest.approx(s.min(), rel=1e-12)
+    assert features.sequence_max == pytest.approx(s.max(), rel=1e-12)
+    np.testing.assert_allclose(features.attributes, expected, rtol=1e-10)
+    np.testing.assert_array_equal(features.rank_references, expected_refs)
+
+
+def tied_matrix(n_ref=600, n_query=120, seed=3):
+    """Random distances with a stopped train: reference frames 200..215 are one frame repeated (equal rows),
+    close to every query, and query frames 40..70 are one frame repeated (equal columns); so the best diagonals
+    of many queries tie exactly."""
+    rng = np.random.default_rng(seed)
+    matrix = rng.random((n_ref, n_query)).astype(np.float32) + 0.5
+    matrix[200:216] = rng.random(n_query).astype(np.float32) * 0.1
+    matrix[:, 40:71] = matrix[:, 40:41]
+    return matrix
+
+
+@pytest.mark.parametrize("seq_len", [2, 4, 7])
+def test_tie_rule_on_repeated_rows_and_columns(seq_len):
+    matrix = tied_matrix()
+    features = query_features(matrix, seq_len)
+    expected, expected_refs = naive_attributes(matrix.astype(float), seq_len, 4)
+    _, match, _, single = naive_sequence(matrix.astype(float), seq_len)
+    # the tie is real: rank 0 and rank 1 have the same full_d (hence the same A3 numerator) for most queries
+    tied = features.rank_references[:, 1] == features.rank_references[:, 0] + 1
+    assert tied.sum() > 50
+    np.testing.assert_array_equal(features.rank_references, expected_refs)  # lowest diagonal first
+    np.testing.assert_array_equal(features.rank_references[:, 0], 200 + seq_len - 1)
+    np.testing.assert_array_equal(features.sequence_match, match)
+    np.testing.assert_array_equal(features.single_match, single)
+    np.testing.assert_allclose(features.attributes, expected, rtol=1e-10)
+
+
+@pytest.mark.parametrize("seq_len", [2, 5])
+def test_blockwise_equals_whole_matrix_exactly(seq_len):
+    matrix = tied_matrix(n_ref=300, n_query=200)
+    whole = query_features(matrix, seq_len, block_queries=10_000)
+    for block in (1, 7, 64):
+        assert_same_features(query_features(matrix, seq_len, block_queries=block), whole)
+
+
+def test_float32_screening_equals_float64():
+    # float32 only picks the candidates that are recomputed in float64: every output is identical (tolerance 0).
+    for matrix in (tied_matrix(), np.random.default_rng(5).random((900, 80))):
+        for seq_len in (2, 6):
+            assert_same_features(query_features(matrix, seq_len, screen_dtype=np.float32),
+                                 query_features(matrix, seq_len, screen_dtype=np.float64))
+
+
+def test_lazy_inputs_equal_in_memory(tmp_path):
+    import h5py
+
+    matrix = tied_matrix(n_ref=300, n_query=90)
+    expected = query_features(matrix, 4)
+    np.save(tmp_path / "D.npy", matrix)
+    assert_same_features(query_features(np.load(tmp_path / "D.npy", mmap_mode="r"), 4, block_queries=16), expected)
+    with h5py.File(tmp_path / "D.h5", "w") as f:
+        f.create_dataset("distance_matrix", data=matrix, chunks=(64, 16))
+    with h5py.File(tmp_path / "D.h5", "r") as f:
+        assert_same_features(query_features(f["distance_matrix"], 4, block_queries=16), expected)
+
+
+def test_non_finite_found_in_any_block():
+    matrix = np.random.default_rng(0).random((50, 40))
+    matrix[30, 35] = np.nan
+    with pytest.raises(ValueError, match="1 non-finite values .* query columns"):
+        query_features(matrix, 3, block_queries=8)
+
+
+def test_integer_and_negative_matrices():
+    rng = np.random.default_rng(2)
+    for matrix in (rng.integers(0, 5, (60, 30)), rng.random((60, 30)) - 0.7):
+        features = query_features(matrix, 3)
+        expected, expected_refs = naive_attributes(matrix.astype(float), 3, 4)
+        np.testing.assert_allclose(features.attributes, expected, rtol=1e-10)
+        np.testing.assert_array_equal(features.rank_references, expected_refs)
+        np.testing.assert_array_equal(features.sequence_match, naive_sequence(matrix.astype(float), 3)[1])

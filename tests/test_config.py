@@ -3,7 +3,7 @@ import textwrap
 import pytest
 
 from vpr_smr.pipeline.config import ConfigError, load_config
-from vpr_smr.pipeline.workflow import preflight
+from vpr_smr.pipeline.plan import preflight
 
 DEMO = "configs/demo.yaml"
 

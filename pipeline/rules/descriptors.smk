@@ -1,11 +1,22 @@
 rule descriptors:
+    input:
+        checkpoint=lambda wc: [PLAN.checkpoints[wc.method]] if PLAN.checkpoints[wc.method] else [],
+        lists=lambda wc: list(PLAN.datasets[wc.dataset].list_files),
     output:
         f"{OUT}/descriptors/{{dataset}}/{{method}}.h5",
     log:
         f"{OUT}/logs/descriptors/{{dataset}}/{{method}}.log",
+    params:
+        dataset=lambda wc: canonical(PLAN.datasets[wc.dataset].frames_settings),
+        frames_sha256=lambda wc: PLAN.datasets[wc.dataset].frames_sha256,
+        method=lambda wc: canonical(conf["methods"][wc.method]),
     threads: 2
     resources:
         gpu=1,
+        # Batch size and decoding workers change how fast a job runs, not what it computes: a resource, not a
+        # param, so that changing them reruns nothing.
+        extraction=extraction_options(conf),
     shell:
-        "{CLI} descriptors --config {CONFIG_FILE} --dataset {wildcards.dataset} --method {wildcards.method}"
-        " --out {output} > {log} 2>&1"
+        "vpr-smr descriptors --dataset {wildcards.dataset} --dataset-settings {params.dataset:q}"
+        " --frames-sha256 {params.frames_sha256} --method {wildcards.method} --method-settings {params.method:q}"
+        " --threads {threads} {resources.extraction} --out {output} > {log} 2>&1"

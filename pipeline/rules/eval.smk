@@ -5,9 +5,11 @@ rule distances:
         f"{OUT}/distances/{{dataset}}/{{method}}/{{split}}.h5",
     log:
         f"{OUT}/logs/distances/{{dataset}}/{{method}}/{{split}}.log",
+    params:
+        frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[wc.split]),
     shell:
-        "{CLI} distances --config {CONFIG_FILE} --dataset {wildcards.dataset} --split {wildcards.split}"
-        " --descriptors {input} --out {output} > {log} 2>&1"
+        "vpr-smr distances --descriptors {input} --split {wildcards.split} --frames {params.frames}"
+        " --out {output} > {log} 2>&1"
 
 
 rule attributes:
@@ -18,39 +20,35 @@ rule attributes:
     log:
         f"{OUT}/logs/features/{{dataset}}/{{method}}/L{{seq_len}}/{{split}}.log",
     params:
-        tolerance=lambda wc: conf["datasets"][wc.dataset].get("tolerance", 2),
+        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
     shell:
-        "{CLI} attributes --distances {input} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
+        "vpr-smr attributes --distances {input} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
         " --out {output} > {log} 2>&1"
-
-
-def features_of(split):
-    return lambda wc: expand(
-        f"{OUT}/features/{wc.dataset}/{{method}}/L{wc.seq_len}/{split}.h5", method=METHODS
-    )
 
 
 rule train:
     input:
-        train=features_of(conf["train_split"]),
-        val=features_of("val") if "val" in conf["eval_splits"] else [],
-        test=features_of("test") if "test" in conf["eval_splits"] else [],
+        train=split_features(OUT, METHODS, conf["train_split"]),
+        val=split_features(OUT, METHODS, "val") if "val" in conf["eval_splits"] else [],
+        test=split_features(OUT, METHODS, "test") if "test" in conf["eval_splits"] else [],
     output:
-        model=f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.h5",
+        models=seed_models(conf, f"{OUT}/predictors/{{dataset}}/L{{seq_len}}"),
         report=f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.json",
     log:
         f"{OUT}/logs/predictors/{{dataset}}/L{{seq_len}}.log",
+    params:
+        predictor=canonical(conf["predictor"]),
+        seeds=conf["seeds"],
     shell:
-        "{CLI} train --config {CONFIG_FILE} --dataset {wildcards.dataset} --seq-len {wildcards.seq_len}"
-        " --train {input.train} --val {input.val} --test {input.test} --out {output.model} > {log} 2>&1"
+        "vpr-smr train --dataset {wildcards.dataset} --seq-len {wildcards.seq_len} --predictor {params.predictor:q}"
+        " --seeds {params.seeds} --train {input.train} --val {input.val} --test {input.test}"
+        " --out {output.models[0]} > {log} 2>&1"
 
 
 rule evaluate:
     input:
-        features=lambda wc: [
-            f"{OUT}/features/{wc.dataset}/{wc.method}/L{wc.seq_len}/{split}.h5" for split in conf["eval_splits"]
-        ],
-        predictor=f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.h5",
+        features=lambda wc: [features_path(OUT, wc.dataset, wc.method, wc.seq_len, split) for split in conf["eval_splits"]],
+        predictors=seed_models(conf, f"{OUT}/predictors/{{dataset}}/L{{seq_len}}"),
     output:
         f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.json",
     log:
@@ -59,26 +57,9 @@ rule evaluate:
         features=lambda wc, input: " ".join(
             f"{split}={path}" for split, path in zip(conf["eval_splits"], input.features)
         ),
+        modes=" ".join(conf["modes"]),
+        trust_levels=" ".join(str(level) for level in conf["trust_levels"]),
     shell:
-        "{CLI} evaluate --config {CONFIG_FILE} --dataset {wildcards.dataset} --method {wildcards.method}"
-        " --seq-len {wildcards.seq_len} --features {params.features} --predictor {input.predictor}"
-        " --out {output} > {log} 2>&1"
-
-
-rule tables:
-    input:
-        evaluations=expand(f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.json",
-                           dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
-        predictors=expand(f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.json", dataset=DATASETS, seq_len=SEQ_LENS),
-    output:
-        f"{OUT}/tables/table1.csv",
-        f"{OUT}/tables/table1.md",
-        f"{OUT}/tables/table1.tex",
-        f"{OUT}/tables/predictor.csv",
-    log:
-        f"{OUT}/logs/tables.log",
-    params:
-        split=conf["table_split"],
-    shell:
-        "{CLI} tables --evaluations {input.evaluations} --predictors {input.predictors} --split {params.split}"
-        " --out {OUT} > {log} 2>&1"
+        "vpr-smr evaluate --dataset {wildcards.dataset} --method {wildcards.method} --seq-len {wildcards.seq_len}"
+        " --features {params.features} --predictors {input.predictors} --modes {params.modes}"
+        " --trust-levels {params.trust_levels} --out {output} > {log} 2>&1"

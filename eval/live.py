@@ -1,0 +1,103 @@
+"""Sequence matching, SMR attributes and the predictor's decision one frame at a time, for a robot.
+
+``LiveMatcher`` keeps the last ``L`` columns of the distance matrix in a ring buffer and runs the batch code
+(``eval.attributes.block_features``) on that window, so every frame costs ``O(R x L)`` and its result is the batch
+computation's, bit for bit (paper-mode attributes, SPEC 5's tie rule). Column normalisation needs only the column
+itself, so nothing else about the past is kept.
+
+    matcher = LiveMatcher(seq_len=4, references=reference_descriptors, predictor=SMRPredictor.load(path))
+    for descriptor in camera_descriptors:
+        result = matcher.step(descriptor)      # None for the first L - 1 frames
+        if result is not None and result.keep:
+            use(result.sequence_match)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .attributes import block_features
+from .distances import distance_columns, prepare_references
+
+KEEP_LABELS = (0, 2)  # the sequence match is correct (SPEC 6): the predictor keeps it
+
+
+@dataclass(frozen=True)
+class LiveResult:
+    """The current query's matches, its attributes and, with a predictor, its predicted label."""
+
+    query: int  # index of the current frame (0 for the first frame fed)
+    single_match: int  # argmin_r D[r, query]
+    sequence_match: int  # reference at which the best sequence ends
+    sequence_distance: float  # min_i S[i, query - L + 1]
+    attributes: np.ndarray  # (K, 4): A1..A4 (the paper's names) of ranks 0..K-1
+    rank_references: np.ndarray  # (K,): reference matched by the rank-k diagonal
+    label: int | None = None  # predicted class 0..3 (SPEC 6), with a predictor
+    keep: bool | None = None  # the predictor keeps the sequence match (label 0 or 2)
+
+
+class LiveMatcher:
+    """Feed one frame at a time: ``step(query_descriptor)`` (needs ``references``) or ``step_distances(column)``.
+
+    ``predictor``: any object with ``predict_proba(X)`` (``X`` of shape ``(n, 4)``, A1..A4 of rank 0, as
+    ``eval.predictor.SMRPredictor``) and ``classes_``. ``distance`` is the metric of ``eval.distances``.
+    """
+
+    def __init__(self, seq_len: int, references: np.ndarray | None = None, predictor: Any = None,
+                 distance: str = "l2", n_ranks: int = 4) -> None:
+        if seq_len < 2:
+            raise ValueError(f"sequence length must be at least 2, got {seq_len}")
+        self.seq_len = seq_len
+        self.distance = distance
+        self.predictor = predictor
+        self.n_ranks = n_ranks
+        self.references = None if references is None else prepare_references(references, distance)
+        self._buffer: np.ndarray | None = None  # (L, R) ring of the last L columns
+        self.frames = 0
+
+    def step(self, query_descriptor: np.ndarray) -> LiveResult | None:
+        """Match one query descriptor against the references (the distance of ``eval.distances``)."""
+        if self.references is None:
+            raise ValueError("LiveMatcher.step needs references=...; or feed distances with step_distances(column)")
+        query = np.asarray(query_descriptor, dtype=np.float32).reshape(1, -1)
+        return self.step_distances(distance_columns(self.references, query, self.distance)[:, 0])
+
+    def step_distances(self, column: np.ndarray) -> LiveResult | None:
+        """Feed one column of D (the current query's distance to every reference, length R)."""
+        column = np.asarray(column)
+        if column.ndim != 1:
+            raise ValueError(f"a distance column must be 1-D (one value per reference), got shape {column.shape}")
+        if self._buffer is None:
+            n_ref = len(column)
+            if n_ref < self.seq_len:
+                raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}")
+            dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
+            self._buffer = np.empty((self.seq_len, n_ref), dtype=dtype)
+        if len(column) != self._buffer.shape[1]:
+            raise ValueError(f"expected {self._buffer.shape[1]} distances (one per reference), got {len(column)}")
+        self._buffer[self.frames % self.seq_len] = column
+        self.frames += 1
+        if self.frames < self.seq_len:
+            return None
+        window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % self.seq_len]
+        n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.seq_len + 1)
+        out = block_features(window, self.seq_len, n_ranks, where=f" in frame {self.frames - 1}")
+        attributes = out["attributes"][0]
+        label = keep = None
+        if self.predictor is not None:
+            probabilities = self.predictor.predict_proba(attributes[:1])
+            label = int(np.asarray(self.predictor.classes_)[np.argmax(probabilities[0])])
+            keep = label in KEEP_LABELS
+        return LiveResult(
+            query=self.frames - 1,
+            single_match=int(out["single_match"][0]),
+            sequence_match=int(out["sequence_diagonal"][0]) + self.seq_len - 1,
+            sequence_distance=float(out["sequence_distance"][0]),
+            attributes=attributes,
+            rank_references=out["rank_diagonals"][0] + self.seq_len - 1,
+            label=label,
+            keep=keep,
+        )

@@ -1,0 +1,131 @@
+"""What every job of a run needs, worked out once before the first job: the checks and the per-job settings.
+
+``preflight`` checks everything that can be checked without computing anything (datasets on disk, split
+ranges against the sequence lengths, backends and their settings, checkpoints, the output folder) and returns
+a ``Plan``. The Snakefile hands each job exactly the settings it uses as ``params`` and the files it reads as
+``input``, both taken from the plan, so that changing a setting reruns exactly the jobs it affects.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .config import ConfigError, run_dir
+
+# Dataset settings that select and order the frames (what the descriptors of a dataset depend on). The split
+# ranges and the tolerance are not among them: they only reach the distances and attributes jobs.
+PER_SPLIT_SETTINGS = ("splits", "tolerance")
+
+
+@dataclass(frozen=True)
+class DatasetPlan:
+    """A dataset as the jobs see it, with the loader's defaults resolved."""
+
+    frames_settings: dict[str, Any]  # the configuration entry without splits and tolerance
+    splits: dict[str, tuple[int, int]]
+    tolerance: int
+    n_frames: int
+    frames_sha256: str  # fingerprint of the ordered frame names of both traverses
+    list_files: tuple[str, ...]  # frame-list files named in the configuration (inputs of the descriptors jobs)
+
+
+@dataclass(frozen=True)
+class Plan:
+    datasets: dict[str, DatasetPlan]
+    checkpoints: dict[str, str | None]  # method -> checkpoint file the descriptors job reads, if any
+
+
+def canonical(value: Any) -> str:
+    """Settings as a canonical JSON text: equal settings give equal text (the form a job's params take)."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"))
+
+
+def _list_files(settings: dict[str, Any]) -> tuple[str, ...]:
+    return tuple(str(v) for k, v in sorted(settings.items()) if k.endswith("_list") and v)
+
+
+def _relative_note(value: str) -> str:
+    return "" if os.path.isabs(value) else f" (a relative path, looked for from the working folder {Path.cwd()})"
+
+
+def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, DatasetPlan]:
+    from ..datasets import DatasetError, load_dataset
+
+    needed = sorted({conf["train_split"], *conf["eval_splits"], conf["table_split"]})
+    longest = max(conf["seq_lens"])
+    plans = {}
+    for name, dataset in conf["datasets"].items():
+        root = dataset.get("root")
+        if "root" in dataset and not root:
+            problems.append(f"datasets.{name}.root is not set: give the folder where dataset {name!r} is on disk")
+            continue
+        try:
+            pair = load_dataset(name, dataset)
+        except DatasetError as error:
+            note = _relative_note(str(root)) if root and not Path(root).exists() else ""
+            problems.append(f"{error}{note}")
+            continue
+        for split in needed:
+            if split not in pair.splits:
+                problems.append(f"datasets.{name}: split {split!r} (named in train_split, eval_splits or "
+                                f"table_split) is not defined; it has {', '.join(pair.splits) or 'none'}")
+                continue
+            lo, hi = pair.splits[split]
+            if hi - lo < longest:
+                problems.append(f"datasets.{name}: split {split!r} has {hi - lo} frames, fewer than the sequence "
+                                f"length {longest} (seq_lens): lengthen the split or shorten the sequences")
+        for path in _list_files(dataset):
+            if not Path(path).is_file():
+                problems.append(f"datasets.{name}: frame list not found: {path}{_relative_note(path)}")
+        plans[name] = DatasetPlan(
+            frames_settings={k: v for k, v in dataset.items() if k not in PER_SPLIT_SETTINGS},
+            splits={k: (int(lo), int(hi)) for k, (lo, hi) in pair.splits.items()},
+            tolerance=pair.tolerance,
+            n_frames=len(pair),
+            frames_sha256=pair.fingerprint(),
+            list_files=_list_files(dataset),
+        )
+    return plans
+
+
+def _check_methods(conf: dict[str, Any], problems: list[str]) -> dict[str, str | None]:
+    from ..descriptors import backend_class
+
+    checkpoints = {}
+    for name, method in conf["methods"].items():
+        try:
+            cls = backend_class(method["backend"])
+        except (ValueError, ImportError) as error:
+            problems.append(f"methods.{name}.backend: {error}")
+            continue
+        checkpoint = method.get("checkpoint")
+        checkpoints[name] = checkpoint if checkpoint and checkpoint != "package" else None
+        if cls.needs_checkpoint and not checkpoint:
+            problems.append(f"methods.{name}.checkpoint is not set: backend {method['backend']!r} needs the path "
+                            "of its downloaded checkpoint file")
+        elif checkpoints[name] and not Path(checkpoint).is_file():
+            problems.append(f"methods.{name}.checkpoint: file not found: {checkpoint}{_relative_note(checkpoint)}")
+    return checkpoints
+
+
+def _check_output(conf: dict[str, Any], problems: list[str]) -> None:
+    folder = run_dir(conf)
+    existing = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        problems.append(f"output: cannot write the run folder {folder}: {existing} is not a writable folder; "
+                        "set `output` to a folder you can write")
+
+
+def preflight(conf: dict[str, Any]) -> Plan:
+    """Check a validated configuration; one ConfigError lists every problem found."""
+    problems: list[str] = []
+    datasets = _check_datasets(conf, problems)
+    checkpoints = _check_methods(conf, problems)
+    _check_output(conf, problems)
+    if problems:
+        raise ConfigError("the configuration cannot run:\n  " + "\n  ".join(problems))
+    return Plan(datasets, checkpoints)

@@ -1,0 +1,204 @@
+"""Changing a setting reruns exactly the jobs that use it, and the tables change where they should, nowhere else.
+
+One complete run of a tiny workflow (two methods, 120 frames of the shipped sample, L = 3) is copied, with its
+Snakemake metadata and file times, for each family of settings; the expected jobs are worked out from the
+data flow (descriptors -> distances per split -> attributes per split -> one predictor per dataset -> one
+evaluation per method -> tables), not from the workflow's own output.
+"""
+
+import csv
+import re
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import pytest
+import torch
+import yaml
+
+from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
+
+pytestmark = pytest.mark.slow
+
+TINY_NET = '''
+import torch
+from vpr_smr.descriptors.base import TorchBackend, to_tensor
+
+
+class TinyNet(TorchBackend):
+    """A 3x3 convolution and global average pooling: a learned backend whose weights come from a file."""
+
+    name = "tiny_net"
+
+    def build_model(self):
+        return torch.nn.Sequential(torch.nn.Conv2d(3, 8, 3), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
+
+    def preprocess(self, image):
+        return to_tensor(image)
+'''
+
+BASE = {
+    "run": "r",
+    "output": "results",
+    "seq_lens": [3],
+    "seeds": 2,
+    "trust_levels": [0.0, 0.5],
+    "datasets": {"sample": {"loader": "nordland_sample", "root": str(DEFAULT_ROOT), "frames": [1000, 1120],
+                            "splits": {"train": [0, 50], "val": [50, 80], "test": [80, 120]}}},
+    "methods": {"sad": {"backend": "sad"}, "tiny": {"backend": "tinynet:TinyNet", "checkpoint": "tiny.pt"}},
+    "predictor": {"max_iter": 60},
+}
+METHODS = ("sad", "tiny")
+SPLITS = ("train", "val", "test")
+
+
+def write_config(folder, conf):
+    (folder / "c.yaml").write_text(yaml.safe_dump(conf))
+
+
+def vpr_smr(folder, *args, timeout=600):
+    env = {"PYTHONPATH": str(folder), "PATH": "/usr/bin:/bin", "OMP_NUM_THREADS": "1"}
+    return subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", *args], cwd=folder, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def planned(folder):
+    """``{(rule, first output)}`` of a dry run, outputs relative to the run folder."""
+    result = vpr_smr(folder, "run", "c.yaml", "-n")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    jobs = re.findall(r"^rule (\w+):\n(?:    .*\n)*?    output: ([^,\n]+)", result.stdout, flags=re.MULTILINE)
+    return {(rule, output.removeprefix("results/r/")) for rule, output in jobs if rule != "all"}
+
+
+def descriptors(*methods):
+    return {("descriptors", f"descriptors/sample/{m}.h5") for m in methods}
+
+
+def distances(methods=METHODS, splits=SPLITS):
+    return {("distances", f"distances/sample/{m}/{s}.h5") for m in methods for s in splits}
+
+
+def attributes(methods=METHODS, splits=SPLITS, seq_len=3):
+    return {("attributes", f"features/sample/{m}/L{seq_len}/{s}.h5") for m in methods for s in splits}
+
+
+def train(seq_len=3):
+    return {("train", f"predictors/sample/L{seq_len}.h5")}
+
+
+def evaluate(methods=METHODS, seq_len=3):
+    return {("evaluate", f"evaluation/sample/{m}/L{seq_len}.json") for m in methods}
+
+
+TABLES = {("tables", "tables/table1.csv")}
+
+
+@pytest.fixture(scope="module")
+def base(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("base")
+    (folder / "tinynet.py").write_text(TINY_NET)
+    torch.manual_seed(0)
+    net = torch.nn.Sequential(torch.nn.Conv2d(3, 8, 3), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
+    torch.save(net.state_dict(), folder / "tiny.pt")
+    write_config(folder, BASE)
+    result = vpr_smr(folder, "run", "c.yaml")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    assert planned(folder) == set()
+    return folder
+
+
+@pytest.fixture
+def copy(base, tmp_path):
+    folder = tmp_path / "run"
+    shutil.copytree(base, folder, symlinks=True)  # copy2 keeps file times: Snakemake sees the same state
+    return folder
+
+
+def change(folder, edit):
+    conf = yaml.safe_load((folder / "c.yaml").read_text())
+    edit(conf)
+    write_config(folder, conf)
+
+
+def table1(folder):
+    with open(folder / "results" / "r" / "tables" / "table1.csv") as handle:
+        return {(r["method"], r["mode"]): r for r in csv.DictReader(handle)}
+
+
+ALL_BUT_DESCRIPTORS = distances() | attributes() | train() | evaluate() | TABLES
+
+
+@pytest.mark.parametrize(("edit", "expected"), [
+    pytest.param(lambda c: c["datasets"]["sample"].update(tolerance=3),
+                 attributes() | train() | evaluate() | TABLES, id="tolerance"),
+    pytest.param(lambda c: c["datasets"]["sample"]["splits"].update(test=[85, 120]),
+                 distances(splits=["test"]) | attributes(splits=["test"]) | train() | evaluate() | TABLES,
+                 id="split-range"),
+    pytest.param(lambda c: c["datasets"]["sample"].update(frames=[1000, 1121]),
+                 descriptors(*METHODS) | ALL_BUT_DESCRIPTORS, id="frames"),
+    pytest.param(lambda c: c["methods"]["sad"].update(distance="l2"),
+                 descriptors("sad") | distances(["sad"]) | attributes(["sad"]) | train() | evaluate() | TABLES,
+                 id="backend-setting"),
+    pytest.param(lambda c: c.update(seq_lens=[3, 4]),
+                 attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | TABLES, id="seq-lens"),
+    pytest.param(lambda c: c["predictor"].update(max_iter=61), train() | evaluate() | TABLES, id="predictor"),
+    pytest.param(lambda c: c.update(seeds=3), train() | evaluate() | TABLES, id="seeds"),
+    pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | TABLES, id="modes"),
+    pytest.param(lambda c: c.update(trust_levels=[0.0, 0.6]), evaluate() | TABLES, id="trust-levels"),
+    pytest.param(lambda c: c.update(table_split="val"), TABLES, id="table-split"),
+    pytest.param(lambda c: c.update(extraction={"batch_size": 3}), set(), id="batch-size-reruns-nothing"),
+])
+def test_a_changed_setting_plans_exactly_its_jobs(copy, edit, expected):
+    change(copy, edit)
+    assert planned(copy) == expected
+
+
+def test_dataset_root_reruns_everything(copy, tmp_path):
+    # The same frames under another root: the descriptors read other files, so everything reruns.
+    shutil.copytree(DEFAULT_ROOT, tmp_path / "sample_copy")
+    change(copy, lambda c: c["datasets"]["sample"].update(root=str(tmp_path / "sample_copy")))
+    assert planned(copy) == descriptors(*METHODS) | ALL_BUT_DESCRIPTORS
+
+
+def test_checkpoint_content_reruns_its_method(copy):
+    torch.manual_seed(1)
+    net = torch.nn.Sequential(torch.nn.Conv2d(3, 8, 3), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
+    torch.save(net.state_dict(), copy / "tiny.pt")
+    assert planned(copy) == (descriptors("tiny") | distances(["tiny"]) | attributes(["tiny"]) | train()
+                             | evaluate() | TABLES)
+
+
+def test_command_line_override_reaches_the_jobs(copy):
+    result = vpr_smr(copy, "run", "c.yaml", "-n", "--config", "predictor.max_iter=61")
+    assert result.returncode == 0, result.stderr[-3000:]
+    rules = set(re.findall(r"^rule (\w+):", result.stdout, flags=re.MULTILINE)) - {"all"}
+    assert rules == {"train", "evaluate", "tables"}
+
+
+def test_tables_change_where_they_should(copy):
+    before = table1(copy)
+    change(copy, lambda c: c["methods"]["sad"].update(distance="l2"))
+    result = vpr_smr(copy, "run", "c.yaml")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    after = table1(copy)
+    assert set(before) == set(after)
+    single_frame = ("recall_at_1_single", "recall_at_1_sequence", "aoc_vpr_sm", "max_recall")
+    for (method, mode), row in after.items():
+        if method == "tiny":  # its matrices are untouched; only the (shared) predictor changed
+            assert {k: row[k] for k in single_frame[:2]} == {k: before[method, mode][k] for k in single_frame[:2]}
+    sad_l2 = [after["sad", m]["recall_at_1_sequence"] != before["sad", m]["recall_at_1_sequence"]
+              or after["sad", m]["aoc_vpr_sm"] != before["sad", m]["aoc_vpr_sm"] for m in ("paper", "standard")]
+    assert any(sad_l2), "SAD with squared L2 instead of the mean absolute difference left its numbers unchanged"
+    assert planned(copy) == set()
+
+
+def test_table_split_changes_only_the_tables(copy):
+    evaluations = sorted((copy / "results" / "r" / "evaluation").rglob("*.json"))
+    times = [p.stat().st_mtime_ns for p in evaluations]
+    change(copy, lambda c: c.update(table_split="val"))
+    result = vpr_smr(copy, "run", "c.yaml")
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert [p.stat().st_mtime_ns for p in evaluations] == times
+    md = (copy / "results" / "r" / "tables" / "table1.md").read_text()
+    assert "val split" in md or "(val)" in md, textwrap.shorten(md, 300)
