@@ -7,6 +7,10 @@
 (b) the command's peak memory against the matrix's size (goal: at most 2x the matrix + 300 MB);
 (d) the time per query at L = 2 against L = 10 (goal: within 1.5x), in this process.
 
+The command runs on the default path (numpy below ``KERNEL_MIN_VALUES`` values, compiled above) and, when numba
+imports, forced onto each path (``VPR_SMR_KERNEL``), with the compiled path's fixed cost per fresh process (numba's
+import and first dispatch, its on-disk cache warm) and both paths' in-process time.
+
     python benchmarks/attributes.py            # 9000 x 9000, L = 4 (324 MB on disk under a temporary folder)
     python benchmarks/attributes.py --small    # 400 x 400: checks that it runs (CI)
 """
@@ -26,9 +30,21 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from common import is_small, machine, python, run_measured  # noqa: E402
 from test_attributes import naive_attributes  # noqa: E402
 
+from vpr_smr.eval import attributes  # noqa: E402
 from vpr_smr.eval.attributes import EPS, GROUP_HALF_WIDTH, query_features  # noqa: E402
 
 LOAD_AND_SUM = "import sys, numpy as np; print(np.load(sys.argv[1]).sum())"
+# A fresh process: query_features of a tiny matrix on one path; the difference is the compiled path's fixed cost.
+TINY = ("import sys, numpy as np; from vpr_smr.eval import attributes as a; a.KERNEL = sys.argv[1]; "
+        "a.query_features(np.ones((40, 40), dtype=np.float32), 4)")
+
+
+def has_numba() -> bool:
+    try:
+        import numba  # noqa: F401
+    except ImportError:
+        return False
+    return True
 
 
 def numpy_per_query(distance_matrix: np.ndarray, seq_len: int, queries: np.ndarray, n_ranks: int = 4) -> None:
@@ -75,6 +91,15 @@ def main() -> None:
         command = [sys.executable, "-m", "vpr_smr.pipeline.cli", "attributes", "--distances", str(path),
                    "--seq-len", str(args.seq_len), "--out", str(Path(folder) / "features.h5")]
         cmd_s, cmd_rss, _ = run_measured(command)
+        paths = {}  # path -> (command seconds, peak bytes, in-process seconds)
+        if has_numba():
+            run_measured(python(TINY, "numba"))  # compiles into numba's on-disk cache when it is cold
+            repeat = 1 if is_small(args.small) else 3
+            fixed_s = min(run_measured(python(TINY, "numba"))[0] for _ in range(repeat)) - min(
+                run_measured(python(TINY, "numpy"))[0] for _ in range(repeat))
+            for kind in ("numpy", "numba"):
+                seconds, rss, _ = run_measured(command, env={"VPR_SMR_KERNEL": kind})
+                paths[kind] = (seconds, rss)
         matrix = np.load(path, mmap_mode="r")
         queries = np.linspace(args.seq_len - 1, size - 1, sample).astype(int)
         start = time.perf_counter()
@@ -84,6 +109,18 @@ def main() -> None:
         start = time.perf_counter()
         naive_attributes(np.asarray(matrix[:, : literal_sample + args.seq_len - 1], dtype=np.float64), args.seq_len, 4)
         literal_s = (time.perf_counter() - start) / literal_sample * n_queries
+        compiled_per_query = {}
+        for kind in paths:
+            attributes.KERNEL = kind
+            query_features(np.ones((40, 40), dtype=np.float32), 4)  # numba's first dispatch, outside the timing
+            start = time.perf_counter()
+            query_features(matrix, args.seq_len)
+            paths[kind] += (time.perf_counter() - start,)
+            for seq_len in (2, 10) if kind == "numba" else ():
+                start = time.perf_counter()
+                query_features(matrix, seq_len)
+                compiled_per_query[seq_len] = (time.perf_counter() - start) / (size - seq_len + 1)
+        attributes.KERNEL = None
         per_query = {}
         for seq_len in (2, 10):
             start = time.perf_counter()
@@ -93,6 +130,11 @@ def main() -> None:
     print(f"fresh process, load + sum:       {sum_s:8.2f} s, peak {sum_rss / 2**20:6.0f} MB")
     print(f"vpr-smr attributes:              {cmd_s:8.2f} s, peak {cmd_rss / 2**20:6.0f} MB "
           f"(matrix {matrix_mb:.0f} MB)")
+    for kind, (seconds, rss, inside) in paths.items():
+        print(f"  forced {kind:5}:                {seconds:8.2f} s, peak {rss / 2**20:6.0f} MB; in this process "
+              f"{inside:.2f} s ({1e6 * inside / n_queries:.0f} µs per query)")
+    if paths:
+        print(f"compiled path's fixed cost per fresh process: {fixed_s:.2f} s (numba import + first dispatch)")
     print(f"literal per-query loop:          {literal_s:8.1f} s (extrapolated from {literal_sample} queries, "
           f"{1e3 * literal_s / n_queries:.1f} ms per query)")
     print(f"numpy per-query loop:            {authors_s:8.1f} s (extrapolated from {sample} queries, "
@@ -100,10 +142,16 @@ def main() -> None:
     print(f"per query, L = 2 / L = 10:       {1e6 * per_query[2]:.0f} / {1e6 * per_query[10]:.0f} µs")
     print(f"ratio (a) attributes / load+sum: {cmd_s / sum_s:.1f}x (goal <= 15x)")
     print(f"ratio (a) literal loop / attributes: {literal_s / cmd_s:.1f}x (goal >= 1000x)")
+    for kind, (seconds, _, _) in paths.items():
+        print(f"ratio (a) literal loop / attributes forced {kind}: {literal_s / seconds:.1f}x")
     print(f"ratio (a) numpy loop / attributes:   {authors_s / cmd_s:.1f}x")
     print(f"ratio (b) peak / matrix:         {cmd_rss / 2**20 / matrix_mb:.2f}x; peak - 2 x matrix = "
           f"{cmd_rss / 2**20 - 2 * matrix_mb:.0f} MB (goal <= 300 MB)")
     print(f"ratio (d) L=10 / L=2 per query:  {per_query[10] / per_query[2]:.2f}x (goal within 1.5x)")
+    if compiled_per_query:
+        print(f"ratio (d) compiled path, in this process: {1e6 * compiled_per_query[2]:.0f} / "
+              f"{1e6 * compiled_per_query[10]:.0f} µs per query at L = 2 / L = 10, "
+              f"{compiled_per_query[10] / compiled_per_query[2]:.2f}x")
 
 
 if __name__ == "__main__":

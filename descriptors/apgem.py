@@ -14,7 +14,10 @@ Pipeline (``ResNet_RMAC.forward``): the ResNet trunk up to layer4, GeM ``(mean x
 at 1e-6, the FC layer and L2. Whitening (``dirtorch/utils/common.py`` ``whiten_features`` with
 ``use_sklearn=True``), in float64 as the official numpy code: ``(x - mean_) @ components_[:v].T``, divided by
 ``whitenm * explained_variance_[:v] ** whitenp`` when the PCA was fitted with ``whiten=True``, then L2. The
-official evaluation (``test_dir.py``) whitens with ``Landmarks_clean`` and ``whitenp = 0.25``.
+official evaluation (``test_dir.py``) whitens with ``Landmarks_clean`` and ``whitenp = 0.25``, and so does the
+default here (``whiten: auto``) when the converted file holds that whitening; a file without it gives the
+unwhitened 2048-d descriptor. VPR-methods-evaluation does the same (full size, Landmarks_clean, 0.25), so
+``preprocessing`` changes nothing here.
 """
 
 from __future__ import annotations
@@ -27,9 +30,11 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from .base import IMAGENET_MEAN, IMAGENET_STD, CheckpointError, TorchBackend, load_tensor_file, to_tensor
+from .base import IMAGENET_MEAN, IMAGENET_STD, CheckpointError, TorchBackend, to_tensor
 
-EXPECTED_FILE = "Resnet-101-AP-GeM.pt converted with vpr_smr.descriptors.convert.convert_apgem"
+EXPECTED_FILE = ("Resnet-101-AP-GeM.pt converted once with `vpr-smr convert-checkpoint apgem IN OUT` "
+                 "(vpr_smr.descriptors.convert.convert_apgem)")
+OFFICIAL_WHITENING = "Landmarks_clean"  # the whitening of the release that test_dir.py applies
 
 
 class GeM(nn.Module):
@@ -91,15 +96,6 @@ class APGeMNet(nn.Module):
         return x
 
 
-def _fill_batch_norm_counters(state_dict: dict[str, Any], model: nn.Module) -> dict[str, Any]:
-    """Add ``num_batches_tracked`` when a file has none (saved before PyTorch 0.4.1; unused in eval)."""
-    expected = model.state_dict()
-    counters = [k for k in expected if k.endswith("num_batches_tracked")]
-    if counters and not any(k in state_dict for k in counters):
-        state_dict = {**state_dict, **{k: expected[k].clone() for k in counters}}
-    return state_dict
-
-
 class APGeM(TorchBackend):
     """ResNet-101 AP-GeM, 2048-d descriptors (fewer with ``whitenv``)."""
 
@@ -107,9 +103,9 @@ class APGeM(TorchBackend):
     default_conf: ClassVar[dict[str, Any]] = {
         # Longest image side in pixels; null keeps the full image, as the official evaluation does.
         "max_size": None,
-        # Name of a whitening stored in the file (the release has "Landmarks_clean", which the official
-        # test_dir.py applies by default); null: no whitening.
-        "whiten": None,
+        # Name of a whitening stored in the file; "auto": the release's "Landmarks_clean", which the official
+        # test_dir.py (and VPR-methods-evaluation) applies, when the converted file holds it; null: none.
+        "whiten": "auto",
         "whitenp": 0.25,  # official test_dir.py default (the sklearn-style whitening would be 0.5)
         "whitenv": None,  # number of components kept; null: all
         "whitenm": 1.0,
@@ -119,6 +115,7 @@ class APGeM(TorchBackend):
         super().__init__(conf)
         # The file's `preprocess` may override these (dirtorch's load_model does the same).
         self.mean, self.std = IMAGENET_MEAN, IMAGENET_STD
+        self.whitening_name: str | None = None  # the whitening applied, once a file is loaded
 
     def build_model(self) -> nn.Module:
         return APGeMNet()
@@ -141,23 +138,12 @@ class APGeM(TorchBackend):
         if whitening is not None:
             whitening.double()  # ``half`` mode must not round the whitening, computed in float64 officially
 
-    def load(self, checkpoint: Path | str | None) -> None:
-        """Load a converted AP-GeM file (see ``convert.convert_apgem``), or a plain state dict."""
-        if checkpoint is None:
-            raise CheckpointError(f"backend 'apgem' needs a checkpoint: set `checkpoint` to {EXPECTED_FILE}")
-        path = Path(checkpoint)
-        try:
-            data = load_tensor_file(path)
-        except CheckpointError as error:
-            raise CheckpointError(f"{error}\n  The official Resnet-101-AP-GeM.pt is such a file: convert it "
-                                  "once with vpr_smr.descriptors.convert.convert_apgem(in_path, out_path)."
-                                  ) from None
-        if not isinstance(data, dict):
-            raise CheckpointError(f"checkpoint {path} holds a {type(data).__name__}, not a dict "
-                                  f"(expected {EXPECTED_FILE})")
-        state_dict = data["state_dict"] if isinstance(data.get("state_dict"), dict) else data
-        state_dict = {k.removeprefix("module."): v for k, v in state_dict.items()}
+    def expected_file(self) -> str:
+        return f"{EXPECTED_FILE} (keys conv1.*, bn1.*, layer1-4.*, adpool.p, fc.weight, fc.bias)"
 
+    def adapt_state_dict(self, state_dict: dict[str, Any], data: Any, path: Path) -> dict[str, Any]:
+        """The converted file's model options, preprocessing and whitening (see ``convert.convert_apgem``)."""
+        data = data if isinstance(data, dict) else {}
         options = data.get("model_options") or {}
         self._check_options(options, path)
         model = self.model
@@ -166,20 +152,15 @@ class APGeM(TorchBackend):
             model.fc = nn.Linear(2048, int(fc.shape[0]))  # out_dim is a dirtorch option; 2048 in the release
         model.norm_features = bool(options.get("norm_features", False))
         model.without_fc = bool(options.get("without_fc", False))
-        model.whitening = None
-        try:
-            self.load_state_dict(_fill_batch_norm_counters(state_dict, self.model), str(path))
-        except CheckpointError as error:
-            raise CheckpointError(f"{error}\n  (expected {EXPECTED_FILE}: keys conv1.*, bn1.*, layer1-4.*, "
-                                  "adpool.p, fc.weight, fc.bias)") from None
-
         preprocess = data.get("preprocess") or {}
         if preprocess.get("mean") is not None and preprocess.get("std") is not None:
             self.mean = tuple(float(v) for v in preprocess["mean"])
             self.std = tuple(float(v) for v in preprocess["std"])
-        if self.conf["whiten"]:
-            self.model.whitening = self._whitening(data.get("whitening") or {}, path)
-        self.prepare()
+        # Non-persistent buffers: setting the whitening here does not touch the strict key check.
+        stored = data.get("whitening") or {}
+        self.whitening_name = self._whitening_name(stored, path)
+        model.whitening = self._whitening(stored[self.whitening_name]) if self.whitening_name else None
+        return state_dict
 
     def _check_options(self, options: dict[str, Any], path: Path) -> None:
         """Refuse files of another dirtorch architecture than the one implemented here."""
@@ -190,16 +171,21 @@ class APGeM(TorchBackend):
             raise CheckpointError(
                 f"checkpoint {path} is a dirtorch model with arch={arch!r}, pooling={pooling!r}, "
                 f"center_bias={center_bias}; backend 'apgem' implements resnet101_rmac with GeM pooling "
-                f"only (expected {EXPECTED_FILE})"
+                "only"
             )
 
-    def _whitening(self, stored: dict[str, Any], path: Path) -> Whitening:
+    def _whitening_name(self, stored: dict[str, Any], path: Path) -> str | None:
+        """``whiten: auto`` is the official Landmarks_clean when the file holds it; a name must be there."""
         name = self.conf["whiten"]
-        if name not in stored:
+        if name == "auto":
+            return OFFICIAL_WHITENING if OFFICIAL_WHITENING in stored else None
+        if name and name not in stored:
             available = ", ".join(sorted(stored)) or "none"
             raise CheckpointError(f"checkpoint {path} has no whitening {name!r} (it has: {available}); "
-                                  "set `whiten` to one of them or null")
-        pca = stored[name]
+                                  "set `whiten` to one of them, auto or null")
+        return name or None
+
+    def _whitening(self, pca: dict[str, Any]) -> Whitening:
         keep = int(self.conf["whitenv"]) if self.conf["whitenv"] else None
         projection = pca["components"][:keep]
         if pca.get("whiten", True):

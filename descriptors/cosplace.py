@@ -9,7 +9,8 @@ load with ``strict=True``: ``backbone.<i>.*``, ``aggregation.1.p``, ``aggregatio
 
 Preprocessing follows the official ``datasets/test_dataset.py``: ``ToTensor`` + ImageNet ``Normalize`` on the
 full-size image. CosPlace's evaluation can also resize the shorter side (``--resize_test_imgs --image_size``);
-the ``resize`` setting does that (an int), or resizes to ``[H, W]``.
+the ``resize`` setting does that (an int), or resizes to ``[H, W]``. VPR-methods-evaluation feeds the full-size
+image as well, so ``preprocessing`` changes nothing here.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ import torchvision
 from torch import nn
 
 from .base import CheckpointError, TorchBackend, to_tensor
-from .layers import PIL_FILTERS, L2Norm, pil_resize, read_state_dict, resized_size, vgg16_conv5_3
+from .layers import PIL_FILTERS, L2Norm, pil_resize, resized_size, vgg16_conv5_3
 
 # Channels of the last convolutional feature map, i.e. the input size of the Linear layer.
 FEATURE_DIMS: dict[str, int] = {
@@ -152,8 +153,8 @@ class CosPlace(TorchBackend):
             image = pil_resize(image, size, self.conf["interpolation"])
         return to_tensor(image)
 
-    def load(self, checkpoint: Path | str | None) -> None:
-        path, state_dict = read_state_dict(self, checkpoint)
+    def adapt_state_dict(self, state_dict: dict[str, Any], data: Any, path: Path) -> dict[str, Any]:
+        """Check the file's backbone against the setting and read the descriptor size from it."""
         weight = state_dict.get("aggregation.3.weight")
         if not isinstance(weight, torch.Tensor) or weight.ndim != 2:
             raise CheckpointError(
@@ -176,11 +177,7 @@ class CosPlace(TorchBackend):
             )
         if dim != self.dim:
             self.model = self.build_model(dim).eval()
-        try:
-            self.load_state_dict(state_dict, str(path))
-        except CheckpointError as error:
-            raise CheckpointError(f"{error}\n(expected {self.expected_file()})") from None
-        self.prepare()
+        return state_dict
 
 
 class EigenPlaces(CosPlace):

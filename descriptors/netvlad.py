@@ -27,12 +27,13 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from .base import CheckpointError, TorchBackend, load_tensor_file, to_tensor
+from .base import TorchBackend, to_tensor
 from .layers import L2Norm, pil_resize, vgg16_conv5_3
 
 EXPECTED_FILES = (
     "Patch-NetVLAD's pitts_WPCA4096.pth.tar (or another *_WPCA*.pth.tar) or Nanne's checkpoint.pth.tar"
 )
+PATCH_NETVLAD_SIZE = (480, 640)  # (H, W) of Patch-NetVLAD's configurations (imageresizeh, imageresizew)
 
 class NetVLADPool(nn.Module):
     """NetVLAD aggregation (``vladv2=False``): ``conv.weight (K, D, 1, 1)`` and ``centroids (K, D)``."""
@@ -78,11 +79,6 @@ class NetVLADNet(nn.Module):
         return vlad
 
 
-def strip_module(key: str) -> str:
-    """Drop the ``module`` components of ``nn.DataParallel`` (``module.pool.x``, ``encoder.module.0.x``)."""
-    return ".".join(part for part in key.split(".") if part != "module")
-
-
 def _numpy_scalar_globals() -> list[Any]:
     """The numpy globals a pickled ``np.float64`` needs, under the names old and new numpy write.
 
@@ -100,58 +96,72 @@ def _numpy_scalar_globals() -> list[Any]:
     ]
 
 
-def read_netvlad_file(path: Path | str) -> dict[str, torch.Tensor]:
-    """The state dict of a Patch-NetVLAD or Nanne NetVLAD file, ``module`` components removed."""
-    path = Path(path)
-    with torch.serialization.safe_globals(_numpy_scalar_globals()):
-        data = load_tensor_file(path)
-    if isinstance(data, dict) and isinstance(data.get("state_dict"), dict):
-        data = data["state_dict"]
-    if not isinstance(data, dict) or not all(isinstance(k, str) for k in data):
-        raise CheckpointError(f"checkpoint {path} holds no state dict (expected {EXPECTED_FILES})")
-    return {strip_module(k): v for k, v in data.items()}
-
-
 class NetVLAD(TorchBackend):
-    """VGG16 + NetVLAD (+ WPCA); 32768-d (64 clusters) or ``num_pcs``-d descriptors."""
+    """VGG16 + NetVLAD (+ WPCA); 32768-d (64 clusters) or ``num_pcs``-d descriptors.
+
+    Default input size (``image_size: auto``), as the official evaluation of each file: a file with a WPCA
+    layer is Patch-NetVLAD's, whose configurations resize every image to 480 x 640 (``imageresizeh``,
+    ``imageresizew``); a file without it is Nanne's, whose evaluation (``pittsburgh.py`` ``input_transform``)
+    feeds the full-size image. ``preprocessing: vpr-methods-evaluation`` feeds the full-size image too (that
+    harness's own NetVLAD is a different file, hloc's MATLAB conversion). ``image_size: [H, W]`` or ``null``
+    (full size) overrides both.
+    """
 
     name: ClassVar[str] = "netvlad"
     default_conf: ClassVar[dict[str, Any]] = {
-        # (H, W). Patch-NetVLAD's configs resize every image to 480 x 640 (imageresizeh/imageresizew);
-        # null keeps the full image, as Nanne's evaluation does.
-        "image_size": [480, 640],
+        # "auto": 480 x 640 with a Patch-NetVLAD (WPCA) file, full size with Nanne's; [H, W]; null: full size.
+        "image_size": "auto",
         # Model sizes before a checkpoint is loaded; load() reads both from the file's shapes and rebuilds.
         "num_clusters": 64,
         "num_pcs": 4096,  # 0: no WPCA (Nanne's files)
     }
+    # Nanne's main.py wraps encoder and pool separately in nn.DataParallel: "encoder.module.0.weight".
+    strip_components: ClassVar[tuple[str, ...]] = ("module",)
+
+    def __init__(self, conf: dict[str, Any] | None = None) -> None:
+        size = {**self.default_conf, **(conf or {})}["image_size"]
+        if size not in ("auto", None) and not (isinstance(size, list | tuple) and len(size) == 2):
+            raise ValueError(f"backend 'netvlad': image_size must be auto, null (full size) or [H, W], got {size!r}")
+        super().__init__(conf)
 
     def build_model(self) -> nn.Module:
         return NetVLADNet(int(self.conf["num_clusters"]), int(self.conf["num_pcs"] or 0))
+
+    def expected_file(self) -> str:
+        return (f"{EXPECTED_FILES} (keys encoder.N.*, pool.conv.weight, pool.centroids, optionally "
+                "WPCA.0.weight/bias)")
+
+    @property
+    def image_size(self) -> tuple[int, int] | None:
+        """The ``(H, W)`` images are resized to, ``None`` for full size (see the class docstring)."""
+        size = self.conf["image_size"]
+        if size == "auto":
+            patch_netvlad = self.model.WPCA is not None
+            return PATCH_NETVLAD_SIZE if patch_netvlad and not self.harness else None
+        return None if size is None else (int(size[0]), int(size[1]))
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
         """RGB uint8 ``H x W x 3`` -> normalised ``3 x h x w`` tensor.
 
         Patch-NetVLAD's ``input_transform`` applies ``transforms.Resize((480, 640))`` to PIL images, i.e.
         PIL's bilinear resize on uint8 (filtering when shrinking), then ``ToTensor`` and ImageNet
-        ``Normalize``; we call PIL directly so the resized pixels are identical.
+        ``Normalize``; we call PIL directly so the resized pixels are identical. Nanne's applies only
+        ``ToTensor`` and ``Normalize``.
         """
         image = np.ascontiguousarray(image)
         if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
             raise ValueError(f"netvlad: expected an RGB uint8 H x W x 3 image, got {image.dtype} "
                              f"{image.shape}")
-        size = self.conf["image_size"]
-        if size:
-            height, width = (int(s) for s in size)
-            image = pil_resize(image, (height, width), "bilinear")
+        size = self.image_size
+        if size is not None:
+            image = pil_resize(image, size, "bilinear")
         return to_tensor(image)
 
-    def load(self, checkpoint: Path | str | None) -> None:
-        """Load a Patch-NetVLAD or Nanne file; the cluster count and PCA size come from its shapes."""
-        if checkpoint is None:
-            raise CheckpointError(f"backend 'netvlad' needs a checkpoint: set `checkpoint` to "
-                                  f"{EXPECTED_FILES}")
-        path = Path(checkpoint)
-        state_dict = read_netvlad_file(path)
+    def checkpoint_globals(self) -> list[Any]:
+        return _numpy_scalar_globals()
+
+    def adapt_state_dict(self, state_dict: dict[str, Any], data: Any, path: Path) -> dict[str, Any]:
+        """The cluster count and PCA size come from the file's shapes; the model is rebuilt to fit."""
         centroids = state_dict.get("pool.centroids")
         num_clusters = self.conf["num_clusters"]
         if getattr(centroids, "ndim", 0) == 2:
@@ -161,11 +171,4 @@ class NetVLAD(TorchBackend):
         if (num_clusters, num_pcs) != (self.conf["num_clusters"], self.conf["num_pcs"] or 0):
             self.conf.update(num_clusters=num_clusters, num_pcs=num_pcs)
             self.model = self.build_model().eval()
-        try:
-            # Copies the float64 WPCA into the float32 model, as the official load_state_dict does.
-            self.load_state_dict(state_dict, str(path))
-        except CheckpointError as error:
-            raise CheckpointError(f"{error}\n  (expected {EXPECTED_FILES}: keys encoder.N.*, "
-                                  "pool.conv.weight, pool.centroids, optionally WPCA.0.weight/bias)"
-                                  ) from None
-        self.prepare()
+        return state_dict

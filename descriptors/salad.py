@@ -9,13 +9,13 @@ Pipeline: the image is resized to 322 x 322 (PIL bilinear, as the official evalu
 ImageNet mean/std; DINOv2 runs all 12 blocks and its final LayerNorm; the class token gives the 256-d global
 token and the 23 x 23 patch tokens are softly assigned to 64 clusters (plus a dustbin) by 3 log-space Sinkhorn
 iterations; each cluster's 128-d weighted sum is L2-normalised, the token is L2-normalised, and the
-concatenation (256 + 128 * 64 = 8448 values) is L2-normalised.
+concatenation (256 + 128 * 64 = 8448 values) is L2-normalised. ``preprocessing: vpr-methods-evaluation``
+gives that harness's full-size input instead (see ``SALAD``).
 """
 
 from __future__ import annotations
 
 import math
-from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
@@ -23,11 +23,12 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from .base import CheckpointError, TorchBackend, load_tensor_file, to_tensor
+from .base import TorchBackend, resize_tensor, to_tensor
 from .dinov2 import DinoVisionTransformer
 from .layers import pil_resize
 
 EXPECTED_FILE = "dino_salad.ckpt"
+OFFICIAL_SIZE = (322, 322)  # (H, W) of the official eval.py: 23 x 23 patches
 
 
 def log_sinkhorn_with_dustbin(scores: torch.Tensor, dustbin: torch.Tensor,
@@ -117,12 +118,28 @@ class SALADNet(nn.Module):
         return self.aggregator(*self.backbone(x))
 
 
+def harness_size(height: int, width: int, patch: int = 14) -> tuple[int, int]:
+    """VPR-methods-evaluation's ``ResizingWrapper`` (``dino_v2_resize``): each side to the nearest multiple of
+    the patch size, ``round(side / patch) * patch`` with Python's ``round`` (halves go to the even multiple)."""
+    size = (round(height / patch) * patch, round(width / patch) * patch)
+    if min(size) == 0:
+        raise ValueError(f"salad: a {height} x {width} image rounds to {size[0]} x {size[1]}: too small")
+    return size
+
+
 class SALAD(TorchBackend):
-    """DINOv2 + SALAD, 8448-d descriptors. Checkpoint: the official ``dino_salad.ckpt``."""
+    """DINOv2 + SALAD, 8448-d descriptors. Checkpoint: the official ``dino_salad.ckpt``.
+
+    Input size (``image_size: auto``): 322 x 322 (PIL bilinear) as the official ``eval.py``; with
+    ``preprocessing: vpr-methods-evaluation``, that harness's: the full image normalised, then each side
+    resized (tensor, bilinear, antialias) to the nearest multiple of 14 (``harness_size``). ``[H, W]``
+    (multiples of 14) resizes to that size with PIL under either preset.
+    """
 
     name: ClassVar[str] = "salad"
     default_conf: ClassVar[dict[str, Any]] = {
-        "image_size": [322, 322],  # (H, W); the official evaluation uses 322 x 322 (23 x 23 patches)
+        # "auto": 322 x 322 (official; 23 x 23 patches), or the harness's rounding (see the class docstring).
+        "image_size": "auto",
         "num_clusters": 64,
         "cluster_dim": 128,
         "token_dim": 256,
@@ -134,9 +151,12 @@ class SALAD(TorchBackend):
     patch_size: ClassVar[int] = 14
 
     def build_model(self) -> nn.Module:
-        height, width = (int(s) for s in self.conf["image_size"])
-        if height % self.patch_size or width % self.patch_size:
-            raise ValueError(f"salad: image_size {[height, width]} must be multiples of {self.patch_size}")
+        size = self.conf["image_size"]
+        if size != "auto":
+            if not (isinstance(size, list | tuple) and len(size) == 2):
+                raise ValueError(f"salad: image_size must be auto or [H, W], got {size!r}")
+            if int(size[0]) % self.patch_size or int(size[1]) % self.patch_size:
+                raise ValueError(f"salad: image_size {list(size)} must be multiples of {self.patch_size}")
         return SALADNet(
             embed_dim=int(self.conf["embed_dim"]), depth=int(self.conf["depth"]),
             num_heads=int(self.conf["num_heads"]), patch_size=self.patch_size,
@@ -144,34 +164,21 @@ class SALAD(TorchBackend):
             token_dim=int(self.conf["token_dim"]),
         )
 
+    def expected_file(self) -> str:
+        return f"the official {EXPECTED_FILE} from serizba/salad (keys backbone.model.* and aggregator.*)"
+
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
-        """RGB uint8 ``H x W x 3`` -> ``3 x 322 x 322`` normalised tensor.
+        """RGB uint8 ``H x W x 3`` -> normalised ``3 x h x w`` tensor (322 x 322 by default).
 
         The official ``eval.py`` applies ``T.Resize(size, BILINEAR)`` to PIL images, i.e. PIL's bilinear
         resize on uint8 (which filters when shrinking), then ``ToTensor`` and ImageNet ``Normalize``; we call
         PIL directly so the resized pixels are identical.
         """
-        height, width = (int(s) for s in self.conf["image_size"])
         image = np.ascontiguousarray(image)
         if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
             raise ValueError(f"salad: expected an RGB uint8 H x W x 3 image, got {image.dtype} {image.shape}")
-        image = pil_resize(image, (height, width), "bilinear")
-        return to_tensor(image)
-
-    def load(self, checkpoint: Path | str | None) -> None:
-        if checkpoint is None:
-            raise CheckpointError(f"backend 'salad' needs a checkpoint: set `checkpoint` to {EXPECTED_FILE}")
-        path = Path(checkpoint)
-        data = load_tensor_file(path)
-        # The release is a plain state dict; checkpoints from the official Lightning training wrap it.
-        if isinstance(data, dict) and isinstance(data.get("state_dict"), dict):
-            data = data["state_dict"]
-        if not isinstance(data, dict):
-            raise CheckpointError(f"checkpoint {path} holds a {type(data).__name__}, not a state dict "
-                                  f"(expected the official {EXPECTED_FILE})")
-        try:
-            self.load_state_dict(data, str(path))
-        except CheckpointError as error:
-            raise CheckpointError(f"{error}\n  (expected the official {EXPECTED_FILE} from serizba/salad, "
-                                  f"keys backbone.model.* and aggregator.*)") from None
-        self.prepare()
+        size = self.conf["image_size"]
+        if size == "auto" and self.harness:
+            return resize_tensor(to_tensor(image), harness_size(*image.shape[:2], self.patch_size))
+        height, width = OFFICIAL_SIZE if size == "auto" else (int(s) for s in size)
+        return to_tensor(pil_resize(image, (height, width), "bilinear"))

@@ -17,12 +17,20 @@ does not depend on the sequence length ``L`` or on a sort of the whole column:
 Every reported number is therefore the float64 value of the definition, bit for bit, whatever the block size or the
 screening precision (float32 only decides which few candidates are recomputed): block-wise equals whole-matrix
 exactly, and the live matcher (``eval.live``), which runs the same code on one window, equals the batch.
+
+When numba is importable, the same selection runs compiled (``eval.kernels``): the matrix is read in its own
+layout, screened in float64 with the same error bounds, and every reported number is again the definition's float64
+value, so the compiled and the numpy paths give identical results. ``_kernels`` picks the path, in this one
+place: compiled for large matrices (``KERNEL_MIN_VALUES``) when numba imports, numpy otherwise, or as ``KERNEL``
+(``"numba"``/``"numpy"``) or the environment variable ``VPR_SMR_KERNEL`` say.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -42,6 +50,32 @@ ATTRIBUTE_NAMES = ("A1", "A2", "A3", "A4")  # minimum sum, minimum value, block 
 BLOCK_VALUES = 1 << 20  # about 1 M values (4 MB of float32) per block of query columns: measured fastest
 SCREEN_GROUP = 32
 TRANSPOSE_ROWS = 256
+KERNEL_CHUNK_VALUES = 16 << 20  # values per read of a lazy (HDF5) matrix on the compiled path: 64 MB of float32
+# The compiled path costs about 0.65-0.8 s per process before its first result (numba's import and first dispatch,
+# its on-disk cache warm) and then saves about 15 ns per matrix value on 2 cores: it pays from about 50 M values.
+KERNEL_MIN_VALUES = 50_000_000
+KERNEL: str | None = None  # "numba" or "numpy" forces a path; None: VPR_SMR_KERNEL, else numba from KERNEL_MIN_VALUES
+
+
+def _kernels(n_values: int) -> ModuleType | None:
+    """The compiled kernels (``eval.kernels``) for a matrix of ``n_values`` values, or None for the numpy path.
+
+    The one place that chooses: ``KERNEL``, else the environment variable ``VPR_SMR_KERNEL`` (``numba`` or
+    ``numpy``), else numba when it imports and the matrix has at least ``KERNEL_MIN_VALUES`` values. A missing
+    numba only costs speed (the results are the same), unless the compiled path was asked for by name."""
+    choice = (KERNEL or os.environ.get("VPR_SMR_KERNEL", "") or "auto").lower()
+    if choice not in ("numba", "numpy", "auto"):
+        raise ValueError(f"VPR_SMR_KERNEL={choice!r}: expected numba, numpy or nothing (numba for large matrices)")
+    if choice == "numpy" or (choice == "auto" and n_values < KERNEL_MIN_VALUES):
+        return None
+    try:
+        from . import kernels
+    except ImportError as error:
+        if choice == "numba":
+            raise RuntimeError(f"the compiled attributes path was asked for but numba does not import ({error}); "
+                               "pip install numba, or unset VPR_SMR_KERNEL") from None
+        return None
+    return kernels
 
 
 @dataclass(frozen=True)
@@ -218,6 +252,20 @@ def block_features(
     """
     raw = np.asarray(columns)
     raw = raw.astype(_block_dtype(raw.dtype), copy=False)
+    kernels = _kernels(raw.size)
+    if kernels is not None:
+        out = _compiled_features(kernels, raw.T, seq_len, n_ranks, where)
+        if out is not None:
+            return out
+    return _numpy_block_features(raw, seq_len, n_ranks, screen_dtype, where)
+
+
+def _numpy_block_features(
+    columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, where: str = ""
+) -> dict[str, np.ndarray]:
+    """``block_features`` in numpy: float32 (``screen_dtype``) screening by the prefix sums of the block."""
+    raw = np.asarray(columns)
+    raw = raw.astype(_block_dtype(raw.dtype), copy=False)
     n_cols, n_ref = raw.shape
     n_queries, n_diag, k = n_cols - seq_len + 1, n_ref - seq_len + 1, n_ranks
 
@@ -314,6 +362,30 @@ def block_features(
     }
 
 
+def _compiled_features(kernels: ModuleType, raw: np.ndarray, seq_len: int, n_ranks: int, where: str,
+                       block_queries: int | None = None) -> dict[str, np.ndarray] | None:
+    """``block_features`` of ``raw`` (references x query columns, float32/float64, any strides) by the compiled
+    kernel; None when the values' range is too extreme for its float64 screening (the numpy path then runs)."""
+    step = min(block_queries or kernels.BLOCK_QUERIES, kernels.BLOCK_QUERIES)
+    width = raw.shape[1]
+    col_max, col_min, col_bad = np.empty(width, raw.dtype), np.empty(width, raw.dtype), np.empty(width)
+    kernels.column_range(raw, col_max, col_min, col_bad)
+    if np.any(col_bad != 0):
+        check_finite(raw, where=where)
+    col_max64 = col_max.astype(np.float64)
+    col_max64[col_max64 == 0] = 1.0  # as normalise_columns
+    size = np.maximum(np.abs(col_max), np.abs(col_min)).astype(np.float64)
+    magnitude_raw = float(size.max())
+    magnitude = float((size / np.abs(col_max64)).max()) * (1 + 1e-6)
+    # Far from 1 the float64 running sums could overflow or lose the relative error bound (subnormals).
+    if not (1e-200 < magnitude_raw < 1e200 and magnitude < 1e200):
+        return None
+    n_cols = step + seq_len - 1
+    margin = 2 * _error_bound(np.dtype(np.float64), n_cols, seq_len, magnitude)
+    margin_raw = 2 * _error_bound(np.dtype(np.float64), n_cols, seq_len, magnitude_raw)
+    return kernels.column_blocks(raw, col_max64, seq_len, n_ranks, margin, margin_raw, step)
+
+
 def _mean_full(diagonal_sum: Callable[..., np.ndarray], j: np.ndarray, lo: np.ndarray, hi: np.ndarray,
                seq_len: int) -> np.ndarray:
     """Mean of ``full_m`` over the diagonals ``m = lo .. hi`` (inclusive) of block column ``j``: the block and
@@ -351,11 +423,28 @@ def _run_blocks(distance_matrix: Any, seq_len: int, n_ranks: int, block_queries:
     n_out = n_query - seq_len + 1
     step = block_queries or default_block_queries(n_ref)
     parts: list[dict[str, np.ndarray]] = []
-    for start in range(0, n_out, step):
-        stop = min(n_out, start + step)
-        columns = read_columns(matrix, start, stop + seq_len - 1)
-        parts.append(block_features(columns, seq_len, n_ranks, screen_dtype,
-                                    where=f" in query columns {start}..{stop + seq_len - 2}"))
+    kernels = _kernels(n_ref * n_query)
+    chunk = step
+    if kernels is not None and not block_queries:
+        # The compiled path reads the matrix in its own layout: a float32/float64 array or memmap as one view (no
+        # copy), anything else (HDF5, integers to convert) in chunks of whole rows of about KERNEL_CHUNK_VALUES values.
+        in_place = isinstance(matrix, np.ndarray) and matrix.dtype in (np.float32, np.float64)
+        chunk = n_out if in_place else max(kernels.BLOCK_QUERIES, KERNEL_CHUNK_VALUES // max(n_ref, 1))
+    for first in range(0, n_out, chunk):
+        last = min(n_out, first + chunk)
+        if kernels is not None:
+            raw = np.asarray(matrix[:, first : last + seq_len - 1])  # a view of an array or memmap; HDF5 reads
+            raw = raw.astype(_block_dtype(raw.dtype), copy=False)
+            out = _compiled_features(kernels, raw, seq_len, n_ranks,
+                                     f" in query columns {first}..{last + seq_len - 2}", block_queries)
+            if out is not None:
+                parts.append(out)
+                continue
+        for start in range(first, last, step):  # the numpy path, in its own blocks
+            stop = min(last, start + step)
+            columns = read_columns(matrix, start, stop + seq_len - 1)
+            parts.append(_numpy_block_features(columns, seq_len, n_ranks, screen_dtype,
+                                               where=f" in query columns {start}..{stop + seq_len - 2}"))
     return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}, n_ranks
 
 

@@ -1,8 +1,13 @@
-"""Evaluation of one method on one dataset: match removal by the predictor, PR curves, AOC, F1 (SPEC 7-8)."""
+"""Evaluation of one method on one dataset: match removal by the predictor, PR curves, AOC, F1 (SPEC 7-9).
+
+The seed-0 predictor (the authors' recipe) gives every curve and the headline numbers; every seed's predictor gives
+the reduction and AOC numbers under ``seeds``, summarised in ``seed_summary``, so a table can show their spread.
+"""
 
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -13,84 +18,202 @@ from .attributes import QueryFeatures
 from .io import read_features, read_provenance, write_json
 from .metrics import MODES, Curve, compare_curves, curve, keep_mask, recall_at_full_precision
 from .predictor import SMRPredictor, macro_f1
+from .restoration import evaluate_restoration
 
 LABELS = (0, 1, 2, 3)
 DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)
+SEED_KEYS = ("max_recall", "auc_vpr_sm", "auc_vpr_sm_pred", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")
 
 
-def evaluate_split(
-    features: QueryFeatures,
-    predictor: SMRPredictor,
-    modes: tuple[str, ...] = MODES,
-    trust_levels: tuple[float, ...] = DEFAULT_TRUST_LEVELS,
-) -> dict[str, Any]:
-    """Numbers and curves of one split: baseline (VPR+SM) against match removal by the predictor (+Pred)."""
-    start = time.perf_counter()
-    probabilities = predictor.predict_proba(features.attributes[:, 0, :])
-    predict_seconds = time.perf_counter() - start
-    predicted = predictor.classes_[np.argmax(probabilities, axis=1)]
-    confidence = probabilities.max(axis=1)
-    n = len(features.queries)
-    distances, correct = features.sequence_distance, features.sequence_correct
-    s_range = (features.sequence_min, features.sequence_max)
-    baseline_keep = keep_mask(n=n)
-    predictor_keep = keep_mask(predicted, confidence)
-    result: dict[str, Any] = {
-        "n_queries": n,
-        "recall_at_1_single": float(features.single_correct.mean()),
-        "recall_at_1_sequence": float(features.sequence_correct.mean()),
-        "f1_macro": macro_f1(features.labels, predicted),
-        "confusion_matrix": confusion_matrix(features.labels, predicted, labels=LABELS).tolist(),
-        "class_counts": np.bincount(features.labels, minlength=4).tolist(),
-        "predicted_counts": np.bincount(predicted, minlength=4).tolist(),
-        "removed": int((~predictor_keep).sum()),
-        "predict_seconds": predict_seconds,
-        "modes": {},
-    }
-    for mode in modes:
-        baseline = curve(mode, distances, correct, baseline_keep, *s_range)
-        with_predictor = curve(mode, distances, correct, predictor_keep, *s_range)
-        comparison = compare_curves(baseline, with_predictor)
-        result["modes"][mode] = {
-            "max_recall": comparison.max_recall,
-            "auc_vpr_sm": comparison.auc_baseline,
-            "auc_vpr_sm_pred": comparison.auc_predictor,
-            "aoc_vpr_sm": comparison.aoc_baseline,
-            "aoc_vpr_sm_pred": comparison.aoc_predictor,
-            "reduction_pct": comparison.reduction_pct,
-            "recall_at_100_precision_vpr_sm": recall_at_full_precision(baseline),
-            "recall_at_100_precision_vpr_sm_pred": recall_at_full_precision(with_predictor),
-            "curve_vpr_sm": _curve_dict(baseline),
-            "curve_vpr_sm_pred": _curve_dict(with_predictor),
-            "trust": {
-                str(level): _curve_dict(curve(mode, distances, correct, keep_mask(predicted, confidence, level),
-                                              *s_range))
-                for level in trust_levels
-            },
-        }
-    return result
+def rank_probabilities(predictor: Any, features: QueryFeatures, ranks: int | None = None) -> np.ndarray:
+    """``(N, K, C)`` class probabilities of the attributes of ranks ``0..K-1`` (A1..A4 order, as the predictor
+    takes them); ``ranks=1`` gives rank 0 only."""
+    n_ranks = features.attributes.shape[1] if ranks is None else ranks
+    return np.stack([predictor.predict_proba(features.attributes[:, k, :]) for k in range(n_ranks)], axis=1)
+
+
+def recall_at_1(features: QueryFeatures, mode: str) -> dict[str, float]:
+    """Recall@1 before and after sequence matching, by the mode's rule (SPEC 8).
+
+    Paper mode divides single-frame recall by every query of the split (the first ``L-1`` included, as the
+    authors do); standard mode by the evaluated queries (those with a sequence match).
+    """
+    single = features.all_single_correct if mode == "paper" else features.single_correct
+    return {"recall_at_1_single": float(np.mean(single)),
+            "recall_at_1_sequence": float(features.sequence_correct.mean())}
 
 
 def _curve_dict(curve_: Curve) -> dict[str, Any]:
     return {"recall": curve_.recall, "precision": curve_.precision}
 
 
+def removal(
+    features: QueryFeatures,
+    probabilities: np.ndarray,
+    classes: np.ndarray,
+    modes: tuple[str, ...] = MODES,
+    trust_levels: tuple[float, ...] = (),
+    curves: bool = True,
+) -> dict[str, Any]:
+    """Match removal (the first filter) by one predictor's rank-0 probabilities ``(N, C)``: per mode the baseline
+    against the predictor, and per trust level the AUC (and, with ``curves``, every curve)."""
+    predicted = np.asarray(classes)[np.argmax(probabilities, axis=1)]
+    confidence = probabilities.max(axis=1)
+    n = len(features.queries)
+    distances, correct = features.sequence_distance, features.sequence_correct
+    s_range = (features.sequence_min, features.sequence_max)
+    predictor_keep = keep_mask(predicted, confidence)
+    result: dict[str, Any] = {
+        "f1_macro": macro_f1(features.labels, predicted),
+        "removed": int((~predictor_keep).sum()),
+        "predicted": predicted,
+        "modes": {},
+    }
+    for mode in modes:
+        baseline = curve(mode, distances, correct, keep_mask(n=n), *s_range)
+        with_predictor = curve(mode, distances, correct, predictor_keep, *s_range)
+        comparison = compare_curves(baseline, with_predictor)
+        numbers: dict[str, Any] = {
+            **recall_at_1(features, mode),
+            "max_recall": comparison.max_recall,
+            "auc_vpr_sm": comparison.auc_baseline,
+            "auc_vpr_sm_pred": comparison.auc_predictor,
+            "aoc_vpr_sm": comparison.aoc_baseline,
+            "aoc_vpr_sm_pred": comparison.aoc_predictor,
+            "reduction_pct": comparison.reduction_pct,
+        }
+        if curves:
+            numbers.update({
+                "recall_at_100_precision_vpr_sm": recall_at_full_precision(baseline),
+                "recall_at_100_precision_vpr_sm_pred": recall_at_full_precision(with_predictor),
+                "curve_vpr_sm": _curve_dict(baseline),
+                "curve_vpr_sm_pred": _curve_dict(with_predictor),
+            })
+        trust, trust_numbers = {}, {}
+        for level in trust_levels:
+            keep = keep_mask(predicted, confidence, level)
+            trust_curve = curve(mode, distances, correct, keep, *s_range)
+            level_comparison = compare_curves(baseline, trust_curve)
+            trust[str(level)] = _curve_dict(trust_curve)
+            trust_numbers[str(level)] = {
+                "removed": int((~keep).sum()), "max_recall": level_comparison.max_recall,
+                "auc": level_comparison.auc_predictor, "aoc": level_comparison.aoc_predictor,
+                "auc_vpr_sm": level_comparison.auc_baseline, "aoc_vpr_sm": level_comparison.aoc_baseline,
+                "reduction_pct": level_comparison.reduction_pct,
+            }
+        if trust_levels:
+            numbers["trust_auc"] = trust_numbers
+            if curves:
+                numbers["trust"] = trust
+        result["modes"][mode] = numbers
+    return result
+
+
+def seed_summary(seeds: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
+    """Per mode: mean, sample standard deviation (ddof 1; 0 for one seed), min and max of ``reduction_pct``."""
+    out = {}
+    for mode in seeds[0]["modes"]:
+        values = np.array([s["modes"][mode]["reduction_pct"] for s in seeds])
+        out[mode] = {
+            "n_seeds": len(values),
+            "reduction_pct_mean": float(values.mean()),
+            "reduction_pct_std": float(values.std(ddof=1)) if len(values) > 1 else 0.0,
+            "reduction_pct_min": float(values.min()),
+            "reduction_pct_max": float(values.max()),
+        }
+    return out
+
+
+def evaluate_split(
+    features: QueryFeatures,
+    predictors: SMRPredictor | Sequence[SMRPredictor],
+    modes: tuple[str, ...] = MODES,
+    trust_levels: tuple[float, ...] = DEFAULT_TRUST_LEVELS,
+    restoration: bool = False,
+    seeds: Sequence[int] | None = None,
+) -> dict[str, Any]:
+    """Numbers and curves of one split: baseline (VPR+SM) against match removal (+Pred), per seed, and restoration.
+
+    ``predictors`` are in seed order, seed 0 first: the first gives the curves, the predictor's own numbers
+    (macro F1, confusion matrix) and restoration; each gives one entry of ``seeds``.
+    """
+    predictors = [predictors] if isinstance(predictors, SMRPredictor) else list(predictors)
+    seeds = list(range(len(predictors))) if seeds is None else list(seeds)
+    if len(seeds) != len(predictors):
+        raise ValueError(f"{len(predictors)} predictors but {len(seeds)} seeds")
+    first = predictors[0]
+    start = time.perf_counter()
+    probabilities = first.predict_proba(features.attributes[:, 0, :])
+    predict_seconds = time.perf_counter() - start
+    numbers = removal(features, probabilities, first.classes_, tuple(modes), tuple(trust_levels))
+    predicted = numbers.pop("predicted")
+    n = len(features.queries)
+    result: dict[str, Any] = {
+        "n_queries": n,
+        "n_queries_split": len(features.all_single_correct),
+        # single-frame recall@1 by both rules: over the split's every query (paper) and the evaluated ones (standard)
+        "recall_at_1_single_all": float(np.mean(features.all_single_correct)),
+        "recall_at_1_single_evaluated": float(features.single_correct.mean()),
+        "recall_at_1_sequence": float(features.sequence_correct.mean()),
+        "f1_macro": numbers["f1_macro"],
+        "confusion_matrix": confusion_matrix(features.labels, predicted, labels=LABELS).tolist(),
+        "class_counts": np.bincount(features.labels, minlength=4).tolist(),
+        "predicted_counts": np.bincount(predicted, minlength=4).tolist(),
+        "removed": numbers["removed"],
+        "predict_seconds": predict_seconds,
+        "modes": numbers["modes"],
+        "seeds": [],
+    }
+    for seed, predictor in zip(seeds, predictors, strict=True):
+        seed_numbers = numbers if predictor is first else removal(
+            features, predictor.predict_proba(features.attributes[:, 0, :]), predictor.classes_, tuple(modes),
+            curves=False)
+        result["seeds"].append({
+            "seed": seed, "f1_macro": seed_numbers["f1_macro"], "removed": seed_numbers["removed"],
+            "modes": {mode: {k: seed_numbers["modes"][mode][k] for k in SEED_KEYS} for mode in modes},
+        })
+    result["seed_summary"] = seed_summary(result["seeds"])
+    if restoration:
+        result["restoration"] = evaluate_restoration(
+            features, rank_probabilities(first, features), first.classes_, tuple(modes))
+        for numbers in result["restoration"]["modes"].values():
+            # the same curves as modes[mode]["curve_vpr_sm"] and ["curve_vpr_sm_pred"] (seed 0, trust 0): kept once
+            del numbers["curve_vpr_sm"], numbers["curve_removal"]
+    return result
+
+
 def main(
     features_paths: dict[str, Path | str],
-    predictor_path: Path | str,
+    predictor_paths: Sequence[Path | str] | Path | str,
     out: Path | str,
     modes: tuple[str, ...] = MODES,
     trust_levels: tuple[float, ...] = DEFAULT_TRUST_LEVELS,
     meta: dict[str, Any] | None = None,
+    restoration: bool = True,
+    seeds: Sequence[int] | None = None,
 ) -> dict[str, Any]:
-    """Evaluate every split in ``features_paths`` (e.g. val and test) and write one JSON file."""
-    predictor = SMRPredictor.load(predictor_path)
-    result: dict[str, Any] = {"meta": dict(meta or {}), "splits": {}}
+    """Evaluate every split in ``features_paths`` (e.g. val and test) with the predictors of ``predictor_paths``
+    (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write one JSON file ``out``."""
+    if isinstance(predictor_paths, str | Path):
+        predictor_paths = [predictor_paths]
+    if not predictor_paths:
+        raise ValueError("evaluate needs at least one predictor file (seed 0 first)")
+    predictors = []
+    for path in predictor_paths:
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"predictor file not found: {path} (train it first: vpr-smr train)")
+        predictors.append(SMRPredictor.load(path))
+    result: dict[str, Any] = {
+        "meta": dict(meta or {}), "predictors": [str(p) for p in predictor_paths], "splits": {},
+    }
     for split, path in features_paths.items():
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"features of split {split!r} not found: {path} (run vpr-smr attributes)")
         features = read_features(path)
-        split_result = evaluate_split(features, predictor, tuple(modes), tuple(trust_levels))
+        split_result = evaluate_split(features, predictors, tuple(modes), tuple(trust_levels), restoration, seeds)
         attributes_seconds = float(read_provenance(path).get("attributes_seconds", 0.0))
         n = max(split_result["n_queries"], 1)
+        split_result["attributes_seconds"] = attributes_seconds
         split_result["seconds_per_query"] = (attributes_seconds + split_result["predict_seconds"]) / n
         result["splits"][split] = split_result
     write_json(out, result)

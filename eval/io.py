@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import secrets
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import fields
@@ -32,10 +33,13 @@ def package_version() -> str:
 
 @contextmanager
 def atomic_path(path: Path | str) -> Iterator[Path]:
-    """``path.tmp`` to write to: renamed to ``path`` when the block finishes, removed if it fails."""
+    """A temporary name beside ``path`` to write to: renamed to ``path`` when the block finishes, removed if it fails.
+
+    The name is unique to this process and call, so that two writers of one file never share a temporary file.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
     try:
         yield tmp
         os.replace(tmp, path)

@@ -1,96 +1,126 @@
-"""The SMR predictor (SPEC section 7): SMOTE + StandardScaler + MLPClassifier, stored without pickle.
+"""The SMR predictor (SPEC sections 5 and 7): column order, SMOTE, StandardScaler, MLPClassifier; stored without pickle.
 
-``SMRPredictor`` follows scikit-learn's conventions (parameters in ``__init__``, ``fit``/``predict``,
-fitted state in attributes ending with ``_``). Its fitted state is a handful of arrays (scaler statistics and
-the MLP's weights), so it is saved to HDF5 and loaded back without unpickling anything.
+``SMRPredictor`` is a scikit-learn estimator (``clone``, ``get_params(deep=True)``, ``cross_validate`` work). Its
+``fit`` builds and fits an imbalanced-learn ``Pipeline`` (so SMOTE resamples the training samples only, also inside
+every cross-validation fold) and keeps the fitted arrays (scaler statistics, the MLP's weights) as attributes ending
+with ``_``. ``predict_proba`` runs the MLP's forward pass from those arrays, so the predictor is saved to HDF5 and
+loaded back without unpickling anything.
+
+Callers always pass the attributes in the paper's names order A1, A2, A3, A4 (``QueryFeatures.attributes[:, k, :]``);
+``column_order`` (default ``(0, 1, 3, 2)``) picks the network's input columns from them: the authors' code order
+``[A1, A2, A4, A3]`` (min sum, min value, group, block), which changes the trained network (SPEC 5).
 """
 
 from __future__ import annotations
 
+import json
+import warnings
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import h5py
 import numpy as np
+from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.metrics import f1_score
-from sklearn.model_selection import StratifiedKFold
+from sklearn.model_selection import StratifiedKFold, cross_validate
 from sklearn.neural_network import MLPClassifier
-from sklearn.pipeline import Pipeline
-from sklearn.preprocessing import StandardScaler
+from sklearn.preprocessing import FunctionTransformer, StandardScaler
+from sklearn.utils.multiclass import check_classification_targets
+from sklearn.utils.validation import check_is_fitted, validate_data
 
 PAPER_PARAMS = {"alpha": 1e-4, "learning_rate_init": 1e-3}  # the authors' code
 PAPER_TEXT_PARAMS = {"alpha": 1e-3, "learning_rate_init": 1e-4}  # the paper's text
+CODE_COLUMN_ORDER = (0, 1, 3, 2)  # A1..A4 -> the authors' input [A1, A2, A4, A3] (min sum, min value, group, block)
+
+# scikit-learn's MLP catches KeyboardInterrupt in its training loop, warns this, and returns the half-trained network
+INTERRUPT_WARNING = "Training interrupted by user."
 
 
 def smote_neighbours(labels: np.ndarray) -> int:
     """``max(1, min(5, smallest class - 1))``."""
-    return max(1, min(5, int(np.bincount(labels)[np.unique(labels)].min()) - 1))
+    return max(1, min(5, int(np.unique(labels, return_counts=True)[1].min()) - 1))
 
 
-def oversample(features: np.ndarray, labels: np.ndarray, random_state: int = 42) -> tuple[np.ndarray, np.ndarray]:
-    """SMOTE on the training samples; returned unchanged when some class has a single sample."""
-    from imblearn.over_sampling import SMOTE
-
-    labels = np.asarray(labels)
-    counts = np.bincount(labels)[np.unique(labels)]
-    if len(counts) < 2 or counts.min() < 2:
-        return features, labels
-    smote = SMOTE(random_state=random_state, k_neighbors=smote_neighbours(labels))
-    return smote.fit_resample(features, labels)
+def select_columns(features: np.ndarray, columns: tuple[int, ...] | None) -> np.ndarray:
+    """``features[:, columns]`` (all columns, in their order, when ``columns`` is None)."""
+    return features if columns is None else features[:, list(columns)]
 
 
-class SMRPredictor:
-    """MLP predicting the label (0..3) of a query from its rank-0 attributes."""
+class SMRPredictor(ClassifierMixin, BaseEstimator):
+    """MLP predicting the label (0..3) of a query from its rank-0 attributes, given in A1..A4 order.
+
+    ``column_order``: indices into the A1..A4 input fed to the network, in that order (the authors' code order by
+    default; ``(k,)`` for attribute ``k`` alone; None for the input as given). ``smote=False`` (or a class with a
+    single training sample) skips SMOTE. The other parameters are the MLP's (SPEC 7).
+    """
 
     def __init__(
         self,
-        hidden_layer_sizes: tuple[int, ...] = (128, 128, 128),
+        hidden_layer_sizes: Sequence[int] = (128, 128, 128),
         alpha: float = PAPER_PARAMS["alpha"],
         learning_rate_init: float = PAPER_PARAMS["learning_rate_init"],
         max_iter: int = 10000,
         smote: bool = True,
         random_state: int = 0,
         smote_random_state: int = 42,
+        column_order: Sequence[int] | None = CODE_COLUMN_ORDER,
     ) -> None:
-        self.hidden_layer_sizes = tuple(hidden_layer_sizes)
+        # stored unchanged, as scikit-learn's clone requires; checked and converted in fit
+        self.hidden_layer_sizes = hidden_layer_sizes
         self.alpha = alpha
         self.learning_rate_init = learning_rate_init
         self.max_iter = max_iter
         self.smote = smote
         self.random_state = random_state
         self.smote_random_state = smote_random_state
+        self.column_order = column_order
 
-    def get_params(self) -> dict[str, Any]:
-        return {
-            "hidden_layer_sizes": list(self.hidden_layer_sizes),
-            "alpha": self.alpha,
-            "learning_rate_init": self.learning_rate_init,
-            "max_iter": self.max_iter,
-            "smote": self.smote,
-            "random_state": self.random_state,
-            "smote_random_state": self.smote_random_state,
-        }
+    def _columns(self, n_features: int) -> tuple[int, ...] | None:
+        if self.column_order is None:
+            return None
+        columns = tuple(int(c) for c in self.column_order)
+        if not columns or any(c < 0 or c >= n_features for c in columns) or len(set(columns)) != len(columns):
+            raise ValueError(f"predictor setting column_order={list(self.column_order)} must list distinct column "
+                             f"indices of the {n_features} input attributes (0..{n_features - 1}, A1..A4 order)")
+        return columns
 
-    def pipeline(self) -> Pipeline:
-        return Pipeline([
-            ("scaler", StandardScaler()),
-            ("mlp", MLPClassifier(
-                hidden_layer_sizes=self.hidden_layer_sizes, activation="relu", solver="adam", alpha=self.alpha,
-                learning_rate_init=self.learning_rate_init, early_stopping=True, max_iter=self.max_iter,
-                random_state=self.random_state,
-            )),
-        ])
+    def pipeline(self, labels: np.ndarray, n_features: int) -> Any:
+        """The unfitted imbalanced-learn pipeline for training labels ``labels`` and ``n_features`` input columns:
+        column selection, SMOTE (unless off or a class has a single sample), StandardScaler, MLPClassifier."""
+        from imblearn.over_sampling import SMOTE
+        from imblearn.pipeline import Pipeline
 
-    def fit(self, features: np.ndarray, labels: np.ndarray) -> SMRPredictor:
-        features = np.asarray(features, dtype=np.float64)
-        labels = np.asarray(labels, dtype=np.int64)
+        steps: list[tuple[str, Any]] = [
+            ("columns", FunctionTransformer(select_columns, kw_args={"columns": self._columns(n_features)})),
+        ]
+        if self.smote and np.unique(labels, return_counts=True)[1].min() >= 2:
+            steps.append(("smote", SMOTE(random_state=self.smote_random_state, k_neighbors=smote_neighbours(labels))))
+        steps.append(("scaler", StandardScaler()))
+        steps.append(("mlp", MLPClassifier(
+            hidden_layer_sizes=tuple(self.hidden_layer_sizes), activation="relu", solver="adam", alpha=self.alpha,
+            learning_rate_init=self.learning_rate_init, early_stopping=True, max_iter=self.max_iter,
+            random_state=self.random_state,
+        )))
+        return Pipeline(steps)
+
+    def fit(self, X: np.ndarray, y: np.ndarray) -> SMRPredictor:  # noqa: N803 (scikit-learn's argument names)
+        """Fit on ``X`` (A1..A4 columns) and labels ``y``; raises ``KeyboardInterrupt`` if interrupted."""
+        features, labels = validate_data(self, X, y, dtype=np.float64)
+        check_classification_targets(labels)
         if len(np.unique(labels)) < 2:
-            raise ValueError(
-                f"the predictor needs at least two classes among the training labels, got only {np.unique(labels)}"
-            )
-        if self.smote:
-            features, labels = oversample(features, labels, self.smote_random_state)
-        fitted = self.pipeline().fit(features, labels)
+            raise ValueError(f"the predictor needs at least two classes among the training labels, got one class "
+                             f"only: {np.unique(labels)}")
+        fitted = self.pipeline(labels, features.shape[1])
+        with warnings.catch_warnings():
+            # turn the MLP's "interrupted" warning into an error, so that a half-trained network is never kept
+            warnings.filterwarnings("error", message=INTERRUPT_WARNING, category=UserWarning)
+            try:
+                fitted.fit(features, labels)
+            except UserWarning as warning:
+                if str(warning) == INTERRUPT_WARNING:
+                    raise KeyboardInterrupt("predictor training interrupted; nothing was kept") from warning
+                raise
         scaler, mlp = fitted.named_steps["scaler"], fitted.named_steps["mlp"]
         self.mean_ = scaler.mean_.copy()
         self.scale_ = scaler.scale_.copy()
@@ -100,9 +130,20 @@ class SMRPredictor:
         self.n_iter_ = int(mlp.n_iter_)
         return self
 
+    def _plain_input(self, features: Any) -> bool:
+        """A finite 2-D float array of the fitted width (what the pipeline always passes)."""
+        return (isinstance(features, np.ndarray) and features.ndim == 2 and features.dtype.kind == "f"
+                and features.shape[1] == self.n_features_in_ and not hasattr(self, "feature_names_in_")
+                and bool(np.isfinite(features).all()))
+
     def predict_proba(self, features: np.ndarray) -> np.ndarray:
         """Class probabilities, columns in ``classes_`` order: the MLP's forward pass from its stored arrays."""
-        hidden = (np.asarray(features, dtype=np.float64) - self.mean_) / self.scale_
+        if not hasattr(self, "coefs_"):  # check_is_fitted's own test, without its cost per live frame
+            check_is_fitted(self, "coefs_")
+        if not self._plain_input(features):  # scikit-learn's checks and messages, 150 us a call: not per live frame
+            features = validate_data(self, features, dtype=np.float64, reset=False)
+        features = np.asarray(features, dtype=np.float64)
+        hidden = (select_columns(features, self._columns(features.shape[1])) - self.mean_) / self.scale_
         for weights, bias in zip(self.coefs_[:-1], self.intercepts_[:-1], strict=True):
             hidden = np.maximum(hidden @ weights + bias, 0.0)
         logits = hidden @ self.coefs_[-1] + self.intercepts_[-1]
@@ -114,32 +155,48 @@ class SMRPredictor:
         return exp / exp.sum(axis=1, keepdims=True)
 
     def predict(self, features: np.ndarray) -> np.ndarray:
+        check_is_fitted(self, "coefs_")
         return self.classes_[np.argmax(self.predict_proba(features), axis=1)]
 
     def save(self, path: Path | str, **attrs: Any) -> None:
-        """Write the fitted arrays to HDF5 (temporary name, then rename)."""
+        """Write the parameters and fitted arrays to HDF5 (temporary name, then rename); ``attrs`` as attributes."""
         from .io import atomic_h5
 
-        with atomic_h5(path, {**attrs, "params": self.get_params(), "n_iter": self.n_iter_}) as f:
+        check_is_fitted(self, "coefs_")
+        if self.classes_.dtype.kind not in "iub":
+            raise ValueError(f"cannot save {path}: the predictor's classes must be integers, got {self.classes_}")
+        provenance = {**attrs, "params": self.get_params(), "n_iter": self.n_iter_,
+                      "n_features_in": int(self.n_features_in_)}
+        with atomic_h5(path, provenance) as f:
             f["mean"], f["scale"], f["classes"] = self.mean_, self.scale_, self.classes_
             for i, (w, b) in enumerate(zip(self.coefs_, self.intercepts_, strict=True)):
                 f[f"layers/{i}/weights"], f[f"layers/{i}/bias"] = w, b
 
     @classmethod
     def load(cls, path: Path | str) -> SMRPredictor:
-        import json
-
+        """A predictor written by ``save``. Files from before ``column_order`` existed fed the A1..A4 input as given:
+        they load with ``column_order=None``."""
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"predictor file not found: {path} (train it first: vpr-smr train)")
         with h5py.File(path, "r") as f:
             params = json.loads(f.attrs["params"])
-            predictor = cls(**{**params, "hidden_layer_sizes": tuple(params["hidden_layer_sizes"])})
+            unknown = set(params) - set(cls._get_param_names())
+            if unknown:
+                raise ValueError(f"{path}: unknown predictor settings {sorted(unknown)}; was it written by a newer "
+                                 f"vpr-smr? Retrain it with this version (vpr-smr train)")
+            params["hidden_layer_sizes"] = tuple(params["hidden_layer_sizes"])
+            order = params.get("column_order")
+            params["column_order"] = None if order is None else tuple(order)
+            predictor = cls(**params)
             predictor.mean_, predictor.scale_ = f["mean"][()], f["scale"][()]
             predictor.classes_ = f["classes"][()]
             n_layers = len(f["layers"])
             predictor.coefs_ = [f[f"layers/{i}/weights"][()] for i in range(n_layers)]
             predictor.intercepts_ = [f[f"layers/{i}/bias"][()] for i in range(n_layers)]
             predictor.n_iter_ = int(f.attrs["n_iter"])
+            predictor.n_features_in_ = int(f.attrs.get("n_features_in", len(predictor.mean_)))
         return predictor
-
 
 
 def macro_f1(labels: np.ndarray, predicted: np.ndarray) -> float:
@@ -149,15 +206,12 @@ def macro_f1(labels: np.ndarray, predicted: np.ndarray) -> float:
 def cross_validated_f1(
     predictor: SMRPredictor, features: np.ndarray, labels: np.ndarray, n_splits: int = 5, random_state: int = 0
 ) -> float:
-    """Mean macro F1 of stratified k-fold cross-validation, SMOTE applied inside each training fold only."""
+    """Mean macro F1 of stratified k-fold ``cross_validate`` (``min(n_splits, largest class)`` folds) of a clone of
+    ``predictor``; SMOTE sits in the predictor's pipeline, so it resamples each training fold only."""
     labels = np.asarray(labels)
-    n_splits = min(n_splits, int(np.bincount(labels)[np.unique(labels)].max()))
+    n_splits = min(n_splits, int(np.unique(labels, return_counts=True)[1].max()))
     if n_splits < 2:
         raise ValueError("cross-validation needs at least two samples of some class")
     folds = StratifiedKFold(n_splits=n_splits, shuffle=True, random_state=random_state)
-    scores = []
-    for train, held_out in folds.split(features, labels):
-        fold = SMRPredictor(**{**predictor.get_params(), "hidden_layer_sizes": predictor.hidden_layer_sizes})
-        fold.fit(features[train], labels[train])
-        scores.append(macro_f1(labels[held_out], fold.predict(features[held_out])))
-    return float(np.mean(scores))
+    scores = cross_validate(predictor, features, labels, cv=folds, scoring="f1_macro", error_score="raise")
+    return float(np.mean(scores["test_score"]))

@@ -1,35 +1,77 @@
-"""Paper-style tables and figures from the evaluation and predictor JSON files (SPEC section 10)."""
+"""Tables and figures of every experiment, from the stages' JSON files, and the HTML report (SPEC section 10).
+
+Each experiment is optional: a table or figure is written only when its inputs are given. ``expected_outputs``
+lists, from the configuration alone, the files ``main`` writes, so that a workflow can declare them.
+"""
 
 from __future__ import annotations
 
 import csv
 import json
-from collections.abc import Sequence
+from collections.abc import Collection, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from . import figures as fig
 from .io import atomic_path
 
+SEED_COLUMNS = ("reduction_pct_mean", "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds")
 TABLE1_COLUMNS = (
     "dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence", "max_recall",
-    "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct",
+    "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", *SEED_COLUMNS,
 )
-PREDICTOR_COLUMNS = ("dataset", "seq_len", "n_train", "f1_cv", "f1_val", "f1_test")
+SEQ_LEN_COLUMNS = (*TABLE1_COLUMNS, "auc_vpr_sm", "auc_vpr_sm_pred")
+PREDICTOR_COLUMNS = ("dataset", "seq_len", "n_train", "train_class_0", "train_class_1", "train_class_2",
+                     "train_class_3", "f1_cv", "f1_val", "f1_test", "n_val", "n_test")
+PREDICTOR_METHOD_COLUMNS = ("dataset", "seq_len", "method", "split", "n_queries", "f1_macro", "class_0", "class_1",
+                            "class_2", "class_3", "predicted_0", "predicted_1", "predicted_2", "predicted_3")
+CONFUSION_COLUMNS = ("dataset", "seq_len", "method", "true_class", "predicted_0", "predicted_1", "predicted_2",
+                     "predicted_3", "total")
+TRUST_COLUMNS = ("dataset", "method", "seq_len", "mode", "trust", "removed", "max_recall", "auc", "aoc",
+                 "auc_vpr_sm", "aoc_vpr_sm", "reduction_pct")
+TABLE2_COLUMNS = ("dataset", "seq_len", "attributes", "f1_cv", "f1_val", "f1_test", "f1_test_method_mean")
+RESTORATION_COLUMNS = (
+    "dataset", "method", "seq_len", "mode", "removed", "restored", "restored_correct", "restored_wrong",
+    "wrong_to_right", "right_to_wrong", "max_recall_removal", "max_recall_restoration", "auc_vpr_sm", "auc_removal",
+    "auc_restoration", "auc_difference", "aoc_removal", "aoc_restoration", "aoc_difference", "reduction_pct",
+)
+LOMO_COLUMNS = ("dataset", "seq_len", "held_out", "mode", "n_queries", "f1_pooled", "f1_without", "removed_pooled",
+                "removed_without", "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled",
+                "reduction_pct_without")
+TIMING_COLUMNS = ("dataset", "method", "seq_len", "split", "n_queries", "attributes_seconds", "predict_seconds",
+                  "ms_per_query", "ms_attributes_per_query", "ms_predict_per_query")
+ROW_NAMES = ("VPR+SM", "VPR+SM+Pred", "Reduction (%)")
+SEED_ROW_NAME = "Reduction over seeds (%)"
+ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
 
 
-def table1_rows(evaluations: Sequence[dict[str, Any]], split: str = "test") -> list[dict[str, Any]]:
+# --- Table I --------------------------------------------------------------------------------------------------
+
+
+def _mode_numbers(split_result: dict[str, Any], mode: str) -> dict[str, Any]:
+    numbers = split_result["modes"][mode]
+    row = {k: numbers.get(k) for k in ("max_recall", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", "auc_vpr_sm",
+                                       "auc_vpr_sm_pred")}
+    # recall@1 single by the mode's rule (paper: all queries of the split); older files have one top-level value
+    row["recall_at_1_single"] = numbers.get("recall_at_1_single", split_result.get("recall_at_1_single"))
+    row["recall_at_1_sequence"] = numbers.get("recall_at_1_sequence", split_result.get("recall_at_1_sequence"))
+    row.update(split_result.get("seed_summary", {}).get(mode, {}))
+    return row
+
+
+def table1_rows(evaluations: Sequence[dict[str, Any]], split: str = "test",
+                seq_lens: Collection[int] | None = None) -> list[dict[str, Any]]:
+    """One row per (dataset, method, L, mode) of the evaluations, optionally only the sequence lengths given."""
     rows = []
     for evaluation in evaluations:
         meta, result = evaluation["meta"], evaluation["splits"][split]
-        for mode, numbers in result["modes"].items():
-            rows.append({
-                "dataset": meta["dataset"], "method": meta["method"], "seq_len": meta["seq_len"], "mode": mode,
-                "recall_at_1_single": result["recall_at_1_single"],
-                "recall_at_1_sequence": result["recall_at_1_sequence"],
-                **{k: numbers[k] for k in ("max_recall", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")},
-            })
+        if seq_lens is not None and int(meta["seq_len"]) not in seq_lens:
+            continue
+        for mode in result["modes"]:
+            rows.append({"dataset": meta["dataset"], "method": meta["method"], "seq_len": meta["seq_len"],
+                         "mode": mode, **_mode_numbers(result, mode)})
     return sorted(rows, key=lambda r: (r["mode"], r["seq_len"], r["dataset"], r["method"]))
 
 
@@ -47,11 +89,22 @@ def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float]], int]:
     return [v + [float(np.mean(v))] for v in values], sum(r["reduction_pct"] > 0 for r in rows)
 
 
-ROW_NAMES = ("VPR+SM", "VPR+SM+Pred", "Reduction (%)")
+def _has_seeds(rows: list[dict[str, Any]]) -> bool:
+    return all(r.get("reduction_pct_mean") is not None for r in rows)
+
+
+def _seed_cells(rows: list[dict[str, Any]], separator: str) -> tuple[list[str], str]:
+    """``mean ± std`` per method, the mean of the means, and how many methods improve on average."""
+    cells = [f"{r['reduction_pct_mean']:.2f}{separator}{r['reduction_pct_std']:.2f}" for r in rows]
+    means = [r["reduction_pct_mean"] for r in rows]
+    n_seeds = rows[0].get("n_seeds", "")
+    return cells + [f"{np.mean(means):.2f}"], f"{sum(m > 0 for m in means)} / {len(rows)} ({n_seeds} seeds)"
 
 
 def table1_markdown(rows: list[dict[str, Any]]) -> str:
-    out = ["# Table I: area over the precision-recall curve at max recall (test split)", ""]
+    out = ["# Table I: area over the precision-recall curve at max recall (test split)", "",
+           "Rows VPR+SM, VPR+SM+Pred, Reduction: the seed-0 predictor (the authors' recipe); "
+           "Reduction over seeds: mean ± sample standard deviation over the predictor seeds.", ""]
     for (mode, seq_len), datasets in sorted(_groups(rows).items()):
         methods = [r["method"] for r in next(iter(datasets.values()))]
         out += [f"## {mode} mode, sequence length {seq_len}", ""]
@@ -64,12 +117,16 @@ def table1_markdown(rows: list[dict[str, Any]]) -> str:
                 last = f"{improved} / {len(dataset_rows)}" if i == 2 else ""
                 label = dataset if i == 0 else ""
                 out.append(f"| {label} | {name} | " + " | ".join(fmt.format(v) for v in values) + f" | {last} |")
+            if _has_seeds(dataset_rows):
+                cells, last = _seed_cells(dataset_rows, " ± ")
+                out.append(f"|  | {SEED_ROW_NAME} | " + " | ".join(cells) + f" | {last} |")
         out.append("")
     return "\n".join(out)
 
 
-def _tex_escape(text: str) -> str:
-    return text.replace("_", r"\_").replace("%", r"\%")
+def _tex_escape(text: Any) -> str:
+    return str(text).replace("\\", r"\textbackslash{}").replace("_", r"\_").replace("%", r"\%").replace(
+        "&", r"\&").replace("#", r"\#")
 
 
 def table1_latex(rows: list[dict[str, Any]]) -> str:
@@ -93,98 +150,431 @@ def table1_latex(rows: list[dict[str, Any]]) -> str:
                     cells, last = [f"{v:.4f}" for v in values], ""
                 label = _tex_escape(dataset) if i == 0 else ""
                 out.append(f"{label} & {_tex_escape(name)} & " + " & ".join(cells) + f" & {last}" + r"\\")
+            if _has_seeds(dataset_rows):
+                cells, last = _seed_cells(dataset_rows, r" $\pm$ ")
+                out.append(f" & {_tex_escape(SEED_ROW_NAME)} & " + " & ".join(cells) + f" & {last}" + r"\\")
             out.append(r"\hline")
         out += [r"\end{tabular}", ""]
     return "\n".join(out)
 
 
-def _write_text(path: Path, text: str) -> None:
+# --- Table II ---------------------------------------------------------------------------------------------------
+
+
+def table2_rows(ablations: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    rows = []
+    for ablation in ablations:
+        meta = ablation["meta"]
+        for name in ATTRIBUTE_ORDER:
+            if name in ablation["attributes"]:
+                numbers = ablation["attributes"][name]
+                rows.append({"dataset": meta["dataset"], "seq_len": meta["seq_len"], "attributes": name,
+                             **{k: numbers.get(k) for k in TABLE2_COLUMNS[3:]}})
+    return sorted(rows, key=lambda r: (r["dataset"], r["seq_len"], ATTRIBUTE_ORDER.index(r["attributes"])))
+
+
+def _marks(name: str, yes: str, no: str) -> list[str]:
+    return [yes if name in (attribute, "all") else no for attribute in ATTRIBUTE_ORDER[:4]]
+
+
+def _f1(value: Any) -> str:
+    return "" if value is None else f"{value:.2f}"
+
+
+def table2_markdown(rows: list[dict[str, Any]]) -> str:
+    out = ["# Table II: macro F1 of the predictor by attribute (A1 minimum sum rate, A2 minimum value rate, "
+           "A3 block sum rate, A4 group sum rate)", ""]
+    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
+    for (dataset, seq_len), group in groups.items():
+        out += [f"## {dataset}, sequence length {seq_len}", "",
+                "| A1 | A2 | A3 | A4 | F1 cross-validation | F1 validation | F1 test | F1 test, mean over methods |",
+                "|---|---|---|---|---|---|---|---|"]
+        for row in group:
+            cells = _marks(row["attributes"], "✓", "×") + [_f1(row[k]) for k in TABLE2_COLUMNS[3:]]
+            out.append("| " + " | ".join(cells) + " |")
+        out.append("")
+    return "\n".join(out)
+
+
+def table2_latex(rows: list[dict[str, Any]]) -> str:
+    out = []
+    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
+    for (dataset, seq_len), group in groups.items():
+        out += [f"% {dataset}, sequence length {seq_len}", r"\begin{tabular}{c|c|c|c|c|c|c|c}",
+                r"A1 & A2 & A3 & A4 & F1 (CV) & F1 (val) & F1 (test) & F1 (test, method mean)\\", r"\hline"]
+        for row in group:
+            cells = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row[k]) for k in TABLE2_COLUMNS[3:]]
+            out.append(" & ".join(cells) + r"\\")
+        out += [r"\end{tabular}", ""]
+    return "\n".join(out)
+
+
+# --- the other tables -----------------------------------------------------------------------------------------
+
+
+def predictor_rows(predictors: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    rows = []
+    for report in predictors:
+        counts = report.get("train_class_counts") or [None] * 4
+        rows.append({**{k: report.get(k) for k in PREDICTOR_COLUMNS}, **report["meta"],
+                     **{f"train_class_{c}": counts[c] for c in range(4)}})
+    return sorted(rows, key=lambda r: (r["dataset"], r["seq_len"]))
+
+
+def _by_key(evaluations: Sequence[dict[str, Any]]) -> dict[tuple[str, int], list[dict[str, Any]]]:
+    """(dataset, L) -> evaluations sorted by method."""
+    out: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    for evaluation in evaluations:
+        out.setdefault((evaluation["meta"]["dataset"], int(evaluation["meta"]["seq_len"])), []).append(evaluation)
+    return {key: sorted(items, key=lambda e: e["meta"]["method"]) for key, items in sorted(out.items())}
+
+
+def predictor_method_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[dict[str, Any]]:
+    rows = []
+    for (dataset, seq_len), items in _by_key(evaluations).items():
+        for evaluation in items:
+            result = evaluation["splits"][split]
+            rows.append({"dataset": dataset, "seq_len": seq_len, "method": evaluation["meta"]["method"],
+                         "split": split, "n_queries": result["n_queries"], "f1_macro": result["f1_macro"],
+                         **{f"class_{c}": result["class_counts"][c] for c in range(4)},
+                         **{f"predicted_{c}": result["predicted_counts"][c] for c in range(4)}})
+    return rows
+
+
+def confusion_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[dict[str, Any]]:
+    """The seed-0 confusion matrix per dataset, L and method, and summed over the methods (method ``all``)."""
+    rows = []
+    for (dataset, seq_len), items in _by_key(evaluations).items():
+        matrices = [(e["meta"]["method"], np.array(e["splits"][split]["confusion_matrix"])) for e in items]
+        matrices.append(("all", np.sum([m for _, m in matrices], axis=0)))
+        for method, matrix in matrices:
+            for true_class, counts in enumerate(matrix):
+                rows.append({"dataset": dataset, "seq_len": seq_len, "method": method, "true_class": true_class,
+                             **{f"predicted_{c}": int(counts[c]) for c in range(4)}, "total": int(counts.sum())})
+    return rows
+
+
+def trust_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[dict[str, Any]]:
+    rows = []
+    for (dataset, seq_len), items in _by_key(evaluations).items():
+        for evaluation in items:
+            for mode, numbers in evaluation["splits"][split]["modes"].items():
+                for level, values in numbers.get("trust_auc", {}).items():
+                    rows.append({"dataset": dataset, "method": evaluation["meta"]["method"], "seq_len": seq_len,
+                                 "mode": mode, "trust": float(level), **values})
+    return rows
+
+
+def restoration_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[dict[str, Any]]:
+    rows = []
+    for (dataset, seq_len), items in _by_key(evaluations).items():
+        for evaluation in items:
+            restoration = evaluation["splits"][split].get("restoration")
+            if restoration is None:
+                continue
+            counts = {k: v for k, v in restoration.items() if k not in ("modes", "restored_by_rank")}
+            for mode, numbers in restoration["modes"].items():
+                rows.append({"dataset": dataset, "method": evaluation["meta"]["method"], "seq_len": seq_len,
+                             "mode": mode, **counts, **numbers})
+    return rows
+
+
+def lomo_rows(results: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    rows = []
+    for result in results:
+        meta, pooled, without = result["meta"], result["predictors"]["pooled"], result["predictors"]["without"]
+        for mode in pooled["modes"]:
+            rows.append({
+                "dataset": meta["dataset"], "seq_len": meta["seq_len"],
+                "held_out": meta.get("held_out", meta.get("method")), "mode": mode, "n_queries": result["n_queries"],
+                "f1_pooled": pooled["f1_macro"], "f1_without": without["f1_macro"],
+                "removed_pooled": pooled["removed"], "removed_without": without["removed"],
+                "aoc_vpr_sm": pooled["modes"][mode]["aoc_vpr_sm"],
+                "aoc_pooled": pooled["modes"][mode]["aoc_vpr_sm_pred"],
+                "aoc_without": without["modes"][mode]["aoc_vpr_sm_pred"],
+                "reduction_pct_pooled": pooled["modes"][mode]["reduction_pct"],
+                "reduction_pct_without": without["modes"][mode]["reduction_pct"],
+            })
+    return sorted(rows, key=lambda r: (r["mode"], r["dataset"], r["seq_len"], r["held_out"]))
+
+
+def timing_rows(evaluations: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    rows = []
+    for (dataset, seq_len), items in _by_key(evaluations).items():
+        for evaluation in items:
+            for split, result in evaluation["splits"].items():
+                n = max(result["n_queries"], 1)
+                attributes, predict = result.get("attributes_seconds", 0.0), result["predict_seconds"]
+                rows.append({"dataset": dataset, "method": evaluation["meta"]["method"], "seq_len": seq_len,
+                             "split": split, "n_queries": result["n_queries"], "attributes_seconds": attributes,
+                             "predict_seconds": predict, "ms_per_query": 1e3 * (attributes + predict) / n,
+                             "ms_attributes_per_query": 1e3 * attributes / n,
+                             "ms_predict_per_query": 1e3 * predict / n})
+    return rows
+
+
+# --- writing ----------------------------------------------------------------------------------------------------
+
+
+def _cell(value: Any) -> str:
+    if value is None:
+        return ""
+    if isinstance(value, float):
+        return f"{value:.4f}"
+    return str(value)
+
+
+def markdown_table(columns: Sequence[str], rows: Iterable[dict[str, Any]], title: str = "") -> str:
+    out = [f"# {title}", ""] if title else []
+    out += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    out += ["| " + " | ".join(_cell(row.get(c)) for c in columns) + " |" for row in rows]
+    return "\n".join(out) + "\n"
+
+
+def latex_table(columns: Sequence[str], rows: Iterable[dict[str, Any]], title: str = "") -> str:
+    out = [f"% {title}"] if title else []
+    out += [r"\begin{tabular}{" + "l" * len(columns) + "}", " & ".join(_tex_escape(c) for c in columns) + r"\\",
+            r"\hline"]
+    out += [" & ".join(_tex_escape(_cell(row.get(c))) for c in columns) + r"\\" for row in rows]
+    return "\n".join(out + [r"\end{tabular}", ""])
+
+
+def _write_text(path: Path, text: str) -> Path:
     with atomic_path(path) as tmp:
         tmp.write_text(text)
+    return path
 
 
-def _write_csv(path: Path, columns: Sequence[str], rows: list[dict[str, Any]]) -> None:
+def _write_csv(path: Path, columns: Sequence[str], rows: list[dict[str, Any]]) -> Path:
     with atomic_path(path) as tmp, open(tmp, "w", newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(columns), extrasaction="ignore")
         writer.writeheader()
         writer.writerows(rows)
-
-
-def figures(evaluations: Sequence[dict[str, Any]], predictors: Sequence[dict[str, Any]], out_dir: Path,
-            split: str = "test") -> list[Path]:
-    """PR curves per dataset (methods side by side), trust-level curves and confusion matrices."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    written = []
-    by_key: dict[tuple[str, int], list[dict[str, Any]]] = {}
-    for evaluation in evaluations:
-        by_key.setdefault((evaluation["meta"]["dataset"], evaluation["meta"]["seq_len"]), []).append(evaluation)
-    for (dataset, seq_len), items in sorted(by_key.items()):
-        items = sorted(items, key=lambda e: e["meta"]["method"])
-        for mode in items[0]["splits"][split]["modes"]:
-            fig, axes = plt.subplots(1, len(items), figsize=(3.2 * len(items), 3.2), squeeze=False)
-            for ax, evaluation in zip(axes[0], items, strict=True):
-                numbers = evaluation["splits"][split]["modes"][mode]
-                for key, label, style in (("curve_vpr_sm", "VPR+SM", "-"), ("curve_vpr_sm_pred", "VPR+SM+Pred", "-")):
-                    ax.plot(numbers[key]["recall"], numbers[key]["precision"], style, label=label)
-                ax.axvline(numbers["max_recall"], color="grey", lw=0.5, ls=":")
-                ax.set(title=f"{evaluation['meta']['method']}\nAOC {numbers['aoc_vpr_sm']:.3f} -> "
-                             f"{numbers['aoc_vpr_sm_pred']:.3f}", xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
-            axes[0][0].set_ylabel("precision")
-            axes[0][-1].legend(loc="upper right", fontsize=8)
-            fig.suptitle(f"{dataset}, L={seq_len}, {mode} mode ({split})")
-            fig.tight_layout()
-            written.append(_save(fig, out_dir / f"pr_{dataset}_L{seq_len}_{mode}.png"))
-        modes = items[0]["splits"][split]["modes"]
-        trust_mode = "paper" if "paper" in modes else next(iter(modes))  # the paper's figure is in paper mode
-        fig, axes = plt.subplots(1, len(items), figsize=(3.2 * len(items), 3.2), squeeze=False)
-        for ax, evaluation in zip(axes[0], items, strict=True):
-            for level, trust_curve in evaluation["splits"][split]["modes"][trust_mode]["trust"].items():
-                ax.plot(trust_curve["recall"], trust_curve["precision"], label=f"trust >= {level}")
-            ax.set(title=evaluation["meta"]["method"], xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
-        axes[0][0].set_ylabel("precision")
-        axes[0][-1].legend(loc="upper right", fontsize=7)
-        fig.suptitle(f"{dataset}, L={seq_len}: predictor trust levels ({trust_mode} mode, {split})")
-        fig.tight_layout()
-        written.append(_save(fig, out_dir / f"trust_{dataset}_L{seq_len}.png"))
-        matrix = np.sum([np.array(e["splits"][split]["confusion_matrix"]) for e in items], axis=0)
-        fig, ax = plt.subplots(figsize=(3.6, 3.2))
-        ax.imshow(matrix, cmap="Blues")
-        for (i, j), value in np.ndenumerate(matrix):
-            ax.text(j, i, str(value), ha="center", va="center", fontsize=8)
-        ax.set(xlabel="predicted", ylabel="true", xticks=range(4), yticks=range(4),
-               title=f"{dataset}, L={seq_len}: all methods ({split})")
-        fig.tight_layout()
-        written.append(_save(fig, out_dir / f"confusion_{dataset}_L{seq_len}.png"))
-    return written
-
-
-def _save(fig: Any, path: Path) -> Path:
-    import matplotlib.pyplot as plt
-
-    with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
-    plt.close(fig)
     return path
 
 
-def main(evaluation_paths: Sequence[Path | str], predictor_paths: Sequence[Path | str], out_dir: Path | str,
-         split: str = "test") -> dict[str, Path]:
-    """Write ``tables/table1.{csv,md,tex}``, ``tables/predictor.csv`` and ``figures/*.png`` under ``out_dir``."""
+def _write_table(stem: Path, columns: Sequence[str], rows: list[dict[str, Any]], title: str,
+                 markdown: str | None = None, latex: str | None = None) -> list[Path]:
+    """``<stem>.csv`` (full precision), ``.md`` and ``.tex`` (4 decimals, or the given special layouts)."""
+    markdown = markdown if markdown is not None else markdown_table(columns, rows, title)
+    latex = latex if latex is not None else latex_table(columns, rows, title)
+    return [_write_csv(stem.with_suffix(".csv"), columns, rows), _write_text(stem.with_suffix(".md"), markdown),
+            _write_text(stem.with_suffix(".tex"), latex)]
+
+
+TABLE_TITLES = {
+    "table1": "Table I: area over the PR curve at max recall",
+    "predictor": "Predictor alone: macro F1 (cross-validation with SMOTE inside the folds, validation, test)",
+    "predictor_methods": "Predictor alone: macro F1, class counts and predicted counts per method",
+    "predictor_confusion": "Predictor alone: confusion matrix (rows true class, columns predicted)",
+    "ablation_seq_len": "Sequence-length ablation: Table I columns per dataset, method and sequence length",
+    "trust_levels": "Trust-level ablation: PR AUC per trust level",
+    "table2": "Table II: macro F1 by attribute",
+    "restoration": "Match restoration (second filter): removal against restoration",
+    "leave_one_method_out": "Leave one method out: pooled predictor against one trained without the method",
+    "timing": "Inference time per query: attributes + prediction",
+}
+
+
+def _figure_panels(items: list[dict[str, Any]], split: str, mode: str, key: str | None = None
+                   ) -> list[tuple[str, dict[str, Any]]]:
+    panels = []
+    for evaluation in items:
+        result = evaluation["splits"][split]
+        numbers = result["modes"][mode]
+        if key == "restoration":  # evaluate.py keeps the baseline and removal curves once, under modes
+            numbers = {"curve_vpr_sm": numbers["curve_vpr_sm"], "curve_removal": numbers["curve_vpr_sm_pred"],
+                       **result[key]["modes"][mode]}
+        panels.append((evaluation["meta"]["method"], numbers))
+    return panels
+
+
+def _tables_and_figures(
+    out_dir: Path, evaluations: list[dict[str, Any]], predictors: list[dict[str, Any]],
+    ablations: list[dict[str, Any]], lomo: list[dict[str, Any]], split: str, table_seq_lens: Collection[int] | None,
+    seq_len_ablation: bool,
+) -> tuple[list[tuple[str, list[Path]]], list[tuple[str, Path]]]:
+    tables_dir, figures_dir = out_dir / "tables", out_dir / "figures"
+    tables: list[tuple[str, list[Path]]] = []
+    figures: list[tuple[str, Path]] = []
+
+    def table(name: str, columns: Sequence[str], rows: list[dict[str, Any]], **special: str) -> None:
+        tables.append((name, _write_table(tables_dir / name, columns, rows, TABLE_TITLES[name], **special)))
+
+    if evaluations:
+        rows = table1_rows(evaluations, split, table_seq_lens)
+        table("table1", TABLE1_COLUMNS, rows, markdown=table1_markdown(rows), latex=table1_latex(rows))
+        table("predictor_methods", PREDICTOR_METHOD_COLUMNS, predictor_method_rows(evaluations, split))
+        table("predictor_confusion", CONFUSION_COLUMNS, confusion_rows(evaluations, split))
+        trust = trust_rows(evaluations, split)
+        if trust:
+            table("trust_levels", TRUST_COLUMNS, trust)
+        restoration = restoration_rows(evaluations, split)
+        if restoration:
+            table("restoration", RESTORATION_COLUMNS, restoration)
+        table("timing", TIMING_COLUMNS, timing_rows(evaluations))
+        if seq_len_ablation:
+            table("ablation_seq_len", SEQ_LEN_COLUMNS, table1_rows(evaluations, split))
+    if predictors:
+        table("predictor", PREDICTOR_COLUMNS, predictor_rows(predictors))
+    if ablations:
+        rows = table2_rows(ablations)
+        table("table2", TABLE2_COLUMNS, rows, markdown=table2_markdown(rows), latex=table2_latex(rows))
+    if lomo:
+        table("leave_one_method_out", LOMO_COLUMNS, lomo_rows(lomo))
+
+    by_key = _by_key(evaluations)
+    for (dataset, seq_len), items in by_key.items():
+        if table_seq_lens is not None and seq_len not in table_seq_lens:
+            continue
+        result0 = items[0]["splits"][split]
+        for mode in result0["modes"]:
+            title = f"{dataset}, L={seq_len}, {mode} mode ({split})"
+            figures.append((f"PR curves: {title}", fig.pr_figure(
+                figures_dir / f"pr_{dataset}_L{seq_len}_{mode}.png", _figure_panels(items, split, mode), title)))
+            if "trust" in result0["modes"][mode]:
+                figures.append((f"Trust levels: {title}", fig.trust_figure(
+                    figures_dir / f"trust_{dataset}_L{seq_len}_{mode}.png", _figure_panels(items, split, mode),
+                    f"{title}: predictor trust levels")))
+            if "restoration" in result0:
+                panels = _figure_panels(items, split, mode, "restoration")
+                figures.append((f"Restoration: {title}", fig.restoration_figure(
+                    figures_dir / f"restoration_{dataset}_L{seq_len}_{mode}.png", panels,
+                    f"{title}: match removal and restoration")))
+                figures.append((f"Restoration PR AUC difference: {title}", fig.difference_bars(
+                    figures_dir / f"restoration_auc_{dataset}_L{seq_len}_{mode}.png", [m for m, _ in panels],
+                    [n["auc_difference"] for _, n in panels], f"{title}: restoration - removal",
+                    "PR AUC, restoration - removal")))
+        matrix = np.sum([np.array(e["splits"][split]["confusion_matrix"]) for e in items], axis=0)
+        figures.append((f"Confusion matrix: {dataset}, L={seq_len}", fig.confusion_figure(
+            figures_dir / f"confusion_{dataset}_L{seq_len}.png", matrix,
+            f"{dataset}, L={seq_len}: all methods ({split})")))
+    if seq_len_ablation and evaluations:
+        figures += _seq_len_figures(figures_dir, table1_rows(evaluations, split))
+    return tables, figures
+
+
+def _seq_len_figures(figures_dir: Path, rows: list[dict[str, Any]]) -> list[tuple[str, Path]]:
+    out = []
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["dataset"], row["mode"]), []).append(row)
+    for (dataset, mode), group in sorted(groups.items()):
+        methods = sorted({r["method"] for r in group})
+        seq_lens = sorted({int(r["seq_len"]) for r in group})
+        bottoms = np.full((len(methods), len(seq_lens)), np.nan)
+        tops = np.full_like(bottoms, np.nan)
+        for r in group:
+            i, j = methods.index(r["method"]), seq_lens.index(int(r["seq_len"]))
+            bottoms[i, j], tops[i, j] = r["auc_vpr_sm"], r["auc_vpr_sm_pred"]
+        title = f"{dataset}, {mode} mode\nPR AUC, VPR+SM (bar bottom) -> VPR+SM+Pred (top)"
+        out.append((f"Sequence-length ablation: {dataset}, {mode} mode", fig.change_bars(
+            figures_dir / f"seq_len_{dataset}_{mode}.png", methods, [f"L{s}" for s in seq_lens],
+            np.nan_to_num(bottoms), np.nan_to_num(tops), title)))
+    return out
+
+
+def expected_outputs(
+    datasets: Sequence[str],
+    seq_lens: Sequence[int],
+    modes: Sequence[str],
+    experiments: Collection[str],
+    table_seq_lens: Collection[int] | None = None,
+    html: bool = True,
+) -> list[str]:
+    """Paths (relative to the run folder) that ``main`` writes, from the configuration alone.
+
+    ``experiments``: any of ``"table1"`` (evaluations given: Table I, predictor_methods, predictor_confusion,
+    timing, PR and confusion figures), ``"predictor"`` (predictor reports given), ``"trust"`` (trust levels
+    configured), ``"restoration"``, ``"seq_len"`` (the sequence-length ablation), ``"attributes"`` (Table II),
+    ``"leave_one_method_out"``.
+    """
+    def table(name: str) -> list[str]:
+        return [f"tables/{name}.{ext}" for ext in ("csv", "md", "tex")]
+
+    out: list[str] = []
+    figure_lens = [s for s in seq_lens if table_seq_lens is None or s in table_seq_lens]
+    if "table1" in experiments:
+        out += table("table1") + table("predictor_methods") + table("predictor_confusion")
+        if "trust" in experiments:
+            out += table("trust_levels")
+        if "restoration" in experiments:
+            out += table("restoration")
+        out += table("timing")
+        if "seq_len" in experiments:
+            out += table("ablation_seq_len")
+    if "predictor" in experiments:
+        out += table("predictor")
+    if "attributes" in experiments:
+        out += table("table2")
+    if "leave_one_method_out" in experiments:
+        out += table("leave_one_method_out")
+    if "table1" in experiments:
+        for dataset in sorted(datasets):
+            for seq_len in sorted(figure_lens):
+                for mode in modes:
+                    out.append(f"figures/pr_{dataset}_L{seq_len}_{mode}.png")
+                    if "trust" in experiments:
+                        out.append(f"figures/trust_{dataset}_L{seq_len}_{mode}.png")
+                    if "restoration" in experiments:
+                        out += [f"figures/restoration_{dataset}_L{seq_len}_{mode}.png",
+                                f"figures/restoration_auc_{dataset}_L{seq_len}_{mode}.png"]
+                out.append(f"figures/confusion_{dataset}_L{seq_len}.png")
+        if "seq_len" in experiments:
+            out += [f"figures/seq_len_{dataset}_{mode}.png" for dataset in sorted(datasets) for mode in sorted(modes)]
+    if html:
+        out.append("report.html")
+    return out
+
+
+def _load(paths: Sequence[Path | str], what: str) -> list[dict[str, Any]]:
+    out = []
+    for path in paths:
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"{what} file not found: {path}")
+        out.append(json.loads(Path(path).read_text()))
+    return out
+
+
+def main(
+    out_dir: Path | str,
+    evaluations: Sequence[Path | str] = (),
+    predictors: Sequence[Path | str] = (),
+    attribute_ablations: Sequence[Path | str] = (),
+    leave_one_out: Sequence[Path | str] = (),
+    *,
+    split: str = "test",
+    table_seq_lens: Collection[int] | None = None,
+    seq_len_ablation: bool = False,
+    config: str | dict[str, Any] | None = None,
+    provenance: dict[str, Any] | None = None,
+    descriptor_paths: Sequence[Path | str] = (),
+    html: bool = True,
+) -> list[Path]:
+    """Write ``tables/``, ``figures/`` and ``report.html`` under the run folder ``out_dir``; return the files.
+
+    Inputs are JSON files of the stages, each list optional: ``evaluations`` (``evaluate.main``, one per dataset,
+    method and L), ``predictors`` (``train.main`` reports), ``attribute_ablations`` (``ablation.attributes_main``),
+    ``leave_one_out`` (``ablation.leave_one_out_evaluate``). ``table_seq_lens``: the sequence lengths of Table I and
+    of the per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
+    ``config`` (YAML text or a dict) and ``provenance`` (e.g. package version, checkpoint and frame-list hashes)
+    go into the HTML page, with the provenance attributes of ``descriptor_paths``.
+    """
+    from . import html_report
+
     out_dir = Path(out_dir)
-    tables, figure_dir = out_dir / "tables", out_dir / "figures"
-    tables.mkdir(parents=True, exist_ok=True)
-    evaluations = [json.loads(Path(p).read_text()) for p in evaluation_paths]
-    predictors = [json.loads(Path(p).read_text()) for p in predictor_paths]
-    rows = table1_rows(evaluations, split)
-    _write_csv(tables / "table1.csv", TABLE1_COLUMNS, rows)
-    _write_text(tables / "table1.md", table1_markdown(rows))
-    _write_text(tables / "table1.tex", table1_latex(rows))
-    predictor_rows = sorted(({**p, **p["meta"]} for p in predictors), key=lambda r: (r["dataset"], r["seq_len"]))
-    _write_csv(tables / "predictor.csv", PREDICTOR_COLUMNS, predictor_rows)
-    figures(evaluations, predictors, figure_dir, split)
-    return {"tables": tables, "figures": figure_dir}
+    table_seq_lens = None if table_seq_lens is None else {int(s) for s in table_seq_lens}
+    tables, figures = _tables_and_figures(
+        out_dir, _load(evaluations, "evaluation"), _load(predictors, "predictor report"),
+        _load(attribute_ablations, "attribute ablation"), _load(leave_one_out, "leave-one-method-out"), split,
+        table_seq_lens, seq_len_ablation)
+    written = [path for _, paths in tables for path in paths] + [path for _, path in figures]
+    if html:
+        written.append(html_report.main(
+            out_dir / "report.html", [(TABLE_TITLES[name], paths[0]) for name, paths in tables], figures,
+            config=config, provenance=provenance, descriptor_paths=descriptor_paths))
+    return written

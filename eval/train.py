@@ -1,4 +1,10 @@
-"""Train one predictor per dataset and sequence length on the train split of every method, pooled (SPEC 7)."""
+"""Train one predictor per dataset and sequence length on the train split of every method, pooled (SPEC 7).
+
+The recipe of the authors' code, for seed 0: the rank-0 attributes (A1..A4 columns) and labels of the methods'
+train splits, concatenated in the configuration's order, shuffled with ``sklearn.utils.shuffle(X, y,
+random_state=0)``, then fitted (column order, SMOTE with ``random_state=42``, scaler, MLP with ``random_state=0``:
+``SMRPredictor``). Seed ``s`` shifts the shuffle, SMOTE and MLP seeds by ``s`` together (``seeded_params``).
+"""
 
 from __future__ import annotations
 
@@ -8,18 +14,97 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from sklearn.metrics import confusion_matrix
+from sklearn.utils import shuffle
 
 from .io import read_features, write_json
 from .predictor import SMRPredictor, cross_validated_f1, macro_f1
 
 log = logging.getLogger(__name__)
 
+LABELS = (0, 1, 2, 3)
+SEEDED = ("random_state", "smote_random_state")  # the predictor's seeds that a training seed shifts
+
 
 def pooled(paths: Sequence[Path | str]) -> tuple[np.ndarray, np.ndarray]:
-    """Rank-0 attributes and labels of several feature files, stacked."""
-    features = [read_features(p) for p in paths]
-    return (np.concatenate([f.attributes[:, 0, :] for f in features]),
-            np.concatenate([f.labels for f in features]))
+    """Rank-0 attributes (A1..A4 columns) and labels of several feature files, stacked in the given order."""
+    if not paths:
+        raise ValueError("no features files given to pool (train, val or test split)")
+    parts = []
+    for path in paths:
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"features file not found: {path} (run vpr-smr attributes)")
+        parts.append(read_features(path))
+    return (np.concatenate([f.attributes[:, 0, :] for f in parts]),
+            np.concatenate([f.labels for f in parts]))
+
+
+def seeded_params(params: dict[str, Any] | None, seed: int) -> dict[str, Any]:
+    """``params`` with the MLP and SMOTE seeds (given, or the predictor's defaults 0 and 42) shifted by ``seed``.
+
+    Seed 0 returns them unchanged: the authors' recipe.
+    """
+    params = dict(params or {})
+    defaults = SMRPredictor().get_params()
+    for key in SEEDED:
+        params[key] = int(params.get(key, defaults[key])) + int(seed)
+    return params
+
+
+def predictor_params(params: dict[str, Any] | None) -> dict[str, Any]:
+    """Settings from a configuration (JSON lists) as ``SMRPredictor`` arguments (tuples)."""
+    params = dict(params or {})
+    unknown = set(params) - set(SMRPredictor().get_params())
+    if unknown:
+        raise ValueError(f"unknown predictor settings {sorted(unknown)}; known: "
+                         f"{sorted(SMRPredictor().get_params())} (fix the configuration's 'predictor' section)")
+    for key in ("hidden_layer_sizes", "column_order"):
+        if params.get(key) is not None:
+            params[key] = tuple(params[key])
+    return params
+
+
+def _seeds(seeds: int | Sequence[int]) -> list[int]:
+    seeds = list(range(seeds)) if isinstance(seeds, int) else [int(s) for s in seeds]
+    if not seeds or min(seeds) < 0 or len(set(seeds)) != len(seeds):
+        raise ValueError(f"seeds must be distinct non-negative integers (or a count >= 1), got {seeds}")
+    return seeds
+
+
+def seed_path(out: Path | str, seed: int, first: bool) -> Path:
+    """``out`` for the first seed, ``<out stem>.seed<s>.h5`` beside it for the others."""
+    out = Path(out)
+    return out if first else out.with_name(f"{out.stem}.seed{seed}.h5")
+
+
+def train_seed(
+    x_train: np.ndarray,
+    y_train: np.ndarray,
+    params: dict[str, Any] | None,
+    seed: int,
+    evaluation: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
+) -> tuple[SMRPredictor, dict[str, Any]]:
+    """Shuffle the pooled train set with ``seed``, cross-validate and fit a predictor with ``seeded_params``, and
+    score it on each ``evaluation`` split (name -> (X, y)). Returns the fitted predictor and its numbers."""
+    x, y = shuffle(x_train, y_train, random_state=seed)
+    predictor = SMRPredictor(**seeded_params(params, seed))
+    numbers: dict[str, Any] = {
+        "seed": seed,
+        "params": predictor.get_params(),
+        "f1_cv": cross_validated_f1(predictor, x, y),
+        "class_counts": {"train": np.bincount(y, minlength=len(LABELS)).tolist()},
+    }
+    predictor.fit(x, y)
+    numbers["n_iter"] = predictor.n_iter_
+    for name, (x_eval, y_eval) in (evaluation or {}).items():
+        predicted = predictor.predict(x_eval)
+        numbers[f"f1_{name}"] = macro_f1(y_eval, predicted)
+        numbers[f"n_{name}"] = int(len(y_eval))
+        numbers["class_counts"][name] = np.bincount(y_eval, minlength=len(LABELS)).tolist()
+        numbers[f"confusion_{name}"] = confusion_matrix(y_eval, predicted, labels=list(LABELS)).tolist()
+    log.info("seed %d: f1 cv %.3f, val %s, test %s, %d iterations", seed, numbers["f1_cv"], numbers.get("f1_val"),
+             numbers.get("f1_test"), numbers["n_iter"])
+    return predictor, numbers
 
 
 def main(
@@ -29,29 +114,39 @@ def main(
     val: Sequence[Path | str] = (),
     test: Sequence[Path | str] = (),
     meta: dict[str, Any] | None = None,
+    seeds: int | Sequence[int] = (0,),
 ) -> dict[str, Any]:
-    """Fit on ``train``, report cross-validated, validation and test macro F1; write ``out`` (.h5) and .json."""
-    params = dict(params or {})
-    if "hidden_layer_sizes" in params:
-        params["hidden_layer_sizes"] = tuple(params["hidden_layer_sizes"])
+    """Train one predictor per seed on the pooled ``train`` files (the configuration's method order) and report.
+
+    ``seeds``: a list (seed 0 first: the authors' recipe), or a count ``n`` for seeds ``0..n-1``. The first seed's
+    predictor is written to ``out`` (.h5), the others to ``<out stem>.seed<s>.h5`` beside it, and the report to
+    ``out`` with suffix ``.json``: per seed (``seeds``: f1_cv, f1_val, f1_test, n_iter, class_counts, confusion
+    matrices of val and test over labels 0..3) and, at the top level, the first seed's numbers (meta, params, n_train,
+    train_class_counts, f1_cv, f1_val, f1_test, n_val, n_test, n_iter) and ``seed_models`` (when several seeds).
+    Nothing is written until every seed has finished, so an interrupted training leaves no file.
+    """
+    seeds = _seeds(seeds)
+    params = predictor_params(params)
     x_train, y_train = pooled(train)
-    predictor = SMRPredictor(**params)
-    log.info("training on %d samples, class counts %s", len(y_train), np.bincount(y_train, minlength=4))
+    evaluation = {name: pooled(paths) for name, paths in (("val", val), ("test", test)) if paths}
+    log.info("training on %d samples, class counts %s, seeds %s", len(y_train),
+             np.bincount(y_train, minlength=len(LABELS)), seeds)
+    fitted = [train_seed(x_train, y_train, params, seed, evaluation) for seed in seeds]
+
+    out = Path(out)
+    paths = [seed_path(out, seed, i == 0) for i, seed in enumerate(seeds)]
+    first = fitted[0][1]
     report: dict[str, Any] = {
         "meta": dict(meta or {}),
-        "params": predictor.get_params(),
+        "params": first["params"],
         "n_train": int(len(y_train)),
-        "train_class_counts": np.bincount(y_train, minlength=4).tolist(),
-        "f1_cv": cross_validated_f1(predictor, x_train, y_train),
+        "train_class_counts": first["class_counts"]["train"],
+        **{key: first[key] for key in ("f1_cv", "f1_val", "f1_test", "n_val", "n_test", "n_iter") if key in first},
+        "seeds": [numbers for _, numbers in fitted],
     }
-    predictor.fit(x_train, y_train)
-    for name, paths in (("val", val), ("test", test)):
-        if paths:
-            x, y = pooled(paths)
-            report[f"f1_{name}"] = macro_f1(y, predictor.predict(x))
-            report[f"n_{name}"] = int(len(y))
-    report["n_iter"] = predictor.n_iter_
-    out = Path(out)
-    predictor.save(out, report=report)
+    if len(seeds) > 1:
+        report["seed_models"] = [str(p) for p in paths]
+    for i, ((predictor, numbers), path) in enumerate(zip(fitted, paths, strict=True)):
+        predictor.save(path, report=report if i == 0 else {"meta": report["meta"], **numbers})
     write_json(out.with_suffix(".json"), report)
     return report

@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ..eval.io import package_version
 from ..eval.sequence import DEFAULT_TOLERANCE
 from .config import ConfigError, load_config, schema_default
 
@@ -81,19 +82,56 @@ def cmd_train(args: argparse.Namespace) -> None:
              report.get("f1_test"))
 
 
+def _split_paths(items: list[str]) -> dict[str, str]:
+    pairs = [item.split("=", 1) for item in items]
+    bad = [item for item, pair in zip(items, pairs, strict=True) if len(pair) != 2]
+    if bad:
+        raise ValueError(f"--features takes SPLIT=PATH items, got {', '.join(bad)}")
+    return dict(pairs)
+
+
 def cmd_evaluate(args: argparse.Namespace) -> None:
     from ..eval import evaluate
 
-    paths = dict(item.split("=", 1) for item in args.features)
-    evaluate.main(paths, args.predictors, args.out, tuple(args.modes), tuple(args.trust_levels),
-                  meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len})
+    evaluate.main(_split_paths(args.features), args.predictors, args.out, tuple(args.modes),
+                  tuple(args.trust_levels), meta={"dataset": args.dataset, "method": args.method,
+                                                  "seq_len": args.seq_len}, restoration=args.restoration)
 
 
-def cmd_tables(args: argparse.Namespace) -> None:
+def cmd_ablation_attributes(args: argparse.Namespace) -> None:
+    from ..eval import ablation
+
+    params = _json_object(args.predictor, "--predictor") if args.predictor else {}
+    ablation.attributes_main(args.train, args.out, params, val=args.val or (), test=args.test or (),
+                             meta={"dataset": args.dataset, "seq_len": args.seq_len})
+
+
+def cmd_ablation_without(args: argparse.Namespace) -> None:
+    from ..eval import ablation
+
+    params = _json_object(args.predictor, "--predictor") if args.predictor else {}
+    meta = {"dataset": args.dataset, "seq_len": args.seq_len}
+    ablation.leave_one_out_train(_split_paths(args.train), args.method, args.out, params,
+                                 val=_split_paths(args.val or []), meta=meta)
+
+
+def cmd_ablation_held_out(args: argparse.Namespace) -> None:
+    from ..eval import ablation
+
+    ablation.leave_one_out_evaluate(args.features, args.pooled, args.without, args.out, tuple(args.modes),
+                                    meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len})
+
+
+def cmd_report(args: argparse.Namespace) -> None:
     from ..eval import report
 
-    out = report.main(args.evaluations, args.predictors, args.out, args.split)
-    print(f"tables:  {out['tables']}\nfigures: {out['figures']}")
+    provenance = {"vpr_smr_version": package_version()}
+    written = report.main(args.out, args.evaluations, args.predictors, args.attribute_ablations or (),
+                          args.leave_one_out or (), split=args.split, table_seq_lens=args.table_seq_lens,
+                          seq_len_ablation=args.seq_len_ablation,
+                          config=_json_object(args.settings, "--settings") if args.settings else None,
+                          provenance=provenance, descriptor_paths=args.descriptors or ())
+    log.info("wrote %d tables, figures and report files under %s", len(written), args.out)
 
 
 def _options(items: list[str] | None) -> dict[str, Any]:
@@ -233,16 +271,47 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--features", nargs="+", required=True, metavar="SPLIT=PATH")
     p.add_argument("--predictors", nargs="+", required=True, help="one per seed, seed 0 first")
     p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=("paper", "standard"))
-    p.add_argument("--trust-levels", nargs="+", type=float, default=schema_default("trust_levels"))
+    p.add_argument("--trust-levels", nargs="*", type=float, default=schema_default("trust_levels"),
+                   help="trust levels of the trust-level ablation (none: skip it)")
+    p.add_argument("--no-restoration", dest="restoration", action="store_false", help="skip match restoration")
     _required(p, "--out")
     p.set_defaults(func=cmd_evaluate)
 
-    p = sub.add_parser("tables", help="paper-style tables and figures")
+    p = sub.add_parser("ablation", help="the predictor's ablations")
+    ablation_sub = p.add_subparsers(dest="ablation_command", required=True)
+    c = ablation_sub.add_parser("attributes", help="Table II: a predictor on each attribute alone and on all four")
+    _required(c, "--dataset", "--out")
+    c.add_argument("--seq-len", type=int, required=True)
+    c.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
+    c.add_argument("--train", nargs="+", required=True)
+    c.add_argument("--val", nargs="*")
+    c.add_argument("--test", nargs="*")
+    c.set_defaults(func=cmd_ablation_attributes)
+    c = ablation_sub.add_parser("without", help="train a predictor on every method's train split but one")
+    _required(c, "--dataset", "--method", "--out")
+    c.add_argument("--seq-len", type=int, required=True)
+    c.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
+    c.add_argument("--train", nargs="+", required=True, metavar="METHOD=PATH")
+    c.add_argument("--val", nargs="*", metavar="METHOD=PATH")
+    c.set_defaults(func=cmd_ablation_without)
+    c = ablation_sub.add_parser("held-out", help="a method's test split under the pooled and the without_ predictor")
+    _required(c, "--dataset", "--method", "--features", "--pooled", "--without", "--out")
+    c.add_argument("--seq-len", type=int, required=True)
+    c.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=("paper", "standard"))
+    c.set_defaults(func=cmd_ablation_held_out)
+
+    p = sub.add_parser("report", help="paper-style tables, figures and report.html of a run")
     p.add_argument("--evaluations", nargs="+", required=True)
     p.add_argument("--predictors", nargs="+", required=True)
-    p.add_argument("--split", default="test")
-    p.add_argument("--out", required=True, help="the run folder: tables/ and figures/ go inside")
-    p.set_defaults(func=cmd_tables)
+    p.add_argument("--attribute-ablations", nargs="*")
+    p.add_argument("--leave-one-out", nargs="*")
+    p.add_argument("--descriptors", nargs="*", help="descriptor files whose provenance the report shows")
+    p.add_argument("--split", default=schema_default("table_split"))
+    p.add_argument("--table-seq-lens", type=int, nargs="+", help="sequence lengths of Table I (default: all)")
+    p.add_argument("--seq-len-ablation", action="store_true", help="also the sequence-length table and figure")
+    p.add_argument("--settings", help="the run's settings (JSON, or @file) shown in the report")
+    p.add_argument("--out", required=True, help="the run folder: tables/, figures/ and report.html go inside")
+    p.set_defaults(func=cmd_report)
     return parser
 
 

@@ -42,7 +42,41 @@ def validate(conf: dict[str, Any], source: str = "configuration") -> dict[str, A
         raise ConfigError(f"{source} is invalid:\n" + "\n".join(lines))
     conf = json.loads(json.dumps(conf))
     _fill_defaults(schema, conf)
+    _check_together(conf, source)
     return conf
+
+
+def _check_together(conf: dict[str, Any], source: str) -> None:
+    """Settings that are valid alone but not together; ``table_seq_len`` is resolved here (its one default)."""
+    if conf["table_split"] not in conf["eval_splits"]:
+        raise ConfigError(f"{source}: table_split {conf['table_split']!r} is not among eval_splits "
+                          f"{conf['eval_splits']}; add it there or choose one of them")
+    if conf["train_split"] in conf["eval_splits"]:
+        raise ConfigError(f"{source}: train_split {conf['train_split']!r} is also in eval_splits; the predictor "
+                          "would be scored on its own training data")
+    if len(set(conf["seq_lens"])) != len(conf["seq_lens"]):
+        raise ConfigError(f"{source}: seq_lens {conf['seq_lens']} repeats a length")
+    if conf["table_seq_len"] is None:
+        conf["table_seq_len"] = 4 if 4 in conf["seq_lens"] else conf["seq_lens"][0]
+    elif conf["table_seq_len"] not in conf["seq_lens"]:
+        raise ConfigError(f"{source}: table_seq_len {conf['table_seq_len']} is not among seq_lens {conf['seq_lens']}")
+
+
+def experiments(conf: dict[str, Any]) -> set[str]:
+    """The experiments a validated configuration runs, by the names of ``eval.report.expected_outputs``."""
+    chosen = conf["experiments"]
+    names = {"table1", "predictor"}
+    if chosen["trust_levels"] and conf["trust_levels"]:
+        names.add("trust")
+    if chosen["restoration"]:
+        names.add("restoration")
+    if chosen["attribute_ablation"]:
+        names.add("attributes")
+    if chosen["leave_one_method_out"] and len(conf["methods"]) > 1:
+        names.add("leave_one_method_out")
+    if chosen["seq_len_ablation"] and len(conf["seq_lens"]) > 1:
+        names.add("seq_len")
+    return names
 
 
 def read_config(path: Path | str) -> dict[str, Any]:

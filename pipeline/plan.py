@@ -94,6 +94,7 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
 
 def _check_methods(conf: dict[str, Any], problems: list[str]) -> dict[str, str | None]:
     from ..descriptors import backend_class
+    from ..descriptors.extract import check_checkpoint
 
     checkpoints = {}
     for name, method in conf["methods"].items():
@@ -109,6 +110,11 @@ def _check_methods(conf: dict[str, Any], problems: list[str]) -> dict[str, str |
                             "of its downloaded checkpoint file")
         elif checkpoints[name] and not Path(checkpoint).is_file():
             problems.append(f"methods.{name}.checkpoint: file not found: {checkpoint}{_relative_note(checkpoint)}")
+        else:  # every key and shape of the checkpoint, and every backend setting, before the first job
+            try:
+                check_checkpoint(method, method=name)
+            except ValueError as error:
+                problems.append(f"methods.{name}: {error}")
     return checkpoints
 
 

@@ -25,12 +25,27 @@ def extraction_options(conf: dict[str, Any]) -> str:
     return " ".join(f"{key} {value}" for key, value in options.items() if value is not None)
 
 
-def table_figures(conf: dict[str, Any]) -> list[str]:
-    """The figures of `vpr-smr tables`, named by dataset, sequence length and mode."""
-    out = f"{conf['output']}/{conf['run']}/figures"
-    names = []
-    for dataset in conf["datasets"]:
-        for seq_len in conf["seq_lens"]:
-            names += [f"pr_{dataset}_L{seq_len}_{mode}.png" for mode in conf["modes"]]
-            names += [f"trust_{dataset}_L{seq_len}.png", f"confusion_{dataset}_L{seq_len}.png"]
-    return [f"{out}/{name}" for name in names]
+def other_features(out: str, methods: Sequence[str], wc: Any, split: str) -> list[str]:
+    """The features of one split of every method but ``wc.method`` (leave-one-method-out)."""
+    return [features_path(out, wc.dataset, method, wc.seq_len, split) for method in methods if method != wc.method]
+
+
+def method_pairs(methods: Sequence[str], held_out: str, paths: Sequence[str]) -> str:
+    """``METHOD=PATH`` arguments for the methods but ``held_out``, in the configuration's order."""
+    others = [method for method in methods if method != held_out]
+    if not paths:
+        return ""
+    return " ".join(f"{method}={path}" for method, path in zip(others, paths, strict=True))
+
+
+def report_outputs(conf: dict[str, Any], experiments: set[str]) -> list[str]:
+    """The report's files, relative to the run folder (``eval.report.expected_outputs`` of the configuration)."""
+    from vpr_smr.eval.report import expected_outputs
+
+    return expected_outputs(list(conf["datasets"]), conf["seq_lens"], conf["modes"], experiments,
+                            table_seq_lens=[conf["table_seq_len"]])
+
+
+def report_settings(conf: dict[str, Any]) -> dict[str, Any]:
+    """The configuration minus what changes speed only (``extraction``): shown in the report, a param of it."""
+    return {key: value for key, value in conf.items() if key != "extraction"}

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import collections
+import hashlib
 import io
 import json
 import os
@@ -18,6 +19,7 @@ import torch
 from vpr_smr.descriptors import CheckpointError, backend_class
 from vpr_smr.descriptors.apgem import APGeM, GeM
 from vpr_smr.descriptors.convert import PCAStandIn, RestrictedUnpickler, convert_apgem
+from vpr_smr.descriptors.extract import check_checkpoint
 
 KEYS = Path(__file__).parent / "data" / "keys"
 OPTIONS = {"arch": "resnet101_rmac", "out_dim": 2048, "pooling": "gem", "gemp": 3, "dropout_p": None}
@@ -57,6 +59,9 @@ def test_preprocess_full_size_and_max_size() -> None:
     torch.testing.assert_close(tensor[:, 0, 0], expected)
     backend.conf["max_size"] = 20
     assert backend.preprocess(image).shape == (3, 15, 20)
+    with torch.device("meta"):  # VPR-methods-evaluation also feeds full-size, ImageNet-normalised images
+        harness = APGeM({"device": "cpu", "preprocessing": "vpr-methods-evaluation"})
+    assert torch.equal(harness.preprocess(image), tensor)
 
 
 class _OldPCA:
@@ -119,22 +124,38 @@ def test_official_pickle_round_trip(tmp_path: Path, monkeypatch) -> None:
     assert data["model_options"] == OPTIONS and not any(k.startswith("module.") for k in data["state_dict"])
     assert data["whitening"]["Landmarks_clean"]["components"].dtype == torch.float64
 
-    target = APGeM({"device": "cpu"})
-    target.load(converted)
-    batch = torch.randn(2, 3, 64, 64)
-    expected = source.forward(batch)
-    np.testing.assert_allclose(target.forward(batch), expected, atol=1e-6)
-    assert target.model.adpool.p.item() == pytest.approx(2.8)
+    # The configuration check: same file, strict keys, whitening found, nothing computed.
+    digest = check_checkpoint({"backend": "apgem", "checkpoint": str(converted), "whiten": "Landmarks_clean"})
+    assert digest == hashlib.sha256(converted.read_bytes()).hexdigest()
 
-    target.conf["whiten"] = "Landmarks_clean"
-    target.load(converted)
+    target = APGeM({"device": "cpu"})
+    target.load(converted)  # default whiten: auto -> the file's Landmarks_clean, as test_dir.py
+    batch = torch.randn(2, 3, 64, 64)
+    expected = source.forward(batch)  # source has no whitening: the 2048-d descriptor
+    assert target.whitening_name == "Landmarks_clean"
     out = target.forward(batch)
     assert out.shape == (2, 16)
     np.testing.assert_allclose(out, official_whitening(expected, pca, 0.25), atol=1e-6)
+    assert target.model.adpool.p.item() == pytest.approx(2.8)
+
+    target.conf["whiten"] = None
+    target.load(converted)
+    np.testing.assert_allclose(target.forward(batch), expected, atol=1e-6)
 
     target.conf["whiten"] = "Paris"
     with pytest.raises(CheckpointError, match="Landmarks_clean"):
         target.load(converted)
+
+    # A converted file without the whitening: auto leaves it off; asking for it by name is an error.
+    del data["whitening"]["Landmarks_clean"]
+    torch.save(data, tmp_path / "apgem-no-whitening.pt")
+    target.conf["whiten"] = "auto"  # the default
+    target.load(tmp_path / "apgem-no-whitening.pt")
+    assert target.whitening_name is None and target.model.whitening is None
+    np.testing.assert_allclose(target.forward(batch), expected, atol=1e-6)
+    target.conf["whiten"] = "Landmarks_clean"
+    with pytest.raises(CheckpointError, match=r"has no whitening 'Landmarks_clean' \(it has: none\)"):
+        target.load(tmp_path / "apgem-no-whitening.pt")
 
 
 def test_restricted_unpickler_allows_only_listed_globals(tmp_path: Path) -> None:

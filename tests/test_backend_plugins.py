@@ -125,3 +125,94 @@ def test_distance_setting_overrides_the_backend_default():
         backend_class("hog")({"distance": "manhattan"})
     with pytest.raises(ValueError, match="backend 'hog' has no setting colour"):
         backend_class("hog")({"colour": 1})
+
+
+TINY_NET = '''
+import torch
+from vpr_smr.descriptors.base import TorchBackend, to_tensor
+
+class TinyNet(TorchBackend):
+    name = "tiny_net"
+
+    def build_model(self):
+        return torch.nn.Sequential(torch.nn.Conv2d(3, 2, 1), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
+
+    def preprocess(self, image):
+        return to_tensor(image)
+'''
+
+
+@pytest.fixture
+def tiny_net(tmp_path, monkeypatch):
+    (tmp_path / "tiny_plugin.py").write_text(TINY_NET)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    yield {"backend": "tiny_plugin:TinyNet", "device": "cpu"}
+    sys.modules.pop("tiny_plugin", None)
+
+
+WEIGHT = torch.tensor([[[[1.0]], [[2.0]], [[0.0]]], [[[0.0]], [[0.0]], [[-1.0]]]])  # (2, 3, 1, 1)
+BIAS = torch.tensor([0.5, 0.0])
+
+
+@pytest.mark.parametrize("form", ["plain", "lightning", "data_parallel", "model_entry"])
+def test_generic_checkpoint_forms(tiny_net, tmp_path, form):
+    import hashlib
+
+    state = {"0.weight": WEIGHT, "0.bias": BIAS}
+    if form == "data_parallel":
+        state = {f"module.{k}": v for k, v in state.items()}
+    saved = {"plain": state, "data_parallel": state, "lightning": {"epoch": 2, "state_dict": state},
+             "model_entry": {"model": state, "optimizer": {"lr": 0.1}}}[form]
+    path = tmp_path / "tiny.pt"
+    torch.save(saved, path)
+    backend, digest = extract.build_backend("tiny", {**tiny_net, "checkpoint": str(path)})
+    assert digest == hashlib.sha256(path.read_bytes()).hexdigest()
+    assert extract.check_checkpoint({**tiny_net, "checkpoint": str(path)}) == digest
+    batch = torch.zeros(1, 3, 2, 2)
+    batch[0, 0], batch[0, 2] = 1.0, 3.0  # channels (1, 0, 3) everywhere
+    # By hand: output 0 = 1*1 + 2*0 + 0*3 + 0.5 = 1.5; output 1 = -1*3 + 0 = -3 (averaged over equal pixels).
+    np.testing.assert_allclose(backend.forward(batch), [[1.5, -3.0]], rtol=1e-6)
+
+
+def test_generic_checkpoint_problems(tiny_net, tmp_path):
+    mixed = tmp_path / "mixed.pt"  # a prefix on some keys only is not a wrapper: left alone, then refused
+    torch.save({"module.0.weight": WEIGHT, "0.bias": BIAS}, mixed)
+    with pytest.raises(CheckpointError, match=r"(?s)mixed\.pt does not fit.*missing keys:\n    0\.weight"
+                                              r".*unexpected keys:\n    module\.0\.weight"):
+        extract.check_checkpoint({**tiny_net, "checkpoint": str(mixed)})
+    empty = tmp_path / "empty.pt"
+    torch.save({"epoch": 3, "state_dict": {"note": "x"}}, empty)
+    with pytest.raises(CheckpointError, match=r"empty\.pt holds no state dict"):
+        extract.build_backend("tiny", {**tiny_net, "checkpoint": str(empty)})
+
+
+def test_check_checkpoint_errors_name_the_setting(tiny_net, tmp_path):
+    with pytest.raises(CheckpointError, match=r"method 'tiny' \(backend 'tiny_plugin:TinyNet'\) needs a checkpoint: "
+                                              r"set methods\.tiny\.checkpoint"):
+        extract.check_checkpoint(tiny_net, method="tiny")
+    with pytest.raises(CheckpointError, match=r"checkpoint not found: .*absent\.pt \(set `checkpoint`"):
+        extract.check_checkpoint({**tiny_net, "checkpoint": str(tmp_path / "absent.pt")})
+    with pytest.raises(ValueError, match="backend 'hog' has no setting colour"):
+        extract.check_checkpoint({"backend": "hog", "colour": 1})
+    with pytest.raises(ValueError, match="preprocessing must be one of official, vpr-methods-evaluation, got 'hloc'"):
+        extract.check_checkpoint({"backend": "sad", "preprocessing": "hloc"})
+    with pytest.raises(ValueError, match="unknown descriptor backend 'nope'"):
+        extract.check_checkpoint({"backend": "nope"})
+    with pytest.raises(CheckpointError, match="takes no checkpoint"):
+        extract.check_checkpoint({"backend": "sad", "checkpoint": str(tmp_path / "x.pt")})
+    assert extract.check_checkpoint({"backend": "sad"}) is None
+
+
+def test_check_checkpoint_of_released_layouts(tmp_path):
+    import hashlib
+
+    from vpr_smr.descriptors.cosplace import GeoLocalizationNet
+
+    package = {"backend": "efficientnet_lite0_gem", "checkpoint": "package"}
+    assert extract.check_checkpoint(package) == hashlib.sha256(package_weights_path().read_bytes()).hexdigest()
+    state = GeoLocalizationNet("ResNet18", 32).state_dict()
+    del state["backbone.4.0.bn1.running_var"]
+    torch.save({"module." + k: v for k, v in state.items()}, tmp_path / "ResNet18_32_cosplace.pth")
+    conf = {"backend": "cosplace", "backbone": "ResNet18", "checkpoint": str(tmp_path / "ResNet18_32_cosplace.pth")}
+    with pytest.raises(CheckpointError, match=r"1 missing keys:\n    backbone\.4\.0\.bn1\.running_var"):
+        extract.check_checkpoint(conf)

@@ -1,8 +1,10 @@
+import re
 import textwrap
 
 import pytest
+import yaml
 
-from vpr_smr.pipeline.config import ConfigError, load_config
+from vpr_smr.pipeline.config import ConfigError, experiments, load_config
 from vpr_smr.pipeline.plan import preflight
 
 DEMO = "configs/demo.yaml"
@@ -16,9 +18,53 @@ def write(tmp_path, text):
 
 def test_demo_config_is_valid_and_gets_defaults():
     conf = load_config(DEMO)
-    assert conf["seq_lens"] == [4] and conf["modes"] == ["paper", "standard"]
+    assert conf["seq_lens"] == [2, 4, 6, 8, 10] and conf["modes"] == ["paper", "standard"]
     assert conf["eval_splits"] == ["val", "test"] and conf["output"] == "results"
+    assert conf["table_seq_len"] == 4 and conf["seeds"] == 5
+    assert experiments(conf) == {"table1", "predictor", "trust", "restoration", "attributes",
+                                 "leave_one_method_out", "seq_len"}
     preflight(conf)
+
+
+@pytest.mark.parametrize(("settings", "table_seq_len"), [("seq_lens: [2, 4]", 4), ("seq_lens: [6, 3]", 6),
+                                                         ("{seq_lens: [6, 3], table_seq_len: 3}", 3)])
+def test_table_seq_len_defaults_to_4_else_the_first(tmp_path, settings, table_seq_len):
+    path = write(tmp_path, """
+        run: x
+        datasets: {d: {loader: nordland_sample}}
+        methods: {m: {backend: sad}}
+    """)
+    conf = load_config(path, yaml.safe_load(settings))
+    assert conf["table_seq_len"] == table_seq_len
+
+
+@pytest.mark.parametrize(("overrides", "message"), [
+    ({"seq_lens": [2, 6], "table_seq_len": 4}, "table_seq_len 4 is not among seq_lens [2, 6]"),
+    ({"table_split": "train"}, "table_split 'train' is not among eval_splits"),
+    ({"eval_splits": ["train", "test"]}, "train_split 'train' is also in eval_splits"),
+    ({"seq_lens": [4, 4]}, "repeats a length"),
+])
+def test_settings_that_do_not_go_together(tmp_path, overrides, message):
+    path = write(tmp_path, """
+        run: x
+        datasets: {d: {loader: nordland_sample}}
+        methods: {m: {backend: sad}}
+    """)
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        load_config(path, overrides)
+
+
+def test_experiments_follow_the_settings(tmp_path):
+    path = write(tmp_path, """
+        run: x
+        seq_lens: [4]
+        datasets: {d: {loader: nordland_sample}}
+        methods: {m: {backend: sad}}
+        experiments: {restoration: false}
+    """)
+    # one method: no leave-one-method-out; one L: no sequence-length ablation; restoration switched off
+    assert experiments(load_config(path)) == {"table1", "predictor", "trust", "attributes"}
+    assert "trust" not in experiments(load_config(path, {"trust_levels": []}))
 
 
 def test_schema_errors_name_the_setting(tmp_path):

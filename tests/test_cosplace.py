@@ -163,7 +163,7 @@ def test_foreign_and_absent_files(tmp_path: Path):
     pattern = r"other\.pth is not a cosplace checkpoint.*VGG16_<dim>_cosplace"
     with pytest.raises(CheckpointError, match=pattern):
         backend.load(path)
-    with pytest.raises(CheckpointError, match=r"needs `checkpoint`"):
+    with pytest.raises(CheckpointError, match=r"needs a checkpoint: set `checkpoint` to VGG16_<dim>_cosplace"):
         backend.load(None)
     backend = cosplace.CosPlace({"backbone": "VGG16", "device": "cpu", "fc_output_dim": 512})
     with pytest.raises(CheckpointError, match=r"not found.*\n.*expected VGG16_512_cosplace\.pth"):
@@ -191,3 +191,13 @@ def test_preprocess_matches_official_transforms():
     assert ours.shape == expected.shape == (3, 24, 32)
     assert torch.equal(ours, expected)
     assert cosplace.resized_size(50, 37, 24) == (32, 24)
+
+
+def test_vpr_methods_evaluation_preset_changes_nothing():
+    # That harness's test_dataset.py feeds ToTensor + Normalize at full size, as CosPlace's own evaluation.
+    image = _image(37, 50, seed=2)
+    with torch.device("meta"):
+        official = cosplace.CosPlace({"backbone": "VGG16", "device": "cpu"})
+        harness = cosplace.EigenPlaces({"backbone": "VGG16", "device": "cpu",
+                                        "preprocessing": "vpr-methods-evaluation"})
+    assert torch.equal(official.preprocess(image), harness.preprocess(image))

@@ -46,3 +46,14 @@ def test_corrupt_image_in_a_worker_names_its_file(pair, tmp_path):
     with pytest.raises(DatasetError, match=f"cannot decode image {bad}"):
         extract.main(pair, "sad", {"backend": "sad"}, tmp_path / "x.h5", batch_size=4, num_workers=1)
     assert not (tmp_path / "x.h5").exists() and not (tmp_path / "x.h5.tmp").exists()
+
+
+def test_provenance_records_every_setting_in_effect(pair, tmp_path):
+    import json
+
+    out = tmp_path / "hog.h5"
+    extract.main(pair, "hog", {"backend": "hog", "cell": 8}, out, batch_size=4, num_workers=0)
+    with h5py.File(out, "r") as f:
+        settings = json.loads(f.attrs["backend_conf"])
+    # The defaults (and the common preprocessing preset) are recorded, not only what the configuration wrote.
+    assert settings == {"width": 128, "height": 64, "cell": 8, "block": 16, "bins": 9, "preprocessing": "official"}

@@ -151,7 +151,7 @@ def test_settings_and_foreign_files(tmp_path: Path):
     torch.save({"aggregation.3.weight": torch.zeros(512, 2048)}, other)
     with pytest.raises(CheckpointError, match=r"not a MixVPR checkpoint.*aggregator\.channel_proj\.weight"):
         backend.load(other)
-    with pytest.raises(CheckpointError, match=r"needs `checkpoint`: expected resnet50_MixVPR_4096"):
+    with pytest.raises(CheckpointError, match=r"needs a checkpoint: set `checkpoint` to resnet50_MixVPR_4096"):
         backend.load(None)
 
 
@@ -169,3 +169,23 @@ def test_preprocess_matches_official_validation_transform():
     demo = T.Compose([T.Resize((320, 320), interpolation=bicubic), T.ToTensor(), normalize])
     ours = mixvpr.MixVPR({"device": "cpu", "interpolation": "bicubic"}).preprocess(image)
     assert torch.equal(ours, demo(Image.fromarray(image)))  # demo.py load_image
+
+
+@pytest.mark.parametrize("shape", [(45, 61), (400, 500)])  # upsampling and (antialiased) downsampling
+def test_preprocess_vpr_methods_evaluation(shape: tuple[int, int]):
+    from PIL import Image
+    from torchvision import transforms as T
+
+    image = _image(*shape, seed=4)
+    # VPR-methods-evaluation: test_dataset.py ToTensor + Normalize, then MixVPRModel.forward's
+    # transforms.Resize([320, 320], antialias=True) on the normalised batch.
+    normalised = T.Compose([T.ToTensor(), T.Normalize(mean=[0.485, 0.456, 0.406], std=[0.229, 0.224, 0.225])])
+    expected = T.Resize([320, 320], antialias=True)(normalised(Image.fromarray(image))[None])[0]
+    with torch.device("meta"):
+        backend = mixvpr.MixVPR({"device": "cpu", "preprocessing": "vpr-methods-evaluation"})
+    ours = backend.preprocess(image)
+    assert ours.device.type == "cpu" and ours.shape == (3, 320, 320)
+    assert torch.equal(ours, expected)
+    with torch.device("meta"):
+        official = mixvpr.MixVPR({"device": "cpu"})
+    assert not torch.equal(official.preprocess(image), ours)  # PIL resize on uint8 first: other values

@@ -179,3 +179,34 @@ def test_unreadable_and_missing_files(tmp_path: Path) -> None:
         backend.load(tmp_path / "absent.pth.tar")
     with pytest.raises(CheckpointError, match="checkpoint.pth.tar"):
         backend.load(None)
+
+
+def test_default_size_follows_the_loaded_file(tmp_path: Path) -> None:
+    """Each file gets the input of its official evaluation: Patch-NetVLAD (WPCA) 480 x 640, Nanne full size."""
+    image = np.random.default_rng(3).integers(0, 256, (50, 70, 3), dtype=np.uint8)
+    patch = small_source(num_clusters=4, num_pcs=8).model.state_dict()
+    torch.save({"num_pcs": 8, "state_dict": patch}, tmp_path / "pitts_WPCA8.pth.tar")
+    nanne = small_source(num_clusters=4, num_pcs=0).model.state_dict()
+    torch.save({"epoch": 1, "state_dict": nanne}, tmp_path / "checkpoint.pth.tar")
+
+    backend = NetVLAD({"num_clusters": 4, "num_pcs": 0, "device": "cpu"})
+    backend.load(tmp_path / "pitts_WPCA8.pth.tar")
+    assert backend.preprocess(image).shape == (3, 480, 640)  # Patch-NetVLAD's imageresizeh x imageresizew
+    backend.load(tmp_path / "checkpoint.pth.tar")
+    full = backend.preprocess(image)
+    assert full.shape == (3, 50, 70)  # Nanne's input_transform: ToTensor + Normalize, no Resize
+    mean, std = torch.tensor([0.485, 0.456, 0.406]), torch.tensor([0.229, 0.224, 0.225])
+    by_hand = (torch.from_numpy(image).permute(2, 0, 1) / 255.0 - mean[:, None, None]) / std[:, None, None]
+    torch.testing.assert_close(full, by_hand, rtol=0, atol=1e-6)
+
+    harness = NetVLAD({"num_clusters": 4, "num_pcs": 0, "device": "cpu", "preprocessing": "vpr-methods-evaluation"})
+    harness.load(tmp_path / "pitts_WPCA8.pth.tar")
+    assert harness.preprocess(image).shape == (3, 50, 70)  # that harness feeds full-size images
+    fixed = NetVLAD({"num_clusters": 4, "num_pcs": 0, "device": "cpu", "image_size": [24, 32]})
+    fixed.load(tmp_path / "checkpoint.pth.tar")
+    assert fixed.preprocess(image).shape == (3, 24, 32)  # an explicit size wins
+
+
+def test_bad_image_size_is_named() -> None:
+    with pytest.raises(ValueError, match="image_size must be auto, null"):
+        NetVLAD({"image_size": 480, "num_pcs": 0, "device": "cpu"})

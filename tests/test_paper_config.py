@@ -1,10 +1,12 @@
 """configs/paper.yaml: fails at once while roots and checkpoints are empty; plans 3 datasets x 7 methods."""
 
+import json
 import re
 import subprocess
 import sys
 from pathlib import Path
 
+import torch
 import yaml
 from test_datasets_benchmarks import (
     SAMPLE_NAMES,
@@ -20,6 +22,25 @@ from vpr_smr.pipeline.cli import main
 
 PAPER = Path(__file__).resolve().parents[1] / "configs" / "paper.yaml"
 METHODS = ("apgem", "cosplace", "eigenplaces", "mixvpr", "netvlad", "sad", "salad")
+KEYS = Path(__file__).resolve().parent / "data" / "keys"
+# The official key lists (tests/data/keys/README.md) of the files that configs/paper.yaml names.
+OFFICIAL_KEYS = {"apgem": "apgem_resnet101", "cosplace": "cosplace_ResNet50_2048",
+                 "eigenplaces": "eigenplaces_ResNet50_2048", "mixvpr": "mixvpr_resnet50_4096",
+                 "netvlad": "netvlad_patchnetvlad_wpca4096", "salad": "salad_dino_salad"}
+
+
+def shaped_checkpoint(path: Path, keys: str) -> Path:
+    """A checkpoint with the official keys and shapes whose tensors share one stored value (a few kB on disk):
+    the run checks every key and shape before the first job, and a dry run computes nothing."""
+    shapes = json.loads((KEYS / f"{keys}.json").read_text())
+    one = torch.zeros(1)
+    state_dict = {key: one.expand(shape) if shape else one[0] for key, shape in shapes.items()}
+    if keys.startswith("apgem"):  # the converted layout (convert.convert_apgem), with the release's whitening
+        whitening = {"mean": one.expand(2048), "components": one.expand(2048, 2048),
+                     "explained_variance": one.expand(2048), "whiten": True}
+        state_dict = {"state_dict": state_dict, "whitening": {"Landmarks_clean": whitening}}
+    torch.save(state_dict, path)
+    return path
 
 
 def test_empty_settings_are_named(capsys):
@@ -52,8 +73,7 @@ def test_dry_run_plans_every_job(tmp_path):
                                             query_list=str(write_lines(tmp_path / "dusk.txt", sfu["dusk"])))
     for method, settings in conf["methods"].items():
         if "checkpoint" in settings:
-            settings["checkpoint"] = str(tmp_path / f"{method}.pth")
-            (tmp_path / f"{method}.pth").write_bytes(b"")  # -n plans jobs only: the files need only exist
+            settings["checkpoint"] = str(shaped_checkpoint(tmp_path / f"{method}.pth", OFFICIAL_KEYS[method]))
     conf["output"] = str(tmp_path / "results")
     config = tmp_path / "paper.yaml"
     config.write_text(yaml.safe_dump(conf))
@@ -61,8 +81,10 @@ def test_dry_run_plans_every_job(tmp_path):
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     counts = dict(re.findall(r"^(\w+)\s+(\d+)$", result.stdout, flags=re.MULTILINE))
+    # 3 datasets x 7 methods x 3 splits; Table II per dataset; a predictor without each method, tested on it
     assert counts == {"all": "1", "descriptors": "21", "distances": "63", "attributes": "63", "train": "3",
-                      "evaluate": "21", "tables": "1", "total": "173"}
+                      "evaluate": "21", "attribute_ablation": "3", "predictor_without": "21", "held_out": "21",
+                      "report": "1", "total": "218"}
     for dataset in ("nordland", "robotcar", "sfu_mountain"):
         for method in METHODS:
             assert f"descriptors/{dataset}/{method}.h5" in result.stdout

@@ -14,7 +14,7 @@ import torch.nn.functional as F
 from vpr_smr.descriptors import backend_class
 from vpr_smr.descriptors.base import CheckpointError
 from vpr_smr.descriptors.dinov2 import DinoVisionTransformer, interpolate_pos_embed
-from vpr_smr.descriptors.salad import SALAD, SALADAggregator, SALADNet, log_sinkhorn_with_dustbin
+from vpr_smr.descriptors.salad import SALAD, SALADAggregator, SALADNet, harness_size, log_sinkhorn_with_dustbin
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -89,6 +89,35 @@ def test_preprocess_matches_official_eval_transform(shape: tuple[int, int, int])
 def test_image_size_must_be_multiple_of_patch() -> None:
     with pytest.raises(ValueError, match="multiples of 14"):
         SALAD({**TINY, "image_size": [40, 56], "device": "cpu"})
+
+
+@pytest.mark.parametrize(("height", "width", "expected"), [
+    (100, 150, (98, 154)),  # 100 / 14 = 7.14 -> 7 -> 98; 150 / 14 = 10.71 -> 11 -> 154
+    (21, 35, (28, 28)),  # 1.5 and 2.5: Python's round takes the even neighbour, 2 and 2
+    (49, 322, (56, 322)),  # 3.5 -> 4; 23 exactly
+])
+def test_harness_rounding_by_hand(height: int, width: int, expected: tuple[int, int]) -> None:
+    assert harness_size(height, width) == expected
+
+
+def test_preprocess_vpr_methods_evaluation() -> None:
+    # VPR-methods-evaluation: ToTensor + Normalize on the full image, then ResizingWrapper's
+    # transforms.functional.resize(images, [98, 154], antialias=True) (bilinear) on the normalised batch.
+    import torchvision.transforms as T
+    import torchvision.transforms.functional as TF
+    from PIL import Image
+
+    image = np.random.default_rng(5).integers(0, 256, (100, 150, 3), dtype=np.uint8)
+    normalised = T.Compose([T.ToTensor(), T.Normalize(mean=[0.485, 0.456, 0.406], std=[0.229, 0.224, 0.225])])
+    expected = TF.resize(normalised(Image.fromarray(image))[None], [98, 154], antialias=True)[0]
+    harness = SALAD({**TINY, "device": "cpu", "preprocessing": "vpr-methods-evaluation"})
+    ours = harness.preprocess(image)
+    assert ours.shape == (3, 98, 154)
+    assert torch.equal(ours, expected)
+    fixed = SALAD({**TINY, "device": "cpu", "preprocessing": "vpr-methods-evaluation", "image_size": [42, 56]})
+    assert fixed.preprocess(image).shape == (3, 42, 56)  # an explicit size wins over both presets
+    with pytest.raises(ValueError, match="too small"):
+        harness.preprocess(np.zeros((6, 30, 3), dtype=np.uint8))  # 6 / 14 rounds to 0
 
 
 # ---------------------------------------------------------------- position-embedding resampling

@@ -58,8 +58,9 @@ rule evaluate:
             f"{split}={path}" for split, path in zip(conf["eval_splits"], input.features)
         ),
         modes=" ".join(conf["modes"]),
-        trust_levels=" ".join(str(level) for level in conf["trust_levels"]),
+        trust_levels=" ".join(str(level) for level in conf["trust_levels"]) if "trust" in EXPERIMENTS else "",
+        restoration="" if "restoration" in EXPERIMENTS else "--no-restoration",
     shell:
         "vpr-smr evaluate --dataset {wildcards.dataset} --method {wildcards.method} --seq-len {wildcards.seq_len}"
         " --features {params.features} --predictors {input.predictors} --modes {params.modes}"
-        " --trust-levels {params.trust_levels} --out {output} > {log} 2>&1"
+        " --trust-levels {params.trust_levels} {params.restoration} --out {output} > {log} 2>&1"

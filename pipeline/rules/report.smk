@@ -1,17 +1,82 @@
-rule tables:
+# The paper's ablations (at the Table I sequence length) and the report that gathers every result of the run.
+
+
+rule attribute_ablation:
+    input:
+        train=split_features(OUT, METHODS, conf["train_split"]),
+        val=split_features(OUT, METHODS, "val") if "val" in conf["eval_splits"] else [],
+        test=split_features(OUT, METHODS, "test") if "test" in conf["eval_splits"] else [],
+    output:
+        f"{OUT}/ablation/attributes/{{dataset}}/L{{seq_len}}.json",
+    log:
+        f"{OUT}/logs/ablation/attributes/{{dataset}}/L{{seq_len}}.log",
+    params:
+        predictor=canonical(conf["predictor"]),
+    shell:
+        "vpr-smr ablation attributes --dataset {wildcards.dataset} --seq-len {wildcards.seq_len}"
+        " --predictor {params.predictor:q} --train {input.train} --val {input.val} --test {input.test}"
+        " --out {output} > {log} 2>&1"
+
+
+rule predictor_without:
+    # The held-out method's files are not inputs: a change to them does not retrain this predictor.
+    input:
+        train=lambda wc: other_features(OUT, METHODS, wc, conf["train_split"]),
+        val=lambda wc: other_features(OUT, METHODS, wc, "val") if "val" in conf["eval_splits"] else [],
+    output:
+        f"{OUT}/predictors/{{dataset}}/L{{seq_len}}/without_{{method}}.h5",
+    log:
+        f"{OUT}/logs/predictors/{{dataset}}/L{{seq_len}}/without_{{method}}.log",
+    params:
+        predictor=canonical(conf["predictor"]),
+        train=lambda wc, input: method_pairs(METHODS, wc.method, input.train),
+        val=lambda wc, input: method_pairs(METHODS, wc.method, input.val),
+    shell:
+        "vpr-smr ablation without --dataset {wildcards.dataset} --seq-len {wildcards.seq_len}"
+        " --method {wildcards.method} --predictor {params.predictor:q} --train {params.train} --val {params.val}"
+        " --out {output} > {log} 2>&1"
+
+
+rule held_out:
+    input:
+        features=features_path(OUT, "{dataset}", "{method}", "{seq_len}", conf["table_split"]),
+        pooled=f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.h5",
+        without=f"{OUT}/predictors/{{dataset}}/L{{seq_len}}/without_{{method}}.h5",
+    output:
+        f"{OUT}/ablation/without/{{dataset}}/L{{seq_len}}/{{method}}.json",
+    log:
+        f"{OUT}/logs/ablation/without/{{dataset}}/L{{seq_len}}/{{method}}.log",
+    params:
+        modes=" ".join(conf["modes"]),
+    shell:
+        "vpr-smr ablation held-out --dataset {wildcards.dataset} --method {wildcards.method}"
+        " --seq-len {wildcards.seq_len} --features {input.features} --pooled {input.pooled}"
+        " --without {input.without} --modes {params.modes} --out {output} > {log} 2>&1"
+
+
+rule report:
     input:
         evaluations=expand(f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.json",
                            dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
         predictors=expand(f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.json", dataset=DATASETS, seq_len=SEQ_LENS),
+        attribute_ablations=expand(f"{OUT}/ablation/attributes/{{dataset}}/L{TABLE_L}.json", dataset=DATASETS)
+        if "attributes" in EXPERIMENTS else [],
+        leave_one_out=expand(f"{OUT}/ablation/without/{{dataset}}/L{TABLE_L}/{{method}}.json",
+                             dataset=DATASETS, method=METHODS) if "leave_one_method_out" in EXPERIMENTS else [],
+        # read for their provenance (checkpoint and frame-list hashes) only
+        descriptors=expand(f"{OUT}/descriptors/{{dataset}}/{{method}}.h5", dataset=DATASETS, method=METHODS),
     output:
-        table1=multiext(f"{OUT}/tables/table1", ".csv", ".md", ".tex"),
-        predictor=f"{OUT}/tables/predictor.csv",
-        figures=table_figures(conf),
+        [f"{OUT}/{name}" for name in report_outputs(conf, EXPERIMENTS)],
     log:
-        f"{OUT}/logs/tables.log",
+        f"{OUT}/logs/report.log",
     params:
         split=conf["table_split"],
-        out=lambda wc, output: os.path.dirname(os.path.dirname(output.predictor)),  # the run folder
+        table_seq_len=TABLE_L,
+        seq_len_ablation="--seq-len-ablation" if "seq_len" in EXPERIMENTS else "",
+        # what the report shows as the run's configuration: every setting that changes a number
+        settings=canonical(report_settings(conf)),
     shell:
-        "vpr-smr tables --evaluations {input.evaluations} --predictors {input.predictors} --split {params.split}"
-        " --out {params.out} > {log} 2>&1"
+        "vpr-smr report --evaluations {input.evaluations} --predictors {input.predictors}"
+        " --attribute-ablations {input.attribute_ablations} --leave-one-out {input.leave_one_out}"
+        " --descriptors {input.descriptors} --split {params.split} --table-seq-lens {params.table_seq_len}"
+        " {params.seq_len_ablation} --settings {params.settings:q} --out {OUT} > {log} 2>&1"

@@ -1,0 +1,174 @@
+"""Predictor ablations: each attribute alone (the paper's Table II) and leave-one-method-out generalisation.
+
+Attribute ablation: a predictor trained on one attribute alone (``SMRPredictor(column_order=(k,))``, ``k = 0..3``
+for A1..A4, the paper's names) and on all four (the default column order, the authors' recipe), each reported by
+its macro F1 of cross-validation (SMOTE inside the folds), on the validation split and on the test split.
+
+Leave-one-method-out (not in the paper): per dataset, for each method, a predictor trained on the train splits of
+the other methods only, named ``without_<method>``, evaluated on the held-out method's test split beside the pooled
+predictor (which saw that method's train split). Each function takes explicit paths so that a Snakemake rule can
+call it; nothing here knows the workflow.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .attributes import ATTRIBUTE_NAMES
+from .evaluate import removal
+from .io import read_features, write_json
+from .metrics import MODES
+from .predictor import SMRPredictor, cross_validated_f1, macro_f1
+
+log = logging.getLogger(__name__)
+
+ALL_ATTRIBUTES = "all"
+# name -> columns of the A1..A4 input the predictor uses (None: all four, in the predictor's default order)
+ATTRIBUTE_SETS: dict[str, tuple[int, ...] | None] = {
+    **{name: (k,) for k, name in enumerate(ATTRIBUTE_NAMES)}, ALL_ATTRIBUTES: None,
+}
+
+
+def without_name(method: str) -> str:
+    """File stem of the predictor trained without ``method``: ``without_<method>``."""
+    return f"without_{method}"
+
+
+def _predictor(params: dict[str, Any] | None, columns: tuple[int, ...] | None) -> SMRPredictor:
+    params = dict(params or {})
+    if "hidden_layer_sizes" in params:
+        params["hidden_layer_sizes"] = tuple(params["hidden_layer_sizes"])
+    if columns is not None:
+        params["column_order"] = tuple(columns)
+    return SMRPredictor(**params)
+
+
+def _features(paths: Sequence[Path | str]) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Rank-0 attributes (A1..A4) and labels of each file."""
+    out = []
+    for path in paths:
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"features file not found: {path} (run vpr-smr attributes)")
+        features = read_features(path)
+        out.append((features.attributes[:, 0, :], features.labels))
+    return out
+
+
+def _stack(parts: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    return np.concatenate([x for x, _ in parts]), np.concatenate([y for _, y in parts])
+
+
+def attribute_f1(
+    train: tuple[np.ndarray, np.ndarray],
+    val: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+    test: Sequence[tuple[np.ndarray, np.ndarray]] = (),
+    params: dict[str, Any] | None = None,
+) -> dict[str, dict[str, Any]]:
+    """Macro F1 of a predictor per attribute set (A1, A2, A3, A4 alone, then all four).
+
+    ``train`` is ``(X, y)`` with ``X`` in A1..A4 order; ``val`` and ``test`` are lists of ``(X, y)``, one per
+    method: ``f1_val``/``f1_test`` are the macro F1 on them pooled, ``f1_test_method_mean`` the mean of the
+    per-method test F1 (the paper's Table II averages over methods).
+    """
+    x_train, y_train = train
+    out = {}
+    for name, columns in ATTRIBUTE_SETS.items():
+        predictor = _predictor(params, columns)
+        row: dict[str, Any] = {"columns": list(columns) if columns else None,
+                               "f1_cv": cross_validated_f1(predictor, x_train, y_train)}
+        predictor.fit(x_train, y_train)
+        for split, parts in (("val", val), ("test", test)):
+            if parts:
+                x, y = _stack(list(parts))
+                row[f"f1_{split}"] = macro_f1(y, predictor.predict(x))
+                row[f"n_{split}"] = int(len(y))
+        if test:
+            row["f1_test_method_mean"] = float(np.mean([macro_f1(y, predictor.predict(x)) for x, y in test]))
+        log.info("attributes %s: %s", name, row)
+        out[name] = row
+    return out
+
+
+def attributes_main(
+    train: Sequence[Path | str],
+    out: Path | str,
+    params: dict[str, Any] | None = None,
+    val: Sequence[Path | str] = (),
+    test: Sequence[Path | str] = (),
+    meta: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Table II for one dataset and sequence length: write ``out`` (JSON) with the F1 of every attribute set.
+
+    ``train``, ``val``, ``test``: features files (one per method, the configuration's order) of those splits.
+    Layout: ``{"meta", "params", "n_train", "attributes": {"A1": {"columns", "f1_cv", "f1_val", "f1_test",
+    "f1_test_method_mean", "n_val", "n_test"}, ..., "all": {...}}}``.
+    """
+    x_train, y_train = _stack(_features(train))
+    result = {
+        "meta": dict(meta or {}),
+        "params": dict(params or {}),
+        "n_train": int(len(y_train)),
+        "attributes": attribute_f1((x_train, y_train), _features(val), _features(test), params),
+    }
+    write_json(out, result)
+    return result
+
+
+def leave_one_out_train(
+    train: Mapping[str, Path | str],
+    held_out: str,
+    out: Path | str,
+    params: dict[str, Any] | None = None,
+    val: Mapping[str, Path | str] | None = None,
+    meta: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """Train the ``without_<held_out>`` predictor on the train splits of every method but ``held_out``.
+
+    ``train`` (and ``val``) map method -> features file of that split, in the configuration's order (the pooled
+    order is part of the recipe); the held-out method's files are never opened. Writes ``out`` (.h5) and its JSON
+    report through ``train.main`` (seed 0), with ``held_out`` and ``trained_on`` in its ``meta``.
+    """
+    from . import train as train_stage
+
+    if held_out not in train:
+        raise ValueError(f"held-out method {held_out!r} is not among the methods {', '.join(train)}")
+    others = [method for method in train if method != held_out]
+    if not others:
+        raise ValueError(f"leave-one-method-out needs at least two methods; only {held_out!r} is configured")
+    val = val or {}
+    meta = {**(meta or {}), "held_out": held_out, "trained_on": others}
+    return train_stage.main([train[m] for m in others], out, params,
+                            val=[val[m] for m in others if m in val], meta=meta)
+
+
+def leave_one_out_evaluate(
+    features: Path | str,
+    pooled_predictor: Path | str,
+    held_out_predictor: Path | str,
+    out: Path | str,
+    modes: tuple[str, ...] = MODES,
+    meta: dict[str, Any] | None = None,
+) -> dict[str, Any]:
+    """The held-out method's test split (``features``) under the pooled predictor and the ``without_`` one.
+
+    Layout: ``{"meta", "n_queries", "predictors": {"pooled": {...}, "without": {...}}}``, each with ``path``,
+    ``f1_macro``, ``removed`` and ``modes: {mode: {max_recall, auc_vpr_sm, auc_vpr_sm_pred, aoc_vpr_sm,
+    aoc_vpr_sm_pred, reduction_pct, ...}}``.
+    """
+    features_ = read_features(features)
+    result: dict[str, Any] = {"meta": dict(meta or {}), "n_queries": len(features_.queries), "predictors": {}}
+    for name, path in (("pooled", pooled_predictor), ("without", held_out_predictor)):
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"predictor file not found: {path} (train it first)")
+        predictor = SMRPredictor.load(path)
+        numbers = removal(features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_,
+                          tuple(modes), curves=False)
+        numbers.pop("predicted")
+        result["predictors"][name] = {"path": str(path), **numbers}
+    write_json(out, result)
+    return result

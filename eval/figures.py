@@ -1,0 +1,143 @@
+"""Figures of the report (SPEC section 10), one PNG each, named predictably from the configuration.
+
+Names (``<d>`` dataset, ``<L>`` sequence length, ``<mode>`` paper or standard):
+
+- ``pr_<d>_L<L>_<mode>.png``: PR curves VPR+SM and VPR+SM+Pred, one panel per method.
+- ``confusion_<d>_L<L>.png``: the seed-0 predictor's confusion matrix on the table split, all methods summed.
+- ``trust_<d>_L<L>_<mode>.png``: PR curves at the configured trust levels, one panel per method.
+- ``seq_len_<d>_<mode>.png``: PR AUC per method and sequence length, a bar from VPR+SM to VPR+SM+Pred.
+- ``restoration_<d>_L<L>_<mode>.png``: PR curves of VPR+SM, removal and restoration, one panel per method.
+- ``restoration_auc_<d>_L<L>_<mode>.png``: PR AUC of restoration minus removal per method (the paper's bars).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .io import atomic_path
+
+UP, DOWN = "tab:green", "tab:red"
+
+
+def _pyplot() -> Any:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def save(fig: Any, path: Path) -> Path:
+    plt = _pyplot()
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    plt.close(fig)
+    return path
+
+
+def _panels(n: int) -> tuple[Any, Any]:
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, n, figsize=(3.2 * n, 3.3), squeeze=False)
+    return fig, axes[0]
+
+
+def _finish(fig: Any, axes: Any, title: str, legend_size: int = 8) -> None:
+    axes[0].set_ylabel("precision")
+    # the legend goes below the panels so that it never hides a curve
+    handles, labels = axes[-1].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 6), fontsize=legend_size)
+    fig.suptitle(title)
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
+
+
+def pr_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]], title: str) -> Path:
+    """``panels``: (method, that method's numbers of one mode) with ``curve_vpr_sm`` and ``curve_vpr_sm_pred``."""
+    fig, axes = _panels(len(panels))
+    for ax, (method, numbers) in zip(axes, panels, strict=True):
+        for key, label in (("curve_vpr_sm", "VPR+SM"), ("curve_vpr_sm_pred", "VPR+SM+Pred")):
+            ax.plot(numbers[key]["recall"], numbers[key]["precision"], label=label)
+        ax.axvline(numbers["max_recall"], color="grey", lw=0.5, ls=":")
+        ax.set(title=f"{method}\nAOC {numbers['aoc_vpr_sm']:.3f} -> {numbers['aoc_vpr_sm_pred']:.3f}",
+               xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
+    _finish(fig, axes, title)
+    return save(fig, path)
+
+
+def trust_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]], title: str) -> Path:
+    """``panels``: (method, numbers of one mode) with ``trust`` (level -> curve) and ``curve_vpr_sm``."""
+    fig, axes = _panels(len(panels))
+    for ax, (method, numbers) in zip(axes, panels, strict=True):
+        ax.plot(numbers["curve_vpr_sm"]["recall"], numbers["curve_vpr_sm"]["precision"], color="black", lw=0.8,
+                ls="--", label="VPR+SM")
+        for level, trust_curve in numbers["trust"].items():
+            ax.plot(trust_curve["recall"], trust_curve["precision"], label=f"trust >= {level}")
+        ax.set(title=method, xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
+    _finish(fig, axes, title, legend_size=7)
+    return save(fig, path)
+
+
+def confusion_figure(path: Path, matrix: np.ndarray, title: str) -> Path:
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(3.8, 3.4))
+    ax.imshow(matrix, cmap="Blues")
+    for (i, j), value in np.ndenumerate(matrix):
+        ax.text(j, i, str(value), ha="center", va="center", fontsize=8)
+    ax.set(xlabel="predicted", ylabel="true", xticks=range(4), yticks=range(4), title=title)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def change_bars(path: Path, methods: Sequence[str], groups: Sequence[str], bottoms: np.ndarray, tops: np.ndarray,
+                title: str, ylabel: str = "PR AUC") -> Path:
+    """One bar per method and group (e.g. sequence length) from ``bottoms[m, g]`` to ``tops[m, g]``: green when
+    the top is higher, red when lower (the paper's sequence-length figure)."""
+    plt = _pyplot()
+    n_methods, n_groups = len(methods), len(groups)
+    fig, ax = plt.subplots(figsize=(max(4.0, min(12.0, 0.3 * n_methods * n_groups + 2)), 3.8))
+    width = 0.8 / max(n_groups, 1)
+    for g, group in enumerate(groups):
+        x = np.arange(n_methods) - 0.4 + width * (g + 0.5)
+        height = tops[:, g] - bottoms[:, g]
+        colours = [UP if h >= 0 else DOWN for h in height]
+        ax.bar(x, height, width=width * 0.9, bottom=bottoms[:, g], color=colours, edgecolor="black", lw=0.4)
+        if n_groups > 1:
+            for xi, top in zip(x, np.maximum(tops[:, g], bottoms[:, g]), strict=True):
+                ax.text(xi, top, str(group), ha="center", va="bottom", fontsize=6)
+    ax.set_xticks(np.arange(n_methods), list(methods), rotation=30, ha="right")
+    low, high = float(np.min([bottoms, tops])), float(np.max([bottoms, tops]))
+    pad = max(0.02, 0.1 * (high - low))
+    ax.set(ylabel=ylabel, title=title, ylim=(max(0.0, low - pad), min(1.05, high + pad)))
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def difference_bars(path: Path, methods: Sequence[str], differences: Sequence[float], title: str,
+                    ylabel: str = "PR AUC difference") -> Path:
+    """One bar per method from 0: green above, red below (the paper's second-filter figure)."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(max(4.0, 0.7 * len(methods) + 2), 3.4))
+    values = np.asarray(differences, dtype=float)
+    ax.bar(np.arange(len(methods)), values, color=[UP if v >= 0 else DOWN for v in values], edgecolor="black", lw=0.4)
+    ax.axhline(0, color="black", lw=0.6)
+    ax.set_xticks(np.arange(len(methods)), list(methods), rotation=30, ha="right")
+    ax.set(ylabel=ylabel, title=title)
+    fig.tight_layout()
+    return save(fig, path)
+
+
+def restoration_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]], title: str) -> Path:
+    """``panels``: (method, restoration numbers of one mode) with the three curves."""
+    fig, axes = _panels(len(panels))
+    for ax, (method, numbers) in zip(axes, panels, strict=True):
+        for key, label in (("curve_vpr_sm", "VPR+SM"), ("curve_removal", "removal (VPR+SM+Pred)"),
+                           ("curve_restoration", "restoration")):
+            ax.plot(numbers[key]["recall"], numbers[key]["precision"], label=label)
+        ax.set(title=f"{method}\nAUC {numbers['auc_removal']:.3f} -> {numbers['auc_restoration']:.3f}",
+               xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
+    _finish(fig, axes, title)
+    return save(fig, path)
