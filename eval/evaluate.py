@@ -25,6 +25,9 @@ DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)
 SEED_KEYS = ("max_recall", "auc_vpr_sm", "auc_vpr_sm_pred", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")
 
 
+# measured per split: the attributes stage (from the features file), the predictors, their sum per query
+TIMING_KEYS = ("attributes_seconds", "predict_seconds", "seconds_per_query")
+
 def rank_probabilities(predictor: Any, features: QueryFeatures, ranks: int | None = None) -> np.ndarray:
     """``(N, K, C)`` class probabilities of the attributes of ranks ``0..K-1`` (A1..A4 order, as the predictor
     takes them); ``ranks=1`` gives rank 0 only."""
@@ -193,7 +196,8 @@ def main(
     seeds: Sequence[int] | None = None,
 ) -> dict[str, Any]:
     """Evaluate every split in ``features_paths`` (e.g. val and test) with the predictors of ``predictor_paths``
-    (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write one JSON file ``out``."""
+    (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write one JSON file ``out``, its
+    timings (``TIMING_KEYS`` per split) to ``timing_path(out)``. The returned dict holds both."""
     if isinstance(predictor_paths, str | Path):
         predictor_paths = [predictor_paths]
     if not predictor_paths:
@@ -216,5 +220,17 @@ def main(
         split_result["attributes_seconds"] = attributes_seconds
         split_result["seconds_per_query"] = (attributes_seconds + split_result["predict_seconds"]) / n
         result["splits"][split] = split_result
+    # Timings change from run to run: they go beside the results, so that the results of two runs are identical.
+    timing = {"meta": result["meta"], "splits": {
+        split: {key: numbers.pop(key) for key in TIMING_KEYS} | {"n_queries": numbers["n_queries"]}
+        for split, numbers in result["splits"].items()}}
+    write_json(timing_path(out), timing)
     write_json(out, result)
+    for split, numbers in timing["splits"].items():
+        result["splits"][split].update(numbers)
     return result
+
+
+def timing_path(out: Path | str) -> Path:
+    """The timings of an evaluation file ``L4.json``: ``L4.timing.json`` beside it."""
+    return Path(out).with_suffix(".timing.json")

@@ -101,8 +101,8 @@ def _seed_cells(rows: list[dict[str, Any]], separator: str) -> tuple[list[str], 
     return cells + [f"{np.mean(means):.2f}"], f"{sum(m > 0 for m in means)} / {len(rows)} ({n_seeds} seeds)"
 
 
-def table1_markdown(rows: list[dict[str, Any]]) -> str:
-    out = ["# Table I: area over the precision-recall curve at max recall (test split)", "",
+def table1_markdown(rows: list[dict[str, Any]], split: str = "test") -> str:
+    out = [f"# Table I: area over the precision-recall curve at max recall ({split} split)", "",
            "Rows VPR+SM, VPR+SM+Pred, Reduction: the seed-0 predictor (the authors' recipe); "
            "Reduction over seeds: mean ± sample standard deviation over the predictor seeds.", ""]
     for (mode, seq_len), datasets in sorted(_groups(rows).items()):
@@ -129,8 +129,8 @@ def _tex_escape(text: Any) -> str:
         "&", r"\&").replace("#", r"\#")
 
 
-def table1_latex(rows: list[dict[str, Any]]) -> str:
-    out = []
+def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
+    out = [f"% Table I ({_tex_escape(split)} split)"]
     for (mode, seq_len), datasets in sorted(_groups(rows).items()):
         methods = [r["method"] for r in next(iter(datasets.values()))]
         out += [
@@ -407,7 +407,7 @@ def _tables_and_figures(
 
     if evaluations:
         rows = table1_rows(evaluations, split, table_seq_lens)
-        table("table1", TABLE1_COLUMNS, rows, markdown=table1_markdown(rows), latex=table1_latex(rows))
+        table("table1", TABLE1_COLUMNS, rows, markdown=table1_markdown(rows, split), latex=table1_latex(rows, split))
         table("predictor_methods", PREDICTOR_METHOD_COLUMNS, predictor_method_rows(evaluations, split))
         table("predictor_confusion", CONFUSION_COLUMNS, confusion_rows(evaluations, split))
         trust = trust_rows(evaluations, split)
@@ -540,6 +540,18 @@ def _load(paths: Sequence[Path | str], what: str) -> list[dict[str, Any]]:
     return out
 
 
+def _load_evaluations(paths: Sequence[Path | str]) -> list[dict[str, Any]]:
+    """Evaluation files with the timings written beside each (``evaluate.timing_path``) merged in."""
+    from .evaluate import timing_path
+
+    evaluations = _load(paths, "evaluation")
+    for path, evaluation in zip(paths, evaluations, strict=True):
+        if timing_path(path).is_file():
+            for split, numbers in json.loads(timing_path(path).read_text())["splits"].items():
+                evaluation["splits"].get(split, {}).update(numbers)
+    return evaluations
+
+
 def main(
     out_dir: Path | str,
     evaluations: Sequence[Path | str] = (),
@@ -569,7 +581,7 @@ def main(
     out_dir = Path(out_dir)
     table_seq_lens = None if table_seq_lens is None else {int(s) for s in table_seq_lens}
     tables, figures = _tables_and_figures(
-        out_dir, _load(evaluations, "evaluation"), _load(predictors, "predictor report"),
+        out_dir, _load_evaluations(evaluations), _load(predictors, "predictor report"),
         _load(attribute_ablations, "attribute ablation"), _load(leave_one_out, "leave-one-method-out"), split,
         table_seq_lens, seq_len_ablation)
     written = [path for _, paths in tables for path in paths] + [path for _, path in figures]

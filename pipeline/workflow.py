@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import fcntl
+import hashlib
 import os
 import signal
 import socket
@@ -15,6 +16,7 @@ from typing import Any
 
 import yaml
 
+from ..eval.io import atomic_path
 from .config import ConfigError, load_config, parse_overrides, run_dir
 from .plan import preflight
 
@@ -62,14 +64,21 @@ def run_lock(folder: Path) -> Iterator[None]:
 
 def snakemake_command(config: Path | str, overrides: dict[str, Any], cores: int | None, profile: str,
                       dry_run: bool, extra: list[str]) -> list[str]:
-    command = [sys.executable, "-m", "snakemake", "--snakefile", str(SNAKEFILE), "--configfile", str(config),
+    configfiles = [str(config)]
+    if overrides:
+        # A second configuration file, merged into the first by Snakemake as we merge them: `--config key=value`
+        # would reach the workflow with every nested value as a string. Named by its content, in Snakemake's
+        # folder of the working directory, which cluster jobs see too.
+        text = yaml.safe_dump(overrides, sort_keys=True)
+        path = Path(".snakemake", "vpr-smr", f"overrides-{hashlib.sha256(text.encode()).hexdigest()[:16]}.yaml")
+        if not path.is_file():
+            with atomic_path(path) as tmp:
+                tmp.write_text(text)
+        configfiles.append(str(path))
+    command = [sys.executable, "-m", "snakemake", "--snakefile", str(SNAKEFILE), "--configfile", *configfiles,
                "--profile", str(profile_path(profile))]
     if cores is not None:
         command += ["--cores", str(cores)]
-    if overrides:
-        # Each top-level key as YAML: Snakemake merges nested mappings into the file's settings, as we do.
-        command += ["--config", *(f"{key}={yaml.safe_dump(value, default_flow_style=True).strip()}"
-                                  for key, value in overrides.items())]
     if dry_run:
         command.append("--dry-run")
     return command + [a for a in extra if a != "--"]

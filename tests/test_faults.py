@@ -2,7 +2,8 @@
 
 Run A goes through uninterrupted; run B, from scratch in another folder, is killed with SIGKILL to its whole
 process group in the descriptors, attributes and training stages and started again with the same command each
-time. Both must give byte-identical tables and evaluation files (which also shows that a run is deterministic).
+time. Both must give byte-identical tables, evaluations, predictor reports and ablations, timings aside (which
+also shows that a run is deterministic).
 """
 
 import os
@@ -30,7 +31,8 @@ CONFIG = {
     "methods": {"sad": {"backend": "sad"}, "hog": {"backend": "hog"}},
     "predictor": {"max_iter": 200},
 }
-# Outputs that hold timings (measured anew by every run) are not compared byte for byte.
+# Outputs that hold timings (measured anew by every run) are not compared byte for byte; the evaluations keep
+# theirs in a separate `.timing.json`.
 TIMED = {"timing.csv", "timing.md", "timing.tex"}
 
 
@@ -50,8 +52,10 @@ def wait_for(path, process, timeout=300):
 
 def outputs(folder):
     run = folder / "results" / "f"
-    files = sorted([*run.glob("tables/*"), *run.glob("evaluation/**/*.json")])
-    return {str(p.relative_to(run)): p.read_bytes() for p in files if p.name not in TIMED}
+    files = sorted([*run.glob("tables/*"), *run.glob("evaluation/**/*.json"), *run.glob("predictors/**/*.json"),
+                    *run.glob("ablation/**/*.json")])
+    return {str(p.relative_to(run)): p.read_bytes() for p in files if p.name not in TIMED
+            and not p.name.endswith(".timing.json")}
 
 
 def finish(folder):

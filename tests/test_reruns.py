@@ -2,8 +2,10 @@
 
 One complete run of a tiny workflow (two methods, 120 frames of the shipped sample, L = 3) is copied, with its
 Snakemake metadata and file times, for each family of settings; the expected jobs are worked out from the
-data flow (descriptors -> distances per split -> attributes per split -> one predictor per dataset -> one
-evaluation per method -> tables), not from the workflow's own output.
+data flow (descriptors -> distances per split -> attributes per split -> one predictor per dataset and L -> one
+evaluation per method; Table II from every method's features; a predictor without each method from the others'
+train and val features, tested with the pooled one on the method's table split -> report), not from the workflow's
+own output.
 """
 
 import csv
@@ -91,7 +93,24 @@ def evaluate(methods=METHODS, seq_len=3):
     return {("evaluate", f"evaluation/sample/{m}/L{seq_len}.json") for m in methods}
 
 
-TABLES = {("tables", "tables/table1.csv")}
+def attribute_ablation(seq_len=3):
+    return {("attribute_ablation", f"ablation/attributes/sample/L{seq_len}.json")}
+
+
+def without(methods=METHODS, seq_len=3):
+    """The leave-one-method-out predictor trained without each of ``methods``."""
+    return {("predictor_without", f"predictors/sample/L{seq_len}/without_{m}.h5") for m in methods}
+
+
+def held_out(methods=METHODS, seq_len=3):
+    return {("held_out", f"ablation/without/sample/L{seq_len}/{m}.json") for m in methods}
+
+
+REPORT = {("report", "tables/table1.csv")}
+
+
+def other(method):
+    return [m for m in METHODS if m != method]
 
 
 @pytest.fixture(scope="module")
@@ -126,27 +145,36 @@ def table1(folder):
         return {(r["method"], r["mode"]): r for r in csv.DictReader(handle)}
 
 
-ALL_BUT_DESCRIPTORS = distances() | attributes() | train() | evaluate() | TABLES
+# Everything downstream of the pooled predictor of L = 3: every method's evaluation and held-out test
+PREDICTOR_ON = train() | evaluate() | held_out() | REPORT
+ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | without() | PREDICTOR_ON
 
 
 @pytest.mark.parametrize(("edit", "expected"), [
     pytest.param(lambda c: c["datasets"]["sample"].update(tolerance=3),
-                 attributes() | train() | evaluate() | TABLES, id="tolerance"),
+                 attributes() | attribute_ablation() | without() | PREDICTOR_ON, id="tolerance"),
+    # the test split feeds Table II's test F1 and the held-out scores, not the leave-one-out training
     pytest.param(lambda c: c["datasets"]["sample"]["splits"].update(test=[85, 120]),
-                 distances(splits=["test"]) | attributes(splits=["test"]) | train() | evaluate() | TABLES,
+                 distances(splits=["test"]) | attributes(splits=["test"]) | attribute_ablation() | PREDICTOR_ON,
                  id="split-range"),
     pytest.param(lambda c: c["datasets"]["sample"].update(frames=[1000, 1121]),
                  descriptors(*METHODS) | ALL_BUT_DESCRIPTORS, id="frames"),
+    # the predictor without SAD never reads SAD's files
     pytest.param(lambda c: c["methods"]["sad"].update(distance="l2"),
-                 descriptors("sad") | distances(["sad"]) | attributes(["sad"]) | train() | evaluate() | TABLES,
-                 id="backend-setting"),
+                 descriptors("sad") | distances(["sad"]) | attributes(["sad"]) | attribute_ablation()
+                 | without(other("sad")) | PREDICTOR_ON, id="backend-setting"),
+    # Table I moves to L = 4 (table_seq_len: 4 when listed), with its ablations; L = 3 stays as it is
     pytest.param(lambda c: c.update(seq_lens=[3, 4]),
-                 attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | TABLES, id="seq-lens"),
-    pytest.param(lambda c: c["predictor"].update(max_iter=61), train() | evaluate() | TABLES, id="predictor"),
-    pytest.param(lambda c: c.update(seeds=3), train() | evaluate() | TABLES, id="seeds"),
-    pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | TABLES, id="modes"),
-    pytest.param(lambda c: c.update(trust_levels=[0.0, 0.6]), evaluate() | TABLES, id="trust-levels"),
-    pytest.param(lambda c: c.update(table_split="val"), TABLES, id="table-split"),
+                 attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | attribute_ablation(4) | without(seq_len=4)
+                 | held_out(seq_len=4) | REPORT, id="seq-lens"),
+    pytest.param(lambda c: c["predictor"].update(max_iter=61), attribute_ablation() | without() | PREDICTOR_ON,
+                 id="predictor"),
+    pytest.param(lambda c: c.update(seeds=3), PREDICTOR_ON, id="seeds"),
+    pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | held_out() | REPORT, id="modes"),
+    pytest.param(lambda c: c.update(trust_levels=[0.0, 0.6]), evaluate() | REPORT, id="trust-levels"),
+    pytest.param(lambda c: c.update(experiments={"restoration": False}), evaluate() | REPORT, id="restoration-off"),
+    pytest.param(lambda c: c.update(experiments={"attribute_ablation": False}), REPORT, id="table2-off"),
+    pytest.param(lambda c: c.update(table_split="val"), held_out() | REPORT, id="table-split"),
     pytest.param(lambda c: c.update(extraction={"batch_size": 3}), set(), id="batch-size-reruns-nothing"),
 ])
 def test_a_changed_setting_plans_exactly_its_jobs(copy, edit, expected):
@@ -165,15 +193,15 @@ def test_checkpoint_content_reruns_its_method(copy):
     torch.manual_seed(1)
     net = torch.nn.Sequential(torch.nn.Conv2d(3, 8, 3), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
     torch.save(net.state_dict(), copy / "tiny.pt")
-    assert planned(copy) == (descriptors("tiny") | distances(["tiny"]) | attributes(["tiny"]) | train()
-                             | evaluate() | TABLES)
+    assert planned(copy) == (descriptors("tiny") | distances(["tiny"]) | attributes(["tiny"])
+                             | attribute_ablation() | without(other("tiny")) | PREDICTOR_ON)
 
 
 def test_command_line_override_reaches_the_jobs(copy):
     result = vpr_smr(copy, "run", "c.yaml", "-n", "--config", "predictor.max_iter=61")
     assert result.returncode == 0, result.stderr[-3000:]
     rules = set(re.findall(r"^rule (\w+):", result.stdout, flags=re.MULTILINE)) - {"all"}
-    assert rules == {"train", "evaluate", "tables"}
+    assert rules == {"train", "evaluate", "attribute_ablation", "predictor_without", "held_out", "report"}
 
 
 def test_tables_change_where_they_should(copy):

@@ -1,4 +1,9 @@
-"""The real workflow (Snakemake calling our CLI) on a slice of the shipped Nordland sample."""
+"""The real workflow (Snakemake calling our CLI) on a slice of the shipped Nordland sample, every experiment on.
+
+Checks that every table and figure exists and that they agree with each other and with values worked out here:
+the L = 4 rows of the sequence-length ablation are Table I's, leave-one-method-out trained on exactly the other
+methods' train queries, SAD's recall@1 equals a from-scratch computation.
+"""
 
 import csv
 import json
@@ -18,6 +23,8 @@ CONFIG = f"""
 run: e2e
 output: {{out}}
 seq_lens: [3, 4]
+seeds: 2
+trust_levels: [0.0, 0.5]
 datasets:
   sample:
     loader: nordland_sample
@@ -61,37 +68,96 @@ def run(tmp_path_factory):
     return tmp / "results" / "e2e", result.stdout
 
 
-def test_tables_have_every_row(run):
+TABLES = ["table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
+          "ablation_seq_len", "predictor", "table2", "leave_one_method_out"]
+METHODS = ("sad", "hog", "effnet")
+
+
+def table(out, name):
+    return list(csv.DictReader(open(out / "tables" / f"{name}.csv")))
+
+
+def test_every_table_and_figure(run):
     out, stdout = run
-    assert f"tables:  {out / 'tables'}" in stdout
-    rows = list(csv.DictReader(open(out / "tables" / "table1.csv")))
+    assert f"tables:  {out / 'tables'}" in stdout and f"report:  {out / 'report.html'}" in stdout
+    assert sorted(p.name for p in (out / "tables").iterdir()) == sorted(
+        f"{name}.{ext}" for name in TABLES for ext in ("csv", "md", "tex"))
+    per_mode = [f"{kind}_sample_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc")
+                for mode in ("paper", "standard")]
+    assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
+        [*per_mode, "confusion_sample_L4.png", "seq_len_sample_paper.png", "seq_len_sample_standard.png"])
+    html = (out / "report.html").read_text()
+    assert html.count("<img") == 11 and "http://" not in html and "https://" not in html
+
+
+def test_table1_has_the_seed_spread(run):
+    out, _ = run
+    rows = table(out, "table1")
     assert list(rows[0]) == ["dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence",
-                             "max_recall", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct"]
-    keys = {(r["method"], r["seq_len"], r["mode"]) for r in rows}
-    assert keys == {(m, s, mode) for m in ("sad", "hog", "effnet") for s in ("3", "4")
-                    for mode in ("paper", "standard")}
+                             "max_recall", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", "reduction_pct_mean",
+                             "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds"]
+    assert {(r["method"], r["seq_len"], r["mode"]) for r in rows} == {
+        (m, "4", mode) for m in METHODS for mode in ("paper", "standard")}
     for r in rows:
         aoc_base, aoc_pred, max_recall = float(r["aoc_vpr_sm"]), float(r["aoc_vpr_sm_pred"]), float(r["max_recall"])
         assert 0 <= aoc_base <= max_recall <= 1 and 0 <= aoc_pred <= max_recall
-        if aoc_base > 0:
-            assert float(r["reduction_pct"]) == pytest.approx(100 * (aoc_base - aoc_pred) / aoc_base)
+        assert float(r["reduction_pct"]) == pytest.approx(100 * (aoc_base - aoc_pred) / aoc_base)
+        low, high = float(r["reduction_pct_min"]), float(r["reduction_pct_max"])
+        assert low <= float(r["reduction_pct"]) <= high and low <= float(r["reduction_pct_mean"]) <= high
     md = (out / "tables" / "table1.md").read_text()
-    assert "| sample | VPR+SM |" in md and "Improved" in md
+    assert "| sample | VPR+SM |" in md and " ± " in md and "(2 seeds)" in md
     assert r"\begin{tabular}" in (out / "tables" / "table1.tex").read_text()
-    predictor = list(csv.DictReader(open(out / "tables" / "predictor.csv")))
+
+
+def test_tables_agree_with_each_other(run):
+    out, _ = run
+    table1 = {(r["method"], r["mode"]): r for r in table(out, "table1")}
+    ablation = table(out, "ablation_seq_len")
+    assert {(r["method"], r["seq_len"]) for r in ablation} == {(m, s) for m in METHODS for s in ("3", "4")}
+    for r in ablation:
+        if r["seq_len"] == "4":
+            assert {k: r[k] for k in table1[r["method"], r["mode"]]} == table1[r["method"], r["mode"]]
+    trust = {(r["method"], r["mode"], r["trust"]): r for r in table(out, "trust_levels") if r["seq_len"] == "4"}
+    restoration = {(r["method"], r["mode"]): r for r in table(out, "restoration") if r["seq_len"] == "4"}
+    for (method, mode), r in table1.items():
+        # trust 0 removes every match predicted unreceptive: the same curve as Table I's VPR+SM+Pred
+        assert float(trust[method, mode, "0.0"]["aoc"]) == pytest.approx(float(r["aoc_vpr_sm_pred"]))
+    for r in ablation:
+        if r["seq_len"] == "4":  # restoration starts from the same removal as Table I's VPR+SM+Pred
+            removal = restoration[r["method"], r["mode"]]["auc_removal"]
+            assert float(removal) == pytest.approx(float(r["auc_vpr_sm_pred"]))
+    table2 = table(out, "table2")
+    assert [r["attributes"] for r in table2] == ["A1", "A2", "A3", "A4", "all"]
+    assert all(0 < float(r[k]) <= 1 for r in table2 for k in ("f1_cv", "f1_val", "f1_test"))
+    predictor = table(out, "predictor")
     assert [(p["dataset"], p["seq_len"]) for p in predictor] == [("sample", "3"), ("sample", "4")]
     assert all(0 < float(p[k]) <= 1 for p in predictor for k in ("f1_cv", "f1_val", "f1_test"))
-    assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
-        [f"pr_sample_L{s}_{m}.png" for s in (3, 4) for m in ("paper", "standard")]
-        + [f"trust_sample_L{s}.png" for s in (3, 4)] + [f"confusion_sample_L{s}.png" for s in (3, 4)])
+    # every method's train split (frames 0-149) has 150 - 4 + 1 = 147 queries with a sequence match at L = 4
+    assert next(p for p in predictor if p["seq_len"] == "4")["n_train"] == str(3 * 147)
+
+
+def test_leave_one_method_out_never_saw_the_method(run):
+    out, _ = run
+    rows = table(out, "leave_one_method_out")
+    assert {(r["held_out"], r["mode"]) for r in rows} == {(m, mode) for m in METHODS for mode in ("paper", "standard")}
+    table1 = {(r["method"], r["mode"]): r for r in table(out, "table1")}
+    for r in rows:
+        report = json.loads((out / "predictors" / "sample" / "L4" / f"without_{r['held_out']}.json").read_text())
+        assert report["meta"]["trained_on"] == [m for m in METHODS if m != r["held_out"]]
+        assert report["n_train"] == 2 * 147
+        assert r["n_queries"] == str(110 - 4 + 1)  # the held-out method's test split
+        assert float(r["aoc_pooled"]) == pytest.approx(float(table1[r["held_out"], r["mode"]]["aoc_vpr_sm_pred"]))
 
 
 def test_sad_recall_matches_an_independent_computation(run):
     out, _ = run
     rows = list(csv.DictReader(open(out / "tables" / "table1.csv")))
-    sad = next(r for r in rows if r["method"] == "sad" and r["seq_len"] == "4" and r["mode"] == "paper")
+    sad = {r["mode"]: r for r in rows if r["method"] == "sad" and r["seq_len"] == "4"}
     lo = FRAMES[0] + 250
-    assert float(sad["recall_at_1_single"]) == pytest.approx(naive_sad_recall(lo, FRAMES[1], 4), abs=1e-9)
+    # paper mode divides by every query of the split (SPEC 8), standard mode by those with a sequence match
+    assert float(sad["paper"]["recall_at_1_single"]) == pytest.approx(naive_sad_recall(lo, FRAMES[1], 1), abs=1e-9)
+    assert float(sad["standard"]["recall_at_1_single"]) == pytest.approx(naive_sad_recall(lo, FRAMES[1], 4),
+                                                                         abs=1e-9)
 
 
 def test_outputs_carry_provenance_and_a_rerun_does_nothing(run, tmp_path):
@@ -103,6 +169,10 @@ def test_outputs_carry_provenance_and_a_rerun_does_nothing(run, tmp_path):
         assert len(f.attrs["frames_sha256"]) == 64
     evaluation = json.loads((out / "evaluation" / "sample" / "hog" / "L4.json").read_text())
     assert set(evaluation["splits"]) == {"val", "test"}
+    html = (out / "report.html").read_text()
+    with h5py.File(out / "descriptors" / "sample" / "effnet.h5", "r") as f:
+        for key in ("frames_sha256", "checkpoint_sha256"):
+            assert f.attrs[key] and f.attrs[key] in html  # the report shows the provenance of its inputs
     config = out.parent.parent / "e2e.yaml"
     again = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", str(config)], cwd=out.parent.parent,
                            capture_output=True, text=True, timeout=300)

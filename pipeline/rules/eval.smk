@@ -50,7 +50,8 @@ rule evaluate:
         features=lambda wc: [features_path(OUT, wc.dataset, wc.method, wc.seq_len, split) for split in conf["eval_splits"]],
         predictors=seed_models(conf, f"{OUT}/predictors/{{dataset}}/L{{seq_len}}"),
     output:
-        f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.json",
+        evaluation=f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.json",
+        timing=f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.timing.json",
     log:
         f"{OUT}/logs/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.log",
     params:
@@ -63,4 +64,4 @@ rule evaluate:
     shell:
         "vpr-smr evaluate --dataset {wildcards.dataset} --method {wildcards.method} --seq-len {wildcards.seq_len}"
         " --features {params.features} --predictors {input.predictors} --modes {params.modes}"
-        " --trust-levels {params.trust_levels} {params.restoration} --out {output} > {log} 2>&1"
+        " --trust-levels {params.trust_levels} {params.restoration} --out {output.evaluation} > {log} 2>&1"

@@ -58,6 +58,9 @@ rule report:
     input:
         evaluations=expand(f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.json",
                            dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
+        # read by the report beside each evaluation
+        timings=expand(f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.timing.json",
+                       dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
         predictors=expand(f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.json", dataset=DATASETS, seq_len=SEQ_LENS),
         attribute_ablations=expand(f"{OUT}/ablation/attributes/{{dataset}}/L{TABLE_L}.json", dataset=DATASETS)
         if "attributes" in EXPERIMENTS else [],
