@@ -4,6 +4,10 @@
     and against per-query loops (goal: at least 1000x faster), extrapolated from a sample of queries: the literal
     per-query transcription of SPEC 5 that the tests use (``naive_attributes``, the issue's "about 50 ms per
     query") and the same loop with numpy inside each query (argsort of the whole column, as the authors' code);
+    With ``--authors-code PATH`` (a local checkout of QVPR/vpr-smr-predictor, which this repository does not ship),
+    also against the authors' own code as their ``test.py`` runs it per query (``transform_matrices``,
+    ``transform_matrices_with_window``, ``extract_features_with_ranks`` and ``generate_labels`` with ``topN=4``,
+    the four ranks that ``vpr-smr attributes`` computes), on a block of consecutive queries of the same matrix;
 (b) the command's peak memory against the matrix's size (goal: at most 2x the matrix + 300 MB);
 (d) the time per query at L = 2 against L = 10 (goal: within 1.5x), in this process.
 
@@ -13,6 +17,7 @@ import and first dispatch, its on-disk cache warm) and both paths' in-process ti
 
     python benchmarks/attributes.py            # 9000 x 9000, L = 4 (324 MB on disk under a temporary folder)
     python benchmarks/attributes.py --small    # 400 x 400: checks that it runs (CI)
+    python benchmarks/attributes.py --authors-code ../vpr-smr-predictor   # also time the authors' code
 """
 
 from __future__ import annotations
@@ -69,13 +74,65 @@ def numpy_per_query(distance_matrix: np.ndarray, seq_len: int, queries: np.ndarr
         del a1, a2, rates
 
 
+def check_authors_code(authors_code: Path) -> None:
+    if not (authors_code / "tools" / "mlp_classifier.py").is_file():
+        raise SystemExit(f"--authors-code {authors_code}: no tools/mlp_classifier.py there; give the folder of a "
+                         f"checkout of https://github.com/QVPR/vpr-smr-predictor")
+
+
+def authors_per_query(authors_code: Path, distance_matrix: np.ndarray, seq_len: int, n_sample: int,
+                      tolerance: int = 2) -> float:
+    """Seconds per query of the authors' code (their ``test.py`` path, ``topN=4``) on ``n_sample`` consecutive
+    queries from the middle of ``distance_matrix``: whole-matrix steps (column normalisation, the SeqSLAM
+    convolution) timed once and divided by the number of queries, per-query steps on the sample."""
+    import importlib
+    import types
+
+    try:  # their plotting module imports seaborn and styles plots on import; nothing here plots
+        importlib.import_module("seaborn")
+    except ImportError:
+        stand_in = types.ModuleType("seaborn")
+        def no_op(name: str) -> object:
+            if name.startswith("__"):
+                raise AttributeError(name)
+            return lambda *args, **kwargs: None
+
+        stand_in.__getattr__ = no_op
+        sys.modules["seaborn"] = stand_in
+    sys.path.insert(0, str(authors_code))
+    classifier = importlib.import_module("tools.mlp_classifier")
+    processing = importlib.import_module("tools.data_processing")
+    n_ref, n_query = distance_matrix.shape
+    matrix = np.asarray(distance_matrix, dtype=np.float64)  # their matrices are float64 arrays of float32 values
+    start = time.perf_counter()
+    normalised = processing.max_normalise(matrix)
+    sequence = processing.compute_dist_matrix_seqslam(matrix, seq_len)
+    whole_s = time.perf_counter() - start
+    gt = processing.create_custom_gt_indices(ref_size=n_ref, query_size=n_query, window=tolerance)
+    first = max(seq_len - 1, n_query // 2 - n_sample // 2)
+    cols = slice(first - seq_len + 1, first + n_sample)
+    start = time.perf_counter()
+    windows = np.array([normalised[:, a - seq_len + 1 : a + 1] for a in range(first, first + n_sample)])
+    empty = np.zeros((n_sample, 1))
+    block, _ = processing.transform_matrices(windows, empty)
+    group, _ = processing.transform_matrices_with_window(windows, empty, window=2)
+    for i in range(n_sample):
+        classifier.extract_features_with_ranks(windows[i], block[i], group[i], topN=4)
+    classifier.generate_labels(matrix[:, cols], sequence[:, first - seq_len + 1 : first - seq_len + 1 + n_sample],
+                               gt[cols], seq_len, topN=4)
+    return whole_s / (n_query - seq_len + 1) + (time.perf_counter() - start) / n_sample
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--size", type=int, default=9000)
     parser.add_argument("--seq-len", type=int, default=4)
     parser.add_argument("--sample", type=int, default=40, help="queries timed for the authors' loop")
+    parser.add_argument("--authors-code", type=Path, help="a checkout of QVPR/vpr-smr-predictor: also time it")
     parser.add_argument("--small", action="store_true", help="a tiny size (also VPR_SMR_BENCH_SMALL=1)")
     args = parser.parse_args()
+    if args.authors_code:
+        check_authors_code(args.authors_code)
     size = 400 if is_small(args.small) else args.size
     sample = min(args.sample, 10) if is_small(args.small) else args.sample
     n_queries = size - args.seq_len + 1
@@ -109,6 +166,9 @@ def main() -> None:
         start = time.perf_counter()
         naive_attributes(np.asarray(matrix[:, : literal_sample + args.seq_len - 1], dtype=np.float64), args.seq_len, 4)
         literal_s = (time.perf_counter() - start) / literal_sample * n_queries
+        code_s = None
+        if args.authors_code:
+            code_s = authors_per_query(args.authors_code, matrix, args.seq_len, sample) * n_queries
         compiled_per_query = {}
         for kind in paths:
             attributes.KERNEL = kind
@@ -139,12 +199,19 @@ def main() -> None:
           f"{1e3 * literal_s / n_queries:.1f} ms per query)")
     print(f"numpy per-query loop:            {authors_s:8.1f} s (extrapolated from {sample} queries, "
           f"{1e3 * authors_s / n_queries:.2f} ms per query)")
+    if code_s is not None:
+        print(f"authors' code, per query:        {code_s:8.1f} s (extrapolated from {sample} queries, "
+              f"{1e3 * code_s / n_queries:.1f} ms per query)")
     print(f"per query, L = 2 / L = 10:       {1e6 * per_query[2]:.0f} / {1e6 * per_query[10]:.0f} µs")
     print(f"ratio (a) attributes / load+sum: {cmd_s / sum_s:.1f}x (goal <= 15x)")
     print(f"ratio (a) literal loop / attributes: {literal_s / cmd_s:.1f}x (goal >= 1000x)")
     for kind, (seconds, _, _) in paths.items():
         print(f"ratio (a) literal loop / attributes forced {kind}: {literal_s / seconds:.1f}x")
     print(f"ratio (a) numpy loop / attributes:   {authors_s / cmd_s:.1f}x")
+    if code_s is not None:
+        print(f"ratio (a) authors' code / attributes: {code_s / cmd_s:.1f}x (goal >= 1000x)")
+        for kind, (seconds, _, _) in paths.items():
+            print(f"ratio (a) authors' code / attributes forced {kind}: {code_s / seconds:.1f}x")
     print(f"ratio (b) peak / matrix:         {cmd_rss / 2**20 / matrix_mb:.2f}x; peak - 2 x matrix = "
           f"{cmd_rss / 2**20 - 2 * matrix_mb:.0f} MB (goal <= 300 MB)")
     print(f"ratio (d) L=10 / L=2 per query:  {per_query[10] / per_query[2]:.2f}x (goal within 1.5x)")

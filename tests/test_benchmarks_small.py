@@ -20,3 +20,10 @@ def test_benchmark_runs_small(script, ratio_lines):
     assert done.returncode == 0, done.stderr
     for line in ratio_lines:
         assert line in done.stdout, done.stdout
+
+
+def test_attributes_benchmark_names_a_wrong_authors_code_folder(tmp_path):
+    done = subprocess.run([sys.executable, str(BENCHMARKS / "attributes.py"), "--small", "--authors-code",
+                           str(tmp_path)], capture_output=True, text=True, timeout=60)
+    assert done.returncode != 0
+    assert f"--authors-code {tmp_path}: no tools/mlp_classifier.py there" in done.stderr
