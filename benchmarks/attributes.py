@@ -93,6 +93,7 @@ def authors_per_query(authors_code: Path, distance_matrix: np.ndarray, seq_len: 
         importlib.import_module("seaborn")
     except ImportError:
         stand_in = types.ModuleType("seaborn")
+
         def no_op(name: str) -> object:
             if name.startswith("__"):
                 raise AttributeError(name)
@@ -119,8 +120,9 @@ def authors_per_query(authors_code: Path, distance_matrix: np.ndarray, seq_len: 
     group, _ = processing.transform_matrices_with_window(windows, empty, window=2)
     for i in range(n_sample):
         classifier.extract_features_with_ranks(windows[i], block[i], group[i], topN=4)
-    classifier.generate_labels(matrix[:, cols], sequence[:, first - seq_len + 1 : first - seq_len + 1 + n_sample],
-                               gt[cols], seq_len, topN=4)
+    # their labels take the queries' D columns (with the L - 1 before them) and the matching S columns
+    classifier.generate_labels(matrix[:, cols], sequence[:, cols.start : cols.start + n_sample], gt[cols], seq_len,
+                               topN=4)
     return whole_s / (n_query - seq_len + 1) + (time.perf_counter() - start) / n_sample
 
 

@@ -25,9 +25,6 @@ DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)
 SEED_KEYS = ("max_recall", "auc_vpr_sm", "auc_vpr_sm_pred", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")
 
 
-# measured per split: the attributes stage (from the features file), the predictors, their sum per query
-TIMING_KEYS = ("attributes_seconds", "predict_seconds", "seconds_per_query")
-
 def rank_probabilities(predictor: Any, features: QueryFeatures, ranks: int | None = None) -> np.ndarray:
     """``(N, K, C)`` class probabilities of the attributes of ranks ``0..K-1`` (A1..A4 order, as the predictor
     takes them); ``ranks=1`` gives rank 0 only."""
@@ -196,8 +193,9 @@ def main(
     seeds: Sequence[int] | None = None,
 ) -> dict[str, Any]:
     """Evaluate every split in ``features_paths`` (e.g. val and test) with the predictors of ``predictor_paths``
-    (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write one JSON file ``out``, its
-    timings (``TIMING_KEYS`` per split) to ``timing_path(out)``. The returned dict holds both."""
+    (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write one JSON file ``out``; the
+    timings per split (``attributes_seconds`` from the features file, ``predict_seconds``, their sum per query
+    ``seconds_per_query``) go to ``timing_path(out)``. The returned dict holds both."""
     if isinstance(predictor_paths, str | Path):
         predictor_paths = [predictor_paths]
     if not predictor_paths:
@@ -210,25 +208,23 @@ def main(
     result: dict[str, Any] = {
         "meta": dict(meta or {}), "predictors": [str(p) for p in predictor_paths], "splits": {},
     }
+    timings: dict[str, dict[str, Any]] = {}
     for split, path in features_paths.items():
         if not Path(path).is_file():
             raise FileNotFoundError(f"features of split {split!r} not found: {path} (run vpr-smr attributes)")
         features = read_features(path)
         split_result = evaluate_split(features, predictors, tuple(modes), tuple(trust_levels), restoration, seeds)
+        # Timings change from run to run: they go beside the results, so that two runs give identical results.
         attributes_seconds = float(read_provenance(path).get("attributes_seconds", 0.0))
-        n = max(split_result["n_queries"], 1)
-        split_result["attributes_seconds"] = attributes_seconds
-        split_result["seconds_per_query"] = (attributes_seconds + split_result["predict_seconds"]) / n
+        predict_seconds = split_result.pop("predict_seconds")
+        n_queries = split_result["n_queries"]
+        timings[split] = {"attributes_seconds": attributes_seconds, "predict_seconds": predict_seconds,
+                          "seconds_per_query": (attributes_seconds + predict_seconds) / max(n_queries, 1),
+                          "n_queries": n_queries}
         result["splits"][split] = split_result
-    # Timings change from run to run: they go beside the results, so that the results of two runs are identical.
-    timing = {"meta": result["meta"], "splits": {
-        split: {key: numbers.pop(key) for key in TIMING_KEYS} | {"n_queries": numbers["n_queries"]}
-        for split, numbers in result["splits"].items()}}
-    write_json(timing_path(out), timing)
+    write_json(timing_path(out), {"meta": result["meta"], "splits": timings})
     write_json(out, result)
-    for split, numbers in timing["splits"].items():
-        result["splits"][split].update(numbers)
-    return result
+    return {**result, "splits": {split: {**numbers, **timings[split]} for split, numbers in result["splits"].items()}}
 
 
 def timing_path(out: Path | str) -> Path:

@@ -546,8 +546,9 @@ def _load_evaluations(paths: Sequence[Path | str]) -> list[dict[str, Any]]:
 
     evaluations = _load(paths, "evaluation")
     for path, evaluation in zip(paths, evaluations, strict=True):
-        if timing_path(path).is_file():
-            for split, numbers in json.loads(timing_path(path).read_text())["splits"].items():
+        timing = timing_path(path)
+        if timing.is_file():
+            for split, numbers in json.loads(timing.read_text())["splits"].items():
                 evaluation["splits"].get(split, {}).update(numbers)
     return evaluations
 
