@@ -2,15 +2,21 @@
 
 from __future__ import annotations
 
+import difflib
+import inspect
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
 from .base import DatasetError, Traverse, TraversePair, read_image
 from .folders import folder_pair
+from .nordland import SPLITS as NORDLAND_SPLITS
 from .nordland import nordland
+from .nordland_sample import SPLITS as NORDLAND_SAMPLE_SPLITS
 from .nordland_sample import nordland_sample
+from .robotcar import SPLITS as ROBOTCAR_SPLITS
 from .robotcar import robotcar
+from .sfu_mountain import SPLITS as SFU_MOUNTAIN_SPLITS
 from .sfu_mountain import sfu_mountain
 
 LOADERS: dict[str, Callable[..., TraversePair]] = {
@@ -20,8 +26,63 @@ LOADERS: dict[str, Callable[..., TraversePair]] = {
     "robotcar": robotcar,
     "sfu_mountain": sfu_mountain,
 }
+# The published splits of the benchmarks (SPEC 1); a `folders` dataset has none until the configuration names them.
+DEFAULT_SPLITS: dict[str, dict[str, tuple[int, int]]] = {
+    "nordland_sample": NORDLAND_SAMPLE_SPLITS,
+    "nordland": NORDLAND_SPLITS,
+    "robotcar": ROBOTCAR_SPLITS,
+    "sfu_mountain": SFU_MOUNTAIN_SPLITS,
+}
 
-__all__ = ["DatasetError", "LOADERS", "Traverse", "TraversePair", "load_dataset", "read_image"]
+__all__ = [
+    "LOADERS", "SPLIT_SETTINGS", "DatasetError", "Traverse", "TraversePair", "frames_settings", "load_dataset",
+    "load_frames", "loader_options", "read_image", "required_options", "unknown_option",
+]
+
+
+# Settings that only reach the distances and attributes jobs: the descriptors of a dataset depend on the others.
+SPLIT_SETTINGS = ("splits", "tolerance")
+# Loader arguments that are not settings: the workflow fills them in.
+_INTERNAL = ("name", "check_files")
+
+
+def frames_settings(conf: dict[str, Any]) -> dict[str, Any]:
+    """A dataset's configuration entry without its split settings: what selects and orders the frames."""
+    return {key: value for key, value in conf.items() if key not in SPLIT_SETTINGS}
+
+
+def loader_options(loader_name: str) -> list[str]:
+    """The settings a loader takes in the configuration (besides ``loader``, ``frames`` and the split settings)."""
+    parameters = inspect.signature(LOADERS[loader_name]).parameters
+    return [p for p in parameters if p not in _INTERNAL and p not in SPLIT_SETTINGS]
+
+
+def required_options(loader_name: str) -> list[str]:
+    """The settings a loader cannot do without (``reference`` and ``query`` of ``folders``, a benchmark's root)."""
+    parameters = inspect.signature(LOADERS[loader_name]).parameters
+    return [p for p in loader_options(loader_name) if parameters[p].default is inspect.Parameter.empty]
+
+
+def unknown_option(loader_name: str, key: str) -> str | None:
+    """Why ``key`` is not a setting of the loader (with the closest valid one), or None when it is."""
+    valid = loader_options(loader_name)
+    if key in valid or key in ("loader", "frames", *SPLIT_SETTINGS):
+        return None
+    close = difflib.get_close_matches(key, valid, n=1)
+    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    return f"loader {loader_name!r} has no setting {key!r}{hint}; its settings: {', '.join(valid)}"
+
+
+def _check_options(name: str, loader_name: str, options: dict[str, Any]) -> None:
+    """Name a misspelt or missing loader setting with the valid ones, before the loader runs."""
+    for key in options:
+        problem = unknown_option(loader_name, key)
+        if problem:
+            raise DatasetError(f"datasets.{name}.{key}: {problem}, frames, splits, tolerance")
+    missing = [p for p in required_options(loader_name) if p not in options]
+    if missing:
+        raise DatasetError(f"datasets.{name}: loader {loader_name!r} needs {', '.join(missing)}; e.g. "
+                           + ", ".join(f"{p}: path/to/{p}" for p in missing))
 
 
 def slice_pair(pair: TraversePair, lo: int, hi: int, splits: dict[str, tuple[int, int]]) -> TraversePair:
@@ -35,35 +96,46 @@ def slice_pair(pair: TraversePair, lo: int, hi: int, splits: dict[str, tuple[int
     )
 
 
-def load_dataset(name: str, conf: dict[str, Any]) -> TraversePair:
-    """Build the TraversePair of a configuration entry ``{loader: ..., <loader arguments>, frames?: [lo, hi]}``.
+def load_frames(name: str, conf: dict[str, Any], check_files: bool = True) -> TraversePair:
+    """The frames of a configuration entry ``{loader: ..., <loader settings>, frames?: [lo, hi]}``, in order.
 
-    ``frames`` keeps a slice of the frames (for quick runs); ``splits`` are then relative to that slice.
+    The one code path that builds a dataset, for the configuration check and for the descriptors job alike;
+    split settings in ``conf`` are ignored (``load_dataset`` applies them). With ``frames`` the pair keeps only
+    that slice, and has no splits. ``check_files=False`` lets ``dataset check`` report missing files instead of
+    stopping at them.
     """
-    conf = dict(conf)
+    conf = frames_settings(conf)
     loader_name = conf.pop("loader", None)
     if loader_name not in LOADERS:
         raise DatasetError(
             f"datasets.{name}.loader is {loader_name!r}; choose one of {', '.join(sorted(LOADERS))}"
         )
     frames = conf.pop("frames", None)
-    splits = {k: tuple(v) for k, v in conf.pop("splits", {}).items()}
-    loader = LOADERS[loader_name]
-    kwargs = dict(conf)
-    if loader_name == "folders":
-        kwargs["name"] = name
-    if frames is None:
-        if splits:
-            kwargs["splits"] = splits
-    else:
-        kwargs["splits"] = {}  # the splits apply to the slice, below
-    try:
-        pair = loader(**kwargs)
-    except TypeError as error:
-        raise DatasetError(f"datasets.{name}: bad settings for loader {loader_name!r}: {error}") from None
+    _check_options(name, loader_name, conf)
+    parameters = inspect.signature(LOADERS[loader_name]).parameters
+    if "name" in parameters:
+        conf["name"] = name
+    if "check_files" in parameters:
+        conf["check_files"] = check_files
+    if "splits" in parameters:
+        conf["splits"] = {}  # load_dataset applies them, after the frames are sliced
+    pair = LOADERS[loader_name](**conf)
     if frames is not None:
         lo, hi = frames
         if not 0 <= lo < hi <= len(pair):
-            raise DatasetError(f"datasets.{name}.frames = [{lo}, {hi}] is outside the {len(pair)} frames")
-        pair = slice_pair(pair, lo, hi, splits or {"all": (0, hi - lo)})
+            raise DatasetError(f"datasets.{name}.frames = [{lo}, {hi}] is outside the {len(pair)} frames; "
+                               f"give a range within [0, {len(pair)}]")
+        pair = slice_pair(pair, lo, hi, {})
     return replace(pair, name=name)
+
+
+def load_dataset(name: str, conf: dict[str, Any], check_files: bool = True) -> TraversePair:
+    """``load_frames`` with the entry's ``splits`` and ``tolerance`` (default: the loader's).
+
+    With ``frames``, ``splits`` are relative to the slice (default: one split ``all`` over the slice).
+    """
+    pair = load_frames(name, conf, check_files)
+    splits = {key: (int(lo), int(hi)) for key, (lo, hi) in conf["splits"].items()} if "splits" in conf else None
+    if splits is None:
+        splits = {"all": (0, len(pair))} if "frames" in conf else DEFAULT_SPLITS.get(conf.get("loader"), {})
+    return replace(pair, splits=dict(splits), tolerance=conf.get("tolerance", pair.tolerance))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import hashlib
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,12 +27,25 @@ def list_files(paths: Sequence[Path | str], limit: int = MAX_LISTED) -> str:
     return shown + (f" and {len(paths) - limit} more" if len(paths) > limit else "")
 
 
+JPEG_START, JPEG_END = b"\xff\xd8", b"\xff\xd9"  # start- and end-of-image markers: a JPEG cut short lacks the end
+
+
 def imread(path: Path | str, flags: int = cv2.IMREAD_COLOR) -> np.ndarray:
-    """``cv2.imread(path, flags)`` (OpenCV's channel order); a missing or undecodable file raises naming it."""
+    """Decode the whole file as ``cv2.imread(path, flags)`` does (OpenCV's channel order), or raise naming it.
+
+    OpenCV decodes a truncated JPEG with a grey fill and only a warning on stderr, so a JPEG must end with its
+    end-of-image marker; other formats fail to decode when cut short. An empty file is named as such.
+    """
     path = Path(path)
     if not path.is_file():
         raise DatasetError(f"image not found: {path}")
-    image = cv2.imread(str(path), flags)
+    data = path.read_bytes()
+    if not data:
+        raise DatasetError(f"image {path} is empty (0 bytes): copy it again")
+    if data.startswith(JPEG_START) and not data.rstrip(b"\x00").endswith(JPEG_END):
+        raise DatasetError(f"image {path} is a truncated JPEG (it stops before its end-of-image marker, "
+                           f"{len(data)} bytes): the file is incomplete; copy it again")
+    image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), flags)
     if image is None:
         raise DatasetError(f"cannot decode image {path}: the file is corrupt or not an image")
     return image
@@ -48,6 +62,7 @@ class Traverse:
 
     name: str
     images: tuple[Path, ...]
+    order_note: str | None = None  # why the order by file name may not be the recording order (see order_note)
 
     def __len__(self) -> int:
         return len(self.images)
@@ -68,6 +83,7 @@ class TraversePair:
     query: Traverse
     tolerance: int = DEFAULT_TOLERANCE
     splits: dict[str, tuple[int, int]] = field(default_factory=dict)
+    pairing: str = "by the frame lists (line i of both)"  # how frame i of both traverses is known to be one place
 
     def __post_init__(self) -> None:
         if len(self.reference) != len(self.query):
@@ -117,8 +133,43 @@ class TraversePair:
         return digest.hexdigest()
 
 
+_NUMBER = re.compile(r"(\d+)")
+
+
+def natural_key(name: str) -> tuple[tuple[int, int | str], ...]:
+    """Sort key that orders the numbers in a name by value: ``img2`` before ``img10`` (text compares as text)."""
+    return tuple((1, int(part)) if part.isdigit() else (0, part) for part in _NUMBER.split(name) if part)
+
+
+def order_note(names: Sequence[str]) -> str | None:
+    """Why the order of ``names`` (already in natural order) may not be the order they were recorded in, or None.
+
+    The order is unambiguous when every name has the same text around one number that differs between them
+    (``img1 .. img111``, ``frame_00010``): frames are then ordered by that number.
+    """
+    if len(names) < 2:
+        return None
+    if not any(_NUMBER.search(name) for name in names):
+        return "the names hold no frame numbers: frames are ordered alphabetically"
+    templates = {_NUMBER.sub("#", name) for name in names}
+    if len(templates) > 1:
+        shown = ", ".join(sorted(templates)[:MAX_LISTED])
+        return (f"the names follow {len(templates)} different patterns ({shown}): frames are ordered by name, "
+                "pattern by pattern; give a frame list (reference_list / query_list) if that is not the order "
+                "they were recorded in")
+    numbers = [[int(n) for n in _NUMBER.findall(name)] for name in names]
+    varying = [i for i in range(len(numbers[0])) if len({row[i] for row in numbers}) > 1]
+    if len(varying) > 1:
+        return (f"{len(varying)} numbers vary in the names (e.g. {names[0]}): frames are ordered by the first, "
+                "then the next; give a frame list if that is not the order they were recorded in")
+    if not varying or len({row[varying[0]] for row in numbers}) < len(names):
+        return "two names carry the same frame number (e.g. img01 and img1): their order is alphabetical"
+    return None
+
+
 def sorted_images(folder: Path | str) -> tuple[Path, ...]:
-    """The image files of a folder, sorted by name; any other file (but hidden ones) is an error naming it.
+    """The image files of a folder in natural order (``img2`` before ``img10``); any other file (but hidden
+    ones) is an error naming it.
 
     A stray file would shift the frame alignment of everything after it, so it is not skipped silently.
     """
@@ -126,7 +177,8 @@ def sorted_images(folder: Path | str) -> tuple[Path, ...]:
     if not folder.is_dir():
         note = "" if folder.is_absolute() else f" (a relative path, looked for from the working folder {Path.cwd()})"
         raise DatasetError(f"image folder not found: {folder}{note}")
-    files = sorted(p for p in folder.iterdir() if not p.name.startswith("."))
+    files = sorted((p for p in folder.iterdir() if not p.name.startswith(".")),
+                   key=lambda p: (natural_key(p.name), p.name))
     others = [p.name for p in files if p.suffix.lower() not in IMAGE_SUFFIXES]
     if others:
         raise DatasetError(

@@ -8,7 +8,6 @@ what is missing, where, and how to fix it.
 
 from __future__ import annotations
 
-import inspect
 import os
 import sys
 from collections import Counter
@@ -22,6 +21,7 @@ import cv2
 
 from .base import MAX_LISTED, DatasetError, Traverse, TraversePair, list_files
 
+SHOWN_NAMES = 3  # file names shown from each end of a traverse, in the order used
 MAX_HINT_DIRS = 200  # folders looked into when guessing a mis-set root (a root may hold many files)
 
 
@@ -147,6 +147,9 @@ class TraverseCheck:
     missing_files: list[Path] = field(default_factory=list)  # unique, in frame order
     missing_folders: list[Path] = field(default_factory=list)
     sizes: Counter[str] = field(default_factory=Counter)  # "WxHxC" -> number of files
+    first: list[str] = field(default_factory=list)  # the first and last file names, in the order used
+    last: list[str] = field(default_factory=list)
+    order_note: str | None = None
 
     @property
     def bad(self) -> set[int]:
@@ -179,6 +182,8 @@ class DatasetReport:
     traverses: list[TraverseCheck]
     splits: list[SplitCheck]
     decoded: bool
+    pairing: str = ""
+    pairs: list[tuple[int, str, str]] = field(default_factory=list)  # (frame, reference name, query name)
 
     @property
     def ok(self) -> bool:
@@ -202,7 +207,10 @@ def _decode(traverse: Traverse, index: int) -> tuple[str | None, str | None]:
 
 
 def _check_traverse(role: str, traverse: Traverse, decode: bool, workers: int) -> TraverseCheck:
-    report = TraverseCheck(role, traverse.name, len(traverse))
+    report = TraverseCheck(role, traverse.name, len(traverse), order_note=traverse.order_note)
+    names = [p.name for p in traverse.images]
+    report.first = names[:SHOWN_NAMES]
+    report.last = names[max(SHOWN_NAMES, len(names) - SHOWN_NAMES):]
     first_index: dict[Path, int] = {}
     for i, path in enumerate(traverse.images):
         first_index.setdefault(path, i)
@@ -247,13 +255,23 @@ def check_dataset(pair: TraversePair, decode: bool = True, workers: int = 4) -> 
         query_ok = sum(1 for i in frames if i not in query_bad)
         both = sum(1 for i in frames if i not in ref_bad and i not in query_bad)
         splits.append(SplitCheck(name, lo, hi, ref_ok, query_ok, both))
-    return DatasetReport(pair.name, len(pair), pair.tolerance, traverses, splits, decode)
+    n = len(pair)
+    shown = sorted({*range(min(SHOWN_NAMES, n)), *range(max(0, n - SHOWN_NAMES), n)})
+    pairs = [(i, pair.reference.images[i].name, pair.query.images[i].name) for i in shown]
+    return DatasetReport(pair.name, n, pair.tolerance, traverses, splits, decode, pair.pairing, pairs)
 
 
 def format_report(report: DatasetReport) -> str:
     """Human-readable text of a report; problems list the first few files, then a count."""
     verb = "found and readable" if report.decoded else "found (not decoded)"
     lines = [f"dataset {report.dataset!r}: {report.frames} aligned frames, tolerance {report.tolerance}"]
+    if report.pairing:
+        lines.append(f"  paired {report.pairing}:")
+        width = max(len(ref) for _, ref, _ in report.pairs)
+        for i, (frame, ref, query) in enumerate(report.pairs):
+            if i and frame != report.pairs[i - 1][0] + 1:
+                lines.append("    ...")
+            lines.append(f"    {frame:>6}  {ref:<{width}}  <->  {query}")
     for t in report.traverses:
         line = f"  {t.role} {t.name}: {t.found} of {t.frames} frames {verb}"
         if t.missing:
@@ -264,6 +282,10 @@ def format_report(report: DatasetReport) -> str:
         if t.sizes:
             sizes = ", ".join(f"{size} ({n})" for size, n in t.sizes.most_common())
             lines.append(f"    image sizes (W x H x channels): {sizes}")
+        if t.first:
+            lines.append(f"    order: {', '.join(t.first)}" + (f" ... {', '.join(t.last)}" if t.last else ""))
+        if t.order_note:
+            lines.append(f"    warning: {t.order_note}")
     for s in report.splits:
         lines.append(
             f"  split {s.name} [{s.lo}, {s.hi}): {s.frames} frames; reference {s.reference}, "
@@ -288,39 +310,49 @@ def format_report(report: DatasetReport) -> str:
     return "\n".join(lines)
 
 
-def main(
-    loader_name: str, root: str | None = None, decode: bool = True, workers: int = 4, **options: Any
-) -> int:
-    """``vpr-smr dataset check NAME --root DIR``: print the report; 0 if all is well, 1 on problems found,
-    2 when the dataset cannot be loaded at all (unknown loader, bad options, missing root or frame lists)."""
-    from . import LOADERS  # here, not at the top: the package imports the loaders, which import this module
+def main(settings: dict[str, Any], name: str | None = None, decode: bool = True, workers: int = 4) -> int:
+    """``vpr-smr dataset check``: print the report of a dataset's configuration entry (``{loader: ..., ...}``, as
+    in a configuration's ``datasets``); 0 if all is well, 1 on problems found, 2 when the dataset cannot be
+    loaded at all (unknown loader, missing or misspelt options, missing root or frame lists)."""
+    from . import LOADERS, load_dataset, required_options, unknown_option
 
+    loader_name = settings.get("loader")
     if loader_name not in LOADERS:
         choices = ", ".join(sorted(LOADERS))
-        print(f"unknown dataset loader {loader_name!r}; choose one of {choices}", file=sys.stderr)
+        print(f"error: unknown dataset loader {loader_name!r}; choose one of {choices}", file=sys.stderr)
         return 2
-    loader = LOADERS[loader_name]
-    parameters = inspect.signature(loader).parameters
-    kwargs = dict(options)
-    if root is not None:
-        if "root" not in parameters:
-            print(f"dataset loader {loader_name!r} takes no root; give its own options", file=sys.stderr)
+    for key in settings:
+        problem = unknown_option(loader_name, key)
+        if problem:
+            print(f"error: {problem} (as options: {', '.join(map(cli_option, loader_options_of(loader_name)))})",
+                  file=sys.stderr)
             return 2
-        kwargs["root"] = root
-    if "check_files" in parameters:
-        kwargs["check_files"] = False  # report missing files per split instead of stopping at the first error
-    if "name" in parameters:
-        kwargs.setdefault("name", loader_name)
-    try:
-        inspect.signature(loader).bind(**kwargs)
-    except TypeError as error:
-        print(f"bad options for dataset loader {loader_name!r}: {error}", file=sys.stderr)
+    missing = [option for option in required_options(loader_name) if option not in settings]
+    if missing:
+        example = " ".join(f"{cli_option(option)} {EXAMPLE_VALUES.get(option, 'DIR')}" for option in missing)
+        example = example.replace("<loader>", loader_name)
+        print(f"error: loader {loader_name!r} needs {', '.join(map(cli_option, missing))}; e.g.\n"
+              f"  vpr-smr dataset check {loader_name} {example}", file=sys.stderr)
         return 2
     try:
-        pair = loader(**kwargs)
+        pair = load_dataset(name or loader_name, settings, check_files=False)
     except DatasetError as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     report = check_dataset(pair, decode=decode, workers=workers)
     print(format_report(report))
     return report.status
+
+
+EXAMPLE_VALUES = {"reference": "my_route/reference", "query": "my_route/query", "root": "/data/<loader>"}
+
+
+def cli_option(key: str) -> str:
+    """The command-line form of a dataset setting: ``reference_list`` -> ``--reference-list``."""
+    return "--" + key.replace("_", "-")
+
+
+def loader_options_of(loader_name: str) -> list[str]:
+    from . import loader_options
+
+    return [*loader_options(loader_name), "frames", "splits", "tolerance"]

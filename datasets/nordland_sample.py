@@ -22,4 +22,5 @@ def nordland_sample(
 ) -> TraversePair:
     """Summer is the reference, winter the query."""
     splits = SPLITS if splits is None else splits
-    return folder_pair("nordland_sample", Path(root) / "summer", Path(root) / "winter", splits, tolerance)
+    return folder_pair("nordland_sample", Path(root) / "summer", Path(root) / "winter", splits=splits,
+                       tolerance=tolerance)

@@ -9,11 +9,19 @@ Checkpoint loading lives here, in ``TorchBackend.load``, for every learned backe
 ``weights_only=True``, find the state dict inside it (``find_state_dict``), strip the wrapper prefixes of
 training code once (``strip_wrappers``), let the backend adapt what really differs (``adapt_state_dict``: model
 sizes read from the file, extra content such as a whitening), check every key and shape strictly, then load.
+A file torch cannot read is described by what it is (``describe_file``: empty, a web page, a git-lfs pointer,
+truncated, an archive ...) or by what torch refused (``describe_load_error``), never with torch's own advice.
 """
 
 from __future__ import annotations
 
 import hashlib
+import itertools
+import pickletools
+import re
+import shlex
+import tarfile
+import zipfile
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -139,17 +147,18 @@ class TorchBackend(Backend):
 
     def find_state_dict(self, data: Any, source: Path | str) -> dict[str, Any]:
         """The state dict inside a loaded file: one of ``state_dict_entries``, or the file itself."""
+        looked = f"looked for tensors under {', '.join(map(repr, self.state_dict_entries))} or at the top"
         if isinstance(data, dict):
             for entry in self.state_dict_entries:
                 if isinstance(data.get(entry), dict):
-                    data = data[entry]
-                    break
-        if not isinstance(data, dict) or not any(isinstance(v, torch.Tensor) for v in data.values()):
-            found = f"a dict with keys {', '.join(map(str, list(data)[:8]))}" if isinstance(data, dict) and data \
-                else type(data).__name__
-            raise CheckpointError(f"checkpoint {source} holds no state dict (found {found}; looked for "
-                                  f"tensors under {', '.join(map(repr, self.state_dict_entries))} or at the top)")
-        return data
+                    if not _has_tensors(data[entry]):
+                        raise CheckpointError(f"checkpoint {source} holds no state dict: its {entry!r} entry is "
+                                              f"{describe_value(data[entry])}")
+                    return data[entry]
+            if _has_tensors(data):
+                return data
+        raise CheckpointError(f"checkpoint {source} holds no state dict: it holds {describe_value(data)} ({looked})"
+                              f"{_nested_state_dict_hint(data, source)}")
 
     def strip_wrappers(self, state_dict: dict[str, Any]) -> dict[str, Any]:
         """Remove ``strip_prefixes`` (when every key has one) and ``strip_components``, in one pass."""
@@ -179,7 +188,7 @@ class TorchBackend(Backend):
         try:
             path = self.checkpoint_path(checkpoint)
             with torch.serialization.safe_globals(self.checkpoint_globals()):
-                data = load_tensor_file(path)
+                data = load_tensor_file(path, backend=self.name)
             state_dict = self.strip_wrappers(self.find_state_dict(data, path))
             state_dict = fill_batch_norm_counters(self.adapt_state_dict(state_dict, data, path), self.model)
             problems = state_dict_problems(self.model, state_dict)
@@ -261,22 +270,186 @@ def state_dict_problems(model: torch.nn.Module, state_dict: dict[str, Any], limi
     return "\n".join(lines)
 
 
-def load_tensor_file(path: Path | str, setting: str = "checkpoint") -> Any:
-    """``torch.load(path, weights_only=True)`` with errors that name the file and the setting to fix.
+# The fix for a file cut short, for the empty and truncated-file messages.
+AGAIN = "the download did not finish; download it again"
+
+
+def load_tensor_file(path: Path | str, setting: str = "checkpoint", backend: str | None = None) -> Any:
+    """``torch.load(path, weights_only=True)`` with errors that name the file, what it holds and the fix.
 
     The one place in the descriptors that tells a missing file apart (the configuration check does it
-    before any job; this message is for Python callers).
+    before any job; this message is for Python callers). ``backend`` (its name) decides whether a file that
+    stores Python objects gets the hint to convert it (only backends in ``convert.CONVERTERS`` have one).
     """
     path = Path(path)
     if not path.is_file():
         raise CheckpointError(f"checkpoint not found: {path} (set `{setting}` to the downloaded file)")
     try:
         return torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as error:  # torch raises UnpicklingError, RuntimeError, ... for unusable files
-        raise CheckpointError(
-            f"cannot load checkpoint {path} with weights_only=True: {error}. If it is an official file "
-            "that stores Python objects, convert it first with `vpr-smr convert-checkpoint`."
-        ) from None
+    except Exception as error:  # torch raises UnpicklingError, RuntimeError, EOFError, IndexError ... for bad files
+        finding = describe_file(path, setting) or describe_load_error(error, path, backend)
+        raise CheckpointError(f"checkpoint {path} {finding}") from None
+
+
+def describe_file(path: Path, setting: str = "checkpoint", inside: str | None = None) -> str | None:
+    """What a file that ``torch.load`` could not read is, from its bytes alone (nothing is unpickled), with
+    the fix: "is empty (0 bytes): ...". ``None`` when it looks like an intact torch.save file. ``inside``: what
+    to do with the file inside an archive (default: point ``setting`` to it)."""
+    size = path.stat().st_size
+    if size == 0:
+        return f"is empty (0 bytes): {AGAIN}"
+    with open(path, "rb") as handle:
+        head = handle.read(512)
+    inside = inside or f"set `{setting}` to the checkpoint inside"
+    if head[257:262] == b"ustar":  # torch's weights_only unpickler reads a tar header as "pop from empty list"
+        return f"is a tar archive{_members(path, tarfile.open)}, not a checkpoint: unpack it (`tar -xf`) and {inside}"
+    if head.startswith(b"\x1f\x8b"):
+        return f"is gzip-compressed, not a checkpoint: unpack it (`gunzip`, or `tar -xzf` for a .tar.gz) and {inside}"
+    if head.startswith(b"\x89HDF\r\n\x1a\n"):
+        return "is an HDF5 file (Keras or TensorFlow weights?), not a PyTorch checkpoint: download the PyTorch release"
+    if head.startswith(b"\x93NUMPY"):
+        return "is a NumPy .npy array, not a torch.save checkpoint: download the checkpoint itself"
+    if _is_safetensors(head, size):
+        return ("is a safetensors file, not a torch.save checkpoint (.pth, .pt, .ckpt): this backend reads the "
+                "torch.save release; download that file")
+    if head.startswith(b"PK\x03\x04"):  # torch.save's zip format
+        if not zipfile.is_zipfile(path):
+            return f"is truncated ({size} bytes; a zip archive, torch.save's format, without its end): {AGAIN}"
+        with zipfile.ZipFile(path) as archive:
+            names = archive.namelist()
+        if not any(name.endswith("/data.pkl") for name in names):
+            return f"is a zip archive{_members(path, zipfile.ZipFile)}, not a torch.save file: unzip it and {inside}"
+        return None
+    text = _text_start(head)
+    if text is not None:
+        return _describe_text(text)
+    if head.startswith(b"\x80"):  # a pickle: torch.save's legacy format, or a plain pickle
+        return _describe_legacy(path, size)
+    return (f"is not a torch.save file (it starts with bytes {head[:8].hex(' ')}): download the checkpoint "
+            f"again, or check that `{setting}` names the right file")
+
+
+def describe_load_error(error: Exception, path: Path, backend: str | None = None) -> str:
+    """The finding and fix for a torch.save file that ``torch.load(weights_only=True)`` refused. Never quotes
+    torch's advice to load unsafely; a conversion is suggested only for a backend that has a converter."""
+    message = str(error)
+    refused = re.findall(r"GLOBAL (\S+) (?:was not an allowed global|whose module)", message)
+    refused += re.findall(r"but got <class '([^']+)'>", message)
+    refused += re.findall(r"unrecognized function (\S+)", message)
+    if refused:
+        from .convert import CONVERTERS  # here: convert imports this module
+
+        if backend in CONVERTERS:
+            fix = (f"convert it first with `vpr-smr convert-checkpoint {backend} {shlex.quote(str(path))} OUT` "
+                   "and load OUT")
+        else:
+            fix = ("this backend reads files of tensors only: use the file it expects, or save the model's state "
+                   "dict alone where it was trained (`torch.save(model.state_dict(), PATH)`)")
+        names = ", ".join(dict.fromkeys(refused))
+        return (f"stores Python objects, not only tensors: loading with weights_only=True refuses {names}; "
+                f"{fix}")
+    if isinstance(error, EOFError) or "unexpected EOF" in message:
+        return f"is truncated ({path.stat().st_size} bytes; the torch.save data stops early): {AGAIN}"
+    return f"is damaged or not a torch.save file ({_torch_reason(error)}): download it again"
+
+
+def _torch_reason(error: Exception) -> str:
+    """torch's own reason, short, without its advice (which includes loading with weights_only off)."""
+    message = str(error).split("\n\nCheck the documentation", 1)[0]
+    if "Weights only load failed" in message:
+        message = message.rsplit("\n\n", 1)[-1]
+    first = message.strip().splitlines()[0] if message.strip() else ""
+    first = first.split(". This is an internal", 1)[0]
+    if not first or "weights_only" in first:
+        return type(error).__name__
+    return f"{type(error).__name__}: {first[:120]}"
+
+
+def _members(path: Path, opener: Any) -> str:
+    """" holding a.pth, b.txt" for an archive (the first few members), or "" when it cannot be listed."""
+    try:
+        with opener(path) as archive:
+            members = archive.namelist() if isinstance(archive, zipfile.ZipFile) else \
+                [member.name for member in itertools.islice(archive, 4)]
+    except (OSError, tarfile.TarError, zipfile.BadZipFile):
+        return ""
+    shown = ", ".join(members[:3]) + (", ..." if len(members) > 3 else "")
+    return f" holding {shown}" if shown else ""
+
+
+def _is_safetensors(head: bytes, size: int) -> bool:
+    """safetensors: an 8-byte little-endian header length, then the JSON header."""
+    length = int.from_bytes(head[:8], "little")
+    return len(head) > 8 and head[8:9] == b"{" and 0 < length <= size - 8
+
+
+def _text_start(head: bytes) -> str | None:
+    """The beginning of ``head`` as text if it is text (UTF-8, no NUL, printable), else ``None``."""
+    if b"\0" in head:
+        return None
+    text = head.decode("utf-8", errors="replace").lstrip("\ufeff")
+    printable = sum(c.isprintable() or c in "\t\r\n" for c in text if c != "\ufffd")
+    return text if printable >= 0.95 * len(text) else None
+
+
+def _describe_text(text: str) -> str:
+    start = text.lstrip()
+    shown = (start.splitlines() or [""])[0][:40]
+    if start.startswith("version https://git-lfs"):
+        return (f"is text, not a checkpoint: a git-lfs pointer (it starts with {shown!r}) that stands in for the "
+                "real file; fetch the file with `git lfs pull` in the repository it came from, or download it "
+                "from the release")
+    if start.lower().startswith(("<!doctype html", "<html", "<head", "<?xml")):
+        return (f"is text, not a checkpoint (it starts with {shown!r}...): a web page, e.g. an error or sign-in "
+                "page, was saved instead of the file; download the checkpoint itself again")
+    return f"is text, not a checkpoint (it starts with {shown!r}...): download the checkpoint itself again"
+
+
+def _describe_legacy(path: Path, size: int) -> str | None:
+    """Check the five pickles that open torch.save's legacy format (magic number, protocol, system info, the
+    object, storage keys) by their opcodes only; the raw storages follow them. ``None`` when they are whole."""
+    with open(path, "rb") as handle:
+        for index in range(5):
+            try:
+                ops = [(op.name, arg) for op, arg, _ in pickletools.genops(handle)]
+            except ValueError as error:
+                if handle.tell() >= size:  # the stream ended inside a pickle: the file is cut off
+                    return f"is truncated ({size} bytes; the torch.save data stops early): {AGAIN}"
+                return f"is damaged or not a torch.save file (a pickle that cannot be read: {error}): download it again"
+            if index == 0 and ("LONG1", torch.serialization.MAGIC_NUMBER) not in ops:
+                return ("is a plain Python pickle, not a torch.save file: save the state dict with "
+                        "`torch.save(state_dict, PATH)`")
+    return None
+
+
+def _has_tensors(data: dict[Any, Any]) -> bool:
+    return any(isinstance(value, torch.Tensor) for value in data.values())
+
+
+def describe_value(value: Any, limit: int = 8) -> str:
+    """A short description of a loaded object for messages: "a dict with keys epoch, args (no tensors)"."""
+    if isinstance(value, dict):
+        if not value:
+            return "an empty dict"
+        keys = ", ".join(map(str, itertools.islice(value, limit)))
+        more = f" and {len(value) - limit} more" if len(value) > limit else ""
+        return f"a dict with keys {keys}{more} (no tensors)"
+    if isinstance(value, torch.Tensor):
+        return f"a single tensor of shape {tuple(value.shape)}"
+    if isinstance(value, list | tuple):
+        return f"a {type(value).__name__} of {len(value)} items"
+    return f"a {type(value).__name__}"
+
+
+def _nested_state_dict_hint(data: Any, source: Path | str) -> str:
+    """When a state dict sits under another entry: how to save it alone (the loading stays weights_only)."""
+    if not isinstance(data, dict):
+        return ""
+    entry = next((key for key, value in data.items() if isinstance(value, dict) and _has_tensors(value)), None)
+    if entry is None:
+        return ""
+    return (f"; its {entry!r} entry holds tensors: save them alone with `torch.save(torch.load({str(source)!r}, "
+            f"weights_only=True)[{entry!r}], OUT)` and set `checkpoint` to OUT")
 
 
 def sha256_file(path: Path | str, chunk: int = 1 << 20) -> str:

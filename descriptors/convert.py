@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from .base import CheckpointError
+from .base import CheckpointError, describe_file
 
 APGEM_FILE = "Resnet-101-AP-GeM.pt"
 CONVERTED_FORMAT = "vpr-smr apgem 1"
@@ -106,10 +106,15 @@ def read_restricted(path: Path | str) -> Any:
                                   f"convert the {APGEM_FILE} inside")
     try:
         return torch.load(path, map_location="cpu", pickle_module=_RestrictedPickleModule, weights_only=False)
-    except pickle.UnpicklingError as error:
-        raise CheckpointError(f"cannot convert {path}: {error} (expected the official {APGEM_FILE})"
-                              ) from None
     except Exception as error:  # torch raises RuntimeError, EOFError, ... for truncated or foreign files
+        # What the file is (empty, an HTML page, truncated ...) tells more than the unpickler's complaint.
+        finding = describe_file(path, setting="IN", inside=f"convert the {APGEM_FILE} inside")
+        if finding is not None:
+            raise CheckpointError(f"cannot convert {path}: it {finding} (expected the official {APGEM_FILE})"
+                                  ) from None
+        if isinstance(error, pickle.UnpicklingError):
+            raise CheckpointError(f"cannot convert {path}: {error} (expected the official {APGEM_FILE})"
+                                  ) from None
         raise CheckpointError(f"cannot read {path} as a torch.save file: {error} "
                               f"(expected the official {APGEM_FILE})") from None
 
@@ -191,3 +196,24 @@ def convert_apgem(in_path: Path | str, out_path: Path | str) -> Path:
 
 # Method name -> converter, for the command line (``vpr-smr convert-checkpoint``).
 CONVERTERS: dict[str, Callable[[Path | str, Path | str], Path]] = {"apgem": convert_apgem}
+
+
+def no_conversion(method: str) -> str:
+    """Why ``vpr-smr convert-checkpoint METHOD`` has nothing to do for a method without a converter, and which
+    file its backend loads as it is."""
+    from . import backend_class
+
+    available = f"conversions exist for {', '.join(CONVERTERS)} only"
+    try:
+        cls = backend_class(method)
+    except ValueError as error:
+        return f"no conversion for {method!r}: {error}; {available}"
+    if not cls.needs_checkpoint:
+        return f"no conversion for {method!r}: backend {method!r} takes no checkpoint file; {available}"
+    try:
+        with torch.device("meta"):  # shapes only: the model costs nothing to build
+            expected = cls().expected_file()
+    except (ValueError, AttributeError):  # a backend that needs settings, or a plugin without expected_file
+        expected = "its checkpoint file"
+    return (f"no conversion for {method!r}: backend {method!r} loads its file as it is, with weights_only=True "
+            f"(expected: {expected}); check yours with `vpr-smr checkpoint check {method} FILE`; {available}")

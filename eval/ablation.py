@@ -21,9 +21,11 @@ import numpy as np
 
 from .attributes import ATTRIBUTE_NAMES
 from .evaluate import removal
-from .io import read_features, write_json
+from .io import JSON_SUFFIXES, check_suffix, read_features, write_json
+from .leakage import check_disjoint, frame_ranges, trained_on
 from .metrics import MODES
-from .predictor import SMRPredictor, cross_validated_f1, macro_f1
+from .predictor import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
+from .train import describe
 
 log = logging.getLogger(__name__)
 
@@ -101,6 +103,7 @@ def attributes_main(
     val: Sequence[Path | str] = (),
     test: Sequence[Path | str] = (),
     meta: dict[str, Any] | None = None,
+    allow_split_overlap: bool = False,
 ) -> dict[str, Any]:
     """Table II for one dataset and sequence length: write ``out`` (JSON) with the F1 of every attribute set.
 
@@ -108,7 +111,12 @@ def attributes_main(
     Layout: ``{"meta", "params", "n_train", "attributes": {"A1": {"columns", "f1_cv", "f1_val", "f1_test",
     "f1_test_method_mean", "n_val", "n_test"}, ..., "all": {...}}}``.
     """
+    check_suffix(out, JSON_SUFFIXES, "the attribute ablation (JSON)")
+    check_disjoint(frame_ranges(train), frame_ranges([*val, *test]), allow_split_overlap,
+                   "the per-attribute predictors")
     x_train, y_train = _stack(_features(train))
+    # attribute_f1 trains on the labels in this order (no shuffle): check them as they are, before any training
+    check_training_labels(y_train, describe(meta, len(train)), bool(dict(params or {}).get("smote", True)))
     result = {
         "meta": dict(meta or {}),
         "params": dict(params or {}),
@@ -126,6 +134,7 @@ def leave_one_out_train(
     params: dict[str, Any] | None = None,
     val: Mapping[str, Path | str] | None = None,
     meta: dict[str, Any] | None = None,
+    allow_split_overlap: bool = False,
 ) -> dict[str, Any]:
     """Train the ``without_<held_out>`` predictor on the train splits of every method but ``held_out``.
 
@@ -142,7 +151,8 @@ def leave_one_out_train(
     val = val or {}
     meta = {**(meta or {}), "held_out": held_out, "trained_on": others}
     return train_stage.main([train[m] for m in others], out, params,
-                            val=[val[m] for m in others if m in val], meta=meta)
+                            val=[val[m] for m in others if m in val], meta=meta,
+                            allow_split_overlap=allow_split_overlap)
 
 
 def leave_one_out_evaluate(
@@ -152,6 +162,7 @@ def leave_one_out_evaluate(
     out: Path | str,
     modes: tuple[str, ...] = MODES,
     meta: dict[str, Any] | None = None,
+    allow_split_overlap: bool = False,
 ) -> dict[str, Any]:
     """The held-out method's test split (``features``) under the pooled predictor and the ``without_`` one.
 
@@ -159,11 +170,13 @@ def leave_one_out_evaluate(
     ``f1_macro``, ``removed`` and ``modes: {mode: {max_recall, auc_vpr_sm, auc_vpr_sm_pred, aoc_vpr_sm,
     aoc_vpr_sm_pred, reduction_pct, ...}}``.
     """
+    check_suffix(out, JSON_SUFFIXES, "the leave-one-method-out evaluation (JSON)")
     features_ = read_features(features)
     result: dict[str, Any] = {"meta": dict(meta or {}), "n_queries": len(features_.queries), "predictors": {}}
     for name, path in (("pooled", pooled_predictor), ("without", held_out_predictor)):
         if not Path(path).is_file():
             raise FileNotFoundError(f"predictor file not found: {path} (train it first)")
+        check_disjoint(trained_on(path), frame_ranges([features]), allow_split_overlap, f"predictor {path}")
         predictor = SMRPredictor.load(path)
         numbers = removal(features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_,
                           tuple(modes), curves=False)

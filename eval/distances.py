@@ -8,7 +8,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from .io import atomic_h5
+from .io import HDF5_SUFFIXES, atomic_h5, check_suffix
 
 METRICS = ("l2", "cosine", "mad")
 # Chunks of the stored matrix: whole chunk columns are what the attributes stage reads (blocks of about 2^20 / R
@@ -52,11 +52,15 @@ def distance_columns(reference: np.ndarray, query: np.ndarray, metric: str, bloc
     if metric in ("l2", "cosine"):
         query = l2_normalise(query)
         if metric == "cosine":
-            return (1.0 - reference @ query.T).astype(np.float32)
-        import faiss
+            out = (1.0 - reference @ query.T).astype(np.float32)
+        else:
+            import faiss
 
-        # pairwise_distances(xq, xb) is what IndexFlatL2 computes for every pair: squared L2.
-        return np.ascontiguousarray(faiss.pairwise_distances(query, reference).T, dtype=np.float32)
+            # pairwise_distances(xq, xb) is what IndexFlatL2 computes for every pair: squared L2.
+            out = np.ascontiguousarray(faiss.pairwise_distances(query, reference).T, dtype=np.float32)
+        # Both are |r|^2 + |q|^2 - 2 r.q in float32: about -1e-6 for (nearly) identical descriptors. A distance is
+        # >= 0, and the attributes stage refuses negative ones (SPEC 5 divides by the column maximum).
+        return np.maximum(out, 0.0, out=out)
     if metric == "mad":
         import torch
 
@@ -110,7 +114,8 @@ def main(descriptors: Path | str, out: Path | str, split: str, split_range: tupl
     ``dataset``, ``method``, ``checkpoint_sha256``, ``frames_sha256``; frames ``split_range = (lo, hi)`` of both
     traverses form the split. Only the split's references and one block of queries are in memory at a time.
     """
-    descriptors, out = Path(descriptors), Path(out)
+    out = check_suffix(out, HDF5_SUFFIXES, "the distance matrix (HDF5)")
+    descriptors = Path(descriptors)
     lo, hi = (int(v) for v in split_range)
     with h5py.File(descriptors, "r") as f:
         missing = [k for k in ("reference", "query") if k not in f]

@@ -15,7 +15,8 @@ import numpy as np
 from sklearn.metrics import confusion_matrix
 
 from .attributes import QueryFeatures
-from .io import read_features, read_provenance, write_json
+from .io import JSON_SUFFIXES, check_suffix, read_features, read_provenance, write_json
+from .leakage import check_disjoint, frame_ranges, trained_on
 from .metrics import MODES, Curve, compare_curves, curve, keep_mask, recall_at_full_precision
 from .predictor import SMRPredictor, macro_f1
 from .restoration import evaluate_restoration
@@ -109,17 +110,21 @@ def removal(
     return result
 
 
-def seed_summary(seeds: list[dict[str, Any]]) -> dict[str, dict[str, float]]:
-    """Per mode: mean, sample standard deviation (ddof 1; 0 for one seed), min and max of ``reduction_pct``."""
+def seed_summary(seeds: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+    """Per mode: mean, sample standard deviation (ddof 1; 0 for one seed), min and max of ``reduction_pct`` over
+    the ``n_seeds_defined`` of the ``n_seeds`` seeds where it is defined; all None when it is nowhere."""
     out = {}
     for mode in seeds[0]["modes"]:
-        values = np.array([s["modes"][mode]["reduction_pct"] for s in seeds])
+        reductions = [s["modes"][mode]["reduction_pct"] for s in seeds]
+        values = np.array([v for v in reductions if v is not None], dtype=np.float64)
+        defined = len(values) > 0
         out[mode] = {
-            "n_seeds": len(values),
-            "reduction_pct_mean": float(values.mean()),
-            "reduction_pct_std": float(values.std(ddof=1)) if len(values) > 1 else 0.0,
-            "reduction_pct_min": float(values.min()),
-            "reduction_pct_max": float(values.max()),
+            "n_seeds": len(reductions),
+            "n_seeds_defined": len(values),
+            "reduction_pct_mean": float(values.mean()) if defined else None,
+            "reduction_pct_std": (float(values.std(ddof=1)) if len(values) > 1 else 0.0) if defined else None,
+            "reduction_pct_min": float(values.min()) if defined else None,
+            "reduction_pct_max": float(values.max()) if defined else None,
         }
     return out
 
@@ -191,11 +196,13 @@ def main(
     meta: dict[str, Any] | None = None,
     restoration: bool = True,
     seeds: Sequence[int] | None = None,
+    allow_split_overlap: bool = False,
 ) -> dict[str, Any]:
     """Evaluate every split in ``features_paths`` (e.g. val and test) with the predictors of ``predictor_paths``
     (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write one JSON file ``out``; the
     timings per split (``attributes_seconds`` from the features file, ``predict_seconds``, their sum per query
     ``seconds_per_query``) go to ``timing_path(out)``. The returned dict holds both."""
+    check_suffix(out, JSON_SUFFIXES, "the evaluation (JSON; its timings go beside it)")
     if isinstance(predictor_paths, str | Path):
         predictor_paths = [predictor_paths]
     if not predictor_paths:
@@ -204,6 +211,8 @@ def main(
     for path in predictor_paths:
         if not Path(path).is_file():
             raise FileNotFoundError(f"predictor file not found: {path} (train it first: vpr-smr train)")
+        check_disjoint(trained_on(path), frame_ranges(features_paths.values()), allow_split_overlap,
+                       f"predictor {path}")
         predictors.append(SMRPredictor.load(path))
     result: dict[str, Any] = {
         "meta": dict(meta or {}), "predictors": [str(p) for p in predictor_paths], "splits": {},

@@ -13,7 +13,17 @@ from pathlib import Path
 import numpy as np
 
 from .attributes import ATTRIBUTE_NAMES, QueryFeatures, query_features
-from .io import atomic_path, open_distance_matrix, read_provenance, write_features
+from .io import (
+    CSV_SUFFIXES,
+    HDF5_SUFFIXES,
+    atomic_path,
+    check_suffix,
+    open_distance_matrix,
+    read_provenance,
+    write_features,
+)
+
+OUT_SUFFIXES = CSV_SUFFIXES + HDF5_SUFFIXES
 
 log = logging.getLogger("vpr_smr")
 
@@ -29,11 +39,13 @@ def write_csv(path: Path | str, features: QueryFeatures) -> None:
 def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int) -> QueryFeatures:
     """Features of the matrix in ``distances`` (``.npy`` or our ``.h5``) written to ``out``.
 
-    ``out`` ending in ``.csv`` gets the rank-0 table (``write_csv``); anything else gets every field of
+    ``out`` ending in ``.csv`` gets the rank-0 table (``write_csv``); ``.h5``/``.hdf5`` every field of
     ``QueryFeatures`` as HDF5, with the distance file's provenance, ``seq_len``, ``tolerance`` and
-    ``attributes_seconds`` (the time of the computation, reading included). Errors name the distance file.
+    ``attributes_seconds`` (the time of the computation, reading included); another suffix is an error, before
+    anything is read. Errors name the distance file (negative distances included: ``io.check_non_negative``).
     """
-    distances, out = Path(distances), Path(out)
+    out = check_suffix(out, OUT_SUFFIXES, "the attributes (.csv table or HDF5)")
+    distances = Path(distances)
     start = time.perf_counter()
     with open_distance_matrix(distances) as matrix:
         try:
@@ -41,7 +53,7 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int) -
         except ValueError as error:
             raise ValueError(f"{distances}: {error}") from None
     seconds = time.perf_counter() - start
-    if out.suffix == ".csv":
+    if out.suffix.lower() in CSV_SUFFIXES:
         write_csv(out, features)
     else:
         provenance = read_provenance(distances) if distances.suffix != ".npy" else {}

@@ -26,12 +26,20 @@ th { background: #f0f0f0; } td.text { text-align: left; }
 pre { background: #f6f6f6; padding: 0.8em; overflow-x: auto; font-size: 0.85em; }
 figure { margin: 1em 0 2em; } img { max-width: 100%; height: auto; }
 figcaption { font-size: 0.9em; color: #555; } nav li { margin: 0.15em 0; }
-div.wide { overflow-x: auto; }
+div.wide { overflow-x: auto; } p.warning { color: #a00; border: 2px solid #a00; padding: 0.5em; }
 """
 DESCRIPTOR_KEYS = ("dataset", "method", "checkpoint_sha256", "frames_sha256", "vpr_smr_version")
+UNDEFINED = "n/a"  # a reduction whose baseline AOC is 0: JSON null, an empty CSV cell
 
 
-def _cell(value: str) -> str:
+def is_reduction(column: str) -> bool:
+    """A column of AOC reductions, undefined where the AOC reduced is 0."""
+    return "reduction_pct" in column
+
+
+def _cell(value: str, column: str = "") -> str:
+    if value == "" and is_reduction(column):
+        return f'<td class="text">{UNDEFINED}</td>'
     try:
         number = float(value)
     except ValueError:
@@ -47,7 +55,8 @@ def csv_table(path: Path | str) -> str:
     if not rows:
         return "<p>(empty)</p>"
     head = "".join(f"<th>{html.escape(c)}</th>" for c in rows[0])
-    body = "\n".join("<tr>" + "".join(_cell(c) for c in row) + "</tr>" for row in rows[1:])
+    body = "\n".join("<tr>" + "".join(_cell(c, name) for c, name in zip(row, rows[0], strict=False)) + "</tr>"
+                     for row in rows[1:])
     return f'<div class="wide"><table>\n<tr>{head}</tr>\n{body}\n</table></div>'
 
 
@@ -74,6 +83,27 @@ def provenance_rows(provenance: dict[str, Any] | None, descriptor_paths: Sequenc
     return general, files
 
 
+def _overlap_warnings(datasets: dict[str, dict[str, Any]] | None) -> list[str]:
+    return [f'<p class="warning"><strong>Warning, {html.escape(name)}: splits share frames '
+            f"(allow_split_overlap: true): {html.escape('; '.join(info['overlaps']))}.</strong> Its numbers are "
+            "measured partly on frames the predictor was trained or validated on.</p>"
+            for name, info in (datasets or {}).items() if info.get("overlaps")]
+
+
+def _dataset_rows(datasets: dict[str, dict[str, Any]] | None) -> list[str]:
+    """The datasets: traverses, frames, tolerance, every split with its size, and how the frames were paired."""
+    if not datasets:
+        return []
+    rows = [{
+        "dataset": name, "reference": info.get("reference", ""), "query": info.get("query", ""),
+        "frames": info.get("n_frames", ""), "tolerance": info.get("tolerance", ""),
+        "splits": ", ".join(f"{split} [{lo}, {hi}): {hi - lo} frames" for split, (lo, hi) in info["splits"].items()),
+        "paired": info.get("pairing", ""), "splits overlap": "; ".join(info.get("overlaps", [])) or "no",
+        "frame lists SHA-256": info.get("frames_sha256", ""),
+    } for name, info in datasets.items()]
+    return ["<h3>Datasets</h3>", _dict_table(rows, list(rows[0]))]
+
+
 def _anchor(text: str) -> str:
     return "".join(c if c.isalnum() else "-" for c in text.lower()).strip("-")
 
@@ -85,8 +115,10 @@ def render(
     provenance: dict[str, Any] | None = None,
     descriptor_paths: Sequence[Path | str] = (),
     title: str = "vpr-smr report",
+    datasets: dict[str, dict[str, Any]] | None = None,
 ) -> str:
-    """The page as a string: ``tables`` are (title, CSV path), ``figures`` (caption, PNG path)."""
+    """The page as a string: ``tables`` are (title, CSV path), ``figures`` (caption, PNG path); ``datasets`` as
+    ``report.main`` takes them."""
     general, files = provenance_rows(provenance, descriptor_paths)
     if isinstance(config, dict):
         import yaml
@@ -100,7 +132,9 @@ def render(
         f"<h1>{html.escape(title)}</h1>",
         f"<p>Generated {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}.</p>",
         f"<nav><ul>{nav}</ul></nav>",
+        *_overlap_warnings(datasets),
         f'<h2 id="{_anchor("Provenance")}">Provenance</h2>',
+        *_dataset_rows(datasets),
         _dict_table([{"key": k, "value": v if isinstance(v, str) else json.dumps(v, sort_keys=True)}
                      for k, v in general.items()], ("key", "value")),
     ]
@@ -126,9 +160,10 @@ def main(
     provenance: dict[str, Any] | None = None,
     descriptor_paths: Sequence[Path | str] = (),
     title: str = "vpr-smr report",
+    datasets: dict[str, dict[str, Any]] | None = None,
 ) -> Path:
     """Write the page to ``out`` (temporary name, then rename) and return its path."""
-    text = render(tables, figures, config, provenance, descriptor_paths, title)
+    text = render(tables, figures, config, provenance, descriptor_paths, title, datasets)
     out = Path(out)
     with atomic_path(out) as tmp:
         tmp.write_text(text, encoding="utf-8")

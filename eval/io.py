@@ -20,6 +20,24 @@ from .attributes import QueryFeatures
 # consecutive blocks share are not read twice (64 MB holds one chunk column of a 27592-reference matrix).
 CHUNK_CACHE_BYTES = 64 << 20
 CHUNK_CACHE_SLOTS = 10007
+SCAN_VALUES = 1 << 24  # values per block of the scan for negative distances (64 MB of float32)
+
+# What each kind of output file may be called (``check_suffix``)
+HDF5_SUFFIXES = (".h5", ".hdf5")
+JSON_SUFFIXES = (".json",)
+CSV_SUFFIXES = (".csv",)
+
+
+def check_suffix(path: Path | str, allowed: tuple[str, ...], what: str, option: str = "--out") -> Path:
+    """``path`` as a Path when its suffix is one of ``allowed`` (any case), else a ValueError naming the option,
+    what was given and the suffixes allowed; ``what`` says what the file holds (e.g. "the features (HDF5)")."""
+    path = Path(path)
+    if path.suffix.lower() not in allowed:
+        given = f"suffix {path.suffix!r}" if path.suffix else "no suffix"
+        names = allowed[0] if len(allowed) == 1 else f"{', '.join(allowed[:-1])} or {allowed[-1]}"
+        example = path.with_suffix(allowed[0]) if path.stem else Path("out" + allowed[0])
+        raise ValueError(f"{option} {path}: {what} must end in {names}, got {given}; e.g. {option} {example}")
+    return path
 
 
 def package_version() -> str:
@@ -98,6 +116,7 @@ def open_distance_matrix(path: Path | str) -> Iterator[Any]:
         except ValueError as error:
             raise ValueError(f"cannot read {path} as a numeric .npy array: {error}") from None
         _check_matrix(path, matrix)
+        check_non_negative(path, matrix)
         try:
             yield matrix
         finally:
@@ -110,6 +129,7 @@ def open_distance_matrix(path: Path | str) -> Iterator[Any]:
             raise ValueError(f"{path} has no 'distance_matrix' dataset")
         matrix = f["distance_matrix"]
         _check_matrix(path, matrix)
+        check_non_negative(path, matrix)
         yield matrix
 
 
@@ -118,6 +138,45 @@ def _check_matrix(path: Path, matrix: Any) -> None:
         raise ValueError(f"{path}: expected a numeric matrix (references x queries), got {matrix.dtype}")
     if matrix.ndim != 2:
         raise ValueError(f"{path}: distance matrix must be 2-D (references x queries), got shape {matrix.shape}")
+
+
+def _blocks(matrix: Any) -> Iterator[tuple[slice, slice]]:
+    """Blocks of about ``SCAN_VALUES`` values in the matrix's storage order: whole chunk columns of a chunked HDF5
+    dataset, column blocks of a Fortran-ordered array, row blocks otherwise."""
+    n_rows, n_cols = matrix.shape
+    chunks = getattr(matrix, "chunks", None)
+    by_columns = chunks is not None or bool(getattr(getattr(matrix, "flags", None), "f_contiguous", False))
+    if by_columns and n_rows:
+        unit = chunks[1] if chunks is not None else 1
+        step = max(unit, SCAN_VALUES // n_rows // unit * unit)
+        for start in range(0, n_cols, step):
+            yield slice(None), slice(start, start + step)
+    else:
+        step = max(1, SCAN_VALUES // max(n_cols, 1))
+        for start in range(0, n_rows, step):
+            yield slice(start, start + step), slice(None)
+
+
+def check_non_negative(path: Path | str, matrix: Any) -> None:
+    """Raise ValueError naming ``path``, the count and minimum of the negative values and the fix, when the matrix
+    has any: SPEC 5 divides each query column by its maximum, which presumes distances >= 0. One pass in blocks;
+    NaN passes here (the attributes stage names it)."""
+    if matrix.dtype.kind == "u" or matrix.size == 0:
+        return
+    if not any(np.any(np.asarray(matrix[rows, cols]) < 0) for rows, cols in _blocks(matrix)):
+        return
+    count, minimum = 0, 0.0  # a second pass, on the way to the error only
+    for rows, cols in _blocks(matrix):
+        negative = np.asarray(matrix[rows, cols])
+        negative = negative[negative < 0]
+        if negative.size:
+            count += negative.size
+            minimum = min(minimum, float(negative.min()))
+    raise ValueError(
+        f"{path}: {count} negative values in the distance matrix (minimum {minimum:.6g}); distances must be >= 0 "
+        "(smaller = more similar; SPEC 5 divides each query column by its maximum). If these are similarities, "
+        "turn them into distances first, e.g. D = 1 - S for the cosine similarity of L2-normalised descriptors, "
+        "or D = S.max() - S")
 
 
 def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:

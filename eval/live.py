@@ -5,7 +5,11 @@
 computation's, bit for bit (paper-mode attributes, SPEC 5's tie rule). Column normalisation needs only the column
 itself, so nothing else about the past is kept.
 
-    matcher = LiveMatcher(seq_len=4, references=reference_descriptors, predictor=SMRPredictor.load(path))
+The descriptors must be compared with the distance their method's batch matrices use (``mad`` for SAD, ``l2`` for
+the learned backends, or the method's ``distance`` setting): ``from_descriptors`` takes the reference descriptors
+and that distance from a descriptor file of the pipeline, so the live matches are the batch ones.
+
+    matcher = LiveMatcher.from_descriptors("descriptors.h5", seq_len=4, predictor=SMRPredictor.load("L4.h5"))
     for descriptor in camera_descriptors:
         result = matcher.step(descriptor)      # None for the first L - 1 frames
         if result is not None and result.keep:
@@ -15,6 +19,7 @@ itself, so nothing else about the past is kept.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -43,13 +48,18 @@ class LiveMatcher:
     """Feed one frame at a time: ``step(query_descriptor)`` (needs ``references``) or ``step_distances(column)``.
 
     ``predictor``: any object with ``predict_proba(X)`` (``X`` of shape ``(n, 4)``, A1..A4 of rank 0, as
-    ``eval.predictor.SMRPredictor``) and ``classes_``. ``distance`` is the metric of ``eval.distances``.
+    ``eval.predictor.SMRPredictor``) and ``classes_``. ``distance`` is the metric of ``eval.distances`` that the
+    descriptors' method uses; it is required with ``references`` (``from_descriptors`` reads it from the file).
     """
 
     def __init__(self, seq_len: int, references: np.ndarray | None = None, predictor: Any = None,
-                 distance: str = "l2", n_ranks: int = 4) -> None:
+                 distance: str | None = None, n_ranks: int = 4) -> None:
         if seq_len < 2:
             raise ValueError(f"sequence length must be at least 2, got {seq_len}")
+        if references is not None and distance is None:
+            raise ValueError("LiveMatcher with references needs distance=, the metric of the descriptors' method "
+                             "('mad' for sad, 'l2' for the learned backends, or the method's distance setting); "
+                             "LiveMatcher.from_descriptors(path, seq_len) reads both from a descriptor file")
         self.seq_len = seq_len
         self.distance = distance
         self.predictor = predictor
@@ -57,6 +67,49 @@ class LiveMatcher:
         self.references = None if references is None else prepare_references(references, distance)
         self._buffer: np.ndarray | None = None  # (L, R) ring of the last L columns
         self.frames = 0
+        # set by from_descriptors: the file's method and its settings (to build the same backend for new frames)
+        self.method: str | None = None
+        self.method_settings: dict[str, Any] | None = None
+
+    @classmethod
+    def from_descriptors(cls, path: Path | str, seq_len: int, predictor: Any = None, distance: str | None = None,
+                         n_ranks: int = 4, frames: tuple[int, int] | None = None) -> LiveMatcher:
+        """A matcher whose references are the ``reference`` descriptors of ``path`` (a ``vpr-smr descriptors``
+        file), compared with the distance its method used (the file's ``distance`` attribute).
+
+        ``frames = (lo, hi)`` keeps reference frames ``lo .. hi-1`` only (a split, as the batch matrix of that split
+        has them); match indices then count from ``lo``. A ``distance`` that differs from the file's is an error:
+        the matches would not be the batch ones. ``method`` and ``method_settings`` of the matcher are the file's
+        (``descriptors.extract.build_backend(matcher.method, matcher.method_settings)`` describes new frames alike).
+        """
+        import json
+
+        import h5py
+
+        path = Path(path)
+        if not path.is_file():
+            raise FileNotFoundError(f"descriptor file not found: {path} (compute it with vpr-smr descriptors)")
+        if not h5py.is_hdf5(path):
+            raise ValueError(f"{path} is not HDF5: give a descriptor file written by vpr-smr descriptors")
+        with h5py.File(path, "r") as f:
+            if "reference" not in f or "distance" not in f.attrs:
+                raise ValueError(f"{path} lacks the 'reference' descriptors or the 'distance' attribute: give a "
+                                 "descriptor file written by vpr-smr descriptors (or compute it again)")
+            stored = _text(f.attrs["distance"])
+            method = _text(f.attrs.get("method", "?"))
+            settings = json.loads(_text(f.attrs["method_conf"])) if "method_conf" in f.attrs else None
+            n_frames = len(f["reference"])
+            lo, hi = (0, n_frames) if frames is None else (int(frames[0]), int(frames[1]))
+            if not 0 <= lo < hi <= n_frames:
+                raise ValueError(f"{path}: frames {lo}..{hi - 1} are outside its {n_frames} reference frames")
+            references = f["reference"][lo:hi]
+        if distance is not None and distance != stored:
+            raise ValueError(f"distance={distance!r} disagrees with {path}, whose method {method!r} compares its "
+                             f"descriptors with {stored!r}: the live matches would differ from the batch ones; "
+                             f"leave distance out (it is taken from the file) or give {stored!r}")
+        matcher = cls(seq_len, references=references, predictor=predictor, distance=stored, n_ranks=n_ranks)
+        matcher.method, matcher.method_settings = method, settings
+        return matcher
 
     def step(self, query_descriptor: np.ndarray) -> LiveResult | None:
         """Match one query descriptor against the references (the distance of ``eval.distances``)."""
@@ -101,3 +154,7 @@ class LiveMatcher:
             label=label,
             keep=keep,
         )
+
+
+def _text(value: Any) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)

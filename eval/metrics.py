@@ -6,6 +6,7 @@ A curve is two arrays, recall and precision, whose first point is ``(R=0, P=1)``
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,6 +15,8 @@ from sklearn.metrics import auc
 MODES = ("paper", "standard")
 PAPER_THRESHOLDS = 1999
 KEPT_CLASSES = (0, 2)  # predicted correct after sequence matching
+# An AOC this small is 0: the trapezoid sum of a curve whose precision is 1 everywhere leaves about 1e-16
+AOC_ZERO = 1e-9
 
 
 @dataclass(frozen=True)
@@ -103,8 +106,16 @@ class Comparison:
     auc_predictor: float
     aoc_baseline: float
     aoc_predictor: float
-    reduction_pct: float
+    reduction_pct: float | None  # None (JSON null) when the baseline's AOC is 0: nothing to reduce
     baseline_cut: Curve
+
+
+def reduction_pct(aoc_before: float, aoc_after: float) -> float | None:
+    """``100 (AOC_before - AOC_after) / AOC_before``; None when ``AOC_before`` is 0 (up to ``AOC_ZERO``) or either
+    is not finite: a perfect baseline leaves nothing to reduce, and 0 % would read as a predictor that did nothing."""
+    if not (math.isfinite(aoc_before) and math.isfinite(aoc_after)) or aoc_before <= AOC_ZERO:
+        return None
+    return 100.0 * (aoc_before - aoc_after) / aoc_before
 
 
 def cut_curve(curve_: Curve, max_recall: float) -> Curve:
@@ -126,8 +137,8 @@ def compare_curves(baseline: Curve, predictor: Curve) -> Comparison:
     auc_base, auc_pred = area(baseline_cut), area(predictor)
     # Precision <= 1, so AUC <= R_max: a negative AOC is rounding error of the trapezoid sum.
     aoc_base, aoc_pred = max(0.0, max_recall - auc_base), max(0.0, max_recall - auc_pred)
-    reduction = 100.0 * (aoc_base - aoc_pred) / aoc_base if aoc_base > 0 else 0.0
-    return Comparison(max_recall, auc_base, auc_pred, aoc_base, aoc_pred, reduction, baseline_cut)
+    return Comparison(max_recall, auc_base, auc_pred, aoc_base, aoc_pred, reduction_pct(aoc_base, aoc_pred),
+                      baseline_cut)
 
 
 def recall_at_full_precision(curve_: Curve) -> float:

@@ -14,6 +14,7 @@ Callers always pass the attributes in the paper's names order A1, A2, A3, A4 (``
 from __future__ import annotations
 
 import json
+import math
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -35,6 +36,128 @@ CODE_COLUMN_ORDER = (0, 1, 3, 2)  # A1..A4 -> the authors' input [A1, A2, A4, A3
 
 # scikit-learn's MLP catches KeyboardInterrupt in its training loop, warns this, and returns the half-trained network
 INTERRUPT_WARNING = "Training interrupted by user."
+CV_FOLDS = 5  # SPEC 7: 5-fold StratifiedKFold
+# MLPClassifier's default validation_fraction: early_stopping holds out ceil(10 %) of the (resampled) training
+# samples, stratified when there are two classes, and refuses a validation set of fewer than 2 samples.
+VALIDATION_FRACTION = 0.1
+MIN_VALIDATION = 2
+# the fewest (resampled) samples whose validation split is large enough: 11
+MIN_FIT_SAMPLES = next(n for n in range(1, 1000) if math.ceil(VALIDATION_FRACTION * n) >= MIN_VALIDATION)
+N_LABELS = 4  # labels 0..3 (SPEC 6)
+TRAINING_FIX = ("lengthen the train split (the dataset's `splits` entry named by `train_split`), shorten seq_lens, "
+                "or pool more methods")
+
+
+class TrainingDataError(ValueError):
+    """The training labels cannot train the predictor (one class only, or too few samples of a class)."""
+
+
+def class_counts(labels: np.ndarray) -> list[int]:
+    """Samples per label 0..3 (SPEC 6), zeros included."""
+    return np.bincount(np.asarray(labels, dtype=np.int64), minlength=N_LABELS).tolist()
+
+
+def format_counts(counts: Sequence[int]) -> str:
+    return ", ".join(f"{label}: {count}" for label, count in enumerate(counts))
+
+
+def count_text(labels: np.ndarray) -> str:
+    """``0: 17, 1: 0, 2: 0, 3: 1``: every label 0..3 (SPEC 6) counted; other labels (scikit-learn's checks) as
+    found."""
+    labels = np.asarray(labels)
+    if labels.dtype.kind in "iu" and (labels.size == 0 or (labels.min() >= 0 and labels.max() < N_LABELS)):
+        return format_counts(class_counts(labels))
+    values, counts = np.unique(labels, return_counts=True)
+    return ", ".join(f"{value}: {count}" for value, count in zip(values, counts, strict=True))
+
+
+def fit_problem(counts: Sequence[int], smote: bool = True) -> str | None:
+    """Why fitting on training labels with these counts per label would fail, or None when it can fit.
+
+    SMOTE (on when ``smote`` and every present class has 2 samples) raises every class to the largest one's
+    count; MLPClassifier's early stopping then holds out ``ceil(0.1 n)`` samples, which must be at least 2, and
+    stratifies them by class when there are exactly two classes (so each class needs 2 samples).
+    """
+    present = [int(c) for c in counts if c > 0]
+    if len(present) < 2:
+        return "one class only, and the predictor needs at least two"
+    resampled = [max(present)] * len(present) if smote and min(present) >= 2 else present
+    n = sum(resampled)
+    if n < MIN_FIT_SAMPLES:
+        after = " after SMOTE" if resampled != present else ""
+        return (f"{n} samples{after}, fewer than {MIN_FIT_SAMPLES}: early stopping's {VALIDATION_FRACTION:.0%} "
+                f"validation split would hold fewer than {MIN_VALIDATION}")
+    if len(present) == 2 and min(resampled) < MIN_VALIDATION:
+        return ("two classes, one with a single sample: early stopping's validation split is stratified by class "
+                f"for two classes and needs {MIN_VALIDATION} samples of each")
+    return None
+
+
+def label_problems(labels: np.ndarray, smote: bool = True, n_splits: int = CV_FOLDS, random_state: int = 0
+                   ) -> list[str]:
+    """Why ``cross_validated_f1`` and then ``fit`` on ``labels`` (in this order: the folds depend on it) would
+    fail; empty when both can run. Exact: the folds are those of ``cross_validated_f1``'s ``StratifiedKFold``."""
+    labels = np.asarray(labels)
+    counts = np.unique(labels, return_counts=True)[1] if labels.size else np.zeros(1, int)
+    problems = []
+    folds = min(n_splits, int(counts.max()))
+    if folds < 2:
+        problems.append("cross-validation needs 2 samples of some class")
+    else:
+        splitter = StratifiedKFold(n_splits=folds, shuffle=True, random_state=random_state)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)  # "the least populated class has fewer members than folds"
+            splits = list(splitter.split(np.zeros((len(labels), 1)), labels))
+        for i, (train, _) in enumerate(splits):
+            problem = fit_problem(np.unique(labels[train], return_counts=True)[1], smote)
+            if problem is not None:
+                problems.append(f"cross-validation fold {i + 1} of {folds} trains on class counts "
+                                f"{count_text(labels[train])}: {problem}")
+                break
+    problem = fit_problem(counts, smote)
+    if problem is not None:
+        problems.append(f"the final fit: {problem}")
+    return problems
+
+
+# The fewest pooled training samples that can train (cross-validation and fit) with the most favourable labels,
+# found by trying every count vector and class order with ``label_problems``: 11 with SMOTE (counts 3 and 8 of
+# two labels), 14 without (3 and 11). Real labels are far less favourable (label 0 dominates).
+MIN_TRAIN_SAMPLES = {True: 11, False: 14}
+
+
+def training_problems(n_train_queries: int, seq_len: int, n_methods: int = 1, smote: bool = True,
+                      split: str = "train") -> list[str]:
+    """What the configuration check can tell from split lengths alone: why a predictor cannot be trained on a
+    train split of ``n_train_queries`` frames at sequence length ``seq_len``, pooled over ``n_methods`` methods
+    (``smote``: the predictor's setting). Empty when some labelling of that many samples can train; the train
+    stage checks the real class counts (``check_training_labels``).
+
+    Each method gives ``n_train_queries - seq_len + 1`` samples (the queries with a sequence match, SPEC 4).
+    """
+    per_method = max(0, n_train_queries - seq_len + 1)
+    pooled = per_method * n_methods
+    needed = MIN_TRAIN_SAMPLES[bool(smote)]
+    if pooled >= needed:
+        return []
+    frames = math.ceil(needed / max(n_methods, 1)) + seq_len - 1
+    return [f"split {split!r} has {n_train_queries} frames: {per_method} training samples per method at sequence "
+            f"length {seq_len} ({n_train_queries} - {seq_len} + 1), {pooled} pooled over {n_methods} method(s); "
+            f"the predictor needs at least {needed} even with the most favourable labels ({CV_FOLDS}-fold "
+            f"cross-validation{' with SMOTE' if smote else ''}, then early stopping's {VALIDATION_FRACTION:.0%} "
+            f"validation split of at least {MIN_VALIDATION}): lengthen split {split!r} to at least {frames} frames "
+            f"(many more in practice), or shorten seq_lens"]
+
+
+def check_training_labels(labels: np.ndarray, where: str, smote: bool = True, random_state: int = 0) -> None:
+    """Raise ``TrainingDataError`` naming ``where`` (e.g. the dataset and L), the class counts per label and the
+    fix when ``label_problems`` finds any."""
+    problems = label_problems(labels, smote, random_state=random_state)
+    if problems:
+        raise TrainingDataError(
+            f"{where}: the predictor cannot be trained on {len(labels)} samples with class counts "
+            f"{count_text(labels)} (labels 0..3 of SPEC 6): {'; '.join(problems)}. "
+            f"Fix: {TRAINING_FIX}")
 
 
 def smote_neighbours(labels: np.ndarray) -> int:
@@ -109,8 +232,12 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):
         features, labels = validate_data(self, X, y, dtype=np.float64)
         check_classification_targets(labels)
         if len(np.unique(labels)) < 2:
-            raise ValueError(f"the predictor needs at least two classes among the training labels, got one class "
-                             f"only: {np.unique(labels)}")
+            raise TrainingDataError(f"the predictor needs at least two classes among the training labels, got one "
+                                    f"class only: {np.unique(labels)} ({len(labels)} samples); {TRAINING_FIX}")
+        problem = fit_problem(np.unique(labels, return_counts=True)[1], self.smote)
+        if problem is not None:  # say what scikit-learn would fail on, and why, with the counts
+            raise TrainingDataError(f"the predictor cannot be trained on class counts {count_text(labels)}: "
+                                    f"{problem}; {TRAINING_FIX}")
         fitted = self.pipeline(labels, features.shape[1])
         with warnings.catch_warnings():
             # turn the MLP's "interrupted" warning into an error, so that a half-trained network is never kept
@@ -209,9 +336,11 @@ def cross_validated_f1(
     """Mean macro F1 of stratified k-fold ``cross_validate`` (``min(n_splits, largest class)`` folds) of a clone of
     ``predictor``; SMOTE sits in the predictor's pipeline, so it resamples each training fold only."""
     labels = np.asarray(labels)
+    problems = label_problems(labels, predictor.smote, n_splits, random_state)
+    if problems:
+        raise TrainingDataError(f"cross-validation on class counts {count_text(labels)}: {'; '.join(problems)}; "
+                                f"{TRAINING_FIX}")
     n_splits = min(n_splits, int(np.unique(labels, return_counts=True)[1].max()))
-    if n_splits < 2:
-        raise ValueError("cross-validation needs at least two samples of some class")
     folds = StratifiedKFold(n_splits=n_splits, shuffle=True, random_state=random_state)
     scores = cross_validate(predictor, features, labels, cv=folds, scoring="f1_macro", error_score="raise")
     return float(np.mean(scores["test_score"]))

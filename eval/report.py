@@ -15,14 +15,20 @@ from typing import Any
 import numpy as np
 
 from . import figures as fig
+from .html_report import UNDEFINED, is_reduction
 from .io import atomic_path
 
 SEED_COLUMNS = ("reduction_pct_mean", "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds")
+# n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
+# n_queries_single: those recall_at_1_single is over (paper mode: every query of the split, SPEC 8)
+QUERY_COLUMNS = ("n_queries", "n_queries_single")
+# n_seeds_defined: the seeds whose reduction is defined (the baseline's AOC not 0), which the seed columns are over
 TABLE1_COLUMNS = (
     "dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence", "max_recall",
-    "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", *SEED_COLUMNS,
+    "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", *SEED_COLUMNS, *QUERY_COLUMNS, "n_seeds_defined",
 )
-SEQ_LEN_COLUMNS = (*TABLE1_COLUMNS, "auc_vpr_sm", "auc_vpr_sm_pred")
+SEQ_LEN_COLUMNS = (*TABLE1_COLUMNS[:-len(QUERY_COLUMNS) - 1], "auc_vpr_sm", "auc_vpr_sm_pred", *QUERY_COLUMNS,
+                   "n_seeds_defined")
 PREDICTOR_COLUMNS = ("dataset", "seq_len", "n_train", "train_class_0", "train_class_1", "train_class_2",
                      "train_class_3", "f1_cv", "f1_val", "f1_test", "n_val", "n_test")
 PREDICTOR_METHOD_COLUMNS = ("dataset", "seq_len", "method", "split", "n_queries", "f1_macro", "class_0", "class_1",
@@ -30,12 +36,14 @@ PREDICTOR_METHOD_COLUMNS = ("dataset", "seq_len", "method", "split", "n_queries"
 CONFUSION_COLUMNS = ("dataset", "seq_len", "method", "true_class", "predicted_0", "predicted_1", "predicted_2",
                      "predicted_3", "total")
 TRUST_COLUMNS = ("dataset", "method", "seq_len", "mode", "trust", "removed", "max_recall", "auc", "aoc",
-                 "auc_vpr_sm", "aoc_vpr_sm", "reduction_pct")
-TABLE2_COLUMNS = ("dataset", "seq_len", "attributes", "f1_cv", "f1_val", "f1_test", "f1_test_method_mean")
+                 "auc_vpr_sm", "aoc_vpr_sm", "reduction_pct", "n_queries")
+TABLE2_F1 = ("f1_cv", "f1_val", "f1_test", "f1_test_method_mean")
+TABLE2_COLUMNS = ("dataset", "seq_len", "attributes", *TABLE2_F1, "n_train", "n_val", "n_test")
 RESTORATION_COLUMNS = (
     "dataset", "method", "seq_len", "mode", "removed", "restored", "restored_correct", "restored_wrong",
     "wrong_to_right", "right_to_wrong", "max_recall_removal", "max_recall_restoration", "auc_vpr_sm", "auc_removal",
     "auc_restoration", "auc_difference", "aoc_removal", "aoc_restoration", "aoc_difference", "reduction_pct",
+    "n_queries",
 )
 LOMO_COLUMNS = ("dataset", "seq_len", "held_out", "mode", "n_queries", "f1_pooled", "f1_without", "removed_pooled",
                 "removed_without", "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled",
@@ -45,6 +53,8 @@ TIMING_COLUMNS = ("dataset", "method", "seq_len", "split", "n_queries", "attribu
 ROW_NAMES = ("VPR+SM", "VPR+SM+Pred", "Reduction (%)")
 SEED_ROW_NAME = "Reduction over seeds (%)"
 ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
+UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined, the baseline's AOC being 0 (nothing to reduce); Mean and "
+                  "Improved leave it out.")
 
 
 # --- Table I --------------------------------------------------------------------------------------------------
@@ -58,6 +68,9 @@ def _mode_numbers(split_result: dict[str, Any], mode: str) -> dict[str, Any]:
     row["recall_at_1_single"] = numbers.get("recall_at_1_single", split_result.get("recall_at_1_single"))
     row["recall_at_1_sequence"] = numbers.get("recall_at_1_sequence", split_result.get("recall_at_1_sequence"))
     row.update(split_result.get("seed_summary", {}).get(mode, {}))
+    n_split = split_result.get("n_queries_split")
+    row["n_queries"] = split_result.get("n_queries")
+    row["n_queries_single"] = n_split if mode == "paper" and n_split is not None else row["n_queries"]
     return row
 
 
@@ -83,44 +96,109 @@ def _groups(rows: list[dict[str, Any]]) -> dict[tuple[str, int], dict[str, list[
     return groups
 
 
-def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float]], int]:
-    """Per-method values of the three table rows, with the mean appended; and the number of methods improved."""
-    values = [[r["aoc_vpr_sm"] for r in rows], [r["aoc_vpr_sm_pred"] for r in rows], [r["reduction_pct"] for r in rows]]
-    return [v + [float(np.mean(v))] for v in values], sum(r["reduction_pct"] > 0 for r in rows)
+def _defined(values: Iterable[float | None]) -> list[float]:
+    return [v for v in values if v is not None]
+
+
+def _reduction_mean(values: Sequence[float | None]) -> tuple[float | None, str]:
+    """The mean of the defined reductions and, when some are undefined, how many it is over."""
+    defined = _defined(values)
+    mean = float(np.mean(defined)) if defined else None
+    note = "" if len(defined) == len(values) else f" (mean over {len(defined)} of {len(values)} methods)"
+    return mean, note
+
+
+def _improved(values: Sequence[float | None]) -> str:
+    """How many methods improve, of those whose reduction is defined."""
+    defined = _defined(values)
+    return f"{sum(v > 0 for v in defined)} / {len(defined)}"
+
+
+def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str, str]:
+    """Per-method values of the three table rows with their mean appended (the reduction's over the methods where
+    it is defined), the note saying how many that is (empty when all), and the methods improved."""
+    reductions = [r["reduction_pct"] for r in rows]
+    mean, note = _reduction_mean(reductions)
+    values = [[r["aoc_vpr_sm"] for r in rows], [r["aoc_vpr_sm_pred"] for r in rows]]
+    return ([v + [float(np.mean(v))] for v in values] + [reductions + [mean]], note, _improved(reductions))
 
 
 def _has_seeds(rows: list[dict[str, Any]]) -> bool:
-    return all(r.get("reduction_pct_mean") is not None for r in rows)
+    return all(r.get("n_seeds") is not None for r in rows)
 
 
 def _seed_cells(rows: list[dict[str, Any]], separator: str) -> tuple[list[str], str]:
-    """``mean ± std`` per method, the mean of the means, and how many methods improve on average."""
-    cells = [f"{r['reduction_pct_mean']:.2f}{separator}{r['reduction_pct_std']:.2f}" for r in rows]
-    means = [r["reduction_pct_mean"] for r in rows]
+    """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the seeds counted where only some
+    are), the mean of the defined means, and how many methods improve on average."""
+    cells = []
+    for r in rows:
+        if r.get("reduction_pct_mean") is None:
+            cells.append(UNDEFINED)
+            continue
+        defined = r.get("n_seeds_defined", r["n_seeds"])
+        part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds)"
+        cells.append(f"{r['reduction_pct_mean']:.2f}{separator}{r['reduction_pct_std']:.2f}{part}")
+    means = [r.get("reduction_pct_mean") for r in rows]
+    mean, note = _reduction_mean(means)
     n_seeds = rows[0].get("n_seeds", "")
-    return cells + [f"{np.mean(means):.2f}"], f"{sum(m > 0 for m in means)} / {len(rows)} ({n_seeds} seeds)"
+    return cells + [_number(mean, "{:.2f}") + note], f"{_improved(means)} ({n_seeds} seeds)"
+
+
+def _number(value: float | None, fmt: str) -> str:
+    return UNDEFINED if value is None else fmt.format(value)
+
+
+def _query_note(datasets: dict[str, list[dict[str, Any]]], split: str, mode: str) -> str:
+    """Per dataset: the queries the table is over (those with a sequence match) and, in paper mode, the split's
+    every query, which single-frame recall@1 is over."""
+    parts = []
+    for dataset, rows in datasets.items():
+        n = _span(r.get("n_queries") for r in rows)
+        single = _span(r.get("n_queries_single") for r in rows)
+        if n:  # files written before the counts were recorded have none
+            text = f"{dataset}: {n} queries with a sequence match"
+            if single and single != n:
+                text += f" (single-frame recall@1 over all {single} of the split)"
+            parts.append(text)
+    return f"{split} split, {mode} mode: " + "; ".join(parts) if parts else ""
+
+
+def _span(values: Iterable[Any]) -> str:
+    """One value, ``lo-hi`` when the methods differ, or empty for files without the count."""
+    known = sorted({int(v) for v in values if v is not None})
+    if not known:
+        return ""
+    return str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
 
 
 def table1_markdown(rows: list[dict[str, Any]], split: str = "test") -> str:
     out = [f"# Table I: area over the precision-recall curve at max recall ({split} split)", "",
            "Rows VPR+SM, VPR+SM+Pred, Reduction: the seed-0 predictor (the authors' recipe); "
            "Reduction over seeds: mean ± sample standard deviation over the predictor seeds.", ""]
+    undefined = False
     for (mode, seq_len), datasets in sorted(_groups(rows).items()):
         methods = [r["method"] for r in next(iter(datasets.values()))]
-        out += [f"## {mode} mode, sequence length {seq_len}", ""]
+        note = _query_note(datasets, split, mode)
+        out += [f"## {mode} mode, sequence length {seq_len}", ""] + ([note, ""] if note else [])
         out.append("| dataset | | " + " | ".join(methods) + " | Mean | Improved |")
         out.append("|---|---|" + "---|" * (len(methods) + 2))
         for dataset, dataset_rows in datasets.items():
-            summary, improved = _summary(dataset_rows)
+            summary, note, improved = _summary(dataset_rows)
             for i, (name, values) in enumerate(zip(ROW_NAMES, summary, strict=True)):
-                fmt = "{:.2f}" if i == 2 else "{:.4f}"
-                last = f"{improved} / {len(dataset_rows)}" if i == 2 else ""
+                cells = [_number(v, "{:.2f}" if i == 2 else "{:.4f}") for v in values]
+                if i == 2:
+                    cells[-1] += note
+                last = improved if i == 2 else ""
                 label = dataset if i == 0 else ""
-                out.append(f"| {label} | {name} | " + " | ".join(fmt.format(v) for v in values) + f" | {last} |")
+                out.append(f"| {label} | {name} | " + " | ".join(cells) + f" | {last} |")
             if _has_seeds(dataset_rows):
                 cells, last = _seed_cells(dataset_rows, " ± ")
                 out.append(f"|  | {SEED_ROW_NAME} | " + " | ".join(cells) + f" | {last} |")
+                undefined |= UNDEFINED in cells
+            undefined |= None in summary[2]
         out.append("")
+    if undefined:
+        out += [UNDEFINED_NOTE, ""]
     return "\n".join(out)
 
 
@@ -129,10 +207,18 @@ def _tex_escape(text: Any) -> str:
         "&", r"\&").replace("#", r"\#")
 
 
+def _tex_reduction(value: float | None) -> str:
+    if value is None:
+        return UNDEFINED
+    return rf"\textcolor{{{'green' if value > 0 else 'red' if value < 0 else 'black'}}}{{{value:.2f}}}"
+
+
 def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
     out = [f"% Table I ({_tex_escape(split)} split)"]
+    undefined = False
     for (mode, seq_len), datasets in sorted(_groups(rows).items()):
         methods = [r["method"] for r in next(iter(datasets.values()))]
+        n_columns = len(methods) + 4
         out += [
             f"% {mode} mode, sequence length {seq_len}",
             r"\begin{tabular}{l|c|" + "c|" * (len(methods) + 1) + "c}",
@@ -140,20 +226,27 @@ def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
             r"\hline",
         ]
         for dataset, dataset_rows in datasets.items():
-            summary, improved = _summary(dataset_rows)
+            summary, note, improved = _summary(dataset_rows)
             for i, (name, values) in enumerate(zip(ROW_NAMES, summary, strict=True)):
                 if i == 2:
-                    cells = [rf"\textcolor{{{'green' if v > 0 else 'red' if v < 0 else 'black'}}}{{{v:.2f}}}"
-                             for v in values]
-                    last = f"{improved} / {len(dataset_rows)}"
+                    cells = [_tex_reduction(v) for v in values]
+                    cells[-1] += _tex_escape(note)
+                    last = improved
                 else:
-                    cells, last = [f"{v:.4f}" for v in values], ""
+                    cells, last = [_number(v, "{:.4f}") for v in values], ""
                 label = _tex_escape(dataset) if i == 0 else ""
                 out.append(f"{label} & {_tex_escape(name)} & " + " & ".join(cells) + f" & {last}" + r"\\")
             if _has_seeds(dataset_rows):
                 cells, last = _seed_cells(dataset_rows, r" $\pm$ ")
                 out.append(f" & {_tex_escape(SEED_ROW_NAME)} & " + " & ".join(cells) + f" & {last}" + r"\\")
+                undefined |= UNDEFINED in cells
+            undefined |= None in summary[2]
             out.append(r"\hline")
+        note = _query_note(datasets, split, mode)
+        if note:
+            out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {_tex_escape(note)}}}\\")
+        if undefined:
+            out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {_tex_escape(UNDEFINED_NOTE)}}}\\")
         out += [r"\end{tabular}", ""]
     return "\n".join(out)
 
@@ -169,7 +262,8 @@ def table2_rows(ablations: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
             if name in ablation["attributes"]:
                 numbers = ablation["attributes"][name]
                 rows.append({"dataset": meta["dataset"], "seq_len": meta["seq_len"], "attributes": name,
-                             **{k: numbers.get(k) for k in TABLE2_COLUMNS[3:]}})
+                             **{k: numbers.get(k) for k in TABLE2_F1}, "n_train": ablation.get("n_train"),
+                             "n_val": numbers.get("n_val"), "n_test": numbers.get("n_test")})
     return sorted(rows, key=lambda r: (r["dataset"], r["seq_len"], ATTRIBUTE_ORDER.index(r["attributes"])))
 
 
@@ -181,6 +275,14 @@ def _f1(value: Any) -> str:
     return "" if value is None else f"{value:.2f}"
 
 
+def _sample_note(group: list[dict[str, Any]]) -> str:
+    """The samples Table II's F1 is over: the pooled train split (cross-validation) and the val and test splits."""
+    first = group[0]
+    parts = [f"{name} {first[key]} samples" for name, key in (("train", "n_train"), ("validation", "n_val"),
+                                                              ("test", "n_test")) if first.get(key) is not None]
+    return "F1 over " + ", ".join(parts) + " (every method pooled)" if parts else ""
+
+
 def table2_markdown(rows: list[dict[str, Any]]) -> str:
     out = ["# Table II: macro F1 of the predictor by attribute (A1 minimum sum rate, A2 minimum value rate, "
            "A3 block sum rate, A4 group sum rate)", ""]
@@ -188,11 +290,12 @@ def table2_markdown(rows: list[dict[str, Any]]) -> str:
     for row in rows:
         groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
     for (dataset, seq_len), group in groups.items():
-        out += [f"## {dataset}, sequence length {seq_len}", "",
+        note = _sample_note(group)
+        out += [f"## {dataset}, sequence length {seq_len}", ""] + ([note, ""] if note else []) + [
                 "| A1 | A2 | A3 | A4 | F1 cross-validation | F1 validation | F1 test | F1 test, mean over methods |",
                 "|---|---|---|---|---|---|---|---|"]
         for row in group:
-            cells = _marks(row["attributes"], "✓", "×") + [_f1(row[k]) for k in TABLE2_COLUMNS[3:]]
+            cells = _marks(row["attributes"], "✓", "×") + [_f1(row[k]) for k in TABLE2_F1]
             out.append("| " + " | ".join(cells) + " |")
         out.append("")
     return "\n".join(out)
@@ -207,8 +310,11 @@ def table2_latex(rows: list[dict[str, Any]]) -> str:
         out += [f"% {dataset}, sequence length {seq_len}", r"\begin{tabular}{c|c|c|c|c|c|c|c}",
                 r"A1 & A2 & A3 & A4 & F1 (CV) & F1 (val) & F1 (test) & F1 (test, method mean)\\", r"\hline"]
         for row in group:
-            cells = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row[k]) for k in TABLE2_COLUMNS[3:]]
+            cells = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row[k]) for k in TABLE2_F1]
             out.append(" & ".join(cells) + r"\\")
+        note = _sample_note(group)
+        if note:
+            out.append(rf"\multicolumn{{8}}{{l}}{{\footnotesize {_tex_escape(note)}}}\\")
         out += [r"\end{tabular}", ""]
     return "\n".join(out)
 
@@ -265,7 +371,8 @@ def trust_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[dict[s
             for mode, numbers in evaluation["splits"][split]["modes"].items():
                 for level, values in numbers.get("trust_auc", {}).items():
                     rows.append({"dataset": dataset, "method": evaluation["meta"]["method"], "seq_len": seq_len,
-                                 "mode": mode, "trust": float(level), **values})
+                                 "mode": mode, "trust": float(level), **values,
+                                 "n_queries": evaluation["splits"][split].get("n_queries")})
     return rows
 
 
@@ -279,7 +386,8 @@ def restoration_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[
             counts = {k: v for k, v in restoration.items() if k not in ("modes", "restored_by_rank")}
             for mode, numbers in restoration["modes"].items():
                 rows.append({"dataset": dataset, "method": evaluation["meta"]["method"], "seq_len": seq_len,
-                             "mode": mode, **counts, **numbers})
+                             "mode": mode, **counts, **numbers,
+                             "n_queries": evaluation["splits"][split].get("n_queries")})
     return rows
 
 
@@ -320,9 +428,9 @@ def timing_rows(evaluations: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
 # --- writing ----------------------------------------------------------------------------------------------------
 
 
-def _cell(value: Any) -> str:
+def _cell(value: Any, column: str = "") -> str:
     if value is None:
-        return ""
+        return UNDEFINED if is_reduction(column) else ""
     if isinstance(value, float):
         return f"{value:.4f}"
     return str(value)
@@ -331,7 +439,7 @@ def _cell(value: Any) -> str:
 def markdown_table(columns: Sequence[str], rows: Iterable[dict[str, Any]], title: str = "") -> str:
     out = [f"# {title}", ""] if title else []
     out += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    out += ["| " + " | ".join(_cell(row.get(c)) for c in columns) + " |" for row in rows]
+    out += ["| " + " | ".join(_cell(row.get(c), c) for c in columns) + " |" for row in rows]
     return "\n".join(out) + "\n"
 
 
@@ -339,7 +447,7 @@ def latex_table(columns: Sequence[str], rows: Iterable[dict[str, Any]], title: s
     out = [f"% {title}"] if title else []
     out += [r"\begin{tabular}{" + "l" * len(columns) + "}", " & ".join(_tex_escape(c) for c in columns) + r"\\",
             r"\hline"]
-    out += [" & ".join(_tex_escape(_cell(row.get(c))) for c in columns) + r"\\" for row in rows]
+    out += [" & ".join(_tex_escape(_cell(row.get(c), c)) for c in columns) + r"\\" for row in rows]
     return "\n".join(out + [r"\end{tabular}", ""])
 
 
@@ -357,11 +465,37 @@ def _write_csv(path: Path, columns: Sequence[str], rows: list[dict[str, Any]]) -
     return path
 
 
+def overlap_notes(datasets: dict[str, dict[str, Any]] | None) -> dict[str, str]:
+    """Per dataset whose splits share frames (``allow_split_overlap``), the sentence every table carries."""
+    return {name: "splits share frames (allow_split_overlap: true): " + "; ".join(info["overlaps"])
+            for name, info in (datasets or {}).items() if info.get("overlaps")}
+
+
+def _flagged(text: str, notes: dict[str, str], latex: bool = False) -> str:
+    """The table's text with a warning under its title line for every dataset whose splits overlap."""
+    if not notes:
+        return text
+    if latex:
+        lines = [f"\\noindent\\textbf{{Warning, {_tex_escape(d)}:}} {_tex_escape(n)}\\par" for d, n in notes.items()]
+        return "\n".join(lines) + "\n" + text
+    title, _, rest = text.partition("\n")
+    lines = [f"**Warning, {d}: {n}**" for d, n in notes.items()]
+    return f"{title}\n\n" + "\n".join(lines) + "\n" + rest
+
+
 def _write_table(stem: Path, columns: Sequence[str], rows: list[dict[str, Any]], title: str,
-                 markdown: str | None = None, latex: str | None = None) -> list[Path]:
-    """``<stem>.csv`` (full precision), ``.md`` and ``.tex`` (4 decimals, or the given special layouts)."""
-    markdown = markdown if markdown is not None else markdown_table(columns, rows, title)
-    latex = latex if latex is not None else latex_table(columns, rows, title)
+                 markdown: str | None = None, latex: str | None = None,
+                 notes: dict[str, str] | None = None) -> list[Path]:
+    """``<stem>.csv`` (full precision), ``.md`` and ``.tex`` (4 decimals, or the given special layouts).
+
+    ``notes``: per dataset whose splits overlap, a warning under the title and a ``split_overlap`` CSV column.
+    """
+    notes = notes or {}
+    markdown = _flagged(markdown if markdown is not None else markdown_table(columns, rows, title), notes)
+    latex = _flagged(latex if latex is not None else latex_table(columns, rows, title), notes, latex=True)
+    if notes:
+        columns = [*columns, "split_overlap"]
+        rows = [{**row, "split_overlap": notes.get(row.get("dataset", ""), "")} for row in rows]
     return [_write_csv(stem.with_suffix(".csv"), columns, rows), _write_text(stem.with_suffix(".md"), markdown),
             _write_text(stem.with_suffix(".tex"), latex)]
 
@@ -396,14 +530,15 @@ def _figure_panels(items: list[dict[str, Any]], split: str, mode: str, key: str 
 def _tables_and_figures(
     out_dir: Path, evaluations: list[dict[str, Any]], predictors: list[dict[str, Any]],
     ablations: list[dict[str, Any]], lomo: list[dict[str, Any]], split: str, table_seq_lens: Collection[int] | None,
-    seq_len_ablation: bool,
+    seq_len_ablation: bool, notes: dict[str, str],
 ) -> tuple[list[tuple[str, list[Path]]], list[tuple[str, Path]]]:
     tables_dir, figures_dir = out_dir / "tables", out_dir / "figures"
     tables: list[tuple[str, list[Path]]] = []
     figures: list[tuple[str, Path]] = []
 
     def table(name: str, columns: Sequence[str], rows: list[dict[str, Any]], **special: str) -> None:
-        tables.append((name, _write_table(tables_dir / name, columns, rows, TABLE_TITLES[name], **special)))
+        tables.append((name, _write_table(tables_dir / name, columns, rows, TABLE_TITLES[name], notes=notes,
+                                          **special)))
 
     if evaluations:
         rows = table1_rows(evaluations, split, table_seq_lens)
@@ -567,6 +702,7 @@ def main(
     provenance: dict[str, Any] | None = None,
     descriptor_paths: Sequence[Path | str] = (),
     html: bool = True,
+    datasets: dict[str, dict[str, Any]] | None = None,
 ) -> list[Path]:
     """Write ``tables/``, ``figures/`` and ``report.html`` under the run folder ``out_dir``; return the files.
 
@@ -575,7 +711,9 @@ def main(
     ``leave_one_out`` (``ablation.leave_one_out_evaluate``). ``table_seq_lens``: the sequence lengths of Table I and
     of the per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
     ``config`` (YAML text or a dict) and ``provenance`` (e.g. package version, checkpoint and frame-list hashes)
-    go into the HTML page, with the provenance attributes of ``descriptor_paths``.
+    go into the HTML page, with the provenance attributes of ``descriptor_paths``. ``datasets``: per dataset its
+    traverses, frames, tolerance, splits, pairing and ``overlaps`` (splits that share frames, allowed by the
+    configuration), shown in the page; overlaps flag every table.
     """
     from . import html_report
 
@@ -584,10 +722,10 @@ def main(
     tables, figures = _tables_and_figures(
         out_dir, _load_evaluations(evaluations), _load(predictors, "predictor report"),
         _load(attribute_ablations, "attribute ablation"), _load(leave_one_out, "leave-one-method-out"), split,
-        table_seq_lens, seq_len_ablation)
+        table_seq_lens, seq_len_ablation, overlap_notes(datasets))
     written = [path for _, paths in tables for path in paths] + [path for _, path in figures]
     if html:
         written.append(html_report.main(
             out_dir / "report.html", [(TABLE_TITLES[name], paths[0]) for name, paths in tables], figures,
-            config=config, provenance=provenance, descriptor_paths=descriptor_paths))
+            config=config, provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets))
     return written

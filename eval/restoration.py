@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from .attributes import QueryFeatures
-from .metrics import KEPT_CLASSES, Curve, area, curve, keep_mask
+from .metrics import KEPT_CLASSES, Curve, area, curve, keep_mask, reduction_pct
 
 
 @dataclass(frozen=True)
@@ -99,7 +99,7 @@ def compare(baseline: Curve, removal: Curve, restoration: Curve) -> dict[str, An
         "aoc_removal": aoc_removal,
         "aoc_restoration": aoc_restoration,
         "aoc_difference": aoc_restoration - aoc_removal,
-        "reduction_pct": 100.0 * (aoc_removal - aoc_restoration) / aoc_removal if aoc_removal > 0 else 0.0,
+        "reduction_pct": reduction_pct(aoc_removal, aoc_restoration),  # None when removal's AOC is 0
         "curve_vpr_sm": _curve_dict(baseline),
         "curve_removal": _curve_dict(removal),
         "curve_restoration": _curve_dict(restoration),

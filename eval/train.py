@@ -17,8 +17,9 @@ import numpy as np
 from sklearn.metrics import confusion_matrix
 from sklearn.utils import shuffle
 
-from .io import read_features, write_json
-from .predictor import SMRPredictor, cross_validated_f1, macro_f1
+from .io import HDF5_SUFFIXES, check_suffix, read_features, write_json
+from .leakage import TRAINED_ON, check_disjoint, frame_ranges
+from .predictor import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
 
 log = logging.getLogger(__name__)
 
@@ -71,6 +72,23 @@ def _seeds(seeds: int | Sequence[int]) -> list[int]:
     return seeds
 
 
+def describe(meta: dict[str, Any] | None, n_files: int) -> str:
+    """Who is being trained, for messages: the dataset, sequence length and held-out method of ``meta``."""
+    meta = meta or {}
+    parts = [f"dataset {meta['dataset']!r}" if meta.get("dataset") is not None else "",
+             f"sequence length {meta['seq_len']}" if meta.get("seq_len") is not None else "",
+             f"without method {meta['held_out']!r}" if meta.get("held_out") is not None else ""]
+    return ", ".join([p for p in parts if p] + [f"train split of {n_files} method(s) pooled"])
+
+
+def check_trainable(y_train: np.ndarray, params: dict[str, Any], seeds: Sequence[int], where: str) -> None:
+    """Fail before any training when a seed's shuffled labels cannot be cross-validated and fitted (the folds
+    follow the shuffled order); the error names ``where``, the class counts and the fix."""
+    smote = bool(params.get("smote", SMRPredictor().smote))
+    for seed in seeds:
+        check_training_labels(shuffle(y_train, random_state=seed), where, smote)
+
+
 def seed_path(out: Path | str, seed: int, first: bool) -> Path:
     """``out`` for the first seed, ``<out stem>.seed<s>.h5`` beside it for the others."""
     out = Path(out)
@@ -115,6 +133,7 @@ def main(
     test: Sequence[Path | str] = (),
     meta: dict[str, Any] | None = None,
     seeds: int | Sequence[int] = (0,),
+    allow_split_overlap: bool = False,
 ) -> dict[str, Any]:
     """Train one predictor per seed on the pooled ``train`` files (the configuration's method order) and report.
 
@@ -123,17 +142,22 @@ def main(
     ``out`` with suffix ``.json``: per seed (``seeds``: f1_cv, f1_val, f1_test, n_iter, class_counts, confusion
     matrices of val and test over labels 0..3) and, at the top level, the first seed's numbers (meta, params, n_train,
     train_class_counts, f1_cv, f1_val, f1_test, n_val, n_test, n_iter) and ``seed_models`` (when several seeds).
-    Nothing is written until every seed has finished, so an interrupted training leaves no file.
+    Nothing is written until every seed has finished, so an interrupted training leaves no file. ``val`` and
+    ``test`` may not share frames with ``train`` (``allow_split_overlap``: a deliberate experiment); each
+    predictor file records the frame ranges it was trained on, which every later stage checks.
     """
+    out = check_suffix(out, HDF5_SUFFIXES, "the predictor (HDF5; its report goes beside it as .json)")
     seeds = _seeds(seeds)
     params = predictor_params(params)
+    trained = frame_ranges(train)
+    check_disjoint(trained, frame_ranges([*val, *test]), allow_split_overlap, "the predictor")
     x_train, y_train = pooled(train)
+    check_trainable(y_train, params, seeds, describe(meta, len(train)))
     evaluation = {name: pooled(paths) for name, paths in (("val", val), ("test", test)) if paths}
     log.info("training on %d samples, class counts %s, seeds %s", len(y_train),
              np.bincount(y_train, minlength=len(LABELS)), seeds)
     fitted = [train_seed(x_train, y_train, params, seed, evaluation) for seed in seeds]
 
-    out = Path(out)
     paths = [seed_path(out, seed, i == 0) for i, seed in enumerate(seeds)]
     first = fitted[0][1]
     report: dict[str, Any] = {
@@ -147,6 +171,7 @@ def main(
     if len(seeds) > 1:
         report["seed_models"] = [str(p) for p in paths]
     for i, ((predictor, numbers), path) in enumerate(zip(fitted, paths, strict=True)):
-        predictor.save(path, report=report if i == 0 else {"meta": report["meta"], **numbers})
+        predictor.save(path, report=report if i == 0 else {"meta": report["meta"], **numbers},
+                       **{TRAINED_ON: [r.to_json() for r in trained]})
     write_json(out.with_suffix(".json"), report)
     return report

@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..eval.io import package_version
+from ..eval.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix, package_version
 from ..eval.sequence import DEFAULT_TOLERANCE
 from .config import ConfigError, load_config, schema_default
 
@@ -45,7 +45,7 @@ def _stage_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str,
 
 
 def cmd_descriptors(args: argparse.Namespace) -> None:
-    from ..datasets import load_dataset
+    from ..datasets import load_frames
     from ..descriptors import extract
 
     if args.threads:
@@ -53,7 +53,7 @@ def cmd_descriptors(args: argparse.Namespace) -> None:
 
         torch.set_num_threads(args.threads)
     dataset, method = _stage_settings(args)
-    pair = load_dataset(args.dataset, dataset)
+    pair = load_frames(args.dataset, dataset)  # the configuration check builds it the same way
     if args.frames_sha256 and pair.fingerprint() != args.frames_sha256:
         raise ConfigError(f"dataset {args.dataset!r}: its frames changed on disk since the workflow was planned "
                           "(the frame lists' SHA-256 differs); run the workflow again")
@@ -77,7 +77,8 @@ def cmd_train(args: argparse.Namespace) -> None:
 
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     report = train.main(args.train, args.out, params, val=args.val or (), test=args.test or (),
-                        meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)))
+                        meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)),
+                        allow_split_overlap=args.allow_split_overlap)
     log.info("predictor macro F1: cv %.3f, val %s, test %s", report["f1_cv"], report.get("f1_val"),
              report.get("f1_test"))
 
@@ -95,7 +96,8 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
 
     evaluate.main(_split_paths(args.features), args.predictors, args.out, tuple(args.modes),
                   tuple(args.trust_levels), meta={"dataset": args.dataset, "method": args.method,
-                                                  "seq_len": args.seq_len}, restoration=args.restoration)
+                                                  "seq_len": args.seq_len}, restoration=args.restoration,
+                  allow_split_overlap=args.allow_split_overlap)
 
 
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
@@ -103,7 +105,8 @@ def cmd_ablation_attributes(args: argparse.Namespace) -> None:
 
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     ablation.attributes_main(args.train, args.out, params, val=args.val or (), test=args.test or (),
-                             meta={"dataset": args.dataset, "seq_len": args.seq_len})
+                             meta={"dataset": args.dataset, "seq_len": args.seq_len},
+                             allow_split_overlap=args.allow_split_overlap)
 
 
 def cmd_ablation_without(args: argparse.Namespace) -> None:
@@ -112,14 +115,16 @@ def cmd_ablation_without(args: argparse.Namespace) -> None:
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     meta = {"dataset": args.dataset, "seq_len": args.seq_len}
     ablation.leave_one_out_train(_split_paths(args.train), args.method, args.out, params,
-                                 val=_split_paths(args.val or []), meta=meta)
+                                 val=_split_paths(args.val or []), meta=meta,
+                                 allow_split_overlap=args.allow_split_overlap)
 
 
 def cmd_ablation_held_out(args: argparse.Namespace) -> None:
     from ..eval import ablation
 
     ablation.leave_one_out_evaluate(args.features, args.pooled, args.without, args.out, tuple(args.modes),
-                                    meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len})
+                                    meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len},
+                                    allow_split_overlap=args.allow_split_overlap)
 
 
 def cmd_report(args: argparse.Namespace) -> None:
@@ -130,7 +135,8 @@ def cmd_report(args: argparse.Namespace) -> None:
                           args.leave_one_out or (), split=args.split, table_seq_lens=args.table_seq_lens,
                           seq_len_ablation=args.seq_len_ablation,
                           config=_json_object(args.settings, "--settings") if args.settings else None,
-                          provenance=provenance, descriptor_paths=args.descriptors or ())
+                          provenance=provenance, descriptor_paths=args.descriptors or (),
+                          datasets=_json_object(args.datasets, "--datasets") if args.datasets else None)
     log.info("wrote %d tables, figures and report files under %s", len(written), args.out)
 
 
@@ -165,31 +171,96 @@ def cmd_checkpoint_check(args: argparse.Namespace) -> int:
 
 
 def cmd_convert_checkpoint(args: argparse.Namespace) -> int:
-    from ..descriptors.convert import CONVERTERS
+    from ..descriptors.convert import CONVERTERS, no_conversion
 
     if args.method not in CONVERTERS:
-        raise ValueError(f"no conversion for {args.method!r}; available: {', '.join(CONVERTERS)}")
+        raise ValueError(no_conversion(args.method))
     out = CONVERTERS[args.method](args.input, args.output)
     print(f"wrote {out}: load it with `checkpoint: {out}` in the method's settings")
     return 0
 
 
+def _frame_range(text: str, option: str) -> list[int]:
+    """``LO:HI`` -> ``[LO, HI]`` (frames LO .. HI-1), as the configuration writes a range."""
+    lo, sep, hi = text.partition(":")
+    if not (sep and lo.strip().isdigit() and hi.strip().isdigit()):
+        raise ValueError(f"{option}: {text!r} is not a frame range LO:HI (frames LO to HI-1), e.g. 0:100")
+    return [int(lo), int(hi)]
+
+
+def _splits(items: list[str]) -> dict[str, list[int]]:
+    """``["train=0:40", "val=40:70"]`` -> ``{"train": [0, 40], "val": [40, 70]}``."""
+    splits = {}
+    for item in items:
+        name, sep, frames = item.partition("=")
+        if not sep or not name:
+            raise ValueError(f"--splits {item!r} is not NAME=LO:HI, e.g. --splits train=0:40 val=40:70 test=70:111")
+        splits[name] = _frame_range(frames, f"--splits {name}")
+    return splits
+
+
+DATASET_OPTIONS = ("root", "reference", "query", "reference_list", "query_list", "pairing", "tolerance")
+
+
 def cmd_dataset_check(args: argparse.Namespace) -> int:
     from ..datasets import check
 
-    return check.main(args.name, args.root, **_options(args.option))
+    given = {key: getattr(args, key) for key in DATASET_OPTIONS if getattr(args, key) is not None}
+    if args.frames:
+        given["frames"] = _frame_range(args.frames, "--frames")
+    if args.splits:
+        given["splits"] = _splits(args.splits)
+    given.update(_options(args.option))
+    if args.config:
+        if args.name or given:
+            raise ConfigError("give either --config (and --dataset) or a loader with its options, not both")
+        datasets = load_config(args.config)["datasets"]
+        name = args.dataset or (next(iter(datasets)) if len(datasets) == 1 else None)
+        if name not in datasets:
+            raise ConfigError(f"{args.config}: give --dataset, one of {', '.join(datasets)}" if name is None else
+                              f"{args.config}: datasets has no {name!r}; it has {', '.join(datasets)}")
+        return check.main(datasets[name], name=name, decode=args.decode)
+    if not args.name:
+        raise ConfigError("give a loader and its options (vpr-smr dataset check folders --reference DIR --query DIR"
+                          " ...), or a configuration (vpr-smr dataset check --config my.yaml --dataset NAME)")
+    return check.main({"loader": args.name, **given}, decode=args.decode)
 
 
 def cmd_run(args: argparse.Namespace) -> int:
     from . import workflow
 
     return workflow.run(args.config, cores=args.cores, dry_run=args.dry_run, extra=args.snakemake_args,
-                        overrides=args.set, profile=args.profile)
+                        overrides=args.set, profile=args.profile, verbose=args.snakemake_output or args.verbose)
+
+
+# Each stage command's --out file: what it holds and the suffixes it may have, checked before any work.
+OUT_FILES = {
+    "descriptors": ("the descriptors (HDF5)", HDF5_SUFFIXES),
+    "distances": ("the distance matrix (HDF5)", HDF5_SUFFIXES),
+    "attributes": ("the attributes (.csv table or HDF5)", CSV_SUFFIXES + HDF5_SUFFIXES),
+    "train": ("the predictor (HDF5; its report goes beside it as .json)", HDF5_SUFFIXES),
+    "evaluate": ("the evaluation (JSON)", JSON_SUFFIXES),
+    "ablation attributes": ("the attribute ablation (JSON)", JSON_SUFFIXES),
+    "ablation without": ("the predictor (HDF5; its report goes beside it as .json)", HDF5_SUFFIXES),
+    "ablation held-out": ("the leave-one-method-out evaluation (JSON)", JSON_SUFFIXES),
+}
+
+
+def _check_out(args: argparse.Namespace) -> None:
+    command = " ".join(filter(None, (args.command, getattr(args, "ablation_command", None))))
+    if command in OUT_FILES:
+        what, allowed = OUT_FILES[command]
+        check_suffix(args.out, allowed, what)
 
 
 def _required(parser: argparse.ArgumentParser, *options: str) -> None:
     for option in options:
         parser.add_argument(option, required=True)
+
+
+def _allow_overlap(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--allow-split-overlap", action="store_true",
+                        help="let a predictor score frames of its training split (a deliberate experiment)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -205,6 +276,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="override a setting, dotted keys for nested ones: --config predictor.max_iter=500")
     p.add_argument("--profile", default="local", help="a shipped profile (local, slurm) or a profile folder")
     p.add_argument("-n", "--dry-run", action="store_true")
+    # Its own dest: a subcommand's default would overwrite the global -v/--verbose (`vpr-smr -v run` works too).
+    p.add_argument("-v", "--verbose", dest="snakemake_output", action="store_true",
+                   help="show Snakemake's own output instead of the progress view (which logs it under "
+                        "<run folder>/logs/snakemake-<time>.log)")
     p.epilog = "Arguments after a lone -- go to snakemake unchanged, e.g. vpr-smr run c.yaml -- --forceall"
     p.set_defaults(func=cmd_run)
 
@@ -224,10 +299,27 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("dataset", help="dataset tools")
     dataset_sub = p.add_subparsers(dest="dataset_command", required=True)
-    c = dataset_sub.add_parser("check", help="verify a dataset on disk before a long run")
-    c.add_argument("name", help="loader name: nordland, robotcar, sfu_mountain, nordland_sample, folders")
-    c.add_argument("--root", help="the dataset's folder")
-    c.add_argument("--option", action="append", metavar="KEY=VALUE", help="a loader setting (repeatable)")
+    c = dataset_sub.add_parser(
+        "check", help="verify a dataset on disk before a long run",
+        description="Every image is found and decoded; prints the frames per traverse and split, the order and "
+                    "pairing of the frames, and every problem. The options are the configuration's keys.",
+        epilog="e.g. vpr-smr dataset check folders --reference my_route/reference --query my_route/query "
+               "--splits train=0:100 val=100:150 test=150:300;  vpr-smr dataset check nordland --root /data/nordland;"
+               "  vpr-smr dataset check --config my.yaml --dataset my_route")
+    c.add_argument("name", nargs="?", help="loader: folders, nordland_sample, nordland, robotcar, sfu_mountain")
+    c.add_argument("--config", help="take the dataset's settings from this configuration file")
+    c.add_argument("--dataset", help="with --config: which of its datasets (default: its only one)")
+    c.add_argument("--root", help="the dataset's folder (benchmark loaders)")
+    c.add_argument("--reference", help="folders: the reference traverse's image folder")
+    c.add_argument("--query", help="folders: the query traverse's image folder")
+    c.add_argument("--reference-list", help="a frame list naming the reference frames in order")
+    c.add_argument("--query-list", help="a frame list naming the query frames in order")
+    c.add_argument("--pairing", choices=("by_name", "by_order"), help="folders: how frame i of both is paired")
+    c.add_argument("--tolerance", type=int, help="frames of ground-truth tolerance (default 2)")
+    c.add_argument("--frames", metavar="LO:HI", help="keep frames LO .. HI-1 only")
+    c.add_argument("--splits", nargs="+", metavar="NAME=LO:HI", help="e.g. train=0:40 val=40:70 test=70:111")
+    c.add_argument("--option", action="append", metavar="KEY=VALUE", help="any other loader setting (repeatable)")
+    c.add_argument("--no-decode", dest="decode", action="store_false", help="only look for the files")
     c.set_defaults(func=cmd_dataset_check)
 
     p = sub.add_parser("descriptors", help="compute a method's descriptors of a dataset (HDF5)")
@@ -263,6 +355,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--val", nargs="*")
     p.add_argument("--test", nargs="*")
     p.add_argument("--out", required=True, help="the seed-0 predictor (.h5); other seeds beside it")
+    _allow_overlap(p)
     p.set_defaults(func=cmd_train)
 
     p = sub.add_parser("evaluate", help="match removal and precision-recall of one method")
@@ -275,6 +368,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="trust levels of the trust-level ablation (none: skip it)")
     p.add_argument("--no-restoration", dest="restoration", action="store_false", help="skip match restoration")
     _required(p, "--out")
+    _allow_overlap(p)
     p.set_defaults(func=cmd_evaluate)
 
     p = sub.add_parser("ablation", help="the predictor's ablations")
@@ -286,6 +380,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--train", nargs="+", required=True)
     c.add_argument("--val", nargs="*")
     c.add_argument("--test", nargs="*")
+    _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_attributes)
     c = ablation_sub.add_parser("without", help="train a predictor on every method's train split but one")
     _required(c, "--dataset", "--method", "--out")
@@ -293,11 +388,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
     c.add_argument("--train", nargs="+", required=True, metavar="METHOD=PATH")
     c.add_argument("--val", nargs="*", metavar="METHOD=PATH")
+    _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_without)
     c = ablation_sub.add_parser("held-out", help="a method's test split under the pooled and the without_ predictor")
     _required(c, "--dataset", "--method", "--features", "--pooled", "--without", "--out")
     c.add_argument("--seq-len", type=int, required=True)
     c.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=("paper", "standard"))
+    _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_held_out)
 
     p = sub.add_parser("report", help="paper-style tables, figures and report.html of a run")
@@ -310,6 +407,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--table-seq-lens", type=int, nargs="+", help="sequence lengths of Table I (default: all)")
     p.add_argument("--seq-len-ablation", action="store_true", help="also the sequence-length table and figure")
     p.add_argument("--settings", help="the run's settings (JSON, or @file) shown in the report")
+    p.add_argument("--datasets", help="per dataset: traverses, frames, tolerance, splits, pairing, overlaps (JSON)")
     p.add_argument("--out", required=True, help="the run folder: tables/, figures/ and report.html go inside")
     p.set_defaults(func=cmd_report)
     return parser
@@ -327,6 +425,7 @@ def main(argv: list[str] | None = None) -> int:
     # A stage stopped by SIGTERM unwinds like Ctrl-C, so that its temporary files are removed on the way out.
     signal.signal(signal.SIGTERM, _interrupt)
     try:
+        _check_out(args)
         status = args.func(args)
     except KeyboardInterrupt:
         print(f"vpr-smr {args.command}: interrupted; nothing was written under a final name", file=sys.stderr)

@@ -14,11 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .config import ConfigError, run_dir
-
-# Dataset settings that select and order the frames (what the descriptors of a dataset depend on). The split
-# ranges and the tolerance are not among them: they only reach the distances and attributes jobs.
-PER_SPLIT_SETTINGS = ("splits", "tolerance")
+from .config import ConfigError, experiments, run_dir
 
 
 @dataclass(frozen=True)
@@ -31,12 +27,25 @@ class DatasetPlan:
     n_frames: int
     frames_sha256: str  # fingerprint of the ordered frame names of both traverses
     list_files: tuple[str, ...]  # frame-list files named in the configuration (inputs of the descriptors jobs)
+    pairing: str  # how frame i of both traverses is known to be one place
+    traverses: tuple[str, str]  # the reference's and the query's name
+    warnings: tuple[str, ...]  # e.g. a frame order taken from file names that do not say it unambiguously
+    overlaps: tuple[str, ...]  # splits that share frames (only with allow_split_overlap), e.g. "train and test: 40-59"
 
 
 @dataclass(frozen=True)
 class Plan:
     datasets: dict[str, DatasetPlan]
     checkpoints: dict[str, str | None]  # method -> checkpoint file the descriptors job reads, if any
+    warnings: tuple[str, ...] = ()  # worth reading before a long run, not wrong (e.g. an ambiguous frame order)
+
+
+def dataset_cards(plan: Plan) -> dict[str, dict[str, Any]]:
+    """What the report states of each dataset: traverses, frames, tolerance, splits, pairing, overlaps."""
+    return {name: {"reference": d.traverses[0], "query": d.traverses[1], "n_frames": d.n_frames,
+                   "tolerance": d.tolerance, "splits": {k: list(v) for k, v in d.splits.items()},
+                   "pairing": d.pairing, "overlaps": list(d.overlaps), "frames_sha256": d.frames_sha256}
+            for name, d in plan.datasets.items()}
 
 
 def canonical(value: Any) -> str:
@@ -52,10 +61,35 @@ def _relative_note(value: str) -> str:
     return "" if os.path.isabs(value) else f" (a relative path, looked for from the working folder {Path.cwd()})"
 
 
-def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, DatasetPlan]:
-    from ..datasets import DatasetError, load_dataset
+def split_overlaps(splits: dict[str, tuple[int, int]]) -> list[str]:
+    """Every two splits that share frames, as ``'train' [0, 60) and 'test' [40, 111) share frames [40, 60)``."""
+    found = []
+    names = list(splits)
+    for i, first in enumerate(names):
+        for second in names[i + 1 :]:
+            (lo_a, hi_a), (lo_b, hi_b) = splits[first], splits[second]
+            lo, hi = max(lo_a, lo_b), min(hi_a, hi_b)
+            if lo < hi:
+                found.append(f"{first!r} [{lo_a}, {hi_a}) and {second!r} [{lo_b}, {hi_b}) share frames [{lo}, {hi})")
+    return found
 
-    needed = sorted({conf["train_split"], *conf["eval_splits"], conf["table_split"]})
+
+def _training_problems(conf: dict[str, Any], train: tuple[int, int]) -> list[str]:
+    """Whether the train split is long enough to train every predictor of the run, at the longest ``seq_lens``
+    (the fewest samples); the leave-one-method-out predictors pool one method less."""
+    from ..eval.predictor import training_problems
+
+    n_methods = len(conf["methods"])
+    if "leave_one_method_out" in experiments(conf):
+        n_methods -= 1
+    return training_problems(train[1] - train[0], max(conf["seq_lens"]), n_methods,
+                             smote=conf["predictor"].get("smote", True), split=conf["train_split"])
+
+
+def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, DatasetPlan]:
+    from ..datasets import DatasetError, frames_settings, load_dataset
+
+    needed = list(dict.fromkeys([conf["train_split"], *conf["eval_splits"], conf["table_split"]]))
     longest = max(conf["seq_lens"])
     plans = {}
     for name, dataset in conf["datasets"].items():
@@ -78,16 +112,32 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
             if hi - lo < longest:
                 problems.append(f"datasets.{name}: split {split!r} has {hi - lo} frames, fewer than the sequence "
                                 f"length {longest} (seq_lens): lengthen the split or shorten the sequences")
+        train = pair.splits.get(conf["train_split"])
+        if train is not None and train[1] - train[0] >= longest:
+            problems.extend(f"datasets.{name}: {problem}" for problem in _training_problems(conf, train))
+        overlaps = split_overlaps({split: pair.splits[split] for split in needed if split in pair.splits})
+        if overlaps and not conf["allow_split_overlap"]:
+            problems.extend(
+                f"datasets.{name}: splits {overlap}: the predictor would be scored on "
+                "frames it was trained or validated on. Make the split ranges disjoint, or set "
+                "allow_split_overlap: true for a deliberate experiment (every table then says so)"
+                for overlap in overlaps
+            )
         for path in _list_files(dataset):
             if not Path(path).is_file():
                 problems.append(f"datasets.{name}: frame list not found: {path}{_relative_note(path)}")
         plans[name] = DatasetPlan(
-            frames_settings={k: v for k, v in dataset.items() if k not in PER_SPLIT_SETTINGS},
+            frames_settings=frames_settings(dataset),
             splits={k: (int(lo), int(hi)) for k, (lo, hi) in pair.splits.items()},
             tolerance=pair.tolerance,
             n_frames=len(pair),
             frames_sha256=pair.fingerprint(),
             list_files=_list_files(dataset),
+            pairing=pair.pairing,
+            traverses=(pair.reference.name, pair.query.name),
+            warnings=tuple(f"datasets.{name}: {t.name} frames: {t.order_note}"
+                           for t in (pair.reference, pair.query) if t.order_note),
+            overlaps=tuple(overlaps),
         )
     return plans
 
@@ -134,4 +184,4 @@ def preflight(conf: dict[str, Any]) -> Plan:
     _check_output(conf, problems)
     if problems:
         raise ConfigError("the configuration cannot run:\n  " + "\n  ".join(problems))
-    return Plan(datasets, checkpoints)
+    return Plan(datasets, checkpoints, tuple(warning for d in datasets.values() for warning in d.warnings))

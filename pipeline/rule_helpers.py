@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+import shlex
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -30,12 +32,17 @@ def other_features(out: str, methods: Sequence[str], wc: Any, split: str) -> lis
     return [features_path(out, wc.dataset, method, wc.seq_len, split) for method in methods if method != wc.method]
 
 
+def name_pairs(names: Sequence[str], paths: Sequence[str]) -> str:
+    """``NAME=PATH`` shell arguments, each quoted on its own (a path may hold spaces): used unquoted in a rule."""
+    return " ".join(shlex.quote(f"{name}={path}") for name, path in zip(names, paths, strict=True))
+
+
 def method_pairs(methods: Sequence[str], held_out: str, paths: Sequence[str]) -> str:
     """``METHOD=PATH`` arguments for the methods but ``held_out``, in the configuration's order."""
     others = [method for method in methods if method != held_out]
     if not paths:
         return ""
-    return " ".join(f"{method}={path}" for method, path in zip(others, paths, strict=True))
+    return name_pairs(others, paths)
 
 
 def report_outputs(conf: dict[str, Any], experiments: set[str]) -> list[str]:
@@ -46,6 +53,8 @@ def report_outputs(conf: dict[str, Any], experiments: set[str]) -> list[str]:
                             table_seq_lens=[conf["table_seq_len"]])
 
 
-def report_settings(conf: dict[str, Any]) -> dict[str, Any]:
-    """The configuration minus what changes speed only (``extraction``): shown in the report, a param of it."""
-    return {key: value for key, value in conf.items() if key != "extraction"}
+def report_settings(conf: dict[str, Any]) -> str:
+    """The configuration minus what changes speed only (``extraction``) as JSON text in the configuration's own
+    order (not sorted like ``plan.canonical``: the methods' order is the pooled training order, part of the
+    predictor's recipe): shown in the report, a param of it."""
+    return json.dumps({key: value for key, value in conf.items() if key != "extraction"}, separators=(",", ":"))

@@ -11,12 +11,14 @@ import subprocess
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
+from datetime import datetime
 from pathlib import Path
 from typing import Any
 
 import yaml
 
 from ..eval.io import atomic_path
+from . import console
 from .config import ConfigError, load_config, parse_overrides, run_dir
 from .plan import preflight
 
@@ -84,19 +86,38 @@ def snakemake_command(config: Path | str, overrides: dict[str, Any], cores: int 
     return command + [a for a in extra if a != "--"]
 
 
+def snakemake_log(folder: Path) -> Path:
+    """A new file for Snakemake's output under the run folder's ``logs/``, named by the time of the run."""
+    logs = folder / "logs"
+    logs.mkdir(parents=True, exist_ok=True)
+    stamp = datetime.now().strftime("%Y%m%d-%H%M%S")
+    path, n = logs / f"snakemake-{stamp}.log", 1
+    while path.exists():  # two runs within a second
+        n += 1
+        path = logs / f"snakemake-{stamp}-{n}.log"
+    return path
+
+
 def run(config: Path | str, cores: int | None = None, dry_run: bool = False, extra: list[str] | None = None,
-        overrides: list[str] | None = None, profile: str = "local") -> int:
-    """Run the workflow of ``config`` (with ``key=value`` overrides); print where the results are."""
+        overrides: list[str] | None = None, profile: str = "local", verbose: bool = False) -> int:
+    """Run the workflow of ``config`` (with ``key=value`` overrides); print where the results are.
+
+    Shows a compact progress view and sends Snakemake's own output to ``<run folder>/logs/snakemake-<time>.log``;
+    ``verbose`` shows Snakemake's output instead, unchanged.
+    """
     parsed = parse_overrides(overrides)
     conf = load_config(config, parsed)
-    preflight(conf)  # a clean error before Snakemake starts; the Snakefile checks again for direct callers
+    plan = preflight(conf)  # a clean error before Snakemake starts; the Snakefile checks again for direct callers
+    for warning in plan.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     command = snakemake_command(config, parsed, cores, profile, dry_run, list(extra or []))
     if dry_run:
-        return _snakemake(command)
+        return _snakemake(command, None if verbose else console.DryRunView(sys.stdout, sys.stderr))
     # Our lock on the run folder replaces Snakemake's lock on the working folder: it names the run that holds
     # it and cannot outlive a killed run, so no `--unlock` is ever needed.
     with run_lock(run_dir(conf)):
-        status = _snakemake(command + ["--nolock"])
+        view = None if verbose else console.ProgressView(snakemake_log(run_dir(conf)), sys.stdout, sys.stderr)
+        status = _snakemake(command + ["--nolock"], view)
     if status == 0:
         out = run_dir(conf)
         print(f"\ntables:  {out / 'tables'}\nfigures: {out / 'figures'}")
@@ -122,26 +143,52 @@ def _descendants(pid: int) -> list[int]:
     return found
 
 
-def _snakemake(command: list[str]) -> int:
+def _terminate(pid: int) -> None:
+    """SIGTERM to every process below ``pid``, deepest first, then to ``pid``.
+
+    On SIGTERM Snakemake alone would wait for its running jobs to finish and go on writing results: the jobs are
+    stopped too (they remove their temporary files), then Snakemake.
+    """
+    for process in [*reversed(_descendants(pid)), pid]:
+        try:
+            os.kill(process, signal.SIGTERM)
+        except ProcessLookupError:
+            pass
+
+
+def _snakemake(command: list[str], view: console.View | None = None) -> int:
+    """Run Snakemake, its output to ``view`` (or unchanged to ours); stop it and its jobs on SIGINT or SIGTERM."""
     # Jobs call `vpr-smr <stage>`: the one installed beside this interpreter comes first on their PATH.
     env = {**os.environ, "PATH": os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])}
-    # Snakemake stays in our process group, so that a signal to the whole group (Ctrl-C, a SIGKILL of the
-    # group) reaches it and its jobs too.
-    process = subprocess.Popen(command, env=env)
+    process: subprocess.Popen | None = None
+    stopped: list[int] = []
 
     def stop(signum: int, _frame: Any) -> None:
-        # On SIGTERM Snakemake alone would wait for its running jobs to finish and go on writing results:
-        # stop the jobs too (they remove their temporary files), then Snakemake.
-        for pid in [*reversed(_descendants(process.pid)), process.pid]:
-            try:
-                os.kill(pid, signal.SIGTERM)
-            except ProcessLookupError:
-                pass
+        stopped.append(signum)
+        if view is not None:
+            view.stopped = signum  # the view says so once Snakemake has stopped, and shows nothing more
+        if process is not None:
+            _terminate(process.pid)
 
+    # Installed before Snakemake starts, so that no Ctrl-C can leave it running without us.
     previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGTERM, signal.SIGINT)}
     try:
-        status = process.wait()
+        # Snakemake stays in our process group, so that a signal to the whole group (Ctrl-C, a SIGKILL of the
+        # group) reaches it and its jobs too.
+        if view is None:
+            process = subprocess.Popen(command, env=env)
+        else:
+            # One pipe for both streams (a dry run logs to stdout, a run to stderr), in UTF-8 whatever the locale
+            process = subprocess.Popen(command, env={**env, "PYTHONIOENCODING": "utf-8"}, stdout=subprocess.PIPE,
+                                       stderr=subprocess.STDOUT, encoding="utf-8", errors="replace")
+        if stopped:  # the signal came while it started
+            _terminate(process.pid)
+        try:
+            status = process.wait() if view is None else console.follow(process, view)
+        except BaseException:  # the view failed (a closed stdout): no Snakemake left running unwatched
+            _terminate(process.pid)
+            raise
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-    return status
+    return 128 + stopped[0] if stopped else status

@@ -423,21 +423,22 @@ def test_check_main(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
         "query_list": str(write_lines(tmp_path / "dusk.txt", lines["dusk"])),
         "splits": {"all": (0, 5)},
     }
-    assert check_module.main("sfu_mountain", str(tmp_path), **lists) == 0
+    sfu = {"loader": "sfu_mountain", "root": str(tmp_path), **lists}
+    assert check_module.main(sfu) == 0
     out = capsys.readouterr().out
     assert "reference dry: 5 of 5 frames found and readable" in out and out.rstrip().endswith("status: OK")
 
     corrupt(tmp_path / "part_a" / "stereo_right" / "dry" / "frames" / "a003.jpg")
     (tmp_path / "part_a" / "stereo_right" / "dusk" / "frames" / "a005.jpg").unlink()
-    assert check_module.main("sfu_mountain", str(tmp_path), **lists) == 1
+    assert check_module.main(sfu) == 1
     out = capsys.readouterr().out
     assert "unreadable files (reference dry, 1): " in out and "a003.jpg (cannot decode image" in out
     assert "missing files (query dusk, 1): " in out and "a005.jpg" in out
     assert "status: PROBLEMS (1 missing files, 1 unreadable files)" in out
 
-    assert check_module.main("sfu_mountain", str(tmp_path / "absent")) == 2
+    assert check_module.main({"loader": "sfu_mountain", "root": str(tmp_path / "absent")}) == 2
     assert "root folder" in capsys.readouterr().err
-    assert check_module.main("no_such_loader", str(tmp_path)) == 2
+    assert check_module.main({"loader": "no_such_loader", "root": str(tmp_path)}) == 2
     assert "choose one of" in capsys.readouterr().err
-    assert check_module.main("sfu_mountain", str(tmp_path), colour="red") == 2
-    assert "bad options" in capsys.readouterr().err
+    assert check_module.main({"loader": "sfu_mountain", "root": str(tmp_path), "colour": "red"}) == 2
+    assert "has no setting 'colour'" in capsys.readouterr().err

@@ -68,12 +68,13 @@ def test_baseline_cut_at_predictor_max_recall():
     assert result.aoc_baseline == pytest.approx(.25)
 
 
-def test_zero_baseline_aoc_gives_zero_reduction():
+def test_zero_baseline_aoc_gives_an_undefined_reduction():
     # Thresholds start at S.min(), which is always some query's match distance: no (0, 0) point here.
+    # Every match correct: precision 1 everywhere, AOC 0, nothing to reduce (not a 0 % reduction).
     correct = np.ones(4, dtype=bool)
     base = paper_curve(DIST, correct, ALL, 1.0, 4.0, n_thresholds=5)
     result = compare_curves(base, base)
-    assert result.aoc_baseline == pytest.approx(0.0) and result.reduction_pct == 0.0
+    assert result.aoc_baseline == pytest.approx(0.0) and result.reduction_pct is None
 
 
 def test_keep_mask_trust():

@@ -77,7 +77,7 @@ def test_dry_run_plans_every_job(tmp_path):
     conf["output"] = str(tmp_path / "results")
     config = tmp_path / "paper.yaml"
     config.write_text(yaml.safe_dump(conf))
-    result = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", str(config), "-n"], cwd=tmp_path,
+    result = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", str(config), "-n", "-v"], cwd=tmp_path,
                             capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     counts = dict(re.findall(r"^(\w+)\s+(\d+)$", result.stdout, flags=re.MULTILINE))

@@ -66,8 +66,8 @@ def vpr_smr(folder, *args, timeout=600):
 
 
 def planned(folder):
-    """``{(rule, first output)}`` of a dry run, outputs relative to the run folder."""
-    result = vpr_smr(folder, "run", "c.yaml", "-n")
+    """``{(rule, first output)}`` of a dry run (`--verbose`: Snakemake's list of jobs), relative to the run folder."""
+    result = vpr_smr(folder, "run", "c.yaml", "-n", "--verbose")
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     jobs = re.findall(r"^rule (\w+):\n(?:    .*\n)*?    output: ([^,\n]+)", result.stdout, flags=re.MULTILINE)
     return {(rule, output.removeprefix("results/r/")) for rule, output in jobs if rule != "all"}
@@ -198,7 +198,7 @@ def test_checkpoint_content_reruns_its_method(copy):
 
 
 def test_command_line_override_reaches_the_jobs(copy):
-    result = vpr_smr(copy, "run", "c.yaml", "-n", "--config", "predictor.max_iter=61")
+    result = vpr_smr(copy, "run", "c.yaml", "-n", "--verbose", "--config", "predictor.max_iter=61")
     assert result.returncode == 0, result.stderr[-3000:]
     rules = set(re.findall(r"^rule (\w+):", result.stdout, flags=re.MULTILINE)) - {"all"}
     assert rules == {"train", "evaluate", "attribute_ablation", "predictor_without", "held_out", "report"}

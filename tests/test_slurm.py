@@ -54,6 +54,8 @@ def test_slurm_run_equals_local_run(tmp_path):
                              "--slurm-init-seconds-before-status-checks", "2", env=env)
         output = result.stdout + result.stderr
         assert result.returncode == 0, output[-4000:] + cluster.log_tails()
+    # Snakemake's own output, which names the SLURM jobs, goes to the run's log (vpr-smr run shows a summary)
+    output = "".join(p.read_text() for p in (cluster_folder / "results" / "s" / "logs").glob("snakemake-*.log"))
     job_ids = set(re.findall(r"submitted with SLURM jobid (\d+)", output))
     # descriptors 2, distances 6, attributes 6, train 1, evaluate 2, report 1: every job went through sbatch
     assert len(job_ids) == 18, output[-4000:]

@@ -95,7 +95,8 @@ def test_table1_has_the_seed_spread(run):
     rows = table(out, "table1")
     assert list(rows[0]) == ["dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence",
                              "max_recall", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", "reduction_pct_mean",
-                             "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds"]
+                             "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds", "n_queries",
+                             "n_queries_single", "n_seeds_defined"]
     assert {(r["method"], r["seq_len"], r["mode"]) for r in rows} == {
         (m, "4", mode) for m in METHODS for mode in ("paper", "standard")}
     for r in rows:
@@ -103,8 +104,13 @@ def test_table1_has_the_seed_spread(run):
         assert 0 <= aoc_base <= max_recall <= 1 and 0 <= aoc_pred <= max_recall
         if aoc_base > 0:  # a method whose baseline curve is perfect has nothing to reduce
             assert float(r["reduction_pct"]) == pytest.approx(100 * (aoc_base - aoc_pred) / aoc_base)
-        low, high = float(r["reduction_pct_min"]), float(r["reduction_pct_max"])
-        assert low <= float(r["reduction_pct"]) <= high and low <= float(r["reduction_pct_mean"]) <= high
+            low, high = float(r["reduction_pct_min"]), float(r["reduction_pct_max"])
+            assert low <= float(r["reduction_pct"]) <= high and low <= float(r["reduction_pct_mean"]) <= high
+        else:  # undefined: an empty cell, not 0
+            assert r["reduction_pct"] == ""
+        # the test split is frames 250-359 of the slice: 110 queries, 110 - 4 + 1 = 107 with a sequence match;
+        # paper mode's single-frame recall@1 is over all 110
+        assert r["n_queries"] == "107" and r["n_queries_single"] == ("110" if r["mode"] == "paper" else "107")
     md = (out / "tables" / "table1.md").read_text()
     assert "| sample | VPR+SM |" in md and " ± " in md and "(2 seeds)" in md
     assert r"\begin{tabular}" in (out / "tables" / "table1.tex").read_text()
@@ -178,3 +184,21 @@ def test_outputs_carry_provenance_and_a_rerun_does_nothing(run, tmp_path):
     again = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", str(config)], cwd=out.parent.parent,
                            capture_output=True, text=True, timeout=300)
     assert again.returncode == 0 and "Nothing to be done" in again.stdout + again.stderr
+
+
+def test_no_predictor_was_trained_on_the_frames_it_scores(run):
+    """Every predictor file of the run (pooled, every seed, leave-one-method-out) was trained on the train split
+    [0, 150) of the slice only: disjoint from val [150, 250) and test [250, 360), which all scores come from."""
+    from vpr_smr.eval.leakage import FrameRange, trained_on
+
+    out, _ = run
+    files = sorted((out / "predictors" / "sample").rglob("*.h5"))
+    assert len(files) == 2 * 2 + 3  # L3, L4 x seeds 0, 1; without_<m> at L4
+    for path in files:
+        assert trained_on(path) == [FrameRange("sample", "train", 0, 150)], path
+    for path in (out / "features" / "sample").rglob("*.h5"):
+        from vpr_smr.eval.leakage import frame_range
+
+        split = frame_range(path)
+        assert split.split == path.stem
+        assert (split.lo, split.hi) == {"train": (0, 150), "val": (150, 250), "test": (250, 360)}[path.stem]

@@ -16,7 +16,8 @@ rule descriptors:
         # Batch size and decoding workers change how fast a job runs, not what it computes: a resource, not a
         # param, so that changing them reruns nothing.
         extraction=extraction_options(conf),
+    # Every name and path is quoted (`:q`): an output or dataset folder may hold spaces, quotes or `;`.
     shell:
-        "vpr-smr descriptors --dataset {wildcards.dataset} --dataset-settings {params.dataset:q}"
-        " --frames-sha256 {params.frames_sha256} --method {wildcards.method} --method-settings {params.method:q}"
-        " --threads {threads} {resources.extraction} --out {output} > {log} 2>&1"
+        "vpr-smr descriptors --dataset {wildcards.dataset:q} --dataset-settings {params.dataset:q}"
+        " --frames-sha256 {params.frames_sha256} --method {wildcards.method:q} --method-settings {params.method:q}"
+        " --threads {threads} {resources.extraction} --out {output:q} > {log:q} 2>&1"

@@ -8,8 +8,8 @@ rule distances:
     params:
         frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[wc.split]),
     shell:
-        "vpr-smr distances --descriptors {input} --split {wildcards.split} --frames {params.frames}"
-        " --out {output} > {log} 2>&1"
+        "vpr-smr distances --descriptors {input:q} --split {wildcards.split:q} --frames {params.frames}"
+        " --out {output:q} > {log:q} 2>&1"
 
 
 rule attributes:
@@ -22,8 +22,8 @@ rule attributes:
     params:
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
     shell:
-        "vpr-smr attributes --distances {input} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
-        " --out {output} > {log} 2>&1"
+        "vpr-smr attributes --distances {input:q} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
+        " --out {output:q} > {log:q} 2>&1"
 
 
 rule train:
@@ -37,12 +37,13 @@ rule train:
     log:
         f"{OUT}/logs/predictors/{{dataset}}/L{{seq_len}}.log",
     params:
+        overlap=ALLOW_OVERLAP,
         predictor=canonical(conf["predictor"]),
         seeds=conf["seeds"],
     shell:
-        "vpr-smr train --dataset {wildcards.dataset} --seq-len {wildcards.seq_len} --predictor {params.predictor:q}"
-        " --seeds {params.seeds} --train {input.train} --val {input.val} --test {input.test}"
-        " --out {output.models[0]} > {log} 2>&1"
+        "vpr-smr train --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
+        " --predictor {params.predictor:q} --seeds {params.seeds} --train {input.train:q} --val {input.val:q}"
+        " --test {input.test:q} --out {output.models[0]:q} {params.overlap} > {log:q} 2>&1"
 
 
 rule evaluate:
@@ -55,13 +56,14 @@ rule evaluate:
     log:
         f"{OUT}/logs/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.log",
     params:
-        features=lambda wc, input: " ".join(
-            f"{split}={path}" for split, path in zip(conf["eval_splits"], input.features)
-        ),
+        overlap=ALLOW_OVERLAP,
+        # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
+        features=lambda wc, input: name_pairs(conf["eval_splits"], input.features),
         modes=" ".join(conf["modes"]),
         trust_levels=" ".join(str(level) for level in conf["trust_levels"]) if "trust" in EXPERIMENTS else "",
         restoration="" if "restoration" in EXPERIMENTS else "--no-restoration",
     shell:
-        "vpr-smr evaluate --dataset {wildcards.dataset} --method {wildcards.method} --seq-len {wildcards.seq_len}"
-        " --features {params.features} --predictors {input.predictors} --modes {params.modes}"
-        " --trust-levels {params.trust_levels} {params.restoration} --out {output.evaluation} > {log} 2>&1"
+        "vpr-smr evaluate --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
+        " --seq-len {wildcards.seq_len} --features {params.features} --predictors {input.predictors:q}"
+        " --modes {params.modes} --trust-levels {params.trust_levels} {params.restoration}"
+        " --out {output.evaluation:q} {params.overlap} > {log:q} 2>&1"

@@ -11,11 +11,12 @@ rule attribute_ablation:
     log:
         f"{OUT}/logs/ablation/attributes/{{dataset}}/L{{seq_len}}.log",
     params:
+        overlap=ALLOW_OVERLAP,
         predictor=canonical(conf["predictor"]),
     shell:
-        "vpr-smr ablation attributes --dataset {wildcards.dataset} --seq-len {wildcards.seq_len}"
-        " --predictor {params.predictor:q} --train {input.train} --val {input.val} --test {input.test}"
-        " --out {output} > {log} 2>&1"
+        "vpr-smr ablation attributes --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
+        " --predictor {params.predictor:q} --train {input.train:q} --val {input.val:q} --test {input.test:q}"
+        " --out {output:q} {params.overlap} > {log:q} 2>&1"
 
 
 rule predictor_without:
@@ -28,13 +29,15 @@ rule predictor_without:
     log:
         f"{OUT}/logs/predictors/{{dataset}}/L{{seq_len}}/without_{{method}}.log",
     params:
+        overlap=ALLOW_OVERLAP,
         predictor=canonical(conf["predictor"]),
+        # METHOD=PATH items, each quoted already: the shell command uses them unquoted
         train=lambda wc, input: method_pairs(METHODS, wc.method, input.train),
         val=lambda wc, input: method_pairs(METHODS, wc.method, input.val),
     shell:
-        "vpr-smr ablation without --dataset {wildcards.dataset} --seq-len {wildcards.seq_len}"
-        " --method {wildcards.method} --predictor {params.predictor:q} --train {params.train} --val {params.val}"
-        " --out {output} > {log} 2>&1"
+        "vpr-smr ablation without --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
+        " --method {wildcards.method:q} --predictor {params.predictor:q} --train {params.train}"
+        " --val {params.val} --out {output:q} {params.overlap} > {log:q} 2>&1"
 
 
 rule held_out:
@@ -47,11 +50,12 @@ rule held_out:
     log:
         f"{OUT}/logs/ablation/without/{{dataset}}/L{{seq_len}}/{{method}}.log",
     params:
+        overlap=ALLOW_OVERLAP,
         modes=" ".join(conf["modes"]),
     shell:
-        "vpr-smr ablation held-out --dataset {wildcards.dataset} --method {wildcards.method}"
-        " --seq-len {wildcards.seq_len} --features {input.features} --pooled {input.pooled}"
-        " --without {input.without} --modes {params.modes} --out {output} > {log} 2>&1"
+        "vpr-smr ablation held-out --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
+        " --seq-len {wildcards.seq_len} --features {input.features:q} --pooled {input.pooled:q}"
+        " --without {input.without:q} --modes {params.modes} --out {output:q} {params.overlap} > {log:q} 2>&1"
 
 
 rule report:
@@ -77,9 +81,11 @@ rule report:
         table_seq_len=TABLE_L,
         seq_len_ablation="--seq-len-ablation" if "seq_len" in EXPERIMENTS else "",
         # what the report shows as the run's configuration: every setting that changes a number
-        settings=canonical(report_settings(conf)),
+        settings=report_settings(conf),
+        datasets=canonical(dataset_cards(PLAN)),
     shell:
-        "vpr-smr report --evaluations {input.evaluations} --predictors {input.predictors}"
-        " --attribute-ablations {input.attribute_ablations} --leave-one-out {input.leave_one_out}"
-        " --descriptors {input.descriptors} --split {params.split} --table-seq-lens {params.table_seq_len}"
-        " {params.seq_len_ablation} --settings {params.settings:q} --out {OUT} > {log} 2>&1"
+        "vpr-smr report --evaluations {input.evaluations:q} --predictors {input.predictors:q}"
+        " --attribute-ablations {input.attribute_ablations:q} --leave-one-out {input.leave_one_out:q}"
+        " --descriptors {input.descriptors:q} --split {params.split:q} --table-seq-lens {params.table_seq_len}"
+        " {params.seq_len_ablation} --settings {params.settings:q} --datasets {params.datasets:q}"
+        " --out {OUT:q} > {log:q} 2>&1"

@@ -1,0 +1,79 @@
+"""A predictor never scores the frames it was trained on: the frame ranges of the files it learnt from (kept in
+its own file) against those of every file it scores, read from the files' provenance.
+
+The workflow cannot produce such a pair unless the configuration allows overlapping splits; the stages check
+anyway, so that a hand-run stage or a file from another run cannot leak either.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from .io import read_provenance
+
+TRAINED_ON = "trained_on_frames"  # the predictor file's attribute: the frame ranges it was trained on
+
+
+class SplitLeakError(ValueError):
+    """A predictor would score frames of its own training data."""
+
+
+@dataclass(frozen=True)
+class FrameRange:
+    """Frames ``lo .. hi-1`` of both traverses of a dataset: one split of a features file."""
+
+    dataset: str
+    split: str
+    lo: int
+    hi: int
+
+    def shared(self, other: FrameRange) -> tuple[int, int] | None:
+        """The frames both ranges hold, as ``(lo, hi)``, or None."""
+        lo, hi = max(self.lo, other.lo), min(self.hi, other.hi)
+        return (lo, hi) if self.dataset == other.dataset and lo < hi else None
+
+    def __str__(self) -> str:
+        return f"{self.dataset!r} split {self.split!r} [{self.lo}, {self.hi})"
+
+    def to_json(self) -> list[Any]:
+        return [self.dataset, self.split, self.lo, self.hi]
+
+    @classmethod
+    def from_json(cls, value: Sequence[Any]) -> FrameRange:
+        dataset, split, lo, hi = value
+        return cls(str(dataset), str(split), int(lo), int(hi))
+
+
+def frame_range(features: Path | str) -> FrameRange | None:
+    """The split a features file covers, from its provenance; None for a file without one (a user's matrix)."""
+    provenance = read_provenance(features)
+    if not {"dataset", "split", "split_range"} <= provenance.keys():
+        return None
+    lo, hi = provenance["split_range"]
+    return FrameRange(str(provenance["dataset"]), str(provenance["split"]), int(lo), int(hi))
+
+
+def frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:
+    """The distinct splits of ``paths`` (every method of a split covers the same frames), in first-seen order."""
+    return list(dict.fromkeys(r for r in map(frame_range, paths) if r is not None))
+
+
+def trained_on(predictor: Path | str) -> list[FrameRange]:
+    """The frame ranges a predictor file was trained on (none recorded: an empty list)."""
+    return [FrameRange.from_json(v) for v in read_provenance(predictor).get(TRAINED_ON, [])]
+
+
+def check_disjoint(trained: Sequence[FrameRange], scored: Sequence[FrameRange], allow_overlap: bool,
+                   predictor: str) -> list[str]:
+    """Raise ``SplitLeakError`` when a scored range shares frames with a trained one, unless ``allow_overlap``;
+    return the overlaps found (empty when the splits are disjoint)."""
+    found = [f"{predictor} was trained on {t}, which shares frames [{s[0]}, {s[1]}) with {r}"
+             for r in scored for t in trained if (s := t.shared(r)) is not None]
+    if found and not allow_overlap:
+        raise SplitLeakError(f"{found[0]}: its scores there would be measured on its own training data. Make the "
+                             "split ranges disjoint, or allow it for a deliberate experiment "
+                             "(allow_split_overlap: true, or --allow-split-overlap)")
+    return found

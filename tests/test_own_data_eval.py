@@ -1,0 +1,476 @@
+"""Your own data, end to end (the evaluation side): undefined reductions, query counts in every table, the
+configuration's own order in the report, --out suffixes, negative distances, LiveMatcher.from_descriptors with the
+README's live example executed as written, and train splits too small for the predictor."""
+
+import csv
+import json
+import re
+import shutil
+import warnings
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from vpr_smr.eval import report
+from vpr_smr.eval.attributes import QueryFeatures, query_features
+from vpr_smr.eval.io import write_distance_matrix, write_features, write_json
+from vpr_smr.eval.metrics import Curve, compare_curves, reduction_pct
+from vpr_smr.eval.predictor import MIN_TRAIN_SAMPLES, SMRPredictor, fit_problem, label_problems, training_problems
+from vpr_smr.pipeline.cli import main
+
+ROOT = Path(__file__).resolve().parents[1]
+LIVE_EXAMPLE = ROOT / "README.md"
+MARKER = "<!-- live-example -->"
+TINY = {"hidden_layer_sizes": [8], "max_iter": 30}
+
+
+def files_in(folder: Path) -> set[str]:
+    return {str(p.relative_to(folder)) for p in folder.rglob("*")}
+
+
+# --- 1. a reduction whose baseline AOC is 0 is undefined --------------------------------------------------------
+
+
+def test_reduction_by_hand_and_undefined_cases():
+    assert reduction_pct(0.2, 0.05) == pytest.approx(75.0)  # 100 (0.2 - 0.05) / 0.2
+    assert reduction_pct(0.1, 0.15) == pytest.approx(-50.0)
+    assert reduction_pct(0.0, 0.0) is None
+    assert reduction_pct(1.1e-16, 0.0) is None  # the trapezoid sum's rounding of a perfect curve is 0 too
+    assert reduction_pct(float("nan"), 0.1) is None and reduction_pct(0.2, float("inf")) is None
+    # a baseline with precision 1 everywhere: AUC = R_max, AOC 0, whatever the predictor does
+    perfect = Curve(np.array([0.0, 0.25, 0.5, 1.0]), np.array([1.0, 1.0, 1.0, 1.0]))
+    worse = Curve(np.array([0.0, 0.5, 1.0]), np.array([1.0, 0.5, 0.5]))
+    assert compare_curves(perfect, perfect).reduction_pct is None
+    assert compare_curves(perfect, worse).reduction_pct is None
+
+
+def test_restoration_reduction_is_undefined_when_removal_is_perfect():
+    from vpr_smr.eval.restoration import compare
+
+    perfect = Curve(np.array([0.0, 0.5, 1.0]), np.array([1.0, 1.0, 1.0]))
+    half = Curve(np.array([0.0, 1.0]), np.array([1.0, 0.5]))  # AUC 0.75, AOC 0.25
+    assert compare(half, perfect, half)["reduction_pct"] is None
+    assert compare(half, half, perfect)["reduction_pct"] == pytest.approx(100.0)  # (0.25 - 0) / 0.25
+
+
+def perfect_features(n: int = 30, seq_len: int = 4) -> QueryFeatures:
+    """Every single-frame and sequence match correct: the diagonal is 0, everything else 0.5 to 1."""
+    matrix = 0.5 + 0.5 * np.random.default_rng(0).random((n, n))
+    np.fill_diagonal(matrix, 0.0)
+    return query_features(matrix, seq_len)
+
+
+def small_predictor(path: Path, seed: int = 0) -> Path:
+    rng = np.random.default_rng(seed)
+    y = np.repeat(np.arange(4), 15)
+    x = rng.normal(size=(60, 4)) + y[:, None]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=seed).fit(x, y).save(path)
+    return path
+
+
+def test_perfect_baseline_gives_null_reductions_in_the_evaluation(tmp_path, capsys):
+    features = perfect_features()
+    assert features.labels.tolist() == [0] * 27  # 30 - 4 + 1 queries, all correct before and after
+    write_features(tmp_path / "test.h5", features, {})
+    predictors = [small_predictor(tmp_path / "p.h5"), small_predictor(tmp_path / "p.seed1.h5", 1)]
+    assert main(["evaluate", "--dataset", "d", "--method", "m", "--seq-len", "4", "--features",
+                 f"test={tmp_path / 'test.h5'}", "--predictors", *map(str, predictors), "--trust-levels", "0.5",
+                 "--out", str(tmp_path / "e.json")]) == 0
+    text = (tmp_path / "e.json").read_text()
+    result = json.loads(text)["splits"]["test"]
+    for mode in ("paper", "standard"):
+        numbers = result["modes"][mode]
+        assert numbers["aoc_vpr_sm"] == pytest.approx(0.0, abs=1e-12)
+        assert numbers["reduction_pct"] is None and numbers["trust_auc"]["0.5"]["reduction_pct"] is None
+        assert [s["modes"][mode]["reduction_pct"] for s in result["seeds"]] == [None, None]
+        assert result["seed_summary"][mode] == {
+            "n_seeds": 2, "n_seeds_defined": 0, "reduction_pct_mean": None, "reduction_pct_std": None,
+            "reduction_pct_min": None, "reduction_pct_max": None}
+    assert '"reduction_pct": null' in text
+
+
+def hand_evaluation(method: str, aoc_base: float, aoc_pred: float, reduction: float | None,
+                    seeds: tuple[float | None, ...]) -> dict:
+    """An evaluation file's numbers, written by hand: 60 queries in the test split, 57 of them matched at L = 4."""
+    defined = [s for s in seeds if s is not None]
+    summary = {"n_seeds": len(seeds), "n_seeds_defined": len(defined),
+               "reduction_pct_mean": float(np.mean(defined)) if defined else None,
+               "reduction_pct_std": float(np.std(defined, ddof=1)) if len(defined) > 1 else None,
+               "reduction_pct_min": min(defined) if defined else None,
+               "reduction_pct_max": max(defined) if defined else None}
+    line = {"recall": [0.0, 1.0], "precision": [1.0, 0.5]}
+    numbers = {"recall_at_1_single": 0.5, "recall_at_1_sequence": 0.7, "max_recall": 1.0, "aoc_vpr_sm": aoc_base,
+               "aoc_vpr_sm_pred": aoc_pred, "reduction_pct": reduction, "auc_vpr_sm": 1 - aoc_base,
+               "auc_vpr_sm_pred": 1 - aoc_pred, "curve_vpr_sm": line, "curve_vpr_sm_pred": line,
+               "trust_auc": {"0.5": {"removed": 1, "max_recall": 1.0, "auc": 0.9, "aoc": 0.1, "auc_vpr_sm": 0.8,
+                                     "aoc_vpr_sm": aoc_base, "reduction_pct": reduction}}}
+    split = {"n_queries": 57, "n_queries_split": 60, "f1_macro": 0.5, "confusion_matrix": np.eye(4, dtype=int).tolist(),
+             "class_counts": [1, 1, 1, 1], "predicted_counts": [1, 1, 1, 1], "predict_seconds": 0.01,
+             "modes": {"paper": numbers}, "seed_summary": {"paper": summary}}
+    return {"meta": {"dataset": "d", "method": method, "seq_len": 4}, "splits": {"test": split}}
+
+
+@pytest.fixture
+def hand_run(tmp_path):
+    """Three methods, the second with a perfect baseline: reductions 10, n/a, 30 (seed-0); over 3 seeds 10, 12, 14
+    (mean 12, std 2), none, and 20, 28, 36 (mean 28, std 8)."""
+    evaluations = []
+    for method, numbers in (("m1", (0.2, 0.18, 10.0, (10.0, 12.0, 14.0))), ("m2", (0.0, 0.0, None, (None,) * 3)),
+                            ("m3", (0.4, 0.28, 30.0, (20.0, 28.0, 36.0)))):
+        path = tmp_path / f"{method}.json"
+        write_json(path, hand_evaluation(method, *numbers))
+        evaluations.append(path)
+    predictors = tmp_path / "p.json"
+    write_json(predictors, {"meta": {"dataset": "d", "seq_len": 4}, "n_train": 57, "f1_cv": 0.5})
+    return tmp_path, evaluations, predictors
+
+
+def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
+    tmp_path, evaluations, predictors = hand_run
+    run = tmp_path / "run"
+    report.main(run, evaluations, [predictors])
+    md = (run / "tables" / "table1.md").read_text()
+    assert "| d | VPR+SM | 0.2000 | 0.0000 | 0.4000 | 0.2000 |  |" in md  # AOCs: every method, (0.2 + 0 + 0.4) / 3
+    # (10 + 30) / 2 = 20; both defined reductions are positive: 2 of the 2 improve
+    assert "|  | Reduction (%) | 10.00 | n/a | 30.00 | 20.00 (mean over 2 of 3 methods) | 2 / 2 |" in md
+    # seed means 12 ± 2 and 28 ± 8, their mean 20
+    assert ("|  | Reduction over seeds (%) | 12.00 ± 2.00 | n/a | 28.00 ± 8.00 | 20.00 (mean over 2 of 3 methods) "
+            "| 2 / 2 (3 seeds) |") in md
+    assert "n/a: the reduction is undefined, the baseline's AOC being 0" in md
+    assert "d: 57 queries with a sequence match (single-frame recall@1 over all 60 of the split)" in md
+    tex = (run / "tables" / "table1.tex").read_text()
+    assert r"& n/a &" in tex and r"\textcolor{green}{20.00} (mean over 2 of 3 methods) & 2 / 2\\" in tex
+    rows = list(csv.DictReader(open(run / "tables" / "table1.csv")))
+    assert [r["reduction_pct"] for r in rows] == ["10.0", "", "30.0"]  # undefined: an empty CSV cell
+    assert [r["reduction_pct_mean"] for r in rows] == ["12.0", "", "28.0"]
+    assert {(r["n_queries"], r["n_queries_single"]) for r in rows} == {("57", "60")}
+    trust = list(csv.DictReader(open(run / "tables" / "trust_levels.csv")))
+    assert [r["reduction_pct"] for r in trust] == ["10.0", "", "30.0"] and {r["n_queries"] for r in trust} == {"57"}
+    assert "| n/a | 57 |" in (run / "tables" / "trust_levels.md").read_text()
+    html = (run / "report.html").read_text()
+    # m2's reduction_pct and its seed mean, std, min and max in Table I; its reduction in the trust table
+    assert html.count('<td class="text">n/a</td>') == 5 + 1
+    assert '<td class="text">n/a</td>' in html.split("table1.csv")[1].split("</table>")[0]
+
+
+def test_leave_one_out_rows_show_na():
+    numbers = {"f1_macro": 0.5, "removed": 3, "modes": {"paper": {"aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": 0.0,
+                                                                  "reduction_pct": None}}}
+    rows = report.lomo_rows([{"meta": {"dataset": "d", "seq_len": 4, "held_out": "m"}, "n_queries": 57,
+                              "predictors": {"pooled": numbers, "without": numbers}}])
+    text = report.markdown_table(report.LOMO_COLUMNS, rows)
+    assert text.splitlines()[-1] == ("| d | 4 | m | paper | 57 | 0.5000 | 0.5000 | 3 | 3 | 0.0000 | 0.0000 | 0.0000 "
+                                     "| n/a | n/a |")
+
+
+# --- 2. every evaluation table gives the number of queries it is over ------------------------------------------
+
+
+def test_query_counts_in_every_evaluation_table(tmp_path):
+    from test_report import build_run
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        run, _ = build_run(tmp_path)  # two methods, a 60 x 60 test split, L = 2 and 4, both modes
+    tables = run / "tables"
+
+    def rows(name):
+        return list(csv.DictReader(open(tables / f"{name}.csv")))
+
+    # 60 - L + 1 queries have a sequence match; paper mode's single-frame recall@1 is over all 60
+    for row in rows("table1") + rows("ablation_seq_len"):
+        assert int(row["n_queries"]) == 60 - int(row["seq_len"]) + 1
+        assert row["n_queries_single"] == ("60" if row["mode"] == "paper" else row["n_queries"])
+    for name in ("trust_levels", "restoration", "predictor_methods"):
+        assert {(r["seq_len"], r["n_queries"]) for r in rows(name)} <= {("2", "59"), ("4", "57")}, name
+    # the existing columns keep their order, the counts come last
+    assert list(rows("table1")[0])[:15] == list(report.TABLE1_COLUMNS[:15])
+    assert list(rows("ablation_seq_len")[0])[15:] == ["auc_vpr_sm", "auc_vpr_sm_pred", "n_queries",
+                                                     "n_queries_single", "n_seeds_defined"]
+    assert list(rows("restoration")[0])[-2:] == ["reduction_pct", "n_queries"]
+    assert "d: 57 queries with a sequence match (single-frame recall@1 over all 60 of the split)" in (
+        tables / "table1.md").read_text()
+    assert r"d: 57 queries with a sequence match" in (tables / "table1.tex").read_text()
+
+
+def test_table2_gives_its_sample_counts():
+    ablation = {"meta": {"dataset": "d", "seq_len": 4}, "n_train": 147, "attributes": {
+        name: {"f1_cv": 0.5, "f1_val": 0.5, "f1_test": 0.5, "n_val": 97, "n_test": 107}
+        for name in ("A1", "A2", "A3", "A4", "all")}}
+    rows = report.table2_rows([ablation])
+    assert {(r["n_train"], r["n_val"], r["n_test"]) for r in rows} == {(147, 97, 107)}
+    assert "F1 over train 147 samples, validation 97 samples, test 107 samples" in report.table2_markdown(rows)
+
+
+# --- 3. the report shows the configuration in its own order -----------------------------------------------------
+
+
+def test_report_keeps_the_configurations_method_order(hand_run, capsys):
+    from vpr_smr.pipeline.rule_helpers import report_settings
+
+    tmp_path, evaluations, predictors = hand_run
+    conf = {"run": "r", "seq_lens": [4], "methods": {"sad": {"backend": "sad"}, "hog": {"backend": "hog"},
+                                                    "apgem": {"backend": "apgem", "checkpoint": "a.pt"}},
+            "extraction": {"batch_size": 8}, "datasets": {"zeta": {"loader": "folders"}, "alpha": {}}}
+    settings = report_settings(conf)  # the report rule's param
+    assert list(json.loads(settings)) == ["run", "seq_lens", "methods", "datasets"]  # extraction: speed only
+    run = tmp_path / "run"
+    assert main(["report", "--evaluations", *map(str, evaluations), "--predictors", str(predictors),
+                 "--settings", settings, "--out", str(run)]) == 0
+    shown = (run / "report.html").read_text().split('id="configuration"')[1]
+    positions = [shown.index(f"{name}:") for name in ("run", "seq_lens", "methods", "sad", "hog", "apgem",
+                                                      "datasets", "zeta", "alpha")]
+    assert positions == sorted(positions)  # sad, hog, apgem: the pooled training order, not alphabetical
+
+
+# --- 4. --out suffixes and negative distances ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("command, out, allowed", [
+    (["attributes", "--distances", "D.npy", "--seq-len", "4"], "o.txt", ".csv, .h5 or .hdf5"),
+    (["descriptors", "--dataset", "d", "--method", "m"], "d.json", ".h5 or .hdf5"),
+    (["distances", "--descriptors", "d.h5", "--split", "test", "--frames", "0", "10"], "D.npy", ".h5 or .hdf5"),
+    (["train", "--dataset", "d", "--seq-len", "4", "--train", "a.h5"], "L4.json", ".h5 or .hdf5"),
+    (["evaluate", "--dataset", "d", "--method", "m", "--seq-len", "4", "--features", "test=t.h5",
+      "--predictors", "L4.h5"], "L4.h5", ".json"),
+    (["ablation", "attributes", "--dataset", "d", "--seq-len", "4", "--train", "a.h5"], "t2", ".json"),
+    (["ablation", "without", "--dataset", "d", "--method", "m", "--seq-len", "4", "--train", "a=a.h5"],
+     "w.json", ".h5 or .hdf5"),
+    (["ablation", "held-out", "--dataset", "d", "--method", "m", "--seq-len", "4", "--features", "f.h5",
+      "--pooled", "p.h5", "--without", "w.h5"], "m.csv", ".json"),
+])
+def test_out_suffix_is_checked_first(tmp_path, capsys, monkeypatch, command, out, allowed):
+    monkeypatch.chdir(tmp_path)
+    np.save("D.npy", np.ones((8, 8)))
+    before = files_in(tmp_path)
+    assert main([*command, "--out", out]) == 2
+    err = capsys.readouterr().err.strip()
+    suffix = Path(out).suffix
+    given = f"got suffix {suffix!r}" if suffix else "got no suffix"
+    assert err.startswith(f"vpr-smr {command[0]}: error: --out {out}: ") and f"must end in {allowed}, {given}" in err
+    assert len(err.splitlines()) == 1 and files_in(tmp_path) == before  # nothing written
+
+
+def test_attributes_out_accepts_csv_and_hdf5(tmp_path):
+    rng = np.random.default_rng(0)
+    np.save(tmp_path / "D.npy", rng.random((12, 12)))
+    for name in ("a.csv", "a.h5", "a.HDF5"):
+        assert main(["attributes", "--distances", str(tmp_path / "D.npy"), "--seq-len", "3",
+                     "--out", str(tmp_path / name)]) == 0
+    assert (tmp_path / "a.csv").read_text().startswith("query,A1,A2,A3,A4,label")
+    assert h5py.is_hdf5(tmp_path / "a.h5") and h5py.is_hdf5(tmp_path / "a.HDF5")
+
+
+@pytest.mark.parametrize("kind", ["npy", "h5"])
+def test_negative_distances_are_refused_naming_count_minimum_and_fix(tmp_path, capsys, kind):
+    matrix = np.random.default_rng(0).random((10, 10))
+    matrix[2, 3], matrix[5, 5], matrix[9, 0] = -0.5, -1e-3, -2.25  # 3 negative values, the least -2.25
+    path = tmp_path / f"S.{kind}"
+    if kind == "npy":
+        np.save(path, matrix)
+    else:
+        write_distance_matrix(path, matrix, {"dataset": "d"})
+    out = tmp_path / "a.csv"
+    assert main(["attributes", "--distances", str(path), "--seq-len", "3", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert f"{path}: 3 negative values in the distance matrix (minimum -2.25)" in err
+    assert "D = 1 - S" in err and "D = S.max() - S" in err and "weights_only" not in err
+    assert not out.exists() and not list(tmp_path.glob("*.tmp"))
+
+
+def test_identical_descriptors_give_no_negative_distances():
+    from vpr_smr.eval.distances import distance_matrix
+
+    x = np.random.default_rng(0).normal(size=(64, 256)).astype(np.float32)
+    unit = x / np.linalg.norm(x, axis=1, keepdims=True)
+    naive = {"l2": ((unit[:, None, :] - unit[None, :, :]) ** 2).sum(-1), "cosine": 1 - unit @ unit.T}
+    for metric, expected in naive.items():
+        d = distance_matrix(x, x, metric)
+        assert d.min() >= 0  # float32 rounding gives about -1e-6 on the diagonal before the clamp
+        np.testing.assert_allclose(d, np.maximum(expected, 0), atol=2e-6)
+
+
+# --- 5. LiveMatcher takes its distance from the descriptor file; the README's example runs -----------------------
+
+
+@pytest.fixture(scope="module")
+def sad_descriptors(tmp_path_factory):
+    """SAD descriptors of 100 frames of the shipped Nordland sample (descriptors.extract.main), and the pair."""
+    from vpr_smr.datasets import load_dataset
+    from vpr_smr.descriptors import extract
+
+    folder = tmp_path_factory.mktemp("sad")
+    pair = load_dataset("sample", {"loader": "nordland_sample", "frames": [1500, 1600],
+                                   "splits": {"all": [0, 100]}})
+    return extract.main(pair, "sad", {"backend": "sad"}, folder / "descriptors.h5"), pair
+
+
+def test_from_descriptors_takes_the_files_distance(sad_descriptors):
+    from vpr_smr.eval.distances import distance_matrix
+    from vpr_smr.eval.live import LiveMatcher
+
+    path, _ = sad_descriptors
+    with h5py.File(path, "r") as f:
+        reference, query = f["reference"][()], f["query"][()]
+    matcher = LiveMatcher.from_descriptors(path, seq_len=4)
+    assert matcher.distance == "mad" and matcher.method == "sad" and matcher.method_settings == {"backend": "sad"}
+    batch = query_features(distance_matrix(reference, query, "mad"), 4)
+    l2 = query_features(distance_matrix(reference, query, "l2"), 4)
+    matches = [r.sequence_match for r in map(matcher.step, query) if r is not None]
+    assert matches == batch.sequence_match.tolist()
+    assert matches != l2.sequence_match.tolist()  # the default l2 of before gave other matches on these frames
+    with pytest.raises(ValueError, match=r"distance='l2' disagrees with .*descriptors.h5.*'sad'.*'mad'"):
+        LiveMatcher.from_descriptors(path, seq_len=4, distance="l2")
+    assert LiveMatcher.from_descriptors(path, seq_len=4, distance="mad").distance == "mad"
+    with pytest.raises(ValueError, match="needs distance="):
+        LiveMatcher(4, references=reference)
+    split = LiveMatcher.from_descriptors(path, seq_len=4, frames=(20, 60))
+    assert split.references.shape == (40, reference.shape[1])
+
+
+def live_example() -> str:
+    text = LIVE_EXAMPLE.read_text()
+    found = re.search(re.escape(MARKER) + r"\s*```python\n(.*?)```", text, re.DOTALL)
+    assert found, f"{LIVE_EXAMPLE} has no ```python block after {MARKER}"
+    return found.group(1)
+
+
+def test_live_example_runs_as_written(sad_descriptors, tmp_path, monkeypatch, capsys):
+    from vpr_smr.eval.distances import distance_matrix
+
+    path, pair = sad_descriptors
+    # the files the example names: descriptors.h5, a predictor L4.h5 and camera frames (the query traverse)
+    shutil.copy(path, tmp_path / "descriptors.h5")
+    with h5py.File(path, "r") as f:
+        reference, query = f["reference"][()], f["query"][()]
+    batch = query_features(distance_matrix(reference, query, "mad"), 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        predictor = SMRPredictor(hidden_layer_sizes=(16,), max_iter=200).fit(batch.attributes[:, 0], batch.labels)
+    predictor.save(tmp_path / "L4.h5")
+    (tmp_path / "camera").mkdir()
+    for image in pair.query.images:
+        shutil.copy(image, tmp_path / "camera" / image.name)
+    monkeypatch.chdir(tmp_path)
+    exec(compile(live_example(), str(LIVE_EXAMPLE), "exec"), {"__name__": "live_example"})
+    printed = capsys.readouterr().out.splitlines()
+    # what the batch computation says: the kept queries (predicted class 0 or 2) and their sequence matches
+    kept = np.isin(predictor.predict(batch.attributes[:, 0]), (0, 2))
+    names = [image.name for image in pair.query.images]
+    expected = [f"{names[q]} is at reference frame {m}"
+                for q, m, keep in zip(batch.queries, batch.sequence_match, kept, strict=True) if keep]
+    assert printed == expected and len(expected) > 0
+
+
+# --- 6. train splits too small for the predictor ---------------------------------------------------------------
+
+
+def write_labels(path: Path, labels: list[int], seed: int = 0) -> Path:
+    n = len(labels)
+    x = np.random.default_rng(seed).normal(size=(n, 1, 4))
+    features = QueryFeatures(
+        queries=np.arange(n) + 3, attributes=x, rank_references=np.zeros((n, 1), int), single_match=np.zeros(n, int),
+        sequence_match=np.zeros(n, int), sequence_distance=np.linspace(0, 1, n), labels=np.array(labels),
+        single_correct=np.ones(n, bool), sequence_correct=np.ones(n, bool), rank_correct=np.ones((n, 1), bool),
+        sequence_min=0.0, sequence_max=1.0, all_single_correct=np.ones(n + 3, bool))
+    write_features(path, features, {})
+    return path
+
+
+def test_a_class_with_one_member_fails_up_front_naming_counts_and_fix(tmp_path, capsys):
+    # scikit-learn's own error here: "The least populated classes in y have only 1 member ... ['True']" (the MLP's
+    # early-stopping validation split is stratified for two classes, and SMOTE is off with a single sample)
+    train = write_labels(tmp_path / "a.h5", [0] * 17 + [3])
+    assert main(["train", "--dataset", "mine", "--seq-len", "4", "--predictor", json.dumps(TINY), "--train",
+                 str(train), "--out", str(tmp_path / "L4.h5")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("vpr-smr train: error: dataset 'mine', sequence length 4, train split of 1 method(s)")
+    assert "18 samples with class counts 0: 17, 1: 0, 2: 0, 3: 1" in err
+    assert "two classes, one with a single sample" in err and "Fix: lengthen the train split" in err
+    assert "shorten seq_lens" in err and len(err.strip().splitlines()) == 1
+    assert files_in(tmp_path) == {"a.h5"}
+    assert main(["ablation", "attributes", "--dataset", "mine", "--seq-len", "4", "--train", str(train),
+                 "--out", str(tmp_path / "t2.json")]) == 2
+    assert "0: 17, 1: 0, 2: 0, 3: 1" in capsys.readouterr().err and files_in(tmp_path) == {"a.h5"}
+
+
+def test_sequence_length_equal_to_the_split_fails_naming_counts_and_fix(tmp_path, capsys):
+    # a 4-frame split at L = 4: one query per method with a sequence match (4 - 4 + 1), correct before and after
+    for method in ("m1", "m2"):
+        write_features(tmp_path / f"{method}.h5", query_features(1.0 - np.eye(4), 4), {})
+    assert main(["train", "--dataset", "mine", "--seq-len", "4", "--train", str(tmp_path / "m1.h5"),
+                 str(tmp_path / "m2.h5"), "--out", str(tmp_path / "L4.h5")]) == 2
+    err = capsys.readouterr().err
+    assert "dataset 'mine', sequence length 4, train split of 2 method(s) pooled" in err
+    assert "2 samples with class counts 0: 2, 1: 0, 2: 0, 3: 0" in err and "one class only" in err
+    assert "Fix: lengthen the train split" in err
+    assert files_in(tmp_path) == {"m1.h5", "m2.h5"}
+
+
+def sklearn_trains(labels: np.ndarray, smote: bool = True) -> bool:
+    """Whether cross-validation (5 stratified folds at most, SMOTE inside) and the fit run in scikit-learn itself,
+    without the project's checks: the predictor's own pipeline, fitted on each training fold and on all."""
+    from sklearn.model_selection import StratifiedKFold
+
+    predictor = SMRPredictor(hidden_layer_sizes=(4,), max_iter=2, smote=smote)
+    x = np.random.default_rng(0).normal(size=(len(labels), 4))
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            folds = min(5, np.bincount(labels).max())
+            if folds < 2:
+                return False
+            splits = StratifiedKFold(folds, shuffle=True, random_state=0).split(x, labels)
+            for part in [train for train, _ in splits] + [np.arange(len(labels))]:
+                if len(np.unique(labels[part])) < 2:
+                    return False
+                predictor.pipeline(labels[part], 4).fit(x[part], labels[part])
+    except ValueError:
+        return False
+    return True
+
+
+def test_label_problems_agree_with_scikit_learn():
+    rng = np.random.default_rng(1)
+    outcomes = []
+    for _ in range(40):
+        labels = rng.choice(4, size=int(rng.integers(4, 30)), p=rng.dirichlet(np.full(4, 0.5)))
+        outcomes.append(sklearn_trains(labels))
+        assert outcomes[-1] == (label_problems(labels) == []), np.bincount(labels, minlength=4)
+    assert 5 < sum(outcomes) < 35  # both outcomes occur
+
+
+def test_the_fewest_samples_that_can_train():
+    import itertools
+
+    # 11 samples can: labels 2 and 3 with 3 and 8 samples train in scikit-learn (5 folds, SMOTE, early stopping)
+    assert sklearn_trains(np.array([2] * 3 + [3] * 8))
+    # 10 cannot, whatever the labels and their order (label_problems agrees with scikit-learn, test above)
+    for counts in itertools.product(range(11), repeat=4):
+        if sum(counts) == 10:
+            for order in itertools.permutations([c for c in range(4) if counts[c]]):
+                labels = np.concatenate([np.full(counts[c], c) for c in order])
+                assert fit_problem(counts) is not None or label_problems(labels), counts
+    assert MIN_TRAIN_SAMPLES[True] == 11
+
+
+def test_training_problems_from_split_lengths():
+    # 13 frames at L = 4: 13 - 4 + 1 = 10 samples < 11; 14 frames: 11
+    (problem,) = training_problems(13, 4)
+    assert "split 'train' has 13 frames: 10 training samples per method at sequence length 4" in problem
+    assert "at least 11" in problem and "lengthen split 'train' to at least 14 frames" in problem
+    assert "shorten seq_lens" in problem
+    assert training_problems(14, 4) == []
+    # three methods pooled: 3 x (6 - 4 + 1) = 9 < 11; 3 x (7 - 4 + 1) = 12
+    assert "9 pooled over 3 method(s)" in training_problems(6, 4, n_methods=3)[0]
+    assert training_problems(7, 4, n_methods=3) == []
+    assert training_problems(4, 4, n_methods=2)[0].startswith("split 'train' has 4 frames: 1 training samples")
+    assert training_problems(4, 4, n_methods=11) == []
+    # without SMOTE the minority class is not raised: 14 samples are needed (labels 3 and 11 of two classes)
+    assert training_problems(16, 4, smote=False) and training_problems(17, 4, smote=False) == []
+    assert sklearn_trains(np.array([0] * 11 + [1] * 3), smote=False)
+    assert not sklearn_trains(np.array([0] * 10 + [1] * 3), smote=False)

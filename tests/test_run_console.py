@@ -1,0 +1,259 @@
+"""`vpr-smr run`: any output or data path, a compact progress view, Snakemake's own output in a log file.
+
+The parser of Snakemake's output is checked on a fixed excerpt of it; the real workflow runs on a copy of 200
+frames of the shipped sample in folders whose names hold spaces and a non-ASCII letter: a run that succeeds, one
+whose descriptors job meets a corrupt image, one stopped by Ctrl-C.
+"""
+
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import yaml
+
+from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
+from vpr_smr.pipeline.console import SnakemakeOutput, readable_lines, stage_error
+
+FRAMES = sorted(p.name for p in (DEFAULT_ROOT / "summer").iterdir())[:200]
+METHODS = ("sad", "hog")
+SPLITS = ("train", "val", "test")
+
+# Snakemake's own text (9.x): a job's description, two jobs finishing, a job failing with its log shown
+# (show-failed-logs), in which a line looks like a job of Snakemake's.
+SNAKEMAKE_TEXT = """\
+Job stats:
+job            count
+-----------  -------
+descriptors        1
+distances          1
+all                1
+total              3
+
+Select jobs to execute...
+Execute 1 jobs...
+
+[Mon Nov 23 13:32:34 2026]
+localrule descriptors:
+    output: out put ü/s/descriptors/d/sad.h5
+    log: out put ü/s/logs/descriptors/d/sad.log
+    jobid: 5
+    reason: Missing output files: out put ü/s/descriptors/d/sad.h5
+    wildcards: dataset=d, method=sad
+    threads: 2
+    resources: tmpdir=/tmp, gpu=1, extraction=
+Select jobs to execute...
+[Mon Nov 23 13:32:38 2026]
+Finished jobid: 5 (Rule: descriptors)
+1 of 3 steps (33%) done
+Execute 1 jobs...
+
+[Mon Nov 23 13:32:38 2026]
+rule distances:
+    input: out put ü/s/descriptors/d/sad.h5
+    output: out put ü/s/distances/d/sad/test.h5
+    log: out put ü/s/logs/distances/d/sad/test.log
+    jobid: 7
+    wildcards: dataset=d, method=sad, split=test
+    resources: tmpdir=/tmp
+[Mon Nov 23 13:32:44 2026]
+Error in rule distances:
+    message: None
+    jobid: 7
+    output: out put ü/s/distances/d/sad/test.h5
+    log: out put ü/s/logs/distances/d/sad/test.log (check log file(s) for error details)
+    shell:
+        vpr-smr distances ...
+        (command exited with non-zero exit code)
+Logfile out put ü/s/logs/distances/d/sad/test.log:
+======================
+rule fake:
+    jobid: 99
+2 of 9 steps (22%) done
+======================
+Shutting down, this might take some time.
+Exiting because a job execution failed. Look below for error messages
+"""
+
+
+def test_snakemake_output_is_parsed_into_jobs():
+    parsed = SnakemakeOutput()
+    events = [event for line in SNAKEMAKE_TEXT.splitlines(keepends=True) for event in parsed.feed(line)]
+    events += parsed.flush()
+    assert [(kind, job.rule, job.jobid) for kind, job in events] == [
+        ("started", "descriptors", "5"), ("done", "descriptors", "5"), ("started", "distances", "7"),
+        ("failed", "distances", "7")]
+    assert (parsed.done, parsed.total) == (1, 3)  # the fake progress line inside the shown log is not read
+    assert parsed.running == {} and set(parsed.jobs) == {"5", "7"}
+    failed = parsed.failed[0]
+    assert failed.label() == "distances d/sad/test"
+    assert failed.fields["log"] == "out put ü/s/logs/distances/d/sad/test.log"  # the description's, whole
+    assert events[0][1].wildcards() == [("dataset", "d"), ("method", "sad")]
+
+
+def test_job_label_shows_the_sequence_length_as_in_file_names():
+    parsed = SnakemakeOutput()
+    text = "rule attributes:\n    jobid: 3\n    wildcards: dataset=d, method=sad, seq_len=4, split=val\n"
+    for line in text.splitlines(keepends=True):
+        parsed.feed(line)
+    assert parsed.flush()[0][1].label() == "attributes d/sad/L4/val"
+
+
+def test_a_log_reads_as_a_terminal_leaves_it():
+    # tqdm redraws its bar with carriage returns and clears it at the end (leave=False)
+    text = "\rsad d reference:   0%| | 0/2\rsad d reference:  50%|# | 1/2\r            \r\n\nloaded 12 frames\n"
+    assert readable_lines(text) == ["sad d reference:  50%|# | 1/2", "loaded 12 frames"]
+    lines = ["vpr-smr descriptors: error: first", "context", "vpr-smr ablation: error: cannot read x.h5", "end"]
+    assert stage_error(lines) == "vpr-smr ablation: error: cannot read x.h5"
+    assert stage_error(["error: no stage named"]) is None
+
+
+# --- the real workflow -------------------------------------------------------------------------------------------
+
+def config(output, root, methods=METHODS):
+    return {
+        "run": "r",
+        "output": str(output),
+        "seq_lens": [3],
+        "seeds": 1,
+        "experiments": {"trust_levels": False, "restoration": False, "attribute_ablation": False,
+                        "leave_one_method_out": False},
+        "datasets": {"d": {"loader": "folders", "reference": str(root / "ref"), "query": str(root / "qry"),
+                           "frames": [20, 140], "splits": {"train": [0, 50], "val": [50, 80], "test": [80, 120]}}},
+        "methods": {name: {"backend": name} for name in methods},
+        "predictor": {"max_iter": 100},
+    }
+
+
+def copy_sample(root):
+    for name, season in (("ref", "summer"), ("qry", "winter")):
+        (root / name).mkdir(parents=True)
+        for frame in FRAMES:
+            (root / name / frame).write_bytes((DEFAULT_ROOT / season / frame).read_bytes())
+    return root
+
+
+def start(folder, conf, *extra):
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "c.yaml").write_text(yaml.safe_dump(conf, allow_unicode=True), encoding="utf-8")
+    return subprocess.Popen([sys.executable, "-m", "vpr_smr.pipeline", "run", "c.yaml", *extra], cwd=folder,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, encoding="utf-8",
+                            start_new_session=True)
+
+
+def finish(process, timeout=600):
+    out, err = process.communicate(timeout=timeout)
+    return process.returncode, out, err
+
+
+def files(folder):
+    return {str(p.relative_to(folder)): p.stat().st_mtime_ns for p in folder.rglob("*")}
+
+
+@pytest.fixture(scope="module")
+def sample(tmp_path_factory):
+    return copy_sample(tmp_path_factory.mktemp("data") / "data set ü")
+
+
+@pytest.fixture(scope="module")
+def good_run(tmp_path_factory, sample):
+    folder = tmp_path_factory.mktemp("work") / "work folder"
+    data_before = files(sample)
+    status, out, err = finish(start(folder, config("out put ü", sample)))
+    assert status == 0, out[-3000:] + err[-3000:]
+    return folder, out, err, data_before
+
+
+@pytest.mark.slow
+def test_paths_with_spaces_and_non_ascii_letters(good_run, sample):
+    folder, _, _, data_before = good_run
+    run = folder / "out put ü" / "r"
+    assert (run / "report.html").is_file() and (run / "tables" / "table1.csv").is_file()
+    # nothing outside the run folder and Snakemake's own folder: no stray file cut from a path at its space
+    assert sorted(p.name for p in folder.iterdir()) == [".snakemake", "c.yaml", "out put ü"]
+    assert [p.name for p in (folder / "out put ü").iterdir()] == ["r"]
+    assert files(sample) == data_before  # the dataset is only read
+
+
+@pytest.mark.slow
+def test_a_run_prints_a_compact_progress_view(good_run):
+    folder, out, err, _ = good_run
+    lines = out.splitlines()
+    assert len(lines) < 40 and err == "", out + err
+    # one line per finished job (stdout is not a terminal): 2 descriptors, 3 distances and 3 attributes per method,
+    # one predictor, one evaluation per method, the report; Snakemake's `all` counts as the 19th step
+    expected = {f"descriptors d/{m}" for m in METHODS} | {f"distances d/{m}/{s}" for m in METHODS for s in SPLITS} \
+        | {f"attributes d/{m}/L3/{s}" for m in METHODS for s in SPLITS} | {"train d/L3", "report"} \
+        | {f"evaluate d/{m}/L3" for m in METHODS}
+    done = [re.fullmatch(r"\[ ?(\d+)/19\] \d+:\d\d:\d\d done (\S+(?: \S+)?)(?:; running .*)?", line) for line in lines]
+    done = [match for match in done if match]
+    assert sorted(int(match[1]) for match in done) == list(range(1, 19))
+    assert {match[2] for match in done} == expected
+    assert "19 jobs to run" in lines and any(re.fullmatch(r"19 of 19 jobs done in \S+", line) for line in lines)
+    run = os.path.join("out put ü", "r")
+    assert f"tables:  {run}/tables" in lines and f"report:  {run}/report.html" in lines
+    # Snakemake's whole output is in the log named at the start
+    log = re.fullmatch(r"Snakemake's output: (.*)", lines[0])[1]
+    assert log.startswith(f"{run}/logs/snakemake-") and log.endswith(".log")
+    text = (folder / log).read_text(encoding="utf-8")
+    assert "Building DAG of jobs..." in text and "19 of 19 steps (100%) done" in text
+    assert len(re.findall(r"^Finished jobid: \d+ \(Rule: \w+\)$", text, flags=re.MULTILINE)) == 19
+
+
+@pytest.mark.slow
+def test_dry_run_counts_jobs_per_rule_and_verbose_lists_them(tmp_path, sample):
+    conf = config(tmp_path / "results", sample, methods=("sad",))
+    status, out, err = finish(start(tmp_path, conf, "-n"))
+    assert status == 0, out + err
+    rows = dict(re.findall(r"^(\w+) +(\d+)$", out, flags=re.MULTILINE))
+    assert rows == {"descriptors": "1", "distances": "3", "attributes": "3", "train": "1", "evaluate": "1",
+                    "report": "1", "all": "1", "total": "11"}
+    assert len(out.splitlines()) < 20 and "rule descriptors:" not in out
+    status, out, err = finish(start(tmp_path, conf, "-n", "--verbose"))
+    assert status == 0 and len(re.findall(r"^rule distances:$", out, flags=re.MULTILINE)) == 3, out + err
+    assert not (tmp_path / "results").exists()  # a dry run writes nothing, not even a log
+
+
+@pytest.mark.slow
+def test_a_failed_job_shows_its_log_and_error(tmp_path, sample):
+    data = tmp_path / "bad data"
+    copy_sample(data)
+    broken = data / "qry" / FRAMES[49]  # frame 29 of the run's slice: only the descriptors job reads it
+    broken.write_bytes(b"\x89PNG not really")
+    output = tmp_path / "res ults ü"  # absolute this time
+    status, out, err = finish(start(tmp_path / "work", config(output, data, methods=("sad",))))
+    assert status != 0 and "Traceback" not in out + err
+    assert re.search(r"^\[ ?0/11\] \S+ FAILED descriptors d/sad$", out, flags=re.MULTILINE), out
+    log = output / "r" / "logs" / "descriptors" / "d" / "sad.log"
+    lines = err.splitlines()
+    assert lines[0] == "vpr-smr run: job failed: rule descriptors (dataset=d, method=sad)"
+    assert lines[1] == f"  last lines of its log {log}:"
+    assert f"  vpr-smr descriptors: error: cannot decode image {broken}" in err
+    snakemake_log = re.fullmatch(r"vpr-smr run: Snakemake's full output: (.*)", lines[-1])[1]
+    assert snakemake_log.startswith(str(output / "r" / "logs" / "snakemake-"))
+    assert "Error in rule descriptors:" in open(snakemake_log, encoding="utf-8").read()
+    assert "tables:" not in out
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_the_run_in_one_line(tmp_path, sample):
+    output = tmp_path / "results"
+    process = start(tmp_path, config(output, sample, methods=("sad",)))
+    job_log = output / "r" / "logs" / "descriptors" / "d" / "sad.log"
+    deadline = time.monotonic() + 120
+    while not job_log.exists():  # a job runs
+        assert process.poll() is None and time.monotonic() < deadline, process.communicate()
+        time.sleep(0.02)
+    time.sleep(0.5)
+    os.killpg(process.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
+    status, out, err = finish(process, timeout=60)
+    assert status != 0
+    assert len(err.splitlines()) <= 2 and "Traceback" not in out + err, err
+    assert err.startswith("vpr-smr run: interrupted"), err
+    time.sleep(1)
+    alive = subprocess.run(["pgrep", "-s", str(process.pid)], capture_output=True, text=True).stdout.split()
+    assert alive == [], f"processes of the stopped run still alive: {alive}"
+    assert not list(output.rglob("*.tmp"))
