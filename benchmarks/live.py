@@ -19,8 +19,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import is_small, machine  # noqa: E402
 
-from vpr_smr.eval.attributes import query_features  # noqa: E402
-from vpr_smr.eval.live import LiveMatcher  # noqa: E402
+from vpr_smr.eval.matching.attributes import query_features  # noqa: E402
+from vpr_smr.eval.matching.live import LiveMatcher  # noqa: E402
 
 
 def main() -> None:

@@ -23,7 +23,8 @@ from common import is_small, machine, python, run_measured  # noqa: E402
 
 STAGES = """
 import sys, time
-from vpr_smr.eval import distances, features
+from vpr_smr.eval.matching import distances
+from vpr_smr.eval.matching import attributes as features
 folder = sys.argv[1]
 start = time.perf_counter()
 distances.main(folder + "/descriptors.h5", folder + "/D.h5", "test", (0, int(sys.argv[2])))

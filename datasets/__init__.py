@@ -8,16 +8,16 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
-from .base import DatasetError, Traverse, TraversePair, read_image
-from .folders import folder_pair
-from .nordland import SPLITS as NORDLAND_SPLITS
-from .nordland import nordland
-from .nordland_sample import SPLITS as NORDLAND_SAMPLE_SPLITS
-from .nordland_sample import nordland_sample
-from .robotcar import SPLITS as ROBOTCAR_SPLITS
-from .robotcar import robotcar
-from .sfu_mountain import SPLITS as SFU_MOUNTAIN_SPLITS
-from .sfu_mountain import sfu_mountain
+from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair, read_image
+from vpr_smr.datasets.folders import folder_pair
+from vpr_smr.datasets.nordland import SPLITS as NORDLAND_SPLITS
+from vpr_smr.datasets.nordland import nordland
+from vpr_smr.datasets.nordland_sample import SPLITS as NORDLAND_SAMPLE_SPLITS
+from vpr_smr.datasets.nordland_sample import nordland_sample
+from vpr_smr.datasets.robotcar import SPLITS as ROBOTCAR_SPLITS
+from vpr_smr.datasets.robotcar import robotcar
+from vpr_smr.datasets.sfu_mountain import SPLITS as SFU_MOUNTAIN_SPLITS
+from vpr_smr.datasets.sfu_mountain import sfu_mountain
 
 LOADERS: dict[str, Callable[..., TraversePair]] = {
     "folders": folder_pair,

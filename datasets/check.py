@@ -19,7 +19,7 @@ from typing import Any
 
 import cv2
 
-from .base import MAX_LISTED, DatasetError, Traverse, TraversePair, list_files
+from vpr_smr.datasets.base import MAX_LISTED, DatasetError, Traverse, TraversePair, list_files
 
 SHOWN_NAMES = 3  # file names shown from each end of a traverse, in the order used
 MAX_HINT_DIRS = 200  # folders looked into when guessing a mis-set root (a root may hold many files)
@@ -314,7 +314,7 @@ def main(settings: dict[str, Any], name: str | None = None, decode: bool = True,
     """``vpr-smr dataset check``: print the report of a dataset's configuration entry (``{loader: ..., ...}``, as
     in a configuration's ``datasets``); 0 if all is well, 1 on problems found, 2 when the dataset cannot be
     loaded at all (unknown loader, missing or misspelt options, missing root or frame lists)."""
-    from . import LOADERS, load_dataset, required_options, unknown_option
+    from vpr_smr.datasets import LOADERS, load_dataset, required_options, unknown_option
 
     loader_name = settings.get("loader")
     if loader_name not in LOADERS:
@@ -353,6 +353,6 @@ def cli_option(key: str) -> str:
 
 
 def loader_options_of(loader_name: str) -> list[str]:
-    from . import loader_options
+    from vpr_smr.datasets import loader_options
 
     return [*loader_options(loader_name), "frames", "splits", "tolerance"]

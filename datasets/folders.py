@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
-from .base import (
+from vpr_smr.datasets.base import (
     DEFAULT_TOLERANCE,
     DatasetError,
     Traverse,

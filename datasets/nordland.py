@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair
-from .check import checked_pair, read_list, require_root
+from vpr_smr.datasets.base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair
+from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists"
 REFERENCE_LIST = LISTS / "from_Patch-NetVLAD" / "nordland_imageNames_index.txt"

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .base import DEFAULT_TOLERANCE, TraversePair
-from .folders import folder_pair
+from vpr_smr.datasets.base import DEFAULT_TOLERANCE, TraversePair
+from vpr_smr.datasets.folders import folder_pair
 
 DEFAULT_ROOT = Path(__file__).resolve().parents[1] / "data" / "nordland_sample"
 SPLITS = {"train": (0, 500), "val": (500, 1000), "test": (1000, 3576)}

@@ -18,8 +18,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from .base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair, imread
-from .check import checked_pair, read_list, require_root
+from vpr_smr.datasets.base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair, imread
+from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists" / "from_VPRSNN"
 REFERENCE_LIST = LISTS / "ORC_Rain_timestamps.csv"

@@ -10,7 +10,7 @@ from __future__ import annotations
 import importlib
 from importlib.metadata import entry_points
 
-from .base import Backend, CheckpointError, TorchBackend
+from vpr_smr.descriptors.base import Backend, CheckpointError, TorchBackend
 
 ENTRY_POINT_GROUP = "vpr_smr.descriptors"
 

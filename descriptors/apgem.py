@@ -30,7 +30,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from .base import IMAGENET_MEAN, IMAGENET_STD, CheckpointError, TorchBackend, to_tensor
+from vpr_smr.descriptors.base import IMAGENET_MEAN, IMAGENET_STD, CheckpointError, TorchBackend, to_tensor
 
 EXPECTED_FILE = ("Resnet-101-AP-GeM.pt converted once with `vpr-smr convert-checkpoint apgem IN OUT` "
                  "(vpr_smr.descriptors.convert.convert_apgem)")

@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 import torch
 
-from ..eval.distances import METRICS
+from vpr_smr.eval.matching.distances import METRICS
 
 # Accepted by every backend, next to the backend's own ``default_conf``.
 COMMON_SETTINGS = ("checkpoint", "device", "half", "distance", "preprocessing")
@@ -337,7 +337,7 @@ def describe_load_error(error: Exception, path: Path, backend: str | None = None
     refused += re.findall(r"but got <class '([^']+)'>", message)
     refused += re.findall(r"unrecognized function (\S+)", message)
     if refused:
-        from .convert import CONVERTERS  # here: convert imports this module
+        from vpr_smr.descriptors.convert import CONVERTERS  # here: convert imports this module
 
         if backend in CONVERTERS:
             fix = (f"convert it first with `vpr-smr convert-checkpoint {backend} {shlex.quote(str(path))} OUT` "

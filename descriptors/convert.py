@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import torch
 
-from .base import CheckpointError, describe_file
+from vpr_smr.descriptors.base import CheckpointError, describe_file
 
 APGEM_FILE = "Resnet-101-AP-GeM.pt"
 CONVERTED_FORMAT = "vpr-smr apgem 1"
@@ -174,7 +174,7 @@ def apgem_tensors(checkpoint: Any, source: Path | str) -> dict[str, Any]:
 
 def _save_atomic(content: Any, out_path: Path) -> None:
     """``torch.save`` to a temporary file next to ``out_path``, check it reads back safely, then rename."""
-    from ..eval.io import atomic_path
+    from vpr_smr.core.io import atomic_path
 
     with atomic_path(out_path) as temporary:
         torch.save(content, temporary)
@@ -201,7 +201,7 @@ CONVERTERS: dict[str, Callable[[Path | str, Path | str], Path]] = {"apgem": conv
 def no_conversion(method: str) -> str:
     """Why ``vpr-smr convert-checkpoint METHOD`` has nothing to do for a method without a converter, and which
     file its backend loads as it is."""
-    from . import backend_class
+    from vpr_smr.descriptors import backend_class
 
     available = f"conversions exist for {', '.join(CONVERTERS)} only"
     try:

@@ -24,8 +24,8 @@ import torch.nn.functional as F
 import torchvision
 from torch import nn
 
-from .base import CheckpointError, TorchBackend, to_tensor
-from .layers import PIL_FILTERS, L2Norm, pil_resize, resized_size, vgg16_conv5_3
+from vpr_smr.descriptors.base import CheckpointError, TorchBackend, to_tensor
+from vpr_smr.descriptors.layers import PIL_FILTERS, L2Norm, pil_resize, resized_size, vgg16_conv5_3
 
 # Channels of the last convolutional feature map, i.e. the input size of the Linear layer.
 FEATURE_DIMS: dict[str, int] = {

@@ -31,7 +31,7 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from .base import CheckpointError, TorchBackend, to_tensor
+from vpr_smr.descriptors.base import CheckpointError, TorchBackend, to_tensor
 
 # The official EfficientNet-Lite preprocessing (efficientnet_lite_builder.py: MEAN_RGB = [127.0] * 3,
 # STDDEV_RGB = [128.0] * 3 on 0-255 pixels, "inception-style ... for better post-quantization"), written for

@@ -18,9 +18,9 @@ import torch
 from torch.utils.data import DataLoader, Dataset
 from tqdm import tqdm
 
-from ..datasets import Traverse, TraversePair
-from . import backend_class
-from .base import Backend, CheckpointError, TorchBackend, sha256_file
+from vpr_smr.datasets import Traverse, TraversePair
+from vpr_smr.descriptors import backend_class
+from vpr_smr.descriptors.base import Backend, CheckpointError, TorchBackend, sha256_file
 
 log = logging.getLogger(__name__)
 
@@ -182,7 +182,7 @@ def main(
     num_workers: int | None = None,
 ) -> Path:
     """Write ``out`` (HDF5) with the descriptors of both traverses; skip if already done with this provenance."""
-    from ..eval.io import atomic_h5
+    from vpr_smr.core.io import atomic_h5
 
     out = Path(out)
     backend, digest = build_backend(method, conf)

@@ -32,8 +32,8 @@ import torch.nn.functional as F
 import torchvision
 from torch import nn
 
-from .base import CheckpointError, TorchBackend, resize_tensor, to_tensor
-from .layers import PIL_FILTERS, pil_resize
+from vpr_smr.descriptors.base import CheckpointError, TorchBackend, resize_tensor, to_tensor
+from vpr_smr.descriptors.layers import PIL_FILTERS, pil_resize
 
 # The released aggregators: descriptor size -> (out_channels, out_rows); all use mix_depth 4, mlp_ratio 1.
 RELEASED: dict[int, tuple[int, int]] = {4096: (1024, 4), 512: (256, 2), 128: (64, 2)}

@@ -27,8 +27,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from .base import TorchBackend, to_tensor
-from .layers import L2Norm, pil_resize, vgg16_conv5_3
+from vpr_smr.descriptors.base import TorchBackend, to_tensor
+from vpr_smr.descriptors.layers import L2Norm, pil_resize, vgg16_conv5_3
 
 EXPECTED_FILES = (
     "Patch-NetVLAD's pitts_WPCA4096.pth.tar (or another *_WPCA*.pth.tar) or Nanne's checkpoint.pth.tar"

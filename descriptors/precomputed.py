@@ -12,8 +12,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ..datasets import TraversePair
-from .base import Backend, CheckpointError
+from vpr_smr.datasets import TraversePair
+from vpr_smr.descriptors.base import Backend, CheckpointError
 
 DATABASE_FILE = "database_descriptors.npy"
 QUERIES_FILE = "queries_descriptors.npy"

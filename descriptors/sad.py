@@ -8,7 +8,7 @@ import cv2
 import numpy as np
 import torch
 
-from .base import Backend
+from vpr_smr.descriptors.base import Backend
 
 
 def patch_normalise(grey: np.ndarray, patch: int) -> np.ndarray:

@@ -23,9 +23,9 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
-from .base import TorchBackend, resize_tensor, to_tensor
-from .dinov2 import DinoVisionTransformer
-from .layers import pil_resize
+from vpr_smr.descriptors.base import TorchBackend, resize_tensor, to_tensor
+from vpr_smr.descriptors.dinov2 import DinoVisionTransformer
+from vpr_smr.descriptors.layers import pil_resize
 
 EXPECTED_FILE = "dino_salad.ckpt"
 OFFICIAL_SIZE = (322, 322)  # (H, W) of the official eval.py: 23 x 23 patches

@@ -10,9 +10,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from ..eval.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix, package_version
-from ..eval.sequence import DEFAULT_TOLERANCE
-from .config import ConfigError, load_config, schema_default
+from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix, package_version
+from vpr_smr.eval.matching.sequence import DEFAULT_TOLERANCE
+from vpr_smr.pipeline.config import ConfigError, load_config, schema_default
 
 log = logging.getLogger("vpr_smr")
 
@@ -45,8 +45,8 @@ def _stage_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str,
 
 
 def cmd_descriptors(args: argparse.Namespace) -> None:
-    from ..datasets import load_frames
-    from ..descriptors import extract
+    from vpr_smr.datasets import load_frames
+    from vpr_smr.descriptors import extract
 
     if args.threads:
         import torch
@@ -61,19 +61,19 @@ def cmd_descriptors(args: argparse.Namespace) -> None:
 
 
 def cmd_distances(args: argparse.Namespace) -> None:
-    from ..eval import distances
+    from vpr_smr.eval.matching import distances
 
     distances.main(args.descriptors, args.out, args.split, tuple(args.frames))
 
 
 def cmd_attributes(args: argparse.Namespace) -> None:
-    from ..eval import features
+    from vpr_smr.eval.matching import attributes as features
 
     features.main(args.distances, args.out, args.seq_len, args.tolerance)
 
 
 def cmd_train(args: argparse.Namespace) -> None:
-    from ..eval import train
+    from vpr_smr.eval.predictor import train
 
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     report = train.main(args.train, args.out, params, val=args.val or (), test=args.test or (),
@@ -92,7 +92,7 @@ def _split_paths(items: list[str]) -> dict[str, str]:
 
 
 def cmd_evaluate(args: argparse.Namespace) -> None:
-    from ..eval import evaluate
+    from vpr_smr.eval.scoring import evaluate
 
     evaluate.main(_split_paths(args.features), args.predictors, args.out, tuple(args.modes),
                   tuple(args.trust_levels), meta={"dataset": args.dataset, "method": args.method,
@@ -101,7 +101,7 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
 
 
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
-    from ..eval import ablation
+    from vpr_smr.eval.predictor import ablation
 
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     ablation.attributes_main(args.train, args.out, params, val=args.val or (), test=args.test or (),
@@ -110,25 +110,25 @@ def cmd_ablation_attributes(args: argparse.Namespace) -> None:
 
 
 def cmd_ablation_without(args: argparse.Namespace) -> None:
-    from ..eval import ablation
+    from vpr_smr.eval.predictor import ablation
 
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     meta = {"dataset": args.dataset, "seq_len": args.seq_len}
-    ablation.leave_one_out_train(_split_paths(args.train), args.method, args.out, params,
+    ablation.train_without(_split_paths(args.train), args.method, args.out, params,
                                  val=_split_paths(args.val or []), meta=meta,
                                  allow_split_overlap=args.allow_split_overlap)
 
 
 def cmd_ablation_held_out(args: argparse.Namespace) -> None:
-    from ..eval import ablation
+    from vpr_smr.eval.scoring import held_out
 
-    ablation.leave_one_out_evaluate(args.features, args.pooled, args.without, args.out, tuple(args.modes),
-                                    meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len},
-                                    allow_split_overlap=args.allow_split_overlap)
+    held_out.main(args.features, args.pooled, args.without, args.out, tuple(args.modes),
+                  meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len},
+                  allow_split_overlap=args.allow_split_overlap)
 
 
 def cmd_report(args: argparse.Namespace) -> None:
-    from ..eval import report
+    from vpr_smr.eval.report import build as report
 
     provenance = {"vpr_smr_version": package_version()}
     written = report.main(args.out, args.evaluations, args.predictors, args.attribute_ablations or (),
@@ -156,8 +156,8 @@ def _options(items: list[str] | None) -> dict[str, Any]:
 def cmd_checkpoint_check(args: argparse.Namespace) -> int:
     import numpy as np
 
-    from ..descriptors.base import CheckpointError
-    from ..descriptors.extract import build_backend
+    from vpr_smr.descriptors.base import CheckpointError
+    from vpr_smr.descriptors.extract import build_backend
 
     conf = {"backend": args.method, "checkpoint": args.file, **_options(args.option)}
     try:
@@ -171,7 +171,7 @@ def cmd_checkpoint_check(args: argparse.Namespace) -> int:
 
 
 def cmd_convert_checkpoint(args: argparse.Namespace) -> int:
-    from ..descriptors.convert import CONVERTERS, no_conversion
+    from vpr_smr.descriptors.convert import CONVERTERS, no_conversion
 
     if args.method not in CONVERTERS:
         raise ValueError(no_conversion(args.method))
@@ -203,7 +203,7 @@ DATASET_OPTIONS = ("root", "reference", "query", "reference_list", "query_list",
 
 
 def cmd_dataset_check(args: argparse.Namespace) -> int:
-    from ..datasets import check
+    from vpr_smr.datasets import check
 
     given = {key: getattr(args, key) for key in DATASET_OPTIONS if getattr(args, key) is not None}
     if args.frames:
@@ -227,7 +227,7 @@ def cmd_dataset_check(args: argparse.Namespace) -> int:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from . import workflow
+    from vpr_smr.pipeline import workflow
 
     return workflow.run(args.config, cores=args.cores, dry_run=args.dry_run, extra=args.snakemake_args,
                         overrides=args.set, profile=args.profile, verbose=args.snakemake_output or args.verbose)

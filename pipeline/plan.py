@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .config import ConfigError, experiments, run_dir
+from vpr_smr.pipeline.config import ConfigError, experiments, run_dir
 
 
 @dataclass(frozen=True)
@@ -77,7 +77,7 @@ def split_overlaps(splits: dict[str, tuple[int, int]]) -> list[str]:
 def _training_problems(conf: dict[str, Any], train: tuple[int, int]) -> list[str]:
     """Whether the train split is long enough to train every predictor of the run, at the longest ``seq_lens``
     (the fewest samples); the leave-one-method-out predictors pool one method less."""
-    from ..eval.predictor import training_problems
+    from vpr_smr.eval.predictor.estimator import training_problems
 
     n_methods = len(conf["methods"])
     if "leave_one_method_out" in experiments(conf):
@@ -87,7 +87,7 @@ def _training_problems(conf: dict[str, Any], train: tuple[int, int]) -> list[str
 
 
 def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, DatasetPlan]:
-    from ..datasets import DatasetError, frames_settings, load_dataset
+    from vpr_smr.datasets import DatasetError, frames_settings, load_dataset
 
     needed = list(dict.fromkeys([conf["train_split"], *conf["eval_splits"], conf["table_split"]]))
     longest = max(conf["seq_lens"])
@@ -143,8 +143,8 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
 
 
 def _check_methods(conf: dict[str, Any], problems: list[str]) -> dict[str, str | None]:
-    from ..descriptors import backend_class
-    from ..descriptors.extract import check_checkpoint
+    from vpr_smr.descriptors import backend_class
+    from vpr_smr.descriptors.extract import check_checkpoint
 
     checkpoints = {}
     for name, method in conf["methods"].items():

@@ -47,7 +47,7 @@ def method_pairs(methods: Sequence[str], held_out: str, paths: Sequence[str]) ->
 
 def report_outputs(conf: dict[str, Any], experiments: set[str]) -> list[str]:
     """The report's files, relative to the run folder (``eval.report.expected_outputs`` of the configuration)."""
-    from vpr_smr.eval.report import expected_outputs
+    from vpr_smr.eval.report.build import expected_outputs
 
     return expected_outputs(list(conf["datasets"]), conf["seq_lens"], conf["modes"], experiments,
                             table_seq_lens=[conf["table_seq_len"]])

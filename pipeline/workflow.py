@@ -17,10 +17,10 @@ from typing import Any
 
 import yaml
 
-from ..eval.io import atomic_path
-from . import console
-from .config import ConfigError, load_config, parse_overrides, run_dir
-from .plan import preflight
+from vpr_smr.core.io import atomic_path
+from vpr_smr.pipeline import console
+from vpr_smr.pipeline.config import ConfigError, load_config, parse_overrides, run_dir
+from vpr_smr.pipeline.plan import preflight
 
 PACKAGE = Path(__file__).resolve().parent
 SNAKEFILE = PACKAGE / "Snakefile"

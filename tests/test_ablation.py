@@ -5,9 +5,10 @@ import json
 import numpy as np
 from test_restoration import make_features
 
-from vpr_smr.eval.ablation import attribute_f1, attributes_main, leave_one_out_evaluate, leave_one_out_train
-from vpr_smr.eval.io import write_features
-from vpr_smr.eval.predictor import SMRPredictor
+from vpr_smr.eval.matching.attributes import write_features
+from vpr_smr.eval.predictor.ablation import attribute_f1, attributes_main, train_without
+from vpr_smr.eval.predictor.estimator import SMRPredictor
+from vpr_smr.eval.scoring.held_out import main as held_out_main
 
 PARAMS = {"hidden_layer_sizes": (16,), "max_iter": 400, "learning_rate_init": 0.05}
 
@@ -59,14 +60,14 @@ def test_leave_one_method_out_never_reads_the_held_out_method(tmp_path):
     b = _write(tmp_path / "b.h5", *separable_by_a2(40, 1))
     missing = tmp_path / "held_out_train_does_not_exist.h5"  # reading it would fail
     out = tmp_path / "without_c.h5"
-    report = leave_one_out_train({"a": a, "c": missing, "b": b}, "c", out, PARAMS, meta={"dataset": "d"})
+    report = train_without({"a": a, "c": missing, "b": b}, "c", out, PARAMS, meta={"dataset": "d"})
     assert report["n_train"] == 80 and report["meta"]["trained_on"] == ["a", "b"]
     assert report["meta"]["held_out"] == "c"
     # the same predictor as one trained on a then b directly
     x = np.concatenate([separable_by_a2(40, 0)[0], separable_by_a2(40, 1)[0]])
     y = np.concatenate([separable_by_a2(40, 0)[1], separable_by_a2(40, 1)[1]])
     direct_path = tmp_path / "direct.h5"
-    from vpr_smr.eval import train
+    from vpr_smr.eval.predictor import train
 
     train.main([a, b], direct_path, PARAMS)
     probe = np.random.default_rng(5).normal(size=(30, 4))
@@ -75,7 +76,7 @@ def test_leave_one_method_out_never_reads_the_held_out_method(tmp_path):
     assert len(y) == len(x) == 80
 
     test_c = _write(tmp_path / "test_c.h5", *separable_by_a2(40, 2))
-    result = leave_one_out_evaluate(test_c, direct_path, out, tmp_path / "lomo.json", modes=("standard",),
+    result = held_out_main(test_c, direct_path, out, tmp_path / "lomo.json", modes=("standard",),
                                     meta={"dataset": "d", "seq_len": 4, "held_out": "c"})
     assert set(result["predictors"]) == {"pooled", "without"}
     assert result["predictors"]["without"]["f1_macro"] == result["predictors"]["pooled"]["f1_macro"]

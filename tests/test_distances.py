@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from vpr_smr.eval.distances import distance_matrix
+from vpr_smr.eval.matching.distances import distance_matrix
 
 
 @pytest.fixture

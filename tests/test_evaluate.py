@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 from test_restoration import make_features
 
-from vpr_smr.eval.evaluate import evaluate_split, main
-from vpr_smr.eval.io import write_features
-from vpr_smr.eval.predictor import SMRPredictor
+from vpr_smr.eval.matching.attributes import write_features
+from vpr_smr.eval.predictor.estimator import SMRPredictor
+from vpr_smr.eval.scoring.evaluate import evaluate_split, main
 
 
 class TablePredictor:
@@ -82,7 +82,7 @@ def test_restoration_is_added_on_request():
 
 
 def test_main_writes_every_split_and_seed(tmp_path):
-    from vpr_smr.eval.attributes import query_features
+    from vpr_smr.eval.matching.attributes import query_features
 
     rng = np.random.default_rng(0)
     matrix = rng.random((60, 60)) + 0.7 * (1 - np.eye(60))

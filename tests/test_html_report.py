@@ -88,8 +88,8 @@ def test_report_renders_every_figure_in_a_headless_browser(tmp_path):
 def test_provenance_of_descriptor_files_and_tables_in_the_page(tmp_path):
     import base64
 
-    from vpr_smr.eval.html_report import main
-    from vpr_smr.eval.io import atomic_h5
+    from vpr_smr.core.io import atomic_h5
+    from vpr_smr.eval.report.html import main
 
     descriptors = tmp_path / "hog.h5"
     with atomic_h5(descriptors, {"dataset": "toy", "method": "hog", "checkpoint_sha256": "11" * 32,

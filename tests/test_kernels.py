@@ -12,8 +12,8 @@ import h5py
 import numpy as np
 import pytest
 
-from vpr_smr.eval import attributes
-from vpr_smr.eval.attributes import query_features
+from vpr_smr.eval.matching import attributes
+from vpr_smr.eval.matching.attributes import query_features
 
 pytest.importorskip("numba")
 
@@ -120,8 +120,8 @@ def test_choice_of_path(monkeypatch):
     # numba missing: the numpy path silently when chosen automatically, an error when asked for by name
     monkeypatch.delenv("VPR_SMR_KERNEL")
     monkeypatch.setitem(sys.modules, "numba", None)
-    monkeypatch.delitem(sys.modules, "vpr_smr.eval.kernels", raising=False)
-    monkeypatch.delattr("vpr_smr.eval.kernels", raising=False)
+    monkeypatch.delitem(sys.modules, "vpr_smr.eval.matching.kernels", raising=False)
+    monkeypatch.delattr("vpr_smr.eval.matching.kernels", raising=False)
     assert attributes._kernels(10**12) is None
     monkeypatch.setattr(attributes, "KERNEL", "numba")
     with pytest.raises(RuntimeError, match="pip install numba"):

@@ -10,9 +10,10 @@ import pytest
 from test_train import PARAMS, method_samples
 from test_train import write as write_plain
 
-from vpr_smr.eval import ablation, evaluate, train
-from vpr_smr.eval.io import read_features, write_features
-from vpr_smr.eval.leakage import FrameRange, SplitLeakError, check_disjoint, frame_range, trained_on
+from vpr_smr.eval.matching.attributes import read_features, write_features
+from vpr_smr.eval.predictor import ablation, train
+from vpr_smr.eval.predictor.leakage import FrameRange, SplitLeakError, check_disjoint, frame_range, trained_on
+from vpr_smr.eval.scoring import evaluate, held_out
 from vpr_smr.pipeline.cli import main as cli
 
 
@@ -81,24 +82,24 @@ def test_per_attribute_predictors(files, tmp_path):
 def test_leave_one_method_out_predictors(files, tmp_path):
     without = tmp_path / "without_b.h5"
     with pytest.raises(SplitLeakError):
-        ablation.leave_one_out_train({"a": files["a", "train"]}, "b", without, PARAMS,
+        ablation.train_without({"a": files["a", "train"]}, "b", without, PARAMS,
                                      val={"a": files["a", "leaky_test"]})
-    ablation.leave_one_out_train({"a": files["a", "train"], "b": files["b", "train"]}, "b", without, PARAMS)
+    ablation.train_without({"a": files["a", "train"], "b": files["b", "train"]}, "b", without, PARAMS)
     assert trained_on(without) == [FrameRange("d", "train", 0, 60)]
     pooled = tmp_path / "L4.h5"
     train.main([files["a", "train"], files["b", "train"]], pooled, PARAMS)
     out = tmp_path / "held_out.json"
     with pytest.raises(SplitLeakError, match="L4.h5 was trained on"):
-        ablation.leave_one_out_evaluate(files["b", "leaky_test"], pooled, without, out, ("standard",))
+        held_out.main(files["b", "leaky_test"], pooled, without, out, ("standard",))
     # each of the two predictors is checked: a pooled one with no recorded ranges leaves the without_ one
     x, y = method_samples(60, 3)
     unrecorded = tmp_path / "unrecorded.h5"
     train.main([write_plain(tmp_path / "plain.h5", x, y)], unrecorded, PARAMS)
     assert trained_on(unrecorded) == []
     with pytest.raises(SplitLeakError, match="without_b.h5 was trained on"):
-        ablation.leave_one_out_evaluate(files["b", "leaky_test"], unrecorded, without, out, ("standard",))
+        held_out.main(files["b", "leaky_test"], unrecorded, without, out, ("standard",))
     assert not out.exists()
-    ablation.leave_one_out_evaluate(files["b", "test"], pooled, without, out, ("standard",))
+    held_out.main(files["b", "test"], pooled, without, out, ("standard",))
     assert json.loads(out.read_text())["n_queries"] == 40
 
 

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from vpr_smr.eval.attributes import query_features
-from vpr_smr.eval.distances import distance_matrix
-from vpr_smr.eval.live import LiveMatcher
+from vpr_smr.eval.matching.attributes import query_features
+from vpr_smr.eval.matching.distances import distance_matrix
+from vpr_smr.eval.matching.live import LiveMatcher
 
 
 class ThresholdPredictor:

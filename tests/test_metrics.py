@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from vpr_smr.eval.metrics import (
+from vpr_smr.eval.scoring.curves import (
     compare_curves,
     keep_mask,
     paper_curve,

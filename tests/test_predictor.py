@@ -13,7 +13,7 @@ from sklearn.neural_network import MLPClassifier
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.estimator_checks import check_estimator
 
-from vpr_smr.eval.predictor import SMRPredictor, cross_validated_f1, smote_neighbours
+from vpr_smr.eval.predictor.estimator import SMRPredictor, cross_validated_f1, smote_neighbours
 
 SMALL = {"hidden_layer_sizes": (16, 16), "max_iter": 60}
 

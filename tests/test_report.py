@@ -6,7 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from vpr_smr.eval.report import table1_latex, table1_markdown, table2_latex, table2_markdown, table2_rows
+from vpr_smr.eval.report.build import table1_latex, table1_markdown, table2_latex, table2_markdown, table2_rows
 
 METHODS = ("AP-GeM", "CosPlace", "EigenPlaces", "MixVPR", "NetVLAD", "SAD", "SALAD")
 PAPER = {  # smr_paper.tex, Table I: VPR+SM, VPR+SM+Pred, Reduction (%) per method
@@ -85,11 +85,11 @@ def test_table2_marks_the_attributes_used():
 
 def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4)) -> tuple[Path, list[Path]]:
     """Every experiment's JSON for two methods on one dataset, then report.main; returns (run folder, files)."""
-    from vpr_smr.eval.attributes import query_features
-    from vpr_smr.eval.evaluate import evaluate_split
-    from vpr_smr.eval.io import write_json
-    from vpr_smr.eval.predictor import SMRPredictor
-    from vpr_smr.eval.report import main
+    from vpr_smr.core.io import write_json
+    from vpr_smr.eval.matching.attributes import query_features
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.scoring.evaluate import evaluate_split
 
     rng = np.random.default_rng(0)
     evaluations, predictors = [], []
@@ -125,7 +125,7 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4)) -> t
 
 
 def test_every_experiment_gives_its_tables_and_figures(tmp_path):
-    from vpr_smr.eval.report import expected_outputs
+    from vpr_smr.eval.report.build import expected_outputs
 
     run, written = build_run(tmp_path)
     experiments = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out"}
@@ -155,11 +155,11 @@ def test_every_experiment_gives_its_tables_and_figures(tmp_path):
 def test_tables_and_figures_with_standard_mode_only(tmp_path):
     import json
 
-    from vpr_smr.eval.attributes import query_features
-    from vpr_smr.eval.evaluate import evaluate_split
-    from vpr_smr.eval.io import write_json
-    from vpr_smr.eval.predictor import SMRPredictor
-    from vpr_smr.eval.report import main
+    from vpr_smr.core.io import write_json
+    from vpr_smr.eval.matching.attributes import query_features
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.scoring.evaluate import evaluate_split
 
     rng = np.random.default_rng(0)
     matrix = rng.random((60, 60)) + 0.7 * (1 - np.eye(60))  # the diagonal is often, not always, the best

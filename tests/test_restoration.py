@@ -9,8 +9,8 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from vpr_smr.eval.attributes import QueryFeatures
-from vpr_smr.eval.restoration import evaluate_restoration, restore
+from vpr_smr.eval.matching.attributes import QueryFeatures
+from vpr_smr.eval.scoring.restoration import evaluate_restoration, restore
 
 
 def make_features(sequence_correct, rank_correct, **overrides) -> QueryFeatures:

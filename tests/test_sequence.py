@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from vpr_smr.eval.sequence import is_correct, sequence_matches, sequence_matrix, single_frame_matches
+from vpr_smr.eval.matching.sequence import is_correct, sequence_matches, sequence_matrix, single_frame_matches
 
 # A 4 x 3 matrix (references x queries) worked through by hand.
 D = np.array([[1, 2, 4], [2, 1, 2], [4, 4, 1], [4, 2, 2]], dtype=float)

@@ -11,10 +11,9 @@ from sklearn.neural_network import MLPClassifier
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils import shuffle
 
-from vpr_smr.eval import train
-from vpr_smr.eval.attributes import QueryFeatures
-from vpr_smr.eval.io import write_features
-from vpr_smr.eval.predictor import SMRPredictor
+from vpr_smr.eval.matching.attributes import QueryFeatures, write_features
+from vpr_smr.eval.predictor import train
+from vpr_smr.eval.predictor.estimator import SMRPredictor
 
 PARAMS = {"hidden_layer_sizes": [12, 12], "max_iter": 40}
 

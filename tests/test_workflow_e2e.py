@@ -189,7 +189,7 @@ def test_outputs_carry_provenance_and_a_rerun_does_nothing(run, tmp_path):
 def test_no_predictor_was_trained_on_the_frames_it_scores(run):
     """Every predictor file of the run (pooled, every seed, leave-one-method-out) was trained on the train split
     [0, 150) of the slice only: disjoint from val [150, 250) and test [250, 360), which all scores come from."""
-    from vpr_smr.eval.leakage import FrameRange, trained_on
+    from vpr_smr.eval.predictor.leakage import FrameRange, trained_on
 
     out, _ = run
     files = sorted((out / "predictors" / "sample").rglob("*.h5"))
@@ -197,7 +197,7 @@ def test_no_predictor_was_trained_on_the_frames_it_scores(run):
     for path in files:
         assert trained_on(path) == [FrameRange("sample", "train", 0, 150)], path
     for path in (out / "features" / "sample").rglob("*.h5"):
-        from vpr_smr.eval.leakage import frame_range
+        from vpr_smr.eval.predictor.leakage import frame_range
 
         split = frame_range(path)
         assert split.split == path.stem

@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
-from .attributes import QueryFeatures
-from .metrics import KEPT_CLASSES, Curve, area, curve, keep_mask, reduction_pct
+from vpr_smr.eval.matching.attributes import QueryFeatures
+from vpr_smr.eval.scoring.curves import KEPT_CLASSES, Curve, area, curve, keep_mask, reduction_pct
 
 
 @dataclass(frozen=True)

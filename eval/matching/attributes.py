@@ -27,16 +27,29 @@ place: compiled for large matrices (``KERNEL_MIN_VALUES``) when numba imports, n
 
 from __future__ import annotations
 
+import logging
 import os
+import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from pathlib import Path
 from types import ModuleType
 from typing import Any
 
+import h5py
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-from .sequence import DEFAULT_TOLERANCE, check_finite, check_shape, diagonal_sums, is_correct, sequence_matrix
+from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
+from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.sequence import (
+    DEFAULT_TOLERANCE,
+    check_finite,
+    check_shape,
+    diagonal_sums,
+    is_correct,
+    sequence_matrix,
+)
 
 __all__ = [
     "ATTRIBUTE_NAMES", "EPS", "QueryFeatures", "block_features", "diagonal_sums", "is_correct",
@@ -69,7 +82,7 @@ def _kernels(n_values: int) -> ModuleType | None:
     if choice == "numpy" or (choice == "auto" and n_values < KERNEL_MIN_VALUES):
         return None
     try:
-        from . import kernels
+        from vpr_smr.eval.matching import kernels
     except ImportError as error:
         if choice == "numba":
             raise RuntimeError(f"the compiled attributes path was asked for but numba does not import ({error}); "
@@ -499,3 +512,60 @@ def query_features(
             single_correct,
         ]),
     )
+
+
+def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:
+    with atomic_h5(path, provenance) as f:
+        for field in fields(QueryFeatures):
+            f[field.name] = getattr(features, field.name)
+
+
+def read_features(path: Path | str) -> QueryFeatures:
+    with h5py.File(path, "r") as f:
+        values = {field.name: f[field.name][()] for field in fields(QueryFeatures)}
+    values["sequence_min"] = float(values["sequence_min"])
+    values["sequence_max"] = float(values["sequence_max"])
+    return QueryFeatures(**values)
+
+
+# --- the `attributes` stage: sequence matching, attributes and labels of one distance matrix, to .csv or .h5
+
+OUT_SUFFIXES = CSV_SUFFIXES + HDF5_SUFFIXES
+
+log = logging.getLogger("vpr_smr")
+
+
+def write_csv(path: Path | str, features: QueryFeatures) -> None:
+    """One row per query: its index, the rank-0 attributes A1..A4 (the paper's names) and its label."""
+    table = np.column_stack([features.queries, features.attributes[:, 0, :], features.labels])
+    header = ",".join(("query", *ATTRIBUTE_NAMES, "label"))
+    with atomic_path(path) as tmp:
+        np.savetxt(tmp, table, delimiter=",", header=header, comments="", fmt=["%d", *["%.9g"] * 4, "%d"])
+
+
+def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int) -> QueryFeatures:
+    """Features of the matrix in ``distances`` (``.npy`` or our ``.h5``) written to ``out``.
+
+    ``out`` ending in ``.csv`` gets the rank-0 table (``write_csv``); ``.h5``/``.hdf5`` every field of
+    ``QueryFeatures`` as HDF5, with the distance file's provenance, ``seq_len``, ``tolerance`` and
+    ``attributes_seconds`` (the time of the computation, reading included); another suffix is an error, before
+    anything is read. Errors name the distance file (negative distances included: ``io.check_non_negative``).
+    """
+    out = check_suffix(out, OUT_SUFFIXES, "the attributes (.csv table or HDF5)")
+    distances = Path(distances)
+    start = time.perf_counter()
+    with open_distance_matrix(distances) as matrix:
+        try:
+            features = query_features(matrix, seq_len, tolerance)
+        except ValueError as error:
+            raise ValueError(f"{distances}: {error}") from None
+    seconds = time.perf_counter() - start
+    if out.suffix.lower() in CSV_SUFFIXES:
+        write_csv(out, features)
+    else:
+        provenance = read_provenance(distances) if distances.suffix != ".npy" else {}
+        provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
+        write_features(out, features, {**provenance, "seq_len": seq_len, "tolerance": tolerance,
+                                       "attributes_seconds": seconds})
+    log.info("%d queries, %.1f µs per query", len(features.queries), 1e6 * seconds / max(len(features.queries), 1))
+    return features

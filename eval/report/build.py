@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from . import figures as fig
-from .html_report import UNDEFINED, is_reduction
-from .io import atomic_path
+from vpr_smr.core.io import atomic_path
+from vpr_smr.eval.report import figures as fig
+from vpr_smr.eval.report.html import UNDEFINED, is_reduction
 
 SEED_COLUMNS = ("reduction_pct_mean", "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds")
 # n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
@@ -677,7 +677,7 @@ def _load(paths: Sequence[Path | str], what: str) -> list[dict[str, Any]]:
 
 def _load_evaluations(paths: Sequence[Path | str]) -> list[dict[str, Any]]:
     """Evaluation files with the timings written beside each (``evaluate.timing_path``) merged in."""
-    from .evaluate import timing_path
+    from vpr_smr.eval.scoring.evaluate import timing_path
 
     evaluations = _load(paths, "evaluation")
     for path, evaluation in zip(paths, evaluations, strict=True):
@@ -708,14 +708,14 @@ def main(
 
     Inputs are JSON files of the stages, each list optional: ``evaluations`` (``evaluate.main``, one per dataset,
     method and L), ``predictors`` (``train.main`` reports), ``attribute_ablations`` (``ablation.attributes_main``),
-    ``leave_one_out`` (``ablation.leave_one_out_evaluate``). ``table_seq_lens``: the sequence lengths of Table I and
+    ``leave_one_out`` (``scoring.held_out.main``). ``table_seq_lens``: the sequence lengths of Table I and
     of the per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
     ``config`` (YAML text or a dict) and ``provenance`` (e.g. package version, checkpoint and frame-list hashes)
     go into the HTML page, with the provenance attributes of ``descriptor_paths``. ``datasets``: per dataset its
     traverses, frames, tolerance, splits, pairing and ``overlaps`` (splits that share frames, allowed by the
     configuration), shown in the page; overlaps flag every table.
     """
-    from . import html_report
+    from vpr_smr.eval.report import html as html_report
 
     out_dir = Path(out_dir)
     table_seq_lens = None if table_seq_lens is None else {int(s) for s in table_seq_lens}

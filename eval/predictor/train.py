@@ -17,9 +17,10 @@ import numpy as np
 from sklearn.metrics import confusion_matrix
 from sklearn.utils import shuffle
 
-from .io import HDF5_SUFFIXES, check_suffix, read_features, write_json
-from .leakage import TRAINED_ON, check_disjoint, frame_ranges
-from .predictor import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
+from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix, write_json
+from vpr_smr.eval.matching.attributes import read_features
+from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
+from vpr_smr.eval.predictor.leakage import TRAINED_ON, check_disjoint, frame_ranges
 
 log = logging.getLogger(__name__)
 

@@ -14,12 +14,12 @@ from typing import Any
 import numpy as np
 from sklearn.metrics import confusion_matrix
 
-from .attributes import QueryFeatures
-from .io import JSON_SUFFIXES, check_suffix, read_features, read_provenance, write_json
-from .leakage import check_disjoint, frame_ranges, trained_on
-from .metrics import MODES, Curve, compare_curves, curve, keep_mask, recall_at_full_precision
-from .predictor import SMRPredictor, macro_f1
-from .restoration import evaluate_restoration
+from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance, write_json
+from vpr_smr.eval.matching.attributes import QueryFeatures, read_features
+from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
+from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
+from vpr_smr.eval.scoring.curves import MODES, Curve, compare_curves, curve, keep_mask, recall_at_full_precision
+from vpr_smr.eval.scoring.restoration import evaluate_restoration
 
 LABELS = (0, 1, 2, 3)
 DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)

@@ -19,13 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from .attributes import ATTRIBUTE_NAMES
-from .evaluate import removal
-from .io import JSON_SUFFIXES, check_suffix, read_features, write_json
-from .leakage import check_disjoint, frame_ranges, trained_on
-from .metrics import MODES
-from .predictor import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
-from .train import describe
+from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, write_json
+from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, read_features
+from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
+from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges
+from vpr_smr.eval.predictor.train import describe
 
 log = logging.getLogger(__name__)
 
@@ -127,7 +125,7 @@ def attributes_main(
     return result
 
 
-def leave_one_out_train(
+def train_without(
     train: Mapping[str, Path | str],
     held_out: str,
     out: Path | str,
@@ -143,7 +141,7 @@ def leave_one_out_train(
     give them, so that they are not inputs of this predictor). Writes ``out`` (.h5) and its JSON
     report through ``train.main`` (seed 0), with ``held_out`` and ``trained_on`` in its ``meta``.
     """
-    from . import train as train_stage
+    from vpr_smr.eval.predictor import train as train_stage
 
     others = [method for method in train if method != held_out]
     if not others:
@@ -153,34 +151,3 @@ def leave_one_out_train(
     return train_stage.main([train[m] for m in others], out, params,
                             val=[val[m] for m in others if m in val], meta=meta,
                             allow_split_overlap=allow_split_overlap)
-
-
-def leave_one_out_evaluate(
-    features: Path | str,
-    pooled_predictor: Path | str,
-    held_out_predictor: Path | str,
-    out: Path | str,
-    modes: tuple[str, ...] = MODES,
-    meta: dict[str, Any] | None = None,
-    allow_split_overlap: bool = False,
-) -> dict[str, Any]:
-    """The held-out method's test split (``features``) under the pooled predictor and the ``without_`` one.
-
-    Layout: ``{"meta", "n_queries", "predictors": {"pooled": {...}, "without": {...}}}``, each with ``path``,
-    ``f1_macro``, ``removed`` and ``modes: {mode: {max_recall, auc_vpr_sm, auc_vpr_sm_pred, aoc_vpr_sm,
-    aoc_vpr_sm_pred, reduction_pct, ...}}``.
-    """
-    check_suffix(out, JSON_SUFFIXES, "the leave-one-method-out evaluation (JSON)")
-    features_ = read_features(features)
-    result: dict[str, Any] = {"meta": dict(meta or {}), "n_queries": len(features_.queries), "predictors": {}}
-    for name, path in (("pooled", pooled_predictor), ("without", held_out_predictor)):
-        if not Path(path).is_file():
-            raise FileNotFoundError(f"predictor file not found: {path} (train it first)")
-        check_disjoint(trained_on(path), frame_ranges([features]), allow_split_overlap, f"predictor {path}")
-        predictor = SMRPredictor.load(path)
-        numbers = removal(features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_,
-                          tuple(modes), curves=False)
-        numbers.pop("predicted")
-        result["predictors"][name] = {"path": str(path), **numbers}
-    write_json(out, result)
-    return result

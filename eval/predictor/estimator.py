@@ -287,7 +287,7 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):
 
     def save(self, path: Path | str, **attrs: Any) -> None:
         """Write the parameters and fitted arrays to HDF5 (temporary name, then rename); ``attrs`` as attributes."""
-        from .io import atomic_h5
+        from vpr_smr.core.io import atomic_h5
 
         check_is_fitted(self, "coefs_")
         if self.classes_.dtype.kind not in "iub":

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .io import atomic_path
+from vpr_smr.core.io import atomic_path
 
 UP, DOWN = "tab:green", "tab:red"
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from .io import read_provenance
+from vpr_smr.core.io import read_provenance
 
 TRAINED_ON = "trained_on_frames"  # the predictor file's attribute: the frame ranges it was trained on
 

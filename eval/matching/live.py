@@ -24,8 +24,8 @@ from typing import Any
 
 import numpy as np
 
-from .attributes import block_features
-from .distances import distance_columns, prepare_references
+from vpr_smr.eval.matching.attributes import block_features
+from vpr_smr.eval.matching.distances import distance_columns, prepare_references
 
 KEEP_LABELS = (0, 2)  # the sequence match is correct (SPEC 6): the predictor keeps it
 

@@ -15,7 +15,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
-from .io import atomic_path, package_version, read_provenance
+from vpr_smr.core.io import atomic_path, package_version, read_provenance
 
 STYLE = """
 body { font-family: sans-serif; margin: 1.5em auto; max-width: 1400px; color: #222; }

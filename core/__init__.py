@@ -1,0 +1,4 @@
+"""Shared helpers at the bottom of the data flow: atomic file writes with provenance, constants, output paths.
+
+Every other package may import these; they import nothing of the project's own.
+"""

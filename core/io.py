@@ -1,0 +1,96 @@
+"""Files of the pipeline: written to a temporary name and renamed, with provenance attributes; suffix checks.
+
+At the bottom of the data flow: every stage writes through these helpers and nothing here imports a stage.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import secrets
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+# What each kind of output file may be called (``check_suffix``)
+HDF5_SUFFIXES = (".h5", ".hdf5")
+JSON_SUFFIXES = (".json",)
+CSV_SUFFIXES = (".csv",)
+
+
+def check_suffix(path: Path | str, allowed: tuple[str, ...], what: str, option: str = "--out") -> Path:
+    """``path`` as a Path when its suffix is one of ``allowed`` (any case), else a ValueError naming the option,
+    what was given and the suffixes allowed; ``what`` says what the file holds (e.g. "the features (HDF5)")."""
+    path = Path(path)
+    if path.suffix.lower() not in allowed:
+        given = f"suffix {path.suffix!r}" if path.suffix else "no suffix"
+        names = allowed[0] if len(allowed) == 1 else f"{', '.join(allowed[:-1])} or {allowed[-1]}"
+        example = path.with_suffix(allowed[0]) if path.stem else Path("out" + allowed[0])
+        raise ValueError(f"{option} {path}: {what} must end in {names}, got {given}; e.g. {option} {example}")
+    return path
+
+
+def package_version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("vpr-smr")
+    except PackageNotFoundError:
+        return "unknown"
+
+
+@contextmanager
+def atomic_path(path: Path | str) -> Iterator[Path]:
+    """A temporary name beside ``path`` to write to: renamed to ``path`` when the block finishes, removed if it fails.
+
+    The name is unique to this process and call, so that two writers of one file never share a temporary file.
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f"{path.name}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+    try:
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+@contextmanager
+def atomic_h5(path: Path | str, provenance: dict[str, Any] | None = None) -> Iterator[h5py.File]:
+    """An HDF5 file written through ``atomic_path``, with the package version and ``provenance`` as attributes."""
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as f:
+        f.attrs["vpr_smr_version"] = package_version()
+        for key, value in (provenance or {}).items():
+            f.attrs[key] = json.dumps(value, sort_keys=True) if isinstance(value, dict | list) else value
+        yield f
+
+
+def write_json(path: Path | str, data: dict[str, Any]) -> None:
+    with atomic_path(path) as tmp:
+        tmp.write_text(json.dumps(data, indent=1, sort_keys=True, default=_jsonable))
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"not JSON serialisable: {type(value)}")
+
+
+def read_provenance(path: Path | str) -> dict[str, Any]:
+    with h5py.File(path, "r") as f:
+        return {key: _maybe_json(value) for key, value in f.attrs.items()}
+
+
+def _maybe_json(value: Any) -> Any:
+    if isinstance(value, str) and value[:1] in "[{":
+        try:
+            return json.loads(value)
+        except json.JSONDecodeError:
+            return value
+    return value.item() if isinstance(value, np.generic) else value
