@@ -35,8 +35,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from common import is_small, machine, python, run_measured  # noqa: E402
 from test_attributes import naive_attributes  # noqa: E402
 
+from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # noqa: E402
 from vpr_smr.eval.matching import attributes  # noqa: E402
-from vpr_smr.eval.matching.attributes import EPS, GROUP_HALF_WIDTH, query_features  # noqa: E402
+from vpr_smr.eval.matching.attributes import query_features  # noqa: E402
 
 LOAD_AND_SUM = "import sys, numpy as np; print(np.load(sys.argv[1]).sum())"
 # A fresh process: query_features of a tiny matrix on one path; the difference is the compiled path's fixed cost.

@@ -1,8 +1,8 @@
 """The paper's full Nordland size through distances -> attributes -> labels in one run (issue 9, goal c).
 
 Writes random descriptors of two traverses of N frames (N = 27592, the paper's Nordland) to HDF5, then runs the
-``distances`` stage (faiss, block by block, into a chunked HDF5 matrix) and the ``attributes`` stage (features and
-labels) in one child process, and reports its wall time per stage and its peak memory (goal: under 8 GB).
+``distances`` stage (faiss, block by block, into a chunked HDF5 matrix) and the ``attributes`` stage (attributes
+and labels) in one child process, and reports its wall time per stage and its peak memory (goal: under 8 GB).
 
     python benchmarks/nordland_scale.py              # N = 27592, 512-D descriptors: needs ~3.2 GB of disk, minutes
     python benchmarks/nordland_scale.py --small      # N = 1500 (CI)
@@ -24,12 +24,12 @@ from common import is_small, machine, python, run_measured  # noqa: E402
 STAGES = """
 import sys, time
 from vpr_smr.eval.matching import distances
-from vpr_smr.eval.matching import attributes as features
+from vpr_smr.eval.matching import attributes
 folder = sys.argv[1]
 start = time.perf_counter()
 distances.main(folder + "/descriptors.h5", folder + "/D.h5", "test", (0, int(sys.argv[2])))
 middle = time.perf_counter()
-result = features.main(folder + "/D.h5", folder + "/features.h5", int(sys.argv[3]), 2)
+result = attributes.main(folder + "/D.h5", folder + "/attributes.h5", int(sys.argv[3]), 2)
 end = time.perf_counter()
 print(f"distances {middle - start:.1f} s, attributes {end - middle:.1f} s, labels {result.labels[:5]}...")
 """
@@ -65,7 +65,7 @@ def main() -> None:
         seconds, peak, output = run_measured(python(STAGES, folder, str(n), str(args.seq_len)))
         print(output.strip())
         matrix_gb = (Path(folder) / "D.h5").stat().st_size / 1e9
-        with h5py.File(Path(folder) / "features.h5", "r") as f:
+        with h5py.File(Path(folder) / "attributes.h5", "r") as f:
             labels = np.bincount(f["labels"][()], minlength=4)
     print(f"distances -> attributes -> labels: {seconds:.1f} s, peak memory {peak / 1e9:.2f} GB "
           f"(matrix {matrix_gb:.2f} GB on disk); labels 0..3: {labels.tolist()}")

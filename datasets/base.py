@@ -11,7 +11,7 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from vpr_smr.eval.matching.sequence import DEFAULT_TOLERANCE
+from vpr_smr.core.constants import DEFAULT_TOLERANCE
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".ppm", ".tif", ".tiff")
 MAX_LISTED = 5  # an error lists this many files, then a count

@@ -9,8 +9,11 @@ from __future__ import annotations
 
 import importlib
 from importlib.metadata import entry_points
+from typing import TYPE_CHECKING, Any
 
-from vpr_smr.descriptors.base import Backend, CheckpointError, TorchBackend
+if TYPE_CHECKING:
+    from vpr_smr.descriptors.base import Backend
+
 
 ENTRY_POINT_GROUP = "vpr_smr.descriptors"
 
@@ -28,7 +31,28 @@ BACKENDS: dict[str, str] = {
     "precomputed": "precomputed:Precomputed",
 }
 
-__all__ = ["BACKENDS", "Backend", "CheckpointError", "TorchBackend", "available_backends", "backend_class"]
+# A method's settings that do not change its descriptors: the distance reaches only its distance matrices.
+DISTANCE_SETTING = "distance"
+
+__all__ = [
+    "BACKENDS", "Backend", "CheckpointError", "TorchBackend", "available_backends", "backend_class",
+    "descriptor_settings",
+]
+
+
+def descriptor_settings(method: dict[str, Any]) -> dict[str, Any]:
+    """A method's settings without those that do not change its descriptors (what the descriptors job gets)."""
+    return {key: value for key, value in method.items() if key != DISTANCE_SETTING}
+
+
+def __getattr__(name: str) -> Any:
+    # The base classes import PyTorch: loaded on first use, so that the workflow's parsing (which only needs
+    # ``descriptor_settings``) does not pay for it.
+    if name in ("Backend", "CheckpointError", "TorchBackend"):
+        from vpr_smr.descriptors import base
+
+        return getattr(base, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def _import(target: str, package: str | None = None) -> type[Backend]:
@@ -54,6 +78,8 @@ def backend_class(name: str) -> type[Backend]:
             cls = _import(name)
         except (ImportError, AttributeError) as error:
             raise ValueError(f"cannot import descriptor backend {name!r}: {error}") from None
+        from vpr_smr.descriptors.base import Backend
+
         if not (isinstance(cls, type) and issubclass(cls, Backend)):
             raise ValueError(f"{name!r} is not a subclass of vpr_smr.descriptors.Backend")
         return cls

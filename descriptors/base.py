@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 import torch
 
-from vpr_smr.eval.matching.distances import METRICS
+from vpr_smr.core.constants import METRICS
 
 # Accepted by every backend, next to the backend's own ``default_conf``.
 COMMON_SETTINGS = ("checkpoint", "device", "half", "distance", "preprocessing")
@@ -220,13 +220,6 @@ class TorchBackend(Backend):
             self.read_checkpoint(checkpoint)
         else:  # a backend with its own load(): only loading can tell
             self.load(checkpoint)
-
-    def load_state_dict(self, state_dict: dict[str, torch.Tensor], source: str) -> None:
-        """``load_state_dict(strict=True)`` with an error that lists missing, unexpected and misshaped keys."""
-        problems = state_dict_problems(self.model, state_dict)
-        if problems:
-            raise CheckpointError(f"checkpoint {source} does not fit backend {self.name!r}:\n{problems}")
-        self.model.load_state_dict(state_dict, strict=True)
 
     def prepare(self) -> None:
         """Move the model to the device (after loading weights)."""

@@ -10,8 +10,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from vpr_smr.core.constants import DEFAULT_TOLERANCE, METRICS, MODES
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix, package_version
-from vpr_smr.eval.matching.sequence import DEFAULT_TOLERANCE
 from vpr_smr.pipeline.config import ConfigError, load_config, schema_default
 
 log = logging.getLogger("vpr_smr")
@@ -63,18 +63,28 @@ def cmd_descriptors(args: argparse.Namespace) -> None:
 def cmd_distances(args: argparse.Namespace) -> None:
     from vpr_smr.eval.matching import distances
 
-    distances.main(args.descriptors, args.out, args.split, tuple(args.frames))
+    distances.main(args.descriptors, args.out, args.split, tuple(args.frames), metric=args.metric)
 
 
 def cmd_attributes(args: argparse.Namespace) -> None:
-    from vpr_smr.eval.matching import attributes as features
+    from vpr_smr.eval.matching import attributes
 
-    features.main(args.distances, args.out, args.seq_len, args.tolerance)
+    attributes.main(args.distances, args.out, args.seq_len, args.tolerance)
+
+
+def _check_seq_len(args: argparse.Namespace, *groups: list[str] | None) -> None:
+    """The attributes files a stage reads were computed at its ``--seq-len`` (METHOD=PATH items too)."""
+    from vpr_smr.eval.matching.attributes import check_seq_len
+
+    paths = [item.split("=", 1)[-1] if "=" in item and not Path(item).exists() else item
+             for group in groups for item in (group or [])]
+    check_seq_len(paths, args.seq_len)
 
 
 def cmd_train(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import train
 
+    _check_seq_len(args, args.train, args.val, args.test)
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     report = train.main(args.train, args.out, params, val=args.val or (), test=args.test or (),
                         meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)),
@@ -87,14 +97,15 @@ def _split_paths(items: list[str]) -> dict[str, str]:
     pairs = [item.split("=", 1) for item in items]
     bad = [item for item, pair in zip(items, pairs, strict=True) if len(pair) != 2]
     if bad:
-        raise ValueError(f"--features takes SPLIT=PATH items, got {', '.join(bad)}")
+        raise ValueError(f"--attributes takes SPLIT=PATH items, got {', '.join(bad)}")
     return dict(pairs)
 
 
 def cmd_evaluate(args: argparse.Namespace) -> None:
     from vpr_smr.eval.scoring import evaluate
 
-    evaluate.main(_split_paths(args.features), args.predictors, args.out, tuple(args.modes),
+    _check_seq_len(args, args.attributes)
+    evaluate.main(_split_paths(args.attributes), args.predictors, args.out, tuple(args.modes),
                   tuple(args.trust_levels), meta={"dataset": args.dataset, "method": args.method,
                                                   "seq_len": args.seq_len}, restoration=args.restoration,
                   allow_split_overlap=args.allow_split_overlap)
@@ -103,6 +114,7 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
 
+    _check_seq_len(args, args.train, args.val, args.test)
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     ablation.attributes_main(args.train, args.out, params, val=args.val or (), test=args.test or (),
                              meta={"dataset": args.dataset, "seq_len": args.seq_len},
@@ -112,6 +124,7 @@ def cmd_ablation_attributes(args: argparse.Namespace) -> None:
 def cmd_ablation_without(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
 
+    _check_seq_len(args, args.train, args.val)
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     meta = {"dataset": args.dataset, "seq_len": args.seq_len}
     ablation.train_without(_split_paths(args.train), args.method, args.out, params,
@@ -122,7 +135,8 @@ def cmd_ablation_without(args: argparse.Namespace) -> None:
 def cmd_ablation_held_out(args: argparse.Namespace) -> None:
     from vpr_smr.eval.scoring import held_out
 
-    held_out.main(args.features, args.pooled, args.without, args.out, tuple(args.modes),
+    _check_seq_len(args, [args.attributes])
+    held_out.main(args.attributes, args.pooled, args.without, args.out, tuple(args.modes),
                   meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len},
                   allow_split_overlap=args.allow_split_overlap)
 
@@ -132,8 +146,8 @@ def cmd_report(args: argparse.Namespace) -> None:
 
     provenance = {"vpr_smr_version": package_version()}
     written = report.main(args.out, args.evaluations, args.predictors, args.attribute_ablations or (),
-                          args.leave_one_out or (), split=args.split, table_seq_lens=args.table_seq_lens,
-                          seq_len_ablation=args.seq_len_ablation,
+                          args.leave_one_out or (), timings=args.timings or (), split=args.split,
+                          table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
                           config=_json_object(args.settings, "--settings") if args.settings else None,
                           provenance=provenance, descriptor_paths=args.descriptors or (),
                           datasets=_json_object(args.datasets, "--datasets") if args.datasets else None)
@@ -337,6 +351,7 @@ def build_parser() -> argparse.ArgumentParser:
     _required(p, "--descriptors", "--split", "--out")
     p.add_argument("--frames", type=int, nargs=2, required=True, metavar=("LO", "HI"),
                    help="the split's frames lo..hi-1 of both traverses")
+    p.add_argument("--metric", choices=METRICS, help="the distance (default: the descriptor file's, its backend's)")
     p.set_defaults(func=cmd_distances)
 
     p = sub.add_parser("attributes", help="sequence matching, SMR attributes and labels of a distance matrix")
@@ -346,7 +361,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help=".csv (query,A1,A2,A3,A4,label) or .h5 (everything)")
     p.set_defaults(func=cmd_attributes)
 
-    p = sub.add_parser("train", help="train the predictor on the pooled train features of every method")
+    p = sub.add_parser("train", help="train the predictor on the pooled train attributes of every method")
     _required(p, "--dataset")
     p.add_argument("--seq-len", type=int, required=True)
     p.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
@@ -361,9 +376,9 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("evaluate", help="match removal and precision-recall of one method")
     _required(p, "--dataset", "--method")
     p.add_argument("--seq-len", type=int, required=True)
-    p.add_argument("--features", nargs="+", required=True, metavar="SPLIT=PATH")
+    p.add_argument("--attributes", nargs="+", required=True, metavar="SPLIT=PATH")
     p.add_argument("--predictors", nargs="+", required=True, help="one per seed, seed 0 first")
-    p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=("paper", "standard"))
+    p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
     p.add_argument("--trust-levels", nargs="*", type=float, default=schema_default("trust_levels"),
                    help="trust levels of the trust-level ablation (none: skip it)")
     p.add_argument("--no-restoration", dest="restoration", action="store_false", help="skip match restoration")
@@ -391,9 +406,9 @@ def build_parser() -> argparse.ArgumentParser:
     _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_without)
     c = ablation_sub.add_parser("held-out", help="a method's test split under the pooled and the without_ predictor")
-    _required(c, "--dataset", "--method", "--features", "--pooled", "--without", "--out")
+    _required(c, "--dataset", "--method", "--attributes", "--pooled", "--without", "--out")
     c.add_argument("--seq-len", type=int, required=True)
-    c.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=("paper", "standard"))
+    c.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
     _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_held_out)
 
@@ -402,6 +417,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--predictors", nargs="+", required=True)
     p.add_argument("--attribute-ablations", nargs="*")
     p.add_argument("--leave-one-out", nargs="*")
+    p.add_argument("--timings", nargs="*", help="the evaluations' .timing.json files (matched by dataset, method, L)")
     p.add_argument("--descriptors", nargs="*", help="descriptor files whose provenance the report shows")
     p.add_argument("--split", default=schema_default("table_split"))
     p.add_argument("--table-seq-lens", type=int, nargs="+", help="sequence lengths of Table I (default: all)")

@@ -42,8 +42,19 @@ def validate(conf: dict[str, Any], source: str = "configuration") -> dict[str, A
         raise ConfigError(f"{source} is invalid:\n" + "\n".join(lines))
     conf = json.loads(json.dumps(conf))
     _fill_defaults(schema, conf)
+    _fill_predictor(conf)
     _check_together(conf, source)
     return conf
+
+
+def _fill_predictor(conf: dict[str, Any]) -> None:
+    """``predictor`` completed with ``SMRPredictor``'s defaults under the user's values: the estimator owns them (the
+    schema lists the settings without defaults), and the run's configuration (the report, the jobs' params) shows
+    every setting the predictors are trained with."""
+    from vpr_smr.eval.predictor.defaults import DEFAULTS
+
+    defaults = json.loads(json.dumps(DEFAULTS))  # JSON values: tuples become lists
+    conf["predictor"] = {**defaults, **conf["predictor"]}
 
 
 def _check_together(conf: dict[str, Any], source: str) -> None:
@@ -63,7 +74,7 @@ def _check_together(conf: dict[str, Any], source: str) -> None:
 
 
 def experiments(conf: dict[str, Any]) -> set[str]:
-    """The experiments a validated configuration runs, by the names of ``eval.report.expected_outputs``."""
+    """The experiments a validated configuration runs, by the names of ``eval.report.registry.expected_outputs``."""
     chosen = conf["experiments"]
     names = {"table1", "predictor"}
     if chosen["trust_levels"] and conf["trust_levels"]:

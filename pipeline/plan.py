@@ -8,9 +8,10 @@ a ``Plan``. The Snakefile hands each job exactly the settings it uses as ``param
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +39,52 @@ class Plan:
     datasets: dict[str, DatasetPlan]
     checkpoints: dict[str, str | None]  # method -> checkpoint file the descriptors job reads, if any
     warnings: tuple[str, ...] = ()  # worth reading before a long run, not wrong (e.g. an ambiguous frame order)
+    metrics: dict[str, str] = field(default_factory=dict)  # method -> its distance (the distances jobs' setting)
+
+
+PLAN_ENV = "VPR_SMR_PLAN"  # the plan file `vpr-smr run` hands to Snakemake (and to cluster jobs that parse it)
+
+
+def _config_digest(conf: dict[str, Any]) -> str:
+    return hashlib.sha256(canonical(conf).encode()).hexdigest()
+
+
+def plan_to_json(plan: Plan, conf: dict[str, Any]) -> dict[str, Any]:
+    """The plan with the digest of the validated configuration it was made for."""
+    return {"config_sha256": _config_digest(conf), "plan": asdict(plan)}
+
+
+def plan_from_json(data: dict[str, Any], conf: dict[str, Any]) -> Plan | None:
+    """The plan of ``plan_to_json``, or None when it was made for another configuration."""
+    if data.get("config_sha256") != _config_digest(conf):
+        return None
+    plan = data["plan"]
+    datasets = {name: DatasetPlan(**{
+        **d, "splits": {k: (int(lo), int(hi)) for k, (lo, hi) in d["splits"].items()},
+        **{key: tuple(d[key]) for key in ("list_files", "overlaps", "traverses", "warnings")},
+    }) for name, d in plan["datasets"].items()}
+    return Plan(datasets, dict(plan["checkpoints"]), tuple(plan["warnings"]), dict(plan["metrics"]))
+
+
+def save_plan(plan: Plan, conf: dict[str, Any], folder: Path = Path(".snakemake", "vpr-smr")) -> Path:
+    """Write the plan where Snakemake and its jobs find it (``PLAN_ENV``); named by the configuration's digest."""
+    from vpr_smr.core.io import atomic_path
+
+    path = folder / f"plan-{_config_digest(conf)[:16]}.json"
+    with atomic_path(path) as tmp:  # not sorted: the datasets and splits keep the configuration's order
+        tmp.write_text(json.dumps(plan_to_json(plan, conf)))
+    return path
+
+
+def planned(conf: dict[str, Any]) -> Plan:
+    """The plan ``vpr-smr run`` made for this configuration (the file named by ``PLAN_ENV``), so that the checks run
+    once per run and not again when Snakemake, or a cluster job, parses the workflow; otherwise ``preflight``."""
+    path = os.environ.get(PLAN_ENV)
+    if path and Path(path).is_file():
+        plan = plan_from_json(json.loads(Path(path).read_text()), conf)
+        if plan is not None:
+            return plan
+    return preflight(conf)
 
 
 def dataset_cards(plan: Plan) -> dict[str, dict[str, Any]]:
@@ -77,7 +124,7 @@ def split_overlaps(splits: dict[str, tuple[int, int]]) -> list[str]:
 def _training_problems(conf: dict[str, Any], train: tuple[int, int]) -> list[str]:
     """Whether the train split is long enough to train every predictor of the run, at the longest ``seq_lens``
     (the fewest samples); the leave-one-method-out predictors pool one method less."""
-    from vpr_smr.eval.predictor.estimator import training_problems
+    from vpr_smr.eval.predictor.defaults import training_problems
 
     n_methods = len(conf["methods"])
     if "leave_one_method_out" in experiments(conf):
@@ -142,30 +189,86 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
     return plans
 
 
-def _check_methods(conf: dict[str, Any], problems: list[str]) -> dict[str, str | None]:
+METHODS_CHECKED = Path(".snakemake", "vpr-smr", "methods-checked.json")  # methods whose check passed, by key
+
+
+def _method_key(method: dict[str, Any]) -> str | None:
+    """What a method's check depends on: its settings, its checkpoint file's size and time, the package version;
+    None when the checkpoint is not a file here (the check reports it)."""
+    from vpr_smr.core.io import package_version
+
+    checkpoint = method.get("checkpoint")
+    stat = None
+    if checkpoint and checkpoint != "package":
+        if not Path(checkpoint).is_file():
+            return None
+        info = Path(checkpoint).stat()
+        stat = [str(Path(checkpoint).resolve()), info.st_size, info.st_mtime_ns]
+    return canonical({"method": method, "checkpoint": stat, "version": package_version()})
+
+
+def _checked_before() -> dict[str, dict[str, Any]]:
+    try:
+        return json.loads(METHODS_CHECKED.read_text())
+    except (OSError, ValueError):
+        return {}
+
+
+def _check_methods(conf: dict[str, Any], problems: list[str], metrics: dict[str, str]) -> dict[str, str | None]:
+    """Every backend, backend setting and checkpoint (keys and shapes, strictly). A method whose settings and
+    checkpoint file are unchanged since its check last passed is not checked again: loading PyTorch and a
+    checkpoint would otherwise cost seconds on every run, also one that has nothing to do."""
+    checked = _checked_before()
+    passed: dict[str, dict[str, Any]] = {}
+    checkpoints = {}
+    for name, method in conf["methods"].items():
+        checkpoint = method.get("checkpoint")
+        checkpoints[name] = checkpoint if checkpoint and checkpoint != "package" else None
+        key = _method_key(method)
+        if key is not None and key in checked:
+            metrics[name] = checked[key]["metric"]
+            passed[key] = checked[key]
+            continue
+        metric = _check_method(name, method, problems)
+        if metric is not None:
+            metrics[name] = metric
+            if key is not None:
+                passed[key] = {"metric": metric}
+    if passed.keys() != checked.keys():
+        from vpr_smr.core.io import atomic_path
+
+        try:
+            with atomic_path(METHODS_CHECKED) as tmp:
+                tmp.write_text(json.dumps(passed))
+        except OSError:
+            pass  # a read-only working folder: the checks simply run again next time
+    return checkpoints
+
+
+def _check_method(name: str, method: dict[str, Any], problems: list[str]) -> str | None:
+    """Check one method; its distance when the check passes, else None (the problems are appended)."""
     from vpr_smr.descriptors import backend_class
     from vpr_smr.descriptors.extract import check_checkpoint
 
-    checkpoints = {}
-    for name, method in conf["methods"].items():
-        try:
-            cls = backend_class(method["backend"])
-        except (ValueError, ImportError) as error:
-            problems.append(f"methods.{name}.backend: {error}")
-            continue
-        checkpoint = method.get("checkpoint")
-        checkpoints[name] = checkpoint if checkpoint and checkpoint != "package" else None
-        if cls.needs_checkpoint and not checkpoint:
-            problems.append(f"methods.{name}.checkpoint is not set: backend {method['backend']!r} needs the path "
-                            "of its downloaded checkpoint file")
-        elif checkpoints[name] and not Path(checkpoint).is_file():
-            problems.append(f"methods.{name}.checkpoint: file not found: {checkpoint}{_relative_note(checkpoint)}")
-        else:  # every key and shape of the checkpoint, and every backend setting, before the first job
-            try:
-                check_checkpoint(method, method=name)
-            except ValueError as error:
-                problems.append(f"methods.{name}: {error}")
-    return checkpoints
+    try:
+        cls = backend_class(method["backend"])
+    except (ValueError, ImportError) as error:
+        problems.append(f"methods.{name}.backend: {error}")
+        return None
+    checkpoint = method.get("checkpoint")
+    if cls.needs_checkpoint and not checkpoint:
+        problems.append(f"methods.{name}.checkpoint is not set: backend {method['backend']!r} needs the path "
+                        "of its downloaded checkpoint file")
+        return None
+    if checkpoint and checkpoint != "package" and not Path(checkpoint).is_file():
+        problems.append(f"methods.{name}.checkpoint: file not found: {checkpoint}{_relative_note(checkpoint)}")
+        return None
+    try:  # every key and shape of the checkpoint, and every backend setting, before the first job
+        check_checkpoint(method, method=name)
+    except ValueError as error:
+        problems.append(f"methods.{name}: {error}")
+        return None
+    return method.get("distance") or cls.distance
 
 
 def _check_output(conf: dict[str, Any], problems: list[str]) -> None:
@@ -180,8 +283,9 @@ def preflight(conf: dict[str, Any]) -> Plan:
     """Check a validated configuration; one ConfigError lists every problem found."""
     problems: list[str] = []
     datasets = _check_datasets(conf, problems)
-    checkpoints = _check_methods(conf, problems)
+    metrics: dict[str, str] = {}
+    checkpoints = _check_methods(conf, problems, metrics)
     _check_output(conf, problems)
     if problems:
         raise ConfigError("the configuration cannot run:\n  " + "\n  ".join(problems))
-    return Plan(datasets, checkpoints, tuple(warning for d in datasets.values() for warning in d.warnings))
+    return Plan(datasets, checkpoints, tuple(warning for d in datasets.values() for warning in d.warnings), metrics)

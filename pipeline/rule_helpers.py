@@ -1,4 +1,5 @@
-"""Small functions the Snakemake rules use to name files (kept out of the rule files, as Snakemake's lint asks)."""
+"""Small functions the Snakemake rules use to list files and build arguments (kept out of the rule files, as
+Snakemake's lint asks); every path itself comes from ``core.paths``."""
 
 from __future__ import annotations
 
@@ -7,19 +8,12 @@ import shlex
 from collections.abc import Callable, Sequence
 from typing import Any
 
-
-def features_path(out: str, dataset: str, method: str, seq_len: int | str, split: str) -> str:
-    return f"{out}/features/{dataset}/{method}/L{seq_len}/{split}.h5"
+from vpr_smr.core.paths import attributes_path
 
 
-def split_features(out: str, methods: Sequence[str], split: str) -> Callable[[Any], list[str]]:
-    """Every method's features of one split, in the configuration's order (the pooled training order)."""
-    return lambda wc: [features_path(out, wc.dataset, method, wc.seq_len, split) for method in methods]
-
-
-def seed_models(conf: dict[str, Any], stem: str) -> list[str]:
-    """The predictor files of every seed: ``<stem>.h5`` for seed 0 (the authors' recipe), then ``.seed<s>.h5``."""
-    return [f"{stem}.h5"] + [f"{stem}.seed{seed}.h5" for seed in range(1, conf["seeds"])]
+def split_attributes(out: str, methods: Sequence[str], split: str) -> Callable[[Any], list[str]]:
+    """Every method's attributes of one split, in the configuration's order (the pooled training order)."""
+    return lambda wc: [attributes_path(out, wc.dataset, method, wc.seq_len, split) for method in methods]
 
 
 def extraction_options(conf: dict[str, Any]) -> str:
@@ -27,9 +21,9 @@ def extraction_options(conf: dict[str, Any]) -> str:
     return " ".join(f"{key} {value}" for key, value in options.items() if value is not None)
 
 
-def other_features(out: str, methods: Sequence[str], wc: Any, split: str) -> list[str]:
-    """The features of one split of every method but ``wc.method`` (leave-one-method-out)."""
-    return [features_path(out, wc.dataset, method, wc.seq_len, split) for method in methods if method != wc.method]
+def other_attributes(out: str, methods: Sequence[str], wc: Any, split: str) -> list[str]:
+    """The attributes of one split of every method but ``wc.method`` (leave-one-method-out)."""
+    return [attributes_path(out, wc.dataset, method, wc.seq_len, split) for method in methods if method != wc.method]
 
 
 def name_pairs(names: Sequence[str], paths: Sequence[str]) -> str:
@@ -46,8 +40,8 @@ def method_pairs(methods: Sequence[str], held_out: str, paths: Sequence[str]) ->
 
 
 def report_outputs(conf: dict[str, Any], experiments: set[str]) -> list[str]:
-    """The report's files, relative to the run folder (``eval.report.expected_outputs`` of the configuration)."""
-    from vpr_smr.eval.report.build import expected_outputs
+    """The report's files, relative to the run folder (``eval.report.registry.expected_outputs``)."""
+    from vpr_smr.eval.report.registry import expected_outputs
 
     return expected_outputs(list(conf["datasets"]), conf["seq_lens"], conf["modes"], experiments,
                             table_seq_lens=[conf["table_seq_len"]])

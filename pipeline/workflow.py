@@ -20,7 +20,7 @@ import yaml
 from vpr_smr.core.io import atomic_path
 from vpr_smr.pipeline import console
 from vpr_smr.pipeline.config import ConfigError, load_config, parse_overrides, run_dir
-from vpr_smr.pipeline.plan import preflight
+from vpr_smr.pipeline.plan import PLAN_ENV, preflight, save_plan
 
 PACKAGE = Path(__file__).resolve().parent
 SNAKEFILE = PACKAGE / "Snakefile"
@@ -107,9 +107,11 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
     """
     parsed = parse_overrides(overrides)
     conf = load_config(config, parsed)
-    plan = preflight(conf)  # a clean error before Snakemake starts; the Snakefile checks again for direct callers
+    plan = preflight(conf)  # a clean error before Snakemake starts, and the only check of this run
     for warning in plan.warnings:
         print(f"warning: {warning}", file=sys.stderr)
+    # Snakemake (and each cluster job that parses the workflow) reads the plan instead of checking again
+    os.environ[PLAN_ENV] = str(save_plan(plan, conf).resolve())
     command = snakemake_command(config, parsed, cores, profile, dry_run, list(extra or []))
     if dry_run:
         return _snakemake(command, None if verbose else console.DryRunView(sys.stdout, sys.stderr))

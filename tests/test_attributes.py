@@ -5,7 +5,8 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from vpr_smr.eval.matching.attributes import EPS, labels_from_correctness, query_attributes, query_features
+from vpr_smr.core.constants import EPS
+from vpr_smr.eval.matching.attributes import labels_from_correctness, query_attributes, query_features
 
 D = np.array([[1, 2, 4], [2, 1, 2], [4, 4, 1], [4, 2, 2]], dtype=float)
 

@@ -6,6 +6,7 @@ import textwrap
 import numpy as np
 import pytest
 import torch
+from helpers import TINY_NET
 
 from vpr_smr.datasets import load_dataset
 from vpr_smr.descriptors import available_backends, backend_class, extract
@@ -127,26 +128,11 @@ def test_distance_setting_overrides_the_backend_default():
         backend_class("hog")({"colour": 1})
 
 
-TINY_NET = '''
-import torch
-from vpr_smr.descriptors.base import TorchBackend, to_tensor
-
-class TinyNet(TorchBackend):
-    name = "tiny_net"
-
-    def build_model(self):
-        return torch.nn.Sequential(torch.nn.Conv2d(3, 2, 1), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
-
-    def preprocess(self, image):
-        return to_tensor(image)
-'''
-
-
 @pytest.fixture
 def tiny_net(tmp_path, monkeypatch):
     (tmp_path / "tiny_plugin.py").write_text(TINY_NET)
     monkeypatch.syspath_prepend(str(tmp_path))
-    yield {"backend": "tiny_plugin:TinyNet", "device": "cpu"}
+    yield {"backend": "tiny_plugin:TinyNet", "device": "cpu", "channels": 2, "kernel": 1}  # WEIGHT's shape
     sys.modules.pop("tiny_plugin", None)
 
 

@@ -14,28 +14,13 @@ import numpy as np
 import pytest
 import torch
 import yaml
+from helpers import TINY_NET, tiny_net_model
 
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 from vpr_smr.pipeline.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
 SAMPLE = sorted((DEFAULT_ROOT / "summer").iterdir())[:12]
-
-TINY_NET = '''
-import torch
-from vpr_smr.descriptors.base import TorchBackend, to_tensor
-
-
-class TinyNet(TorchBackend):
-    name = "tiny_net"
-
-    def build_model(self):
-        return torch.nn.Sequential(torch.nn.Conv2d(3, 4, 3), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
-
-    def preprocess(self, image):
-        return to_tensor(image)  # full size: frames of different sizes cannot share a batch
-'''
-
 
 def image_folders(tmp_path, n_reference=12, n_query=12):
     for name, count in (("ref", n_reference), ("qry", n_query)):
@@ -116,7 +101,7 @@ def test_corrupt_image_names_the_file(tmp_path, capsys, folders):
 def test_images_of_different_sizes(tmp_path, capsys, folders, monkeypatch):
     (tmp_path / "tinynet.py").write_text(TINY_NET)
     monkeypatch.syspath_prepend(str(tmp_path))
-    torch.save(torch.nn.Sequential(torch.nn.Conv2d(3, 4, 3)).state_dict(), tmp_path / "tiny.pt")
+    torch.save(tiny_net_model().state_dict(), tmp_path / "tiny.pt")
     big = folders[1] / SAMPLE[3].name
     cv2.imwrite(str(big), cv2.resize(cv2.imread(str(big)), (80, 40)))
     path = config(tmp_path, methods={"tiny": {"backend": "tinynet:TinyNet", "checkpoint": str(tmp_path / "tiny.pt")}})
@@ -138,7 +123,7 @@ def test_bad_splits(tmp_path, capsys, folders, splits, message):
 def test_wrong_checkpoint_keys_fail_before_any_job(tmp_path, capsys, folders, monkeypatch):
     (tmp_path / "tinynet.py").write_text(TINY_NET)
     monkeypatch.syspath_prepend(str(tmp_path))
-    torch.save({"backbone.weight": torch.zeros(4, 3, 3, 3)}, tmp_path / "other.pt")
+    torch.save({"backbone.weight": torch.zeros(8, 3, 3, 3)}, tmp_path / "other.pt")
     path = config(tmp_path, methods={"tiny": {"backend": "tinynet:TinyNet", "checkpoint": str(tmp_path / "other.pt")}})
     fails(capsys, ["run", str(path)], "methods.tiny", "other.pt", "missing keys", "0.weight", "unexpected keys",
           "backbone.weight")

@@ -6,10 +6,11 @@ import h5py
 import numpy as np
 import pytest
 
+from vpr_smr.core.constants import EPS
 from vpr_smr.core.io import read_provenance
 from vpr_smr.eval.matching import attributes as features
 from vpr_smr.eval.matching import distances
-from vpr_smr.eval.matching.attributes import EPS, query_features, read_features
+from vpr_smr.eval.matching.attributes import query_features, read_features
 from vpr_smr.eval.matching.io import open_distance_matrix
 
 PROVENANCE = {"dataset": "toy", "method": "hog", "checkpoint_sha256": "none", "frames_sha256": "abc"}

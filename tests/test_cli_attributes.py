@@ -5,7 +5,7 @@ import csv
 import numpy as np
 import pytest
 
-from vpr_smr.eval.matching.attributes import EPS
+from vpr_smr.core.constants import EPS
 from vpr_smr.pipeline.cli import main
 
 D = np.array([[1, 2, 4], [2, 1, 2], [4, 4, 1], [4, 2, 2]], dtype=float)

@@ -1,3 +1,4 @@
+import json
 import re
 import textwrap
 
@@ -98,3 +99,28 @@ def test_preflight_names_missing_checkpoint_and_root(tmp_path):
     assert "image folder not found: /nowhere/summer" in text
     assert "methods.effnet.checkpoint is not set" in text
     assert "methods.other.backend: unknown descriptor backend 'no_such_backend'" in text
+
+
+def test_schema_defaults_agree_with_the_library():
+    # The schema repeats what a JSON schema cannot import: core.constants owns these values.
+    from vpr_smr.core.constants import DEFAULT_TRUST_LEVELS, MODES
+    from vpr_smr.pipeline.config import SCHEMA_PATH, schema_default
+
+    assert tuple(schema_default("trust_levels")) == DEFAULT_TRUST_LEVELS
+    assert tuple(schema_default("modes")) == MODES
+    assert tuple(json.loads(SCHEMA_PATH.read_text())["properties"]["modes"]["items"]["enum"]) == MODES
+
+
+def test_predictor_gets_the_estimators_defaults_under_the_users_values(tmp_path):
+    # SMRPredictor owns the defaults: the schema lists the settings only, validation fills every one in.
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+    from vpr_smr.pipeline.config import SCHEMA_PATH
+
+    settings = json.loads(SCHEMA_PATH.read_text())["properties"]["predictor"]["properties"]
+    defaults = SMRPredictor().get_params()
+    assert set(settings) == set(defaults)
+    assert not any("default" in setting for setting in settings.values())
+    assert all(setting.get("description") for setting in settings.values())
+    conf = load_config(DEMO, {"predictor": {"max_iter": 7, "column_order": None}})
+    assert conf["predictor"] == {**json.loads(json.dumps(defaults)), "max_iter": 7, "column_order": None}
+    assert load_config(DEMO)["predictor"]["hidden_layer_sizes"] == list(defaults["hidden_layer_sizes"])

@@ -41,7 +41,7 @@ def test_seeds_recall_and_trust_levels():
     features = keyed_features(all_single_correct=np.array([False, True, False, True, False]),
                               single_correct=np.array([True, False, True, False]))
     seeds = [TablePredictor(REMOVE_Q1), TablePredictor({}), TablePredictor(REMOVE_Q1_Q3)]
-    result = evaluate_split(features, seeds, modes=("standard", "paper"), trust_levels=(0.0, 0.9))
+    result = evaluate_split(features, seeds, modes=("standard", "paper"), trust_levels=(0.0, 0.9))[0].to_json()
     standard = result["modes"]["standard"]
     # seed 0 removes q1 (wrong): (.25, 1), (.5, 1), (.5, 2/3) -> AUC .5, R_max .5; AOC .5 - 19/48 -> 0.
     assert standard["auc_vpr_sm_pred"] == pytest.approx(0.5)
@@ -73,7 +73,7 @@ def test_restoration_is_added_on_request():
     # q1 removed; its rank-1 alternative (key 11) is predicted right and is right
     features = keyed_features()
     predictor = TablePredictor({**REMOVE_Q1, 11: [0.9, 0.1, 0, 0], 1: [1, 0, 0, 0]})
-    result = evaluate_split(features, [predictor], modes=("standard",), trust_levels=(), restoration=True)
+    result = evaluate_split(features, [predictor], modes=("standard",), trust_levels=(), restoration=True)[0].to_json()
     restoration = result["restoration"]
     assert (restoration["removed"], restoration["restored"], restoration["wrong_to_right"]) == (1, 1, 1)
     # restoration keeps every query, q1 now right: T T T F -> (.25,1), (.5,1), (.75,1), (.75,.75): AUC .75

@@ -74,7 +74,7 @@ def uninterrupted(tmp_path_factory):
 
 def test_killed_runs_resume_to_identical_tables(uninterrupted, tmp_path):
     logs = tmp_path / "results" / "f" / "logs"
-    for stage_log in ("descriptors/sample/hog.log", "features/sample/sad/L3/test.log", "predictors/sample/L3.log"):
+    for stage_log in ("descriptors/sample/hog.log", "attributes/sample/sad/L3/test.log", "predictors/sample/L3.log"):
         process = start(tmp_path)
         wait_for(logs / stage_log, process)
         os.killpg(process.pid, signal.SIGKILL)

@@ -16,13 +16,8 @@ from helpers import write_distance_matrix
 
 from vpr_smr.core.io import write_json
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features, write_features
-from vpr_smr.eval.predictor.estimator import (
-    MIN_TRAIN_SAMPLES,
-    SMRPredictor,
-    fit_problem,
-    label_problems,
-    training_problems,
-)
+from vpr_smr.eval.predictor.defaults import MIN_TRAIN_SAMPLES, training_problems
+from vpr_smr.eval.predictor.estimator import SMRPredictor, fit_problem, label_problems
 from vpr_smr.eval.report import build as report
 from vpr_smr.eval.scoring.curves import Curve, compare_curves, reduction_pct
 from vpr_smr.pipeline.cli import main
@@ -58,8 +53,8 @@ def test_restoration_reduction_is_undefined_when_removal_is_perfect():
 
     perfect = Curve(np.array([0.0, 0.5, 1.0]), np.array([1.0, 1.0, 1.0]))
     half = Curve(np.array([0.0, 1.0]), np.array([1.0, 0.5]))  # AUC 0.75, AOC 0.25
-    assert compare(half, perfect, half)["reduction_pct"] is None
-    assert compare(half, half, perfect)["reduction_pct"] == pytest.approx(100.0)  # (0.25 - 0) / 0.25
+    assert compare(half, perfect, half).reduction_pct is None
+    assert compare(half, half, perfect).reduction_pct == pytest.approx(100.0)  # (0.25 - 0) / 0.25
 
 
 def perfect_features(n: int = 30, seq_len: int = 4) -> QueryFeatures:
@@ -84,7 +79,7 @@ def test_perfect_baseline_gives_null_reductions_in_the_evaluation(tmp_path, caps
     assert features.labels.tolist() == [0] * 27  # 30 - 4 + 1 queries, all correct before and after
     write_features(tmp_path / "test.h5", features, {})
     predictors = [small_predictor(tmp_path / "p.h5"), small_predictor(tmp_path / "p.seed1.h5", 1)]
-    assert main(["evaluate", "--dataset", "d", "--method", "m", "--seq-len", "4", "--features",
+    assert main(["evaluate", "--dataset", "d", "--method", "m", "--seq-len", "4", "--attributes",
                  f"test={tmp_path / 'test.h5'}", "--predictors", *map(str, predictors), "--trust-levels", "0.5",
                  "--out", str(tmp_path / "e.json")]) == 0
     text = (tmp_path / "e.json").read_text()
@@ -113,12 +108,18 @@ def hand_evaluation(method: str, aoc_base: float, aoc_pred: float, reduction: fl
     numbers = {"recall_at_1_single": 0.5, "recall_at_1_sequence": 0.7, "max_recall": 1.0, "aoc_vpr_sm": aoc_base,
                "aoc_vpr_sm_pred": aoc_pred, "reduction_pct": reduction, "auc_vpr_sm": 1 - aoc_base,
                "auc_vpr_sm_pred": 1 - aoc_pred, "curve_vpr_sm": line, "curve_vpr_sm_pred": line,
+               "recall_at_100_precision_vpr_sm": 0.0, "recall_at_100_precision_vpr_sm_pred": 0.0,
                "trust_auc": {"0.5": {"removed": 1, "max_recall": 1.0, "auc": 0.9, "aoc": 0.1, "auc_vpr_sm": 0.8,
                                      "aoc_vpr_sm": aoc_base, "reduction_pct": reduction}}}
-    split = {"n_queries": 57, "n_queries_split": 60, "f1_macro": 0.5, "confusion_matrix": np.eye(4, dtype=int).tolist(),
-             "class_counts": [1, 1, 1, 1], "predicted_counts": [1, 1, 1, 1], "predict_seconds": 0.01,
-             "modes": {"paper": numbers}, "seed_summary": {"paper": summary}}
-    return {"meta": {"dataset": "d", "method": method, "seq_len": 4}, "splits": {"test": split}}
+    reductions = [{"max_recall": 1.0, "auc_vpr_sm": 1 - aoc_base, "auc_vpr_sm_pred": 1 - aoc_pred,
+                   "aoc_vpr_sm": aoc_base, "aoc_vpr_sm_pred": aoc_pred, "reduction_pct": seed} for seed in seeds]
+    split = {"n_queries": 57, "n_queries_split": 60, "recall_at_1_single_all": 0.5, "recall_at_1_single_evaluated": 0.5,
+             "recall_at_1_sequence": 0.7, "f1_macro": 0.5, "confusion_matrix": np.eye(4, dtype=int).tolist(),
+             "class_counts": [1, 1, 1, 1], "predicted_counts": [1, 1, 1, 1], "removed": 1,
+             "modes": {"paper": numbers}, "seed_summary": {"paper": summary},
+             "seeds": [{"seed": i, "f1_macro": 0.5, "removed": 1, "modes": {"paper": reduction}}
+                       for i, reduction in enumerate(reductions)]}
+    return {"meta": {"dataset": "d", "method": method, "seq_len": 4}, "predictors": ["p.h5"], "splits": {"test": split}}
 
 
 @pytest.fixture
@@ -165,10 +166,10 @@ def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
 
 
 def test_leave_one_out_rows_show_na():
-    numbers = {"f1_macro": 0.5, "removed": 3, "modes": {"paper": {"aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": 0.0,
-                                                                  "reduction_pct": None}}}
-    rows = report.lomo_rows([{"meta": {"dataset": "d", "seq_len": 4, "held_out": "m"}, "n_queries": 57,
-                              "predictors": {"pooled": numbers, "without": numbers}}])
+    from vpr_smr.eval.scoring.records import HeldOut, HeldOutScores, ModeRemoval, Reduction
+
+    numbers = HeldOutScores("p.h5", 0.5, 3, {"paper": ModeRemoval(0.5, 0.5, Reduction(1.0, 1.0, 1.0, 0.0, 0.0, None))})
+    rows = report.lomo_rows([HeldOut({"dataset": "d", "method": "m", "seq_len": 4}, 57, numbers, numbers)])
     text = report.markdown_table(report.LOMO_COLUMNS, rows)
     assert text.splitlines()[-1] == ("| d | 4 | m | paper | 57 | 0.5000 | 0.5000 | 3 | 3 | 0.0000 | 0.0000 | 0.0000 "
                                      "| n/a | n/a |")
@@ -242,12 +243,12 @@ def test_report_keeps_the_configurations_method_order(hand_run, capsys):
     (["descriptors", "--dataset", "d", "--method", "m"], "d.json", ".h5 or .hdf5"),
     (["distances", "--descriptors", "d.h5", "--split", "test", "--frames", "0", "10"], "D.npy", ".h5 or .hdf5"),
     (["train", "--dataset", "d", "--seq-len", "4", "--train", "a.h5"], "L4.json", ".h5 or .hdf5"),
-    (["evaluate", "--dataset", "d", "--method", "m", "--seq-len", "4", "--features", "test=t.h5",
+    (["evaluate", "--dataset", "d", "--method", "m", "--seq-len", "4", "--attributes", "test=t.h5",
       "--predictors", "L4.h5"], "L4.h5", ".json"),
     (["ablation", "attributes", "--dataset", "d", "--seq-len", "4", "--train", "a.h5"], "t2", ".json"),
     (["ablation", "without", "--dataset", "d", "--method", "m", "--seq-len", "4", "--train", "a=a.h5"],
      "w.json", ".h5 or .hdf5"),
-    (["ablation", "held-out", "--dataset", "d", "--method", "m", "--seq-len", "4", "--features", "f.h5",
+    (["ablation", "held-out", "--dataset", "d", "--method", "m", "--seq-len", "4", "--attributes", "f.h5",
       "--pooled", "p.h5", "--without", "w.h5"], "m.csv", ".json"),
 ])
 def test_out_suffix_is_checked_first(tmp_path, capsys, monkeypatch, command, out, allowed):

@@ -90,21 +90,31 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4)) -> t
     from vpr_smr.eval.predictor.estimator import SMRPredictor
     from vpr_smr.eval.report.build import main
     from vpr_smr.eval.scoring.evaluate import evaluate_split
+    from vpr_smr.eval.scoring.records import (
+        Evaluation,
+        HeldOut,
+        HeldOutScores,
+        ModeRemoval,
+        Reduction,
+        SplitTiming,
+        Timing,
+    )
 
     rng = np.random.default_rng(0)
-    evaluations, predictors = [], []
+    evaluations, timings, predictors = [], [], []
     for seq_len in seq_lens:
         for i, method in enumerate(("m1", "m2")):
             matrix = rng.random((60, 60)) + (0.5 + 0.2 * i) * (1 - np.eye(60))
             features = query_features(matrix, seq_len)
             fitted = [SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=s).fit(
                 features.attributes[:, 0], features.labels) for s in (0, 1)]
-            result = evaluate_split(features, fitted, modes=modes, trust_levels=(0.0, 0.9), restoration=True)
-            result.update(attributes_seconds=0.2, seconds_per_query=0.01)
+            result, seconds = evaluate_split(features, fitted, modes=modes, trust_levels=(0.0, 0.9), restoration=True)
+            meta = {"dataset": "d", "method": method, "seq_len": seq_len}
             path = tmp_path / f"e_{method}_L{seq_len}.json"
-            write_json(path, {"meta": {"dataset": "d", "method": method, "seq_len": seq_len},
-                              "splits": {"test": result}})
+            write_json(path, Evaluation(meta, ("p.h5",), {"test": result}).to_json())
             evaluations.append(path)
+            timings.append(tmp_path / f"e_{method}_L{seq_len}.timing.json")
+            write_json(timings[-1], Timing(meta, {"test": SplitTiming.of(0.2, seconds, result.n_queries)}).to_json())
         path = tmp_path / f"p_L{seq_len}.json"
         write_json(path, {"meta": {"dataset": "d", "seq_len": seq_len}, "n_train": 57, "f1_cv": 0.5, "f1_val": 0.4,
                           "f1_test": 0.3, "train_class_counts": [30, 10, 10, 7]})
@@ -113,19 +123,19 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4)) -> t
     write_json(ablation, {"meta": {"dataset": "d", "seq_len": 4}, "attributes": {
         name: {"f1_cv": 0.5, "f1_val": 0.5, "f1_test": 0.5} for name in ("A1", "A2", "A3", "A4", "all")}})
     lomo = tmp_path / "lomo.json"
-    numbers = {"f1_macro": 0.5, "removed": 3, "modes": {mode: {"aoc_vpr_sm": 0.2, "aoc_vpr_sm_pred": 0.1,
-                                                               "reduction_pct": 50.0} for mode in modes}}
-    write_json(lomo, {"meta": {"dataset": "d", "seq_len": 4, "held_out": "m1"}, "n_queries": 57,
-                      "predictors": {"pooled": numbers, "without": numbers}})
+    scores = HeldOutScores("p.h5", 0.5, 3, {mode: ModeRemoval(0.5, 0.5, Reduction(1.0, 0.8, 0.9, 0.2, 0.1, 50.0))
+                                            for mode in modes})
+    write_json(lomo, HeldOut({"dataset": "d", "method": "m1", "seq_len": 4}, 57, scores, scores).to_json())
     run = tmp_path / "run"
-    written = main(run, evaluations, predictors, [ablation], [lomo], table_seq_lens=[4], seq_len_ablation=True,
+    written = main(run, evaluations, predictors, [ablation], [lomo], timings=timings, table_seq_lens=[4],
+                   seq_len_ablation=True,
                    config="run: demo\nseq_lens: [2, 4]\n",
                    provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}})
     return run, written
 
 
 def test_every_experiment_gives_its_tables_and_figures(tmp_path):
-    from vpr_smr.eval.report.build import expected_outputs
+    from vpr_smr.eval.report.registry import expected_outputs
 
     run, written = build_run(tmp_path)
     experiments = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out"}
@@ -160,14 +170,15 @@ def test_tables_and_figures_with_standard_mode_only(tmp_path):
     from vpr_smr.eval.predictor.estimator import SMRPredictor
     from vpr_smr.eval.report.build import main
     from vpr_smr.eval.scoring.evaluate import evaluate_split
+    from vpr_smr.eval.scoring.records import Evaluation
 
     rng = np.random.default_rng(0)
     matrix = rng.random((60, 60)) + 0.7 * (1 - np.eye(60))  # the diagonal is often, not always, the best
     features = query_features(matrix, 4)
     predictor = SMRPredictor(hidden_layer_sizes=(8,), max_iter=50).fit(features.attributes[:, 0], features.labels)
-    result = evaluate_split(features, predictor, modes=("standard",), trust_levels=(0.0, 0.9))
-    evaluation = {"meta": {"dataset": "d", "method": "m", "seq_len": 4}, "splits": {"test": result}}
-    write_json(tmp_path / "e.json", evaluation)
+    result, _ = evaluate_split(features, predictor, modes=("standard",), trust_levels=(0.0, 0.9))
+    evaluation = Evaluation({"dataset": "d", "method": "m", "seq_len": 4}, ("p.h5",), {"test": result})
+    write_json(tmp_path / "e.json", evaluation.to_json())
     write_json(tmp_path / "p.json", {"meta": {"dataset": "d", "seq_len": 4}, "n_train": 57, "f1_cv": 0.5,
                                      "f1_val": 0.4, "f1_test": 0.3})
     main(tmp_path / "out", [tmp_path / "e.json"], [tmp_path / "p.json"], html=False)

@@ -18,27 +18,11 @@ import textwrap
 import pytest
 import torch
 import yaml
+from helpers import TINY_NET, tiny_net_model
 
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 
 pytestmark = pytest.mark.slow
-
-TINY_NET = '''
-import torch
-from vpr_smr.descriptors.base import TorchBackend, to_tensor
-
-
-class TinyNet(TorchBackend):
-    """A 3x3 convolution and global average pooling: a learned backend whose weights come from a file."""
-
-    name = "tiny_net"
-
-    def build_model(self):
-        return torch.nn.Sequential(torch.nn.Conv2d(3, 8, 3), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
-
-    def preprocess(self, image):
-        return to_tensor(image)
-'''
 
 BASE = {
     "run": "r",
@@ -82,7 +66,7 @@ def distances(methods=METHODS, splits=SPLITS):
 
 
 def attributes(methods=METHODS, splits=SPLITS, seq_len=3):
-    return {("attributes", f"features/sample/{m}/L{seq_len}/{s}.h5") for m in methods for s in splits}
+    return {("attributes", f"attributes/sample/{m}/L{seq_len}/{s}.h5") for m in methods for s in splits}
 
 
 def train(seq_len=3):
@@ -118,7 +102,7 @@ def base(tmp_path_factory):
     folder = tmp_path_factory.mktemp("base")
     (folder / "tinynet.py").write_text(TINY_NET)
     torch.manual_seed(0)
-    net = torch.nn.Sequential(torch.nn.Conv2d(3, 8, 3), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
+    net = tiny_net_model()
     torch.save(net.state_dict(), folder / "tiny.pt")
     write_config(folder, BASE)
     result = vpr_smr(folder, "run", "c.yaml")
@@ -159,10 +143,14 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
                  id="split-range"),
     pytest.param(lambda c: c["datasets"]["sample"].update(frames=[1000, 1121]),
                  descriptors(*METHODS) | ALL_BUT_DESCRIPTORS, id="frames"),
-    # the predictor without SAD never reads SAD's files
+    # the predictor without tiny never reads tiny's files
+    pytest.param(lambda c: c["methods"]["tiny"].update(preprocessing="vpr-methods-evaluation"),
+                 descriptors("tiny") | distances(["tiny"]) | attributes(["tiny"]) | attribute_ablation()
+                 | without(other("tiny")) | PREDICTOR_ON, id="backend-setting"),
+    # the distance changes the distance matrices, not the descriptors: no extraction reruns
     pytest.param(lambda c: c["methods"]["sad"].update(distance="l2"),
-                 descriptors("sad") | distances(["sad"]) | attributes(["sad"]) | attribute_ablation()
-                 | without(other("sad")) | PREDICTOR_ON, id="backend-setting"),
+                 distances(["sad"]) | attributes(["sad"]) | attribute_ablation()
+                 | without(other("sad")) | PREDICTOR_ON, id="distance"),
     # Table I moves to L = 4 (table_seq_len: 4 when listed), with its ablations; L = 3 stays as it is
     pytest.param(lambda c: c.update(seq_lens=[3, 4]),
                  attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | attribute_ablation(4) | without(seq_len=4)
@@ -191,7 +179,7 @@ def test_dataset_root_reruns_everything(copy, tmp_path):
 
 def test_checkpoint_content_reruns_its_method(copy):
     torch.manual_seed(1)
-    net = torch.nn.Sequential(torch.nn.Conv2d(3, 8, 3), torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
+    net = tiny_net_model()
     torch.save(net.state_dict(), copy / "tiny.pt")
     assert planned(copy) == (descriptors("tiny") | distances(["tiny"]) | attributes(["tiny"])
                              | attribute_ablation() | without(other("tiny")) | PREDICTOR_ON)

@@ -60,7 +60,7 @@ def test_restoration_gains_when_the_replacement_is_right_and_the_removed_match_w
     assert result.removed.tolist() == [False, True, False, True]
     assert result.restored_rank.tolist() == [-1, 1, -1, -1]
     assert result.correct.tolist() == [True, True, True, False]
-    numbers = evaluate_restoration(features, probabilities, CLASSES, ("standard",))
+    numbers = evaluate_restoration(features, probabilities, CLASSES, ("standard",)).to_json()
     assert (numbers["restored"], numbers["wrong_to_right"], numbers["right_to_wrong"]) == (1, 1, 0)
     assert numbers["restored_by_rank"] == [1, 0]
     standard = numbers["modes"]["standard"]
@@ -85,7 +85,7 @@ def test_restoration_loses_when_the_replacement_is_wrong_and_the_removed_match_w
     features = make_features([True, True, True, False], [[1, 0, 0], [0, 1, 0], [1, 0, 0], [0, 0, 0]])
     probabilities = np.array([[KEEP, NO, NO], [REMOVE, proba(2, 0.55), proba(0, 0.7)], [KEEP, NO, NO],
                               [REMOVE, NO, NO]])
-    numbers = evaluate_restoration(features, probabilities, CLASSES, ("standard",))
+    numbers = evaluate_restoration(features, probabilities, CLASSES, ("standard",)).to_json()
     assert numbers["restored_by_rank"] == [0, 1]
     assert (numbers["restored_correct"], numbers["restored_wrong"], numbers["right_to_wrong"]) == (0, 1, 1)
     standard = numbers["modes"]["standard"]
@@ -102,7 +102,7 @@ def test_paper_mode_counts_recall_over_the_correct_proposed_matches():
     # q0 kept but wrong, q1 removed (wrong) and restored right by rank 1, q2 and q3 kept and right.
     features = make_features([False, False, True, True], [[0, 0, 0], [0, 1, 0], [1, 0, 0], [1, 0, 0]])
     probabilities = np.array([[KEEP, NO, NO], [REMOVE, proba(0, 0.6), NO], [KEEP, NO, NO], [KEEP, NO, NO]])
-    paper = evaluate_restoration(features, probabilities, CLASSES, ("paper",))["modes"]["paper"]
+    paper = evaluate_restoration(features, probabilities, CLASSES, ("paper",)).to_json()["modes"]["paper"]
     # removal, 2 correct matches: TP = 0 below .3 -> (0, 0); (.5, .5) from .3; (1, 2/3) at .4.
     # AUC = (0 + .5) / 2 * .5 + (.5 + 2/3) / 2 * .5 = 5/12.
     assert paper["auc_removal"] == pytest.approx(5 / 12)

@@ -1,7 +1,10 @@
+"""Sequence matching of the attributes stage against hand-worked values and the naive references of tests/helpers."""
+
 import numpy as np
 import pytest
+from helpers import sequence_matches, sequence_matrix, single_frame_matches
 
-from vpr_smr.eval.matching.sequence import is_correct, sequence_matches, sequence_matrix, single_frame_matches
+from vpr_smr.eval.matching.attributes import is_correct, query_features
 
 # A 4 x 3 matrix (references x queries) worked through by hand.
 D = np.array([[1, 2, 4], [2, 1, 2], [4, 4, 1], [4, 2, 2]], dtype=float)
@@ -24,15 +27,23 @@ def test_matches_by_hand():
     np.testing.assert_array_equal(match, [1, 2])
     np.testing.assert_array_equal(distance, [2, 2])
     np.testing.assert_array_equal(single_frame_matches(D), [0, 1, 2])
+    features = query_features(D, 2)
+    np.testing.assert_array_equal(features.sequence_match, [1, 2])
+    np.testing.assert_array_equal(features.sequence_distance, [2, 2])
+    np.testing.assert_array_equal(features.single_match, [1, 2])
 
 
-def test_naive_convolution_agrees():
-    rng = np.random.default_rng(0)
-    matrix = rng.random((23, 17))
-    for seq_len in (2, 4, 7):
-        naive = np.array([[sum(matrix[i + k, j + k] for k in range(seq_len)) for j in range(17 - seq_len + 1)]
-                          for i in range(23 - seq_len + 1)])
-        np.testing.assert_allclose(sequence_matrix(matrix, seq_len), naive, rtol=1e-12)
+@pytest.mark.parametrize("seq_len", [2, 4, 7])
+def test_query_features_match_the_naive_reference(seq_len):
+    matrix = np.random.default_rng(seq_len).random((23, 17))
+    features = query_features(matrix, seq_len)
+    sequence = sequence_matrix(matrix, seq_len)
+    match, distance = sequence_matches(sequence, seq_len)
+    np.testing.assert_array_equal(features.sequence_match, match)
+    np.testing.assert_allclose(features.sequence_distance, distance, rtol=1e-12)
+    np.testing.assert_array_equal(features.single_match, single_frame_matches(matrix)[seq_len - 1 :])
+    assert features.sequence_min == pytest.approx(sequence.min(), rel=1e-12)
+    assert features.sequence_max == pytest.approx(sequence.max(), rel=1e-12)
 
 
 def test_ground_truth_tolerance():
@@ -50,4 +61,4 @@ def test_ground_truth_tolerance():
 )
 def test_bad_matrices(matrix, seq_len, message):
     with pytest.raises(ValueError, match=message):
-        sequence_matrix(matrix, seq_len)
+        query_features(matrix, seq_len)

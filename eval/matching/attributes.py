@@ -16,9 +16,9 @@ does not depend on the sequence length ``L`` or on a sort of the whole column:
 
 Every reported number is therefore the float64 value of the definition, bit for bit, whatever the block size or the
 screening precision (float32 only decides which few candidates are recomputed): block-wise equals whole-matrix
-exactly, and the live matcher (``eval.live``), which runs the same code on one window, equals the batch.
+exactly, and the live matcher (``eval.matching.live``), which runs the same code on one window, equals the batch.
 
-When numba is importable, the same selection runs compiled (``eval.kernels``): the matrix is read in its own
+When numba is importable, the same selection runs compiled (``eval.matching.kernels``): the matrix is read in its own
 layout, screened in float64 with the same error bounds, and every reported number is again the definition's float64
 value, so the compiled and the numpy paths give identical results. ``_kernels`` picks the path, in this one
 place: compiled for large matrices (``KERNEL_MIN_VALUES``) when numba imports, numpy otherwise, or as ``KERNEL``
@@ -30,7 +30,7 @@ from __future__ import annotations
 import logging
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
 from types import ModuleType
@@ -40,25 +40,16 @@ import h5py
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
+from vpr_smr.core.constants import DEFAULT_TOLERANCE, EPS, GROUP_HALF_WIDTH
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
+from vpr_smr.eval.matching.checks import check_finite, check_shape
 from vpr_smr.eval.matching.io import open_distance_matrix
-from vpr_smr.eval.matching.sequence import (
-    DEFAULT_TOLERANCE,
-    check_finite,
-    check_shape,
-    diagonal_sums,
-    is_correct,
-    sequence_matrix,
-)
 
 __all__ = [
-    "ATTRIBUTE_NAMES", "EPS", "QueryFeatures", "block_features", "diagonal_sums", "is_correct",
-    "labels_from_correctness", "normalise_columns", "query_attributes", "query_features", "read_columns",
-    "sequence_matrix",
+    "ATTRIBUTE_NAMES", "QueryFeatures", "block_features", "is_correct", "labels_from_correctness",
+    "query_attributes", "query_features", "read_columns",
 ]
 
-EPS = 1e-6
-GROUP_HALF_WIDTH = 2  # W in the paper: the group of diagonal i is i-W .. i+W
 ATTRIBUTE_NAMES = ("A1", "A2", "A3", "A4")  # minimum sum, minimum value, block sum, group sum rates
 BLOCK_VALUES = 1 << 20  # about 1 M values (4 MB of float32) per block of query columns: measured fastest
 SCREEN_GROUP = 32
@@ -71,7 +62,7 @@ KERNEL: str | None = None  # "numba" or "numpy" forces a path; None: VPR_SMR_KER
 
 
 def _kernels(n_values: int) -> ModuleType | None:
-    """The compiled kernels (``eval.kernels``) for a matrix of ``n_values`` values, or None for the numpy path.
+    """The compiled kernels (``eval.matching.kernels``) for a matrix of ``n_values`` values, or None for the numpy path.
 
     The one place that chooses: ``KERNEL``, else the environment variable ``VPR_SMR_KERNEL`` (``numba`` or
     ``numpy``), else numba when it imports and the matrix has at least ``KERNEL_MIN_VALUES`` values. A missing
@@ -114,11 +105,9 @@ class QueryFeatures:
     all_single_correct: np.ndarray  # (Q,) bool: single-frame correctness of every query, the first L-1 included
 
 
-def normalise_columns(distance_matrix: np.ndarray) -> np.ndarray:
-    """Divide each query column by its maximum over all references (a zero maximum divides by 1)."""
-    col_max = distance_matrix.max(axis=0)
-    col_max = np.where(col_max == 0, 1.0, col_max)
-    return distance_matrix / col_max
+def is_correct(reference: np.ndarray, query: np.ndarray, tolerance: int) -> np.ndarray:
+    """Ground truth of a frame-aligned pair: a match is correct iff ``|r - q| <= tolerance``."""
+    return np.abs(np.asarray(reference) - np.asarray(query)) <= tolerance
 
 
 def labels_from_correctness(single_correct: np.ndarray, sequence_correct: np.ndarray) -> np.ndarray:
@@ -286,17 +275,17 @@ def _numpy_block_features(
     if not (np.all(np.isfinite(raw_max)) and np.all(np.isfinite(raw_min))):
         check_finite(raw, where=where)
     col_max = raw_max.astype(np.float64)
-    col_max[col_max == 0] = 1.0  # as normalise_columns
+    col_max[col_max == 0] = 1.0  # each column divided by its maximum; a zero maximum by 1
     magnitude_raw = float(max(np.abs(raw_max).max(), np.abs(raw_min).max()))
     magnitude = float((np.maximum(np.abs(raw_max), np.abs(raw_min)) / np.abs(col_max)).max()) * (1 + 1e-6)
 
     def value(j: np.ndarray, r: np.ndarray, normalised: bool) -> np.ndarray:
-        """D[r, j] (block column j) in float64, divided by its column maximum as normalise_columns does."""
+        """D[r, j] (block column j) in float64, divided by its column maximum."""
         v = raw[j, r].astype(np.float64)
         return v / col_max[j] if normalised else v
 
     def diagonal_sum(j: np.ndarray, d: np.ndarray, n_terms: int, normalised: bool) -> np.ndarray:
-        """``0 + x_0 + x_1 + ...`` along diagonal d from block column j, in diagonal_sums' order."""
+        """``0 + x_0 + x_1 + ...`` along diagonal d from block column j, the definition's order."""
         acc = np.zeros(len(j))
         for c in range(n_terms):
             acc += value(j + c, d + c, normalised)
@@ -386,7 +375,7 @@ def _compiled_features(kernels: ModuleType, raw: np.ndarray, seq_len: int, n_ran
     if np.any(col_bad != 0):
         check_finite(raw, where=where)
     col_max64 = col_max.astype(np.float64)
-    col_max64[col_max64 == 0] = 1.0  # as normalise_columns
+    col_max64[col_max64 == 0] = 1.0  # a zero maximum divides by 1
     size = np.maximum(np.abs(col_max), np.abs(col_min)).astype(np.float64)
     magnitude_raw = float(size.max())
     magnitude = float((size / np.abs(col_max64)).max()) * (1 + 1e-6)
@@ -569,3 +558,14 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int) -
                                        "attributes_seconds": seconds})
     log.info("%d queries, %.1f µs per query", len(features.queries), 1e6 * seconds / max(len(features.queries), 1))
     return features
+
+
+def check_seq_len(paths: Sequence[Path | str], seq_len: int, option: str = "--seq-len") -> None:
+    """Raise ValueError when an attributes file was computed at another sequence length than ``seq_len`` (a stage
+    given ``--seq-len 4`` and files of L = 3 would label its outputs wrongly); files without the attribute (made
+    elsewhere) pass."""
+    for path in paths:
+        stored = read_provenance(path).get("seq_len")
+        if stored is not None and int(stored) != int(seq_len):
+            raise ValueError(f"{path} holds attributes of sequence length {int(stored)}, but {option} is {seq_len}: "
+                             f"give the attributes files of L = {seq_len}, or {option} {int(stored)}")

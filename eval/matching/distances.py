@@ -8,9 +8,9 @@ from typing import Any
 import h5py
 import numpy as np
 
+from vpr_smr.core.constants import METRICS
 from vpr_smr.core.io import HDF5_SUFFIXES, atomic_h5, check_suffix
 
-METRICS = ("l2", "cosine", "mad")
 # Chunks of the stored matrix: whole chunk columns are what the attributes stage reads (blocks of about 2^20 / R
 # query columns, all references). 4096 x 64 float32 is 1 MB, inside HDF5's advised range; a 27592-reference column
 # block touches 7 chunks (7 MB), which the reader's 64 MB chunk cache keeps for the next block's overlap.
@@ -108,12 +108,14 @@ def write_distance_blocks(out: Any, reference: np.ndarray, query: Any, metric: s
 
 
 def main(descriptors: Path | str, out: Path | str, split: str, split_range: tuple[int, int],
-         block_queries: int | None = None) -> Path:
+         block_queries: int | None = None, metric: str | None = None) -> Path:
     """The ``distances`` stage: the R x Q matrix of one split of a descriptor file, to chunked HDF5.
 
     ``descriptors`` holds ``reference`` and ``query`` (frames x dimension) and the attributes ``distance``,
     ``dataset``, ``method``, ``checkpoint_sha256``, ``frames_sha256``; frames ``split_range = (lo, hi)`` of both
     traverses form the split. Only the split's references and one block of queries are in memory at a time.
+    ``metric`` (one of ``METRICS``) overrides the file's ``distance`` (its backend's default): the workflow passes
+    the method's ``distance`` setting here, so that changing it does not recompute the descriptors.
     """
     out = check_suffix(out, HDF5_SUFFIXES, "the distance matrix (HDF5)")
     descriptors = Path(descriptors)
@@ -128,8 +130,10 @@ def main(descriptors: Path | str, out: Path | str, split: str, split_range: tupl
             if not 0 <= lo < hi <= len(f[name]):
                 raise ValueError(f"{descriptors}: split {split!r} covers frames {lo}..{hi - 1}, but {name!r} has "
                                  f"{len(f[name])} frames; were these descriptors computed for this dataset?")
-        metric = f.attrs["distance"]
-        metric = metric.decode() if isinstance(metric, bytes) else str(metric)
+        if metric is None:
+            metric = f.attrs["distance"]
+            metric = metric.decode() if isinstance(metric, bytes) else str(metric)
+        _check_metric(metric)
         provenance = {k: f.attrs[k] for k in ("dataset", "method", "checkpoint_sha256", "frames_sha256")}
         reference = prepare_references(f["reference"][lo:hi], metric, in_place=True)
         with atomic_h5(out, {**provenance, "split": split, "split_range": [lo, hi], "metric": metric}) as g:

@@ -20,7 +20,7 @@ SCAN_VALUES = 1 << 24  # values per block of the scan for negative distances (64
 @contextmanager
 def open_distance_matrix(path: Path | str) -> Iterator[Any]:
     """The references x queries matrix of ``path``, lazily: a read-only memory map of a ``.npy``, or the
-    ``distance_matrix`` dataset of our HDF5 file (read by column blocks, see ``eval.attributes.read_columns``).
+    ``distance_matrix`` dataset of our HDF5 file (read by column blocks, see ``eval.matching.attributes.read_columns``).
 
     Raises ``FileNotFoundError``/``ValueError`` naming the file when it is missing, neither a ``.npy`` nor HDF5, has
     no ``distance_matrix`` dataset, or does not hold a 2-D numeric matrix.

@@ -1,4 +1,4 @@
-"""Compiled (numba) kernel of ``eval.attributes.block_features``: the same numbers, bit for bit, in one pass.
+"""Compiled (numba) kernel of ``eval.matching.attributes.block_features``: the same numbers, bit for bit, in one pass.
 
 The matrix is read in its own layout (references x queries, rows contiguous), row by row, so a memory-mapped
 ``.npy`` is never transposed or copied. For a block of query columns, running sums along the diagonals (``T``
@@ -24,10 +24,10 @@ from typing import Any
 import numpy as np
 from numba import njit, types
 
+from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # plain globals: numba freezes them at compile time
+
 GROUP = 32  # diagonals (rows) per screening group
 BLOCK_QUERIES = 256  # query columns per kernel call (measured: 128 and 64 are slower)
-EPS = 1e-6
-GROUP_HALF_WIDTH = 2
 
 
 def _matrix(dtype: types.Type) -> types.Array:

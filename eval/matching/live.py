@@ -1,9 +1,9 @@
 """Sequence matching, SMR attributes and the predictor's decision one frame at a time, for a robot.
 
 ``LiveMatcher`` keeps the last ``L`` columns of the distance matrix in a ring buffer and runs the batch code
-(``eval.attributes.block_features``) on that window, so every frame costs ``O(R x L)`` and its result is the batch
-computation's, bit for bit (paper-mode attributes, SPEC 5's tie rule). Column normalisation needs only the column
-itself, so nothing else about the past is kept.
+(``eval.matching.attributes.block_features``) on that window, so every frame costs ``O(R x L)`` and its result is
+the batch computation's, bit for bit (paper-mode attributes, SPEC 5's tie rule). Column normalisation needs
+only the column itself, so nothing else about the past is kept.
 
 The descriptors must be compared with the distance their method's batch matrices use (``mad`` for SAD, ``l2`` for
 the learned backends, or the method's ``distance`` setting): ``from_descriptors`` takes the reference descriptors
@@ -24,10 +24,9 @@ from typing import Any
 
 import numpy as np
 
+from vpr_smr.core.constants import KEPT_CLASSES
 from vpr_smr.eval.matching.attributes import block_features
 from vpr_smr.eval.matching.distances import distance_columns, prepare_references
-
-KEEP_LABELS = (0, 2)  # the sequence match is correct (SPEC 6): the predictor keeps it
 
 
 @dataclass(frozen=True)
@@ -143,7 +142,7 @@ class LiveMatcher:
         if self.predictor is not None:
             probabilities = self.predictor.predict_proba(attributes[:1])
             label = int(np.asarray(self.predictor.classes_)[np.argmax(probabilities[0])])
-            keep = label in KEEP_LABELS
+            keep = label in KEPT_CLASSES
         return LiveResult(
             query=self.frames - 1,
             single_match=int(out["single_match"][0]),

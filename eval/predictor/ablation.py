@@ -34,11 +34,6 @@ ATTRIBUTE_SETS: dict[str, tuple[int, ...] | None] = {
 }
 
 
-def without_name(method: str) -> str:
-    """File stem of the predictor trained without ``method``: ``without_<method>``."""
-    return f"without_{method}"
-
-
 def _predictor(params: dict[str, Any] | None, columns: tuple[int, ...] | None) -> SMRPredictor:
     params = dict(params or {})
     if "hidden_layer_sizes" in params:

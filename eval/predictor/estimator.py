@@ -14,7 +14,6 @@ Callers always pass the attributes in the paper's names order A1, A2, A3, A4 (``
 from __future__ import annotations
 
 import json
-import math
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -30,20 +29,17 @@ from sklearn.preprocessing import FunctionTransformer, StandardScaler
 from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-PAPER_PARAMS = {"alpha": 1e-4, "learning_rate_init": 1e-3}  # the authors' code
-PAPER_TEXT_PARAMS = {"alpha": 1e-3, "learning_rate_init": 1e-4}  # the paper's text
-CODE_COLUMN_ORDER = (0, 1, 3, 2)  # A1..A4 -> the authors' input [A1, A2, A4, A3] (min sum, min value, group, block)
+from vpr_smr.core.constants import N_LABELS
+from vpr_smr.eval.predictor.defaults import (
+    CV_FOLDS,
+    DEFAULTS,
+    MIN_FIT_SAMPLES,
+    MIN_VALIDATION,
+    VALIDATION_FRACTION,
+)
 
 # scikit-learn's MLP catches KeyboardInterrupt in its training loop, warns this, and returns the half-trained network
 INTERRUPT_WARNING = "Training interrupted by user."
-CV_FOLDS = 5  # SPEC 7: 5-fold StratifiedKFold
-# MLPClassifier's default validation_fraction: early_stopping holds out ceil(10 %) of the (resampled) training
-# samples, stratified when there are two classes, and refuses a validation set of fewer than 2 samples.
-VALIDATION_FRACTION = 0.1
-MIN_VALIDATION = 2
-# the fewest (resampled) samples whose validation split is large enough: 11
-MIN_FIT_SAMPLES = next(n for n in range(1, 1000) if math.ceil(VALIDATION_FRACTION * n) >= MIN_VALIDATION)
-N_LABELS = 4  # labels 0..3 (SPEC 6)
 TRAINING_FIX = ("lengthen the train split (the dataset's `splits` entry named by `train_split`), shorten seq_lens, "
                 "or pool more methods")
 
@@ -120,35 +116,6 @@ def label_problems(labels: np.ndarray, smote: bool = True, n_splits: int = CV_FO
     return problems
 
 
-# The fewest pooled training samples that can train (cross-validation and fit) with the most favourable labels,
-# found by trying every count vector and class order with ``label_problems``: 11 with SMOTE (counts 3 and 8 of
-# two labels), 14 without (3 and 11). Real labels are far less favourable (label 0 dominates).
-MIN_TRAIN_SAMPLES = {True: 11, False: 14}
-
-
-def training_problems(n_train_queries: int, seq_len: int, n_methods: int = 1, smote: bool = True,
-                      split: str = "train") -> list[str]:
-    """What the configuration check can tell from split lengths alone: why a predictor cannot be trained on a
-    train split of ``n_train_queries`` frames at sequence length ``seq_len``, pooled over ``n_methods`` methods
-    (``smote``: the predictor's setting). Empty when some labelling of that many samples can train; the train
-    stage checks the real class counts (``check_training_labels``).
-
-    Each method gives ``n_train_queries - seq_len + 1`` samples (the queries with a sequence match, SPEC 4).
-    """
-    per_method = max(0, n_train_queries - seq_len + 1)
-    pooled = per_method * n_methods
-    needed = MIN_TRAIN_SAMPLES[bool(smote)]
-    if pooled >= needed:
-        return []
-    frames = math.ceil(needed / max(n_methods, 1)) + seq_len - 1
-    return [f"split {split!r} has {n_train_queries} frames: {per_method} training samples per method at sequence "
-            f"length {seq_len} ({n_train_queries} - {seq_len} + 1), {pooled} pooled over {n_methods} method(s); "
-            f"the predictor needs at least {needed} even with the most favourable labels ({CV_FOLDS}-fold "
-            f"cross-validation{' with SMOTE' if smote else ''}, then early stopping's {VALIDATION_FRACTION:.0%} "
-            f"validation split of at least {MIN_VALIDATION}): lengthen split {split!r} to at least {frames} frames "
-            f"(many more in practice), or shorten seq_lens"]
-
-
 def check_training_labels(labels: np.ndarray, where: str, smote: bool = True, random_state: int = 0) -> None:
     """Raise ``TrainingDataError`` naming ``where`` (e.g. the dataset and L), the class counts per label and the
     fix when ``label_problems`` finds any."""
@@ -180,14 +147,14 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):
 
     def __init__(
         self,
-        hidden_layer_sizes: Sequence[int] = (128, 128, 128),
-        alpha: float = PAPER_PARAMS["alpha"],
-        learning_rate_init: float = PAPER_PARAMS["learning_rate_init"],
-        max_iter: int = 10000,
-        smote: bool = True,
-        random_state: int = 0,
-        smote_random_state: int = 42,
-        column_order: Sequence[int] | None = CODE_COLUMN_ORDER,
+        hidden_layer_sizes: Sequence[int] = DEFAULTS["hidden_layer_sizes"],
+        alpha: float = DEFAULTS["alpha"],
+        learning_rate_init: float = DEFAULTS["learning_rate_init"],
+        max_iter: int = DEFAULTS["max_iter"],
+        smote: bool = DEFAULTS["smote"],
+        random_state: int = DEFAULTS["random_state"],
+        smote_random_state: int = DEFAULTS["smote_random_state"],
+        column_order: Sequence[int] | None = DEFAULTS["column_order"],
     ) -> None:
         # stored unchanged, as scikit-learn's clone requires; checked and converted in fit
         self.hidden_layer_sizes = hidden_layer_sizes

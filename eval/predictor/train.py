@@ -17,14 +17,15 @@ import numpy as np
 from sklearn.metrics import confusion_matrix
 from sklearn.utils import shuffle
 
+from vpr_smr.core.constants import LABELS
 from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix, write_json
+from vpr_smr.core.paths import predictor_report_path, seed_predictor_path
 from vpr_smr.eval.matching.attributes import read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
 from vpr_smr.eval.predictor.leakage import TRAINED_ON, check_disjoint, frame_ranges
 
 log = logging.getLogger(__name__)
 
-LABELS = (0, 1, 2, 3)
 SEEDED = ("random_state", "smote_random_state")  # the predictor's seeds that a training seed shifts
 
 
@@ -90,12 +91,6 @@ def check_trainable(y_train: np.ndarray, params: dict[str, Any], seeds: Sequence
         check_training_labels(shuffle(y_train, random_state=seed), where, smote)
 
 
-def seed_path(out: Path | str, seed: int, first: bool) -> Path:
-    """``out`` for the first seed, ``<out stem>.seed<s>.h5`` beside it for the others."""
-    out = Path(out)
-    return out if first else out.with_name(f"{out.stem}.seed{seed}.h5")
-
-
 def train_seed(
     x_train: np.ndarray,
     y_train: np.ndarray,
@@ -159,7 +154,7 @@ def main(
              np.bincount(y_train, minlength=len(LABELS)), seeds)
     fitted = [train_seed(x_train, y_train, params, seed, evaluation) for seed in seeds]
 
-    paths = [seed_path(out, seed, i == 0) for i, seed in enumerate(seeds)]
+    paths = [out] + [Path(seed_predictor_path(out, seed)) for seed in seeds[1:]]
     first = fitted[0][1]
     report: dict[str, Any] = {
         "meta": dict(meta or {}),
@@ -174,5 +169,5 @@ def main(
     for i, ((predictor, numbers), path) in enumerate(zip(fitted, paths, strict=True)):
         predictor.save(path, report=report if i == 0 else {"meta": report["meta"], **numbers},
                        **{TRAINED_ON: [r.to_json() for r in trained]})
-    write_json(out.with_suffix(".json"), report)
+    write_json(predictor_report_path(out), report)
     return report

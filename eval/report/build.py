@@ -8,15 +8,18 @@ from __future__ import annotations
 
 import csv
 import json
-from collections.abc import Collection, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
+from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.report import figures as fig
+from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.html import UNDEFINED, is_reduction
+from vpr_smr.eval.scoring.records import Evaluation, EvaluationSplit, HeldOut, Timing
 
 SEED_COLUMNS = ("reduction_pct_mean", "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds")
 # n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
@@ -60,29 +63,24 @@ UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined, the baseline's AOC 
 # --- Table I --------------------------------------------------------------------------------------------------
 
 
-def _mode_numbers(split_result: dict[str, Any], mode: str) -> dict[str, Any]:
-    numbers = split_result["modes"][mode]
-    row = {k: numbers.get(k) for k in ("max_recall", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", "auc_vpr_sm",
-                                       "auc_vpr_sm_pred")}
-    # recall@1 single by the mode's rule (paper: all queries of the split); older files have one top-level value
-    row["recall_at_1_single"] = numbers.get("recall_at_1_single", split_result.get("recall_at_1_single"))
-    row["recall_at_1_sequence"] = numbers.get("recall_at_1_sequence", split_result.get("recall_at_1_sequence"))
-    row.update(split_result.get("seed_summary", {}).get(mode, {}))
-    n_split = split_result.get("n_queries_split")
-    row["n_queries"] = split_result.get("n_queries")
-    row["n_queries_single"] = n_split if mode == "paper" and n_split is not None else row["n_queries"]
-    return row
+def _mode_numbers(split_result: EvaluationSplit, mode: str) -> dict[str, Any]:
+    numbers = split_result.modes[mode]
+    n_queries = split_result.n_queries
+    # recall@1 single by the mode's rule: paper mode over every query of the split (n_queries_single)
+    return {**numbers.reduction.to_json(), "recall_at_1_single": numbers.recall_at_1_single,
+            "recall_at_1_sequence": numbers.recall_at_1_sequence, **split_result.seed_summary[mode].to_json(),
+            "n_queries": n_queries, "n_queries_single": split_result.n_queries_split if mode == "paper" else n_queries}
 
 
-def table1_rows(evaluations: Sequence[dict[str, Any]], split: str = "test",
+def table1_rows(evaluations: Sequence[Evaluation], split: str = "test",
                 seq_lens: Collection[int] | None = None) -> list[dict[str, Any]]:
     """One row per (dataset, method, L, mode) of the evaluations, optionally only the sequence lengths given."""
     rows = []
     for evaluation in evaluations:
-        meta, result = evaluation["meta"], evaluation["splits"][split]
+        meta, result = evaluation.meta, evaluation.splits[split]
         if seq_lens is not None and int(meta["seq_len"]) not in seq_lens:
             continue
-        for mode in result["modes"]:
+        for mode in result.modes:
             rows.append({"dataset": meta["dataset"], "method": meta["method"], "seq_len": meta["seq_len"],
                          "mode": mode, **_mode_numbers(result, mode)})
     return sorted(rows, key=lambda r: (r["mode"], r["seq_len"], r["dataset"], r["method"]))
@@ -331,31 +329,31 @@ def predictor_rows(predictors: Sequence[dict[str, Any]]) -> list[dict[str, Any]]
     return sorted(rows, key=lambda r: (r["dataset"], r["seq_len"]))
 
 
-def _by_key(evaluations: Sequence[dict[str, Any]]) -> dict[tuple[str, int], list[dict[str, Any]]]:
+def _by_key(evaluations: Sequence[Evaluation]) -> dict[tuple[str, int], list[Evaluation]]:
     """(dataset, L) -> evaluations sorted by method."""
-    out: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    out: dict[tuple[str, int], list[Evaluation]] = {}
     for evaluation in evaluations:
-        out.setdefault((evaluation["meta"]["dataset"], int(evaluation["meta"]["seq_len"])), []).append(evaluation)
-    return {key: sorted(items, key=lambda e: e["meta"]["method"]) for key, items in sorted(out.items())}
+        out.setdefault((evaluation.meta["dataset"], int(evaluation.meta["seq_len"])), []).append(evaluation)
+    return {key: sorted(items, key=lambda e: e.meta["method"]) for key, items in sorted(out.items())}
 
 
-def predictor_method_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[dict[str, Any]]:
+def predictor_method_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[str, Any]]:
     rows = []
     for (dataset, seq_len), items in _by_key(evaluations).items():
         for evaluation in items:
-            result = evaluation["splits"][split]
-            rows.append({"dataset": dataset, "seq_len": seq_len, "method": evaluation["meta"]["method"],
-                         "split": split, "n_queries": result["n_queries"], "f1_macro": result["f1_macro"],
-                         **{f"class_{c}": result["class_counts"][c] for c in range(4)},
-                         **{f"predicted_{c}": result["predicted_counts"][c] for c in range(4)}})
+            result = evaluation.splits[split]
+            rows.append({"dataset": dataset, "seq_len": seq_len, "method": evaluation.meta["method"],
+                         "split": split, "n_queries": result.n_queries, "f1_macro": result.f1_macro,
+                         **{f"class_{c}": result.class_counts[c] for c in range(4)},
+                         **{f"predicted_{c}": result.predicted_counts[c] for c in range(4)}})
     return rows
 
 
-def confusion_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[dict[str, Any]]:
+def confusion_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[str, Any]]:
     """The seed-0 confusion matrix per dataset, L and method, and summed over the methods (method ``all``)."""
     rows = []
     for (dataset, seq_len), items in _by_key(evaluations).items():
-        matrices = [(e["meta"]["method"], np.array(e["splits"][split]["confusion_matrix"])) for e in items]
+        matrices = [(e.meta["method"], np.array(e.splits[split].confusion_matrix)) for e in items]
         matrices.append(("all", np.sum([m for _, m in matrices], axis=0)))
         for method, matrix in matrices:
             for true_class, counts in enumerate(matrix):
@@ -364,61 +362,81 @@ def confusion_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[di
     return rows
 
 
-def trust_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[dict[str, Any]]:
+def trust_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[str, Any]]:
     rows = []
     for (dataset, seq_len), items in _by_key(evaluations).items():
         for evaluation in items:
-            for mode, numbers in evaluation["splits"][split]["modes"].items():
-                for level, values in numbers.get("trust_auc", {}).items():
-                    rows.append({"dataset": dataset, "method": evaluation["meta"]["method"], "seq_len": seq_len,
-                                 "mode": mode, "trust": float(level), **values,
-                                 "n_queries": evaluation["splits"][split].get("n_queries")})
+            result = evaluation.splits[split]
+            for mode, numbers in result.modes.items():
+                for level, values in (numbers.trust_auc or {}).items():
+                    rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
+                                 "mode": mode, "trust": float(level), **values.to_json(),
+                                 "n_queries": result.n_queries})
     return rows
 
 
-def restoration_rows(evaluations: Sequence[dict[str, Any]], split: str) -> list[dict[str, Any]]:
+def restoration_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[str, Any]]:
     rows = []
     for (dataset, seq_len), items in _by_key(evaluations).items():
         for evaluation in items:
-            restoration = evaluation["splits"][split].get("restoration")
-            if restoration is None:
+            result = evaluation.splits[split]
+            if result.restoration is None:
                 continue
-            counts = {k: v for k, v in restoration.items() if k not in ("modes", "restored_by_rank")}
-            for mode, numbers in restoration["modes"].items():
-                rows.append({"dataset": dataset, "method": evaluation["meta"]["method"], "seq_len": seq_len,
-                             "mode": mode, **counts, **numbers,
-                             "n_queries": evaluation["splits"][split].get("n_queries")})
+            for mode, numbers in result.restoration.modes.items():
+                rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
+                             "mode": mode, **result.restoration.counts(), **numbers.to_json(),
+                             "n_queries": result.n_queries})
     return rows
 
 
-def lomo_rows(results: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+def lomo_rows(results: Sequence[HeldOut]) -> list[dict[str, Any]]:
     rows = []
     for result in results:
-        meta, pooled, without = result["meta"], result["predictors"]["pooled"], result["predictors"]["without"]
-        for mode in pooled["modes"]:
+        meta, pooled, without = result.meta, result.pooled, result.without
+        for mode in pooled.modes:
             rows.append({
-                "dataset": meta["dataset"], "seq_len": meta["seq_len"],
-                "held_out": meta.get("held_out", meta.get("method")), "mode": mode, "n_queries": result["n_queries"],
-                "f1_pooled": pooled["f1_macro"], "f1_without": without["f1_macro"],
-                "removed_pooled": pooled["removed"], "removed_without": without["removed"],
-                "aoc_vpr_sm": pooled["modes"][mode]["aoc_vpr_sm"],
-                "aoc_pooled": pooled["modes"][mode]["aoc_vpr_sm_pred"],
-                "aoc_without": without["modes"][mode]["aoc_vpr_sm_pred"],
-                "reduction_pct_pooled": pooled["modes"][mode]["reduction_pct"],
-                "reduction_pct_without": without["modes"][mode]["reduction_pct"],
+                "dataset": meta["dataset"], "seq_len": meta["seq_len"], "held_out": meta["method"], "mode": mode,
+                "n_queries": result.n_queries, "f1_pooled": pooled.f1_macro, "f1_without": without.f1_macro,
+                "removed_pooled": pooled.removed, "removed_without": without.removed,
+                "aoc_vpr_sm": pooled.modes[mode].reduction.aoc_vpr_sm,
+                "aoc_pooled": pooled.modes[mode].reduction.aoc_vpr_sm_pred,
+                "aoc_without": without.modes[mode].reduction.aoc_vpr_sm_pred,
+                "reduction_pct_pooled": pooled.modes[mode].reduction.reduction_pct,
+                "reduction_pct_without": without.modes[mode].reduction.reduction_pct,
             })
     return sorted(rows, key=lambda r: (r["mode"], r["dataset"], r["seq_len"], r["held_out"]))
 
 
-def timing_rows(evaluations: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+def match_timings(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) -> dict[tuple[str, str, int], Timing]:
+    """Each timing by the (dataset, method, L) of its meta, which must be one of the evaluations'."""
+    known = {evaluation.key for evaluation in evaluations}
+    out: dict[tuple[str, str, int], Timing] = {}
+    for timing in timings:
+        dataset, method, seq_len = timing.key
+        if timing.key not in known:
+            raise ValueError(f"timings of {dataset}, {method}, L{seq_len} match no evaluation given")
+        if timing.key in out:
+            raise ValueError(f"two timing files of {dataset}, {method}, L{seq_len}")
+        out[timing.key] = timing
+    return out
+
+
+def timing_rows(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) -> list[dict[str, Any]]:
+    """Per evaluation and split, its timing (matched by meta); evaluations whose timings are not given are left
+    out."""
+    matched = match_timings(evaluations, timings)
     rows = []
     for (dataset, seq_len), items in _by_key(evaluations).items():
         for evaluation in items:
-            for split, result in evaluation["splits"].items():
-                n = max(result["n_queries"], 1)
-                attributes, predict = result.get("attributes_seconds", 0.0), result["predict_seconds"]
-                rows.append({"dataset": dataset, "method": evaluation["meta"]["method"], "seq_len": seq_len,
-                             "split": split, "n_queries": result["n_queries"], "attributes_seconds": attributes,
+            timing = matched.get(evaluation.key)
+            if timing is None:
+                continue
+            for split in evaluation.splits:
+                numbers = timing.splits[split]
+                n = max(numbers.n_queries, 1)
+                attributes, predict = numbers.attributes_seconds, numbers.predict_seconds
+                rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
+                             "split": split, "n_queries": numbers.n_queries, "attributes_seconds": attributes,
                              "predict_seconds": predict, "ms_per_query": 1e3 * (attributes + predict) / n,
                              "ms_attributes_per_query": 1e3 * attributes / n,
                              "ms_predict_per_query": 1e3 * predict / n})
@@ -484,9 +502,10 @@ def _flagged(text: str, notes: dict[str, str], latex: bool = False) -> str:
 
 
 def _write_table(stem: Path, columns: Sequence[str], rows: list[dict[str, Any]], title: str,
-                 markdown: str | None = None, latex: str | None = None,
-                 notes: dict[str, str] | None = None) -> list[Path]:
-    """``<stem>.csv`` (full precision), ``.md`` and ``.tex`` (4 decimals, or the given special layouts).
+                 suffixes: Sequence[str] = (".csv", ".md", ".tex"), markdown: str | None = None,
+                 latex: str | None = None, notes: dict[str, str] | None = None) -> list[Path]:
+    """``<stem>.csv`` (full precision), ``.md`` and ``.tex`` (4 decimals, or the given special layouts): those of
+    ``suffixes``, in that order.
 
     ``notes``: per dataset whose splits overlap, a warning under the title and a ``split_overlap`` CSV column.
     """
@@ -496,49 +515,46 @@ def _write_table(stem: Path, columns: Sequence[str], rows: list[dict[str, Any]],
     if notes:
         columns = [*columns, "split_overlap"]
         rows = [{**row, "split_overlap": notes.get(row.get("dataset", ""), "")} for row in rows]
-    return [_write_csv(stem.with_suffix(".csv"), columns, rows), _write_text(stem.with_suffix(".md"), markdown),
-            _write_text(stem.with_suffix(".tex"), latex)]
+    texts = {".md": markdown, ".tex": latex}
+    return [_write_csv(stem.with_suffix(suffix), columns, rows) if suffix == ".csv"
+            else _write_text(stem.with_suffix(suffix), texts[suffix]) for suffix in suffixes]
 
 
-TABLE_TITLES = {
-    "table1": "Table I: area over the PR curve at max recall",
-    "predictor": "Predictor alone: macro F1 (cross-validation with SMOTE inside the folds, validation, test)",
-    "predictor_methods": "Predictor alone: macro F1, class counts and predicted counts per method",
-    "predictor_confusion": "Predictor alone: confusion matrix (rows true class, columns predicted)",
-    "ablation_seq_len": "Sequence-length ablation: Table I columns per dataset, method and sequence length",
-    "trust_levels": "Trust-level ablation: PR AUC per trust level",
-    "table2": "Table II: macro F1 by attribute",
-    "restoration": "Match restoration (second filter): removal against restoration",
-    "leave_one_method_out": "Leave one method out: pooled predictor against one trained without the method",
-    "timing": "Inference time per query: attributes + prediction",
-}
-
-
-def _figure_panels(items: list[dict[str, Any]], split: str, mode: str, key: str | None = None
+def _figure_panels(items: list[Evaluation], split: str, mode: str, restoration: bool = False
                    ) -> list[tuple[str, dict[str, Any]]]:
+    """(method, the numbers of one mode as written) per evaluation; with ``restoration``, restoration's numbers
+    with the baseline and removal curves, which an evaluation keeps once, under the mode's removal curves."""
     panels = []
     for evaluation in items:
-        result = evaluation["splits"][split]
-        numbers = result["modes"][mode]
-        if key == "restoration":  # evaluate.py keeps the baseline and removal curves once, under modes
-            numbers = {"curve_vpr_sm": numbers["curve_vpr_sm"], "curve_removal": numbers["curve_vpr_sm_pred"],
-                       **result[key]["modes"][mode]}
-        panels.append((evaluation["meta"]["method"], numbers))
+        result = evaluation.splits[split]
+        numbers = result.modes[mode]
+        if not restoration:
+            panels.append((evaluation.meta["method"], numbers.to_json()))
+            continue
+        if result.restoration is None or numbers.curves is None:
+            raise ValueError(f"{evaluation.key}: no restoration or no removal curves in split {split!r}")
+        restored = replace(result.restoration.modes[mode], curve_vpr_sm=numbers.curves.curve_vpr_sm,
+                           curve_removal=numbers.curves.curve_vpr_sm_pred)
+        panels.append((evaluation.meta["method"], restored.to_json()))
     return panels
 
 
 def _tables_and_figures(
-    out_dir: Path, evaluations: list[dict[str, Any]], predictors: list[dict[str, Any]],
-    ablations: list[dict[str, Any]], lomo: list[dict[str, Any]], split: str, table_seq_lens: Collection[int] | None,
+    out_dir: Path, evaluations: list[Evaluation], timings: list[Timing], predictors: list[dict[str, Any]],
+    ablations: list[dict[str, Any]], lomo: list[HeldOut], split: str, table_seq_lens: Collection[int] | None,
     seq_len_ablation: bool, notes: dict[str, str],
 ) -> tuple[list[tuple[str, list[Path]]], list[tuple[str, Path]]]:
-    tables_dir, figures_dir = out_dir / "tables", out_dir / "figures"
-    tables: list[tuple[str, list[Path]]] = []
+    contents: dict[str, tuple[Sequence[str], list[dict[str, Any]], dict[str, str]]] = {}
     figures: list[tuple[str, Path]] = []
 
     def table(name: str, columns: Sequence[str], rows: list[dict[str, Any]], **special: str) -> None:
-        tables.append((name, _write_table(tables_dir / name, columns, rows, TABLE_TITLES[name], notes=notes,
-                                          **special)))
+        registry.table(name)  # only a declared table is written
+        contents[name] = (columns, rows, special)
+
+    def figure(name: str, caption: str, **names: Any) -> tuple[str, Path]:
+        """The caption and file of a registered figure."""
+        spec = registry.figure(name)
+        return f"{spec.title}: {caption}", out_dir / spec.file(**names)
 
     if evaluations:
         rows = table1_rows(evaluations, split, table_seq_lens)
@@ -551,7 +567,7 @@ def _tables_and_figures(
         restoration = restoration_rows(evaluations, split)
         if restoration:
             table("restoration", RESTORATION_COLUMNS, restoration)
-        table("timing", TIMING_COLUMNS, timing_rows(evaluations))
+        table("timing", TIMING_COLUMNS, timing_rows(evaluations, timings))
         if seq_len_ablation:
             table("ablation_seq_len", SEQ_LEN_COLUMNS, table1_rows(evaluations, split))
     if predictors:
@@ -562,38 +578,45 @@ def _tables_and_figures(
     if lomo:
         table("leave_one_method_out", LOMO_COLUMNS, lomo_rows(lomo))
 
+    tables: list[tuple[str, list[Path]]] = []
+    for spec in registry.TABLES:  # in the registry's order, with its titles and files
+        if spec.name in contents:
+            columns, rows, special = contents[spec.name]
+            tables.append((spec.name, _write_table(out_dir / registry.TABLES_DIR / spec.name, columns, rows,
+                                                   spec.title, spec.suffixes, notes=notes, **special)))
+
     by_key = _by_key(evaluations)
     for (dataset, seq_len), items in by_key.items():
         if table_seq_lens is not None and seq_len not in table_seq_lens:
             continue
-        result0 = items[0]["splits"][split]
-        for mode in result0["modes"]:
+        result0 = items[0].splits[split]
+        for mode in result0.modes:
             title = f"{dataset}, L={seq_len}, {mode} mode ({split})"
-            figures.append((f"PR curves: {title}", fig.pr_figure(
-                figures_dir / f"pr_{dataset}_L{seq_len}_{mode}.png", _figure_panels(items, split, mode), title)))
-            if "trust" in result0["modes"][mode]:
-                figures.append((f"Trust levels: {title}", fig.trust_figure(
-                    figures_dir / f"trust_{dataset}_L{seq_len}_{mode}.png", _figure_panels(items, split, mode),
-                    f"{title}: predictor trust levels")))
-            if "restoration" in result0:
-                panels = _figure_panels(items, split, mode, "restoration")
-                figures.append((f"Restoration: {title}", fig.restoration_figure(
-                    figures_dir / f"restoration_{dataset}_L{seq_len}_{mode}.png", panels,
-                    f"{title}: match removal and restoration")))
-                figures.append((f"Restoration PR AUC difference: {title}", fig.difference_bars(
-                    figures_dir / f"restoration_auc_{dataset}_L{seq_len}_{mode}.png", [m for m, _ in panels],
-                    [n["auc_difference"] for _, n in panels], f"{title}: restoration - removal",
-                    "PR AUC, restoration - removal")))
-        matrix = np.sum([np.array(e["splits"][split]["confusion_matrix"]) for e in items], axis=0)
-        figures.append((f"Confusion matrix: {dataset}, L={seq_len}", fig.confusion_figure(
-            figures_dir / f"confusion_{dataset}_L{seq_len}.png", matrix,
-            f"{dataset}, L={seq_len}: all methods ({split})")))
+            names = {"dataset": dataset, "seq_len": seq_len, "mode": mode}
+            caption, path = figure("pr", title, **names)
+            figures.append((caption, fig.pr_figure(path, _figure_panels(items, split, mode), title)))
+            if result0.modes[mode].trust is not None:
+                caption, path = figure("trust", title, **names)
+                figures.append((caption, fig.trust_figure(path, _figure_panels(items, split, mode),
+                                                          f"{title}: predictor trust levels")))
+            if result0.restoration is not None:
+                panels = _figure_panels(items, split, mode, restoration=True)
+                caption, path = figure("restoration", title, **names)
+                figures.append((caption, fig.restoration_figure(path, panels,
+                                                                f"{title}: match removal and restoration")))
+                caption, path = figure("restoration_auc", title, **names)
+                figures.append((caption, fig.difference_bars(
+                    path, [m for m, _ in panels], [n["auc_difference"] for _, n in panels],
+                    f"{title}: restoration - removal", "PR AUC, restoration - removal")))
+        matrix = np.sum([np.array(e.splits[split].confusion_matrix) for e in items], axis=0)
+        caption, path = figure("confusion", f"{dataset}, L={seq_len}", dataset=dataset, seq_len=seq_len)
+        figures.append((caption, fig.confusion_figure(path, matrix, f"{dataset}, L={seq_len}: all methods ({split})")))
     if seq_len_ablation and evaluations:
-        figures += _seq_len_figures(figures_dir, table1_rows(evaluations, split))
+        figures += _seq_len_figures(out_dir, table1_rows(evaluations, split))
     return tables, figures
 
 
-def _seq_len_figures(figures_dir: Path, rows: list[dict[str, Any]]) -> list[tuple[str, Path]]:
+def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]]) -> list[tuple[str, Path]]:
     out = []
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in rows:
@@ -607,62 +630,10 @@ def _seq_len_figures(figures_dir: Path, rows: list[dict[str, Any]]) -> list[tupl
             i, j = methods.index(r["method"]), seq_lens.index(int(r["seq_len"]))
             bottoms[i, j], tops[i, j] = r["auc_vpr_sm"], r["auc_vpr_sm_pred"]
         title = f"{dataset}, {mode} mode\nPR AUC, VPR+SM (bar bottom) -> VPR+SM+Pred (top)"
-        out.append((f"Sequence-length ablation: {dataset}, {mode} mode", fig.change_bars(
-            figures_dir / f"seq_len_{dataset}_{mode}.png", methods, [f"L{s}" for s in seq_lens],
+        spec = registry.figure("seq_len")
+        out.append((f"{spec.title}: {dataset}, {mode} mode", fig.change_bars(
+            out_dir / spec.file(dataset=dataset, mode=mode), methods, [f"L{s}" for s in seq_lens],
             np.nan_to_num(bottoms), np.nan_to_num(tops), title)))
-    return out
-
-
-def expected_outputs(
-    datasets: Sequence[str],
-    seq_lens: Sequence[int],
-    modes: Sequence[str],
-    experiments: Collection[str],
-    table_seq_lens: Collection[int] | None = None,
-    html: bool = True,
-) -> list[str]:
-    """Paths (relative to the run folder) that ``main`` writes, from the configuration alone.
-
-    ``experiments``: any of ``"table1"`` (evaluations given: Table I, predictor_methods, predictor_confusion,
-    timing, PR and confusion figures), ``"predictor"`` (predictor reports given), ``"trust"`` (trust levels
-    configured), ``"restoration"``, ``"seq_len"`` (the sequence-length ablation), ``"attributes"`` (Table II),
-    ``"leave_one_method_out"``.
-    """
-    def table(name: str) -> list[str]:
-        return [f"tables/{name}.{ext}" for ext in ("csv", "md", "tex")]
-
-    out: list[str] = []
-    figure_lens = [s for s in seq_lens if table_seq_lens is None or s in table_seq_lens]
-    if "table1" in experiments:
-        out += table("table1") + table("predictor_methods") + table("predictor_confusion")
-        if "trust" in experiments:
-            out += table("trust_levels")
-        if "restoration" in experiments:
-            out += table("restoration")
-        out += table("timing")
-        if "seq_len" in experiments:
-            out += table("ablation_seq_len")
-    if "predictor" in experiments:
-        out += table("predictor")
-    if "attributes" in experiments:
-        out += table("table2")
-    if "leave_one_method_out" in experiments:
-        out += table("leave_one_method_out")
-    if "table1" in experiments:
-        for dataset in sorted(datasets):
-            for seq_len in sorted(figure_lens):
-                for mode in modes:
-                    out.append(f"figures/pr_{dataset}_L{seq_len}_{mode}.png")
-                    if "trust" in experiments:
-                        out.append(f"figures/trust_{dataset}_L{seq_len}_{mode}.png")
-                    if "restoration" in experiments:
-                        out += [f"figures/restoration_{dataset}_L{seq_len}_{mode}.png",
-                                f"figures/restoration_auc_{dataset}_L{seq_len}_{mode}.png"]
-                out.append(f"figures/confusion_{dataset}_L{seq_len}.png")
-        if "seq_len" in experiments:
-            out += [f"figures/seq_len_{dataset}_{mode}.png" for dataset in sorted(datasets) for mode in sorted(modes)]
-    if html:
-        out.append("report.html")
     return out
 
 
@@ -675,17 +646,12 @@ def _load(paths: Sequence[Path | str], what: str) -> list[dict[str, Any]]:
     return out
 
 
-def _load_evaluations(paths: Sequence[Path | str]) -> list[dict[str, Any]]:
-    """Evaluation files with the timings written beside each (``evaluate.timing_path``) merged in."""
-    from vpr_smr.eval.scoring.evaluate import timing_path
+Record = TypeVar("Record")
 
-    evaluations = _load(paths, "evaluation")
-    for path, evaluation in zip(paths, evaluations, strict=True):
-        timing = timing_path(path)
-        if timing.is_file():
-            for split, numbers in json.loads(timing.read_text())["splits"].items():
-                evaluation["splits"].get(split, {}).update(numbers)
-    return evaluations
+
+def _read(paths: Sequence[Path | str], what: str, from_json: Callable[[dict[str, Any]], Record]) -> list[Record]:
+    """The records of the files ``paths`` (``what``: the kind of file, for the error)."""
+    return [from_json(data) for data in _load(paths, what)]
 
 
 def main(
@@ -695,6 +661,7 @@ def main(
     attribute_ablations: Sequence[Path | str] = (),
     leave_one_out: Sequence[Path | str] = (),
     *,
+    timings: Sequence[Path | str] = (),
     split: str = "test",
     table_seq_lens: Collection[int] | None = None,
     seq_len_ablation: bool = False,
@@ -708,7 +675,9 @@ def main(
 
     Inputs are JSON files of the stages, each list optional: ``evaluations`` (``evaluate.main``, one per dataset,
     method and L), ``predictors`` (``train.main`` reports), ``attribute_ablations`` (``ablation.attributes_main``),
-    ``leave_one_out`` (``scoring.held_out.main``). ``table_seq_lens``: the sequence lengths of Table I and
+    ``leave_one_out`` (``scoring.held_out.main``), ``timings`` (the ``.timing.json`` files ``evaluate.main`` writes,
+    each matched to its evaluation by dataset, method and L; the timing table leaves out evaluations without one).
+    ``table_seq_lens``: the sequence lengths of Table I and
     of the per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
     ``config`` (YAML text or a dict) and ``provenance`` (e.g. package version, checkpoint and frame-list hashes)
     go into the HTML page, with the provenance attributes of ``descriptor_paths``. ``datasets``: per dataset its
@@ -720,12 +689,13 @@ def main(
     out_dir = Path(out_dir)
     table_seq_lens = None if table_seq_lens is None else {int(s) for s in table_seq_lens}
     tables, figures = _tables_and_figures(
-        out_dir, _load_evaluations(evaluations), _load(predictors, "predictor report"),
-        _load(attribute_ablations, "attribute ablation"), _load(leave_one_out, "leave-one-method-out"), split,
+        out_dir, _read(evaluations, "evaluation", Evaluation.from_json), _read(timings, "timing", Timing.from_json),
+        _load(predictors, "predictor report"), _load(attribute_ablations, "attribute ablation"),
+        _read(leave_one_out, "leave-one-method-out", HeldOut.from_json), split,
         table_seq_lens, seq_len_ablation, overlap_notes(datasets))
     written = [path for _, paths in tables for path in paths] + [path for _, path in figures]
     if html:
         written.append(html_report.main(
-            out_dir / "report.html", [(TABLE_TITLES[name], paths[0]) for name, paths in tables], figures,
+            out_dir / registry.HTML, [(registry.table(name).title, paths[0]) for name, paths in tables], figures,
             config=config, provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets))
     return written

@@ -12,9 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 from sklearn.metrics import auc
 
-MODES = ("paper", "standard")
+from vpr_smr.core.constants import KEPT_CLASSES, MODES
+
 PAPER_THRESHOLDS = 1999
-KEPT_CLASSES = (0, 2)  # predicted correct after sequence matching
 # An AOC this small is 0: the trapezoid sum of a curve whose precision is 1 everywhere leaves about 1e-16
 AOC_ZERO = 1e-9
 

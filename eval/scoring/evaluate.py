@@ -8,22 +8,36 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from sklearn.metrics import confusion_matrix
 
+from vpr_smr.core.constants import DEFAULT_TRUST_LEVELS, LABELS, MODES
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance, write_json
+from vpr_smr.core.paths import timing_path
 from vpr_smr.eval.matching.attributes import QueryFeatures, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
-from vpr_smr.eval.scoring.curves import MODES, Curve, compare_curves, curve, keep_mask, recall_at_full_precision
+from vpr_smr.eval.scoring.curves import compare_curves, curve, keep_mask, recall_at_full_precision
+from vpr_smr.eval.scoring.records import (
+    Evaluation,
+    EvaluationSplit,
+    ModeRemoval,
+    PRCurve,
+    Reduction,
+    Removal,
+    RemovalCurves,
+    RestorationNumbers,
+    SeedNumbers,
+    SeedSummary,
+    SplitTiming,
+    Timing,
+    TrustNumbers,
+)
 from vpr_smr.eval.scoring.restoration import evaluate_restoration
-
-LABELS = (0, 1, 2, 3)
-DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)
-SEED_KEYS = ("max_recall", "auc_vpr_sm", "auc_vpr_sm_pred", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")
 
 
 def rank_probabilities(predictor: Any, features: QueryFeatures, ranks: int | None = None) -> np.ndarray:
@@ -44,8 +58,38 @@ def recall_at_1(features: QueryFeatures, mode: str) -> dict[str, float]:
             "recall_at_1_sequence": float(features.sequence_correct.mean())}
 
 
-def _curve_dict(curve_: Curve) -> dict[str, Any]:
-    return {"recall": curve_.recall, "precision": curve_.precision}
+def _mode_removal(
+    features: QueryFeatures,
+    mode: str,
+    predicted: np.ndarray,
+    confidence: np.ndarray,
+    trust_levels: tuple[float, ...],
+    curves: bool,
+) -> ModeRemoval:
+    """One mode of ``removal``: the baseline against the predictor, and per trust level the AUC (and curve)."""
+    n = len(features.queries)
+    distances, correct = features.sequence_distance, features.sequence_correct
+    s_range = (features.sequence_min, features.sequence_max)
+    baseline = curve(mode, distances, correct, keep_mask(n=n), *s_range)
+    with_predictor = curve(mode, distances, correct, keep_mask(predicted, confidence), *s_range)
+    comparison = compare_curves(baseline, with_predictor)
+    reduction = Reduction(comparison.max_recall, comparison.auc_baseline, comparison.auc_predictor,
+                          comparison.aoc_baseline, comparison.aoc_predictor, comparison.reduction_pct)
+    removal_curves = RemovalCurves(recall_at_full_precision(baseline), recall_at_full_precision(with_predictor),
+                                   PRCurve.of(baseline), PRCurve.of(with_predictor)) if curves else None
+    trust, trust_numbers = {}, {}
+    for level in trust_levels:
+        keep = keep_mask(predicted, confidence, level)
+        trust_curve = curve(mode, distances, correct, keep, *s_range)
+        level_comparison = compare_curves(baseline, trust_curve)
+        trust[str(level)] = PRCurve.of(trust_curve)
+        trust_numbers[str(level)] = TrustNumbers(
+            int((~keep).sum()), level_comparison.max_recall, level_comparison.auc_predictor,
+            level_comparison.aoc_predictor, level_comparison.auc_baseline, level_comparison.aoc_baseline,
+            level_comparison.reduction_pct)
+    single = recall_at_1(features, mode)
+    return ModeRemoval(single["recall_at_1_single"], single["recall_at_1_sequence"], reduction, removal_curves,
+                       trust_numbers if trust_levels else None, trust if trust_levels and curves else None)
 
 
 def removal(
@@ -55,78 +99,41 @@ def removal(
     modes: tuple[str, ...] = MODES,
     trust_levels: tuple[float, ...] = (),
     curves: bool = True,
-) -> dict[str, Any]:
+) -> Removal:
     """Match removal (the first filter) by one predictor's rank-0 probabilities ``(N, C)``: per mode the baseline
     against the predictor, and per trust level the AUC (and, with ``curves``, every curve)."""
     predicted = np.asarray(classes)[np.argmax(probabilities, axis=1)]
     confidence = probabilities.max(axis=1)
-    n = len(features.queries)
-    distances, correct = features.sequence_distance, features.sequence_correct
-    s_range = (features.sequence_min, features.sequence_max)
-    predictor_keep = keep_mask(predicted, confidence)
-    result: dict[str, Any] = {
-        "f1_macro": macro_f1(features.labels, predicted),
-        "removed": int((~predictor_keep).sum()),
-        "predicted": predicted,
-        "modes": {},
-    }
-    for mode in modes:
-        baseline = curve(mode, distances, correct, keep_mask(n=n), *s_range)
-        with_predictor = curve(mode, distances, correct, predictor_keep, *s_range)
-        comparison = compare_curves(baseline, with_predictor)
-        numbers: dict[str, Any] = {
-            **recall_at_1(features, mode),
-            "max_recall": comparison.max_recall,
-            "auc_vpr_sm": comparison.auc_baseline,
-            "auc_vpr_sm_pred": comparison.auc_predictor,
-            "aoc_vpr_sm": comparison.aoc_baseline,
-            "aoc_vpr_sm_pred": comparison.aoc_predictor,
-            "reduction_pct": comparison.reduction_pct,
-        }
-        if curves:
-            numbers.update({
-                "recall_at_100_precision_vpr_sm": recall_at_full_precision(baseline),
-                "recall_at_100_precision_vpr_sm_pred": recall_at_full_precision(with_predictor),
-                "curve_vpr_sm": _curve_dict(baseline),
-                "curve_vpr_sm_pred": _curve_dict(with_predictor),
-            })
-        trust, trust_numbers = {}, {}
-        for level in trust_levels:
-            keep = keep_mask(predicted, confidence, level)
-            trust_curve = curve(mode, distances, correct, keep, *s_range)
-            level_comparison = compare_curves(baseline, trust_curve)
-            trust[str(level)] = _curve_dict(trust_curve)
-            trust_numbers[str(level)] = {
-                "removed": int((~keep).sum()), "max_recall": level_comparison.max_recall,
-                "auc": level_comparison.auc_predictor, "aoc": level_comparison.aoc_predictor,
-                "auc_vpr_sm": level_comparison.auc_baseline, "aoc_vpr_sm": level_comparison.aoc_baseline,
-                "reduction_pct": level_comparison.reduction_pct,
-            }
-        if trust_levels:
-            numbers["trust_auc"] = trust_numbers
-            if curves:
-                numbers["trust"] = trust
-        result["modes"][mode] = numbers
-    return result
+    return Removal(
+        predicted, macro_f1(features.labels, predicted), int((~keep_mask(predicted, confidence)).sum()),
+        {mode: _mode_removal(features, mode, predicted, confidence, trust_levels, curves) for mode in modes})
 
 
-def seed_summary(seeds: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+def seed_summary(seeds: Sequence[SeedNumbers]) -> dict[str, SeedSummary]:
     """Per mode: mean, sample standard deviation (ddof 1; 0 for one seed), min and max of ``reduction_pct`` over
     the ``n_seeds_defined`` of the ``n_seeds`` seeds where it is defined; all None when it is nowhere."""
     out = {}
-    for mode in seeds[0]["modes"]:
-        reductions = [s["modes"][mode]["reduction_pct"] for s in seeds]
+    for mode in seeds[0].modes:
+        reductions = [s.modes[mode].reduction_pct for s in seeds]
         values = np.array([v for v in reductions if v is not None], dtype=np.float64)
         defined = len(values) > 0
-        out[mode] = {
-            "n_seeds": len(reductions),
-            "n_seeds_defined": len(values),
-            "reduction_pct_mean": float(values.mean()) if defined else None,
-            "reduction_pct_std": (float(values.std(ddof=1)) if len(values) > 1 else 0.0) if defined else None,
-            "reduction_pct_min": float(values.min()) if defined else None,
-            "reduction_pct_max": float(values.max()) if defined else None,
-        }
+        out[mode] = SeedSummary(
+            n_seeds=len(reductions),
+            n_seeds_defined=len(values),
+            reduction_pct_mean=float(values.mean()) if defined else None,
+            reduction_pct_std=(float(values.std(ddof=1)) if len(values) > 1 else 0.0) if defined else None,
+            reduction_pct_min=float(values.min()) if defined else None,
+            reduction_pct_max=float(values.max()) if defined else None,
+        )
     return out
+
+
+def _without_shared_curves(restoration: RestorationNumbers) -> RestorationNumbers:
+    """Restoration as an evaluation keeps it: its baseline and removal curves are the mode's ``curve_vpr_sm`` and
+    ``curve_vpr_sm_pred`` (seed 0, trust 0), kept once."""
+    modes = {mode: replace(numbers, curve_vpr_sm=None, curve_removal=None)
+             for mode, numbers in restoration.modes.items()}
+    return replace(restoration, modes=modes)
 
 
 def evaluate_split(
@@ -136,8 +143,9 @@ def evaluate_split(
     trust_levels: tuple[float, ...] = DEFAULT_TRUST_LEVELS,
     restoration: bool = False,
     seeds: Sequence[int] | None = None,
-) -> dict[str, Any]:
-    """Numbers and curves of one split: baseline (VPR+SM) against match removal (+Pred), per seed, and restoration.
+) -> tuple[EvaluationSplit, float]:
+    """Numbers and curves of one split: baseline (VPR+SM) against match removal (+Pred), per seed, and restoration;
+    with the seconds the seed-0 predictor took to classify the split (a timing, kept out of the record).
 
     ``predictors`` are in seed order, seed 0 first: the first gives the curves, the predictor's own numbers
     (macro F1, confusion matrix) and restoration; each gives one entry of ``seeds``.
@@ -151,40 +159,32 @@ def evaluate_split(
     probabilities = first.predict_proba(features.attributes[:, 0, :])
     predict_seconds = time.perf_counter() - start
     numbers = removal(features, probabilities, first.classes_, tuple(modes), tuple(trust_levels))
-    predicted = numbers.pop("predicted")
-    n = len(features.queries)
-    result: dict[str, Any] = {
-        "n_queries": n,
-        "n_queries_split": len(features.all_single_correct),
-        # single-frame recall@1 by both rules: over the split's every query (paper) and the evaluated ones (standard)
-        "recall_at_1_single_all": float(np.mean(features.all_single_correct)),
-        "recall_at_1_single_evaluated": float(features.single_correct.mean()),
-        "recall_at_1_sequence": float(features.sequence_correct.mean()),
-        "f1_macro": numbers["f1_macro"],
-        "confusion_matrix": confusion_matrix(features.labels, predicted, labels=LABELS).tolist(),
-        "class_counts": np.bincount(features.labels, minlength=4).tolist(),
-        "predicted_counts": np.bincount(predicted, minlength=4).tolist(),
-        "removed": numbers["removed"],
-        "predict_seconds": predict_seconds,
-        "modes": numbers["modes"],
-        "seeds": [],
-    }
-    for seed, predictor in zip(seeds, predictors, strict=True):
-        seed_numbers = numbers if predictor is first else removal(
-            features, predictor.predict_proba(features.attributes[:, 0, :]), predictor.classes_, tuple(modes),
-            curves=False)
-        result["seeds"].append({
-            "seed": seed, "f1_macro": seed_numbers["f1_macro"], "removed": seed_numbers["removed"],
-            "modes": {mode: {k: seed_numbers["modes"][mode][k] for k in SEED_KEYS} for mode in modes},
-        })
-    result["seed_summary"] = seed_summary(result["seeds"])
+    seed_numbers = [SeedNumbers.of(seed, numbers if predictor is first else removal(
+        features, predictor.predict_proba(features.attributes[:, 0, :]), predictor.classes_, tuple(modes),
+        curves=False)) for seed, predictor in zip(seeds, predictors, strict=True)]
+    restored = None
     if restoration:
-        result["restoration"] = evaluate_restoration(
-            features, rank_probabilities(first, features), first.classes_, tuple(modes))
-        for numbers in result["restoration"]["modes"].values():
-            # the same curves as modes[mode]["curve_vpr_sm"] and ["curve_vpr_sm_pred"] (seed 0, trust 0): kept once
-            del numbers["curve_vpr_sm"], numbers["curve_removal"]
-    return result
+        restored = _without_shared_curves(evaluate_restoration(
+            features, rank_probabilities(first, features), first.classes_, tuple(modes)))
+    split = EvaluationSplit(
+        n_queries=len(features.queries),
+        n_queries_split=len(features.all_single_correct),
+        # single-frame recall@1 by both rules: over the split's every query (paper) and the evaluated ones (standard)
+        recall_at_1_single_all=float(np.mean(features.all_single_correct)),
+        recall_at_1_single_evaluated=float(features.single_correct.mean()),
+        recall_at_1_sequence=float(features.sequence_correct.mean()),
+        f1_macro=numbers.f1_macro,
+        confusion_matrix=tuple(map(tuple, confusion_matrix(features.labels, numbers.predicted,
+                                                           labels=LABELS).tolist())),
+        class_counts=tuple(np.bincount(features.labels, minlength=4).tolist()),
+        predicted_counts=tuple(np.bincount(numbers.predicted, minlength=4).tolist()),
+        removed=numbers.removed,
+        modes=numbers.modes,
+        seeds=tuple(seed_numbers),
+        seed_summary=seed_summary(seed_numbers),
+        restoration=restored,
+    )
+    return split, predict_seconds
 
 
 def main(
@@ -197,11 +197,11 @@ def main(
     restoration: bool = True,
     seeds: Sequence[int] | None = None,
     allow_split_overlap: bool = False,
-) -> dict[str, Any]:
+) -> tuple[Evaluation, Timing]:
     """Evaluate every split in ``features_paths`` (e.g. val and test) with the predictors of ``predictor_paths``
-    (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write one JSON file ``out``; the
-    timings per split (``attributes_seconds`` from the features file, ``predict_seconds``, their sum per query
-    ``seconds_per_query``) go to ``timing_path(out)``. The returned dict holds both."""
+    (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write the evaluation to ``out``
+    and its timings per split (``attributes_seconds`` from the features file, ``predict_seconds``, their sum per
+    query ``seconds_per_query``) to ``core.paths.timing_path(out)``; return both."""
     check_suffix(out, JSON_SUFFIXES, "the evaluation (JSON; its timings go beside it)")
     if isinstance(predictor_paths, str | Path):
         predictor_paths = [predictor_paths]
@@ -214,28 +214,19 @@ def main(
         check_disjoint(trained_on(path), frame_ranges(features_paths.values()), allow_split_overlap,
                        f"predictor {path}")
         predictors.append(SMRPredictor.load(path))
-    result: dict[str, Any] = {
-        "meta": dict(meta or {}), "predictors": [str(p) for p in predictor_paths], "splits": {},
-    }
-    timings: dict[str, dict[str, Any]] = {}
+    splits: dict[str, EvaluationSplit] = {}
+    timings: dict[str, SplitTiming] = {}
     for split, path in features_paths.items():
         if not Path(path).is_file():
             raise FileNotFoundError(f"features of split {split!r} not found: {path} (run vpr-smr attributes)")
         features = read_features(path)
-        split_result = evaluate_split(features, predictors, tuple(modes), tuple(trust_levels), restoration, seeds)
-        # Timings change from run to run: they go beside the results, so that two runs give identical results.
+        splits[split], predict_seconds = evaluate_split(features, predictors, tuple(modes), tuple(trust_levels),
+                                                        restoration, seeds)
+        # Timings change from run to run: they go in their own file, so that two runs give identical results.
         attributes_seconds = float(read_provenance(path).get("attributes_seconds", 0.0))
-        predict_seconds = split_result.pop("predict_seconds")
-        n_queries = split_result["n_queries"]
-        timings[split] = {"attributes_seconds": attributes_seconds, "predict_seconds": predict_seconds,
-                          "seconds_per_query": (attributes_seconds + predict_seconds) / max(n_queries, 1),
-                          "n_queries": n_queries}
-        result["splits"][split] = split_result
-    write_json(timing_path(out), {"meta": result["meta"], "splits": timings})
-    write_json(out, result)
-    return {**result, "splits": {split: {**numbers, **timings[split]} for split, numbers in result["splits"].items()}}
-
-
-def timing_path(out: Path | str) -> Path:
-    """The timings of an evaluation file ``L4.json``: ``L4.timing.json`` beside it."""
-    return Path(out).with_suffix(".timing.json")
+        timings[split] = SplitTiming.of(attributes_seconds, predict_seconds, splits[split].n_queries)
+    evaluation = Evaluation(dict(meta or {}), tuple(str(p) for p in predictor_paths), splits)
+    timing = Timing(dict(evaluation.meta), timings)
+    write_json(timing_path(out), timing.to_json())
+    write_json(out, evaluation.to_json())
+    return evaluation, timing

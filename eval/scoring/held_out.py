@@ -6,12 +6,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from vpr_smr.core.constants import MODES
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, write_json
 from vpr_smr.eval.matching.attributes import read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
-from vpr_smr.eval.scoring.curves import MODES
 from vpr_smr.eval.scoring.evaluate import removal
+from vpr_smr.eval.scoring.records import HeldOut, HeldOutScores
 
 
 def main(
@@ -22,24 +23,20 @@ def main(
     modes: tuple[str, ...] = MODES,
     meta: dict[str, Any] | None = None,
     allow_split_overlap: bool = False,
-) -> dict[str, Any]:
-    """The held-out method's test split (``features``) under the pooled predictor and the ``without_`` one.
-
-    Layout: ``{"meta", "n_queries", "predictors": {"pooled": {...}, "without": {...}}}``, each with ``path``,
-    ``f1_macro``, ``removed`` and ``modes: {mode: {max_recall, auc_vpr_sm, auc_vpr_sm_pred, aoc_vpr_sm,
-    aoc_vpr_sm_pred, reduction_pct, ...}}``.
-    """
+) -> HeldOut:
+    """The held-out method's test split (``features``) under the pooled predictor and the ``without_`` one
+    (``records.HeldOut``), written to ``out``."""
     check_suffix(out, JSON_SUFFIXES, "the leave-one-method-out evaluation (JSON)")
     features_ = read_features(features)
-    result: dict[str, Any] = {"meta": dict(meta or {}), "n_queries": len(features_.queries), "predictors": {}}
+    scores = {}
     for name, path in (("pooled", pooled_predictor), ("without", held_out_predictor)):
         if not Path(path).is_file():
             raise FileNotFoundError(f"predictor file not found: {path} (train it first)")
         check_disjoint(trained_on(path), frame_ranges([features]), allow_split_overlap, f"predictor {path}")
         predictor = SMRPredictor.load(path)
-        numbers = removal(features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_,
-                          tuple(modes), curves=False)
-        numbers.pop("predicted")
-        result["predictors"][name] = {"path": str(path), **numbers}
-    write_json(out, result)
+        scores[name] = HeldOutScores.of(str(path), removal(
+            features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_, tuple(modes),
+            curves=False))
+    result = HeldOut(dict(meta or {}), len(features_.queries), scores["pooled"], scores["without"])
+    write_json(out, result.to_json())
     return result

@@ -15,12 +15,13 @@ score (the ranks are ordered by the column-normalised sums of SPEC 5, not by ``S
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
+from vpr_smr.core.constants import KEPT_CLASSES
 from vpr_smr.eval.matching.attributes import QueryFeatures
-from vpr_smr.eval.scoring.curves import KEPT_CLASSES, Curve, area, curve, keep_mask, reduction_pct
+from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, reduction_pct
+from vpr_smr.eval.scoring.records import PRCurve, RestorationMode, RestorationNumbers
 
 
 @dataclass(frozen=True)
@@ -72,11 +73,7 @@ def restore(
     return Restoration(removed, restored_rank, ~removed | restored, correct.astype(bool))
 
 
-def _curve_dict(curve_: Curve) -> dict[str, Any]:
-    return {"recall": curve_.recall, "precision": curve_.precision}
-
-
-def compare(baseline: Curve, removal: Curve, restoration: Curve) -> dict[str, Any]:
+def compare(baseline: Curve, removal: Curve, restoration: Curve) -> RestorationMode:
     """PR AUC of each curve over its own extent (the paper's numbers) and AOC at the common maximum recall.
 
     ``auc_difference = auc_restoration - auc_removal`` is the paper's bar (positive: restoration helps). The AOCs
@@ -88,22 +85,22 @@ def compare(baseline: Curve, removal: Curve, restoration: Curve) -> dict[str, An
     max_recall = max(max_removal, max_restoration)
     auc_removal, auc_restoration = area(removal), area(restoration)
     aoc_removal, aoc_restoration = max(0.0, max_recall - auc_removal), max(0.0, max_recall - auc_restoration)
-    return {
-        "max_recall": max_recall,
-        "max_recall_removal": max_removal,
-        "max_recall_restoration": max_restoration,
-        "auc_vpr_sm": area(baseline),
-        "auc_removal": auc_removal,
-        "auc_restoration": auc_restoration,
-        "auc_difference": auc_restoration - auc_removal,
-        "aoc_removal": aoc_removal,
-        "aoc_restoration": aoc_restoration,
-        "aoc_difference": aoc_restoration - aoc_removal,
-        "reduction_pct": reduction_pct(aoc_removal, aoc_restoration),  # None when removal's AOC is 0
-        "curve_vpr_sm": _curve_dict(baseline),
-        "curve_removal": _curve_dict(removal),
-        "curve_restoration": _curve_dict(restoration),
-    }
+    return RestorationMode(
+        max_recall=max_recall,
+        max_recall_removal=max_removal,
+        max_recall_restoration=max_restoration,
+        auc_vpr_sm=area(baseline),
+        auc_removal=auc_removal,
+        auc_restoration=auc_restoration,
+        auc_difference=auc_restoration - auc_removal,
+        aoc_removal=aoc_removal,
+        aoc_restoration=aoc_restoration,
+        aoc_difference=aoc_restoration - aoc_removal,
+        reduction_pct=reduction_pct(aoc_removal, aoc_restoration),  # None when removal's AOC is 0
+        curve_restoration=PRCurve.of(restoration),
+        curve_vpr_sm=PRCurve.of(baseline),
+        curve_removal=PRCurve.of(removal),
+    )
 
 
 def evaluate_restoration(
@@ -113,29 +110,28 @@ def evaluate_restoration(
     modes: tuple[str, ...],
     trust: float = 0.0,
     min_score: float = 0.0,
-) -> dict[str, Any]:
+) -> RestorationNumbers:
     """Counts of the second filter and, per mode, the three curves (baseline, removal, restoration) compared."""
     result = restore(features, probabilities, classes, trust, min_score)
     restored = result.restored
     n_ranks = features.rank_references.shape[1]
-    out: dict[str, Any] = {
-        "trust": trust,
-        "min_score": min_score,
-        "removed": int(result.removed.sum()),
-        "restored": int(restored.sum()),
-        "restored_correct": int((restored & result.correct).sum()),
-        "restored_wrong": int((restored & ~result.correct).sum()),
-        # wrong removed match replaced by a right one, and the reverse
-        "wrong_to_right": int((restored & result.correct & ~features.sequence_correct).sum()),
-        "right_to_wrong": int((restored & ~result.correct & features.sequence_correct).sum()),
-        "restored_by_rank": [int((result.restored_rank == k).sum()) for k in range(1, n_ranks)],
-        "modes": {},
-    }
     distances, s_range = features.sequence_distance, (features.sequence_min, features.sequence_max)
     n = len(distances)
+    modes_ = {}
     for mode in modes:
         baseline = curve(mode, distances, features.sequence_correct, keep_mask(n=n), *s_range)
         removal = curve(mode, distances, features.sequence_correct, ~result.removed, *s_range)
         restoration = curve(mode, distances, result.correct, result.keep, *s_range)
-        out["modes"][mode] = compare(baseline, removal, restoration)
-    return out
+        modes_[mode] = compare(baseline, removal, restoration)
+    return RestorationNumbers(
+        trust=trust,
+        min_score=min_score,
+        removed=int(result.removed.sum()),
+        restored=int(restored.sum()),
+        restored_correct=int((restored & result.correct).sum()),
+        restored_wrong=int((restored & ~result.correct).sum()),
+        wrong_to_right=int((restored & result.correct & ~features.sequence_correct).sum()),
+        right_to_wrong=int((restored & ~result.correct & features.sequence_correct).sum()),
+        restored_by_rank=tuple(int((result.restored_rank == k).sum()) for k in range(1, n_ranks)),
+        modes=modes_,
+    )

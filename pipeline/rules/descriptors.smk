@@ -3,13 +3,14 @@ rule descriptors:
         checkpoint=lambda wc: [PLAN.checkpoints[wc.method]] if PLAN.checkpoints[wc.method] else [],
         lists=lambda wc: list(PLAN.datasets[wc.dataset].list_files),
     output:
-        f"{OUT}/descriptors/{{dataset}}/{{method}}.h5",
+        descriptors_path(OUT, "{dataset}", "{method}"),
     log:
-        f"{OUT}/logs/descriptors/{{dataset}}/{{method}}.log",
+        log_path(OUT, descriptors_path(OUT, "{dataset}", "{method}")),
     params:
         dataset=lambda wc: canonical(PLAN.datasets[wc.dataset].frames_settings),
         frames_sha256=lambda wc: PLAN.datasets[wc.dataset].frames_sha256,
-        method=lambda wc: canonical(conf["methods"][wc.method]),
+        # without `distance`: it changes the distance matrices, not the descriptors
+        method=lambda wc: canonical(descriptor_settings(conf["methods"][wc.method])),
     threads: 2
     resources:
         gpu=1,

@@ -1,24 +1,25 @@
 rule distances:
     input:
-        f"{OUT}/descriptors/{{dataset}}/{{method}}.h5",
+        descriptors_path(OUT, "{dataset}", "{method}"),
     output:
-        f"{OUT}/distances/{{dataset}}/{{method}}/{{split}}.h5",
+        distances_path(OUT, "{dataset}", "{method}", "{split}"),
     log:
-        f"{OUT}/logs/distances/{{dataset}}/{{method}}/{{split}}.log",
+        log_path(OUT, distances_path(OUT, "{dataset}", "{method}", "{split}")),
     params:
         frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[wc.split]),
+        metric=lambda wc: PLAN.metrics[wc.method],  # the method's `distance`, or its backend's default
     shell:
         "vpr-smr distances --descriptors {input:q} --split {wildcards.split:q} --frames {params.frames}"
-        " --out {output:q} > {log:q} 2>&1"
+        " --metric {params.metric} --out {output:q} > {log:q} 2>&1"
 
 
 rule attributes:
     input:
-        f"{OUT}/distances/{{dataset}}/{{method}}/{{split}}.h5",
+        distances_path(OUT, "{dataset}", "{method}", "{split}"),
     output:
-        f"{OUT}/features/{{dataset}}/{{method}}/L{{seq_len}}/{{split}}.h5",
+        attributes_path(OUT, "{dataset}", "{method}", "{seq_len}", "{split}"),
     log:
-        f"{OUT}/logs/features/{{dataset}}/{{method}}/L{{seq_len}}/{{split}}.log",
+        log_path(OUT, attributes_path(OUT, "{dataset}", "{method}", "{seq_len}", "{split}")),
     params:
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
     shell:
@@ -28,14 +29,14 @@ rule attributes:
 
 rule train:
     input:
-        train=split_features(OUT, METHODS, conf["train_split"]),
-        val=split_features(OUT, METHODS, "val") if "val" in conf["eval_splits"] else [],
-        test=split_features(OUT, METHODS, "test") if "test" in conf["eval_splits"] else [],
+        train=split_attributes(OUT, METHODS, conf["train_split"]),
+        val=split_attributes(OUT, METHODS, "val") if "val" in conf["eval_splits"] else [],
+        test=split_attributes(OUT, METHODS, "test") if "test" in conf["eval_splits"] else [],
     output:
-        models=seed_models(conf, f"{OUT}/predictors/{{dataset}}/L{{seq_len}}"),
-        report=f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.json",
+        models=predictor_paths(OUT, "{dataset}", "{seq_len}", conf["seeds"]),
+        report=predictor_report_path(predictor_path(OUT, "{dataset}", "{seq_len}")),
     log:
-        f"{OUT}/logs/predictors/{{dataset}}/L{{seq_len}}.log",
+        log_path(OUT, predictor_path(OUT, "{dataset}", "{seq_len}")),
     params:
         overlap=ALLOW_OVERLAP,
         predictor=canonical(conf["predictor"]),
@@ -48,22 +49,23 @@ rule train:
 
 rule evaluate:
     input:
-        features=lambda wc: [features_path(OUT, wc.dataset, wc.method, wc.seq_len, split) for split in conf["eval_splits"]],
-        predictors=seed_models(conf, f"{OUT}/predictors/{{dataset}}/L{{seq_len}}"),
+        attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
+                             for split in conf["eval_splits"]],
+        predictors=predictor_paths(OUT, "{dataset}", "{seq_len}", conf["seeds"]),
     output:
-        evaluation=f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.json",
-        timing=f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.timing.json",
+        evaluation=evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}"),
+        timing=timing_path(evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     log:
-        f"{OUT}/logs/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.log",
+        log_path(OUT, evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     params:
         overlap=ALLOW_OVERLAP,
         # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
-        features=lambda wc, input: name_pairs(conf["eval_splits"], input.features),
+        attributes=lambda wc, input: name_pairs(conf["eval_splits"], input.attributes),
         modes=" ".join(conf["modes"]),
         trust_levels=" ".join(str(level) for level in conf["trust_levels"]) if "trust" in EXPERIMENTS else "",
         restoration="" if "restoration" in EXPERIMENTS else "--no-restoration",
     shell:
         "vpr-smr evaluate --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len} --features {params.features} --predictors {input.predictors:q}"
+        " --seq-len {wildcards.seq_len} --attributes {params.attributes} --predictors {input.predictors:q}"
         " --modes {params.modes} --trust-levels {params.trust_levels} {params.restoration}"
         " --out {output.evaluation:q} {params.overlap} > {log:q} 2>&1"

@@ -3,13 +3,13 @@
 
 rule attribute_ablation:
     input:
-        train=split_features(OUT, METHODS, conf["train_split"]),
-        val=split_features(OUT, METHODS, "val") if "val" in conf["eval_splits"] else [],
-        test=split_features(OUT, METHODS, "test") if "test" in conf["eval_splits"] else [],
+        train=split_attributes(OUT, METHODS, conf["train_split"]),
+        val=split_attributes(OUT, METHODS, "val") if "val" in conf["eval_splits"] else [],
+        test=split_attributes(OUT, METHODS, "test") if "test" in conf["eval_splits"] else [],
     output:
-        f"{OUT}/ablation/attributes/{{dataset}}/L{{seq_len}}.json",
+        attribute_ablation_path(OUT, "{dataset}", "{seq_len}"),
     log:
-        f"{OUT}/logs/ablation/attributes/{{dataset}}/L{{seq_len}}.log",
+        log_path(OUT, attribute_ablation_path(OUT, "{dataset}", "{seq_len}")),
     params:
         overlap=ALLOW_OVERLAP,
         predictor=canonical(conf["predictor"]),
@@ -22,12 +22,12 @@ rule attribute_ablation:
 rule predictor_without:
     # The held-out method's files are not inputs: a change to them does not retrain this predictor.
     input:
-        train=lambda wc: other_features(OUT, METHODS, wc, conf["train_split"]),
-        val=lambda wc: other_features(OUT, METHODS, wc, "val") if "val" in conf["eval_splits"] else [],
+        train=lambda wc: other_attributes(OUT, METHODS, wc, conf["train_split"]),
+        val=lambda wc: other_attributes(OUT, METHODS, wc, "val") if "val" in conf["eval_splits"] else [],
     output:
-        f"{OUT}/predictors/{{dataset}}/L{{seq_len}}/without_{{method}}.h5",
+        without_predictor_path(OUT, "{dataset}", "{seq_len}", "{method}"),
     log:
-        f"{OUT}/logs/predictors/{{dataset}}/L{{seq_len}}/without_{{method}}.log",
+        log_path(OUT, without_predictor_path(OUT, "{dataset}", "{seq_len}", "{method}")),
     params:
         overlap=ALLOW_OVERLAP,
         predictor=canonical(conf["predictor"]),
@@ -42,40 +42,41 @@ rule predictor_without:
 
 rule held_out:
     input:
-        features=features_path(OUT, "{dataset}", "{method}", "{seq_len}", conf["table_split"]),
-        pooled=f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.h5",
-        without=f"{OUT}/predictors/{{dataset}}/L{{seq_len}}/without_{{method}}.h5",
+        attributes=attributes_path(OUT, "{dataset}", "{method}", "{seq_len}", conf["table_split"]),
+        pooled=predictor_path(OUT, "{dataset}", "{seq_len}"),
+        without=without_predictor_path(OUT, "{dataset}", "{seq_len}", "{method}"),
     output:
-        f"{OUT}/ablation/without/{{dataset}}/L{{seq_len}}/{{method}}.json",
+        held_out_path(OUT, "{dataset}", "{seq_len}", "{method}"),
     log:
-        f"{OUT}/logs/ablation/without/{{dataset}}/L{{seq_len}}/{{method}}.log",
+        log_path(OUT, held_out_path(OUT, "{dataset}", "{seq_len}", "{method}")),
     params:
         overlap=ALLOW_OVERLAP,
         modes=" ".join(conf["modes"]),
     shell:
         "vpr-smr ablation held-out --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len} --features {input.features:q} --pooled {input.pooled:q}"
+        " --seq-len {wildcards.seq_len} --attributes {input.attributes:q} --pooled {input.pooled:q}"
         " --without {input.without:q} --modes {params.modes} --out {output:q} {params.overlap} > {log:q} 2>&1"
 
 
 rule report:
     input:
-        evaluations=expand(f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.json",
+        evaluations=expand(evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}"),
                            dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
-        # read by the report beside each evaluation
-        timings=expand(f"{OUT}/evaluation/{{dataset}}/{{method}}/L{{seq_len}}.timing.json",
+        # matched to their evaluations by the report, by dataset, method and L
+        timings=expand(timing_path(evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}")),
                        dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
-        predictors=expand(f"{OUT}/predictors/{{dataset}}/L{{seq_len}}.json", dataset=DATASETS, seq_len=SEQ_LENS),
-        attribute_ablations=expand(f"{OUT}/ablation/attributes/{{dataset}}/L{TABLE_L}.json", dataset=DATASETS)
+        predictors=expand(predictor_report_path(predictor_path(OUT, "{dataset}", "{seq_len}")),
+                          dataset=DATASETS, seq_len=SEQ_LENS),
+        attribute_ablations=expand(attribute_ablation_path(OUT, "{dataset}", TABLE_L), dataset=DATASETS)
         if "attributes" in EXPERIMENTS else [],
-        leave_one_out=expand(f"{OUT}/ablation/without/{{dataset}}/L{TABLE_L}/{{method}}.json",
+        leave_one_out=expand(held_out_path(OUT, "{dataset}", TABLE_L, "{method}"),
                              dataset=DATASETS, method=METHODS) if "leave_one_method_out" in EXPERIMENTS else [],
         # read for their provenance (checkpoint and frame-list hashes) only
-        descriptors=expand(f"{OUT}/descriptors/{{dataset}}/{{method}}.h5", dataset=DATASETS, method=METHODS),
+        descriptors=expand(descriptors_path(OUT, "{dataset}", "{method}"), dataset=DATASETS, method=METHODS),
     output:
         [f"{OUT}/{name}" for name in report_outputs(conf, EXPERIMENTS)],
     log:
-        f"{OUT}/logs/report.log",
+        report_log_path(OUT),
     params:
         split=conf["table_split"],
         table_seq_len=TABLE_L,
@@ -84,8 +85,9 @@ rule report:
         settings=report_settings(conf),
         datasets=canonical(dataset_cards(PLAN)),
     shell:
-        "vpr-smr report --evaluations {input.evaluations:q} --predictors {input.predictors:q}"
-        " --attribute-ablations {input.attribute_ablations:q} --leave-one-out {input.leave_one_out:q}"
+        "vpr-smr report --evaluations {input.evaluations:q} --timings {input.timings:q}"
+        " --predictors {input.predictors:q} --attribute-ablations {input.attribute_ablations:q}"
+        " --leave-one-out {input.leave_one_out:q}"
         " --descriptors {input.descriptors:q} --split {params.split:q} --table-seq-lens {params.table_seq_len}"
         " {params.seq_len_ablation} --settings {params.settings:q} --datasets {params.datasets:q}"
         " --out {OUT:q} > {log:q} 2>&1"

@@ -1,0 +1,23 @@
+"""Facts of the method that several stages use, each set here once (SPEC sections cited per constant).
+
+Plain module-level values (ints, floats, tuples of them): the compiled kernels (``eval.matching.kernels``) read
+``EPS`` and ``GROUP_HALF_WIDTH`` as globals, which numba freezes at compile time.
+"""
+
+from __future__ import annotations
+
+DEFAULT_TOLERANCE = 2  # SPEC 1: a match is correct within 2 frames, for every dataset
+METRICS = ("l2", "cosine", "mad")  # distances between descriptors (eval.matching.distances)
+
+EPS = 1e-6  # added to every denominator of the attributes A1..A4 (SPEC 5)
+GROUP_HALF_WIDTH = 2  # W in the paper: the group of diagonal i is i-W .. i+W (A4, SPEC 5)
+
+# SPEC 6: 0 correct before and after sequence matching, 1 before only, 2 after only, 3 wrong both
+LABELS = (0, 1, 2, 3)
+N_LABELS = len(LABELS)
+KEPT_CLASSES = (0, 2)  # SPEC 6: labels whose sequence match is correct; the predictor keeps these matches
+
+MODES = ("paper", "standard")  # metric modes of the PR curves (eval.scoring.curves)
+# Trust levels of the trust-level ablation; pipeline/config_schema.json repeats them as the `trust_levels`
+# default (a JSON schema cannot import), and tests/test_config.py checks that both agree.
+DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)

@@ -1,0 +1,86 @@
+"""Every output path of a run, one function per kind: the Snakemake rules and the stages both name files here.
+
+A function takes the run folder and the names (a rule passes wildcard strings such as ``"{dataset}"``) and returns
+the path as text joined with ``/``, as the rules write it. A file that lives beside another (a predictor's other
+seeds and its report, an evaluation's timings, a job's log) is named from that file, so that a stage given only
+its ``--out`` derives it the same way as the workflow declares it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path, PurePath
+
+
+def _without_suffix(path: Path | str) -> str:
+    """``path`` as text without its last suffix (``.../L4.h5`` -> ``.../L4``), keeping the text as given."""
+    text = str(path)
+    return text[:len(text) - len(PurePath(text).suffix)]
+
+
+def descriptors_path(run: Path | str, dataset: str, method: str) -> str:
+    return f"{run}/descriptors/{dataset}/{method}.h5"
+
+
+def distances_path(run: Path | str, dataset: str, method: str, split: str) -> str:
+    return f"{run}/distances/{dataset}/{method}/{split}.h5"
+
+
+def attributes_path(run: Path | str, dataset: str, method: str, seq_len: int | str, split: str) -> str:
+    """The attributes stage's file (attributes, labels, matches) of one split at sequence length ``seq_len``."""
+    return f"{run}/attributes/{dataset}/{method}/L{seq_len}/{split}.h5"
+
+
+def predictor_path(run: Path | str, dataset: str, seq_len: int | str) -> str:
+    """The pooled predictor of seed 0 (the authors' recipe); the other seeds go beside it (``seed_predictor_path``)."""
+    return f"{run}/predictors/{dataset}/L{seq_len}.h5"
+
+
+def seed_predictor_path(predictor: Path | str, seed: int) -> str:
+    """Seed ``seed``'s predictor beside the first seed's ``predictor``: ``L4.h5`` -> ``L4.seed<seed>.h5``."""
+    return f"{_without_suffix(predictor)}.seed{seed}.h5"
+
+
+def predictor_paths(run: Path | str, dataset: str, seq_len: int | str, seeds: int) -> list[str]:
+    """The predictors of seeds ``0..seeds-1``, seed 0 first."""
+    first = predictor_path(run, dataset, seq_len)
+    return [first] + [seed_predictor_path(first, seed) for seed in range(1, seeds)]
+
+
+def predictor_report_path(predictor: Path | str) -> str:
+    """The training report beside a predictor file: ``L4.h5`` -> ``L4.json``."""
+    return f"{_without_suffix(predictor)}.json"
+
+
+def without_predictor_path(run: Path | str, dataset: str, seq_len: int | str, method: str) -> str:
+    """The leave-one-method-out predictor, trained on every method but ``method``."""
+    return f"{run}/predictors/{dataset}/L{seq_len}/without_{method}.h5"
+
+
+def evaluation_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
+    return f"{run}/evaluation/{dataset}/{method}/L{seq_len}.json"
+
+
+def timing_path(evaluation: Path | str) -> str:
+    """The timings beside an evaluation file: ``L4.json`` -> ``L4.timing.json`` (apart, so results repeat exactly)."""
+    return f"{_without_suffix(evaluation)}.timing.json"
+
+
+def attribute_ablation_path(run: Path | str, dataset: str, seq_len: int | str) -> str:
+    return f"{run}/ablation/attributes/{dataset}/L{seq_len}.json"
+
+
+def held_out_path(run: Path | str, dataset: str, seq_len: int | str, method: str) -> str:
+    """The held-out scores of ``method`` under the pooled and the ``without_<method>`` predictor."""
+    return f"{run}/ablation/without/{dataset}/L{seq_len}/{method}.json"
+
+
+def log_path(run: Path | str, output: Path | str) -> str:
+    """The log of the job writing ``output`` (a path under ``run``): ``logs/`` plus its place in the run, ``.log``."""
+    prefix = f"{run}/"
+    if not str(output).startswith(prefix):
+        raise ValueError(f"{output} is not under the run folder {run}")
+    return f"{run}/logs/{_without_suffix(str(output)[len(prefix):])}.log"
+
+
+def report_log_path(run: Path | str) -> str:
+    return f"{run}/logs/report.log"

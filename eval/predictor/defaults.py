@@ -1,0 +1,58 @@
+"""The predictor's defaults (SPEC 7) and what its training needs, in a module without scikit-learn so that
+validating and checking a configuration stays fast: ``SMRPredictor``'s keyword defaults are these values, a
+validated configuration carries all of them, and the check before the first job asks ``training_problems``."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+PAPER_PARAMS = {"alpha": 1e-4, "learning_rate_init": 1e-3}  # the authors' code (the paper's text says 1e-3 / 1e-4)
+CODE_COLUMN_ORDER = (0, 1, 3, 2)  # A1..A4 -> the authors' input [A1, A2, A4, A3] (min sum, min value, group, block)
+
+DEFAULTS: dict[str, Any] = {
+    "hidden_layer_sizes": (128, 128, 128),
+    "alpha": PAPER_PARAMS["alpha"],
+    "learning_rate_init": PAPER_PARAMS["learning_rate_init"],
+    "max_iter": 10000,
+    "smote": True,
+    "random_state": 0,
+    "smote_random_state": 42,
+    "column_order": CODE_COLUMN_ORDER,
+}
+
+CV_FOLDS = 5  # SPEC 7: 5-fold StratifiedKFold
+# MLPClassifier's default validation_fraction: early_stopping holds out ceil(10 %) of the (resampled) training
+# samples, stratified when there are two classes, and refuses a validation set of fewer than 2 samples.
+VALIDATION_FRACTION = 0.1
+MIN_VALIDATION = 2
+# the fewest (resampled) samples whose validation split is large enough: 11
+MIN_FIT_SAMPLES = next(n for n in range(1, 1000) if math.ceil(VALIDATION_FRACTION * n) >= MIN_VALIDATION)
+
+# The fewest pooled training samples that can train (cross-validation and fit) with the most favourable labels,
+# found by trying every count vector and class order with ``label_problems``: 11 with SMOTE (counts 3 and 8 of
+# two labels), 14 without (3 and 11). Real labels are far less favourable (label 0 dominates).
+MIN_TRAIN_SAMPLES = {True: 11, False: 14}
+
+
+def training_problems(n_train_queries: int, seq_len: int, n_methods: int = 1, smote: bool = True,
+                      split: str = "train") -> list[str]:
+    """What the configuration check can tell from split lengths alone: why a predictor cannot be trained on a
+    train split of ``n_train_queries`` frames at sequence length ``seq_len``, pooled over ``n_methods`` methods
+    (``smote``: the predictor's setting). Empty when some labelling of that many samples can train; the train
+    stage checks the real class counts (``check_training_labels``).
+
+    Each method gives ``n_train_queries - seq_len + 1`` samples (the queries with a sequence match, SPEC 4).
+    """
+    per_method = max(0, n_train_queries - seq_len + 1)
+    pooled = per_method * n_methods
+    needed = MIN_TRAIN_SAMPLES[bool(smote)]
+    if pooled >= needed:
+        return []
+    frames = math.ceil(needed / max(n_methods, 1)) + seq_len - 1
+    return [f"split {split!r} has {n_train_queries} frames: {per_method} training samples per method at sequence "
+            f"length {seq_len} ({n_train_queries} - {seq_len} + 1), {pooled} pooled over {n_methods} method(s); "
+            f"the predictor needs at least {needed} even with the most favourable labels ({CV_FOLDS}-fold "
+            f"cross-validation{' with SMOTE' if smote else ''}, then early stopping's {VALIDATION_FRACTION:.0%} "
+            f"validation split of at least {MIN_VALIDATION}): lengthen split {split!r} to at least {frames} frames "
+            f"(many more in practice), or shorten seq_lens"]

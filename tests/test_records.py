@@ -1,0 +1,114 @@
+"""The typed results: each file's layout is the one the stages always wrote, and records survive a round trip."""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+from vpr_smr.core.io import write_json
+from vpr_smr.eval.matching.attributes import query_features, write_features
+from vpr_smr.eval.predictor.estimator import SMRPredictor
+from vpr_smr.eval.report.build import match_timings
+from vpr_smr.eval.scoring import evaluate, held_out
+from vpr_smr.eval.scoring.records import Evaluation, HeldOut, Timing
+
+# The keys of one split of an evaluation file and of one mode in it (seed 0, with curves and trust levels)
+SPLIT_KEYS = {"n_queries", "n_queries_split", "recall_at_1_single_all", "recall_at_1_single_evaluated",
+              "recall_at_1_sequence", "f1_macro", "confusion_matrix", "class_counts", "predicted_counts", "removed",
+              "modes", "seeds", "seed_summary", "restoration"}
+MODE_KEYS = {"recall_at_1_single", "recall_at_1_sequence", "max_recall", "auc_vpr_sm", "auc_vpr_sm_pred",
+             "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", "recall_at_100_precision_vpr_sm",
+             "recall_at_100_precision_vpr_sm_pred", "curve_vpr_sm", "curve_vpr_sm_pred", "trust_auc", "trust"}
+RESTORATION_MODE_KEYS = {"max_recall", "max_recall_removal", "max_recall_restoration", "auc_vpr_sm", "auc_removal",
+                         "auc_restoration", "auc_difference", "aoc_removal", "aoc_restoration", "aoc_difference",
+                         "reduction_pct", "curve_restoration"}  # the baseline and removal curves are kept once
+HELD_OUT_MODE_KEYS = {"recall_at_1_single", "recall_at_1_sequence", "max_recall", "auc_vpr_sm", "auc_vpr_sm_pred",
+                      "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct"}
+
+
+@pytest.fixture(scope="module")
+def stage_files(tmp_path_factory):
+    """An evaluation (two splits, two seeds, trust levels, restoration), its timings and a held-out file."""
+    tmp = tmp_path_factory.mktemp("records")
+    rng = np.random.default_rng(0)
+    paths = {}
+    for split in ("val", "test"):
+        features = query_features(rng.random((40, 40)) + 0.6 * (1 - np.eye(40)), 4)
+        paths[split] = tmp / f"{split}.h5"
+        write_features(paths[split], features, {"attributes_seconds": 0.25})
+    predictors = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for seed in (0, 1):
+            predictors.append(tmp / f"p{seed}.h5")
+            SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=seed).fit(
+                features.attributes[:, 0], features.labels).save(predictors[-1])
+    meta = {"dataset": "d", "method": "m", "seq_len": 4}
+    evaluation, timing = evaluate.main(paths, predictors, tmp / "e.json", trust_levels=(0.0, 0.9), meta=meta,
+                                       allow_split_overlap=True)
+    scores = held_out.main(paths["test"], predictors[0], predictors[1], tmp / "h.json", meta=meta,
+                           allow_split_overlap=True)
+    return tmp, evaluation, timing, scores
+
+
+def _dumped(record) -> str:
+    """The bytes ``write_json`` gives a record."""
+    return json.dumps(record.to_json(), indent=1, sort_keys=True)
+
+
+def test_evaluation_file_layout(stage_files):
+    tmp, evaluation, timing, _ = stage_files
+    data = json.loads((tmp / "e.json").read_text())
+    assert list(data) == ["meta", "predictors", "splits"] and set(data["splits"]) == {"test", "val"}
+    split = data["splits"]["test"]
+    assert set(split) == SPLIT_KEYS
+    assert set(split["modes"]["paper"]) == MODE_KEYS and set(split["modes"]["paper"]["trust_auc"]) == {"0.0", "0.9"}
+    assert set(split["seeds"][0]["modes"]["standard"]) == MODE_KEYS - {
+        "recall_at_1_single", "recall_at_1_sequence", "recall_at_100_precision_vpr_sm",
+        "recall_at_100_precision_vpr_sm_pred", "curve_vpr_sm", "curve_vpr_sm_pred", "trust_auc", "trust"}
+    assert set(split["restoration"]["modes"]["standard"]) == RESTORATION_MODE_KEYS
+    timings = json.loads((tmp / "e.timing.json").read_text())
+    assert timings["meta"] == data["meta"]
+    assert set(timings["splits"]["test"]) == {"attributes_seconds", "predict_seconds", "seconds_per_query",
+                                              "n_queries"}
+
+
+def test_records_round_trip_byte_for_byte(stage_files):
+    tmp, evaluation, timing, scores = stage_files
+    for path, record, kind in ((tmp / "e.json", evaluation, Evaluation), (tmp / "e.timing.json", timing, Timing),
+                               (tmp / "h.json", scores, HeldOut)):
+        text = path.read_text()
+        assert _dumped(record) == text
+        read = kind.from_json(json.loads(text))
+        assert read == record and kind.from_json(record.to_json()) == record
+        assert _dumped(read) == text
+        write_json(tmp / "again.json", read.to_json())
+        assert (tmp / "again.json").read_text() == text
+
+
+def test_held_out_file_layout(stage_files):
+    tmp, _, _, scores = stage_files
+    data = json.loads((tmp / "h.json").read_text())
+    assert set(data) == {"meta", "n_queries", "predictors"} and set(data["predictors"]) == {"pooled", "without"}
+    assert set(data["predictors"]["pooled"]) == {"path", "f1_macro", "removed", "modes"}
+    assert set(data["predictors"]["without"]["modes"]["paper"]) == HELD_OUT_MODE_KEYS
+    assert scores.n_queries == data["n_queries"] == 37
+
+
+def test_a_file_missing_a_key_is_refused(stage_files):
+    tmp, _, _, _ = stage_files
+    data = json.loads((tmp / "e.json").read_text())
+    del data["splits"]["test"]["seed_summary"]
+    with pytest.raises(KeyError, match="seed_summary"):
+        Evaluation.from_json(data)
+
+
+def test_timings_are_matched_to_their_evaluation_by_meta(stage_files):
+    _, evaluation, timing, _ = stage_files
+    assert match_timings([evaluation], [timing]) == {("d", "m", 4): timing}
+    other = Timing({**timing.meta, "seq_len": 8}, timing.splits)
+    with pytest.raises(ValueError, match="d, m, L8 match no evaluation"):
+        match_timings([evaluation], [timing, other])
+    with pytest.raises(ValueError, match="two timing files"):
+        match_timings([evaluation], [timing, timing])
