@@ -29,6 +29,7 @@ test-fast: $(STAMP)
 
 lint: $(STAMP)
 	$(BIN)/ruff check .
+	$(BIN)/lint-imports --no-cache
 
 # Full-size speed and memory measurements (minutes; see benchmarks/README.md). CI runs them small, in the tests.
 bench: $(STAMP)

@@ -89,8 +89,8 @@ def cmd_train(args: argparse.Namespace) -> None:
     report = train.main(args.train, args.out, params, val=args.val or (), test=args.test or (),
                         meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)),
                         allow_split_overlap=args.allow_split_overlap)
-    log.info("predictor macro F1: cv %.3f, val %s, test %s", report["f1_cv"], report.get("f1_val"),
-             report.get("f1_test"))
+    first = report.seeds[0]  # the predictor file's seed
+    log.info("predictor macro F1: cv %.3f, val %s, test %s", first.f1_cv, first.f1("val"), first.f1("test"))
 
 
 def _split_paths(items: list[str]) -> dict[str, str]:

@@ -27,12 +27,12 @@ def test_the_attribute_that_separates_the_classes_alone_scores_highest():
                                                                                    separable_by_a2(40, 3)],
                       params=PARAMS)
     assert list(f1) == ["A1", "A2", "A3", "A4", "all"]
-    assert f1["A2"]["columns"] == [1] and f1["all"]["columns"] is None
+    assert f1["A2"].columns == (1,) and f1["all"].columns is None
     for split in ("f1_cv", "f1_val", "f1_test", "f1_test_method_mean"):
-        assert f1["A2"][split] >= 0.98 and f1["all"][split] >= 0.9
+        assert getattr(f1["A2"], split) >= 0.98 and getattr(f1["all"], split) >= 0.9
         # noise alone: about chance (0.5) on two balanced classes, far below A2
-        assert max(f1[name][split] for name in ("A1", "A3", "A4")) < 0.8
-    assert f1["A2"]["n_test"] == 100
+        assert max(getattr(f1[name], split) for name in ("A1", "A3", "A4")) < 0.8
+    assert f1["A2"].n_test == 100
 
 
 def _write(path, x, y):
@@ -52,7 +52,8 @@ def test_attributes_main_writes_every_attribute_set(tmp_path):
     result = attributes_main([train], tmp_path / "t2.json", PARAMS, test=[test], meta={"dataset": "d", "seq_len": 4})
     written = json.loads((tmp_path / "t2.json").read_text())
     assert written["n_train"] == 80 and set(written["attributes"]) == {"A1", "A2", "A3", "A4", "all"}
-    assert written["attributes"]["A2"]["f1_test"] == result["attributes"]["A2"]["f1_test"] >= 0.98
+    assert written["attributes"]["A2"]["f1_test"] == result.attributes["A2"].f1_test >= 0.98
+    assert written["attributes"]["A2"]["columns"] == [1] and written["attributes"]["all"]["columns"] is None
 
 
 def test_leave_one_method_out_never_reads_the_held_out_method(tmp_path):
@@ -61,8 +62,8 @@ def test_leave_one_method_out_never_reads_the_held_out_method(tmp_path):
     missing = tmp_path / "held_out_train_does_not_exist.h5"  # reading it would fail
     out = tmp_path / "without_c.h5"
     report = train_without({"a": a, "c": missing, "b": b}, "c", out, PARAMS, meta={"dataset": "d"})
-    assert report["n_train"] == 80 and report["meta"]["trained_on"] == ["a", "b"]
-    assert report["meta"]["held_out"] == "c"
+    assert report.n_train == 80 and report.meta["trained_on"] == ["a", "b"]
+    assert report.meta["held_out"] == "c"
     # the same predictor as one trained on a then b directly
     x = np.concatenate([separable_by_a2(40, 0)[0], separable_by_a2(40, 1)[0]])
     y = np.concatenate([separable_by_a2(40, 0)[1], separable_by_a2(40, 1)[1]])

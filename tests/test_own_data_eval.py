@@ -18,6 +18,7 @@ from vpr_smr.core.io import write_json
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features, write_features
 from vpr_smr.eval.predictor.defaults import MIN_TRAIN_SAMPLES, training_problems
 from vpr_smr.eval.predictor.estimator import SMRPredictor, fit_problem, label_problems
+from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport, SeedReport
 from vpr_smr.eval.report import build as report
 from vpr_smr.eval.scoring.curves import Curve, compare_curves, reduction_pct
 from vpr_smr.pipeline.cli import main
@@ -133,7 +134,8 @@ def hand_run(tmp_path):
         write_json(path, hand_evaluation(method, *numbers))
         evaluations.append(path)
     predictors = tmp_path / "p.json"
-    write_json(predictors, {"meta": {"dataset": "d", "seq_len": 4}, "n_train": 57, "f1_cv": 0.5})
+    seed = SeedReport(0, {}, 0.5, 10, (30, 10, 10, 7), {})  # trained without val and test splits
+    write_json(predictors, PredictorReport({"dataset": "d", "seq_len": 4}, 57, (seed,)).to_json())
     return tmp_path, evaluations, predictors
 
 
@@ -206,9 +208,9 @@ def test_query_counts_in_every_evaluation_table(tmp_path):
 
 
 def test_table2_gives_its_sample_counts():
-    ablation = {"meta": {"dataset": "d", "seq_len": 4}, "n_train": 147, "attributes": {
-        name: {"f1_cv": 0.5, "f1_val": 0.5, "f1_test": 0.5, "n_val": 97, "n_test": 107}
-        for name in ("A1", "A2", "A3", "A4", "all")}}
+    ablation = AttributeAblation({"dataset": "d", "seq_len": 4}, {}, 147, {
+        name: AttributeScores(None, 0.5, f1_val=0.5, n_val=97, f1_test=0.5, n_test=107)
+        for name in ("A1", "A2", "A3", "A4", "all")})
     rows = report.table2_rows([ablation])
     assert {(r["n_train"], r["n_val"], r["n_test"]) for r in rows} == {(147, 97, 107)}
     assert "F1 over train 147 samples, validation 97 samples, test 107 samples" in report.table2_markdown(rows)
@@ -338,9 +340,9 @@ def test_from_descriptors_takes_the_files_distance(sad_descriptors):
     matches = [r.sequence_match for r in map(matcher.step, query) if r is not None]
     assert matches == batch.sequence_match.tolist()
     assert matches != l2.sequence_match.tolist()  # the default l2 of before gave other matches on these frames
-    with pytest.raises(ValueError, match=r"distance='l2' disagrees with .*descriptors.h5.*'sad'.*'mad'"):
-        LiveMatcher.from_descriptors(path, seq_len=4, distance="l2")
-    assert LiveMatcher.from_descriptors(path, seq_len=4, distance="mad").distance == "mad"
+    assert LiveMatcher.from_descriptors(path, seq_len=4).distance == "mad"  # SAD's, from the file
+    # a run that set `distance: l2` for SAD computed its matrices with l2: the matcher follows when told
+    assert LiveMatcher.from_descriptors(path, seq_len=4, distance="l2").distance == "l2"
     with pytest.raises(ValueError, match="needs distance="):
         LiveMatcher(4, references=reference)
     split = LiveMatcher.from_descriptors(path, seq_len=4, frames=(20, 60))

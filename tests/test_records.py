@@ -6,9 +6,11 @@ import warnings
 import numpy as np
 import pytest
 
-from vpr_smr.core.io import write_json
+from vpr_smr.core.io import read_provenance, write_json
 from vpr_smr.eval.matching.attributes import query_features, write_features
+from vpr_smr.eval.predictor import ablation, train
 from vpr_smr.eval.predictor.estimator import SMRPredictor
+from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report.build import match_timings
 from vpr_smr.eval.scoring import evaluate, held_out
 from vpr_smr.eval.scoring.records import Evaluation, HeldOut, Timing
@@ -112,3 +114,66 @@ def test_timings_are_matched_to_their_evaluation_by_meta(stage_files):
         match_timings([evaluation], [timing, other])
     with pytest.raises(ValueError, match="two timing files"):
         match_timings([evaluation], [timing, timing])
+
+
+@pytest.fixture(scope="module")
+def predictor_files(tmp_path_factory):
+    """A two-seed predictor report (val and test given) and an attribute ablation, as the stages write them."""
+    from test_train import PARAMS, method_samples, write
+
+    tmp = tmp_path_factory.mktemp("predictor_records")
+    paths = {name: write(tmp / f"{name}.h5", *method_samples(n, seed))
+             for name, n, seed in (("a", 48, 0), ("b", 36, 1), ("val", 30, 2), ("test", 24, 3))}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = train.main([paths["a"], paths["b"]], tmp / "L4.h5", PARAMS, val=[paths["val"]],
+                            test=[paths["test"]], meta={"dataset": "d", "seq_len": 4}, seeds=2)
+        table2 = ablation.attributes_main([paths["a"], paths["b"]], tmp / "t2.json", PARAMS, val=[paths["val"]],
+                                          test=[paths["test"]], meta={"dataset": "d", "seq_len": 4})
+    return tmp, report, table2
+
+
+def test_predictor_records_round_trip_byte_for_byte(predictor_files):
+    tmp, report, table2 = predictor_files
+    assert isinstance(report, PredictorReport) and isinstance(table2, AttributeAblation)
+    for path, record, kind in ((tmp / "L4.json", report, PredictorReport), (tmp / "t2.json", table2,
+                                                                             AttributeAblation)):
+        text = path.read_text()
+        assert _dumped(record) == text
+        read = kind.from_json(json.loads(text))
+        assert read == record and kind.from_json(record.to_json()) == record
+        write_json(tmp / "again.json", read.to_json())
+        assert (tmp / "again.json").read_text() == text
+    # the predictor file keeps the whole report; the other seed's file its own numbers
+    assert read_provenance(tmp / "L4.h5")["report"] == json.loads(json.dumps(report.to_json()))
+    assert read_provenance(tmp / "L4.seed1.h5")["report"] == {"meta": report.meta, **report.seeds[1].to_json()}
+
+
+def test_predictor_file_layouts(predictor_files):
+    tmp, report, _ = predictor_files
+    data = json.loads((tmp / "L4.json").read_text())
+    assert set(data) == {"meta", "params", "n_train", "train_class_counts", "f1_cv", "f1_val", "f1_test", "n_val",
+                         "n_test", "n_iter", "seeds", "seed_models"}
+    assert set(data["seeds"][1]) == {"seed", "params", "f1_cv", "class_counts", "n_iter", "f1_val", "n_val",
+                                     "confusion_val", "f1_test", "n_test", "confusion_test"}
+    assert report.seeds[0].f1("val") == data["f1_val"] and report.seeds[0].splits["test"].n == data["n_test"] == 24
+    table2 = json.loads((tmp / "t2.json").read_text())
+    assert set(table2) == {"meta", "params", "n_train", "attributes"}
+    assert set(table2["attributes"]["A3"]) == {"columns", "f1_cv", "f1_val", "n_val", "f1_test", "n_test",
+                                               "f1_test_method_mean"}
+
+
+def test_a_predictor_file_missing_a_key_or_disagreeing_is_refused(predictor_files):
+    tmp, _, _ = predictor_files
+    data = json.loads((tmp / "L4.json").read_text())
+    del data["seeds"][0]["confusion_test"]
+    with pytest.raises(KeyError, match="confusion_test"):
+        PredictorReport.from_json(data)
+    data = json.loads((tmp / "L4.json").read_text())
+    data["f1_cv"] = -1.0  # the top level must be the first seed's numbers
+    with pytest.raises(ValueError, match="f1_cv"):
+        PredictorReport.from_json(data)
+    data = json.loads((tmp / "t2.json").read_text())
+    del data["attributes"]["all"]["f1_cv"]
+    with pytest.raises(KeyError, match="f1_cv"):
+        AttributeAblation.from_json(data)

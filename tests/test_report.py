@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport, SeedReport, SplitScores
 from vpr_smr.eval.report.build import table1_latex, table1_markdown, table2_latex, table2_markdown, table2_rows
 
 METHODS = ("AP-GeM", "CosPlace", "EigenPlaces", "MixVPR", "NetVLAD", "SAD", "SALAD")
@@ -71,9 +72,9 @@ def test_seed_row_shows_mean_and_sample_std(rows):
 
 
 def test_table2_marks_the_attributes_used():
-    ablation = {"meta": {"dataset": "Nordland", "seq_len": 4}, "attributes": {
-        name: {"f1_cv": f1, "f1_val": f1, "f1_test": f1, "f1_test_method_mean": f1}
-        for name, f1 in (("A1", 0.42), ("A2", 0.42), ("A3", 0.40), ("A4", 0.37), ("all", 0.54))}}
+    ablation = AttributeAblation({"dataset": "Nordland", "seq_len": 4}, {}, 100, {
+        name: AttributeScores(None, f1, f1_val=f1, f1_test=f1, f1_test_method_mean=f1)
+        for name, f1 in (("A1", 0.42), ("A2", 0.42), ("A3", 0.40), ("A4", 0.37), ("all", 0.54))})
     rows = table2_rows([ablation])
     assert [r["attributes"] for r in rows] == ["A1", "A2", "A3", "A4", "all"]
     text = table2_markdown(rows)
@@ -81,6 +82,14 @@ def test_table2_marks_the_attributes_used():
     assert "| × | × | ✓ | × | 0.40 | 0.40 | 0.40 | 0.40 |" in text
     assert "| ✓ | ✓ | ✓ | ✓ | 0.54 | 0.54 | 0.54 | 0.54 |" in text
     assert r"$\times$ & $\times$ & $\times$ & $\checkmark$ & 0.37" in table2_latex(rows)
+
+
+def predictor_report(seq_len: int) -> PredictorReport:
+    """A one-seed predictor report of dataset d, scored on val and test."""
+    diagonal = ((10, 0, 0, 0), (0, 5, 0, 0), (0, 0, 3, 0), (0, 0, 0, 2))
+    seed = SeedReport(0, {}, 0.5, 30, (30, 10, 10, 7), {"val": SplitScores(0.4, 20, (10, 5, 3, 2), diagonal),
+                                                        "test": SplitScores(0.3, 20, (10, 5, 3, 2), diagonal)})
+    return PredictorReport({"dataset": "d", "seq_len": seq_len}, 57, (seed,))
 
 
 def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4)) -> tuple[Path, list[Path]]:
@@ -116,12 +125,12 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4)) -> t
             timings.append(tmp_path / f"e_{method}_L{seq_len}.timing.json")
             write_json(timings[-1], Timing(meta, {"test": SplitTiming.of(0.2, seconds, result.n_queries)}).to_json())
         path = tmp_path / f"p_L{seq_len}.json"
-        write_json(path, {"meta": {"dataset": "d", "seq_len": seq_len}, "n_train": 57, "f1_cv": 0.5, "f1_val": 0.4,
-                          "f1_test": 0.3, "train_class_counts": [30, 10, 10, 7]})
+        write_json(path, predictor_report(seq_len).to_json())
         predictors.append(path)
     ablation = tmp_path / "a.json"
-    write_json(ablation, {"meta": {"dataset": "d", "seq_len": 4}, "attributes": {
-        name: {"f1_cv": 0.5, "f1_val": 0.5, "f1_test": 0.5} for name in ("A1", "A2", "A3", "A4", "all")}})
+    table2 = AttributeAblation({"dataset": "d", "seq_len": 4}, {}, 57, {
+        name: AttributeScores(None, 0.5, f1_val=0.5, f1_test=0.5) for name in ("A1", "A2", "A3", "A4", "all")})
+    write_json(ablation, table2.to_json())
     lomo = tmp_path / "lomo.json"
     scores = HeldOutScores("p.h5", 0.5, 3, {mode: ModeRemoval(0.5, 0.5, Reduction(1.0, 0.8, 0.9, 0.2, 0.1, 50.0))
                                             for mode in modes})
@@ -179,8 +188,7 @@ def test_tables_and_figures_with_standard_mode_only(tmp_path):
     result, _ = evaluate_split(features, predictor, modes=("standard",), trust_levels=(0.0, 0.9))
     evaluation = Evaluation({"dataset": "d", "method": "m", "seq_len": 4}, ("p.h5",), {"test": result})
     write_json(tmp_path / "e.json", evaluation.to_json())
-    write_json(tmp_path / "p.json", {"meta": {"dataset": "d", "seq_len": 4}, "n_train": 57, "f1_cv": 0.5,
-                                     "f1_val": 0.4, "f1_test": 0.3})
+    write_json(tmp_path / "p.json", predictor_report(4).to_json())
     main(tmp_path / "out", [tmp_path / "e.json"], [tmp_path / "p.json"], html=False)
     assert (tmp_path / "out" / "tables" / "table1.csv").read_text().splitlines()[1].startswith("d,m,4,standard,")
     assert sorted(p.name for p in (tmp_path / "out" / "figures").iterdir()) == [

@@ -90,7 +90,7 @@ def test_seed_zero_is_the_authors_recipe_and_the_shuffle_and_order_matter(files,
     expected = authors_recipe(x, y)
     for got, want in zip(ours.coefs_ + ours.intercepts_, expected.coefs_ + expected.intercepts_, strict=True):
         np.testing.assert_array_equal(got, want)
-    assert report["n_iter"] == expected.n_iter_
+    assert report.seeds[0].n_iter == expected.n_iter_
     # seed 1 shifts the shuffle, SMOTE and MLP seeds together
     seed1 = SMRPredictor.load(tmp_path / "p.seed1.h5")
     np.testing.assert_array_equal(seed1.coefs_[0], authors_recipe(x, y, 1, 43, 1).coefs_[0])
@@ -111,7 +111,7 @@ def test_report_per_seed_and_files(files, tmp_path):
                             meta={"dataset": "d", "seq_len": 4}, seeds=[0, 2])
     assert sorted(p.name for p in out.parent.iterdir()) == ["L4.h5", "L4.json", "L4.seed2.h5"]
     written = json.loads(out.with_suffix(".json").read_text())
-    assert written == json.loads(json.dumps(report))
+    assert written == json.loads(json.dumps(report.to_json()))
     assert written["seed_models"] == [str(out), str(out.with_name("L4.seed2.h5"))]
     assert [s["seed"] for s in written["seeds"]] == [0, 2]
     seed2 = written["seeds"][1]["params"]
@@ -145,7 +145,8 @@ def test_single_seed_report_has_no_seed_models(files, tmp_path):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         report = train.main([paths["a"]], tmp_path / "p.h5", PARAMS)
-    assert "seed_models" not in report and len(report["seeds"]) == 1 and report["n_train"] == 48
+    assert report.seed_models is None and len(report.seeds) == 1 and report.n_train == 48
+    assert "seed_models" not in json.loads((tmp_path / "p.json").read_text())
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("p.")) == ["p.h5", "p.json"]
 
 

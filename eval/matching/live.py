@@ -74,12 +74,14 @@ class LiveMatcher:
     def from_descriptors(cls, path: Path | str, seq_len: int, predictor: Any = None, distance: str | None = None,
                          n_ranks: int = 4, frames: tuple[int, int] | None = None) -> LiveMatcher:
         """A matcher whose references are the ``reference`` descriptors of ``path`` (a ``vpr-smr descriptors``
-        file), compared with the distance its method used (the file's ``distance`` attribute).
+        file), compared with its backend's distance (the file's ``distance`` attribute), or with ``distance`` when
+        given: a run whose method sets ``distance`` computes its matrices with it, while its descriptor file (which
+        the setting does not change) keeps the backend's.
 
         ``frames = (lo, hi)`` keeps reference frames ``lo .. hi-1`` only (a split, as the batch matrix of that split
-        has them); match indices then count from ``lo``. A ``distance`` that differs from the file's is an error:
-        the matches would not be the batch ones. ``method`` and ``method_settings`` of the matcher are the file's
-        (``descriptors.extract.build_backend(matcher.method, matcher.method_settings)`` describes new frames alike).
+        has them); match indices then count from ``lo``. ``method`` and ``method_settings`` of the matcher are the
+        file's (``descriptors.extract.build_backend(matcher.method, matcher.method_settings)`` describes new frames
+        alike).
         """
         import json
 
@@ -102,11 +104,8 @@ class LiveMatcher:
             if not 0 <= lo < hi <= n_frames:
                 raise ValueError(f"{path}: frames {lo}..{hi - 1} are outside its {n_frames} reference frames")
             references = f["reference"][lo:hi]
-        if distance is not None and distance != stored:
-            raise ValueError(f"distance={distance!r} disagrees with {path}, whose method {method!r} compares its "
-                             f"descriptors with {stored!r}: the live matches would differ from the batch ones; "
-                             f"leave distance out (it is taken from the file) or give {stored!r}")
-        matcher = cls(seq_len, references=references, predictor=predictor, distance=stored, n_ranks=n_ranks)
+        matcher = cls(seq_len, references=references, predictor=predictor, distance=distance or stored,
+                      n_ranks=n_ranks)
         matcher.method, matcher.method_settings = method, settings
         return matcher
 

@@ -23,6 +23,7 @@ from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, write_json
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges
+from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport
 from vpr_smr.eval.predictor.train import describe
 
 log = logging.getLogger(__name__)
@@ -63,7 +64,7 @@ def attribute_f1(
     val: Sequence[tuple[np.ndarray, np.ndarray]] = (),
     test: Sequence[tuple[np.ndarray, np.ndarray]] = (),
     params: dict[str, Any] | None = None,
-) -> dict[str, dict[str, Any]]:
+) -> dict[str, AttributeScores]:
     """Macro F1 of a predictor per attribute set (A1, A2, A3, A4 alone, then all four).
 
     ``train`` is ``(X, y)`` with ``X`` in A1..A4 order; ``val`` and ``test`` are lists of ``(X, y)``, one per
@@ -74,18 +75,19 @@ def attribute_f1(
     out = {}
     for name, columns in ATTRIBUTE_SETS.items():
         predictor = _predictor(params, columns)
-        row: dict[str, Any] = {"columns": list(columns) if columns else None,
-                               "f1_cv": cross_validated_f1(predictor, x_train, y_train)}
+        f1_cv = cross_validated_f1(predictor, x_train, y_train)
         predictor.fit(x_train, y_train)
+        scored: dict[str, Any] = {}
         for split, parts in (("val", val), ("test", test)):
             if parts:
                 x, y = _stack(list(parts))
-                row[f"f1_{split}"] = macro_f1(y, predictor.predict(x))
-                row[f"n_{split}"] = int(len(y))
+                scored[f"f1_{split}"] = macro_f1(y, predictor.predict(x))
+                scored[f"n_{split}"] = int(len(y))
         if test:
-            row["f1_test_method_mean"] = float(np.mean([macro_f1(y, predictor.predict(x)) for x, y in test]))
-        log.info("attributes %s: %s", name, row)
-        out[name] = row
+            scored["f1_test_method_mean"] = float(np.mean([macro_f1(y, predictor.predict(x)) for x, y in test]))
+        scores = AttributeScores(tuple(columns) if columns else None, f1_cv, **scored)
+        log.info("attributes %s: %s", name, scores)
+        out[name] = scores
     return out
 
 
@@ -97,12 +99,12 @@ def attributes_main(
     test: Sequence[Path | str] = (),
     meta: dict[str, Any] | None = None,
     allow_split_overlap: bool = False,
-) -> dict[str, Any]:
+) -> AttributeAblation:
     """Table II for one dataset and sequence length: write ``out`` (JSON) with the F1 of every attribute set.
 
     ``train``, ``val``, ``test``: features files (one per method, the configuration's order) of those splits.
     Layout: ``{"meta", "params", "n_train", "attributes": {"A1": {"columns", "f1_cv", "f1_val", "f1_test",
-    "f1_test_method_mean", "n_val", "n_test"}, ..., "all": {...}}}``.
+    "f1_test_method_mean", "n_val", "n_test"}, ..., "all": {...}}}`` (``records.AttributeAblation``, returned).
     """
     check_suffix(out, JSON_SUFFIXES, "the attribute ablation (JSON)")
     check_disjoint(frame_ranges(train), frame_ranges([*val, *test]), allow_split_overlap,
@@ -110,13 +112,9 @@ def attributes_main(
     x_train, y_train = _stack(_features(train))
     # attribute_f1 trains on the labels in this order (no shuffle): check them as they are, before any training
     check_training_labels(y_train, describe(meta, len(train)), bool(dict(params or {}).get("smote", True)))
-    result = {
-        "meta": dict(meta or {}),
-        "params": dict(params or {}),
-        "n_train": int(len(y_train)),
-        "attributes": attribute_f1((x_train, y_train), _features(val), _features(test), params),
-    }
-    write_json(out, result)
+    result = AttributeAblation(dict(meta or {}), dict(params or {}), int(len(y_train)),
+                               attribute_f1((x_train, y_train), _features(val), _features(test), params))
+    write_json(out, result.to_json())
     return result
 
 
@@ -128,7 +126,7 @@ def train_without(
     val: Mapping[str, Path | str] | None = None,
     meta: dict[str, Any] | None = None,
     allow_split_overlap: bool = False,
-) -> dict[str, Any]:
+) -> PredictorReport:
     """Train the ``without_<held_out>`` predictor on the train splits of every method but ``held_out``.
 
     ``train`` (and ``val``) map method -> features file of that split, in the configuration's order (the pooled

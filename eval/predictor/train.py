@@ -8,6 +8,7 @@ random_state=0)``, then fitted (column order, SMOTE with ``random_state=42``, sc
 
 from __future__ import annotations
 
+import json
 import logging
 from collections.abc import Sequence
 from pathlib import Path
@@ -23,6 +24,7 @@ from vpr_smr.core.paths import predictor_report_path, seed_predictor_path
 from vpr_smr.eval.matching.attributes import read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
 from vpr_smr.eval.predictor.leakage import TRAINED_ON, check_disjoint, frame_ranges
+from vpr_smr.eval.predictor.records import PredictorReport, SeedReport, SplitScores
 
 log = logging.getLogger(__name__)
 
@@ -97,27 +99,26 @@ def train_seed(
     params: dict[str, Any] | None,
     seed: int,
     evaluation: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
-) -> tuple[SMRPredictor, dict[str, Any]]:
+) -> tuple[SMRPredictor, SeedReport]:
     """Shuffle the pooled train set with ``seed``, cross-validate and fit a predictor with ``seeded_params``, and
     score it on each ``evaluation`` split (name -> (X, y)). Returns the fitted predictor and its numbers."""
     x, y = shuffle(x_train, y_train, random_state=seed)
     predictor = SMRPredictor(**seeded_params(params, seed))
-    numbers: dict[str, Any] = {
-        "seed": seed,
-        "params": predictor.get_params(),
-        "f1_cv": cross_validated_f1(predictor, x, y),
-        "class_counts": {"train": np.bincount(y, minlength=len(LABELS)).tolist()},
-    }
+    # the settings as JSON holds them (lists, not tuples), so that a report read back equals the one written
+    settings = json.loads(json.dumps(predictor.get_params()))
+    f1_cv = cross_validated_f1(predictor, x, y)
     predictor.fit(x, y)
-    numbers["n_iter"] = predictor.n_iter_
+    splits = {}
     for name, (x_eval, y_eval) in (evaluation or {}).items():
         predicted = predictor.predict(x_eval)
-        numbers[f"f1_{name}"] = macro_f1(y_eval, predicted)
-        numbers[f"n_{name}"] = int(len(y_eval))
-        numbers["class_counts"][name] = np.bincount(y_eval, minlength=len(LABELS)).tolist()
-        numbers[f"confusion_{name}"] = confusion_matrix(y_eval, predicted, labels=list(LABELS)).tolist()
-    log.info("seed %d: f1 cv %.3f, val %s, test %s, %d iterations", seed, numbers["f1_cv"], numbers.get("f1_val"),
-             numbers.get("f1_test"), numbers["n_iter"])
+        splits[name] = SplitScores(
+            macro_f1(y_eval, predicted), int(len(y_eval)),
+            tuple(np.bincount(y_eval, minlength=len(LABELS)).tolist()),
+            tuple(map(tuple, confusion_matrix(y_eval, predicted, labels=list(LABELS)).tolist())))
+    numbers = SeedReport(seed, settings, f1_cv, predictor.n_iter_,
+                         tuple(np.bincount(y, minlength=len(LABELS)).tolist()), splits)
+    log.info("seed %d: f1 cv %.3f, val %s, test %s, %d iterations", seed, numbers.f1_cv, numbers.f1("val"),
+             numbers.f1("test"), numbers.n_iter)
     return predictor, numbers
 
 
@@ -130,17 +131,18 @@ def main(
     meta: dict[str, Any] | None = None,
     seeds: int | Sequence[int] = (0,),
     allow_split_overlap: bool = False,
-) -> dict[str, Any]:
+) -> PredictorReport:
     """Train one predictor per seed on the pooled ``train`` files (the configuration's method order) and report.
 
     ``seeds``: a list (seed 0 first: the authors' recipe), or a count ``n`` for seeds ``0..n-1``. The first seed's
     predictor is written to ``out`` (.h5), the others to ``<out stem>.seed<s>.h5`` beside it, and the report to
     ``out`` with suffix ``.json``: per seed (``seeds``: f1_cv, f1_val, f1_test, n_iter, class_counts, confusion
     matrices of val and test over labels 0..3) and, at the top level, the first seed's numbers (meta, params, n_train,
-    train_class_counts, f1_cv, f1_val, f1_test, n_val, n_test, n_iter) and ``seed_models`` (when several seeds).
-    Nothing is written until every seed has finished, so an interrupted training leaves no file. ``val`` and
-    ``test`` may not share frames with ``train`` (``allow_split_overlap``: a deliberate experiment); each
-    predictor file records the frame ranges it was trained on, which every later stage checks.
+    train_class_counts, f1_cv, f1_val, f1_test, n_val, n_test, n_iter) and ``seed_models`` (when several seeds):
+    ``records.PredictorReport``, which is returned. Nothing is written until every seed has finished, so an
+    interrupted training leaves no file. ``val`` and ``test`` may not share frames with ``train``
+    (``allow_split_overlap``: a deliberate experiment); each predictor file records the frame ranges it was trained
+    on, which every later stage checks.
     """
     out = check_suffix(out, HDF5_SUFFIXES, "the predictor (HDF5; its report goes beside it as .json)")
     seeds = _seeds(seeds)
@@ -155,19 +157,11 @@ def main(
     fitted = [train_seed(x_train, y_train, params, seed, evaluation) for seed in seeds]
 
     paths = [out] + [Path(seed_predictor_path(out, seed)) for seed in seeds[1:]]
-    first = fitted[0][1]
-    report: dict[str, Any] = {
-        "meta": dict(meta or {}),
-        "params": first["params"],
-        "n_train": int(len(y_train)),
-        "train_class_counts": first["class_counts"]["train"],
-        **{key: first[key] for key in ("f1_cv", "f1_val", "f1_test", "n_val", "n_test", "n_iter") if key in first},
-        "seeds": [numbers for _, numbers in fitted],
-    }
-    if len(seeds) > 1:
-        report["seed_models"] = [str(p) for p in paths]
+    report = PredictorReport(dict(meta or {}), int(len(y_train)), tuple(numbers for _, numbers in fitted),
+                             tuple(str(p) for p in paths) if len(seeds) > 1 else None)
     for i, ((predictor, numbers), path) in enumerate(zip(fitted, paths, strict=True)):
-        predictor.save(path, report=report if i == 0 else {"meta": report["meta"], **numbers},
+        # the first predictor keeps the whole report, the others their own seed's numbers
+        predictor.save(path, report=report.to_json() if i == 0 else {"meta": report.meta, **numbers.to_json()},
                        **{TRAINED_ON: [r.to_json() for r in trained]})
-    write_json(predictor_report_path(out), report)
+    write_json(predictor_report_path(out), report.to_json())
     return report

@@ -16,6 +16,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from vpr_smr.core.io import atomic_path
+from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.html import UNDEFINED, is_reduction
@@ -252,16 +253,16 @@ def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
 # --- Table II ---------------------------------------------------------------------------------------------------
 
 
-def table2_rows(ablations: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+def table2_rows(ablations: Sequence[AttributeAblation]) -> list[dict[str, Any]]:
     rows = []
     for ablation in ablations:
-        meta = ablation["meta"]
+        meta = ablation.meta
         for name in ATTRIBUTE_ORDER:
-            if name in ablation["attributes"]:
-                numbers = ablation["attributes"][name]
+            if name in ablation.attributes:
+                numbers = ablation.attributes[name]
                 rows.append({"dataset": meta["dataset"], "seq_len": meta["seq_len"], "attributes": name,
-                             **{k: numbers.get(k) for k in TABLE2_F1}, "n_train": ablation.get("n_train"),
-                             "n_val": numbers.get("n_val"), "n_test": numbers.get("n_test")})
+                             **{k: getattr(numbers, k) for k in TABLE2_F1}, "n_train": ablation.n_train,
+                             "n_val": numbers.n_val, "n_test": numbers.n_test})
     return sorted(rows, key=lambda r: (r["dataset"], r["seq_len"], ATTRIBUTE_ORDER.index(r["attributes"])))
 
 
@@ -320,11 +321,12 @@ def table2_latex(rows: list[dict[str, Any]]) -> str:
 # --- the other tables -----------------------------------------------------------------------------------------
 
 
-def predictor_rows(predictors: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+def predictor_rows(predictors: Sequence[PredictorReport]) -> list[dict[str, Any]]:
     rows = []
     for report in predictors:
-        counts = report.get("train_class_counts") or [None] * 4
-        rows.append({**{k: report.get(k) for k in PREDICTOR_COLUMNS}, **report["meta"],
+        numbers = {"n_train": report.n_train, **report.first_seed()}  # the predictor file's seed
+        counts = numbers["train_class_counts"]
+        rows.append({**{k: numbers.get(k) for k in PREDICTOR_COLUMNS}, **report.meta,
                      **{f"train_class_{c}": counts[c] for c in range(4)}})
     return sorted(rows, key=lambda r: (r["dataset"], r["seq_len"]))
 
@@ -540,8 +542,8 @@ def _figure_panels(items: list[Evaluation], split: str, mode: str, restoration: 
 
 
 def _tables_and_figures(
-    out_dir: Path, evaluations: list[Evaluation], timings: list[Timing], predictors: list[dict[str, Any]],
-    ablations: list[dict[str, Any]], lomo: list[HeldOut], split: str, table_seq_lens: Collection[int] | None,
+    out_dir: Path, evaluations: list[Evaluation], timings: list[Timing], predictors: list[PredictorReport],
+    ablations: list[AttributeAblation], lomo: list[HeldOut], split: str, table_seq_lens: Collection[int] | None,
     seq_len_ablation: bool, notes: dict[str, str],
 ) -> tuple[list[tuple[str, list[Path]]], list[tuple[str, Path]]]:
     contents: dict[str, tuple[Sequence[str], list[dict[str, Any]], dict[str, str]]] = {}
@@ -690,7 +692,8 @@ def main(
     table_seq_lens = None if table_seq_lens is None else {int(s) for s in table_seq_lens}
     tables, figures = _tables_and_figures(
         out_dir, _read(evaluations, "evaluation", Evaluation.from_json), _read(timings, "timing", Timing.from_json),
-        _load(predictors, "predictor report"), _load(attribute_ablations, "attribute ablation"),
+        _read(predictors, "predictor report", PredictorReport.from_json),
+        _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json),
         _read(leave_one_out, "leave-one-method-out", HeldOut.from_json), split,
         table_seq_lens, seq_len_ablation, overlap_notes(datasets))
     written = [path for _, paths in tables for path in paths] + [path for _, path in figures]
