@@ -112,15 +112,28 @@ def test_schema_defaults_agree_with_the_library():
 
 
 def test_predictor_gets_the_estimators_defaults_under_the_users_values(tmp_path):
-    # SMRPredictor owns the defaults: the schema lists the settings only, validation fills every one in.
+    # eval/predictor/defaults.py owns the defaults (the schema shows them, checked below); validation fills them in.
     from vpr_smr.eval.predictor.estimator import SMRPredictor
     from vpr_smr.pipeline.config import SCHEMA_PATH
 
     settings = json.loads(SCHEMA_PATH.read_text())["properties"]["predictor"]["properties"]
     defaults = SMRPredictor().get_params()
     assert set(settings) == set(defaults)
-    assert not any("default" in setting for setting in settings.values())
     assert all(setting.get("description") for setting in settings.values())
     conf = load_config(DEMO, {"predictor": {"max_iter": 7, "column_order": None}})
     assert conf["predictor"] == {**json.loads(json.dumps(defaults)), "max_iter": 7, "column_order": None}
     assert load_config(DEMO)["predictor"]["hidden_layer_sizes"] == list(defaults["hidden_layer_sizes"])
+
+
+def test_the_schema_shows_the_predictors_defaults():
+    """The schema lists the predictor's defaults for readers; eval/predictor/defaults.py owns them."""
+    import json
+
+    from vpr_smr.eval.predictor.defaults import DEFAULTS
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+    from vpr_smr.pipeline.config import SCHEMA_PATH
+
+    shown = {k: v["default"] for k, v in json.loads(SCHEMA_PATH.read_text())["properties"]["predictor"]
+             ["properties"].items()}
+    assert shown == json.loads(json.dumps(DEFAULTS))
+    assert SMRPredictor().get_params() == DEFAULTS  # the estimator's keyword defaults are the same values
