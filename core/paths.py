@@ -84,3 +84,20 @@ def log_path(run: Path | str, output: Path | str) -> str:
 
 def report_log_path(run: Path | str) -> str:
     return f"{run}/logs/report.log"
+
+
+# What `vpr-smr run` keeps between runs, in Snakemake's folder of the working folder (which cluster jobs see too):
+# configuration overrides, the plan of the check before the first job, the methods whose check passed.
+WORKFLOW_STATE = Path(".snakemake", "vpr-smr")
+
+
+def overrides_path(digest: str) -> Path:
+    return WORKFLOW_STATE / f"overrides-{digest[:16]}.yaml"
+
+
+def plan_path(digest: str) -> Path:
+    return WORKFLOW_STATE / f"plan-{digest[:16]}.json"
+
+
+def methods_checked_path() -> Path:
+    return WORKFLOW_STATE / "methods-checked.json"

@@ -119,7 +119,10 @@ def load_frames(name: str, conf: dict[str, Any], check_files: bool = True) -> Tr
         conf["check_files"] = check_files
     if "splits" in parameters:
         conf["splits"] = {}  # load_dataset applies them, after the frames are sliced
-    pair = LOADERS[loader_name](**conf)
+    try:
+        pair = LOADERS[loader_name](**conf)
+    except TypeError as error:  # a setting of the wrong kind (a number or list where a path is wanted)
+        raise DatasetError(f"datasets.{name}: bad settings for loader {loader_name!r}: {error}") from None
     if frames is not None:
         lo, hi = frames
         if not 0 <= lo < hi <= len(pair):

@@ -66,11 +66,14 @@ def plan_from_json(data: dict[str, Any], conf: dict[str, Any]) -> Plan | None:
     return Plan(datasets, dict(plan["checkpoints"]), tuple(plan["warnings"]), dict(plan["metrics"]))
 
 
-def save_plan(plan: Plan, conf: dict[str, Any], folder: Path = Path(".snakemake", "vpr-smr")) -> Path:
-    """Write the plan where Snakemake and its jobs find it (``PLAN_ENV``); named by the configuration's digest."""
+def save_plan(plan: Plan, conf: dict[str, Any], folder: Path | None = None) -> Path:
+    """Write the plan where Snakemake and its jobs find it (``PLAN_ENV``); named by the configuration's digest
+    (``core.paths.plan_path``, or in ``folder``)."""
     from vpr_smr.core.io import atomic_path
+    from vpr_smr.core.paths import plan_path
 
-    path = folder / f"plan-{_config_digest(conf)[:16]}.json"
+    path = plan_path(_config_digest(conf))
+    path = path if folder is None else folder / path.name
     with atomic_path(path) as tmp:  # not sorted: the datasets and splits keep the configuration's order
         tmp.write_text(json.dumps(plan_to_json(plan, conf)))
     return path
@@ -130,7 +133,7 @@ def _training_problems(conf: dict[str, Any], train: tuple[int, int]) -> list[str
     if "leave_one_method_out" in experiments(conf):
         n_methods -= 1
     return training_problems(train[1] - train[0], max(conf["seq_lens"]), n_methods,
-                             smote=conf["predictor"].get("smote", True), split=conf["train_split"])
+                             smote=conf["predictor"]["smote"], split=conf["train_split"])
 
 
 def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, DatasetPlan]:
@@ -189,27 +192,37 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
     return plans
 
 
-METHODS_CHECKED = Path(".snakemake", "vpr-smr", "methods-checked.json")  # methods whose check passed, by key
+def _file_stamp(path: Path | str) -> list[Any]:
+    info = Path(path).stat()
+    return [str(Path(path).resolve()), info.st_size, info.st_mtime_ns]
 
 
 def _method_key(method: dict[str, Any]) -> str | None:
-    """What a method's check depends on: its settings, its checkpoint file's size and time, the package version;
-    None when the checkpoint is not a file here (the check reports it)."""
+    """What a method's check depends on: its settings, its checkpoint file, the package version and the backend's
+    source files (a code change of an editable install keeps the version); None, so checked every time, when the
+    checkpoint is not a file here or the backend is a plugin."""
     from vpr_smr.core.io import package_version
+    from vpr_smr.descriptors import BACKENDS
 
+    if method["backend"] not in BACKENDS:
+        return None
+    package = Path(__file__).resolve().parents[1] / "descriptors"
+    module = BACKENDS[method["backend"]].split(":")[0]
+    sources = [_file_stamp(package / "base.py"), _file_stamp(package / f"{module}.py")]
     checkpoint = method.get("checkpoint")
-    stat = None
+    stamp = None
     if checkpoint and checkpoint != "package":
         if not Path(checkpoint).is_file():
             return None
-        info = Path(checkpoint).stat()
-        stat = [str(Path(checkpoint).resolve()), info.st_size, info.st_mtime_ns]
-    return canonical({"method": method, "checkpoint": stat, "version": package_version()})
+        stamp = _file_stamp(checkpoint)
+    return canonical({"method": method, "checkpoint": stamp, "version": package_version(), "sources": sources})
 
 
 def _checked_before() -> dict[str, dict[str, Any]]:
+    from vpr_smr.core.paths import methods_checked_path
+
     try:
-        return json.loads(METHODS_CHECKED.read_text())
+        return json.loads(methods_checked_path().read_text())
     except (OSError, ValueError):
         return {}
 
@@ -234,12 +247,13 @@ def _check_methods(conf: dict[str, Any], problems: list[str], metrics: dict[str,
             metrics[name] = metric
             if key is not None:
                 passed[key] = {"metric": metric}
-    if passed.keys() != checked.keys():
+    if not passed.keys() <= checked.keys():
         from vpr_smr.core.io import atomic_path
+        from vpr_smr.core.paths import methods_checked_path
 
-        try:
-            with atomic_path(METHODS_CHECKED) as tmp:
-                tmp.write_text(json.dumps(passed))
+        try:  # merged: switching between configurations keeps both checks
+            with atomic_path(methods_checked_path()) as tmp:
+                tmp.write_text(json.dumps({**checked, **passed}))
         except OSError:
             pass  # a read-only working folder: the checks simply run again next time
     return checkpoints

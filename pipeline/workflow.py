@@ -18,6 +18,7 @@ from typing import Any
 import yaml
 
 from vpr_smr.core.io import atomic_path
+from vpr_smr.core.paths import overrides_path
 from vpr_smr.pipeline import console
 from vpr_smr.pipeline.config import ConfigError, load_config, parse_overrides, run_dir
 from vpr_smr.pipeline.plan import PLAN_ENV, preflight, save_plan
@@ -72,7 +73,7 @@ def snakemake_command(config: Path | str, overrides: dict[str, Any], cores: int 
         # would reach the workflow with every nested value as a string. Named by its content, in Snakemake's
         # folder of the working directory, which cluster jobs see too.
         text = yaml.safe_dump(overrides, sort_keys=True)
-        path = Path(".snakemake", "vpr-smr", f"overrides-{hashlib.sha256(text.encode()).hexdigest()[:16]}.yaml")
+        path = overrides_path(hashlib.sha256(text.encode()).hexdigest())
         if not path.is_file():
             with atomic_path(path) as tmp:
                 tmp.write_text(text)

@@ -239,3 +239,10 @@ def test_a_train_split_too_short_for_the_predictor_is_refused_before_the_first_j
     conf["splits"]["train"] = [0, 14]
     conf["splits"]["val"] = [14, 20]
     preflight(validate(run))
+
+
+def test_a_setting_of_the_wrong_kind_is_named(tmp_path):
+    conf = basic(tmp_path, 4)
+    conf["reference"] = 5  # YAML `reference: 5`: a number where a folder is wanted
+    with pytest.raises(DatasetError, match="datasets.corridor: bad settings for loader 'folders'"):
+        load_dataset("corridor", conf)
