@@ -7,6 +7,7 @@ import json
 import logging
 import signal
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -72,13 +73,11 @@ def cmd_attributes(args: argparse.Namespace) -> None:
     attributes.main(args.distances, args.out, args.seq_len, args.tolerance)
 
 
-def _check_seq_len(args: argparse.Namespace, *groups: list[str] | None) -> None:
-    """The attributes files a stage reads were computed at its ``--seq-len`` (METHOD=PATH items too)."""
+def _check_seq_len(args: argparse.Namespace, *groups: Iterable[str] | None) -> None:
+    """The attributes files a stage reads were computed at its ``--seq-len``."""
     from vpr_smr.eval.matching.attributes import check_seq_len
 
-    paths = [item.split("=", 1)[-1] if "=" in item and not Path(item).exists() else item
-             for group in groups for item in (group or [])]
-    check_seq_len(paths, args.seq_len)
+    check_seq_len([path for group in groups for path in (group or [])], args.seq_len)
 
 
 def cmd_train(args: argparse.Namespace) -> None:
@@ -93,19 +92,21 @@ def cmd_train(args: argparse.Namespace) -> None:
     log.info("predictor macro F1: cv %.3f, val %s, test %s", first.f1_cv, first.f1("val"), first.f1("test"))
 
 
-def _split_paths(items: list[str]) -> dict[str, str]:
+def _split_paths(items: list[str], option: str = "--attributes", name: str = "SPLIT") -> dict[str, str]:
+    """``NAME=PATH`` items of ``option`` as a mapping."""
     pairs = [item.split("=", 1) for item in items]
     bad = [item for item, pair in zip(items, pairs, strict=True) if len(pair) != 2]
     if bad:
-        raise ValueError(f"--attributes takes SPLIT=PATH items, got {', '.join(bad)}")
+        raise ValueError(f"{option} takes {name}=PATH items, got {', '.join(bad)}")
     return dict(pairs)
 
 
 def cmd_evaluate(args: argparse.Namespace) -> None:
     from vpr_smr.eval.scoring import evaluate
 
-    _check_seq_len(args, args.attributes)
-    evaluate.main(_split_paths(args.attributes), args.predictors, args.out, tuple(args.modes),
+    attributes = _split_paths(args.attributes)
+    _check_seq_len(args, attributes.values())
+    evaluate.main(attributes, args.predictors, args.out, tuple(args.modes),
                   tuple(args.trust_levels), meta={"dataset": args.dataset, "method": args.method,
                                                   "seq_len": args.seq_len}, restoration=args.restoration,
                   allow_split_overlap=args.allow_split_overlap)
@@ -124,12 +125,13 @@ def cmd_ablation_attributes(args: argparse.Namespace) -> None:
 def cmd_ablation_without(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
 
-    _check_seq_len(args, args.train, args.val)
+    train = _split_paths(args.train, "--train", "METHOD")
+    val = _split_paths(args.val or [], "--val", "METHOD")
+    _check_seq_len(args, train.values(), val.values())
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     meta = {"dataset": args.dataset, "seq_len": args.seq_len}
-    ablation.train_without(_split_paths(args.train), args.method, args.out, params,
-                                 val=_split_paths(args.val or []), meta=meta,
-                                 allow_split_overlap=args.allow_split_overlap)
+    ablation.train_without(train, args.method, args.out, params, val=val, meta=meta,
+                           allow_split_overlap=args.allow_split_overlap)
 
 
 def cmd_ablation_held_out(args: argparse.Namespace) -> None:
