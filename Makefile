@@ -27,9 +27,11 @@ test: $(STAMP)
 test-fast: $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow"
 
+# ruff, the layers contract (import-linter) and mypy (strict; pyproject's [tool.mypy]). CI runs it before the tests.
 lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports --no-cache
+	MYPY=$(BIN)/mypy .ci/typecheck
 
 # Full-size speed and memory measurements (minutes; see benchmarks/README.md). CI runs them small, in the tests.
 bench: $(STAMP)

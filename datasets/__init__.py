@@ -140,5 +140,6 @@ def load_dataset(name: str, conf: dict[str, Any], check_files: bool = True) -> T
     pair = load_frames(name, conf, check_files)
     splits = {key: (int(lo), int(hi)) for key, (lo, hi) in conf["splits"].items()} if "splits" in conf else None
     if splits is None:
-        splits = {"all": (0, len(pair))} if "frames" in conf else DEFAULT_SPLITS.get(conf.get("loader"), {})
+        loader: str = conf["loader"]  # load_frames has checked that it names a loader
+        splits = {"all": (0, len(pair))} if "frames" in conf else DEFAULT_SPLITS.get(loader, {})
     return replace(pair, splits=dict(splits), tolerance=conf.get("tolerance", pair.tolerance))

@@ -228,6 +228,7 @@ def _check_traverse(role: str, traverse: Traverse, decode: bool, workers: int) -
             results = pool.map(lambda p: _decode(traverse, first_index[p]), present)
             for path, (size, reason) in zip(present, results, strict=True):
                 if reason is None:
+                    assert size is not None  # _decode gives a size exactly when it gives no reason
                     report.sizes[size] += 1
                 else:
                     report.errors[path] = reason

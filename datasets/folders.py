@@ -5,8 +5,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from vpr_smr.core.constants import DEFAULT_TOLERANCE
 from vpr_smr.datasets.base import (
-    DEFAULT_TOLERANCE,
     DatasetError,
     Traverse,
     TraversePair,

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from vpr_smr.datasets.base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair
+from vpr_smr.core.constants import DEFAULT_TOLERANCE
+from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists"

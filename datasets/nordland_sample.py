@@ -8,7 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from vpr_smr.datasets.base import DEFAULT_TOLERANCE, TraversePair
+from vpr_smr.core.constants import DEFAULT_TOLERANCE
+from vpr_smr.datasets.base import TraversePair
 from vpr_smr.datasets.folders import folder_pair
 
 DEFAULT_ROOT = Path(__file__).resolve().parents[1] / "data" / "nordland_sample"

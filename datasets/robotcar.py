@@ -18,7 +18,8 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from vpr_smr.datasets.base import DEFAULT_TOLERANCE, DatasetError, Traverse, TraversePair, imread
+from vpr_smr.core.constants import DEFAULT_TOLERANCE
+from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair, imread
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists" / "from_VPRSNN"
@@ -79,7 +80,7 @@ def read_timestamps(list_file: Path | str, option: str) -> list[str]:
     A one-column list of timestamps is accepted too.
     """
     lines = read_list("robotcar", list_file, option)
-    names = []
+    names: list[str] = []
     for number, row in enumerate(csv.reader(lines), start=1):
         fields = [f.strip() for f in row]
         if len(fields) == 1:

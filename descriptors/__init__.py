@@ -58,7 +58,8 @@ def __getattr__(name: str) -> Any:
 def _import(target: str, package: str | None = None) -> type[Backend]:
     module_name, _, class_name = target.partition(":")
     module = importlib.import_module(module_name, package)
-    return getattr(module, class_name)
+    cls: type[Backend] = getattr(module, class_name)  # backend_class checks what a dotted path names
+    return cls
 
 
 def available_backends() -> list[str]:
@@ -72,7 +73,8 @@ def backend_class(name: str) -> type[Backend]:
         return _import("." + BACKENDS[name], __name__)
     for ep in entry_points(group=ENTRY_POINT_GROUP):
         if ep.name == name:
-            return ep.load()
+            loaded: type[Backend] = ep.load()
+            return loaded
     if ":" in name:
         try:
             cls = _import(name)

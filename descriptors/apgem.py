@@ -53,6 +53,11 @@ class GeM(nn.Module):
 class Whitening(nn.Module):
     """Learned PCA whitening, applied in float64; its tensors are non-persistent (not in the state dict)."""
 
+    # Buffers, registered in __init__ (torch types a module attribute as Tensor | Module).
+    mean: torch.Tensor
+    projection: torch.Tensor
+    scale: torch.Tensor
+
     def __init__(self, mean: torch.Tensor, projection: torch.Tensor, scale: torch.Tensor) -> None:
         super().__init__()
         self.register_buffer("mean", mean.double(), persistent=False)
@@ -100,6 +105,7 @@ class APGeM(TorchBackend):
     """ResNet-101 AP-GeM, 2048-d descriptors (fewer with ``whitenv``)."""
 
     name: ClassVar[str] = "apgem"
+    model: APGeMNet  # what build_model returns
     default_conf: ClassVar[dict[str, Any]] = {
         # Longest image side in pixels; null keeps the full image, as the official evaluation does.
         "max_size": None,
@@ -114,10 +120,11 @@ class APGeM(TorchBackend):
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
         super().__init__(conf)
         # The file's `preprocess` may override these (dirtorch's load_model does the same).
-        self.mean, self.std = IMAGENET_MEAN, IMAGENET_STD
+        self.mean: tuple[float, ...] = IMAGENET_MEAN
+        self.std: tuple[float, ...] = IMAGENET_STD
         self.whitening_name: str | None = None  # the whitening applied, once a file is loaded
 
-    def build_model(self) -> nn.Module:
+    def build_model(self) -> APGeMNet:
         return APGeMNet()
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
@@ -148,7 +155,7 @@ class APGeM(TorchBackend):
         self._check_options(options, path)
         model = self.model
         fc = state_dict.get("fc.weight")
-        if getattr(fc, "ndim", 0) == 2 and fc.shape[0] != model.fc.out_features:
+        if fc is not None and getattr(fc, "ndim", 0) == 2 and fc.shape[0] != model.fc.out_features:
             model.fc = nn.Linear(2048, int(fc.shape[0]))  # out_dim is a dirtorch option; 2048 in the release
         model.norm_features = bool(options.get("norm_features", False))
         model.without_fc = bool(options.get("without_fc", False))

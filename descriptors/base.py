@@ -22,6 +22,7 @@ import re
 import shlex
 import tarfile
 import zipfile
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -82,7 +83,8 @@ class Backend:
     @property
     def harness(self) -> bool:
         """Whether ``preprocessing`` asks for gmberton/VPR-methods-evaluation's resizing."""
-        return self.conf["preprocessing"] == "vpr-methods-evaluation"
+        preprocessing: str = self.conf["preprocessing"]
+        return preprocessing == "vpr-methods-evaluation"
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
         raise NotImplementedError
@@ -105,7 +107,9 @@ class Backend:
 
     def describe(self, image: np.ndarray) -> np.ndarray:
         """Descriptor of one image (a convenience; the pipeline batches)."""
-        return self.forward(torch.as_tensor(self.preprocess(image))[None])[0]
+        descriptors = self.forward(torch.as_tensor(self.preprocess(image))[None])
+        descriptor: np.ndarray = descriptors[0]
+        return descriptor
 
 
 class TorchBackend(Backend):
@@ -154,7 +158,8 @@ class TorchBackend(Backend):
                     if not _has_tensors(data[entry]):
                         raise CheckpointError(f"checkpoint {source} holds no state dict: its {entry!r} entry is "
                                               f"{describe_value(data[entry])}")
-                    return data[entry]
+                    state_dict: dict[str, Any] = data[entry]
+                    return state_dict
             if _has_tensors(data):
                 return data
         raise CheckpointError(f"checkpoint {source} holds no state dict: it holds {describe_value(data)} ({looked})"
@@ -231,7 +236,8 @@ class TorchBackend(Backend):
     def forward(self, batch: torch.Tensor) -> np.ndarray:
         batch = batch.to(self.device, non_blocking=True)
         batch = batch.half() if self.half else batch.float()
-        return self.model(batch).float().cpu().numpy()
+        descriptors: torch.Tensor = self.model(batch)
+        return descriptors.float().cpu().numpy()
 
 
 def fill_batch_norm_counters(state_dict: dict[str, Any], model: torch.nn.Module) -> dict[str, Any]:
@@ -457,8 +463,8 @@ IMAGENET_MEAN = (0.485, 0.456, 0.406)
 IMAGENET_STD = (0.229, 0.224, 0.225)
 
 
-def to_tensor(image: np.ndarray, size: tuple[int, int] | None = None, mean=IMAGENET_MEAN, std=IMAGENET_STD,
-              interpolation: str = "bilinear") -> torch.Tensor:
+def to_tensor(image: np.ndarray, size: tuple[int, int] | None = None, mean: Sequence[float] = IMAGENET_MEAN,
+              std: Sequence[float] = IMAGENET_STD, interpolation: str = "bilinear") -> torch.Tensor:
     """RGB uint8 ``H x W x 3`` -> normalised float tensor ``3 x H x W``, optionally resized to ``size = (H, W)``.
 
     Resizing follows torchvision's ``transforms.Resize`` on tensors (antialias on) and comes before the
@@ -469,7 +475,8 @@ def to_tensor(image: np.ndarray, size: tuple[int, int] | None = None, mean=IMAGE
     tensor = torch.from_numpy(np.ascontiguousarray(image)).permute(2, 0, 1).float().div_(255.0)
     if size is not None:
         tensor = resize_tensor(tensor, size, interpolation)
-    return normalize(tensor, mean, std)
+    normalised: torch.Tensor = normalize(tensor, mean, std)  # torchvision is untyped
+    return normalised
 
 
 def resize_tensor(tensor: torch.Tensor, size: tuple[int, int] | list[int],
@@ -478,5 +485,6 @@ def resize_tensor(tensor: torch.Tensor, size: tuple[int, int] | list[int],
     from torchvision.transforms import InterpolationMode
     from torchvision.transforms.functional import resize
 
-    return resize(tensor, [int(size[0]), int(size[1])], interpolation=InterpolationMode(interpolation),
-                  antialias=True)
+    resized: torch.Tensor = resize(tensor, [int(size[0]), int(size[1])],
+                                   interpolation=InterpolationMode(interpolation), antialias=True)
+    return resized

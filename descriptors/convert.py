@@ -210,10 +210,13 @@ def no_conversion(method: str) -> str:
         return f"no conversion for {method!r}: {error}; {available}"
     if not cls.needs_checkpoint:
         return f"no conversion for {method!r}: backend {method!r} takes no checkpoint file; {available}"
+    expected = "its checkpoint file"  # for a backend that needs settings, or a plugin without expected_file
     try:
         with torch.device("meta"):  # shapes only: the model costs nothing to build
-            expected = cls().expected_file()
-    except (ValueError, AttributeError):  # a backend that needs settings, or a plugin without expected_file
-        expected = "its checkpoint file"
+            backend = cls()
+            if hasattr(backend, "expected_file"):  # TorchBackend's method; a plugin's Backend may lack it
+                expected = backend.expected_file()
+    except (ValueError, AttributeError):
+        pass
     return (f"no conversion for {method!r}: backend {method!r} loads its file as it is, with weights_only=True "
             f"(expected: {expected}); check yours with `vpr-smr checkpoint check {method} FILE`; {available}")

@@ -16,7 +16,7 @@ image as well, so ``preprocessing`` changes nothing here.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, cast
 
 import numpy as np
 import torch
@@ -82,7 +82,8 @@ class GeoLocalizationNet(nn.Module):
         )
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.aggregation(self.backbone(x))
+        descriptors: torch.Tensor = self.aggregation(self.backbone(x))
+        return descriptors
 
 
 def detect_backbone(state_dict: dict[str, Any]) -> str | None:
@@ -101,6 +102,7 @@ class CosPlace(TorchBackend):
     """CosPlace global descriptor; ``fc_output_dim: null`` takes the dimension from the checkpoint."""
 
     name: ClassVar[str] = "cosplace"
+    model: GeoLocalizationNet  # what build_model returns
     default_conf: ClassVar[dict[str, Any]] = {
         "backbone": "ResNet50",
         "fc_output_dim": None,  # None: read from the checkpoint's aggregation.3.weight
@@ -132,9 +134,10 @@ class CosPlace(TorchBackend):
     @property
     def dim(self) -> int:
         """Descriptor size of the current model."""
-        return int(self.model.aggregation[3].out_features)
+        linear = cast(nn.Linear, self.model.aggregation[3])  # Sequential(L2Norm, GeM, Flatten, Linear, L2Norm)
+        return int(linear.out_features)
 
-    def build_model(self, fc_output_dim: int | None = None) -> torch.nn.Module:
+    def build_model(self, fc_output_dim: int | None = None) -> GeoLocalizationNet:
         backbone = self.conf["backbone"]
         # Before a checkpoint is read, use the largest released size of this backbone.
         dim = fc_output_dim or self.conf["fc_output_dim"] or max(self.released[backbone])

@@ -61,7 +61,8 @@ class PatchEmbed(nn.Module):
         height, width = x.shape[-2:]
         if height % self.patch_size or width % self.patch_size:
             raise ValueError(f"input {height}x{width} is not a multiple of the patch size {self.patch_size}")
-        return self.proj(x).flatten(2).transpose(1, 2)
+        patches: torch.Tensor = self.proj(x)
+        return patches.flatten(2).transpose(1, 2)
 
 
 class Attention(nn.Module):
@@ -77,7 +78,8 @@ class Attention(nn.Module):
         qkv = self.qkv(x).reshape(batch, tokens, 3, self.num_heads, dim // self.num_heads)
         q, k, v = qkv.permute(2, 0, 3, 1, 4)
         x = F.scaled_dot_product_attention(q, k, v)  # softmax(q k^T / sqrt(head_dim)) v
-        return self.proj(x.transpose(1, 2).reshape(batch, tokens, dim))
+        out: torch.Tensor = self.proj(x.transpose(1, 2).reshape(batch, tokens, dim))
+        return out
 
 
 class LayerScale(nn.Module):
@@ -97,7 +99,8 @@ class Mlp(nn.Module):
         self.fc2 = nn.Linear(hidden, dim)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.fc2(self.act(self.fc1(x)))
+        out: torch.Tensor = self.fc2(self.act(self.fc1(x)))
+        return out
 
 
 class Block(nn.Module):
@@ -113,8 +116,10 @@ class Block(nn.Module):
         self.ls2 = LayerScale(dim)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        x = x + self.ls1(self.attn(self.norm1(x)))
-        return x + self.ls2(self.mlp(self.norm2(x)))
+        attended: torch.Tensor = self.ls1(self.attn(self.norm1(x)))
+        x = x + attended
+        mixed: torch.Tensor = self.ls2(self.mlp(self.norm2(x)))
+        return x + mixed
 
 
 class DinoVisionTransformer(nn.Module):

@@ -105,8 +105,8 @@ class MBConv(nn.Module):
         if self.expand:
             x = F.relu6(self._bn0(self._expand_conv(x)))
         x = F.relu6(self._bn1(self._depthwise_conv(x)))
-        x = self._bn2(self._project_conv(x))  # linear bottleneck: no activation
-        return x + inputs if self.residual else x
+        projected: torch.Tensor = self._bn2(self._project_conv(x))  # linear bottleneck: no activation
+        return projected + inputs if self.residual else projected
 
 
 class EfficientNetLite0(nn.Module):
@@ -136,7 +136,8 @@ class EfficientNetLite0(nn.Module):
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         # Average pooling and the classifier; dropout is the identity at evaluation.
-        return self._fc(self.features(x).mean(dim=(-2, -1)))
+        logits: torch.Tensor = self._fc(self.features(x).mean(dim=(-2, -1)))
+        return logits
 
 
 def gem(x: torch.Tensor, p: float, eps: float = 1e-6) -> torch.Tensor:
@@ -198,5 +199,5 @@ class EfficientNetLite0GeM(TorchBackend):
         return package_weights_path() if checkpoint == "package" else Path(checkpoint)
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
-        size = tuple(int(v) for v in self.conf["image_size"])
+        size = int(self.conf["image_size"][0]), int(self.conf["image_size"][1])  # build_model checked [H, W]
         return to_tensor(image, size, mean=LITE_MEAN, std=LITE_STD)

@@ -25,7 +25,7 @@ from vpr_smr.descriptors.base import Backend, CheckpointError, TorchBackend, sha
 log = logging.getLogger(__name__)
 
 
-class TraverseImages(Dataset):
+class TraverseImages(Dataset[tuple[int, torch.Tensor]]):
     """Decodes and preprocesses images lazily, in DataLoader worker processes."""
 
     def __init__(self, traverse: Traverse, backend: Backend) -> None:
@@ -85,6 +85,7 @@ def check_checkpoint(method_conf: dict[str, Any], method: str | None = None) -> 
     SHA-256 are the costs (about 0.8 s for SALAD's 350 MB file on one CPU thread, against 1.3-1.5 s to load).
     """
     cls, settings, checkpoint = _backend_and_checkpoint(method_conf, method)
+    backend: Backend
     if issubclass(cls, TorchBackend) and cls.load is TorchBackend.load:
         with torch.device("meta"):
             backend = cls(settings)
@@ -148,7 +149,7 @@ def compute_descriptors(
 
 
 def provenance_of(pair: TraversePair, method: str, conf: dict[str, Any], checkpoint_sha256: str | None,
-                  backend: Backend | None = None) -> dict:
+                  backend: Backend | None = None) -> dict[str, str]:
     """What a descriptor file was computed from. ``backend_conf`` holds every backend setting in effect,
     defaults included (e.g. ``preprocessing``), so a changed default is not mistaken for a finished file."""
     provenance = {
@@ -190,7 +191,7 @@ def main(
     if is_done(out, provenance):
         log.info("descriptors already computed: %s", out)
         return out
-    arrays = backend.precomputed(pair)
+    arrays: tuple[np.ndarray, ...] | None = backend.precomputed(pair)
     if arrays is None:
         arrays = tuple(
             compute_descriptors(t, backend, batch_size, num_workers, desc=f"{method} {pair.name} {role}")

@@ -34,7 +34,8 @@ class HOG(Backend):
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
         grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
         grey = cv2.resize(grey, (self.conf["width"], self.conf["height"]), interpolation=cv2.INTER_AREA)
-        values = self._descriptor().compute(grey).ravel().astype(np.float32)
+        # OpenCV's stubs say Sequence[float]; compute returns an ndarray, which np.asarray passes through.
+        values = np.asarray(self._descriptor().compute(grey)).ravel().astype(np.float32)
         norm = np.linalg.norm(values)
         return torch.from_numpy(values / norm if norm > 0 else values)
 

@@ -68,7 +68,8 @@ class ResNetTrunk(nn.Module):
     def forward(self, x: torch.Tensor) -> torch.Tensor:
         m = self.model
         x = m.maxpool(m.relu(m.bn1(m.conv1(x))))
-        return m.layer3(m.layer2(m.layer1(x)))
+        features: torch.Tensor = m.layer3(m.layer2(m.layer1(x)))
+        return features
 
 
 class FeatureMixerLayer(nn.Module):
@@ -82,7 +83,8 @@ class FeatureMixerLayer(nn.Module):
         )
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return x + self.mix(x)
+        mixed: torch.Tensor = self.mix(x)
+        return x + mixed
 
 
 class MixVPRAggregator(nn.Module):
@@ -115,7 +117,8 @@ class MixVPRNet(nn.Module):
         )
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.aggregator(self.backbone(x))
+        descriptors: torch.Tensor = self.aggregator(self.backbone(x))
+        return descriptors
 
 
 def released_file(dim: int | None = None) -> str:
@@ -128,6 +131,7 @@ class MixVPR(TorchBackend):
     """MixVPR global descriptor; ``out_channels``/``out_rows`` of ``null`` are read from the checkpoint."""
 
     name: ClassVar[str] = "mixvpr"
+    model: MixVPRNet  # what build_model returns
     default_conf: ClassVar[dict[str, Any]] = {
         "image_size": [320, 320],  # (H, W); the released models were trained and evaluated at 320 x 320
         "interpolation": "bilinear",  # official validation transform; demo.py uses "bicubic"
@@ -155,7 +159,7 @@ class MixVPR(TorchBackend):
         agg = self.model.aggregator
         return int(agg.channel_proj.out_features * agg.row_proj.out_features)
 
-    def build_model(self, out_channels: int | None = None, out_rows: int | None = None) -> torch.nn.Module:
+    def build_model(self, out_channels: int | None = None, out_rows: int | None = None) -> MixVPRNet:
         channels = out_channels or self.conf["out_channels"] or RELEASED[4096][0]
         rows = out_rows or self.conf["out_rows"] or RELEASED[4096][1]
         return MixVPRNet(self.image_size, int(channels), int(rows))

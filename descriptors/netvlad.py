@@ -73,7 +73,7 @@ class NetVLADNet(nn.Module):
             )
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        vlad = self.pool(self.encoder(x))
+        vlad: torch.Tensor = self.pool(self.encoder(x))
         if self.WPCA is not None:
             vlad = self.WPCA(vlad[:, :, None, None])  # as Patch-NetVLAD's get_pca_encoding
         return vlad
@@ -164,10 +164,10 @@ class NetVLAD(TorchBackend):
         """The cluster count and PCA size come from the file's shapes; the model is rebuilt to fit."""
         centroids = state_dict.get("pool.centroids")
         num_clusters = self.conf["num_clusters"]
-        if getattr(centroids, "ndim", 0) == 2:
+        if centroids is not None and getattr(centroids, "ndim", 0) == 2:
             num_clusters = int(centroids.shape[0])
         bias = state_dict.get("WPCA.0.bias")
-        num_pcs = int(bias.shape[0]) if getattr(bias, "ndim", 0) == 1 else 0
+        num_pcs = int(bias.shape[0]) if bias is not None and getattr(bias, "ndim", 0) == 1 else 0
         if (num_clusters, num_pcs) != (self.conf["num_clusters"], self.conf["num_pcs"] or 0):
             self.conf.update(num_clusters=num_clusters, num_pcs=num_pcs)
             self.model = self.build_model().eval()

@@ -20,7 +20,7 @@ def patch_normalise(grey: np.ndarray, patch: int) -> np.ndarray:
     mean = blocks.mean(axis=(1, 3), keepdims=True)
     std = blocks.std(axis=(1, 3), keepdims=True)
     centred = blocks - mean
-    normalised = np.divide(centred, std, out=np.zeros_like(centred), where=std > 0)
+    normalised: np.ndarray = np.divide(centred, std, out=np.zeros_like(centred), where=std > 0)
     return normalised.reshape(h, w)
 
 

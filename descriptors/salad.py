@@ -115,7 +115,8 @@ class SALADNet(nn.Module):
         self.aggregator = SALADAggregator(embed_dim, num_clusters, cluster_dim, token_dim)
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        return self.aggregator(*self.backbone(x))
+        descriptors: torch.Tensor = self.aggregator(*self.backbone(x))
+        return descriptors
 
 
 def harness_size(height: int, width: int, patch: int = 14) -> tuple[int, int]:
@@ -179,6 +180,7 @@ class SALAD(TorchBackend):
             raise ValueError(f"salad: expected an RGB uint8 H x W x 3 image, got {image.dtype} {image.shape}")
         size = self.conf["image_size"]
         if size == "auto" and self.harness:
-            return resize_tensor(to_tensor(image), harness_size(*image.shape[:2], self.patch_size))
+            image_height, image_width = image.shape[:2]
+            return resize_tensor(to_tensor(image), harness_size(image_height, image_width, self.patch_size))
         height, width = OFFICIAL_SIZE if size == "auto" else (int(s) for s in size)
         return to_tensor(pil_resize(image, (height, width), "bilinear"))

@@ -281,6 +281,8 @@ def _allow_overlap(parser: argparse.ArgumentParser) -> None:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vpr-smr", description=__doc__)
+    parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}",
+                        help="the installed version (the package metadata's); cite it with your results")
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     parser.add_argument("--debug", action="store_true", help="show the Python traceback of an error")
     sub = parser.add_subparsers(dest="command", required=True)

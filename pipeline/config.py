@@ -132,4 +132,5 @@ def load_config(path: Path | str, overrides: dict[str, Any] | None = None) -> di
 
 
 def run_dir(conf: dict[str, Any]) -> Path:
-    return Path(conf["output"]) / conf["run"]
+    path: Path = Path(conf["output"]) / conf["run"]
+    return path

@@ -121,15 +121,16 @@ class SnakemakeOutput:
             return []
         kind, job = self._block
         self._block = None
-        if job.jobid is None:  # not a job after all (a rule's name alone on a line)
+        jobid = job.jobid
+        if jobid is None:  # not a job after all (a rule's name alone on a line)
             return []
         if kind == "started":
-            self.jobs[job.jobid] = job
-            self.running[job.jobid] = job
+            self.jobs[jobid] = job
+            self.running[jobid] = job
         else:
             # the log as the job's own description gave it: the error's may add the executor's logs
-            job = Job(job.rule, {**job.fields, **self.jobs.get(job.jobid, Job(job.rule)).fields})
-            self.running.pop(job.jobid, None)
+            job = Job(job.rule, {**job.fields, **self.jobs.get(jobid, Job(job.rule)).fields})
+            self.running.pop(jobid, None)
             self.failed.append(job)
         return [(kind, job)]
 
@@ -324,7 +325,7 @@ class ProgressView:
             self._drawn = ""
 
 
-def follow(process: subprocess.Popen, view: View, idle_s: float = 0.2, linger_s: float = 2.0) -> int:
+def follow(process: subprocess.Popen[str], view: View, idle_s: float = 0.2, linger_s: float = 2.0) -> int:
     """Hand each line ``process`` prints to ``view`` until it ends; its exit status.
 
     The lines are read by a thread, so that the view is redrawn while Snakemake is silent. The pipe may outlive
@@ -333,6 +334,7 @@ def follow(process: subprocess.Popen, view: View, idle_s: float = 0.2, linger_s:
     lines: queue.Queue[str | None] = queue.Queue()
 
     def read() -> None:
+        assert process.stdout is not None  # started with stdout=PIPE (workflow._snakemake)
         for line in process.stdout:
             lines.put(line)
         lines.put(None)

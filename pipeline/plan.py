@@ -222,7 +222,8 @@ def _checked_before() -> dict[str, dict[str, Any]]:
     from vpr_smr.core.paths import methods_checked_path
 
     try:
-        return json.loads(methods_checked_path().read_text())
+        checked: dict[str, dict[str, Any]] = json.loads(methods_checked_path().read_text())
+        return checked
     except (OSError, ValueError):
         return {}
 

@@ -163,7 +163,7 @@ def _snakemake(command: list[str], view: console.View | None = None) -> int:
     """Run Snakemake, its output to ``view`` (or unchanged to ours); stop it and its jobs on SIGINT or SIGTERM."""
     # Jobs call `vpr-smr <stage>`: the one installed beside this interpreter comes first on their PATH.
     env = {**os.environ, "PATH": os.pathsep.join([str(Path(sys.executable).parent), os.environ.get("PATH", "")])}
-    process: subprocess.Popen | None = None
+    process: subprocess.Popen[bytes] | subprocess.Popen[str] | None = None
     stopped: list[int] = []
 
     def stop(signum: int, _frame: Any) -> None:
@@ -182,12 +182,13 @@ def _snakemake(command: list[str], view: console.View | None = None) -> int:
             process = subprocess.Popen(command, env=env)
         else:
             # One pipe for both streams (a dry run logs to stdout, a run to stderr), in UTF-8 whatever the locale
-            process = subprocess.Popen(command, env={**env, "PYTHONIOENCODING": "utf-8"}, stdout=subprocess.PIPE,
-                                       stderr=subprocess.STDOUT, encoding="utf-8", errors="replace")
+            process = piped = subprocess.Popen(command, env={**env, "PYTHONIOENCODING": "utf-8"},
+                                               stdout=subprocess.PIPE, stderr=subprocess.STDOUT, encoding="utf-8",
+                                               errors="replace")
         if stopped:  # the signal came while it started
             _terminate(process.pid)
         try:
-            status = process.wait() if view is None else console.follow(process, view)
+            status = process.wait() if view is None else console.follow(piped, view)
         except BaseException:  # the view failed (a closed stdout): no Snakemake left running unwatched
             _terminate(process.pid)
             raise

@@ -106,3 +106,6 @@ def test_provenance_of_descriptor_files_and_tables_in_the_page(tmp_path):
     assert "<td>12.3457</td>" in page  # floats to 4 decimals
     assert 'src="data:image/png;base64,iVBORw0KGgo' in page
     assert "run: toy" in page and "9.9" in page
+    # The version to cite is the one that made the results (the run's provenance), not the installed one.
+    assert 'vpr-smr: sequence-matching receptiveness for visual place recognition&quot;, version 9.9' in page
+    assert "Hussaini, T. Fischer and M. Milford" in page

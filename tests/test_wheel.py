@@ -2,9 +2,12 @@
 the shipped data are package data, and the results equal those of the checkout's install."""
 
 import csv
+import email
 import subprocess
 import sys
 import sysconfig
+import tomllib
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -47,6 +50,26 @@ def wheel(tmp_path_factory):
     return path
 
 
+def test_wheel_metadata_names_licences_classifiers_and_urls(wheel):
+    with zipfile.ZipFile(wheel) as archive:
+        (metadata,) = [n for n in archive.namelist() if n.endswith(".dist-info/METADATA")]
+        message = email.message_from_bytes(archive.read(metadata))
+        names = archive.namelist()
+    project = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
+    assert message["Version"] == project["version"]
+    assert message["License-Expression"] == "MIT AND CC-BY-3.0"
+    licence_files = message.get_all("License-File")
+    assert {"LICENSE", "data/nordland_sample/NORDLAND_LICENSE_NOTE_from_VPR-Bench.txt",
+            "data/lists/from_Patch-NetVLAD/LICENSE", "data/lists/from_VPRSNN/LICENSE",
+            "data/lists/from_VPRTempo/LICENSE"} <= set(licence_files)
+    dist_info = metadata.rsplit("/", 1)[0]
+    assert all(f"{dist_info}/licenses/{name}" in names for name in licence_files)  # the files themselves
+    assert "Intended Audience :: Science/Research" in message.get_all("Classifier")
+    assert "Typing :: Typed" in message.get_all("Classifier")
+    assert "vpr_smr/core/py.typed" in names
+    assert "Paper, https://arxiv.org/abs/2503.06840" in message.get_all("Project-URL")
+
+
 def test_installed_wheel_runs_a_configuration_outside_the_repository(wheel, tmp_path):
     venv = tmp_path / "venv"
     run([sys.executable, "-m", "venv", str(venv)], cwd=tmp_path)
@@ -60,6 +83,11 @@ def test_installed_wheel_runs_a_configuration_outside_the_repository(wheel, tmp_
     located = run([str(venv / "bin" / "python"), "-c", "import vpr_smr.pipeline as p; print(p.__file__)"],
                   cwd=tmp_path).stdout
     assert located.startswith(site) and str(REPO) not in located
+    with zipfile.ZipFile(wheel) as archive:
+        (metadata,) = [n for n in archive.namelist() if n.endswith(".dist-info/METADATA")]
+        wheel_version = email.message_from_bytes(archive.read(metadata))["Version"]
+    printed = run([str(venv / "bin" / "vpr-smr"), "--version"], cwd=tmp_path).stdout
+    assert printed == f"vpr-smr {wheel_version}\n"
 
     user = tmp_path / "user"
     user.mkdir()

@@ -107,7 +107,8 @@ class QueryFeatures:
 
 def is_correct(reference: np.ndarray, query: np.ndarray, tolerance: int) -> np.ndarray:
     """Ground truth of a frame-aligned pair: a match is correct iff ``|r - q| <= tolerance``."""
-    return np.abs(np.asarray(reference) - np.asarray(query)) <= tolerance
+    correct: np.ndarray = np.abs(np.asarray(reference) - np.asarray(query)) <= tolerance
+    return correct
 
 
 def labels_from_correctness(single_correct: np.ndarray, sequence_correct: np.ndarray) -> np.ndarray:
@@ -281,7 +282,7 @@ def _numpy_block_features(
 
     def value(j: np.ndarray, r: np.ndarray, normalised: bool) -> np.ndarray:
         """D[r, j] (block column j) in float64, divided by its column maximum."""
-        v = raw[j, r].astype(np.float64)
+        v: np.ndarray = raw[j, r].astype(np.float64)
         return v / col_max[j] if normalised else v
 
     def diagonal_sum(j: np.ndarray, d: np.ndarray, n_terms: int, normalised: bool) -> np.ndarray:
@@ -385,7 +386,8 @@ def _compiled_features(kernels: ModuleType, raw: np.ndarray, seq_len: int, n_ran
     n_cols = step + seq_len - 1
     margin = 2 * _error_bound(np.dtype(np.float64), n_cols, seq_len, magnitude)
     margin_raw = 2 * _error_bound(np.dtype(np.float64), n_cols, seq_len, magnitude_raw)
-    return kernels.column_blocks(raw, col_max64, seq_len, n_ranks, margin, margin_raw, step)
+    out: dict[str, np.ndarray] = kernels.column_blocks(raw, col_max64, seq_len, n_ranks, margin, margin_raw, step)
+    return out
 
 
 def _mean_full(diagonal_sum: Callable[..., np.ndarray], j: np.ndarray, lo: np.ndarray, hi: np.ndarray,
@@ -397,7 +399,8 @@ def _mean_full(diagonal_sum: Callable[..., np.ndarray], j: np.ndarray, lo: np.nd
     for t in range(width):
         inside = lo + t <= hi
         total += np.where(inside, diagonal_sum(j, np.minimum(lo + t, hi), seq_len, True), 0.0)
-    return total / (hi - lo + 1)
+    mean: np.ndarray = total / (hi - lo + 1)
+    return mean
 
 
 # --- whole split ------------------------------------------------------------------------------------------------

@@ -20,7 +20,8 @@ BLOCK_VALUES = 1 << 24  # distances computed per block of query columns (64 MB o
 
 def l2_normalise(descriptors: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     norms = np.linalg.norm(descriptors, axis=1, keepdims=True)
-    return np.divide(descriptors, np.where(norms == 0, 1.0, norms).astype(descriptors.dtype), out=out)
+    normalised: np.ndarray = np.divide(descriptors, np.where(norms == 0, 1.0, norms).astype(descriptors.dtype), out=out)
+    return normalised
 
 
 def _check_metric(metric: str) -> None:
@@ -52,7 +53,7 @@ def distance_columns(reference: np.ndarray, query: np.ndarray, metric: str, bloc
     if metric in ("l2", "cosine"):
         query = l2_normalise(query)
         if metric == "cosine":
-            out = (1.0 - reference @ query.T).astype(np.float32)
+            out: np.ndarray = (1.0 - reference @ query.T).astype(np.float32)
         else:
             import faiss
 

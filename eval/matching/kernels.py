@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 from numba import njit, types
+from numba.core.typing.templates import Signature
 
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # plain globals: numba freezes them at compile time
 
@@ -35,11 +36,11 @@ def _matrix(dtype: types.Type) -> types.Array:
     return types.Array(dtype, 2, "A", readonly=True)
 
 
-def _range_signature(dtype: types.Type) -> types.Signature:
+def _range_signature(dtype: types.Type) -> Signature:
     return types.void(_matrix(dtype), types.Array(dtype, 1, "A"), types.Array(dtype, 1, "A"), types.float64[:])
 
 
-def _block_signature(dtype: types.Type) -> types.Signature:
+def _block_signature(dtype: types.Type) -> Signature:
     f8, i8 = types.float64, types.int64
     return types.void(_matrix(dtype), f8[:], i8, f8, f8, f8[:, :, :], i8[:, :], i8[:], i8[:], f8[:], f8[:])
 
@@ -103,7 +104,8 @@ def _exact(raw: np.ndarray, col_max: np.ndarray, kind: int, i: int, j: int, seq_
             acc += np.float64(raw[i, j + c]) / col_max[j + c]
         return acc
     if kind == 3:
-        return np.float64(raw[i, j + seq_len - 1]) / col_max[j + seq_len - 1]
+        current: float = np.float64(raw[i, j + seq_len - 1]) / col_max[j + seq_len - 1]
+        return current
     if kind == 4:
         return _diag(raw, col_max, i, j, seq_len, False)
     return -_diag(raw, col_max, i, j, seq_len, False)

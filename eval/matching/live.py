@@ -63,7 +63,10 @@ class LiveMatcher:
         self.distance = distance
         self.predictor = predictor
         self.n_ranks = n_ranks
-        self.references = None if references is None else prepare_references(references, distance)
+        self.references: np.ndarray | None = None
+        if references is not None:
+            assert distance is not None  # refused above
+            self.references = prepare_references(references, distance)
         self._buffer: np.ndarray | None = None  # (L, R) ring of the last L columns
         self.frames = 0
         # set by from_descriptors: the file's method and its settings (to build the same backend for new frames)
@@ -113,6 +116,7 @@ class LiveMatcher:
         """Match one query descriptor against the references (the distance of ``eval.distances``)."""
         if self.references is None:
             raise ValueError("LiveMatcher.step needs references=...; or feed distances with step_distances(column)")
+        assert self.distance is not None  # given whenever references are (__init__ refuses them without it)
         query = np.asarray(query_descriptor, dtype=np.float32).reshape(1, -1)
         return self.step_distances(distance_columns(self.references, query, self.distance)[:, 0])
 

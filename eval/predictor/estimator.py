@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import json
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -50,7 +50,8 @@ class TrainingDataError(ValueError):
 
 def class_counts(labels: np.ndarray) -> list[int]:
     """Samples per label 0..3 (SPEC 6), zeros included."""
-    return np.bincount(np.asarray(labels, dtype=np.int64), minlength=N_LABELS).tolist()
+    counts: list[int] = np.bincount(np.asarray(labels, dtype=np.int64), minlength=N_LABELS).tolist()
+    return counts
 
 
 def format_counts(counts: Sequence[int]) -> str:
@@ -67,7 +68,7 @@ def count_text(labels: np.ndarray) -> str:
     return ", ".join(f"{value}: {count}" for value, count in zip(values, counts, strict=True))
 
 
-def fit_problem(counts: Sequence[int], smote: bool = True) -> str | None:
+def fit_problem(counts: Iterable[int], smote: bool = True) -> str | None:
     """Why fitting on training labels with these counts per label would fail, or None when it can fit.
 
     SMOTE (on when ``smote`` and every present class has 2 samples) raises every class to the largest one's
@@ -137,7 +138,8 @@ def select_columns(features: np.ndarray, columns: tuple[int, ...] | None) -> np.
     return features if columns is None else features[:, list(columns)]
 
 
-class SMRPredictor(ClassifierMixin, BaseEstimator):
+# scikit-learn ships no type information: its base classes are Any to mypy (pyproject's [tool.mypy] overrides)
+class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
     """MLP predicting the label (0..3) of a query from its rank-0 attributes, given in A1..A4 order.
 
     ``column_order``: indices into the A1..A4 input fed to the network, in that order (the authors' code order by
@@ -216,11 +218,11 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):
                     raise KeyboardInterrupt("predictor training interrupted; nothing was kept") from warning
                 raise
         scaler, mlp = fitted.named_steps["scaler"], fitted.named_steps["mlp"]
-        self.mean_ = scaler.mean_.copy()
-        self.scale_ = scaler.scale_.copy()
-        self.coefs_ = [c.copy() for c in mlp.coefs_]
-        self.intercepts_ = [b.copy() for b in mlp.intercepts_]
-        self.classes_ = mlp.classes_.copy()
+        self.mean_: np.ndarray = scaler.mean_.copy()
+        self.scale_: np.ndarray = scaler.scale_.copy()
+        self.coefs_: list[np.ndarray] = [c.copy() for c in mlp.coefs_]
+        self.intercepts_: list[np.ndarray] = [b.copy() for b in mlp.intercepts_]
+        self.classes_: np.ndarray = mlp.classes_.copy()
         self.n_iter_ = int(mlp.n_iter_)
         return self
 
@@ -246,11 +248,13 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):
             return np.stack([1.0 - positive, positive], axis=1)
         logits = logits - logits.max(axis=1, keepdims=True)
         exp = np.exp(logits)
-        return exp / exp.sum(axis=1, keepdims=True)
+        probabilities: np.ndarray = exp / exp.sum(axis=1, keepdims=True)
+        return probabilities
 
     def predict(self, features: np.ndarray) -> np.ndarray:
         check_is_fitted(self, "coefs_")
-        return self.classes_[np.argmax(self.predict_proba(features), axis=1)]
+        predicted: np.ndarray = self.classes_[np.argmax(self.predict_proba(features), axis=1)]
+        return predicted
 
     def save(self, path: Path | str, **attrs: Any) -> None:
         """Write the parameters and fitted arrays to HDF5 (temporary name, then rename); ``attrs`` as attributes."""

@@ -15,6 +15,7 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from vpr_smr.core.citation import how_to_cite
 from vpr_smr.core.io import atomic_path, package_version, read_provenance
 
 STYLE = """
@@ -134,6 +135,8 @@ def render(
         f"<nav><ul>{nav}</ul></nav>",
         *_overlap_warnings(datasets),
         f'<h2 id="{_anchor("Provenance")}">Provenance</h2>',
+        f'<p class="cite"><strong>How to cite:</strong> {html.escape(how_to_cite(str(general["vpr_smr_version"])))}'
+        "</p>",
         *_dataset_rows(datasets),
         _dict_table([{"key": k, "value": v if isinstance(v, str) else json.dumps(v, sort_keys=True)}
                      for k, v in general.items()], ("key", "value")),

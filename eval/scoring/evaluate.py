@@ -7,7 +7,7 @@ the reduction and AOC numbers under ``seeds``, summarised in ``seed_summary``, s
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -188,7 +188,7 @@ def evaluate_split(
 
 
 def main(
-    features_paths: dict[str, Path | str],
+    features_paths: Mapping[str, Path | str],
     predictor_paths: Sequence[Path | str] | Path | str,
     out: Path | str,
     modes: tuple[str, ...] = MODES,

@@ -252,7 +252,8 @@ class RestorationMode:
     def from_json(cls, data: Json) -> RestorationMode:
         optional = {name: PRCurve.from_json(data[name]) for name in ("curve_vpr_sm", "curve_removal") if name in data}
         return cls(**{name: data[name] for name in cls.NUMBERS},
-                   curve_restoration=PRCurve.from_json(data["curve_restoration"]), **optional)
+                   curve_restoration=PRCurve.from_json(data["curve_restoration"]),
+                   curve_vpr_sm=optional.get("curve_vpr_sm"), curve_removal=optional.get("curve_removal"))
 
 
 @dataclass(frozen=True)
