@@ -18,6 +18,11 @@ N_LABELS = len(LABELS)
 KEPT_CLASSES = (0, 2)  # SPEC 6: labels whose sequence match is correct; the predictor keeps these matches
 
 MODES = ("paper", "standard")  # metric modes of the PR curves (eval.scoring.curves)
+
+# The standard VPR metrics (eval.scoring.vpr_metrics): recall@N for these N, for each matcher: single-frame
+# matching, sequence matching, and sequence matching with the predictor (removed matches count as not retrieved).
+RECALL_AT = (1, 5, 10, 20)
+MATCHERS = ("single", "sequence", "sequence_predictor")
 # Trust levels of the trust-level ablation; pipeline/config_schema.json repeats them as the `trust_levels`
 # default (a JSON schema cannot import), and tests/test_config.py checks that both agree.
 DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)

@@ -65,6 +65,26 @@ def timing_path(evaluation: Path | str) -> str:
     return f"{_without_suffix(evaluation)}.timing.json"
 
 
+def vpr_metrics_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
+    """The standard VPR metrics of one method at one L (``eval.scoring.vpr_metrics``), every evaluated split."""
+    return f"{run}/metrics/{dataset}/{method}/L{seq_len}.json"
+
+
+def queries_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
+    """One row per evaluated query of every evaluated split: matches, distances, attributes, label, prediction."""
+    return f"{run}/queries/{dataset}/{method}/L{seq_len}.csv"
+
+
+def match_figure_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
+    """The match inspector: thumbnails of a fixed sample of test queries with their matches."""
+    return f"{run}/figures/matches_{dataset}_{method}_L{seq_len}.png"
+
+
+def matrix_figure_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
+    """The test split's distance matrix with the ground-truth band and the sequence matches, kept or removed."""
+    return f"{run}/figures/distance_matrix_{dataset}_{method}_L{seq_len}.png"
+
+
 def attribute_ablation_path(run: Path | str, dataset: str, seq_len: int | str) -> str:
     return f"{run}/ablation/attributes/{dataset}/L{seq_len}.json"
 

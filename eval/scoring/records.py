@@ -449,3 +449,68 @@ class HeldOut:
         predictors = data["predictors"]
         return cls(dict(data["meta"]), data["n_queries"], HeldOutScores.from_json(predictors["pooled"]),
                    HeldOutScores.from_json(predictors["without"]))
+
+
+# --- the standard VPR metrics (eval.scoring.vpr_metrics) --------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class MatcherMetrics:
+    """The standard VPR metrics of one matcher in one mode (definitions: README "Standard VPR metrics").
+
+    ``n_queries`` is recall@N's denominator; ``recall_at`` maps N (``core.constants.RECALL_AT``) to recall@N.
+    ``recall_at_100p``, ``pr_auc`` and ``extended_precision`` come from the mode's PR curve (SPEC 8).
+    """
+
+    n_queries: int
+    recall_at: dict[int, float]
+    recall_at_100p: float
+    pr_auc: float
+    extended_precision: float
+
+    def to_json(self) -> Json:
+        return {"n_queries": self.n_queries, "recall_at": {str(n): v for n, v in self.recall_at.items()},
+                "recall_at_100p": self.recall_at_100p, "pr_auc": self.pr_auc,
+                "extended_precision": self.extended_precision}
+
+    @classmethod
+    def from_json(cls, data: Json) -> MatcherMetrics:
+        return cls(int(data["n_queries"]), {int(n): float(v) for n, v in data["recall_at"].items()},
+                   float(data["recall_at_100p"]), float(data["pr_auc"]), float(data["extended_precision"]))
+
+
+@dataclass(frozen=True)
+class SplitMetrics:
+    """One split: per mode (``core.constants.MODES``), per matcher (``core.constants.MATCHERS``; without a
+    predictor, ``sequence_predictor`` is absent)."""
+
+    modes: dict[str, dict[str, MatcherMetrics]]
+
+    def to_json(self) -> Json:
+        return {"modes": {mode: _each_to_json(matchers) for mode, matchers in self.modes.items()}}
+
+    @classmethod
+    def from_json(cls, data: Json) -> SplitMetrics:
+        return cls({mode: _each_from_json(MatcherMetrics.from_json, matchers)
+                    for mode, matchers in data["modes"].items()})
+
+
+@dataclass(frozen=True)
+class VPRMetrics:
+    """The standard VPR metrics of one distance matrix per split (``vpr-smr metrics``; in a run, one method on one
+    dataset at one L). ``meta``: dataset, method, seq_len, tolerance and the predictor file (seed 0) when given."""
+
+    meta: Json
+    splits: dict[str, SplitMetrics]
+
+    @property
+    def key(self) -> tuple[str, str, int]:
+        return meta_key(self.meta)
+
+    def to_json(self) -> Json:
+        return {"meta": dict(self.meta), "splits": _each_to_json(self.splits)}
+
+    @classmethod
+    def from_json(cls, data: Json) -> VPRMetrics:
+        return cls(dict(data["meta"]), _each_from_json(SplitMetrics.from_json, data["splits"]))
+
