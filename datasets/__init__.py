@@ -128,7 +128,8 @@ def load_frames(name: str, conf: dict[str, Any], check_files: bool = True) -> Tr
         if not 0 <= lo < hi <= len(pair):
             raise DatasetError(f"datasets.{name}.frames = [{lo}, {hi}] is outside the {len(pair)} frames; "
                                f"give a range within [0, {len(pair)}]")
-        pair = slice_pair(pair, lo, hi, {})
+        pair = replace(slice_pair(pair, lo, hi, {}),
+                       source=f"{pair.source}; frames [{lo}, {hi}) of its {len(pair)} (the frames setting)")
     return replace(pair, name=name)
 
 

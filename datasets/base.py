@@ -21,6 +21,11 @@ class DatasetError(ValueError):
     """A dataset on disk does not match what its loader expects; the message names the files."""
 
 
+def resolved(path: Path | str) -> str:
+    """``path`` as an absolute path (``~`` expanded, links resolved): how a dataset's source names its files."""
+    return str(Path(path).expanduser().resolve())
+
+
 def list_files(paths: Sequence[Path | str], limit: int = MAX_LISTED) -> str:
     """``a, b, c and 12 more``: the first few files of a problem, then a count."""
     shown = ", ".join(str(p) for p in paths[:limit])
@@ -84,6 +89,9 @@ class TraversePair:
     tolerance: int = DEFAULT_TOLERANCE
     splits: dict[str, tuple[int, int]] = field(default_factory=dict)
     pairing: str = "by the frame lists (line i of both)"  # how frame i of both traverses is known to be one place
+    # where the images came from, in the loader's words (its folders or root, resolved, and the frame lists it
+    # read): the dataset card of the report shows it
+    source: str = ""
 
     def __post_init__(self) -> None:
         if len(self.reference) != len(self.query):

@@ -111,12 +111,14 @@ def checked_pair(
     splits: dict[str, tuple[int, int]],
     tolerance: int,
     check_files: bool,
+    source: str,
 ) -> TraversePair:
-    """A loader's pair named ``dataset``; with ``check_files``, first raise when images are missing
-    (``require_images`` over both traverses)."""
+    """A loader's pair named ``dataset`` (``source``: where its images come from, ``TraversePair.source``); with
+    ``check_files``, first raise when images are missing (``require_images`` over both traverses)."""
     if check_files:
         require_images(dataset, root, [*reference.images, *query.images], fix)
-    return TraversePair(name=dataset, reference=reference, query=query, tolerance=tolerance, splits=dict(splits))
+    return TraversePair(name=dataset, reference=reference, query=query, tolerance=tolerance, splits=dict(splits),
+                        source=source)
 
 
 def read_list(dataset: str, list_file: Path | str, option: str) -> list[str]:

@@ -13,6 +13,7 @@ from vpr_smr.datasets.base import (
     images_from_list,
     list_files,
     order_note,
+    resolved,
     sorted_images,
 )
 
@@ -78,6 +79,7 @@ def folder_pair(
         ref_images = images_from_list(reference, reference_list)
         query_images = images_from_list(query, query_list)
         how = f"by the frame lists (line i of {Path(reference_list).name} and {Path(query_list).name})"
+        chosen = f"the frames named by the lists {resolved(reference_list)} and {resolved(query_list)}"
     else:
         ref_images, query_images = sorted_images(reference), sorted_images(query)
         ref_names = [p.name for p in ref_images]
@@ -96,6 +98,7 @@ def folder_pair(
                 + ". Give list files (reference_list, query_list) to choose aligned frames."
             )
         how = _pairing(name, reference, query, ref_names, query_names, pairing)
+        chosen = "every image in them, in natural file-name order"
     pair = TraversePair(
         name=name,
         reference=_traverse(reference, ref_images, by_name=not reference_list),
@@ -103,6 +106,7 @@ def folder_pair(
         tolerance=tolerance,
         splits=dict(splits or {}),
         pairing=how,
+        source=f"image folders {resolved(reference)} (reference) and {resolved(query)} (query): {chosen}",
     )
     if check_files:
         pair.check_files()

@@ -10,7 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
-from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair
+from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair, resolved
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists"
@@ -65,5 +65,8 @@ def nordland(
     ref_folder, query_folder = root / reference, root / query
     ref_traverse = Traverse(reference, tuple(ref_folder / name for name in ref_names))
     query_traverse = Traverse(query, tuple(query_folder / name for name in query_names))
+    source = (f"Nordland (NRK's Nordlandsbanen footage, CC BY 3.0): {resolved(ref_folder)} (reference) and "
+              f"{resolved(query_folder)} (query), the frames of the lists {resolved(reference_list)} and "
+              f"{resolved(query_list)}")
     return checked_pair("nordland", root, fix, ref_traverse, query_traverse, SPLITS if splits is None else splits,
-                        tolerance, check_files)
+                        tolerance, check_files, source)

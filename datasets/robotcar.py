@@ -19,7 +19,7 @@ import cv2
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
-from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair, imread
+from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair, imread, resolved
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists" / "from_VPRSNN"
@@ -136,5 +136,8 @@ def robotcar(
         )
     reference = BayerTraverse(reference_run, tuple(root / reference_run / CAMERA / name for name in ref_names))
     query = BayerTraverse(query_run, tuple(root / query_run / CAMERA / name for name in query_names))
+    source = (f"Oxford RobotCar: {resolved(root / reference_run / CAMERA)} (reference) and "
+              f"{resolved(root / query_run / CAMERA)} (query), Bayer images demosaiced, the places of the "
+              f"place-aligned lists {resolved(reference_list)} and {resolved(query_list)}")
     return checked_pair("robotcar", root, fix, reference, query, SPLITS if splits is None else splits, tolerance,
-                        check_files)
+                        check_files, source)

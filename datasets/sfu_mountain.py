@@ -11,7 +11,7 @@ from __future__ import annotations
 from pathlib import Path, PurePosixPath
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
-from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair
+from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair, resolved
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
 LISTS = Path(__file__).resolve().parents[1] / "data" / "lists" / "from_VPRSNN"
@@ -64,5 +64,7 @@ def sfu_mountain(
             f"frames but {query_list} names {len(query_images)}; give lists of the same places"
         )
     reference, query = Traverse("dry", ref_images), Traverse("dusk", query_images)
+    source = (f"SFU Mountain under {resolved(root)}: dry (reference) and dusk (query) frames of the right stereo "
+              f"camera, hand-aligned by the lists {resolved(reference_list)} and {resolved(query_list)}")
     return checked_pair("sfu_mountain", root, FIX, reference, query, SPLITS if splits is None else splits, tolerance,
-                        check_files)
+                        check_files, source)

@@ -112,6 +112,22 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
                   allow_split_overlap=args.allow_split_overlap)
 
 
+def _distance_paths(items: list[str]) -> dict[str, str]:
+    """``--distances``: one PATH (one split, named ``all``) or ``SPLIT=PATH`` items."""
+    if len(items) == 1 and ("=" not in items[0] or Path(items[0]).is_file()):
+        return {"all": items[0]}
+    return _split_paths(items, "--distances")
+
+
+def cmd_metrics(args: argparse.Namespace) -> None:
+    from vpr_smr.eval.scoring import vpr_metrics
+
+    meta = {key: value for key, value in (("dataset", args.dataset), ("method", args.method)) if value is not None}
+    vpr_metrics.main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
+                     predictor=args.predictor, attributes=_split_paths(args.attributes or []), modes=tuple(args.modes),
+                     queries=args.queries, meta=meta, allow_split_overlap=args.allow_split_overlap)
+
+
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
 
@@ -143,13 +159,25 @@ def cmd_ablation_held_out(args: argparse.Namespace) -> None:
                   allow_split_overlap=args.allow_split_overlap)
 
 
+def cmd_inspect(args: argparse.Namespace) -> None:
+    from vpr_smr.eval.report import inspector
+
+    written = inspector.main(
+        args.queries, args.distances, args.dataset, _json_object(args.dataset_settings, "--dataset-settings"),
+        args.frames_sha256, args.seq_len, args.split, args.tolerance, args.match_figure, args.matrix_figure,
+        per_class=args.per_class, mistakes=args.mistakes, seed=args.seed,
+        split_range=(args.frames[0], args.frames[1]) if args.frames else None)
+    log.info("wrote %s and %s", *written)
+
+
 def cmd_report(args: argparse.Namespace) -> None:
     from vpr_smr.eval.report import build as report
 
     provenance = {"vpr_smr_version": package_version()}
     written = report.main(args.out, args.evaluations, args.predictors, args.attribute_ablations or (),
-                          args.leave_one_out or (), timings=args.timings or (), split=args.split,
-                          table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
+                          args.leave_one_out or (), timings=args.timings or (), metrics=args.metrics or (),
+                          match_figures=args.match_figures or (), matrix_figures=args.matrix_figures or (),
+                          split=args.split, table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
                           config=_json_object(args.settings, "--settings") if args.settings else None,
                           provenance=provenance, descriptor_paths=args.descriptors or (),
                           datasets=_json_object(args.datasets, "--datasets") if args.datasets else None)
@@ -256,6 +284,7 @@ OUT_FILES = {
     "attributes": ("the attributes (.csv table or HDF5)", CSV_SUFFIXES + HDF5_SUFFIXES),
     "train": ("the predictor (HDF5; its report goes beside it as .json)", HDF5_SUFFIXES),
     "evaluate": ("the evaluation (JSON)", JSON_SUFFIXES),
+    "metrics": ("the VPR metrics (JSON)", JSON_SUFFIXES),
     "ablation attributes": ("the attribute ablation (JSON)", JSON_SUFFIXES),
     "ablation without": ("the predictor (HDF5; its report goes beside it as .json)", HDF5_SUFFIXES),
     "ablation held-out": ("the leave-one-method-out evaluation (JSON)", JSON_SUFFIXES),
@@ -390,6 +419,25 @@ def build_parser() -> argparse.ArgumentParser:
     _allow_overlap(p)
     p.set_defaults(func=cmd_evaluate)
 
+    p = sub.add_parser("metrics", help="standard VPR metrics (recall@N, R@100P, PR-AUC, EP) of distance matrices",
+                       epilog="e.g. vpr-smr metrics --distances D.npy --seq-len 4 --out metrics.json;  "
+                              "vpr-smr metrics --distances val=val.h5 test=test.h5 --seq-len 4 --predictor L4.h5 "
+                              "--queries queries.csv --out metrics.json")
+    p.add_argument("--distances", nargs="+", required=True, metavar="PATH or SPLIT=PATH",
+                   help="references x queries matrices (.npy or our .h5): one file, or one SPLIT=PATH per split")
+    p.add_argument("--seq-len", type=int, required=True)
+    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
+    p.add_argument("--predictor", help="the seed-0 predictor (.h5): adds the sequence_predictor matcher")
+    p.add_argument("--attributes", nargs="*", metavar="SPLIT=PATH",
+                   help="the splits' attributes (.h5) computed from the same matrices (default: computed here)")
+    p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
+    p.add_argument("--queries", help="also write one row per evaluated query to this .csv")
+    p.add_argument("--dataset", help="the dataset's name, written in the metrics' meta")
+    p.add_argument("--method", help="the method's name, written in the metrics' meta")
+    _required(p, "--out")
+    _allow_overlap(p)
+    p.set_defaults(func=cmd_metrics)
+
     p = sub.add_parser("ablation", help="the predictor's ablations")
     ablation_sub = p.add_subparsers(dest="ablation_command", required=True)
     c = ablation_sub.add_parser("attributes", help="Table II: a predictor on each attribute alone and on all four")
@@ -416,12 +464,30 @@ def build_parser() -> argparse.ArgumentParser:
     _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_held_out)
 
+    p = sub.add_parser("inspect", help="the match inspector: sampled queries with their matches, and the distance "
+                                       "matrix with the kept and removed sequence matches (two PNGs)")
+    _required(p, "--queries", "--distances", "--dataset", "--dataset-settings", "--match-figure", "--matrix-figure")
+    p.add_argument("--frames-sha256", help="fail unless the dataset's frame lists have this fingerprint "
+                                           "(default: the distances file's)")
+    p.add_argument("--seq-len", type=int, required=True)
+    p.add_argument("--split", default=schema_default("table_split"))
+    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
+    p.add_argument("--frames", type=int, nargs=2, metavar=("LO", "HI"),
+                   help="the split's frames lo..hi-1 (default: the distances file's split_range)")
+    p.add_argument("--per-class", type=int, default=2, help="queries sampled per true class")
+    p.add_argument("--mistakes", type=int, default=4, help="the predictor's most confident mistakes shown")
+    p.add_argument("--seed", type=int, default=0, help="seed of the sample")
+    p.set_defaults(func=cmd_inspect)
+
     p = sub.add_parser("report", help="paper-style tables, figures and report.html of a run")
     p.add_argument("--evaluations", nargs="+", required=True)
     p.add_argument("--predictors", nargs="+", required=True)
     p.add_argument("--attribute-ablations", nargs="*")
     p.add_argument("--leave-one-out", nargs="*")
     p.add_argument("--timings", nargs="*", help="the evaluations' .timing.json files (matched by dataset, method, L)")
+    p.add_argument("--metrics", nargs="*", help="the standard VPR metrics files (vpr-smr metrics), at the table's L")
+    p.add_argument("--match-figures", nargs="*", help="the match inspector's match figures (vpr-smr inspect)")
+    p.add_argument("--matrix-figures", nargs="*", help="the match inspector's distance-matrix figures")
     p.add_argument("--descriptors", nargs="*", help="descriptor files whose provenance the report shows")
     p.add_argument("--split", default=schema_default("table_split"))
     p.add_argument("--table-seq-lens", type=int, nargs="+", help="sequence lengths of Table I (default: all)")

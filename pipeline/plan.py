@@ -11,7 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +32,7 @@ class DatasetPlan:
     traverses: tuple[str, str]  # the reference's and the query's name
     warnings: tuple[str, ...]  # e.g. a frame order taken from file names that do not say it unambiguously
     overlaps: tuple[str, ...]  # splits that share frames (only with allow_split_overlap), e.g. "train and test: 40-59"
+    source: str  # where the images came from: the loader and its own description (``TraversePair.source``)
 
 
 @dataclass(frozen=True)
@@ -59,6 +60,9 @@ def plan_from_json(data: dict[str, Any], conf: dict[str, Any]) -> Plan | None:
     if data.get("config_sha256") != _config_digest(conf):
         return None
     plan = data["plan"]
+    names = {f.name for f in fields(DatasetPlan)}
+    if any(set(d) != names for d in plan["datasets"].values()):
+        return None  # written by another version of DatasetPlan: plan again
     datasets = {name: DatasetPlan(**{
         **d, "splits": {k: (int(lo), int(hi)) for k, (lo, hi) in d["splits"].items()},
         **{key: tuple(d[key]) for key in ("list_files", "overlaps", "traverses", "warnings")},
@@ -91,10 +95,12 @@ def planned(conf: dict[str, Any]) -> Plan:
 
 
 def dataset_cards(plan: Plan) -> dict[str, dict[str, Any]]:
-    """What the report states of each dataset: traverses, frames, tolerance, splits, pairing, overlaps."""
+    """What the report states of each dataset: traverses, frames, tolerance, splits, pairing, overlaps, the frame
+    lists' SHA-256 and where the images came from."""
     return {name: {"reference": d.traverses[0], "query": d.traverses[1], "n_frames": d.n_frames,
                    "tolerance": d.tolerance, "splits": {k: list(v) for k, v in d.splits.items()},
-                   "pairing": d.pairing, "overlaps": list(d.overlaps), "frames_sha256": d.frames_sha256}
+                   "pairing": d.pairing, "overlaps": list(d.overlaps), "frames_sha256": d.frames_sha256,
+                   "source": d.source}
             for name, d in plan.datasets.items()}
 
 
@@ -188,6 +194,7 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
             warnings=tuple(f"datasets.{name}: {t.name} frames: {t.order_note}"
                            for t in (pair.reference, pair.query) if t.order_note),
             overlaps=tuple(overlaps),
+            source=f"{dataset['loader']} loader: {pair.source}",
         )
     return plans
 

@@ -39,11 +39,16 @@ def method_pairs(methods: Sequence[str], held_out: str, paths: Sequence[str]) ->
     return name_pairs(others, paths)
 
 
+# What the report rule always gives the report besides the configuration's experiments: the standard VPR metrics
+# (rule vpr_metrics) and the dataset cards (pipeline.plan.dataset_cards).
+REPORT_INPUTS = {"metrics", "datasets"}
+
+
 def report_outputs(conf: dict[str, Any], experiments: set[str]) -> list[str]:
     """The report's files, relative to the run folder (``eval.report.registry.expected_outputs``)."""
     from vpr_smr.eval.report.registry import expected_outputs
 
-    return expected_outputs(list(conf["datasets"]), conf["seq_lens"], conf["modes"], experiments,
+    return expected_outputs(list(conf["datasets"]), conf["seq_lens"], conf["modes"], experiments | REPORT_INPUTS,
                             table_seq_lens=[conf["table_seq_len"]])
 
 

@@ -1,10 +1,13 @@
-"""report.html is one self-contained page that a real browser renders with every figure.
+"""report.html in a real browser: Debian's headless ``chromium`` (installed with apt-get when missing; the test fails
+with the reason when it cannot be installed, it is never skipped), driven by Playwright for Python, offline.
 
-The page is opened in Debian's headless ``chromium`` (installed with apt-get when missing; the test fails with the
-reason when it cannot be installed, it is never skipped): a copy of the page with a small script appended writes
-every image's natural width into the DOM, which ``--dump-dom`` prints; ``--screenshot`` must give a PNG.
+At 1400 x 900: the first screen shows Table I with the methods as column headers; nothing is wider than the page
+(the tables' own scroll containers fit it); a click on a column header sorts the rows; every image decodes; the page
+works alone in a fresh folder, and a screenshot of its first screen is a PNG.
 """
 
+import csv
+import html
 import os
 import re
 import shutil
@@ -15,20 +18,25 @@ import pytest
 from test_report import build_run
 
 CHROMIUM = "/usr/bin/chromium"
-FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-         "--disable-background-networking", "--disable-component-update", "--disable-sync",
-         "--disable-dev-shm-usage", "--virtual-time-budget=10000"]
-PROBE = """
-<script>
-window.addEventListener("load", () => {
-  const widths = Array.from(document.images).map(img => img.complete ? img.naturalWidth : -1);
-  const out = document.createElement("pre");
-  out.id = "probe";
-  out.textContent = "WIDTHS=" + widths.join(",") + ";";
-  document.body.appendChild(out);
-});
-</script>
-"""
+# Debian's browser, never a downloaded one; nothing reaches the network.
+ARGS = ["--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run", "--disable-background-networking",
+        "--disable-component-update", "--disable-sync", "--disable-dev-shm-usage"]
+WIDTH, HEIGHT = 1400, 900
+
+# Every element's right edge, but inside a scroll container the page made on purpose (class "scroll"), which
+# must fit itself; the document's own width.
+OVERFLOW = """() => {
+  const limit = window.innerWidth + 1, wide = [];
+  for (const el of document.querySelectorAll("body *")) {
+    if (el.parentElement && el.parentElement.closest(".scroll")) continue;
+    const right = el.getBoundingClientRect().right;
+    if (right > limit) wide.push(`${el.tagName.toLowerCase()}.${el.className} ends at ${right}`);
+  }
+  return {scrollWidth: document.documentElement.scrollWidth, innerWidth: window.innerWidth, wide: wide,
+          scrolls: document.querySelectorAll(".scroll").length};
+}"""
+IMAGES = """() => Array.from(document.images).map(img => ({complete: img.complete, width: img.naturalWidth,
+                                                        alt: img.alt}))"""
 
 
 def ensure_chromium() -> str:
@@ -47,65 +55,114 @@ def ensure_chromium() -> str:
     return CHROMIUM
 
 
-def chromium(args: list[str], profile: Path) -> subprocess.CompletedProcess:
-    return subprocess.run([ensure_chromium(), *FLAGS, f"--user-data-dir={profile}", *args],
-                          capture_output=True, text=True, timeout=180)
+def sort_values(page, table: str, column: int) -> list[float | None]:
+    """The numbers of one column of a table, in the rows' order (None for an empty or n/a cell)."""
+    cells = page.eval_on_selector_all(
+        f"#{table} tbody tr", f"rows => rows.map(r => r.cells[{column}].getAttribute('data-sort'))")
+    return [float(v) if v else None for v in cells]
 
 
 @pytest.mark.slow
-def test_report_renders_every_figure_in_a_headless_browser(tmp_path):
-    run, written = build_run(tmp_path, modes=("paper",), seq_lens=(4,))
-    page = run / "report.html"
-    text = page.read_text()
-    n_figures = len([p for p in written if p.suffix == ".png"])
-    assert n_figures >= 5 and text.count("<img ") == n_figures
+def test_report_in_a_headless_browser(tmp_path):
+    try:
+        from playwright.sync_api import sync_playwright
+    except ImportError:
+        pytest.fail("playwright is not installed: pip install -e '.[dev]' (it drives Debian's chromium; no browser "
+                    "download, never `playwright install`)")
+
+    run, written = build_run(tmp_path, modes=("paper", "standard"), seq_lens=(2, 4), methods=("m2", "m1"))
+    text = (run / "report.html").read_text()
+    n_figures = len(list((run / "figures").iterdir()))  # the report's figures and the inspector's it was given
+    assert n_figures >= 15 and text.count("<img ") == n_figures
     # self-contained: no network address and no file the page would load besides itself
     assert not re.search(r"(src|href)=\"(?!data:image/png;base64,|#)", text)
-    assert "http://" not in text and "https://" not in text
+    assert "http://" not in text and "https://" not in text and "<link" not in text
     assert "ab" * 32 in text and "cd" * 32 in text and "seq_lens: [2, 4]" in text  # provenance and config
-    for name in ("table1.csv", "table2.csv", "restoration.csv", "leave_one_method_out.csv", "timing.csv"):
-        assert name in text
+    for path in written:  # every table is named in the page by its files
+        if path.suffix == ".csv":
+            assert f"tables/{path.name}" in text
 
-    # the page moved alone to a fresh folder still renders every image
     alone = tmp_path / "alone"
     alone.mkdir()
-    probe = alone / "probe.html"
-    probe.write_text(text.replace("</body>", PROBE + "</body>"))
-    done = chromium(["--dump-dom", probe.as_uri()], tmp_path / "profile1")
-    found = re.search(r"WIDTHS=([-0-9,]*);", done.stdout)
-    assert found, f"chromium printed no probe result: {done.stderr[-2000:]}"
-    widths = [int(w) for w in found.group(1).split(",") if w]
-    assert len(widths) == n_figures and min(widths) > 0, widths
+    shutil.copy(run / "report.html", alone / "report.html")
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=ensure_chromium(), args=ARGS)
+        try:
+            page = browser.new_page(viewport={"width": WIDTH, "height": HEIGHT})
+            page.route(re.compile(r"^(?!file:|data:).*"), lambda route: route.abort())  # offline, whatever it asks
+            page.goto((alone / "report.html").as_uri(), wait_until="load")
 
-    shutil.copy(page, alone / "report.html")
-    shot = tmp_path / "shot.png"
-    done = chromium([f"--screenshot={shot}", "--window-size=1400,4000", (alone / "report.html").as_uri()],
-                    tmp_path / "profile2")
-    assert shot.is_file() and shot.stat().st_size > 10_000, done.stderr[-2000:]
-    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+            # the first screen: Table I, the methods as its column headers, in the configuration's order
+            table1 = page.locator("table.table1").first
+            assert [h.strip() for h in table1.locator("thead th").all_inner_texts()] == [
+                "", "m2", "m1", "Mean", "Improved"]
+            box = table1.bounding_box()
+            assert box is not None and box["y"] < HEIGHT and box["y"] + box["height"] <= HEIGHT, box
+            assert page.locator("#findings p.lead").first.inner_text().startswith("On d (test split, L = 4, paper")
+            shot = tmp_path / "first_screen.png"
+            page.screenshot(path=str(shot))
+            assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 10_000
+
+            # every image decodes
+            images = page.evaluate(IMAGES)
+            assert len(images) == n_figures and all(i["complete"] and i["width"] > 0 for i in images), images
+
+            # nothing is wider than the page, the folded tables opened too
+            for summary in page.locator("details > summary").all():
+                summary.click()
+            layout = page.evaluate(OVERFLOW)
+            assert layout["scrollWidth"] <= layout["innerWidth"] == WIDTH and not layout["wide"], layout
+            assert layout["scrolls"] > 10
+
+            # a click on a column header sorts the rows by that column's numbers: up, then down
+            rows = list(csv.DictReader(open(run / "tables" / "trust_levels.csv")))
+            column = list(rows[0]).index("auc")
+            values = [float(r["auc"]) if r["auc"] else None for r in rows]
+            assert sort_values(page, "all-trust_levels", column) == values  # the CSV's order first
+            header = page.locator("#all-trust_levels thead th").nth(column)
+            header.click()
+            numbers = sorted(v for v in values if v is not None)
+            blanks = [None] * values.count(None)
+            assert sort_values(page, "all-trust_levels", column) == numbers + blanks
+            assert numbers + blanks != values and header.get_attribute("aria-sort") == "ascending"
+            header.click()
+            assert sort_values(page, "all-trust_levels", column) == numbers[::-1] + blanks
+            # text columns sort too (natural order), and the sorted rows keep their cells together
+            method = page.locator("#all-trust_levels thead th").nth(list(rows[0]).index("method"))
+            method.click()
+            shown = page.eval_on_selector_all("#all-trust_levels tbody tr",
+                                              "rows => rows.map(r => [r.cells[1].textContent, r.cells[4].textContent])")
+            assert [m for m, _ in shown] == sorted(r["method"] for r in rows)
+            assert sorted(shown) == sorted([r["method"], f"{float(r['trust']):g}"] for r in rows)
+        finally:
+            browser.close()
 
 
-def test_provenance_of_descriptor_files_and_tables_in_the_page(tmp_path):
-    import base64
-
+def test_provenance_of_descriptor_files_in_the_page(tmp_path):
     from vpr_smr.core.io import atomic_h5
-    from vpr_smr.eval.report.html import main
+    from vpr_smr.eval.report.build import main
 
     descriptors = tmp_path / "hog.h5"
     with atomic_h5(descriptors, {"dataset": "toy", "method": "hog", "checkpoint_sha256": "11" * 32,
                                  "frames_sha256": "22" * 32}):
         pass
-    (tmp_path / "t.csv").write_text("method,reduction_pct\nhog,12.345678\n")
-    png = base64.b64decode("iVBORw0KGgoAAAANSUhEUgAAAAEAAAABCAYAAAAfFcSJAAAADUlEQVR42mNk+M9QDwADhgGAWjR9aw"
-                           "AAAABJRU5ErkJggg==")  # a 1 x 1 PNG
-    (tmp_path / "f.png").write_bytes(png)
-    page = main(tmp_path / "report.html", [("Table I", tmp_path / "t.csv")], [("a figure", tmp_path / "f.png")],
-                config={"run": "toy", "seq_lens": [4]}, provenance={"vpr_smr_version": "9.9"},
-                descriptor_paths=[descriptors]).read_text()
-    assert "11" * 32 in page and "22" * 32 in page and "<td class=\"text\">hog</td>" in page
-    assert "<td>12.3457</td>" in page  # floats to 4 decimals
-    assert 'src="data:image/png;base64,iVBORw0KGgo' in page
-    assert "run: toy" in page and "9.9" in page
+    main(tmp_path / "run", config={"run": "toy", "seq_lens": [4]}, provenance={"vpr_smr_version": "9.9"},
+         descriptor_paths=[descriptors])
+    page = (tmp_path / "run" / "report.html").read_text()
+    assert "11" * 32 in page and "22" * 32 in page and str(descriptors) in page
+    assert "run: toy" in page and "seq_lens: [4]" in page and "9.9" in page
     # The version to cite is the one that made the results (the run's provenance), not the installed one.
-    assert 'vpr-smr: sequence-matching receptiveness for visual place recognition&quot;, version 9.9' in page
-    assert "Hussaini, T. Fischer and M. Milford" in page
+    text = html.unescape(page)
+    assert 'vpr-smr: sequence-matching receptiveness for visual place recognition", version 9.9' in text
+    assert "Hussaini, T. Fischer and M. Milford" in text
+    # no experiment given: no section of one, nothing about Table I
+    assert 'id="findings"' not in page and 'id="pr-curves"' not in page and "<img" not in page
+
+
+def test_the_template_escapes_what_it_is_given(tmp_path):
+    from vpr_smr.eval.report.build import main
+
+    main(tmp_path / "run", config="note: <script>alert(1)</script> & more", provenance={"by": "<b>x</b>"})
+    page = (tmp_path / "run" / "report.html").read_text()
+    assert "<script>alert(1)</script>" not in page and "&lt;script&gt;alert(1)&lt;/script&gt; &amp; more" in page
+    assert "<b>x</b>" not in page and page.count("<script>") == 1  # the page's own sorting script

@@ -1,6 +1,7 @@
 """Table I layout against the paper's own Table I (its Mean and Improved columns are derived values)."""
 
 import csv
+import json
 from pathlib import Path
 
 import numpy as np
@@ -92,9 +93,55 @@ def predictor_report(seq_len: int) -> PredictorReport:
     return PredictorReport({"dataset": "d", "seq_len": seq_len}, 57, (seed,))
 
 
-def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4)) -> tuple[Path, list[Path]]:
-    """Every experiment's JSON for two methods on one dataset, then report.main; returns (run folder, files)."""
+DATASET_CARD = {  # as pipeline.plan.dataset_cards gives it
+    "reference": "summer", "query": "winter", "n_frames": 60, "tolerance": 2, "splits": {"test": [0, 60]},
+    "pairing": "by file name (the same names in both folders)", "overlaps": [], "frames_sha256": "cd" * 32,
+    "source": "folders loader: image folders /data/route/summer (reference) and /data/route/winter (query): every "
+              "image in them, in natural file-name order",
+}
+RUN_EXPERIMENTS = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out",
+                   "metrics", "datasets"}
+
+
+def metrics_record(method: str, seq_len: int, modes=("paper", "standard"), dataset: str = "d"):
+    """The standard VPR metrics of one method, by hand: every value distinct, from the method's, mode's and
+    matcher's position."""
+    from vpr_smr.core.constants import MATCHERS, RECALL_AT
+    from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
+
+    base = 0.1 + 0.3 * (sum(map(ord, method)) % 3)
+
+    def numbers(m: int, k: int) -> MatcherMetrics:
+        value = round(base + 0.05 * m + 0.1 * k, 6)
+        return MatcherMetrics(60 - seq_len + 1 if k else 60, {n: round(value + 0.01 * i, 6)
+                                                              for i, n in enumerate(RECALL_AT)},
+                              round(value / 2, 6), round(value * 0.9, 6), round(value * 0.8, 6))
+
+    return VPRMetrics({"dataset": dataset, "method": method, "seq_len": seq_len, "tolerance": 2},
+                      {"test": SplitMetrics({mode: {matcher: numbers(m, k) for k, matcher in enumerate(MATCHERS)}
+                                             for m, mode in enumerate(modes)})})
+
+
+def small_png(path: Path, width: int = 240, height: int = 120, shade: int = 0) -> Path:
+    """A small PNG (a grey ramp), standing in for a figure the report is given."""
+    import cv2
+
+    ramp = np.tile(np.linspace(0, 255, width, dtype=np.uint8), (height, 1))
+    ok, data = cv2.imencode(".png", np.stack([ramp, np.full_like(ramp, shade), ramp[:, ::-1]], axis=2))
+    assert ok
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data.tobytes())
+    return path
+
+
+def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), methods=("m1", "m2"),
+              trust_levels=(0.0, 0.9), restoration=True, ablations=True, metrics=True, inspector=True,
+              **options) -> tuple[Path, list[Path]]:
+    """Every experiment's JSON for the ``methods`` (in that configuration order) on one dataset ``d``, the
+    standard VPR metrics and match-inspector figures at L = 4, then report.main; returns (run folder, files).
+    ``options`` go to report.main."""
     from vpr_smr.core.io import write_json
+    from vpr_smr.core.paths import match_figure_path, matrix_figure_path, queries_path
     from vpr_smr.eval.matching.attributes import query_features
     from vpr_smr.eval.predictor.estimator import SMRPredictor
     from vpr_smr.eval.report.build import main
@@ -110,14 +157,16 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4)) -> t
     )
 
     rng = np.random.default_rng(0)
+    run = tmp_path / "run"
     evaluations, timings, predictors = [], [], []
     for seq_len in seq_lens:
-        for i, method in enumerate(("m1", "m2")):
+        for i, method in enumerate(methods):
             matrix = rng.random((60, 60)) + (0.5 + 0.2 * i) * (1 - np.eye(60))
             features = query_features(matrix, seq_len)
             fitted = [SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=s).fit(
                 features.attributes[:, 0], features.labels) for s in (0, 1)]
-            result, seconds = evaluate_split(features, fitted, modes=modes, trust_levels=(0.0, 0.9), restoration=True)
+            result, seconds = evaluate_split(features, fitted, modes=modes, trust_levels=trust_levels,
+                                             restoration=restoration)
             meta = {"dataset": "d", "method": method, "seq_len": seq_len}
             path = tmp_path / f"e_{method}_L{seq_len}.json"
             write_json(path, Evaluation(meta, ("p.h5",), {"test": result}).to_json())
@@ -134,12 +183,25 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4)) -> t
     lomo = tmp_path / "lomo.json"
     scores = HeldOutScores("p.h5", 0.5, 3, {mode: ModeRemoval(0.5, 0.5, Reduction(1.0, 0.8, 0.9, 0.2, 0.1, 50.0))
                                             for mode in modes})
-    write_json(lomo, HeldOut({"dataset": "d", "method": "m1", "seq_len": 4}, 57, scores, scores).to_json())
-    run = tmp_path / "run"
-    written = main(run, evaluations, predictors, [ablation], [lomo], timings=timings, table_seq_lens=[4],
-                   seq_len_ablation=True,
+    write_json(lomo, HeldOut({"dataset": "d", "method": methods[0], "seq_len": 4}, 57, scores, scores).to_json())
+    metric_files, match_figures, matrix_figures = [], [], []
+    if metrics:
+        for method in methods:
+            metric_files.append(tmp_path / f"metrics_{method}.json")
+            write_json(metric_files[-1], metrics_record(method, 4, modes).to_json())
+            queries = Path(queries_path(run, "d", method, 4))  # written beside the metrics by the same job
+            queries.parent.mkdir(parents=True, exist_ok=True)
+            queries.write_text("split,query\ntest,0\n")
+    if inspector:
+        for i, method in enumerate(methods):
+            match_figures.append(small_png(Path(match_figure_path(run, "d", method, 4)), 320, 160, 40 * i))
+            matrix_figures.append(small_png(Path(matrix_figure_path(run, "d", method, 4)), 160, 160, 40 * i + 20))
+    written = main(run, evaluations, predictors, [ablation] if ablations else [], [lomo] if ablations else [],
+                   timings=timings, metrics=metric_files, match_figures=match_figures, matrix_figures=matrix_figures,
+                   table_seq_lens=[4], seq_len_ablation=len(seq_lens) > 1,
                    config="run: demo\nseq_lens: [2, 4]\n",
-                   provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}})
+                   provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}},
+                   datasets={"d": DATASET_CARD}, **options)
     return run, written
 
 
@@ -147,8 +209,7 @@ def test_every_experiment_gives_its_tables_and_figures(tmp_path):
     from vpr_smr.eval.report.registry import expected_outputs
 
     run, written = build_run(tmp_path)
-    experiments = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out"}
-    expected = expected_outputs(["d"], [2, 4], ["paper", "standard"], experiments, table_seq_lens=[4])
+    expected = expected_outputs(["d"], [2, 4], ["paper", "standard"], RUN_EXPERIMENTS, table_seq_lens=[4])
     assert sorted(str(p.relative_to(run)) for p in written) == sorted(expected)
     assert all((run / p).stat().st_size > 0 for p in expected)
     # Table I holds L = 4 only; the sequence-length table holds both, and its L = 4 rows equal Table I's
@@ -196,3 +257,228 @@ def test_tables_and_figures_with_standard_mode_only(tmp_path):
     assert json.loads((tmp_path / "e.json").read_text())["splits"]["test"]["n_queries"] == 57
     assert not (tmp_path / "out" / "tables" / "restoration.csv").exists()
     assert not (tmp_path / "out" / "report.html").exists()
+
+
+# --- the HTML page: Table I, the findings in words, the sections of the run ------------------------------------
+
+
+def _table_texts(page: str, table_id: str) -> list[list[str]]:
+    """The cells' texts of the page's table ``table_id``, row by row (header row first)."""
+    import html
+    import re
+
+    found = re.search(rf'<table id="{re.escape(table_id)}"[^>]*>(.*?)</table>', page, re.S)
+    assert found, f"no table {table_id}"
+    return [[html.unescape(re.sub(r"<[^>]+>", "", c)).strip() for c in re.findall(r"<t[hd][^>]*>(.*?)</t[hd]>", r,
+                                                                                   re.S)]
+            for r in re.findall(r"<tr>(.*?)</tr>", found.group(1), re.S)]
+
+
+def test_table1_in_the_page_has_the_papers_layout_and_numbers(rows, tmp_path):
+    from vpr_smr.eval.report import html
+    from vpr_smr.eval.report.build import TABLE1_COLUMNS
+    from vpr_smr.eval.report.results import WrittenTable
+    from vpr_smr.eval.report.table1 import table1_blocks
+
+    blocks = table1_blocks(rows)
+    assert [(b.dataset, b.methods) for b in blocks] == [("Nordland", METHODS), ("Oxford RobotCar", METHODS)]
+    view = html.table1_view(blocks[1], "t")
+    assert [c.kind for c in view.rows[2][1:3]] == ["down", "down"] and view.rows[2][3].kind == "up"
+    table = WrittenTable("table1", TABLE1_COLUMNS, tuple(rows), (tmp_path / "tables" / "table1.csv",))
+    page = html.main(tmp_path / "report.html", [table], [], split="test").read_text()
+    nordland = _table_texts(page, "table1-nordland-paper-4")
+    assert nordland[0] == ["", *METHODS, "Mean", "Improved"]  # methods as columns, in the rows' order
+    # the paper's numbers; its Mean column 0.1660, 0.1069, 37.79 and 7 of 7 improved
+    assert nordland[1] == ["VPR+SM", "0.6522", "0.0220", "0.0155", "0.0061", "0.2478", "0.2164", "0.0017", "0.1660",
+                           ""]
+    assert nordland[2] == ["VPR+SM+Pred", "0.4862", "0.0136", "0.0106", "0.0042", "0.1274", "0.1050", "0.0011",
+                           "0.1069", ""]
+    assert nordland[3] == ["Reduction (%)", "25.46", "38.17", "31.31", "31.96", "48.61", "51.46", "37.55", "37.79",
+                           "7 / 7"]
+    robotcar = _table_texts(page, "table1-oxford-robotcar-paper-4")
+    assert robotcar[1][-2:] == ["0.0827", ""] and robotcar[2][-2:] == ["0.0679", ""]
+    assert robotcar[3] == ["Reduction (%)", "-14.22", "-4.45", "21.31", "29.34", "39.83", "34.07", "26.95", "18.98",
+                           "5 / 7"]
+    # the page leads with Table I, then the rest; no sorting on the paper's layout
+    assert page.index('id="findings"') < page.index('id="pr-curves"') < page.index('id="provenance"')
+    assert 'class="paper table1"' in page
+
+
+def finding_block(reductions, seeds=None, mode="paper", seq_len=4, dataset="nordland_sample"):
+    """A Table I block of one dataset by hand: (method, reduction %) and, optionally, per method
+    (mean, std, n_seeds, n_seeds_defined) over the seeds."""
+    from vpr_smr.eval.report.table1 import Table1Block
+
+    rows = []
+    for i, (method, reduction) in enumerate(reductions):
+        row = {"dataset": dataset, "method": method, "seq_len": seq_len, "mode": mode, "aoc_vpr_sm": 0.5,
+               "aoc_vpr_sm_pred": 0.4, "reduction_pct": reduction}
+        if seeds is not None:
+            mean, std, n_seeds, defined = seeds[i]
+            row.update(reduction_pct_mean=mean, reduction_pct_std=std, n_seeds=n_seeds, n_seeds_defined=defined)
+        rows.append(row)
+    return Table1Block(dataset, mode, seq_len, tuple(rows))
+
+
+def test_the_findings_in_words():
+    from vpr_smr.eval.report.findings import sentences
+
+    # the demo's numbers, and a method whose baseline AOC is 0 (its reduction undefined)
+    block = finding_block(
+        [("SAD", -0.819238062820179), ("HOG", 76.7084537482669), ("EfficientNet-Lite0", 11.585629961797641),
+         ("Perfect", None)],
+        [(-0.8428717970517386, 0.030005601863029824, 5, 5), (78.37245222695637, 3.5256116744623283, 5, 5),
+         (11.976893870677142, 1.0418886489552452, 5, 5), (None, None, 5, 0)])
+    assert sentences(block, "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
+        "the PR curve for 2 of 3 methods: HOG by 76.7 %, EfficientNet-Lite0 by 11.6 %; it made SAD's 0.8 % worse.",
+        "The mean reduction over these 3 methods is 29.2 % (Table I's Mean).",
+        "The reduction is undefined for Perfect: its area over the PR curve is already 0 without the predictor.",
+        "Over 5 predictor seeds (mean ± sample standard deviation) the reduction is SAD -0.8 ± 0.0 %, HOG "
+        "78.4 ± 3.5 % and EfficientNet-Lite0 12.0 ± 1.0 %; on average it helps 2 of 3 methods; it is undefined for "
+        "Perfect.",
+    ]
+    # one method, one seed
+    one = finding_block([("hog", 5.0)], [(5.0, 0.0, 1, 1)], mode="standard", seq_len=2, dataset="d")
+    assert sentences(one, "val") == [
+        "On d (val split, L = 2, standard mode, seed-0 predictor) the predictor reduced hog's area over the PR "
+        "curve by 5.0 %.", "One predictor seed was run, so there is no spread over seeds."]
+    assert sentences(finding_block([("sad", -2.04)]), "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor made sad's area over "
+        "the PR curve 2.0 % worse (larger)."]
+    # nothing to reduce anywhere; none improved, one unchanged; only some seeds defined
+    nothing = finding_block([("a", None), ("b", None)], [(None, None, 3, 0), (None, None, 3, 0)])
+    assert sentences(nothing, "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) each of the 2 methods' area over the "
+        "PR curve is already 0 without the predictor: there is nothing to reduce, so the reduction is undefined.",
+        "Over 3 predictor seeds the reduction is undefined for every method."]
+    mixed = finding_block([("a", -3.0), ("b", 0.0), ("c", -0.01)], [(-3.0, 1.0, 3, 2), (0.0, 0.0, 3, 3),
+                                                                   (0.5, 0.25, 3, 3)])
+    assert sentences(mixed, "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
+        "the PR curve for none of the 3 methods; it made a's 3.0 % and c's 0.01 % worse; it left b's unchanged.",
+        "The mean reduction over the 3 methods is -1.0 % (Table I's Mean).",
+        "Over 3 predictor seeds (mean ± sample standard deviation) the reduction is a -3.0 ± 1.0 % (2 of 3 seeds), "
+        "b 0.0 ± 0.0 % and c 0.5 ± 0.2 %; on average it helps 1 of 3 methods."]
+    # two methods, one reduction defined
+    half = finding_block([("m2", 0.0), ("m1", None)], [(0.0, 0.0, 2, 1), (None, None, 2, 0)])
+    assert sentences(half, "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor left m2's area over the "
+        "PR curve unchanged.",
+        "The reduction is undefined for m1: its area over the PR curve is already 0 without the predictor.",
+        "Over 2 predictor seeds (mean ± sample standard deviation) the reduction is m2 0.0 ± 0.0 % (1 of 2 seeds); "
+        "on average it helps 0 of 1 method; it is undefined for m1."]
+
+
+SECTIONS = ("findings", "pr-curves", "trust-levels", "restoration", "sequence-length", "predictor", "table-ii",
+            "leave-one-method-out", "timing", "vpr-metrics", "match-inspector", "datasets", "provenance",
+            "configuration")
+
+
+def test_the_page_has_a_section_per_experiment_in_order(tmp_path):
+    import html
+
+    run, _ = build_run(tmp_path, modes=("paper",), seq_lens=(2, 4))
+    page = (run / "report.html").read_text()
+    positions = [page.index(f'<section id="{name}">') for name in SECTIONS]
+    assert positions == sorted(positions)
+    assert all(f'<a href="#{name}">' in page for name in SECTIONS)  # and the navigation links each
+    text = html.unescape(page)
+    assert "On d (test split, L = 4, paper mode, seed-0 predictor) the predictor " in text
+    # the match inspector: a figure per method, the per-query CSV named
+    assert text.count("figures/matches_d_m1_L4.png") == 1 and "figures/distance_matrix_d_m2_L4.png" in text
+    assert "queries/d/m1/L4.csv." in text and "not in the run folder" not in text
+    assert DATASET_CARD["source"] in text and "split test" in text  # the dataset card
+    assert page.count("<img ") == len(list((run / "figures").iterdir()))  # every figure of the run, once
+
+
+def test_a_switched_off_experiment_leaves_no_section(tmp_path):
+    run, written = build_run(tmp_path, modes=("paper",), seq_lens=(4,), trust_levels=(), restoration=False,
+                             ablations=False, metrics=False, inspector=False)
+    page = (run / "report.html").read_text()
+    kept = ("findings", "pr-curves", "predictor", "timing", "datasets", "provenance", "configuration")
+    for name in SECTIONS:
+        assert (f'<section id="{name}">' in page) == (name in kept), name
+        assert (f'href="#{name}"' in page) == (name in kept), name
+    assert {p.name for p in written if p.suffix == ".csv"} == {
+        "table1.csv", "predictor_methods.csv", "predictor_confusion.csv", "timing.csv", "predictor.csv",
+        "datasets.csv"}
+    for word in ("Trust level", "restoration", "Table II", "Leave one method out", "VPR metrics", "inspector"):
+        assert word not in page.replace("Restoration", ""), word
+
+
+def test_method_order_is_the_configurations(tmp_path):
+    from vpr_smr.eval.report.build import table1_rows
+    from vpr_smr.eval.report.table1 import evaluation_order
+    from vpr_smr.eval.scoring.records import Evaluation
+
+    run, _ = build_run(tmp_path, modes=("paper",), seq_lens=(4,), methods=("zeta", "alpha"))
+    tables = run / "tables"
+    assert "| dataset | | zeta | alpha | Mean | Improved |" in (tables / "table1.md").read_text()
+    assert r"& zeta & alpha & Mean & Improved\\" in (tables / "table1.tex").read_text()
+    for name in ("table1", "predictor_methods", "timing", "vpr_metrics", "restoration"):
+        methods = [r["method"] for r in csv.DictReader(open(tables / f"{name}.csv"))]
+        assert methods.index("zeta") < methods.index("alpha"), name
+    confusion = list(dict.fromkeys(r["method"] for r in csv.DictReader(open(tables / "predictor_confusion.csv"))))
+    assert confusion == ["zeta", "alpha", "all"]
+    page = (run / "report.html").read_text()
+    assert _table_texts(page, "table1-d-paper-4")[0] == ["", "zeta", "alpha", "Mean", "Improved"]
+    assert page.index("matches_d_zeta_L4.png") < page.index("matches_d_alpha_L4.png")
+    # an explicit order wins over the evaluations'
+    evaluations = [Evaluation.from_json(json.loads(p.read_text())) for p in sorted(tmp_path.glob("e_*_L4.json"))]
+    assert [r["method"] for r in table1_rows(evaluations)] == ["alpha", "zeta"]  # the order given (here sorted)
+    order = evaluation_order(evaluations, methods=("zeta", "alpha"))
+    assert [r["method"] for r in table1_rows(evaluations, order=order)] == ["zeta", "alpha"]
+
+
+def test_vpr_metrics_table_equals_the_records(tmp_path):
+    from vpr_smr.core.constants import MATCHERS, RECALL_AT
+
+    run, _ = build_run(tmp_path, modes=("paper", "standard"), seq_lens=(4,), methods=("m2", "m1"))
+    rows = list(csv.DictReader(open(run / "tables" / "vpr_metrics.csv")))
+    expected = [(method, mode, matcher) for method in ("m2", "m1") for mode in ("paper", "standard")
+                for matcher in MATCHERS]
+    assert [(r["method"], r["mode"], r["matcher"]) for r in rows] == expected
+    for row in rows:
+        numbers = metrics_record(row["method"], 4, ("paper", "standard")).splits["test"].modes[row["mode"]][
+            row["matcher"]]
+        assert (row["dataset"], row["seq_len"], row["split"]) == ("d", "4", "test")
+        assert int(row["n_queries"]) == numbers.n_queries
+        assert [float(row[f"recall_at_{n}"]) for n in RECALL_AT] == [numbers.recall_at[n] for n in RECALL_AT]
+        assert float(row["recall_at_100p"]) == numbers.recall_at_100p and float(row["pr_auc"]) == numbers.pr_auc
+        assert float(row["extended_precision"]) == numbers.extended_precision
+    # the page: paper mode's metrics per method and matcher, to 4 decimals
+    shown = _table_texts((run / "report.html").read_text(), "metrics-d-4-paper")
+    assert shown[0] == ["method", "matcher", "queries", "R@1", "R@5", "R@10", "R@20", "R@100P", "PR-AUC", "EP"]
+    first = metrics_record("m2", 4).splits["test"].modes["paper"]["single"]
+    assert shown[1] == ["m2", "single frame", str(first.n_queries), *(f"{first.recall_at[n]:.4f}" for n in RECALL_AT),
+                        f"{first.recall_at_100p:.4f}", f"{first.pr_auc:.4f}", f"{first.extended_precision:.4f}"]
+    assert [r[:2] for r in shown[1:]] == [[m, t] for m in ("m2", "m1")
+                                          for t in ("single frame", "sequence", "sequence + predictor")]
+
+
+def test_the_dataset_card_table(tmp_path):
+    run, _ = build_run(tmp_path, modes=("paper",), seq_lens=(4,), metrics=False, inspector=False)
+    (row,) = csv.DictReader(open(run / "tables" / "datasets.csv"))
+    assert row == {"dataset": "d", "reference": "summer", "query": "winter", "n_frames": "60",
+                   "splits": "test [0, 60): 60 frames", "tolerance": "2",
+                   "pairing": "by file name (the same names in both folders)", "overlaps": "",
+                   "frames_sha256": "cd" * 32, "source": DATASET_CARD["source"]}
+    assert "| d | summer | winter | 60 | test [0, 60): 60 frames | 2 |" in (run / "tables" / "datasets.md").read_text()
+
+
+def test_inspector_figures_are_placed_by_their_names(tmp_path):
+    from vpr_smr.eval.report.build import inspector_figures
+
+    a = small_png(tmp_path / "figures" / "matches_my_route_net_vlad_L4.png")
+    b = small_png(tmp_path / "figures" / "distance_matrix_my_route_net_vlad_L4.png")
+    c = small_png(tmp_path / "figures" / "matches_my_route_hog_L4.png")
+    found = inspector_figures({"matches": [a, c], "distance_matrix": [b]}, [("my_route", "hog", 4)],
+                              ["my", "my_route"], "test")
+    assert [(f.name, f.dataset, f.method, f.seq_len) for f in found] == [
+        ("matches", "my_route", "hog", 4), ("matches", "my_route", "net_vlad", 4),
+        ("distance_matrix", "my_route", "net_vlad", 4)]
+    with pytest.raises(ValueError, match="names no dataset, method and L"):
+        inspector_figures({"matches": [small_png(tmp_path / "other.png")]}, [], ["d"], "test")
+    with pytest.raises(FileNotFoundError, match="match inspector figure not found"):
+        inspector_figures({"matches": [tmp_path / "missing.png"]}, [], ["d"], "test")

@@ -67,6 +67,9 @@ def test_wheel_metadata_names_licences_classifiers_and_urls(wheel):
     assert "Intended Audience :: Science/Research" in message.get_all("Classifier")
     assert "Typing :: Typed" in message.get_all("Classifier")
     assert "vpr_smr/core/py.typed" in names
+    # report.html's template, style sheet and sorting script (package data), and the template engine
+    assert {f"vpr_smr/eval/report/templates/report.{kind}" for kind in ("html.j2", "css", "js")} <= set(names)
+    assert "jinja2>=3.1" in message.get_all("Requires-Dist")
     assert "Paper, https://arxiv.org/abs/2503.06840" in message.get_all("Project-URL")
 
 

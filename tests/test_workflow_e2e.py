@@ -69,7 +69,7 @@ def run(tmp_path_factory):
 
 
 TABLES = ["table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
-          "ablation_seq_len", "predictor", "table2", "leave_one_method_out"]
+          "ablation_seq_len", "vpr_metrics", "predictor", "table2", "leave_one_method_out", "datasets"]
 METHODS = ("sad", "hog", "effnet")
 
 
@@ -84,10 +84,11 @@ def test_every_table_and_figure(run):
         f"{name}.{ext}" for name in TABLES for ext in ("csv", "md", "tex"))
     per_mode = [f"{kind}_sample_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc")
                 for mode in ("paper", "standard")]
+    inspector = [f"{kind}_sample_{method}_L4.png" for kind in ("matches", "distance_matrix") for method in METHODS]
     assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
-        [*per_mode, "confusion_sample_L4.png", "seq_len_sample_paper.png", "seq_len_sample_standard.png"])
-    html = (out / "report.html").read_text()
-    assert html.count("<img") == 11 and "http://" not in html and "https://" not in html
+        [*per_mode, "confusion_sample_L4.png", "seq_len_sample_paper.png", "seq_len_sample_standard.png", *inspector])
+    html = (out / "report.html").read_text()  # the report's figures and the match inspector's, each once
+    assert html.count("<img") == 11 + len(inspector) and "http://" not in html and "https://" not in html
 
 
 def test_table1_has_the_seed_spread(run):

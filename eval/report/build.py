@@ -8,29 +8,34 @@ from __future__ import annotations
 
 import csv
 import json
+import re
 from collections.abc import Callable, Collection, Iterable, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, TypeVar
 
 import numpy as np
 
+from vpr_smr.core.constants import MATCHERS, RECALL_AT
 from vpr_smr.core.io import atomic_path
+from vpr_smr.core.paths import match_figure_path, matrix_figure_path
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report import registry
-from vpr_smr.eval.report.html import UNDEFINED, is_reduction
-from vpr_smr.eval.scoring.records import Evaluation, EvaluationSplit, HeldOut, Timing
-
-SEED_COLUMNS = ("reduction_pct_mean", "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds")
-# n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
-# n_queries_single: those recall_at_1_single is over (paper mode: every query of the split, SPEC 8)
-QUERY_COLUMNS = ("n_queries", "n_queries_single")
-# n_seeds_defined: the seeds whose reduction is defined (the baseline's AOC not 0), which the seed columns are over
-TABLE1_COLUMNS = (
-    "dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence", "max_recall",
-    "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", *SEED_COLUMNS, *QUERY_COLUMNS, "n_seeds_defined",
+from vpr_smr.eval.report.results import Order, WrittenFigure, WrittenTable
+from vpr_smr.eval.report.table1 import (
+    QUERY_COLUMNS,
+    TABLE1_COLUMNS,
+    UNDEFINED,
+    evaluation_order,
+    is_reduction,
+    table1_latex,
+    table1_markdown,
+    table1_rows,
+    tex_escape,
 )
+from vpr_smr.eval.scoring.records import Evaluation, HeldOut, Timing, VPRMetrics
+
 SEQ_LEN_COLUMNS = (*TABLE1_COLUMNS[:-len(QUERY_COLUMNS) - 1], "auc_vpr_sm", "auc_vpr_sm_pred", *QUERY_COLUMNS,
                    "n_seeds_defined")
 PREDICTOR_COLUMNS = ("dataset", "seq_len", "n_train", "train_class_0", "train_class_1", "train_class_2",
@@ -54,206 +59,17 @@ LOMO_COLUMNS = ("dataset", "seq_len", "held_out", "mode", "n_queries", "f1_poole
                 "reduction_pct_without")
 TIMING_COLUMNS = ("dataset", "method", "seq_len", "split", "n_queries", "attributes_seconds", "predict_seconds",
                   "ms_per_query", "ms_attributes_per_query", "ms_predict_per_query")
-ROW_NAMES = ("VPR+SM", "VPR+SM+Pred", "Reduction (%)")
-SEED_ROW_NAME = "Reduction over seeds (%)"
 ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
-UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined, the baseline's AOC being 0 (nothing to reduce); Mean and "
-                  "Improved leave it out.")
-
-
-# --- Table I --------------------------------------------------------------------------------------------------
-
-
-def _mode_numbers(split_result: EvaluationSplit, mode: str) -> dict[str, Any]:
-    numbers = split_result.modes[mode]
-    n_queries = split_result.n_queries
-    # recall@1 single by the mode's rule: paper mode over every query of the split (n_queries_single)
-    return {**numbers.reduction.to_json(), "recall_at_1_single": numbers.recall_at_1_single,
-            "recall_at_1_sequence": numbers.recall_at_1_sequence, **split_result.seed_summary[mode].to_json(),
-            "n_queries": n_queries, "n_queries_single": split_result.n_queries_split if mode == "paper" else n_queries}
-
-
-def table1_rows(evaluations: Sequence[Evaluation], split: str = "test",
-                seq_lens: Collection[int] | None = None) -> list[dict[str, Any]]:
-    """One row per (dataset, method, L, mode) of the evaluations, optionally only the sequence lengths given."""
-    rows = []
-    for evaluation in evaluations:
-        meta, result = evaluation.meta, evaluation.splits[split]
-        if seq_lens is not None and int(meta["seq_len"]) not in seq_lens:
-            continue
-        for mode in result.modes:
-            rows.append({"dataset": meta["dataset"], "method": meta["method"], "seq_len": meta["seq_len"],
-                         "mode": mode, **_mode_numbers(result, mode)})
-    return sorted(rows, key=lambda r: (r["mode"], r["seq_len"], r["dataset"], r["method"]))
-
-
-def _groups(rows: list[dict[str, Any]]) -> dict[tuple[str, int], dict[str, list[dict[str, Any]]]]:
-    """(mode, seq_len) -> dataset -> rows (one per method, sorted by method)."""
-    groups: dict[tuple[str, int], dict[str, list[dict[str, Any]]]] = {}
-    for row in rows:
-        groups.setdefault((row["mode"], row["seq_len"]), {}).setdefault(row["dataset"], []).append(row)
-    return groups
-
-
-def _defined(values: Iterable[float | None]) -> list[float]:
-    return [v for v in values if v is not None]
-
-
-def _reduction_mean(values: Sequence[float | None]) -> tuple[float | None, str]:
-    """The mean of the defined reductions and, when some are undefined, how many it is over."""
-    defined = _defined(values)
-    mean = float(np.mean(defined)) if defined else None
-    note = "" if len(defined) == len(values) else f" (mean over {len(defined)} of {len(values)} methods)"
-    return mean, note
-
-
-def _improved(values: Sequence[float | None]) -> str:
-    """How many methods improve, of those whose reduction is defined."""
-    defined = _defined(values)
-    return f"{sum(v > 0 for v in defined)} / {len(defined)}"
-
-
-def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str, str]:
-    """Per-method values of the three table rows with their mean appended (the reduction's over the methods where
-    it is defined), the note saying how many that is (empty when all), and the methods improved."""
-    reductions = [r["reduction_pct"] for r in rows]
-    mean, note = _reduction_mean(reductions)
-    values = [[r["aoc_vpr_sm"] for r in rows], [r["aoc_vpr_sm_pred"] for r in rows]]
-    return ([v + [float(np.mean(v))] for v in values] + [reductions + [mean]], note, _improved(reductions))
-
-
-def _has_seeds(rows: list[dict[str, Any]]) -> bool:
-    return all(r.get("n_seeds") is not None for r in rows)
-
-
-def _seed_cells(rows: list[dict[str, Any]], separator: str) -> tuple[list[str], str]:
-    """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the seeds counted where only some
-    are), the mean of the defined means, and how many methods improve on average."""
-    cells = []
-    for r in rows:
-        if r.get("reduction_pct_mean") is None:
-            cells.append(UNDEFINED)
-            continue
-        defined = r.get("n_seeds_defined", r["n_seeds"])
-        part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds)"
-        cells.append(f"{r['reduction_pct_mean']:.2f}{separator}{r['reduction_pct_std']:.2f}{part}")
-    means = [r.get("reduction_pct_mean") for r in rows]
-    mean, note = _reduction_mean(means)
-    n_seeds = rows[0].get("n_seeds", "")
-    return cells + [_number(mean, "{:.2f}") + note], f"{_improved(means)} ({n_seeds} seeds)"
-
-
-def _number(value: float | None, fmt: str) -> str:
-    return UNDEFINED if value is None else fmt.format(value)
-
-
-def _query_note(datasets: dict[str, list[dict[str, Any]]], split: str, mode: str) -> str:
-    """Per dataset: the queries the table is over (those with a sequence match) and, in paper mode, the split's
-    every query, which single-frame recall@1 is over."""
-    parts = []
-    for dataset, rows in datasets.items():
-        n = _span(r.get("n_queries") for r in rows)
-        single = _span(r.get("n_queries_single") for r in rows)
-        if n:  # files written before the counts were recorded have none
-            text = f"{dataset}: {n} queries with a sequence match"
-            if single and single != n:
-                text += f" (single-frame recall@1 over all {single} of the split)"
-            parts.append(text)
-    return f"{split} split, {mode} mode: " + "; ".join(parts) if parts else ""
-
-
-def _span(values: Iterable[Any]) -> str:
-    """One value, ``lo-hi`` when the methods differ, or empty for files without the count."""
-    known = sorted({int(v) for v in values if v is not None})
-    if not known:
-        return ""
-    return str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
-
-
-def table1_markdown(rows: list[dict[str, Any]], split: str = "test") -> str:
-    out = [f"# Table I: area over the precision-recall curve at max recall ({split} split)", "",
-           "Rows VPR+SM, VPR+SM+Pred, Reduction: the seed-0 predictor (the authors' recipe); "
-           "Reduction over seeds: mean ± sample standard deviation over the predictor seeds.", ""]
-    undefined = False
-    for (mode, seq_len), datasets in sorted(_groups(rows).items()):
-        methods = [r["method"] for r in next(iter(datasets.values()))]
-        note = _query_note(datasets, split, mode)
-        out += [f"## {mode} mode, sequence length {seq_len}", ""] + ([note, ""] if note else [])
-        out.append("| dataset | | " + " | ".join(methods) + " | Mean | Improved |")
-        out.append("|---|---|" + "---|" * (len(methods) + 2))
-        for dataset, dataset_rows in datasets.items():
-            summary, note, improved = _summary(dataset_rows)
-            for i, (name, values) in enumerate(zip(ROW_NAMES, summary, strict=True)):
-                cells = [_number(v, "{:.2f}" if i == 2 else "{:.4f}") for v in values]
-                if i == 2:
-                    cells[-1] += note
-                last = improved if i == 2 else ""
-                label = dataset if i == 0 else ""
-                out.append(f"| {label} | {name} | " + " | ".join(cells) + f" | {last} |")
-            if _has_seeds(dataset_rows):
-                cells, last = _seed_cells(dataset_rows, " ± ")
-                out.append(f"|  | {SEED_ROW_NAME} | " + " | ".join(cells) + f" | {last} |")
-                undefined |= UNDEFINED in cells
-            undefined |= None in summary[2]
-        out.append("")
-    if undefined:
-        out += [UNDEFINED_NOTE, ""]
-    return "\n".join(out)
-
-
-def _tex_escape(text: Any) -> str:
-    return str(text).replace("\\", r"\textbackslash{}").replace("_", r"\_").replace("%", r"\%").replace(
-        "&", r"\&").replace("#", r"\#")
-
-
-def _tex_reduction(value: float | None) -> str:
-    if value is None:
-        return UNDEFINED
-    return rf"\textcolor{{{'green' if value > 0 else 'red' if value < 0 else 'black'}}}{{{value:.2f}}}"
-
-
-def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
-    out = [f"% Table I ({_tex_escape(split)} split)"]
-    undefined = False
-    for (mode, seq_len), datasets in sorted(_groups(rows).items()):
-        methods = [r["method"] for r in next(iter(datasets.values()))]
-        n_columns = len(methods) + 4
-        out += [
-            f"% {mode} mode, sequence length {seq_len}",
-            r"\begin{tabular}{l|c|" + "c|" * (len(methods) + 1) + "c}",
-            r"\multicolumn{2}{c|}{} & " + " & ".join(_tex_escape(m) for m in methods) + r" & Mean & Improved\\",
-            r"\hline",
-        ]
-        for dataset, dataset_rows in datasets.items():
-            summary, note, improved = _summary(dataset_rows)
-            for i, (name, values) in enumerate(zip(ROW_NAMES, summary, strict=True)):
-                if i == 2:
-                    cells = [_tex_reduction(v) for v in values]
-                    cells[-1] += _tex_escape(note)
-                    last = improved
-                else:
-                    cells, last = [_number(v, "{:.4f}") for v in values], ""
-                label = _tex_escape(dataset) if i == 0 else ""
-                out.append(f"{label} & {_tex_escape(name)} & " + " & ".join(cells) + f" & {last}" + r"\\")
-            if _has_seeds(dataset_rows):
-                cells, last = _seed_cells(dataset_rows, r" $\pm$ ")
-                out.append(f" & {_tex_escape(SEED_ROW_NAME)} & " + " & ".join(cells) + f" & {last}" + r"\\")
-                undefined |= UNDEFINED in cells
-            undefined |= None in summary[2]
-            out.append(r"\hline")
-        note = _query_note(datasets, split, mode)
-        if note:
-            out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {_tex_escape(note)}}}\\")
-        if undefined:
-            out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {_tex_escape(UNDEFINED_NOTE)}}}\\")
-        out += [r"\end{tabular}", ""]
-    return "\n".join(out)
-
+VPR_METRICS_COLUMNS = ("dataset", "method", "seq_len", "split", "mode", "matcher", "n_queries",
+                       *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p", "pr_auc", "extended_precision")
+DATASET_COLUMNS = ("dataset", "reference", "query", "n_frames", "splits", "tolerance", "pairing", "overlaps",
+                   "frames_sha256", "source")
 
 # --- Table II ---------------------------------------------------------------------------------------------------
 
 
-def table2_rows(ablations: Sequence[AttributeAblation]) -> list[dict[str, Any]]:
+def table2_rows(ablations: Sequence[AttributeAblation], order: Order | None = None) -> list[dict[str, Any]]:
+    order = order or Order.of(ablation.meta for ablation in ablations)
     rows = []
     for ablation in ablations:
         meta = ablation.meta
@@ -263,7 +79,8 @@ def table2_rows(ablations: Sequence[AttributeAblation]) -> list[dict[str, Any]]:
                 rows.append({"dataset": meta["dataset"], "seq_len": meta["seq_len"], "attributes": name,
                              **{k: getattr(numbers, k) for k in TABLE2_F1}, "n_train": ablation.n_train,
                              "n_val": numbers.n_val, "n_test": numbers.n_test})
-    return sorted(rows, key=lambda r: (r["dataset"], r["seq_len"], ATTRIBUTE_ORDER.index(r["attributes"])))
+    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"]),
+                                       ATTRIBUTE_ORDER.index(r["attributes"])))
 
 
 def _marks(name: str, yes: str, no: str) -> list[str]:
@@ -313,7 +130,7 @@ def table2_latex(rows: list[dict[str, Any]]) -> str:
             out.append(" & ".join(cells) + r"\\")
         note = _sample_note(group)
         if note:
-            out.append(rf"\multicolumn{{8}}{{l}}{{\footnotesize {_tex_escape(note)}}}\\")
+            out.append(rf"\multicolumn{{8}}{{l}}{{\footnotesize {tex_escape(note)}}}\\")
         out += [r"\end{tabular}", ""]
     return "\n".join(out)
 
@@ -321,27 +138,33 @@ def table2_latex(rows: list[dict[str, Any]]) -> str:
 # --- the other tables -----------------------------------------------------------------------------------------
 
 
-def predictor_rows(predictors: Sequence[PredictorReport]) -> list[dict[str, Any]]:
+def predictor_rows(predictors: Sequence[PredictorReport], order: Order | None = None) -> list[dict[str, Any]]:
+    order = order or Order.of(report.meta for report in predictors)
     rows = []
     for report in predictors:
         numbers = {"n_train": report.n_train, **report.first_seed()}  # the predictor file's seed
         counts = numbers["train_class_counts"]
         rows.append({**{k: numbers.get(k) for k in PREDICTOR_COLUMNS}, **report.meta,
                      **{f"train_class_{c}": counts[c] for c in range(4)}})
-    return sorted(rows, key=lambda r: (r["dataset"], r["seq_len"]))
+    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"])))
 
 
-def _by_key(evaluations: Sequence[Evaluation]) -> dict[tuple[str, int], list[Evaluation]]:
-    """(dataset, L) -> evaluations sorted by method."""
+def _by_key(evaluations: Sequence[Evaluation], order: Order | None = None
+            ) -> dict[tuple[str, int], list[Evaluation]]:
+    """(dataset, L) -> evaluations, datasets and methods in the configuration's ``order`` (default: the
+    evaluations' own)."""
+    order = order or evaluation_order(evaluations)
     out: dict[tuple[str, int], list[Evaluation]] = {}
     for evaluation in evaluations:
         out.setdefault((evaluation.meta["dataset"], int(evaluation.meta["seq_len"])), []).append(evaluation)
-    return {key: sorted(items, key=lambda e: e.meta["method"]) for key, items in sorted(out.items())}
+    return {key: sorted(out[key], key=lambda e: order.method(e.meta["method"]))
+            for key in sorted(out, key=lambda k: (order.dataset(k[0]), k[1]))}
 
 
-def predictor_method_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[str, Any]]:
+def predictor_method_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
+                          ) -> list[dict[str, Any]]:
     rows = []
-    for (dataset, seq_len), items in _by_key(evaluations).items():
+    for (dataset, seq_len), items in _by_key(evaluations, order).items():
         for evaluation in items:
             result = evaluation.splits[split]
             rows.append({"dataset": dataset, "seq_len": seq_len, "method": evaluation.meta["method"],
@@ -351,10 +174,11 @@ def predictor_method_rows(evaluations: Sequence[Evaluation], split: str) -> list
     return rows
 
 
-def confusion_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[str, Any]]:
+def confusion_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
+                   ) -> list[dict[str, Any]]:
     """The seed-0 confusion matrix per dataset, L and method, and summed over the methods (method ``all``)."""
     rows = []
-    for (dataset, seq_len), items in _by_key(evaluations).items():
+    for (dataset, seq_len), items in _by_key(evaluations, order).items():
         matrices = [(e.meta["method"], np.array(e.splits[split].confusion_matrix)) for e in items]
         matrices.append(("all", np.sum([m for _, m in matrices], axis=0)))
         for method, matrix in matrices:
@@ -364,9 +188,9 @@ def confusion_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[s
     return rows
 
 
-def trust_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[str, Any]]:
+def trust_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None) -> list[dict[str, Any]]:
     rows = []
-    for (dataset, seq_len), items in _by_key(evaluations).items():
+    for (dataset, seq_len), items in _by_key(evaluations, order).items():
         for evaluation in items:
             result = evaluation.splits[split]
             for mode, numbers in result.modes.items():
@@ -377,9 +201,10 @@ def trust_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[str, 
     return rows
 
 
-def restoration_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict[str, Any]]:
+def restoration_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
+                     ) -> list[dict[str, Any]]:
     rows = []
-    for (dataset, seq_len), items in _by_key(evaluations).items():
+    for (dataset, seq_len), items in _by_key(evaluations, order).items():
         for evaluation in items:
             result = evaluation.splits[split]
             if result.restoration is None:
@@ -391,7 +216,8 @@ def restoration_rows(evaluations: Sequence[Evaluation], split: str) -> list[dict
     return rows
 
 
-def lomo_rows(results: Sequence[HeldOut]) -> list[dict[str, Any]]:
+def lomo_rows(results: Sequence[HeldOut], order: Order | None = None) -> list[dict[str, Any]]:
+    order = order or Order.of(result.meta for result in results)
     rows = []
     for result in results:
         meta, pooled, without = result.meta, result.pooled, result.without
@@ -406,7 +232,8 @@ def lomo_rows(results: Sequence[HeldOut]) -> list[dict[str, Any]]:
                 "reduction_pct_pooled": pooled.modes[mode].reduction.reduction_pct,
                 "reduction_pct_without": without.modes[mode].reduction.reduction_pct,
             })
-    return sorted(rows, key=lambda r: (r["mode"], r["dataset"], r["seq_len"], r["held_out"]))
+    return sorted(rows, key=lambda r: (order.mode(r["mode"]), order.dataset(r["dataset"]), int(r["seq_len"]),
+                                       order.method(r["held_out"])))
 
 
 def match_timings(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) -> dict[tuple[str, str, int], Timing]:
@@ -423,12 +250,13 @@ def match_timings(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) 
     return out
 
 
-def timing_rows(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) -> list[dict[str, Any]]:
+def timing_rows(evaluations: Sequence[Evaluation], timings: Sequence[Timing], order: Order | None = None
+                ) -> list[dict[str, Any]]:
     """Per evaluation and split, its timing (matched by meta); evaluations whose timings are not given are left
     out."""
     matched = match_timings(evaluations, timings)
     rows = []
-    for (dataset, seq_len), items in _by_key(evaluations).items():
+    for (dataset, seq_len), items in _by_key(evaluations, order).items():
         for evaluation in items:
             timing = matched.get(evaluation.key)
             if timing is None:
@@ -443,6 +271,49 @@ def timing_rows(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) ->
                              "ms_attributes_per_query": 1e3 * attributes / n,
                              "ms_predict_per_query": 1e3 * predict / n})
     return rows
+
+
+def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[dict[str, Any]]:
+    """The standard VPR metrics of the table ``split``: one row per dataset, method, L, mode and matcher (in the
+    configuration's order, the matchers in ``core.constants.MATCHERS``' order)."""
+    order = order or Order.of(record.meta for record in records)
+    seen: set[tuple[str, str, int]] = set()
+    rows = []
+    for record in sorted(records, key=lambda r: (order.dataset(r.key[0]), order.method(r.key[1]), r.key[2])):
+        dataset, method, seq_len = record.key
+        if record.key in seen:
+            raise ValueError(f"two VPR metrics files of {dataset}, {method}, L{seq_len}")
+        seen.add(record.key)
+        if split not in record.splits:
+            raise ValueError(f"the VPR metrics of {dataset}, {method}, L{seq_len} have no split {split!r} (the "
+                             f"table split); they have {', '.join(record.splits) or 'none'}")
+        modes = record.splits[split].modes
+        for mode in sorted(modes, key=order.mode):
+            matchers = sorted(modes[mode], key=lambda m: (MATCHERS.index(m) if m in MATCHERS else len(MATCHERS), m))
+            for matcher in matchers:
+                numbers = modes[mode][matcher]
+                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
+                             "matcher": matcher, "n_queries": numbers.n_queries,
+                             **{f"recall_at_{n}": numbers.recall_at.get(n) for n in RECALL_AT},
+                             "recall_at_100p": numbers.recall_at_100p, "pr_auc": numbers.pr_auc,
+                             "extended_precision": numbers.extended_precision})
+    return rows
+
+
+def split_text(splits: dict[str, Sequence[int]]) -> str:
+    """``train [0, 500): 500 frames; ...``: each split's frames (half-open) and their number."""
+    return "; ".join(f"{split} [{lo}, {hi}): {hi - lo} frames" for split, (lo, hi) in splits.items())
+
+
+def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None) -> list[dict[str, Any]]:
+    """One row per dataset card (``pipeline.plan.dataset_cards``), in the configuration's order."""
+    order = order or Order(tuple(datasets))
+    return [{"dataset": name, "reference": info.get("reference", ""), "query": info.get("query", ""),
+             "n_frames": info.get("n_frames"), "splits": split_text(info.get("splits", {})),
+             "tolerance": info.get("tolerance"), "pairing": info.get("pairing", ""),
+             "overlaps": "; ".join(info.get("overlaps", [])), "frames_sha256": info.get("frames_sha256", ""),
+             "source": info.get("source", "")}
+            for name, info in sorted(datasets.items(), key=lambda item: order.dataset(item[0]))]
 
 
 # --- writing ----------------------------------------------------------------------------------------------------
@@ -465,9 +336,9 @@ def markdown_table(columns: Sequence[str], rows: Iterable[dict[str, Any]], title
 
 def latex_table(columns: Sequence[str], rows: Iterable[dict[str, Any]], title: str = "") -> str:
     out = [f"% {title}"] if title else []
-    out += [r"\begin{tabular}{" + "l" * len(columns) + "}", " & ".join(_tex_escape(c) for c in columns) + r"\\",
+    out += [r"\begin{tabular}{" + "l" * len(columns) + "}", " & ".join(tex_escape(c) for c in columns) + r"\\",
             r"\hline"]
-    out += [" & ".join(_tex_escape(_cell(row.get(c), c)) for c in columns) + r"\\" for row in rows]
+    out += [" & ".join(tex_escape(_cell(row.get(c), c)) for c in columns) + r"\\" for row in rows]
     return "\n".join(out + [r"\end{tabular}", ""])
 
 
@@ -496,7 +367,7 @@ def _flagged(text: str, notes: dict[str, str], latex: bool = False) -> str:
     if not notes:
         return text
     if latex:
-        lines = [f"\\noindent\\textbf{{Warning, {_tex_escape(d)}:}} {_tex_escape(n)}\\par" for d, n in notes.items()]
+        lines = [f"\\noindent\\textbf{{Warning, {tex_escape(d)}:}} {tex_escape(n)}\\par" for d, n in notes.items()]
         return "\n".join(lines) + "\n" + text
     title, _, rest = text.partition("\n")
     lines = [f"**Warning, {d}: {n}**" for d, n in notes.items()]
@@ -541,90 +412,116 @@ def _figure_panels(items: list[Evaluation], split: str, mode: str, restoration: 
     return panels
 
 
-def _tables_and_figures(
-    out_dir: Path, evaluations: list[Evaluation], timings: list[Timing], predictors: list[PredictorReport],
-    ablations: list[AttributeAblation], lomo: list[HeldOut], split: str, table_seq_lens: Collection[int] | None,
-    seq_len_ablation: bool, notes: dict[str, str],
-) -> tuple[list[tuple[str, list[Path]]], list[tuple[str, Path]]]:
+@dataclass(frozen=True)
+class Inputs:
+    """The run's result files, read, and how the report is to show them."""
+
+    evaluations: list[Evaluation]
+    timings: list[Timing]
+    predictors: list[PredictorReport]
+    ablations: list[AttributeAblation]
+    lomo: list[HeldOut]
+    metrics: list[VPRMetrics]
+    datasets: dict[str, dict[str, Any]]
+    split: str
+    table_seq_lens: Collection[int] | None
+    seq_len_ablation: bool
+    order: Order
+
+
+def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[WrittenTable]:
     contents: dict[str, tuple[Sequence[str], list[dict[str, Any]], dict[str, str]]] = {}
-    figures: list[tuple[str, Path]] = []
+    evaluations, split, order = inputs.evaluations, inputs.split, inputs.order
 
     def table(name: str, columns: Sequence[str], rows: list[dict[str, Any]], **special: str) -> None:
         registry.table(name)  # only a declared table is written
         contents[name] = (columns, rows, special)
 
-    def figure(name: str, caption: str, **names: Any) -> tuple[str, Path]:
-        """The caption and file of a registered figure."""
-        spec = registry.figure(name)
-        return f"{spec.title}: {caption}", out_dir / spec.file(**names)
-
     if evaluations:
-        rows = table1_rows(evaluations, split, table_seq_lens)
+        rows = table1_rows(evaluations, split, inputs.table_seq_lens, order)
         table("table1", TABLE1_COLUMNS, rows, markdown=table1_markdown(rows, split), latex=table1_latex(rows, split))
-        table("predictor_methods", PREDICTOR_METHOD_COLUMNS, predictor_method_rows(evaluations, split))
-        table("predictor_confusion", CONFUSION_COLUMNS, confusion_rows(evaluations, split))
-        trust = trust_rows(evaluations, split)
+        table("predictor_methods", PREDICTOR_METHOD_COLUMNS, predictor_method_rows(evaluations, split, order))
+        table("predictor_confusion", CONFUSION_COLUMNS, confusion_rows(evaluations, split, order))
+        trust = trust_rows(evaluations, split, order)
         if trust:
             table("trust_levels", TRUST_COLUMNS, trust)
-        restoration = restoration_rows(evaluations, split)
+        restoration = restoration_rows(evaluations, split, order)
         if restoration:
             table("restoration", RESTORATION_COLUMNS, restoration)
-        table("timing", TIMING_COLUMNS, timing_rows(evaluations, timings))
-        if seq_len_ablation:
-            table("ablation_seq_len", SEQ_LEN_COLUMNS, table1_rows(evaluations, split))
-    if predictors:
-        table("predictor", PREDICTOR_COLUMNS, predictor_rows(predictors))
-    if ablations:
-        rows = table2_rows(ablations)
+        table("timing", TIMING_COLUMNS, timing_rows(evaluations, inputs.timings, order))
+        if inputs.seq_len_ablation:
+            table("ablation_seq_len", SEQ_LEN_COLUMNS, table1_rows(evaluations, split, order=order))
+    if inputs.metrics:
+        table("vpr_metrics", VPR_METRICS_COLUMNS, vpr_metrics_rows(inputs.metrics, split, order))
+    if inputs.predictors:
+        table("predictor", PREDICTOR_COLUMNS, predictor_rows(inputs.predictors, order))
+    if inputs.ablations:
+        rows = table2_rows(inputs.ablations, order)
         table("table2", TABLE2_COLUMNS, rows, markdown=table2_markdown(rows), latex=table2_latex(rows))
-    if lomo:
-        table("leave_one_method_out", LOMO_COLUMNS, lomo_rows(lomo))
+    if inputs.lomo:
+        table("leave_one_method_out", LOMO_COLUMNS, lomo_rows(inputs.lomo, order))
+    if inputs.datasets:
+        table("datasets", DATASET_COLUMNS, dataset_rows(inputs.datasets, order))
 
-    tables: list[tuple[str, list[Path]]] = []
+    written = []
     for spec in registry.TABLES:  # in the registry's order, with its titles and files
         if spec.name in contents:
             columns, rows, special = contents[spec.name]
-            tables.append((spec.name, _write_table(out_dir / registry.TABLES_DIR / spec.name, columns, rows,
-                                                   spec.title, spec.suffixes, notes=notes, **special)))
+            files = _write_table(out_dir / registry.TABLES_DIR / spec.name, columns, rows, spec.title, spec.suffixes,
+                                 notes=notes, **special)
+            written.append(WrittenTable(spec.name, tuple(columns), tuple(rows), tuple(files)))
+    return written
 
-    by_key = _by_key(evaluations)
-    for (dataset, seq_len), items in by_key.items():
-        if table_seq_lens is not None and seq_len not in table_seq_lens:
+
+def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
+    split, order = inputs.split, inputs.order
+    figures: list[WrittenFigure] = []
+
+    def file(name: str, **names: Any) -> Path:
+        """The file of the registered figure ``name`` (only a declared figure is written)."""
+        return out_dir / registry.figure(name).file(**names)
+
+    def keep(name: str, caption: str, path: Path, dataset: str, seq_len: int, mode: str | None = None) -> None:
+        figures.append(WrittenFigure(name, f"{registry.figure(name).title}: {caption}", path, dataset, seq_len, mode))
+
+    for (dataset, seq_len), items in _by_key(inputs.evaluations, order).items():
+        if inputs.table_seq_lens is not None and seq_len not in inputs.table_seq_lens:
             continue
         result0 = items[0].splits[split]
-        for mode in result0.modes:
+        for mode in sorted(result0.modes, key=order.mode):
             title = f"{dataset}, L={seq_len}, {mode} mode ({split})"
             names = {"dataset": dataset, "seq_len": seq_len, "mode": mode}
-            caption, path = figure("pr", title, **names)
-            figures.append((caption, fig.pr_figure(path, _figure_panels(items, split, mode), title)))
+            panels = _figure_panels(items, split, mode)
+            keep("pr", title, fig.pr_figure(file("pr", **names), panels, title), dataset, seq_len, mode)
             if result0.modes[mode].trust is not None:
-                caption, path = figure("trust", title, **names)
-                figures.append((caption, fig.trust_figure(path, _figure_panels(items, split, mode),
-                                                          f"{title}: predictor trust levels")))
+                path = fig.trust_figure(file("trust", **names), panels, f"{title}: predictor trust levels")
+                keep("trust", title, path, dataset, seq_len, mode)
             if result0.restoration is not None:
-                panels = _figure_panels(items, split, mode, restoration=True)
-                caption, path = figure("restoration", title, **names)
-                figures.append((caption, fig.restoration_figure(path, panels,
-                                                                f"{title}: match removal and restoration")))
-                caption, path = figure("restoration_auc", title, **names)
-                figures.append((caption, fig.difference_bars(
-                    path, [m for m, _ in panels], [n["auc_difference"] for _, n in panels],
-                    f"{title}: restoration - removal", "PR AUC, restoration - removal")))
+                restored = _figure_panels(items, split, mode, restoration=True)
+                path = fig.restoration_figure(file("restoration", **names), restored,
+                                              f"{title}: match removal and restoration")
+                keep("restoration", title, path, dataset, seq_len, mode)
+                path = fig.difference_bars(file("restoration_auc", **names), [m for m, _ in restored],
+                                           [n["auc_difference"] for _, n in restored],
+                                           f"{title}: restoration - removal", "PR AUC, restoration - removal")
+                keep("restoration_auc", title, path, dataset, seq_len, mode)
         matrix = np.sum([np.array(e.splits[split].confusion_matrix) for e in items], axis=0)
-        caption, path = figure("confusion", f"{dataset}, L={seq_len}", dataset=dataset, seq_len=seq_len)
-        figures.append((caption, fig.confusion_figure(path, matrix, f"{dataset}, L={seq_len}: all methods ({split})")))
-    if seq_len_ablation and evaluations:
-        figures += _seq_len_figures(out_dir, table1_rows(evaluations, split))
-    return tables, figures
+        path = fig.confusion_figure(file("confusion", dataset=dataset, seq_len=seq_len), matrix,
+                                    f"{dataset}, L={seq_len}: all methods ({split})")
+        keep("confusion", f"{dataset}, L={seq_len}", path, dataset, seq_len)
+    if inputs.seq_len_ablation and inputs.evaluations:
+        figures += _seq_len_figures(out_dir, table1_rows(inputs.evaluations, split, order=order), order)
+    return figures
 
 
-def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]]) -> list[tuple[str, Path]]:
+def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order) -> list[WrittenFigure]:
     out = []
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["dataset"], row["mode"]), []).append(row)
-    for (dataset, mode), group in sorted(groups.items()):
-        methods = sorted({r["method"] for r in group})
+    for (dataset, mode), group in sorted(groups.items(), key=lambda item: (order.dataset(item[0][0]),
+                                                                           order.mode(item[0][1]))):
+        methods = order.sorted_methods(r["method"] for r in group)
         seq_lens = sorted({int(r["seq_len"]) for r in group})
         bottoms = np.full((len(methods), len(seq_lens)), np.nan)
         tops = np.full_like(bottoms, np.nan)
@@ -633,10 +530,57 @@ def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]]) -> list[tuple[st
             bottoms[i, j], tops[i, j] = r["auc_vpr_sm"], r["auc_vpr_sm_pred"]
         title = f"{dataset}, {mode} mode\nPR AUC, VPR+SM (bar bottom) -> VPR+SM+Pred (top)"
         spec = registry.figure("seq_len")
-        out.append((f"{spec.title}: {dataset}, {mode} mode", fig.change_bars(
-            out_dir / spec.file(dataset=dataset, mode=mode), methods, [f"L{s}" for s in seq_lens],
-            np.nan_to_num(bottoms), np.nan_to_num(tops), title)))
+        path = fig.change_bars(out_dir / spec.file(dataset=dataset, mode=mode), methods, [f"L{s}" for s in seq_lens],
+                               np.nan_to_num(bottoms), np.nan_to_num(tops), title)
+        out.append(WrittenFigure("seq_len", f"{spec.title}: {dataset}, {mode} mode", path, dataset, mode=mode))
     return out
+
+
+INSPECTOR = {  # the match inspector's figures: name, file name (core.paths) and caption
+    "matches": (match_figure_path, "the {split} split's sampled queries (a few per true class and the predictor's "
+                "most confident mistakes): the L query frames, the single-frame match, the sequence match and the "
+                "true reference, framed green (correct) or red (wrong), and what the predictor decided"),
+    "distance_matrix": (matrix_figure_path, "the {split} split's distance matrix with the ground-truth band and "
+                        "every sequence match, kept or removed by the predictor"),
+}
+
+
+def inspector_figures(paths: dict[str, Sequence[Path | str]], keys: Iterable[tuple[str, str, int]],
+                      datasets: Iterable[str], split: str, order: Order | None = None) -> list[WrittenFigure]:
+    """The match inspector's figures (``paths``: ``matches`` and ``distance_matrix`` files), each placed by its
+    file name (``core.paths``): against the (dataset, method, L) ``keys`` of the run, else split at a known
+    dataset name. In the configuration's order, the match figure of a method before its matrix."""
+    order = order or Order()
+    known = list(dict.fromkeys(keys))
+    out = []
+    for name, (path_of, caption) in INSPECTOR.items():
+        by_file = {Path(path_of("", *key)).name: key for key in known}
+        prefix = Path(path_of("", "{d}", "{m}", "{L}")).name.split("{d}")[0]
+        for path in paths.get(name, ()):
+            path = Path(path)
+            if not path.is_file():
+                raise FileNotFoundError(f"match inspector figure not found: {path}")
+            key = by_file.get(path.name) or _split_name(path.name, prefix, datasets)
+            if key is None:
+                raise ValueError(f"{path.name} names no dataset, method and L of the run (expected "
+                                 f"{Path(path_of('', 'DATASET', 'METHOD', 'L')).name})")
+            dataset, method, seq_len = key
+            text = caption.format(split=split)
+            out.append(WrittenFigure(name, f"{method} on {dataset}, L={seq_len}: {text}", path, dataset, seq_len,
+                                     method=method))
+    return sorted(out, key=lambda f: (order.dataset(f.dataset), order.method(f.method or ""), f.seq_len or 0,
+                                      list(INSPECTOR).index(f.name)))
+
+
+def _split_name(name: str, prefix: str, datasets: Iterable[str]) -> tuple[str, str, int] | None:
+    """(dataset, method, L) of ``<prefix><dataset>_<method>_L<L>.png`` for one of the ``datasets``."""
+    match = re.fullmatch(re.escape(prefix) + r"(.+)_L(\d+)\.png", name)
+    if match is None:
+        return None
+    for dataset in sorted(datasets, key=len, reverse=True):  # the longest name first: "a_b" before "a"
+        if match.group(1).startswith(f"{dataset}_"):
+            return dataset, match.group(1)[len(dataset) + 1:], int(match.group(2))
+    return None
 
 
 def _load(paths: Sequence[Path | str], what: str) -> list[dict[str, Any]]:
@@ -664,9 +608,13 @@ def main(
     leave_one_out: Sequence[Path | str] = (),
     *,
     timings: Sequence[Path | str] = (),
+    metrics: Sequence[Path | str] = (),
+    match_figures: Sequence[Path | str] = (),
+    matrix_figures: Sequence[Path | str] = (),
     split: str = "test",
     table_seq_lens: Collection[int] | None = None,
     seq_len_ablation: bool = False,
+    methods: Sequence[str] = (),
     config: str | dict[str, Any] | None = None,
     provenance: dict[str, Any] | None = None,
     descriptor_paths: Sequence[Path | str] = (),
@@ -678,27 +626,43 @@ def main(
     Inputs are JSON files of the stages, each list optional: ``evaluations`` (``evaluate.main``, one per dataset,
     method and L), ``predictors`` (``train.main`` reports), ``attribute_ablations`` (``ablation.attributes_main``),
     ``leave_one_out`` (``scoring.held_out.main``), ``timings`` (the ``.timing.json`` files ``evaluate.main`` writes,
-    each matched to its evaluation by dataset, method and L; the timing table leaves out evaluations without one).
+    each matched to its evaluation by dataset, method and L; the timing table leaves out evaluations without one),
+    ``metrics`` (``scoring.vpr_metrics``' files: the standard VPR metrics of the table ``split``).
+    ``match_figures`` and ``matrix_figures``: the match inspector's PNGs (``core.paths.match_figure_path`` and
+    ``matrix_figure_path``), shown in the page, placed by their file names.
     ``table_seq_lens``: the sequence lengths of Table I and
     of the per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
+    Datasets and methods keep the order the evaluations come in (the workflow gives them in the configuration's
+    order), or ``methods``' order when given.
     ``config`` (YAML text or a dict) and ``provenance`` (e.g. package version, checkpoint and frame-list hashes)
     go into the HTML page, with the provenance attributes of ``descriptor_paths``. ``datasets``: per dataset its
-    traverses, frames, tolerance, splits, pairing and ``overlaps`` (splits that share frames, allowed by the
-    configuration), shown in the page; overlaps flag every table.
+    card (``pipeline.plan.dataset_cards``: traverses, frames, tolerance, splits, pairing, ``overlaps``, the frame
+    lists' SHA-256 and the images' source): the datasets table and the page's cards; overlaps flag every table.
     """
     from vpr_smr.eval.report import html as html_report
 
     out_dir = Path(out_dir)
-    table_seq_lens = None if table_seq_lens is None else {int(s) for s in table_seq_lens}
-    tables, figures = _tables_and_figures(
-        out_dir, _read(evaluations, "evaluation", Evaluation.from_json), _read(timings, "timing", Timing.from_json),
-        _read(predictors, "predictor report", PredictorReport.from_json),
-        _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json),
-        _read(leave_one_out, "leave-one-method-out", HeldOut.from_json), split,
-        table_seq_lens, seq_len_ablation, overlap_notes(datasets))
-    written = [path for _, paths in tables for path in paths] + [path for _, path in figures]
+    read_evaluations = _read(evaluations, "evaluation", Evaluation.from_json)
+    read_metrics = _read(metrics, "VPR metrics", VPRMetrics.from_json)
+    read_predictors = _read(predictors, "predictor report", PredictorReport.from_json)
+    read_lomo = _read(leave_one_out, "leave-one-method-out", HeldOut.from_json)
+    base = evaluation_order(read_evaluations, methods)
+    order = Order.of([*(e.meta for e in read_evaluations), *(m.meta for m in read_metrics),
+                      *(h.meta for h in read_lomo), *(p.meta for p in read_predictors),
+                      *({"dataset": name} for name in datasets or {})], base.modes, base.methods)
+    inputs = Inputs(
+        read_evaluations, _read(timings, "timing", Timing.from_json), read_predictors,
+        _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json), read_lomo, read_metrics,
+        dict(datasets or {}), split, None if table_seq_lens is None else {int(s) for s in table_seq_lens},
+        seq_len_ablation, order)
+    tables = _tables(out_dir, inputs, overlap_notes(datasets))
+    figures = _figures(out_dir, inputs)
+    written = [path for table in tables for path in table.files] + [figure.path for figure in figures]
     if html:
+        keys = [*(e.key for e in read_evaluations), *(m.key for m in read_metrics)]
+        inspected = inspector_figures({"matches": match_figures, "distance_matrix": matrix_figures}, keys,
+                                      [*order.datasets], split, order)
         written.append(html_report.main(
-            out_dir / registry.HTML, [(registry.table(name).title, paths[0]) for name, paths in tables], figures,
-            config=config, provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets))
+            out_dir / registry.HTML, tables, [*figures, *inspected], order=order, split=split, config=config,
+            provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets))
     return written

@@ -12,6 +12,7 @@ Names (``<d>`` dataset, ``<L>`` sequence length, ``<mode>`` paper or standard):
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -21,6 +22,8 @@ import numpy as np
 from vpr_smr.core.io import atomic_path
 
 UP, DOWN = "tab:green", "tab:red"
+TITLE_POINTS = 14.4  # matplotlib's default figure and axes title size ("large": 1.2 x 12 pt)
+CHAR_WIDTH = 0.62  # a character's mean width in DejaVu Sans, in units of the font size (a little generous)
 
 
 def _pyplot() -> Any:
@@ -32,10 +35,19 @@ def _pyplot() -> Any:
     return plt
 
 
+def wrapped(title: str, width_inches: float, points: float = TITLE_POINTS) -> str:
+    """``title`` broken into lines that fit ``width_inches`` at ``points`` (its own line breaks kept), so that no
+    title runs past its figure's edge."""
+    chars = max(16, int(width_inches * 72 / (CHAR_WIDTH * points)))
+    return "\n".join(textwrap.fill(line, chars) for line in title.split("\n"))
+
+
 def save(fig: Any, path: Path) -> Path:
+    """Write the figure as PNG; ``bbox_inches="tight"`` grows the canvas to whatever was drawn, titles and legends
+    included, so nothing is cut off."""
     plt = _pyplot()
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+        fig.savefig(tmp, dpi=110, format="png", bbox_inches="tight", pad_inches=0.1)
     plt.close(fig)
     return path
 
@@ -51,7 +63,7 @@ def _finish(fig: Any, axes: Any, title: str, legend_size: int = 8) -> None:
     # the legend goes below the panels so that it never hides a curve
     handles, labels = axes[-1].get_legend_handles_labels()
     fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 6), fontsize=legend_size)
-    fig.suptitle(title)
+    fig.suptitle(wrapped(title, fig.get_figwidth()))
     fig.tight_layout(rect=(0, 0.1, 1, 1))
 
 
@@ -62,8 +74,8 @@ def pr_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]], title: s
         for key, label in (("curve_vpr_sm", "VPR+SM"), ("curve_vpr_sm_pred", "VPR+SM+Pred")):
             ax.plot(numbers[key]["recall"], numbers[key]["precision"], label=label)
         ax.axvline(numbers["max_recall"], color="grey", lw=0.5, ls=":")
-        ax.set(title=f"{method}\nAOC {numbers['aoc_vpr_sm']:.3f} -> {numbers['aoc_vpr_sm_pred']:.3f}",
-               xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
+        ax.set(title=wrapped(f"{method}\nAOC {numbers['aoc_vpr_sm']:.3f} -> {numbers['aoc_vpr_sm_pred']:.3f}",
+                             3.0), xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
     _finish(fig, axes, title)
     return save(fig, path)
 
@@ -76,7 +88,7 @@ def trust_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]], title
                 ls="--", label="VPR+SM")
         for level, trust_curve in numbers["trust"].items():
             ax.plot(trust_curve["recall"], trust_curve["precision"], label=f"trust >= {level}")
-        ax.set(title=method, xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
+        ax.set(title=wrapped(method, 3.0), xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
     _finish(fig, axes, title, legend_size=7)
     return save(fig, path)
 
@@ -87,7 +99,7 @@ def confusion_figure(path: Path, matrix: np.ndarray, title: str) -> Path:
     ax.imshow(matrix, cmap="Blues")
     for (i, j), value in np.ndenumerate(matrix):
         ax.text(j, i, str(value), ha="center", va="center", fontsize=8)
-    ax.set(xlabel="predicted", ylabel="true", xticks=range(4), yticks=range(4), title=title)
+    ax.set(xlabel="predicted", ylabel="true", xticks=range(4), yticks=range(4), title=wrapped(title, 3.4))
     fig.tight_layout()
     return save(fig, path)
 
@@ -111,7 +123,8 @@ def change_bars(path: Path, methods: Sequence[str], groups: Sequence[str], botto
     ax.set_xticks(np.arange(n_methods), list(methods), rotation=30, ha="right")
     low, high = float(np.min([bottoms, tops])), float(np.max([bottoms, tops]))
     pad = max(0.02, 0.1 * (high - low))
-    ax.set(ylabel=ylabel, title=title, ylim=(max(0.0, low - pad), min(1.05, high + pad)))
+    ax.set(ylabel=ylabel, title=wrapped(title, fig.get_figwidth() - 0.6),
+           ylim=(max(0.0, low - pad), min(1.05, high + pad)))
     fig.tight_layout()
     return save(fig, path)
 
@@ -125,7 +138,7 @@ def difference_bars(path: Path, methods: Sequence[str], differences: Sequence[fl
     ax.bar(np.arange(len(methods)), values, color=[UP if v >= 0 else DOWN for v in values], edgecolor="black", lw=0.4)
     ax.axhline(0, color="black", lw=0.6)
     ax.set_xticks(np.arange(len(methods)), list(methods), rotation=30, ha="right")
-    ax.set(ylabel=ylabel, title=title)
+    ax.set(ylabel=ylabel, title=wrapped(title, fig.get_figwidth() - 0.6))
     fig.tight_layout()
     return save(fig, path)
 
@@ -137,7 +150,7 @@ def restoration_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]],
         for key, label in (("curve_vpr_sm", "VPR+SM"), ("curve_removal", "removal (VPR+SM+Pred)"),
                            ("curve_restoration", "restoration")):
             ax.plot(numbers[key]["recall"], numbers[key]["precision"], label=label)
-        ax.set(title=f"{method}\nAUC {numbers['auc_removal']:.3f} -> {numbers['auc_restoration']:.3f}",
-               xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
+        ax.set(title=wrapped(f"{method}\nAUC {numbers['auc_removal']:.3f} -> {numbers['auc_restoration']:.3f}",
+                             3.0), xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
     _finish(fig, axes, title)
     return save(fig, path)

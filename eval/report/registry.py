@@ -63,6 +63,8 @@ TABLES = (
     Table("trust_levels", "Trust-level ablation: PR AUC per trust level", ("table1", "trust")),
     Table("restoration", "Match restoration (second filter): removal against restoration", ("table1", "restoration")),
     Table("timing", "Inference time per query: attributes + prediction", ("table1",)),
+    Table("vpr_metrics", "Standard VPR metrics: recall@N, recall at 100 % precision, PR AUC and extended precision "
+          "of single-frame matching, sequence matching and sequence matching with the predictor", ("metrics",)),
     Table("ablation_seq_len", "Sequence-length ablation: Table I columns per dataset, method and sequence length",
           ("table1", "seq_len")),
     Table("predictor", "Predictor alone: macro F1 (cross-validation with SMOTE inside the folds, validation, test)",
@@ -70,6 +72,8 @@ TABLES = (
     Table("table2", "Table II: macro F1 by attribute", ("attributes",)),
     Table("leave_one_method_out", "Leave one method out: pooled predictor against one trained without the method",
           ("leave_one_method_out",)),
+    Table("datasets", "Datasets: traverses, frames per split, tolerance, frame lists and where the images came from",
+          ("datasets",)),
 )
 
 FIGURES = (
@@ -112,7 +116,8 @@ def expected_outputs(
     ``experiments``: any of ``"table1"`` (evaluations given: Table I, predictor_methods, predictor_confusion,
     timing, PR and confusion figures), ``"predictor"`` (predictor reports given), ``"trust"`` (trust levels
     configured), ``"restoration"``, ``"seq_len"`` (the sequence-length ablation), ``"attributes"`` (Table II),
-    ``"leave_one_method_out"``; each table and figure of ``registry`` is listed when all of its experiments are.
+    ``"leave_one_method_out"``, ``"metrics"`` (the standard VPR metrics given), ``"datasets"`` (dataset cards
+    given); each table and figure of ``registry`` is listed when all of its experiments are.
     """
     out = [path for spec in TABLES if spec.enabled(experiments) for path in spec.files()]
     figure_lens = [s for s in seq_lens if table_seq_lens is None or s in table_seq_lens]

@@ -69,3 +69,28 @@ rule evaluate:
         " --seq-len {wildcards.seq_len} --attributes {params.attributes} --predictors {input.predictors:q}"
         " --modes {params.modes} --trust-levels {params.trust_levels} {params.restoration}"
         " --out {output.evaluation:q} {params.overlap} > {log:q} 2>&1"
+
+
+rule vpr_metrics:
+    input:
+        distances=lambda wc: [distances_path(OUT, wc.dataset, wc.method, split) for split in conf["eval_splits"]],
+        attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
+                             for split in conf["eval_splits"]],
+        predictor=predictor_path(OUT, "{dataset}", "{seq_len}"),  # seed 0 (the authors' recipe)
+    output:
+        metrics=vpr_metrics_path(OUT, "{dataset}", "{method}", "{seq_len}"),
+        queries=queries_path(OUT, "{dataset}", "{method}", "{seq_len}"),
+    log:
+        log_path(OUT, vpr_metrics_path(OUT, "{dataset}", "{method}", "{seq_len}")),
+    params:
+        overlap=ALLOW_OVERLAP,
+        # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
+        distances=lambda wc, input: name_pairs(conf["eval_splits"], input.distances),
+        attributes=lambda wc, input: name_pairs(conf["eval_splits"], input.attributes),
+        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
+        modes=" ".join(conf["modes"]),
+    shell:
+        "vpr-smr metrics --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
+        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} --distances {params.distances}"
+        " --attributes {params.attributes} --predictor {input.predictor:q} --modes {params.modes}"
+        " --queries {output.queries:q} --out {output.metrics:q} {params.overlap} > {log:q} 2>&1"

@@ -1,0 +1,116 @@
+"""The report's findings in words: a few sentences per dataset, mode and L that say what Table I shows.
+
+Every number in them is one of Table I's (``table1.Table1Block``: the seed-0 predictor's reductions and the seed
+summary), rounded for reading; the table beside them keeps the exact values.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from vpr_smr.eval.report.table1 import Table1Block
+
+AOC = "area over the PR curve"
+
+
+def size(value: float) -> str:
+    """A reduction's magnitude as a sentence says it: one decimal, two significant digits below 0.05 %."""
+    magnitude = abs(value)
+    text = f"{magnitude:.1f}" if magnitude >= 0.05 or magnitude == 0 else f"{magnitude:.2g}"
+    return f"{text} %"
+
+
+def signed(value: float) -> str:
+    """A reduction with its sign (negative: worse), one decimal."""
+    return f"{value:.1f} %"
+
+
+def methods(n: int) -> str:
+    return f"{n} method" + ("" if n == 1 else "s")
+
+
+def listed(items: Sequence[str]) -> str:
+    """``a``, ``a and b``, ``a, b and c``."""
+    if len(items) <= 2:
+        return " and ".join(items)
+    return ", ".join(items[:-1]) + " and " + items[-1]
+
+
+def _seed_part(row: dict[str, Any]) -> str | None:
+    """``method mean ± std %`` over the seeds (and how many, when only some are defined); None when undefined."""
+    mean, std = row.get("reduction_pct_mean"), row.get("reduction_pct_std")
+    if mean is None:
+        return None
+    n_seeds = row["n_seeds"]
+    defined = row.get("n_seeds_defined", n_seeds)
+    spread = "" if std is None else f" ± {std:.1f}"
+    part = f"{row['method']} {mean:.1f}{spread} %"
+    return part if defined == n_seeds else f"{part} ({defined} of {n_seeds} seeds)"
+
+
+def _seed_sentences(block: Table1Block) -> list[str]:
+    if not block.has_seeds:
+        return []
+    rows = block.rows
+    n_seeds = int(rows[0]["n_seeds"])
+    if n_seeds == 1:
+        return ["One predictor seed was run, so there is no spread over seeds."]
+    parts = [(row["method"], _seed_part(row)) for row in rows]
+    shown = [part for _, part in parts if part is not None]
+    undefined = [method for method, part in parts if part is None]
+    if not shown:
+        return [f"Over {n_seeds} predictor seeds the reduction is undefined for every method."]
+    means = [row["reduction_pct_mean"] for row in rows if row.get("reduction_pct_mean") is not None]
+    improved = sum(mean > 0 for mean in means)
+    text = f"Over {n_seeds} predictor seeds (mean ± sample standard deviation) the reduction is {listed(shown)}"
+    if len(rows) > 1:
+        text += f"; on average it helps {improved} of {methods(len(means))}"
+    if undefined:
+        text += f"; it is undefined for {listed(undefined)}"
+    return [text + "."]
+
+
+def sentences(block: Table1Block, split: str) -> list[str]:
+    """What the predictor did to the area over the PR curve of each method of one dataset, mode and L."""
+    rows = block.rows
+    where = f"On {block.dataset} ({split} split, L = {block.seq_len}, {block.mode} mode, seed-0 predictor)"
+    defined = [(str(r["method"]), float(r["reduction_pct"])) for r in rows if r["reduction_pct"] is not None]
+    undefined = [str(r["method"]) for r in rows if r["reduction_pct"] is None]
+    better = sorted(((m, v) for m, v in defined if v > 0), key=lambda item: -item[1])
+    worse = sorted(((m, v) for m, v in defined if v < 0), key=lambda item: item[1])
+    same = [m for m, v in defined if v == 0]
+    out = []
+    if not defined:
+        whose = f"{undefined[0]}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
+        out.append(f"{where} {whose} {AOC} is already 0 without the predictor: there is nothing to reduce, so the "
+                   "reduction is undefined.")
+    elif len(defined) == 1:  # one method, or one whose reduction is defined
+        method, value = defined[0]
+        if value > 0:
+            out.append(f"{where} the predictor reduced {method}'s {AOC} by {size(value)}.")
+        elif value < 0:
+            out.append(f"{where} the predictor made {method}'s {AOC} {size(value)} worse (larger).")
+        else:
+            out.append(f"{where} the predictor left {method}'s {AOC} unchanged.")
+    else:
+        if better:
+            clauses = [f"reduced the {AOC} for {len(better)} of {methods(len(defined))}: "
+                       + ", ".join(f"{m} by {size(v)}" for m, v in better)]
+        else:
+            clauses = [f"reduced the {AOC} for none of the {len(defined)} methods"]
+        if worse:
+            clauses.append("it made " + listed([f"{m}'s {size(v)}" for m, v in worse]) + " worse")
+        if same:
+            clauses.append("it left " + listed([f"{m}'s" for m in same]) + " unchanged")
+        out.append(f"{where} the predictor " + "; ".join(clauses) + ".")
+        mean = float(np.mean([v for _, v in defined]))
+        out.append(f"The mean reduction over {'these' if undefined else 'the'} {len(defined)} methods is "
+                   f"{signed(mean)} (Table I's Mean).")
+    if undefined and defined:
+        whose = "its" if len(undefined) == 1 else "their"
+        out.append(f"The reduction is undefined for {listed(undefined)}: {whose} {AOC} is already 0 without the "
+                   "predictor.")
+    return out + _seed_sentences(block)

@@ -1,0 +1,438 @@
+"""The match inspector: see where sequence matching and the predictor go wrong, query by query.
+
+Two PNG figures of one method, dataset, sequence length ``L`` and split (the workflow: the table split):
+
+- the match figure: a fixed, seeded sample of queries (``sample_queries``: a few per true class and the
+  predictor's most confident mistakes), one row each: the ``L`` query frames of the sequence, the single-frame
+  match, the sequence match and the true reference as thumbnails, framed green (correct) or red (wrong) and
+  captioned with their distances, and what the predictor decided (kept or removed, right or wrong);
+- the distance-matrix figure: the split's ``D`` (references x queries, block means when large), the ground-truth
+  band ``|r - q| <= tolerance`` and every sequence match, kept or removed by the predictor.
+
+The queries come from the queries CSV (``eval.scoring``'s, one row per evaluated query), read by column name; its
+frame indices are the dataset's, the distance matrix's are the split's (``D[r - lo, q - lo]``).
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import textwrap
+from collections.abc import Sequence
+from contextlib import ExitStack
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import h5py
+import numpy as np
+
+from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
+from vpr_smr.datasets import TraversePair, load_frames
+from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
+
+# The columns of the queries CSV the inspector reads (by name; other columns are ignored).
+COLUMNS = ("split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
+           "sequence_distance", "sequence_correct", "true_reference", "label", "predicted_class", "probability",
+           "kept")
+CLASS_TEXT = {0: "correct before and after SM", 1: "correct before SM only", 2: "correct after SM only",
+              3: "wrong before and after SM"}
+THUMB_HEIGHT = 96  # pixels: larger images are downscaled to this height (INTER_AREA)
+MATCH_DPI = 80  # the match figure has many thumbnails: a moderate resolution keeps the PNG small
+MATRIX_DPI = 110
+MAX_DISPLAY = 800  # the distance matrix is shown as block means of at most this many rows and columns
+READ_VALUES = 1 << 24  # values of the distance matrix read at a time (64 MB of float32)
+NEUTRAL = "0.55"  # frame of a query thumbnail (neither correct nor wrong)
+
+
+@dataclass(frozen=True)
+class QueryRow:
+    """One evaluated query of the queries CSV; frame indices are the dataset's. Without a predictor,
+    ``predicted_class``, ``probability`` and ``kept`` are None."""
+
+    split: str
+    query: int
+    single_match: int
+    single_distance: float
+    single_correct: bool
+    sequence_match: int
+    sequence_distance: float
+    sequence_correct: bool
+    true_reference: int
+    label: int
+    predicted_class: int | None
+    probability: float | None
+    kept: bool | None
+
+    @property
+    def mistake(self) -> bool:
+        """The predictor's class is not the true one."""
+        return self.predicted_class is not None and self.predicted_class != self.label
+
+    @property
+    def right_decision(self) -> bool | None:
+        """Kept and correct after sequence matching, or removed and wrong: the predictor decided right."""
+        return None if self.kept is None else self.kept == self.sequence_correct
+
+
+@dataclass(frozen=True)
+class Sampled:
+    """A sampled query and why it was chosen (``class 1 sample``, ``confident mistake``, or both)."""
+
+    row: QueryRow
+    reason: str
+
+
+@dataclass(frozen=True)
+class MatchRecord:
+    """What the match figure shows: per row, the query and the dataset frames of its thumbnails in order
+    (``L`` query frames, then the single-frame match, the sequence match and the true reference)."""
+
+    queries: tuple[int, ...]
+    frames: tuple[tuple[int, ...], ...]
+    reasons: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class MatrixRecord:
+    """What the distance-matrix figure shows: the matrix's shape, the block size of the display (1: every
+    value), and how many sequence matches were drawn as kept, removed, or without a prediction."""
+
+    shape: tuple[int, int]
+    block: int
+    kept: int
+    removed: int
+    unpredicted: int
+
+
+def _optional(value: str, kind: type) -> Any:
+    return None if value.strip() == "" else kind(value)
+
+
+def _flag(value: str) -> bool:
+    return bool(int(float(value)))
+
+
+def _row(record: dict[str, str]) -> QueryRow:
+    if int(record["label"]) not in CLASS_TEXT:
+        raise ValueError(f"label {record['label']!r} is not a class 0..3 (SPEC 6)")
+    kept = _optional(record["kept"], float)
+    return QueryRow(
+        split=record["split"], query=int(record["query"]), single_match=int(record["single_match"]),
+        single_distance=float(record["single_distance"]), single_correct=_flag(record["single_correct"]),
+        sequence_match=int(record["sequence_match"]), sequence_distance=float(record["sequence_distance"]),
+        sequence_correct=_flag(record["sequence_correct"]), true_reference=int(record["true_reference"]),
+        label=int(record["label"]), predicted_class=_optional(record["predicted_class"], int),
+        probability=_optional(record["probability"], float), kept=None if kept is None else bool(kept),
+    )
+
+
+def read_queries(path: Path | str) -> list[QueryRow]:
+    """The rows of a queries CSV, by column name; a missing file or column, or a bad value, raises naming it."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"queries CSV not found: {path}")
+    with path.open(newline="") as f:
+        reader = csv.DictReader(f)
+        missing = [c for c in COLUMNS if c not in (reader.fieldnames or ())]
+        if missing:
+            raise ValueError(f"{path} lacks the columns {', '.join(missing)}: is it a queries CSV of the workflow "
+                             "(`vpr-smr metrics`)? Run the workflow again")
+        rows = []
+        for line, record in enumerate(reader, start=2):
+            try:
+                rows.append(_row(record))
+            except (TypeError, ValueError) as error:
+                raise ValueError(f"{path}, line {line}: {error}") from None
+    return rows
+
+
+def sample_queries(rows: Sequence[QueryRow], split: str, per_class: int = 2, mistakes: int = 4,
+                   seed: int = 0) -> list[Sampled]:
+    """A stratified, seeded sample of ``split``'s queries, sorted by query index.
+
+    Up to ``per_class`` queries of each true class 0..3, drawn with ``numpy.random.default_rng(seed)`` (classes in
+    order, each class's queries in index order), plus the predictor's ``mistakes`` most confident mistakes
+    (predicted class != true class, highest probability first, ties by query index). A query chosen both ways
+    appears once, with both reasons. The same rows, split and seed give the same sample.
+    """
+    if per_class < 0 or mistakes < 0:
+        raise ValueError(f"per_class ({per_class}) and mistakes ({mistakes}) must be >= 0")
+    in_split = sorted((r for r in rows if r.split == split), key=lambda r: r.query)
+    rng = np.random.default_rng(seed)
+    reasons: dict[int, list[str]] = {}
+    by_query = {r.query: r for r in in_split}
+    for label in sorted(CLASS_TEXT):
+        members = [r.query for r in in_split if r.label == label]
+        if not members:
+            continue
+        chosen = rng.choice(len(members), size=min(per_class, len(members)), replace=False)
+        for index in sorted(int(i) for i in chosen):
+            reasons.setdefault(members[index], []).append(f"class {label} sample")
+    wrong = sorted((r for r in in_split if r.mistake), key=lambda r: (-(r.probability or 0.0), r.query))
+    for r in wrong[:mistakes]:
+        reasons.setdefault(r.query, []).append("confident mistake")
+    return [Sampled(by_query[q], "; ".join(reasons[q])) for q in sorted(reasons)]
+
+
+def thumbnail(image: np.ndarray, height: int = THUMB_HEIGHT) -> np.ndarray:
+    """``image`` downscaled (INTER_AREA) to ``height`` rows when taller, the aspect ratio kept; else unchanged."""
+    if image.shape[0] <= height:
+        return image
+    width = max(1, round(image.shape[1] * height / image.shape[0]))
+    return np.asarray(cv2.resize(image, (width, height), interpolation=cv2.INTER_AREA))
+
+
+def _frame(ax: Any, colour: str, width: float) -> None:
+    ax.set_xticks([])
+    ax.set_yticks([])
+    for spine in ax.spines.values():
+        spine.set_edgecolor(colour)
+        spine.set_linewidth(width)
+
+
+def _verdict(correct: bool) -> tuple[str, str]:
+    return ("correct", UP) if correct else ("wrong", DOWN)
+
+
+def _sequence_sum(columns: np.ndarray, reference: int, seq_len: int) -> float | None:
+    """``sum_k D[reference - k, query - k]`` from the window ``columns`` (split-local rows x the ``L`` columns
+    ending at the query), or None when the diagonal leaves the split."""
+    if reference - seq_len + 1 < 0 or reference >= columns.shape[0]:
+        return None
+    return float(sum(columns[reference - k, seq_len - 1 - k] for k in range(seq_len)))
+
+
+def _decision_lines(row: QueryRow) -> list[tuple[str, str]]:
+    lines = [(f"query {row.query}", "black"), (f"true class {row.label}: {CLASS_TEXT[row.label]}", "black")]
+    if row.predicted_class is None:
+        return [*lines, ("no predictor: every match kept", "0.4")]
+    probability = "" if row.probability is None else f" (p = {row.probability:.2f})"
+    lines.append((f"predicted class {row.predicted_class}{probability}",
+                  "black" if row.predicted_class == row.label else DOWN))
+    if row.kept is not None:
+        right = row.right_decision
+        lines.append((f"{'kept' if row.kept else 'removed'}: {'right' if right else 'wrong'} decision",
+                      UP if right else DOWN))
+    return lines
+
+
+def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled], matrix: Any, lo: int,
+                 seq_len: int, title: str) -> MatchRecord:
+    """The match figure of ``samples`` (see the module's docstring) to ``path`` (PNG, written as given).
+
+    ``matrix`` is the split's distance matrix (references x queries, split-local: frame ``f`` is ``f - lo``),
+    read for the true reference's distances; the thumbnails are ``pair``'s images.
+    """
+    if not samples:
+        raise ValueError("no queries to show: the sample is empty")
+    plt = _pyplot()
+    cache: dict[tuple[str, int], np.ndarray] = {}
+
+    def image(side: str, index: int) -> np.ndarray:
+        if (side, index) not in cache:
+            traverse = pair.query if side == "query" else pair.reference
+            cache[side, index] = thumbnail(traverse.read(index))
+        return cache[side, index]
+
+    first = image("query", samples[0].row.query)
+    aspect = first.shape[1] / first.shape[0]
+    thumb_h = 0.95
+    thumb_w = min(2.4, max(0.7, thumb_h * aspect))
+    n_thumbs = seq_len + 3
+    text_w = 3.3
+    fig_w, fig_h = n_thumbs * (thumb_w + 0.08) + text_w, len(samples) * (thumb_h + 0.62) + 0.9
+    fig = plt.figure(figsize=(fig_w, fig_h), layout="constrained")
+    grid = fig.add_gridspec(len(samples), n_thumbs + 1, width_ratios=[thumb_w] * n_thumbs + [text_w])
+    headers = [f"query t-{seq_len - 1 - k}" for k in range(seq_len - 1)] + ["query t", "single-frame match",
+                                                                           "sequence match", "true reference"]
+    frames = []
+    for i, sample in enumerate(samples):
+        row = sample.row
+        q = row.query - lo
+        columns = np.asarray(matrix[:, q - seq_len + 1 : q + 1], dtype=np.float64)
+        true_local = row.true_reference - lo
+        true_d = float(columns[true_local, -1]) if 0 <= true_local < columns.shape[0] else None
+        true_s = _sequence_sum(columns, true_local, seq_len)
+        single_word, single_colour = _verdict(row.single_correct)
+        sequence_word, sequence_colour = _verdict(row.sequence_correct)
+        true_text = f"true r={row.true_reference}"
+        true_text += "" if true_d is None else f"\nD={true_d:.4g}" + ("" if true_s is None else f" S={true_s:.4g}")
+        query_frames = [row.query - seq_len + 1 + k for k in range(seq_len)]
+        shown = [("query", f, f"q {f}", NEUTRAL if k < seq_len - 1 else "black", 1.0 if k < seq_len - 1 else 2.0)
+                 for k, f in enumerate(query_frames)]
+        shown += [
+            ("reference", row.single_match, f"single r={row.single_match}\nD={row.single_distance:.4g} "
+             f"{single_word}", single_colour, 3.5),
+            ("reference", row.sequence_match, f"sequence r={row.sequence_match}\nS={row.sequence_distance:.4g} "
+             f"{sequence_word}", sequence_colour, 3.5),
+            ("reference", row.true_reference, true_text, NEUTRAL, 1.5),
+        ]
+        for j, (side, frame, caption, colour, width) in enumerate(shown):
+            ax = fig.add_subplot(grid[i, j])
+            ax.imshow(image(side, frame), interpolation="nearest", aspect="auto")
+            _frame(ax, colour, width)
+            ax.set_xlabel(caption, fontsize=7, labelpad=2)
+            if i == 0:
+                ax.set_title(headers[j], fontsize=8)
+        frames.append(tuple(frame for _, frame, *_ in shown))
+        text = fig.add_subplot(grid[i, n_thumbs])
+        text.axis("off")
+        lines = [*_decision_lines(row), (f"chosen: {sample.reason}", "0.35")]
+        for k, (line, colour) in enumerate(lines):
+            text.text(0.0, 1.0 - k / max(len(lines), 5), line, fontsize=7.5, color=colour, va="top",
+                      transform=text.transAxes)
+    fig.suptitle(textwrap.fill(title, width=max(40, int(fig_w * 11))), fontsize=9)
+    fig.savefig(path, dpi=MATCH_DPI, format="png", bbox_inches="tight")
+    plt.close(fig)
+    return MatchRecord(tuple(s.row.query for s in samples), tuple(frames), tuple(s.reason for s in samples))
+
+
+def block_means(matrix: Any, block: int) -> np.ndarray:
+    """``matrix`` (R x Q, read by column blocks) as the means of ``block x block`` tiles, the last tiles of a row
+    or column over what is left: ``ceil(R / block) x ceil(Q / block)``, float32."""
+    n_rows, n_cols = matrix.shape
+    rows, cols = math.ceil(n_rows / block), math.ceil(n_cols / block)
+    out = np.empty((rows, cols), dtype=np.float32)
+    step = block * max(1, READ_VALUES // max(n_rows * block, 1))
+    for start in range(0, n_cols, step):
+        part = np.asarray(matrix[:, start : start + step], dtype=np.float64)
+        width = math.ceil(part.shape[1] / block)
+        padded = np.full((rows * block, width * block), np.nan)
+        padded[:n_rows, : part.shape[1]] = part
+        tiles = padded.reshape(rows, block, width, block)
+        out[:, start // block : start // block + width] = np.nanmean(tiles, axis=(1, 3))
+    return out
+
+
+def draw_matrix(path: Path | str, matrix: Any, lo: int, rows: Sequence[QueryRow], tolerance: int,
+                title: str) -> MatrixRecord:
+    """The distance-matrix figure to ``path`` (PNG, written as given): ``matrix`` (split-local, references x
+    queries) in dataset frame indices from ``lo``, the ground-truth band and the sequence matches of ``rows``."""
+    plt = _pyplot()
+    n_refs, n_queries = matrix.shape
+    block = max(1, math.ceil(max(n_refs, n_queries) / MAX_DISPLAY))
+    shown = block_means(matrix, block)
+    fig, ax = plt.subplots(figsize=(7.6, 7.4), layout="constrained")
+    image = ax.imshow(shown, cmap="gray", interpolation="nearest", aspect="auto",
+                      extent=(lo - 0.5, lo - 0.5 + shown.shape[1] * block, lo - 0.5 + shown.shape[0] * block,
+                              lo - 0.5))
+    fig.colorbar(image, ax=ax, shrink=0.8, label="distance D (dark = similar)")
+    last_q, last_r = lo + n_queries - 1, lo + n_refs - 1
+    band = np.array([lo, last_q], dtype=float)
+    for offset, label in ((-tolerance, f"ground truth |r - q| <= {tolerance}"), (tolerance, None)):
+        ax.plot(band, band + offset, color="tab:cyan", lw=0.7, label=label)
+    kept = [r for r in rows if r.kept is True]
+    removed = [r for r in rows if r.kept is False]
+    unpredicted = [r for r in rows if r.kept is None]
+    size = 9 if len(rows) <= 2000 else 5
+    if kept:
+        ax.scatter([r.query for r in kept], [r.sequence_match for r in kept], s=size, color=UP, marker="o",
+                   linewidths=0, zorder=3, label=f"sequence match kept by the predictor ({len(kept)})")
+    if removed:
+        ax.scatter([r.query for r in removed], [r.sequence_match for r in removed], s=size * 2, color=DOWN,
+                   marker="x", linewidths=0.8, zorder=3,
+                   label=f"sequence match removed by the predictor ({len(removed)})")
+    if unpredicted:
+        ax.scatter([r.query for r in unpredicted], [r.sequence_match for r in unpredicted], s=size,
+                   color="tab:orange", marker="o", linewidths=0, zorder=3,
+                   label=f"sequence match, no prediction ({len(unpredicted)})")
+    ax.set(xlim=(lo - 0.5, last_q + 0.5), ylim=(last_r + 0.5, lo - 0.5), xlabel="query frame (dataset index)",
+           ylabel="reference frame (dataset index)")
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize=7, markerscale=2)
+    note = (f"D is {n_refs} x {n_queries}, shown as means of {block} x {block} blocks" if block > 1
+            else f"D is {n_refs} x {n_queries}, every value shown")
+    fig.suptitle(textwrap.fill(f"{title}. {note}.", width=95), fontsize=9)
+    fig.savefig(path, dpi=MATRIX_DPI, format="png", bbox_inches="tight")
+    plt.close(fig)
+    return MatrixRecord((n_refs, n_queries), block, len(kept), len(removed), len(unpredicted))
+
+
+def _text(value: Any) -> str | None:
+    if value is None:
+        return None
+    return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _distance_provenance(path: Path) -> dict[str, Any]:
+    return read_provenance(path) if h5py.is_hdf5(path) else {}
+
+
+def _split_range(path: Path, provenance: dict[str, Any], given: tuple[int, int] | None) -> tuple[int, int]:
+    stored = provenance.get("split_range")
+    stored_range = None if stored is None else (int(stored[0]), int(stored[1]))
+    if given is not None and stored_range is not None and tuple(given) != stored_range:
+        raise ValueError(f"{path} holds frames {stored_range[0]}..{stored_range[1] - 1}, not the split's "
+                         f"{given[0]}..{given[1] - 1}: run the workflow again")
+    split_range = given if given is not None else stored_range
+    if split_range is None:
+        raise ValueError(f"{path} does not say which frames it covers: give the split's frames (--frames LO HI)")
+    return int(split_range[0]), int(split_range[1])
+
+
+def _check_rows(rows: Sequence[QueryRow], queries_csv: Path, split: str, seq_len: int, lo: int, hi: int) -> None:
+    if not rows:
+        raise ValueError(f"{queries_csv} has no queries of split {split!r}")
+    first, last = min(r.query for r in rows), max(r.query for r in rows)
+    if first < lo + seq_len - 1 or last >= hi:
+        raise ValueError(f"{queries_csv}: split {split!r} has queries {first}..{last}, but the distance matrix "
+                         f"covers frames {lo}..{hi - 1} and L = {seq_len} leaves the first {seq_len - 1} without a "
+                         "sequence match: were they computed at another sequence length or split? Run the workflow "
+                         "again")
+
+
+def main(queries_csv: Path | str, distances: Path | str, dataset_name: str, dataset_settings: dict[str, Any],
+         frames_sha256: str | None, seq_len: int, split: str, tolerance: int, match_figure: Path | str,
+         matrix_figure: Path | str, per_class: int = 2, mistakes: int = 4, seed: int = 0,
+         split_range: tuple[int, int] | None = None) -> tuple[Path, Path]:
+    """The ``inspect`` stage: the match figure and the distance-matrix figure of ``split`` (PNG, both or none).
+
+    ``dataset_settings``: the dataset's configuration entry (``load_frames``; split settings are ignored).
+    ``frames_sha256``: the fingerprint of the frames the run's descriptors were computed from (default: the
+    distances file's); the images are refused when theirs differs. ``split_range``: the split's frames
+    ``(lo, hi)`` (default: the distances file's ``split_range``). ``tolerance``: frames of the ground-truth band.
+    """
+    queries_csv, distances = Path(queries_csv), Path(distances)
+    match_figure = check_suffix(match_figure, (".png",), "the match figure (PNG)", "--match-figure")
+    matrix_figure = check_suffix(matrix_figure, (".png",), "the distance-matrix figure (PNG)", "--matrix-figure")
+    if seq_len < 1:
+        raise ValueError(f"the sequence length must be >= 1, got {seq_len}")
+    if not distances.is_file():
+        raise FileNotFoundError(f"distance matrix not found: {distances}")
+    provenance = _distance_provenance(distances)
+    stored_sha = _text(provenance.get("frames_sha256"))
+    if frames_sha256 and stored_sha and stored_sha != frames_sha256:
+        raise ValueError(f"{distances} was computed from other frames of dataset {dataset_name!r} than the run's "
+                         "(its frames_sha256 differs): run the workflow again")
+    expected = frames_sha256 or stored_sha
+    pair = load_frames(dataset_name, dataset_settings)
+    if expected and pair.fingerprint() != expected:
+        raise ValueError(f"dataset {dataset_name!r}: its frames changed on disk since the run computed its "
+                         f"descriptors (the frame lists' SHA-256 is {pair.fingerprint()[:12]}..., the run's "
+                         f"{expected[:12]}...); run the workflow again")
+    lo, hi = _split_range(distances, provenance, split_range)
+    if not 0 <= lo < hi <= len(pair):
+        raise ValueError(f"split {split!r} = frames {lo}..{hi - 1} is outside dataset {dataset_name!r}'s "
+                         f"{len(pair)} frames: run the workflow again")
+    rows = [r for r in read_queries(queries_csv) if r.split == split]
+    _check_rows(rows, queries_csv, split, seq_len, lo, hi)
+    samples = sample_queries(rows, split, per_class, mistakes, seed)
+    method = _text(provenance.get("method"))
+    what = f"{dataset_name}{'' if method is None else f', {method}'}, L = {seq_len}, split {split!r}"
+    sample_text = (f"{len(samples)} of {len(rows)} queries: up to {per_class} per true class (seed {seed}) and the "
+                   f"predictor's {mistakes} most confident mistakes")
+    match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct (|r - q| <= {tolerance}), "
+                   "red = wrong; D = single-frame distance, S = sequence distance")
+    with open_distance_matrix(distances) as matrix:
+        if tuple(matrix.shape) != (hi - lo, hi - lo):
+            raise ValueError(f"{distances}: the distance matrix is {matrix.shape[0]} x {matrix.shape[1]}, but split "
+                             f"{split!r} has {hi - lo} frames ({lo}..{hi - 1}): run the workflow again")
+        with ExitStack() as stack:  # both files are renamed into place only when both are drawn
+            matrix_tmp = stack.enter_context(atomic_path(matrix_figure))
+            match_tmp = stack.enter_context(atomic_path(match_figure))
+            draw_matches(match_tmp, pair, samples, matrix, lo, seq_len, match_title)
+            draw_matrix(matrix_tmp, matrix, lo, rows, tolerance,
+                        f"Distance matrix: {what}, sequence matches kept or removed by the predictor")
+    return match_figure, matrix_figure

@@ -1,0 +1,271 @@
+"""Table I (SPEC 10): the area over the PR curve at max recall per dataset and method, with and without the
+predictor, in the paper's layout (methods as columns, then Mean and Improved) for Markdown, LaTeX and the HTML page.
+
+The rows are the CSV's (``table1_rows``: one per dataset, method, L and mode, in the configuration's order);
+``table1_blocks`` groups them into the paper's tables, one per dataset, mode and L.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from vpr_smr.eval.report.results import Order
+from vpr_smr.eval.scoring.records import Evaluation, EvaluationSplit
+
+UNDEFINED = "n/a"  # a reduction whose baseline AOC is 0: JSON null, an empty CSV cell
+SEED_COLUMNS = ("reduction_pct_mean", "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds")
+# n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
+# n_queries_single: those recall_at_1_single is over (paper mode: every query of the split, SPEC 8)
+QUERY_COLUMNS = ("n_queries", "n_queries_single")
+# n_seeds_defined: the seeds whose reduction is defined (the baseline's AOC not 0), which the seed columns are over
+TABLE1_COLUMNS = (
+    "dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence", "max_recall",
+    "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", *SEED_COLUMNS, *QUERY_COLUMNS, "n_seeds_defined",
+)
+ROW_NAMES = ("VPR+SM", "VPR+SM+Pred", "Reduction (%)")
+SEED_ROW_NAME = "Reduction over seeds (%)"
+UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined, the baseline's AOC being 0 (nothing to reduce); Mean and "
+                  "Improved leave it out.")
+
+
+def is_reduction(column: str) -> bool:
+    """A column of AOC reductions, undefined where the AOC reduced is 0."""
+    return "reduction_pct" in column
+
+
+def _mode_numbers(split_result: EvaluationSplit, mode: str) -> dict[str, Any]:
+    numbers = split_result.modes[mode]
+    n_queries = split_result.n_queries
+    # recall@1 single by the mode's rule: paper mode over every query of the split (n_queries_single)
+    return {**numbers.reduction.to_json(), "recall_at_1_single": numbers.recall_at_1_single,
+            "recall_at_1_sequence": numbers.recall_at_1_sequence, **split_result.seed_summary[mode].to_json(),
+            "n_queries": n_queries, "n_queries_single": split_result.n_queries_split if mode == "paper" else n_queries}
+
+
+def table1_rows(evaluations: Sequence[Evaluation], split: str = "test",
+                seq_lens: Collection[int] | None = None, order: Order | None = None) -> list[dict[str, Any]]:
+    """One row per (dataset, method, L, mode) of the evaluations, optionally only the sequence lengths given; by
+    mode, L, dataset and method, each in the configuration's ``order`` (default: the evaluations')."""
+    order = order or evaluation_order(evaluations)
+    rows = []
+    for evaluation in evaluations:
+        meta, result = evaluation.meta, evaluation.splits[split]
+        if seq_lens is not None and int(meta["seq_len"]) not in seq_lens:
+            continue
+        for mode in result.modes:
+            rows.append({"dataset": meta["dataset"], "method": meta["method"], "seq_len": meta["seq_len"],
+                         "mode": mode, **_mode_numbers(result, mode)})
+    return sorted(rows, key=lambda r: (order.mode(r["mode"]), int(r["seq_len"]), order.dataset(r["dataset"]),
+                                       order.method(r["method"])))
+
+
+def evaluation_order(evaluations: Sequence[Evaluation], methods: Sequence[str] = ()) -> Order:
+    """The configuration's order as the evaluations give it (``methods``: an explicit method order, first)."""
+    modes = [mode for e in evaluations for result in e.splits.values() for mode in result.modes]
+    return Order.of((e.meta for e in evaluations), modes, methods)
+
+
+def _groups(rows: list[dict[str, Any]]) -> dict[tuple[str, int], dict[str, list[dict[str, Any]]]]:
+    """(mode, seq_len) -> dataset -> rows (one per method), each in the order of ``rows``."""
+    groups: dict[tuple[str, int], dict[str, list[dict[str, Any]]]] = {}
+    for row in rows:
+        groups.setdefault((row["mode"], row["seq_len"]), {}).setdefault(row["dataset"], []).append(row)
+    return groups
+
+
+def _defined(values: Iterable[float | None]) -> list[float]:
+    return [v for v in values if v is not None]
+
+
+def _reduction_mean(values: Sequence[float | None]) -> tuple[float | None, str]:
+    """The mean of the defined reductions and, when some are undefined, how many it is over."""
+    defined = _defined(values)
+    mean = float(np.mean(defined)) if defined else None
+    note = "" if len(defined) == len(values) else f" (mean over {len(defined)} of {len(values)} methods)"
+    return mean, note
+
+
+def _improved(values: Sequence[float | None]) -> str:
+    """How many methods improve, of those whose reduction is defined."""
+    defined = _defined(values)
+    return f"{sum(v > 0 for v in defined)} / {len(defined)}"
+
+
+def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str, str]:
+    """Per-method values of the three table rows with their mean appended (the reduction's over the methods where
+    it is defined), the note saying how many that is (empty when all), and the methods improved."""
+    reductions = [r["reduction_pct"] for r in rows]
+    mean, note = _reduction_mean(reductions)
+    values = [[r["aoc_vpr_sm"] for r in rows], [r["aoc_vpr_sm_pred"] for r in rows]]
+    return ([v + [float(np.mean(v))] for v in values] + [reductions + [mean]], note, _improved(reductions))
+
+
+def _has_seeds(rows: list[dict[str, Any]]) -> bool:
+    return all(r.get("n_seeds") is not None for r in rows)
+
+
+def _seed_cells(rows: list[dict[str, Any]], separator: str) -> tuple[list[str], str]:
+    """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the seeds counted where only some
+    are), the mean of the defined means, and how many methods improve on average."""
+    cells = []
+    for r in rows:
+        if r.get("reduction_pct_mean") is None:
+            cells.append(UNDEFINED)
+            continue
+        defined = r.get("n_seeds_defined", r["n_seeds"])
+        part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds)"
+        cells.append(f"{r['reduction_pct_mean']:.2f}{separator}{r['reduction_pct_std']:.2f}{part}")
+    means = [r.get("reduction_pct_mean") for r in rows]
+    mean, note = _reduction_mean(means)
+    n_seeds = rows[0].get("n_seeds", "")
+    return cells + [_number(mean, "{:.2f}") + note], f"{_improved(means)} ({n_seeds} seeds)"
+
+
+def _number(value: float | None, fmt: str) -> str:
+    return UNDEFINED if value is None else fmt.format(value)
+
+
+def _query_note(datasets: dict[str, list[dict[str, Any]]], split: str, mode: str) -> str:
+    """Per dataset: the queries the table is over (those with a sequence match) and, in paper mode, the split's
+    every query, which single-frame recall@1 is over."""
+    parts = []
+    for dataset, rows in datasets.items():
+        n = _span(r.get("n_queries") for r in rows)
+        single = _span(r.get("n_queries_single") for r in rows)
+        if n:  # files written before the counts were recorded have none
+            text = f"{dataset}: {n} queries with a sequence match"
+            if single and single != n:
+                text += f" (single-frame recall@1 over all {single} of the split)"
+            parts.append(text)
+    return f"{split} split, {mode} mode: " + "; ".join(parts) if parts else ""
+
+
+def _span(values: Iterable[Any]) -> str:
+    """One value, ``lo-hi`` when the methods differ, or empty for files without the count."""
+    known = sorted({int(v) for v in values if v is not None})
+    if not known:
+        return ""
+    return str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
+
+
+def table1_markdown(rows: list[dict[str, Any]], split: str = "test") -> str:
+    out = [f"# Table I: area over the precision-recall curve at max recall ({split} split)", "",
+           "Rows VPR+SM, VPR+SM+Pred, Reduction: the seed-0 predictor (the authors' recipe); "
+           "Reduction over seeds: mean ± sample standard deviation over the predictor seeds.", ""]
+    undefined = False
+    for (mode, seq_len), datasets in _groups(rows).items():
+        methods = [r["method"] for r in next(iter(datasets.values()))]
+        note = _query_note(datasets, split, mode)
+        out += [f"## {mode} mode, sequence length {seq_len}", ""] + ([note, ""] if note else [])
+        out.append("| dataset | | " + " | ".join(methods) + " | Mean | Improved |")
+        out.append("|---|---|" + "---|" * (len(methods) + 2))
+        for dataset, dataset_rows in datasets.items():
+            summary, note, improved = _summary(dataset_rows)
+            for i, (name, values) in enumerate(zip(ROW_NAMES, summary, strict=True)):
+                cells = [_number(v, "{:.2f}" if i == 2 else "{:.4f}") for v in values]
+                if i == 2:
+                    cells[-1] += note
+                last = improved if i == 2 else ""
+                label = dataset if i == 0 else ""
+                out.append(f"| {label} | {name} | " + " | ".join(cells) + f" | {last} |")
+            if _has_seeds(dataset_rows):
+                cells, last = _seed_cells(dataset_rows, " ± ")
+                out.append(f"|  | {SEED_ROW_NAME} | " + " | ".join(cells) + f" | {last} |")
+                undefined |= UNDEFINED in cells
+            undefined |= None in summary[2]
+        out.append("")
+    if undefined:
+        out += [UNDEFINED_NOTE, ""]
+    return "\n".join(out)
+
+
+def tex_escape(text: Any) -> str:
+    return str(text).replace("\\", r"\textbackslash{}").replace("_", r"\_").replace("%", r"\%").replace(
+        "&", r"\&").replace("#", r"\#")
+
+
+def _tex_reduction(value: float | None) -> str:
+    if value is None:
+        return UNDEFINED
+    return rf"\textcolor{{{'green' if value > 0 else 'red' if value < 0 else 'black'}}}{{{value:.2f}}}"
+
+
+def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
+    out = [f"% Table I ({tex_escape(split)} split)"]
+    undefined = False
+    for (mode, seq_len), datasets in _groups(rows).items():
+        methods = [r["method"] for r in next(iter(datasets.values()))]
+        n_columns = len(methods) + 4
+        out += [
+            f"% {mode} mode, sequence length {seq_len}",
+            r"\begin{tabular}{l|c|" + "c|" * (len(methods) + 1) + "c}",
+            r"\multicolumn{2}{c|}{} & " + " & ".join(tex_escape(m) for m in methods) + r" & Mean & Improved\\",
+            r"\hline",
+        ]
+        for dataset, dataset_rows in datasets.items():
+            summary, note, improved = _summary(dataset_rows)
+            for i, (name, values) in enumerate(zip(ROW_NAMES, summary, strict=True)):
+                if i == 2:
+                    cells = [_tex_reduction(v) for v in values]
+                    cells[-1] += tex_escape(note)
+                    last = improved
+                else:
+                    cells, last = [_number(v, "{:.4f}") for v in values], ""
+                label = tex_escape(dataset) if i == 0 else ""
+                out.append(f"{label} & {tex_escape(name)} & " + " & ".join(cells) + f" & {last}" + r"\\")
+            if _has_seeds(dataset_rows):
+                cells, last = _seed_cells(dataset_rows, r" $\pm$ ")
+                out.append(f" & {tex_escape(SEED_ROW_NAME)} & " + " & ".join(cells) + f" & {last}" + r"\\")
+                undefined |= UNDEFINED in cells
+            undefined |= None in summary[2]
+            out.append(r"\hline")
+        note = _query_note(datasets, split, mode)
+        if note:
+            out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {tex_escape(note)}}}\\")
+        if undefined:
+            out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {tex_escape(UNDEFINED_NOTE)}}}\\")
+        out += [r"\end{tabular}", ""]
+    return "\n".join(out)
+
+
+
+
+@dataclass(frozen=True)
+class Table1Block:
+    """One dataset's Table I in one mode at one L: its rows, one per method in the configuration's order."""
+
+    dataset: str
+    mode: str
+    seq_len: int
+    rows: tuple[dict[str, Any], ...]
+
+    @property
+    def methods(self) -> tuple[str, ...]:
+        return tuple(str(r["method"]) for r in self.rows)
+
+    def summary(self) -> tuple[list[list[float | None]], str, str]:
+        """The three rows' values per method and their Mean, the note on the reduction's Mean (empty when every
+        reduction is defined) and Improved, as the Markdown and LaTeX tables show them."""
+        return _summary(list(self.rows))
+
+    @property
+    def has_seeds(self) -> bool:
+        return _has_seeds(list(self.rows))
+
+    def seed_cells(self, separator: str = " ± ") -> tuple[list[str], str]:
+        """The row "Reduction over seeds": mean ± std per method, their mean, and how many improve on average."""
+        return _seed_cells(list(self.rows), separator)
+
+    def query_note(self, split: str) -> str:
+        """The queries the numbers are over."""
+        return _query_note({self.dataset: list(self.rows)}, split, self.mode)
+
+
+def table1_blocks(rows: Sequence[dict[str, Any]]) -> list[Table1Block]:
+    """Table I's rows as the paper's tables: per mode and L (in the order of ``rows``), one per dataset."""
+    return [Table1Block(dataset, mode, int(seq_len), tuple(dataset_rows))
+            for (mode, seq_len), datasets in _groups(list(rows)).items() for dataset, dataset_rows in datasets.items()]

@@ -1,0 +1,97 @@
+"""The per-query table of ``vpr-smr metrics``: one row per evaluated query (``a >= L-1``) of every split.
+
+Frame indices (``query``, ``single_match``, ``sequence_match``, ``true_reference``) are the dataset's: the split's
+first frame plus the index within the split (a frame-aligned pair: the true reference of query ``a`` is ``a``).
+``A1..A4`` are the rank-0 attributes under the paper's names (SPEC 5: minimum sum, minimum value, block sum and group
+sum rates), the order ``QueryFeatures.attributes`` stores them in; the predictor takes them in that order and feeds
+its network the code's order ``[A1, A2, A4, A3]`` itself (``SMRPredictor.column_order``). ``predicted_class``,
+``probability`` (its class probability, the highest) and ``kept`` (1 when the predicted class is one of
+``core.constants.KEPT_CLASSES``) are the seed-0 predictor's, empty without a predictor.
+"""
+
+from __future__ import annotations
+
+import csv
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vpr_smr.core.io import atomic_path
+from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, QueryFeatures
+from vpr_smr.eval.scoring.curves import keep_mask
+
+QUERY_COLUMNS = (
+    "split", "query", "single_match", "single_distance", "single_correct", "sequence_match", "sequence_distance",
+    "sequence_correct", "true_reference", *ATTRIBUTE_NAMES, "label", "predicted_class", "probability", "kept",
+)
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """The predictor's decision on the rank-0 attributes of a split's evaluated queries, as ``evaluate`` takes it:
+    the class of highest probability, that probability, and whether the match is kept (trust level 0)."""
+
+    predicted: np.ndarray  # (N,) class
+    probability: np.ndarray  # (N,) the highest class probability
+
+    @classmethod
+    def of(cls, predictor: Any, features: QueryFeatures) -> Prediction:
+        """``predictor`` (``predict_proba`` and ``classes_``, e.g. ``SMRPredictor``) on ``features``' rank 0."""
+        probabilities = np.asarray(predictor.predict_proba(features.attributes[:, 0, :]))
+        predicted = np.asarray(predictor.classes_)[np.argmax(probabilities, axis=1)]
+        return cls(predicted, probabilities.max(axis=1))
+
+    @property
+    def kept(self) -> np.ndarray:
+        """Which queries keep their sequence match: ``curves.keep_mask`` at trust level 0."""
+        return keep_mask(self.predicted, self.probability)
+
+
+@dataclass(frozen=True)
+class SplitQueries:
+    """What the table needs of one split: its features, the single-frame distances ``D[single_match, a]`` of the
+    evaluated queries, the split's first frame in the dataset, and the predictor's decision (None without one)."""
+
+    split: str
+    first_frame: int
+    features: QueryFeatures
+    single_distance: np.ndarray  # (N,)
+    prediction: Prediction | None
+
+
+def _number(value: Any) -> str:
+    """A float with every digit it needs to be read back exactly (``repr``)."""
+    return repr(float(value))
+
+
+def query_rows(table: SplitQueries) -> Iterator[list[str]]:
+    """The rows of one split, ``QUERY_COLUMNS`` in order, as text."""
+    f, first = table.features, table.first_frame
+    prediction = table.prediction
+    kept = prediction.kept if prediction is not None else None
+    for n, query in enumerate(f.queries):
+        predicted = ["", "", ""] if prediction is None or kept is None else [
+            str(int(prediction.predicted[n])), _number(prediction.probability[n]), str(int(kept[n]))]
+        yield [
+            table.split, str(first + int(query)),
+            str(first + int(f.single_match[n])), _number(table.single_distance[n]), str(int(f.single_correct[n])),
+            str(first + int(f.sequence_match[n])), _number(f.sequence_distance[n]), str(int(f.sequence_correct[n])),
+            str(first + int(query)),
+            *(_number(v) for v in f.attributes[n, 0, :]),
+            str(int(f.labels[n])), *predicted,
+        ]
+
+
+def write_queries(path: Path | str, tables: Sequence[SplitQueries]) -> None:
+    """The table of every split in the given order, written atomically (``core.io.atomic_path``)."""
+    with atomic_path(path) as tmp, open(tmp, "w", newline="") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(QUERY_COLUMNS)
+        for table in tables:
+            if len(table.single_distance) != len(table.features.queries):
+                raise ValueError(f"split {table.split!r}: {len(table.single_distance)} single-frame distances for "
+                                 f"{len(table.features.queries)} queries")
+            writer.writerows(query_rows(table))

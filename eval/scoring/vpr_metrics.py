@@ -1,0 +1,376 @@
+"""The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher.
+
+One split's ``R x Q`` matrix ``D`` of a frame-aligned pair: a match ``r`` of query ``q`` is correct iff
+``|r - q| <= tolerance``. Rankings are stable (equal distances: the lower reference or diagonal index first).
+Evaluated queries: ``a = L-1 .. Q-1``, those with a sequence match (SPEC 4). One item per metric, its denominator
+last:
+
+- single recall@N: queries whose N nearest references (``D[:, q]`` ascending) hold a correct one / all Q queries
+  of the split in paper mode (the authors' rule, SPEC 8), the evaluated queries in standard mode.
+- sequence recall@N: evaluated queries ``a`` whose N best diagonals (``S[i, j] = sum_k D[i+k, j+k]``,
+  ``j = a-L+1``, ascending) hold one matching a correct reference ``i + L - 1`` / the evaluated queries.
+- sequence_predictor recall@N: as sequence, a query whose match the seed-0 predictor removes (rank-0 predicted
+  class not in KEPT_CLASSES, trust level 0) counting as not retrieved / the evaluated queries.
+- recall_at_100p: the highest recall of a point of precision 1 on the mode's PR curve / the curve's recall
+  denominator (SPEC 8: paper the curve's queries whose match is correct, standard all the curve's queries).
+- pr_auc: the trapezoid area under the mode's whole PR curve (``curves.area``; not cut to a maximum recall).
+- extended_precision: ``(P_R0 + recall_at_100p) / 2`` (VPR-Bench), ``P_R0`` the precision of the curve's first
+  point in threshold order with recall > 0 (0 when none).
+
+The PR curves (``curves.curve``): the sequence matchers' as ``evaluate`` builds them (``sequence_distance``,
+``sequence_correct``, the split's ``S`` range; with the predictor its keep mask), over the evaluated queries; the
+single matcher's from ``D[single_match, q]`` and its correctness over the same queries as its recall (paper all Q,
+standard the evaluated ones), thresholds over ``(D.min(), D.max())`` of the split.
+
+The matrix is read in blocks of query columns: ``S`` exists a block at a time, never whole. Recall@N uses, per
+query, the stable rank (0 = best) of its best-ranked correct candidate, ``#{values < v} + #{values == v before
+it}``: exact with ties, a hit at N iff below N.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import h5py
+import numpy as np
+
+from vpr_smr.core.constants import MODES, RECALL_AT
+from vpr_smr.core.io import (
+    CSV_SUFFIXES,
+    HDF5_SUFFIXES,
+    JSON_SUFFIXES,
+    check_suffix,
+    read_provenance,
+    write_json,
+)
+from vpr_smr.eval.matching.attributes import QueryFeatures, check_seq_len, is_correct, query_features, read_features
+from vpr_smr.eval.matching.checks import check_finite, check_shape
+from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.predictor.estimator import SMRPredictor
+from vpr_smr.eval.predictor.leakage import check_disjoint, frame_range, frame_ranges, trained_on
+from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, recall_at_full_precision
+from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
+from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
+
+__all__ = [
+    "ALL_SPLIT", "Retrieval", "ScoredSplit", "extended_precision", "main", "matcher_metrics",
+    "precision_at_first_recall", "recall_at", "retrieval", "score_split",
+]
+
+log = logging.getLogger("vpr_smr")
+
+ALL_SPLIT = "all"  # the split's name when ``distances`` is one file
+BLOCK_VALUES = 1 << 20  # matrix values per block of query columns (8 MB of float64)
+NOT_RETRIEVED = np.iinfo(np.int64).max  # the rank of a query without any correct candidate
+DISTANCE_SUFFIXES = (".npy", *HDF5_SUFFIXES)
+
+
+@dataclass(frozen=True)
+class Retrieval:
+    """What recall@N and the single-frame curve need of one split, from the matrix itself.
+
+    ``single_rank[q]``: the stable rank of query ``q``'s best-ranked correct reference in ``D[:, q]`` (every query,
+    the first ``L-1`` too); ``sequence_rank[n]``: that of the best-ranked correct diagonal in ``S[:, n]`` (query
+    ``a = n + L - 1``); ``NOT_RETRIEVED`` when no candidate is correct.
+    """
+
+    single_rank: np.ndarray  # (Q,)
+    single_match: np.ndarray  # (Q,) argmin_r D[r, q], first index on ties
+    single_distance: np.ndarray  # (Q,) D[single_match, q]
+    sequence_rank: np.ndarray  # (Q-L+1,)
+    sequence_match: np.ndarray  # (Q-L+1,) argmin_i S[i, j] + L - 1
+    sequence_distance: np.ndarray  # (Q-L+1,) min_i S[i, j]
+    distance_min: float  # D.min() of the split
+    distance_max: float  # D.max() of the split
+
+
+def _best_correct_rank(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Per column of ``values`` (candidates x queries), the stable rank of its best-ranked candidate among rows
+    ``lo .. hi`` (inclusive, clipped to the rows; the correct ones); ``NOT_RETRIEVED`` where that range is empty."""
+    n_rows, n_cols = values.shape
+    lo, hi = np.maximum(lo, 0), np.minimum(hi, n_rows - 1)
+    best = np.full(n_cols, NOT_RETRIEVED, dtype=np.int64)
+    if n_cols == 0 or not np.any(lo <= hi):
+        return best
+    rows = np.arange(n_rows)[:, None]
+    cols = np.arange(n_cols)
+    for t in range(int((hi - lo).max()) + 1):
+        candidate = lo + t
+        valid = candidate <= hi
+        candidate = np.where(valid, candidate, 0)
+        value = values[candidate, cols]
+        rank = np.count_nonzero(values < value, axis=0)
+        equal = values == value
+        tied = np.count_nonzero(equal, axis=0) > 1
+        if np.any(tied):  # equal values before the candidate rank ahead of it
+            rank[tied] += np.count_nonzero(equal[:, tied] & (rows < candidate[tied]), axis=0)
+        best = np.where(valid, np.minimum(best, rank), best)
+    return best
+
+
+def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries: int | None = None) -> Retrieval:
+    """Rankings of single-frame and sequence matching of one split's ``R x Q`` matrix (any 2-D array-like that
+    slices by columns: ``np.ndarray``, memmap, ``h5py.Dataset``), read ``block_queries`` query columns at a time."""
+    matrix = distance_matrix if hasattr(distance_matrix, "shape") else np.asarray(distance_matrix)
+    check_shape(tuple(matrix.shape), seq_len)
+    if tolerance < 0:
+        raise ValueError(f"the tolerance is a number of frames >= 0, got {tolerance}")
+    n_ref, n_query = (int(n) for n in matrix.shape)
+    n_diag = n_ref - seq_len + 1
+    step = block_queries or max(16, BLOCK_VALUES // max(n_ref, 1))
+    single_rank, single_match, single_distance = [], [], []
+    sequence_rank, sequence_match, sequence_distance = [], [], []
+    d_min, d_max = np.inf, -np.inf
+    for a0 in range(0, n_query, step):
+        a1 = min(n_query, a0 + step)
+        lo = max(0, a0 - seq_len + 1)  # the L-1 columns before the block: its first queries' sequences
+        block = np.asarray(matrix[:, lo:a1], dtype=np.float64)
+        check_finite(block, where=f" in query columns {lo}..{a1 - 1}")
+        own = block[:, a0 - lo :]  # the block's own query columns
+        d_min, d_max = min(d_min, float(own.min())), max(d_max, float(own.max()))
+        queries = np.arange(a0, a1)
+        match = np.argmin(own, axis=0)
+        single_match.append(match)
+        single_distance.append(own[match, np.arange(len(queries))])
+        single_rank.append(_best_correct_rank(own, queries - tolerance, queries + tolerance))
+        first = max(a0, seq_len - 1)  # the block's evaluated queries a = first .. a1-1, columns j = a-L+1
+        if first >= a1:
+            continue
+        j0 = first - seq_len + 1 - lo
+        n = a1 - first
+        s = np.zeros((n_diag, n))
+        for k in range(seq_len):  # 0 + D[i, j] + D[i+1, j+1] + ...: the definition's order (SPEC 4), as attributes
+            s += block[k : k + n_diag, j0 + k : j0 + k + n]
+        j = np.arange(first, a1) - seq_len + 1
+        diagonal = np.argmin(s, axis=0)
+        sequence_match.append(diagonal + seq_len - 1)
+        sequence_distance.append(s[diagonal, np.arange(n)])
+        sequence_rank.append(_best_correct_rank(s, j - tolerance, j + tolerance))
+    return Retrieval(
+        np.concatenate(single_rank), np.concatenate(single_match), np.concatenate(single_distance),
+        np.concatenate(sequence_rank), np.concatenate(sequence_match), np.concatenate(sequence_distance),
+        float(d_min), float(d_max))
+
+
+def recall_at(ranks: np.ndarray, ns: Sequence[int] = RECALL_AT, retrieved: np.ndarray | None = None
+              ) -> dict[int, float]:
+    """Recall@N for each N: the share of queries whose best-ranked correct candidate ranks below N (and, with
+    ``retrieved``, whose match was not removed); the denominator is ``len(ranks)``."""
+    ranks = np.asarray(ranks)
+    hits = ranks[:, None] < np.asarray(ns, dtype=np.int64)[None, :]
+    if retrieved is not None:
+        hits &= np.asarray(retrieved, dtype=bool)[:, None]
+    return {int(n): float(hits[:, i].mean()) for i, n in enumerate(ns)}
+
+
+def precision_at_first_recall(curve_: Curve) -> float:
+    """``P_R0``: the precision of the first point (threshold order) whose recall is above 0; 0 when none is."""
+    above = np.flatnonzero(np.asarray(curve_.recall) > 0)
+    return float(curve_.precision[above[0]]) if len(above) else 0.0
+
+
+def extended_precision(curve_: Curve) -> float:
+    """VPR-Bench's extended precision ``(P_R0 + R_P100) / 2``."""
+    return (precision_at_first_recall(curve_) + recall_at_full_precision(curve_)) / 2
+
+
+def matcher_metrics(ranks: np.ndarray, curve_: Curve, retrieved: np.ndarray | None = None) -> MatcherMetrics:
+    """One matcher in one mode: recall@N over ``ranks``' queries and the numbers of its PR curve."""
+    return MatcherMetrics(len(ranks), recall_at(ranks, RECALL_AT, retrieved), recall_at_full_precision(curve_),
+                          area(curve_), extended_precision(curve_))
+
+
+def _mode_metrics(mode: str, found: Retrieval, features: QueryFeatures, seq_len: int, tolerance: int,
+                  prediction: Prediction | None) -> dict[str, MatcherMetrics]:
+    n_query = len(found.single_rank)
+    single = slice(0, n_query) if mode == "paper" else slice(seq_len - 1, n_query)
+    single_correct = is_correct(found.single_match[single], np.arange(n_query)[single], tolerance)
+    single_keep = keep_mask(n=len(single_correct))
+    single_curve = curve(mode, found.single_distance[single], single_correct, single_keep, found.distance_min,
+                         found.distance_max)
+    n = len(features.queries)
+    s_range = (features.sequence_min, features.sequence_max)
+    out = {
+        "single": matcher_metrics(found.single_rank[single], single_curve),
+        "sequence": matcher_metrics(found.sequence_rank, curve(
+            mode, features.sequence_distance, features.sequence_correct, keep_mask(n=n), *s_range)),
+    }
+    if prediction is not None:
+        kept = prediction.kept
+        out["sequence_predictor"] = matcher_metrics(found.sequence_rank, curve(
+            mode, features.sequence_distance, features.sequence_correct, kept, *s_range), kept)
+    return out
+
+
+def _check_agree(found: Retrieval, features: QueryFeatures, seq_len: int, where: str) -> None:
+    """The features (read from an attributes file) belong to this matrix: same queries and matches."""
+    n_query = len(found.single_rank)
+    same = (np.array_equal(features.queries, np.arange(seq_len - 1, n_query))
+            and np.array_equal(features.single_match, found.single_match[seq_len - 1 :])
+            and np.array_equal(features.sequence_match, found.sequence_match)
+            and np.allclose(features.sequence_distance, found.sequence_distance, rtol=1e-12, atol=0))
+    if not same:
+        raise ValueError(f"{where}: the attributes do not belong to this distance matrix (their queries, matches or "
+                         "sequence distances differ); recompute them from it (vpr-smr attributes) or leave "
+                         "--attributes out")
+
+
+@dataclass(frozen=True)
+class ScoredSplit:
+    """One split's metrics and what its rows of the queries table need."""
+
+    metrics: SplitMetrics
+    queries: SplitQueries
+
+
+def score_split(
+    distance_matrix: Any,
+    seq_len: int,
+    tolerance: int,
+    predictor: Any | None = None,
+    modes: Sequence[str] = MODES,
+    features: QueryFeatures | None = None,
+    split: str = ALL_SPLIT,
+    first_frame: int = 0,
+    block_queries: int | None = None,
+) -> ScoredSplit:
+    """The metrics of one split's matrix per mode and matcher (``sequence_predictor`` only with ``predictor``: an
+    object with ``predict_proba`` and ``classes_``, e.g. ``SMRPredictor``). ``features``: the split's attributes
+    (``query_features`` of the same matrix; computed when None)."""
+    unknown = [mode for mode in modes if mode not in MODES]
+    if unknown:
+        raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
+    found = retrieval(distance_matrix, seq_len, tolerance, block_queries)
+    if features is None:
+        features = query_features(distance_matrix, seq_len, tolerance)
+    _check_agree(found, features, seq_len, f"split {split!r}")
+    prediction = Prediction.of(predictor, features) if predictor is not None else None
+    metrics = SplitMetrics({mode: _mode_metrics(mode, found, features, seq_len, tolerance, prediction)
+                            for mode in modes})
+    queries = SplitQueries(split, first_frame, features, found.single_distance[seq_len - 1 :], prediction)
+    return ScoredSplit(metrics, queries)
+
+
+# --- the `metrics` stage ----------------------------------------------------------------------------------------
+
+
+def _predictor_seq_len(path: Path | str) -> int | None:
+    """The sequence length a predictor file was trained at, as its training report records it (None if not)."""
+    report = read_provenance(path).get("report")
+    meta = report.get("meta") if isinstance(report, dict) else None
+    value = meta.get("seq_len") if isinstance(meta, dict) else None
+    return None if value is None else int(value)
+
+
+def _first_frame(*paths: Path | str | None) -> int:
+    """The split's first frame in the dataset: the frame range of the first HDF5 file of ``paths`` that records
+    one (attributes, then distances), else 0 (a user's matrix)."""
+    for path in paths:
+        if path is not None and h5py.is_hdf5(path):
+            found = frame_range(path)
+            if found is not None:
+                return found.lo
+    return 0
+
+
+def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], predictor: Path | None,
+                  seq_len: int, tolerance: int) -> None:
+    for split, path in distances.items():
+        check_suffix(path, DISTANCE_SUFFIXES, f"split {split!r}'s distance matrix (.npy or HDF5)", "--distances")
+        if not path.is_file():
+            raise FileNotFoundError(f"distance matrix of split {split!r} not found: {path} (run vpr-smr distances, "
+                                    "or give a references x queries .npy)")
+    extra = sorted(set(attributes) - set(distances))
+    if extra:
+        raise ValueError(f"--attributes names splits {extra} that --distances does not give; splits: "
+                         f"{', '.join(distances)}")
+    for split, path in attributes.items():
+        check_suffix(path, HDF5_SUFFIXES, f"split {split!r}'s attributes (HDF5)", "--attributes")
+        if not path.is_file():
+            raise FileNotFoundError(f"attributes of split {split!r} not found: {path} (run vpr-smr attributes, "
+                                    "or leave --attributes out to compute them)")
+        stored = read_provenance(path).get("tolerance")
+        if stored is not None and int(stored) != int(tolerance):
+            raise ValueError(f"{path} holds attributes at tolerance {int(stored)}, but --tolerance is {tolerance}: "
+                             f"give --tolerance {int(stored)}, or attributes computed at {tolerance}")
+    check_seq_len(list(attributes.values()), seq_len)
+    if predictor is not None:
+        check_suffix(predictor, HDF5_SUFFIXES, "the predictor (HDF5)", "--predictor")
+        if not predictor.is_file():
+            raise FileNotFoundError(f"predictor file not found: {predictor} (train it first: vpr-smr train)")
+        trained = _predictor_seq_len(predictor)
+        if trained is not None and trained != seq_len:
+            raise ValueError(f"{predictor} was trained at sequence length {trained}, but --seq-len is {seq_len}: "
+                             f"give the predictor of L = {seq_len}, or --seq-len {trained}")
+
+
+def main(
+    distances: Mapping[str, Path | str] | Path | str,
+    seq_len: int,
+    tolerance: int,
+    out: Path | str,
+    predictor: Path | str | None = None,
+    attributes: Mapping[str, Path | str] | None = None,
+    modes: Sequence[str] = MODES,
+    queries: Path | str | None = None,
+    meta: Mapping[str, Any] | None = None,
+    allow_split_overlap: bool = False,
+) -> VPRMetrics:
+    """The standard VPR metrics of every split of ``distances`` (split -> ``.npy`` or our HDF5; one path: one split
+    named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with ``queries``, the per-query table
+    (``queries.QUERY_COLUMNS``) of every split in the given order.
+
+    ``attributes`` (split -> our features ``.h5``) spares recomputing a split's attributes; they must come from the
+    same matrix, ``seq_len`` and ``tolerance``. ``predictor``: the seed-0 predictor file; it may not score frames it
+    was trained on (``allow_split_overlap``: a deliberate experiment). ``meta`` (dataset, method) is written with
+    ``seq_len``, ``tolerance`` and the predictor's path. Every input is checked before any work.
+    """
+    out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
+    queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
+    splits = {ALL_SPLIT: Path(distances)} if isinstance(distances, str | Path) else {
+        str(name): Path(path) for name, path in distances.items()}
+    if not splits:
+        raise ValueError("no distance matrix given (--distances PATH, or SPLIT=PATH items)")
+    attribute_paths = {str(name): Path(path) for name, path in (attributes or {}).items()}
+    unknown = [mode for mode in modes if mode not in MODES]
+    if unknown:
+        raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
+    predictor_file = Path(predictor) if predictor is not None else None
+    _check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance)
+    model = None
+    if predictor_file is not None:
+        scored = [p for p in (*splits.values(), *attribute_paths.values()) if h5py.is_hdf5(p)]
+        check_disjoint(trained_on(predictor_file), frame_ranges(scored), allow_split_overlap,
+                       f"predictor {predictor_file}")
+        model = SMRPredictor.load(predictor_file)
+    results: dict[str, ScoredSplit] = {}
+    for split, path in splits.items():
+        attributes_file = attribute_paths.get(split)
+        with open_distance_matrix(path) as matrix:
+            try:
+                check_shape(tuple(matrix.shape), seq_len)
+            except ValueError as error:
+                raise ValueError(f"{path}: {error}; give a --seq-len of at most {min(matrix.shape)}") from None
+            features = read_features(attributes_file) if attributes_file is not None else None
+            try:
+                results[split] = score_split(matrix, seq_len, tolerance, model, tuple(modes), features, split,
+                                             _first_frame(attributes_file, path))
+            except ValueError as error:
+                given = f" and {attributes_file}" if attributes_file is not None else ""
+                raise ValueError(f"{path}{given}: {error}") from None
+        first_mode = results[split].metrics.modes[modes[0]] if modes else {}
+        if first_mode:
+            log.info("%s: recall@1 single %.4f, sequence %.4f (%s mode)", split,
+                     first_mode["single"].recall_at[1], first_mode["sequence"].recall_at[1], modes[0])
+    info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance)}
+    if predictor_file is not None:
+        info["predictor"] = str(predictor_file)
+    result = VPRMetrics(info, {split: scored_split.metrics for split, scored_split in results.items()})
+    if queries is not None:
+        write_queries(queries, [scored_split.queries for scored_split in results.values()])
+    write_json(out, result.to_json())
+    return result

@@ -1,0 +1,246 @@
+"""The match inspector (`vpr-smr inspect`): its seeded sample, and figures that show the right frames."""
+
+import csv
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from helpers import write_distance_matrix
+
+from vpr_smr.datasets import load_frames
+from vpr_smr.eval.report import inspector
+from vpr_smr.pipeline.cli import main as cli
+
+N_FRAMES, LO, HI, L, TOL = 24, 8, 24, 3, 2
+HEADER = ["split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
+          "sequence_distance", "sequence_correct", "true_reference", "A1", "A2", "A3", "A4", "label",
+          "predicted_class", "probability", "kept"]
+# query: (true label, predicted class, probability), worked by hand below
+PREDICTIONS = {
+    10: (0, 0, 0.90), 11: (0, 0, 0.80), 12: (0, 1, 0.70), 13: (1, 1, 0.60), 14: (1, 3, 0.95), 15: (1, 1, 0.99),
+    16: (2, 0, 0.95), 17: (2, 2, 0.55), 18: (3, 2, 0.97), 19: (3, 3, 0.85), 20: (3, 0, 0.40), 21: (0, 0, 0.99),
+    22: (2, 3, 0.99), 23: (0, 2, 0.30),
+}
+# the mistakes (predicted != true), most confident first; 14 and 16 tie at 0.95: the lower query first
+MISTAKES_BY_CONFIDENCE = [22, 18, 14, 16, 12, 20, 23]
+MEMBERS = {0: [10, 11, 12, 21, 23], 1: [13, 14, 15], 2: [16, 17, 22], 3: [18, 19, 20]}
+
+
+def reference_colour(i):
+    return (20 + 9 * i, 240 - 7 * i, 101)
+
+
+def query_colour(i):
+    return (99, 15 + 8 * i, 230 - 5 * i)
+
+
+@pytest.fixture
+def dataset(tmp_path):
+    """Two folders of solid-colour frames (each frame its own colour) and the `folders` settings."""
+    settings = {"loader": "folders"}
+    for side, colour in (("reference", reference_colour), ("query", query_colour)):
+        folder = tmp_path / side
+        folder.mkdir()
+        for i in range(N_FRAMES):
+            image = np.zeros((8, 16, 3), dtype=np.uint8)
+            image[:] = colour(i)
+            cv2.imwrite(str(folder / f"frame{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        settings[side] = str(folder)
+    return settings
+
+
+def _wrong(q):
+    return LO + (q - LO + 8) % (HI - LO)
+
+
+def query_rows(predictor=True, split="test", queries=PREDICTIONS):
+    rows = []
+    for q, (label, predicted, probability) in queries.items():
+        single, sequence = label in (0, 1), label in (0, 2)
+        rows.append([split, q, q if single else _wrong(q), 0.1 + q / 100, int(single), q if sequence else _wrong(q),
+                     0.5 + q / 100, int(sequence), q, 0.5, 0.6, 0.7, 0.8, label,
+                     *((predicted, probability, int(predicted in (0, 2))) if predictor else ("", "", ""))])
+    return rows
+
+
+def write_queries(path, rows):
+    with open(path, "w", newline="") as f:
+        writer = csv.writer(f)
+        writer.writerow(HEADER)
+        writer.writerows(rows)
+    return path
+
+
+@pytest.fixture
+def files(tmp_path, dataset):
+    """The queries CSV (a val split of other frames too) and the test split's distance matrix."""
+    val = {q: PREDICTIONS[q + 8] for q in range(2, 8)}
+    queries = write_queries(tmp_path / "queries.csv", query_rows(split="val", queries=val) + query_rows())
+    rng = np.random.default_rng(0)
+    matrix = rng.uniform(0.5, 1.0, (HI - LO, HI - LO))
+    matrix[np.arange(HI - LO), np.arange(HI - LO)] = 0.1
+    distances = tmp_path / "test.h5"
+    write_distance_matrix(distances, matrix, {"split": "test", "split_range": [LO, HI], "method": "toy",
+                                              "frames_sha256": load_frames("toy", dataset).fingerprint()})
+    return queries, distances, matrix
+
+
+def test_sample_is_stratified_seeded_and_has_the_confident_mistakes(tmp_path):
+    rows = inspector.read_queries(write_queries(tmp_path / "q.csv", query_rows()))
+    sample = inspector.sample_queries(rows, "test", per_class=2, mistakes=3, seed=0)
+    queries = [s.row.query for s in sample]
+    assert queries == sorted(queries) and len(set(queries)) == len(queries)
+    for label, members in MEMBERS.items():
+        chosen = [s.row.query for s in sample if f"class {label} sample" in s.reason]
+        assert len(chosen) == 2 and set(chosen) <= set(members)
+    mistakes = {s.row.query for s in sample if "confident mistake" in s.reason}
+    assert mistakes == {22, 18, 14}  # by hand: 0.99, 0.97, then 14 before 16 (both 0.95)
+    assert all(s.reason in ("class 0 sample", "class 1 sample", "class 2 sample", "class 3 sample",
+                            "confident mistake") or "; confident mistake" in s.reason for s in sample)
+    # the same inputs give the same sample; another seed another one
+    assert inspector.sample_queries(rows, "test", 2, 3, seed=0) == sample
+    others = [inspector.sample_queries(rows, "test", 2, 3, seed=s) for s in range(1, 6)]
+    assert any([s.row.query for s in other] != queries for other in others)
+    # more than a class has: all of it; every mistake when asked for more than there are
+    every = inspector.sample_queries(rows, "test", per_class=9, mistakes=99)
+    assert [s.row.query for s in every] == sorted(PREDICTIONS)
+    assert {s.row.query for s in every if "confident mistake" in s.reason} == set(MISTAKES_BY_CONFIDENCE)
+    assert inspector.sample_queries(rows, "val") == []
+
+
+def test_sample_without_a_predictor_has_no_mistakes(tmp_path):
+    rows = inspector.read_queries(write_queries(tmp_path / "q.csv", query_rows(predictor=False)))
+    assert rows[0].predicted_class is None and rows[0].kept is None and rows[0].right_decision is None
+    sample = inspector.sample_queries(rows, "test", per_class=1, mistakes=4)
+    assert len(sample) == 4 and not any("mistake" in s.reason for s in sample)
+
+
+def colours_in(path):
+    image = cv2.cvtColor(cv2.imread(str(path), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    packed = image.reshape(-1, 3).astype(np.int64) @ np.array([1 << 16, 1 << 8, 1])
+    values, counts = np.unique(packed, return_counts=True)
+    return {(v >> 16, (v >> 8) & 255, v & 255): c for v, c in zip(values.tolist(), counts.tolist(), strict=True)}
+
+
+def test_figures_show_the_frames_and_the_decisions(tmp_path, dataset, files):
+    queries, distances, _ = files
+    match, matrix = inspector.main(queries, distances, "toy", dataset, None, L, "test", TOL, tmp_path / "m.png",
+                                   tmp_path / "d.png", per_class=1, mistakes=2)
+    for path in (match, matrix):
+        data = path.read_bytes()
+        assert data.startswith(b"\x89PNG\r\n\x1a\n") and 20_000 < len(data) < 1_500_000
+    rows = inspector.read_queries(queries)
+    sample = inspector.sample_queries(rows, "test", per_class=1, mistakes=2)
+    colours = colours_in(match)
+    shown_queries, shown_references = set(), set()
+    for s in sample:
+        shown_queries |= set(range(s.row.query - L + 1, s.row.query + 1))
+        shown_references |= {s.row.single_match, s.row.sequence_match, s.row.true_reference}
+    # each thumbnail fills many pixels with its frame's exact colour; frames not shown are absent
+    for i in range(N_FRAMES):
+        assert (colours.get(query_colour(i), 0) > 200) == (i in shown_queries), f"query frame {i}"
+        assert (colours.get(reference_colour(i), 0) > 200) == (i in shown_references), f"reference frame {i}"
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+def test_match_record_and_thumbnail_size(tmp_path, dataset, files):
+    queries, distances, matrix = files
+    pair = load_frames("toy", dataset)
+    rows = [r for r in inspector.read_queries(queries) if r.split == "test"]
+    sample = inspector.sample_queries(rows, "test", per_class=0, mistakes=1)
+    record = inspector.draw_matches(tmp_path / "m.png", pair, sample, matrix, LO, L, "title")
+    assert record.queries == (22,) and record.reasons == ("confident mistake",)
+    assert record.frames == ((20, 21, 22, _wrong(22), 22, 22),)  # L query frames, single (wrong), sequence, true
+    assert inspector.thumbnail(np.zeros((300, 600, 3), np.uint8)).shape == (96, 192, 3)
+    assert inspector.thumbnail(np.zeros((32, 64, 3), np.uint8)).shape == (32, 64, 3)
+
+
+def test_matrix_figure_marks_kept_and_removed(tmp_path, files):
+    queries, _, matrix = files
+    rows = [r for r in inspector.read_queries(queries) if r.split == "test"]
+    record = inspector.draw_matrix(tmp_path / "d.png", matrix, LO, rows, TOL, "title")
+    kept = [q for q, (_, predicted, _) in PREDICTIONS.items() if predicted in (0, 2)]
+    assert record == inspector.MatrixRecord((16, 16), 1, len(kept), len(PREDICTIONS) - len(kept), 0)
+    assert (record.kept, record.removed) == (8, 6)  # by hand: predicted 0 or 2 for 10, 11, 16, 17, 18, 20, 21, 23
+    colours = colours_in(tmp_path / "d.png")
+    assert colours.get((44, 160, 44), 0) > 20 and colours.get((214, 39, 40), 0) > 0  # green dots, red crosses
+    unpredicted = inspector.read_queries(write_queries(tmp_path / "q.csv", query_rows(predictor=False)))
+    assert inspector.draw_matrix(tmp_path / "d2.png", matrix, LO, unpredicted, TOL, "t").unpredicted == 14
+
+
+def test_large_matrices_are_shown_as_block_means(monkeypatch):
+    matrix = np.arange(7 * 10, dtype=float).reshape(7, 10)
+    monkeypatch.setattr(inspector, "READ_VALUES", 20)  # several column reads
+    means = inspector.block_means(matrix, 3)
+    assert means.shape == (3, 4)
+    assert means[0, 0] == pytest.approx(matrix[:3, :3].mean())
+    assert means[2, 3] == pytest.approx(matrix[6:, 9:].mean())  # the last tiles hold what is left
+    assert means[1, 3] == pytest.approx(matrix[3:6, 9:].mean())
+
+
+def test_changed_frames_are_refused(tmp_path, dataset, files):
+    queries, distances, _ = files
+    out = tmp_path / "m.png", tmp_path / "d.png"
+    for side in ("reference", "query"):  # one more frame in both: another frame list than the distances'
+        cv2.imwrite(str(Path(dataset[side]) / f"frame{N_FRAMES:03d}.png"), np.zeros((8, 16, 3), dtype=np.uint8))
+    with pytest.raises(ValueError, match="dataset 'toy': its frames changed.*run the workflow again"):
+        inspector.main(queries, distances, "toy", dataset, None, L, "test", TOL, *out)
+    assert not any(p.exists() for p in out) and not list(tmp_path.glob("*.tmp"))
+
+
+def test_a_given_fingerprint_must_match(tmp_path, dataset, files):
+    queries, distances, _ = files
+    fingerprint = load_frames("toy", dataset).fingerprint()
+    with pytest.raises(ValueError, match="run the workflow again"):
+        inspector.main(queries, distances, "toy", dataset, "0" * 64, L, "test", TOL, tmp_path / "m.png",
+                       tmp_path / "d.png")
+    with pytest.raises(ValueError, match="holds frames 8..23, not the split's 0..15"):
+        inspector.main(queries, distances, "toy", dataset, fingerprint, L, "test", TOL, tmp_path / "m.png",
+                       tmp_path / "d.png", split_range=(0, 16))
+    with pytest.raises(ValueError, match="another sequence length"):
+        inspector.main(queries, distances, "toy", dataset, fingerprint, 5, "test", TOL, tmp_path / "m.png",
+                       tmp_path / "d.png")
+    assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.tmp"))
+
+
+def test_both_figures_or_none(tmp_path, dataset, files, monkeypatch):
+    queries, distances, _ = files
+
+    def broken(*args, **kwargs):
+        raise RuntimeError("drawing failed")
+
+    monkeypatch.setattr(inspector, "draw_matrix", broken)
+    with pytest.raises(RuntimeError):
+        inspector.main(queries, distances, "toy", dataset, None, L, "test", TOL, tmp_path / "m.png",
+                       tmp_path / "d.png", per_class=0, mistakes=1)
+    assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.tmp"))
+
+
+def test_cli(tmp_path, dataset, files, capsys):
+    import json
+
+    queries, distances, _ = files
+    fingerprint = load_frames("toy", dataset).fingerprint()
+    args = ["inspect", "--queries", str(queries), "--distances", str(distances), "--dataset", "toy",
+            "--dataset-settings", json.dumps({**dataset, "splits": {"test": [LO, HI]}, "tolerance": TOL}),
+            "--seq-len", str(L), "--split", "test", "--tolerance", str(TOL), "--frames", str(LO), str(HI),
+            "--match-figure", str(tmp_path / "out" / "m.png"), "--matrix-figure", str(tmp_path / "out" / "d.png"),
+            "--per-class", "1", "--mistakes", "1", "--seed", "3"]
+    assert cli([*args, "--frames-sha256", fingerprint]) == 0
+    assert (tmp_path / "out" / "m.png").stat().st_size > 0 and (tmp_path / "out" / "d.png").stat().st_size > 0
+    assert cli([*args, "--frames-sha256", "f" * 64]) == 2
+    assert "run the workflow again" in capsys.readouterr().err
+    bad = [a if a != str(tmp_path / "out" / "m.png") else str(tmp_path / "m.jpg") for a in args]
+    assert cli(bad) == 2
+    assert "--match-figure" in capsys.readouterr().err and not (tmp_path / "m.jpg").exists()
+
+
+def test_bad_queries_csv_names_the_problem(tmp_path):
+    rows = query_rows()
+    rows[0][HEADER.index("label")] = 7
+    with pytest.raises(ValueError, match=r"q.csv, line 2: label '7' is not a class 0..3"):
+        inspector.read_queries(write_queries(tmp_path / "q.csv", rows))
+    (tmp_path / "short.csv").write_text("split,query\ntest,3\n")
+    with pytest.raises(ValueError, match="lacks the columns single_match, single_distance"):
+        inspector.read_queries(tmp_path / "short.csv")

@@ -1,0 +1,368 @@
+"""The standard VPR metrics (``vpr-smr metrics``): every metric worked out by hand on a 6 x 6 matrix, recall@N
+against a naive loop, evaluate's recall@1, the command on a user's .npy, and the workflow rule (slow)."""
+
+import csv
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import yaml
+from helpers import sequence_matrix, write_distance_matrix
+from test_train import PARAMS, method_samples
+
+from vpr_smr.core.constants import MATCHERS, MODES, RECALL_AT
+from vpr_smr.eval.matching.attributes import QueryFeatures, query_features, write_features
+from vpr_smr.eval.matching.attributes import main as attributes_main
+from vpr_smr.eval.predictor import train
+from vpr_smr.eval.predictor.leakage import SplitLeakError
+from vpr_smr.eval.scoring.evaluate import recall_at_1
+from vpr_smr.eval.scoring.vpr_metrics import main, retrieval, score_split
+from vpr_smr.pipeline.cli import main as cli
+
+# Rows are references r, columns queries q; tolerance 0 (only r = q is correct), L = 2.
+D = np.array([
+    [1, 5, 5, 5, 2, 5],
+    [5, 3, 5, 5, 5, 0.5],
+    [5, 2, 1, 5, 5, 5],
+    [5, 5, 5, 4, 5, 5],
+    [5, 5, 5, 1, 3, 5],
+    [5, 5, 5, 2, 5, 0],
+])
+# Single-frame, per query q (column ascending, ties to the lower reference):
+#   q0 [1,5,5,5,5,5]   match 0 right; the right reference ranks 0; distance 1
+#   q1 [5,3,2,5,5,5]   match 2 wrong; r1 = 3 has one smaller value: rank 1; distance 2
+#   q2 [5,5,1,5,5,5]   match 2 right, rank 0; distance 1
+#   q3 [5,5,5,4,1,2]   match 4 wrong; r3 = 4 has two smaller: rank 2; distance 1
+#   q4 [2,5,5,5,3,5]   match 0 wrong; r4 = 3 has one smaller: rank 1; distance 2
+#   q5 [5,.5,5,5,5,0]  match 5 right, rank 0; distance 0
+# Sequence, S[i, j] = D[i, j] + D[i+1, j+1], query a = j + 1, right diagonal i = j:
+#   a1 (j0): 4, 7, 10, 10, 10   match i0 -> ref 1 right, rank 0; distance 4
+#   a2 (j1): 10, 4, 7, 10, 10   match i1 -> ref 2 right, rank 0; distance 4
+#   a3 (j2): 10, 10, 5, 6, 7    match i2 -> ref 3 right, rank 0; distance 5
+#   a4 (j3): 10, 10, 10, 7, 6   match i4 -> ref 5 wrong; i3 = 7 ranks 1; distance 6
+#   a5 (j4): 2.5, 10, 10, 10, 3 match i0 -> ref 1 wrong; i4 = 3 ranks 1; distance 2.5
+# S.min 2.5, S.max 10; D.min 0, D.max 5. Labels a1..a5: 2, 0, 2, 3, 1.
+SEQ_LEN, TOLERANCE = 2, 0
+
+# The predictor's decision on a1..a5: classes 1, 0, 2, 3, 0 -> kept F, T, T, F, T (a1 right but removed, a4 wrong
+# and removed, a5 wrong and kept).
+DECISION = [1, 0, 2, 3, 0]
+
+
+class FixedPredictor:
+    """A stand-in for SMRPredictor: one fixed probability row per evaluated query, in query order."""
+
+    classes_ = np.arange(4)
+
+    def __init__(self, classes, confidence=0.7):
+        self.rows = np.full((len(classes), 4), (1 - confidence) / 3)
+        self.rows[np.arange(len(classes)), classes] = confidence
+
+    def predict_proba(self, attributes):
+        assert attributes.shape == (len(self.rows), 4)
+        return self.rows
+
+
+EXPECTED = {
+    # mode -> matcher -> (n_queries, recall@1, recall@5, R@100P, PR-AUC, EP); recall@10 and @20 equal recall@5.
+    "standard": {
+        # ranks of q1..q5: 1, 0, 2, 1, 0 -> R@1 2/5, R@5 1. Curve over q1..q5, distances 2 1 1 2 0, right F T F F T:
+        # t=0 TP1 FP0 (.2, 1); t=1 TP2 FP1 (.4, 2/3); t=2 TP2 FP3 (.4, .4). AUC .2 + .2 (1 + 2/3) / 2 = 11/30.
+        "single": (5, 0.4, 1.0, 0.2, 11 / 30, (1 + 0.2) / 2),
+        # ranks 0 0 0 1 1. Curve: 2.5 F -> (0, 0); 4 T T -> (.4, 2/3); 5 T -> (.6, .75); 6 F -> (.6, .6).
+        # AUC .4 (2/3) / 2 + .2 (2/3 + 3/4) / 2 = 2/15 + 17/120 = 33/120. P_R0 2/3, R@100P 0.
+        "sequence": (5, 0.6, 1.0, 0.0, 33 / 120, (2 / 3) / 2),
+        # kept a2 (4 T), a3 (5 T), a5 (2.5 F): R@1 a2, a3 = 2/5; R@5 a2, a3, a5 = 3/5.
+        # Curve: 2.5 -> (0, 0); 4 -> (.2, .5); 5 -> (.4, 2/3). AUC .2 (.5) / 2 + .2 (.5 + 2/3) / 2 = 1/6.
+        "sequence_predictor": (5, 0.4, 0.6, 0.0, 1 / 6, 0.5 / 2),
+    },
+    "paper": {
+        # every query q0..q5: ranks 0 1 0 2 1 0 -> R@1 3/6. Curve: 1999 thresholds over [0, 5], recall over the
+        # 3 right matches: t=0 (1/3, 1); from 1 TP3 FP1 (1, .75); from 2 TP3 FP3 (1, .5) (no distance is on the
+        # grid 5 k / 1998). AUC 1/3 + (2/3)(1 + .75) / 2 = 11/12; R@100P 1/3; EP (1 + 1/3) / 2.
+        "single": (6, 0.5, 1.0, 1 / 3, 11 / 12, (1 + 1 / 3) / 2),
+        # thresholds over [2.5, 10], recall over the 3 right sequence matches: (0, 0); from 4 (2/3, 2/3); from 5
+        # (1, .75); from 6 (1, .6). AUC (2/3)(2/3) / 2 + (1/3)(2/3 + 3/4) / 2 = 2/9 + 17/72 = 33/72.
+        "sequence": (5, 0.6, 1.0, 0.0, 33 / 72, (2 / 3) / 2),
+        # recall over the 3 right matches (removed a1 included): (0, 0); from 4 (1/3, .5); from 5 (2/3, 2/3).
+        # AUC (1/3)(.5) / 2 + (1/3)(.5 + 2/3) / 2 = 1/12 + 7/36 = 5/18.
+        "sequence_predictor": (5, 0.4, 0.6, 0.0, 5 / 18, 0.5 / 2),
+    },
+}
+
+
+def test_every_metric_by_hand():
+    scored = score_split(D, SEQ_LEN, TOLERANCE, FixedPredictor(DECISION))
+    features = scored.queries.features
+    assert features.labels.tolist() == [2, 0, 2, 3, 1]
+    assert scored.queries.prediction.kept.tolist() == [False, True, True, False, True]
+    assert list(scored.metrics.modes) == list(MODES)
+    for mode, matchers in EXPECTED.items():
+        assert list(scored.metrics.modes[mode]) == list(MATCHERS)
+        for matcher, (n, r1, r5, r100p, auc, ep) in matchers.items():
+            got = scored.metrics.modes[mode][matcher]
+            assert got.n_queries == n, (mode, matcher)
+            assert list(got.recall_at) == list(RECALL_AT)
+            assert [got.recall_at[k] for k in RECALL_AT] == pytest.approx([r1, r5, r5, r5]), (mode, matcher)
+            assert got.recall_at_100p == pytest.approx(r100p), (mode, matcher)
+            assert got.pr_auc == pytest.approx(auc), (mode, matcher)
+            assert got.extended_precision == pytest.approx(ep), (mode, matcher)
+
+
+def test_without_a_predictor_there_is_no_predictor_matcher():
+    scored = score_split(D, SEQ_LEN, TOLERANCE, modes=("standard",))
+    assert list(scored.metrics.modes) == ["standard"]
+    assert list(scored.metrics.modes["standard"]) == ["single", "sequence"]
+    assert scored.queries.prediction is None
+
+
+def test_tolerance_one_by_hand():
+    # tolerance 1: q1's second-best reference r1 is right: single ranks 0 0 0 ... Column by column, the best
+    # right reference (|r - q| <= 1): q0 r0 rank 0; q1 r2 rank 0; q2 r2 rank 0; q3 r4 rank 0; q4 r3/r4/r5: r4 = 3
+    # ranks 1; q5 r5 rank 0 -> paper R@1 5/6. Sequence: a4's i4 (6) is now right (|4 - 3| <= 1): rank 0; a5's
+    # right diagonals i3 (10), i4 (3): i4 ranks 1 -> R@1 4/5.
+    modes = score_split(D, SEQ_LEN, 1).metrics.modes
+    assert modes["paper"]["single"].recall_at[1] == pytest.approx(5 / 6)
+    assert modes["standard"]["single"].recall_at[1] == pytest.approx(4 / 5)
+    assert modes["paper"]["sequence"].recall_at[1] == pytest.approx(4 / 5)
+    assert modes["paper"]["sequence"].recall_at[5] == 1.0
+
+
+# --- recall@N against a naive loop ---------------------------------------------------------------------------
+
+
+def stable_top(values, n):
+    """The ``n`` best indices of ``values``: ascending, equal values by the lower index."""
+    return sorted(range(len(values)), key=lambda i: (values[i], i))[:n]
+
+
+def naive_recalls(d, seq_len, tolerance):
+    """recall@N of single-frame (every query) and sequence matching, one query at a time."""
+    n_ref, n_query = d.shape
+    single = {n: np.mean([any(abs(r - q) <= tolerance for r in stable_top(list(d[:, q]), n))
+                          for q in range(n_query)]) for n in RECALL_AT}
+    s = sequence_matrix(d, seq_len)
+    sequence = {n: np.mean([any(abs(i + seq_len - 1 - (j + seq_len - 1)) <= tolerance
+                                for i in stable_top(list(s[:, j]), n)) for j in range(s.shape[1])])
+                for n in RECALL_AT}
+    return single, sequence
+
+
+@pytest.mark.parametrize("shape, seq_len, tolerance, high", [
+    ((30, 30), 3, 2, 4), ((25, 25), 2, 0, 3), ((40, 33), 5, 1, 6), ((12, 12), 4, 3, 2), ((28, 28), 6, 2, 10),
+])
+def test_recall_at_n_matches_a_naive_loop(shape, seq_len, tolerance, high):
+    rng = np.random.default_rng(sum(shape) + seq_len)
+    d = rng.integers(0, high, size=shape).astype(float)  # few distinct values: many ties
+    single, sequence = naive_recalls(d, seq_len, tolerance)
+    modes = score_split(d, seq_len, tolerance).metrics.modes
+    assert modes["paper"]["single"].recall_at == pytest.approx(single)
+    assert modes["paper"]["sequence"].recall_at == pytest.approx(sequence)
+    assert modes["standard"]["sequence"].recall_at == pytest.approx(sequence)
+    # standard single: the evaluated queries only
+    evaluated = {n: np.mean([any(abs(r - q) <= tolerance for r in stable_top(list(d[:, q]), n))
+                             for q in range(seq_len - 1, shape[1])]) for n in RECALL_AT}
+    assert modes["standard"]["single"].recall_at == pytest.approx(evaluated)
+
+
+def test_block_wise_equals_whole_matrix():
+    rng = np.random.default_rng(7)
+    d = rng.integers(0, 5, size=(50, 47)).astype(np.float32)
+    whole = retrieval(d, 4, 2, block_queries=47)
+    for block in (1, 3, 5, 16):
+        part = retrieval(d, 4, 2, block_queries=block)
+        for name in ("single_rank", "single_match", "single_distance", "sequence_rank", "sequence_match",
+                     "sequence_distance"):
+            np.testing.assert_array_equal(getattr(part, name), getattr(whole, name), err_msg=f"{name}, {block}")
+        assert (part.distance_min, part.distance_max) == (whole.distance_min, whole.distance_max)
+
+
+@pytest.mark.parametrize("seed, seq_len, tolerance", [(0, 3, 2), (1, 2, 0), (2, 5, 1), (3, 4, 2)])
+def test_recall_at_1_equals_evaluate(seed, seq_len, tolerance):
+    rng = np.random.default_rng(seed)
+    d = rng.random((40, 40)) if seed % 2 else rng.integers(0, 4, size=(40, 40)).astype(float)
+    features = query_features(d, seq_len, tolerance)
+    modes = score_split(d, seq_len, tolerance, features=features).metrics.modes
+    for mode in MODES:
+        expected = recall_at_1(features, mode)
+        assert modes[mode]["single"].recall_at[1] == expected["recall_at_1_single"]
+        assert modes[mode]["sequence"].recall_at[1] == expected["recall_at_1_sequence"]
+    assert modes["standard"]["sequence"].recall_at[1] == features.sequence_correct.mean()
+
+
+def test_attributes_of_another_matrix_are_refused():
+    rng = np.random.default_rng(0)
+    d = rng.random((20, 20))
+    other = query_features(rng.random((20, 20)), 3, 2)
+    with pytest.raises(ValueError, match="do not belong to this distance matrix"):
+        score_split(d, 3, 2, features=other)
+
+
+# --- the command on a user's matrix --------------------------------------------------------------------------
+
+
+def features_with_range(n, seed, frames):
+    """A small training set (``test_train.method_samples``) whose provenance says which frames it came from."""
+    x, y = method_samples(n, seed)
+    attributes = np.zeros((n, 1, 4))
+    attributes[:, 0] = x
+    return QueryFeatures(
+        queries=np.arange(n) + 2, attributes=attributes, rank_references=np.zeros((n, 1), int),
+        single_match=np.zeros(n, int), sequence_match=np.zeros(n, int), sequence_distance=np.linspace(0, 1, n),
+        labels=y, single_correct=np.ones(n, bool), sequence_correct=np.ones(n, bool),
+        rank_correct=np.ones((n, 1), bool), sequence_min=0.0, sequence_max=1.0,
+        all_single_correct=np.ones(n + 2, bool)), {"dataset": "d", "split": "train", "split_range": list(frames)}
+
+
+@pytest.fixture(scope="module")
+def predictor_file(tmp_path_factory):
+    """A predictor trained at L = 3 on frames 0..47 of dataset "d" (the training helpers of test_train)."""
+    folder = tmp_path_factory.mktemp("predictor")
+    features, provenance = features_with_range(48, 0, (0, 48))
+    write_features(folder / "train.h5", features, provenance)
+    train.main([folder / "train.h5"], folder / "L3.h5", PARAMS, meta={"dataset": "d", "seq_len": 3})
+    return folder / "L3.h5"
+
+
+@pytest.fixture
+def user_matrix(tmp_path):
+    rng = np.random.default_rng(3)
+    d = np.abs(rng.normal(size=(40, 40))) + 3 * (1 - np.eye(40))  # the diagonal is mostly nearest
+    np.save(tmp_path / "D.npy", d)
+    return tmp_path / "D.npy", d
+
+
+def test_cli_on_a_users_npy(user_matrix, tmp_path):
+    path, d = user_matrix
+    out = tmp_path / "m.json"
+    assert cli(["metrics", "--distances", str(path), "--seq-len", "3", "--out", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["meta"] == {"seq_len": 3, "tolerance": 2}
+    assert list(data["splits"]) == ["all"]
+    single, sequence = naive_recalls(d, 3, 2)
+    paper = data["splits"]["all"]["modes"]["paper"]
+    assert set(paper) == {"single", "sequence"}
+    assert paper["single"]["recall_at"] == pytest.approx({str(n): v for n, v in single.items()})
+    assert paper["sequence"]["recall_at"] == pytest.approx({str(n): v for n, v in sequence.items()})
+    assert paper["single"]["n_queries"] == 40 and paper["sequence"]["n_queries"] == 38
+
+
+def test_cli_with_a_predictor(user_matrix, predictor_file, tmp_path):
+    path, d = user_matrix
+    out, queries = tmp_path / "m.json", tmp_path / "q.csv"
+    assert cli(["metrics", "--distances", f"test={path}", "--seq-len", "3", "--predictor", str(predictor_file),
+                "--modes", "standard", "--queries", str(queries), "--dataset", "d", "--method", "mine",
+                "--out", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["meta"] == {"dataset": "d", "method": "mine", "seq_len": 3, "tolerance": 2,
+                            "predictor": str(predictor_file)}
+    standard = data["splits"]["test"]["modes"]["standard"]
+    assert list(data["splits"]["test"]["modes"]) == ["standard"]
+    # recall of the predictor matcher, from the queries table: right sequence match (rank 0 < 1) and kept
+    rows = list(csv.DictReader(open(queries)))
+    kept_right = np.mean([r["sequence_correct"] == "1" and r["kept"] == "1" for r in rows])
+    assert standard["sequence_predictor"]["recall_at"]["1"] == pytest.approx(kept_right)
+    assert standard["sequence_predictor"]["n_queries"] == len(rows) == 38
+
+
+def test_predictor_of_another_seq_len_is_refused(user_matrix, predictor_file, tmp_path, capsys):
+    path, _ = user_matrix
+    assert cli(["metrics", "--distances", str(path), "--seq-len", "4", "--predictor", str(predictor_file),
+                "--out", str(tmp_path / "m.json")]) == 2
+    err = capsys.readouterr().err
+    assert "trained at sequence length 3" in err and "--seq-len 3" in err
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_predictor_never_scores_its_training_frames(predictor_file, tmp_path):
+    rng = np.random.default_rng(0)
+    provenance = {"dataset": "d", "split": "val", "split_range": [40, 70], "method": "m"}
+    write_distance_matrix(tmp_path / "val.h5", rng.random((30, 30)), provenance)
+    with pytest.raises(SplitLeakError, match="shares frames"):
+        main({"val": tmp_path / "val.h5"}, 3, 2, tmp_path / "m.json", predictor=predictor_file)
+    result = main({"val": tmp_path / "val.h5"}, 3, 2, tmp_path / "m.json", predictor=predictor_file,
+                  allow_split_overlap=True)
+    assert "sequence_predictor" in result.splits["val"].modes["paper"]
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--out", "m.csv"], "--out m.csv: the VPR metrics (JSON) must end in .json"),
+    (["--out", "m.json", "--queries", "q.txt"], "--queries q.txt: the per-query table (CSV) must end in .csv"),
+    (["--out", "m.json", "--predictor", "p.pkl"], "--predictor p.pkl: the predictor (HDF5) must end in .h5"),
+    (["--out", "m.json", "--predictor", "nope.h5"], "predictor file not found: nope.h5"),
+    (["--out", "m.json", "--attributes", "val=a.h5"], "--attributes names splits ['val']"),
+    (["--out", "m.json", "--attributes", "all=nope.h5"], "attributes of split 'all' not found: nope.h5"),
+    (["--out", "m.json", "--seq-len", "50"], "too small for sequence length 50"),
+])
+def test_bad_arguments_are_named(user_matrix, tmp_path, monkeypatch, capsys, args, message):
+    path, _ = user_matrix
+    monkeypatch.chdir(tmp_path)
+    argv = ["metrics", "--distances", str(path), "--seq-len", "3", *args]
+    assert cli(argv) == 2
+    err = capsys.readouterr().err
+    assert message in err
+    assert not list(tmp_path.glob("m.*")) and not list(tmp_path.glob("*.tmp"))
+
+
+def test_missing_distances_and_wrong_suffix(tmp_path, capsys):
+    assert cli(["metrics", "--distances", str(tmp_path / "nope.npy"), "--seq-len", "3",
+                "--out", str(tmp_path / "m.json")]) == 2
+    assert "distance matrix of split 'all' not found" in capsys.readouterr().err
+    (tmp_path / "D.txt").write_text("1 2\n3 4\n")
+    assert cli(["metrics", "--distances", f"val={tmp_path / 'D.txt'}", "--seq-len", "3",
+                "--out", str(tmp_path / "m.json")]) == 2
+    assert "must end in .npy, .h5 or .hdf5" in capsys.readouterr().err
+    assert cli(["metrics", "--distances", "a.npy", "b.npy", "--seq-len", "3", "--out", str(tmp_path / "m.json")]) == 2
+    assert "--distances takes SPLIT=PATH items" in capsys.readouterr().err
+
+
+def test_attributes_files_are_used_and_checked(tmp_path):
+    rng = np.random.default_rng(5)
+    d = rng.random((30, 30))
+    np.save(tmp_path / "D.npy", d)
+    attributes_main(tmp_path / "D.npy", tmp_path / "a3.h5", 3, 2)
+    with_file = main(tmp_path / "D.npy", 3, 2, tmp_path / "m1.json", attributes={"all": tmp_path / "a3.h5"})
+    computed = main(tmp_path / "D.npy", 3, 2, tmp_path / "m2.json")
+    assert with_file == computed
+    with pytest.raises(ValueError, match="sequence length 3, but --seq-len is 4"):
+        main(tmp_path / "D.npy", 4, 2, tmp_path / "m.json", attributes={"all": tmp_path / "a3.h5"})
+    with pytest.raises(ValueError, match="at tolerance 2, but --tolerance is 1"):
+        main(tmp_path / "D.npy", 3, 1, tmp_path / "m.json", attributes={"all": tmp_path / "a3.h5"})
+
+
+# --- the workflow rule ---------------------------------------------------------------------------------------
+
+
+@pytest.mark.slow
+def test_workflow_rule(tmp_path):
+    from helpers import read_distance_matrix
+
+    from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
+
+    conf = {
+        "run": "r", "output": "results", "seq_lens": [3], "seeds": 2,
+        "datasets": {"sample": {"loader": "nordland_sample", "root": str(DEFAULT_ROOT), "frames": [1000, 1120],
+                                "splits": {"train": [0, 50], "val": [50, 80], "test": [80, 120]}}},
+        "methods": {"sad": {"backend": "sad"}},
+        "predictor": {"max_iter": 60},
+    }
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(conf))
+    targets = ["results/r/metrics/sample/sad/L3.json", "results/r/queries/sample/sad/L3.csv"]
+    result = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", "c.yaml", "--cores", "2", "--",
+                             *targets], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    run = tmp_path / "results" / "r"
+    data = json.loads((run / "metrics/sample/sad/L3.json").read_text())
+    assert data["meta"] == {"dataset": "sample", "method": "sad", "seq_len": 3, "tolerance": 2,
+                            "predictor": "results/r/predictors/sample/L3.h5"}
+    assert set(data["splits"]) == {"val", "test"}  # the default eval_splits (write_json sorts the keys)
+    rows = list(csv.DictReader(open(run / "queries/sample/sad/L3.csv")))
+    for split, (lo, hi) in (("val", (50, 80)), ("test", (80, 120))):
+        d = read_distance_matrix(run / f"distances/sample/sad/{split}.h5")
+        single, sequence = naive_recalls(d, 3, 2)
+        modes = data["splits"][split]["modes"]
+        assert modes["paper"]["single"]["recall_at"] == pytest.approx({str(n): v for n, v in single.items()})
+        assert modes["standard"]["sequence"]["recall_at"] == pytest.approx({str(n): v for n, v in sequence.items()})
+        assert [int(r["query"]) for r in rows if r["split"] == split] == list(range(lo + 2, hi))
