@@ -6,13 +6,10 @@ import csv
 import numpy as np
 import pytest
 from helpers import read_distance_matrix, write_distance_matrix
-from test_train import PARAMS
-from test_vpr_metrics import DECISION, SEQ_LEN, TOLERANCE, D, FixedPredictor, features_with_range
+from test_vpr_metrics import DECISION, SEQ_LEN, TOLERANCE, D, FixedPredictor, train_predictor
 
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH, KEPT_CLASSES
 from vpr_smr.eval.matching.attributes import main as attributes_main
-from vpr_smr.eval.matching.attributes import write_features
-from vpr_smr.eval.predictor import train
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, write_queries
 from vpr_smr.eval.scoring.vpr_metrics import main, score_split
@@ -81,11 +78,7 @@ def test_without_a_predictor_its_columns_are_empty(tmp_path):
 
 @pytest.fixture(scope="module")
 def predictor_file(tmp_path_factory):
-    folder = tmp_path_factory.mktemp("predictor")
-    features, provenance = features_with_range(48, 0, (0, 48))
-    write_features(folder / "train.h5", features, provenance)
-    train.main([folder / "train.h5"], folder / "L3.h5", PARAMS, meta={"dataset": "d", "seq_len": 3})
-    return folder / "L3.h5"
+    return train_predictor(tmp_path_factory.mktemp("predictor"))
 
 
 @pytest.fixture

@@ -216,14 +216,17 @@ def features_with_range(n, seed, frames):
         all_single_correct=np.ones(n + 2, bool)), {"dataset": "d", "split": "train", "split_range": list(frames)}
 
 
-@pytest.fixture(scope="module")
-def predictor_file(tmp_path_factory):
+def train_predictor(folder):
     """A predictor trained at L = 3 on frames 0..47 of dataset "d" (the training helpers of test_train)."""
-    folder = tmp_path_factory.mktemp("predictor")
     features, provenance = features_with_range(48, 0, (0, 48))
     write_features(folder / "train.h5", features, provenance)
     train.main([folder / "train.h5"], folder / "L3.h5", PARAMS, meta={"dataset": "d", "seq_len": 3})
     return folder / "L3.h5"
+
+
+@pytest.fixture(scope="module")
+def predictor_file(tmp_path_factory):
+    return train_predictor(tmp_path_factory.mktemp("predictor"))
 
 
 @pytest.fixture
