@@ -128,6 +128,14 @@ def cmd_metrics(args: argparse.Namespace) -> None:
                      queries=args.queries, meta=meta, allow_split_overlap=args.allow_split_overlap)
 
 
+def cmd_queries(args: argparse.Namespace) -> None:
+    from vpr_smr.eval.scoring import vpr_metrics
+
+    vpr_metrics.queries_main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
+                             predictor=args.predictor, attributes=_split_paths(args.attributes or []),
+                             allow_split_overlap=args.allow_split_overlap)
+
+
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
 
@@ -285,6 +293,7 @@ OUT_FILES = {
     "train": ("the predictor (HDF5; its report goes beside it as .json)", HDF5_SUFFIXES),
     "evaluate": ("the evaluation (JSON)", JSON_SUFFIXES),
     "metrics": ("the VPR metrics (JSON)", JSON_SUFFIXES),
+    "queries": ("the per-query table (CSV)", CSV_SUFFIXES),
     "ablation attributes": ("the attribute ablation (JSON)", JSON_SUFFIXES),
     "ablation without": ("the predictor (HDF5; its report goes beside it as .json)", HDF5_SUFFIXES),
     "ablation held-out": ("the leave-one-method-out evaluation (JSON)", JSON_SUFFIXES),
@@ -431,12 +440,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--attributes", nargs="*", metavar="SPLIT=PATH",
                    help="the splits' attributes (.h5) computed from the same matrices (default: computed here)")
     p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
-    p.add_argument("--queries", help="also write one row per evaluated query to this .csv")
+    p.add_argument("--queries", help="also write one row per evaluated query to this .csv (as vpr-smr queries "
+                                      "does); both files or neither are written")
     p.add_argument("--dataset", help="the dataset's name, written in the metrics' meta")
     p.add_argument("--method", help="the method's name, written in the metrics' meta")
     _required(p, "--out")
     _allow_overlap(p)
     p.set_defaults(func=cmd_metrics)
+
+    p = sub.add_parser("queries", help="one row per evaluated query of distance matrices: matches, distances, "
+                                       "attributes, true class and the predictor's decision (CSV)",
+                       epilog="e.g. vpr-smr queries --distances val=val.h5 test=test.h5 --seq-len 4 --predictor L4.h5 "
+                              "--out queries.csv (the same table as vpr-smr metrics --queries)")
+    p.add_argument("--distances", nargs="+", required=True, metavar="PATH or SPLIT=PATH",
+                   help="references x queries matrices (.npy or our .h5): one file, or one SPLIT=PATH per split")
+    p.add_argument("--seq-len", type=int, required=True)
+    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
+    p.add_argument("--predictor", help="the seed-0 predictor (.h5): fills predicted_class, probability and kept")
+    p.add_argument("--attributes", nargs="*", metavar="SPLIT=PATH",
+                   help="the splits' attributes (.h5) computed from the same matrices (default: computed here)")
+    _required(p, "--out")
+    _allow_overlap(p)
+    p.set_defaults(func=cmd_queries)
 
     p = sub.add_parser("ablation", help="the predictor's ablations")
     ablation_sub = p.add_subparsers(dest="ablation_command", required=True)

@@ -6,9 +6,12 @@ from __future__ import annotations
 import json
 import shlex
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.paths import attributes_path
+
+if TYPE_CHECKING:
+    from vpr_smr.pipeline.plan import Plan
 
 
 def split_attributes(out: str, methods: Sequence[str], split: str) -> Callable[[Any], list[str]]:
@@ -40,7 +43,7 @@ def method_pairs(methods: Sequence[str], held_out: str, paths: Sequence[str]) ->
 
 
 # What the report rule always gives the report besides the configuration's experiments: the standard VPR metrics
-# (rule vpr_metrics) and the dataset cards (pipeline.plan.dataset_cards).
+# (rule vpr_metrics) and the dataset cards (report_datasets).
 REPORT_INPUTS = {"metrics", "datasets"}
 
 
@@ -57,3 +60,12 @@ def report_settings(conf: dict[str, Any]) -> str:
     order (not sorted like ``plan.canonical``: the methods' order is the pooled training order, part of the
     predictor's recipe): shown in the report, a param of it."""
     return json.dumps({key: value for key, value in conf.items() if key != "extraction"}, separators=(",", ":"))
+
+
+def report_datasets(plan: Plan) -> str:
+    """The dataset cards (``plan.dataset_cards``) as JSON text in the configuration's order, the datasets and each
+    one's splits as configured (not sorted like ``plan.canonical``: the report shows them in this order): the
+    report's ``--datasets``, a param of it."""
+    from vpr_smr.pipeline.plan import dataset_cards
+
+    return json.dumps(dataset_cards(plan), separators=(",", ":"))

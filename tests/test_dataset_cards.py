@@ -48,3 +48,15 @@ def test_the_cards_carry_the_source_and_a_plan_without_it_is_made_again():
     assert plan_from_json(saved, conf) == plan
     del saved["plan"]["datasets"]["sample"]["source"]  # a plan written before the cards had a source
     assert plan_from_json(saved, conf) is None
+
+
+def test_the_report_rule_gives_the_cards_in_the_configurations_order():
+    from vpr_smr.pipeline.rule_helpers import report_datasets
+
+    sample = {"loader": "nordland_sample", "splits": {"train": [0, 30], "val": [30, 40], "test": [40, 60]}}
+    conf = validate({"run": "r", "seq_lens": [3], "methods": {"sad": {"backend": "sad"}}, "datasets": {
+        "zeta": {**sample, "frames": [1000, 1060]}, "alpha": {**sample, "frames": [2000, 2060]}}})
+    cards = json.loads(report_datasets(preflight(conf)))  # the report rule's --datasets (not sorted)
+    assert list(cards) == ["zeta", "alpha"]
+    assert all(list(card["splits"]) == ["train", "val", "test"] for card in cards.values())
+    assert list(cards["zeta"]) == list(dataset_cards(preflight(conf))["zeta"])

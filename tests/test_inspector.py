@@ -72,14 +72,22 @@ def write_queries(path, rows):
     return path
 
 
+def matrix_of(rows, seed=0):
+    """The test split's distance matrix the rows were made from: each query's single-frame match is its column's
+    minimum, at the row's single_distance (0.2 .. 0.33); every other distance is in 0.5 .. 1."""
+    matrix = np.random.default_rng(seed).uniform(0.5, 1.0, (HI - LO, HI - LO))
+    for row in rows:
+        query, match, distance = (row[HEADER.index(name)] for name in ("query", "single_match", "single_distance"))
+        matrix[match - LO, query - LO] = distance
+    return matrix
+
+
 @pytest.fixture
 def files(tmp_path, dataset):
     """The queries CSV (a val split of other frames too) and the test split's distance matrix."""
     val = {q: PREDICTIONS[q + 8] for q in range(2, 8)}
     queries = write_queries(tmp_path / "queries.csv", query_rows(split="val", queries=val) + query_rows())
-    rng = np.random.default_rng(0)
-    matrix = rng.uniform(0.5, 1.0, (HI - LO, HI - LO))
-    matrix[np.arange(HI - LO), np.arange(HI - LO)] = 0.1
+    matrix = matrix_of(query_rows())
     distances = tmp_path / "test.h5"
     write_distance_matrix(distances, matrix, {"split": "test", "split_range": [LO, HI], "method": "toy",
                                               "frames_sha256": load_frames("toy", dataset).fingerprint()})
@@ -141,7 +149,63 @@ def test_figures_show_the_frames_and_the_decisions(tmp_path, dataset, files):
     for i in range(N_FRAMES):
         assert (colours.get(query_colour(i), 0) > 200) == (i in shown_queries), f"query frame {i}"
         assert (colours.get(reference_colour(i), 0) > 200) == (i in shown_references), f"reference frame {i}"
+    # the grid of thumbnails: a row per sampled query; L query frames, the single-frame match, the sequence match
+    # and the true reference; each match framed green when the CSV says it is correct, red when wrong
+    image = cv2.cvtColor(cv2.imread(str(match), cv2.IMREAD_COLOR), cv2.COLOR_BGR2RGB)
+    grid = thumbnail_grid(image)
+    assert len(grid) == len(sample) and all(len(row) == L + 3 for row in grid)
+    frames = {"green": (44, 160, 44), "red": (214, 39, 40)}  # matplotlib's tab:green and tab:red (figures.UP, DOWN)
+    verdicts = set()
+    for s, row in zip(sample, grid, strict=True):
+        r = s.row
+        assert [frame for frame, _ in row] == [*(("query", f) for f in range(r.query - L + 1, r.query + 1)),
+                                               ("reference", r.single_match), ("reference", r.sequence_match),
+                                               ("reference", r.true_reference)]
+        for (_, box), correct in ((row[L], r.single_correct), (row[L + 1], r.sequence_correct)):
+            expected = frames["green" if correct else "red"]
+            assert frame_colour(image, box) == expected, (r.query, correct)
+            verdicts.add(correct)
+        for _, box in (*row[:L], row[L + 2]):  # the query frames and the true reference: grey or black, never both
+            colour = frame_colour(image, box)
+            assert colour not in frames.values() and max(colour) - min(colour) < 20, (r.query, colour)
+    assert verdicts == {True, False}  # both a correct and a wrong match were checked
+    # by hand: query 18 (true class 3) has a wrong single-frame match, reference 10, framed red; query 23 a correct
+    # one, framed green
+    by_query = {s.row.query: row for s, row in zip(sample, grid, strict=True)}
+    assert 18 in by_query and 23 in by_query, sorted(by_query)
+    assert by_query[18][L] == (("reference", 10), by_query[18][L][1]) and frame_colour(image, by_query[18][L][1]) == (
+        214, 39, 40)
+    assert by_query[23][L][0] == ("reference", 23) and frame_colour(image, by_query[23][L][1]) == (44, 160, 44)
     assert not list(tmp_path.glob("*.tmp"))
+
+
+def thumbnail_grid(image, gap=5):
+    """The match figure's thumbnails by row and column: each is a block of one frame's exact colour (larger than
+    any caption), given as ((side, frame), (top, left, bottom, right)); rows top to bottom, columns left to right."""
+    found = []
+    for side, colour in (("query", query_colour), ("reference", reference_colour)):
+        for i in range(N_FRAMES):
+            mask = np.all(image == colour(i), axis=2).astype(np.uint8)
+            n, _, stats, _ = cv2.connectedComponentsWithStats(mask)
+            found += [((side, i), (y, x, y + h, x + w)) for x, y, w, h, area in stats[1:n] if area > 1000]
+    found.sort(key=lambda item: item[1][0])
+    rows = []
+    for item in found:
+        if rows and abs(item[1][0] - rows[-1][0][1][0]) <= gap:
+            rows[-1].append(item)
+        else:
+            rows.append([item])
+    return [sorted(row, key=lambda item: item[1][1]) for row in rows]
+
+
+def frame_colour(image, box, outside=2):
+    """The colour of a thumbnail's frame: the pixels ``outside`` pixels above its top edge and left of its left
+    edge, at their middles (they must agree)."""
+    top, left, bottom, right = box
+    above = tuple(int(v) for v in image[top - outside, (left + right) // 2])
+    beside = tuple(int(v) for v in image[(top + bottom) // 2, left - outside])
+    assert above == beside, (box, above, beside)
+    return above
 
 
 def test_match_record_and_thumbnail_size(tmp_path, dataset, files):
@@ -202,6 +266,50 @@ def test_a_given_fingerprint_must_match(tmp_path, dataset, files):
         inspector.main(queries, distances, "toy", dataset, fingerprint, 5, "test", TOL, tmp_path / "m.png",
                        tmp_path / "d.png")
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.tmp"))
+
+
+def test_a_csv_of_a_longer_sequence_length_or_a_later_split_is_refused(tmp_path, dataset, files):
+    _, distances, _ = files
+    out = tmp_path / "m.png", tmp_path / "d.png"
+    # made at L = 5: its queries start at frame LO + 4 = 12, not at LO + L - 1 = 10 as --seq-len 3 has them
+    longer = write_queries(tmp_path / "L5.csv", query_rows(queries={q: v for q, v in PREDICTIONS.items() if q >= 12}))
+    with pytest.raises(ValueError, match=r"L5.csv: split 'test' has queries 12..23, but at L = 3 the distance "
+                                         r"matrix of frames 8..23 has the evaluated queries 10..23.*another sequence "
+                                         r"length or for another split.*--seq-len 3"):
+        inspector.main(longer, distances, "toy", dataset, None, L, "test", TOL, *out)
+    # a gap, or a query twice: not one row per evaluated query
+    gap = write_queries(tmp_path / "gap.csv", query_rows(queries={q: v for q, v in PREDICTIONS.items() if q != 15}))
+    with pytest.raises(ValueError, match="13 queries 10..23, not one per frame"):
+        inspector.main(gap, distances, "toy", dataset, None, L, "test", TOL, *out)
+    twice = write_queries(tmp_path / "twice.csv", query_rows() + query_rows()[:1])
+    with pytest.raises(ValueError, match="15 queries 10..23, not one per frame"):
+        inspector.main(twice, distances, "toy", dataset, None, L, "test", TOL, *out)
+    assert not any(p.exists() for p in out) and not list(tmp_path.glob("*.tmp"))
+
+
+def test_a_csv_of_another_distance_matrix_is_refused(tmp_path, dataset, files):
+    queries, _, matrix = files
+    out = tmp_path / "m.png", tmp_path / "d.png"
+    provenance = {"split": "test", "split_range": [LO, HI], "method": "other",
+                  "frames_sha256": load_frames("toy", dataset).fingerprint()}
+    # another method's matrix, nearer the true reference where the CSV's single-frame match is wrong (classes 2 and
+    # 3, sampled) and the same elsewhere
+    other = matrix.copy()
+    for q in (q for q, (label, *_) in PREDICTIONS.items() if label in (2, 3)):
+        other[q - LO, q - LO] = 0.05
+    write_distance_matrix(tmp_path / "other.h5", other, provenance)
+    with pytest.raises(ValueError, match=r"queries.csv: query \d+'s single-frame match is reference \d+, but the "
+                                         r"nearest reference in .*other.h5 is \d+: the CSV was made from another "
+                                         r"distance matrix.*vpr-smr queries"):
+        inspector.main(queries, tmp_path / "other.h5", "toy", dataset, None, L, "test", TOL, *out, per_class=1,
+                       mistakes=2)
+    # the same nearest references at other distances: still another matrix
+    write_distance_matrix(tmp_path / "scaled.h5", matrix * 1.5, provenance)
+    with pytest.raises(ValueError, match=r"single-frame distance is 0.\d+, but it is 0.\d+ in .*scaled.h5: the CSV "
+                                         "was made from another distance matrix"):
+        inspector.main(queries, tmp_path / "scaled.h5", "toy", dataset, None, L, "test", TOL, *out, per_class=1,
+                       mistakes=2)
+    assert not any(p.exists() for p in out) and not list(tmp_path.glob("*.tmp"))
 
 
 def test_both_figures_or_none(tmp_path, dataset, files, monkeypatch):

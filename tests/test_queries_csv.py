@@ -1,5 +1,6 @@
-"""The per-query CSV of ``vpr-smr metrics``: its columns, the dataset's frame indices, the attributes under the
-paper's names (A3 block, A4 group: checked against SPEC 5's formulas), and the predictor's decision."""
+"""The per-query CSV of ``vpr-smr queries`` and ``vpr-smr metrics --queries`` (one implementation): its columns,
+the dataset's frame indices, the attributes under the paper's names (A3 block, A4 group: checked against SPEC 5's
+formulas), the predictor's decision, and the metrics and the table written both or neither."""
 
 import csv
 
@@ -136,3 +137,62 @@ def test_a_users_npy_starts_at_frame_zero(tmp_path):
     main(tmp_path / "D.npy", SEQ_LEN, TOLERANCE, tmp_path / "m.json", queries=tmp_path / "q.csv")
     _, rows = read(tmp_path / "q.csv")
     assert [r["query"] for r in rows] == ["1", "2", "3", "4", "5"] and {r["split"] for r in rows} == {"all"}
+
+
+def test_the_queries_command_writes_the_metrics_commands_table(splits, predictor_file, tmp_path, capsys):
+    from vpr_smr.pipeline.cli import main as cli
+
+    distances, attributes = splits
+    main(distances, 3, 2, tmp_path / "m.json", predictor=predictor_file, attributes=attributes,
+         modes=("standard",), queries=tmp_path / "from_metrics.csv")
+    pairs = [f"{split}={path}" for split, path in distances.items()]
+    assert cli(["queries", "--distances", *pairs, "--attributes", f"test={attributes['test']}", "--seq-len", "3",
+                "--tolerance", "2", "--predictor", str(predictor_file), "--out", str(tmp_path / "q.csv")]) == 0
+    # one implementation: the same bytes, whatever modes the metrics were computed in
+    assert (tmp_path / "q.csv").read_bytes() == (tmp_path / "from_metrics.csv").read_bytes()
+    header, rows = read(tmp_path / "q.csv")
+    assert header == COLUMNS and len(rows) == 20 and all(r["kept"] in ("0", "1") for r in rows)
+    # without a predictor: its columns are empty; a user's single .npy is split "all"
+    np.save(tmp_path / "D.npy", D)
+    assert cli(["queries", "--distances", str(tmp_path / "D.npy"), "--seq-len", str(SEQ_LEN), "--tolerance",
+                str(TOLERANCE), "--out", str(tmp_path / "d.csv")]) == 0
+    _, rows = read(tmp_path / "d.csv")
+    assert [r["query"] for r in rows] == ["1", "2", "3", "4", "5"] and {r["split"] for r in rows} == {"all"}
+    assert all(r["predicted_class"] == r["kept"] == "" for r in rows)
+    # checked before any work, named
+    assert cli(["queries", "--distances", str(tmp_path / "D.npy"), "--seq-len", "3", "--out",
+                str(tmp_path / "q.txt")]) == 2
+    assert "--out " in capsys.readouterr().err and not (tmp_path / "q.txt").exists()
+    assert cli(["queries", "--distances", f"test={distances['test']}", "--seq-len", "3", "--predictor",
+                str(predictor_file), "--out", str(tmp_path / "e.csv"), "--tolerance", "1", "--attributes",
+                f"test={attributes['test']}"]) == 2
+    assert "at tolerance 2, but --tolerance is 1" in capsys.readouterr().err and not (tmp_path / "e.csv").exists()
+    assert not list(tmp_path.glob("*.tmp"))
+
+
+def test_metrics_and_queries_are_written_both_or_neither(tmp_path, monkeypatch):
+    from vpr_smr.eval.scoring import vpr_metrics
+
+    np.save(tmp_path / "D.npy", D)
+    out, queries = tmp_path / "m.json", tmp_path / "q.csv"
+    main(tmp_path / "D.npy", SEQ_LEN, TOLERANCE, out, queries=queries)
+    before = out.read_bytes(), queries.read_bytes()
+
+    def broken(*args, **kwargs):
+        raise OSError("disk full")
+
+    # at tolerance 1 both files would change; the JSON cannot be written: neither changes
+    monkeypatch.setattr(vpr_metrics, "write_json", broken)
+    with pytest.raises(OSError, match="disk full"):
+        main(tmp_path / "D.npy", SEQ_LEN, 1, out, queries=queries)
+    assert (out.read_bytes(), queries.read_bytes()) == before
+    with pytest.raises(OSError, match="disk full"):  # a first run: neither file appears
+        main(tmp_path / "D.npy", SEQ_LEN, 1, tmp_path / "new.json", queries=tmp_path / "new.csv")
+    assert not (tmp_path / "new.json").exists() and not (tmp_path / "new.csv").exists()
+    # the table cannot be written: the JSON is not replaced either
+    monkeypatch.undo()
+    monkeypatch.setattr(vpr_metrics, "write_queries", broken)
+    with pytest.raises(OSError, match="disk full"):
+        main(tmp_path / "D.npy", SEQ_LEN, 1, out, queries=queries)
+    assert (out.read_bytes(), queries.read_bytes()) == before
+    assert not list(tmp_path.glob("*.tmp"))

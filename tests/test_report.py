@@ -9,6 +9,7 @@ import pytest
 
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport, SeedReport, SplitScores
 from vpr_smr.eval.report.build import table1_latex, table1_markdown, table2_latex, table2_markdown, table2_rows
+from vpr_smr.eval.report.table1 import tex_escape
 
 METHODS = ("AP-GeM", "CosPlace", "EigenPlaces", "MixVPR", "NetVLAD", "SAD", "SALAD")
 PAPER = {  # smr_paper.tex, Table I: VPR+SM, VPR+SM+Pred, Reduction (%) per method
@@ -55,6 +56,24 @@ def test_latex_colours_reductions(rows):
     assert r"\textcolor{red}{-14.22}" in text and r"\textcolor{green}{25.46}" in text
     assert r"Oxford RobotCar & VPR+SM & 0.0950" in text and r"& 5 / 7\\" in text
     assert r"Reduction (\%)" in text
+
+
+def test_latex_footnotes_an_undefined_reduction_in_its_own_tabular_only(rows):
+    from vpr_smr.eval.report.table1 import UNDEFINED, UNDEFINED_NOTE
+
+    # two (mode, L) blocks: L = 4 with one n/a reduction, then L = 8 with every reduction defined
+    first = [dict(row) for row in rows]
+    first[0]["reduction_pct"] = None
+    second = [{**row, "seq_len": 8} for row in rows]
+    text = table1_latex(first + second)
+    tabulars = text.split(r"\end{tabular}")[:-1]
+    assert len(tabulars) == 2 and "sequence length 4" in tabulars[0] and "sequence length 8" in tabulars[1]
+    note = tex_escape(UNDEFINED_NOTE)
+    assert UNDEFINED in tabulars[0].replace(note, "") and note in tabulars[0]
+    assert UNDEFINED not in tabulars[1] and note not in tabulars[1]
+    # the other way round: the footnote goes with the second tabular only
+    tabulars = table1_latex(second + first).split(r"\end{tabular}")[:-1]
+    assert note not in tabulars[0] and note in tabulars[1]
 
 
 def test_seed_row_shows_mean_and_sample_std(rows):
@@ -189,7 +208,7 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
         for method in methods:
             metric_files.append(tmp_path / f"metrics_{method}.json")
             write_json(metric_files[-1], metrics_record(method, 4, modes).to_json())
-            queries = Path(queries_path(run, "d", method, 4))  # written beside the metrics by the same job
+            queries = Path(queries_path(run, "d", method, 4))  # written by the queries job (vpr-smr queries)
             queries.parent.mkdir(parents=True, exist_ok=True)
             queries.write_text("split,query\ntest,0\n")
     if inspector:
@@ -385,6 +404,8 @@ def test_the_page_has_a_section_per_experiment_in_order(tmp_path):
     assert all(f'<a href="#{name}">' in page for name in SECTIONS)  # and the navigation links each
     text = html.unescape(page)
     assert "On d (test split, L = 4, paper mode, seed-0 predictor) the predictor " in text
+    # the AOC's maximum recall is the predictor curve's (curves.compare_curves, SPEC 8), where the dotted line is
+    assert "up to VPR+SM+Pred's maximum recall (dotted line); VPR+SM's curve is cut there" in text
     # the match inspector: a figure per method, the per-query CSV named
     assert text.count("figures/matches_d_m1_L4.png") == 1 and "figures/distance_matrix_d_m2_L4.png" in text
     assert "queries/d/m1/L4.csv." in text and "not in the run folder" not in text
@@ -482,3 +503,91 @@ def test_inspector_figures_are_placed_by_their_names(tmp_path):
         inspector_figures({"matches": [small_png(tmp_path / "other.png")]}, [], ["d"], "test")
     with pytest.raises(FileNotFoundError, match="match inspector figure not found"):
         inspector_figures({"matches": [tmp_path / "missing.png"]}, [], ["d"], "test")
+
+
+def test_a_wrong_file_given_to_the_report_is_named(tmp_path):
+    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.scoring import vpr_metrics
+    from vpr_smr.eval.scoring.records import meta_key
+
+    build_run(tmp_path / "made", modes=("paper",), seq_lens=(4,), ablations=False, inspector=False)
+    made = tmp_path / "made"
+    evaluation, metrics = made / "e_m1_L4.json", made / "metrics_m1.json"
+    out = tmp_path / "run"
+
+    def report(**inputs):
+        main(out, **{"evaluations": [evaluation], "predictors": [made / "p_L4.json"], **inputs})
+
+    not_json = tmp_path / "notes.json"
+    not_json.write_text("dataset: d\n")
+    with pytest.raises(ValueError, match=r"notes.json: not an evaluation file: Expecting value: line 1"):
+        report(evaluations=[not_json])
+    binary = tmp_path / "figure.json"
+    binary.write_bytes(b"\x89PNG\r\n\x1a\n\xff\xfe")
+    with pytest.raises(ValueError, match=r"figure.json: not a predictor report file: .*decode"):
+        report(predictors=[binary])
+    listed = tmp_path / "list.json"
+    listed.write_text("[1, 2]")
+    with pytest.raises(ValueError, match=r"list.json: not a timing file: it holds a JSON list, not an object"):
+        report(timings=[listed])
+    # the wrong kind of JSON: an evaluation as the VPR metrics, VPR metrics as an evaluation, as a timing
+    with pytest.raises(ValueError, match=r"e_m1_L4.json: not a VPR metrics file: "):
+        report(metrics=[evaluation])
+    with pytest.raises(ValueError, match=r"metrics_m1.json: not an evaluation file: it has no 'predictors' entry"):
+        report(evaluations=[metrics])
+    with pytest.raises(ValueError, match=r"metrics_m1.json: not a timing file: it has no 'attributes_seconds' entry"):
+        report(timings=[metrics])
+    # `vpr-smr metrics D.npy` without --dataset and --method: no dataset or method in its meta
+    matrix = tmp_path / "D.npy"
+    np.save(matrix, np.random.default_rng(0).random((30, 30)) + 1 - np.eye(30))
+    anonymous = tmp_path / "anonymous.json"
+    vpr_metrics.main(matrix, 4, 2, anonymous, modes=("paper",))
+    with pytest.raises(ValueError, match=r"anonymous.json: a VPR metrics file without dataset, method in its meta, "
+                                         r"which the report needs: rerun vpr-smr metrics with --dataset and "
+                                         r"--method"):
+        report(metrics=[anonymous])
+    assert not out.exists()
+    with pytest.raises(ValueError, match=r"the meta has no dataset, method \(it has seq_len, tolerance\)"):
+        meta_key({"seq_len": 4, "tolerance": 2})
+
+
+def test_the_report_command_names_a_wrong_file(tmp_path, capsys):
+    from vpr_smr.pipeline.cli import main as cli
+
+    build_run(tmp_path / "made", modes=("paper",), seq_lens=(4,), ablations=False, inspector=False)
+    made = tmp_path / "made"
+    assert cli(["report", "--evaluations", str(made / "e_m1_L4.json"), "--predictors", str(made / "p_L4.json"),
+                "--metrics", str(made / "e_m1_L4.json"), "--out", str(tmp_path / "run")]) == 2
+    error = capsys.readouterr().err
+    assert f"{made / 'e_m1_L4.json'}: not a VPR metrics file: " in error and "--debug" not in error
+
+
+def test_datasets_and_splits_keep_the_configurations_order(tmp_path):
+    import html
+
+    from vpr_smr.eval.report.build import main
+
+    def card(overlap: str) -> dict:  # splits as configured: train, val, test (alphabetically test, train, val)
+        return {**DATASET_CARD, "n_frames": 120, "splits": {"train": [0, 60], "val": [60, 90], "test": [80, 120]},
+                "overlaps": [overlap]}
+
+    # as the report rule gives them (pipeline.rule_helpers.report_datasets): JSON text in the configuration's order
+    cards = json.loads(json.dumps({"zeta": card("'val' and 'test' share [80, 90)"),
+                                   "alpha": card("'val' and 'test' share frames [85, 90)")}))
+    run = tmp_path / "run"
+    main(run, config={"run": "toy"}, datasets=cards)
+    rows = list(csv.DictReader(open(run / "tables" / "datasets.csv")))
+    splits = "train [0, 60): 60 frames; val [60, 90): 30 frames; test [80, 120): 40 frames"
+    assert [(r["dataset"], r["splits"]) for r in rows] == [("zeta", splits), ("alpha", splits)]
+    md = (run / "tables" / "datasets.md").read_text()
+    assert md.index("| zeta |") < md.index("| alpha |") and f"| {splits} |" in md
+    assert md.index("Warning, zeta:") < md.index("Warning, alpha:")  # the overlap warnings, in order too
+    tex = (run / "tables" / "datasets.tex").read_text()
+    assert tex.index(r"Warning, zeta:") < tex.index(r"Warning, alpha:") and tex.index("zeta &") < tex.index("alpha &")
+    text = html.unescape((run / "report.html").read_text())
+    assert text.index("Warning, zeta:") < text.index("Warning, alpha:")
+    cards_at = text.index('class="cards"')
+    zeta, alpha = text.index("<h3>zeta</h3>", cards_at), text.index("<h3>alpha</h3>", cards_at)
+    assert zeta < alpha
+    shown = [text.index(f"split {name}", zeta) for name in ("train", "val", "test")]
+    assert shown == sorted(shown) and shown[-1] < alpha

@@ -5,8 +5,9 @@ Snakemake metadata and file times, for each family of settings; the expected job
 data flow (descriptors -> distances per split -> attributes per split -> one predictor per dataset and L -> one
 evaluation per method; Table II from every method's features; a predictor without each method from the others'
 train and val features, tested with the pooled one on the method's table split; per method at the table's L, the
-VPR metrics from its distances, attributes and the seed-0 predictor, and the match inspector from its per-query CSV
-and the table split's distances -> report), not from the workflow's own output.
+VPR metrics (which also depend on the metric modes) and the per-query CSV (which does not) from its distances,
+attributes and the seed-0 predictor, and the match inspector from its per-query CSV and the table split's
+distances -> report), not from the workflow's own output.
 """
 
 import csv
@@ -92,8 +93,13 @@ def held_out(methods=METHODS, seq_len=3):
 
 
 def metrics(methods=METHODS, seq_len=3):
-    """The standard VPR metrics (and the per-query CSV) of each method at the table's L."""
+    """The standard VPR metrics of each method at the table's L."""
     return {("vpr_metrics", f"metrics/sample/{m}/L{seq_len}.json") for m in methods}
+
+
+def queries(methods=METHODS, seq_len=3):
+    """The per-query CSV of each method at the table's L (its own job: the metric modes do not change it)."""
+    return {("queries", f"queries/sample/{m}/L{seq_len}.csv") for m in methods}
 
 
 def inspect(methods=METHODS, seq_len=3):
@@ -141,8 +147,8 @@ def table1(folder):
 
 
 # Everything downstream of the pooled predictor of L = 3: every method's evaluation, held-out test, VPR metrics
-# (the seed-0 predictor's matcher) and match inspector (its per-query CSV)
-PREDICTOR_ON = train() | evaluate() | held_out() | metrics() | inspect() | REPORT
+# (the seed-0 predictor's matcher), per-query CSV (its decisions) and match inspector (which reads that CSV)
+PREDICTOR_ON = train() | evaluate() | held_out() | metrics() | queries() | inspect() | REPORT
 ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | without() | PREDICTOR_ON
 
 
@@ -166,16 +172,17 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
     # Table I moves to L = 4 (table_seq_len: 4 when listed), with its ablations; L = 3 stays as it is
     pytest.param(lambda c: c.update(seq_lens=[3, 4]),
                  attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | attribute_ablation(4) | without(seq_len=4)
-                 | held_out(seq_len=4) | metrics(seq_len=4) | inspect(seq_len=4) | REPORT, id="seq-lens"),
+                 | held_out(seq_len=4) | metrics(seq_len=4) | queries(seq_len=4) | inspect(seq_len=4) | REPORT,
+                 id="seq-lens"),
     pytest.param(lambda c: c["predictor"].update(max_iter=61), attribute_ablation() | without() | PREDICTOR_ON,
                  id="predictor"),
     pytest.param(lambda c: c.update(seeds=3), PREDICTOR_ON, id="seeds"),
-    pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | held_out() | metrics() | inspect() | REPORT,
-                 id="modes"),
+    # the per-query CSV does not depend on the modes: it and the match inspector that reads it stay as they are
+    pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | held_out() | metrics() | REPORT, id="modes"),
     pytest.param(lambda c: c.update(trust_levels=[0.0, 0.6]), evaluate() | REPORT, id="trust-levels"),
     pytest.param(lambda c: c.update(experiments={"restoration": False}), evaluate() | REPORT, id="restoration-off"),
     pytest.param(lambda c: c.update(experiments={"attribute_ablation": False}), REPORT, id="table2-off"),
-    # the inspector draws the table split; the metrics cover every evaluated split
+    # the inspector draws the table split; the metrics and the per-query CSV cover every evaluated split
     pytest.param(lambda c: c.update(table_split="val"), held_out() | inspect() | REPORT, id="table-split"),
     pytest.param(lambda c: c.update(extraction={"batch_size": 3}), set(), id="batch-size-reruns-nothing"),
 ])
@@ -204,7 +211,7 @@ def test_command_line_override_reaches_the_jobs(copy):
     assert result.returncode == 0, result.stderr[-3000:]
     rules = set(re.findall(r"^rule (\w+):", result.stdout, flags=re.MULTILINE)) - {"all"}
     assert rules == {"train", "evaluate", "attribute_ablation", "predictor_without", "held_out", "vpr_metrics",
-                     "inspect", "report"}
+                     "queries", "inspect", "report"}
 
 
 def test_tables_change_where_they_should(copy):

@@ -12,10 +12,11 @@ import yaml
 from helpers import sequence_matrix, write_distance_matrix
 from test_train import PARAMS, method_samples
 
-from vpr_smr.core.constants import MATCHERS, MODES, RECALL_AT
+from vpr_smr.core.constants import KEPT_CLASSES, MATCHERS, MODES, RECALL_AT
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features, write_features
 from vpr_smr.eval.matching.attributes import main as attributes_main
 from vpr_smr.eval.predictor import train
+from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import SplitLeakError
 from vpr_smr.eval.scoring.evaluate import recall_at_1
 from vpr_smr.eval.scoring.vpr_metrics import main, retrieval, score_split
@@ -229,6 +230,18 @@ def predictor_file(tmp_path_factory):
     return train_predictor(tmp_path_factory.mktemp("predictor"))
 
 
+@pytest.fixture(scope="module")
+def matrix_predictor(tmp_path_factory):
+    """A predictor trained at L = 3 on the attributes of a 160 x 160 matrix like ``user_matrix``'s (frames 0..159
+    of dataset "d"): on ``user_matrix`` it keeps some sequence matches and removes others, right ones among both."""
+    folder = tmp_path_factory.mktemp("matrix_predictor")
+    rng = np.random.default_rng(21)
+    features = query_features(np.abs(rng.normal(size=(160, 160))) + 0.5 * (1 - np.eye(160)), 3, 2)
+    write_features(folder / "train.h5", features, {"dataset": "d", "split": "train", "split_range": [0, 160]})
+    train.main([folder / "train.h5"], folder / "L3.h5", PARAMS, meta={"dataset": "d", "seq_len": 3})
+    return folder / "L3.h5"
+
+
 @pytest.fixture
 def user_matrix(tmp_path):
     rng = np.random.default_rng(3)
@@ -252,8 +265,9 @@ def test_cli_on_a_users_npy(user_matrix, tmp_path):
     assert paper["single"]["n_queries"] == 40 and paper["sequence"]["n_queries"] == 38
 
 
-def test_cli_with_a_predictor(user_matrix, predictor_file, tmp_path):
+def test_cli_with_a_predictor(user_matrix, matrix_predictor, tmp_path):
     path, d = user_matrix
+    predictor_file = matrix_predictor
     out, queries = tmp_path / "m.json", tmp_path / "q.csv"
     assert cli(["metrics", "--distances", f"test={path}", "--seq-len", "3", "--predictor", str(predictor_file),
                 "--modes", "standard", "--queries", str(queries), "--dataset", "d", "--method", "mine",
@@ -263,11 +277,22 @@ def test_cli_with_a_predictor(user_matrix, predictor_file, tmp_path):
                             "predictor": str(predictor_file)}
     standard = data["splits"]["test"]["modes"]["standard"]
     assert list(data["splits"]["test"]["modes"]) == ["standard"]
-    # recall of the predictor matcher, from the queries table: right sequence match (rank 0 < 1) and kept
+    # recall@1 of the predictor matcher, worked out apart from the command: the predictor file's own decision on the
+    # rank-0 attributes of the queries a = 2 .. 39 (kept: a class of KEPT_CLASSES, trust level 0), and whether the
+    # best diagonal of a naive S (ties: the lower diagonal) is right
+    features = query_features(d, 3, 2)
+    assert features.queries.tolist() == list(range(2, 40))
+    model = SMRPredictor.load(predictor_file)
+    probabilities = model.predict_proba(features.attributes[:, 0, :])
+    kept = np.isin(np.asarray(model.classes_)[probabilities.argmax(axis=1)], KEPT_CLASSES)
+    s = sequence_matrix(d, 3)
+    right = np.array([abs(stable_top(list(s[:, j]), 1)[0] - j) <= 2 for j in range(s.shape[1])])
+    assert np.any(right & kept) and np.any(right & ~kept)  # it keeps some right matches and removes others
+    assert standard["sequence_predictor"]["recall_at"]["1"] == pytest.approx(np.mean(right & kept))
+    assert standard["sequence"]["recall_at"]["1"] == pytest.approx(np.mean(right))
     rows = list(csv.DictReader(open(queries)))
-    kept_right = np.mean([r["sequence_correct"] == "1" and r["kept"] == "1" for r in rows])
-    assert standard["sequence_predictor"]["recall_at"]["1"] == pytest.approx(kept_right)
     assert standard["sequence_predictor"]["n_queries"] == len(rows) == 38
+    assert [r["kept"] for r in rows] == [str(int(k)) for k in kept]
 
 
 def test_predictor_of_another_seq_len_is_refused(user_matrix, predictor_file, tmp_path, capsys):
@@ -369,3 +394,12 @@ def test_workflow_rule(tmp_path):
         assert modes["paper"]["single"]["recall_at"] == pytest.approx({str(n): v for n, v in single.items()})
         assert modes["standard"]["sequence"]["recall_at"] == pytest.approx({str(n): v for n, v in sequence.items()})
         assert [int(r["query"]) for r in rows if r["split"] == split] == list(range(lo + 2, hi))
+    # the queries job (vpr-smr queries) writes the table `vpr-smr metrics --queries` writes of the same files
+    splits = ("val", "test")
+    main({s: run / f"distances/sample/sad/{s}.h5" for s in splits}, 3, 2, tmp_path / "m.json",
+         predictor=run / "predictors/sample/L3.h5", attributes={s: run / f"attributes/sample/sad/L3/{s}.h5"
+                                                                 for s in splits},
+         queries=tmp_path / "q.csv")
+    assert (tmp_path / "q.csv").read_bytes() == (run / "queries/sample/sad/L3.csv").read_bytes()
+    logs = sorted(str(p.relative_to(run / "logs")) for p in (run / "logs").rglob("L3.log"))
+    assert "metrics/sample/sad/L3.log" in logs and "queries/sample/sad/L3.log" in logs  # two jobs

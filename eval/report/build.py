@@ -12,7 +12,7 @@ import re
 from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
@@ -34,7 +34,7 @@ from vpr_smr.eval.report.table1 import (
     table1_rows,
     tex_escape,
 )
-from vpr_smr.eval.scoring.records import Evaluation, HeldOut, Timing, VPRMetrics
+from vpr_smr.eval.scoring.records import KEY_META, Evaluation, HeldOut, Timing, VPRMetrics
 
 SEQ_LEN_COLUMNS = (*TABLE1_COLUMNS[:-len(QUERY_COLUMNS) - 1], "auc_vpr_sm", "auc_vpr_sm_pred", *QUERY_COLUMNS,
                    "n_seeds_defined")
@@ -356,10 +356,13 @@ def _write_csv(path: Path, columns: Sequence[str], rows: list[dict[str, Any]]) -
     return path
 
 
-def overlap_notes(datasets: dict[str, dict[str, Any]] | None) -> dict[str, str]:
-    """Per dataset whose splits share frames (``allow_split_overlap``), the sentence every table carries."""
+def overlap_notes(datasets: dict[str, dict[str, Any]] | None, order: Order | None = None) -> dict[str, str]:
+    """Per dataset whose splits share frames (``allow_split_overlap``), the sentence every table carries, in the
+    configuration's ``order`` (default: as given)."""
+    order = order or Order(tuple(datasets or {}))
     return {name: "splits share frames (allow_split_overlap: true): " + "; ".join(info["overlaps"])
-            for name, info in (datasets or {}).items() if info.get("overlaps")}
+            for name, info in sorted((datasets or {}).items(), key=lambda item: order.dataset(item[0]))
+            if info.get("overlaps")}
 
 
 def _flagged(text: str, notes: dict[str, str], latex: bool = False) -> str:
@@ -583,21 +586,63 @@ def _split_name(name: str, prefix: str, datasets: Iterable[str]) -> tuple[str, s
     return None
 
 
-def _load(paths: Sequence[Path | str], what: str) -> list[dict[str, Any]]:
+class _Record(Protocol):
+    @property
+    def meta(self) -> dict[str, Any]: ...
+
+
+Record = TypeVar("Record", bound=_Record)
+
+# What each kind of input needs in its meta (the tables' keys), and how a user's file gets it.
+PREDICTOR_META = ("dataset", "seq_len")
+METRICS_HINT = "rerun vpr-smr metrics with --dataset and --method (the run's names), as the workflow does"
+
+
+def _article(what: str) -> str:
+    return f"an {what}" if what[:1].lower() in "aeiou" else f"a {what}"
+
+
+def _reason(error: Exception) -> str:
+    """What is wrong with a file's content, in words (a KeyError's text is only the key)."""
+    if isinstance(error, KeyError):
+        return f"it has no {error.args[0]!r} entry"
+    return str(error) or type(error).__name__
+
+
+def _load(paths: Sequence[Path | str], what: str) -> list[tuple[Path, dict[str, Any]]]:
+    """Each file of ``paths`` with its JSON object; a missing file, or one that is not a JSON object, raises
+    naming it and ``what`` it should be."""
     out = []
-    for path in paths:
-        if not Path(path).is_file():
+    for path in map(Path, paths):
+        if not path.is_file():
             raise FileNotFoundError(f"{what} file not found: {path}")
-        out.append(json.loads(Path(path).read_text()))
+        try:
+            data = json.loads(path.read_text())
+        except (UnicodeDecodeError, json.JSONDecodeError) as error:
+            raise ValueError(f"{path}: not {_article(what)} file: {error}") from None
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: not {_article(what)} file: it holds a JSON {type(data).__name__}, not an "
+                             "object")
+        out.append((path, data))
     return out
 
 
-Record = TypeVar("Record")
-
-
-def _read(paths: Sequence[Path | str], what: str, from_json: Callable[[dict[str, Any]], Record]) -> list[Record]:
-    """The records of the files ``paths`` (``what``: the kind of file, for the error)."""
-    return [from_json(data) for data in _load(paths, what)]
+def _read(paths: Sequence[Path | str], what: str, from_json: Callable[[dict[str, Any]], Record],
+          meta: Sequence[str] = (), hint: str = "") -> list[Record]:
+    """The records of the files ``paths`` (``what``: the kind of file, for the error), each with the ``meta``
+    entries the tables need (``hint``: how to make a file that has them)."""
+    out = []
+    for path, data in _load(paths, what):
+        try:
+            record = from_json(data)
+        except (KeyError, TypeError, ValueError, AttributeError, IndexError) as error:
+            raise ValueError(f"{path}: not {_article(what)} file: {_reason(error)}") from None
+        missing = [key for key in meta if key not in record.meta]
+        if missing:
+            raise ValueError(f"{path}: {_article(what)} file without {', '.join(missing)} in its meta, which the "
+                             f"report needs" + (f": {hint}" if hint else ""))
+        out.append(record)
+    return out
 
 
 def main(
@@ -642,20 +687,21 @@ def main(
     from vpr_smr.eval.report import html as html_report
 
     out_dir = Path(out_dir)
-    read_evaluations = _read(evaluations, "evaluation", Evaluation.from_json)
-    read_metrics = _read(metrics, "VPR metrics", VPRMetrics.from_json)
-    read_predictors = _read(predictors, "predictor report", PredictorReport.from_json)
-    read_lomo = _read(leave_one_out, "leave-one-method-out", HeldOut.from_json)
+    read_evaluations = _read(evaluations, "evaluation", Evaluation.from_json, KEY_META)
+    read_metrics = _read(metrics, "VPR metrics", VPRMetrics.from_json, KEY_META, METRICS_HINT)
+    read_predictors = _read(predictors, "predictor report", PredictorReport.from_json, PREDICTOR_META)
+    read_lomo = _read(leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
     base = evaluation_order(read_evaluations, methods)
     order = Order.of([*(e.meta for e in read_evaluations), *(m.meta for m in read_metrics),
                       *(h.meta for h in read_lomo), *(p.meta for p in read_predictors),
                       *({"dataset": name} for name in datasets or {})], base.modes, base.methods)
     inputs = Inputs(
-        read_evaluations, _read(timings, "timing", Timing.from_json), read_predictors,
-        _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json), read_lomo, read_metrics,
+        read_evaluations, _read(timings, "timing", Timing.from_json, KEY_META), read_predictors,
+        _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
+        read_metrics,
         dict(datasets or {}), split, None if table_seq_lens is None else {int(s) for s in table_seq_lens},
         seq_len_ablation, order)
-    tables = _tables(out_dir, inputs, overlap_notes(datasets))
+    tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]
     if html:

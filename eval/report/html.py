@@ -221,8 +221,9 @@ class _Builder:
             return None
         return Section("pr-curves", "Precision-recall curves", (
             "Sequence matching without (VPR+SM) and with the predictor's match removal (VPR+SM+Pred, the seed-0 "
-            "predictor), one panel per method. The area over the curve (AOC) is measured up to VPR+SM's maximum "
-            "recall (dotted line); Table I above reports it.",), tuple(blocks), self.folded("table1"))
+            "predictor), one panel per method. The area over the curve (AOC) is measured up to VPR+SM+Pred's "
+            "maximum recall (dotted line); VPR+SM's curve is cut there. Table I above reports it.",),
+            tuple(blocks), self.folded("table1"))
 
     def trust(self) -> Section | None:
         rows = self.rows("trust_levels")
@@ -420,10 +421,13 @@ def cards(datasets: dict[str, dict[str, Any]] | None, order: Order) -> tuple[Car
     return tuple(out)
 
 
-def overlap_warnings(datasets: dict[str, dict[str, Any]] | None) -> tuple[str, ...]:
+def overlap_warnings(datasets: dict[str, dict[str, Any]] | None, order: Order | None = None) -> tuple[str, ...]:
+    """A warning per dataset whose splits share frames, in the configuration's ``order`` (default: as given)."""
+    order = order or Order(tuple(datasets or {}))
     return tuple(f"Warning, {name}: splits share frames (allow_split_overlap: true): {'; '.join(info['overlaps'])}. "
                  "Its numbers are measured partly on frames the predictor was trained or validated on."
-                 for name, info in (datasets or {}).items() if info.get("overlaps"))
+                 for name, info in sorted((datasets or {}).items(), key=lambda item: order.dataset(item[0]))
+                 if info.get("overlaps"))
 
 
 def provenance_rows(provenance: dict[str, Any] | None, descriptor_paths: Sequence[Path | str] = ()
@@ -489,7 +493,7 @@ def build_page(
            *([("datasets", "Datasets")] if page_cards or dataset_table else []),
            ("provenance", "Provenance"), ("configuration", "Configuration")]
     return Page(
-        title=title, subtitle=subtitle, warnings=overlap_warnings(datasets), findings=found,
+        title=title, subtitle=subtitle, warnings=overlap_warnings(datasets, order), findings=found,
         findings_files=table1_files, sections=tuple(sections), cards=page_cards,
         datasets_table=folded(dataset_table, run_dir) if dataset_table else None, cite=how_to_cite(version),
         provenance=_provenance_table(general), descriptor_files=descriptor_table, configuration=_config_text(config),

@@ -139,7 +139,7 @@ def read_queries(path: Path | str) -> list[QueryRow]:
         missing = [c for c in COLUMNS if c not in (reader.fieldnames or ())]
         if missing:
             raise ValueError(f"{path} lacks the columns {', '.join(missing)}: is it a queries CSV of the workflow "
-                             "(`vpr-smr metrics`)? Run the workflow again")
+                             "(`vpr-smr queries`)? Run the workflow again")
         rows = []
         for line, record in enumerate(reader, start=2):
             try:
@@ -373,14 +373,41 @@ def _split_range(path: Path, provenance: dict[str, Any], given: tuple[int, int] 
 
 
 def _check_rows(rows: Sequence[QueryRow], queries_csv: Path, split: str, seq_len: int, lo: int, hi: int) -> None:
+    """The CSV's rows of ``split`` are the evaluated queries of frames ``lo .. hi-1`` at ``seq_len``: exactly
+    ``lo + L - 1 .. hi - 1``, each once (a CSV made at another L, or for another split, is refused)."""
     if not rows:
         raise ValueError(f"{queries_csv} has no queries of split {split!r}")
-    first, last = min(r.query for r in rows), max(r.query for r in rows)
-    if first < lo + seq_len - 1 or last >= hi:
-        raise ValueError(f"{queries_csv}: split {split!r} has queries {first}..{last}, but the distance matrix "
-                         f"covers frames {lo}..{hi - 1} and L = {seq_len} leaves the first {seq_len - 1} without a "
-                         "sequence match: were they computed at another sequence length or split? Run the workflow "
-                         "again")
+    queries = sorted(r.query for r in rows)
+    expected = list(range(lo + seq_len - 1, hi))
+    if queries != expected:
+        first, last = queries[0], queries[-1]
+        found = (f"queries {first}..{last}" if queries == list(range(first, last + 1))
+                 else f"{len(queries)} queries {first}..{last}, not one per frame")
+        want = f"{expected[0]}..{expected[-1]}" if expected else "none"
+        raise ValueError(f"{queries_csv}: split {split!r} has {found}, but at L = {seq_len} the distance matrix of "
+                         f"frames {lo}..{hi - 1} has the evaluated queries {want} (the first {seq_len - 1} have no "
+                         "sequence match): was the CSV made at another sequence length or for another split? Make "
+                         f"it again from this distance matrix at --seq-len {seq_len} (vpr-smr queries), or run the "
+                         "workflow again")
+
+
+def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, distances: Path, lo: int) -> None:
+    """The sampled rows' single-frame matches are this matrix's: ``single_match - lo`` is the stable argmin (the
+    lowest index on ties) of the query's column, as ``eval.scoring`` finds it, at the distance the CSV gives. A CSV
+    made from another distance matrix (another method, or other descriptors) is refused."""
+    fix = ("the CSV was made from another distance matrix (another method or run): give the queries CSV of this "
+           "distance matrix (vpr-smr queries --distances it), or run the workflow again")
+    for sample in samples:
+        row = sample.row
+        column = np.asarray(matrix[:, row.query - lo], dtype=np.float64)
+        best = int(np.argmin(column))
+        if row.single_match - lo != best:
+            raise ValueError(f"{queries_csv}: query {row.query}'s single-frame match is reference {row.single_match}, "
+                             f"but the nearest reference in {distances} is {best + lo}: {fix}")
+        # float32 matrices are read back exactly; the tolerance allows a CSV of a float32 copy of a float64 one
+        if not np.isclose(row.single_distance, column[best], rtol=1e-6, atol=0.0):
+            raise ValueError(f"{queries_csv}: query {row.query}'s single-frame distance is {row.single_distance:.6g}, "
+                             f"but it is {column[best]:.6g} in {distances}: {fix}")
 
 
 def main(queries_csv: Path | str, distances: Path | str, dataset_name: str, dataset_settings: dict[str, Any],
@@ -393,6 +420,8 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str, data
     ``frames_sha256``: the fingerprint of the frames the run's descriptors were computed from (default: the
     distances file's); the images are refused when theirs differs. ``split_range``: the split's frames
     ``(lo, hi)`` (default: the distances file's ``split_range``). ``tolerance``: frames of the ground-truth band.
+    The queries CSV must be this matrix's at ``seq_len``: its rows of ``split`` are exactly the queries
+    ``lo + L - 1 .. hi - 1``, and each sampled row's single-frame match and distance are its column's minimum.
     """
     queries_csv, distances = Path(queries_csv), Path(distances)
     match_figure = check_suffix(match_figure, (".png",), "the match figure (PNG)", "--match-figure")
@@ -429,6 +458,7 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str, data
         if tuple(matrix.shape) != (hi - lo, hi - lo):
             raise ValueError(f"{distances}: the distance matrix is {matrix.shape[0]} x {matrix.shape[1]}, but split "
                              f"{split!r} has {hi - lo} frames ({lo}..{hi - 1}): run the workflow again")
+        _check_matches(samples, matrix, queries_csv, distances, lo)
         with ExitStack() as stack:  # both files are renamed into place only when both are drawn
             matrix_tmp = stack.enter_context(atomic_path(matrix_figure))
             match_tmp = stack.enter_context(atomic_path(match_figure))

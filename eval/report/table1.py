@@ -196,8 +196,8 @@ def _tex_reduction(value: float | None) -> str:
 
 def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
     out = [f"% Table I ({tex_escape(split)} split)"]
-    undefined = False
     for (mode, seq_len), datasets in _groups(rows).items():
+        undefined = False  # each tabular has its own footnote: only where one of its cells is n/a
         methods = [r["method"] for r in next(iter(datasets.values()))]
         n_columns = len(methods) + 4
         out += [

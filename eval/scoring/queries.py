@@ -1,4 +1,5 @@
-"""The per-query table of ``vpr-smr metrics``: one row per evaluated query (``a >= L-1``) of every split.
+"""The per-query table of ``vpr-smr queries`` (and ``metrics --queries``): one row per evaluated query (``a >= L-1``)
+of every split.
 
 Frame indices (``query``, ``single_match``, ``sequence_match``, ``true_reference``) are the dataset's: the split's
 first frame plus the index within the split (a frame-aligned pair: the true reference of query ``a`` is ``a``).

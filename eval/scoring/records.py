@@ -338,8 +338,16 @@ class EvaluationSplit:
         )
 
 
+KEY_META = ("dataset", "method", "seq_len")
+
+
 def meta_key(meta: Json) -> tuple[str, str, int]:
-    """What an evaluation and its timings share: (dataset, method, sequence length)."""
+    """What an evaluation and its timings share: (dataset, method, sequence length). A meta without them (e.g. of
+    ``vpr-smr metrics`` run without ``--dataset`` and ``--method``) raises a ValueError naming what it lacks."""
+    missing = [key for key in KEY_META if key not in meta]
+    if missing:
+        raise ValueError(f"the meta has no {', '.join(missing)} (it has {', '.join(map(str, meta)) or 'nothing'}): "
+                         "the file does not say which dataset, method and sequence length it is of")
     return str(meta["dataset"]), str(meta["method"]), int(meta["seq_len"])
 
 

@@ -1,4 +1,5 @@
-"""The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher.
+"""The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher, and the
+per-query table of the same scoring (``vpr-smr queries``, or ``metrics --queries``; ``eval.scoring.queries``).
 
 One split's ``R x Q`` matrix ``D`` of a frame-aligned pair: a match ``r`` of query ``q`` is correct iff
 ``|r - q| <= tolerance``. Rankings are stable (equal distances: the lower reference or diagonal index first).
@@ -31,6 +32,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Mapping, Sequence
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -43,6 +45,7 @@ from vpr_smr.core.io import (
     CSV_SUFFIXES,
     HDF5_SUFFIXES,
     JSON_SUFFIXES,
+    atomic_path,
     check_suffix,
     read_provenance,
     write_json,
@@ -58,7 +61,7 @@ from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetric
 
 __all__ = [
     "ALL_SPLIT", "Retrieval", "ScoredSplit", "extended_precision", "main", "matcher_metrics",
-    "precision_at_first_recall", "recall_at", "retrieval", "score_split",
+    "precision_at_first_recall", "queries_main", "recall_at", "retrieval", "score_split",
 ]
 
 log = logging.getLogger("vpr_smr")
@@ -308,29 +311,18 @@ def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path],
                              f"give the predictor of L = {seq_len}, or --seq-len {trained}")
 
 
-def main(
+def _score_all(
     distances: Mapping[str, Path | str] | Path | str,
     seq_len: int,
     tolerance: int,
-    out: Path | str,
-    predictor: Path | str | None = None,
-    attributes: Mapping[str, Path | str] | None = None,
-    modes: Sequence[str] = MODES,
-    queries: Path | str | None = None,
-    meta: Mapping[str, Any] | None = None,
-    allow_split_overlap: bool = False,
-) -> VPRMetrics:
-    """The standard VPR metrics of every split of ``distances`` (split -> ``.npy`` or our HDF5; one path: one split
-    named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with ``queries``, the per-query table
-    (``queries.QUERY_COLUMNS``) of every split in the given order.
-
-    ``attributes`` (split -> our features ``.h5``) spares recomputing a split's attributes; they must come from the
-    same matrix, ``seq_len`` and ``tolerance``. ``predictor``: the seed-0 predictor file; it may not score frames it
-    was trained on (``allow_split_overlap``: a deliberate experiment). ``meta`` (dataset, method) is written with
-    ``seq_len``, ``tolerance`` and the predictor's path. Every input is checked before any work.
-    """
-    out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
-    queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
+    predictor: Path | str | None,
+    attributes: Mapping[str, Path | str] | None,
+    modes: Sequence[str],
+    allow_split_overlap: bool,
+) -> tuple[dict[str, ScoredSplit], Path | None]:
+    """Every split of ``distances`` scored (``score_split``) in the given order, after every input is checked;
+    the predictor file (None without one). What ``main`` and ``queries_main`` share: one implementation of the
+    per-query table."""
     splits = {ALL_SPLIT: Path(distances)} if isinstance(distances, str | Path) else {
         str(name): Path(path) for name, path in distances.items()}
     if not splits:
@@ -366,11 +358,63 @@ def main(
         if first_mode:
             log.info("%s: recall@1 single %.4f, sequence %.4f (%s mode)", split,
                      first_mode["single"].recall_at[1], first_mode["sequence"].recall_at[1], modes[0])
+    return results, predictor_file
+
+
+def main(
+    distances: Mapping[str, Path | str] | Path | str,
+    seq_len: int,
+    tolerance: int,
+    out: Path | str,
+    predictor: Path | str | None = None,
+    attributes: Mapping[str, Path | str] | None = None,
+    modes: Sequence[str] = MODES,
+    queries: Path | str | None = None,
+    meta: Mapping[str, Any] | None = None,
+    allow_split_overlap: bool = False,
+) -> VPRMetrics:
+    """The standard VPR metrics of every split of ``distances`` (split -> ``.npy`` or our HDF5; one path: one split
+    named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with ``queries``, the per-query table
+    (``queries.QUERY_COLUMNS``) of every split in the given order, as ``queries_main`` writes it. Both files are
+    written to temporary names and renamed into place only when both are written.
+
+    ``attributes`` (split -> our features ``.h5``) spares recomputing a split's attributes; they must come from the
+    same matrix, ``seq_len`` and ``tolerance``. ``predictor``: the seed-0 predictor file; it may not score frames it
+    was trained on (``allow_split_overlap``: a deliberate experiment). ``meta`` (dataset, method) is written with
+    ``seq_len``, ``tolerance`` and the predictor's path. Every input is checked before any work.
+    """
+    out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
+    queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
+    results, predictor_file = _score_all(distances, seq_len, tolerance, predictor, attributes, modes,
+                                         allow_split_overlap)
     info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance)}
     if predictor_file is not None:
         info["predictor"] = str(predictor_file)
     result = VPRMetrics(info, {split: scored_split.metrics for split, scored_split in results.items()})
-    if queries is not None:
-        write_queries(queries, [scored_split.queries for scored_split in results.values()])
-    write_json(out, result.to_json())
+    with ExitStack() as stack:  # both files are renamed into place only when both are written
+        out_tmp = stack.enter_context(atomic_path(out))
+        if queries is not None:
+            write_queries(stack.enter_context(atomic_path(queries)),
+                          [scored_split.queries for scored_split in results.values()])
+        write_json(out_tmp, result.to_json())
     return result
+
+
+def queries_main(
+    distances: Mapping[str, Path | str] | Path | str,
+    seq_len: int,
+    tolerance: int,
+    out: Path | str,
+    predictor: Path | str | None = None,
+    attributes: Mapping[str, Path | str] | None = None,
+    allow_split_overlap: bool = False,
+) -> Path:
+    """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS``) of every split of ``distances`` in
+    the given order, written to ``out`` (CSV), as ``main``'s ``queries`` (the same code; no metric mode changes
+    it). The inputs as ``main``'s."""
+    out = check_suffix(out, CSV_SUFFIXES, "the per-query table (CSV)")
+    results, _ = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap)
+    write_queries(out, [scored_split.queries for scored_split in results.values()])
+    log.info("wrote %d queries of %d splits to %s", sum(len(r.queries.features.queries) for r in results.values()),
+             len(results), out)
+    return out

@@ -78,8 +78,7 @@ rule vpr_metrics:
                              for split in conf["eval_splits"]],
         predictor=predictor_path(OUT, "{dataset}", "{seq_len}"),  # seed 0 (the authors' recipe)
     output:
-        metrics=vpr_metrics_path(OUT, "{dataset}", "{method}", "{seq_len}"),
-        queries=queries_path(OUT, "{dataset}", "{method}", "{seq_len}"),
+        vpr_metrics_path(OUT, "{dataset}", "{method}", "{seq_len}"),
     log:
         log_path(OUT, vpr_metrics_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     params:
@@ -93,4 +92,28 @@ rule vpr_metrics:
         "vpr-smr metrics --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
         " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} --distances {params.distances}"
         " --attributes {params.attributes} --predictor {input.predictor:q} --modes {params.modes}"
-        " --queries {output.queries:q} --out {output.metrics:q} {params.overlap} > {log:q} 2>&1"
+        " --out {output:q} {params.overlap} > {log:q} 2>&1"
+
+
+# The per-query table of the same scoring, its own job: it does not depend on the metric modes, so a change of them
+# reruns the metrics and the report, not this table and the match inspector that reads it.
+rule queries:
+    input:
+        distances=lambda wc: [distances_path(OUT, wc.dataset, wc.method, split) for split in conf["eval_splits"]],
+        attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
+                             for split in conf["eval_splits"]],
+        predictor=predictor_path(OUT, "{dataset}", "{seq_len}"),  # seed 0 (the authors' recipe)
+    output:
+        queries_path(OUT, "{dataset}", "{method}", "{seq_len}"),
+    log:
+        log_path(OUT, queries_path(OUT, "{dataset}", "{method}", "{seq_len}")),
+    params:
+        overlap=ALLOW_OVERLAP,
+        # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
+        distances=lambda wc, input: name_pairs(conf["eval_splits"], input.distances),
+        attributes=lambda wc, input: name_pairs(conf["eval_splits"], input.attributes),
+        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
+    shell:
+        "vpr-smr queries --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
+        " --distances {params.distances} --attributes {params.attributes} --predictor {input.predictor:q}"
+        " --out {output:q} {params.overlap} > {log:q} 2>&1"

@@ -89,7 +89,7 @@ rule report:
         seq_len_ablation="--seq-len-ablation" if "seq_len" in EXPERIMENTS else "",
         # what the report shows as the run's configuration: every setting that changes a number
         settings=report_settings(conf),
-        datasets=canonical(dataset_cards(PLAN)),
+        datasets=report_datasets(PLAN),  # the configuration's order of datasets and splits
     shell:
         "vpr-smr report --evaluations {input.evaluations:q} --timings {input.timings:q}"
         " --predictors {input.predictors:q} --attribute-ablations {input.attribute_ablations:q}"
