@@ -28,6 +28,8 @@ BACKENDS: dict[str, str] = {
     "eigenplaces": "cosplace:EigenPlaces",
     "mixvpr": "mixvpr:MixVPR",
     "salad": "salad:SALAD",
+    "boq": "boq:BoQ",
+    "megaloc": "megaloc:MegaLoc",
     "precomputed": "precomputed:Precomputed",
 }
 

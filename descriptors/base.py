@@ -6,9 +6,10 @@ returns ``(B, dim)`` float32 descriptors, and learned backends ``load(checkpoint
 Parameters come from ``default_conf`` updated with the configuration entry, as in hloc.
 
 Checkpoint loading lives here, in ``TorchBackend.load``, for every learned backend: read the file with
-``weights_only=True``, find the state dict inside it (``find_state_dict``), strip the wrapper prefixes of
-training code once (``strip_wrappers``), let the backend adapt what really differs (``adapt_state_dict``: model
-sizes read from the file, extra content such as a whitening), check every key and shape strictly, then load.
+``weights_only=True`` (``read_file``; a backend released as a safetensors file reads it with ``safetensors``),
+find the state dict inside it (``find_state_dict``), strip the wrapper prefixes of training code once
+(``strip_wrappers``), let the backend adapt what really differs (``adapt_state_dict``: model sizes read from the
+file, extra content such as a whitening), check every key and shape strictly, then load.
 A file torch cannot read is described by what it is (``describe_file``: empty, a web page, a git-lfs pointer,
 truncated, an archive ...) or by what torch refused (``describe_load_error``), never with torch's own advice.
 """
@@ -17,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import json
 import pickletools
 import re
 import shlex
@@ -149,6 +151,11 @@ class TorchBackend(Backend):
         """Globals that ``torch.load(weights_only=True)`` may build for this backend's files (none by default)."""
         return []
 
+    def read_file(self, path: Path) -> Any:
+        """The content of a checkpoint file: ``torch.load(weights_only=True)`` with described errors
+        (``load_tensor_file``). A backend whose release is another format of tensors overrides it."""
+        return load_tensor_file(path, backend=self.name)
+
     def find_state_dict(self, data: Any, source: Path | str) -> dict[str, Any]:
         """The state dict inside a loaded file: one of ``state_dict_entries``, or the file itself."""
         looked = f"looked for tensors under {', '.join(map(repr, self.state_dict_entries))} or at the top"
@@ -193,7 +200,7 @@ class TorchBackend(Backend):
         try:
             path = self.checkpoint_path(checkpoint)
             with torch.serialization.safe_globals(self.checkpoint_globals()):
-                data = load_tensor_file(path, backend=self.name)
+                data = self.read_file(path)
             state_dict = self.strip_wrappers(self.find_state_dict(data, path))
             state_dict = fill_batch_norm_counters(self.adapt_state_dict(state_dict, data, path), self.model)
             problems = state_dict_problems(self.model, state_dict)
@@ -288,6 +295,56 @@ def load_tensor_file(path: Path | str, setting: str = "checkpoint", backend: str
     except Exception as error:  # torch raises UnpicklingError, RuntimeError, EOFError, IndexError ... for bad files
         finding = describe_file(path, setting) or describe_load_error(error, path, backend)
         raise CheckpointError(f"checkpoint {path} {finding}") from None
+
+
+def is_safetensors_file(path: Path | str) -> bool:
+    """Whether ``path`` starts as a safetensors file does (an 8-byte header length, then ``{``), complete or not."""
+    with open(path, "rb") as handle:
+        head = handle.read(9)
+    return len(head) == 9 and head[8:9] == b"{" and 0 < int.from_bytes(head[:8], "little") < 1 << 32
+
+
+def load_safetensors_file(path: Path | str, setting: str = "checkpoint") -> dict[str, torch.Tensor]:
+    """The tensors of a safetensors file (on the CPU), with errors that name the file, what is wrong and the fix.
+
+    safetensors reads tensors only (no code can run). The file's header gives each tensor's byte range, so a
+    file cut short is told apart from a damaged one.
+    """
+    from safetensors import SafetensorError
+    from safetensors.torch import load_file
+
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"checkpoint not found: {path} (set `{setting}` to the downloaded file)")
+    try:
+        return load_file(path, device="cpu")
+    except (SafetensorError, OSError, ValueError) as error:
+        raise CheckpointError(f"checkpoint {path} {_describe_safetensors(path, error)}") from None
+
+
+def _describe_safetensors(path: Path, error: Exception) -> str:
+    """Why safetensors refused ``path``: empty, cut short (the header announces more bytes than the file has)
+    or damaged."""
+    size = path.stat().st_size
+    if size == 0:
+        return f"is empty (0 bytes): {AGAIN}"
+    with open(path, "rb") as handle:
+        length = int.from_bytes(handle.read(8), "little")
+        header_bytes = handle.read(min(length, size))
+    if 8 + length > size:
+        return (f"is truncated ({size} bytes; its safetensors header alone announces {8 + length} bytes): "
+                f"{AGAIN}")
+    try:
+        header = json.loads(header_bytes)
+        end = max((int(entry["data_offsets"][1]) for key, entry in header.items() if key != "__metadata__"),
+                  default=0)
+    except (ValueError, TypeError, KeyError, IndexError, AttributeError):
+        end = None
+    if end is not None and 8 + length + end > size:
+        return (f"is truncated ({size} bytes; its safetensors header announces {8 + length + end} bytes): "
+                f"{AGAIN}")
+    first = str(error).strip().splitlines()[0][:120] if str(error).strip() else ""
+    return f"is damaged or not a safetensors file ({type(error).__name__}: {first}): download it again"
 
 
 def describe_file(path: Path, setting: str = "checkpoint", inside: str | None = None) -> str | None:

@@ -218,5 +218,6 @@ def no_conversion(method: str) -> str:
                 expected = backend.expected_file()
     except (ValueError, AttributeError):
         pass
-    return (f"no conversion for {method!r}: backend {method!r} loads its file as it is, with weights_only=True "
-            f"(expected: {expected}); check yours with `vpr-smr checkpoint check {method} FILE`; {available}")
+    return (f"no conversion for {method!r}: backend {method!r} loads its file as it is, tensors only (torch.load "
+            f"with weights_only=True, or safetensors) (expected: {expected}); check yours with "
+            f"`vpr-smr checkpoint check {method} FILE`; {available}")

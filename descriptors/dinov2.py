@@ -4,7 +4,8 @@ Module and parameter names follow facebookresearch/dinov2 (``dinov2/models/visio
 ``dinov2/layers/``) as built by its torch.hub entry points (``block_chunks=0``, LayerScale
 ``init_values=1.0``, ``img_size=518``, MLP feed-forward): ``cls_token``, ``pos_embed``, ``mask_token``,
 ``patch_embed.proj``, ``blocks.N.{norm1, attn.qkv, attn.proj, ls1.gamma, norm2, mlp.fc1, mlp.fc2,
-ls2.gamma}``, ``norm``.
+ls2.gamma}``, ``norm``. ``mask_token`` is a training-only parameter that the hub models carry and MegaLoc's
+own written-out ViT does not: ``with_mask_token=False`` leaves it out.
 Only inference is implemented: no stochastic depth, no masking, no xFormers.
 """
 
@@ -127,7 +128,7 @@ class DinoVisionTransformer(nn.Module):
 
     def __init__(self, embed_dim: int = 768, depth: int = 12, num_heads: int = 12, patch_size: int = 14,
                  img_size: int = 518, mlp_ratio: float = 4.0, interpolate_offset: float = INTERPOLATE_OFFSET,
-                 interpolate_antialias: bool = False) -> None:
+                 interpolate_antialias: bool = False, with_mask_token: bool = True) -> None:
         super().__init__()
         self.embed_dim = embed_dim
         self.patch_size = patch_size
@@ -140,8 +141,9 @@ class DinoVisionTransformer(nn.Module):
         self.patch_embed = PatchEmbed(patch_size, 3, embed_dim)
         self.blocks = nn.ModuleList(Block(embed_dim, num_heads, mlp_ratio) for _ in range(depth))
         self.norm = nn.LayerNorm(embed_dim, eps=LAYER_NORM_EPS)
-        # Unused at inference (it replaces masked patches in training) but part of the official state dict.
-        self.mask_token = nn.Parameter(torch.zeros(1, embed_dim))
+        # Unused at inference (it replaces masked patches in training) but part of the hub models' state dict.
+        if with_mask_token:
+            self.mask_token = nn.Parameter(torch.zeros(1, embed_dim))
 
     def interpolate_pos_encoding(self, num_tokens: int, height: int, width: int) -> torch.Tensor:
         # DINOv2 keeps the stored embedding only when the token count matches and the input is square.
@@ -161,3 +163,11 @@ class DinoVisionTransformer(nn.Module):
         for block in self.blocks:
             x = block(x)
         return self.norm(x) if norm else x
+
+    def features_and_token(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+        """Final-normed patch tokens as a ``(B, D, H/p, W/p)`` map (patches row-major) and the class token
+        ``(B, D)``: what SALAD's and MegaLoc's aggregations read."""
+        batch, _, height, width = x.shape
+        tokens = self(x, norm=True)
+        features = tokens[:, 1:].reshape(batch, height // self.patch_size, width // self.patch_size, -1)
+        return features.permute(0, 3, 1, 2), tokens[:, 0]

@@ -99,11 +99,8 @@ class DINOv2Backbone(nn.Module):
         self.model = DinoVisionTransformer(**vit_kwargs)
 
     def forward(self, x: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
-        batch, _, height, width = x.shape
-        tokens = self.model(x, norm=True)  # SALAD uses norm_layer=True: the final LayerNorm is applied
-        patch = self.model.patch_size
-        features = tokens[:, 1:].reshape(batch, height // patch, width // patch, -1).permute(0, 3, 1, 2)
-        return features, tokens[:, 0]
+        # SALAD uses norm_layer=True: the final LayerNorm is applied to the patch tokens and the class token.
+        return self.model.features_and_token(x)
 
 
 class SALADNet(nn.Module):
@@ -119,12 +116,13 @@ class SALADNet(nn.Module):
         return descriptors
 
 
-def harness_size(height: int, width: int, patch: int = 14) -> tuple[int, int]:
-    """VPR-methods-evaluation's ``ResizingWrapper`` (``dino_v2_resize``): each side to the nearest multiple of
-    the patch size, ``round(side / patch) * patch`` with Python's ``round`` (halves go to the even multiple)."""
+def harness_size(height: int, width: int, patch: int = 14, method: str = "salad") -> tuple[int, int]:
+    """VPR-methods-evaluation's ``ResizingWrapper`` (``dino_v2_resize``), also MegaLoc's own ``forward``: each
+    side to the nearest multiple of the patch size, ``round(side / patch) * patch`` with Python's ``round``
+    (halves go to the even multiple). ``method`` names the backend in the error."""
     size = (round(height / patch) * patch, round(width / patch) * patch)
     if min(size) == 0:
-        raise ValueError(f"salad: a {height} x {width} image rounds to {size[0]} x {size[1]}: too small")
+        raise ValueError(f"{method}: a {height} x {width} image rounds to {size[0]} x {size[1]}: too small")
     return size
 
 

@@ -205,8 +205,9 @@ def _file_stamp(path: Path | str) -> list[Any]:
 
 
 def _method_key(method: dict[str, Any]) -> str | None:
-    """What a method's check depends on: its settings, its checkpoint file, the package version and the backend's
-    source files (a code change of an editable install keeps the version); None, so checked every time, when the
+    """What a method's check depends on: its settings, its checkpoint file, the package version and the descriptors
+    package's source files (a code change of an editable install keeps the version; backends share modules, e.g.
+    MegaLoc and BoQ the DINOv2 of dinov2.py and SALAD's aggregation); None, so checked every time, when the
     checkpoint is not a file here or the backend is a plugin."""
     from vpr_smr.core.io import package_version
     from vpr_smr.descriptors import BACKENDS
@@ -214,8 +215,7 @@ def _method_key(method: dict[str, Any]) -> str | None:
     if method["backend"] not in BACKENDS:
         return None
     package = Path(__file__).resolve().parents[1] / "descriptors"
-    module = BACKENDS[method["backend"]].split(":")[0]
-    sources = [_file_stamp(package / "base.py"), _file_stamp(package / f"{module}.py")]
+    sources = [_file_stamp(path) for path in sorted(package.glob("*.py"))]
     checkpoint = method.get("checkpoint")
     stamp = None
     if checkpoint and checkpoint != "package":

@@ -2,6 +2,7 @@
 
 import json
 import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -76,16 +77,38 @@ def test_dry_run_plans_every_job(tmp_path):
             settings["checkpoint"] = str(shaped_checkpoint(tmp_path / f"{method}.pth", OFFICIAL_KEYS[method]))
     conf["output"] = str(tmp_path / "results")
     config = tmp_path / "paper.yaml"
-    config.write_text(yaml.safe_dump(conf))
-    result = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", str(config), "-n", "-v"], cwd=tmp_path,
-                            capture_output=True, text=True, timeout=300)
+    config.write_text(yaml.safe_dump(conf, sort_keys=False))  # the splits as written: train, val, test
+    result = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", str(config), "-n", "-v", "--",
+                             "--printshellcmds"], cwd=tmp_path, capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     counts = dict(re.findall(r"^(\w+)\s+(\d+)$", result.stdout, flags=re.MULTILINE))
     # 3 datasets x 7 methods x 3 splits; Table II per dataset; a predictor without each method, tested on it; the
-    # standard VPR metrics and the match inspector of each method at the table's L
+    # standard VPR metrics, the per-query CSV and the match inspector of each method at the table's L
     assert counts == {"all": "1", "descriptors": "21", "distances": "63", "attributes": "63", "train": "3",
                       "evaluate": "21", "attribute_ablation": "3", "predictor_without": "21", "held_out": "21",
-                      "vpr_metrics": "21", "inspect": "21", "report": "1", "total": "260"}
+                      "vpr_metrics": "21", "queries": "21", "inspect": "21", "report": "1", "total": "281"}
     for dataset in ("nordland", "robotcar", "sfu_mountain"):
         for method in METHODS:
             assert f"descriptors/{dataset}/{method}.h5" in result.stdout
+    # the report is given the dataset cards in the configuration's order: the splits train, val, test (not sorted)
+    (report,) = re.findall(r"^Shell command: (vpr-smr report .*)$", result.stdout, flags=re.MULTILINE)
+    words = shlex.split(report)
+    cards = json.loads(words[words.index("--datasets") + 1])
+    assert list(cards) == list(conf["datasets"]) == ["nordland", "robotcar", "sfu_mountain"]
+    assert all(list(card["splits"]) == ["train", "val", "test"] for card in cards.values())
+
+
+def test_the_commented_current_methods_are_valid_entries(tmp_path):
+    # configs/paper.yaml lists MegaLoc and BoQ commented out (the paper did not use them): uncommented, with files
+    # of the official keys and shapes, each entry passes the check the run does before its first job.
+    from vpr_smr.descriptors.extract import check_checkpoint
+
+    text = PAPER.read_text()
+    block = text[text.index("  # megaloc:"):]
+    uncommented = "\n".join(line.replace("  # ", "  ", 1) for line in block.splitlines())
+    methods = yaml.safe_load("methods:\n" + uncommented)["methods"]
+    assert list(methods) == ["megaloc", "boq"]
+    files = {"megaloc": "megaloc_model_safetensors", "boq": "boq_dinov2_12288"}
+    for name, settings in methods.items():
+        settings["checkpoint"] = str(shaped_checkpoint(tmp_path / f"{name}.pth", files[name]))
+        assert len(check_checkpoint(settings, name)) == 64  # the file's SHA-256

@@ -77,3 +77,22 @@ def test_snakemake_reads_the_plan_of_the_run(tmp_path):
     without = subprocess.run(command, cwd=tmp_path, capture_output=True, text=True, timeout=300,
                              env={k: v for k, v in os.environ.items() if k != PLAN_ENV})
     assert without.returncode != 0 and "sample copy" in without.stdout + without.stderr
+
+
+def test_the_methods_check_reruns_when_a_shared_backend_module_changes():
+    # MegaLoc and BoQ build on dinov2.py (and MegaLoc on salad.py's aggregation): a change there must not let the
+    # check before the first job reuse an earlier verdict for them.
+    import os
+
+    import vpr_smr.descriptors.dinov2 as dinov2
+    from vpr_smr.pipeline.plan import _method_key
+
+    path = dinov2.__file__
+    before = os.stat(path)
+    keys = {name: _method_key({"backend": name}) for name in ("megaloc", "boq", "salad")}
+    try:
+        os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns + 1_000_000_000))
+        assert all(_method_key({"backend": name}) != key for name, key in keys.items())
+    finally:
+        os.utime(path, ns=(before.st_atime_ns, before.st_mtime_ns))
+    assert all(_method_key({"backend": name}) == key for name, key in keys.items())
