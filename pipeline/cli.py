@@ -317,6 +317,17 @@ def _allow_overlap(parser: argparse.ArgumentParser) -> None:
                         help="let a predictor score frames of its training split (a deliberate experiment)")
 
 
+def _matrix_options(parser: argparse.ArgumentParser, predictor_help: str) -> None:
+    """The options of the commands that read users' distance matrices (``metrics``, ``queries``)."""
+    parser.add_argument("--distances", nargs="+", required=True, metavar="PATH or SPLIT=PATH",
+                        help="references x queries matrices (.npy or our .h5): one file, or one SPLIT=PATH per split")
+    parser.add_argument("--seq-len", type=int, required=True)
+    parser.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
+    parser.add_argument("--predictor", help=predictor_help)
+    parser.add_argument("--attributes", nargs="*", metavar="SPLIT=PATH",
+                        help="the splits' attributes (.h5) computed from the same matrices (default: computed here)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="vpr-smr", description=__doc__)
     parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}",
@@ -432,13 +443,7 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog="e.g. vpr-smr metrics --distances D.npy --seq-len 4 --out metrics.json;  "
                               "vpr-smr metrics --distances val=val.h5 test=test.h5 --seq-len 4 --predictor L4.h5 "
                               "--queries queries.csv --out metrics.json")
-    p.add_argument("--distances", nargs="+", required=True, metavar="PATH or SPLIT=PATH",
-                   help="references x queries matrices (.npy or our .h5): one file, or one SPLIT=PATH per split")
-    p.add_argument("--seq-len", type=int, required=True)
-    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
-    p.add_argument("--predictor", help="the seed-0 predictor (.h5): adds the sequence_predictor matcher")
-    p.add_argument("--attributes", nargs="*", metavar="SPLIT=PATH",
-                   help="the splits' attributes (.h5) computed from the same matrices (default: computed here)")
+    _matrix_options(p, "the seed-0 predictor (.h5): adds the sequence_predictor matcher")
     p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
     p.add_argument("--queries", help="also write one row per evaluated query to this .csv (as vpr-smr queries "
                                       "does); both files or neither are written")
@@ -452,13 +457,7 @@ def build_parser() -> argparse.ArgumentParser:
                                        "attributes, true class and the predictor's decision (CSV)",
                        epilog="e.g. vpr-smr queries --distances val=val.h5 test=test.h5 --seq-len 4 --predictor L4.h5 "
                               "--out queries.csv (the same table as vpr-smr metrics --queries)")
-    p.add_argument("--distances", nargs="+", required=True, metavar="PATH or SPLIT=PATH",
-                   help="references x queries matrices (.npy or our .h5): one file, or one SPLIT=PATH per split")
-    p.add_argument("--seq-len", type=int, required=True)
-    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
-    p.add_argument("--predictor", help="the seed-0 predictor (.h5): fills predicted_class, probability and kept")
-    p.add_argument("--attributes", nargs="*", metavar="SPLIT=PATH",
-                   help="the splits' attributes (.h5) computed from the same matrices (default: computed here)")
+    _matrix_options(p, "the seed-0 predictor (.h5): fills predicted_class, probability and kept")
     _required(p, "--out")
     _allow_overlap(p)
     p.set_defaults(func=cmd_queries)
