@@ -12,7 +12,7 @@ import pytest
 import torch
 import torch.nn.functional as F
 from safetensors.torch import save_file
-from test_salad import naive_sinkhorn, naive_vit_tokens
+from test_salad import naive_aggregate, naive_vit_tokens
 
 from vpr_smr.descriptors import backend_class, extract
 from vpr_smr.descriptors.base import CheckpointError
@@ -180,23 +180,10 @@ def test_non_square_position_embedding_as_dinov2(height: int, width: int) -> Non
 
 def naive_megaloc(params: dict[str, np.ndarray], features: np.ndarray, token: np.ndarray) -> np.ndarray:
     """MegaLoc's aggregator on one image, before the final L2: ``features`` ``(n, C)`` patch tokens, ``token``
-    ``(C,)``; Sinkhorn in probability space, one cluster at a time, then the linear map."""
-    def mlp(x: np.ndarray, prefix: str, second: int) -> np.ndarray:
-        w1, b1 = params[f"{prefix}.0.weight"], params[f"{prefix}.0.bias"]
-        w2, b2 = params[f"{prefix}.{second}.weight"], params[f"{prefix}.{second}.bias"]
-        w1, w2 = w1.reshape(w1.shape[0], -1), w2.reshape(w2.shape[0], -1)
-        return np.maximum(x @ w1.T + b1, 0) @ w2.T + b2
-
-    local = mlp(features, "agg.cluster_features", 3)  # (n, l)
-    scores = mlp(features, "agg.score", 3).T  # (m, n)
-    global_token = mlp(token, "agg.token_features", 2)
-    plan = naive_sinkhorn(scores, float(params["agg.dust_bin"]))[:-1]  # written-out Sinkhorn; dustbin dropped
-    clusters = np.zeros((local.shape[1], plan.shape[0]))  # (l, m)
-    for cluster in range(plan.shape[0]):
-        vector = (plan[cluster][:, None] * local).sum(axis=0)
-        clusters[:, cluster] = vector / np.linalg.norm(vector)
-    salad = np.concatenate([global_token / np.linalg.norm(global_token), clusters.reshape(-1)])  # l * m + cluster
-    salad = salad / np.linalg.norm(salad)
+    ``(C,)``; SALAD's aggregation written out (``test_salad.naive_aggregate``, on the ``agg.*`` parameters), then
+    the linear map."""
+    salad = naive_aggregate({k.removeprefix("agg."): v for k, v in params.items() if k.startswith("agg.")},
+                            features, token)
     projected: np.ndarray = params["linear.weight"] @ salad + params["linear.bias"]
     return projected
 
