@@ -251,22 +251,17 @@ def file_sizes(state_dict: dict[str, Any]) -> dict[str, int]:
     """The model sizes a BoQ state dict holds (what is readable of them): ``proj_channels``, ``num_queries``,
     ``num_layers``, ``row_dim`` and, for DINOv2, ``embed_dim`` and ``depth``."""
     sizes: dict[str, int] = {}
-    proj = _shape(state_dict, "aggregator.proj_c.weight", 4)
-    if proj is not None:
-        sizes["proj_channels"] = proj[0]
-    queries = _shape(state_dict, "aggregator.boqs.0.queries", 3)
-    if queries is not None:
-        sizes["num_queries"] = queries[1]
-    if layers := _count(state_dict, "aggregator.boqs"):
-        sizes["num_layers"] = layers
-    fc = _shape(state_dict, "aggregator.fc.weight", 2)
-    if fc is not None:
-        sizes["row_dim"] = fc[0]
-    token = _shape(state_dict, "backbone.dino.cls_token", 3)
-    if token is not None:
-        sizes["embed_dim"] = token[2]
-    if depth := _count(state_dict, "backbone.dino.blocks"):
-        sizes["depth"] = depth
+    # (size, the key that holds it, that tensor's number of dimensions, the axis of the size)
+    for name, key, ndim, axis in (("proj_channels", "aggregator.proj_c.weight", 4, 0),
+                                  ("num_queries", "aggregator.boqs.0.queries", 3, 1),
+                                  ("row_dim", "aggregator.fc.weight", 2, 0),
+                                  ("embed_dim", "backbone.dino.cls_token", 3, 2)):
+        shape = _shape(state_dict, key, ndim)
+        if shape is not None:
+            sizes[name] = shape[axis]
+    for name, prefix in (("num_layers", "aggregator.boqs"), ("depth", "backbone.dino.blocks")):
+        if count := _count(state_dict, prefix):
+            sizes[name] = count
     return sizes
 
 
