@@ -26,3 +26,7 @@ MATCHERS = ("single", "sequence", "sequence_predictor")
 # Trust levels of the trust-level ablation; pipeline/config_schema.json repeats them as the `trust_levels`
 # default (a JSON schema cannot import), and tests/test_config.py checks that both agree.
 DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)
+
+# SPEC 11: velocities (reference frames per query frame) searched by sequence matching; (1.0,) is SPEC 4's fixed
+# slope-1 matcher, the paper's. pipeline/config_schema.json repeats it as `sequence_matching.velocities`' default.
+DEFAULT_VELOCITIES = (1.0,)
