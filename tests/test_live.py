@@ -31,12 +31,14 @@ def stopped_train(n_ref=300, n_query=80, seed=0):
     return matrix
 
 
-@pytest.mark.parametrize("seq_len", [2, 5])
-def test_live_equals_batch_every_frame(seq_len):
+@pytest.mark.parametrize("seq_len, velocities", [(2, (1.0,)), (5, (1.0,)), (4, (0.5, 1.0, 1.5, 2.0)),
+                                                 (5, (1.25, 2.0))])
+def test_live_equals_batch_every_frame(seq_len, velocities):
+    # SPEC 11's velocity search too: each frame's result is the batch's for that query, bit for bit
     matrix = stopped_train()
-    batch = query_features(matrix, seq_len)
+    batch = query_features(matrix, seq_len, velocities=velocities)
     threshold = np.median(batch.attributes[:, 0, 0])
-    matcher = LiveMatcher(seq_len, predictor=ThresholdPredictor(threshold))
+    matcher = LiveMatcher(seq_len, predictor=ThresholdPredictor(threshold), velocities=velocities)
     labels = set()
     for a in range(matrix.shape[1]):
         result = matcher.step_distances(matrix[:, a])
@@ -84,6 +86,10 @@ def test_errors():
         matcher.step_distances(np.ones(9))
     with pytest.raises(ValueError, match="too few"):
         LiveMatcher(4).step_distances(np.ones(3))
+    with pytest.raises(ValueError, match=r"too few for sequence length 4 at velocities \[3.0\]"):
+        LiveMatcher(4, velocities=(3.0,)).step_distances(np.ones(9))  # the trajectory spans 10 references
+    with pytest.raises(ValueError, match="each > 0"):
+        LiveMatcher(4, velocities=(0.0, 1.0))
     matcher = LiveMatcher(2)
     matcher.step_distances(np.ones(10))
     with pytest.raises(ValueError, match="non-finite"):

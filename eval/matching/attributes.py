@@ -40,10 +40,12 @@ import h5py
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-from vpr_smr.core.constants import DEFAULT_TOLERANCE, EPS, GROUP_HALF_WIDTH
+from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, EPS, GROUP_HALF_WIDTH
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
 from vpr_smr.eval.matching.checks import check_finite, check_shape
-from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
+from vpr_smr.eval.matching.velocity import check_velocities, first_reference, velocity_block_features
 
 __all__ = [
     "ATTRIBUTE_NAMES", "QueryFeatures", "block_features", "is_correct", "labels_from_correctness",
@@ -87,15 +89,16 @@ class QueryFeatures:
     """What the predictor and the evaluation need of one split, for queries ``a = L-1 .. Q-1``.
 
     ``attributes[n, k]`` holds ``[A1_k, A2_k, A3_k, A4_k]`` of query ``queries[n]``;
-    ``rank_references[n, k]`` is the reference that the rank-``k`` diagonal matches to that query.
+    ``rank_references[n, k]`` is the reference that the rank-``k`` diagonal (with velocity search, SPEC 11: the
+    rank-``k`` best trajectory) matches to that query, i.e. where it ends.
     """
 
     queries: np.ndarray  # (N,) query index within the split
     attributes: np.ndarray  # (N, K, 4)
     rank_references: np.ndarray  # (N, K)
     single_match: np.ndarray  # (N,) argmin_r D[r, a]
-    sequence_match: np.ndarray  # (N,) argmin_i S[i, a-L+1] + L - 1
-    sequence_distance: np.ndarray  # (N,) min_i S[i, a-L+1]
+    sequence_match: np.ndarray  # (N,) the reference where the best sequence ends: argmin_i S[i, a-L+1] + L - 1
+    sequence_distance: np.ndarray  # (N,) min_i S[i, a-L+1] (SPEC 11: min_r S[r, a])
     labels: np.ndarray  # (N,) 0..3, SPEC section 6
     single_correct: np.ndarray  # (N,) bool
     sequence_correct: np.ndarray  # (N,) bool
@@ -106,7 +109,8 @@ class QueryFeatures:
 
 
 def is_correct(reference: np.ndarray, query: np.ndarray, tolerance: int) -> np.ndarray:
-    """Ground truth of a frame-aligned pair: a match is correct iff ``|r - q| <= tolerance``."""
+    """Ground truth of a frame-aligned pair: a match is correct iff ``|r - q| <= tolerance`` (``GroundTruth``
+    generalises it to positions)."""
     correct: np.ndarray = np.abs(np.asarray(reference) - np.asarray(query)) <= tolerance
     return correct
 
@@ -419,10 +423,15 @@ def default_block_queries(n_ref: int) -> int:
 
 
 def _run_blocks(distance_matrix: Any, seq_len: int, n_ranks: int, block_queries: int | None,
-                screen_dtype: Any) -> tuple[dict[str, np.ndarray], int]:
+                screen_dtype: Any, velocities: tuple[float, ...] = DEFAULT_VELOCITIES,
+                ) -> tuple[dict[str, np.ndarray], int]:
+    """Every block's results concatenated, and ``r_min`` (the end reference of index 0: ``L - 1`` for the fixed
+    matcher, SPEC 11's lowest valid end reference with velocity search)."""
     matrix = _as_matrix(distance_matrix)
     check_shape(tuple(matrix.shape), seq_len)
     _block_dtype(np.dtype(matrix.dtype))
+    if velocities != DEFAULT_VELOCITIES:
+        return _run_velocity_blocks(matrix, seq_len, n_ranks, block_queries, velocities)
     n_ref, n_query = matrix.shape
     n_ranks = min(n_ranks, n_ref - seq_len + 1)
     n_out = n_query - seq_len + 1
@@ -450,40 +459,75 @@ def _run_blocks(distance_matrix: Any, seq_len: int, n_ranks: int, block_queries:
             columns = read_columns(matrix, start, stop + seq_len - 1)
             parts.append(_numpy_block_features(columns, seq_len, n_ranks, screen_dtype,
                                                where=f" in query columns {start}..{stop + seq_len - 2}"))
-    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}, n_ranks
+    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}, seq_len - 1
+
+
+def _run_velocity_blocks(matrix: Any, seq_len: int, n_ranks: int, block_queries: int | None,
+                         velocities: tuple[float, ...]) -> tuple[dict[str, np.ndarray], int]:
+    """``_run_blocks`` with velocity search (SPEC 11): the same blocks of query columns, each block's numbers
+    exact (``velocity.velocity_block_features``), so block-wise equals whole-matrix."""
+    n_ref, n_query = matrix.shape
+    r_min = first_reference(seq_len, velocities)
+    if r_min > n_ref - 1:
+        raise ValueError(f"{n_ref} references are too few for sequence length {seq_len} at velocities "
+                         f"{list(velocities)}: the slowest trajectory spans {r_min + 1} references")
+    n_ranks = min(n_ranks, n_ref - r_min)
+    n_out = n_query - seq_len + 1
+    step = block_queries or default_block_queries(n_ref)
+    parts: list[dict[str, np.ndarray]] = []
+    for start in range(0, n_out, step):
+        stop = min(n_out, start + step)
+        columns = read_columns(matrix, start, stop + seq_len - 1)
+        # total_queries: the whole run's size decides whether the compiled kernel pays, not one block's
+        parts.append(velocity_block_features(columns, seq_len, n_ranks, velocities,
+                                             where=f" in query columns {start}..{stop + seq_len - 2}",
+                                             total_queries=n_out))
+    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}, r_min
 
 
 def query_attributes(
-    distance_matrix: Any, seq_len: int, n_ranks: int = 4, block_queries: int | None = None
+    distance_matrix: Any, seq_len: int, n_ranks: int = 4, block_queries: int | None = None,
+    velocities: Sequence[float] = DEFAULT_VELOCITIES,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Paper-mode attributes of ranks ``0 .. K-1`` for every query ``a >= L - 1``.
 
     Returns ``(attributes (Q-L+1, K, 4), rank_references (Q-L+1, K))``; ``K`` is at most the number of
-    diagonals ``R - L + 1``.
+    diagonals ``R - L + 1`` (with velocity search: of end references ``R - r_min``).
     """
-    result, _ = _run_blocks(distance_matrix, seq_len, n_ranks, block_queries, np.float32)
-    return result["attributes"], result["rank_diagonals"] + seq_len - 1
+    result, r_min = _run_blocks(distance_matrix, seq_len, n_ranks, block_queries, np.float32,
+                                check_velocities(velocities))
+    return result["attributes"], result["rank_diagonals"] + r_min
 
 
 def query_features(
     distance_matrix: Any, seq_len: int, tolerance: int = DEFAULT_TOLERANCE, n_ranks: int = 4,
     block_queries: int | None = None,
     screen_dtype: Any = np.float32,
+    *,
+    velocities: Sequence[float] = DEFAULT_VELOCITIES,
+    ground_truth: GroundTruth | None = None,
 ) -> QueryFeatures:
     """Sequence matching, attributes and labels of one split's ``R x Q`` distance matrix.
 
     ``distance_matrix`` is any 2-D numeric array-like that supports column slicing (``np.ndarray``, a memory-mapped
     ``.npy``, an ``h5py.Dataset``); it is read ``block_queries`` columns at a time. ``screen_dtype`` only decides
     which candidates are recomputed in float64: the results are the same for float32 and float64.
+    ``velocities``: SeqSLAM's velocity search (SPEC 11; ``(1.0,)``, the default, is SPEC 4's fixed matcher).
+    ``ground_truth``: which matches are correct (default: frame-aligned within ``tolerance``, SPEC 1).
     """
-    result, _ = _run_blocks(distance_matrix, seq_len, n_ranks, block_queries, screen_dtype)
-    n_query = _as_matrix(distance_matrix).shape[1]
+    velocities = check_velocities(velocities)
+    matrix = _as_matrix(distance_matrix)
+    if ground_truth is None:
+        ground_truth = GroundTruth.aligned(matrix.shape[0], matrix.shape[1], tolerance)
+    ground_truth.check_shape(tuple(matrix.shape))
+    result, r_min = _run_blocks(matrix, seq_len, n_ranks, block_queries, screen_dtype, velocities)
+    n_query = matrix.shape[1]
     queries = np.arange(seq_len - 1, n_query)
-    rank_refs = result["rank_diagonals"] + seq_len - 1
+    rank_refs = result["rank_diagonals"] + r_min
     single = result["single_match"]
-    seq_match = result["sequence_diagonal"] + seq_len - 1
-    single_correct = is_correct(single, queries, tolerance)
-    sequence_correct = is_correct(seq_match, queries, tolerance)
+    seq_match = result["sequence_diagonal"] + r_min
+    single_correct = ground_truth.correct(single, queries)
+    sequence_correct = ground_truth.correct(seq_match, queries)
     return QueryFeatures(
         queries=queries,
         attributes=result["attributes"],
@@ -494,13 +538,12 @@ def query_features(
         labels=labels_from_correctness(single_correct, sequence_correct),
         single_correct=single_correct,
         sequence_correct=sequence_correct,
-        rank_correct=is_correct(rank_refs, queries[:, None], tolerance),
+        rank_correct=ground_truth.correct(rank_refs, queries[:, None]),
         sequence_min=float(result["sequence_distance"].min()),
         sequence_max=float(result["sequence_max"].max()),
         # Paper mode's single-frame recall@1 counts every query of the split (SPEC 8): the first L-1 too.
         all_single_correct=np.concatenate([
-            is_correct(np.argmin(read_columns(_as_matrix(distance_matrix), 0, seq_len - 1), axis=1),
-                       np.arange(seq_len - 1), tolerance),
+            ground_truth.correct(np.argmin(read_columns(matrix, 0, seq_len - 1), axis=1), np.arange(seq_len - 1)),
             single_correct,
         ]),
     )
@@ -535,20 +578,27 @@ def write_csv(path: Path | str, features: QueryFeatures) -> None:
         np.savetxt(tmp, table, delimiter=",", header=header, comments="", fmt=["%d", *["%.9g"] * 4, "%d"])
 
 
-def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int) -> QueryFeatures:
+def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
+         velocities: Sequence[float] = DEFAULT_VELOCITIES, radius: float | None = None,
+         reference_positions: Path | str | None = None, query_positions: Path | str | None = None) -> QueryFeatures:
     """Features of the matrix in ``distances`` (``.npy`` or our ``.h5``) written to ``out``.
 
     ``out`` ending in ``.csv`` gets the rank-0 table (``write_csv``); ``.h5``/``.hdf5`` every field of
     ``QueryFeatures`` as HDF5, with the distance file's provenance, ``seq_len``, ``tolerance`` and
-    ``attributes_seconds`` (the time of the computation, reading included); another suffix is an error, before
-    anything is read. Errors name the distance file (negative distances included: ``io.check_non_negative``).
+    ``attributes_seconds`` (the time of the computation, reading included), and ``velocities`` and ``radius`` when
+    they are not the frame-aligned defaults; another suffix is an error, before anything is read. The ground truth:
+    ``io.split_ground_truth`` (positions within ``radius``, or frame indices within ``tolerance``). Errors name the
+    distance file (negative distances included: ``io.check_non_negative``).
     """
     out = check_suffix(out, OUT_SUFFIXES, "the attributes (.csv table or HDF5)")
+    velocities = check_velocities(velocities, "--velocities")
     distances = Path(distances)
     start = time.perf_counter()
     with open_distance_matrix(distances) as matrix:
+        ground_truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
+                                          query_positions)
         try:
-            features = query_features(matrix, seq_len, tolerance)
+            features = query_features(matrix, seq_len, tolerance, velocities=velocities, ground_truth=ground_truth)
         except ValueError as error:
             raise ValueError(f"{distances}: {error}") from None
     seconds = time.perf_counter() - start
@@ -557,10 +607,44 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int) -
     else:
         provenance = read_provenance(distances) if distances.suffix != ".npy" else {}
         provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
+        provenance.update(matcher_provenance(velocities, radius))
         write_features(out, features, {**provenance, "seq_len": seq_len, "tolerance": tolerance,
                                        "attributes_seconds": seconds})
     log.info("%d queries, %.1f µs per query", len(features.queries), 1e6 * seconds / max(len(features.queries), 1))
     return features
+
+
+def matcher_provenance(velocities: Sequence[float], radius: float | None) -> dict[str, Any]:
+    """What an attributes file records of its matcher and ground truth beyond ``seq_len`` and ``tolerance``: only
+    what differs from the frame-aligned fixed matcher, so that the paper's files stay as they were."""
+    out: dict[str, Any] = {}
+    if tuple(velocities) != DEFAULT_VELOCITIES:
+        out["velocities"] = [float(v) for v in velocities]
+    if radius is not None:
+        out["radius"] = float(radius)
+    return out
+
+
+def check_matcher(paths: Sequence[Path | str], velocities: Sequence[float], radius: float | None) -> None:
+    """Raise ValueError when an attributes file was computed with other velocities or another radius than a stage
+    is given (its labels and matches would not be this matcher's)."""
+    expected = matcher_provenance(velocities, radius)
+    for path in paths:
+        stored = read_provenance(path)
+        found: dict[str, Any] = {}
+        if "velocities" in stored:
+            found["velocities"] = [float(v) for v in stored["velocities"]]
+        if "radius" in stored:
+            found["radius"] = float(stored["radius"])
+        if found != expected:
+            raise ValueError(f"{path} holds attributes of {_describe_matcher(found)}, but this stage was given "
+                             f"{_describe_matcher(expected)}: give the same --velocities and --radius, or recompute "
+                             "them")
+
+
+def _describe_matcher(settings: dict[str, Any]) -> str:
+    return (f"velocities {settings.get('velocities', list(DEFAULT_VELOCITIES))}, "
+            f"radius {settings.get('radius', 'none (frame-aligned)')}")
 
 
 def check_seq_len(paths: Sequence[Path | str], seq_len: int, option: str = "--seq-len") -> None:

@@ -73,9 +73,11 @@ class GroundTruth:
     def distance(self, reference: np.ndarray, query: np.ndarray) -> np.ndarray:
         """``|p_ref[reference] - p_qry[query]|`` for broadcastable index arrays."""
         delta = self.reference_positions[np.asarray(reference)] - self.query_positions[np.asarray(query)]
+        out: np.ndarray
         if delta.ndim == np.broadcast(np.asarray(reference), np.asarray(query)).ndim:  # 1-D positions
-            return np.abs(delta)
-        out: np.ndarray = np.sqrt(np.sum(delta * delta, axis=-1))
+            out = np.abs(delta)
+        else:
+            out = np.sqrt(np.sum(delta * delta, axis=-1))
         return out
 
     def correct(self, reference: np.ndarray, query: np.ndarray) -> np.ndarray:

@@ -10,6 +10,8 @@ from typing import Any
 import h5py
 import numpy as np
 
+from vpr_smr.eval.matching.ground_truth import GroundTruth, read_positions
+
 # A column block of a chunked distance matrix touches every chunk row; cache them so that the L-1 columns that
 # consecutive blocks share are not read twice (64 MB holds one chunk column of a 27592-reference matrix).
 CHUNK_CACHE_BYTES = 64 << 20
@@ -100,3 +102,51 @@ def check_non_negative(path: Path | str, matrix: Any) -> None:
         "(smaller = more similar; SPEC 5 divides each query column by its maximum). If these are similarities, "
         "turn them into distances first, e.g. D = 1 - S for the cosine similarity of L2-normalised descriptors, "
         "or D = S.max() - S")
+
+
+def stored_positions(path: Path | str) -> tuple[np.ndarray, np.ndarray] | None:
+    """The split's ``reference_positions`` and ``query_positions`` that a distance file of a dataset with positions
+    holds (the distances stage copies them), or None (a frame-aligned split, or a ``.npy``)."""
+    path = Path(path)
+    if path.suffix == ".npy" or not h5py.is_hdf5(path):
+        return None
+    with h5py.File(path, "r") as f:
+        if "reference_positions" not in f and "query_positions" not in f:
+            return None
+        if "reference_positions" not in f or "query_positions" not in f:
+            raise ValueError(f"{path} holds the positions of one traverse only: compute it again (vpr-smr distances)")
+        return np.asarray(f["reference_positions"][()]), np.asarray(f["query_positions"][()])
+
+
+def split_ground_truth(path: Path | str, shape: tuple[int, ...], tolerance: int, radius: float | None = None,
+                       reference_positions: Path | str | None = None,
+                       query_positions: Path | str | None = None) -> GroundTruth:
+    """The ground truth of the matrix in ``path`` (SPEC 1 and 11): the positions files given (``.npy`` or CSV, one
+    position per frame), else the positions the distance file holds, each within ``radius``; else frame indices
+    within ``tolerance``. Errors name the option or file and the fix."""
+    if (reference_positions is None) != (query_positions is None):
+        raise ValueError("give both --reference-positions and --query-positions (one position per frame of each "
+                         "traverse), or neither")
+    where = "the positions"
+    if reference_positions is not None and query_positions is not None:
+        positions: tuple[np.ndarray, np.ndarray] | None = (read_positions(reference_positions),
+                                                            read_positions(query_positions))
+        where = f"{reference_positions} and {query_positions}"
+    else:
+        positions = stored_positions(path)
+        where = f"the positions stored in {path}"
+    if positions is None:
+        if radius is not None:
+            raise ValueError(f"--radius {radius} needs positions (--reference-positions and --query-positions, or a "
+                             f"distance file of a dataset with positions); {path} is frame-aligned: its ground "
+                             "truth is --tolerance frames")
+        return GroundTruth.aligned(shape[0], shape[1], tolerance)
+    if radius is None:
+        raise ValueError(f"{where}: a ground truth from positions needs --radius (in the positions' unit, e.g. "
+                         "metres): a match is correct within that distance of the query's position")
+    truth = GroundTruth(positions[0], positions[1], radius)
+    try:
+        truth.check_shape(shape)
+    except ValueError as error:
+        raise ValueError(f"{path} and {where}: {error}") from None
+    return truth

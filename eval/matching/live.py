@@ -24,9 +24,10 @@ from typing import Any
 
 import numpy as np
 
-from vpr_smr.core.constants import KEPT_CLASSES
+from vpr_smr.core.constants import DEFAULT_VELOCITIES, KEPT_CLASSES
 from vpr_smr.eval.matching.attributes import block_features
 from vpr_smr.eval.matching.distances import distance_columns, prepare_references
+from vpr_smr.eval.matching.velocity import check_velocities, first_reference, velocity_block_features
 
 
 @dataclass(frozen=True)
@@ -36,9 +37,9 @@ class LiveResult:
     query: int  # index of the current frame (0 for the first frame fed)
     single_match: int  # argmin_r D[r, query]
     sequence_match: int  # reference at which the best sequence ends
-    sequence_distance: float  # min_i S[i, query - L + 1]
+    sequence_distance: float  # min_i S[i, query - L + 1] (SPEC 11: min_r S[r, query])
     attributes: np.ndarray  # (K, 4): A1..A4 (the paper's names) of ranks 0..K-1
-    rank_references: np.ndarray  # (K,): reference matched by the rank-k diagonal
+    rank_references: np.ndarray  # (K,): reference matched by the rank-k diagonal (trajectory), where it ends
     label: int | None = None  # predicted class 0..3 (SPEC 6), with a predictor
     keep: bool | None = None  # the predictor keeps the sequence match (label 0 or 2)
 
@@ -49,10 +50,13 @@ class LiveMatcher:
     ``predictor``: any object with ``predict_proba(X)`` (``X`` of shape ``(n, 4)``, A1..A4 of rank 0, as
     ``eval.predictor.SMRPredictor``) and ``classes_``. ``distance`` is the metric of ``eval.distances`` that the
     descriptors' method uses; it is required with ``references`` (``from_descriptors`` reads it from the file).
+    ``velocities``: SeqSLAM's velocity search (SPEC 11; default ``(1.0,)``, the paper's fixed matcher), as the
+    batch ``attributes`` stage takes them: each step equals the batch result of its query.
     """
 
     def __init__(self, seq_len: int, references: np.ndarray | None = None, predictor: Any = None,
-                 distance: str | None = None, n_ranks: int = 4) -> None:
+                 distance: str | None = None, n_ranks: int = 4,
+                 velocities: tuple[float, ...] = DEFAULT_VELOCITIES) -> None:
         if seq_len < 2:
             raise ValueError(f"sequence length must be at least 2, got {seq_len}")
         if references is not None and distance is None:
@@ -60,6 +64,7 @@ class LiveMatcher:
                              "('mad' for sad, 'l2' for the learned backends, or the method's distance setting); "
                              "LiveMatcher.from_descriptors(path, seq_len) reads both from a descriptor file")
         self.seq_len = seq_len
+        self.velocities = check_velocities(velocities)
         self.distance = distance
         self.predictor = predictor
         self.n_ranks = n_ranks
@@ -75,7 +80,8 @@ class LiveMatcher:
 
     @classmethod
     def from_descriptors(cls, path: Path | str, seq_len: int, predictor: Any = None, distance: str | None = None,
-                         n_ranks: int = 4, frames: tuple[int, int] | None = None) -> LiveMatcher:
+                         n_ranks: int = 4, frames: tuple[int, int] | None = None,
+                         velocities: tuple[float, ...] = DEFAULT_VELOCITIES) -> LiveMatcher:
         """A matcher whose references are the ``reference`` descriptors of ``path`` (a ``vpr-smr descriptors``
         file), compared with its backend's distance (the file's ``distance`` attribute), or with ``distance`` when
         given: a run whose method sets ``distance`` computes its matrices with it, while its descriptor file (which
@@ -108,7 +114,7 @@ class LiveMatcher:
                 raise ValueError(f"{path}: frames {lo}..{hi - 1} are outside its {n_frames} reference frames")
             references = f["reference"][lo:hi]
         matcher = cls(seq_len, references=references, predictor=predictor, distance=distance or stored,
-                      n_ranks=n_ranks)
+                      n_ranks=n_ranks, velocities=velocities)
         matcher.method, matcher.method_settings = method, settings
         return matcher
 
@@ -127,8 +133,9 @@ class LiveMatcher:
             raise ValueError(f"a distance column must be 1-D (one value per reference), got shape {column.shape}")
         if self._buffer is None:
             n_ref = len(column)
-            if n_ref < self.seq_len:
-                raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}")
+            if n_ref < self.seq_len or first_reference(self.seq_len, self.velocities) > n_ref - 1:
+                raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}"
+                                 + (f" at velocities {list(self.velocities)}" if n_ref >= self.seq_len else ""))
             dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
             self._buffer = np.empty((self.seq_len, n_ref), dtype=dtype)
         if len(column) != self._buffer.shape[1]:
@@ -138,8 +145,13 @@ class LiveMatcher:
         if self.frames < self.seq_len:
             return None
         window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % self.seq_len]
-        n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.seq_len + 1)
-        out = block_features(window, self.seq_len, n_ranks, where=f" in frame {self.frames - 1}")
+        r_min = first_reference(self.seq_len, self.velocities)
+        n_ranks = min(self.n_ranks, self._buffer.shape[1] - r_min)
+        where = f" in frame {self.frames - 1}"
+        if self.velocities == DEFAULT_VELOCITIES:
+            out = block_features(window, self.seq_len, n_ranks, where=where)
+        else:
+            out = velocity_block_features(window, self.seq_len, n_ranks, self.velocities, where=where)
         attributes = out["attributes"][0]
         label = keep = None
         if self.predictor is not None:
@@ -149,10 +161,10 @@ class LiveMatcher:
         return LiveResult(
             query=self.frames - 1,
             single_match=int(out["single_match"][0]),
-            sequence_match=int(out["sequence_diagonal"][0]) + self.seq_len - 1,
+            sequence_match=int(out["sequence_diagonal"][0]) + r_min,
             sequence_distance=float(out["sequence_distance"][0]),
             attributes=attributes,
-            rank_references=out["rank_diagonals"][0] + self.seq_len - 1,
+            rank_references=out["rank_diagonals"][0] + r_min,
             label=label,
             keep=keep,
         )

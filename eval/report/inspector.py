@@ -28,9 +28,12 @@ import cv2
 import h5py
 import numpy as np
 
+from vpr_smr.core.constants import DEFAULT_VELOCITIES
 from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
 from vpr_smr.datasets import TraversePair, load_frames
-from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
+from vpr_smr.eval.matching.velocity import offsets
 from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
 
 # The columns of the queries CSV the inspector reads (by name; other columns are ignored).
@@ -197,12 +200,16 @@ def _verdict(correct: bool) -> tuple[str, str]:
     return ("correct", UP) if correct else ("wrong", DOWN)
 
 
-def _sequence_sum(columns: np.ndarray, reference: int, seq_len: int) -> float | None:
-    """``sum_k D[reference - k, query - k]`` from the window ``columns`` (split-local rows x the ``L`` columns
-    ending at the query), or None when the diagonal leaves the split."""
-    if reference - seq_len + 1 < 0 or reference >= columns.shape[0]:
+def _sequence_sum(columns: np.ndarray, reference: int, seq_len: int,
+                  velocities: Sequence[float] = DEFAULT_VELOCITIES) -> float | None:
+    """``S[reference, query]`` from the window ``columns`` (split-local rows x the ``L`` columns ending at the
+    query): the smallest sum of ``D`` along a trajectory of ``velocities`` ending there (SPEC 11; the diagonal
+    ``sum_k D[reference - k, query - k]`` for the fixed matcher), or None when every trajectory leaves the split."""
+    if not 0 <= reference < columns.shape[0]:
         return None
-    return float(sum(columns[reference - k, seq_len - 1 - k] for k in range(seq_len)))
+    sums = [sum(float(columns[reference - int(o), k]) for k, o in enumerate(offsets(v, seq_len)))
+            for v in velocities if reference - int(offsets(v, seq_len)[0]) >= 0]
+    return min(sums) if sums else None
 
 
 def _decision_lines(row: QueryRow) -> list[tuple[str, str]]:
@@ -220,12 +227,15 @@ def _decision_lines(row: QueryRow) -> list[tuple[str, str]]:
 
 
 def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled], matrix: Any, lo: int,
-                 seq_len: int, title: str) -> MatchRecord:
+                 seq_len: int, title: str, reference_lo: int | None = None,
+                 velocities: Sequence[float] = DEFAULT_VELOCITIES) -> MatchRecord:
     """The match figure of ``samples`` (see the module's docstring) to ``path`` (PNG, written as given).
 
-    ``matrix`` is the split's distance matrix (references x queries, split-local: frame ``f`` is ``f - lo``),
-    read for the true reference's distances; the thumbnails are ``pair``'s images.
+    ``matrix`` is the split's distance matrix (references x queries, split-local: query frame ``f`` is ``f - lo``,
+    reference frame ``f`` is ``f - reference_lo``, default ``lo``), read for the true reference's distances (``S``
+    with the run's ``velocities``); the thumbnails are ``pair``'s images.
     """
+    reference_lo = lo if reference_lo is None else reference_lo
     if not samples:
         raise ValueError("no queries to show: the sample is empty")
     plt = _pyplot()
@@ -253,9 +263,9 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
         row = sample.row
         q = row.query - lo
         columns = np.asarray(matrix[:, q - seq_len + 1 : q + 1], dtype=np.float64)
-        true_local = row.true_reference - lo
+        true_local = row.true_reference - reference_lo
         true_d = float(columns[true_local, -1]) if 0 <= true_local < columns.shape[0] else None
-        true_s = _sequence_sum(columns, true_local, seq_len)
+        true_s = _sequence_sum(columns, true_local, seq_len, velocities)
         single_word, single_colour = _verdict(row.single_correct)
         sequence_word, sequence_colour = _verdict(row.sequence_correct)
         true_text = f"true r={row.true_reference}"
@@ -308,22 +318,34 @@ def block_means(matrix: Any, block: int) -> np.ndarray:
 
 
 def draw_matrix(path: Path | str, matrix: Any, lo: int, rows: Sequence[QueryRow], tolerance: int,
-                title: str) -> MatrixRecord:
+                title: str, reference_lo: int | None = None, ground_truth: GroundTruth | None = None) -> MatrixRecord:
     """The distance-matrix figure to ``path`` (PNG, written as given): ``matrix`` (split-local, references x
-    queries) in dataset frame indices from ``lo``, the ground-truth band and the sequence matches of ``rows``."""
+    queries) in dataset frame indices from ``lo`` (references from ``reference_lo``, default ``lo``), the ground
+    truth (the band ``|r - q| <= tolerance``, or the outline of ``ground_truth``'s correct matches when it is not
+    that band) and the sequence matches of ``rows``."""
     plt = _pyplot()
     n_refs, n_queries = matrix.shape
+    ref_lo = lo if reference_lo is None else reference_lo
     block = max(1, math.ceil(max(n_refs, n_queries) / MAX_DISPLAY))
     shown = block_means(matrix, block)
     fig, ax = plt.subplots(figsize=(7.6, 7.4), layout="constrained")
     image = ax.imshow(shown, cmap="gray", interpolation="nearest", aspect="auto",
-                      extent=(lo - 0.5, lo - 0.5 + shown.shape[1] * block, lo - 0.5 + shown.shape[0] * block,
-                              lo - 0.5))
+                      extent=(lo - 0.5, lo - 0.5 + shown.shape[1] * block, ref_lo - 0.5 + shown.shape[0] * block,
+                              ref_lo - 0.5))
     fig.colorbar(image, ax=ax, shrink=0.8, label="distance D (dark = similar)")
-    last_q, last_r = lo + n_queries - 1, lo + n_refs - 1
-    band = np.array([lo, last_q], dtype=float)
-    for offset, label in ((-tolerance, f"ground truth |r - q| <= {tolerance}"), (tolerance, None)):
-        ax.plot(band, band + offset, color="tab:cyan", lw=0.7, label=label)
+    last_q, last_r = lo + n_queries - 1, ref_lo + n_refs - 1
+    if ground_truth is None or (ground_truth.is_aligned_band() and ref_lo == lo):
+        band = np.array([lo, last_q], dtype=float)
+        for offset, label in ((-tolerance, f"ground truth |r - q| <= {tolerance}"), (tolerance, None)):
+            ax.plot(band, band + offset, color="tab:cyan", lw=0.7, label=label)
+    else:
+        # the correct matches at the shown resolution (one frame per block), outlined
+        refs, queries = np.arange(0, n_refs, block), np.arange(0, n_queries, block)
+        correct = ground_truth.correct(refs[:, None], queries[None, :]).astype(float)
+        if correct.any():
+            ax.contour(lo + queries, ref_lo + refs, correct, levels=[0.5], colors="tab:cyan", linewidths=0.7)
+            ax.plot([], [], color="tab:cyan", lw=0.7,
+                    label=f"ground truth: positions within {ground_truth.radius:g} of the query's")
     kept = [r for r in rows if r.kept is True]
     removed = [r for r in rows if r.kept is False]
     unpredicted = [r for r in rows if r.kept is None]
@@ -391,7 +413,8 @@ def _check_rows(rows: Sequence[QueryRow], queries_csv: Path, split: str, seq_len
                          "workflow again")
 
 
-def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, distances: Path, lo: int) -> None:
+def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, distances: Path, lo: int,
+                   reference_lo: int | None = None) -> None:
     """The sampled rows' single-frame matches are this matrix's: ``single_match - lo`` is the stable argmin (the
     lowest index on ties) of the query's column, as ``eval.scoring`` finds it, at the distance the CSV gives. A CSV
     made from another distance matrix (another method, or other descriptors) is refused."""
@@ -401,9 +424,10 @@ def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, d
         row = sample.row
         column = np.asarray(matrix[:, row.query - lo], dtype=np.float64)
         best = int(np.argmin(column))
-        if row.single_match - lo != best:
+        ref_lo = lo if reference_lo is None else reference_lo
+        if row.single_match - ref_lo != best:
             raise ValueError(f"{queries_csv}: query {row.query}'s single-frame match is reference {row.single_match}, "
-                             f"but the nearest reference in {distances} is {best + lo}: {fix}")
+                             f"but the nearest reference in {distances} is {best + ref_lo}: {fix}")
         # float32 matrices are read back exactly; the tolerance allows a CSV of a float32 copy of a float64 one
         if not np.isclose(row.single_distance, column[best], rtol=1e-6, atol=0.0):
             raise ValueError(f"{queries_csv}: query {row.query}'s single-frame distance is {row.single_distance:.6g}, "
@@ -413,13 +437,16 @@ def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, d
 def main(queries_csv: Path | str, distances: Path | str, dataset_name: str, dataset_settings: dict[str, Any],
          frames_sha256: str | None, seq_len: int, split: str, tolerance: int, match_figure: Path | str,
          matrix_figure: Path | str, per_class: int = 2, mistakes: int = 4, seed: int = 0,
-         split_range: tuple[int, int] | None = None) -> tuple[Path, Path]:
+         split_range: tuple[int, int] | None = None, radius: float | None = None,
+         velocities: Sequence[float] = DEFAULT_VELOCITIES) -> tuple[Path, Path]:
     """The ``inspect`` stage: the match figure and the distance-matrix figure of ``split`` (PNG, both or none).
 
     ``dataset_settings``: the dataset's configuration entry (``load_frames``; split settings are ignored).
     ``frames_sha256``: the fingerprint of the frames the run's descriptors were computed from (default: the
     distances file's); the images are refused when theirs differs. ``split_range``: the split's frames
-    ``(lo, hi)`` (default: the distances file's ``split_range``). ``tolerance``: frames of the ground-truth band.
+    ``(lo, hi)`` (default: the distances file's ``split_range``; its references: the file's ``reference_range``
+    when it has one, SPEC 11). ``tolerance``: frames of the ground-truth band; ``radius``: the ground truth's with
+    positions (those the distances file holds). ``velocities``: the run's sequence matcher.
     The queries CSV must be this matrix's at ``seq_len``: its rows of ``split`` are exactly the queries
     ``lo + L - 1 .. hi - 1``, and each sampled row's single-frame match and distance are its column's minimum.
     """
@@ -442,9 +469,11 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str, data
                          f"descriptors (the frame lists' SHA-256 is {pair.fingerprint()[:12]}..., the run's "
                          f"{expected[:12]}...); run the workflow again")
     lo, hi = _split_range(distances, provenance, split_range)
-    if not 0 <= lo < hi <= len(pair):
+    stored_reference = provenance.get("reference_range")
+    ref_lo, ref_hi = (lo, hi) if stored_reference is None else (int(stored_reference[0]), int(stored_reference[1]))
+    if not (0 <= lo < hi <= len(pair.query) and 0 <= ref_lo < ref_hi <= len(pair.reference)):
         raise ValueError(f"split {split!r} = frames {lo}..{hi - 1} is outside dataset {dataset_name!r}'s "
-                         f"{len(pair)} frames: run the workflow again")
+                         f"{len(pair.query)} frames: run the workflow again")
     rows = [r for r in read_queries(queries_csv) if r.split == split]
     _check_rows(rows, queries_csv, split, seq_len, lo, hi)
     samples = sample_queries(rows, split, per_class, mistakes, seed)
@@ -452,17 +481,21 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str, data
     what = f"{dataset_name}{'' if method is None else f', {method}'}, L = {seq_len}, split {split!r}"
     sample_text = (f"{len(samples)} of {len(rows)} queries: up to {per_class} per true class (seed {seed}) and the "
                    f"predictor's {mistakes} most confident mistakes")
-    match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct (|r - q| <= {tolerance}), "
-                   "red = wrong; D = single-frame distance, S = sequence distance")
     with open_distance_matrix(distances) as matrix:
-        if tuple(matrix.shape) != (hi - lo, hi - lo):
+        if tuple(matrix.shape) != (ref_hi - ref_lo, hi - lo):
             raise ValueError(f"{distances}: the distance matrix is {matrix.shape[0]} x {matrix.shape[1]}, but split "
-                             f"{split!r} has {hi - lo} frames ({lo}..{hi - 1}): run the workflow again")
-        _check_matches(samples, matrix, queries_csv, distances, lo)
+                             f"{split!r} has {ref_hi - ref_lo} reference frames ({ref_lo}..{ref_hi - 1}) and "
+                             f"{hi - lo} query frames ({lo}..{hi - 1}): run the workflow again")
+        truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius)
+        rule = (f"|r - q| <= {tolerance}" if truth.is_aligned_band()
+                else f"positions within {truth.radius:g}")
+        match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct ({rule}), "
+                       "red = wrong; D = single-frame distance, S = sequence distance")
+        _check_matches(samples, matrix, queries_csv, distances, lo, ref_lo)
         with ExitStack() as stack:  # both files are renamed into place only when both are drawn
             matrix_tmp = stack.enter_context(atomic_path(matrix_figure))
             match_tmp = stack.enter_context(atomic_path(match_figure))
-            draw_matches(match_tmp, pair, samples, matrix, lo, seq_len, match_title)
+            draw_matches(match_tmp, pair, samples, matrix, lo, seq_len, match_title, ref_lo, velocities)
             draw_matrix(matrix_tmp, matrix, lo, rows, tolerance,
-                        f"Distance matrix: {what}, sequence matches kept or removed by the predictor")
+                        f"Distance matrix: {what}, sequence matches kept or removed by the predictor", ref_lo, truth)
     return match_figure, matrix_figure

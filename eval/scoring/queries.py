@@ -2,7 +2,8 @@
 of every split.
 
 Frame indices (``query``, ``single_match``, ``sequence_match``, ``true_reference``) are the dataset's: the split's
-first frame plus the index within the split (a frame-aligned pair: the true reference of query ``a`` is ``a``).
+first query (reference) frame plus the index within the split. The true reference of query ``a`` is ``a`` in a
+frame-aligned pair, the reference nearest to its position otherwise (SPEC 11; the lowest on ties).
 ``A1..A4`` are the rank-0 attributes under the paper's names (SPEC 5: minimum sum, minimum value, block sum and group
 sum rates), the order ``QueryFeatures.attributes`` stores them in; the predictor takes them in that order and feeds
 its network the code's order ``[A1, A2, A4, A3]`` itself (``SMRPredictor.column_order``). ``predicted_class``,
@@ -57,10 +58,12 @@ class SplitQueries:
     evaluated queries, the split's first frame in the dataset, and the predictor's decision (None without one)."""
 
     split: str
-    first_frame: int
+    first_frame: int  # the split's first query frame (and first reference frame, unless reference_first_frame)
     features: QueryFeatures
     single_distance: np.ndarray  # (N,)
     prediction: Prediction | None
+    reference_first_frame: int | None = None  # the split's first reference frame when its ranges differ (SPEC 11)
+    true_reference: np.ndarray | None = None  # (N,) split-local; None: the query's own index (frame-aligned)
 
 
 def _number(value: Any) -> str:
@@ -71,6 +74,8 @@ def _number(value: Any) -> str:
 def query_rows(table: SplitQueries) -> Iterator[list[str]]:
     """The rows of one split, ``QUERY_COLUMNS`` in order, as text."""
     f, first = table.features, table.first_frame
+    first_ref = first if table.reference_first_frame is None else table.reference_first_frame
+    true_reference = f.queries if table.true_reference is None else table.true_reference
     prediction = table.prediction
     kept = prediction.kept if prediction is not None else None
     for n, query in enumerate(f.queries):
@@ -78,9 +83,11 @@ def query_rows(table: SplitQueries) -> Iterator[list[str]]:
             str(int(prediction.predicted[n])), _number(prediction.probability[n]), str(int(kept[n]))]
         yield [
             table.split, str(first + int(query)),
-            str(first + int(f.single_match[n])), _number(table.single_distance[n]), str(int(f.single_correct[n])),
-            str(first + int(f.sequence_match[n])), _number(f.sequence_distance[n]), str(int(f.sequence_correct[n])),
-            str(first + int(query)),
+            str(first_ref + int(f.single_match[n])), _number(table.single_distance[n]),
+            str(int(f.single_correct[n])),
+            str(first_ref + int(f.sequence_match[n])), _number(f.sequence_distance[n]),
+            str(int(f.sequence_correct[n])),
+            str(first_ref + int(true_reference[n])),
             *(_number(v) for v in f.attributes[n, 0, :]),
             str(int(f.labels[n])), *predicted,
         ]

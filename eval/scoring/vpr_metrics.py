@@ -40,7 +40,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from vpr_smr.core.constants import MODES, RECALL_AT
+from vpr_smr.core.constants import DEFAULT_VELOCITIES, MODES, RECALL_AT
 from vpr_smr.core.io import (
     CSV_SUFFIXES,
     HDF5_SUFFIXES,
@@ -50,9 +50,18 @@ from vpr_smr.core.io import (
     read_provenance,
     write_json,
 )
-from vpr_smr.eval.matching.attributes import QueryFeatures, check_seq_len, is_correct, query_features, read_features
+from vpr_smr.eval.matching.attributes import (
+    QueryFeatures,
+    check_matcher,
+    check_seq_len,
+    matcher_provenance,
+    query_features,
+    read_features,
+)
 from vpr_smr.eval.matching.checks import check_finite, check_shape
-from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
+from vpr_smr.eval.matching.velocity import check_velocities, first_reference, offsets
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_range, frame_ranges, trained_on
 from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, recall_at_full_precision
@@ -60,7 +69,7 @@ from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
 from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
 
 __all__ = [
-    "ALL_SPLIT", "Retrieval", "ScoredSplit", "extended_precision", "main", "matcher_metrics",
+    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "extended_precision", "main", "matcher_metrics",
     "precision_at_first_recall", "queries_main", "recall_at", "retrieval", "score_split",
 ]
 
@@ -70,6 +79,18 @@ ALL_SPLIT = "all"  # the split's name when ``distances`` is one file
 BLOCK_VALUES = 1 << 20  # matrix values per block of query columns (8 MB of float64)
 NOT_RETRIEVED = np.iinfo(np.int64).max  # the rank of a query without any correct candidate
 DISTANCE_SUFFIXES = (".npy", *HDF5_SUFFIXES)
+
+
+@dataclass(frozen=True)
+class MatcherSettings:
+    """The sequence matcher of a metrics or queries stage and where its ground truth comes from (SPEC 11):
+    ``velocities`` searched (``(1.0,)``: SPEC 4's fixed matcher); positions files (one matrix only) or the positions
+    a distance file holds, within ``radius``; without positions, frame indices within the stage's tolerance."""
+
+    velocities: tuple[float, ...] = DEFAULT_VELOCITIES
+    radius: float | None = None
+    reference_positions: Path | str | None = None
+    query_positions: Path | str | None = None
 
 
 @dataclass(frozen=True)
@@ -115,13 +136,56 @@ def _best_correct_rank(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np
     return best
 
 
-def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries: int | None = None) -> Retrieval:
+def _best_correct_rank_where(values: np.ndarray, correct: np.ndarray) -> np.ndarray:
+    """``_best_correct_rank`` with the correct candidates as a mask (positions within a radius need not form one
+    range of rows): the stable rank of the lowest (value, row) among the correct rows of each column."""
+    n_rows, n_cols = values.shape
+    best = np.argmin(np.where(correct, values, np.inf), axis=0)  # first row on ties: the best-ranked of them
+    cols = np.arange(n_cols)
+    value = values[best, cols]
+    rank = (np.count_nonzero(values < value, axis=0)
+            + np.count_nonzero((values == value) & (np.arange(n_rows)[:, None] < best), axis=0))
+    return np.where(correct.any(axis=0), rank, NOT_RETRIEVED).astype(np.int64)
+
+
+def _velocity_sequences(block: np.ndarray, j0: int, n: int, seq_len: int,
+                        velocities: tuple[float, ...]) -> tuple[np.ndarray, int]:
+    """``S[r, a] = min_v S_v[r, a]`` (SPEC 11) for ``n`` queries whose windows start at block column ``j0``, rows
+    ``r = r_min .. R-1``; each ``S_v`` summed in the definition's order, +inf where its trajectory is not valid."""
+    n_ref = block.shape[0]
+    r_min = first_reference(seq_len, velocities)
+    out = np.full((n_ref - r_min, n), np.inf)
+    for velocity in velocities:
+        offset = offsets(velocity, seq_len)
+        first = int(offset[0])  # the lowest end reference whose trajectory starts inside the matrix
+        if first > n_ref - 1:
+            continue
+        acc = np.zeros((n_ref - first, n))
+        for k in range(seq_len):
+            rows = slice(first - int(offset[k]), n_ref - int(offset[k]))
+            acc += block[rows, j0 + k : j0 + k + n]
+        np.minimum(out[first - r_min :], acc, out=out[first - r_min :])
+    return out, r_min
+
+
+def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries: int | None = None,
+              velocities: tuple[float, ...] = DEFAULT_VELOCITIES, ground_truth: GroundTruth | None = None
+              ) -> Retrieval:
     """Rankings of single-frame and sequence matching of one split's ``R x Q`` matrix (any 2-D array-like that
-    slices by columns: ``np.ndarray``, memmap, ``h5py.Dataset``), read ``block_queries`` query columns at a time."""
+    slices by columns: ``np.ndarray``, memmap, ``h5py.Dataset``), read ``block_queries`` query columns at a time.
+    ``velocities`` and ``ground_truth`` as ``query_features`` takes them (default: SPEC 4 and frame-aligned)."""
     matrix = distance_matrix if hasattr(distance_matrix, "shape") else np.asarray(distance_matrix)
     check_shape(tuple(matrix.shape), seq_len)
     if tolerance < 0:
         raise ValueError(f"the tolerance is a number of frames >= 0, got {tolerance}")
+    velocities = check_velocities(velocities)
+    if ground_truth is not None:
+        ground_truth.check_shape(tuple(matrix.shape))
+    if velocities != DEFAULT_VELOCITIES or (ground_truth is not None and not ground_truth.is_aligned_band()):
+        truth = ground_truth or GroundTruth.aligned(int(matrix.shape[0]), int(matrix.shape[1]), tolerance)
+        return _general_retrieval(matrix, seq_len, block_queries, velocities, truth)
+    if ground_truth is not None:
+        tolerance = int(ground_truth.radius)  # the aligned band: SPEC 1's tolerance
     n_ref, n_query = (int(n) for n in matrix.shape)
     n_diag = n_ref - seq_len + 1
     step = block_queries or max(16, BLOCK_VALUES // max(n_ref, 1))
@@ -159,6 +223,48 @@ def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries:
         float(d_min), float(d_max))
 
 
+def _general_retrieval(matrix: Any, seq_len: int, block_queries: int | None, velocities: tuple[float, ...],
+                       ground_truth: GroundTruth) -> Retrieval:
+    """``retrieval`` with velocity search and any ground truth (positions within a radius): the correct candidates
+    of each query as a mask, ``S`` over the end references ``r_min .. R-1``."""
+    n_ref, n_query = (int(n) for n in matrix.shape)
+    r_min = first_reference(seq_len, velocities)
+    if r_min > n_ref - 1:
+        raise ValueError(f"{n_ref} references are too few for sequence length {seq_len} at velocities "
+                         f"{list(velocities)}")
+    step = block_queries or max(16, BLOCK_VALUES // max(n_ref, 1))
+    parts: dict[str, list[np.ndarray]] = {key: [] for key in ("single_rank", "single_match", "single_distance",
+                                                              "sequence_rank", "sequence_match", "sequence_distance")}
+    d_min, d_max = np.inf, -np.inf
+    references = np.arange(n_ref)
+    for a0 in range(0, n_query, step):
+        a1 = min(n_query, a0 + step)
+        lo = max(0, a0 - seq_len + 1)
+        block = np.asarray(matrix[:, lo:a1], dtype=np.float64)
+        check_finite(block, where=f" in query columns {lo}..{a1 - 1}")
+        own = block[:, a0 - lo :]
+        d_min, d_max = min(d_min, float(own.min())), max(d_max, float(own.max()))
+        queries = np.arange(a0, a1)
+        match = np.argmin(own, axis=0)
+        parts["single_match"].append(match)
+        parts["single_distance"].append(own[match, np.arange(len(queries))])
+        parts["single_rank"].append(_best_correct_rank_where(own, ground_truth.correct(references[:, None], queries)))
+        first = max(a0, seq_len - 1)
+        if first >= a1:
+            continue
+        n = a1 - first
+        s, _ = _velocity_sequences(block, first - seq_len + 1 - lo, n, seq_len, velocities)
+        best = np.argmin(s, axis=0)
+        parts["sequence_match"].append(best + r_min)
+        parts["sequence_distance"].append(s[best, np.arange(n)])
+        correct = ground_truth.correct(references[r_min:, None], np.arange(first, a1))
+        parts["sequence_rank"].append(_best_correct_rank_where(s, correct))
+    joined = {key: np.concatenate(value) for key, value in parts.items()}
+    return Retrieval(joined["single_rank"], joined["single_match"], joined["single_distance"],
+                     joined["sequence_rank"], joined["sequence_match"], joined["sequence_distance"],
+                     float(d_min), float(d_max))
+
+
 def recall_at(ranks: np.ndarray, ns: Sequence[int] = RECALL_AT, retrieved: np.ndarray | None = None
               ) -> dict[int, float]:
     """Recall@N for each N: the share of queries whose best-ranked correct candidate ranks below N (and, with
@@ -187,11 +293,11 @@ def matcher_metrics(ranks: np.ndarray, curve_: Curve, retrieved: np.ndarray | No
                           area(curve_), extended_precision(curve_))
 
 
-def _mode_metrics(mode: str, found: Retrieval, features: QueryFeatures, seq_len: int, tolerance: int,
+def _mode_metrics(mode: str, found: Retrieval, features: QueryFeatures, seq_len: int, ground_truth: GroundTruth,
                   prediction: Prediction | None) -> dict[str, MatcherMetrics]:
     n_query = len(found.single_rank)
     single = slice(0, n_query) if mode == "paper" else slice(seq_len - 1, n_query)
-    single_correct = is_correct(found.single_match[single], np.arange(n_query)[single], tolerance)
+    single_correct = ground_truth.correct(found.single_match[single], np.arange(n_query)[single])
     single_keep = keep_mask(n=len(single_correct))
     single_curve = curve(mode, found.single_distance[single], single_correct, single_keep, found.distance_min,
                          found.distance_max)
@@ -240,21 +346,31 @@ def score_split(
     split: str = ALL_SPLIT,
     first_frame: int = 0,
     block_queries: int | None = None,
+    velocities: tuple[float, ...] = DEFAULT_VELOCITIES,
+    reference_first_frame: int | None = None,
+    ground_truth: GroundTruth | None = None,
 ) -> ScoredSplit:
     """The metrics of one split's matrix per mode and matcher (``sequence_predictor`` only with ``predictor``: an
     object with ``predict_proba`` and ``classes_``, e.g. ``SMRPredictor``). ``features``: the split's attributes
-    (``query_features`` of the same matrix; computed when None)."""
+    (``query_features`` of the same matrix; computed when None). ``velocities`` and ``ground_truth`` as
+    ``query_features`` takes them."""
     unknown = [mode for mode in modes if mode not in MODES]
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
-    found = retrieval(distance_matrix, seq_len, tolerance, block_queries)
+    shape = tuple(int(n) for n in distance_matrix.shape)
+    truth = ground_truth or GroundTruth.aligned(shape[0], shape[1], tolerance)
+    found = retrieval(distance_matrix, seq_len, tolerance, block_queries, velocities, truth)
     if features is None:
-        features = query_features(distance_matrix, seq_len, tolerance)
+        features = query_features(distance_matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth)
     _check_agree(found, features, seq_len, f"split {split!r}")
     prediction = Prediction.of(predictor, features) if predictor is not None else None
-    metrics = SplitMetrics({mode: _mode_metrics(mode, found, features, seq_len, tolerance, prediction)
+    metrics = SplitMetrics({mode: _mode_metrics(mode, found, features, seq_len, truth, prediction)
                             for mode in modes})
-    queries = SplitQueries(split, first_frame, features, found.single_distance[seq_len - 1 :], prediction)
+    true_reference = None if truth.is_aligned_band() else np.array(
+        [int(np.argmin(truth.distance(np.arange(shape[0]), np.full(shape[0], a)))) for a in features.queries],
+        dtype=np.int64)
+    queries = SplitQueries(split, first_frame, features, found.single_distance[seq_len - 1 :], prediction,
+                           reference_first_frame, true_reference)
     return ScoredSplit(metrics, queries)
 
 
@@ -280,8 +396,23 @@ def _first_frame(*paths: Path | str | None) -> int:
     return 0
 
 
+def _reference_first_frame(*paths: Path | str | None) -> int | None:
+    """The split's first reference frame when its reference range differs from its query range (the distances
+    stage records ``reference_range`` then, SPEC 11), else None."""
+    for path in paths:
+        if path is not None and h5py.is_hdf5(path):
+            stored = read_provenance(path).get("reference_range")
+            if stored is not None:
+                return int(stored[0])
+    return None
+
+
 def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], predictor: Path | None,
-                  seq_len: int, tolerance: int) -> None:
+                  seq_len: int, tolerance: int, matcher: MatcherSettings) -> None:
+    check_velocities(matcher.velocities, "--velocities")
+    if matcher.reference_positions is not None and len(distances) > 1:
+        raise ValueError("--reference-positions and --query-positions give the positions of one matrix: give one "
+                         "--distances file with them (the distance files of a dataset with positions hold their own)")
     for split, path in distances.items():
         check_suffix(path, DISTANCE_SUFFIXES, f"split {split!r}'s distance matrix (.npy or HDF5)", "--distances")
         if not path.is_file():
@@ -301,6 +432,7 @@ def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path],
             raise ValueError(f"{path} holds attributes at tolerance {int(stored)}, but --tolerance is {tolerance}: "
                              f"give --tolerance {int(stored)}, or attributes computed at {tolerance}")
     check_seq_len(list(attributes.values()), seq_len)
+    check_matcher(list(attributes.values()), matcher.velocities, matcher.radius)
     if predictor is not None:
         check_suffix(predictor, HDF5_SUFFIXES, "the predictor (HDF5)", "--predictor")
         if not predictor.is_file():
@@ -319,6 +451,7 @@ def _score_all(
     attributes: Mapping[str, Path | str] | None,
     modes: Sequence[str],
     allow_split_overlap: bool,
+    matcher: MatcherSettings,
 ) -> tuple[dict[str, ScoredSplit], Path | None]:
     """Every split of ``distances`` scored (``score_split``) in the given order, after every input is checked;
     the predictor file (None without one). What ``main`` and ``queries_main`` share: one implementation of the
@@ -332,7 +465,7 @@ def _score_all(
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
     predictor_file = Path(predictor) if predictor is not None else None
-    _check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance)
+    _check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher)
     model = None
     if predictor_file is not None:
         scored = [p for p in (*splits.values(), *attribute_paths.values()) if h5py.is_hdf5(p)]
@@ -348,9 +481,13 @@ def _score_all(
             except ValueError as error:
                 raise ValueError(f"{path}: {error}; give a --seq-len of at most {min(matrix.shape)}") from None
             features = read_features(attributes_file) if attributes_file is not None else None
+            truth = split_ground_truth(path, tuple(matrix.shape), tolerance, matcher.radius,
+                                       matcher.reference_positions, matcher.query_positions)
             try:
                 results[split] = score_split(matrix, seq_len, tolerance, model, tuple(modes), features, split,
-                                             _first_frame(attributes_file, path))
+                                             _first_frame(attributes_file, path), velocities=matcher.velocities,
+                                             ground_truth=truth,
+                                             reference_first_frame=_reference_first_frame(attributes_file, path))
             except ValueError as error:
                 given = f" and {attributes_file}" if attributes_file is not None else ""
                 raise ValueError(f"{path}{given}: {error}") from None
@@ -372,6 +509,7 @@ def main(
     queries: Path | str | None = None,
     meta: Mapping[str, Any] | None = None,
     allow_split_overlap: bool = False,
+    matcher: MatcherSettings = MatcherSettings(),
 ) -> VPRMetrics:
     """The standard VPR metrics of every split of ``distances`` (split -> ``.npy`` or our HDF5; one path: one split
     named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with ``queries``, the per-query table
@@ -386,8 +524,9 @@ def main(
     out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
     queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
     results, predictor_file = _score_all(distances, seq_len, tolerance, predictor, attributes, modes,
-                                         allow_split_overlap)
-    info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance)}
+                                         allow_split_overlap, matcher)
+    info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance),
+            **matcher_provenance(matcher.velocities, matcher.radius)}
     if predictor_file is not None:
         info["predictor"] = str(predictor_file)
     result = VPRMetrics(info, {split: scored_split.metrics for split, scored_split in results.items()})
@@ -408,12 +547,13 @@ def queries_main(
     predictor: Path | str | None = None,
     attributes: Mapping[str, Path | str] | None = None,
     allow_split_overlap: bool = False,
+    matcher: MatcherSettings = MatcherSettings(),
 ) -> Path:
     """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS``) of every split of ``distances`` in
     the given order, written to ``out`` (CSV), as ``main``'s ``queries`` (the same code; no metric mode changes
     it). The inputs as ``main``'s."""
     out = check_suffix(out, CSV_SUFFIXES, "the per-query table (CSV)")
-    results, _ = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap)
+    results, _ = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher)
     write_queries(out, [scored_split.queries for scored_split in results.values()])
     log.info("wrote %d queries of %d splits to %s", sum(len(r.queries.features.queries) for r in results.values()),
              len(results), out)
