@@ -94,6 +94,12 @@ def held_out_path(run: Path | str, dataset: str, seq_len: int | str, method: str
     return f"{run}/ablation/without/{dataset}/L{seq_len}/{method}.json"
 
 
+def speed_path(run: Path | str, dataset: str, seq_len: int | str, profile: str) -> str:
+    """The speed experiment of one dataset under one simulated speed profile (``eval.scoring.speed``), e.g.
+    ``speed/nordland/L4/0.5x.json``."""
+    return f"{run}/speed/{dataset}/L{seq_len}/{profile}.json"
+
+
 def log_path(run: Path | str, output: Path | str) -> str:
     """The log of the job writing ``output`` (a path under ``run``): ``logs/`` plus its place in the run, ``.log``."""
     prefix = f"{run}/"

@@ -8,7 +8,14 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
-from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair, read_image
+from vpr_smr.datasets.base import (
+    DatasetError,
+    Traverse,
+    TraversePair,
+    positions_pairing,
+    read_image,
+    slice_traverse,
+)
 from vpr_smr.datasets.folders import folder_pair
 from vpr_smr.datasets.nordland import SPLITS as NORDLAND_SPLITS
 from vpr_smr.datasets.nordland import nordland
@@ -41,7 +48,8 @@ __all__ = [
 
 
 # Settings that only reach the distances and attributes jobs: the descriptors of a dataset depend on the others.
-SPLIT_SETTINGS = ("splits", "tolerance")
+# `radius` (SPEC 11) is the ground truth of pairs with positions, as `tolerance` is of frame-aligned ones.
+SPLIT_SETTINGS = ("splits", "tolerance", "radius")
 # Loader arguments that are not settings: the workflow fills them in.
 _INTERNAL = ("name", "check_files")
 
@@ -78,7 +86,7 @@ def _check_options(name: str, loader_name: str, options: dict[str, Any]) -> None
     for key in options:
         problem = unknown_option(loader_name, key)
         if problem:
-            raise DatasetError(f"datasets.{name}.{key}: {problem}, frames, splits, tolerance")
+            raise DatasetError(f"datasets.{name}.{key}: {problem}, frames, {', '.join(SPLIT_SETTINGS)}")
     missing = [p for p in required_options(loader_name) if p not in options]
     if missing:
         raise DatasetError(f"datasets.{name}: loader {loader_name!r} needs {', '.join(missing)}; e.g. "
@@ -86,13 +94,14 @@ def _check_options(name: str, loader_name: str, options: dict[str, Any]) -> None
 
 
 def slice_pair(pair: TraversePair, lo: int, hi: int, splits: dict[str, tuple[int, int]]) -> TraversePair:
-    """Frames ``lo .. hi-1`` of both traverses, with split ranges relative to the slice."""
+    """Frames ``lo .. hi-1`` of both traverses (positions too), with split ranges relative to the slice."""
     return replace(
         pair,
         # replace() keeps the traverse's class, e.g. RobotCar's demosaicing reader
-        reference=replace(pair.reference, images=pair.reference.images[lo:hi]),
-        query=replace(pair.query, images=pair.query.images[lo:hi]),
+        reference=slice_traverse(pair.reference, lo, hi),
+        query=slice_traverse(pair.query, lo, hi),
         splits=dict(splits),
+        reference_splits={},
     )
 
 
@@ -125,22 +134,84 @@ def load_frames(name: str, conf: dict[str, Any], check_files: bool = True) -> Tr
         raise DatasetError(f"datasets.{name}: bad settings for loader {loader_name!r}: {error}") from None
     if frames is not None:
         lo, hi = frames
-        if not 0 <= lo < hi <= len(pair):
-            raise DatasetError(f"datasets.{name}.frames = [{lo}, {hi}] is outside the {len(pair)} frames; "
-                               f"give a range within [0, {len(pair)}]")
+        # both traverses keep the same slice; with positions their lengths may differ: the shorter one counts
+        n = min(len(pair.reference), len(pair.query))
+        shorter = " of the shorter traverse" if len(pair.reference) != len(pair.query) else ""
+        if not 0 <= lo < hi <= n:
+            raise DatasetError(f"datasets.{name}.frames = [{lo}, {hi}] is outside the {n} frames{shorter}; "
+                               f"give a range within [0, {n}]")
         pair = replace(slice_pair(pair, lo, hi, {}),
                        source=f"{pair.source}; frames [{lo}, {hi}) of its {len(pair)} (the frames setting)")
     return replace(pair, name=name)
 
 
-def load_dataset(name: str, conf: dict[str, Any], check_files: bool = True) -> TraversePair:
-    """``load_frames`` with the entry's ``splits`` and ``tolerance`` (default: the loader's).
+def split_ranges(name: str, splits: dict[str, Any]) -> tuple[dict[str, tuple[int, int]], dict[str, tuple[int, int]]]:
+    """A configuration's ``splits`` as (query ranges, reference ranges that differ from them).
 
-    With ``frames``, ``splits`` are relative to the slice (default: one split ``all`` over the slice).
+    A split is ``[lo, hi]`` (both traverses) or ``{reference: [lo, hi], query: [lo, hi]}`` (SPEC 11).
+    """
+    query: dict[str, tuple[int, int]] = {}
+    reference: dict[str, tuple[int, int]] = {}
+    for split, value in splits.items():
+        if isinstance(value, dict):
+            if set(value) != {"reference", "query"}:
+                raise DatasetError(f"datasets.{name}.splits.{split} has keys {', '.join(map(str, value)) or 'none'}; "
+                                   "give [lo, hi] for both traverses or {reference: [lo, hi], query: [lo, hi]}")
+            query[split] = _range(name, split, value["query"])
+            if (own := _range(name, split, value["reference"])) != query[split]:
+                reference[split] = own
+        else:
+            query[split] = _range(name, split, value)
+    return query, reference
+
+
+def _range(name: str, split: str, value: Any) -> tuple[int, int]:
+    try:
+        lo, hi = value
+        return int(lo), int(hi)
+    except (TypeError, ValueError):
+        problem = f"datasets.{name}.splits.{split} is {value!r}; a range is [lo, hi] (frames lo .. hi-1)"
+        raise DatasetError(problem) from None
+
+
+def _ground_truth(name: str, conf: dict[str, Any], pair: TraversePair) -> dict[str, Any]:
+    """The entry's ``tolerance`` or ``radius``, whichever the pair's ground truth uses, as ``replace`` arguments."""
+    if not pair.has_positions:
+        return {"tolerance": conf.get("tolerance", pair.tolerance), "radius": conf.get("radius")}
+    if "tolerance" in conf:
+        raise DatasetError(f"datasets.{name}.tolerance is set, but the frames have positions: a match is correct "
+                           f"within `radius` ({pair.position_unit}), not within a number of frames; remove "
+                           "tolerance and set radius")
+    radius = conf.get("radius", pair.radius)
+    if radius is None:
+        unit = pair.position_unit
+        raise DatasetError(f"datasets.{name}.radius is not set: the frames have positions in {unit}, and a match is "
+                           f"correct within radius of its query; give it in {unit}, e.g. radius: 25")
+    if isinstance(radius, bool) or not isinstance(radius, int | float):
+        raise DatasetError(f"datasets.{name}.radius is {radius!r}: give a number, in {pair.position_unit}")
+    return {"radius": float(radius),
+            "pairing": positions_pairing(pair.position_source, float(radius), pair.position_unit)}
+
+
+def load_dataset(name: str, conf: dict[str, Any], check_files: bool = True) -> TraversePair:
+    """``load_frames`` with the entry's ``splits`` and ``tolerance``, or ``radius`` for frames with positions
+    (default: the loader's).
+
+    With ``frames``, ``splits`` are relative to the slice (default: one split ``all`` over the slice). A pair
+    with positions has no default splits: the published ones index the benchmarks' place-aligned lists.
     """
     pair = load_frames(name, conf, check_files)
-    splits = {key: (int(lo), int(hi)) for key, (lo, hi) in conf["splits"].items()} if "splits" in conf else None
-    if splits is None:
-        loader: str = conf["loader"]  # load_frames has checked that it names a loader
-        splits = {"all": (0, len(pair))} if "frames" in conf else DEFAULT_SPLITS.get(loader, {})
-    return replace(pair, splits=dict(splits), tolerance=conf.get("tolerance", pair.tolerance))
+    if "splits" in conf:
+        splits, reference_splits = split_ranges(name, conf["splits"])
+    else:
+        splits, reference_splits = _default_splits(conf, pair), {}
+    return replace(pair, splits=dict(splits), reference_splits=reference_splits, **_ground_truth(name, conf, pair))
+
+
+def _default_splits(conf: dict[str, Any], pair: TraversePair) -> dict[str, tuple[int, int]]:
+    if "frames" in conf:
+        return {"all": (0, len(pair))}
+    if pair.has_positions:
+        return {}
+    loader: str = conf["loader"]  # load_frames has checked that it names a loader
+    return DEFAULT_SPLITS.get(loader, {})

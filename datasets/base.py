@@ -1,11 +1,13 @@
-"""Traverses and traverse pairs: two frame-aligned image sequences of one route (SPEC section 1)."""
+"""Traverses and traverse pairs: two image sequences of one route, frame-aligned (SPEC 1) or with positions
+(SPEC 11)."""
 
 from __future__ import annotations
 
 import hashlib
+import math
 import re
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import cv2
@@ -63,11 +65,30 @@ def read_image(path: Path | str) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Traverse:
-    """One ordered sequence of images of a route under one condition."""
+    """One ordered sequence of images of a route under one condition.
+
+    ``positions`` (SPEC 11): where each frame was taken, ``(n, 2)`` float64 (read-only), or None for a traverse
+    that is only frame-aligned with its pair. NaN marks a frame without a known position (only ``dataset check``
+    builds such traverses: the loaders refuse them otherwise). Left out of equality and hashing, like an array
+    must be: the images identify a traverse.
+    """
 
     name: str
     images: tuple[Path, ...]
     order_note: str | None = None  # why the order by file name may not be the recording order (see order_note)
+    positions: np.ndarray | None = field(default=None, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.positions is None:
+            return
+        positions = np.array(self.positions, dtype=np.float64)  # a copy: the caller's array stays writable
+        if positions.ndim == 1:
+            positions = positions[:, None]
+        if positions.ndim != 2 or len(positions) != len(self.images):
+            raise DatasetError(f"traverse {self.name!r}: {len(self.images)} images but positions of shape "
+                               f"{positions.shape}: give one position per image")
+        positions.flags.writeable = False
+        object.__setattr__(self, "positions", positions)
 
     def __len__(self) -> int:
         return len(self.images)
@@ -78,9 +99,15 @@ class Traverse:
 
 @dataclass(frozen=True)
 class TraversePair:
-    """A reference and a query traverse whose frames are aligned one-to-one (frame i shows the same place).
+    """A reference and a query traverse of one route.
 
-    ``splits`` maps a split name to a half-open index range ``(lo, hi)`` applied to both traverses.
+    Without positions, their frames are aligned one-to-one (frame i of both shows the same place, SPEC 1): the
+    traverses have the same length and ``tolerance`` (frames) is the ground truth. With positions on both
+    traverses (SPEC 11), a match is correct within ``radius`` (in ``position_unit``), the traverses may differ
+    in length, and a split may give its reference range apart from its query range.
+
+    ``splits`` maps a split name to a half-open index range ``(lo, hi)``: its query range, and its reference
+    range too unless ``reference_splits`` gives that one (only splits whose two ranges differ are there).
     """
 
     name: str
@@ -92,36 +119,86 @@ class TraversePair:
     # where the images came from, in the loader's words (its folders or root, resolved, and the frame lists it
     # read): the dataset card of the report shows it
     source: str = ""
+    radius: float | None = None  # SPEC 11: ground truth within this distance, for pairs with positions
+    reference_splits: dict[str, tuple[int, int]] = field(default_factory=dict)  # reference ranges that differ
+    position_unit: str = ""  # the positions' unit, e.g. "metres", for messages about the radius
+    position_source: str = ""  # where the positions came from, e.g. "the CSVs a.csv and b.csv, x, y as given"
 
     def __post_init__(self) -> None:
-        if len(self.reference) != len(self.query):
+        if (self.reference.positions is None) != (self.query.positions is None):
+            given, other = ("reference", "query") if self.reference.positions is not None else ("query", "reference")
+            raise DatasetError(f"dataset {self.name!r}: the {given} traverse has positions but the {other} traverse "
+                               f"has none; give positions for both traverses or for neither")
+        if not self.has_positions and len(self.reference) != len(self.query):
             raise DatasetError(
                 f"dataset {self.name!r}: the reference traverse ({self.reference.name}) has {len(self.reference)} "
                 f"frames but the query traverse ({self.query.name}) has {len(self.query)}; "
                 "the frames must be aligned one-to-one"
             )
-        if len(self.reference) == 0:
+        if len(self.reference) == 0 or len(self.query) == 0:
             raise DatasetError(f"dataset {self.name!r}: no frames found")
+        self._check_positions()
+        for split in self.reference_splits:
+            if split not in self.splits:
+                raise DatasetError(f"dataset {self.name!r}: split {split!r} has a reference range but no query "
+                                   "range; give it as {reference: [lo, hi], query: [lo, hi]}")
         for split, (lo, hi) in self.splits.items():
-            if lo >= hi:
-                raise DatasetError(f"dataset {self.name!r}: split {split!r} = [{lo}, {hi}) is empty; give it a "
-                                   "range [lo, hi) with lo < hi in the configuration's splits")
-            if not 0 <= lo < hi <= len(self.reference):
-                raise DatasetError(
-                    f"dataset {self.name!r}: split {split!r} = [{lo}, {hi}) is outside the {len(self.reference)} "
-                    "frames; fix the split ranges in the configuration"
-                )
+            if self.has_positions:  # each range against its own traverse: their lengths may differ
+                self._check_range(split, "query range ", (lo, hi), self.query)
+                self._check_range(split, "reference range ", self.reference_range(split), self.reference)
+            else:
+                self._check_range(split, "", (lo, hi), self.reference)
+
+    def _check_positions(self) -> None:
+        if self.radius is not None and not self.has_positions:
+            raise DatasetError(f"datasets.{self.name}.radius is set, but the frames have no positions: a "
+                               "frame-aligned pair's ground truth is `tolerance` (frames); give positions "
+                               "(see the loader's settings) or remove radius")
+        if self.radius is not None and not (math.isfinite(self.radius) and self.radius > 0):
+            raise DatasetError(f"datasets.{self.name}.radius is {self.radius}: give a distance > 0 in "
+                               f"{self.position_unit or 'the positions unit'} within which a match is correct")
+        if self.reference_splits and not self.has_positions:
+            split = next(iter(self.reference_splits))
+            raise DatasetError(
+                f"dataset {self.name!r}: split {split!r} gives its reference range apart from its query range, "
+                "which needs positions (a match is then correct within radius); a frame-aligned pair's splits "
+                "are one range [lo, hi] for both traverses"
+            )
+
+    def _check_range(self, split: str, which: str, frames: tuple[int, int], traverse: Traverse) -> None:
+        lo, hi = frames
+        if lo >= hi:
+            raise DatasetError(f"dataset {self.name!r}: split {split!r} {which}= [{lo}, {hi}) is empty; give it a "
+                               "range [lo, hi) with lo < hi in the configuration's splits")
+        if not 0 <= lo < hi <= len(traverse):
+            role = "reference" if traverse is self.reference else "query"
+            where = f" of the {role} traverse ({traverse.name})" if self.has_positions else ""
+            raise DatasetError(
+                f"dataset {self.name!r}: split {split!r} {which}= [{lo}, {hi}) is outside the {len(traverse)} "
+                f"frames{where}; fix the split ranges in the configuration"
+            )
 
     def __len__(self) -> int:
         return len(self.reference)
 
+    @property
+    def has_positions(self) -> bool:
+        """Whether both traverses carry positions (SPEC 11): ground truth within ``radius``, not ``tolerance``."""
+        return self.reference.positions is not None and self.query.positions is not None
+
     def split_range(self, split: str) -> tuple[int, int]:
+        """The split's query range (and its reference range too, unless ``reference_range`` differs)."""
         try:
             return self.splits[split]
         except KeyError:
             raise DatasetError(
                 f"dataset {self.name!r} has no split {split!r}; it has {', '.join(self.splits) or 'none'}"
             ) from None
+
+    def reference_range(self, split: str) -> tuple[int, int]:
+        """The split's reference range: its own when the configuration gives one, else its (query) range."""
+        query = self.split_range(split)
+        return self.reference_splits.get(split, query)
 
     def missing_images(self) -> list[Path]:
         return [p for p in (*self.reference.images, *self.query.images) if not p.is_file()]
@@ -138,7 +215,28 @@ class TraversePair:
         for traverse in (self.reference, self.query):
             for path in traverse.images:
                 digest.update(f"{traverse.name}/{path.name}\n".encode())
+        if self.has_positions:  # the descriptor file stores them: a changed position is another file
+            for traverse in (self.reference, self.query):
+                assert traverse.positions is not None
+                digest.update(np.ascontiguousarray(traverse.positions, dtype="<f8").tobytes())
         return digest.hexdigest()
+
+
+def radius_text(radius: float, unit: str) -> str:
+    """``25 m``, or ``3 (the unit of the CSVs' x and y)``: a radius with its unit, for messages and cards."""
+    return f"{radius:g} m" if unit == "metres" else f"{radius:g} ({unit})" if unit else f"{radius:g}"
+
+
+def positions_pairing(position_source: str, radius: float | None, unit: str) -> str:
+    """A pair's ``pairing`` when its frames have positions: ``by positions within 25 m (<source>)``."""
+    within = f" within {radius_text(radius, unit)}" if radius is not None else ""
+    return f"by positions{within} ({position_source})"
+
+
+def slice_traverse(traverse: Traverse, lo: int, hi: int) -> Traverse:
+    """Frames ``lo .. hi-1`` of a traverse, positions included; ``replace`` keeps its class (e.g. a Bayer reader)."""
+    positions = None if traverse.positions is None else traverse.positions[lo:hi]
+    return replace(traverse, images=traverse.images[lo:hi], positions=positions)
 
 
 _NUMBER = re.compile(r"(\d+)")

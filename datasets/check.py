@@ -8,6 +8,7 @@ what is missing, where, and how to fix it.
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from collections import Counter
@@ -18,8 +19,9 @@ from pathlib import Path
 from typing import Any
 
 import cv2
+import numpy as np
 
-from vpr_smr.datasets.base import MAX_LISTED, DatasetError, Traverse, TraversePair, list_files
+from vpr_smr.datasets.base import MAX_LISTED, DatasetError, Traverse, TraversePair, list_files, radius_text
 
 SHOWN_NAMES = 3  # file names shown from each end of a traverse, in the order used
 MAX_HINT_DIRS = 200  # folders looked into when guessing a mis-set root (a root may hold many files)
@@ -152,6 +154,10 @@ class TraverseCheck:
     first: list[str] = field(default_factory=list)  # the first and last file names, in the order used
     last: list[str] = field(default_factory=list)
     order_note: str | None = None
+    # SPEC 11, pairs with positions only: frames without a position, and the median step between frames
+    unpositioned: list[int] = field(default_factory=list)
+    unpositioned_names: list[str] = field(default_factory=list)
+    spacing: float | None = None
 
     @property
     def bad(self) -> set[int]:
@@ -167,9 +173,10 @@ class SplitCheck:
     name: str
     lo: int
     hi: int
-    reference: int  # usable reference frames in [lo, hi)
+    reference: int  # usable reference frames in [lo, hi) (its reference range, with positions)
     query: int
     both: int  # positions where both images are usable
+    reference_range: tuple[int, int] | None = None  # pairs with positions: the reference range (lo, hi: queries)
 
     @property
     def frames(self) -> int:
@@ -186,10 +193,16 @@ class DatasetReport:
     decoded: bool
     pairing: str = ""
     pairs: list[tuple[int, str, str]] = field(default_factory=list)  # (frame, reference name, query name)
+    radius: float | None = None  # pairs with positions (SPEC 11): the ground truth's radius, in position_unit
+    position_unit: str = ""
+
+    @property
+    def positioned(self) -> bool:
+        return self.radius is not None
 
     @property
     def ok(self) -> bool:
-        return all(not t.bad for t in self.traverses)
+        return all(not t.bad and not t.unpositioned for t in self.traverses)
 
     @property
     def status(self) -> int:
@@ -244,12 +257,41 @@ def _check_traverse(role: str, traverse: Traverse, decode: bool, workers: int) -
     return report
 
 
+def _check_positions(report: TraverseCheck, traverse: Traverse) -> None:
+    """Which frames have no position (NaN: ``dataset check`` loads them without refusing) and the median step."""
+    from vpr_smr.datasets.positions import median_spacing
+
+    assert traverse.positions is not None
+    report.unpositioned = [int(i) for i in np.flatnonzero(~np.all(np.isfinite(traverse.positions), axis=1))]
+    report.unpositioned_names = [traverse.images[i].name for i in report.unpositioned]
+    report.spacing = median_spacing(traverse.positions)
+
+
+def _positioned_splits(pair: TraversePair, traverses: list[TraverseCheck]) -> list[SplitCheck]:
+    """Each split's usable frames (found, readable, with a position) in its reference and its query range."""
+    ref_unusable = traverses[0].bad | set(traverses[0].unpositioned)
+    query_unusable = traverses[1].bad | set(traverses[1].unpositioned)
+    splits = []
+    for name, (lo, hi) in pair.splits.items():
+        ref_lo, ref_hi = pair.reference_range(name)
+        ref_ok = sum(1 for i in range(ref_lo, ref_hi) if i not in ref_unusable)
+        query_ok = sum(1 for i in range(lo, hi) if i not in query_unusable)
+        splits.append(SplitCheck(name, lo, hi, ref_ok, query_ok, min(ref_ok, query_ok), (ref_lo, ref_hi)))
+    return splits
+
+
 def check_dataset(pair: TraversePair, decode: bool = True, workers: int = 4) -> DatasetReport:
-    """Look for every image of both traverses and (``decode``) try to read each one."""
+    """Look for every image of both traverses and (``decode``) try to read each one; with positions, count the
+    frames without one and measure the median spacing of each traverse."""
     traverses = [
         _check_traverse("reference", pair.reference, decode, workers),
         _check_traverse("query", pair.query, decode, workers),
     ]
+    if pair.has_positions:
+        for report, traverse in zip(traverses, (pair.reference, pair.query), strict=True):
+            _check_positions(report, traverse)
+        return DatasetReport(pair.name, len(pair), pair.tolerance, traverses, _positioned_splits(pair, traverses),
+                             decode, pair.pairing, [], radius=pair.radius, position_unit=pair.position_unit)
     ref_bad, query_bad = traverses[0].bad, traverses[1].bad
     splits = []
     for name, (lo, hi) in pair.splits.items():
@@ -264,11 +306,44 @@ def check_dataset(pair: TraversePair, decode: bool = True, workers: int = 4) -> 
     return DatasetReport(pair.name, n, pair.tolerance, traverses, splits, decode, pair.pairing, pairs)
 
 
+def _distance(value: float | None, unit: str) -> str:
+    return "n/a" if value is None or math.isnan(value) else radius_text(float(f"{value:.3g}"), unit)
+
+
+def _positions_line(t: TraverseCheck, unit: str) -> str:
+    line = f"    positions: {t.frames - len(t.unpositioned)} of {t.frames} frames, median spacing " \
+           f"{_distance(t.spacing, unit)} between consecutive frames"
+    if t.unpositioned:
+        line += f"; {len(t.unpositioned)} without a position: {list_files(t.unpositioned_names)}"
+    return line
+
+
+def _split_line(s: SplitCheck) -> str:
+    if s.reference_range is None:
+        incomplete = "" if s.both == s.frames else f" ({s.frames - s.both} incomplete)"
+        return (f"  split {s.name} [{s.lo}, {s.hi}): {s.frames} frames; reference {s.reference}, "
+                f"query {s.query}, both {s.both}{incomplete}")
+    (ref_lo, ref_hi) = s.reference_range
+    return (f"  split {s.name}: references [{ref_lo}, {ref_hi}) {ref_hi - ref_lo} frames ({s.reference} usable), "
+            f"queries [{s.lo}, {s.hi}) {s.frames} frames ({s.query} usable)")
+
+
+def _heading(report: DatasetReport) -> str:
+    if not report.positioned:
+        return f"dataset {report.dataset!r}: {report.frames} aligned frames, tolerance {report.tolerance}"
+    reference, query = report.traverses
+    assert report.radius is not None
+    return (f"dataset {report.dataset!r}: {reference.frames} reference and {query.frames} query frames with "
+            f"positions, a match correct within {radius_text(report.radius, report.position_unit)}")
+
+
 def format_report(report: DatasetReport) -> str:
     """Human-readable text of a report; problems list the first few files, then a count."""
     verb = "found and readable" if report.decoded else "found (not decoded)"
-    lines = [f"dataset {report.dataset!r}: {report.frames} aligned frames, tolerance {report.tolerance}"]
-    if report.pairing:
+    lines = [_heading(report)]
+    if report.pairing and report.positioned:
+        lines.append(f"  paired {report.pairing}")
+    elif report.pairing:
         lines.append(f"  paired {report.pairing}:")
         width = max(len(ref) for _, ref, _ in report.pairs)
         for i, (frame, ref, query) in enumerate(report.pairs):
@@ -289,12 +364,9 @@ def format_report(report: DatasetReport) -> str:
             lines.append(f"    order: {', '.join(t.first)}" + (f" ... {', '.join(t.last)}" if t.last else ""))
         if t.order_note:
             lines.append(f"    warning: {t.order_note}")
-    for s in report.splits:
-        lines.append(
-            f"  split {s.name} [{s.lo}, {s.hi}): {s.frames} frames; reference {s.reference}, "
-            f"query {s.query}, both {s.both}"
-            + ("" if s.both == s.frames else f" ({s.frames - s.both} incomplete)")
-        )
+        if report.positioned:
+            lines.append(_positions_line(t, report.position_unit))
+    lines.extend(_split_line(s) for s in report.splits)
     for t in report.traverses:
         if t.missing_folders:
             lines.append(f"  missing folders ({t.role} {t.name}): {list_files(t.missing_folders)}")
@@ -309,7 +381,9 @@ def format_report(report: DatasetReport) -> str:
     else:
         missing = sum(len(t.missing_files) for t in report.traverses)
         unreadable = sum(len(t.errors) for t in report.traverses)
-        lines.append(f"status: PROBLEMS ({missing} missing files, {unreadable} unreadable files)")
+        unpositioned = sum(len(t.unpositioned) for t in report.traverses)
+        without = f", {unpositioned} frames without a position" if unpositioned else ""
+        lines.append(f"status: PROBLEMS ({missing} missing files, {unreadable} unreadable files{without})")
     return "\n".join(lines)
 
 
@@ -358,4 +432,4 @@ def cli_option(key: str) -> str:
 def loader_options_of(loader_name: str) -> list[str]:
     from vpr_smr.datasets import loader_options
 
-    return [*loader_options(loader_name), "frames", "splits", "tolerance"]
+    return [*loader_options(loader_name), "frames", "splits", "tolerance", "radius"]

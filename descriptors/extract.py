@@ -1,8 +1,10 @@
 """Compute the descriptors of both traverses of a pair, in batches, into one HDF5 file.
 
-The file holds ``reference`` and ``query`` arrays (N x dim, float32) and ``reference_names`` /
-``query_names``; its attributes record the backend, its settings, the checkpoint's SHA-256 and the frame
-list's fingerprint. A finished file with the same provenance is not computed again.
+The file holds ``reference`` and ``query`` arrays (N x dim, float32; the two traverses may differ in length when
+they have positions) and ``reference_names`` / ``query_names``; a pair with positions (SPEC 11) adds
+``reference_positions`` / ``query_positions`` (N x 2, float64). Its attributes record the backend, its settings,
+the checkpoint's SHA-256 and the frame list's fingerprint (positions included). A finished file with the same
+provenance is not computed again.
 """
 
 from __future__ import annotations
@@ -202,4 +204,6 @@ def main(
         for role, traverse, values in zip(("reference", "query"), (pair.reference, pair.query), arrays, strict=True):
             f.create_dataset(role, data=values)
             f.create_dataset(f"{role}_names", data=np.array([p.name for p in traverse.images], dtype="S"))
+            if pair.has_positions:  # the distances stage copies each split's slice for its ground truth
+                f.create_dataset(f"{role}_positions", data=np.asarray(traverse.positions, dtype=np.float64))
     return out

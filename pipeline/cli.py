@@ -11,7 +11,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from vpr_smr.core.constants import DEFAULT_TOLERANCE, METRICS, MODES
+from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, METRICS, MODES
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix, package_version
 from vpr_smr.pipeline.config import ConfigError, load_config, schema_default
 
@@ -64,13 +64,16 @@ def cmd_descriptors(args: argparse.Namespace) -> None:
 def cmd_distances(args: argparse.Namespace) -> None:
     from vpr_smr.eval.matching import distances
 
-    distances.main(args.descriptors, args.out, args.split, tuple(args.frames), metric=args.metric)
+    distances.main(args.descriptors, args.out, args.split, tuple(args.frames), metric=args.metric,
+                   reference_range=tuple(args.reference_frames) if args.reference_frames else None)
 
 
 def cmd_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.matching import attributes
 
-    attributes.main(args.distances, args.out, args.seq_len, args.tolerance)
+    attributes.main(args.distances, args.out, args.seq_len, args.tolerance, velocities=args.velocities,
+                    radius=args.radius, reference_positions=args.reference_positions,
+                    query_positions=args.query_positions)
 
 
 def _check_seq_len(args: argparse.Namespace, *groups: Iterable[str] | None) -> None:
@@ -125,7 +128,8 @@ def cmd_metrics(args: argparse.Namespace) -> None:
     meta = {key: value for key, value in (("dataset", args.dataset), ("method", args.method)) if value is not None}
     vpr_metrics.main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
                      predictor=args.predictor, attributes=_split_paths(args.attributes or []), modes=tuple(args.modes),
-                     queries=args.queries, meta=meta, allow_split_overlap=args.allow_split_overlap)
+                     queries=args.queries, meta=meta, allow_split_overlap=args.allow_split_overlap,
+                     matcher=_matcher(args))
 
 
 def cmd_queries(args: argparse.Namespace) -> None:
@@ -133,7 +137,14 @@ def cmd_queries(args: argparse.Namespace) -> None:
 
     vpr_metrics.queries_main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
                              predictor=args.predictor, attributes=_split_paths(args.attributes or []),
-                             allow_split_overlap=args.allow_split_overlap)
+                             allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args))
+
+
+def _matcher(args: argparse.Namespace) -> Any:
+    """The matcher options of ``_ground_truth_options`` as ``vpr_metrics.MatcherSettings``."""
+    from vpr_smr.eval.scoring.vpr_metrics import MatcherSettings
+
+    return MatcherSettings(tuple(args.velocities), args.radius, args.reference_positions, args.query_positions)
 
 
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
@@ -167,6 +178,15 @@ def cmd_ablation_held_out(args: argparse.Namespace) -> None:
                   allow_split_overlap=args.allow_split_overlap)
 
 
+def cmd_speed(args: argparse.Namespace) -> None:
+    from vpr_smr.eval.scoring import speed
+
+    params = _json_object(args.predictor, "--predictor") if args.predictor else {}
+    speed.main(args.dataset, args.seq_len, args.profile, _split_paths(args.train, "--train", "METHOD"),
+               _split_paths(args.test, "--test", "METHOD"), args.out, args.velocities, args.tolerance, params,
+               allow_split_overlap=args.allow_split_overlap)
+
+
 def cmd_inspect(args: argparse.Namespace) -> None:
     from vpr_smr.eval.report import inspector
 
@@ -174,7 +194,8 @@ def cmd_inspect(args: argparse.Namespace) -> None:
         args.queries, args.distances, args.dataset, _json_object(args.dataset_settings, "--dataset-settings"),
         args.frames_sha256, args.seq_len, args.split, args.tolerance, args.match_figure, args.matrix_figure,
         per_class=args.per_class, mistakes=args.mistakes, seed=args.seed,
-        split_range=(args.frames[0], args.frames[1]) if args.frames else None)
+        split_range=(args.frames[0], args.frames[1]) if args.frames else None, radius=args.radius,
+        velocities=tuple(args.velocities))
     log.info("wrote %s and %s", *written)
 
 
@@ -185,6 +206,7 @@ def cmd_report(args: argparse.Namespace) -> None:
     written = report.main(args.out, args.evaluations, args.predictors, args.attribute_ablations or (),
                           args.leave_one_out or (), timings=args.timings or (), metrics=args.metrics or (),
                           match_figures=args.match_figures or (), matrix_figures=args.matrix_figures or (),
+                          speed=args.speed or (),
                           split=args.split, table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
                           config=_json_object(args.settings, "--settings") if args.settings else None,
                           provenance=provenance, descriptor_paths=args.descriptors or (),
@@ -240,18 +262,23 @@ def _frame_range(text: str, option: str) -> list[int]:
     return [int(lo), int(hi)]
 
 
-def _splits(items: list[str]) -> dict[str, list[int]]:
-    """``["train=0:40", "val=40:70"]`` -> ``{"train": [0, 40], "val": [40, 70]}``."""
-    splits = {}
+def _splits(items: list[str]) -> dict[str, Any]:
+    """``["train=0:40", "val=40:70"]`` -> ``{"train": [0, 40], "val": [40, 70]}``; ``test=0:90/40:70`` gives the
+    reference and the query range apart (SPEC 11): ``{"test": {"reference": [0, 90], "query": [40, 70]}}``."""
+    splits: dict[str, Any] = {}
     for item in items:
         name, sep, frames = item.partition("=")
         if not sep or not name:
             raise ValueError(f"--splits {item!r} is not NAME=LO:HI, e.g. --splits train=0:40 val=40:70 test=70:111")
-        splits[name] = _frame_range(frames, f"--splits {name}")
+        reference, slash, query = frames.partition("/")
+        splits[name] = _frame_range(frames, f"--splits {name}") if not slash else {
+            "reference": _frame_range(reference, f"--splits {name} (references)"),
+            "query": _frame_range(query, f"--splits {name} (queries)")}
     return splits
 
 
-DATASET_OPTIONS = ("root", "reference", "query", "reference_list", "query_list", "pairing", "tolerance")
+DATASET_OPTIONS = ("root", "reference", "query", "reference_list", "query_list", "pairing", "tolerance",
+                   "reference_positions", "query_positions", "positions", "radius")
 
 
 def cmd_dataset_check(args: argparse.Namespace) -> int:
@@ -297,6 +324,7 @@ OUT_FILES = {
     "ablation attributes": ("the attribute ablation (JSON)", JSON_SUFFIXES),
     "ablation without": ("the predictor (HDF5; its report goes beside it as .json)", HDF5_SUFFIXES),
     "ablation held-out": ("the leave-one-method-out evaluation (JSON)", JSON_SUFFIXES),
+    "speed": ("the speed experiment's result (JSON)", JSON_SUFFIXES),
 }
 
 
@@ -317,12 +345,27 @@ def _allow_overlap(parser: argparse.ArgumentParser) -> None:
                         help="let a predictor score frames of its training split (a deliberate experiment)")
 
 
+def _matcher_options(parser: argparse.ArgumentParser) -> None:
+    """The sequence matcher and the ground truth of SPEC 11: velocity search and positions within a radius."""
+    parser.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE,
+                        help="frame-aligned pairs: a match within this many frames is correct (default 2)")
+    parser.add_argument("--velocities", type=float, nargs="+", default=list(DEFAULT_VELOCITIES), metavar="V",
+                        help="reference frames per query frame searched by SeqSLAM (SPEC 11; default 1.0: the "
+                             "paper's fixed matcher), e.g. --velocities 0.5 0.75 1 1.25 1.5 2")
+    parser.add_argument("--reference-positions", metavar="PATH",
+                        help="one position per reference frame (.npy, or CSV of numbers: x[,y]); with "
+                             "--query-positions and --radius, the ground truth of a pair that is not frame-aligned")
+    parser.add_argument("--query-positions", metavar="PATH", help="one position per query frame (.npy or CSV)")
+    parser.add_argument("--radius", type=float,
+                        help="with positions: a match within this distance (the positions' unit) is correct")
+
+
 def _matrix_options(parser: argparse.ArgumentParser, predictor_help: str) -> None:
     """The options of the commands that read users' distance matrices (``metrics``, ``queries``)."""
     parser.add_argument("--distances", nargs="+", required=True, metavar="PATH or SPLIT=PATH",
                         help="references x queries matrices (.npy or our .h5): one file, or one SPLIT=PATH per split")
     parser.add_argument("--seq-len", type=int, required=True)
-    parser.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
+    _matcher_options(parser)
     parser.add_argument("--predictor", help=predictor_help)
     parser.add_argument("--attributes", nargs="*", metavar="SPLIT=PATH",
                         help="the splits' attributes (.h5) computed from the same matrices (default: computed here)")
@@ -383,8 +426,14 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--query-list", help="a frame list naming the query frames in order")
     c.add_argument("--pairing", choices=("by_name", "by_order"), help="folders: how frame i of both is paired")
     c.add_argument("--tolerance", type=int, help="frames of ground-truth tolerance (default 2)")
+    c.add_argument("--reference-positions", help="folders: a CSV (name,x,y or name,lat,lon) of the reference frames")
+    c.add_argument("--query-positions", help="folders: a CSV (name,x,y or name,lat,lon) of the query frames")
+    c.add_argument("--positions", help="positions from the names (folders: file_names) or the INS logs (robotcar: ins)")
+    c.add_argument("--radius", type=float, help="with positions: a match is correct within this distance")
     c.add_argument("--frames", metavar="LO:HI", help="keep frames LO .. HI-1 only")
-    c.add_argument("--splits", nargs="+", metavar="NAME=LO:HI", help="e.g. train=0:40 val=40:70 test=70:111")
+    c.add_argument("--splits", nargs="+", metavar="NAME=LO:HI",
+                   help="e.g. train=0:40 val=40:70 test=70:111; with positions NAME=LO:HI/LO:HI gives the "
+                        "reference and the query range apart")
     c.add_argument("--option", action="append", metavar="KEY=VALUE", help="any other loader setting (repeatable)")
     c.add_argument("--no-decode", dest="decode", action="store_false", help="only look for the files")
     c.set_defaults(func=cmd_dataset_check)
@@ -403,14 +452,17 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("distances", help="reference x query distance matrix of one split (HDF5)")
     _required(p, "--descriptors", "--split", "--out")
     p.add_argument("--frames", type=int, nargs=2, required=True, metavar=("LO", "HI"),
-                   help="the split's frames lo..hi-1 of both traverses")
+                   help="the split's frames lo..hi-1 of both traverses (its queries, with --reference-frames)")
+    p.add_argument("--reference-frames", type=int, nargs=2, metavar=("LO", "HI"),
+                   help="the split's reference frames lo..hi-1, when they differ from --frames (traverses with "
+                        "positions, SPEC 11)")
     p.add_argument("--metric", choices=METRICS, help="the distance (default: the descriptor file's, its backend's)")
     p.set_defaults(func=cmd_distances)
 
     p = sub.add_parser("attributes", help="sequence matching, SMR attributes and labels of a distance matrix")
     p.add_argument("--distances", required=True, help="our .h5 or a references x queries .npy")
     p.add_argument("--seq-len", type=int, required=True)
-    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
+    _matcher_options(p)
     p.add_argument("--out", required=True, help=".csv (query,A1,A2,A3,A4,label) or .h5 (everything)")
     p.set_defaults(func=cmd_attributes)
 
@@ -488,6 +540,26 @@ def build_parser() -> argparse.ArgumentParser:
     _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_held_out)
 
+    p = sub.add_parser("speed", help="one simulated speed profile (SPEC 11): Table I's numbers of the fixed matcher "
+                                     "and of velocity search, each with its own seed-0 predictor",
+                       epilog="e.g. vpr-smr speed --dataset d --seq-len 4 --profile 2x --velocities 0.5 1 2 "
+                              "--train sad=train.h5 --test sad=test.h5 --out speed/2x.json")
+    _required(p, "--dataset", "--out")
+    p.add_argument("--profile", required=True,
+                   help="a constant speed such as 0.5x, 1x or 2x (places per query frame), or varying")
+    p.add_argument("--seq-len", type=int, required=True)
+    p.add_argument("--velocities", type=float, nargs="+", default=schema_default("speed", "velocities"),
+                   metavar="V", help="the velocity matcher's search set (reference frames per query frame, each > 0)")
+    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE,
+                   help="a match within this many places of the simulated query's position is correct")
+    p.add_argument("--train", nargs="+", required=True, metavar="METHOD=PATH",
+                   help="each method's train split distances (.h5), in the pooled training order")
+    p.add_argument("--test", nargs="+", required=True, metavar="METHOD=PATH",
+                   help="each method's table split distances (.h5), the same methods in the same order")
+    p.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
+    _allow_overlap(p)
+    p.set_defaults(func=cmd_speed)
+
     p = sub.add_parser("inspect", help="the match inspector: sampled queries with their matches, and the distance "
                                        "matrix with the kept and removed sequence matches (two PNGs)")
     _required(p, "--queries", "--distances", "--dataset", "--dataset-settings", "--match-figure", "--matrix-figure")
@@ -496,6 +568,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seq-len", type=int, required=True)
     p.add_argument("--split", default=schema_default("table_split"))
     p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
+    p.add_argument("--radius", type=float, help="with positions (the distances file's): the ground truth's radius")
+    p.add_argument("--velocities", type=float, nargs="+", default=list(DEFAULT_VELOCITIES), metavar="V",
+                   help="the run's sequence matcher (SPEC 11), for the true reference's S")
     p.add_argument("--frames", type=int, nargs=2, metavar=("LO", "HI"),
                    help="the split's frames lo..hi-1 (default: the distances file's split_range)")
     p.add_argument("--per-class", type=int, default=2, help="queries sampled per true class")
@@ -512,6 +587,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--metrics", nargs="*", help="the standard VPR metrics files (vpr-smr metrics), at the table's L")
     p.add_argument("--match-figures", nargs="*", help="the match inspector's match figures (vpr-smr inspect)")
     p.add_argument("--matrix-figures", nargs="*", help="the match inspector's distance-matrix figures")
+    p.add_argument("--speed", nargs="*", help="the speed experiment's files (vpr-smr speed), one per dataset and "
+                                              "profile, in the configuration's order")
     p.add_argument("--descriptors", nargs="*", help="descriptor files whose provenance the report shows")
     p.add_argument("--split", default=schema_default("table_split"))
     p.add_argument("--table-seq-lens", type=int, nargs="+", help="sequence lengths of Table I (default: all)")

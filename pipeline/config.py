@@ -31,6 +31,13 @@ def schema_default(*keys: str) -> Any:
     return node["default"]
 
 
+def _hint(error: Any) -> str:
+    """What a value that fits none of a setting's forms should look like: that setting's own description (the
+    message of ``oneOf``/``anyOf`` names no form)."""
+    described = error.validator in ("oneOf", "anyOf") and isinstance(error.schema.get("description"), str)
+    return f" ({error.schema['description']})" if described else ""
+
+
 def validate(conf: dict[str, Any], source: str = "configuration") -> dict[str, Any]:
     import jsonschema
 
@@ -38,7 +45,8 @@ def validate(conf: dict[str, Any], source: str = "configuration") -> dict[str, A
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(conf), key=lambda e: list(e.absolute_path))
     if errors:
-        lines = [f"  {'.'.join(str(p) for p in e.absolute_path) or '(top level)'}: {e.message}" for e in errors]
+        lines = [f"  {'.'.join(str(p) for p in e.absolute_path) or '(top level)'}: {e.message}{_hint(e)}"
+                 for e in errors]
         raise ConfigError(f"{source} is invalid:\n" + "\n".join(lines))
     conf = json.loads(json.dumps(conf))
     _fill_defaults(schema, conf)
@@ -87,6 +95,8 @@ def experiments(conf: dict[str, Any]) -> set[str]:
         names.add("leave_one_method_out")
     if chosen["seq_len_ablation"] and len(conf["seq_lens"]) > 1:
         names.add("seq_len")
+    if chosen["speed"]:
+        names.add("speed")
     return names
 
 

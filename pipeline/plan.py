@@ -33,6 +33,16 @@ class DatasetPlan:
     warnings: tuple[str, ...]  # e.g. a frame order taken from file names that do not say it unambiguously
     overlaps: tuple[str, ...]  # splits that share frames (only with allow_split_overlap), e.g. "train and test: 40-59"
     source: str  # where the images came from: the loader and its own description (``TraversePair.source``)
+    # SPEC 11, datasets with positions only: the ground truth's radius (None: frame-aligned, `tolerance` applies),
+    # the reference ranges of splits that give them apart (`splits` holds the query ranges), and the positions
+    # files named in the configuration (inputs of the descriptors jobs, as the frame lists)
+    radius: float | None = None
+    reference_splits: dict[str, tuple[int, int]] = field(default_factory=dict)
+    positions_files: tuple[str, ...] = ()
+
+    def reference_range(self, split: str) -> tuple[int, int]:
+        """A split's reference range: its own, or its (query) range."""
+        return self.reference_splits.get(split, self.splits[split])
 
 
 @dataclass(frozen=True)
@@ -64,8 +74,9 @@ def plan_from_json(data: dict[str, Any], conf: dict[str, Any]) -> Plan | None:
     if any(set(d) != names for d in plan["datasets"].values()):
         return None  # written by another version of DatasetPlan: plan again
     datasets = {name: DatasetPlan(**{
-        **d, "splits": {k: (int(lo), int(hi)) for k, (lo, hi) in d["splits"].items()},
-        **{key: tuple(d[key]) for key in ("list_files", "overlaps", "traverses", "warnings")},
+        **d,
+        **{key: {k: (int(lo), int(hi)) for k, (lo, hi) in d[key].items()} for key in ("splits", "reference_splits")},
+        **{key: tuple(d[key]) for key in ("list_files", "overlaps", "traverses", "warnings", "positions_files")},
     }) for name, d in plan["datasets"].items()}
     return Plan(datasets, dict(plan["checkpoints"]), tuple(plan["warnings"]), dict(plan["metrics"]))
 
@@ -96,12 +107,20 @@ def planned(conf: dict[str, Any]) -> Plan:
 
 def dataset_cards(plan: Plan) -> dict[str, dict[str, Any]]:
     """What the report states of each dataset: traverses, frames, tolerance, splits, pairing, overlaps, the frame
-    lists' SHA-256 and where the images came from."""
+    lists' SHA-256 and where the images came from; a dataset with positions (SPEC 11) adds its radius and the
+    reference ranges that differ from its splits' (query) ranges."""
     return {name: {"reference": d.traverses[0], "query": d.traverses[1], "n_frames": d.n_frames,
                    "tolerance": d.tolerance, "splits": {k: list(v) for k, v in d.splits.items()},
                    "pairing": d.pairing, "overlaps": list(d.overlaps), "frames_sha256": d.frames_sha256,
-                   "source": d.source}
+                   "source": d.source, **_positions_card(d)}
             for name, d in plan.datasets.items()}
+
+
+def _positions_card(d: DatasetPlan) -> dict[str, Any]:
+    """A card's entries of a dataset with positions; none for a frame-aligned one (its card stays as it was)."""
+    if d.radius is None:
+        return {}
+    return {"radius": d.radius, "reference_splits": {k: list(v) for k, v in d.reference_splits.items()}}
 
 
 def canonical(value: Any) -> str:
@@ -113,20 +132,43 @@ def _list_files(settings: dict[str, Any]) -> tuple[str, ...]:
     return tuple(str(v) for k, v in sorted(settings.items()) if k.endswith("_list") and v)
 
 
+def _positions_files(settings: dict[str, Any]) -> tuple[str, ...]:
+    """The positions CSVs of a dataset entry (``reference_positions``, ``query_positions``)."""
+    return tuple(str(v) for k, v in sorted(settings.items()) if k.endswith("_positions") and v)
+
+
 def _relative_note(value: str) -> str:
     return "" if os.path.isabs(value) else f" (a relative path, looked for from the working folder {Path.cwd()})"
 
 
-def split_overlaps(splits: dict[str, tuple[int, int]]) -> list[str]:
-    """Every two splits that share frames, as ``'train' [0, 60) and 'test' [40, 111) share frames [40, 60)``."""
+def _shared(a: tuple[int, int], b: tuple[int, int]) -> tuple[int, int] | None:
+    lo, hi = max(a[0], b[0]), min(a[1], b[1])
+    return (lo, hi) if lo < hi else None
+
+
+def split_overlaps(splits: dict[str, tuple[int, int]],
+                   reference_splits: dict[str, tuple[int, int]] | None = None) -> list[str]:
+    """Every two splits that share frames, as ``'train' [0, 60) and 'test' [40, 111) share frames [40, 60)``.
+
+    ``splits`` are the query ranges; where a split gives its reference range apart (``reference_splits``,
+    SPEC 11), the reference ranges are compared too, and each message says which frames are shared.
+    """
+    reference_splits = reference_splits or {}
     found = []
     names = list(splits)
     for i, first in enumerate(names):
         for second in names[i + 1 :]:
-            (lo_a, hi_a), (lo_b, hi_b) = splits[first], splits[second]
-            lo, hi = max(lo_a, lo_b), min(hi_a, hi_b)
-            if lo < hi:
-                found.append(f"{first!r} [{lo_a}, {hi_a}) and {second!r} [{lo_b}, {hi_b}) share frames [{lo}, {hi})")
+            a, b = splits[first], splits[second]
+            if first not in reference_splits and second not in reference_splits:
+                if (s := _shared(a, b)) is not None:
+                    found.append(f"{first!r} [{a[0]}, {a[1]}) and {second!r} [{b[0]}, {b[1]}) share frames "
+                                 f"[{s[0]}, {s[1]})")
+                continue
+            ref_a, ref_b = reference_splits.get(first, a), reference_splits.get(second, b)
+            for role, (x, y) in (("query", (a, b)), ("reference", (ref_a, ref_b))):
+                if (s := _shared(x, y)) is not None:
+                    found.append(f"{first!r} {role} range [{x[0]}, {x[1]}) and {second!r} {role} range "
+                                 f"[{y[0]}, {y[1]}) share {role} frames [{s[0]}, {s[1]})")
     return found
 
 
@@ -164,14 +206,16 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
                 problems.append(f"datasets.{name}: split {split!r} (named in train_split, eval_splits or "
                                 f"table_split) is not defined; it has {', '.join(pair.splits) or 'none'}")
                 continue
-            lo, hi = pair.splits[split]
-            if hi - lo < longest:
-                problems.append(f"datasets.{name}: split {split!r} has {hi - lo} frames, fewer than the sequence "
-                                f"length {longest} (seq_lens): lengthen the split or shorten the sequences")
+            for role, (lo, hi) in (("", pair.splits[split]), (" reference range", pair.reference_range(split))):
+                if hi - lo < longest and (not role or split in pair.reference_splits):
+                    problems.append(f"datasets.{name}: split {split!r}{role} has {hi - lo} frames, fewer than the "
+                                    f"sequence length {longest} (seq_lens): lengthen the split or shorten the "
+                                    "sequences")
         train = pair.splits.get(conf["train_split"])
         if train is not None and train[1] - train[0] >= longest:
             problems.extend(f"datasets.{name}: {problem}" for problem in _training_problems(conf, train))
-        overlaps = split_overlaps({split: pair.splits[split] for split in needed if split in pair.splits})
+        overlaps = split_overlaps({split: pair.splits[split] for split in needed if split in pair.splits},
+                                  pair.reference_splits)
         if overlaps and not conf["allow_split_overlap"]:
             problems.extend(
                 f"datasets.{name}: splits {overlap}: the predictor would be scored on "
@@ -195,6 +239,9 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
                            for t in (pair.reference, pair.query) if t.order_note),
             overlaps=tuple(overlaps),
             source=f"{dataset['loader']} loader: {pair.source}",
+            radius=pair.radius,
+            reference_splits=dict(pair.reference_splits),
+            positions_files=_positions_files(dataset),
         )
     return plans
 

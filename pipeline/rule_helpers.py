@@ -42,17 +42,27 @@ def method_pairs(methods: Sequence[str], held_out: str, paths: Sequence[str]) ->
     return name_pairs(others, paths)
 
 
+def speed_profiles(conf: dict[str, Any]) -> list[str]:
+    """The speed experiment's profiles by name (``eval.scoring.speed``: ``0.5x``, ``varying``), in the
+    configuration's order: the names of its files and the ``profile`` wildcard's values."""
+    from vpr_smr.eval.scoring.speed import profile_names
+
+    return profile_names(conf["speed"]["profiles"])
+
+
 # What the report rule always gives the report besides the configuration's experiments: the standard VPR metrics
 # (rule vpr_metrics) and the dataset cards (report_datasets).
 REPORT_INPUTS = {"metrics", "datasets"}
 
 
-def report_outputs(conf: dict[str, Any], experiments: set[str]) -> list[str]:
-    """The report's files, relative to the run folder (``eval.report.registry.expected_outputs``)."""
+def report_outputs(conf: dict[str, Any], experiments: set[str],
+                   speed_datasets: list[str] | None = None) -> list[str]:
+    """The report's files, relative to the run folder (``eval.report.registry.expected_outputs``); the speed
+    experiment's figures for ``speed_datasets`` only (default: every dataset)."""
     from vpr_smr.eval.report.registry import expected_outputs
 
     return expected_outputs(list(conf["datasets"]), conf["seq_lens"], conf["modes"], experiments | REPORT_INPUTS,
-                            table_seq_lens=[conf["table_seq_len"]])
+                            table_seq_lens=[conf["table_seq_len"]], speed_datasets=speed_datasets)
 
 
 def report_settings(conf: dict[str, Any]) -> str:

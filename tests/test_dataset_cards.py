@@ -60,3 +60,15 @@ def test_the_report_rule_gives_the_cards_in_the_configurations_order():
     assert list(cards) == ["zeta", "alpha"]
     assert all(list(card["splits"]) == ["train", "val", "test"] for card in cards.values())
     assert list(cards["zeta"]) == list(dataset_cards(preflight(conf))["zeta"])
+
+
+def test_cards_of_a_dataset_with_positions_show_both_ranges_and_the_radius():
+    # SPEC 11: a split's reference range apart from its query range, and a radius instead of the tolerance
+    from vpr_smr.eval.report.results import ground_truth_text, split_text
+
+    splits = {"train": (0, 600), "test": (600, 900)}
+    assert split_text(splits, {"train": (0, 400)}) == (
+        "train references [0, 400): 400, queries [0, 600): 600; test [600, 900): 300 frames")
+    assert split_text(splits) == "train [0, 600): 600 frames; test [600, 900): 300 frames"
+    assert ground_truth_text({"tolerance": 2}) == "2 frames"
+    assert ground_truth_text({"tolerance": 2, "radius": 25.0}) == "positions within 25 (the positions' unit)"

@@ -19,6 +19,7 @@ from vpr_smr.datasets import check as check_module
 from vpr_smr.datasets.base import order_note
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 from vpr_smr.pipeline.cli import main as cli
+from vpr_smr.pipeline.config import load_config
 
 REPO = Path(__file__).resolve().parents[1]
 EXAMPLE = REPO / "configs" / "own_folders.yaml"
@@ -51,6 +52,15 @@ def readme_block(marker: str) -> str:
 
 def test_readme_shows_the_shipped_example_configuration():
     assert readme_block("own-data-config") == EXAMPLE.read_text()
+
+
+def test_readme_shows_the_positions_example_and_it_is_valid():
+    # the non-aligned example (SPEC 11): shown as shipped, valid, velocity search on, the speed experiment off
+    example = REPO / "configs" / "own_positions.yaml"
+    assert readme_block("own-positions-config") == example.read_text()
+    conf = load_config(example)
+    assert conf["datasets"]["my_drive"]["radius"] == 25
+    assert conf["sequence_matching"]["velocities"][4] == 1.0 and not conf["experiments"]["speed"]
 
 
 @pytest.mark.slow

@@ -83,10 +83,12 @@ def test_dry_run_plans_every_job(tmp_path):
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     counts = dict(re.findall(r"^(\w+)\s+(\d+)$", result.stdout, flags=re.MULTILINE))
     # 3 datasets x 7 methods x 3 splits; Table II per dataset; a predictor without each method, tested on it; the
-    # standard VPR metrics, the per-query CSV and the match inspector of each method at the table's L
+    # standard VPR metrics, the per-query CSV and the match inspector of each method at the table's L; the speed
+    # experiment per dataset and profile (7 profiles)
     assert counts == {"all": "1", "descriptors": "21", "distances": "63", "attributes": "63", "train": "3",
                       "evaluate": "21", "attribute_ablation": "3", "predictor_without": "21", "held_out": "21",
-                      "vpr_metrics": "21", "queries": "21", "inspect": "21", "report": "1", "total": "281"}
+                      "vpr_metrics": "21", "queries": "21", "inspect": "21", "speed": "21", "report": "1",
+                      "total": "302"}
     for dataset in ("nordland", "robotcar", "sfu_mountain"):
         for method in METHODS:
             assert f"descriptors/{dataset}/{method}.h5" in result.stdout

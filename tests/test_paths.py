@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 from test_report import build_run
+from test_speed import speed_files
 
 from vpr_smr.core import paths
 from vpr_smr.eval.report import registry
@@ -13,7 +14,8 @@ from vpr_smr.eval.report.registry import expected_outputs
 
 RUN = "results/demo run"  # a space, as a user's output folder may hold
 
-ALL_EXPERIMENTS = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out"}
+ALL_EXPERIMENTS = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out",
+                   "speed"}
 
 
 def test_each_output_kind_has_its_file_name():
@@ -28,6 +30,7 @@ def test_each_output_kind_has_its_file_name():
     assert (paths.attribute_ablation_path(RUN, "nordland", 4)
             == "results/demo run/ablation/attributes/nordland/L4.json")
     assert paths.held_out_path(RUN, "nordland", 4, "sad") == "results/demo run/ablation/without/nordland/L4/sad.json"
+    assert paths.speed_path(RUN, "nordland", 4, "0.5x") == "results/demo run/speed/nordland/L4/0.5x.json"
     assert paths.report_log_path(RUN) == "results/demo run/logs/report.log"
 
 
@@ -56,6 +59,7 @@ def test_a_jobs_log_mirrors_its_output():
         paths.evaluation_path(RUN, "d", "sad", 3): "logs/evaluation/d/sad/L3.log",
         paths.attribute_ablation_path(RUN, "d", 3): "logs/ablation/attributes/d/L3.log",
         paths.held_out_path(RUN, "d", 3, "sad"): "logs/ablation/without/d/L3/sad.log",
+        paths.speed_path(RUN, "d", 3, "varying"): "logs/speed/d/L3/varying.log",
     }
     for output, log in cases.items():
         assert paths.log_path(RUN, output) == f"{RUN}/{log}"
@@ -86,16 +90,17 @@ def test_expected_outputs_of_one_experiment_in_order():
 
 
 def test_a_report_run_writes_exactly_the_registry(tmp_path):
-    run, written = build_run(tmp_path)  # every experiment: dataset d, L 2 and 4 (tables and figures at L 4)
+    # every experiment: dataset d, L 2 and 4 (tables and figures at L 4)
+    run, written = build_run(tmp_path, speed=speed_files(tmp_path))
     written = sorted(str(p.relative_to(run)) for p in written)
     tables = ("table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
-              "vpr_metrics", "ablation_seq_len", "predictor", "table2", "leave_one_method_out", "datasets")
+              "vpr_metrics", "ablation_seq_len", "speed", "predictor", "table2", "leave_one_method_out", "datasets")
     by_hand = (
         [f"tables/{name}.{ext}" for name in tables for ext in ("csv", "md", "tex")]
         + [f"figures/{kind}_d_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc")
            for mode in ("paper", "standard")]
         + ["figures/confusion_d_L4.png", "figures/seq_len_d_paper.png", "figures/seq_len_d_standard.png",
-           "report.html"]
+           "figures/speed_d_L4.png", "report.html"]
     )
     assert written == sorted(by_hand)
     assert written == sorted(expected_outputs(["d"], [2, 4], ["paper", "standard"],

@@ -7,7 +7,8 @@ evaluation per method; Table II from every method's features; a predictor withou
 train and val features, tested with the pooled one on the method's table split; per method at the table's L, the
 VPR metrics (which also depend on the metric modes) and the per-query CSV (which does not) from its distances,
 attributes and the seed-0 predictor, and the match inspector from its per-query CSV and the table split's
-distances -> report), not from the workflow's own output.
+distances; the speed experiment per profile at the table's L from every method's train and table distances, the
+tolerance and the predictor's settings -> report), not from the workflow's own output.
 """
 
 import csv
@@ -36,8 +37,10 @@ BASE = {
                             "splits": {"train": [0, 50], "val": [50, 80], "test": [80, 120]}}},
     "methods": {"sad": {"backend": "sad"}, "tiny": {"backend": "tinynet:TinyNet", "checkpoint": "tiny.pt"}},
     "predictor": {"max_iter": 60},
+    "speed": {"profiles": [0.5, "varying"]},  # two profiles: 2x would leave too few train queries of 50 frames
 }
 METHODS = ("sad", "tiny")
+PROFILES = ("0.5x", "varying")
 SPLITS = ("train", "val", "test")
 
 
@@ -107,6 +110,11 @@ def inspect(methods=METHODS, seq_len=3):
     return {("inspect", f"figures/matches_sample_{m}_L{seq_len}.png") for m in methods}
 
 
+def speed(profiles=PROFILES, seq_len=3):
+    """The speed experiment's profiles at the table's L (each reads every method's train and table distances)."""
+    return {("speed", f"speed/sample/L{seq_len}/{p}.json") for p in profiles}
+
+
 REPORT = {("report", "tables/table1.csv")}
 
 
@@ -149,33 +157,33 @@ def table1(folder):
 # Everything downstream of the pooled predictor of L = 3: every method's evaluation, held-out test, VPR metrics
 # (the seed-0 predictor's matcher), per-query CSV (its decisions) and match inspector (which reads that CSV)
 PREDICTOR_ON = train() | evaluate() | held_out() | metrics() | queries() | inspect() | REPORT
-ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | without() | PREDICTOR_ON
+ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | without() | PREDICTOR_ON | speed()
 
 
 @pytest.mark.parametrize(("edit", "expected"), [
     pytest.param(lambda c: c["datasets"]["sample"].update(tolerance=3),
-                 attributes() | attribute_ablation() | without() | PREDICTOR_ON, id="tolerance"),
+                 attributes() | attribute_ablation() | without() | PREDICTOR_ON | speed(), id="tolerance"),
     # the test split feeds Table II's test F1 and the held-out scores, not the leave-one-out training
     pytest.param(lambda c: c["datasets"]["sample"]["splits"].update(test=[85, 120]),
-                 distances(splits=["test"]) | attributes(splits=["test"]) | attribute_ablation() | PREDICTOR_ON,
-                 id="split-range"),
+                 distances(splits=["test"]) | attributes(splits=["test"]) | attribute_ablation() | PREDICTOR_ON
+                 | speed(), id="split-range"),
     pytest.param(lambda c: c["datasets"]["sample"].update(frames=[1000, 1121]),
                  descriptors(*METHODS) | ALL_BUT_DESCRIPTORS, id="frames"),
     # the predictor without tiny never reads tiny's files
     pytest.param(lambda c: c["methods"]["tiny"].update(preprocessing="vpr-methods-evaluation"),
                  descriptors("tiny") | distances(["tiny"]) | attributes(["tiny"]) | attribute_ablation()
-                 | without(other("tiny")) | PREDICTOR_ON, id="backend-setting"),
+                 | without(other("tiny")) | PREDICTOR_ON | speed(), id="backend-setting"),
     # the distance changes the distance matrices, not the descriptors: no extraction reruns
     pytest.param(lambda c: c["methods"]["sad"].update(distance="l2"),
                  distances(["sad"]) | attributes(["sad"]) | attribute_ablation()
-                 | without(other("sad")) | PREDICTOR_ON, id="distance"),
+                 | without(other("sad")) | PREDICTOR_ON | speed(), id="distance"),
     # Table I moves to L = 4 (table_seq_len: 4 when listed), with its ablations; L = 3 stays as it is
     pytest.param(lambda c: c.update(seq_lens=[3, 4]),
                  attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | attribute_ablation(4) | without(seq_len=4)
-                 | held_out(seq_len=4) | metrics(seq_len=4) | queries(seq_len=4) | inspect(seq_len=4) | REPORT,
-                 id="seq-lens"),
-    pytest.param(lambda c: c["predictor"].update(max_iter=61), attribute_ablation() | without() | PREDICTOR_ON,
-                 id="predictor"),
+                 | held_out(seq_len=4) | metrics(seq_len=4) | queries(seq_len=4) | inspect(seq_len=4)
+                 | speed(seq_len=4) | REPORT, id="seq-lens"),
+    pytest.param(lambda c: c["predictor"].update(max_iter=61),
+                 attribute_ablation() | without() | PREDICTOR_ON | speed(), id="predictor"),
     pytest.param(lambda c: c.update(seeds=3), PREDICTOR_ON, id="seeds"),
     # the per-query CSV does not depend on the modes: it and the match inspector that reads it stay as they are
     pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | held_out() | metrics() | REPORT, id="modes"),
@@ -183,7 +191,12 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
     pytest.param(lambda c: c.update(experiments={"restoration": False}), evaluate() | REPORT, id="restoration-off"),
     pytest.param(lambda c: c.update(experiments={"attribute_ablation": False}), REPORT, id="table2-off"),
     # the inspector draws the table split; the metrics and the per-query CSV cover every evaluated split
-    pytest.param(lambda c: c.update(table_split="val"), held_out() | inspect() | REPORT, id="table-split"),
+    pytest.param(lambda c: c.update(table_split="val"), held_out() | inspect() | speed() | REPORT, id="table-split"),
+    # the speed experiment's own settings: its jobs (a new profile: that one's) and the report
+    pytest.param(lambda c: c["speed"].update(velocities=[1.0, 2.0]), speed() | REPORT, id="speed-velocities"),
+    pytest.param(lambda c: c["speed"].update(profiles=[0.5, 1.5, "varying"]), speed(["1.5x"]) | REPORT,
+                 id="speed-profiles"),
+    pytest.param(lambda c: c.update(experiments={"speed": False}), REPORT, id="speed-off"),
     pytest.param(lambda c: c.update(extraction={"batch_size": 3}), set(), id="batch-size-reruns-nothing"),
 ])
 def test_a_changed_setting_plans_exactly_its_jobs(copy, edit, expected):
@@ -203,7 +216,7 @@ def test_checkpoint_content_reruns_its_method(copy):
     net = tiny_net_model()
     torch.save(net.state_dict(), copy / "tiny.pt")
     assert planned(copy) == (descriptors("tiny") | distances(["tiny"]) | attributes(["tiny"])
-                             | attribute_ablation() | without(other("tiny")) | PREDICTOR_ON)
+                             | attribute_ablation() | without(other("tiny")) | PREDICTOR_ON | speed())
 
 
 def test_command_line_override_reaches_the_jobs(copy):
@@ -211,7 +224,7 @@ def test_command_line_override_reaches_the_jobs(copy):
     assert result.returncode == 0, result.stderr[-3000:]
     rules = set(re.findall(r"^rule (\w+):", result.stdout, flags=re.MULTILINE)) - {"all"}
     assert rules == {"train", "evaluate", "attribute_ablation", "predictor_without", "held_out", "vpr_metrics",
-                     "queries", "inspect", "report"}
+                     "queries", "inspect", "speed", "report"}
 
 
 def test_tables_change_where_they_should(copy):

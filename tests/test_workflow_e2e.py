@@ -36,6 +36,7 @@ methods:
   hog: {{backend: hog}}
   effnet: {{backend: efficientnet_lite0_gem, checkpoint: package, image_size: [64, 128]}}
 predictor: {{max_iter: 300}}
+speed: {{profiles: [1.0, 2.0, varying]}}  # three of the default seven: the aligned pair, the fastest, the varying
 """
 
 
@@ -69,7 +70,7 @@ def run(tmp_path_factory):
 
 
 TABLES = ["table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
-          "ablation_seq_len", "vpr_metrics", "predictor", "table2", "leave_one_method_out", "datasets"]
+          "ablation_seq_len", "vpr_metrics", "predictor", "table2", "leave_one_method_out", "datasets", "speed"]
 METHODS = ("sad", "hog", "effnet")
 
 
@@ -86,9 +87,10 @@ def test_every_table_and_figure(run):
                 for mode in ("paper", "standard")]
     inspector = [f"{kind}_sample_{method}_L4.png" for kind in ("matches", "distance_matrix") for method in METHODS]
     assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
-        [*per_mode, "confusion_sample_L4.png", "seq_len_sample_paper.png", "seq_len_sample_standard.png", *inspector])
+        [*per_mode, "confusion_sample_L4.png", "seq_len_sample_paper.png", "seq_len_sample_standard.png",
+         "speed_sample_L4.png", *inspector])
     html = (out / "report.html").read_text()  # the report's figures and the match inspector's, each once
-    assert html.count("<img") == 11 + len(inspector) and "http://" not in html and "https://" not in html
+    assert html.count("<img") == 12 + len(inspector) and "http://" not in html and "https://" not in html
 
 
 def test_table1_has_the_seed_spread(run):
@@ -142,6 +144,17 @@ def test_tables_agree_with_each_other(run):
     assert all(0 < float(p[k]) <= 1 for p in predictor for k in ("f1_cv", "f1_val", "f1_test"))
     # every method's train split (frames 0-149) has 150 - 4 + 1 = 147 queries with a sequence match at L = 4
     assert next(p for p in predictor if p["seq_len"] == "4")["n_train"] == str(3 * 147)
+    # the speed experiment's aligned profile with the fixed matcher is Table I (its seed-0 predictor, paper mode)
+    speed = {(r["method"], r["profile"], r["matcher"]): r for r in table(out, "speed")}
+    assert {(m, p) for m, p, _ in speed} == {(m, p) for m in METHODS for p in ("1x", "2x", "varying")}
+    for method in METHODS:
+        row, paper = speed[method, "1x", "fixed"], table1[method, "paper"]
+        assert {k: row[k] for k in ("recall_at_1_single", "recall_at_1_sequence", "max_recall", "aoc_vpr_sm",
+                                    "aoc_vpr_sm_pred", "reduction_pct", "n_queries", "n_queries_single")} == {
+            k: paper[k] for k in ("recall_at_1_single", "recall_at_1_sequence", "max_recall", "aoc_vpr_sm",
+                                  "aoc_vpr_sm_pred", "reduction_pct", "n_queries", "n_queries_single")}
+        # 2x: the test split's 110 frames driven twice as fast are 55 queries, 52 with a sequence match
+        assert speed[method, "2x", "velocity"]["n_queries"] == "52"
 
 
 def test_leave_one_method_out_never_saw_the_method(run):

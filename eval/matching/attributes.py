@@ -517,6 +517,7 @@ def query_features(
     """
     velocities = check_velocities(velocities)
     matrix = _as_matrix(distance_matrix)
+    check_shape(tuple(matrix.shape), seq_len)  # before the ground truth's check: the matrix's own errors first
     if ground_truth is None:
         ground_truth = GroundTruth.aligned(matrix.shape[0], matrix.shape[1], tolerance)
     ground_truth.check_shape(tuple(matrix.shape))

@@ -108,37 +108,60 @@ def write_distance_blocks(out: Any, reference: np.ndarray, query: Any, metric: s
         out[:, start:stop] = distance_columns(reference, query[query_offset + start : query_offset + stop], metric)
 
 
+POSITIONS = ("reference_positions", "query_positions")  # SPEC 11: one position per frame, when the pair has them
+
+
+def _check_descriptors(f: Any, descriptors: Path, split: str, ranges: dict[str, tuple[int, int]]) -> None:
+    """Raise when the descriptor file lacks what the stage reads, or a range falls outside its traverse."""
+    missing = [k for k in ("reference", "query") if k not in f]
+    missing += [f"attribute {k!r}" for k in ("distance", "dataset", "method", "checkpoint_sha256",
+                                              "frames_sha256") if k not in f.attrs]
+    if sum(k in f for k in POSITIONS) == 1:
+        missing.append(next(k for k in POSITIONS if k not in f))
+    if missing:
+        raise ValueError(f"{descriptors} lacks {', '.join(missing)}: run the descriptors stage again")
+    for name, (lo, hi) in ranges.items():
+        if not 0 <= lo < hi <= len(f[name]):
+            raise ValueError(f"{descriptors}: split {split!r} covers frames {lo}..{hi - 1}, but {name!r} has "
+                             f"{len(f[name])} frames; were these descriptors computed for this dataset?")
+
+
 def main(descriptors: Path | str, out: Path | str, split: str, split_range: tuple[int, int],
-         block_queries: int | None = None, metric: str | None = None) -> Path:
+         block_queries: int | None = None, metric: str | None = None,
+         reference_range: tuple[int, int] | None = None) -> Path:
     """The ``distances`` stage: the R x Q matrix of one split of a descriptor file, to chunked HDF5.
 
     ``descriptors`` holds ``reference`` and ``query`` (frames x dimension) and the attributes ``distance``,
-    ``dataset``, ``method``, ``checkpoint_sha256``, ``frames_sha256``; frames ``split_range = (lo, hi)`` of both
-    traverses form the split. Only the split's references and one block of queries are in memory at a time.
+    ``dataset``, ``method``, ``checkpoint_sha256``, ``frames_sha256``; the split's queries are frames
+    ``split_range = (lo, hi)``, its references frames ``reference_range`` (default: the same range). Only the
+    split's references and one block of queries are in memory at a time.
     ``metric`` (one of ``METRICS``) overrides the file's ``distance`` (its backend's default): the workflow passes
     the method's ``distance`` setting here, so that changing it does not recompute the descriptors.
+
+    When the descriptor file holds ``reference_positions`` and ``query_positions`` (SPEC 11), the split's slices
+    of them are written beside the matrix under the same names: the ground truth of the later stages. The
+    provenance's ``split_range`` is the query range; ``reference_range`` is added only when it differs.
     """
     out = check_suffix(out, HDF5_SUFFIXES, "the distance matrix (HDF5)")
     descriptors = Path(descriptors)
     lo, hi = (int(v) for v in split_range)
+    ref_lo, ref_hi = (int(v) for v in (reference_range or (lo, hi)))
     with h5py.File(descriptors, "r") as f:
-        missing = [k for k in ("reference", "query") if k not in f]
-        missing += [f"attribute {k!r}" for k in ("distance", "dataset", "method", "checkpoint_sha256",
-                                                  "frames_sha256") if k not in f.attrs]
-        if missing:
-            raise ValueError(f"{descriptors} lacks {', '.join(missing)}: run the descriptors stage again")
-        for name in ("reference", "query"):
-            if not 0 <= lo < hi <= len(f[name]):
-                raise ValueError(f"{descriptors}: split {split!r} covers frames {lo}..{hi - 1}, but {name!r} has "
-                                 f"{len(f[name])} frames; were these descriptors computed for this dataset?")
+        _check_descriptors(f, descriptors, split, {"reference": (ref_lo, ref_hi), "query": (lo, hi)})
         if metric is None:
             metric = f.attrs["distance"]
             metric = metric.decode() if isinstance(metric, bytes) else str(metric)
         _check_metric(metric)
         provenance = {k: f.attrs[k] for k in ("dataset", "method", "checkpoint_sha256", "frames_sha256")}
-        reference = prepare_references(f["reference"][lo:hi], metric, in_place=True)
-        with atomic_h5(out, {**provenance, "split": split, "split_range": [lo, hi], "metric": metric}) as g:
-            dataset = g.create_dataset("distance_matrix", shape=(hi - lo, hi - lo), dtype=np.float32,
-                                       chunks=distance_chunks(hi - lo, hi - lo))
+        provenance.update(split=split, split_range=[lo, hi])
+        if (ref_lo, ref_hi) != (lo, hi):  # only then: files of frame-aligned splits stay as they were
+            provenance["reference_range"] = [ref_lo, ref_hi]
+        reference = prepare_references(f["reference"][ref_lo:ref_hi], metric, in_place=True)
+        shape = (ref_hi - ref_lo, hi - lo)
+        with atomic_h5(out, {**provenance, "metric": metric}) as g:
+            dataset = g.create_dataset("distance_matrix", shape=shape, dtype=np.float32, chunks=distance_chunks(*shape))
             write_distance_blocks(dataset, reference, f["query"], metric, lo, block_queries)
+            if all(k in f for k in POSITIONS):
+                g.create_dataset("reference_positions", data=f["reference_positions"][ref_lo:ref_hi])
+                g.create_dataset("query_positions", data=f["query_positions"][lo:hi])
     return out

@@ -23,37 +23,68 @@ class SplitLeakError(ValueError):
 
 @dataclass(frozen=True)
 class FrameRange:
-    """Frames ``lo .. hi-1`` of both traverses of a dataset: one split of a features file."""
+    """Frames ``lo .. hi-1`` of both traverses of a dataset: one split of a features file. A split of traverses
+    with positions (SPEC 11) may give its references apart: ``reference = (lo, hi)``; ``lo .. hi-1`` are then
+    its queries."""
 
     dataset: str
     split: str
     lo: int
     hi: int
+    reference: tuple[int, int] | None = None  # the reference frames, when they differ from lo .. hi-1
+
+    @property
+    def references(self) -> tuple[int, int]:
+        return self.reference if self.reference is not None else (self.lo, self.hi)
 
     def shared(self, other: FrameRange) -> tuple[int, int] | None:
-        """The frames both ranges hold, as ``(lo, hi)``, or None."""
-        lo, hi = max(self.lo, other.lo), min(self.hi, other.hi)
-        return (lo, hi) if self.dataset == other.dataset and lo < hi else None
+        """The frames both ranges hold, as ``(lo, hi)``, or None: the shared queries, else the shared references."""
+        found = self.shared_frames(other)
+        return found[1] if found is not None else None
+
+    def shared_frames(self, other: FrameRange) -> tuple[str, tuple[int, int]] | None:
+        """Which frames both ranges hold, ``("", (lo, hi))`` for both traverses' frames of frame-aligned splits,
+        ``("query ", ...)`` or ``("reference ", ...)`` when a split gives its references apart; or None."""
+        if self.dataset != other.dataset:
+            return None
+        apart = self.reference is not None or other.reference is not None
+        for role, mine, theirs in (("query " if apart else "", (self.lo, self.hi), (other.lo, other.hi)),
+                                   ("reference ", self.references, other.references)):
+            lo, hi = max(mine[0], theirs[0]), min(mine[1], theirs[1])
+            if lo < hi:
+                return role, (lo, hi)
+            if not apart:
+                break  # one range for both traverses: the first test was the only one
+        return None
 
     def __str__(self) -> str:
-        return f"{self.dataset!r} split {self.split!r} [{self.lo}, {self.hi})"
+        if self.reference is None:
+            return f"{self.dataset!r} split {self.split!r} [{self.lo}, {self.hi})"
+        return (f"{self.dataset!r} split {self.split!r} (queries [{self.lo}, {self.hi}), references "
+                f"[{self.reference[0]}, {self.reference[1]}))")
 
     def to_json(self) -> list[Any]:
-        return [self.dataset, self.split, self.lo, self.hi]
+        plain = [self.dataset, self.split, self.lo, self.hi]
+        return plain if self.reference is None else [*plain, *self.reference]
 
     @classmethod
     def from_json(cls, value: Sequence[Any]) -> FrameRange:
-        dataset, split, lo, hi = value
-        return cls(str(dataset), str(split), int(lo), int(hi))
+        dataset, split, lo, hi, *reference = value
+        own = (int(reference[0]), int(reference[1])) if reference else None
+        return cls(str(dataset), str(split), int(lo), int(hi), own)
 
 
 def frame_range(features: Path | str) -> FrameRange | None:
-    """The split a features file covers, from its provenance; None for a file without one (a user's matrix)."""
+    """The split a features file covers, from its provenance (``split_range``: its queries, or its frames of both
+    traverses; ``reference_range``: its references, when the distances stage was given them apart); None for a
+    file without one (a user's matrix)."""
     provenance = read_provenance(features)
     if not {"dataset", "split", "split_range"} <= provenance.keys():
         return None
     lo, hi = provenance["split_range"]
-    return FrameRange(str(provenance["dataset"]), str(provenance["split"]), int(lo), int(hi))
+    reference = provenance.get("reference_range")
+    own = (int(reference[0]), int(reference[1])) if reference is not None else None
+    return FrameRange(str(provenance["dataset"]), str(provenance["split"]), int(lo), int(hi), own)
 
 
 def frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:
@@ -70,8 +101,8 @@ def check_disjoint(trained: Sequence[FrameRange], scored: Sequence[FrameRange], 
                    predictor: str) -> list[str]:
     """Raise ``SplitLeakError`` when a scored range shares frames with a trained one, unless ``allow_overlap``;
     return the overlaps found (empty when the splits are disjoint)."""
-    found = [f"{predictor} was trained on {t}, which shares frames [{s[0]}, {s[1]}) with {r}"
-             for r in scored for t in trained if (s := t.shared(r)) is not None]
+    found = [f"{predictor} was trained on {t}, which shares {s[0]}frames [{s[1][0]}, {s[1][1]}) with {r}"
+             for r in scored for t in trained if (s := t.shared_frames(r)) is not None]
     if found and not allow_overlap:
         raise SplitLeakError(f"{found[0]}: its scores there would be measured on its own training data. Make the "
                              "split ranges disjoint, or allow it for a deliberate experiment "

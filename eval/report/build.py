@@ -22,7 +22,7 @@ from vpr_smr.core.paths import match_figure_path, matrix_figure_path
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report import registry
-from vpr_smr.eval.report.results import Order, WrittenFigure, WrittenTable
+from vpr_smr.eval.report.results import Order, WrittenFigure, WrittenTable, ground_truth_text, split_text
 from vpr_smr.eval.report.table1 import (
     QUERY_COLUMNS,
     TABLE1_COLUMNS,
@@ -35,6 +35,8 @@ from vpr_smr.eval.report.table1 import (
     tex_escape,
 )
 from vpr_smr.eval.scoring.records import KEY_META, Evaluation, HeldOut, Timing, VPRMetrics
+from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
+from vpr_smr.eval.scoring.speed import SpeedResult
 
 SEQ_LEN_COLUMNS = (*TABLE1_COLUMNS[:-len(QUERY_COLUMNS) - 1], "auc_vpr_sm", "auc_vpr_sm_pred", *QUERY_COLUMNS,
                    "n_seeds_defined")
@@ -62,6 +64,11 @@ TIMING_COLUMNS = ("dataset", "method", "seq_len", "split", "n_queries", "attribu
 ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
 VPR_METRICS_COLUMNS = ("dataset", "method", "seq_len", "split", "mode", "matcher", "n_queries",
                        *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p", "pr_auc", "extended_precision")
+SPEED_NUMBERS = ("recall_at_1_single", "recall_at_1_sequence", "max_recall", "aoc_vpr_sm", "aoc_vpr_sm_pred",
+                 "reduction_pct", "f1_macro")
+# speed: the constant profile's speed (empty for varying); mean_speed: the simulated table query's mean step
+SPEED_COLUMNS = ("dataset", "method", "seq_len", "profile", "speed", "mean_speed", "matcher", "velocities",
+                 *SPEED_NUMBERS, "n_queries", "n_queries_single")
 DATASET_COLUMNS = ("dataset", "reference", "query", "n_frames", "splits", "tolerance", "pairing", "overlaps",
                    "frames_sha256", "source")
 
@@ -300,17 +307,40 @@ def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | N
     return rows
 
 
-def split_text(splits: dict[str, Sequence[int]]) -> str:
-    """``train [0, 500): 500 frames; ...``: each split's frames (half-open) and their number."""
-    return "; ".join(f"{split} [{lo}, {hi}): {hi - lo} frames" for split, (lo, hi) in splits.items())
+def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> list[dict[str, Any]]:
+    """The speed experiment: one row per dataset, L, method, profile and matcher (fixed, then velocity search), the
+    datasets and methods in the configuration's order and the profiles in the order given (the configuration's)."""
+    order = order or Order.of(result.meta for result in results)
+    profiles: dict[str, int] = {}
+    seen: set[tuple[str, int, str]] = set()
+    rows = []
+    for result in results:
+        dataset, seq_len, profile = str(result.meta["dataset"]), int(result.meta["seq_len"]), result.profile
+        if (dataset, seq_len, profile) in seen:
+            raise ValueError(f"two speed files of {dataset}, L{seq_len}, profile {profile}")
+        seen.add((dataset, seq_len, profile))
+        profiles.setdefault(profile, len(profiles))
+        for matcher, numbers in result.matchers.items():
+            for method, scores in numbers.methods.items():
+                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "profile": profile,
+                             "speed": result.speed, "mean_speed": result.mean_speed, "matcher": matcher,
+                             "velocities": " ".join(f"{v:g}" for v in numbers.velocities),
+                             **{key: getattr(scores, key) for key in SPEED_NUMBERS}, "n_queries": scores.n_queries,
+                             "n_queries_single": scores.n_queries_single})
+    matchers = list(SPEED_MATCHERS)
+    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), r["seq_len"], order.method(r["method"]),
+                                       profiles[r["profile"]], matchers.index(r["matcher"])
+                                       if r["matcher"] in matchers else len(matchers), r["matcher"]))
 
 
 def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None) -> list[dict[str, Any]]:
     """One row per dataset card (``pipeline.plan.dataset_cards``), in the configuration's order."""
     order = order or Order(tuple(datasets))
     return [{"dataset": name, "reference": info.get("reference", ""), "query": info.get("query", ""),
-             "n_frames": info.get("n_frames"), "splits": split_text(info.get("splits", {})),
-             "tolerance": info.get("tolerance"), "pairing": info.get("pairing", ""),
+             "n_frames": info.get("n_frames"),
+             "splits": split_text(info.get("splits", {}), info.get("reference_splits")),
+             "tolerance": info.get("tolerance") if info.get("radius") is None else ground_truth_text(info),
+             "pairing": info.get("pairing", ""),
              "overlaps": "; ".join(info.get("overlaps", [])), "frames_sha256": info.get("frames_sha256", ""),
              "source": info.get("source", "")}
             for name, info in sorted(datasets.items(), key=lambda item: order.dataset(item[0]))]
@@ -430,6 +460,7 @@ class Inputs:
     table_seq_lens: Collection[int] | None
     seq_len_ablation: bool
     order: Order
+    speed: list[SpeedResult]
 
 
 def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[WrittenTable]:
@@ -465,6 +496,8 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
         table("leave_one_method_out", LOMO_COLUMNS, lomo_rows(inputs.lomo, order))
     if inputs.datasets:
         table("datasets", DATASET_COLUMNS, dataset_rows(inputs.datasets, order))
+    if inputs.speed:
+        table("speed", SPEED_COLUMNS, speed_rows(inputs.speed, order))
 
     written = []
     for spec in registry.TABLES:  # in the registry's order, with its titles and files
@@ -514,7 +547,25 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
         keep("confusion", f"{dataset}, L={seq_len}", path, dataset, seq_len)
     if inputs.seq_len_ablation and inputs.evaluations:
         figures += _seq_len_figures(out_dir, table1_rows(inputs.evaluations, split, order=order), order)
+    if inputs.speed:
+        figures += _speed_figures(out_dir, speed_rows(inputs.speed, order), order, split)
     return figures
+
+
+def _speed_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, split: str) -> list[WrittenFigure]:
+    """One speed figure per dataset and L of the speed experiment's rows."""
+    out = []
+    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
+    spec = registry.figure("speed")
+    for (dataset, seq_len), group in groups.items():
+        title = (f"{dataset}, L={seq_len}, paper mode ({split}): simulated query speeds, fixed matcher against "
+                 "velocity search")
+        path = fig.speed_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len), group,
+                                order.sorted_methods(r["method"] for r in group), title)
+        out.append(WrittenFigure("speed", f"{spec.title}: {dataset}, L={seq_len}", path, dataset, seq_len))
+    return out
 
 
 def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order) -> list[WrittenFigure]:
@@ -656,6 +707,7 @@ def main(
     metrics: Sequence[Path | str] = (),
     match_figures: Sequence[Path | str] = (),
     matrix_figures: Sequence[Path | str] = (),
+    speed: Sequence[Path | str] = (),
     split: str = "test",
     table_seq_lens: Collection[int] | None = None,
     seq_len_ablation: bool = False,
@@ -674,7 +726,8 @@ def main(
     each matched to its evaluation by dataset, method and L; the timing table leaves out evaluations without one),
     ``metrics`` (``scoring.vpr_metrics``' files: the standard VPR metrics of the table ``split``).
     ``match_figures`` and ``matrix_figures``: the match inspector's PNGs (``core.paths.match_figure_path`` and
-    ``matrix_figure_path``), shown in the page, placed by their file names.
+    ``matrix_figure_path``), shown in the page, placed by their file names. ``speed``: the speed experiment's
+    files (``scoring.speed.main``, one per dataset and profile, in the configuration's order of profiles).
     ``table_seq_lens``: the sequence lengths of Table I and
     of the per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
     Datasets and methods keep the order the evaluations come in (the workflow gives them in the configuration's
@@ -691,16 +744,21 @@ def main(
     read_metrics = _read(metrics, "VPR metrics", VPRMetrics.from_json, KEY_META, METRICS_HINT)
     read_predictors = _read(predictors, "predictor report", PredictorReport.from_json, PREDICTOR_META)
     read_lomo = _read(leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
+    read_speed = _read(speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
     base = evaluation_order(read_evaluations, methods)
     order = Order.of([*(e.meta for e in read_evaluations), *(m.meta for m in read_metrics),
                       *(h.meta for h in read_lomo), *(p.meta for p in read_predictors),
-                      *({"dataset": name} for name in datasets or {})], base.modes, base.methods)
+                      *({"dataset": name} for name in datasets or {}),
+                      # a speed file lists its methods in the configuration's order, under each matcher
+                      *({"dataset": r.meta["dataset"], "method": method} for r in read_speed
+                        for matcher in r.matchers.values() for method in matcher.methods)],
+                     base.modes, base.methods)
     inputs = Inputs(
         read_evaluations, _read(timings, "timing", Timing.from_json, KEY_META), read_predictors,
         _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
         read_metrics,
         dict(datasets or {}), split, None if table_seq_lens is None else {int(s) for s in table_seq_lens},
-        seq_len_ablation, order)
+        seq_len_ablation, order, read_speed)
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]

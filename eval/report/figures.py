@@ -8,6 +8,7 @@ Names (``<d>`` dataset, ``<L>`` sequence length, ``<mode>`` paper or standard):
 - ``seq_len_<d>_<mode>.png``: PR AUC per method and sequence length, a bar from VPR+SM to VPR+SM+Pred.
 - ``restoration_<d>_L<L>_<mode>.png``: PR curves of VPR+SM, removal and restoration, one panel per method.
 - ``restoration_auc_<d>_L<L>_<mode>.png``: PR AUC of restoration minus removal per method (the paper's bars).
+- ``speed_<d>_L<L>.png``: the speed experiment: sequence recall@1 and the AOC reduction against the query's speed.
 """
 
 from __future__ import annotations
@@ -153,4 +154,62 @@ def restoration_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]],
         ax.set(title=wrapped(f"{method}\nAUC {numbers['auc_removal']:.3f} -> {numbers['auc_restoration']:.3f}",
                              3.0), xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
     _finish(fig, axes, title)
+    return save(fig, path)
+
+
+def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], title: str) -> Path:
+    """The speed experiment of one dataset (``build.speed_rows``' rows): sequence recall@1 (left) and the
+    predictor's AOC reduction (right) against the query's speed ratio, log scale. One colour per method; the fixed
+    matcher dashed, velocity search solid; single-frame recall@1 a thin dotted line (it does not depend on the
+    matcher). The varying profile is a marker at its mean speed (hollow: fixed, filled: velocity search)."""
+    from matplotlib.lines import Line2D
+
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(9.6, 3.8))
+    colours = {method: f"C{i % 10}" for i, method in enumerate(methods)}
+    styles = {"fixed": "--", "velocity": "-"}
+    constant = [r for r in rows if r["speed"] is not None]
+    speeds = sorted({float(r["speed"]) for r in constant})
+    varying = [r for r in rows if r["speed"] is None]
+    for ax, key, ylabel in ((axes[0], "recall_at_1_sequence", "sequence recall@1"),
+                            (axes[1], "reduction_pct", "AOC reduction by the predictor (%)")):
+        for method in methods:
+            for matcher, style in styles.items():
+                line = sorted((float(r["speed"]), r[key]) for r in constant
+                              if r["method"] == method and r["matcher"] == matcher)
+                if line:
+                    ax.plot([x for x, _ in line], [np.nan if y is None else y for _, y in line], style,
+                            color=colours[method], marker="o", ms=3)
+            for r in (r for r in varying if r["method"] == method):
+                value = r[key]
+                ax.plot([r["mean_speed"]], [np.nan if value is None else value], "D", ms=6, color=colours[method],
+                        mfc=colours[method] if r["matcher"] == "velocity" else "none")
+            if key == "recall_at_1_sequence":
+                single = sorted({(float(r["speed"]), r["recall_at_1_single"]) for r in constant
+                                 if r["method"] == method})
+                ax.plot([x for x, _ in single], [y for _, y in single], ":", lw=0.8, color=colours[method])
+        if varying:  # name the markers once, above the highest
+            values = [r[key] for r in varying if r[key] is not None]
+            if values:
+                ax.annotate("varying", (varying[0]["mean_speed"], max(values)), textcoords="offset points",
+                            xytext=(6, 6), ha="left", fontsize=7)
+        if key == "reduction_pct":
+            ax.axhline(0, color="black", lw=0.6)
+        ax.set_xscale("log")
+        if speeds:
+            ax.set_xticks(speeds, [f"{s:g}x" for s in speeds])
+            ax.minorticks_off()
+        ax.set(xlabel="query speed / reference speed", ylabel=ylabel)
+        if key == "recall_at_1_sequence":
+            ax.set_ylim(0, 1.02)
+    handles = [Line2D([], [], color=colours[m], lw=2, label=m) for m in methods]
+    handles += [Line2D([], [], color="black", ls="--", label="fixed matcher"),
+                Line2D([], [], color="black", ls="-", label="velocity search"),
+                Line2D([], [], color="black", ls=":", lw=0.8, label="single frame")]
+    if varying:
+        handles += [Line2D([], [], color="black", marker="D", ls="", mfc="none", label="varying, fixed"),
+                    Line2D([], [], color="black", marker="D", ls="", label="varying, velocity")]
+    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 5), fontsize=8)
+    fig.suptitle(wrapped(title, fig.get_figwidth()))
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
     return save(fig, path)

@@ -114,3 +114,82 @@ def sentences(block: Table1Block, split: str) -> list[str]:
         out.append(f"The reduction is undefined for {listed(undefined)}: {whose} {AOC} is already 0 without the "
                    "predictor.")
     return out + _seed_sentences(block)
+
+
+# --- the speed experiment ---------------------------------------------------------------------------------------
+
+
+def percent(value: float) -> str:
+    """A recall or a reduction as a sentence says it: per cent, one decimal."""
+    return f"{value:.1f} %"
+
+
+def recall(value: float | None) -> str:
+    """A recall (a fraction) in per cent; ``n/a`` when there is none."""
+    return "n/a" if value is None else percent(100 * value)
+
+
+def ratio(speed: float) -> str:
+    return f"{speed:g}x"
+
+
+def _mean(rows: Sequence[dict[str, Any]], key: str) -> tuple[float | None, int]:
+    """The mean of ``key`` over ``rows`` where it is defined, and over how many."""
+    values = [float(r[key]) for r in rows if r.get(key) is not None]
+    return (float(np.mean(values)) if values else None), len(values)
+
+
+def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
+    """What the speed experiment shows on one dataset at one L (the rows of ``build.speed_rows``: one per method,
+    profile and matcher): the fixed matcher's sequence recall@1 at the constant speed farthest from 1 (the faster
+    on a tie) against the speed closest to 1, velocity search's there, and the predictor's AOC reduction under
+    each matcher. Every number is a mean over the methods, in per cent."""
+    if not rows:
+        return []
+    first = rows[0]
+    n_methods = len({r["method"] for r in rows})
+    where = (f"On {first['dataset']} ({split} split, L = {first['seq_len']}, paper mode, one seed-0 predictor per "
+             "matcher and profile)")
+
+    def at(speed: float | None, matcher: str) -> list[dict[str, Any]]:
+        return [r for r in rows if r["matcher"] == matcher and r["speed"] == speed]
+
+    speeds = sorted({float(r["speed"]) for r in rows if r["speed"] is not None})
+    out = []
+    if speeds:
+        base = min(speeds, key=lambda s: (abs(np.log(s)), s))
+        far = max(speeds, key=lambda s: (abs(np.log(s)), s))
+        fixed_base, _ = _mean(at(base, "fixed"), "recall_at_1_sequence")
+        fixed_far, _ = _mean(at(far, "fixed"), "recall_at_1_sequence")
+        velocity_base, _ = _mean(at(base, "velocity"), "recall_at_1_sequence")
+        velocity_far, _ = _mean(at(far, "velocity"), "recall_at_1_sequence")
+        over = f"mean over {methods(n_methods)}"
+        if (far != base and fixed_base is not None and fixed_far is not None and velocity_base is not None
+                and velocity_far is not None):
+            verb = "falls" if fixed_far < fixed_base else "rises" if fixed_far > fixed_base else "stays"
+            text = (f"{where}, at {ratio(far)} speed the fixed matcher's sequence recall@1 {verb} from "
+                    f"{percent(100 * fixed_base)} at {ratio(base)} to {percent(100 * fixed_far)} ({over}); velocity "
+                    f"search gets {percent(100 * velocity_far)} there ({percent(100 * velocity_base)} at "
+                    f"{ratio(base)})")
+        else:  # one constant speed only (or a matcher missing): its numbers alone
+            text = (f"{where}, at {ratio(far)} speed the fixed matcher's sequence recall@1 is "
+                    f"{recall(fixed_far)} and velocity search's {recall(velocity_far)} ({over})")
+        parts = []
+        for matcher, name in (("fixed", "the fixed matcher"), ("velocity", "velocity search")):
+            mean, n = _mean(at(far, matcher), "reduction_pct")
+            if mean is not None:
+                note = "" if n == n_methods else f" over the {n} methods where it is defined"
+                parts.append(f"{signed(mean)} with {name}{note}")
+        if parts:
+            text += f"; the predictor's AOC reduction at {ratio(far)} is " + " and ".join(parts)
+        out.append(text + ".")
+    varying = [r for r in rows if r["speed"] is None]
+    if varying:
+        fixed, _ = _mean([r for r in varying if r["matcher"] == "fixed"], "recall_at_1_sequence")
+        velocity, _ = _mean([r for r in varying if r["matcher"] == "velocity"], "recall_at_1_sequence")
+        if fixed is not None and velocity is not None:
+            lead = "Under" if out else f"{where}, under"
+            out.append(f"{lead} the varying speed (mean {varying[0]['mean_speed']:.2f}x) the sequence recall@1 is "
+                       f"{percent(100 * fixed)} with the fixed matcher and {percent(100 * velocity)} with velocity "
+                       "search.")
+    return out

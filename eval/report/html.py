@@ -24,8 +24,15 @@ from vpr_smr.core.citation import how_to_cite
 from vpr_smr.core.io import atomic_path, package_version, read_provenance
 from vpr_smr.core.paths import queries_path
 from vpr_smr.eval.report import registry
-from vpr_smr.eval.report.findings import sentences
-from vpr_smr.eval.report.results import Order, WrittenFigure, WrittenTable, unique
+from vpr_smr.eval.report.findings import sentences, speed_sentences
+from vpr_smr.eval.report.results import (
+    Order,
+    WrittenFigure,
+    WrittenTable,
+    ground_truth_text,
+    split_text,
+    unique,
+)
 from vpr_smr.eval.report.table1 import ROW_NAMES, SEED_ROW_NAME, UNDEFINED, UNDEFINED_NOTE, Table1Block, table1_blocks
 from vpr_smr.eval.report.view import (
     Block,
@@ -126,6 +133,23 @@ def _where(rows: Iterable[dict[str, Any]], **match: Any) -> list[dict[str, Any]]
     return [r for r in rows if all(str(r.get(k)) == str(v) for k, v in match.items())]
 
 
+def speed_table(rows: Sequence[dict[str, Any]]) -> TableView:
+    """Sequence recall@1, then the AOC reduction, per profile (rows) and method and matcher (columns)."""
+    profiles = unique(str(r["profile"]) for r in rows)
+    columns = list(dict.fromkeys((str(r["method"]), str(r["matcher"])) for r in rows))
+    values = {(str(r["profile"]), str(r["method"]), str(r["matcher"])): r for r in rows}
+    head = (Column("profile", "text"), *(Column(f"{method} · {matcher}") for method, matcher in columns))
+    body = []
+    for key, name in (("recall_at_1_sequence", "R@1 sequence"), ("reduction_pct", "AOC reduction (%)")):
+        for profile in profiles:
+            found = [values.get((profile, method, matcher)) for method, matcher in columns]
+            body.append((text_cell(f"{profile}: {name}", header=True),
+                         *(cell(None if r is None else r[key], key) for r in found)))
+    return TableView(anchor("speed", rows[0]["dataset"], rows[0]["seq_len"]), head, tuple(body),
+                     caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and "
+                             "method · matcher (columns); single-frame recall@1 and the AOCs: the whole table below")
+
+
 # --- Table I and the findings -----------------------------------------------------------------------------------
 
 
@@ -205,8 +229,8 @@ class _Builder:
         return ", ".join(parts) + (f", {figure.mode} mode" if figure.mode else "")
 
     def sections(self) -> list[Section]:
-        makers = (self.pr, self.trust, self.restoration, self.seq_len, self.predictor, self.table2, self.lomo,
-                  self.timing, self.vpr_metrics, self.inspector)
+        makers = (self.pr, self.trust, self.restoration, self.seq_len, self.speed, self.predictor, self.table2,
+                  self.lomo, self.timing, self.vpr_metrics, self.inspector)
         return [s for s in (make() for make in makers) if s is not None]
 
     def pr(self) -> Section | None:
@@ -271,6 +295,26 @@ class _Builder:
         return Section("sequence-length", "Sequence-length ablation", (
             "PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
             "green where the predictor helps, red where it hurts.",), tuple(blocks), self.folded("ablation_seq_len"))
+
+    def speed(self) -> Section | None:
+        rows = self.rows("speed")
+        if not rows:
+            return None
+        blocks = []
+        for f in self.named("speed"):
+            shown = _where(rows, dataset=f.dataset, seq_len=f.seq_len)
+            blocks.append(Block(self._title(f), (self.figure(f),), (speed_table(shown),),
+                                tuple(speed_sentences(shown, self.split))))
+        velocities = unique(str(r["velocities"]).replace(" ", ", ") for r in rows if r["matcher"] == "velocity")
+        return Section("speed", "Speed profiles", (
+            "The table split's query re-driven at other speeds (SPEC 11): a constant profile c advances c places per "
+            "query frame (the query driven c times as fast; 1x is the aligned pair), the varying one "
+            "1 + 0.5 sin(2 pi t / 200) places; the query's frames are the nearest to its positions, its distance "
+            "matrix the aligned one's columns, and a match is correct within the tolerance of its position. The "
+            "fixed matcher is the paper's (slope 1); velocity search tries the slopes "
+            f"{'; '.join(velocities)} reference frames per query frame. Each matcher has its own seed-0 predictor, "
+            "trained on its own features of the same profile's train split; the numbers are Table I's, paper mode.",),
+            tuple(blocks), self.folded("speed"))
 
     def predictor(self) -> Section | None:
         methods, pooled = self.rows("predictor_methods"), self.rows("predictor")
@@ -406,11 +450,14 @@ def cards(datasets: dict[str, dict[str, Any]] | None, order: Order) -> tuple[Car
     for name in sorted(datasets or {}, key=order.dataset):
         info = (datasets or {})[name]
         splits = info.get("splits", {})
+        reference_splits = info.get("reference_splits") or {}  # SPEC 11: reference ranges that differ
         items = [
             ("reference / query", f"{info.get('reference', '')} / {info.get('query', '')}", False),
             ("frames", str(info.get("n_frames", "")), False),
-            *((f"split {split}", f"frames [{lo}, {hi}): {hi - lo}", False) for split, (lo, hi) in splits.items()),
-            ("tolerance", f"{info.get('tolerance', '')} frames", False),
+            *((f"split {split}", f"frames [{lo}, {hi}): {hi - lo}" if split not in reference_splits
+               else split_text({split: (lo, hi)}, reference_splits).split(" ", 1)[1], False)
+              for split, (lo, hi) in splits.items()),
+            ("ground truth", ground_truth_text(info), False),
             ("paired", str(info.get("pairing", "")), False),
             ("splits overlap", "; ".join(info.get("overlaps", [])) or "no", False),
             ("frame lists SHA-256", str(info.get("frames_sha256", "")), True),

@@ -67,6 +67,9 @@ TABLES = (
           "of single-frame matching, sequence matching and sequence matching with the predictor", ("metrics",)),
     Table("ablation_seq_len", "Sequence-length ablation: Table I columns per dataset, method and sequence length",
           ("table1", "seq_len")),
+    Table("speed", "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search "
+          "on simulated queries driven at other speeds (SPEC 11), per dataset, method, profile and matcher",
+          ("speed",)),
     Table("predictor", "Predictor alone: macro F1 (cross-validation with SMOTE inside the folds, validation, test)",
           ("predictor",)),
     Table("table2", "Table II: macro F1 by attribute", ("attributes",)),
@@ -84,6 +87,7 @@ FIGURES = (
            "restoration_auc_{dataset}_L{seq_len}_{mode}.png"),
     Figure("confusion", "Confusion matrix", ("table1",), "confusion_{dataset}_L{seq_len}.png"),
     Figure("seq_len", "Sequence-length ablation", ("table1", "seq_len"), "seq_len_{dataset}_{mode}.png"),
+    Figure("speed", "Speed profiles", ("speed",), "speed_{dataset}_L{seq_len}.png"),
 )
 
 
@@ -110,6 +114,7 @@ def expected_outputs(
     experiments: Collection[str],
     table_seq_lens: Collection[int] | None = None,
     html: bool = True,
+    speed_datasets: Collection[str] | None = None,
 ) -> list[str]:
     """Paths (relative to the run folder) that ``main`` writes, from the configuration alone.
 
@@ -117,7 +122,9 @@ def expected_outputs(
     timing, PR and confusion figures), ``"predictor"`` (predictor reports given), ``"trust"`` (trust levels
     configured), ``"restoration"``, ``"seq_len"`` (the sequence-length ablation), ``"attributes"`` (Table II),
     ``"leave_one_method_out"``, ``"metrics"`` (the standard VPR metrics given), ``"datasets"`` (dataset cards
-    given); each table and figure of ``registry`` is listed when all of its experiments are.
+    given), ``"speed"`` (the speed experiment, at ``table_seq_lens``, for ``speed_datasets``: default every
+    dataset; those with positions have none); each table and figure of ``registry`` is listed when all of its
+    experiments are.
     """
     out = [path for spec in TABLES if spec.enabled(experiments) for path in spec.files()]
     figure_lens = [s for s in seq_lens if table_seq_lens is None or s in table_seq_lens]
@@ -127,7 +134,8 @@ def expected_outputs(
             for mode in modes:
                 out += [spec.file(dataset=dataset, seq_len=seq_len, mode=mode) for spec in per_seq_len
                         if spec.per_mode]
-            out += [spec.file(dataset=dataset, seq_len=seq_len) for spec in per_seq_len if not spec.per_mode]
+            out += [spec.file(dataset=dataset, seq_len=seq_len) for spec in per_seq_len if not spec.per_mode
+                    and (spec.name != "speed" or speed_datasets is None or dataset in speed_datasets)]
     # the figures over every sequence length (one per dataset and mode)
     out += [spec.file(dataset=dataset, mode=mode) for spec in FIGURES
             if not spec.per_seq_len and spec.enabled(experiments) for dataset in sorted(datasets)

@@ -84,3 +84,22 @@ class WrittenFigure:
     seq_len: int | None = None
     mode: str | None = None
     method: str | None = None
+
+
+def split_text(splits: dict[str, Sequence[int]], reference_splits: dict[str, Sequence[int]] | None = None) -> str:
+    """``train [0, 500): 500 frames; ...``: each split's frames (half-open) and their number; a split whose
+    reference range differs (SPEC 11) gives both: ``train references [0, 400): 400, queries [0, 600): 600``."""
+    def one(split: str, lo: int, hi: int) -> str:
+        reference = (reference_splits or {}).get(split)
+        if reference is None:
+            return f"{split} [{lo}, {hi}): {hi - lo} frames"
+        r_lo, r_hi = reference
+        return f"{split} references [{r_lo}, {r_hi}): {r_hi - r_lo}, queries [{lo}, {hi}): {hi - lo}"
+    return "; ".join(one(split, lo, hi) for split, (lo, hi) in splits.items())
+
+
+def ground_truth_text(info: dict[str, Any]) -> str:
+    """A dataset card's ground truth: positions within the radius (SPEC 11), else frames within the tolerance."""
+    if info.get("radius") is not None:
+        return f"positions within {info['radius']:g} (the positions' unit)"
+    return f"{info.get('tolerance', '')} frames"

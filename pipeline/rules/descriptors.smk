@@ -2,6 +2,7 @@ rule descriptors:
     input:
         checkpoint=lambda wc: [PLAN.checkpoints[wc.method]] if PLAN.checkpoints[wc.method] else [],
         lists=lambda wc: list(PLAN.datasets[wc.dataset].list_files),
+        positions=lambda wc: list(PLAN.datasets[wc.dataset].positions_files),  # SPEC 11: the positions CSVs
     output:
         descriptors_path(OUT, "{dataset}", "{method}"),
     log:

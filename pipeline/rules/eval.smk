@@ -7,10 +7,13 @@ rule distances:
         log_path(OUT, distances_path(OUT, "{dataset}", "{method}", "{split}")),
     params:
         frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[wc.split]),
+        # SPEC 11: a split's reference range, only where it differs from its (query) range
+        reference_frames=lambda wc: "--reference-frames {} {}".format(*PLAN.datasets[wc.dataset].reference_splits[
+            wc.split]) if wc.split in PLAN.datasets[wc.dataset].reference_splits else "",
         metric=lambda wc: PLAN.metrics[wc.method],  # the method's `distance`, or its backend's default
     shell:
         "vpr-smr distances --descriptors {input:q} --split {wildcards.split:q} --frames {params.frames}"
-        " --metric {params.metric} --out {output:q} > {log:q} 2>&1"
+        " {params.reference_frames} --metric {params.metric} --out {output:q} > {log:q} 2>&1"
 
 
 rule attributes:
@@ -22,9 +25,12 @@ rule attributes:
         log_path(OUT, attributes_path(OUT, "{dataset}", "{method}", "{seq_len}", "{split}")),
     params:
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
+        # SPEC 11: datasets with positions; their distance files hold the positions, this is the ground truth
+        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        velocities=VELOCITIES,
     shell:
         "vpr-smr attributes --distances {input:q} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
-        " --out {output:q} > {log:q} 2>&1"
+        " {params.radius} --velocities {params.velocities} --out {output:q} > {log:q} 2>&1"
 
 
 rule train:
@@ -87,10 +93,13 @@ rule vpr_metrics:
         distances=lambda wc, input: name_pairs(conf["eval_splits"], input.distances),
         attributes=lambda wc, input: name_pairs(conf["eval_splits"], input.attributes),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
+        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        velocities=VELOCITIES,
         modes=" ".join(conf["modes"]),
     shell:
         "vpr-smr metrics --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} --distances {params.distances}"
+        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius}"
+        " --velocities {params.velocities} --distances {params.distances}"
         " --attributes {params.attributes} --predictor {input.predictor:q} --modes {params.modes}"
         " --out {output:q} {params.overlap} > {log:q} 2>&1"
 
@@ -113,7 +122,9 @@ rule queries:
         distances=lambda wc, input: name_pairs(conf["eval_splits"], input.distances),
         attributes=lambda wc, input: name_pairs(conf["eval_splits"], input.attributes),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
+        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        velocities=VELOCITIES,
     shell:
-        "vpr-smr queries --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
-        " --distances {params.distances} --attributes {params.attributes} --predictor {input.predictor:q}"
+        "vpr-smr queries --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius}"
+        " --velocities {params.velocities} --distances {params.distances} --attributes {params.attributes} --predictor {input.predictor:q}"
         " --out {output:q} {params.overlap} > {log:q} 2>&1"

@@ -17,10 +17,12 @@ rule inspect:
         frames_sha256=lambda wc: PLAN.datasets[wc.dataset].frames_sha256,
         frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[conf["table_split"]]),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
+        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        velocities=VELOCITIES,
         split=conf["table_split"],
     shell:
         "vpr-smr inspect --queries {input.queries:q} --distances {input.distances:q}"
         " --dataset {wildcards.dataset:q} --dataset-settings {params.dataset:q}"
         " --frames-sha256 {params.frames_sha256} --seq-len {wildcards.seq_len} --split {params.split:q}"
-        " --frames {params.frames} --tolerance {params.tolerance}"
+        " --frames {params.frames} --tolerance {params.tolerance} {params.radius} --velocities {params.velocities}"
         " --match-figure {output.matches:q} --matrix-figure {output.matrix:q} > {log:q} 2>&1"

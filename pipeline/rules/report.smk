@@ -71,6 +71,9 @@ rule report:
         if "attributes" in EXPERIMENTS else [],
         leave_one_out=expand(held_out_path(OUT, "{dataset}", TABLE_L, "{method}"),
                              dataset=DATASETS, method=METHODS) if "leave_one_method_out" in EXPERIMENTS else [],
+        # the speed experiment's profiles (none when it is off), in the configuration's order
+        speed=expand(speed_path(OUT, "{dataset}", TABLE_L, "{profile}"), dataset=SPEED_DATASETS,
+                     profile=SPEED_PROFILES),
         # the standard VPR metrics and the match inspector's figures, at the table's L
         metrics=expand(vpr_metrics_path(OUT, "{dataset}", "{method}", TABLE_L), dataset=DATASETS, method=METHODS),
         match_figures=expand(match_figure_path(OUT, "{dataset}", "{method}", TABLE_L),
@@ -80,7 +83,7 @@ rule report:
         # read for their provenance (checkpoint and frame-list hashes) only
         descriptors=expand(descriptors_path(OUT, "{dataset}", "{method}"), dataset=DATASETS, method=METHODS),
     output:
-        [f"{OUT}/{name}" for name in report_outputs(conf, EXPERIMENTS)],
+        [f"{OUT}/{name}" for name in report_outputs(conf, EXPERIMENTS, SPEED_DATASETS)],
     log:
         report_log_path(OUT),
     params:
@@ -94,7 +97,7 @@ rule report:
         "vpr-smr report --evaluations {input.evaluations:q} --timings {input.timings:q}"
         " --predictors {input.predictors:q} --attribute-ablations {input.attribute_ablations:q}"
         " --leave-one-out {input.leave_one_out:q} --metrics {input.metrics:q}"
-        " --match-figures {input.match_figures:q} --matrix-figures {input.matrix_figures:q}"
+        " --match-figures {input.match_figures:q} --matrix-figures {input.matrix_figures:q} --speed {input.speed:q}"
         " --descriptors {input.descriptors:q} --split {params.split:q} --table-seq-lens {params.table_seq_len}"
         " {params.seq_len_ablation} --settings {params.settings:q} --datasets {params.datasets:q}"
         " --out {OUT:q} > {log:q} 2>&1"

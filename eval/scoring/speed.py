@@ -1,0 +1,404 @@
+"""The ``speed`` experiment (SPEC 11, "Simulated speed profiles"): Table I's numbers when the query traverse is driven
+at another speed than the references, with the paper's fixed matcher against SeqSLAM's velocity search.
+
+A profile ``s(t) > 0`` (places advanced per query frame) turns a frame-aligned split ``[lo, hi)`` into a simulated
+query: positions ``p_0 = lo``, ``p_{t+1} = p_t + s(t)``, query frame ``t`` is the query traverse's frame
+``floor(p_t + 0.5)`` (``simulate``). Its distance matrix is the aligned matrix's columns of those frames (no new
+descriptors), and a match ``r`` is correct iff ``|r - (p_t - lo)| <= tolerance`` (split coordinates). A constant
+profile ``c`` is a query driven ``c`` times as fast (``0.5x`` .. ``2x``); ``varying`` speeds up and slows down,
+``s(t) = 1 + 0.5 sin(2 pi t / 200)``.
+
+The stage (``main``) takes one dataset and one profile. For each matcher (``fixed``: velocities ``(1.0,)``, the
+paper's; ``velocity``: the experiment's velocity set) it computes the rank-0 features of every method's simulated
+train and table split, trains one predictor on the train features of every method pooled in the configuration's
+order (the pooled Table I recipe, seed 0) and scores each method's table split as Table I does (paper mode):
+recall@1 single and sequence, AOC without and with the predictor and the reduction.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from vpr_smr.core.constants import DEFAULT_VELOCITIES, N_LABELS
+from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance, write_json
+from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
+from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.velocity import check_velocities
+from vpr_smr.eval.predictor.leakage import FrameRange, check_disjoint, frame_ranges
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+
+__all__ = [
+    "MATCHERS", "MODE", "SEED", "VARYING", "SpeedMatcher", "SpeedProfile", "SpeedResult", "SpeedScores",
+    "profile_names", "simulate", "main",
+]
+
+# This module is imported by the workflow (profile_names) each time Snakemake reads the Snakefile: what needs
+# scikit-learn (eval.predictor, eval.scoring.evaluate: about 1.5 s to import) is imported inside the functions that
+# train and score.
+
+log = logging.getLogger(__name__)
+
+Json = dict[str, Any]
+
+VARYING = "varying"
+VARYING_AMPLITUDE = 0.5  # s(t) = 1 + 0.5 sin(2 pi t / 200): between 0.5x and 1.5x, mean 1 over whole periods
+VARYING_PERIOD = 200  # query frames per period
+MATCHERS = ("fixed", "velocity")  # the paper's slope-1 matcher, SeqSLAM's velocity search
+MODE = "paper"  # Table I's numbers, paper mode (SPEC 8)
+SEED = 0  # the predictor's seed: the authors' recipe (see main)
+PROFILE_HELP = "a constant speed such as 0.5x, 1x or 2x (places per query frame, > 0), or 'varying'"
+
+
+# --- profiles and the simulated query -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SpeedProfile:
+    """A speed profile: ``name`` (``0.5x``, ``2x``, ``varying``) and ``speed``, the constant speed (None for
+    ``varying``). ``steps(n)`` gives ``s(0) .. s(n-1)``."""
+
+    name: str
+    speed: float | None
+
+    @classmethod
+    def parse(cls, value: str | float) -> SpeedProfile:
+        """A profile from the configuration (a number, or ``"varying"``) or the command line (``"0.5x"``, ``"2"``,
+        ``"varying"``); ValueError naming what is wrong otherwise. Constant profiles are named ``f"{c:g}x"``."""
+        if isinstance(value, str):
+            text = value.strip()
+            if text == VARYING:
+                return cls(VARYING, None)
+            try:
+                speed = float(text[:-1] if text.endswith("x") else text)
+            except ValueError:
+                raise ValueError(f"speed profile {value!r} is not {PROFILE_HELP}") from None
+        elif isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"speed profile {value!r} is not {PROFILE_HELP}")
+        else:
+            speed = float(value)
+        if not (math.isfinite(speed) and speed > 0):
+            raise ValueError(f"speed profile {value!r}: a speed must be a finite number > 0 (places per query frame); "
+                             f"give {PROFILE_HELP}")
+        return cls(f"{speed:g}x", speed)
+
+    def steps(self, n: int) -> np.ndarray:
+        """``s(t)`` for ``t = 0 .. n-1``: places advanced from query frame ``t`` to ``t + 1``."""
+        if self.speed is not None:
+            return np.full(n, self.speed, dtype=np.float64)
+        t = np.arange(n, dtype=np.float64)
+        out: np.ndarray = 1.0 + VARYING_AMPLITUDE * np.sin(2 * np.pi * t / VARYING_PERIOD)
+        return out
+
+
+def profile_names(values: Sequence[str | float]) -> list[str]:
+    """The profiles' names (the files' names), in the given order; ValueError on a repeat (``1`` and ``1.0x``)."""
+    names = [SpeedProfile.parse(value).name for value in values]
+    repeated = sorted({name for name in names if names.count(name) > 1})
+    if repeated:
+        raise ValueError(f"speed profiles {list(values)} name {', '.join(repeated)} twice")
+    return names
+
+
+def simulate(profile: SpeedProfile, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+    """The simulated query of the split ``[lo, hi)`` (SPEC 11): ``(frames, positions)``, absolute frame indices of
+    the query traverse and positions in places (the references keep ``p = i``).
+
+    ``p_0 = lo`` and ``p_{t+1} = p_t + s(t)``, added in this order in float64; frame ``t`` is ``floor(p_t + 0.5)``.
+    SPEC 11 does not say where the query stops: here at the last ``t`` whose frame is still inside the split
+    (``< hi``), so a query at ``c``x has about ``(hi - lo) / c`` frames, and no frame past the split is read.
+    """
+    lo, hi = int(lo), int(hi)
+    if not 0 <= lo < hi:
+        raise ValueError(f"split [{lo}, {hi}) holds no frames: expected 0 <= lo < hi")
+    n = hi - lo
+    while True:  # the query's length is not known in advance (a varying speed): grow until it leaves the split
+        positions = np.add.accumulate(np.concatenate([[float(lo)], profile.steps(n)]))
+        frames = np.floor(positions + 0.5).astype(np.int64)
+        if frames[-1] >= hi:
+            stop = int(np.argmax(frames >= hi))  # positions increase (s > 0): every later frame is outside too
+            return frames[:stop], positions[:stop]
+        n *= 2
+
+
+def simulated_split(matrix: Any, lo: int, frames: np.ndarray, positions: np.ndarray, tolerance: int
+                    ) -> tuple[np.ndarray, GroundTruth]:
+    """The simulated query's distance matrix (the aligned split matrix's columns ``frames - lo``) and its ground
+    truth: references at ``0 .. R-1``, queries at ``positions - lo``, within ``tolerance`` (split coordinates)."""
+    columns = np.asarray(frames, dtype=np.int64) - lo
+    first, last = int(columns.min()), int(columns.max())
+    # one read of the columns' range (an HDF5 dataset takes no repeated indices), then the simulated order
+    block = np.asarray(matrix[:, first : last + 1])
+    simulated = np.ascontiguousarray(block[:, columns - first])
+    truth = GroundTruth(np.arange(matrix.shape[0], dtype=np.float64), np.asarray(positions) - lo, float(tolerance))
+    return simulated, truth
+
+
+# --- the record ---------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class SpeedScores:
+    """One method's table split under one matcher and its predictor: Table I's numbers (paper mode, seed 0)."""
+
+    n_queries: int  # simulated queries with a sequence match: every sequence number is over them
+    n_queries_single: int  # every simulated query of the split: paper mode's single-frame recall@1 (SPEC 8)
+    recall_at_1_single: float
+    recall_at_1_sequence: float
+    max_recall: float
+    auc_vpr_sm: float
+    auc_vpr_sm_pred: float
+    aoc_vpr_sm: float
+    aoc_vpr_sm_pred: float
+    reduction_pct: float | None  # None (null) when the baseline's AOC is 0
+    f1_macro: float
+    removed: int
+
+    def to_json(self) -> Json:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_json(cls, data: Json) -> SpeedScores:
+        return cls(**{f.name: data[f.name] for f in fields(cls)})
+
+
+@dataclass(frozen=True)
+class SpeedMatcher:
+    """One matcher: its velocities, its predictor's training samples (every method's simulated train split) and
+    each method's scores, in the configuration's order."""
+
+    velocities: tuple[float, ...]
+    n_train: int
+    train_class_counts: tuple[int, ...]
+    methods: dict[str, SpeedScores]
+
+    def to_json(self) -> Json:
+        return {"velocities": list(self.velocities), "n_train": self.n_train,
+                "train_class_counts": list(self.train_class_counts),
+                "methods": {name: scores.to_json() for name, scores in self.methods.items()}}
+
+    @classmethod
+    def from_json(cls, data: Json) -> SpeedMatcher:
+        return cls(tuple(float(v) for v in data["velocities"]), int(data["n_train"]),
+                   tuple(int(c) for c in data["train_class_counts"]),
+                   {name: SpeedScores.from_json(scores) for name, scores in data["methods"].items()})
+
+
+@dataclass(frozen=True)
+class SpeedResult:
+    """One dataset under one speed profile (``main``): per matcher (``MATCHERS``), every method's scores.
+
+    ``meta``: dataset, seq_len, profile, tolerance, mode, seed, the train and table splits (name, lo, hi).
+    ``speed``: the constant speed (None for ``varying``); ``mean_speed``: the simulated table query's mean step
+    ``(p_last - p_0) / (n - 1)``, where the report places a varying profile; ``n_train_queries`` and
+    ``n_table_queries``: the simulated queries of each split (one method's).
+    """
+
+    meta: Json
+    speed: float | None
+    mean_speed: float
+    n_train_queries: int
+    n_table_queries: int
+    matchers: dict[str, SpeedMatcher]
+
+    @property
+    def profile(self) -> str:
+        return str(self.meta["profile"])
+
+    def to_json(self) -> Json:
+        return {"meta": dict(self.meta), "speed": self.speed, "mean_speed": self.mean_speed,
+                "n_train_queries": self.n_train_queries, "n_table_queries": self.n_table_queries,
+                "matchers": {name: matcher.to_json() for name, matcher in self.matchers.items()}}
+
+    @classmethod
+    def from_json(cls, data: Json) -> SpeedResult:
+        return cls(dict(data["meta"]), None if data["speed"] is None else float(data["speed"]),
+                   float(data["mean_speed"]), int(data["n_train_queries"]), int(data["n_table_queries"]),
+                   {name: SpeedMatcher.from_json(m) for name, m in data["matchers"].items()})
+
+
+# --- the stage ----------------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Split:
+    """A distance file's split: its name and frames ``[lo, hi)`` (from its provenance, else ``[0, n)``)."""
+
+    name: str
+    lo: int
+    hi: int
+
+
+def _split_of(path: Path, shape: tuple[int, ...]) -> _Split:
+    if shape[0] != shape[1]:
+        raise ValueError(f"{path}: a {shape[0]}x{shape[1]} matrix; the speed experiment simulates from a "
+                         "frame-aligned split, whose matrix is square (the split's frames of both traverses)")
+    provenance = read_provenance(path) if path.suffix != ".npy" else {}
+    lo, hi = provenance.get("split_range", (0, shape[0]))
+    if int(hi) - int(lo) != shape[0]:
+        raise ValueError(f"{path}: split_range [{lo}, {hi}) but {shape[0]} frames in the matrix")
+    return _Split(str(provenance.get("split", path.stem)), int(lo), int(hi))
+
+
+def _method_features(path: Path, profile: SpeedProfile, seq_len: int, tolerance: int,
+                     matchers: Mapping[str, tuple[float, ...]], seconds: dict[str, float]
+                     ) -> tuple[_Split, np.ndarray, dict[str, QueryFeatures]]:
+    """The features of one distance file's simulated split under each matcher (the time each took added to
+    ``seconds``), with its split and the simulated positions."""
+    with open_distance_matrix(path) as matrix:
+        split = _split_of(path, tuple(matrix.shape))
+        frames, positions = simulate(profile, split.lo, split.hi)
+        if len(frames) < seq_len:
+            raise ValueError(f"{path}: the {profile.name} query of split [{split.lo}, {split.hi}) has "
+                             f"{len(frames)} frames, fewer than the sequence length {seq_len}")
+        simulated, truth = simulated_split(matrix, split.lo, frames, positions, tolerance)
+    out = {}
+    for name, velocities in matchers.items():
+        start = time.perf_counter()
+        try:
+            # rank 0 only: the predictor and Table I use it (ranks 1..3 serve restoration, not run here)
+            out[name] = query_features(simulated, seq_len, tolerance, n_ranks=1, velocities=velocities,
+                                       ground_truth=truth)
+        except ValueError as error:
+            raise ValueError(f"{path}, {profile.name} query, {name} matcher: {error}") from None
+        seconds[name] += time.perf_counter() - start
+    return split, positions, out
+
+
+def fit_pooled(train: Sequence[QueryFeatures], params: dict[str, Any] | None, where: str,
+               seed: int = SEED) -> SMRPredictor:
+    """The pooled predictor of Table I fitted on ``train`` (every method's features, the configuration's order):
+    rank-0 attributes concatenated, shuffled with ``seed``, ``SMRPredictor`` with ``seeded_params`` (SPEC 7). The
+    cross-validation that ``train.train_seed`` runs beside it changes nothing fitted and is left out."""
+    from sklearn.utils import shuffle
+
+    from vpr_smr.eval.predictor.estimator import SMRPredictor, TrainingDataError
+    from vpr_smr.eval.predictor.train import check_trainable, predictor_params, seeded_params
+
+    settings = predictor_params(params)
+    x = np.concatenate([f.attributes[:, 0, :] for f in train])
+    y = np.concatenate([f.labels for f in train])
+    try:
+        check_trainable(y, settings, [seed], where)
+    except TrainingDataError as error:  # a fast profile shortens the train split: say how to leave it out
+        raise TrainingDataError(f"{error}; or leave the fastest speed profiles out (speed.profiles), or switch the "
+                                "experiment off (experiments.speed: false)") from None
+    x, y = shuffle(x, y, random_state=seed)
+    predictor: SMRPredictor = SMRPredictor(**seeded_params(settings, seed)).fit(x, y)
+    return predictor
+
+
+def score(features: QueryFeatures, predictor: SMRPredictor) -> SpeedScores:
+    """Table I's numbers of one method's features, as ``evaluate.evaluate_split`` computes them (``removal`` of
+    the seed-0 predictor's rank-0 probabilities, paper mode)."""
+    from vpr_smr.eval.scoring.evaluate import removal
+
+    probabilities = predictor.predict_proba(features.attributes[:, 0, :])
+    result = removal(features, probabilities, predictor.classes_, (MODE,), curves=False)
+    numbers = result.modes[MODE]
+    reduction = numbers.reduction
+    return SpeedScores(
+        n_queries=len(features.queries), n_queries_single=len(features.all_single_correct),
+        recall_at_1_single=numbers.recall_at_1_single, recall_at_1_sequence=numbers.recall_at_1_sequence,
+        max_recall=reduction.max_recall, auc_vpr_sm=reduction.auc_vpr_sm, auc_vpr_sm_pred=reduction.auc_vpr_sm_pred,
+        aoc_vpr_sm=reduction.aoc_vpr_sm, aoc_vpr_sm_pred=reduction.aoc_vpr_sm_pred,
+        reduction_pct=reduction.reduction_pct, f1_macro=result.f1_macro, removed=result.removed)
+
+
+def _frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:
+    """The splits the distance files cover (``leakage.frame_ranges``); a user's ``.npy`` says nothing of its frames."""
+    return frame_ranges([path for path in paths if Path(path).suffix != ".npy"])
+
+
+def _check_methods(train: Mapping[str, Path | str], test: Mapping[str, Path | str]) -> list[str]:
+    if not train:
+        raise ValueError("the speed experiment needs every method's train and table distance files (METHOD=PATH)")
+    if list(train) != list(test):
+        raise ValueError(f"the train files are of methods {list(train)} but the table files of {list(test)}: give "
+                         "both for the same methods, in the same (the configuration's) order")
+    return list(train)
+
+
+def main(
+    dataset: str,
+    seq_len: int,
+    profile: str | float | SpeedProfile,
+    train: Mapping[str, Path | str],
+    test: Mapping[str, Path | str],
+    out: Path | str,
+    velocities: Sequence[float],
+    tolerance: int,
+    params: dict[str, Any] | None = None,
+    allow_split_overlap: bool = False,
+) -> SpeedResult:
+    """The speed experiment of one dataset under one profile, written to ``out`` (JSON, ``SpeedResult``).
+
+    ``train`` and ``test``: per method (the configuration's order, the pooled training order of SPEC 7) its train
+    and table split's distance file (square, frame-aligned; the file's ``split_range`` gives ``lo``).
+    ``velocities``: the velocity matcher's search set; the fixed matcher is ``(1.0,)``. ``params``: the
+    predictor's settings.
+
+    One predictor seed (0, the authors' recipe) per matcher, not the run's seeds: the experiment trains two
+    predictors per profile and dataset, and the demo's time budget holds that; the spread over seeds is Table I's
+    job, this experiment compares matchers and speeds under one recipe.
+    """
+    out = check_suffix(out, JSON_SUFFIXES, "the speed experiment's result (JSON)")
+    profile = profile if isinstance(profile, SpeedProfile) else SpeedProfile.parse(profile)
+    matchers = {"fixed": DEFAULT_VELOCITIES, "velocity": check_velocities(velocities, "--velocities")}
+    methods = _check_methods(train, test)
+    check_disjoint(_frame_ranges(train.values()), _frame_ranges(test.values()), allow_split_overlap,
+                   "the speed experiment's predictor")
+    begin = time.perf_counter()
+    seconds = dict.fromkeys(matchers, 0.0)
+    features: dict[str, dict[str, list[QueryFeatures]]] = {name: {"train": [], "test": []} for name in matchers}
+    splits: dict[str, set[_Split]] = {"train": set(), "test": set()}
+    table_positions = np.zeros(0)
+    n_queries: dict[str, int] = {}  # simulated queries per split (one method's: every method's are the same)
+    for method in methods:
+        for role, path in (("train", train[method]), ("test", test[method])):
+            split, positions, by_matcher = _method_features(Path(path), profile, seq_len, tolerance, matchers,
+                                                            seconds)
+            splits[role].add(split)
+            n_queries[role] = len(positions)
+            if role == "test":
+                table_positions = positions
+            for name, found in by_matcher.items():
+                features[name][role].append(found)
+    for role, covered in splits.items():
+        if len(covered) != 1:
+            raise ValueError(f"the methods' {role} files cover different splits: "
+                             f"{', '.join(f'{s.name} [{s.lo}, {s.hi})' for s in covered)}; give one split's files")
+    train_split, table_split = splits["train"].pop(), splits["test"].pop()
+
+    results = {}
+    for name, velocities_ in matchers.items():
+        start = time.perf_counter()
+        where = (f"dataset {dataset!r}, sequence length {seq_len}, {profile.name} query, {name} matcher: train "
+                 f"split of {len(methods)} method(s) pooled")
+        predictor = fit_pooled(features[name]["train"], params, where)
+        labels = np.concatenate([f.labels for f in features[name]["train"]])
+        scores = {method: score(found, predictor)
+                  for method, found in zip(methods, features[name]["test"], strict=True)}
+        class_counts = tuple(np.bincount(labels, minlength=N_LABELS).tolist())
+        results[name] = SpeedMatcher(velocities_, int(len(labels)), class_counts, scores)
+        seconds[name] += time.perf_counter() - start
+        log.info("%s matcher (velocities %s): %.1f s (attributes, training, scoring)", name, list(velocities_),
+                 seconds[name])
+    meta = {"dataset": dataset, "seq_len": int(seq_len), "profile": profile.name, "tolerance": int(tolerance),
+            "mode": MODE, "seed": SEED, "train_split": [train_split.name, train_split.lo, train_split.hi],
+            "table_split": [table_split.name, table_split.lo, table_split.hi]}
+    mean_speed = float((table_positions[-1] - table_positions[0]) / max(len(table_positions) - 1, 1))
+    result = SpeedResult(meta, profile.speed, mean_speed, n_queries["train"], n_queries["test"], results)
+    write_json(out, result.to_json())  # the timings stay in the log: two runs give identical files
+    log.info("profile %s: %.1f s in all", profile.name, time.perf_counter() - begin)
+    return result
