@@ -75,6 +75,11 @@ def _check_together(conf: dict[str, Any], source: str) -> None:
                           "would be scored on its own training data")
     if len(set(conf["seq_lens"])) != len(conf["seq_lens"]):
         raise ConfigError(f"{source}: seq_lens {conf['seq_lens']} repeats a length")
+    # velocities are numbers of reference frames per query frame: 1 and 1.0 are one setting (the jobs' params and
+    # the report's configuration alike)
+    for section in ("sequence_matching", "speed"):
+        if "velocities" in conf.get(section, {}):
+            conf[section]["velocities"] = [float(v) for v in conf[section]["velocities"]]
     if conf["table_seq_len"] is None:
         conf["table_seq_len"] = 4 if 4 in conf["seq_lens"] else conf["seq_lens"][0]
     elif conf["table_seq_len"] not in conf["seq_lens"]:

@@ -151,3 +151,15 @@ def test_attributes_and_metrics_commands_take_positions(tmp_path):
     assert cli(["metrics", "--distances", str(tmp_path / "D.npy"), "--seq-len", "3", *options[:-4],
                 "--attributes", f"all={tmp_path / 'A.h5'}", "--out", str(tmp_path / "m2.json")]) != 0
     assert not (tmp_path / "m2.json").exists()
+
+
+def test_attributes_of_the_same_velocities_in_another_order_are_accepted(tmp_path):
+    from vpr_smr.eval.matching.attributes import check_matcher
+
+    rng = np.random.default_rng(2)
+    np.save(tmp_path / "D.npy", rng.uniform(0, 1, size=(20, 24)).astype(np.float32))
+    assert cli(["attributes", "--distances", str(tmp_path / "D.npy"), "--seq-len", "3", "--velocities", "1", "0.5",
+                "--out", str(tmp_path / "A.h5")]) == 0
+    check_matcher([tmp_path / "A.h5"], (0.5, 1.0), None)  # the same matcher
+    with pytest.raises(ValueError, match=r"velocities \[0.5, 1.0\].*given velocities \[0.5, 2.0\]"):
+        check_matcher([tmp_path / "A.h5"], (0.5, 2.0), None)

@@ -374,6 +374,10 @@ def test_distances_with_separate_ranges(tmp_path):
     plain = descriptor_file(tmp_path / "plain.h5", reference[:20], query, positions=False)
     with h5py.File(distances.main(plain, tmp_path / "p.h5", "test", (0, 20))) as f:
         assert set(f) == {"distance_matrix"}
+    # and without positions the ranges may not differ: frame indices would be scored against other references
+    with pytest.raises(ValueError, match=r"plain.h5 has no positions, so split 'test' must cover the same frames"):
+        distances.main(plain, tmp_path / "q.h5", "test", (5, 12), reference_range=(3, 20))
+    assert not (tmp_path / "q.h5").exists()
 
 
 def test_distances_cli_takes_the_reference_frames(tmp_path):

@@ -197,6 +197,11 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
     pytest.param(lambda c: c["speed"].update(profiles=[0.5, 1.5, "varying"]), speed(["1.5x"]) | REPORT,
                  id="speed-profiles"),
     pytest.param(lambda c: c.update(experiments={"speed": False}), REPORT, id="speed-off"),
+    # the run's sequence matcher (SPEC 11): every attributes job and what reads them; the default written out as 1
+    # is 1.0 to every job (only the report, which lists the configuration as written, redraws)
+    pytest.param(lambda c: c.update(sequence_matching={"velocities": [0.8, 1.0, 1.25]}),
+                 attributes() | attribute_ablation() | without() | PREDICTOR_ON, id="velocities"),
+    pytest.param(lambda c: c.update(sequence_matching={"velocities": [1]}), REPORT, id="velocity-1-is-1.0"),
     pytest.param(lambda c: c.update(extraction={"batch_size": 3}), set(), id="batch-size-reruns-nothing"),
 ])
 def test_a_changed_setting_plans_exactly_its_jobs(copy, edit, expected):

@@ -8,6 +8,7 @@ import math
 import re
 from pathlib import Path
 
+import h5py
 import numpy as np
 import pytest
 from helpers import write_distance_matrix
@@ -30,10 +31,21 @@ def test_profiles_are_named_by_their_speed(value, name, constant):
     assert (profile.name, profile.speed) == (name, constant)
 
 
-@pytest.mark.parametrize("value", ["fast", "0x", "-1", "nanx", "inf", "", 0, -0.5, True])
+@pytest.mark.parametrize("value", ["fast", "0x", "-1", "nanx", "inf", "", 0, -0.5, True, 1 / 3])
 def test_a_bad_profile_is_refused(value):
+    # 1/3: its name would not give its speed back to the job that reads it
     with pytest.raises(ValueError, match="speed profile"):
         SpeedProfile.parse(value)
+
+
+def test_the_stage_refuses_a_split_with_positions(tmp_path):
+    # SPEC 11's simulation starts from a frame-aligned split: a distance file with positions is not one
+    path = tmp_path / "test.h5"
+    write_distance_matrix(path, np.ones((6, 6)), {"split": "test", "split_range": [0, 6]})
+    with h5py.File(path, "a") as f:
+        f["reference_positions"], f["query_positions"] = np.arange(6.0), np.arange(6.0)
+    with pytest.raises(ValueError, match="a split of a dataset with positions"):
+        speed._split_of(path, (6, 6))
 
 
 def test_constant_profiles_by_hand():

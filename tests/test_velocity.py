@@ -8,6 +8,7 @@ Every comparison of values is exact (``assert_array_equal``): the definition fix
 import math
 import subprocess
 import sys
+from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -45,7 +46,8 @@ def naive_mean(values):
 def naive_query(d, dn, a, seq_len, n_ranks, velocities):
     """Everything ``velocity_block_features`` reports for query ``a`` of the matrix ``d`` (``dn`` = D / colmax)."""
     n_ref = d.shape[0]
-    by_tie_rule = sorted(velocities, key=lambda v: (abs(v - 1.0), v))  # closest to 1, then the smaller
+    # closest to 1 as written (exact decimal arithmetic), then the smaller
+    by_tie_rule = sorted(velocities, key=lambda v: (abs(Fraction(repr(v)) - 1), v))
     best = {}  # r -> (S, v*, cells)
     for r in range(n_ref):
         for v in by_tie_rule:
@@ -144,7 +146,14 @@ def small_matrices():
     yield "zero column", np.where(np.arange(11) == 4, 0.0, rng.integers(0, 5, (19, 11)).astype(np.float64))
 
 
-VELOCITY_SETS = [(1.0,), (0.5, 1.0, 2.0), (0.8, 1.0, 1.25), (0.7, 1.3), (2.0, 3.0), (0.25, 0.5)]
+VELOCITY_SETS = [(1.0,), (0.5, 1.0, 2.0), (0.8, 1.0, 1.25), (0.7, 1.3), (2.0, 3.0), (0.25, 0.5),
+                 (1.4, 0.6), (1.15, 0.85)]  # the last two: equally close to 1 as written, not in float64
+
+
+def test_the_tie_order_reads_the_velocities_as_written():
+    # SPEC 11: closest to 1, then the smaller; |0.6 - 1| > |1.4 - 1| in float64, equal as written
+    assert velocity.search_order((1.4, 0.6)) == (0.6, 1.4)
+    assert velocity.search_order((1.15, 0.85, 2.0, 1.0)) == (1.0, 0.85, 1.15, 2.0)
 
 
 @pytest.mark.parametrize("velocities", VELOCITY_SETS, ids=str)

@@ -630,11 +630,13 @@ def check_matcher(paths: Sequence[Path | str], velocities: Sequence[float], radi
     """Raise ValueError when an attributes file was computed with other velocities or another radius than a stage
     is given (its labels and matches would not be this matcher's)."""
     expected = matcher_provenance(velocities, radius)
+    if "velocities" in expected:  # the same set in another order is the same matcher
+        expected["velocities"] = sorted(expected["velocities"])
     for path in paths:
         stored = read_provenance(path)
         found: dict[str, Any] = {}
         if "velocities" in stored:
-            found["velocities"] = [float(v) for v in stored["velocities"]]
+            found["velocities"] = sorted(float(v) for v in stored["velocities"])
         if "radius" in stored:
             found["radius"] = float(stored["radius"])
         if found != expected:

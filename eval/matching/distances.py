@@ -148,6 +148,12 @@ def main(descriptors: Path | str, out: Path | str, split: str, split_range: tupl
     ref_lo, ref_hi = (int(v) for v in (reference_range or (lo, hi)))
     with h5py.File(descriptors, "r") as f:
         _check_descriptors(f, descriptors, split, {"reference": (ref_lo, ref_hi), "query": (lo, hi)})
+        if (ref_lo, ref_hi) != (lo, hi) and not all(k in f for k in POSITIONS):
+            # without positions the later stages score frame indices within a tolerance, which presumes the same
+            # frames of both traverses: other ranges would be scored against the wrong references
+            raise ValueError(f"{descriptors} has no positions, so split {split!r} must cover the same frames of "
+                             f"both traverses: --reference-frames {ref_lo} {ref_hi} differs from --frames {lo} "
+                             f"{hi}; give a dataset positions (SPEC 11) to use separate ranges")
         if metric is None:
             metric = f.attrs["distance"]
             metric = metric.decode() if isinstance(metric, bytes) else str(metric)

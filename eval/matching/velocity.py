@@ -60,7 +60,8 @@ def first_reference(seq_len: int, velocities: Sequence[float]) -> int:
 def search_order(velocities: Sequence[float]) -> tuple[float, ...]:
     """The velocities in the order of SPEC 11's tie rule: closest to 1 first, then the smaller. Scanning them in
     this order and keeping a trajectory only when it is strictly better implements that rule."""
-    return tuple(sorted(velocities, key=lambda v: (abs(v - 1.0), v)))
+    # rounded: 0.6 and 1.4 are equally close to 1 as written, though |0.6 - 1| and |1.4 - 1| differ in float64
+    return tuple(sorted(velocities, key=lambda v: (round(abs(v - 1.0), 12), v)))
 
 
 # --- one block of query columns: the attributes along the best trajectories -------------------------------------

@@ -31,7 +31,7 @@ from vpr_smr.core.constants import DEFAULT_VELOCITIES, N_LABELS
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance, write_json
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
-from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.io import open_distance_matrix, stored_positions
 from vpr_smr.eval.matching.velocity import check_velocities
 from vpr_smr.eval.predictor.leakage import FrameRange, check_disjoint, frame_ranges
 
@@ -90,7 +90,11 @@ class SpeedProfile:
         if not (math.isfinite(speed) and speed > 0):
             raise ValueError(f"speed profile {value!r}: a speed must be a finite number > 0 (places per query frame); "
                              f"give {PROFILE_HELP}")
-        return cls(f"{speed:g}x", speed)
+        name = f"{speed:.12g}x"  # the job rebuilds the profile from its name: it must give the same speed back
+        if float(name[:-1]) != speed:
+            raise ValueError(f"speed profile {value!r}: give it with at most 12 significant digits (it names the "
+                             "profile's files and jobs)")
+        return cls(name, speed)
 
     def steps(self, n: int) -> np.ndarray:
         """``s(t)`` for ``t = 0 .. n-1``: places advanced from query frame ``t`` to ``t + 1``."""
@@ -244,6 +248,9 @@ def _split_of(path: Path, shape: tuple[int, ...]) -> _Split:
         raise ValueError(f"{path}: a {shape[0]}x{shape[1]} matrix; the speed experiment simulates from a "
                          "frame-aligned split, whose matrix is square (the split's frames of both traverses)")
     provenance = read_provenance(path) if path.suffix != ".npy" else {}
+    if "reference_range" in provenance or stored_positions(path) is not None:
+        raise ValueError(f"{path}: a split of a dataset with positions (SPEC 11); the speed experiment simulates "
+                         "from a frame-aligned split (the same frames of both traverses, no positions)")
     lo, hi = provenance.get("split_range", (0, shape[0]))
     if int(hi) - int(lo) != shape[0]:
         raise ValueError(f"{path}: split_range [{lo}, {hi}) but {shape[0]} frames in the matrix")

@@ -1,8 +1,10 @@
 """The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher, and the
 per-query table of the same scoring (``vpr-smr queries``, or ``metrics --queries``; ``eval.scoring.queries``).
 
-One split's ``R x Q`` matrix ``D`` of a frame-aligned pair: a match ``r`` of query ``q`` is correct iff
-``|r - q| <= tolerance``. Rankings are stable (equal distances: the lower reference or diagonal index first).
+One split's ``R x Q`` matrix ``D``: a match ``r`` of query ``q`` is correct iff ``|r - q| <= tolerance`` for a
+frame-aligned pair, iff its position is within the radius of the query's with positions (SPEC 11,
+``GroundTruth``). Rankings are stable (equal distances: the lower reference or diagonal index first). With velocity
+search (SPEC 11) the sequence candidates are the end references ``r_min .. R-1`` of ``S[r, a] = min_v S_v[r, a]``.
 Evaluated queries: ``a = L-1 .. Q-1``, those with a sequence match (SPEC 4). One item per metric, its denominator
 last:
 
@@ -428,7 +430,8 @@ def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path],
             raise FileNotFoundError(f"attributes of split {split!r} not found: {path} (run vpr-smr attributes, "
                                     "or leave --attributes out to compute them)")
         stored = read_provenance(path).get("tolerance")
-        if stored is not None and int(stored) != int(tolerance):
+        # with positions the radius is the ground truth (check_matcher compares it); the tolerance plays no part
+        if matcher.radius is None and stored is not None and int(stored) != int(tolerance):
             raise ValueError(f"{path} holds attributes at tolerance {int(stored)}, but --tolerance is {tolerance}: "
                              f"give --tolerance {int(stored)}, or attributes computed at {tolerance}")
     check_seq_len(list(attributes.values()), seq_len)

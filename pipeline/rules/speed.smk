@@ -18,7 +18,7 @@ rule speed:
         overlap=ALLOW_OVERLAP,
         predictor=canonical(conf["predictor"]),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
-        velocities=" ".join(str(v) for v in conf["speed"]["velocities"]),
+        velocities=" ".join(str(float(v)) for v in conf["speed"]["velocities"]),  # 1 and 1.0 alike
         # METHOD=PATH items, each quoted already: the shell command uses them unquoted
         train=lambda wc, input: name_pairs(METHODS, input.train),
         test=lambda wc, input: name_pairs(METHODS, input.test),
