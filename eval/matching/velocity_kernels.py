@@ -20,27 +20,11 @@ import numpy as np
 from numba import njit
 
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # plain globals: numba freezes them at compile time
+from vpr_smr.eval.matching.kernels import _insert  # the fixed matcher's sorted top-K insertion: one copy
 
 TILE = 256  # end references per tile: the tile's sums (2 KB each) stay in the L1 cache
 GROUP = 64  # values per group of the K-smallest scan
 MIN_THREAD_QUERIES = 16  # queries per thread at least: fewer do not pay for a thread
-
-
-@njit(cache=True, nogil=True)
-def _insert(values: np.ndarray, index: np.ndarray, count: int, value: float, at: int) -> int:
-    """Put (value, at) into the ascending ``values[:count]`` (capacity ``len(values)``) after every equal value, the
-    largest falling out when full. Called in ascending ``at``, equal values keep the lowest index first."""
-    capacity = len(values)
-    if count == capacity:
-        count -= 1
-    pos = count
-    while pos > 0 and value < values[pos - 1]:
-        values[pos] = values[pos - 1]
-        index[pos] = index[pos - 1]
-        pos -= 1
-    values[pos] = value
-    index[pos] = at
-    return count + 1
 
 
 @njit(cache=True, nogil=True)
