@@ -25,7 +25,8 @@ class DatasetPlan:
     frames_settings: dict[str, Any]  # the configuration entry without splits and tolerance
     splits: dict[str, tuple[int, int]]
     tolerance: int
-    n_frames: int
+    n_frames: int  # the reference traverse's frames
+    n_query_frames: int  # the query traverse's frames: n_frames for a frame-aligned pair, its own with positions
     frames_sha256: str  # fingerprint of the ordered frame names of both traverses
     list_files: tuple[str, ...]  # frame-list files named in the configuration (inputs of the descriptors jobs)
     pairing: str  # how frame i of both traverses is known to be one place
@@ -107,8 +108,9 @@ def planned(conf: dict[str, Any]) -> Plan:
 
 def dataset_cards(plan: Plan) -> dict[str, dict[str, Any]]:
     """What the report states of each dataset: traverses, frames, tolerance, splits, pairing, overlaps, the frame
-    lists' SHA-256 and where the images came from; a dataset with positions (SPEC 11) adds its radius and the
-    reference ranges that differ from its splits' (query) ranges."""
+    lists' SHA-256 and where the images came from; a dataset with positions (SPEC 11) adds its radius, the
+    reference ranges that differ from its splits' (query) ranges and the query traverse's frames (``n_frames`` are
+    the reference's)."""
     return {name: {"reference": d.traverses[0], "query": d.traverses[1], "n_frames": d.n_frames,
                    "tolerance": d.tolerance, "splits": {k: list(v) for k, v in d.splits.items()},
                    "pairing": d.pairing, "overlaps": list(d.overlaps), "frames_sha256": d.frames_sha256,
@@ -120,7 +122,8 @@ def _positions_card(d: DatasetPlan) -> dict[str, Any]:
     """A card's entries of a dataset with positions; none for a frame-aligned one (its card stays as it was)."""
     if d.radius is None:
         return {}
-    return {"radius": d.radius, "reference_splits": {k: list(v) for k, v in d.reference_splits.items()}}
+    return {"radius": d.radius, "reference_splits": {k: list(v) for k, v in d.reference_splits.items()},
+            "n_query_frames": d.n_query_frames}
 
 
 def canonical(value: Any) -> str:
@@ -184,6 +187,79 @@ def _training_problems(conf: dict[str, Any], train: tuple[int, int]) -> list[str
                              smote=conf["predictor"]["smote"], split=conf["train_split"])
 
 
+def _velocity_problems(conf: dict[str, Any], name: str, pair: Any, splits: list[str]) -> list[str]:
+    """Whether every split's reference range holds the velocity search's longest trajectory (SPEC 11,
+    ``sequence_matching.velocities``): ``first_reference(L, V) + 1`` references at every ``L`` of ``seq_lens``.
+    Only what the sequence-length check does not already say: with a velocity of 1 or less, ``L`` references
+    suffice."""
+    from vpr_smr.eval.matching.velocity import first_reference
+
+    velocities = [float(v) for v in conf["sequence_matching"]["velocities"]]
+    problems = []
+    for split in splits:
+        lo, hi = pair.reference_range(split)
+        short = [(seq_len, first_reference(seq_len, velocities) + 1) for seq_len in sorted(conf["seq_lens"])]
+        short = [(seq_len, need) for seq_len, need in short if need > max(seq_len, hi - lo)]
+        if not short:
+            continue
+        seq_len, need = short[-1]  # the longest sequence needs the most references
+        problems.append(f"datasets.{name}: split {split!r} reference range [{lo}, {hi}) has {hi - lo} frames, but "
+                        f"velocity search at sequence length {seq_len} with velocities {velocities} "
+                        f"(sequence_matching.velocities) needs at least {need} references (its slowest trajectory "
+                        f"spans {need} reference frames): lengthen the split (its reference range) to at least "
+                        f"{need} frames, or give smaller velocities (with a velocity of 1.0 or less, L references "
+                        "suffice)")
+    return problems
+
+
+def _speed_problems(conf: dict[str, Any], name: str, splits: dict[str, tuple[int, int]], trainable: bool
+                    ) -> list[str]:
+    """What the speed experiment (SPEC 11, ``eval.scoring.speed``) needs of a frame-aligned dataset, at
+    ``table_seq_len``: each profile's simulated train and table query at least ``L`` frames long, the simulated
+    train split enough samples to train the pooled predictor of every method (``training_problems``, the rule of
+    the aligned train split), and the aligned splits (the references) the velocity matcher's longest trajectory.
+    Splits the checks before already found too short (or, for training, the aligned train split) are not
+    checked again."""
+    from vpr_smr.eval.matching.velocity import first_reference
+    from vpr_smr.eval.predictor.defaults import MIN_TRAIN_SAMPLES, training_problems
+    from vpr_smr.eval.scoring.speed import SpeedProfile, simulate
+
+    seq_len = int(conf["table_seq_len"])
+    longest = max(conf["seq_lens"])
+    velocities = [float(v) for v in conf["speed"]["velocities"]]
+    need = first_reference(seq_len, velocities) + 1
+    profiles = [SpeedProfile.parse(value) for value in conf["speed"]["profiles"]]
+    fix = "experiments: {speed: false}"
+    problems = []
+    for role, split in (("train_split", conf["train_split"]), ("table_split", conf["table_split"])):
+        if split not in splits or splits[split][1] - splits[split][0] < longest:
+            continue  # not defined, or too short for the sequences: said before
+        lo, hi = splits[split]
+        where = f"datasets.{name}: speed experiment, split {split!r} [{lo}, {hi}) ({role})"
+        if need > max(seq_len, hi - lo):
+            problems.append(f"{where}: velocity search at sequence length {seq_len} (table_seq_len) with velocities "
+                            f"{velocities} (speed.velocities) needs at least {need} reference frames, the split has "
+                            f"{hi - lo}: lengthen the split, give smaller speed.velocities, or switch the experiment "
+                            f"off ({fix})")
+        for profile in profiles:
+            n_queries = len(simulate(profile, lo, hi)[0])
+            drop = f"drop {profile.name} from speed.profiles, lengthen split {split!r}, or set {fix}"
+            if n_queries < seq_len:
+                problems.append(f"{where}: the {profile.name} profile leaves {n_queries} queries, fewer than the "
+                                f"sequence length {seq_len} (table_seq_len): {drop}")
+                continue
+            if role != "train_split" or not trainable:
+                continue
+            n_methods, smote = len(conf["methods"]), bool(conf["predictor"]["smote"])
+            if training_problems(n_queries, seq_len, n_methods, smote=smote, split=split):  # the aligned split's rule
+                per_method = n_queries - seq_len + 1
+                problems.append(f"{where}: the {profile.name} profile leaves {n_queries} queries, {per_method} "
+                                f"training samples per method at sequence length {seq_len} (table_seq_len), "
+                                f"{per_method * n_methods} pooled over {n_methods} method(s); the experiment's "
+                                f"pooled predictor needs at least {MIN_TRAIN_SAMPLES[smote]}: {drop}")
+    return problems
+
+
 def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, DatasetPlan]:
     from vpr_smr.datasets import DatasetError, frames_settings, load_dataset
 
@@ -211,9 +287,15 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
                     problems.append(f"datasets.{name}: split {split!r}{role} has {hi - lo} frames, fewer than the "
                                     f"sequence length {longest} (seq_lens): lengthen the split or shorten the "
                                     "sequences")
+        problems.extend(_velocity_problems(conf, name, pair, [s for s in needed if s in pair.splits]))
         train = pair.splits.get(conf["train_split"])
+        trainable = False
         if train is not None and train[1] - train[0] >= longest:
-            problems.extend(f"datasets.{name}: {problem}" for problem in _training_problems(conf, train))
+            found = _training_problems(conf, train)
+            problems.extend(f"datasets.{name}: {problem}" for problem in found)
+            trainable = not found
+        if pair.radius is None and "speed" in experiments(conf):  # the Snakefile's SPEED_DATASETS
+            problems.extend(_speed_problems(conf, name, pair.splits, trainable))
         overlaps = split_overlaps({split: pair.splits[split] for split in needed if split in pair.splits},
                                   pair.reference_splits)
         if overlaps and not conf["allow_split_overlap"]:
@@ -231,6 +313,7 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
             splits={k: (int(lo), int(hi)) for k, (lo, hi) in pair.splits.items()},
             tolerance=pair.tolerance,
             n_frames=len(pair),
+            n_query_frames=len(pair.query),
             frames_sha256=pair.fingerprint(),
             list_files=_list_files(dataset),
             pairing=pair.pairing,

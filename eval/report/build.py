@@ -337,7 +337,9 @@ def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None
     """One row per dataset card (``pipeline.plan.dataset_cards``), in the configuration's order."""
     order = order or Order(tuple(datasets))
     return [{"dataset": name, "reference": info.get("reference", ""), "query": info.get("query", ""),
-             "n_frames": info.get("n_frames"),
+             # a dataset with positions (SPEC 11): reference / query frames; a frame-aligned one as it was
+             "n_frames": info.get("n_frames") if info.get("n_query_frames") is None
+             else f"{info.get('n_frames')} / {info['n_query_frames']}",
              "splits": split_text(info.get("splits", {}), info.get("reference_splits")),
              "tolerance": info.get("tolerance") if info.get("radius") is None else ground_truth_text(info),
              "pairing": info.get("pairing", ""),

@@ -453,7 +453,8 @@ def cards(datasets: dict[str, dict[str, Any]] | None, order: Order) -> tuple[Car
         reference_splits = info.get("reference_splits") or {}  # SPEC 11: reference ranges that differ
         items = [
             ("reference / query", f"{info.get('reference', '')} / {info.get('query', '')}", False),
-            ("frames", str(info.get("n_frames", "")), False),
+            ("frames", str(info.get("n_frames", "")) if info.get("n_query_frames") is None  # frame-aligned
+             else f"{info.get('n_frames', '')} reference, {info['n_query_frames']} query", False),
             *((f"split {split}", f"frames [{lo}, {hi}): {hi - lo}" if split not in reference_splits
                else split_text({split: (lo, hi)}, reference_splits).split(" ", 1)[1], False)
               for split, (lo, hi) in splits.items()),
