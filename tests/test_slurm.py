@@ -25,7 +25,7 @@ CONFIG = {
     "seq_lens": [3],
     "seeds": 2,
     "trust_levels": [0.0],
-    "experiments": {"restoration": False, "attribute_ablation": False, "leave_one_method_out": False},
+    "experiments": {"restoration": False, "attribute_ablation": False, "leave_one_method_out": False, "speed": False},
     "datasets": {"sample": {"loader": "nordland_sample", "root": str(DEFAULT_ROOT), "frames": [2000, 2090],
                             "splits": {"train": [0, 40], "val": [40, 60], "test": [60, 90]}}},
     "methods": {"sad": {"backend": "sad"}, "hog": {"backend": "hog"}},
