@@ -315,19 +315,24 @@ def thread_count() -> int:
         return max(1, os.cpu_count() or 1)
 
 
+def empty_outputs(n_queries: int, n_ranks: int) -> dict[str, np.ndarray]:
+    """The arrays ``block_features`` returns, for ``n_queries`` queries and ``n_ranks`` ranks, to be filled."""
+    return {
+        "attributes": np.empty((n_queries, n_ranks, 4)),
+        "rank_diagonals": np.empty((n_queries, n_ranks), dtype=np.int64),
+        "single_match": np.empty(n_queries, dtype=np.int64),
+        "sequence_diagonal": np.empty(n_queries, dtype=np.int64),
+        "sequence_distance": np.empty(n_queries),
+        "sequence_max": np.empty(n_queries),
+    }
+
+
 def column_blocks(raw: np.ndarray, col_max: np.ndarray, seq_len: int, n_ranks: int, margin: float,
                   margin_raw: float, block_queries: int = BLOCK_QUERIES) -> dict[str, np.ndarray]:
     """``block`` over all queries of ``raw`` (R x W), in blocks of ``block_queries`` query columns on
     ``thread_count()`` threads. The margins must hold for blocks of ``block_queries + L - 1`` columns."""
     n_out = raw.shape[1] - seq_len + 1
-    out = {
-        "attributes": np.empty((n_out, n_ranks, 4)),
-        "rank_diagonals": np.empty((n_out, n_ranks), dtype=np.int64),
-        "single_match": np.empty(n_out, dtype=np.int64),
-        "sequence_diagonal": np.empty(n_out, dtype=np.int64),
-        "sequence_distance": np.empty(n_out),
-        "sequence_max": np.empty(n_out),
-    }
+    out = empty_outputs(n_out, n_ranks)
     keys = ("attributes", "rank_diagonals", "single_match", "sequence_diagonal", "sequence_distance", "sequence_max")
 
     block = compiled("block", raw.dtype)

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # plain globals: numba freezes them at compile time
-from vpr_smr.eval.matching.kernels import _insert  # the fixed matcher's sorted top-K insertion: one copy
+from vpr_smr.eval.matching.kernels import _insert, empty_outputs  # the fixed matcher's sorted top-K insertion: one copy
 
 TILE = 256  # end references per tile: the tile's sums (2 KB each) stay in the L1 cache
 GROUP = 64  # values per group of the K-smallest scan
@@ -208,15 +208,7 @@ def block_features(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_mi
     raw = np.ascontiguousarray(raw)
     table = np.ascontiguousarray(table, dtype=np.int64)
     n_queries = raw.shape[0] - table.shape[1] + 1
-    out = {
-        "attributes": np.empty((n_queries, n_ranks, 4)),
-        "rank_diagonals": np.empty((n_queries, n_ranks), dtype=np.int64),
-        "single_match": np.empty(n_queries, dtype=np.int64),
-        "sequence_diagonal": np.empty(n_queries, dtype=np.int64),
-        "sequence_distance": np.empty(n_queries),
-        "sequence_max": np.empty(n_queries),
-        "sequence_index": np.empty(n_queries, dtype=np.int64),
-    }
+    out = {**empty_outputs(n_queries, n_ranks), "sequence_index": np.empty(n_queries, dtype=np.int64)}
     outputs = tuple(out.values())
 
     def run(bounds: tuple[int, int]) -> None:
