@@ -18,8 +18,8 @@ import h5py
 import numpy as np
 import torch
 from torch.utils.data import DataLoader, Dataset
-from tqdm import tqdm
 
+from vpr_smr.core.progress import progress_bar
 from vpr_smr.datasets import Traverse, TraversePair
 from vpr_smr.descriptors import backend_class
 from vpr_smr.descriptors.base import Backend, CheckpointError, TorchBackend, sha256_file
@@ -146,7 +146,12 @@ def compute_descriptors(
         persistent_workers=False,
         collate_fn=images.collate,
     )
-    chunks = [backend.forward(batch) for batch in tqdm(loader, desc=desc, unit="batch", leave=False)]
+    chunks: list[np.ndarray] = []
+    # counted in images, not batches, in the format `vpr-smr run` reads from the job's log
+    with progress_bar(total=len(images), unit="images", desc=desc) as bar:
+        for batch in loader:
+            chunks.append(backend.forward(batch))
+            bar.update(len(batch))
     return np.concatenate(chunks).astype(np.float32)
 
 
@@ -196,7 +201,7 @@ def main(
     arrays: tuple[np.ndarray, ...] | None = backend.precomputed(pair)
     if arrays is None:
         arrays = tuple(
-            compute_descriptors(t, backend, batch_size, num_workers, desc=f"{method} {pair.name} {role}")
+            compute_descriptors(t, backend, batch_size, num_workers, desc=role)
             for role, t in (("reference", pair.reference), ("query", pair.query))
         )
     with atomic_h5(out, provenance) as f:

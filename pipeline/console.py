@@ -13,12 +13,19 @@ import subprocess
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from datetime import timedelta
 from pathlib import Path
 from typing import Protocol, TextIO
 
+from vpr_smr.core.progress import Progress, read_progress
+
 TAIL_LINES = 15  # of a failed job's log, or of Snakemake's output when no job failed
+# Output that is not a terminal gets a line per running job this often, so that a long job does not look stuck.
+REPORT_EVERY_S = 30.0
+READ_EVERY_S = 1.0  # the running jobs' logs are read at most this often for the line redrawn on a terminal
+SHOWN_JOBS = 8  # running jobs named in the line redrawn on a terminal
 
 JOB_INFO = re.compile(r"(?:local)?(?:rule|checkpoint) (\S+):")
 JOB_ERROR = re.compile(r"Error in rule (\S+):")
@@ -29,6 +36,8 @@ TOTAL = re.compile(r"total\s+(\d+)")  # the last row of Snakemake's "Job stats" 
 LOG_SHOWN = re.compile(r"Logfile .*:")  # then a failed job's log between two "====" lines (show-failed-logs)
 RULER = re.compile(r"=+")
 STAGE_ERROR = re.compile(r"vpr-smr \S.*?: error: .*")  # the one line a failed stage prints (pipeline/cli.py)
+LOG_FORMAT = "%(asctime)s %(name)s %(levelname)s: %(message)s"  # a stage's log lines (pipeline/cli.py sets it)
+WARNING_LINE = re.compile(r"\S+ \S+ \S+ WARNING: (.*)")  # a warning in that format: date, time, logger, level
 NOTHING_TO_DO = "Nothing to be done"
 LOG_HINT = " (check log file(s) for error details)"
 
@@ -59,6 +68,10 @@ class Job:
         if not text:
             return []
         return [Path(text)] if Path(text).is_file() else [Path(p) for p in text.split(", ") if Path(p).is_file()]
+
+    def progress(self) -> Progress | None:
+        """The last progress state the job's stage wrote into its log (``core.progress``), if any."""
+        return next((state for log in reversed(self.log_files()) if (state := read_progress(log))), None)
 
 
 class SnakemakeOutput:
@@ -139,6 +152,16 @@ def clock(seconds: float) -> str:
     return str(timedelta(seconds=int(seconds)))
 
 
+def progress_text(progress: Progress) -> str:
+    """``[desc ]done/total unit (percent %)[, rate]``; a rate below one per second as seconds each."""
+    desc = f"{progress.desc} " if progress.desc else ""
+    text = f"{desc}{progress.done}/{progress.total} {progress.unit} ({100 * progress.fraction:.0f} %)"
+    rate = progress.rate
+    if rate is None:
+        return text
+    return f"{text}, {rate:.1f} {progress.unit}/s" if rate >= 1 else f"{text}, {1 / rate:.1f} s each"
+
+
 def stage_error(lines: list[str]) -> str | None:
     """The last ``vpr-smr <stage>: error: ...`` line of a job's log."""
     return next((line for line in reversed(lines) if STAGE_ERROR.fullmatch(line)), None)
@@ -153,6 +176,18 @@ def readable_lines(text: str) -> list[str]:
         if states:
             lines.append(states[-1])
     return lines
+
+
+def job_warnings(job: Job) -> list[str]:
+    """The warnings a job's stage logged (``LOG_FORMAT``): a degenerate predictor, an input that looks wrong."""
+    out = []
+    for log in job.log_files():
+        try:
+            text = log.read_text(errors="replace")
+        except OSError:  # removed meanwhile: nothing to show
+            continue
+        out += [match[1] for line in readable_lines(text) if (match := WARNING_LINE.fullmatch(line))]
+    return out
 
 
 def failure_report(job: Job) -> list[str]:
@@ -219,19 +254,27 @@ class DryRunView:
 class ProgressView:
     """Jobs done out of the total, what runs, the time since the start; Snakemake's whole output to ``log``.
 
-    On a terminal one line is redrawn in place; elsewhere (a CI log, a file) one line is added per finished job.
+    On a terminal one line is redrawn in place, with each running job's fraction done; elsewhere (a CI log, a file)
+    one line is added per finished job, and per running job every ``report_s`` seconds with its progress. The
+    progress is the last state the job's stage wrote into its log (``core.progress``). ``now``: the clock.
     """
 
-    def __init__(self, log: Path, out: TextIO, err: TextIO, tty: bool | None = None) -> None:
+    def __init__(self, log: Path, out: TextIO, err: TextIO, tty: bool | None = None,
+                 now: Callable[[], float] = time.monotonic, report_s: float = REPORT_EVERY_S) -> None:
         self.log_path = log
         self.log = open(log, "w", encoding="utf-8")
         self.out, self.err = out, err
         self.tty = out.isatty() if tty is None else tty
         self.parsed = SnakemakeOutput()
         self.tail: deque[str] = deque(maxlen=TAIL_LINES)
-        self.started = time.monotonic()
+        self._now, self.report_s = now, report_s
+        self.started = now()
         self.stopped: int | None = None
         self._drawn = ""  # the line redrawn on a terminal
+        self._since: dict[str, float] = {}  # jobid -> when it started
+        self._reported: dict[str, float] = {}  # jobid -> when its last progress line was printed (not a terminal)
+        self._progress: dict[str, Progress | None] = {}  # jobid -> its progress, as last read (terminal)
+        self._read_at: float | None = None
         print(f"Snakemake's output: {log}", file=out, flush=True)
 
     def feed(self, line: str) -> None:
@@ -250,7 +293,13 @@ class ProgressView:
         if self.stopped is None:
             self._show(self.parsed.flush())
             if self.tty and self.parsed.total:
+                now = self._now()
+                if self._read_at is None or now - self._read_at >= READ_EVERY_S:
+                    self._read_at = now
+                    self._progress = {jobid: job.progress() for jobid, job in self._running_jobs()[:SHOWN_JOBS]}
                 self._draw(self._status())
+            elif not self.tty:
+                self._report()
 
     def close(self, status: int) -> None:
         self.log.close()
@@ -281,29 +330,58 @@ class ProgressView:
         for kind, job in events:
             if job.rule == "all":  # the workflow's target, not a job of ours
                 continue
+            if job.jobid is not None:
+                if kind == "started":
+                    self._since[job.jobid] = self._reported[job.jobid] = self._now()
+                else:
+                    for times in (self._since, self._reported):
+                        times.pop(job.jobid, None)
             if kind == "failed":
                 self._line(f"{self._count()} FAILED {job.label()}")
             elif kind == "done" and not self.tty:
                 self._line(f"{self._count()} done {job.label()}{self._running('; running ')}")
+            if kind == "done":  # a finished job's warnings stay on the console, on a terminal too
+                for warning in job_warnings(job):
+                    self._line(f"{self._count()} WARNING {job.label()}: {warning}")
         if events and self.tty:
             self._draw(self._status())
 
+    def _report(self) -> None:
+        """A line for each job that has run ``report_s`` seconds since it started or since its last line."""
+        now = self._now()
+        for jobid, job in self._running_jobs():
+            if now - self._reported.setdefault(jobid, now) < self.report_s:
+                continue
+            self._reported[jobid] = now
+            progress = job.progress()
+            what = f": {progress_text(progress)}" if progress else f" for {clock(now - self._since.get(jobid, now))}"
+            self._line(f"{self._count()} running {job.label()}{what}")
+
     def _elapsed(self) -> float:
-        return time.monotonic() - self.started
+        return self._now() - self.started
+
+    def _running_jobs(self) -> list[tuple[str, Job]]:
+        return [(jobid, job) for jobid, job in self.parsed.running.items() if job.rule != "all"]
 
     def _count(self) -> str:
         total = self.parsed.total or 0
         return f"[{self.parsed.done:>{len(str(total))}}/{total}] {clock(self._elapsed())}"
 
-    def _running(self, prefix: str, most: int = 3) -> str:
-        jobs = [job.label() for job in self.parsed.running.values() if job.rule != "all"]
+    def _running(self, prefix: str, most: int = 3, fractions: bool = False) -> str:
+        jobs = [job.label() + (self._fraction(jobid) if fractions else "") for jobid, job in self._running_jobs()]
         if not jobs:
             return ""
         more = f" and {len(jobs) - most} more" if len(jobs) > most else ""
         return prefix + ", ".join(jobs[:most]) + more
 
+    def _fraction(self, jobid: str) -> str:
+        progress = self._progress.get(jobid)
+        if progress is None:
+            return ""
+        return f" {progress.desc + ' ' if progress.desc else ''}{100 * progress.fraction:.0f} %"
+
     def _status(self) -> str:
-        return f"{self._count()}{self._running(' running ', most=8)}"
+        return f"{self._count()}{self._running(' running ', most=SHOWN_JOBS, fractions=True)}"
 
     def _line(self, text: str) -> None:
         """A line that stays (above the redrawn one on a terminal)."""
