@@ -3,7 +3,8 @@ with the reason when it cannot be installed, it is never skipped), driven by Pla
 
 At 1400 x 900: the first screen shows Table I with the methods as column headers; nothing is wider than the page
 (the tables' own scroll containers fit it); a click on a column header sorts the rows; every image decodes; the page
-works alone in a fresh folder, and a screenshot of its first screen is a PNG.
+works alone in a fresh folder, and a screenshot of its first screen is a PNG. At 1000, 1400 and 1920 px, with the
+demo's method names (one as long as efficientnet_lite0_gem): no table or figure is cut at the right edge.
 """
 
 import csv
@@ -34,6 +35,30 @@ OVERFLOW = """() => {
   }
   return {scrollWidth: document.documentElement.scrollWidth, innerWidth: window.innerWidth, wide: wide,
           scrolls: document.querySelectorAll(".scroll").length};
+}"""
+# Each table's and image's right edge against what of it can be seen: the viewport without its scroll bar and every
+# ancestor that clips (overflow-x other than visible); and whether the nearest such ancestor scrolls sideways
+# (a scroll bar shows what it hides) and ends within the viewport.
+VISIBLE = """() => {
+  const viewport = document.documentElement.clientWidth, found = [];
+  for (const el of [...document.querySelectorAll("table"), ...document.images]) {
+    const box = el.getBoundingClientRect();
+    let visible = viewport, scroller = null;
+    for (let up = el.parentElement; up && up !== document.documentElement; up = up.parentElement) {
+      const style = getComputedStyle(up);
+      if (style.overflowX === "visible") continue;
+      const outer = up.getBoundingClientRect();
+      visible = Math.min(visible, outer.left + up.clientLeft + up.clientWidth);
+      if (scroller === null) {
+        scroller = {scrolls: ["auto", "scroll"].includes(style.overflowX) && up.scrollWidth > up.clientWidth,
+                    right: outer.right};
+      }
+    }
+    found.push({what: `${el.tagName.toLowerCase()}#${el.id || el.alt}`, left: box.left, right: box.right,
+                width: box.width, visible: visible, viewport: viewport, beside: el.closest(".pair") !== null,
+                scrolls: scroller !== null && scroller.scrolls, scroller_right: scroller ? scroller.right : null});
+  }
+  return {found: found, scrollWidth: document.documentElement.scrollWidth, viewport: viewport};
 }"""
 IMAGES = """() => Array.from(document.images).map(img => ({complete: img.complete, width: img.naturalWidth,
                                                         alt: img.alt}))"""
@@ -134,6 +159,45 @@ def test_report_in_a_headless_browser(tmp_path):
                                               "rows => rows.map(r => [r.cells[1].textContent, r.cells[4].textContent])")
             assert [m for m, _ in shown] == sorted(r["method"] for r in rows)
             assert sorted(shown) == sorted([r["method"], f"{float(r['trust']):g}"] for r in rows)
+        finally:
+            browser.close()
+
+
+def cut(item: dict) -> bool:
+    """Whether some of a table or image is hidden at the right without a scroll bar to reach it. A whole table may
+    scroll in its own box (which must itself fit); a table beside a figure, or a figure, must be seen whole: a
+    scroll box there hid the restoration table's last column."""
+    if item["right"] <= item["visible"] + 1 and item["left"] >= -1:
+        return False
+    may_scroll = item["what"].startswith("table") and not item["beside"]
+    return not (may_scroll and item["scrolls"] and item["scroller_right"] <= item["viewport"] + 1)
+
+
+@pytest.mark.slow
+def test_no_table_or_figure_is_cut_at_any_width(tmp_path):
+    from playwright.sync_api import sync_playwright
+
+    # the demo's methods: a long name widens every compact table beside its figure
+    run, _ = build_run(tmp_path, modes=("paper",), seq_lens=(4,), methods=("sad", "hog", "efficientnet_lite0_gem"))
+    with sync_playwright() as playwright:
+        browser = playwright.chromium.launch(executable_path=ensure_chromium(), args=ARGS)
+        try:
+            for width in (1000, 1400, 1920):
+                page = browser.new_page(viewport={"width": width, "height": HEIGHT})
+                page.route(re.compile(r"^(?!file:|data:).*"), lambda route: route.abort())
+                page.goto((run / "report.html").as_uri(), wait_until="load")
+                for summary in page.locator("details > summary").all():
+                    summary.click()  # the whole tables too, the widest ones
+                layout = page.evaluate(VISIBLE)
+                found = layout["found"]
+                tables = [f for f in found if f["what"].startswith("table")]
+                assert len(tables) > 15 and all(f["width"] > 0 for f in found), (width, found)
+                assert sum(f["beside"] for f in tables) >= 5  # the compact tables of the figures' blocks
+                assert {f["what"] for f in tables} >= {"table#restoration-d-4-paper"}
+                assert layout["scrollWidth"] <= layout["viewport"] <= width, (width, layout["scrollWidth"])
+                hidden = [f for f in found if cut(f)]
+                assert not hidden, (width, hidden)
+                page.close()
         finally:
             browser.close()
 

@@ -9,8 +9,12 @@ Two PNG figures of one method, dataset, sequence length ``L`` and split (the wor
 - the distance-matrix figure: the split's ``D`` (references x queries, block means when large), the ground-truth
   band ``|r - q| <= tolerance`` and every sequence match, kept or removed by the predictor.
 
+The match figure needs the dataset's images; without them (a user's ``.npy`` matrix and its queries CSV) the
+distance-matrix figure is drawn alone.
+
 The queries come from the queries CSV (``eval.scoring``'s, one row per evaluated query), read by column name; its
-frame indices are the dataset's, the distance matrix's are the split's (``D[r - lo, q - lo]``).
+frame indices are the dataset's, the distance matrix's are the split's (``D[r - ref_lo, q - lo]``; ``ref_lo``
+is ``lo`` unless the split has its own reference range).
 """
 
 from __future__ import annotations
@@ -320,12 +324,14 @@ def block_means(matrix: Any, block: int) -> np.ndarray:
 def draw_matrix(path: Path | str, matrix: Any, lo: int, rows: Sequence[QueryRow], tolerance: int,
                 title: str, reference_lo: int | None = None, ground_truth: GroundTruth | None = None) -> MatrixRecord:
     """The distance-matrix figure to ``path`` (PNG, written as given): ``matrix`` (split-local, references x
-    queries) in dataset frame indices from ``lo`` (references from ``reference_lo``, default ``lo``), the ground
-    truth (the band ``|r - q| <= tolerance``, or the outline of ``ground_truth``'s correct matches when it is not
-    that band) and the sequence matches of ``rows``."""
+    queries) in dataset frame indices, the queries (x) from ``lo``, the references (y) from ``reference_lo``
+    (default ``lo``); the ground truth (the band ``|r - q| <= tolerance``, or the outline of ``ground_truth``'s
+    correct matches when it is not that band or the two ranges differ) and the sequence matches of ``rows``."""
     plt = _pyplot()
     n_refs, n_queries = matrix.shape
     ref_lo = lo if reference_lo is None else reference_lo
+    # scoring counts indices from each range's first frame: the same ground truth, placed by those offsets
+    truth = GroundTruth.aligned(n_refs, n_queries, tolerance) if ground_truth is None else ground_truth
     block = max(1, math.ceil(max(n_refs, n_queries) / MAX_DISPLAY))
     shown = block_means(matrix, block)
     fig, ax = plt.subplots(figsize=(7.6, 7.4), layout="constrained")
@@ -334,18 +340,19 @@ def draw_matrix(path: Path | str, matrix: Any, lo: int, rows: Sequence[QueryRow]
                               ref_lo - 0.5))
     fig.colorbar(image, ax=ax, shrink=0.8, label="distance D (dark = similar)")
     last_q, last_r = lo + n_queries - 1, ref_lo + n_refs - 1
-    if ground_truth is None or (ground_truth.is_aligned_band() and ref_lo == lo):
+    if truth.is_aligned_band() and ref_lo == lo:
         band = np.array([lo, last_q], dtype=float)
         for offset, label in ((-tolerance, f"ground truth |r - q| <= {tolerance}"), (tolerance, None)):
             ax.plot(band, band + offset, color="tab:cyan", lw=0.7, label=label)
     else:
         # the correct matches at the shown resolution (one frame per block), outlined
         refs, queries = np.arange(0, n_refs, block), np.arange(0, n_queries, block)
-        correct = ground_truth.correct(refs[:, None], queries[None, :]).astype(float)
+        correct = truth.correct(refs[:, None], queries[None, :]).astype(float)
         if correct.any():
             ax.contour(lo + queries, ref_lo + refs, correct, levels=[0.5], colors="tab:cyan", linewidths=0.7)
-            ax.plot([], [], color="tab:cyan", lw=0.7,
-                    label=f"ground truth: positions within {ground_truth.radius:g} of the query's")
+            rule = (f"|(r - {ref_lo}) - (q - {lo})| <= {tolerance}" if truth.is_aligned_band()
+                    else f"positions within {truth.radius:g} of the query's")
+            ax.plot([], [], color="tab:cyan", lw=0.7, label=f"ground truth: {rule}")
     kept = [r for r in rows if r.kept is True]
     removed = [r for r in rows if r.kept is False]
     unpredicted = [r for r in rows if r.kept is None]
@@ -361,7 +368,7 @@ def draw_matrix(path: Path | str, matrix: Any, lo: int, rows: Sequence[QueryRow]
         ax.scatter([r.query for r in unpredicted], [r.sequence_match for r in unpredicted], s=size,
                    color="tab:orange", marker="o", linewidths=0, zorder=3,
                    label=f"sequence match, no prediction ({len(unpredicted)})")
-    ax.set(xlim=(lo - 0.5, last_q + 0.5), ylim=(last_r + 0.5, lo - 0.5), xlabel="query frame (dataset index)",
+    ax.set(xlim=(lo - 0.5, last_q + 0.5), ylim=(last_r + 0.5, ref_lo - 0.5), xlabel="query frame (dataset index)",
            ylabel="reference frame (dataset index)")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.08), ncol=2, fontsize=7, markerscale=2)
     note = (f"D is {n_refs} x {n_queries}, shown as means of {block} x {block} blocks" if block > 1
@@ -382,16 +389,53 @@ def _distance_provenance(path: Path) -> dict[str, Any]:
     return read_provenance(path) if h5py.is_hdf5(path) else {}
 
 
-def _split_range(path: Path, provenance: dict[str, Any], given: tuple[int, int] | None) -> tuple[int, int]:
+def _split_range(path: Path, provenance: dict[str, Any], given: tuple[int, int] | None,
+                 n_queries: int) -> tuple[int, int]:
     stored = provenance.get("split_range")
     stored_range = None if stored is None else (int(stored[0]), int(stored[1]))
     if given is not None and stored_range is not None and tuple(given) != stored_range:
         raise ValueError(f"{path} holds frames {stored_range[0]}..{stored_range[1] - 1}, not the split's "
                          f"{given[0]}..{given[1] - 1}: run the workflow again")
     split_range = given if given is not None else stored_range
+    if split_range is None and not h5py.is_hdf5(path):
+        # a user's matrix (.npy): `vpr-smr queries` numbers its queries from 0, so the inspector does too
+        return 0, n_queries
     if split_range is None:
         raise ValueError(f"{path} does not say which frames it covers: give the split's frames (--frames LO HI)")
     return int(split_range[0]), int(split_range[1])
+
+
+def _check_dataset(dataset_name: str | None, dataset_settings: dict[str, Any] | None,
+                   match_figure: Path | None) -> None:
+    """Before any work: the match figure shows the frames' images, so it needs a dataset that has a loader."""
+    if (dataset_name is None) != (dataset_settings is None):
+        raise ValueError("give --dataset NAME and --dataset-settings JSON together (the dataset whose images the "
+                         "match figure shows), or neither")
+    if match_figure is None:
+        return
+    fix = "or leave out --match-figure to draw only the distance-matrix figure (it needs no images)"
+    if dataset_settings is None:
+        raise ValueError("the match figure shows the frames' images, so it needs a dataset with images: give "
+                         "--dataset NAME and --dataset-settings JSON (its configuration entry, e.g. "
+                         '{"loader": "folders", "reference": DIR, "query": DIR}), ' + fix)
+    if dataset_settings.get("loader") is None:
+        raise ValueError(f"--dataset-settings gives dataset {dataset_name!r} no loader, but the match figure shows "
+                         "the frames' images, so it needs a dataset with images: give its configuration entry (e.g. "
+                         '{"loader": "folders", "reference": DIR, "query": DIR}), ' + fix)
+
+
+def _split_of(rows: Sequence[QueryRow], queries_csv: Path, split: str | None) -> str:
+    """``split``, which the CSV must have; None: the CSV's only split (a user's matrix has one, ``all``)."""
+    splits = list(dict.fromkeys(r.split for r in rows))
+    named = ", ".join(repr(s) for s in splits) or "none"
+    if split is None:
+        if len(splits) != 1:
+            raise ValueError(f"{queries_csv} has the splits {named}: choose one with --split")
+        return splits[0]
+    if split not in splits:
+        raise ValueError(f"{queries_csv} has no queries of split {split!r} (its splits: {named}): give one of them "
+                         "with --split")
+    return split
 
 
 def _check_rows(rows: Sequence[QueryRow], queries_csv: Path, split: str, seq_len: int, lo: int, hi: int) -> None:
@@ -434,54 +478,85 @@ def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, d
                              f"but it is {column[best]:.6g} in {distances}: {fix}")
 
 
-def main(queries_csv: Path | str, distances: Path | str, dataset_name: str, dataset_settings: dict[str, Any],
-         frames_sha256: str | None, seq_len: int, split: str, tolerance: int, match_figure: Path | str,
-         matrix_figure: Path | str, per_class: int = 2, mistakes: int = 4, seed: int = 0,
-         split_range: tuple[int, int] | None = None, radius: float | None = None,
-         velocities: Sequence[float] = DEFAULT_VELOCITIES) -> tuple[Path, Path]:
-    """The ``inspect`` stage: the match figure and the distance-matrix figure of ``split`` (PNG, both or none).
+def _check_matcher(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, lo: int, seq_len: int,
+                   velocities: Sequence[float], reference_lo: int | None = None) -> None:
+    """The sampled rows' sequence matches are those of ``velocities``: the reference with the smallest ``S``
+    (the lowest on ties), at the sequence distance the CSV gives. A CSV of another sequence matcher is refused,
+    naming both, as every stage refuses a predictor of another matcher."""
+    ref_lo = lo if reference_lo is None else reference_lo
+    for sample in samples:
+        row = sample.row
+        q = row.query - lo
+        columns = np.asarray(matrix[:, q - seq_len + 1 : q + 1], dtype=np.float64)
+        sums = [_sequence_sum(columns, r, seq_len, velocities) for r in range(columns.shape[0])]
+        best = min((value, r) for r, value in enumerate(sums) if value is not None)
+        if row.sequence_match - ref_lo != best[1] or not np.isclose(row.sequence_distance, best[0], rtol=1e-6):
+            raise ValueError(
+                f"{queries_csv}: query {row.query}'s sequence match is reference {row.sequence_match} at "
+                f"{row.sequence_distance:.6g}, but with velocities {list(velocities)} it is {best[1] + ref_lo} at "
+                f"{best[0]:.6g}: the CSV was made with another sequence matcher; give the velocities of the run "
+                "that made it (--velocities), or the queries CSV of this matcher")
 
-    ``dataset_settings``: the dataset's configuration entry (``load_frames``; split settings are ignored).
-    ``frames_sha256``: the fingerprint of the frames the run's descriptors were computed from (default: the
-    distances file's); the images are refused when theirs differs. ``split_range``: the split's frames
-    ``(lo, hi)`` (default: the distances file's ``split_range``; its references: the file's ``reference_range``
+
+def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | None,
+         dataset_settings: dict[str, Any] | None, frames_sha256: str | None, seq_len: int, split: str | None,
+         tolerance: int, match_figure: Path | str | None, matrix_figure: Path | str, per_class: int = 2,
+         mistakes: int = 4, seed: int = 0, split_range: tuple[int, int] | None = None, radius: float | None = None,
+         velocities: Sequence[float] = DEFAULT_VELOCITIES) -> tuple[Path | None, Path]:
+    """The ``inspect`` stage: the match figure (unless ``match_figure`` is None) and the distance-matrix figure of
+    ``split`` (PNG, all or none); returns their paths (the match figure's or None, the matrix figure's).
+
+    ``dataset_name`` and ``dataset_settings``: the dataset and its configuration entry (``load_frames``; split
+    settings are ignored), needed by the match figure only (its thumbnails); without them (a user's matrix) only
+    the distance-matrix figure can be drawn. ``frames_sha256``: the fingerprint of the frames the run's
+    descriptors were computed from (default: the distances file's); the images are refused when theirs differs.
+    ``split``: None is the queries CSV's only split. ``split_range``: the split's frames ``(lo, hi)`` (default: the
+    distances file's ``split_range``; for a ``.npy``, ``0 .. Q``; its references: the file's ``reference_range``
     when it has one, SPEC 11). ``tolerance``: frames of the ground-truth band; ``radius``: the ground truth's with
     positions (those the distances file holds). ``velocities``: the run's sequence matcher.
     The queries CSV must be this matrix's at ``seq_len``: its rows of ``split`` are exactly the queries
     ``lo + L - 1 .. hi - 1``, and each sampled row's single-frame match and distance are its column's minimum.
     """
     queries_csv, distances = Path(queries_csv), Path(distances)
-    match_figure = check_suffix(match_figure, (".png",), "the match figure (PNG)", "--match-figure")
+    match_figure = (None if match_figure is None
+                    else check_suffix(match_figure, (".png",), "the match figure (PNG)", "--match-figure"))
     matrix_figure = check_suffix(matrix_figure, (".png",), "the distance-matrix figure (PNG)", "--matrix-figure")
+    _check_dataset(dataset_name, dataset_settings, match_figure)
     if seq_len < 1:
         raise ValueError(f"the sequence length must be >= 1, got {seq_len}")
     if not distances.is_file():
         raise FileNotFoundError(f"distance matrix not found: {distances}")
     provenance = _distance_provenance(distances)
+    name = dataset_name or _text(provenance.get("dataset")) or distances.stem
     stored_sha = _text(provenance.get("frames_sha256"))
     if frames_sha256 and stored_sha and stored_sha != frames_sha256:
-        raise ValueError(f"{distances} was computed from other frames of dataset {dataset_name!r} than the run's "
+        raise ValueError(f"{distances} was computed from other frames of dataset {name!r} than the run's "
                          "(its frames_sha256 differs): run the workflow again")
     expected = frames_sha256 or stored_sha
-    pair = load_frames(dataset_name, dataset_settings)
-    if expected and pair.fingerprint() != expected:
-        raise ValueError(f"dataset {dataset_name!r}: its frames changed on disk since the run computed its "
-                         f"descriptors (the frame lists' SHA-256 is {pair.fingerprint()[:12]}..., the run's "
-                         f"{expected[:12]}...); run the workflow again")
-    lo, hi = _split_range(distances, provenance, split_range)
-    stored_reference = provenance.get("reference_range")
-    ref_lo, ref_hi = (lo, hi) if stored_reference is None else (int(stored_reference[0]), int(stored_reference[1]))
-    if not (0 <= lo < hi <= len(pair.query) and 0 <= ref_lo < ref_hi <= len(pair.reference)):
-        raise ValueError(f"split {split!r} = frames {lo}..{hi - 1} is outside dataset {dataset_name!r}'s "
-                         f"{len(pair.query)} frames: run the workflow again")
-    rows = [r for r in read_queries(queries_csv) if r.split == split]
-    _check_rows(rows, queries_csv, split, seq_len, lo, hi)
-    samples = sample_queries(rows, split, per_class, mistakes, seed)
-    method = _text(provenance.get("method"))
-    what = f"{dataset_name}{'' if method is None else f', {method}'}, L = {seq_len}, split {split!r}"
-    sample_text = (f"{len(samples)} of {len(rows)} queries: up to {per_class} per true class (seed {seed}) and the "
-                   f"predictor's {mistakes} most confident mistakes")
+    pair = None
+    if match_figure is not None and dataset_settings is not None:  # the images: for the match figure only
+        pair = load_frames(name, dataset_settings)
+        if expected and pair.fingerprint() != expected:
+            raise ValueError(f"dataset {name!r}: its frames changed on disk since the run computed its "
+                             f"descriptors (the frame lists' SHA-256 is {pair.fingerprint()[:12]}..., the run's "
+                             f"{expected[:12]}...); run the workflow again")
+    all_rows = read_queries(queries_csv)
+    split = _split_of(all_rows, queries_csv, split)
+    rows = [r for r in all_rows if r.split == split]
     with open_distance_matrix(distances) as matrix:
+        lo, hi = _split_range(distances, provenance, split_range, int(matrix.shape[1]))
+        stored_reference = provenance.get("reference_range")
+        ref_lo, ref_hi = ((lo, hi) if stored_reference is None
+                          else (int(stored_reference[0]), int(stored_reference[1])))
+        if pair is not None and not (0 <= lo < hi <= len(pair.query) and 0 <= ref_lo < ref_hi <= len(pair.reference)):
+            raise ValueError(f"split {split!r} = frames {lo}..{hi - 1} is outside dataset {name!r}'s "
+                             f"{len(pair.query)} frames: run the workflow again")
+        _check_rows(rows, queries_csv, split, seq_len, lo, hi)
+        samples = sample_queries(rows, split, per_class, mistakes, seed)
+        method = _text(provenance.get("method"))
+        what = f"{name}{'' if method is None else f', {method}'}, L = {seq_len}, split {split!r}"
+        sample_text = (f"{len(samples)} of {len(rows)} queries: up to {per_class} per true class (seed {seed}) and "
+                       f"the predictor's {mistakes} most confident mistakes")
         if tuple(matrix.shape) != (ref_hi - ref_lo, hi - lo):
             raise ValueError(f"{distances}: the distance matrix is {matrix.shape[0]} x {matrix.shape[1]}, but split "
                              f"{split!r} has {ref_hi - ref_lo} reference frames ({ref_lo}..{ref_hi - 1}) and "
@@ -492,10 +567,12 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str, data
         match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct ({rule}), "
                        "red = wrong; D = single-frame distance, S = sequence distance")
         _check_matches(samples, matrix, queries_csv, distances, lo, ref_lo)
-        with ExitStack() as stack:  # both files are renamed into place only when both are drawn
+        _check_matcher(samples, matrix, queries_csv, lo, seq_len, velocities, ref_lo)
+        with ExitStack() as stack:  # the files are renamed into place only when all are drawn
             matrix_tmp = stack.enter_context(atomic_path(matrix_figure))
-            match_tmp = stack.enter_context(atomic_path(match_figure))
-            draw_matches(match_tmp, pair, samples, matrix, lo, seq_len, match_title, ref_lo, velocities)
+            if match_figure is not None and pair is not None:
+                match_tmp = stack.enter_context(atomic_path(match_figure))
+                draw_matches(match_tmp, pair, samples, matrix, lo, seq_len, match_title, ref_lo, velocities)
             draw_matrix(matrix_tmp, matrix, lo, rows, tolerance,
                         f"Distance matrix: {what}, sequence matches kept or removed by the predictor", ref_lo, truth)
     return match_figure, matrix_figure
