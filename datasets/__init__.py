@@ -73,8 +73,9 @@ def required_options(loader_name: str) -> list[str]:
 
 def unknown_option(loader_name: str, key: str) -> str | None:
     """Why ``key`` is not a setting of the loader (with the closest valid one), or None when it is."""
-    valid = loader_options(loader_name)
-    if key in valid or key in ("loader", "frames", *SPLIT_SETTINGS):
+    # every key a dataset entry may hold: a typo of `tolerance` must find it, not the loader's nearest setting
+    valid = ["loader", *loader_options(loader_name), "frames", *SPLIT_SETTINGS]
+    if key in valid:
         return None
     close = difflib.get_close_matches(key, valid, n=1)
     hint = f" (did you mean {close[0]!r}?)" if close else ""
@@ -86,7 +87,7 @@ def _check_options(name: str, loader_name: str, options: dict[str, Any]) -> None
     for key in options:
         problem = unknown_option(loader_name, key)
         if problem:
-            raise DatasetError(f"datasets.{name}.{key}: {problem}, frames, {', '.join(SPLIT_SETTINGS)}")
+            raise DatasetError(f"datasets.{name}.{key}: {problem}")
     missing = [p for p in required_options(loader_name) if p not in options]
     if missing:
         raise DatasetError(f"datasets.{name}: loader {loader_name!r} needs {', '.join(missing)}; e.g. "

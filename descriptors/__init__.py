@@ -89,5 +89,5 @@ def backend_class(name: str) -> type[Backend]:
         return cls
     raise ValueError(
         f"unknown descriptor backend {name!r}; available: {', '.join(available_backends())}, "
-        "or a dotted path package.module:Class"
+        "or a dotted path package.module:Class (`vpr-smr backends` lists each with its settings)"
     )

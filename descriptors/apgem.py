@@ -116,6 +116,7 @@ class APGeM(TorchBackend):
         "whitenv": None,  # number of components kept; null: all
         "whitenm": 1.0,
     }
+    input_summary: ClassVar[str] = "full size (max_size caps the longest side)"
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
         super().__init__(conf)

@@ -282,6 +282,8 @@ class BoQ(TorchBackend):
         "output_dim": None,  # None: from the checkpoint (proj_c and fc shapes); 16384 / 12288 for the releases
         "image_size": "auto",  # 384 x 384 (resnet50) or 322 x 322 (dinov2), or [H, W]
     }
+    input_summary: ClassVar[str] = ", ".join("{}x{} ({})".format(*size, backbone)
+                                             for backbone, size in OFFICIAL_SIZE.items())
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
         merged = {**self.default_conf, **(conf or {})}

@@ -109,6 +109,7 @@ class CosPlace(TorchBackend):
         "resize": None,  # None: full size (official eval); int: shorter side; [H, W]: fixed size
         "interpolation": "bilinear",
     }
+    input_summary: ClassVar[str] = "full size (resize: optional)"
     # Released files per backbone (hubconf.py AVAILABLE_TRAINED_MODELS) and where to get them.
     released: ClassVar[dict[str, list[int]]] = {
         "VGG16": [64, 128, 256, 512],

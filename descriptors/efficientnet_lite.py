@@ -178,6 +178,7 @@ class EfficientNetLite0GeM(TorchBackend):
     name: ClassVar[str] = "efficientnet_lite0_gem"
     # image_size is (H, W); the demo's 64x32 images are upsampled to it.
     default_conf: ClassVar[dict[str, Any]] = {"image_size": [112, 224], "gem_p": 3.0}
+    input_summary: ClassVar[str] = "{}x{} (H x W, image_size)".format(*default_conf["image_size"])
     needs_checkpoint: ClassVar[bool] = True
     dim: ClassVar[int] = HEAD_CHANNELS
 

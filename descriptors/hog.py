@@ -16,6 +16,7 @@ class HOG(Backend):
 
     name: ClassVar[str] = "hog"
     default_conf: ClassVar[dict[str, Any]] = {"width": 128, "height": 64, "cell": 8, "block": 16, "bins": 9}
+    input_summary: ClassVar[str] = f"any; grey, resized to {default_conf['width']}x{default_conf['height']} (W x H)"
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
         super().__init__(conf)

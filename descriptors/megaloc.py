@@ -148,6 +148,7 @@ class MegaLoc(TorchBackend):
         "depth": 12,
         "num_heads": 12,
     }
+    input_summary: ClassVar[str] = "{}x{} (H x W)".format(*OFFICIAL_SIZE)
     patch_size: ClassVar[int] = 14
     # Set by ``adapt_state_dict``: whether the file read last had megaloc.torch's keys (for messages).
     earlier_layout: bool = False

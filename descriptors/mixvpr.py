@@ -138,6 +138,7 @@ class MixVPR(TorchBackend):
         "out_channels": None,  # None: from the checkpoint's aggregator.channel_proj.weight (1024 for 4096-d)
         "out_rows": None,  # None: from the checkpoint's aggregator.row_proj.weight (4 for 4096-d)
     }
+    input_summary: ClassVar[str] = "{}x{} (H x W, image_size)".format(*default_conf["image_size"])
     source: ClassVar[str] = "https://github.com/amaralibey/MixVPR (README, Google Drive links)"
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:

@@ -115,6 +115,8 @@ class NetVLAD(TorchBackend):
         "num_clusters": 64,
         "num_pcs": 4096,  # 0: no WPCA (Nanne's files)
     }
+    input_summary: ClassVar[str] = ("{}x{} (H x W) with a Patch-NetVLAD file, full size with Nanne's"
+                                 .format(*PATCH_NETVLAD_SIZE))
     # Nanne's main.py wraps encoder and pool separately in nn.DataParallel: "encoder.module.0.weight".
     strip_components: ClassVar[tuple[str, ...]] = ("module",)
 

@@ -29,6 +29,7 @@ class SAD(Backend):
 
     name: ClassVar[str] = "sad"
     default_conf: ClassVar[dict[str, Any]] = {"width": 64, "height": 32, "patch": 8}
+    input_summary: ClassVar[str] = f"any; grey, resized to {default_conf['width']}x{default_conf['height']} (W x H)"
     distance = "mad"
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:

@@ -147,6 +147,7 @@ class SALAD(TorchBackend):
         "depth": 12,
         "num_heads": 12,
     }
+    input_summary: ClassVar[str] = "{}x{} (H x W)".format(*OFFICIAL_SIZE)
     patch_size: ClassVar[int] = 14
 
     def build_model(self) -> nn.Module:

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import difflib
 import json
+import re
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -38,6 +41,91 @@ def _hint(error: Any) -> str:
     return f" ({error.schema['description']})" if described else ""
 
 
+def _where(path: Iterable[Any]) -> str:
+    return ".".join(str(p) for p in path)
+
+
+def _unexpected_keys(error: Any) -> list[str]:
+    """An object with keys its schema does not allow: each key with the closest allowed one and all of them
+    (jsonschema's own message names the key only)."""
+    allowed = list(error.schema.get("properties", {}))
+    where = _where(error.absolute_path)
+    lines = []
+    for key in error.instance:
+        if key in allowed:
+            continue
+        close = difflib.get_close_matches(str(key), allowed, n=1)
+        hint = f" (did you mean {close[0]!r}?)" if close else ""
+        lines.append(f"{_where([*error.absolute_path, key])}: unexpected key {key!r}{hint}; "
+                     f"{where or 'the top level'} allows: {', '.join(allowed)}")
+    return lines
+
+
+def _character_class(pattern: str) -> str | None:
+    """The body of a pattern of the form ``^[...]+$`` (a name of allowed characters), else None."""
+    match = re.fullmatch(r"\^\[([^\]^\\]+)\][+*]\$", pattern)
+    return match.group(1) if match else None
+
+
+def _describe_class(body: str) -> str:
+    """``A-Za-z0-9_.-`` -> ``letters A-Z a-z, digits 0-9, '_', '.' and '-'``: the allowed characters in words."""
+    letters, parts, i = [], [], 0
+    while i < len(body):
+        if i + 2 < len(body) and body[i + 1] == "-":
+            lo, hi = body[i], body[i + 2]
+            if lo.isalpha():
+                letters.append(f"{lo}-{hi}")
+            else:
+                parts.append(f"digits {lo}-{hi}" if lo.isdigit() else f"{lo!r} to {hi!r}")
+            i += 3
+        else:
+            parts.append(repr(body[i]))
+            i += 1
+    if letters:
+        parts.insert(0, "letters " + " ".join(letters))
+    return parts[0] if len(parts) == 1 else f"{', '.join(parts[:-1])} and {parts[-1]}"
+
+
+def _shown(character: str) -> str:
+    return "a space" if character == " " else repr(character)
+
+
+def _pattern_message(error: Any) -> str:
+    """A string that does not match its pattern: which characters are allowed and which of the string's are not,
+    in words (the regular expression alone tells a user little)."""
+    body = _character_class(error.validator_value)
+    what = f"the name {error.instance!r}" if "propertyNames" in error.schema_path else repr(error.instance)
+    if body is None or not isinstance(error.instance, str):
+        return f"{what} does not have the form {error.validator_value}"
+    allowed = _describe_class(body)
+    if not error.instance:
+        return f"{what} is empty; use at least one of {allowed}"
+    bad: dict[str, int] = {}
+    for position, character in enumerate(error.instance, 1):
+        if re.fullmatch(f"[{body}]", character) is None:
+            bad.setdefault(character, position)
+    listed = [f"{_shown(c)} (character {position})" for c, position in bad.items()]
+    has = listed[0] if len(listed) == 1 else f"{', '.join(listed[:-1])} and {listed[-1]}"
+    return f"{what} is not allowed: it has {has}; use only {allowed}"
+
+
+def _messages(error: Any) -> list[str]:
+    """One line per problem of a jsonschema error, each starting with the setting's dotted path."""
+    if error.validator == "additionalProperties" and isinstance(error.instance, dict) and error.schema.get(
+            "additionalProperties") is False:
+        return _unexpected_keys(error)
+    where = _where(error.absolute_path) or "(top level)"
+    if error.validator == "pattern":
+        return [f"{where}: {_pattern_message(error)}"]
+    lines = [f"{where}: {error.message}{_hint(error)}"]
+    if error.validator in ("oneOf", "anyOf"):
+        # a form that is an object with a misspelt key: name the key, as for any other object
+        for sub in error.context:
+            if sub.validator == "additionalProperties" and sub.schema.get("additionalProperties") is False:
+                lines += _unexpected_keys(sub)
+    return lines
+
+
 def validate(conf: dict[str, Any], source: str = "configuration") -> dict[str, Any]:
     import jsonschema
 
@@ -45,8 +133,7 @@ def validate(conf: dict[str, Any], source: str = "configuration") -> dict[str, A
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(conf), key=lambda e: list(e.absolute_path))
     if errors:
-        lines = [f"  {'.'.join(str(p) for p in e.absolute_path) or '(top level)'}: {e.message}{_hint(e)}"
-                 for e in errors]
+        lines = [f"  {line}" for e in errors for line in _messages(e)]
         raise ConfigError(f"{source} is invalid:\n" + "\n".join(lines))
     conf = json.loads(json.dumps(conf))
     _fill_defaults(schema, conf)

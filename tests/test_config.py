@@ -82,7 +82,44 @@ def test_schema_errors_name_the_setting(tmp_path):
     assert "c.yaml is invalid" in text
     assert "seq_lens.0: 1 is less than the minimum of 2" in text
     assert "datasets.d: 'loader' is a required property" in text
-    assert "'colour' was unexpected" in text
+    assert "colour: unexpected key 'colour'; the top level allows: run, output, seq_lens" in text
+
+
+def test_unexpected_keys_get_the_closest_allowed_one(tmp_path):
+    path = write(tmp_path, """
+        run: x
+        seq_len: [4]
+        datasets: {d: {loader: folders, splits: {test: {reference: [0, 9], quer: [0, 9]}}}}
+        methods: {m: {backend: sad}}
+        experiments: {sped: false}
+    """)
+    with pytest.raises(ConfigError) as error:
+        load_config(path)
+    text = str(error.value)
+    assert "  seq_len: unexpected key 'seq_len' (did you mean 'seq_lens'?); the top level allows: run, output, " \
+           "seq_lens," in text
+    # inside a nested object, and inside one form of a setting that takes several (a split)
+    assert "  experiments.sped: unexpected key 'sped' (did you mean 'speed'?); experiments allows: trust_levels, " \
+           "restoration, attribute_ablation, leave_one_method_out, seq_len_ablation, speed" in text
+    assert "  datasets.d.splits.test.quer: unexpected key 'quer' (did you mean 'query'?); datasets.d.splits.test " \
+           "allows: reference, query" in text
+    assert "Additional properties" not in text
+
+
+def test_names_with_characters_that_are_not_allowed(tmp_path):
+    path = write(tmp_path, """
+        run: corridor ü
+        datasets: {my set: {loader: nordland_sample}}
+        methods: {"sad/2": {backend: sad}}
+    """)
+    with pytest.raises(ConfigError) as error:
+        load_config(path)
+    text = str(error.value)
+    allowed = "use only letters A-Z a-z, digits 0-9, '_', '.' and '-'"
+    assert f"  run: 'corridor ü' is not allowed: it has a space (character 9) and 'ü' (character 10); {allowed}" in text
+    assert f"  datasets: the name 'my set' is not allowed: it has a space (character 3); {allowed}" in text
+    assert f"  methods: the name 'sad/2' is not allowed: it has '/' (character 4); {allowed}" in text
+    assert "^[A-Za-z0-9_.-]+$" not in text
 
 
 def test_preflight_names_missing_checkpoint_and_root(tmp_path):

@@ -135,6 +135,17 @@ def test_misspelt_loader_setting_is_named_with_the_valid_ones(tmp_path):
         load_dataset("corridor", conf)
 
 
+def test_misspelt_split_setting_is_named_with_the_closest_key(tmp_path):
+    conf = basic(tmp_path)
+    conf["tolerence"] = conf.pop("tolerance", 2)
+    with pytest.raises(DatasetError) as error:
+        load_dataset("corridor", conf)
+    message = str(error.value)
+    assert "datasets.corridor.tolerence" in message and "(did you mean 'tolerance'?)" in message
+    assert message.endswith("its settings: loader, reference, query, reference_list, query_list, pairing, "
+                            "reference_positions, query_positions, positions, frames, splits, tolerance, radius")
+
+
 # --- every image fully decoded ---
 
 

@@ -312,8 +312,10 @@ def test_velocity_search_follows_a_faster_query():
 def test_non_finite_values_name_the_block():
     matrix = np.random.default_rng(0).random((30, 12))
     matrix[4, 9] = np.nan
-    with pytest.raises(ValueError, match=r"1 non-finite values \(NaN or inf\) in query columns 3\.\.11"):
-        velocity_block_features(read_columns(matrix, 3, 12), 3, 2, (1.0, 2.0), where=" in query columns 3..11")
+    # one block alone: its count, its columns, the first bad value in the matrix's own indices
+    with pytest.raises(ValueError, match=r"1 non-finite value \(1 NaN\) in query columns 3\.\.11; the first is NaN "
+                                         r"at row 4 \(reference\), column 9 \(query\)"):
+        velocity_block_features(read_columns(matrix, 3, 12), 3, 2, (1.0, 2.0), first_column=3)
     matrix[4, 9] = np.inf
     with pytest.raises(ValueError, match="non-finite"):
         features(matrix, 3, 2, (1.0,))

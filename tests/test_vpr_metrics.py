@@ -112,6 +112,24 @@ def test_every_metric_by_hand():
             assert got.extended_precision == pytest.approx(ep), (mode, matcher)
 
 
+def test_cli_prints_every_metric_as_a_table(tmp_path, capsys):
+    np.save(tmp_path / "D.npy", D)
+    assert cli(["metrics", "--distances", str(tmp_path / "D.npy"), "--seq-len", str(SEQ_LEN), "--tolerance",
+                str(TOLERANCE), "--out", str(tmp_path / "m.json")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split() == ["split", "mode", "matcher", "queries", "R@1", "R@5", "R@10", "R@20", "R@100P",
+                                "PR-AUC", "EP"]
+    rows = [line.split() for line in lines[1:]]
+    # one row per mode and matcher, in the JSON's order; the numbers worked out by hand above (EXPECTED), rounded
+    assert [row[:3] for row in rows] == [["all", mode, matcher] for mode in MODES for matcher in ("single",
+                                                                                                  "sequence")]
+    for _, mode, matcher, *cells in rows:
+        n, r1, r5, r100p, auc, ep = EXPECTED[mode][matcher]
+        assert cells == [str(n), *(f"{v:.4f}" for v in (r1, r5, r5, r5, r100p, auc, ep))], (mode, matcher)
+    assert ["all", "paper", "single", "6", "0.5000", "1.0000", "1.0000", "1.0000", "0.3333", "0.9167",
+            "0.6667"] in rows  # the paper's single frame spelt out: recall@1 3/6, AUC 11/12, EP (1 + 1/3) / 2
+
+
 def test_without_a_predictor_there_is_no_predictor_matcher():
     scored = score_split(D, SEQ_LEN, TOLERANCE, modes=("standard",))
     assert list(scored.metrics.modes) == ["standard"]

@@ -89,13 +89,15 @@ def _float_block(columns: np.ndarray) -> np.ndarray:
     return raw.astype(_block_dtype(raw.dtype), copy=False)
 
 
-def _check_block(raw: np.ndarray, seq_len: int, n_ranks: int, velocities: tuple[float, ...], where: str) -> int:
+def _check_block(raw: np.ndarray, seq_len: int, n_ranks: int, velocities: tuple[float, ...],
+                 first_column: int) -> int:
     """``r_min``, after checking the block's shape against ``L``, ``K`` and the velocities."""
     n_cols, n_ref = raw.shape
     if seq_len < 2:
         raise ValueError(f"sequence length must be at least 2, got {seq_len}")
     if n_cols < seq_len:
-        raise ValueError(f"a block of {n_cols} query columns holds no query of sequence length {seq_len}{where}")
+        raise ValueError(f"a block of {n_cols} query columns holds no query of sequence length {seq_len} (query "
+                         f"columns {first_column}..{first_column + n_cols - 1})")
     r_min = first_reference(seq_len, velocities)
     if n_ref - r_min < 1:
         raise ValueError(f"{n_ref} references are too few for sequence length {seq_len} at velocities "
@@ -105,19 +107,20 @@ def _check_block(raw: np.ndarray, seq_len: int, n_ranks: int, velocities: tuple[
     return r_min
 
 
-def _column_max(raw: np.ndarray, where: str) -> np.ndarray:
+def _column_max(raw: np.ndarray, first_column: int) -> np.ndarray:
     """Each column's maximum over all references, float64, a zero maximum replaced by 1 (as SPEC 5 divides), or
-    ValueError naming the block (``where``) when it holds NaN or inf (they show up in the maxima and minima)."""
+    ``NonFiniteError`` when the block (whose first column is ``first_column``) holds NaN or inf (they show up in
+    the maxima and minima)."""
     raw_max = raw.max(axis=1)
     if not (np.all(np.isfinite(raw_max)) and np.all(np.isfinite(raw.min(axis=1)))):
-        check_finite(raw, where=where)
+        check_finite(raw, first_column=first_column, queries_first=True)
     col_max: np.ndarray = raw_max.astype(np.float64)
     col_max[col_max == 0] = 1.0
     return col_max
 
 
 def velocity_block_features(columns: np.ndarray, seq_len: int, n_ranks: int, velocities: Sequence[float],
-                            where: str = "", *, total_queries: int | None = None) -> dict[str, np.ndarray]:
+                            first_column: int = 0, *, total_queries: int | None = None) -> dict[str, np.ndarray]:
     """SPEC 11's sequence matching and attributes for the queries of one block of ``Wb`` consecutive query columns.
 
     ``columns`` is ``(Wb, R)``: row ``q`` is column ``c + q`` of the distance matrix (``attributes.read_columns``);
@@ -128,17 +131,18 @@ def velocity_block_features(columns: np.ndarray, seq_len: int, n_ranks: int, vel
     match. Every value is the definition's float64 value, summed in its order, so any block split gives the same
     numbers, and ``velocities=(1.0,)`` gives ``attributes.block_features``' numbers bit for bit.
 
-    ``n_ranks`` must be 1 .. ``R - r_min``. ``where`` names the block in the error raised on NaN or inf.
+    ``n_ranks`` must be 1 .. ``R - r_min``. ``first_column`` is ``c``, so that an error on NaN or inf gives the
+    matrix's own column.
     ``total_queries``: the queries of the whole matrix this block belongs to (default: the block's), so that the
     compiled kernel is chosen when the whole run pays for its fixed cost (``KERNEL_MIN_WORK``); the results are the
     same on either path.
     """
     values = check_velocities(velocities)
     raw = _float_block(columns)
-    r_min = _check_block(raw, seq_len, n_ranks, values, where)
+    r_min = _check_block(raw, seq_len, n_ranks, values, first_column)
     order = search_order(values)
     table = np.stack([offsets(v, seq_len) for v in order])  # (|V|, L), in the tie rule's order
-    col_max = _column_max(raw, where)
+    col_max = _column_max(raw, first_column)
     n_queries = raw.shape[0] - seq_len + 1
     per_query = len(order) * seq_len * raw.shape[1]
     kernels = _velocity_kernels(per_query * n_queries, per_query * max(n_queries, total_queries or 0))
