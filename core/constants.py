@@ -30,3 +30,8 @@ DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)
 # SPEC 11: velocities (reference frames per query frame) searched by sequence matching; (1.0,) is SPEC 4's fixed
 # slope-1 matcher, the paper's. pipeline/config_schema.json repeats it as `sequence_matching.velocities`' default.
 DEFAULT_VELOCITIES = (1.0,)
+
+# The layout of the result files (predictors, evaluations, the speed experiment's): a job param of the rules that
+# write them, so that a run made by an earlier layout writes them again instead of failing to read them. 2: predictor
+# files record their matching, every reduction its outcome (0.5.0).
+RESULTS_LAYOUT = 2

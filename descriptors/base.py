@@ -32,6 +32,7 @@ import numpy as np
 import torch
 
 from vpr_smr.core.constants import METRICS
+from vpr_smr.core.files import EMPTY, GZIP, HDF5, KINDS, MAT, NPY, PICKLE, TAR, ZIP, file_kind, read_head, text_start
 
 # Accepted by every backend, next to the backend's own ``default_conf``.
 COMMON_SETTINGS = ("checkpoint", "device", "half", "distance", "preprocessing")
@@ -56,6 +57,9 @@ class Backend:
     distance: str = "l2"
     # Learned backends need a checkpoint path in the configuration (``checkpoint: ...``).
     needs_checkpoint: ClassVar[bool] = False
+    # The images the backend feeds its model under its default settings, in words (listed by `vpr-smr backends`):
+    # the official evaluation's size, or "full size".
+    input_summary: ClassVar[str] = "not stated"
     # The file the weights came from, once loaded (its SHA-256 goes into the provenance).
     checkpoint_file: Path | None = None
 
@@ -352,23 +356,23 @@ def describe_file(path: Path, setting: str = "checkpoint", inside: str | None = 
     the fix: "is empty (0 bytes): ...". ``None`` when it looks like an intact torch.save file. ``inside``: what
     to do with the file inside an archive (default: point ``setting`` to it)."""
     size = path.stat().st_size
-    if size == 0:
-        return f"is empty (0 bytes): {AGAIN}"
-    with open(path, "rb") as handle:
-        head = handle.read(512)
+    head = read_head(path)
+    kind = file_kind(head)
     inside = inside or f"set `{setting}` to the checkpoint inside"
-    if head[257:262] == b"ustar":  # torch's weights_only unpickler reads a tar header as "pop from empty list"
+    if kind == EMPTY:
+        return f"is empty (0 bytes): {AGAIN}"
+    if kind == TAR:  # torch's weights_only unpickler reads a tar header as "pop from empty list"
         return f"is a tar archive{_members(path, tarfile.open)}, not a checkpoint: unpack it (`tar -xf`) and {inside}"
-    if head.startswith(b"\x1f\x8b"):
+    if kind == GZIP:
         return f"is gzip-compressed, not a checkpoint: unpack it (`gunzip`, or `tar -xzf` for a .tar.gz) and {inside}"
-    if head.startswith(b"\x89HDF\r\n\x1a\n"):
+    if kind == HDF5:
         return "is an HDF5 file (Keras or TensorFlow weights?), not a PyTorch checkpoint: download the PyTorch release"
-    if head.startswith(b"\x93NUMPY"):
-        return "is a NumPy .npy array, not a torch.save checkpoint: download the checkpoint itself"
+    if kind in (NPY, MAT):
+        return f"is {KINDS[kind]}, not a torch.save checkpoint: download the checkpoint itself"
     if _is_safetensors(head, size):
         return ("is a safetensors file, not a torch.save checkpoint (.pth, .pt, .ckpt): this backend reads the "
                 "torch.save release; download that file")
-    if head.startswith(b"PK\x03\x04"):  # torch.save's zip format
+    if kind == ZIP:  # torch.save's zip format
         if not zipfile.is_zipfile(path):
             return f"is truncated ({size} bytes; a zip archive, torch.save's format, without its end): {AGAIN}"
         with zipfile.ZipFile(path) as archive:
@@ -376,10 +380,10 @@ def describe_file(path: Path, setting: str = "checkpoint", inside: str | None = 
         if not any(name.endswith("/data.pkl") for name in names):
             return f"is a zip archive{_members(path, zipfile.ZipFile)}, not a torch.save file: unzip it and {inside}"
         return None
-    text = _text_start(head)
-    if text is not None:
+    text = text_start(head)
+    if text is not None:  # a MATLAB file's header is text too
         return _describe_text(text)
-    if head.startswith(b"\x80"):  # a pickle: torch.save's legacy format, or a plain pickle
+    if kind == PICKLE:  # torch.save's legacy format, or a plain pickle
         return _describe_legacy(path, size)
     return (f"is not a torch.save file (it starts with bytes {head[:8].hex(' ')}): download the checkpoint "
             f"again, or check that `{setting}` names the right file")
@@ -437,15 +441,6 @@ def _is_safetensors(head: bytes, size: int) -> bool:
     """safetensors: an 8-byte little-endian header length, then the JSON header."""
     length = int.from_bytes(head[:8], "little")
     return len(head) > 8 and head[8:9] == b"{" and 0 < length <= size - 8
-
-
-def _text_start(head: bytes) -> str | None:
-    """The beginning of ``head`` as text if it is text (UTF-8, no NUL, printable), else ``None``."""
-    if b"\0" in head:
-        return None
-    text = head.decode("utf-8", errors="replace").lstrip("\ufeff")
-    printable = sum(c.isprintable() or c in "\t\r\n" for c in text if c != "\ufffd")
-    return text if printable >= 0.95 * len(text) else None
 
 
 def _describe_text(text: str) -> str:

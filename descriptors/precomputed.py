@@ -12,6 +12,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from vpr_smr.core.files import load_npy
 from vpr_smr.datasets import TraversePair
 from vpr_smr.descriptors.base import Backend, CheckpointError
 
@@ -22,6 +23,7 @@ QUERIES_FILE = "queries_descriptors.npy"
 class Precomputed(Backend):
     name: ClassVar[str] = "precomputed"
     default_conf: ClassVar[dict[str, Any]] = {"folder": None, "database": None, "queries": None}
+    input_summary: ClassVar[str] = "no images: descriptors read from files"
 
     def paths(self) -> tuple[Path, Path]:
         folder = self.conf["folder"]
@@ -39,7 +41,10 @@ class Precomputed(Backend):
         for path, traverse in zip(self.paths(), (pair.reference, pair.query), strict=True):
             if not path.is_file():
                 raise CheckpointError(f"precomputed descriptors not found: {path}")
-            values = np.load(path, allow_pickle=False)
+            try:
+                values = load_npy(path, f"the {traverse.name} descriptors (frames x dim)")
+            except ValueError as error:
+                raise CheckpointError(str(error)) from None
             if values.ndim != 2 or len(values) != len(traverse):
                 raise CheckpointError(
                     f"{path} holds an array of shape {values.shape}, but dataset {pair.name!r} has {len(traverse)} "

@@ -14,6 +14,7 @@ from typing import Any
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, METRICS, MODES
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix, package_version
 from vpr_smr.pipeline.config import ConfigError, load_config, schema_default
+from vpr_smr.pipeline.console import LOG_FORMAT
 
 log = logging.getLogger("vpr_smr")
 
@@ -73,7 +74,7 @@ def cmd_attributes(args: argparse.Namespace) -> None:
 
     attributes.main(args.distances, args.out, args.seq_len, args.tolerance, velocities=args.velocities,
                     radius=args.radius, reference_positions=args.reference_positions,
-                    query_positions=args.query_positions)
+                    query_positions=args.query_positions, similarity=args.similarity)
 
 
 def _check_seq_len(args: argparse.Namespace, *groups: Iterable[str] | None) -> None:
@@ -126,10 +127,12 @@ def cmd_metrics(args: argparse.Namespace) -> None:
     from vpr_smr.eval.scoring import vpr_metrics
 
     meta = {key: value for key, value in (("dataset", args.dataset), ("method", args.method)) if value is not None}
-    vpr_metrics.main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
-                     predictor=args.predictor, attributes=_split_paths(args.attributes or []), modes=tuple(args.modes),
-                     queries=args.queries, meta=meta, allow_split_overlap=args.allow_split_overlap,
-                     matcher=_matcher(args))
+    result = vpr_metrics.main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
+                              predictor=args.predictor, attributes=_split_paths(args.attributes or []),
+                              modes=tuple(args.modes), queries=args.queries, meta=meta,
+                              allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
+                              similarity=args.similarity)
+    print(vpr_metrics.format_metrics(result))
 
 
 def cmd_queries(args: argparse.Namespace) -> None:
@@ -137,7 +140,8 @@ def cmd_queries(args: argparse.Namespace) -> None:
 
     vpr_metrics.queries_main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
                              predictor=args.predictor, attributes=_split_paths(args.attributes or []),
-                             allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args))
+                             allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
+                             similarity=args.similarity)
 
 
 def _matcher(args: argparse.Namespace) -> Any:
@@ -190,13 +194,15 @@ def cmd_speed(args: argparse.Namespace) -> None:
 def cmd_inspect(args: argparse.Namespace) -> None:
     from vpr_smr.eval.report import inspector
 
+    settings = (None if args.dataset_settings is None
+                else _json_object(args.dataset_settings, "--dataset-settings"))
     written = inspector.main(
-        args.queries, args.distances, args.dataset, _json_object(args.dataset_settings, "--dataset-settings"),
+        args.queries, args.distances, args.dataset, settings,
         args.frames_sha256, args.seq_len, args.split, args.tolerance, args.match_figure, args.matrix_figure,
         per_class=args.per_class, mistakes=args.mistakes, seed=args.seed,
         split_range=(args.frames[0], args.frames[1]) if args.frames else None, radius=args.radius,
         velocities=tuple(args.velocities))
-    log.info("wrote %s and %s", *written)
+    log.info("wrote %s", " and ".join(str(path) for path in written if path is not None))
 
 
 def cmd_report(args: argparse.Namespace) -> None:
@@ -244,6 +250,13 @@ def cmd_checkpoint_check(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_backends(args: argparse.Namespace) -> int:
+    from vpr_smr.descriptors.catalogue import backend_facts, format_backends
+
+    print(format_backends(backend_facts()))
+    return 0
+
+
 def cmd_convert_checkpoint(args: argparse.Namespace) -> int:
     from vpr_smr.descriptors.convert import CONVERTERS, no_conversion
 
@@ -264,7 +277,7 @@ def _frame_range(text: str, option: str) -> list[int]:
 
 def _splits(items: list[str]) -> dict[str, Any]:
     """``["train=0:40", "val=40:70"]`` -> ``{"train": [0, 40], "val": [40, 70]}``; ``test=0:90/40:70`` gives the
-    reference and the query range apart (SPEC 11): ``{"test": {"reference": [0, 90], "query": [40, 70]}}``."""
+    reference and the query range apart: ``{"test": {"reference": [0, 90], "query": [40, 70]}}``."""
     splits: dict[str, Any] = {}
     for item in items:
         name, sep, frames = item.partition("=")
@@ -346,11 +359,11 @@ def _allow_overlap(parser: argparse.ArgumentParser) -> None:
 
 
 def _matcher_options(parser: argparse.ArgumentParser) -> None:
-    """The sequence matcher and the ground truth of SPEC 11: velocity search and positions within a radius."""
+    """The sequence matcher and its ground truth: velocity search and positions within a radius."""
     parser.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE,
                         help="frame-aligned pairs: a match within this many frames is correct (default 2)")
     parser.add_argument("--velocities", type=float, nargs="+", default=list(DEFAULT_VELOCITIES), metavar="V",
-                        help="reference frames per query frame searched by SeqSLAM (SPEC 11; default 1.0: the "
+                        help="reference frames per query frame searched by SeqSLAM (default 1.0: the "
                              "paper's fixed matcher), e.g. --velocities 0.5 0.75 1 1.25 1.5 2")
     parser.add_argument("--reference-positions", metavar="PATH",
                         help="one position per reference frame (.npy, or CSV of numbers: x[,y]); with "
@@ -358,6 +371,9 @@ def _matcher_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--query-positions", metavar="PATH", help="one position per query frame (.npy or CSV)")
     parser.add_argument("--radius", type=float,
                         help="with positions: a match within this distance (the positions' unit) is correct")
+    parser.add_argument("--similarity", action="store_true",
+                        help="the .npy matrix holds similarities (larger = more similar): read as distances "
+                             "max(M) - M, recorded in the outputs")
 
 
 def _matrix_options(parser: argparse.ArgumentParser, predictor_help: str) -> None:
@@ -371,43 +387,66 @@ def _matrix_options(parser: argparse.ArgumentParser, predictor_help: str) -> Non
                         help="the splits' attributes (.h5) computed from the same matrices (default: computed here)")
 
 
+# The top-level help: plain text for users, in the order they run the commands (line breaks kept).
+DESCRIPTION = """\
+From the images of two traverses of a route (a reference and a query drive) to the tables, figures and report
+of sequence-matching receptiveness (SMR) in visual place recognition, offline.
+
+The usual order:
+  1. check your data: every image found and decoded, the frames paired and split
+       vpr-smr dataset check folders --reference my_route/reference --query my_route/query
+       vpr-smr dataset check --config my.yaml
+  2. run the whole workflow of a configuration: descriptors, distances, predictor, tables, report.html
+       vpr-smr run my.yaml
+  3. or score a distance matrix of your own method (references x queries, .npy) stage by stage
+       vpr-smr attributes --distances D.npy --seq-len 4 --out attributes.csv
+       vpr-smr metrics --distances D.npy --seq-len 4 --out metrics.json
+       vpr-smr queries --distances D.npy --seq-len 4 --out queries.csv
+"""
+EPILOG = """\
+A configuration to start from: configs/own_folders.yaml in a checkout (two image folders of your own).
+vpr-smr backends lists the descriptor backends with their settings.
+vpr-smr COMMAND --help shows a command's options; vpr-smr --debug COMMAND ... shows an error's traceback.
+"""
+
+# The help of options that several commands share with one meaning, filled in where a command adds one without
+# its own help (``--out``'s comes from OUT_FILES, per command).
+SHARED_HELP = {
+    "--seq-len": "the sequence length L of SeqSLAM's sequence matching (frames per sequence)",
+    "--tolerance": f"a match within this many frames of the query's own is correct (default {DEFAULT_TOLERANCE})",
+    "--dataset": "the dataset's name (a key of the configuration's datasets)",
+    "--method": "the method's name (a key of the configuration's methods)",
+    "--queries": "the per-query table (.csv) of vpr-smr queries",
+    "--distances": "the distance matrix: our .h5, or a references x queries .npy",
+    "--matrix-figure": "where to write the distance-matrix figure (.png)",
+    "--modes": "the metric modes: paper (the authors' rules) and/or standard",
+}
+
+
+def _fill_help(parser: argparse.ArgumentParser, command: str = "") -> None:
+    """Give every option of every (sub)command added without help its shared one (``SHARED_HELP``, ``OUT_FILES``)."""
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, subparser in action.choices.items():
+                _fill_help(subparser, f"{command} {name}".strip())
+        elif action.help is None:
+            option = next((o for o in action.option_strings if o.startswith("--")), "")
+            if option == "--out" and command in OUT_FILES:
+                action.help = f"the output file: {OUT_FILES[command][0]}"
+            elif option in SHARED_HELP:
+                action.help = SHARED_HELP[option]
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="vpr-smr", description=__doc__)
+    parser = argparse.ArgumentParser(prog="vpr-smr", description=DESCRIPTION, epilog=EPILOG,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}",
                         help="the installed version (the package metadata's); cite it with your results")
     parser.add_argument("-v", "--verbose", action="store_true", help="debug logging")
     parser.add_argument("--debug", action="store_true", help="show the Python traceback of an error")
-    sub = parser.add_subparsers(dest="command", required=True)
+    sub = parser.add_subparsers(dest="command", required=True, title="commands", metavar="COMMAND")
 
-    p = sub.add_parser("run", help="run the whole workflow of a configuration with Snakemake")
-    p.add_argument("config")
-    p.add_argument("--cores", type=int, help="default: the profile's (local: 2)")
-    p.add_argument("--config", dest="set", action="append", metavar="KEY=VALUE",
-                   help="override a setting, dotted keys for nested ones: --config predictor.max_iter=500")
-    p.add_argument("--profile", default="local", help="a shipped profile (local, slurm) or a profile folder")
-    p.add_argument("-n", "--dry-run", action="store_true")
-    # Its own dest: a subcommand's default would overwrite the global -v/--verbose (`vpr-smr -v run` works too).
-    p.add_argument("-v", "--verbose", dest="snakemake_output", action="store_true",
-                   help="show Snakemake's own output instead of the progress view (which logs it under "
-                        "<run folder>/logs/snakemake-<time>.log)")
-    p.epilog = "Arguments after a lone -- go to snakemake unchanged, e.g. vpr-smr run c.yaml -- --forceall"
-    p.set_defaults(func=cmd_run)
-
-    p = sub.add_parser("checkpoint", help="checkpoint tools")
-    checkpoint_sub = p.add_subparsers(dest="checkpoint_command", required=True)
-    c = checkpoint_sub.add_parser("check", help="load a downloaded checkpoint exactly as the pipeline would")
-    c.add_argument("method", help="backend name, e.g. netvlad, cosplace, salad")
-    c.add_argument("file")
-    c.add_argument("--option", action="append", metavar="KEY=VALUE", help="a backend setting (repeatable)")
-    c.set_defaults(func=cmd_checkpoint_check)
-
-    p = sub.add_parser("convert-checkpoint", help="turn an official pickle into a plain tensor file (apgem)")
-    p.add_argument("method")
-    p.add_argument("input")
-    p.add_argument("output")
-    p.set_defaults(func=cmd_convert_checkpoint)
-
-    p = sub.add_parser("dataset", help="dataset tools")
+    p = sub.add_parser("dataset", help="check a dataset on disk before a run (start here)")
     dataset_sub = p.add_subparsers(dest="dataset_command", required=True)
     c = dataset_sub.add_parser(
         "check", help="verify a dataset on disk before a long run",
@@ -438,24 +477,62 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--no-decode", dest="decode", action="store_false", help="only look for the files")
     c.set_defaults(func=cmd_dataset_check)
 
+    p = sub.add_parser("run", help="run the whole workflow of a configuration with Snakemake")
+    p.add_argument("config", help="the run's configuration (.yaml), e.g. configs/own_folders.yaml")
+    p.add_argument("--cores", type=int, help="default: the profile's (local: 2)")
+    p.add_argument("--config", dest="set", action="append", metavar="KEY=VALUE",
+                   help="override a setting, dotted keys for nested ones: --config predictor.max_iter=500")
+    p.add_argument("--profile", default="local", help="a shipped profile (local, slurm) or a profile folder")
+    p.add_argument("-n", "--dry-run", action="store_true", help="only count the jobs that would run, per rule")
+    # Its own dest: a subcommand's default would overwrite the global -v/--verbose (`vpr-smr -v run` works too).
+    p.add_argument("-v", "--verbose", dest="snakemake_output", action="store_true",
+                   help="show Snakemake's own output instead of the progress view (which logs it under "
+                        "<run folder>/logs/snakemake-<time>.log)")
+    p.epilog = "Arguments after a lone -- go to snakemake unchanged, e.g. vpr-smr run c.yaml -- --forceall"
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("backends", help="list the descriptor backends: checkpoint, input size, default settings",
+                       description="Every descriptor backend (built in, or registered by an installed package) with "
+                                   "whether it needs a checkpoint, its distance, the input size of its official "
+                                   "evaluation and its default settings.")
+    p.set_defaults(func=cmd_backends)
+
+    p = sub.add_parser("checkpoint", help="checkpoint tools")
+    checkpoint_sub = p.add_subparsers(dest="checkpoint_command", required=True)
+    c = checkpoint_sub.add_parser("check", help="load a downloaded checkpoint exactly as the pipeline would")
+    c.add_argument("method", help="backend name, e.g. netvlad, cosplace, salad")
+    c.add_argument("file", help="the downloaded checkpoint file")
+    c.add_argument("--option", action="append", metavar="KEY=VALUE", help="a backend setting (repeatable)")
+    c.set_defaults(func=cmd_checkpoint_check)
+
+    p = sub.add_parser("convert-checkpoint", help="turn an official pickle into a plain tensor file (apgem)")
+    p.add_argument("method", help="the backend whose release needs converting (apgem)")
+    p.add_argument("input", help="the official file, e.g. Resnet-101-AP-GeM.pt")
+    p.add_argument("output", help="the plain tensor file to write; set it as the method's checkpoint")
+    p.set_defaults(func=cmd_convert_checkpoint)
+
     p = sub.add_parser("descriptors", help="compute a method's descriptors of a dataset (HDF5)")
     _required(p, "--dataset", "--method", "--out")
     p.add_argument("--config", help="take the dataset's and method's settings from this configuration file")
     p.add_argument("--dataset-settings", help="the dataset's settings as a JSON object (or @file)")
     p.add_argument("--method-settings", help="the method's settings as a JSON object (or @file)")
     p.add_argument("--frames-sha256", help="fail unless the dataset's frame lists have this fingerprint")
-    p.add_argument("--batch-size", type=int)
-    p.add_argument("--num-workers", type=int)
+    p.add_argument("--batch-size", type=int, help="images per batch (default: about 600k input values on a CPU, "
+                                                   "32 on a GPU)")
+    p.add_argument("--num-workers", type=int, help="image-decoding worker processes (default: one per 4 CPU "
+                                                    "cores, up to 4 with a GPU)")
     p.add_argument("--threads", type=int, help="CPU threads of the network")
     p.set_defaults(func=cmd_descriptors)
 
     p = sub.add_parser("distances", help="reference x query distance matrix of one split (HDF5)")
-    _required(p, "--descriptors", "--split", "--out")
+    p.add_argument("--descriptors", required=True, help="the descriptor file (.h5) of vpr-smr descriptors")
+    p.add_argument("--split", required=True, help="the split's name, e.g. test (written in the file)")
+    _required(p, "--out")
     p.add_argument("--frames", type=int, nargs=2, required=True, metavar=("LO", "HI"),
                    help="the split's frames lo..hi-1 of both traverses (its queries, with --reference-frames)")
     p.add_argument("--reference-frames", type=int, nargs=2, metavar=("LO", "HI"),
                    help="the split's reference frames lo..hi-1, when they differ from --frames (traverses with "
-                        "positions, SPEC 11)")
+                        "positions)")
     p.add_argument("--metric", choices=METRICS, help="the distance (default: the descriptor file's, its backend's)")
     p.set_defaults(func=cmd_distances)
 
@@ -471,9 +548,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seq-len", type=int, required=True)
     p.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
     p.add_argument("--seeds", type=int, default=1, help="train seeds 0..N-1 (seed 0: the authors' recipe)")
-    p.add_argument("--train", nargs="+", required=True)
-    p.add_argument("--val", nargs="*")
-    p.add_argument("--test", nargs="*")
+    p.add_argument("--train", nargs="+", required=True, metavar="PATH",
+                   help="every method's train-split attributes (.h5), pooled in this order")
+    p.add_argument("--val", nargs="*", metavar="PATH", help="every method's validation-split attributes (.h5): "
+                                                             "the predictor's F1 on them")
+    p.add_argument("--test", nargs="*", metavar="PATH", help="every method's test-split attributes (.h5): the "
+                                                              "predictor's F1 on them")
     p.add_argument("--out", required=True, help="the seed-0 predictor (.h5); other seeds beside it")
     _allow_overlap(p)
     p.set_defaults(func=cmd_train)
@@ -481,7 +561,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("evaluate", help="match removal and precision-recall of one method")
     _required(p, "--dataset", "--method")
     p.add_argument("--seq-len", type=int, required=True)
-    p.add_argument("--attributes", nargs="+", required=True, metavar="SPLIT=PATH")
+    p.add_argument("--attributes", nargs="+", required=True, metavar="SPLIT=PATH",
+                   help="the method's attributes (.h5) of each evaluated split")
     p.add_argument("--predictors", nargs="+", required=True, help="one per seed, seed 0 first")
     p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
     p.add_argument("--trust-levels", nargs="*", type=float, default=schema_default("trust_levels"),
@@ -520,27 +601,35 @@ def build_parser() -> argparse.ArgumentParser:
     _required(c, "--dataset", "--out")
     c.add_argument("--seq-len", type=int, required=True)
     c.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
-    c.add_argument("--train", nargs="+", required=True)
-    c.add_argument("--val", nargs="*")
-    c.add_argument("--test", nargs="*")
+    c.add_argument("--train", nargs="+", required=True, metavar="PATH",
+                   help="every method's train-split attributes (.h5), pooled in this order")
+    c.add_argument("--val", nargs="*", metavar="PATH", help="every method's validation-split attributes (.h5)")
+    c.add_argument("--test", nargs="*", metavar="PATH", help="every method's test-split attributes (.h5)")
     _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_attributes)
     c = ablation_sub.add_parser("without", help="train a predictor on every method's train split but one")
     _required(c, "--dataset", "--method", "--out")
     c.add_argument("--seq-len", type=int, required=True)
     c.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
-    c.add_argument("--train", nargs="+", required=True, metavar="METHOD=PATH")
-    c.add_argument("--val", nargs="*", metavar="METHOD=PATH")
+    c.add_argument("--train", nargs="+", required=True, metavar="METHOD=PATH",
+                   help="the other methods' train-split attributes (.h5), in the configuration's order (--method's, "
+                        "if given, is never read)")
+    c.add_argument("--val", nargs="*", metavar="METHOD=PATH", help="each method's validation-split attributes (.h5)")
     _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_without)
     c = ablation_sub.add_parser("held-out", help="a method's test split under the pooled and the without_ predictor")
-    _required(c, "--dataset", "--method", "--attributes", "--pooled", "--without", "--out")
+    _required(c, "--dataset", "--method")
+    c.add_argument("--attributes", required=True, help="the held-out method's test-split attributes (.h5)")
+    c.add_argument("--pooled", required=True, help="the predictor trained on every method (.h5)")
+    c.add_argument("--without", required=True, help="the predictor trained without the method (.h5, vpr-smr "
+                                                    "ablation without)")
+    _required(c, "--out")
     c.add_argument("--seq-len", type=int, required=True)
     c.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
     _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_held_out)
 
-    p = sub.add_parser("speed", help="one simulated speed profile (SPEC 11): Table I's numbers of the fixed matcher "
+    p = sub.add_parser("speed", help="one simulated speed profile: Table I's numbers of the fixed matcher "
                                      "and of velocity search, each with its own seed-0 predictor",
                        epilog="e.g. vpr-smr speed --dataset d --seq-len 4 --profile 2x --velocities 0.5 1 2 "
                               "--train sad=train.h5 --test sad=test.h5 --out speed/2x.json")
@@ -561,28 +650,37 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_speed)
 
     p = sub.add_parser("inspect", help="the match inspector: sampled queries with their matches, and the distance "
-                                       "matrix with the kept and removed sequence matches (two PNGs)")
-    _required(p, "--queries", "--distances", "--dataset", "--dataset-settings", "--match-figure", "--matrix-figure")
+                                       "matrix with the kept and removed sequence matches (two PNGs)",
+                       epilog="e.g. a user's matrix, the distance-matrix figure only (it needs no images): vpr-smr "
+                              "inspect --queries queries.csv --distances D.npy --seq-len 4 --matrix-figure d.png")
+    _required(p, "--queries", "--distances", "--matrix-figure")
+    p.add_argument("--match-figure", help="the match figure (PNG): thumbnails of the frames, so it needs "
+                                          "--dataset and --dataset-settings (a dataset with images)")
+    p.add_argument("--dataset", help="the dataset's name (with --dataset-settings: for the match figure's images)")
+    p.add_argument("--dataset-settings", help="the dataset's configuration entry as a JSON object (or @file), "
+                                              "e.g. {\"loader\": \"folders\", \"reference\": DIR, \"query\": DIR}")
     p.add_argument("--frames-sha256", help="fail unless the dataset's frame lists have this fingerprint "
                                            "(default: the distances file's)")
     p.add_argument("--seq-len", type=int, required=True)
-    p.add_argument("--split", default=schema_default("table_split"))
+    p.add_argument("--split", help="the queries CSV's split to show (default: its only split)")
     p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
     p.add_argument("--radius", type=float, help="with positions (the distances file's): the ground truth's radius")
     p.add_argument("--velocities", type=float, nargs="+", default=list(DEFAULT_VELOCITIES), metavar="V",
-                   help="the run's sequence matcher (SPEC 11), for the true reference's S")
+                   help="the run's sequence matcher (the velocities searched), for the true reference's S")
     p.add_argument("--frames", type=int, nargs=2, metavar=("LO", "HI"),
-                   help="the split's frames lo..hi-1 (default: the distances file's split_range)")
+                   help="the split's frames lo..hi-1 (default: the distances file's split_range; a .npy's "
+                        "queries count from 0)")
     p.add_argument("--per-class", type=int, default=2, help="queries sampled per true class")
     p.add_argument("--mistakes", type=int, default=4, help="the predictor's most confident mistakes shown")
     p.add_argument("--seed", type=int, default=0, help="seed of the sample")
     p.set_defaults(func=cmd_inspect)
 
     p = sub.add_parser("report", help="paper-style tables, figures and report.html of a run")
-    p.add_argument("--evaluations", nargs="+", required=True)
-    p.add_argument("--predictors", nargs="+", required=True)
-    p.add_argument("--attribute-ablations", nargs="*")
-    p.add_argument("--leave-one-out", nargs="*")
+    p.add_argument("--evaluations", nargs="+", required=True, help="the evaluations' .json files (vpr-smr evaluate)")
+    p.add_argument("--predictors", nargs="+", required=True,
+                   help="the predictors' .json reports (written beside each vpr-smr train predictor)")
+    p.add_argument("--attribute-ablations", nargs="*", help="Table II's files (vpr-smr ablation attributes)")
+    p.add_argument("--leave-one-out", nargs="*", help="the held-out methods' files (vpr-smr ablation held-out)")
     p.add_argument("--timings", nargs="*", help="the evaluations' .timing.json files (matched by dataset, method, L)")
     p.add_argument("--metrics", nargs="*", help="the standard VPR metrics files (vpr-smr metrics), at the table's L")
     p.add_argument("--match-figures", nargs="*", help="the match inspector's match figures (vpr-smr inspect)")
@@ -590,13 +688,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--speed", nargs="*", help="the speed experiment's files (vpr-smr speed), one per dataset and "
                                               "profile, in the configuration's order")
     p.add_argument("--descriptors", nargs="*", help="descriptor files whose provenance the report shows")
-    p.add_argument("--split", default=schema_default("table_split"))
+    p.add_argument("--split", default=schema_default("table_split"),
+                   help="the split the tables show (default: %(default)s)")
     p.add_argument("--table-seq-lens", type=int, nargs="+", help="sequence lengths of Table I (default: all)")
     p.add_argument("--seq-len-ablation", action="store_true", help="also the sequence-length table and figure")
     p.add_argument("--settings", help="the run's settings (JSON, or @file) shown in the report")
     p.add_argument("--datasets", help="per dataset: traverses, frames, tolerance, splits, pairing, overlaps (JSON)")
     p.add_argument("--out", required=True, help="the run folder: tables/, figures/ and report.html go inside")
     p.set_defaults(func=cmd_report)
+    _fill_help(parser)
     return parser
 
 
@@ -607,8 +707,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = argv[: argv.index("--")] if "--" in argv else argv
     args = build_parser().parse_args(argv)
     args.snakemake_args = extra
-    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO,
-                        format="%(asctime)s %(name)s %(levelname)s: %(message)s")
+    logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO, format=LOG_FORMAT)
     # A stage stopped by SIGTERM unwinds like Ctrl-C, so that its temporary files are removed on the way out.
     signal.signal(signal.SIGTERM, _interrupt)
     try:

@@ -149,16 +149,33 @@ def test_unknown_backend_and_unknown_backend_setting(tmp_path, capsys, folders):
 
 @pytest.mark.parametrize(("change", "message"), [
     ({"seq_lens": "four"}, "seq_lens: 'four' is not of type 'array'"),
-    ({"colour": "blue"}, "'colour' was unexpected"),
+    ({"colour": "blue"}, "colour: unexpected key 'colour'; the top level allows: run, output, seq_lens"),
+    ({"seq_len": 4}, "seq_len: unexpected key 'seq_len' (did you mean 'seq_lens'?)"),
+    ({"run": "corridor ü"}, "run: 'corridor ü' is not allowed: it has a space (character 9) and 'ü' (character 10);"
+                            " use only letters A-Z a-z, digits 0-9, '_', '.' and '-'"),
 ])
 def test_schema_failures(tmp_path, capsys, folders, change, message):
     fails(capsys, ["run", str(config(tmp_path, **change)), "-n"], "c.yaml is invalid", message)
 
 
+@pytest.mark.parametrize("command", ["attributes", "metrics"])
+def test_non_finite_distances_are_named_by_row_and_column(tmp_path, capsys, command):
+    matrix = np.ones((400, 400))
+    matrix[10, 20] = np.nan  # the first, in column order: query column 20, reference row 10
+    matrix[3, 399] = np.nan
+    matrix[390, 200] = -np.inf
+    np.save(tmp_path / "D.npy", matrix)
+    out = tmp_path / ("a.csv" if command == "attributes" else "m.json")
+    fails(capsys, [command, "--distances", str(tmp_path / "D.npy"), "--seq-len", "4", "--out", str(out)],
+          "D.npy", "distance matrix has 3 non-finite values (2 NaN, 1 inf); the first is NaN at row 10 (reference), "
+                   "column 20 (query); distances must be finite")
+    assert not out.exists()
+
+
 @pytest.mark.parametrize(("name", "content", "message"), [
-    ("nan.npy", np.array([[0.0, np.nan], [1.0, 0.5]] * 3), "non-finite"),
+    ("nan.npy", np.array([[0.0, np.nan, 1.0], [1.0, 0.5, 0.0], [0.5, 0.5, 0.5]]), "non-finite"),
     ("flat.npy", np.arange(9.0), "must be 2-D"),
-    ("matrix.txt", None, "is neither a .npy file nor HDF5"),
+    ("matrix.txt", None, "is text, neither a NumPy .npy array nor HDF5"),
     ("missing.npy", "absent", "not found"),
 ])
 def test_bad_distance_matrices(tmp_path, capsys, name, content, message):

@@ -78,7 +78,11 @@ def test_features_stage_h5_and_csv(tmp_path):
 def test_features_stage_csv_by_hand(tmp_path):
     matrix = np.array([[1, 2, 4], [2, 1, 2], [4, 4, 1], [4, 2, 2]], dtype=np.float32)
     np.save(tmp_path / "D.npy", matrix)
-    features.main(tmp_path / "D.npy", tmp_path / "a.csv", 2, 2)
+    # 4 references, 3 queries, frame i of both one place: positions are the frame indices, the radius 2 frames
+    np.save(tmp_path / "ref.npy", np.arange(4.0))
+    np.save(tmp_path / "qry.npy", np.arange(3.0))
+    features.main(tmp_path / "D.npy", tmp_path / "a.csv", 2, 2, radius=2, reference_positions=tmp_path / "ref.npy",
+                  query_positions=tmp_path / "qry.npy")
     rows = list(csv.DictReader(open(tmp_path / "a.csv")))
     assert [r["query"] for r in rows] == ["1", "2"] and [r["label"] for r in rows] == ["0", "0"]
     # rank 0 of query 1, worked by hand in test_attributes.py
@@ -88,7 +92,7 @@ def test_features_stage_csv_by_hand(tmp_path):
 
 @pytest.mark.parametrize("content, message", [
     (None, "distance matrix not found"),
-    (b"not a matrix", "neither a .npy file nor HDF5"),
+    (b"not a matrix", "is text, neither a NumPy .npy array nor HDF5"),
     ("h5-empty", "has no 'distance_matrix' dataset"),
     (np.zeros((3, 3, 2)), "must be 2-D"),
     (np.array(["a", "b"]), "expected a numeric matrix"),

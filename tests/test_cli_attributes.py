@@ -13,7 +13,11 @@ D = np.array([[1, 2, 4], [2, 1, 2], [4, 4, 1], [4, 2, 2]], dtype=float)
 
 def test_csv_by_hand(tmp_path):
     np.save(tmp_path / "D.npy", D)
-    assert main(["attributes", "--distances", str(tmp_path / "D.npy"), "--seq-len", "2",
+    # D has 4 references and 3 queries, frame i of both one place: positions are the frame indices, radius 2 frames
+    np.save(tmp_path / "ref.npy", np.arange(4.0))
+    np.save(tmp_path / "qry.npy", np.arange(3.0))
+    assert main(["attributes", "--distances", str(tmp_path / "D.npy"), "--seq-len", "2", "--reference-positions",
+                 str(tmp_path / "ref.npy"), "--query-positions", str(tmp_path / "qry.npy"), "--radius", "2",
                  "--out", str(tmp_path / "a.csv")]) == 0
     rows = list(csv.DictReader(open(tmp_path / "a.csv")))
     assert list(rows[0]) == ["query", "A1", "A2", "A3", "A4", "label"]
@@ -28,7 +32,7 @@ def test_csv_by_hand(tmp_path):
 @pytest.mark.parametrize("array, message", [
     (np.zeros((4, 4, 2)), "2-D"),
     (np.full((4, 4), np.inf), "non-finite"),
-    (np.zeros((3, 8)), "too small for sequence length 4"),
+    (np.zeros((3, 3)), "too small for sequence length 4"),
     (np.array(["a", "b"]), "numeric"),
 ])
 def test_bad_matrices_give_clear_errors(tmp_path, capsys, array, message):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from test_restoration import make_features
 
-from vpr_smr.eval.matching.attributes import write_features
+from vpr_smr.eval.matching.attributes import Matching, write_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.scoring.evaluate import evaluate_split, main
 
@@ -91,7 +91,7 @@ def test_main_writes_every_split_and_seed(tmp_path):
     paths = []
     for seed in (0, 1):
         predictor = SMRPredictor(hidden_layer_sizes=(8,), max_iter=50, random_state=seed)
-        predictor.fit(features.attributes[:, 0], features.labels).save(tmp_path / f"p{seed}.h5")
+        predictor.fit(features.attributes[:, 0], features.labels).save(tmp_path / f"p{seed}.h5", Matching())
         paths.append(tmp_path / f"p{seed}.h5")
     main({"test": tmp_path / "test.h5"}, paths, tmp_path / "e.json", modes=("paper",), trust_levels=(0.0,),
          meta={"dataset": "d", "method": "m", "seq_len": 4})

@@ -62,7 +62,10 @@ def test_ground_truth_options_are_checked(tmp_path):
     ref, qry = tmp_path / "ref.npy", tmp_path / "qry.npy"
     np.save(ref, np.arange(5.0))
     np.save(qry, np.arange(6.0))
-    assert split_ground_truth(matrix, (5, 6), 2).is_aligned_band()
+    assert split_ground_truth(matrix, (6, 6), 2).is_aligned_band()
+    # 5 references and 6 queries: frame indices within a tolerance mean nothing there
+    with pytest.raises(ValueError, match="is a 5 x 6 matrix .references x queries. without positions"):
+        split_ground_truth(matrix, (5, 6), 2)
     with pytest.raises(ValueError, match="--radius 3.0 needs positions"):
         split_ground_truth(matrix, (5, 6), 2, radius=3.0)
     with pytest.raises(ValueError, match="needs --radius"):
@@ -157,7 +160,7 @@ def test_attributes_of_the_same_velocities_in_another_order_are_accepted(tmp_pat
     from vpr_smr.eval.matching.attributes import check_matcher
 
     rng = np.random.default_rng(2)
-    np.save(tmp_path / "D.npy", rng.uniform(0, 1, size=(20, 24)).astype(np.float32))
+    np.save(tmp_path / "D.npy", rng.uniform(0, 1, size=(24, 24)).astype(np.float32))
     assert cli(["attributes", "--distances", str(tmp_path / "D.npy"), "--seq-len", "3", "--velocities", "1", "0.5",
                 "--out", str(tmp_path / "A.h5")]) == 0
     check_matcher([tmp_path / "A.h5"], (0.5, 1.0), None)  # the same matcher

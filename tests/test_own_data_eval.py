@@ -15,7 +15,7 @@ import pytest
 from helpers import write_distance_matrix
 
 from vpr_smr.core.io import write_json
-from vpr_smr.eval.matching.attributes import QueryFeatures, query_features, write_features
+from vpr_smr.eval.matching.attributes import Matching, QueryFeatures, query_features, write_features
 from vpr_smr.eval.predictor.defaults import MIN_TRAIN_SAMPLES, training_problems
 from vpr_smr.eval.predictor.estimator import SMRPredictor, fit_problem, label_problems
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport, SeedReport
@@ -71,7 +71,7 @@ def small_predictor(path: Path, seed: int = 0) -> Path:
     x = rng.normal(size=(60, 4)) + y[:, None]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=seed).fit(x, y).save(path)
+        SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=seed).fit(x, y).save(path, Matching())
     return path
 
 
@@ -90,9 +90,12 @@ def test_perfect_baseline_gives_null_reductions_in_the_evaluation(tmp_path, caps
         assert numbers["aoc_vpr_sm"] == pytest.approx(0.0, abs=1e-12)
         assert numbers["reduction_pct"] is None and numbers["trust_auc"]["0.5"]["reduction_pct"] is None
         assert [s["modes"][mode]["reduction_pct"] for s in result["seeds"]] == [None, None]
+        # nothing to reduce, unless a seed's predictor removed every one of the 27 matches (then recall 0)
+        outcomes = {str(s["seed"]): "removed_all" if s["removed"] == 27 else "nothing_to_reduce"
+                    for s in result["seeds"]}
         assert result["seed_summary"][mode] == {
             "n_seeds": 2, "n_seeds_defined": 0, "reduction_pct_mean": None, "reduction_pct_std": None,
-            "reduction_pct_min": None, "reduction_pct_max": None}
+            "reduction_pct_min": None, "reduction_pct_max": None, "outcomes": outcomes}
     assert '"reduction_pct": null' in text
 
 
@@ -100,20 +103,28 @@ def hand_evaluation(method: str, aoc_base: float, aoc_pred: float, reduction: fl
                     seeds: tuple[float | None, ...]) -> dict:
     """An evaluation file's numbers, written by hand: 60 queries in the test split, 57 of them matched at L = 4."""
     defined = [s for s in seeds if s is not None]
+
+    def outcome(value: float | None) -> str:  # a baseline AOC of 0 here: nothing to reduce
+        return "nothing_to_reduce" if value is None else "improved" if value > 0 else "worse"
+
     summary = {"n_seeds": len(seeds), "n_seeds_defined": len(defined),
                "reduction_pct_mean": float(np.mean(defined)) if defined else None,
                "reduction_pct_std": float(np.std(defined, ddof=1)) if len(defined) > 1 else None,
                "reduction_pct_min": min(defined) if defined else None,
-               "reduction_pct_max": max(defined) if defined else None}
+               "reduction_pct_max": max(defined) if defined else None,
+               "outcomes": {str(i): outcome(seed) for i, seed in enumerate(seeds)}}
     line = {"recall": [0.0, 1.0], "precision": [1.0, 0.5]}
     numbers = {"recall_at_1_single": 0.5, "recall_at_1_sequence": 0.7, "max_recall": 1.0, "aoc_vpr_sm": aoc_base,
                "aoc_vpr_sm_pred": aoc_pred, "reduction_pct": reduction, "auc_vpr_sm": 1 - aoc_base,
+               "max_recall_vpr_sm": 1.0, "aoc_vpr_sm_own": aoc_base, "outcome": outcome(reduction),
                "auc_vpr_sm_pred": 1 - aoc_pred, "curve_vpr_sm": line, "curve_vpr_sm_pred": line,
                "recall_at_100_precision_vpr_sm": 0.0, "recall_at_100_precision_vpr_sm_pred": 0.0,
                "trust_auc": {"0.5": {"removed": 1, "max_recall": 1.0, "auc": 0.9, "aoc": 0.1, "auc_vpr_sm": 0.8,
-                                     "aoc_vpr_sm": aoc_base, "reduction_pct": reduction}}}
+                                     "aoc_vpr_sm": aoc_base, "reduction_pct": reduction,
+                                     "outcome": outcome(reduction)}}}
     reductions = [{"max_recall": 1.0, "auc_vpr_sm": 1 - aoc_base, "auc_vpr_sm_pred": 1 - aoc_pred,
-                   "aoc_vpr_sm": aoc_base, "aoc_vpr_sm_pred": aoc_pred, "reduction_pct": seed} for seed in seeds]
+                   "aoc_vpr_sm": aoc_base, "aoc_vpr_sm_pred": aoc_pred, "reduction_pct": seed,
+                   "max_recall_vpr_sm": 1.0, "aoc_vpr_sm_own": aoc_base, "outcome": outcome(seed)} for seed in seeds]
     split = {"n_queries": 57, "n_queries_split": 60, "recall_at_1_single_all": 0.5, "recall_at_1_single_evaluated": 0.5,
              "recall_at_1_sequence": 0.7, "f1_macro": 0.5, "confusion_matrix": np.eye(4, dtype=int).tolist(),
              "class_counts": [1, 1, 1, 1], "predicted_counts": [1, 1, 1, 1], "removed": 1,
@@ -145,22 +156,26 @@ def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
     report.main(run, evaluations, [predictors])
     md = (run / "tables" / "table1.md").read_text()
     assert "| d | VPR+SM | 0.2000 | 0.0000 | 0.4000 | 0.2000 |  |" in md  # AOCs: every method, (0.2 + 0 + 0.4) / 3
-    # (10 + 30) / 2 = 20; both defined reductions are positive: 2 of the 2 improve
-    assert "|  | Reduction (%) | 10.00 | n/a | 30.00 | 20.00 (mean over 2 of 3 methods) | 2 / 2 |" in md
-    # seed means 12 ± 2 and 28 ± 8, their mean 20
-    assert ("|  | Reduction over seeds (%) | 12.00 ± 2.00 | n/a | 28.00 ± 8.00 | 20.00 (mean over 2 of 3 methods) "
-            "| 2 / 2 (3 seeds) |") in md
-    assert "n/a: the reduction is undefined, the baseline's AOC being 0" in md
+    # (10 + 30) / 2 = 20; two methods improve, m2 (nothing to reduce) does not: 2 of the 3
+    assert ("|  | Reduction (%) | 10.00 | n/a: nothing to reduce | 30.00 | 20.00 (mean over 2 of 3 methods) "
+            "| 2 / 3 |") in md
+    # seed means 12 ± 2 and 28 ± 8, their mean 20; m2's three seeds are left out, and why
+    assert ("|  | Reduction over seeds (%) | 12.00 ± 2.00 | n/a: seeds 0, 1, 2: nothing to reduce | 28.00 ± 8.00 "
+            "| 20.00 (mean over 2 of 3 methods) | 2 / 3 (3 seeds) |") in md
+    assert ("m2: baseline AOC 0 up to the predictor's maximum recall 1.0000: nothing to reduce, the reduction is "
+            "undefined.") in md
+    assert "n/a: the reduction is undefined (why: beside it, and below)" in md
     assert "d: 57 queries with a sequence match (single-frame recall@1 over all 60 of the split)" in md
     tex = (run / "tables" / "table1.tex").read_text()
-    assert r"& n/a &" in tex and r"\textcolor{green}{20.00} (mean over 2 of 3 methods) & 2 / 2\\" in tex
+    assert r"& n/a: nothing to reduce &" in tex
+    assert r"\textcolor{green}{20.00} (mean over 2 of 3 methods) & 2 / 3\\" in tex
     rows = list(csv.DictReader(open(run / "tables" / "table1.csv")))
     assert [r["reduction_pct"] for r in rows] == ["10.0", "", "30.0"]  # undefined: an empty CSV cell
     assert [r["reduction_pct_mean"] for r in rows] == ["12.0", "", "28.0"]
     assert {(r["n_queries"], r["n_queries_single"]) for r in rows} == {("57", "60")}
     trust = list(csv.DictReader(open(run / "tables" / "trust_levels.csv")))
     assert [r["reduction_pct"] for r in trust] == ["10.0", "", "30.0"] and {r["n_queries"] for r in trust} == {"57"}
-    assert "| n/a | 57 |" in (run / "tables" / "trust_levels.md").read_text()
+    assert "| n/a | nothing_to_reduce | 57 |" in (run / "tables" / "trust_levels.md").read_text()
     html = (run / "report.html").read_text()
 
     def undefined(table_id):
@@ -168,18 +183,21 @@ def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
 
     # m2's reduction_pct and its seed mean, std, min and max in Table I's CSV; its reduction in the trust table
     assert undefined("all-table1") == 5 and undefined("all-trust_levels") == 1
-    assert undefined("table1-d-paper-4") == 2  # the paper's layout: m2's Reduction and Reduction over seeds
-    assert html.count('<td class="na">n/a</td>') == 5 + 1 + 2 + 1  # and the compact trust table beside its figure
+    # the paper's layout: m2's Reduction and Reduction over seeds, each with its reason
+    assert html.count('<td class="na">n/a: nothing to reduce</td>') == 1
+    assert html.count('<td class="na">n/a: seeds 0, 1, 2: nothing to reduce</td>') == 1
+    assert html.count('<td class="na">n/a</td>') == 5 + 1 + 1  # and the compact trust table beside its figure
 
 
 def test_leave_one_out_rows_show_na():
     from vpr_smr.eval.scoring.records import HeldOut, HeldOutScores, ModeRemoval, Reduction
 
-    numbers = HeldOutScores("p.h5", 0.5, 3, {"paper": ModeRemoval(0.5, 0.5, Reduction(1.0, 1.0, 1.0, 0.0, 0.0, None))})
+    nothing = Reduction(1.0, 1.0, 1.0, 0.0, 0.0, None, 1.0, 0.0, "nothing_to_reduce")
+    numbers = HeldOutScores("p.h5", 0.5, 3, {"paper": ModeRemoval(0.5, 0.5, nothing)})
     rows = report.lomo_rows([HeldOut({"dataset": "d", "method": "m", "seq_len": 4}, 57, numbers, numbers)])
     text = report.markdown_table(report.LOMO_COLUMNS, rows)
     assert text.splitlines()[-1] == ("| d | 4 | m | paper | 57 | 0.5000 | 0.5000 | 3 | 3 | 0.0000 | 0.0000 | 0.0000 "
-                                     "| n/a | n/a |")
+                                     "| n/a | n/a | nothing_to_reduce | nothing_to_reduce |")
 
 
 # --- 2. every evaluation table gives the number of queries it is over ------------------------------------------
@@ -205,7 +223,7 @@ def test_query_counts_in_every_evaluation_table(tmp_path):
     # the existing columns keep their order, the counts come last
     assert list(rows("table1")[0])[:15] == list(report.TABLE1_COLUMNS[:15])
     assert list(rows("ablation_seq_len")[0])[15:] == ["auc_vpr_sm", "auc_vpr_sm_pred", "n_queries",
-                                                     "n_queries_single", "n_seeds_defined"]
+                                                     "n_queries_single", "n_seeds_defined", *report.OUTCOME_COLUMNS]
     assert list(rows("restoration")[0])[-2:] == ["reduction_pct", "n_queries"]
     assert "d: 57 queries with a sequence match (single-frame recall@1 over all 60 of the split)" in (
         tables / "table1.md").read_text()
@@ -294,6 +312,7 @@ def test_negative_distances_are_refused_naming_count_minimum_and_fix(tmp_path, c
     err = capsys.readouterr().err
     assert f"{path}: 3 negative values in the distance matrix (minimum -2.25)" in err
     assert "D = 1 - S" in err and "D = S.max() - S" in err and "weights_only" not in err
+    assert ("give --similarity (read as distances max(M) - M)" in err) == (kind == "npy")  # .npy: a user's matrix
     assert not out.exists() and not list(tmp_path.glob("*.tmp"))
 
 
@@ -373,7 +392,7 @@ def test_live_example_runs_as_written(sad_descriptors, tmp_path, monkeypatch, ca
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         predictor = SMRPredictor(hidden_layer_sizes=(16,), max_iter=200).fit(batch.attributes[:, 0], batch.labels)
-    predictor.save(tmp_path / "L4.h5")
+    predictor.save(tmp_path / "L4.h5", Matching())  # as vpr-smr train writes it: the fixed matcher
     (tmp_path / "camera").mkdir()
     for image in pair.query.images:
         shutil.copy(image, tmp_path / "camera" / image.name)

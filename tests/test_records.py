@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from vpr_smr.core.io import read_provenance, write_json
-from vpr_smr.eval.matching.attributes import query_features, write_features
+from vpr_smr.eval.matching.attributes import Matching, query_features, write_features
 from vpr_smr.eval.predictor import ablation, train
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
@@ -20,13 +20,15 @@ SPLIT_KEYS = {"n_queries", "n_queries_split", "recall_at_1_single_all", "recall_
               "recall_at_1_sequence", "f1_macro", "confusion_matrix", "class_counts", "predicted_counts", "removed",
               "modes", "seeds", "seed_summary", "restoration"}
 MODE_KEYS = {"recall_at_1_single", "recall_at_1_sequence", "max_recall", "auc_vpr_sm", "auc_vpr_sm_pred",
-             "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", "recall_at_100_precision_vpr_sm",
+             "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", "max_recall_vpr_sm", "aoc_vpr_sm_own", "outcome",
+             "recall_at_100_precision_vpr_sm",
              "recall_at_100_precision_vpr_sm_pred", "curve_vpr_sm", "curve_vpr_sm_pred", "trust_auc", "trust"}
 RESTORATION_MODE_KEYS = {"max_recall", "max_recall_removal", "max_recall_restoration", "auc_vpr_sm", "auc_removal",
                          "auc_restoration", "auc_difference", "aoc_removal", "aoc_restoration", "aoc_difference",
                          "reduction_pct", "curve_restoration"}  # the baseline and removal curves are kept once
 HELD_OUT_MODE_KEYS = {"recall_at_1_single", "recall_at_1_sequence", "max_recall", "auc_vpr_sm", "auc_vpr_sm_pred",
-                      "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct"}
+                      "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", "max_recall_vpr_sm", "aoc_vpr_sm_own",
+                      "outcome"}
 
 
 @pytest.fixture(scope="module")
@@ -45,7 +47,7 @@ def stage_files(tmp_path_factory):
         for seed in (0, 1):
             predictors.append(tmp / f"p{seed}.h5")
             SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=seed).fit(
-                features.attributes[:, 0], features.labels).save(predictors[-1])
+                features.attributes[:, 0], features.labels).save(predictors[-1], Matching())
     meta = {"dataset": "d", "method": "m", "seq_len": 4}
     evaluation, timing = evaluate.main(paths, predictors, tmp / "e.json", trust_levels=(0.0, 0.9), meta=meta,
                                        allow_split_overlap=True)

@@ -30,7 +30,8 @@ PAPER = {  # smr_paper.tex, Table I: VPR+SM, VPR+SM+Pred, Reduction (%) per meth
 def rows():
     return [
         {"dataset": dataset, "method": method, "seq_len": 4, "mode": "paper", "aoc_vpr_sm": base[i],
-         "aoc_vpr_sm_pred": pred[i], "reduction_pct": reduction[i]}
+         "aoc_vpr_sm_pred": pred[i], "reduction_pct": reduction[i],
+         "outcome": "improved" if reduction[i] > 0 else "worse"}
         for dataset, (base, pred, reduction) in PAPER.items()
         for i, method in enumerate(METHODS)
     ]
@@ -63,7 +64,7 @@ def test_latex_footnotes_an_undefined_reduction_in_its_own_tabular_only(rows):
 
     # two (mode, L) blocks: L = 4 with one n/a reduction, then L = 8 with every reduction defined
     first = [dict(row) for row in rows]
-    first[0]["reduction_pct"] = None
+    first[0].update(reduction_pct=None, outcome="nothing_to_reduce", max_recall=0.5, max_recall_vpr_sm=0.5)
     second = [{**row, "seq_len": 8} for row in rows]
     text = table1_latex(first + second)
     tabulars = text.split(r"\end{tabular}")[:-1]
@@ -200,8 +201,8 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
         name: AttributeScores(None, 0.5, f1_val=0.5, f1_test=0.5) for name in ("A1", "A2", "A3", "A4", "all")})
     write_json(ablation, table2.to_json())
     lomo = tmp_path / "lomo.json"
-    scores = HeldOutScores("p.h5", 0.5, 3, {mode: ModeRemoval(0.5, 0.5, Reduction(1.0, 0.8, 0.9, 0.2, 0.1, 50.0))
-                                            for mode in modes})
+    halved = Reduction(1.0, 0.8, 0.9, 0.2, 0.1, 50.0, 1.0, 0.2, "improved")
+    scores = HeldOutScores("p.h5", 0.5, 3, {mode: ModeRemoval(0.5, 0.5, halved) for mode in modes})
     write_json(lomo, HeldOut({"dataset": "d", "method": methods[0], "seq_len": 4}, 57, scores, scores).to_json())
     metric_files, match_figures, matrix_figures = [], [], []
     if metrics:
@@ -330,8 +331,11 @@ def finding_block(reductions, seeds=None, mode="paper", seq_len=4, dataset="nord
 
     rows = []
     for i, (method, reduction) in enumerate(reductions):
+        outcome = ("nothing_to_reduce" if reduction is None else "improved" if reduction > 0 else
+                   "worse" if reduction < 0 else "unchanged")
         row = {"dataset": dataset, "method": method, "seq_len": seq_len, "mode": mode, "aoc_vpr_sm": 0.5,
-               "aoc_vpr_sm_pred": 0.4, "reduction_pct": reduction}
+               "aoc_vpr_sm_pred": 0.4, "reduction_pct": reduction, "outcome": outcome, "max_recall": 0.9,
+               "max_recall_vpr_sm": 0.9}
         if seeds is not None:
             mean, std, n_seeds, defined = seeds[i]
             row.update(reduction_pct_mean=mean, reduction_pct_std=std, n_seeds=n_seeds, n_seeds_defined=defined)
@@ -348,13 +352,15 @@ def test_the_findings_in_words():
          ("Perfect", None)],
         [(-0.8428717970517386, 0.030005601863029824, 5, 5), (78.37245222695637, 3.5256116744623283, 5, 5),
          (11.976893870677142, 1.0418886489552452, 5, 5), (None, None, 5, 0)])
+    # "of 4": a method whose reduction is undefined counts as not improved (and gets its own sentence)
     assert sentences(block, "test") == [
         "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
-        "the PR curve for 2 of 3 methods: HOG by 76.7 %, EfficientNet-Lite0 by 11.6 %; it made SAD's 0.8 % worse.",
+        "the PR curve for 2 of 4 methods: HOG by 76.7 %, EfficientNet-Lite0 by 11.6 %; it made SAD's 0.8 % worse.",
+        "For Perfect, baseline AOC 0 up to the predictor's maximum recall 0.9000: nothing to reduce, the reduction "
+        "is undefined.",
         "The mean reduction over these 3 methods is 29.2 % (Table I's Mean).",
-        "The reduction is undefined for Perfect: its area over the PR curve is already 0 without the predictor.",
         "Over 5 predictor seeds (mean ± sample standard deviation) the reduction is SAD -0.8 ± 0.0 %, HOG "
-        "78.4 ± 3.5 % and EfficientNet-Lite0 12.0 ± 1.0 %; on average it helps 2 of 3 methods; it is undefined for "
+        "78.4 ± 3.5 % and EfficientNet-Lite0 12.0 ± 1.0 %; on average it helps 2 of 4 methods; it is undefined for "
         "Perfect.",
     ]
     # one method, one seed
@@ -382,11 +388,12 @@ def test_the_findings_in_words():
     # two methods, one reduction defined
     half = finding_block([("m2", 0.0), ("m1", None)], [(0.0, 0.0, 2, 1), (None, None, 2, 0)])
     assert sentences(half, "test") == [
-        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor left m2's area over the "
-        "PR curve unchanged.",
-        "The reduction is undefined for m1: its area over the PR curve is already 0 without the predictor.",
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
+        "the PR curve for none of the 2 methods; it left m2's unchanged.",
+        "For m1, baseline AOC 0 up to the predictor's maximum recall 0.9000: nothing to reduce, the reduction is "
+        "undefined.",
         "Over 2 predictor seeds (mean ± sample standard deviation) the reduction is m2 0.0 ± 0.0 % (1 of 2 seeds); "
-        "on average it helps 0 of 1 method; it is undefined for m1."]
+        "on average it helps 0 of 2 methods; it is undefined for m1."]
 
 
 SECTIONS = ("findings", "pr-curves", "trust-levels", "restoration", "sequence-length", "predictor", "table-ii",

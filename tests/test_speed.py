@@ -246,7 +246,9 @@ def speed_record(profile: str, numbers: dict[tuple[str, str], tuple[float, float
         methods = {}
         for method in ("m1", "m2"):
             recall, reduction = numbers[(method, matcher)]
-            methods[method] = speed.SpeedScores(57, 60, 0.3, recall, 0.9, 0.5, 0.6, 0.4, 0.3, reduction, 0.5, 3)
+            outcome = "nothing_to_reduce" if reduction is None else "improved" if reduction > 0 else "worse"
+            methods[method] = speed.SpeedScores(57, 60, 0.3, recall, 0.9, 0.5, 0.6, 0.4, 0.3, reduction, 0.5, 3,
+                                                outcome)
         matchers[matcher] = speed.SpeedMatcher(velocities, 100, (40, 20, 20, 20), methods)
     meta = {"dataset": "d", "seq_len": 4, "profile": parsed.name, "tolerance": 2, "mode": "paper", "seed": 0,
             "train_split": ["train", 0, 60], "table_split": ["test", 60, 120]}

@@ -42,9 +42,14 @@ from numpy.lib.stride_tricks import as_strided
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, EPS, GROUP_HALF_WIDTH
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
-from vpr_smr.eval.matching.checks import check_finite, check_shape
+from vpr_smr.eval.matching.checks import NonFiniteError, check_finite, check_shape
 from vpr_smr.eval.matching.ground_truth import GroundTruth
-from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
+from vpr_smr.eval.matching.io import (
+    open_distance_matrix,
+    similarity_provenance,
+    similarity_warning,
+    split_ground_truth,
+)
 from vpr_smr.eval.matching.velocity import check_velocities, first_reference, velocity_block_features
 
 __all__ = [
@@ -247,7 +252,7 @@ def read_columns(matrix: Any, start: int, stop: int) -> np.ndarray:
 
 
 def block_features(
-    columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, where: str = ""
+    columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, first_column: int = 0
 ) -> dict[str, np.ndarray]:
     """Everything ``query_features`` reports for the queries of one block of ``Wb`` consecutive query columns.
 
@@ -255,20 +260,20 @@ def block_features(
     ``read_columns`` returns it. The block's queries are ``c + L - 1 .. c + Wb - 1`` (``w = Wb - L + 1`` of them).
     Returns arrays over those queries: ``attributes (w, K, 4)``, ``rank_diagonals (w, K)``, ``single_match``,
     ``sequence_diagonal``, ``sequence_distance`` and ``sequence_max`` (``max_i S[i, j]``). ``n_ranks`` must not
-    exceed ``R - L + 1``. ``where`` names the block in the error raised on NaN or inf.
+    exceed ``R - L + 1``. ``first_column`` is ``c``, so that an error on NaN or inf gives the matrix's own column.
     """
     raw = np.asarray(columns)
     raw = raw.astype(_block_dtype(raw.dtype), copy=False)
     kernels = _kernels(raw.size)
     if kernels is not None:
-        out = _compiled_features(kernels, raw.T, seq_len, n_ranks, where)
+        out = _compiled_features(kernels, raw.T, seq_len, n_ranks, first_column)
         if out is not None:
             return out
-    return _numpy_block_features(raw, seq_len, n_ranks, screen_dtype, where)
+    return _numpy_block_features(raw, seq_len, n_ranks, screen_dtype, first_column)
 
 
 def _numpy_block_features(
-    columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, where: str = ""
+    columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, first_column: int = 0
 ) -> dict[str, np.ndarray]:
     """``block_features`` in numpy: float32 (``screen_dtype``) screening by the prefix sums of the block."""
     raw = np.asarray(columns)
@@ -278,7 +283,7 @@ def _numpy_block_features(
 
     raw_max, raw_min = raw.max(axis=1), raw.min(axis=1)  # NaN and inf show up here: no separate pass
     if not (np.all(np.isfinite(raw_max)) and np.all(np.isfinite(raw_min))):
-        check_finite(raw, where=where)
+        check_finite(raw, first_column=first_column, queries_first=True)
     col_max = raw_max.astype(np.float64)
     col_max[col_max == 0] = 1.0  # each column divided by its maximum; a zero maximum by 1
     magnitude_raw = float(max(np.abs(raw_max).max(), np.abs(raw_min).max()))
@@ -369,7 +374,7 @@ def _numpy_block_features(
     }
 
 
-def _compiled_features(kernels: ModuleType, raw: np.ndarray, seq_len: int, n_ranks: int, where: str,
+def _compiled_features(kernels: ModuleType, raw: np.ndarray, seq_len: int, n_ranks: int, first_column: int,
                        block_queries: int | None = None) -> dict[str, np.ndarray] | None:
     """``block_features`` of ``raw`` (references x query columns, float32/float64, any strides) by the compiled
     kernel; None when the values' range is too extreme for its float64 screening (the numpy path then runs)."""
@@ -378,7 +383,7 @@ def _compiled_features(kernels: ModuleType, raw: np.ndarray, seq_len: int, n_ran
     col_max, col_min, col_bad = np.empty(width, raw.dtype), np.empty(width, raw.dtype), np.empty(width)
     kernels.column_range(raw, col_max, col_min, col_bad)
     if np.any(col_bad != 0):
-        check_finite(raw, where=where)
+        check_finite(raw, first_column=first_column)
     col_max64 = col_max.astype(np.float64)
     col_max64[col_max64 == 0] = 1.0  # a zero maximum divides by 1
     size = np.maximum(np.abs(col_max), np.abs(col_min)).astype(np.float64)
@@ -444,21 +449,22 @@ def _run_blocks(distance_matrix: Any, seq_len: int, n_ranks: int, block_queries:
         # copy), anything else (HDF5, integers to convert) in chunks of whole rows of about KERNEL_CHUNK_VALUES values.
         in_place = isinstance(matrix, np.ndarray) and matrix.dtype in (np.float32, np.float64)
         chunk = n_out if in_place else max(kernels.BLOCK_QUERIES, KERNEL_CHUNK_VALUES // max(n_ref, 1))
-    for first in range(0, n_out, chunk):
-        last = min(n_out, first + chunk)
-        if kernels is not None:
-            raw = np.asarray(matrix[:, first : last + seq_len - 1])  # a view of an array or memmap; HDF5 reads
-            raw = raw.astype(_block_dtype(raw.dtype), copy=False)
-            out = _compiled_features(kernels, raw, seq_len, n_ranks,
-                                     f" in query columns {first}..{last + seq_len - 2}", block_queries)
-            if out is not None:
-                parts.append(out)
-                continue
-        for start in range(first, last, step):  # the numpy path, in its own blocks
-            stop = min(last, start + step)
-            columns = read_columns(matrix, start, stop + seq_len - 1)
-            parts.append(_numpy_block_features(columns, seq_len, n_ranks, screen_dtype,
-                                               where=f" in query columns {start}..{stop + seq_len - 2}"))
+    try:
+        for first in range(0, n_out, chunk):
+            last = min(n_out, first + chunk)
+            if kernels is not None:
+                raw = np.asarray(matrix[:, first : last + seq_len - 1])  # a view of an array or memmap; HDF5 reads
+                raw = raw.astype(_block_dtype(raw.dtype), copy=False)
+                out = _compiled_features(kernels, raw, seq_len, n_ranks, first, block_queries)
+                if out is not None:
+                    parts.append(out)
+                    continue
+            for start in range(first, last, step):  # the numpy path, in its own blocks
+                stop = min(last, start + step)
+                columns = read_columns(matrix, start, stop + seq_len - 1)
+                parts.append(_numpy_block_features(columns, seq_len, n_ranks, screen_dtype, first_column=start))
+    except NonFiniteError as error:  # a block names the first bad value; the count is the whole matrix's
+        raise error.counted_in(matrix) from None
     return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}, seq_len - 1
 
 
@@ -475,13 +481,15 @@ def _run_velocity_blocks(matrix: Any, seq_len: int, n_ranks: int, block_queries:
     n_out = n_query - seq_len + 1
     step = block_queries or default_block_queries(n_ref)
     parts: list[dict[str, np.ndarray]] = []
-    for start in range(0, n_out, step):
-        stop = min(n_out, start + step)
-        columns = read_columns(matrix, start, stop + seq_len - 1)
-        # total_queries: the whole run's size decides whether the compiled kernel pays, not one block's
-        parts.append(velocity_block_features(columns, seq_len, n_ranks, velocities,
-                                             where=f" in query columns {start}..{stop + seq_len - 2}",
-                                             total_queries=n_out))
+    try:
+        for start in range(0, n_out, step):
+            stop = min(n_out, start + step)
+            columns = read_columns(matrix, start, stop + seq_len - 1)
+            # total_queries: the whole run's size decides whether the compiled kernel pays, not one block's
+            parts.append(velocity_block_features(columns, seq_len, n_ranks, velocities, first_column=start,
+                                                 total_queries=n_out))
+    except NonFiniteError as error:
+        raise error.counted_in(matrix) from None
     return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}, r_min
 
 
@@ -581,7 +589,8 @@ def write_csv(path: Path | str, features: QueryFeatures) -> None:
 
 def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
          velocities: Sequence[float] = DEFAULT_VELOCITIES, radius: float | None = None,
-         reference_positions: Path | str | None = None, query_positions: Path | str | None = None) -> QueryFeatures:
+         reference_positions: Path | str | None = None, query_positions: Path | str | None = None,
+         similarity: bool = False) -> QueryFeatures:
     """Features of the matrix in ``distances`` (``.npy`` or our ``.h5``) written to ``out``.
 
     ``out`` ending in ``.csv`` gets the rank-0 table (``write_csv``); ``.h5``/``.hdf5`` every field of
@@ -595,9 +604,13 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     velocities = check_velocities(velocities, "--velocities")
     distances = Path(distances)
     start = time.perf_counter()
-    with open_distance_matrix(distances) as matrix:
+    with open_distance_matrix(distances, similarity) as matrix:
         ground_truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
                                           query_positions)
+        if not similarity and distances.suffix == ".npy":  # a user's matrix: distances, or so it should be
+            warning = similarity_warning(distances, matrix, ground_truth)
+            if warning:
+                log.warning(warning)
         try:
             features = query_features(matrix, seq_len, tolerance, velocities=velocities, ground_truth=ground_truth)
         except ValueError as error:
@@ -608,7 +621,7 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     else:
         provenance = read_provenance(distances) if distances.suffix != ".npy" else {}
         provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
-        provenance.update(matcher_provenance(velocities, radius))
+        provenance.update({**matcher_provenance(velocities, radius), **similarity_provenance(similarity)})
         write_features(out, features, {**provenance, "seq_len": seq_len, "tolerance": tolerance,
                                        "attributes_seconds": seconds})
     log.info("%d queries, %.1f µs per query", len(features.queries), 1e6 * seconds / max(len(features.queries), 1))
@@ -624,6 +637,81 @@ def matcher_provenance(velocities: Sequence[float], radius: float | None) -> dic
     if radius is not None:
         out["radius"] = float(radius)
     return out
+
+
+FRAMES, POSITIONS = "frames", "positions"  # the kinds of ground truth: a frame tolerance, positions within a radius
+
+
+@dataclass(frozen=True)
+class Matching:
+    """What made the matches and labels of an attributes file, beyond ``L``: the velocities searched (sorted: the
+    same set in another order is the same matcher) and the kind of ground truth (``FRAMES`` or ``POSITIONS``). A
+    predictor learns from such labels, so its file records the ``Matching`` it was trained with and every stage
+    that applies it compares."""
+
+    velocities: tuple[float, ...] = DEFAULT_VELOCITIES
+    ground_truth: str = FRAMES
+
+    @classmethod
+    def of(cls, velocities: Sequence[float], radius: float | None) -> Matching:
+        """A stage's matcher: positions within ``radius`` when it has one, else frame indices."""
+        return cls(tuple(sorted(float(v) for v in velocities)), FRAMES if radius is None else POSITIONS)
+
+    @classmethod
+    def stored(cls, path: Path | str) -> Matching:
+        """The matching an attributes file was computed with (``matcher_provenance``)."""
+        stored = read_provenance(path)
+        return cls.of(stored.get("velocities", DEFAULT_VELOCITIES), stored.get("radius"))
+
+    def __str__(self) -> str:
+        velocities = ("the fixed matcher (velocities [1.0])" if self.velocities == DEFAULT_VELOCITIES else
+                      f"velocity search over {list(self.velocities)}")
+        truth = "frame indices within a tolerance" if self.ground_truth == FRAMES else "positions within a radius"
+        return f"{velocities}, ground truth from {truth}"
+
+    def to_json(self) -> dict[str, Any]:
+        return {"velocities": list(self.velocities), "ground_truth": self.ground_truth}
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> Matching:
+        return cls(tuple(float(v) for v in data["velocities"]), str(data["ground_truth"]))
+
+
+def common_matching(paths: Sequence[Path | str]) -> Matching:
+    """The one ``Matching`` of several attributes files (a predictor's training files); ValueError naming two files
+    that differ."""
+    if not paths:
+        return Matching()
+    first = Matching.stored(paths[0])
+    for path in paths[1:]:
+        other = Matching.stored(path)
+        if other != first:
+            raise ValueError(f"{paths[0]} holds attributes of {first}, but {path} of {other}: give attributes files "
+                             "computed with one matcher and one kind of ground truth")
+    return first
+
+
+def check_matching(predictor: Any, matching: Matching, where: str, ground_truth: bool = True) -> None:
+    """Raise ValueError naming both when ``predictor`` was trained on attributes of another matcher (or, with
+    ``ground_truth``, another kind of ground truth) than ``matching``, what ``where`` scores with: its classes would
+    describe other matches and other labels. The record is the ``matching_`` that ``SMRPredictor.load`` reads from
+    the file (``path_``); a predictor fitted in this process (never loaded) has none and passes; one loaded from a
+    file without the record is refused, with the fix."""
+    if not hasattr(predictor, "path_"):
+        return
+    trained: Matching | None = predictor.matching_
+    if trained is None:
+        raise ValueError(f"{predictor.path_} does not record the sequence matcher and ground truth it was trained "
+                         f"with (it was written before vpr-smr 0.5.0), so it cannot be checked against {where}'s "
+                         f"({matching}): train it again (vpr-smr train)")
+    if ground_truth and trained != matching:
+        raise ValueError(f"{predictor.path_} was trained on attributes of {trained}, but {where} uses {matching}: "
+                         "give the predictor trained with this matcher (the same --velocities, and positions "
+                         "with --radius or not), or train one for it")
+    if trained.velocities != matching.velocities:
+        raise ValueError(f"{predictor.path_} was trained on attributes of {trained}, but {where} searches "
+                         f"velocities {list(matching.velocities)}: give it the velocities the predictor was trained "
+                         f"with ({list(trained.velocities)}), or train one for these")
 
 
 def check_matcher(paths: Sequence[Path | str], velocities: Sequence[float], radius: float | None) -> None:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from vpr_smr.core.files import load_npy
 from vpr_smr.core.io import CSV_SUFFIXES
 
 __all__ = ["GroundTruth", "read_positions"]
@@ -104,11 +105,7 @@ def read_positions(path: Path | str) -> np.ndarray:
     if not path.is_file():
         raise FileNotFoundError(f"positions file not found: {path}")
     if path.suffix.lower() == ".npy":
-        try:
-            values = np.load(path, allow_pickle=False)
-        except ValueError as error:
-            raise ValueError(f"cannot read {path} as a numeric .npy array: {error}") from None
-        return _as_positions(values, str(path))
+        return _as_positions(load_npy(path, "one position per frame"), str(path))
     if path.suffix.lower() not in CSV_SUFFIXES:
         raise ValueError(f"{path}: positions must be a .npy array or a .csv table (one row per frame)")
     rows: list[list[float]] = []

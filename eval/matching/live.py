@@ -25,7 +25,7 @@ from typing import Any
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_VELOCITIES, KEPT_CLASSES
-from vpr_smr.eval.matching.attributes import block_features
+from vpr_smr.eval.matching.attributes import Matching, block_features, check_matching
 from vpr_smr.eval.matching.distances import distance_columns, prepare_references
 from vpr_smr.eval.matching.velocity import check_velocities, first_reference, velocity_block_features
 
@@ -66,6 +66,9 @@ class LiveMatcher:
         self.seq_len = seq_len
         self.velocities = check_velocities(velocities)
         self.distance = distance
+        if predictor is not None:  # its attributes must be this matcher's (live frames have no ground truth)
+            check_matching(predictor, Matching.of(self.velocities, None), "this LiveMatcher (velocities=)",
+                           ground_truth=False)
         self.predictor = predictor
         self.n_ranks = n_ranks
         self.references: np.ndarray | None = None
@@ -147,11 +150,11 @@ class LiveMatcher:
         window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % self.seq_len]
         r_min = first_reference(self.seq_len, self.velocities)
         n_ranks = min(self.n_ranks, self._buffer.shape[1] - r_min)
-        where = f" in frame {self.frames - 1}"
+        first = self.frames - self.seq_len  # the window's first frame: errors name frames, not window rows
         if self.velocities == DEFAULT_VELOCITIES:
-            out = block_features(window, self.seq_len, n_ranks, where=where)
+            out = block_features(window, self.seq_len, n_ranks, first_column=first)
         else:
-            out = velocity_block_features(window, self.seq_len, n_ranks, self.velocities, where=where)
+            out = velocity_block_features(window, self.seq_len, n_ranks, self.velocities, first_column=first)
         attributes = out["attributes"][0]
         label = keep = None
         if self.predictor is not None:

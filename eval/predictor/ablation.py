@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, write_json
-from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, read_features
+from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, common_matching, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport
@@ -109,6 +109,7 @@ def attributes_main(
     check_suffix(out, JSON_SUFFIXES, "the attribute ablation (JSON)")
     check_disjoint(frame_ranges(train), frame_ranges([*val, *test]), allow_split_overlap,
                    "the per-attribute predictors")
+    common_matching([*train, *val, *test])  # one matcher's labels, as the pooled predictor's
     x_train, y_train = _stack(_features(train))
     # attribute_f1 trains on the labels in this order (no shuffle): check them as they are, before any training
     check_training_labels(y_train, describe(meta, len(train)), bool(dict(params or {}).get("smote", True)))

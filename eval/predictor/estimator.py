@@ -30,6 +30,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from vpr_smr.core.constants import N_LABELS
+from vpr_smr.eval.matching.attributes import Matching
 from vpr_smr.eval.predictor.defaults import (
     CV_FOLDS,
     DEFAULTS,
@@ -38,6 +39,7 @@ from vpr_smr.eval.predictor.defaults import (
     VALIDATION_FRACTION,
 )
 
+MATCHING = "matching"  # a predictor file's attribute: the ``Matching`` of the attributes it was trained on
 # scikit-learn's MLP catches KeyboardInterrupt in its training loop, warns this, and returns the half-trained network
 INTERRUPT_WARNING = "Training interrupted by user."
 TRAINING_FIX = ("lengthen the train split (the dataset's `splits` entry named by `train_split`), shorten seq_lens, "
@@ -256,8 +258,10 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
         predicted: np.ndarray = self.classes_[np.argmax(self.predict_proba(features), axis=1)]
         return predicted
 
-    def save(self, path: Path | str, **attrs: Any) -> None:
-        """Write the parameters and fitted arrays to HDF5 (temporary name, then rename); ``attrs`` as attributes."""
+    def save(self, path: Path | str, matching: Matching | None = None, **attrs: Any) -> None:
+        """Write the parameters and fitted arrays to HDF5 (temporary name, then rename); ``matching``: the
+        sequence matcher and ground truth of the attributes it was trained on (``check_matching``; without it
+        the stages that apply a predictor refuse the file); ``attrs`` as attributes."""
         from vpr_smr.core.io import atomic_h5
 
         check_is_fitted(self, "coefs_")
@@ -265,6 +269,8 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
             raise ValueError(f"cannot save {path}: the predictor's classes must be integers, got {self.classes_}")
         provenance = {**attrs, "params": self.get_params(), "n_iter": self.n_iter_,
                       "n_features_in": int(self.n_features_in_)}
+        if matching is not None:
+            provenance[MATCHING] = matching.to_json()
         with atomic_h5(path, provenance) as f:
             f["mean"], f["scale"], f["classes"] = self.mean_, self.scale_, self.classes_
             for i, (w, b) in enumerate(zip(self.coefs_, self.intercepts_, strict=True)):
@@ -294,6 +300,10 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
             predictor.intercepts_ = [f[f"layers/{i}/bias"][()] for i in range(n_layers)]
             predictor.n_iter_ = int(f.attrs["n_iter"])
             predictor.n_features_in_ = int(f.attrs.get("n_features_in", len(predictor.mean_)))
+            stored = f.attrs.get(MATCHING)
+            # None: a file from before predictors recorded their matching (check_matching refuses to guess)
+            predictor.matching_ = None if stored is None else Matching.from_json(json.loads(stored))
+            predictor.path_ = str(path)
         return predictor
 
 

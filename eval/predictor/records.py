@@ -75,6 +75,33 @@ class SeedReport:
                    splits)
 
 
+def chance_f1(class_counts: tuple[int, ...]) -> float:
+    """Macro F1 at chance on a split with these class counts: ``1 / K`` for the ``K`` classes present, the expected
+    macro F1 of guessing each class at its own frequency (each class's F1 is then its frequency; always guessing
+    the most frequent class scores ``2 p / (1 + p) / K``, less)."""
+    present = sum(1 for count in class_counts if count > 0)
+    return 1.0 / present if present else 0.0
+
+
+def seed_problems(seed: SeedReport, split: str = "val") -> list[str]:
+    """Why one seed's predictor cannot be trusted on ``split`` (empty when it can, or the split was not given): a
+    macro F1 at or below chance, or one class predicted for every sample."""
+    scores = seed.splits.get(split)
+    if scores is None or scores.n == 0:
+        return []
+    problems = []
+    chance = chance_f1(scores.class_counts)
+    if scores.f1 <= chance:
+        present = sum(1 for count in scores.class_counts if count > 0)
+        problems.append(f"its {split} macro F1 {scores.f1:.2f} is at or below chance ({chance:.2f}: guessing each of "
+                        f"the {present} classes present at its own frequency)")
+    predicted = [sum(row[c] for row in scores.confusion) for c in range(len(scores.confusion[0]))]
+    if sum(count > 0 for count in predicted) == 1:
+        cls = next(c for c, count in enumerate(predicted) if count > 0)
+        problems.append(f"it predicts class {cls} for all {scores.n} {split} samples")
+    return problems
+
+
 @dataclass(frozen=True)
 class PredictorReport:
     """The report of ``train.main``: every seed (the first one's predictor is the predictor file) and, at the top
@@ -94,6 +121,13 @@ class PredictorReport:
         for name, scores in first.splits.items():
             out[f"f1_{name}"], out[f"n_{name}"] = scores.f1, scores.n
         return out
+
+    def warning(self, split: str = "val") -> str:
+        """Every seed whose predictor cannot be trusted on ``split`` and why (``seed_problems``), in one line; empty
+        when none."""
+        parts = [f"seed {seed.seed}: {'; '.join(problems)}" for seed in self.seeds
+                 if (problems := seed_problems(seed, split))]
+        return " | ".join(parts)
 
     def to_json(self) -> Json:
         out = {"meta": dict(self.meta), "n_train": self.n_train, **self.first_seed(),

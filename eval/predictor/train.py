@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import logging
+import time
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,8 @@ from sklearn.utils import shuffle
 from vpr_smr.core.constants import LABELS
 from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix, write_json
 from vpr_smr.core.paths import predictor_report_path, seed_predictor_path
-from vpr_smr.eval.matching.attributes import read_features
+from vpr_smr.core.progress import write_progress
+from vpr_smr.eval.matching.attributes import common_matching, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
 from vpr_smr.eval.predictor.leakage import TRAINED_ON, check_disjoint, frame_ranges
 from vpr_smr.eval.predictor.records import PredictorReport, SeedReport, SplitScores
@@ -149,19 +151,35 @@ def main(
     params = predictor_params(params)
     trained = frame_ranges(train)
     check_disjoint(trained, frame_ranges([*val, *test]), allow_split_overlap, "the predictor")
+    # the labels it learns and is scored on must come from one matcher and one kind of ground truth, which its
+    # files record for every stage that applies it
+    matching = common_matching([*train, *val, *test])
     x_train, y_train = pooled(train)
     check_trainable(y_train, params, seeds, describe(meta, len(train)))
     evaluation = {name: pooled(paths) for name, paths in (("val", val), ("test", test)) if paths}
     log.info("training on %d samples, class counts %s, seeds %s", len(y_train),
              np.bincount(y_train, minlength=len(LABELS)), seeds)
-    fitted = [train_seed(x_train, y_train, params, seed, evaluation) for seed in seeds]
+    # several seeds take about a minute each: a progress line per seed, which `vpr-smr run` shows for the job
+    # (one seed, as the ablations train, has no fraction worth showing)
+    several, started = len(seeds) > 1, time.monotonic()
+    fitted: list[tuple[SMRPredictor, SeedReport]] = []
+    if several:
+        write_progress(0, len(seeds), "seeds", 0.0)
+    for seed in seeds:
+        fitted.append(train_seed(x_train, y_train, params, seed, evaluation))
+        if several:
+            write_progress(len(fitted), len(seeds), "seeds", time.monotonic() - started)
 
     paths = [out] + [Path(seed_predictor_path(out, seed)) for seed in seeds[1:]]
     report = PredictorReport(dict(meta or {}), int(len(y_train)), tuple(numbers for _, numbers in fitted),
                              tuple(str(p) for p in paths) if len(seeds) > 1 else None)
+    warning = report.warning()
+    if warning:  # `vpr-smr run` shows the warnings of its jobs' logs; the predictor table and the report say it too
+        log.warning("%s: this predictor cannot be trusted: %s", describe(meta, len(train)), warning)
     for i, ((predictor, numbers), path) in enumerate(zip(fitted, paths, strict=True)):
         # the first predictor keeps the whole report, the others their own seed's numbers
-        predictor.save(path, report=report.to_json() if i == 0 else {"meta": report.meta, **numbers.to_json()},
+        predictor.save(path, matching, report=report.to_json() if i == 0 else {"meta": report.meta,
+                                                                               **numbers.to_json()},
                        **{TRAINED_ON: [r.to_json() for r in trained]})
     write_json(predictor_report_path(out), report.to_json())
     return report

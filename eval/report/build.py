@@ -24,8 +24,10 @@ from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.results import Order, WrittenFigure, WrittenTable, ground_truth_text, split_text
 from vpr_smr.eval.report.table1 import (
+    OUTCOME_COLUMNS,
     QUERY_COLUMNS,
     TABLE1_COLUMNS,
+    TABLE1_NUMBERS,
     UNDEFINED,
     evaluation_order,
     is_reduction,
@@ -38,16 +40,17 @@ from vpr_smr.eval.scoring.records import KEY_META, Evaluation, HeldOut, Timing, 
 from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
 from vpr_smr.eval.scoring.speed import SpeedResult
 
-SEQ_LEN_COLUMNS = (*TABLE1_COLUMNS[:-len(QUERY_COLUMNS) - 1], "auc_vpr_sm", "auc_vpr_sm_pred", *QUERY_COLUMNS,
-                   "n_seeds_defined")
+SEQ_LEN_COLUMNS = (*TABLE1_NUMBERS, "auc_vpr_sm", "auc_vpr_sm_pred", *QUERY_COLUMNS, "n_seeds_defined",
+                   *OUTCOME_COLUMNS)
+# warning: the seeds whose predictor cannot be trusted on the validation split, and why (PredictorReport.warning)
 PREDICTOR_COLUMNS = ("dataset", "seq_len", "n_train", "train_class_0", "train_class_1", "train_class_2",
-                     "train_class_3", "f1_cv", "f1_val", "f1_test", "n_val", "n_test")
+                     "train_class_3", "f1_cv", "f1_val", "f1_test", "n_val", "n_test", "warning")
 PREDICTOR_METHOD_COLUMNS = ("dataset", "seq_len", "method", "split", "n_queries", "f1_macro", "class_0", "class_1",
                             "class_2", "class_3", "predicted_0", "predicted_1", "predicted_2", "predicted_3")
 CONFUSION_COLUMNS = ("dataset", "seq_len", "method", "true_class", "predicted_0", "predicted_1", "predicted_2",
                      "predicted_3", "total")
 TRUST_COLUMNS = ("dataset", "method", "seq_len", "mode", "trust", "removed", "max_recall", "auc", "aoc",
-                 "auc_vpr_sm", "aoc_vpr_sm", "reduction_pct", "n_queries")
+                 "auc_vpr_sm", "aoc_vpr_sm", "reduction_pct", "outcome", "n_queries")
 TABLE2_F1 = ("f1_cv", "f1_val", "f1_test", "f1_test_method_mean")
 TABLE2_COLUMNS = ("dataset", "seq_len", "attributes", *TABLE2_F1, "n_train", "n_val", "n_test")
 RESTORATION_COLUMNS = (
@@ -58,14 +61,14 @@ RESTORATION_COLUMNS = (
 )
 LOMO_COLUMNS = ("dataset", "seq_len", "held_out", "mode", "n_queries", "f1_pooled", "f1_without", "removed_pooled",
                 "removed_without", "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled",
-                "reduction_pct_without")
+                "reduction_pct_without", "outcome_pooled", "outcome_without")
 TIMING_COLUMNS = ("dataset", "method", "seq_len", "split", "n_queries", "attributes_seconds", "predict_seconds",
                   "ms_per_query", "ms_attributes_per_query", "ms_predict_per_query")
 ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
 VPR_METRICS_COLUMNS = ("dataset", "method", "seq_len", "split", "mode", "matcher", "n_queries",
                        *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p", "pr_auc", "extended_precision")
 SPEED_NUMBERS = ("recall_at_1_single", "recall_at_1_sequence", "max_recall", "aoc_vpr_sm", "aoc_vpr_sm_pred",
-                 "reduction_pct", "f1_macro")
+                 "reduction_pct", "outcome", "f1_macro")
 # speed: the constant profile's speed (empty for varying); mean_speed: the simulated table query's mean step
 SPEED_COLUMNS = ("dataset", "method", "seq_len", "profile", "speed", "mean_speed", "matcher", "velocities",
                  *SPEED_NUMBERS, "n_queries", "n_queries_single")
@@ -152,7 +155,7 @@ def predictor_rows(predictors: Sequence[PredictorReport], order: Order | None = 
         numbers = {"n_train": report.n_train, **report.first_seed()}  # the predictor file's seed
         counts = numbers["train_class_counts"]
         rows.append({**{k: numbers.get(k) for k in PREDICTOR_COLUMNS}, **report.meta,
-                     **{f"train_class_{c}": counts[c] for c in range(4)}})
+                     **{f"train_class_{c}": counts[c] for c in range(4)}, "warning": report.warning()})
     return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"])))
 
 
@@ -238,6 +241,8 @@ def lomo_rows(results: Sequence[HeldOut], order: Order | None = None) -> list[di
                 "aoc_without": without.modes[mode].reduction.aoc_vpr_sm_pred,
                 "reduction_pct_pooled": pooled.modes[mode].reduction.reduction_pct,
                 "reduction_pct_without": without.modes[mode].reduction.reduction_pct,
+                "outcome_pooled": pooled.modes[mode].reduction.outcome,
+                "outcome_without": without.modes[mode].reduction.outcome,
             })
     return sorted(rows, key=lambda r: (order.mode(r["mode"]), order.dataset(r["dataset"]), int(r["seq_len"]),
                                        order.method(r["held_out"])))
@@ -437,7 +442,8 @@ def _figure_panels(items: list[Evaluation], split: str, mode: str, restoration: 
         result = evaluation.splits[split]
         numbers = result.modes[mode]
         if not restoration:
-            panels.append((evaluation.meta["method"], numbers.to_json()))
+            panels.append((evaluation.meta["method"], {**numbers.to_json(), "n_queries": result.n_queries,
+                                                       "removed": result.removed}))
             continue
         if result.restoration is None or numbers.curves is None:
             raise ValueError(f"{evaluation.key}: no restoration or no removal curves in split {split!r}")

@@ -21,6 +21,8 @@ from typing import Any
 import numpy as np
 
 from vpr_smr.core.io import atomic_path
+from vpr_smr.eval.report.outcome_words import SHORT
+from vpr_smr.eval.scoring.curves import LOST_ALL, REMOVED_ALL
 
 UP, DOWN = "tab:green", "tab:red"
 TITLE_POINTS = 14.4  # matplotlib's default figure and axes title size ("large": 1.2 x 12 pt)
@@ -68,15 +70,29 @@ def _finish(fig: Any, axes: Any, title: str, legend_size: int = 8) -> None:
     fig.tight_layout(rect=(0, 0.1, 1, 1))
 
 
+def pr_title(method: str, numbers: dict[str, Any]) -> str:
+    """A PR panel's title: the AOCs at the predictor's maximum recall, or, where the predictor left no correct
+    match (``outcome_words``), what it did and the baseline's own AOC at its own maximum recall."""
+    outcome = numbers.get("outcome")
+    if outcome in LOST_ALL:
+        n, removed = int(numbers["n_queries"]), int(numbers["removed"])
+        what = (f"removed all {n} matches" if outcome == REMOVED_ALL else
+                f"kept {n - removed} of {n} matches, none correct")
+        return (f"{method}\n{what}: recall 0\nVPR+SM AOC {numbers['aoc_vpr_sm_own']:.3f} at R "
+                f"{numbers['max_recall_vpr_sm']:.2f}")
+    text = f"{method}\nAOC {numbers['aoc_vpr_sm']:.3f} -> {numbers['aoc_vpr_sm_pred']:.3f}"
+    return f"{text} ({SHORT[outcome]})" if outcome in SHORT else text
+
+
 def pr_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]], title: str) -> Path:
-    """``panels``: (method, that method's numbers of one mode) with ``curve_vpr_sm`` and ``curve_vpr_sm_pred``."""
+    """``panels``: (method, that method's numbers of one mode) with ``curve_vpr_sm`` and ``curve_vpr_sm_pred``,
+    ``outcome``, ``n_queries`` and ``removed``."""
     fig, axes = _panels(len(panels))
     for ax, (method, numbers) in zip(axes, panels, strict=True):
         for key, label in (("curve_vpr_sm", "VPR+SM"), ("curve_vpr_sm_pred", "VPR+SM+Pred")):
             ax.plot(numbers[key]["recall"], numbers[key]["precision"], label=label)
         ax.axvline(numbers["max_recall"], color="grey", lw=0.5, ls=":")
-        ax.set(title=wrapped(f"{method}\nAOC {numbers['aoc_vpr_sm']:.3f} -> {numbers['aoc_vpr_sm_pred']:.3f}",
-                             3.0), xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
+        ax.set(title=wrapped(pr_title(method, numbers), 3.0), xlabel="recall", ylim=(0, 1.02), xlim=(0, 1))
     _finish(fig, axes, title)
     return save(fig, path)
 

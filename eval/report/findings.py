@@ -11,7 +11,9 @@ from typing import Any
 
 import numpy as np
 
+from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.table1 import Table1Block
+from vpr_smr.eval.scoring.curves import NOTHING_TO_REDUCE
 
 AOC = "area over the PR curve"
 
@@ -40,7 +42,8 @@ def listed(items: Sequence[str]) -> str:
 
 
 def _seed_part(row: dict[str, Any]) -> str | None:
-    """``method mean ± std %`` over the seeds (and how many, when only some are defined); None when undefined."""
+    """``method mean ± std %`` over the seeds (and how many, with the seeds left out and why, when only some are
+    defined); None when undefined."""
     mean, std = row.get("reduction_pct_mean"), row.get("reduction_pct_std")
     if mean is None:
         return None
@@ -48,7 +51,10 @@ def _seed_part(row: dict[str, Any]) -> str | None:
     defined = row.get("n_seeds_defined", n_seeds)
     spread = "" if std is None else f" ± {std:.1f}"
     part = f"{row['method']} {mean:.1f}{spread} %"
-    return part if defined == n_seeds else f"{part} ({defined} of {n_seeds} seeds)"
+    if defined == n_seeds:
+        return part
+    left_out = row.get("seeds_left_out", "")
+    return f"{part} ({defined} of {n_seeds} seeds{'; ' + left_out if left_out else ''})"
 
 
 def _seed_sentences(block: Table1Block) -> list[str]:
@@ -58,61 +64,73 @@ def _seed_sentences(block: Table1Block) -> list[str]:
     n_seeds = int(rows[0]["n_seeds"])
     if n_seeds == 1:
         return ["One predictor seed was run, so there is no spread over seeds."]
-    parts = [(row["method"], _seed_part(row)) for row in rows]
+    parts = [(row, _seed_part(row)) for row in rows]
     shown = [part for _, part in parts if part is not None]
-    undefined = [method for method, part in parts if part is None]
+    undefined = [row for row, part in parts if part is None]
     if not shown:
-        return [f"Over {n_seeds} predictor seeds the reduction is undefined for every method."]
-    means = [row["reduction_pct_mean"] for row in rows if row.get("reduction_pct_mean") is not None]
-    improved = sum(mean > 0 for mean in means)
+        return [f"Over {n_seeds} predictor seeds the reduction is undefined for every method"
+                + _why_undefined(undefined) + "."]
+    improved = sum(words.improved_on_average(row) for row in rows)
     text = f"Over {n_seeds} predictor seeds (mean ± sample standard deviation) the reduction is {listed(shown)}"
     if len(rows) > 1:
-        text += f"; on average it helps {improved} of {methods(len(means))}"
+        text += f"; on average it helps {improved} of {methods(len(rows))}"
     if undefined:
-        text += f"; it is undefined for {listed(undefined)}"
+        text += f"; it is undefined for {listed([str(r['method']) for r in undefined])}" + _why_undefined(undefined)
     return [text + "."]
 
 
+def _why_undefined(rows: Sequence[dict[str, Any]]) -> str:
+    """`` (a: seeds 0, 1: removed every match)``: which seeds are left out and why, per method."""
+    reasons = [f"{r['method']}: {r['seeds_left_out']}" for r in rows if r.get("seeds_left_out")]
+    return f" ({'; '.join(reasons)})" if reasons else ""
+
+
 def sentences(block: Table1Block, split: str) -> list[str]:
-    """What the predictor did to the area over the PR curve of each method of one dataset, mode and L."""
+    """What the predictor did to the area over the PR curve of each method of one dataset, mode and L. A method
+    whose predictor was degenerate (removed every match, kept no correct one, made a perfect baseline worse, kept
+    every match) gets its own sentence saying what happened (``outcome_words``) and counts as not improved."""
     rows = block.rows
     where = f"On {block.dataset} ({split} split, L = {block.seq_len}, {block.mode} mode, seed-0 predictor)"
-    defined = [(str(r["method"]), float(r["reduction_pct"])) for r in rows if r["reduction_pct"] is not None]
-    undefined = [str(r["method"]) for r in rows if r["reduction_pct"] is None]
-    better = sorted(((m, v) for m, v in defined if v > 0), key=lambda item: -item[1])
-    worse = sorted(((m, v) for m, v in defined if v < 0), key=lambda item: item[1])
-    same = [m for m, v in defined if v == 0]
+    plain = [r for r in rows if not words.is_degenerate(r)]
+    degenerate = [r for r in rows if words.is_degenerate(r)]
+    better = sorted(((str(r["method"]), float(r["reduction_pct"])) for r in plain if r["reduction_pct"] > 0),
+                    key=lambda item: -item[1])
+    worse = sorted(((str(r["method"]), float(r["reduction_pct"])) for r in plain if r["reduction_pct"] < 0),
+                   key=lambda item: item[1])
+    same = [str(r["method"]) for r in plain if r["reduction_pct"] == 0]
     out = []
-    if not defined:
-        whose = f"{undefined[0]}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
+    if degenerate and all(r.get("outcome") == NOTHING_TO_REDUCE for r in rows):
+        whose = f"{rows[0]['method']}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
         out.append(f"{where} {whose} {AOC} is already 0 without the predictor: there is nothing to reduce, so the "
                    "reduction is undefined.")
-    elif len(defined) == 1:  # one method, or one whose reduction is defined
-        method, value = defined[0]
+        return out + _seed_sentences(block)
+    if len(rows) == 1 and plain:
+        method, value = str(rows[0]["method"]), float(rows[0]["reduction_pct"])
         if value > 0:
             out.append(f"{where} the predictor reduced {method}'s {AOC} by {size(value)}.")
         elif value < 0:
             out.append(f"{where} the predictor made {method}'s {AOC} {size(value)} worse (larger).")
         else:
             out.append(f"{where} the predictor left {method}'s {AOC} unchanged.")
+    elif len(rows) == 1:
+        out.append(f"{where}, for {rows[0]['method']}, {words.note(rows[0])}.")
     else:
         if better:
-            clauses = [f"reduced the {AOC} for {len(better)} of {methods(len(defined))}: "
+            clauses = [f"reduced the {AOC} for {len(better)} of {methods(len(rows))}: "
                        + ", ".join(f"{m} by {size(v)}" for m, v in better)]
         else:
-            clauses = [f"reduced the {AOC} for none of the {len(defined)} methods"]
+            clauses = [f"reduced the {AOC} for none of the {len(rows)} methods"]
         if worse:
             clauses.append("it made " + listed([f"{m}'s {size(v)}" for m, v in worse]) + " worse")
         if same:
             clauses.append("it left " + listed([f"{m}'s" for m in same]) + " unchanged")
         out.append(f"{where} the predictor " + "; ".join(clauses) + ".")
-        mean = float(np.mean([v for _, v in defined]))
-        out.append(f"The mean reduction over {'these' if undefined else 'the'} {len(defined)} methods is "
-                   f"{signed(mean)} (Table I's Mean).")
-    if undefined and defined:
-        whose = "its" if len(undefined) == 1 else "their"
-        out.append(f"The reduction is undefined for {listed(undefined)}: {whose} {AOC} is already 0 without the "
-                   "predictor.")
+        out += [f"For {r['method']}, {words.note(r)}." for r in degenerate]
+        defined = [float(r["reduction_pct"]) for r in rows if r["reduction_pct"] is not None]
+        if len(defined) > 1:
+            these = "these" if len(defined) < len(rows) else "the"
+            out.append(f"The mean reduction over {these} {len(defined)} methods is {signed(float(np.mean(defined)))} "
+                       "(Table I's Mean).")
     return out + _seed_sentences(block)
 
 

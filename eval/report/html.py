@@ -33,7 +33,16 @@ from vpr_smr.eval.report.results import (
     split_text,
     unique,
 )
-from vpr_smr.eval.report.table1 import ROW_NAMES, SEED_ROW_NAME, UNDEFINED, UNDEFINED_NOTE, Table1Block, table1_blocks
+from vpr_smr.eval.report.table1 import (
+    ROW_NAMES,
+    SEED_ROW_NAME,
+    UNDEFINED,
+    UNDEFINED_NOTE,
+    Table1Block,
+    cells,
+    notes,
+    table1_blocks,
+)
 from vpr_smr.eval.report.view import (
     Block,
     Card,
@@ -159,13 +168,15 @@ def table1_view(block: Table1Block, table_id: str) -> TableView:
     summary, note, improved = block.summary()
     head = (Column("", "text"), *(Column(m) for m in block.methods), Column("Mean"), Column("Improved", "text"))
     rows: list[tuple[Cell, ...]] = []
-    for i, (name, values) in enumerate(zip(ROW_NAMES, summary, strict=True)):
+    for i, name in enumerate(ROW_NAMES):
         column = "reduction_pct" if i == 2 else "aoc"
-        cells = [cell(v, column) for v in values]
+        # the numbers' cells (sorting value, colour), with Table I's words where a number would mislead
+        texts = cells(block.rows, summary, i, "{:.2f}" if i == 2 else "{:.4f}")
+        numbers = [cell(v, column) for v in summary[i]]
+        row = [Cell(t, c.sort, c.kind) for t, c in zip(texts, numbers, strict=True)]
         if i == 2 and note:
-            mean = cells[-1]
-            cells[-1] = Cell(mean.text + note, mean.sort, mean.kind)
-        rows.append((text_cell(name, header=True), *cells, text_cell(improved if i == 2 else "")))
+            row[-1] = Cell(row[-1].text + note, row[-1].sort, row[-1].kind)
+        rows.append((text_cell(name, header=True), *row, text_cell(improved if i == 2 else "")))
     if block.has_seeds:
         texts, last = block.seed_cells(" ± ")
         means = [r.get("reduction_pct_mean") for r in block.rows]
@@ -173,17 +184,26 @@ def table1_view(block: Table1Block, table_id: str) -> TableView:
         rows.append((text_cell(SEED_ROW_NAME, header=True),
                      *(Cell(t, kind=k) for t, k in zip(texts, kinds, strict=True)), text_cell(last)))
     undefined = any(c.text.startswith(UNDEFINED) for row in rows for c in row)
-    return TableView(table_id, head, tuple(rows), note=UNDEFINED_NOTE if undefined else "", sortable=False,
-                     css="paper table1")
+    below = [*notes(block.rows), *([UNDEFINED_NOTE] if undefined else [])]
+    return TableView(table_id, head, tuple(rows), note=" ".join(below), sortable=False, css="paper table1")
 
 
-def findings(table1: WrittenTable | None, split: str) -> tuple[Finding, ...]:
+def predictor_warnings(predictor: WrittenTable | None, dataset: str, seq_len: int) -> list[str]:
+    """The warning of the predictor table's row of ``dataset`` at ``seq_len`` as a sentence (none without one)."""
+    rows = _where(predictor.rows if predictor is not None else (), dataset=dataset, seq_len=seq_len)
+    return [f"Warning: the predictor of {dataset} at L = {seq_len} cannot be trusted: {row['warning']}."
+            for row in rows if row.get("warning")]
+
+
+def findings(table1: WrittenTable | None, split: str, predictor: WrittenTable | None = None) -> tuple[Finding, ...]:
+    """Per Table I block, its sentences, led by the warnings of a predictor that cannot be trusted."""
     if table1 is None:
         return ()
     out = []
     for block in table1_blocks(table1.rows):
         title = f"Table I: {block.dataset} · {split} split · L = {block.seq_len} · {block.mode} mode"
-        out.append(Finding(title, tuple(sentences(block, split)),
+        warned = predictor_warnings(predictor, block.dataset, block.seq_len)
+        out.append(Finding(title, (*warned, *sentences(block, split)),
                            table1_view(block, anchor("table1", block.dataset, block.mode, block.seq_len)),
                            block.query_note(split)))
     return tuple(out)
@@ -333,9 +353,13 @@ class _Builder:
                             "(the predicted counts: the whole table below)"))
             shown = _where(pooled, dataset=dataset)
             if shown:
-                tables.append(data_table(anchor("predictor-pooled", dataset), (
-                    "seq_len", "n_train", "f1_cv", "f1_val", "f1_test", "n_val", "n_test"), shown,
-                    caption="The pooled predictor (seed 0) per sequence length"))
+                columns = ("seq_len", "n_train", "f1_cv", "f1_val", "f1_test", "n_val", "n_test")
+                warned = any(row.get("warning") for row in shown)
+                tables.append(data_table(anchor("predictor-pooled", dataset), (*columns, *(
+                    ("warning",) if warned else ())), shown,
+                    caption="The pooled predictor (seed 0) per sequence length" + (
+                        "; warning: the seeds whose predictor cannot be trusted on the validation split" if warned
+                        else "")))
             figures = tuple(self.figure(c) for c in confusion if c.dataset == dataset)
             blocks.append(Block(dataset, figures, tuple(tables)))
         return Section("predictor", "The predictor alone", (
@@ -530,7 +554,7 @@ def build_page(
         *([f"Table I at L = {', '.join(map(str, lens))}"] if lens else []),
         f"generated {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}",
     ])
-    found = findings(by_name.get("table1"), split)
+    found = findings(by_name.get("table1"), split, by_name.get("predictor"))
     table1_files = (", ".join(_relative(p, run_dir) for p in by_name["table1"].files[1:]) + " hold this layout; "
                     + _relative(by_name["table1"].files[0], run_dir) + " every column") if "table1" in by_name else ""
     sections = _Builder(tables, figures, order, split, run_dir).sections()

@@ -7,29 +7,32 @@ The rows are the CSV's (``table1_rows``: one per dataset, method, L and mode, in
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.results import Order
 from vpr_smr.eval.scoring.records import Evaluation, EvaluationSplit
 
 UNDEFINED = "n/a"  # a reduction whose baseline AOC is 0: JSON null, an empty CSV cell
 SEED_COLUMNS = ("reduction_pct_mean", "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds")
+TABLE1_NUMBERS = ("dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence", "max_recall",
+                  "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", *SEED_COLUMNS)
 # n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
 # n_queries_single: those recall_at_1_single is over (paper mode: every query of the split, SPEC 8)
 QUERY_COLUMNS = ("n_queries", "n_queries_single")
+# What the seed-0 predictor did (``curves.outcome``), the matches it removed, the baseline's own maximum recall and
+# AOC there (what the baseline is worth where the predictor leaves no recall), and the seeds the spread leaves out
+OUTCOME_COLUMNS = ("outcome", "removed", "max_recall_vpr_sm", "aoc_vpr_sm_own", "seeds_left_out")
 # n_seeds_defined: the seeds whose reduction is defined (the baseline's AOC not 0), which the seed columns are over
-TABLE1_COLUMNS = (
-    "dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence", "max_recall",
-    "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", *SEED_COLUMNS, *QUERY_COLUMNS, "n_seeds_defined",
-)
+TABLE1_COLUMNS = (*TABLE1_NUMBERS, *QUERY_COLUMNS, "n_seeds_defined", *OUTCOME_COLUMNS)
 ROW_NAMES = ("VPR+SM", "VPR+SM+Pred", "Reduction (%)")
 SEED_ROW_NAME = "Reduction over seeds (%)"
-UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined, the baseline's AOC being 0 (nothing to reduce); Mean and "
-                  "Improved leave it out.")
+UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined (why: beside it, and below); Mean leaves it out, "
+                  "Improved counts it as not improved.")
 
 
 def is_reduction(column: str) -> bool:
@@ -40,9 +43,12 @@ def is_reduction(column: str) -> bool:
 def _mode_numbers(split_result: EvaluationSplit, mode: str) -> dict[str, Any]:
     numbers = split_result.modes[mode]
     n_queries = split_result.n_queries
+    summary = split_result.seed_summary[mode]
+    seeds = {key: value for key, value in summary.to_json().items() if key != "outcomes"}
     # recall@1 single by the mode's rule: paper mode over every query of the split (n_queries_single)
     return {**numbers.reduction.to_json(), "recall_at_1_single": numbers.recall_at_1_single,
-            "recall_at_1_sequence": numbers.recall_at_1_sequence, **split_result.seed_summary[mode].to_json(),
+            "recall_at_1_sequence": numbers.recall_at_1_sequence, **seeds, "seed_outcomes": summary.outcomes,
+            "seeds_left_out": words.seeds_left_out(summary.outcomes), "removed": split_result.removed,
             "n_queries": n_queries, "n_queries_single": split_result.n_queries_split if mode == "paper" else n_queries}
 
 
@@ -85,14 +91,14 @@ def _reduction_mean(values: Sequence[float | None]) -> tuple[float | None, str]:
     """The mean of the defined reductions and, when some are undefined, how many it is over."""
     defined = _defined(values)
     mean = float(np.mean(defined)) if defined else None
-    note = "" if len(defined) == len(values) else f" (mean over {len(defined)} of {len(values)} methods)"
+    # over some of the methods: say how many; over none there is no mean, and n/a says so
+    note = "" if len(defined) in (0, len(values)) else f" (mean over {len(defined)} of {len(values)} methods)"
     return mean, note
 
 
-def _improved(values: Sequence[float | None]) -> str:
-    """How many methods improve, of those whose reduction is defined."""
-    defined = _defined(values)
-    return f"{sum(v > 0 for v in defined)} / {len(defined)}"
+def _improved(rows: Sequence[dict[str, Any]], improved: Callable[[dict[str, Any]], bool]) -> str:
+    """How many of all the methods improve: a method whose reduction is undefined counts as not improved."""
+    return f"{sum(improved(r) for r in rows)} / {len(rows)}"
 
 
 def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str, str]:
@@ -101,7 +107,23 @@ def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str,
     reductions = [r["reduction_pct"] for r in rows]
     mean, note = _reduction_mean(reductions)
     values = [[r["aoc_vpr_sm"] for r in rows], [r["aoc_vpr_sm_pred"] for r in rows]]
-    return ([v + [float(np.mean(v))] for v in values] + [reductions + [mean]], note, _improved(reductions))
+    return ([v + [float(np.mean(v))] for v in values] + [reductions + [mean]], note,
+            _improved(rows, words.improved))
+
+
+def cells(rows: Sequence[dict[str, Any]], summary: list[list[float | None]], row: int, number: str
+          ) -> list[str]:
+    """The texts of one of Table I's three rows (``row`` 0, 1, 2: VPR+SM, VPR+SM+Pred, Reduction) per method and
+    Mean, numbers formatted with ``number``, each method's cell saying in words where a number would mislead
+    (``outcome_words``)."""
+    method_cell = (words.baseline_cell, words.predictor_cell, words.reduction_cell)[row]
+    texts = [method_cell(r, _number(v, number)) for r, v in zip(rows, summary[row], strict=False)]
+    return texts + [_number(summary[row][-1], number)]
+
+
+def notes(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """One sentence per method whose seed-0 predictor was degenerate (``outcome_words.note``)."""
+    return [f"{r['method']}: {words.note(r)}." for r in rows if words.is_degenerate(r)]
 
 
 def _has_seeds(rows: list[dict[str, Any]]) -> bool:
@@ -109,20 +131,22 @@ def _has_seeds(rows: list[dict[str, Any]]) -> bool:
 
 
 def _seed_cells(rows: list[dict[str, Any]], separator: str) -> tuple[list[str], str]:
-    """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the seeds counted where only some
-    are), the mean of the defined means, and how many methods improve on average."""
-    cells = []
+    """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the seeds counted, and those left
+    out named with the reason, where only some are), the mean of the defined means, and how many methods improve
+    on average (a method one of whose seeds did harm the mean cannot show does not)."""
+    texts = []
     for r in rows:
+        left_out = r.get("seeds_left_out", "")
         if r.get("reduction_pct_mean") is None:
-            cells.append(UNDEFINED)
+            texts.append(f"{UNDEFINED}: {left_out}" if left_out else UNDEFINED)
             continue
         defined = r.get("n_seeds_defined", r["n_seeds"])
-        part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds)"
-        cells.append(f"{r['reduction_pct_mean']:.2f}{separator}{r['reduction_pct_std']:.2f}{part}")
+        part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds; {left_out})"
+        texts.append(f"{r['reduction_pct_mean']:.2f}{separator}{r['reduction_pct_std']:.2f}{part}")
     means = [r.get("reduction_pct_mean") for r in rows]
     mean, note = _reduction_mean(means)
     n_seeds = rows[0].get("n_seeds", "")
-    return cells + [_number(mean, "{:.2f}") + note], f"{_improved(means)} ({n_seeds} seeds)"
+    return texts + [_number(mean, "{:.2f}") + note], f"{_improved(rows, words.improved_on_average)} ({n_seeds} seeds)"
 
 
 def _number(value: float | None, fmt: str) -> str:
@@ -163,21 +187,24 @@ def table1_markdown(rows: list[dict[str, Any]], split: str = "test") -> str:
         out += [f"## {mode} mode, sequence length {seq_len}", ""] + ([note, ""] if note else [])
         out.append("| dataset | | " + " | ".join(methods) + " | Mean | Improved |")
         out.append("|---|---|" + "---|" * (len(methods) + 2))
+        degenerate = []
         for dataset, dataset_rows in datasets.items():
             summary, note, improved = _summary(dataset_rows)
-            for i, (name, values) in enumerate(zip(ROW_NAMES, summary, strict=True)):
-                cells = [_number(v, "{:.2f}" if i == 2 else "{:.4f}") for v in values]
+            for i, name in enumerate(ROW_NAMES):
+                texts = cells(dataset_rows, summary, i, "{:.2f}" if i == 2 else "{:.4f}")
                 if i == 2:
-                    cells[-1] += note
+                    texts[-1] += note
                 last = improved if i == 2 else ""
                 label = dataset if i == 0 else ""
-                out.append(f"| {label} | {name} | " + " | ".join(cells) + f" | {last} |")
+                out.append(f"| {label} | {name} | " + " | ".join(texts) + f" | {last} |")
             if _has_seeds(dataset_rows):
-                cells, last = _seed_cells(dataset_rows, " ± ")
-                out.append(f"|  | {SEED_ROW_NAME} | " + " | ".join(cells) + f" | {last} |")
-                undefined |= UNDEFINED in cells
+                texts, last = _seed_cells(dataset_rows, " ± ")
+                out.append(f"|  | {SEED_ROW_NAME} | " + " | ".join(texts) + f" | {last} |")
+                undefined |= any(t.startswith(UNDEFINED) for t in texts)
             undefined |= None in summary[2]
+            degenerate += [f"{dataset}, {n}" if len(datasets) > 1 else n for n in notes(dataset_rows)]
         out.append("")
+        out += [*degenerate, ""] if degenerate else []
     if undefined:
         out += [UNDEFINED_NOTE, ""]
     return "\n".join(out)
@@ -188,10 +215,12 @@ def tex_escape(text: Any) -> str:
         "&", r"\&").replace("#", r"\#")
 
 
-def _tex_reduction(value: float | None) -> str:
+def _tex_reduction(row: dict[str, Any] | None, value: float | None) -> str:
+    """A reduction in colour (green better, red worse); a method's ``row`` says in words where it is undefined."""
     if value is None:
-        return UNDEFINED
-    return rf"\textcolor{{{'green' if value > 0 else 'red' if value < 0 else 'black'}}}{{{value:.2f}}}"
+        return tex_escape(words.reduction_cell(row, UNDEFINED)) if row is not None else UNDEFINED
+    text = rf"\textcolor{{{'green' if value > 0 else 'red' if value < 0 else 'black'}}}{{{value:.2f}}}"
+    return words.reduction_cell(row, text) if row is not None else text
 
 
 def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
@@ -206,26 +235,31 @@ def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
             r"\multicolumn{2}{c|}{} & " + " & ".join(tex_escape(m) for m in methods) + r" & Mean & Improved\\",
             r"\hline",
         ]
+        degenerate = []
         for dataset, dataset_rows in datasets.items():
             summary, note, improved = _summary(dataset_rows)
-            for i, (name, values) in enumerate(zip(ROW_NAMES, summary, strict=True)):
+            for i, name in enumerate(ROW_NAMES):
                 if i == 2:
-                    cells = [_tex_reduction(v) for v in values]
-                    cells[-1] += tex_escape(note)
+                    texts = [_tex_reduction(r, v) for r, v in zip(dataset_rows, summary[2], strict=False)]
+                    texts.append(_tex_reduction(None, summary[2][-1]) + tex_escape(note))
                     last = improved
                 else:
-                    cells, last = [_number(v, "{:.4f}") for v in values], ""
+                    texts, last = [tex_escape(t) for t in cells(dataset_rows, summary, i, "{:.4f}")], ""
                 label = tex_escape(dataset) if i == 0 else ""
-                out.append(f"{label} & {tex_escape(name)} & " + " & ".join(cells) + f" & {last}" + r"\\")
+                out.append(f"{label} & {tex_escape(name)} & " + " & ".join(texts) + f" & {last}" + r"\\")
             if _has_seeds(dataset_rows):
-                cells, last = _seed_cells(dataset_rows, r" $\pm$ ")
-                out.append(f" & {tex_escape(SEED_ROW_NAME)} & " + " & ".join(cells) + f" & {last}" + r"\\")
-                undefined |= UNDEFINED in cells
+                texts, last = _seed_cells(dataset_rows, "\x00")
+                texts = [tex_escape(t).replace("\x00", r" $\pm$ ") for t in texts]
+                out.append(f" & {tex_escape(SEED_ROW_NAME)} & " + " & ".join(texts) + f" & {last}" + r"\\")
+                undefined |= any(t.startswith(UNDEFINED) for t in texts)
             undefined |= None in summary[2]
+            degenerate += [f"{dataset}, {n}" if len(datasets) > 1 else n for n in notes(dataset_rows)]
             out.append(r"\hline")
         note = _query_note(datasets, split, mode)
         if note:
             out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {tex_escape(note)}}}\\")
+        for line in degenerate:
+            out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {tex_escape(line)}}}\\")
         if undefined:
             out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {tex_escape(UNDEFINED_NOTE)}}}\\")
         out += [r"\end{tabular}", ""]

@@ -108,6 +108,10 @@ class Comparison:
     aoc_predictor: float
     reduction_pct: float | None  # None (JSON null) when the baseline's AOC is 0: nothing to reduce
     baseline_cut: Curve
+    # The baseline's own maximum recall and its AOC there: what the baseline is worth when the predictor's maximum
+    # recall leaves nothing of it to compare (a predictor that removed every match cuts it at recall 0).
+    max_recall_baseline: float
+    aoc_baseline_own: float
 
 
 def reduction_pct(aoc_before: float, aoc_after: float) -> float | None:
@@ -137,8 +141,48 @@ def compare_curves(baseline: Curve, predictor: Curve) -> Comparison:
     auc_base, auc_pred = area(baseline_cut), area(predictor)
     # Precision <= 1, so AUC <= R_max: a negative AOC is rounding error of the trapezoid sum.
     aoc_base, aoc_pred = max(0.0, max_recall - auc_base), max(0.0, max_recall - auc_pred)
+    max_recall_own = float(baseline.recall[-1])
+    aoc_own = max(0.0, max_recall_own - area(baseline))
     return Comparison(max_recall, auc_base, auc_pred, aoc_base, aoc_pred, reduction_pct(aoc_base, aoc_pred),
-                      baseline_cut)
+                      baseline_cut, max_recall_own, aoc_own)
+
+
+# What removing matches did to one comparison (``outcome``). All but the last three are degenerate: the reduction
+# says nothing there (it is undefined, or 0 because nothing changed), so every table and sentence names them in words.
+NO_CORRECT_MATCH = "no_correct_match"  # no sequence match is correct: both curves are at recall 0
+REMOVED_ALL = "removed_all"  # every match removed: recall 0, nothing left to score
+KEPT_NONE_CORRECT = "kept_none_correct"  # some matches kept, none of them correct: recall 0
+KEPT_ALL = "kept_all"  # nothing removed: both curves are the baseline's, the reduction 0
+NOTHING_TO_REDUCE = "nothing_to_reduce"  # both AOCs 0 up to the predictor's maximum recall
+WORSE_FROM_ZERO = "worse_from_zero"  # the baseline's AOC 0 there and the predictor's larger: worse by an undefined %
+IMPROVED, WORSE, UNCHANGED = "improved", "worse", "unchanged"
+# A removal that lost every correct match: the reduction cannot show it (both AOCs are 0 at recall 0)
+LOST_ALL = (REMOVED_ALL, KEPT_NONE_CORRECT)
+UNDEFINED = (NO_CORRECT_MATCH, *LOST_ALL, NOTHING_TO_REDUCE, WORSE_FROM_ZERO)  # reduction_pct None
+# Outcomes that count against a predictor wherever methods or seeds are counted as improved: the reduction is
+# undefined there, but the predictor did harm
+HARMFUL = (*LOST_ALL, WORSE_FROM_ZERO)
+
+
+def outcome(n_queries: int, removed: int, comparison: Comparison) -> str:
+    """What removing ``removed`` of ``n_queries`` matches did, by the first that applies: no match correct to
+    begin with; every match removed; none correct kept (maximum recall 0); both AOCs 0 (nothing to reduce); the
+    baseline's AOC 0 and the predictor's not (worse, the percentage undefined); nothing removed (a reduction of 0);
+    else improved, worse or unchanged by the sign of the reduction. The reduction is undefined (None) exactly for
+    the outcomes of ``UNDEFINED``."""
+    if comparison.max_recall_baseline <= 0:
+        return NO_CORRECT_MATCH
+    if n_queries > 0 and removed >= n_queries:
+        return REMOVED_ALL
+    if comparison.max_recall <= 0:
+        return KEPT_NONE_CORRECT
+    if comparison.reduction_pct is None:
+        return WORSE_FROM_ZERO if comparison.aoc_predictor > AOC_ZERO else NOTHING_TO_REDUCE
+    if removed == 0:
+        return KEPT_ALL
+    if comparison.reduction_pct > 0:
+        return IMPROVED
+    return WORSE if comparison.reduction_pct < 0 else UNCHANGED
 
 
 def recall_at_full_precision(curve_: Curve) -> float:

@@ -18,10 +18,10 @@ from sklearn.metrics import confusion_matrix
 from vpr_smr.core.constants import DEFAULT_TRUST_LEVELS, LABELS, MODES
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance, write_json
 from vpr_smr.core.paths import timing_path
-from vpr_smr.eval.matching.attributes import QueryFeatures, read_features
+from vpr_smr.eval.matching.attributes import QueryFeatures, check_matching, common_matching, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
-from vpr_smr.eval.scoring.curves import compare_curves, curve, keep_mask, recall_at_full_precision
+from vpr_smr.eval.scoring.curves import compare_curves, curve, keep_mask, outcome, recall_at_full_precision
 from vpr_smr.eval.scoring.records import (
     Evaluation,
     EvaluationSplit,
@@ -71,10 +71,13 @@ def _mode_removal(
     distances, correct = features.sequence_distance, features.sequence_correct
     s_range = (features.sequence_min, features.sequence_max)
     baseline = curve(mode, distances, correct, keep_mask(n=n), *s_range)
-    with_predictor = curve(mode, distances, correct, keep_mask(predicted, confidence), *s_range)
+    keep = keep_mask(predicted, confidence)
+    with_predictor = curve(mode, distances, correct, keep, *s_range)
     comparison = compare_curves(baseline, with_predictor)
     reduction = Reduction(comparison.max_recall, comparison.auc_baseline, comparison.auc_predictor,
-                          comparison.aoc_baseline, comparison.aoc_predictor, comparison.reduction_pct)
+                          comparison.aoc_baseline, comparison.aoc_predictor, comparison.reduction_pct,
+                          comparison.max_recall_baseline, comparison.aoc_baseline_own,
+                          outcome(n, int((~keep).sum()), comparison))
     removal_curves = RemovalCurves(recall_at_full_precision(baseline), recall_at_full_precision(with_predictor),
                                    PRCurve.of(baseline), PRCurve.of(with_predictor)) if curves else None
     trust, trust_numbers = {}, {}
@@ -83,10 +86,11 @@ def _mode_removal(
         trust_curve = curve(mode, distances, correct, keep, *s_range)
         level_comparison = compare_curves(baseline, trust_curve)
         trust[str(level)] = PRCurve.of(trust_curve)
+        removed = int((~keep).sum())
         trust_numbers[str(level)] = TrustNumbers(
-            int((~keep).sum()), level_comparison.max_recall, level_comparison.auc_predictor,
+            removed, level_comparison.max_recall, level_comparison.auc_predictor,
             level_comparison.aoc_predictor, level_comparison.auc_baseline, level_comparison.aoc_baseline,
-            level_comparison.reduction_pct)
+            level_comparison.reduction_pct, outcome(n, removed, level_comparison))
     single = recall_at_1(features, mode)
     return ModeRemoval(single["recall_at_1_single"], single["recall_at_1_sequence"], reduction, removal_curves,
                        trust_numbers if trust_levels else None, trust if trust_levels and curves else None)
@@ -111,7 +115,8 @@ def removal(
 
 def seed_summary(seeds: Sequence[SeedNumbers]) -> dict[str, SeedSummary]:
     """Per mode: mean, sample standard deviation (ddof 1; 0 for one seed), min and max of ``reduction_pct`` over
-    the ``n_seeds_defined`` of the ``n_seeds`` seeds where it is defined; all None when it is nowhere."""
+    the ``n_seeds_defined`` of the ``n_seeds`` seeds where it is defined (all None when it is nowhere), and every
+    seed's outcome, which says why a seed is left out."""
     out = {}
     for mode in seeds[0].modes:
         reductions = [s.modes[mode].reduction_pct for s in seeds]
@@ -124,6 +129,7 @@ def seed_summary(seeds: Sequence[SeedNumbers]) -> dict[str, SeedSummary]:
             reduction_pct_std=(float(values.std(ddof=1)) if len(values) > 1 else 0.0) if defined else None,
             reduction_pct_min=float(values.min()) if defined else None,
             reduction_pct_max=float(values.max()) if defined else None,
+            outcomes={s.seed: s.modes[mode].outcome for s in seeds},
         )
     return out
 
@@ -208,12 +214,14 @@ def main(
     if not predictor_paths:
         raise ValueError("evaluate needs at least one predictor file (seed 0 first)")
     predictors = []
+    matching = common_matching(list(features_paths.values()))
     for path in predictor_paths:
         if not Path(path).is_file():
             raise FileNotFoundError(f"predictor file not found: {path} (train it first: vpr-smr train)")
         check_disjoint(trained_on(path), frame_ranges(features_paths.values()), allow_split_overlap,
                        f"predictor {path}")
         predictors.append(SMRPredictor.load(path))
+        check_matching(predictors[-1], matching, "the attributes " + ", ".join(map(str, features_paths.values())))
     splits: dict[str, EvaluationSplit] = {}
     timings: dict[str, SplitTiming] = {}
     for split, path in features_paths.items():

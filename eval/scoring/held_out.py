@@ -8,7 +8,7 @@ from typing import Any
 
 from vpr_smr.core.constants import MODES
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, write_json
-from vpr_smr.eval.matching.attributes import read_features
+from vpr_smr.eval.matching.attributes import Matching, check_matching, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
 from vpr_smr.eval.scoring.evaluate import removal
@@ -34,6 +34,7 @@ def main(
             raise FileNotFoundError(f"predictor file not found: {path} (train it first)")
         check_disjoint(trained_on(path), frame_ranges([features]), allow_split_overlap, f"predictor {path}")
         predictor = SMRPredictor.load(path)
+        check_matching(predictor, Matching.stored(features), str(features))
         scores[name] = HeldOutScores.of(str(path), removal(
             features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_, tuple(modes),
             curves=False))

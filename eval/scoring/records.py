@@ -65,7 +65,12 @@ class PRCurve:
 
 @dataclass(frozen=True)
 class Reduction:
-    """Baseline (VPR+SM) against match removal (+Pred) in one mode: the numbers every predictor seed has."""
+    """Baseline (VPR+SM) against match removal (+Pred) in one mode: the numbers every predictor seed has.
+
+    ``max_recall`` is the predictor's, where both AOCs are taken; ``max_recall_vpr_sm`` and ``aoc_vpr_sm_own`` are
+    the baseline's own maximum recall and AOC there, which stand in for it when the predictor leaves no recall to
+    compare at. ``outcome`` is ``curves.outcome``'s: what the removal did, in a word a table can show.
+    """
 
     max_recall: float
     auc_vpr_sm: float
@@ -73,6 +78,9 @@ class Reduction:
     aoc_vpr_sm: float
     aoc_vpr_sm_pred: float
     reduction_pct: float | None  # None (null) when the baseline's AOC is 0
+    max_recall_vpr_sm: float
+    aoc_vpr_sm_own: float
+    outcome: str
 
     def to_json(self) -> Json:
         return _flat_to_json(self)
@@ -104,7 +112,7 @@ class RemovalCurves:
 
 @dataclass(frozen=True)
 class TrustNumbers:
-    """Match removal at one trust level against the baseline."""
+    """Match removal at one trust level against the baseline (``outcome``: as ``Reduction``'s)."""
 
     removed: int
     max_recall: float
@@ -113,6 +121,7 @@ class TrustNumbers:
     auc_vpr_sm: float
     aoc_vpr_sm: float
     reduction_pct: float | None
+    outcome: str
 
     def to_json(self) -> Json:
         return _flat_to_json(self)
@@ -195,7 +204,9 @@ class SeedNumbers:
 
 @dataclass(frozen=True)
 class SeedSummary:
-    """``reduction_pct`` over the seeds of one mode: all None when no seed's reduction is defined."""
+    """``reduction_pct`` over the seeds of one mode: all None when no seed's reduction is defined.
+    ``outcomes``: every seed's outcome (``Reduction.outcome``) by seed, so that a table can say which seeds the
+    spread leaves out and why."""
 
     n_seeds: int
     n_seeds_defined: int
@@ -203,13 +214,15 @@ class SeedSummary:
     reduction_pct_std: float | None
     reduction_pct_min: float | None
     reduction_pct_max: float | None
+    outcomes: dict[int, str]
 
     def to_json(self) -> Json:
-        return _flat_to_json(self)
+        return {**_flat_to_json(self), "outcomes": {str(seed): value for seed, value in self.outcomes.items()}}
 
     @classmethod
     def from_json(cls, data: Json) -> SeedSummary:
-        return _flat_from_json(cls, data)
+        return cls(**{**{f.name: data[f.name] for f in fields(cls)},
+                      "outcomes": {int(seed): str(value) for seed, value in data["outcomes"].items()}})
 
 
 # --- restoration -------------------------------------------------------------------------------------------------

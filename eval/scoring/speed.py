@@ -167,6 +167,7 @@ class SpeedScores:
     reduction_pct: float | None  # None (null) when the baseline's AOC is 0
     f1_macro: float
     removed: int
+    outcome: str  # what the removal did (``curves.outcome``): a degenerate predictor is named, not hidden
 
     def to_json(self) -> Json:
         return {f.name: getattr(self, f.name) for f in fields(self)}
@@ -319,7 +320,8 @@ def score(features: QueryFeatures, predictor: SMRPredictor) -> SpeedScores:
         recall_at_1_single=numbers.recall_at_1_single, recall_at_1_sequence=numbers.recall_at_1_sequence,
         max_recall=reduction.max_recall, auc_vpr_sm=reduction.auc_vpr_sm, auc_vpr_sm_pred=reduction.auc_vpr_sm_pred,
         aoc_vpr_sm=reduction.aoc_vpr_sm, aoc_vpr_sm_pred=reduction.aoc_vpr_sm_pred,
-        reduction_pct=reduction.reduction_pct, f1_macro=result.f1_macro, removed=result.removed)
+        reduction_pct=reduction.reduction_pct, f1_macro=result.f1_macro, removed=result.removed,
+        outcome=reduction.outcome)
 
 
 def _frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:

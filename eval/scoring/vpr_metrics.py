@@ -53,16 +53,23 @@ from vpr_smr.core.io import (
     write_json,
 )
 from vpr_smr.eval.matching.attributes import (
+    Matching,
     QueryFeatures,
     check_matcher,
+    check_matching,
     check_seq_len,
     matcher_provenance,
     query_features,
     read_features,
 )
-from vpr_smr.eval.matching.checks import check_finite, check_shape
+from vpr_smr.eval.matching.checks import NonFiniteError, check_finite, check_shape
 from vpr_smr.eval.matching.ground_truth import GroundTruth
-from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
+from vpr_smr.eval.matching.io import (
+    open_distance_matrix,
+    similarity_provenance,
+    similarity_warning,
+    split_ground_truth,
+)
 from vpr_smr.eval.matching.velocity import check_velocities, first_reference, offsets
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_range, frame_ranges, trained_on
@@ -71,8 +78,8 @@ from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
 from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
 
 __all__ = [
-    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "extended_precision", "main", "matcher_metrics",
-    "precision_at_first_recall", "queries_main", "recall_at", "retrieval", "score_split",
+    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "extended_precision", "format_metrics", "main",
+    "matcher_metrics", "precision_at_first_recall", "queries_main", "recall_at", "retrieval", "score_split",
 ]
 
 log = logging.getLogger("vpr_smr")
@@ -198,7 +205,10 @@ def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries:
         a1 = min(n_query, a0 + step)
         lo = max(0, a0 - seq_len + 1)  # the L-1 columns before the block: its first queries' sequences
         block = np.asarray(matrix[:, lo:a1], dtype=np.float64)
-        check_finite(block, where=f" in query columns {lo}..{a1 - 1}")
+        try:
+            check_finite(block, first_column=lo)
+        except NonFiniteError as error:
+            raise error.counted_in(matrix) from None
         own = block[:, a0 - lo :]  # the block's own query columns
         d_min, d_max = min(d_min, float(own.min())), max(d_max, float(own.max()))
         queries = np.arange(a0, a1)
@@ -243,7 +253,10 @@ def _general_retrieval(matrix: Any, seq_len: int, block_queries: int | None, vel
         a1 = min(n_query, a0 + step)
         lo = max(0, a0 - seq_len + 1)
         block = np.asarray(matrix[:, lo:a1], dtype=np.float64)
-        check_finite(block, where=f" in query columns {lo}..{a1 - 1}")
+        try:
+            check_finite(block, first_column=lo)
+        except NonFiniteError as error:
+            raise error.counted_in(matrix) from None
         own = block[:, a0 - lo :]
         d_min, d_max = min(d_min, float(own.min())), max(d_max, float(own.max()))
         queries = np.arange(a0, a1)
@@ -455,6 +468,7 @@ def _score_all(
     modes: Sequence[str],
     allow_split_overlap: bool,
     matcher: MatcherSettings,
+    similarity: bool = False,
 ) -> tuple[dict[str, ScoredSplit], Path | None]:
     """Every split of ``distances`` scored (``score_split``) in the given order, after every input is checked;
     the predictor file (None without one). What ``main`` and ``queries_main`` share: one implementation of the
@@ -475,10 +489,12 @@ def _score_all(
         check_disjoint(trained_on(predictor_file), frame_ranges(scored), allow_split_overlap,
                        f"predictor {predictor_file}")
         model = SMRPredictor.load(predictor_file)
+        check_matching(model, Matching.of(matcher.velocities, matcher.radius),
+                       "this stage (--velocities, --radius)")
     results: dict[str, ScoredSplit] = {}
     for split, path in splits.items():
         attributes_file = attribute_paths.get(split)
-        with open_distance_matrix(path) as matrix:
+        with open_distance_matrix(path, similarity) as matrix:
             try:
                 check_shape(tuple(matrix.shape), seq_len)
             except ValueError as error:
@@ -486,6 +502,10 @@ def _score_all(
             features = read_features(attributes_file) if attributes_file is not None else None
             truth = split_ground_truth(path, tuple(matrix.shape), tolerance, matcher.radius,
                                        matcher.reference_positions, matcher.query_positions)
+            if not similarity and path.suffix == ".npy":  # a user's matrix: distances, or so it should be
+                warning = similarity_warning(path, matrix, truth)
+                if warning:
+                    log.warning(warning)
             try:
                 results[split] = score_split(matrix, seq_len, tolerance, model, tuple(modes), features, split,
                                              _first_frame(attributes_file, path), velocities=matcher.velocities,
@@ -513,6 +533,7 @@ def main(
     meta: Mapping[str, Any] | None = None,
     allow_split_overlap: bool = False,
     matcher: MatcherSettings = MatcherSettings(),
+    similarity: bool = False,
 ) -> VPRMetrics:
     """The standard VPR metrics of every split of ``distances`` (split -> ``.npy`` or our HDF5; one path: one split
     named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with ``queries``, the per-query table
@@ -527,9 +548,9 @@ def main(
     out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
     queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
     results, predictor_file = _score_all(distances, seq_len, tolerance, predictor, attributes, modes,
-                                         allow_split_overlap, matcher)
+                                         allow_split_overlap, matcher, similarity)
     info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance),
-            **matcher_provenance(matcher.velocities, matcher.radius)}
+            **matcher_provenance(matcher.velocities, matcher.radius), **similarity_provenance(similarity)}
     if predictor_file is not None:
         info["predictor"] = str(predictor_file)
     result = VPRMetrics(info, {split: scored_split.metrics for split, scored_split in results.items()})
@@ -542,6 +563,26 @@ def main(
     return result
 
 
+def format_metrics(result: VPRMetrics) -> str:
+    """Every metric of ``result`` as a plain-text table, one row per split, mode and matcher (what ``vpr-smr
+    metrics`` prints; the JSON holds the same numbers unrounded). Recalls and areas are fractions, 4 decimals."""
+    ns = sorted({n for split in result.splits.values() for matchers in split.modes.values()
+                 for metrics in matchers.values() for n in metrics.recall_at})
+    header = ["split", "mode", "matcher", "queries", *(f"R@{n}" for n in ns), "R@100P", "PR-AUC", "EP"]
+    rows = [header]
+    for split, scored in result.splits.items():
+        for mode, matchers in scored.modes.items():
+            for matcher, metrics in matchers.items():
+                recalls = [f"{metrics.recall_at[n]:.4f}" if n in metrics.recall_at else "-" for n in ns]
+                rows.append([split, mode, matcher, str(metrics.n_queries), *recalls, f"{metrics.recall_at_100p:.4f}",
+                             f"{metrics.pr_auc:.4f}", f"{metrics.extended_precision:.4f}"])
+    widths = [max(len(row[i]) for row in rows) for i in range(len(header))]
+    # names left-aligned, numbers right-aligned, as a reader compares them down a column
+    return "\n".join("  ".join(cell.ljust(width) if i < 3 else cell.rjust(width)
+                               for i, (cell, width) in enumerate(zip(row, widths, strict=True))).rstrip()
+                     for row in rows)
+
+
 def queries_main(
     distances: Mapping[str, Path | str] | Path | str,
     seq_len: int,
@@ -551,12 +592,14 @@ def queries_main(
     attributes: Mapping[str, Path | str] | None = None,
     allow_split_overlap: bool = False,
     matcher: MatcherSettings = MatcherSettings(),
+    similarity: bool = False,
 ) -> Path:
     """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS``) of every split of ``distances`` in
     the given order, written to ``out`` (CSV), as ``main``'s ``queries`` (the same code; no metric mode changes
     it). The inputs as ``main``'s."""
     out = check_suffix(out, CSV_SUFFIXES, "the per-query table (CSV)")
-    results, _ = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher)
+    results, _ = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher,
+                            similarity)
     write_queries(out, [scored_split.queries for scored_split in results.values()])
     log.info("wrote %d queries of %d splits to %s", sum(len(r.queries.features.queries) for r in results.values()),
              len(results), out)

@@ -47,6 +47,7 @@ rule train:
         overlap=ALLOW_OVERLAP,
         predictor=canonical(conf["predictor"]),
         seeds=conf["seeds"],
+        layout=RESULTS_LAYOUT,  # its files' layout: a run of an earlier one trains again, and scores again below
     shell:
         "vpr-smr train --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
         " --predictor {params.predictor:q} --seeds {params.seeds} --train {input.train:q} --val {input.val:q}"

@@ -34,6 +34,7 @@ rule predictor_without:
         # METHOD=PATH items, each quoted already: the shell command uses them unquoted
         train=lambda wc, input: method_pairs(METHODS, wc.method, input.train),
         val=lambda wc, input: method_pairs(METHODS, wc.method, input.val),
+        layout=RESULTS_LAYOUT,  # its file's layout, as the pooled predictor's
     shell:
         "vpr-smr ablation without --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
         " --method {wildcards.method:q} --predictor {params.predictor:q} --train {params.train}"

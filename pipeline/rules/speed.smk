@@ -22,6 +22,7 @@ rule speed:
         # METHOD=PATH items, each quoted already: the shell command uses them unquoted
         train=lambda wc, input: name_pairs(METHODS, input.train),
         test=lambda wc, input: name_pairs(METHODS, input.test),
+        layout=RESULTS_LAYOUT,  # its file's layout: a run of an earlier one computes it again
     # One BLAS thread per job: OpenBLAS's default (a thread per core) makes two jobs side by side on 2 cores fight
     # over them, measured 3 to 7 times slower than one thread each; the numbers are the same (checked on the demo).
     threads: 1

@@ -1,0 +1,119 @@
+"""What a predictor's match removal did, in words: the one place that says each ``curves.outcome`` (a degenerate
+predictor named, never shown as a success), for Table I's cells and notes, the findings, the PR figure and the
+seed spread.
+
+The functions read a Table I row (``table1.table1_rows``): ``outcome``, ``removed``, ``n_queries``, the AOCs and
+maximum recalls of ``Reduction``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+from vpr_smr.eval.scoring.curves import (
+    HARMFUL,
+    IMPROVED,
+    KEPT_ALL,
+    KEPT_NONE_CORRECT,
+    LOST_ALL,
+    NO_CORRECT_MATCH,
+    NOTHING_TO_REDUCE,
+    REMOVED_ALL,
+    UNDEFINED,
+    WORSE_FROM_ZERO,
+)
+
+# A seed's outcome where the spread leaves it out (its reduction undefined), or a table cell's short word for it
+SHORT = {
+    NO_CORRECT_MATCH: "no correct match",
+    REMOVED_ALL: "removed every match",
+    KEPT_NONE_CORRECT: "kept no correct match",
+    KEPT_ALL: "kept every match",
+    NOTHING_TO_REDUCE: "nothing to reduce",
+    WORSE_FROM_ZERO: "worse than a perfect baseline",
+}
+
+
+def is_degenerate(row: Mapping[str, Any]) -> bool:
+    """The reduction alone would mislead: it is undefined, or 0 because the predictor changed nothing."""
+    return str(row.get("outcome")) in SHORT
+
+
+def improved(row: Mapping[str, Any]) -> bool:
+    return row.get("outcome") == IMPROVED
+
+
+def improved_on_average(row: Mapping[str, Any]) -> bool:
+    """Over the seeds: the mean of the defined reductions is above 0 and no seed did harm that the mean cannot show
+    (removed every match, kept no correct one, worse than a perfect baseline)."""
+    mean = row.get("reduction_pct_mean")
+    outcomes = row.get("seed_outcomes") or {}
+    return mean is not None and mean > 0 and not any(o in HARMFUL for o in outcomes.values())
+
+
+def own_baseline(row: Mapping[str, Any]) -> str:
+    """The baseline's own AOC at its own maximum recall."""
+    return (f"VPR+SM's own AOC is {row['aoc_vpr_sm_own']:.4f} at its own maximum recall "
+            f"{row['max_recall_vpr_sm']:.4f}")
+
+
+def note(row: Mapping[str, Any]) -> str:
+    """What the seed-0 predictor did to one method, in a clause (empty when its reduction says it all)."""
+    outcome, n, removed = row.get("outcome"), int(row.get("n_queries", 0)), int(row.get("removed", 0))
+    if outcome == NO_CORRECT_MATCH:
+        return f"none of its {n} sequence matches is correct: there is nothing to score"
+    if outcome == REMOVED_ALL:
+        return f"the predictor removed all {n} matches: recall 0; {own_baseline(row)}"
+    if outcome == KEPT_NONE_CORRECT:
+        return (f"the predictor kept {n - removed} of {n} matches, none of them correct: recall 0; "
+                f"{own_baseline(row)}")
+    if outcome == KEPT_ALL:
+        return f"the predictor kept all {n} matches: nothing changed, a reduction of 0"
+    if outcome == NOTHING_TO_REDUCE:
+        text = (f"baseline AOC 0 up to the predictor's maximum recall {row['max_recall']:.4f}: nothing to reduce, "
+                "the reduction is undefined")
+        if row["max_recall"] < row["max_recall_vpr_sm"]:
+            text += f" (the predictor lowered the maximum recall from {row['max_recall_vpr_sm']:.4f})"
+        return text
+    if outcome == WORSE_FROM_ZERO:
+        return (f"the predictor made the AOC worse, from 0 to {row['aoc_vpr_sm_pred']:.4f} up to its maximum recall "
+                f"{row['max_recall']:.4f}: worse, by a percentage that is undefined (the baseline's AOC being 0)")
+    return ""
+
+
+def reduction_cell(row: Mapping[str, Any], number: str) -> str:
+    """Table I's reduction cell: the number (``number``, formatted), or the outcome's word where it is undefined;
+    a 0 of a predictor that removed nothing says so."""
+    outcome = row.get("outcome")
+    if row.get("reduction_pct") is None:
+        return f"n/a: {SHORT[str(outcome)]}" if outcome in SHORT else "n/a"
+    return f"{number} ({SHORT[KEPT_ALL]})" if outcome == KEPT_ALL else number
+
+
+def predictor_cell(row: Mapping[str, Any], number: str) -> str:
+    """Table I's VPR+SM+Pred cell: the AOC, or the removal that left no recall to take it at."""
+    outcome = row.get("outcome")
+    return SHORT[str(outcome)] if outcome in LOST_ALL else number
+
+
+def baseline_cell(row: Mapping[str, Any], number: str) -> str:
+    """Table I's VPR+SM cell: the AOC at the predictor's maximum recall, and the baseline's own where that
+    recall is 0."""
+    if row.get("outcome") in LOST_ALL:
+        return f"{number} (own: {row['aoc_vpr_sm_own']:.4f})"
+    return number
+
+
+def seeds_left_out(outcomes: Mapping[int, str]) -> str:
+    """The seeds whose reduction is undefined and why, grouped by outcome: ``seed 3: removed every match``,
+    ``seeds 1, 4: nothing to reduce``; empty when none."""
+    groups: dict[str, list[int]] = {}
+    for seed, outcome in outcomes.items():
+        if outcome in UNDEFINED:
+            groups.setdefault(outcome, []).append(int(seed))
+    parts = []
+    for outcome, seeds in groups.items():
+        label = "seed" if len(seeds) == 1 else "seeds"
+        parts.append(f"{label} {', '.join(map(str, seeds))}: {SHORT[outcome]}")
+    return "; ".join(parts)
