@@ -11,3 +11,38 @@ def _torch_threads():
     import torch
 
     torch.set_num_threads(1)
+
+
+@pytest.fixture
+def pair(tmp_path):
+    """Ten summer and ten winter frames of the shipped sample (1000-1090) as a `folders` pair, split `all`."""
+    import shutil
+
+    from vpr_smr.datasets.folders import folder_pair
+    from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
+
+    for season in ("summer", "winter"):
+        (tmp_path / season).mkdir()
+        for n in range(1000, 1100, 10):
+            shutil.copy(DEFAULT_ROOT / season / f"images-{n:05d}.png", tmp_path / season)
+    return folder_pair("mini", tmp_path / "summer", tmp_path / "winter", {"all": (0, 10)})
+
+
+@pytest.fixture
+def colour_frames(tmp_path):
+    """Two folders of 24 solid-colour frames, each its own colour (``helpers.reference_colour`` and
+    ``query_colour``), and their `folders` settings."""
+    import cv2
+    import numpy as np
+    from helpers import COLOUR_FRAMES, query_colour, reference_colour
+
+    settings = {"loader": "folders"}
+    for side, colour in (("reference", reference_colour), ("query", query_colour)):
+        folder = tmp_path / side
+        folder.mkdir()
+        for i in range(COLOUR_FRAMES):
+            image = np.zeros((8, 16, 3), dtype=np.uint8)
+            image[:] = colour(i)
+            cv2.imwrite(str(folder / f"frame{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        settings[side] = str(folder)
+    return settings

@@ -73,3 +73,16 @@ def tiny_net_model(channels: int = 8, kernel: int = 3) -> Any:
 
     conv = torch.nn.Conv2d(3, channels, kernel)
     return torch.nn.Sequential(conv, torch.nn.AdaptiveAvgPool2d(1), torch.nn.Flatten())
+
+
+# --- frames whose colour says which they are (the match inspector's tests) ---
+
+COLOUR_FRAMES = 24  # frames per traverse of the ``colour_frames`` fixture
+
+
+def reference_colour(i: int) -> tuple[int, int, int]:
+    return (20 + 9 * i, 240 - 7 * i, 101)
+
+
+def query_colour(i: int) -> tuple[int, int, int]:
+    return (99, 15 + 8 * i, 230 - 5 * i)

@@ -1,22 +1,10 @@
-import shutil
 
 import h5py
 import numpy as np
 import pytest
 
 from vpr_smr.datasets import DatasetError
-from vpr_smr.datasets.folders import folder_pair
-from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 from vpr_smr.descriptors import extract
-
-
-@pytest.fixture
-def pair(tmp_path):
-    for season in ("summer", "winter"):
-        (tmp_path / season).mkdir()
-        for n in range(1000, 1100, 10):
-            shutil.copy(DEFAULT_ROOT / season / f"images-{n:05d}.png", tmp_path / season)
-    return folder_pair("mini", tmp_path / "summer", tmp_path / "winter", {"all": (0, 10)})
 
 
 def test_descriptors_file_and_skip(pair, tmp_path):

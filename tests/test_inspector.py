@@ -6,16 +6,16 @@ from pathlib import Path
 import cv2
 import numpy as np
 import pytest
-from helpers import write_distance_matrix
+from helpers import COLOUR_FRAMES, query_colour, reference_colour, write_distance_matrix
 
 from vpr_smr.datasets import load_frames
 from vpr_smr.eval.report import inspector
 from vpr_smr.pipeline.cli import main as cli
 
-N_FRAMES, LO, HI, L, TOL = 24, 8, 24, 3, 2
+N_FRAMES, LO, HI, L, TOL = COLOUR_FRAMES, 8, 24, 3, 2
 HEADER = ["split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
           "sequence_distance", "sequence_correct", "true_reference", "A1", "A2", "A3", "A4", "label",
-          "predicted_class", "probability", "kept"]
+          "predicted_class", "probability", "kept", "velocities"]
 # query: (true label, predicted class, probability), worked by hand below
 PREDICTIONS = {
     10: (0, 0, 0.90), 11: (0, 0, 0.80), 12: (0, 1, 0.70), 13: (1, 1, 0.60), 14: (1, 3, 0.95), 15: (1, 1, 0.99),
@@ -27,27 +27,9 @@ MISTAKES_BY_CONFIDENCE = [22, 18, 14, 16, 12, 20, 23]
 MEMBERS = {0: [10, 11, 12, 21, 23], 1: [13, 14, 15], 2: [16, 17, 22], 3: [18, 19, 20]}
 
 
-def reference_colour(i):
-    return (20 + 9 * i, 240 - 7 * i, 101)
-
-
-def query_colour(i):
-    return (99, 15 + 8 * i, 230 - 5 * i)
-
-
 @pytest.fixture
-def dataset(tmp_path):
-    """Two folders of solid-colour frames (each frame its own colour) and the `folders` settings."""
-    settings = {"loader": "folders"}
-    for side, colour in (("reference", reference_colour), ("query", query_colour)):
-        folder = tmp_path / side
-        folder.mkdir()
-        for i in range(N_FRAMES):
-            image = np.zeros((8, 16, 3), dtype=np.uint8)
-            image[:] = colour(i)
-            cv2.imwrite(str(folder / f"frame{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
-        settings[side] = str(folder)
-    return settings
+def dataset(colour_frames):
+    return colour_frames
 
 
 def _wrong(q):
@@ -60,7 +42,7 @@ def query_rows(predictor=True, split="test", queries=PREDICTIONS):
         single, sequence = label in (0, 1), label in (0, 2)
         rows.append([split, q, q if single else _wrong(q), 0.1 + q / 100, int(single), q if sequence else _wrong(q),
                      0.5 + q / 100, int(sequence), q, 0.5, 0.6, 0.7, 0.8, label,
-                     *((predicted, probability, int(predicted in (0, 2))) if predictor else ("", "", ""))])
+                     *((predicted, probability, int(predicted in (0, 2))) if predictor else ("", "", "")), "1"])
     return rows
 
 

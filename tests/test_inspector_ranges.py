@@ -7,7 +7,7 @@ import cv2
 import h5py
 import numpy as np
 import pytest
-from helpers import write_distance_matrix
+from helpers import COLOUR_FRAMES, reference_colour, write_distance_matrix
 from matplotlib.collections import PathCollection
 from matplotlib.contour import ContourSet
 
@@ -16,22 +16,14 @@ from vpr_smr.eval.report import inspector
 from vpr_smr.eval.report.figures import _pyplot
 from vpr_smr.pipeline.cli import main as cli
 
-N_FRAMES, L = 24, 3
+N_FRAMES, L = COLOUR_FRAMES, 3
 QUERY_LO, QUERY_HI = 8, 20  # the split's queries: frames 8..19
 REF_LO, REF_HI = 4, 12  # its references: frames 4..11
 SHIFT = 5  # query frame q stands at the place of reference frame q - 5 (positions in metres)
 RADIUS = 1.0
 HEADER = ["split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
           "sequence_distance", "sequence_correct", "true_reference", "label", "predicted_class", "probability",
-          "kept"]
-
-
-def reference_colour(i):
-    return (20 + 9 * i, 240 - 7 * i, 101)
-
-
-def query_colour(i):
-    return (99, 15 + 8 * i, 230 - 5 * i)
+          "kept", "velocities"]
 
 
 @pytest.fixture
@@ -68,18 +60,8 @@ def contour_vertices(ax):
 
 
 @pytest.fixture
-def dataset(tmp_path):
-    """Two folders of solid-colour frames (each frame its own colour) and the `folders` settings."""
-    settings = {"loader": "folders"}
-    for side, colour in (("reference", reference_colour), ("query", query_colour)):
-        folder = tmp_path / side
-        folder.mkdir()
-        for i in range(N_FRAMES):
-            image = np.zeros((8, 16, 3), dtype=np.uint8)
-            image[:] = colour(i)
-            cv2.imwrite(str(folder / f"frame{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
-        settings[side] = str(folder)
-    return settings
+def dataset(colour_frames):
+    return colour_frames
 
 
 def ranged_split(tmp_path, dataset):
@@ -97,7 +79,7 @@ def ranged_split(tmp_path, dataset):
         label = {(True, True): 0, (True, False): 1, (False, True): 2, (False, False): 3}[
             (abs(single - (q - SHIFT)) <= RADIUS, abs(sequence - (q - SHIFT)) <= RADIUS)]
         rows.append(["test", q, single, distance, int(label in (0, 1)), sequence, 0.9, int(label in (0, 2)), true,
-                     label, label, 0.8, int(q % 2)])
+                     label, label, 0.8, int(q % 2), "1"])
     queries = tmp_path / "queries.csv"
     with open(queries, "w", newline="") as f:
         csv.writer(f).writerows([HEADER, *rows])

@@ -203,8 +203,8 @@ def test_metrics_refuse_a_predictor_of_another_matcher(velocity_predictor, capsy
     err = failure(capsys, ["metrics", "--distances", str(tmp / "test.npy"), "--seq-len", "3", "--predictor",
                            str(tmp / "p.h5"), "--out", str(tmp / "m.json")])
     assert (f"{tmp / 'p.h5'} was trained on attributes of velocity search over [0.8, 1.0, 1.25], ground truth from "
-            "frame indices within a tolerance, but this stage (--velocities, --radius) uses the fixed matcher "
-            "(velocities [1.0]), ground truth from frame indices within a tolerance") in err
+            "frame indices within a tolerance, but it is applied to these matrices (--velocities, --radius), of the "
+            "fixed matcher (velocities [1.0]), ground truth from frame indices within a tolerance") in err
     # the same velocities in another order are the same matcher
     assert main(["metrics", "--distances", str(tmp / "test.npy"), "--seq-len", "3", "--velocities", "1.25", "0.8",
                  "1", "--predictor", str(tmp / "p.h5"), "--out", str(tmp / "m.json")]) == 0
@@ -218,7 +218,7 @@ def test_evaluate_refuses_attributes_of_another_matcher(velocity_predictor, caps
                            f"test={tmp / 'fixed.h5'}", "--predictors", str(tmp / "p.h5"), "--out",
                            str(tmp / "e.json")])
     assert "was trained on attributes of velocity search over [0.8, 1.0, 1.25]" in err
-    assert "uses the fixed matcher (velocities [1.0])" in err
+    assert f"but it is applied to the attributes {tmp / 'fixed.h5'}, of the fixed matcher (velocities [1.0])" in err
 
 
 def test_training_refuses_attributes_of_two_matchers(velocity_predictor, capsys):
@@ -233,8 +233,9 @@ def test_training_refuses_attributes_of_two_matchers(velocity_predictor, capsys)
 
 def test_the_live_matcher_refuses_a_predictor_of_other_velocities(velocity_predictor):
     predictor = SMRPredictor.load(velocity_predictor / "p.h5")
-    with pytest.raises(ValueError, match=r"searches velocities \[1.0\]: give it the velocities the predictor was "
-                                         r"trained with \(\[0.8, 1.0, 1.25\]\)"):
+    with pytest.raises(ValueError, match=r"applied to a LiveMatcher \(velocities=\), searching velocities \[1.0\]: "
+                                         r"give it the velocities the predictor was trained with "
+                                         r"\(\[0.8, 1.0, 1.25\]\)"):
         LiveMatcher(3, predictor=predictor)
     LiveMatcher(3, predictor=predictor, velocities=(0.8, 1.0, 1.25))  # its own velocities: accepted
 
@@ -264,6 +265,14 @@ def test_the_inspector_refuses_a_queries_csv_of_another_matcher(tmp_path, capsys
     base = ["inspect", "--queries", str(tmp_path / "q.csv"), "--distances", str(tmp_path / "D.npy"), "--seq-len", "3",
             "--matrix-figure", str(figure)]
     err = failure(capsys, base)
-    assert "sequence match is reference" in err and "but with velocities [1.0] it is" in err
-    assert "the CSV was made with another sequence matcher" in err and not figure.exists()
+    assert "q.csv holds the sequence matches of velocities 1 2, but --velocities is 1" in err and not figure.exists()
     assert main([*base, "--velocities", "1", "2"]) == 0 and figure.is_file()
+
+
+def test_a_truncated_hdf5_distance_file_is_named(tmp_path, capsys):
+    with h5py.File(tmp_path / "test.h5", "w") as f:
+        f["distance_matrix"] = np.random.default_rng(0).random((50, 50))
+    (tmp_path / "test.h5").write_bytes((tmp_path / "test.h5").read_bytes()[:5000])  # of 22 KB
+    err = failure(capsys, ["metrics", "--distances", str(tmp_path / "test.h5"), "--seq-len", "3", "--out",
+                           str(tmp_path / "m.json")])
+    assert "test.h5 is an HDF5 file that cannot be opened (" in err and "damaged or truncated" in err

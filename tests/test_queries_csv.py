@@ -17,7 +17,7 @@ from vpr_smr.eval.scoring.vpr_metrics import main, score_split
 
 COLUMNS = ["split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
            "sequence_distance", "sequence_correct", "true_reference", "A1", "A2", "A3", "A4", "label",
-           "predicted_class", "probability", "kept"]
+           "predicted_class", "probability", "kept", "velocities"]
 
 
 def read(path):
@@ -67,6 +67,14 @@ def test_columns_and_values_by_hand(tmp_path):
     assert column["predicted_class"] == [str(c) for c in DECISION]
     assert [float(v) for v in column["probability"]] == pytest.approx([0.7] * 5)
     assert column["kept"] == ["0", "1", "1", "0", "1"]
+    assert column["velocities"] == ["1"] * 5  # the fixed matcher
+
+
+def test_the_velocities_column_names_the_matcher(tmp_path):
+    scored = score_split(D, SEQ_LEN, TOLERANCE, velocities=(2.0, 0.5, 1.0))
+    write_queries(tmp_path / "q.csv", [scored.queries])
+    _, rows = read(tmp_path / "q.csv")
+    assert {r["velocities"] for r in rows} == {"0.5 1 2"}  # sorted, as written in the configuration's units
 
 
 def test_without_a_predictor_its_columns_are_empty(tmp_path):

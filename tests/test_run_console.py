@@ -414,3 +414,25 @@ def test_a_terminal_shows_each_running_jobs_fraction_read_at_most_once_a_second(
     assert drawn() == ("[0/3] 0:00:01 running descriptors d/efficientnet reference 56 %, "
                        "descriptors d/hog reference 75 %")
     assert len(reads) == 4
+
+
+@pytest.mark.parametrize("tty", [False, True])
+def test_the_warnings_a_finished_job_logged_stay_on_the_console(tmp_path, job_logs, tty):
+    from io import StringIO
+
+    from vpr_smr.pipeline.console import ProgressView
+
+    efficientnet, hog = job_logs
+    # as pipeline/cli.py's logging writes them; a Python warning of a library is not ours and is left out
+    with open(hog, "a", encoding="utf-8") as f:
+        f.write("2026-11-23 13:33:01,122 vpr_smr WARNING: D.npy looks like a similarity matrix\n"
+                "/x/sklearn/_mlp.py:785: ConvergenceWarning: Maximum iterations reached\n"
+                "2026-11-23 13:33:02,004 vpr_smr.eval INFO: wrote h.h5\n")
+    out = StringIO()
+    view = ProgressView(tmp_path / "snakemake.log", out, StringIO(), tty=tty, now=FakeClock())
+    for line in [*running_jobs_text(efficientnet, hog).splitlines(keepends=True),
+                 "Finished jobid: 2 (Rule: descriptors)\n", "1 of 3 steps (33%) done\n"]:
+        view.feed(line)
+    lines = [line.rsplit("\r\x1b[K", 1)[-1] for line in out.getvalue().split("\n")]  # a terminal: the last state
+    assert "[1/3] 0:00:00 WARNING descriptors d/hog: D.npy looks like a similarity matrix" in lines
+    assert sum("WARNING" in line for line in lines) == 1

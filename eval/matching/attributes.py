@@ -702,16 +702,16 @@ def check_matching(predictor: Any, matching: Matching, where: str, ground_truth:
     trained: Matching | None = predictor.matching_
     if trained is None:
         raise ValueError(f"{predictor.path_} does not record the sequence matcher and ground truth it was trained "
-                         f"with (it was written before vpr-smr 0.5.0), so it cannot be checked against {where}'s "
-                         f"({matching}): train it again (vpr-smr train)")
+                         f"with (it was written before vpr-smr 0.5.0), so it cannot be checked against {where}, of "
+                         f"{matching}: train it again (vpr-smr train)")
     if ground_truth and trained != matching:
-        raise ValueError(f"{predictor.path_} was trained on attributes of {trained}, but {where} uses {matching}: "
-                         "give the predictor trained with this matcher (the same --velocities, and positions "
-                         "with --radius or not), or train one for it")
+        raise ValueError(f"{predictor.path_} was trained on attributes of {trained}, but it is applied to {where}, "
+                         f"of {matching}: give the predictor trained with this matcher (the same velocities, and "
+                         "positions with a radius or not), or train one for it")
     if trained.velocities != matching.velocities:
-        raise ValueError(f"{predictor.path_} was trained on attributes of {trained}, but {where} searches "
-                         f"velocities {list(matching.velocities)}: give it the velocities the predictor was trained "
-                         f"with ({list(trained.velocities)}), or train one for these")
+        raise ValueError(f"{predictor.path_} was trained on attributes of {trained}, but it is applied to {where}, "
+                         f"searching velocities {list(matching.velocities)}: give it the velocities the predictor "
+                         f"was trained with ({list(trained.velocities)}), or train one for these")
 
 
 def check_matcher(paths: Sequence[Path | str], velocities: Sequence[float], radius: float | None) -> None:

@@ -73,7 +73,12 @@ def open_distance_matrix(path: Path | str, similarity: bool = False) -> Iterator
         kind = file_kind(read_head(path))
         raise ValueError(f"{path} is {KINDS[kind]}, neither a NumPy .npy array nor HDF5: give a references x queries "
                          "matrix as either (numpy.save(path, matrix) writes a .npy)")
-    with h5py.File(path, "r", rdcc_nbytes=CHUNK_CACHE_BYTES, rdcc_nslots=CHUNK_CACHE_SLOTS) as f:
+    try:
+        handle = h5py.File(path, "r", rdcc_nbytes=CHUNK_CACHE_BYTES, rdcc_nslots=CHUNK_CACHE_SLOTS)
+    except OSError as error:  # h5py's reason, e.g. "truncated file: eof = 1000, ... stored_eof = 4096"
+        raise ValueError(f"{path} is an HDF5 file that cannot be opened ({error}): it is damaged or truncated (a "
+                         "copy or download that stopped?); compute or copy it again") from None
+    with handle as f:
         if "distance_matrix" not in f:
             raise ValueError(f"{path} has no 'distance_matrix' dataset")
         matrix = f["distance_matrix"]

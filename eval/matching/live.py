@@ -67,7 +67,7 @@ class LiveMatcher:
         self.velocities = check_velocities(velocities)
         self.distance = distance
         if predictor is not None:  # its attributes must be this matcher's (live frames have no ground truth)
-            check_matching(predictor, Matching.of(self.velocities, None), "this LiveMatcher (velocities=)",
+            check_matching(predictor, Matching.of(self.velocities, None), "a LiveMatcher (velocities=)",
                            ground_truth=False)
         self.predictor = predictor
         self.n_ranks = n_ranks

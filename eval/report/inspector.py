@@ -35,15 +35,15 @@ import numpy as np
 from vpr_smr.core.constants import DEFAULT_VELOCITIES
 from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
 from vpr_smr.datasets import TraversePair, load_frames
+from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
 from vpr_smr.eval.matching.velocity import offsets
 from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
+from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, velocities_text
 
-# The columns of the queries CSV the inspector reads (by name; other columns are ignored).
-COLUMNS = ("split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
-           "sequence_distance", "sequence_correct", "true_reference", "label", "predicted_class", "probability",
-           "kept")
+# The columns of the queries CSV the inspector reads (by name; the attributes are not shown).
+COLUMNS = tuple(c for c in QUERY_COLUMNS if c not in ATTRIBUTE_NAMES)
 CLASS_TEXT = {0: "correct before and after SM", 1: "correct before SM only", 2: "correct after SM only",
               3: "wrong before and after SM"}
 THUMB_HEIGHT = 96  # pixels: larger images are downscaled to this height (INTER_AREA)
@@ -72,6 +72,7 @@ class QueryRow:
     predicted_class: int | None
     probability: float | None
     kept: bool | None
+    velocities: str  # the sequence matcher's, as the CSV writes them (``queries.velocities_text``)
 
     @property
     def mistake(self) -> bool:
@@ -133,6 +134,7 @@ def _row(record: dict[str, str]) -> QueryRow:
         sequence_correct=_flag(record["sequence_correct"]), true_reference=int(record["true_reference"]),
         label=int(record["label"]), predicted_class=_optional(record["predicted_class"], int),
         probability=_optional(record["probability"], float), kept=None if kept is None else bool(kept),
+        velocities=record["velocities"],
     )
 
 
@@ -478,24 +480,15 @@ def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, d
                              f"but it is {column[best]:.6g} in {distances}: {fix}")
 
 
-def _check_matcher(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, lo: int, seq_len: int,
-                   velocities: Sequence[float], reference_lo: int | None = None) -> None:
-    """The sampled rows' sequence matches are those of ``velocities``: the reference with the smallest ``S``
-    (the lowest on ties), at the sequence distance the CSV gives. A CSV of another sequence matcher is refused,
-    naming both, as every stage refuses a predictor of another matcher."""
-    ref_lo = lo if reference_lo is None else reference_lo
-    for sample in samples:
-        row = sample.row
-        q = row.query - lo
-        columns = np.asarray(matrix[:, q - seq_len + 1 : q + 1], dtype=np.float64)
-        sums = [_sequence_sum(columns, r, seq_len, velocities) for r in range(columns.shape[0])]
-        best = min((value, r) for r, value in enumerate(sums) if value is not None)
-        if row.sequence_match - ref_lo != best[1] or not np.isclose(row.sequence_distance, best[0], rtol=1e-6):
-            raise ValueError(
-                f"{queries_csv}: query {row.query}'s sequence match is reference {row.sequence_match} at "
-                f"{row.sequence_distance:.6g}, but with velocities {list(velocities)} it is {best[1] + ref_lo} at "
-                f"{best[0]:.6g}: the CSV was made with another sequence matcher; give the velocities of the run "
-                "that made it (--velocities), or the queries CSV of this matcher")
+def _check_matcher(rows: Sequence[QueryRow], queries_csv: Path, velocities: Sequence[float]) -> None:
+    """The CSV's sequence matches were made by the matcher of ``velocities`` (its ``velocities`` column): the
+    sequence distances the figures show, and the true reference's, are then of one matcher."""
+    expected = velocities_text(velocities)
+    found = sorted({row.velocities for row in rows})
+    if found != [expected]:
+        raise ValueError(f"{queries_csv} holds the sequence matches of velocities {' and '.join(found)}, but "
+                         f"--velocities is {expected}: give the velocities of the run that made it (--velocities), "
+                         "or the queries CSV of this matcher")
 
 
 def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | None,
@@ -567,7 +560,7 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
         match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct ({rule}), "
                        "red = wrong; D = single-frame distance, S = sequence distance")
         _check_matches(samples, matrix, queries_csv, distances, lo, ref_lo)
-        _check_matcher(samples, matrix, queries_csv, lo, seq_len, velocities, ref_lo)
+        _check_matcher(rows, queries_csv, velocities)
         with ExitStack() as stack:  # the files are renamed into place only when all are drawn
             matrix_tmp = stack.enter_context(atomic_path(matrix_figure))
             if match_figure is not None and pair is not None:

@@ -8,7 +8,9 @@ frame-aligned pair, the reference nearest to its position otherwise (SPEC 11; th
 sum rates), the order ``QueryFeatures.attributes`` stores them in; the predictor takes them in that order and feeds
 its network the code's order ``[A1, A2, A4, A3]`` itself (``SMRPredictor.column_order``). ``predicted_class``,
 ``probability`` (its class probability, the highest) and ``kept`` (1 when the predicted class is one of
-``core.constants.KEPT_CLASSES``) are the seed-0 predictor's, empty without a predictor.
+``core.constants.KEPT_CLASSES``) are the seed-0 predictor's, empty without a predictor. ``velocities``: the
+velocities the sequence matcher searched (``1`` for the fixed matcher), so that a reader of the table (the match
+inspector) knows which matcher made its sequence matches.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from vpr_smr.core.constants import DEFAULT_VELOCITIES
 from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, QueryFeatures
 from vpr_smr.eval.scoring.curves import keep_mask
@@ -28,6 +31,7 @@ from vpr_smr.eval.scoring.curves import keep_mask
 QUERY_COLUMNS = (
     "split", "query", "single_match", "single_distance", "single_correct", "sequence_match", "sequence_distance",
     "sequence_correct", "true_reference", *ATTRIBUTE_NAMES, "label", "predicted_class", "probability", "kept",
+    "velocities",
 )
 
 
@@ -64,6 +68,12 @@ class SplitQueries:
     prediction: Prediction | None
     reference_first_frame: int | None = None  # the split's first reference frame when its ranges differ (SPEC 11)
     true_reference: np.ndarray | None = None  # (N,) split-local; None: the query's own index (frame-aligned)
+    velocities: tuple[float, ...] = DEFAULT_VELOCITIES  # the sequence matcher's
+
+
+def velocities_text(velocities: Sequence[float]) -> str:
+    """The ``velocities`` cell: the sorted velocities, space-separated (``1`` for the fixed matcher)."""
+    return " ".join(f"{v:g}" for v in sorted(float(v) for v in velocities))
 
 
 def _number(value: Any) -> str:
@@ -78,6 +88,7 @@ def query_rows(table: SplitQueries) -> Iterator[list[str]]:
     true_reference = f.queries if table.true_reference is None else table.true_reference
     prediction = table.prediction
     kept = prediction.kept if prediction is not None else None
+    velocities = velocities_text(table.velocities)
     for n, query in enumerate(f.queries):
         predicted = ["", "", ""] if prediction is None or kept is None else [
             str(int(prediction.predicted[n])), _number(prediction.probability[n]), str(int(kept[n]))]
@@ -89,7 +100,7 @@ def query_rows(table: SplitQueries) -> Iterator[list[str]]:
             str(int(f.sequence_correct[n])),
             str(first_ref + int(true_reference[n])),
             *(_number(v) for v in f.attributes[n, 0, :]),
-            str(int(f.labels[n])), *predicted,
+            str(int(f.labels[n])), *predicted, velocities,
         ]
 
 

@@ -385,7 +385,7 @@ def score_split(
         [int(np.argmin(truth.distance(np.arange(shape[0]), np.full(shape[0], a)))) for a in features.queries],
         dtype=np.int64)
     queries = SplitQueries(split, first_frame, features, found.single_distance[seq_len - 1 :], prediction,
-                           reference_first_frame, true_reference)
+                           reference_first_frame, true_reference, velocities)
     return ScoredSplit(metrics, queries)
 
 
@@ -490,7 +490,7 @@ def _score_all(
                        f"predictor {predictor_file}")
         model = SMRPredictor.load(predictor_file)
         check_matching(model, Matching.of(matcher.velocities, matcher.radius),
-                       "this stage (--velocities, --radius)")
+                       "these matrices (--velocities, --radius)")
     results: dict[str, ScoredSplit] = {}
     for split, path in splits.items():
         attributes_file = attribute_paths.get(split)
