@@ -351,7 +351,8 @@ def format_report(report: DatasetReport) -> str:
                 lines.append("    ...")
             lines.append(f"    {frame:>6}  {ref:<{width}}  <->  {query}")
     for t in report.traverses:
-        line = f"  {t.role} {t.name}: {t.found} of {t.frames} frames {verb}"
+        # a traverse named after its role (folders called reference and query) is named once
+        line = f"  {t.role if t.name == t.role else f'{t.role} {t.name}'}: {t.found} of {t.frames} frames {verb}"
         if t.missing:
             line += f", {len(t.missing)} missing ({len(t.missing_files)} files)"
         if t.unreadable:
