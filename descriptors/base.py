@@ -381,7 +381,7 @@ def describe_file(path: Path, setting: str = "checkpoint", inside: str | None = 
             return f"is a zip archive{_members(path, zipfile.ZipFile)}, not a torch.save file: unzip it and {inside}"
         return None
     text = text_start(head)
-    if text is not None:  # a MATLAB file's header is text too
+    if text is not None:
         return _describe_text(text)
     if kind == PICKLE:  # torch.save's legacy format, or a plain pickle
         return _describe_legacy(path, size)

@@ -201,7 +201,8 @@ def cmd_inspect(args: argparse.Namespace) -> None:
         args.frames_sha256, args.seq_len, args.split, args.tolerance, args.match_figure, args.matrix_figure,
         per_class=args.per_class, mistakes=args.mistakes, seed=args.seed,
         split_range=(args.frames[0], args.frames[1]) if args.frames else None, radius=args.radius,
-        velocities=tuple(args.velocities))
+        velocities=tuple(args.velocities), reference_positions=args.reference_positions,
+        query_positions=args.query_positions, similarity=args.similarity)
     log.info("wrote %s", " and ".join(str(path) for path in written if path is not None))
 
 
@@ -663,10 +664,7 @@ def build_parser() -> argparse.ArgumentParser:
                                            "(default: the distances file's)")
     p.add_argument("--seq-len", type=int, required=True)
     p.add_argument("--split", help="the queries CSV's split to show (default: its only split)")
-    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE)
-    p.add_argument("--radius", type=float, help="with positions (the distances file's): the ground truth's radius")
-    p.add_argument("--velocities", type=float, nargs="+", default=list(DEFAULT_VELOCITIES), metavar="V",
-                   help="the run's sequence matcher (the velocities searched), for the true reference's S")
+    _matcher_options(p)  # as the queries CSV was made: the matcher, the ground truth, --similarity
     p.add_argument("--frames", type=int, nargs=2, metavar=("LO", "HI"),
                    help="the split's frames lo..hi-1 (default: the distances file's split_range; a .npy's "
                         "queries count from 0)")

@@ -145,7 +145,7 @@ def test_a_worse_result_from_a_perfect_baseline_is_not_improved():
 
     row = {"dataset": "corridor", "method": "sad", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.0,
            "aoc_vpr_sm_pred": 0.0238, "reduction_pct": None, "outcome": curves.WORSE_FROM_ZERO, "max_recall": 0.8,
-           "max_recall_vpr_sm": 1.0, "n_queries": 108, "removed": 9}
+           "max_recall_vpr_sm": 1.0, "aoc_vpr_sm_own": 0.05, "n_queries": 108, "removed": 9}
     text = table1_markdown([row])
     assert "| n/a: worse than a perfect baseline | n/a | 0 / 1 |" in text
     assert sentences(Table1Block("corridor", "paper", 4, (row,)), "test") == [
@@ -176,6 +176,12 @@ def test_a_predictor_that_says_one_class_or_guesses_is_named():
     assert seed_problems(SeedReport(0, {}, 0.8, 10, (1, 1, 1, 1), {})) == []  # no validation split: nothing to say
 
 
+def query_features_labels(path):
+    from vpr_smr.eval.matching.attributes import read_features
+
+    return read_features(path).labels
+
+
 def test_training_warns_and_the_tables_say_so(tmp_path, caplog):
     from vpr_smr.eval.predictor import train
 
@@ -192,7 +198,72 @@ def test_training_warns_and_the_tables_say_so(tmp_path, caplog):
                             val=[paths["val"]], meta={"dataset": "noise", "seq_len": 3}, seeds=(0,),
                             allow_split_overlap=True)
     scores = report.seeds[0].splits["val"]
-    assert scores.f1 <= chance_f1(scores.class_counts)  # noise: at or below chance, as the warning says
+    present = len(np.unique(query_features_labels(paths["val"])))  # the classes the val split holds
+    assert scores.f1 <= 1 / present  # noise: at or below chance (1 / K), as the warning says
     assert any("this predictor cannot be trusted: seed 0: its val macro F1" in r.message for r in caplog.records)
     row = build.predictor_rows([report])[0]
     assert row["warning"].startswith("seed 0: its val macro F1")
+
+
+def test_one_class_in_the_validation_split_is_no_reason_to_warn():
+    # every validation sample of class 0, every one predicted 0: a macro F1 of 1, and no chance to compare with
+    perfect = SplitScores(1.0, 12, (12, 0, 0, 0), ((12, 0, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0)))
+    assert seed_problems(SeedReport(0, {}, 0.8, 10, (30, 10, 10, 7), {"val": perfect})) == []
+
+
+def test_the_findings_lead_with_the_predictors_warning(removed_all):
+    from vpr_smr.eval.report.html import predictor_warnings
+    from vpr_smr.eval.report.results import WrittenTable
+
+    tmp_path, _ = removed_all
+    one_class = SplitScores(0.3, 21, (12, 9, 0, 0), ((0, 12, 0, 0), (0, 9, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0)))
+    report = PredictorReport({"dataset": "corridor", "seq_len": 4}, 57,
+                             (SeedReport(0, {}, 0.4, 10, (30, 10, 10, 7), {"val": one_class}),))
+    rows = build.predictor_rows([report])
+    table = WrittenTable("predictor", build.PREDICTOR_COLUMNS, tuple(rows), ())
+    assert predictor_warnings(table, "corridor", 4) == [
+        "Warning: the predictor of corridor at L = 4 cannot be trusted: seed 0: its val macro F1 0.30 is at or "
+        "below chance (0.50: guessing each of the 2 classes present at its own frequency); it predicts class 1 for "
+        "all 21 val samples."]
+    assert predictor_warnings(table, "corridor", 6) == []
+    write_json(tmp_path / "p.json", report.to_json())
+    build.main(tmp_path / "run", [tmp_path / "e.json"], [tmp_path / "p.json"])
+    findings = (tmp_path / "run" / "report.html").read_text().split('id="findings"')[1].split("</section>")[0]
+    assert findings.count("Warning: the predictor of corridor at L = 4 cannot be trusted") == 2  # both modes
+    assert "| corridor | 4 |" in (tmp_path / "run" / "tables" / "predictor.md").read_text()
+    assert "it predicts class 1 for all 21 val samples" in (tmp_path / "run" / "tables" / "predictor.csv").read_text()
+
+
+def test_a_lowered_recall_is_said_and_the_baseline_keeps_its_own_aoc():
+    from vpr_smr.eval.report.findings import sentences
+    from vpr_smr.eval.report.table1 import Table1Block, table1_markdown
+
+    # kept a third of the correct matches, all of them correct: nothing to reduce up to recall 1/3
+    row = {"dataset": "corridor", "method": "sad", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.0,
+           "aoc_vpr_sm_pred": 0.0, "reduction_pct": None, "outcome": curves.NOTHING_TO_REDUCE,
+           "max_recall": 1 / 3, "max_recall_vpr_sm": 1.0, "aoc_vpr_sm_own": 0.4, "n_queries": 130, "removed": 90}
+    text = table1_markdown([row])
+    assert "| corridor | VPR+SM | 0.0000 (own: 0.4000) | 0.0000 |  |" in text
+    note = ("baseline AOC 0 up to the predictor's maximum recall 0.3333: nothing to reduce, the reduction is "
+            "undefined (the predictor lowered the maximum recall from 1.0000; VPR+SM's own AOC is 0.4000 at its own "
+            "maximum recall 1.0000)")
+    assert f"sad: {note}." in text
+    # not "already 0 without the predictor": its own AOC is 0.4
+    assert sentences(Table1Block("corridor", "paper", 4, (row,)), "test") == [
+        f"On corridor (test split, L = 4, paper mode, seed-0 predictor), for sad, {note}."]
+
+
+def test_the_aoc_means_leave_out_a_method_whose_aocs_are_at_recall_zero():
+    from vpr_smr.eval.report.table1 import table1_markdown
+
+    common = {"dataset": "d", "seq_len": 4, "mode": "paper", "n_queries": 21}
+    rows = [{**common, "method": "a", "aoc_vpr_sm": 0.2, "aoc_vpr_sm_pred": 0.1, "reduction_pct": 50.0,
+             "outcome": curves.IMPROVED, "max_recall": 0.9, "max_recall_vpr_sm": 0.9, "removed": 3},
+            {**common, "method": "b", "aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": 0.0, "reduction_pct": None,
+             "outcome": curves.REMOVED_ALL, "max_recall": 0.0, "max_recall_vpr_sm": 0.6, "aoc_vpr_sm_own": 0.3,
+             "removed": 21}]
+    text = table1_markdown(rows)
+    # b's AOCs are taken at recall 0: the means are a's alone, 0.2 and 0.1, not (0.2 + 0) / 2
+    assert "| d | VPR+SM | 0.2000 | 0.0000 (own: 0.3000) | 0.2000 (mean over 1 of 2 methods) |  |" in text
+    assert "|  | VPR+SM+Pred | 0.1000 | removed every match | 0.1000 (mean over 1 of 2 methods) |  |" in text
+    assert "|  | Reduction (%) | 50.00 | n/a: removed every match | 50.00 (mean over 1 of 2 methods) | 1 / 2 |" in text

@@ -164,5 +164,5 @@ def test_attributes_of_the_same_velocities_in_another_order_are_accepted(tmp_pat
     assert cli(["attributes", "--distances", str(tmp_path / "D.npy"), "--seq-len", "3", "--velocities", "1", "0.5",
                 "--out", str(tmp_path / "A.h5")]) == 0
     check_matcher([tmp_path / "A.h5"], (0.5, 1.0), None)  # the same matcher
-    with pytest.raises(ValueError, match=r"velocities \[0.5, 1.0\].*given velocities \[0.5, 2.0\]"):
+    with pytest.raises(ValueError, match=r"over \[0.5, 1.0\].*given velocity search over \[0.5, 2.0\]"):
         check_matcher([tmp_path / "A.h5"], (0.5, 2.0), None)

@@ -1,5 +1,5 @@
 """The match inspector's distance-matrix figure where the axes are not one range (a split with its own reference
-range, SPEC 11), and `vpr-smr inspect` on a user's matrix without a dataset of images."""
+range, traverses with positions), and `vpr-smr inspect` on a user's matrix without a dataset of images."""
 
 import csv
 

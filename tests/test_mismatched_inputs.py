@@ -276,3 +276,44 @@ def test_a_truncated_hdf5_distance_file_is_named(tmp_path, capsys):
     err = failure(capsys, ["metrics", "--distances", str(tmp_path / "test.h5"), "--seq-len", "3", "--out",
                            str(tmp_path / "m.json")])
     assert "test.h5 is an HDF5 file that cannot be opened (" in err and "damaged or truncated" in err
+
+
+def test_queries_and_held_out_refuse_a_predictor_of_another_matcher(velocity_predictor, capsys):
+    tmp = velocity_predictor
+    err = failure(capsys, ["queries", "--distances", str(tmp / "test.npy"), "--seq-len", "3", "--predictor",
+                           str(tmp / "p.h5"), "--out", str(tmp / "q.csv")])
+    assert "was trained on attributes of velocity search over [0.8, 1.0, 1.25]" in err and not (tmp / "q.csv").exists()
+    assert main(["attributes", "--distances", str(tmp / "test.npy"), "--seq-len", "3", "--out",
+                 str(tmp / "fixed.h5")]) == 0
+    err = failure(capsys, ["ablation", "held-out", "--dataset", "d", "--method", "m", "--seq-len", "3", "--attributes",
+                           str(tmp / "fixed.h5"), "--pooled", str(tmp / "p.h5"), "--without", str(tmp / "p.h5"),
+                           "--allow-split-overlap", "--out", str(tmp / "h.json")])
+    assert f"but it is applied to {tmp / 'fixed.h5'}, of the fixed matcher (velocities [1.0])" in err
+
+
+def test_a_npy_array_under_another_name_is_told_to_be_renamed(tmp_path, capsys):
+    np.save(tmp_path / "D.npy", np.ones((6, 6)))
+    (tmp_path / "D.npy").rename(tmp_path / "D.dat")
+    err = failure(capsys, ["attributes", "--distances", str(tmp_path / "D.dat"), "--seq-len", "2", "--out",
+                           str(tmp_path / "a.csv")])
+    assert "D.dat is a NumPy .npy array, but its name does not end in .npy: rename it" in err
+    (tmp_path / "D.dat").rename(tmp_path / "D.NPY")  # the suffix in capitals is a .npy
+    assert main(["attributes", "--distances", str(tmp_path / "D.NPY"), "--seq-len", "2", "--out",
+                 str(tmp_path / "a.csv")]) == 0
+
+
+def test_the_inspector_reads_similarities_and_positions_as_queries_did(sample_matrices, tmp_path):
+    folder, distances = sample_matrices
+    # the similarities of the 120 references and of every 3rd query (a query driven at 3x), positions in frames
+    queries = np.arange(0, 120, 3)
+    np.save(tmp_path / "S.npy", (distances.max() - distances)[:, queries])
+    np.save(tmp_path / "ref.npy", np.arange(120.0))
+    np.save(tmp_path / "qry.npy", queries.astype(float))
+    options = ["--reference-positions", str(tmp_path / "ref.npy"), "--query-positions", str(tmp_path / "qry.npy"),
+               "--radius", "2", "--velocities", "2", "3", "4", "--similarity"]
+    assert main(["queries", "--distances", str(tmp_path / "S.npy"), "--seq-len", "3", *options, "--out",
+                 str(tmp_path / "q.csv")]) == 0
+    figure = tmp_path / "d.png"
+    assert main(["inspect", "--queries", str(tmp_path / "q.csv"), "--distances", str(tmp_path / "S.npy"),
+                 "--seq-len", "3", *options, "--matrix-figure", str(figure)]) == 0
+    assert figure.read_bytes().startswith(b"\x89PNG")

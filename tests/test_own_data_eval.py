@@ -178,15 +178,19 @@ def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
     assert "| n/a | nothing_to_reduce | 57 |" in (run / "tables" / "trust_levels.md").read_text()
     html = (run / "report.html").read_text()
 
-    def undefined(table_id):
-        return html.split(f'<table id="{table_id}"')[1].split("</table>")[0].count('<td class="na">n/a</td>')
+    def undefined(table_id, text='<td class="na">n/a</td>'):
+        return html.split(f'<table id="{table_id}"')[1].split("</table>")[0].count(text)
 
-    # m2's reduction_pct and its seed mean, std, min and max in Table I's CSV; its reduction in the trust table
-    assert undefined("all-table1") == 5 and undefined("all-trust_levels") == 1
+    # m2's reduction_pct (with its outcome's reason) and its seed mean, std, min and max in Table I's CSV; its
+    # reduction in the trust table
+    reason = '<td class="na">n/a: nothing to reduce</td>'
+    assert undefined("all-table1") == 4 and undefined("all-table1", reason) == 1
+    assert undefined("all-trust_levels") == 0 and undefined("all-trust_levels", reason) == 1
     # the paper's layout: m2's Reduction and Reduction over seeds, each with its reason
-    assert html.count('<td class="na">n/a: nothing to reduce</td>') == 1
+    assert undefined("table1-d-paper-4", reason) == 1
     assert html.count('<td class="na">n/a: seeds 0, 1, 2: nothing to reduce</td>') == 1
-    assert html.count('<td class="na">n/a</td>') == 5 + 1 + 1  # and the compact trust table beside its figure
+    # Table I's whole table, the paper layout, the PR section's table, the whole trust table (no trust figure here)
+    assert html.count('<td class="na">n/a</td>') == 4 and html.count(reason) == 1 + 1 + 1 + 1
 
 
 def test_leave_one_out_rows_show_na():

@@ -45,10 +45,11 @@ from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path,
 from vpr_smr.eval.matching.checks import NonFiniteError, check_finite, check_shape
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import (
+    is_npy,
     open_distance_matrix,
     similarity_provenance,
-    similarity_warning,
     split_ground_truth,
+    warn_if_similar,
 )
 from vpr_smr.eval.matching.velocity import check_velocities, first_reference, velocity_block_features
 
@@ -607,10 +608,7 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     with open_distance_matrix(distances, similarity) as matrix:
         ground_truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
                                           query_positions)
-        if not similarity and distances.suffix == ".npy":  # a user's matrix: distances, or so it should be
-            warning = similarity_warning(distances, matrix, ground_truth)
-            if warning:
-                log.warning(warning)
+        warn_if_similar(distances, matrix, ground_truth, similarity)
         try:
             features = query_features(matrix, seq_len, tolerance, velocities=velocities, ground_truth=ground_truth)
         except ValueError as error:
@@ -619,7 +617,7 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     if out.suffix.lower() in CSV_SUFFIXES:
         write_csv(out, features)
     else:
-        provenance = read_provenance(distances) if distances.suffix != ".npy" else {}
+        provenance = read_provenance(distances) if not is_npy(distances) else {}
         provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
         provenance.update({**matcher_provenance(velocities, radius), **similarity_provenance(similarity)})
         write_features(out, features, {**provenance, "seq_len": seq_len, "tolerance": tolerance,
@@ -715,27 +713,16 @@ def check_matching(predictor: Any, matching: Matching, where: str, ground_truth:
 
 
 def check_matcher(paths: Sequence[Path | str], velocities: Sequence[float], radius: float | None) -> None:
-    """Raise ValueError when an attributes file was computed with other velocities or another radius than a stage
-    is given (its labels and matches would not be this matcher's)."""
-    expected = matcher_provenance(velocities, radius)
-    if "velocities" in expected:  # the same set in another order is the same matcher
-        expected["velocities"] = sorted(expected["velocities"])
+    """Raise ValueError when an attributes file was computed with other velocities, another kind of ground truth
+    or another radius than a stage is given (its labels and matches would not be this matcher's)."""
+    expected = Matching.of(velocities, radius)
     for path in paths:
-        stored = read_provenance(path)
-        found: dict[str, Any] = {}
-        if "velocities" in stored:
-            found["velocities"] = sorted(float(v) for v in stored["velocities"])
-        if "radius" in stored:
-            found["radius"] = float(stored["radius"])
-        if found != expected:
-            raise ValueError(f"{path} holds attributes of {_describe_matcher(found)}, but this stage was given "
-                             f"{_describe_matcher(expected)}: give the same --velocities and --radius, or recompute "
-                             "them")
-
-
-def _describe_matcher(settings: dict[str, Any]) -> str:
-    return (f"velocities {settings.get('velocities', list(DEFAULT_VELOCITIES))}, "
-            f"radius {settings.get('radius', 'none (frame-aligned)')}")
+        found, stored = Matching.stored(path), read_provenance(path).get("radius")
+        if found != expected or (radius is not None and (stored is None or float(stored) != float(radius))):
+            given = "" if radius is None else f" within {float(radius):g}"
+            held = "" if stored is None else f" within {float(stored):g}"
+            raise ValueError(f"{path} holds attributes of {found}{held}, but this stage was given {expected}{given}: "
+                             "give the same --velocities and --radius, or recompute them")
 
 
 def check_seq_len(paths: Sequence[Path | str], seq_len: int, option: str = "--seq-len") -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -10,8 +11,10 @@ from typing import Any
 import h5py
 import numpy as np
 
-from vpr_smr.core.files import KINDS, file_kind, load_npy, read_head
+from vpr_smr.core.files import KINDS, NPY, file_kind, load_npy, read_head
 from vpr_smr.eval.matching.ground_truth import GroundTruth, read_positions
+
+log = logging.getLogger("vpr_smr")
 
 # A column block of a chunked distance matrix touches every chunk row; cache them so that the L-1 columns that
 # consecutive blocks share are not read twice (64 MB holds one chunk column of a 27592-reference matrix).
@@ -19,6 +22,11 @@ CHUNK_CACHE_BYTES = 64 << 20
 CHUNK_CACHE_SLOTS = 10007
 NEGATIVE_ROUNDING = 1e-5  # negatives down to this fraction of the largest |distance| are float rounding
 SCAN_VALUES = 1 << 24  # values per block of the scan for negative distances (64 MB of float32)
+
+def is_npy(path: Path | str) -> bool:
+    """A user's matrix: a ``.npy`` file (any case), as opposed to the HDF5 files the stages write."""
+    return Path(path).suffix.lower() == ".npy"
+
 
 def similarity_provenance(similarity: bool) -> dict[str, str]:
     """What an output records of a matrix read with ``--similarity`` (nothing otherwise)."""
@@ -59,7 +67,7 @@ def open_distance_matrix(path: Path | str, similarity: bool = False) -> Iterator
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"distance matrix not found: {path}")
-    if path.suffix == ".npy":
+    if is_npy(path):
         array = load_npy(path, "a references x queries matrix", mmap=True)
         _check_matrix(path, array)
         matrix: Any = SimilarityAsDistance(array) if similarity else array
@@ -71,6 +79,9 @@ def open_distance_matrix(path: Path | str, similarity: bool = False) -> Iterator
         return
     if not h5py.is_hdf5(path):
         kind = file_kind(read_head(path))
+        if kind == NPY:
+            raise ValueError(f"{path} is a NumPy .npy array, but its name does not end in .npy: rename it (the "
+                             "suffix says how the file is read)")
         raise ValueError(f"{path} is {KINDS[kind]}, neither a NumPy .npy array nor HDF5: give a references x queries "
                          "matrix as either (numpy.save(path, matrix) writes a .npy)")
     try:
@@ -133,7 +144,7 @@ def check_non_negative(path: Path | str, matrix: Any) -> None:
                 minimum = min(minimum, float(negative.min()))
     if count == 0 or minimum >= -NEGATIVE_ROUNDING * largest:
         return
-    option = "give --similarity (read as distances max(M) - M), or " if Path(path).suffix == ".npy" else ""
+    option = "give --similarity (read as distances max(M) - M), or " if is_npy(path) else ""
     raise ValueError(
         f"{path}: {count} negative values in the distance matrix (minimum {minimum:.6g}); distances must be >= 0 "
         "(smaller = more similar; the attributes divide each query column by its maximum). If these are "
@@ -145,7 +156,7 @@ def stored_positions(path: Path | str) -> tuple[np.ndarray, np.ndarray] | None:
     """The split's ``reference_positions`` and ``query_positions`` that a distance file of a dataset with positions
     holds (the distances stage copies them), or None (a frame-aligned split, or a ``.npy``)."""
     path = Path(path)
-    if path.suffix == ".npy" or not h5py.is_hdf5(path):
+    if is_npy(path) or not h5py.is_hdf5(path):
         return None
     with h5py.File(path, "r") as f:
         if "reference_positions" not in f and "query_positions" not in f:
@@ -227,6 +238,14 @@ def similarity_evidence(matrix: Any, truth: GroundTruth, block_queries: int = 25
         at_max += int(np.count_nonzero(correct[np.argmax(values, axis=0), columns]))
         at_min += int(np.count_nonzero(correct[np.argmin(values, axis=0), columns]))
     return counted, larger, at_max, at_min
+
+
+def warn_if_similar(path: Path | str, matrix: Any, truth: GroundTruth, similarity: bool) -> None:
+    """Log ``similarity_warning`` for a user's ``.npy`` read as distances (the stages' own files are distances)."""
+    if not similarity and is_npy(path):
+        warning = similarity_warning(path, matrix, truth)
+        if warning:
+            log.warning(warning)
 
 
 def similarity_warning(path: Path | str, matrix: Any, truth: GroundTruth) -> str | None:

@@ -66,10 +66,7 @@ class LiveMatcher:
         self.seq_len = seq_len
         self.velocities = check_velocities(velocities)
         self.distance = distance
-        if predictor is not None:  # its attributes must be this matcher's (live frames have no ground truth)
-            check_matching(predictor, Matching.of(self.velocities, None), "a LiveMatcher (velocities=)",
-                           ground_truth=False)
-        self.predictor = predictor
+        self.predictor = predictor  # checked against the velocities (the property's setter)
         self.n_ranks = n_ranks
         self.references: np.ndarray | None = None
         if references is not None:
@@ -80,6 +77,17 @@ class LiveMatcher:
         # set by from_descriptors: the file's method and its settings (to build the same backend for new frames)
         self.method: str | None = None
         self.method_settings: dict[str, Any] | None = None
+
+    @property
+    def predictor(self) -> Any:
+        return self._predictor
+
+    @predictor.setter
+    def predictor(self, predictor: Any) -> None:
+        if predictor is not None:  # its attributes must be this matcher's (live frames have no ground truth)
+            check_matching(predictor, Matching.of(self.velocities, None), "a LiveMatcher (velocities=)",
+                           ground_truth=False)
+        self._predictor = predictor
 
     @classmethod
     def from_descriptors(cls, path: Path | str, seq_len: int, predictor: Any = None, distance: str | None = None,

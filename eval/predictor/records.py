@@ -84,10 +84,11 @@ def chance_f1(class_counts: tuple[int, ...]) -> float:
 
 
 def seed_problems(seed: SeedReport, split: str = "val") -> list[str]:
-    """Why one seed's predictor cannot be trusted on ``split`` (empty when it can, or the split was not given): a
-    macro F1 at or below chance, or one class predicted for every sample."""
+    """Why one seed's predictor cannot be trusted on ``split`` (empty when it can, when the split was not given, or
+    when it holds one class only): a macro F1 at or below chance, or one class predicted for every sample."""
     scores = seed.splits.get(split)
-    if scores is None or scores.n == 0:
+    # one class present: chance would be a macro F1 of 1 and one predicted class right; nothing to judge by
+    if scores is None or sum(count > 0 for count in scores.class_counts) < 2:
         return []
     problems = []
     chance = chance_f1(scores.class_counts)

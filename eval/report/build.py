@@ -663,8 +663,9 @@ def _article(what: str) -> str:
 
 def _reason(error: Exception) -> str:
     """What is wrong with a file's content, in words (a KeyError's text is only the key)."""
-    if isinstance(error, KeyError):
-        return f"it has no {error.args[0]!r} entry"
+    if isinstance(error, KeyError):  # most often a file an earlier version wrote, before the entry existed
+        return (f"it has no {error.args[0]!r} entry (written by an earlier vpr-smr? `vpr-smr run` computes it again "
+                "with this version; a stage's file, its command)")
     return str(error) or type(error).__name__
 
 

@@ -99,7 +99,7 @@ def sentences(block: Table1Block, split: str) -> list[str]:
                    key=lambda item: item[1])
     same = [str(r["method"]) for r in plain if r["reduction_pct"] == 0]
     out = []
-    if degenerate and all(r.get("outcome") == NOTHING_TO_REDUCE for r in rows):
+    if degenerate and all(r.get("outcome") == NOTHING_TO_REDUCE and not words.lowered_recall(r) for r in rows):
         whose = f"{rows[0]['method']}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
         out.append(f"{where} {whose} {AOC} is already 0 without the predictor: there is nothing to reduce, so the "
                    "reduction is undefined.")
@@ -196,7 +196,10 @@ def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
         for matcher, name in (("fixed", "the fixed matcher"), ("velocity", "velocity search")):
             mean, n = _mean(at(far, matcher), "reduction_pct")
             if mean is not None:
-                note = "" if n == n_methods else f" over the {n} methods where it is defined"
+                undefined = [f"{r['method']}: {words.SHORT.get(str(r.get('outcome')), 'undefined')}"
+                             for r in at(far, matcher) if r.get("reduction_pct") is None]
+                why = f" ({'; '.join(undefined)})" if undefined else ""
+                note = "" if n == n_methods else f" over the {n} methods where it is defined{why}"
                 parts.append(f"{signed(mean)} with {name}{note}")
         if parts:
             text += f"; the predictor's AOC reduction at {ratio(far)} is " + " and ".join(parts)

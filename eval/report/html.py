@@ -23,6 +23,7 @@ from typing import Any
 from vpr_smr.core.citation import how_to_cite
 from vpr_smr.core.io import atomic_path, package_version, read_provenance
 from vpr_smr.core.paths import queries_path
+from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.findings import sentences, speed_sentences
 from vpr_smr.eval.report.results import (
@@ -40,6 +41,7 @@ from vpr_smr.eval.report.table1 import (
     UNDEFINED_NOTE,
     Table1Block,
     cells,
+    is_reduction,
     notes,
     table1_blocks,
 )
@@ -112,8 +114,18 @@ def data_table(table_id: str, columns: Sequence[str], rows: Sequence[dict[str, A
     names = {**LABELS, **(labels or {})}
     head = tuple(Column(names.get(c, c.replace("_", " ")) if short else c, "text" if _is_text(c, rows) else "num",
                         title=c) for c in columns)
-    body = tuple(tuple(cell(row.get(c), c) for c in columns) for row in rows)
+    body = tuple(tuple(row_cell(row, c) for c in columns) for row in rows)
     return TableView(table_id, head, body, caption=caption, note=note)
+
+
+def row_cell(row: dict[str, Any], column: str) -> Cell:
+    """``cell`` of a row's value; an undefined reduction says why, from the row's outcome of that reduction
+    (``reduction_pct`` -> ``outcome``, ``reduction_pct_pooled`` -> ``outcome_pooled``)."""
+    value = row.get(column)
+    outcome = row.get(column.replace("reduction_pct", "outcome")) if is_reduction(column) else None
+    if value is None and outcome in words.SHORT:
+        return Cell(f"{UNDEFINED}: {words.SHORT[outcome]}", kind="na")
+    return cell(value, column)
 
 
 def pivot(table_id: str, rows: Sequence[dict[str, Any]], row_key: str, row_label: str, column_key: str,
@@ -122,9 +134,9 @@ def pivot(table_id: str, rows: Sequence[dict[str, Any]], row_key: str, row_label
     order), e.g. the reduction per trust level (rows) and method (columns)."""
     row_values = sorted(set(r[row_key] for r in rows))
     column_values = unique(str(r[column_key]) for r in rows)
-    values = {(r[row_key], str(r[column_key])): r[value_key] for r in rows}
+    by_key = {(r[row_key], str(r[column_key])): r for r in rows}
     head = (Column(row_label), *(Column(c) for c in column_values))
-    body = tuple((cell(v, row_key), *(cell(values.get((v, c)), value_key) for c in column_values))
+    body = tuple((cell(v, row_key), *(row_cell(by_key.get((v, c), {}), value_key) for c in column_values))
                  for v in row_values)
     return TableView(table_id, head, body, caption=caption)
 
@@ -153,7 +165,7 @@ def speed_table(rows: Sequence[dict[str, Any]]) -> TableView:
         for profile in profiles:
             found = [values.get((profile, method, matcher)) for method, matcher in columns]
             body.append((text_cell(f"{profile}: {name}", header=True),
-                         *(cell(None if r is None else r[key], key) for r in found)))
+                         *(row_cell(r or {}, key) for r in found)))
     return TableView(anchor("speed", rows[0]["dataset"], rows[0]["seq_len"]), head, tuple(body),
                      caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and "
                              "method · matcher (columns); single-frame recall@1 and the AOCs: the whole table below")

@@ -37,7 +37,7 @@ from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
 from vpr_smr.datasets import TraversePair, load_frames
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
 from vpr_smr.eval.matching.ground_truth import GroundTruth
-from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
+from vpr_smr.eval.matching.io import is_npy, open_distance_matrix, split_ground_truth
 from vpr_smr.eval.matching.velocity import offsets
 from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
 from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, velocities_text
@@ -465,7 +465,8 @@ def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, d
     lowest index on ties) of the query's column, as ``eval.scoring`` finds it, at the distance the CSV gives. A CSV
     made from another distance matrix (another method, or other descriptors) is refused."""
     fix = ("the CSV was made from another distance matrix (another method or run): give the queries CSV of this "
-           "distance matrix (vpr-smr queries --distances it), or run the workflow again")
+           "distance matrix (vpr-smr queries --distances it), or run the workflow again; for a matrix of "
+           "similarities made into distances by vpr-smr queries --similarity, give --similarity")
     for sample in samples:
         row = sample.row
         column = np.asarray(matrix[:, row.query - lo], dtype=np.float64)
@@ -495,7 +496,8 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
          dataset_settings: dict[str, Any] | None, frames_sha256: str | None, seq_len: int, split: str | None,
          tolerance: int, match_figure: Path | str | None, matrix_figure: Path | str, per_class: int = 2,
          mistakes: int = 4, seed: int = 0, split_range: tuple[int, int] | None = None, radius: float | None = None,
-         velocities: Sequence[float] = DEFAULT_VELOCITIES) -> tuple[Path | None, Path]:
+         velocities: Sequence[float] = DEFAULT_VELOCITIES, reference_positions: Path | str | None = None,
+         query_positions: Path | str | None = None, similarity: bool = False) -> tuple[Path | None, Path]:
     """The ``inspect`` stage: the match figure (unless ``match_figure`` is None) and the distance-matrix figure of
     ``split`` (PNG, all or none); returns their paths (the match figure's or None, the matrix figure's).
 
@@ -506,7 +508,9 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
     ``split``: None is the queries CSV's only split. ``split_range``: the split's frames ``(lo, hi)`` (default: the
     distances file's ``split_range``; for a ``.npy``, ``0 .. Q``; its references: the file's ``reference_range``
     when it has one, SPEC 11). ``tolerance``: frames of the ground-truth band; ``radius``: the ground truth's with
-    positions (those the distances file holds). ``velocities``: the run's sequence matcher.
+    positions (those the distances file holds, or ``reference_positions`` and ``query_positions`` of a user's
+    matrix, as ``vpr-smr metrics`` takes them). ``velocities``: the run's sequence matcher. ``similarity``: the
+    ``.npy`` holds similarities, read as distances ``max(M) - M`` (``vpr-smr queries --similarity``).
     The queries CSV must be this matrix's at ``seq_len``: its rows of ``split`` are exactly the queries
     ``lo + L - 1 .. hi - 1``, and each sampled row's single-frame match and distance are its column's minimum.
     """
@@ -536,11 +540,13 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
     all_rows = read_queries(queries_csv)
     split = _split_of(all_rows, queries_csv, split)
     rows = [r for r in all_rows if r.split == split]
-    with open_distance_matrix(distances) as matrix:
+    with open_distance_matrix(distances, similarity) as matrix:
         lo, hi = _split_range(distances, provenance, split_range, int(matrix.shape[1]))
         stored_reference = provenance.get("reference_range")
-        ref_lo, ref_hi = ((lo, hi) if stored_reference is None
-                          else (int(stored_reference[0]), int(stored_reference[1])))
+        if stored_reference is not None:
+            ref_lo, ref_hi = int(stored_reference[0]), int(stored_reference[1])
+        else:  # a user's .npy counts its references from 0, as `vpr-smr queries` does
+            ref_lo, ref_hi = (0, int(matrix.shape[0])) if is_npy(distances) else (lo, hi)
         if pair is not None and not (0 <= lo < hi <= len(pair.query) and 0 <= ref_lo < ref_hi <= len(pair.reference)):
             raise ValueError(f"split {split!r} = frames {lo}..{hi - 1} is outside dataset {name!r}'s "
                              f"{len(pair.query)} frames: run the workflow again")
@@ -554,7 +560,8 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
             raise ValueError(f"{distances}: the distance matrix is {matrix.shape[0]} x {matrix.shape[1]}, but split "
                              f"{split!r} has {ref_hi - ref_lo} reference frames ({ref_lo}..{ref_hi - 1}) and "
                              f"{hi - lo} query frames ({lo}..{hi - 1}): run the workflow again")
-        truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius)
+        truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
+                                   query_positions)
         rule = (f"|r - q| <= {tolerance}" if truth.is_aligned_band()
                 else f"positions within {truth.radius:g}")
         match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct ({rule}), "

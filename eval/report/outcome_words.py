@@ -40,6 +40,16 @@ def is_degenerate(row: Mapping[str, Any]) -> bool:
     return str(row.get("outcome")) in SHORT
 
 
+def at_recall_zero(row: Mapping[str, Any]) -> bool:
+    """Both AOCs are taken at recall 0 (no correct match left, or none to begin with): 0 there says nothing."""
+    return row.get("outcome") in (*LOST_ALL, NO_CORRECT_MATCH)
+
+
+def lowered_recall(row: Mapping[str, Any]) -> bool:
+    """The predictor's maximum recall is below the baseline's own: the AOCs are taken on part of the curve."""
+    return "max_recall_vpr_sm" in row and row["max_recall"] < row["max_recall_vpr_sm"]
+
+
 def improved(row: Mapping[str, Any]) -> bool:
     return row.get("outcome") == IMPROVED
 
@@ -73,8 +83,9 @@ def note(row: Mapping[str, Any]) -> str:
     if outcome == NOTHING_TO_REDUCE:
         text = (f"baseline AOC 0 up to the predictor's maximum recall {row['max_recall']:.4f}: nothing to reduce, "
                 "the reduction is undefined")
-        if row["max_recall"] < row["max_recall_vpr_sm"]:
-            text += f" (the predictor lowered the maximum recall from {row['max_recall_vpr_sm']:.4f})"
+        if lowered_recall(row):
+            text += (f" (the predictor lowered the maximum recall from {row['max_recall_vpr_sm']:.4f}; "
+                     f"{own_baseline(row)})")
         return text
     if outcome == WORSE_FROM_ZERO:
         return (f"the predictor made the AOC worse, from 0 to {row['aoc_vpr_sm_pred']:.4f} up to its maximum recall "
@@ -98,9 +109,9 @@ def predictor_cell(row: Mapping[str, Any], number: str) -> str:
 
 
 def baseline_cell(row: Mapping[str, Any], number: str) -> str:
-    """Table I's VPR+SM cell: the AOC at the predictor's maximum recall, and the baseline's own where that
-    recall is 0."""
-    if row.get("outcome") in LOST_ALL:
+    """Table I's VPR+SM cell: the AOC at the predictor's maximum recall, and the baseline's own beside it where
+    the predictor was degenerate and lowered the maximum recall (a cut curve alone would hide what was lost)."""
+    if row.get("outcome") in UNDEFINED and lowered_recall(row):
         return f"{number} (own: {row['aoc_vpr_sm_own']:.4f})"
     return number
 

@@ -102,12 +102,17 @@ def _improved(rows: Sequence[dict[str, Any]], improved: Callable[[dict[str, Any]
 
 
 def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str, str]:
-    """Per-method values of the three table rows with their mean appended (the reduction's over the methods where
-    it is defined), the note saying how many that is (empty when all), and the methods improved."""
+    """Per-method values of the three table rows with their mean appended, the note saying how many methods the
+    means are over (empty when all), and the methods improved. The reduction's mean is over the methods where it is
+    defined; the AOCs' over those whose AOCs are taken at a recall above 0 (``outcome_words.at_recall_zero``: both
+    are 0 there, which is no AOC to average)."""
     reductions = [r["reduction_pct"] for r in rows]
     mean, note = _reduction_mean(reductions)
+    counted = [not words.at_recall_zero(r) for r in rows]
     values = [[r["aoc_vpr_sm"] for r in rows], [r["aoc_vpr_sm_pred"] for r in rows]]
-    return ([v + [float(np.mean(v))] for v in values] + [reductions + [mean]], note,
+    means = [float(np.mean([v for v, c in zip(row, counted, strict=True) if c])) if any(counted) else None
+             for row in values]
+    return ([row + [m] for row, m in zip(values, means, strict=True)] + [reductions + [mean]], note,
             _improved(rows, words.improved))
 
 
@@ -117,8 +122,14 @@ def cells(rows: Sequence[dict[str, Any]], summary: list[list[float | None]], row
     Mean, numbers formatted with ``number``, each method's cell saying in words where a number would mislead
     (``outcome_words``)."""
     method_cell = (words.baseline_cell, words.predictor_cell, words.reduction_cell)[row]
-    texts = [method_cell(r, _number(v, number)) for r, v in zip(rows, summary[row], strict=False)]
-    return texts + [_number(summary[row][-1], number)]
+    texts = [method_cell(r, _number(v, number)) for r, v in zip(rows, summary[row][:-1], strict=True)]
+    return texts + [_number(summary[row][-1], number) + (_aoc_mean_note(rows) if row < 2 else "")]
+
+
+def _aoc_mean_note(rows: Sequence[dict[str, Any]]) -> str:
+    """`` (mean over k of n methods)`` when some methods' AOCs are left out of the AOC rows' Mean."""
+    counted = sum(not words.at_recall_zero(r) for r in rows)
+    return "" if counted in (0, len(rows)) else f" (mean over {counted} of {len(rows)} methods)"
 
 
 def notes(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -141,7 +152,8 @@ def _seed_cells(rows: list[dict[str, Any]], separator: str) -> tuple[list[str], 
             texts.append(f"{UNDEFINED}: {left_out}" if left_out else UNDEFINED)
             continue
         defined = r.get("n_seeds_defined", r["n_seeds"])
-        part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds; {left_out})"
+        why = f"; {left_out}" if left_out else ""
+        part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds{why})"
         texts.append(f"{r['reduction_pct_mean']:.2f}{separator}{r['reduction_pct_std']:.2f}{part}")
     means = [r.get("reduction_pct_mean") for r in rows]
     mean, note = _reduction_mean(means)
@@ -240,7 +252,7 @@ def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
             summary, note, improved = _summary(dataset_rows)
             for i, name in enumerate(ROW_NAMES):
                 if i == 2:
-                    texts = [_tex_reduction(r, v) for r, v in zip(dataset_rows, summary[2], strict=False)]
+                    texts = [_tex_reduction(r, v) for r, v in zip(dataset_rows, summary[2][:-1], strict=True)]
                     texts.append(_tex_reduction(None, summary[2][-1]) + tex_escape(note))
                     last = improved
                 else:

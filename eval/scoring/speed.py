@@ -31,7 +31,7 @@ from vpr_smr.core.constants import DEFAULT_VELOCITIES, N_LABELS
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance, write_json
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
-from vpr_smr.eval.matching.io import open_distance_matrix, stored_positions
+from vpr_smr.eval.matching.io import is_npy, open_distance_matrix, stored_positions
 from vpr_smr.eval.matching.velocity import check_velocities
 from vpr_smr.eval.predictor.leakage import FrameRange, check_disjoint, frame_ranges
 
@@ -248,7 +248,7 @@ def _split_of(path: Path, shape: tuple[int, ...]) -> _Split:
     if shape[0] != shape[1]:
         raise ValueError(f"{path}: a {shape[0]}x{shape[1]} matrix; the speed experiment simulates from a "
                          "frame-aligned split, whose matrix is square (the split's frames of both traverses)")
-    provenance = read_provenance(path) if path.suffix != ".npy" else {}
+    provenance = read_provenance(path) if not is_npy(path) else {}
     if "reference_range" in provenance or stored_positions(path) is not None:
         raise ValueError(f"{path}: a split of a dataset with positions (SPEC 11); the speed experiment simulates "
                          "from a frame-aligned split (the same frames of both traverses, no positions)")
@@ -326,7 +326,7 @@ def score(features: QueryFeatures, predictor: SMRPredictor) -> SpeedScores:
 
 def _frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:
     """The splits the distance files cover (``leakage.frame_ranges``); a user's ``.npy`` says nothing of its frames."""
-    return frame_ranges([path for path in paths if Path(path).suffix != ".npy"])
+    return frame_ranges([path for path in paths if not is_npy(path)])
 
 
 def _check_methods(train: Mapping[str, Path | str], test: Mapping[str, Path | str]) -> list[str]:

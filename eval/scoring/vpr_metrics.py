@@ -67,8 +67,8 @@ from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import (
     open_distance_matrix,
     similarity_provenance,
-    similarity_warning,
     split_ground_truth,
+    warn_if_similar,
 )
 from vpr_smr.eval.matching.velocity import check_velocities, first_reference, offsets
 from vpr_smr.eval.predictor.estimator import SMRPredictor
@@ -502,10 +502,7 @@ def _score_all(
             features = read_features(attributes_file) if attributes_file is not None else None
             truth = split_ground_truth(path, tuple(matrix.shape), tolerance, matcher.radius,
                                        matcher.reference_positions, matcher.query_positions)
-            if not similarity and path.suffix == ".npy":  # a user's matrix: distances, or so it should be
-                warning = similarity_warning(path, matrix, truth)
-                if warning:
-                    log.warning(warning)
+            warn_if_similar(path, matrix, truth, similarity)
             try:
                 results[split] = score_split(matrix, seq_len, tolerance, model, tuple(modes), features, split,
                                              _first_frame(attributes_file, path), velocities=matcher.velocities,
