@@ -5,6 +5,7 @@ from __future__ import annotations
 import fcntl
 import hashlib
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -35,6 +36,21 @@ def profile_path(profile: str) -> Path:
         shipped = ", ".join(sorted(p.name for p in PROFILES.iterdir() if p.is_dir()))
         raise FileNotFoundError(f"profile not found: {profile} (shipped profiles: {shipped}; or give a folder)")
     return path
+
+
+def check_cluster_interpreter(profile: Path, python: str | None = None) -> None:
+    """Refuse, before any job, a profile that submits jobs to a cluster when the Python interpreter's path holds
+    whitespace: Snakemake's executor interface writes that path into every job script unquoted, so each job would
+    fail with "not found" (exit status 127) and the run would stop with empty logs."""
+    python = sys.executable if python is None else python
+    settings = "\n".join(f.read_text(errors="replace") for f in sorted(profile.glob("config*.yaml")))
+    executor = re.search(r"^executor:\s*(\S+)", settings, re.MULTILINE)
+    if executor is None or executor[1] in ("local", "dryrun", "touch") or not re.search(r"\s", python):
+        return
+    raise ValueError(f"profile {profile} submits jobs to {executor[1]}, but the Python of this environment is "
+                     f"{python!r}, whose path holds a space: Snakemake writes that path into each job script "
+                     "unquoted, so every job would fail. Install vpr-smr in an environment whose path has no spaces "
+                     "(e.g. python -m venv ~/vpr-smr-env) to run on a cluster")
 
 
 LOCK_NAME = ".vpr-smr.lock"
@@ -113,6 +129,7 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
         print(f"warning: {warning}", file=sys.stderr)
     # Snakemake (and each cluster job that parses the workflow) reads the plan instead of checking again
     os.environ[PLAN_ENV] = str(save_plan(plan, conf).resolve())
+    check_cluster_interpreter(profile_path(profile))
     command = snakemake_command(config, parsed, cores, profile, dry_run, list(extra or []))
     if dry_run:
         return _snakemake(command, None if verbose else console.DryRunView(sys.stdout, sys.stderr))

@@ -317,3 +317,13 @@ def test_the_inspector_reads_similarities_and_positions_as_queries_did(sample_ma
     assert main(["inspect", "--queries", str(tmp_path / "q.csv"), "--distances", str(tmp_path / "S.npy"),
                  "--seq-len", "3", *options, "--matrix-figure", str(figure)]) == 0
     assert figure.read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_cluster_profile_refuses_an_interpreter_whose_path_holds_a_space():
+    from vpr_smr.pipeline.workflow import check_cluster_interpreter, profile_path
+
+    with pytest.raises(ValueError, match=r"submits jobs to slurm, but the Python of this environment is "
+                                         r"'/tmp/fresh clone/.venv/bin/python', whose path holds a space"):
+        check_cluster_interpreter(profile_path("slurm"), "/tmp/fresh clone/.venv/bin/python")
+    check_cluster_interpreter(profile_path("slurm"), "/tmp/clone/.venv/bin/python")  # no space: fine
+    check_cluster_interpreter(profile_path("local"), "/tmp/fresh clone/.venv/bin/python")  # local jobs: fine
