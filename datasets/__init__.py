@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import difflib
 import inspect
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
+from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.datasets.base import (
     DatasetError,
     Traverse,
@@ -77,8 +77,7 @@ def unknown_option(loader_name: str, key: str) -> str | None:
     valid = ["loader", *loader_options(loader_name), "frames", *SPLIT_SETTINGS]
     if key in valid:
         return None
-    close = difflib.get_close_matches(key, valid, n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    hint = did_you_mean(key, valid)
     return f"loader {loader_name!r} has no setting {key!r}{hint}; its settings: {', '.join(valid)}"
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import difflib
 import json
 import re
 from collections.abc import Iterable
@@ -10,6 +9,8 @@ from pathlib import Path
 from typing import Any
 
 import yaml
+
+from vpr_smr.core.suggest import did_you_mean
 
 SCHEMA_PATH = Path(__file__).with_name("config_schema.json")
 
@@ -54,9 +55,7 @@ def _unexpected_keys(error: Any) -> list[str]:
     for key in error.instance:
         if key in allowed:
             continue
-        close = difflib.get_close_matches(str(key), allowed, n=1)
-        hint = f" (did you mean {close[0]!r}?)" if close else ""
-        lines.append(f"{_where([*error.absolute_path, key])}: unexpected key {key!r}{hint}; "
+        lines.append(f"{_where([*error.absolute_path, key])}: unexpected key {key!r}{did_you_mean(str(key), allowed)}; "
                      f"{where or 'the top level'} allows: {', '.join(allowed)}")
     return lines
 

@@ -190,7 +190,7 @@ def table1_view(block: Table1Block, table_id: str) -> TableView:
             row[-1] = Cell(row[-1].text + note, row[-1].sort, row[-1].kind)
         rows.append((text_cell(name, header=True), *row, text_cell(improved if i == 2 else "")))
     if block.has_seeds:
-        texts, last = block.seed_cells(" ± ")
+        texts, last = block.seed_cells()
         means = [r.get("reduction_pct_mean") for r in block.rows]
         kinds = ["na" if m is None else "up" if m > 0 else "down" if m < 0 else "num" for m in means] + ["num"]
         rows.append((text_cell(SEED_ROW_NAME, header=True),

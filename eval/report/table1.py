@@ -31,6 +31,7 @@ OUTCOME_COLUMNS = ("outcome", "removed", "max_recall_vpr_sm", "aoc_vpr_sm_own", 
 TABLE1_COLUMNS = (*TABLE1_NUMBERS, *QUERY_COLUMNS, "n_seeds_defined", *OUTCOME_COLUMNS)
 ROW_NAMES = ("VPR+SM", "VPR+SM+Pred", "Reduction (%)")
 SEED_ROW_NAME = "Reduction over seeds (%)"
+PLUS_MINUS = " ± "  # mean ± std over the seeds ($\pm$ in LaTeX)
 UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined (why: beside it, and below); Mean leaves it out, "
                   "Improved counts it as not improved.")
 
@@ -141,7 +142,7 @@ def _has_seeds(rows: list[dict[str, Any]]) -> bool:
     return all(r.get("n_seeds") is not None for r in rows)
 
 
-def _seed_cells(rows: list[dict[str, Any]], separator: str) -> tuple[list[str], str]:
+def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
     """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the seeds counted, and those left
     out named with the reason, where only some are), the mean of the defined means, and how many methods improve
     on average (a method one of whose seeds did harm the mean cannot show does not)."""
@@ -154,7 +155,7 @@ def _seed_cells(rows: list[dict[str, Any]], separator: str) -> tuple[list[str], 
         defined = r.get("n_seeds_defined", r["n_seeds"])
         why = f"; {left_out}" if left_out else ""
         part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds{why})"
-        texts.append(f"{r['reduction_pct_mean']:.2f}{separator}{r['reduction_pct_std']:.2f}{part}")
+        texts.append(f"{r['reduction_pct_mean']:.2f}{PLUS_MINUS}{r['reduction_pct_std']:.2f}{part}")
     means = [r.get("reduction_pct_mean") for r in rows]
     mean, note = _reduction_mean(means)
     n_seeds = rows[0].get("n_seeds", "")
@@ -210,7 +211,7 @@ def table1_markdown(rows: list[dict[str, Any]], split: str = "test") -> str:
                 label = dataset if i == 0 else ""
                 out.append(f"| {label} | {name} | " + " | ".join(texts) + f" | {last} |")
             if _has_seeds(dataset_rows):
-                texts, last = _seed_cells(dataset_rows, " ± ")
+                texts, last = _seed_cells(dataset_rows)
                 out.append(f"|  | {SEED_ROW_NAME} | " + " | ".join(texts) + f" | {last} |")
                 undefined |= any(t.startswith(UNDEFINED) for t in texts)
             undefined |= None in summary[2]
@@ -260,8 +261,8 @@ def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
                 label = tex_escape(dataset) if i == 0 else ""
                 out.append(f"{label} & {tex_escape(name)} & " + " & ".join(texts) + f" & {last}" + r"\\")
             if _has_seeds(dataset_rows):
-                texts, last = _seed_cells(dataset_rows, "\x00")
-                texts = [tex_escape(t).replace("\x00", r" $\pm$ ") for t in texts]
+                texts, last = _seed_cells(dataset_rows)
+                texts = [tex_escape(t).replace(PLUS_MINUS, r" $\pm$ ") for t in texts]
                 out.append(f" & {tex_escape(SEED_ROW_NAME)} & " + " & ".join(texts) + f" & {last}" + r"\\")
                 undefined |= any(t.startswith(UNDEFINED) for t in texts)
             undefined |= None in summary[2]
@@ -302,9 +303,9 @@ class Table1Block:
     def has_seeds(self) -> bool:
         return _has_seeds(list(self.rows))
 
-    def seed_cells(self, separator: str = " ± ") -> tuple[list[str], str]:
+    def seed_cells(self) -> tuple[list[str], str]:
         """The row "Reduction over seeds": mean ± std per method, their mean, and how many improve on average."""
-        return _seed_cells(list(self.rows), separator)
+        return _seed_cells(list(self.rows))
 
     def query_note(self, split: str) -> str:
         """The queries the numbers are over."""
