@@ -22,10 +22,10 @@ demo: $(STAMP)
 	$(BIN)/vpr-smr run configs/demo.yaml
 
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q tests
 
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q tests/unit
 
 # ruff, the layers contract (import-linter) and mypy (strict; pyproject's [tool.mypy]). CI runs it before the tests.
 lint: $(STAMP)

@@ -2,7 +2,7 @@
 
 (a) the command's wall time against a fresh process that loads the same file and sums it (goal: within 15x),
     and against per-query loops (goal: at least 1000x faster), extrapolated from a sample of queries: the literal
-    per-query transcription of SPEC 5 that the tests use (``naive_attributes``, the issue's "about 50 ms per
+    per-query transcription of method §5 that the tests use (``naive_attributes``, the issue's "about 50 ms per
     query") and the same loop with numpy inside each query (argsort of the whole column, as the authors' code);
     With ``--authors-code PATH`` (a local checkout of QVPR/vpr-smr-predictor, which this repository does not ship),
     also against the authors' own code as their ``test.py`` runs it per query (``transform_matrices``,
@@ -33,16 +33,16 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from common import is_small, machine, python, run_measured  # noqa: E402
-from test_attributes import naive_attributes  # noqa: E402
+from oracles import naive_attributes  # noqa: E402
 
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # noqa: E402
-from vpr_smr.eval.matching import attributes  # noqa: E402
+from vpr_smr.eval.matching import matcher  # noqa: E402
 from vpr_smr.eval.matching.attributes import query_features  # noqa: E402
 
 LOAD_AND_SUM = "import sys, numpy as np; print(np.load(sys.argv[1]).sum())"
 # A fresh process: query_features of a tiny matrix on one path; the difference is the compiled path's fixed cost.
-TINY = ("import sys, numpy as np; from vpr_smr.eval.matching import attributes as a; a.KERNEL = sys.argv[1]; "
-        "a.query_features(np.ones((40, 40), dtype=np.float32), 4)")
+TINY = ("import sys, numpy as np; from vpr_smr.eval.matching import attributes as a, matcher as m; "
+        "m.KERNEL = sys.argv[1]; a.query_features(np.ones((40, 40), dtype=np.float32), 4)")
 
 
 def has_numba() -> bool:
@@ -54,9 +54,9 @@ def has_numba() -> bool:
 
 
 def numpy_per_query(distance_matrix: np.ndarray, seq_len: int, queries: np.ndarray, n_ranks: int = 4) -> None:
-    """SPEC 5 one query at a time with numpy inside each query, sorting as the authors' code does (not their code:
+    """Method §5 one query at a time with numpy inside each query, sorting as the authors' code does (not their code:
     ``--authors-code`` times that): normalise the window, sum its diagonals, argsort the whole column
-    of sums, sort the past, row and current values, then the block and group rates per rank (SPEC 5)."""
+    of sums, sort the past, row and current values, then the block and group rates per rank (method §5)."""
     n_diag = distance_matrix.shape[0] - seq_len + 1
     for a in queries:
         window = np.asarray(distance_matrix[:, a - seq_len + 1 : a + 1], dtype=np.float64)
@@ -175,7 +175,7 @@ def main() -> None:
             code_s = authors_per_query(args.authors_code, matrix, args.seq_len, sample) * n_queries
         compiled_per_query = {}
         for kind in paths:
-            attributes.KERNEL = kind
+            matcher.KERNEL = kind
             query_features(np.ones((40, 40), dtype=np.float32), 4)  # numba's first dispatch, outside the timing
             start = time.perf_counter()
             query_features(matrix, args.seq_len)
@@ -184,7 +184,7 @@ def main() -> None:
                 start = time.perf_counter()
                 query_features(matrix, seq_len)
                 compiled_per_query[seq_len] = (time.perf_counter() - start) / (size - seq_len + 1)
-        attributes.KERNEL = None
+        matcher.KERNEL = None
         per_query = {}
         for seq_len in (2, 10):
             start = time.perf_counter()

@@ -1,13 +1,14 @@
-"""SeqSLAM's velocity search (SPEC 11) against the fixed slope-1 matcher, time per query, in one process.
+"""SeqSLAM's velocity search (method §11) against the fixed slope-1 matcher, time per query, in one process.
 
 Goal (issue): velocity search costs at most the number of velocities times the fixed matcher per query, block-wise,
 with the compiled kernel where it pays. On a random R x Q float32 matrix, read in the blocks of query columns that
-``attributes._run_blocks`` reads (``default_block_queries(R)`` queries, ``+ L - 1`` columns each), this times
+``SequenceMatcher.map_blocks`` reads (``SequenceMatcher.block_queries(R)`` queries, ``+ L - 1`` columns each), this
+times ``SequenceMatcher.block_features`` on those blocks
 
-- the fixed matcher on those blocks: ``attributes._numpy_block_features`` (its numpy path) and, when numba imports,
-  ``attributes.block_features`` forced onto its compiled kernel (``attributes.KERNEL = "numba"``);
-- ``velocity.velocity_block_features`` on the same blocks, on its numpy path and on its compiled kernel
-  (``velocity_kernels``), for |V| = 3 (``2^(k/4)``, k = -1..1) and |V| = 9 (k = -4..4), at L = 4 and L = 10;
+- with ``velocities=(1.0,)`` (the fixed matcher's fast path), on its numpy path and, when numba imports, forced onto
+  its compiled kernel (``matcher.KERNEL = "numba"``);
+- with velocity search, on its numpy twin and on its compiled kernel (``velocity_kernels``), for |V| = 3
+  (``2^(k/4)``, k = -1..1) and |V| = 9 (k = -4..4), at L = 4 and L = 10;
 
 and prints each ratio velocity / fixed and that ratio divided by |V| (the goal: <= 1), path against path (numpy
 against numpy, compiled against compiled) and best against best (each side's faster path). Each time is the best of
@@ -30,8 +31,8 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import is_small, machine  # noqa: E402
 
-from vpr_smr.eval.matching import attributes  # noqa: E402
-from vpr_smr.eval.matching.velocity import velocity_block_features  # noqa: E402
+from vpr_smr.eval.matching import matcher  # noqa: E402
+from vpr_smr.eval.matching.matcher import SequenceMatcher, read_columns  # noqa: E402
 
 VELOCITY_SETS = {3: tuple(2 ** (k / 4) for k in range(-1, 2)), 9: tuple(2 ** (k / 4) for k in range(-4, 5))}
 SEQ_LENS = (4, 10)
@@ -46,19 +47,22 @@ def has_numba() -> bool:
 
 
 def blocks(matrix: np.ndarray, seq_len: int) -> list[np.ndarray]:
-    """The matrix's blocks of query columns as ``_run_blocks`` reads them (``read_columns``: ``(Wb, R)``)."""
+    """The matrix's blocks of query columns as ``map_blocks`` reads them (``read_columns``: ``(Wb, R)``)."""
     n_ref, n_query = matrix.shape
-    step = attributes.default_block_queries(n_ref)
+    step = SequenceMatcher.block_queries(n_ref)
     n_out = n_query - seq_len + 1
-    return [attributes.read_columns(matrix, start, min(n_out, start + step) + seq_len - 1)
-            for start in range(0, n_out, step)]
+    return [read_columns(matrix, start, min(n_out, start + step) + seq_len - 1) for start in range(0, n_out, step)]
+
+
+def block_features(block: np.ndarray, seq_len: int, n_ranks: int, velocities: tuple[float, ...]) -> object:
+    return SequenceMatcher(seq_len, velocities).block_features(block, n_ranks)
 
 
 def per_query(work: Callable[..., object], args: tuple[object, ...], parts: list[np.ndarray], n_queries: int,
               kernel: str, repeat: int) -> float:
-    """Seconds per query of ``work(block, *args)`` over every block, on ``kernel``'s path (``attributes.KERNEL``),
+    """Seconds per query of ``work(block, *args)`` over every block, on ``kernel``'s path (``matcher.KERNEL``),
     best of ``repeat``; the first block once before the timing (numba's first dispatch, the caches)."""
-    previous, attributes.KERNEL = attributes.KERNEL, kernel
+    previous, matcher.KERNEL = matcher.KERNEL, kernel
     try:
         work(parts[0], *args)
         best = np.inf
@@ -68,25 +72,23 @@ def per_query(work: Callable[..., object], args: tuple[object, ...], parts: list
                 work(part, *args)
             best = min(best, time.perf_counter() - start)
     finally:
-        attributes.KERNEL = previous
+        matcher.KERNEL = previous
     return float(best / n_queries)
 
 
 def measure(size: int, repeat: int, kernels: tuple[str, ...]) -> None:
     matrix = np.random.default_rng(0).random((size, size), dtype=np.float32)
-    print(f"\n{size} x {size} float32, blocks of {attributes.default_block_queries(size)} queries")
+    print(f"\n{size} x {size} float32, blocks of {SequenceMatcher.block_queries(size)} queries")
     for seq_len in SEQ_LENS:
         parts = blocks(matrix, seq_len)
         n_queries = size - seq_len + 1
-        fixed = {"numpy": per_query(attributes._numpy_block_features, (seq_len, 4), parts, n_queries, "numpy",
-                                    repeat)}
-        if "numba" in kernels:
-            fixed["numba"] = per_query(attributes.block_features, (seq_len, 4), parts, n_queries, "numba", repeat)
+        fixed = {kind: per_query(block_features, (seq_len, 4, (1.0,)), parts, n_queries, kind, repeat)
+                 for kind in kernels}
         line = ", ".join(f"{kind} {1e6 * seconds:.0f}" for kind, seconds in fixed.items())
         print(f"L = {seq_len:2}: fixed matcher per query (µs): {line}")
         for n_vel, velocities in VELOCITY_SETS.items():
-            searched = {kind: per_query(velocity_block_features, (seq_len, 4, velocities), parts, n_queries, kind,
-                                        repeat) for kind in kernels}
+            searched = {kind: per_query(block_features, (seq_len, 4, velocities), parts, n_queries, kind, repeat)
+                        for kind in kernels}
             line = ", ".join(f"{kind} {1e6 * seconds:.0f}" for kind, seconds in searched.items())
             print(f"  |V| = {n_vel}: velocity search per query (µs): {line}")
             pairs = [(kind, kind) for kind in kernels] + [("best", "best")]

@@ -1,6 +1,6 @@
 """How to cite: the tool (at the version that made the results) and the SMR paper it implements.
 
-CITATION.cff is the citation file of the repository; tests/test_citation.py keeps these lines equal to it.
+CITATION.cff is the citation file of the repository; tests/unit/test_citation.py keeps these lines equal to it.
 """
 
 PAPER = ("S. Hussaini, T. Fischer and M. Milford, \"Improving Visual Place Recognition with Sequence-Matching "

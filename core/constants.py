@@ -1,4 +1,4 @@
-"""Facts of the method that several stages use, each set here once (SPEC sections cited per constant).
+"""Facts of the method that several stages use, each set here once (docs/method.md sections cited per constant).
 
 Plain module-level values (ints, floats, tuples of them): the compiled kernels (``eval.matching.kernels``) read
 ``EPS`` and ``GROUP_HALF_WIDTH`` as globals, which numba freezes at compile time.
@@ -6,16 +6,16 @@ Plain module-level values (ints, floats, tuples of them): the compiled kernels (
 
 from __future__ import annotations
 
-DEFAULT_TOLERANCE = 2  # SPEC 1: a match is correct within 2 frames, for every dataset
+DEFAULT_TOLERANCE = 2  # method §1: a match is correct within 2 frames, for every dataset
 METRICS = ("l2", "cosine", "mad")  # distances between descriptors (eval.matching.distances)
 
-EPS = 1e-6  # added to every denominator of the attributes A1..A4 (SPEC 5)
-GROUP_HALF_WIDTH = 2  # W in the paper: the group of diagonal i is i-W .. i+W (A4, SPEC 5)
+EPS = 1e-6  # added to every denominator of the attributes A1..A4 (method §5)
+GROUP_HALF_WIDTH = 2  # W in the paper: the group of diagonal i is i-W .. i+W (A4, method §5)
 
-# SPEC 6: 0 correct before and after sequence matching, 1 before only, 2 after only, 3 wrong both
+# method §6: 0 correct before and after sequence matching, 1 before only, 2 after only, 3 wrong both
 LABELS = (0, 1, 2, 3)
 N_LABELS = len(LABELS)
-KEPT_CLASSES = (0, 2)  # SPEC 6: labels whose sequence match is correct; the predictor keeps these matches
+KEPT_CLASSES = (0, 2)  # method §6: labels whose sequence match is correct; the predictor keeps these matches
 
 MODES = ("paper", "standard")  # metric modes of the PR curves (eval.scoring.curves)
 
@@ -24,14 +24,16 @@ MODES = ("paper", "standard")  # metric modes of the PR curves (eval.scoring.cur
 RECALL_AT = (1, 5, 10, 20)
 MATCHERS = ("single", "sequence", "sequence_predictor")
 # Trust levels of the trust-level ablation; pipeline/config_schema.json repeats them as the `trust_levels`
-# default (a JSON schema cannot import), and tests/test_config.py checks that both agree.
+# default (a JSON schema cannot import), and tests/unit/test_config.py checks that both agree.
 DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)
 
-# SPEC 11: velocities (reference frames per query frame) searched by sequence matching; (1.0,) is SPEC 4's fixed
+# method §11: velocities (reference frames per query frame) searched by sequence matching; (1.0,) is method §4's fixed
 # slope-1 matcher, the paper's. pipeline/config_schema.json repeats it as `sequence_matching.velocities`' default.
 DEFAULT_VELOCITIES = (1.0,)
 
 # The layout of the result files (predictors, evaluations, the speed experiment's): a job param of the rules that
-# write them, so that a run made by an earlier layout writes them again instead of failing to read them. 2: predictor
-# files record their matching, every reduction its outcome (0.5.0).
-RESULTS_LAYOUT = 2
+# write them, so that a run made by an earlier layout writes them again instead of failing to read them; every result
+# JSON records it as its "format" (core.records.FORMAT), and a file of another is refused. 2: predictor files record
+# their matching, every reduction its outcome (0.5.0). 3: one codec writes every record, an embedded record as its
+# own object, the first seed's numbers once.
+RESULTS_LAYOUT = 3

@@ -33,7 +33,7 @@ LOADERS: dict[str, Callable[..., TraversePair]] = {
     "robotcar": robotcar,
     "sfu_mountain": sfu_mountain,
 }
-# The published splits of the benchmarks (SPEC 1); a `folders` dataset has none until the configuration names them.
+# The published splits of the benchmarks (method §1); a `folders` dataset has none until the configuration names them.
 DEFAULT_SPLITS: dict[str, dict[str, tuple[int, int]]] = {
     "nordland_sample": NORDLAND_SAMPLE_SPLITS,
     "nordland": NORDLAND_SPLITS,
@@ -48,7 +48,7 @@ __all__ = [
 
 
 # Settings that only reach the distances and attributes jobs: the descriptors of a dataset depend on the others.
-# `radius` (SPEC 11) is the ground truth of pairs with positions, as `tolerance` is of frame-aligned ones.
+# `radius` (method §11) is the ground truth of pairs with positions, as `tolerance` is of frame-aligned ones.
 SPLIT_SETTINGS = ("splits", "tolerance", "radius")
 # Loader arguments that are not settings: the workflow fills them in.
 _INTERNAL = ("name", "check_files")
@@ -148,7 +148,7 @@ def load_frames(name: str, conf: dict[str, Any], check_files: bool = True) -> Tr
 def split_ranges(name: str, splits: dict[str, Any]) -> tuple[dict[str, tuple[int, int]], dict[str, tuple[int, int]]]:
     """A configuration's ``splits`` as (query ranges, reference ranges that differ from them).
 
-    A split is ``[lo, hi]`` (both traverses) or ``{reference: [lo, hi], query: [lo, hi]}`` (SPEC 11).
+    A split is ``[lo, hi]`` (both traverses) or ``{reference: [lo, hi], query: [lo, hi]}`` (method §11).
     """
     query: dict[str, tuple[int, int]] = {}
     reference: dict[str, tuple[int, int]] = {}

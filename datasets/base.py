@@ -1,5 +1,5 @@
-"""Traverses and traverse pairs: two image sequences of one route, frame-aligned (SPEC 1) or with positions
-(SPEC 11)."""
+"""Traverses and traverse pairs: two image sequences of one route, frame-aligned (method §1) or with positions
+(method §11)."""
 
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def read_image(path: Path | str) -> np.ndarray:
 class Traverse:
     """One ordered sequence of images of a route under one condition.
 
-    ``positions`` (SPEC 11): where each frame was taken, ``(n, 2)`` float64 (read-only), or None for a traverse
+    ``positions`` (method §11): where each frame was taken, ``(n, 2)`` float64 (read-only), or None for a traverse
     that is only frame-aligned with its pair. NaN marks a frame without a known position (only ``dataset check``
     builds such traverses: the loaders refuse them otherwise). Left out of equality and hashing, like an array
     must be: the images identify a traverse.
@@ -101,9 +101,9 @@ class Traverse:
 class TraversePair:
     """A reference and a query traverse of one route.
 
-    Without positions, their frames are aligned one-to-one (frame i of both shows the same place, SPEC 1): the
+    Without positions, their frames are aligned one-to-one (frame i of both shows the same place, method §1): the
     traverses have the same length and ``tolerance`` (frames) is the ground truth. With positions on both
-    traverses (SPEC 11), a match is correct within ``radius`` (in ``position_unit``), the traverses may differ
+    traverses (method §11), a match is correct within ``radius`` (in ``position_unit``), the traverses may differ
     in length, and a split may give its reference range apart from its query range.
 
     ``splits`` maps a split name to a half-open index range ``(lo, hi)``: its query range, and its reference
@@ -119,7 +119,7 @@ class TraversePair:
     # where the images came from, in the loader's words (its folders or root, resolved, and the frame lists it
     # read): the dataset card of the report shows it
     source: str = ""
-    radius: float | None = None  # SPEC 11: ground truth within this distance, for pairs with positions
+    radius: float | None = None  # method §11: ground truth within this distance, for pairs with positions
     reference_splits: dict[str, tuple[int, int]] = field(default_factory=dict)  # reference ranges that differ
     position_unit: str = ""  # the positions' unit, e.g. "metres", for messages about the radius
     position_source: str = ""  # where the positions came from, e.g. "the CSVs a.csv and b.csv, x, y as given"
@@ -183,7 +183,7 @@ class TraversePair:
 
     @property
     def has_positions(self) -> bool:
-        """Whether both traverses carry positions (SPEC 11): ground truth within ``radius``, not ``tolerance``."""
+        """Whether both traverses carry positions (method §11): ground truth within ``radius``, not ``tolerance``."""
         return self.reference.positions is not None and self.query.positions is not None
 
     def split_range(self, split: str) -> tuple[int, int]:

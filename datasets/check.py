@@ -154,7 +154,7 @@ class TraverseCheck:
     first: list[str] = field(default_factory=list)  # the first and last file names, in the order used
     last: list[str] = field(default_factory=list)
     order_note: str | None = None
-    # SPEC 11, pairs with positions only: frames without a position, and the median step between frames
+    # method §11, pairs with positions only: frames without a position, and the median step between frames
     unpositioned: list[int] = field(default_factory=list)
     unpositioned_names: list[str] = field(default_factory=list)
     spacing: float | None = None
@@ -193,7 +193,7 @@ class DatasetReport:
     decoded: bool
     pairing: str = ""
     pairs: list[tuple[int, str, str]] = field(default_factory=list)  # (frame, reference name, query name)
-    radius: float | None = None  # pairs with positions (SPEC 11): the ground truth's radius, in position_unit
+    radius: float | None = None  # pairs with positions (method §11): the ground truth's radius, in position_unit
     position_unit: str = ""
 
     @property

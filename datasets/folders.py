@@ -1,5 +1,5 @@
 """Any two image folders: frame-aligned (file names in natural order, or explicit list files), or with positions
-(SPEC 11: a CSV per folder, or the @UTM_east@UTM_north@ file names), when the two need not be aligned at all."""
+(method §11: a CSV per folder, or the @UTM_east@UTM_north@ file names), when the two need not be aligned at all."""
 
 from __future__ import annotations
 
@@ -145,7 +145,7 @@ def folder_pair(
     radius: float | None = None,
 ) -> TraversePair:
     """Pair two folders frame by frame: image names in natural order, or the order of the list files; or, with
-    positions, take each folder as it is and match frames by position (SPEC 11).
+    positions, take each folder as it is and match frames by position (method §11).
 
     Without lists, position i of both folders is one place only when the names say so (the same names, or the
     same numbers in them), or when ``pairing="by_order"`` accepts pairing by position alone.

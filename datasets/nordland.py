@@ -1,4 +1,4 @@
-"""The full Nordland benchmark: ``<root>/{summer,winter}/images-NNNNN.png`` (SPEC section 1).
+"""The full Nordland benchmark: ``<root>/{summer,winter}/images-NNNNN.png`` (method §1).
 
 The 27592-frame "Nordland clean" list (tunnels and stops removed; Patch-NetVLAD's
 ``nordland_imageNames_{index,query}.txt``, vendored in ``data/lists``) selects and orders the frames. Frames

@@ -1,4 +1,4 @@
-"""Where each frame of a traverse was taken (SPEC 11): positions from a CSV or from the file names.
+"""Where each frame of a traverse was taken (method §11): positions from a CSV or from the file names.
 
 A traverse pair with positions is not frame-aligned: a match is correct when the two frames lie within a radius
 of each other. Positions come from

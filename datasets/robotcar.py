@@ -1,4 +1,4 @@
-"""Oxford RobotCar (ORC) Rain against Dusk, front-left stereo camera (SPEC section 1).
+"""Oxford RobotCar (ORC) Rain against Dusk, front-left stereo camera (method §1).
 
 Layout: ``<root>/<run>/stereo/left/<timestamp>.png`` as the runs unpack from the RobotCar site. The
 place-aligned lists of VPRSNN (``ORC_{Rain,Dusk}_timestamps.csv``, vendored in ``data/lists``) give the
@@ -7,7 +7,7 @@ timestamp of each aligned index; a timestamp may repeat (the alignment is by pla
 The raw images are Bayer mosaics (one channel, GBRG pattern, like the robotcar-dataset-sdk's
 ``demosaic(img, 'gbrg')``). ``BayerTraverse.read`` demosaics them, so every reader of the pair gets RGB.
 
-``positions: ins`` (SPEC 11) takes the raw runs instead of the place-aligned lists: every ``every``-th image of
+``positions: ins`` (method §11) takes the raw runs instead of the place-aligned lists: every ``every``-th image of
 ``<run>/stereo/left``, positioned by the run's INS log (``<run>/gps/ins.csv`` of the SDK: a header row, then
 ``timestamp,...,northing,easting,...`` rows; timestamps in microseconds, as the image names). Each image's
 (easting, northing) is interpolated linearly at its timestamp; a match is correct within ``radius`` metres.
@@ -52,7 +52,7 @@ POSITIONS = ("ins",)
 # OpenCV names a Bayer pattern by the 2x2 block that starts at pixel (1, 1), one row and one column in, not
 # at (0, 0) as everyone else does. So a GBRG mosaic (row 0: G B, row 1: R G) is OpenCV's "BayerGR" (newer
 # releases also call it COLOR_BayerGBRG2RGB, the same value). COLOR_BayerGB2RGB would be the GRBG pattern;
-# tests/test_datasets_benchmarks.py checks the choice on a known image.
+# tests/unit/test_datasets_benchmarks.py checks the choice on a known image.
 GBRG_TO_RGB = cv2.COLOR_BayerGR2RGB
 
 _INDEX = re.compile(r"^(\d+)\.\w+$")
@@ -179,7 +179,7 @@ def robotcar(
                         check_files, source)
 
 
-# --- the raw runs, positioned by their INS logs (SPEC 11) ---
+# --- the raw runs, positioned by their INS logs (method §11) ---
 
 
 @dataclass(frozen=True)

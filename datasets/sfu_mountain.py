@@ -1,4 +1,4 @@
-"""SFU Mountain, dry against dusk, right stereo camera (SPEC section 1).
+"""SFU Mountain, dry against dusk, right stereo camera (method §1).
 
 Layout: ``<root>/part_{a,b}/stereo_right/{dry,dusk}/frames/*.jpg``. The hand-aligned lists of VPRSNN
 (``SFU-Mountain_imageNames_{dry,dusk}.txt``, 375 lines like

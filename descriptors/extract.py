@@ -1,7 +1,7 @@
 """Compute the descriptors of both traverses of a pair, in batches, into one HDF5 file.
 
 The file holds ``reference`` and ``query`` arrays (N x dim, float32; the two traverses may differ in length when
-they have positions) and ``reference_names`` / ``query_names``; a pair with positions (SPEC 11) adds
+they have positions) and ``reference_names`` / ``query_names``; a pair with positions (method §11) adds
 ``reference_positions`` / ``query_positions`` (N x 2, float64). Its attributes record the backend, its settings,
 the checkpoint's SHA-256 and the frame list's fingerprint (positions included). A finished file with the same
 provenance is not computed again.

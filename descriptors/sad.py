@@ -1,4 +1,4 @@
-"""SAD: patch-normalised thumbnails compared by mean absolute difference (SPEC section 2)."""
+"""SAD: patch-normalised thumbnails compared by mean absolute difference (method §2)."""
 
 from __future__ import annotations
 

@@ -36,10 +36,11 @@ def _stage_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str,
     """The dataset's and the method's settings: given as JSON (the workflow) or taken from ``--config``."""
     if args.config:
         conf = load_config(args.config)
-        for section, name in (("datasets", args.dataset), ("methods", args.method)):
-            if name not in conf[section]:
-                raise ConfigError(f"{args.config}: {section} has no {name!r}; it has {', '.join(conf[section])}")
-        return conf["datasets"][args.dataset], conf["methods"][args.method]
+        for section, name, entries in (("datasets", args.dataset, conf.datasets),
+                                       ("methods", args.method, conf.methods)):
+            if name not in entries:
+                raise ConfigError(f"{args.config}: {section} has no {name!r}; it has {', '.join(entries)}")
+        return conf.datasets[args.dataset].to_json(), conf.methods[args.method].to_json()
     if not (args.dataset_settings and args.method_settings):
         raise ConfigError("give --config, or both --dataset-settings and --method-settings")
     return (_json_object(args.dataset_settings, "--dataset-settings"),
@@ -84,16 +85,53 @@ def _check_seq_len(args: argparse.Namespace, *groups: Iterable[str] | None) -> N
     check_seq_len([path for group in groups for path in (group or [])], args.seq_len)
 
 
+# ``--val`` and ``--test`` of train and the ablations, before the splits took the configuration's names
+OLD_SPLIT_OPTIONS = ("--val", "--test")
+
+
+def _old_split_options(parser: argparse.ArgumentParser) -> None:
+    """``--val``/``--test``, hidden: given, they fail with what replaced them (``_evaluation_splits``)."""
+    for option in OLD_SPLIT_OPTIONS:
+        parser.add_argument(option, nargs="*", dest=f"old_{option[2:]}", help=argparse.SUPPRESS)
+
+
+def _evaluate_option(parser: argparse.ArgumentParser, what: str, item: str = "PATH") -> None:
+    a, b = ("a=", "b=") if item == "METHOD=PATH" else ("", "")
+    parser.add_argument("--evaluate", nargs="+", action="append", metavar=("SPLIT", item),
+                        help=f"an evaluation split by its name (the configuration's, e.g. val or check) and {what}; "
+                             f"repeat it for each split, e.g. --evaluate val {a}a_val.h5 {b}b_val.h5 --evaluate test "
+                             f"{a}a_test.h5 {b}b_test.h5")
+
+
+def _evaluation_splits(args: argparse.Namespace) -> dict[str, list[str]]:
+    """``--evaluate SPLIT ITEM...`` (repeatable) as split name -> items, in the order given; the removed
+    ``--val``/``--test`` fail with what replaced them."""
+    old = [option for option in OLD_SPLIT_OPTIONS if getattr(args, f"old_{option[2:]}", None) is not None]
+    if old:
+        raise ConfigError(f"{' and '.join(old)}: removed; the splits take the configuration's names now: give each "
+                          "evaluation split as --evaluate SPLIT FILE..., e.g. --evaluate val a.h5 b.h5 --evaluate "
+                          "test c.h5 d.h5 (or --evaluate check ... --evaluate final ...)")
+    splits: dict[str, list[str]] = {}
+    for name, *items in args.evaluate or []:
+        if not items:
+            raise ConfigError(f"--evaluate {name}: give the split's name, then its files")
+        if name in splits:
+            raise ConfigError(f"--evaluate {name}: the split is given twice; give all its files after one --evaluate")
+        splits[name] = items
+    return splits
+
+
 def cmd_train(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import train
 
-    _check_seq_len(args, args.train, args.val, args.test)
+    evaluate = _evaluation_splits(args)
+    _check_seq_len(args, args.train, *evaluate.values())
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
-    report = train.main(args.train, args.out, params, val=args.val or (), test=args.test or (),
+    report = train.main(args.train, args.out, params, evaluate=evaluate,
                         meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)),
-                        allow_split_overlap=args.allow_split_overlap)
+                        allow_split_overlap=args.allow_split_overlap, validation=args.validation)
     first = report.seeds[0]  # the predictor file's seed
-    log.info("predictor macro F1: cv %.3f, val %s, test %s", first.f1_cv, first.f1("val"), first.f1("test"))
+    log.info("predictor macro F1: cv %.3f%s", first.f1_cv, train.split_f1s(first))
 
 
 def _split_paths(items: list[str], option: str = "--attributes", name: str = "SPLIT") -> dict[str, str]:
@@ -154,9 +192,10 @@ def _matcher(args: argparse.Namespace) -> Any:
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
 
-    _check_seq_len(args, args.train, args.val, args.test)
+    evaluate = _evaluation_splits(args)
+    _check_seq_len(args, args.train, *evaluate.values())
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
-    ablation.attributes_main(args.train, args.out, params, val=args.val or (), test=args.test or (),
+    ablation.attributes_main(args.train, args.out, params, evaluate=evaluate,
                              meta={"dataset": args.dataset, "seq_len": args.seq_len},
                              allow_split_overlap=args.allow_split_overlap)
 
@@ -165,12 +204,13 @@ def cmd_ablation_without(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
 
     train = _split_paths(args.train, "--train", "METHOD")
-    val = _split_paths(args.val or [], "--val", "METHOD")
-    _check_seq_len(args, train.values(), val.values())
+    evaluate = {name: _split_paths(items, f"--evaluate {name}", "METHOD")
+                for name, items in _evaluation_splits(args).items()}
+    _check_seq_len(args, train.values(), *(files.values() for files in evaluate.values()))
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     meta = {"dataset": args.dataset, "seq_len": args.seq_len}
-    ablation.train_without(train, args.method, args.out, params, val=val, meta=meta,
-                           allow_split_overlap=args.allow_split_overlap)
+    ablation.train_without(train, args.method, args.out, params, evaluate=evaluate, meta=meta,
+                           allow_split_overlap=args.allow_split_overlap, validation=args.validation)
 
 
 def cmd_ablation_held_out(args: argparse.Namespace) -> None:
@@ -187,7 +227,7 @@ def cmd_speed(args: argparse.Namespace) -> None:
 
     params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     speed.main(args.dataset, args.seq_len, args.profile, _split_paths(args.train, "--train", "METHOD"),
-               _split_paths(args.test, "--test", "METHOD"), args.out, args.velocities, args.tolerance, params,
+               _split_paths(args.test, "--table", "METHOD"), args.out, args.velocities, args.tolerance, params,
                allow_split_overlap=args.allow_split_overlap)
 
 
@@ -214,7 +254,8 @@ def cmd_report(args: argparse.Namespace) -> None:
                           args.leave_one_out or (), timings=args.timings or (), metrics=args.metrics or (),
                           match_figures=args.match_figures or (), matrix_figures=args.matrix_figures or (),
                           speed=args.speed or (),
-                          split=args.split, table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
+                          split=args.split, eval_splits=args.eval_splits, train_split=args.train_split,
+                          table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
                           config=_json_object(args.settings, "--settings") if args.settings else None,
                           provenance=provenance, descriptor_paths=args.descriptors or (),
                           datasets=_json_object(args.datasets, "--datasets") if args.datasets else None)
@@ -307,12 +348,12 @@ def cmd_dataset_check(args: argparse.Namespace) -> int:
     if args.config:
         if args.name or given:
             raise ConfigError("give either --config (and --dataset) or a loader with its options, not both")
-        datasets = load_config(args.config)["datasets"]
+        datasets = load_config(args.config).datasets
         name = args.dataset or (next(iter(datasets)) if len(datasets) == 1 else None)
-        if name not in datasets:
+        if name is None or name not in datasets:
             raise ConfigError(f"{args.config}: give --dataset, one of {', '.join(datasets)}" if name is None else
                               f"{args.config}: datasets has no {name!r}; it has {', '.join(datasets)}")
-        return check.main(datasets[name], name=name, decode=args.decode)
+        return check.main(datasets[name].to_json(), name=name, decode=args.decode)
     if not args.name:
         raise ConfigError("give a loader and its options (vpr-smr dataset check folders --reference DIR --query DIR"
                           " ...), or a configuration (vpr-smr dataset check --config my.yaml --dataset NAME)")
@@ -551,10 +592,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seeds", type=int, default=1, help="train seeds 0..N-1 (seed 0: the authors' recipe)")
     p.add_argument("--train", nargs="+", required=True, metavar="PATH",
                    help="every method's train-split attributes (.h5), pooled in this order")
-    p.add_argument("--val", nargs="*", metavar="PATH", help="every method's validation-split attributes (.h5): "
-                                                             "the predictor's F1 on them")
-    p.add_argument("--test", nargs="*", metavar="PATH", help="every method's test-split attributes (.h5): the "
-                                                              "predictor's F1 on them")
+    _evaluate_option(p, "every method's attributes of it (.h5): the predictor's macro F1 on them")
+    p.add_argument("--validation", metavar="SPLIT",
+                   help="the evaluation split whose F1 decides whether a predictor can be trusted (a warning "
+                        "otherwise; default: the first --evaluate split)")
+    _old_split_options(p)
     p.add_argument("--out", required=True, help="the seed-0 predictor (.h5); other seeds beside it")
     _allow_overlap(p)
     p.set_defaults(func=cmd_train)
@@ -604,8 +646,9 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
     c.add_argument("--train", nargs="+", required=True, metavar="PATH",
                    help="every method's train-split attributes (.h5), pooled in this order")
-    c.add_argument("--val", nargs="*", metavar="PATH", help="every method's validation-split attributes (.h5)")
-    c.add_argument("--test", nargs="*", metavar="PATH", help="every method's test-split attributes (.h5)")
+    _evaluate_option(c, "every method's attributes of it (.h5): the validation split first, then the last "
+                        "evaluation split (Table II's two)")
+    _old_split_options(c)
     _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_attributes)
     c = ablation_sub.add_parser("without", help="train a predictor on every method's train split but one")
@@ -615,7 +658,11 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--train", nargs="+", required=True, metavar="METHOD=PATH",
                    help="the other methods' train-split attributes (.h5), in the configuration's order (--method's, "
                         "if given, is never read)")
-    c.add_argument("--val", nargs="*", metavar="METHOD=PATH", help="each method's validation-split attributes (.h5)")
+    _evaluate_option(c, "each method's attributes of it (.h5)", "METHOD=PATH")
+    c.add_argument("--validation", metavar="SPLIT",
+                   help="the evaluation split whose F1 decides whether the predictor can be trusted (default: the "
+                        "first --evaluate split)")
+    _old_split_options(c)
     _allow_overlap(c)
     c.set_defaults(func=cmd_ablation_without)
     c = ablation_sub.add_parser("held-out", help="a method's test split under the pooled and the without_ predictor")
@@ -633,7 +680,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("speed", help="one simulated speed profile: Table I's numbers of the fixed matcher "
                                      "and of velocity search, each with its own seed-0 predictor",
                        epilog="e.g. vpr-smr speed --dataset d --seq-len 4 --profile 2x --velocities 0.5 1 2 "
-                              "--train sad=train.h5 --test sad=test.h5 --out speed/2x.json")
+                              "--train sad=train.h5 --table sad=test.h5 --out speed/2x.json")
     _required(p, "--dataset", "--out")
     p.add_argument("--profile", required=True,
                    help="a constant speed such as 0.5x, 1x or 2x (places per query frame), or varying")
@@ -644,8 +691,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a match within this many places of the simulated query's position is correct")
     p.add_argument("--train", nargs="+", required=True, metavar="METHOD=PATH",
                    help="each method's train split distances (.h5), in the pooled training order")
-    p.add_argument("--test", nargs="+", required=True, metavar="METHOD=PATH",
-                   help="each method's table split distances (.h5), the same methods in the same order")
+    p.add_argument("--table", "--test", dest="test", nargs="+", required=True, metavar="METHOD=PATH",
+                   help="each method's table split distances (.h5), the same methods in the same order (--test: "
+                        "the same option)")
     p.add_argument("--predictor", help="the predictor's settings as a JSON object (or @file)")
     _allow_overlap(p)
     p.set_defaults(func=cmd_speed)
@@ -686,8 +734,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--speed", nargs="*", help="the speed experiment's files (vpr-smr speed), one per dataset and "
                                               "profile, in the configuration's order")
     p.add_argument("--descriptors", nargs="*", help="descriptor files whose provenance the report shows")
-    p.add_argument("--split", default=schema_default("table_split"),
-                   help="the split the tables show (default: %(default)s)")
+    p.add_argument("--split", help="the split the tables show: the configuration's table_split (default: the one "
+                                   "split every evaluation holds)")
+    p.add_argument("--eval-splits", nargs="+", metavar="SPLIT",
+                   help="the configuration's eval_splits, in its order: the predictor table's columns; the "
+                        "first is the validation split of its warnings, Table II shows the first and the last "
+                        "(default: the inputs' splits, --split last)")
+    p.add_argument("--train-split", help="the configuration's train_split, as Table II names it (default: train)")
     p.add_argument("--table-seq-lens", type=int, nargs="+", help="sequence lengths of Table I (default: all)")
     p.add_argument("--seq-len-ablation", action="store_true", help="also the sequence-length table and figure")
     p.add_argument("--settings", help="the run's settings (JSON, or @file) shown in the report")

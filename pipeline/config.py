@@ -1,11 +1,14 @@
-"""Run configurations: YAML validated against ``config_schema.json``, with the schema's defaults filled in."""
+"""Run configurations: YAML validated against ``config_schema.json``, with the schema's defaults filled in, as a
+typed frozen record (``Config``) that the workflow, its rules and the plan read by attribute."""
 
 from __future__ import annotations
 
 import json
 import re
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 from typing import Any
 
 import yaml
@@ -125,7 +128,172 @@ def _messages(error: Any) -> list[str]:
     return lines
 
 
-def validate(conf: dict[str, Any], source: str = "configuration") -> dict[str, Any]:
+# --- the validated configuration as a record -----------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Section:
+    """A part of a validated configuration: its settings as typed fields, and as the validated JSON they were read
+    from (``to_json``, a fresh copy each time), which the jobs' params, the report's settings and the plan's digest
+    take: their texts are what the configuration gives (``1`` stays ``1``, the keys keep their order), so that a
+    run reruns exactly what it did before."""
+
+    source: str = field(repr=False, kw_only=True)  # the validated JSON text
+
+    def to_json(self) -> Any:
+        return json.loads(self.source)
+
+
+def _text(value: Any) -> str:
+    return json.dumps(value)
+
+
+@dataclass(frozen=True)
+class SequenceMatching(Section):
+    """``sequence_matching``: the sequence matcher of every attributes, metrics and queries job."""
+
+    velocities: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Extraction(Section):
+    """``extraction``: how fast descriptors are computed (a job's resource, not a param); None: the default."""
+
+    batch_size: int | None
+    num_workers: int | None
+
+
+@dataclass(frozen=True)
+class PredictorSettings(Section):
+    """``predictor``: ``SMRPredictor``'s arguments, every one (validation fills in ``predictor.defaults``')."""
+
+    hidden_layer_sizes: tuple[int, ...]
+    alpha: float
+    learning_rate_init: float
+    max_iter: int
+    smote: bool
+    random_state: int
+    smote_random_state: int
+    column_order: tuple[int, ...] | None
+
+
+@dataclass(frozen=True)
+class Experiments(Section):
+    """``experiments``: which experiments beyond Table I and the predictor's own scores run (see ``experiments``)."""
+
+    trust_levels: bool
+    restoration: bool
+    attribute_ablation: bool
+    leave_one_method_out: bool
+    seq_len_ablation: bool
+    speed: bool
+
+
+@dataclass(frozen=True)
+class SpeedSettings(Section):
+    """``speed``: the speed experiment's profiles (a constant speed or ``varying``) and velocity search set."""
+
+    profiles: tuple[float | str, ...]
+    velocities: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class DatasetSettings(Section):
+    """A dataset of ``datasets``: its name, loader and the settings every loader shares; ``to_json`` is the whole
+    entry as given, which the loader reads (each loader has its own keys and checks them)."""
+
+    name: str
+    loader: str
+    root: str | None  # None: not given, or null
+    tolerance: int | None  # None: the loader's
+    radius: float | None  # frames with positions only
+
+
+@dataclass(frozen=True)
+class MethodSettings(Section):
+    """A method of ``methods``: its name, backend, checkpoint and distance; ``to_json`` is the whole entry as given,
+    which the backend reads (each backend has its own settings and checks them)."""
+
+    name: str
+    backend: str
+    checkpoint: str | None
+    distance: str | None  # None: the backend's
+
+
+@dataclass(frozen=True)
+class Config(Section):
+    """A validated run configuration (``validate``), with every default filled in: ``config_schema.json``'s, the
+    predictor's (``predictor.defaults``) and ``table_seq_len``'s. ``datasets`` and ``methods`` keep the
+    configuration's order (the methods': the pooled training order)."""
+
+    run: str
+    output: str
+    seq_lens: tuple[int, ...]
+    modes: tuple[str, ...]
+    sequence_matching: SequenceMatching
+    train_split: str
+    allow_split_overlap: bool
+    eval_splits: tuple[str, ...]
+    table_split: str
+    trust_levels: tuple[float, ...]
+    seeds: int
+    extraction: Extraction
+    predictor: PredictorSettings
+    datasets: Mapping[str, DatasetSettings]
+    methods: Mapping[str, MethodSettings]
+    table_seq_len: int
+    experiments: Experiments
+    speed: SpeedSettings
+
+    @property
+    def run_dir(self) -> Path:
+        """``<output>/<run>``: the run's folder."""
+        return Path(self.output) / self.run
+
+    @property
+    def validation_split(self) -> str | None:
+        """The predictor's validation split (``predictor.defaults.validation_split``: the first of eval_splits)."""
+        from vpr_smr.eval.predictor.defaults import validation_split
+
+        return validation_split(self.eval_splits)
+
+    @classmethod
+    def from_json(cls, conf: dict[str, Any]) -> Config:
+        """The record of a validated configuration (``validate``'s JSON, every default filled in)."""
+        predictor, extraction = conf["predictor"], conf["extraction"]
+        speed, chosen = conf["speed"], conf["experiments"]
+        datasets = {name: DatasetSettings(name, str(d["loader"]), d.get("root"), d.get("tolerance"), d.get("radius"),
+                                          source=_text(d)) for name, d in conf["datasets"].items()}
+        methods = {name: MethodSettings(name, str(m["backend"]), m.get("checkpoint"), m.get("distance"),
+                                        source=_text(m)) for name, m in conf["methods"].items()}
+        column_order = predictor["column_order"]
+        return cls(
+            conf["run"], conf["output"], tuple(conf["seq_lens"]), tuple(conf["modes"]),
+            SequenceMatching(tuple(conf["sequence_matching"]["velocities"]), source=_text(conf["sequence_matching"])),
+            conf["train_split"], conf["allow_split_overlap"], tuple(conf["eval_splits"]), conf["table_split"],
+            tuple(conf["trust_levels"]), conf["seeds"],
+            Extraction(extraction["batch_size"], extraction["num_workers"], source=_text(extraction)),
+            PredictorSettings(tuple(predictor["hidden_layer_sizes"]), predictor["alpha"],
+                              predictor["learning_rate_init"], predictor["max_iter"], predictor["smote"],
+                              predictor["random_state"], predictor["smote_random_state"],
+                              None if column_order is None else tuple(column_order), source=_text(predictor)),
+            MappingProxyType(datasets), MappingProxyType(methods), conf["table_seq_len"],
+            Experiments(**{key: bool(chosen[key]) for key in ("trust_levels", "restoration", "attribute_ablation",
+                                                              "leave_one_method_out", "seq_len_ablation", "speed")},
+                        source=_text(chosen)),
+            SpeedSettings(tuple(speed["profiles"]), tuple(speed["velocities"]), source=_text(speed)),
+            source=_text(conf))
+
+
+def validate(conf: dict[str, Any], source: str = "configuration") -> Config:
+    """The configuration ``conf`` (a mapping of settings, e.g. a YAML file's) checked against the schema and for
+    settings that are valid alone but not together, with every default filled in, as a ``Config``; a
+    ``ConfigError`` names every problem (``source``: the file, for the message)."""
+    return Config.from_json(validated_json(conf, source))
+
+
+def validated_json(conf: dict[str, Any], source: str = "configuration") -> dict[str, Any]:
+    """``validate``'s configuration as JSON: the mapping ``Config`` is read from (and ``Config.to_json`` gives)."""
     import jsonschema
 
     schema = json.loads(SCHEMA_PATH.read_text())
@@ -159,6 +327,13 @@ def _check_together(conf: dict[str, Any], source: str) -> None:
     if conf["train_split"] in conf["eval_splits"]:
         raise ConfigError(f"{source}: train_split {conf['train_split']!r} is also in eval_splits; the predictor "
                           "would be scored on its own training data")
+    from vpr_smr.eval.predictor.defaults import RESERVED_SPLIT_NAMES
+
+    reserved = [name for name in conf["eval_splits"] if name in RESERVED_SPLIT_NAMES]
+    if reserved:
+        raise ConfigError(f"{source}: eval_splits may not name a split {reserved[0]!r}: the predictor's numbers "
+                          f"use the names {', '.join(map(repr, RESERVED_SPLIT_NAMES))} for its training split and "
+                          "cross-validation; rename that split")
     if len(set(conf["seq_lens"])) != len(conf["seq_lens"]):
         raise ConfigError(f"{source}: seq_lens {conf['seq_lens']} repeats a length")
     # velocities are numbers of reference frames per query frame: 1 and 1.0 are one setting (the jobs' params and
@@ -172,21 +347,21 @@ def _check_together(conf: dict[str, Any], source: str) -> None:
         raise ConfigError(f"{source}: table_seq_len {conf['table_seq_len']} is not among seq_lens {conf['seq_lens']}")
 
 
-def experiments(conf: dict[str, Any]) -> set[str]:
+def experiments(conf: Config) -> set[str]:
     """The experiments a validated configuration runs, by the names of ``eval.report.registry.expected_outputs``."""
-    chosen = conf["experiments"]
+    chosen = conf.experiments
     names = {"table1", "predictor"}
-    if chosen["trust_levels"] and conf["trust_levels"]:
+    if chosen.trust_levels and conf.trust_levels:
         names.add("trust")
-    if chosen["restoration"]:
+    if chosen.restoration:
         names.add("restoration")
-    if chosen["attribute_ablation"]:
+    if chosen.attribute_ablation:
         names.add("attributes")
-    if chosen["leave_one_method_out"] and len(conf["methods"]) > 1:
+    if chosen.leave_one_method_out and len(conf.methods) > 1:
         names.add("leave_one_method_out")
-    if chosen["seq_len_ablation"] and len(conf["seq_lens"]) > 1:
+    if chosen.seq_len_ablation and len(conf.seq_lens) > 1:
         names.add("seq_len")
-    if chosen["speed"]:
+    if chosen.speed:
         names.add("speed")
     return names
 
@@ -228,10 +403,6 @@ def merge(base: dict[str, Any], overrides: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def load_config(path: Path | str, overrides: dict[str, Any] | None = None) -> dict[str, Any]:
+def load_config(path: Path | str, overrides: dict[str, Any] | None = None) -> Config:
+    """The configuration file ``path`` with ``overrides`` merged in (``merge``), validated (``validate``)."""
     return validate(merge(read_config(path), overrides or {}), str(path))
-
-
-def run_dir(conf: dict[str, Any]) -> Path:
-    path: Path = Path(conf["output"]) / conf["run"]
-    return path

@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from vpr_smr.pipeline.config import ConfigError, experiments, run_dir
+from vpr_smr.pipeline.config import Config, ConfigError, experiments
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,7 @@ class DatasetPlan:
     warnings: tuple[str, ...]  # e.g. a frame order taken from file names that do not say it unambiguously
     overlaps: tuple[str, ...]  # splits that share frames (only with allow_split_overlap), e.g. "train and test: 40-59"
     source: str  # where the images came from: the loader and its own description (``TraversePair.source``)
-    # SPEC 11, datasets with positions only: the ground truth's radius (None: frame-aligned, `tolerance` applies),
+    # method §11, datasets with positions only: the ground truth's radius (None: frame-aligned, `tolerance` applies),
     # the reference ranges of splits that give them apart (`splits` holds the query ranges), and the positions
     # files named in the configuration (inputs of the descriptors jobs, as the frame lists)
     radius: float | None = None
@@ -57,16 +57,16 @@ class Plan:
 PLAN_ENV = "VPR_SMR_PLAN"  # the plan file `vpr-smr run` hands to Snakemake (and to cluster jobs that parse it)
 
 
-def _config_digest(conf: dict[str, Any]) -> str:
-    return hashlib.sha256(canonical(conf).encode()).hexdigest()
+def _config_digest(conf: Config) -> str:
+    return hashlib.sha256(canonical(conf.to_json()).encode()).hexdigest()
 
 
-def plan_to_json(plan: Plan, conf: dict[str, Any]) -> dict[str, Any]:
+def plan_to_json(plan: Plan, conf: Config) -> dict[str, Any]:
     """The plan with the digest of the validated configuration it was made for."""
     return {"config_sha256": _config_digest(conf), "plan": asdict(plan)}
 
 
-def plan_from_json(data: dict[str, Any], conf: dict[str, Any]) -> Plan | None:
+def plan_from_json(data: dict[str, Any], conf: Config) -> Plan | None:
     """The plan of ``plan_to_json``, or None when it was made for another configuration."""
     if data.get("config_sha256") != _config_digest(conf):
         return None
@@ -82,7 +82,7 @@ def plan_from_json(data: dict[str, Any], conf: dict[str, Any]) -> Plan | None:
     return Plan(datasets, dict(plan["checkpoints"]), tuple(plan["warnings"]), dict(plan["metrics"]))
 
 
-def save_plan(plan: Plan, conf: dict[str, Any], folder: Path | None = None) -> Path:
+def save_plan(plan: Plan, conf: Config, folder: Path | None = None) -> Path:
     """Write the plan where Snakemake and its jobs find it (``PLAN_ENV``); named by the configuration's digest
     (``core.paths.plan_path``, or in ``folder``)."""
     from vpr_smr.core.io import atomic_path
@@ -95,7 +95,7 @@ def save_plan(plan: Plan, conf: dict[str, Any], folder: Path | None = None) -> P
     return path
 
 
-def planned(conf: dict[str, Any]) -> Plan:
+def planned(conf: Config) -> Plan:
     """The plan ``vpr-smr run`` made for this configuration (the file named by ``PLAN_ENV``), so that the checks run
     once per run and not again when Snakemake, or a cluster job, parses the workflow; otherwise ``preflight``."""
     path = os.environ.get(PLAN_ENV)
@@ -108,7 +108,7 @@ def planned(conf: dict[str, Any]) -> Plan:
 
 def dataset_cards(plan: Plan) -> dict[str, dict[str, Any]]:
     """What the report states of each dataset: traverses, frames, tolerance, splits, pairing, overlaps, the frame
-    lists' SHA-256 and where the images came from; a dataset with positions (SPEC 11) adds its radius, the
+    lists' SHA-256 and where the images came from; a dataset with positions (method §11) adds its radius, the
     reference ranges that differ from its splits' (query) ranges and the query traverse's frames (``n_frames`` are
     the reference's)."""
     return {name: {"reference": d.traverses[0], "query": d.traverses[1], "n_frames": d.n_frames,
@@ -154,7 +154,7 @@ def split_overlaps(splits: dict[str, tuple[int, int]],
     """Every two splits that share frames, as ``'train' [0, 60) and 'test' [40, 111) share frames [40, 60)``.
 
     ``splits`` are the query ranges; where a split gives its reference range apart (``reference_splits``,
-    SPEC 11), the reference ranges are compared too, and each message says which frames are shared.
+    method §11), the reference ranges are compared too, and each message says which frames are shared.
     """
     reference_splits = reference_splits or {}
     found = []
@@ -175,30 +175,31 @@ def split_overlaps(splits: dict[str, tuple[int, int]],
     return found
 
 
-def _training_problems(conf: dict[str, Any], train: tuple[int, int]) -> list[str]:
+def _training_problems(conf: Config, train: tuple[int, int]) -> list[str]:
     """Whether the train split is long enough to train every predictor of the run, at the longest ``seq_lens``
     (the fewest samples); the leave-one-method-out predictors pool one method less."""
     from vpr_smr.eval.predictor.defaults import training_problems
 
-    n_methods = len(conf["methods"])
+    n_methods = len(conf.methods)
     if "leave_one_method_out" in experiments(conf):
         n_methods -= 1
-    return training_problems(train[1] - train[0], max(conf["seq_lens"]), n_methods,
-                             smote=conf["predictor"]["smote"], split=conf["train_split"])
+    return training_problems(train[1] - train[0], max(conf.seq_lens), n_methods,
+                             smote=conf.predictor.smote, split=conf.train_split)
 
 
-def _velocity_problems(conf: dict[str, Any], name: str, pair: Any, splits: list[str]) -> list[str]:
-    """Whether every split's reference range holds the velocity search's longest trajectory (SPEC 11,
-    ``sequence_matching.velocities``): ``first_reference(L, V) + 1`` references at every ``L`` of ``seq_lens``.
+def _velocity_problems(conf: Config, name: str, pair: Any, splits: list[str]) -> list[str]:
+    """Whether every split's reference range holds the velocity search's longest trajectory (method §11,
+    ``sequence_matching.velocities``): ``SequenceMatcher.references_needed`` at every ``L`` of ``seq_lens``.
     Only what the sequence-length check does not already say: with a velocity of 1 or less, ``L`` references
     suffice."""
-    from vpr_smr.eval.matching.velocity import first_reference
+    from vpr_smr.eval.matching.matcher import SequenceMatcher
 
-    velocities = [float(v) for v in conf["sequence_matching"]["velocities"]]
+    velocities = [float(v) for v in conf.sequence_matching.velocities]
     problems = []
     for split in splits:
         lo, hi = pair.reference_range(split)
-        short = [(seq_len, first_reference(seq_len, velocities) + 1) for seq_len in sorted(conf["seq_lens"])]
+        short = [(seq_len, SequenceMatcher(seq_len, tuple(velocities)).references_needed)
+                 for seq_len in sorted(conf.seq_lens)]
         short = [(seq_len, need) for seq_len, need in short if need > max(seq_len, hi - lo)]
         if not short:
             continue
@@ -212,26 +213,26 @@ def _velocity_problems(conf: dict[str, Any], name: str, pair: Any, splits: list[
     return problems
 
 
-def _speed_problems(conf: dict[str, Any], name: str, splits: dict[str, tuple[int, int]], trainable: bool
+def _speed_problems(conf: Config, name: str, splits: dict[str, tuple[int, int]], trainable: bool
                     ) -> list[str]:
-    """What the speed experiment (SPEC 11, ``eval.scoring.speed``) needs of a frame-aligned dataset, at
+    """What the speed experiment (method §11, ``eval.scoring.speed``) needs of a frame-aligned dataset, at
     ``table_seq_len``: each profile's simulated train and table query at least ``L`` frames long, the simulated
     train split enough samples to train the pooled predictor of every method (``training_problems``, the rule of
     the aligned train split), and the aligned splits (the references) the velocity matcher's longest trajectory.
     Splits the checks before already found too short (or, for training, the aligned train split) are not
     checked again."""
-    from vpr_smr.eval.matching.velocity import first_reference
+    from vpr_smr.eval.matching.matcher import SequenceMatcher
     from vpr_smr.eval.predictor.defaults import MIN_TRAIN_SAMPLES, training_problems
     from vpr_smr.eval.scoring.speed import SpeedProfile, simulate
 
-    seq_len = int(conf["table_seq_len"])
-    longest = max(conf["seq_lens"])
-    velocities = [float(v) for v in conf["speed"]["velocities"]]
-    need = first_reference(seq_len, velocities) + 1
-    profiles = [SpeedProfile.parse(value) for value in conf["speed"]["profiles"]]
+    seq_len = int(conf.table_seq_len)
+    longest = max(conf.seq_lens)
+    velocities = [float(v) for v in conf.speed.velocities]
+    need = SequenceMatcher(seq_len, tuple(velocities)).references_needed
+    profiles = [SpeedProfile.parse(value) for value in conf.speed.profiles]
     fix = "experiments: {speed: false}"
     problems = []
-    for role, split in (("train_split", conf["train_split"]), ("table_split", conf["table_split"])):
+    for role, split in (("train_split", conf.train_split), ("table_split", conf.table_split)):
         if split not in splits or splits[split][1] - splits[split][0] < longest:
             continue  # not defined, or too short for the sequences: said before
         lo, hi = splits[split]
@@ -250,7 +251,7 @@ def _speed_problems(conf: dict[str, Any], name: str, splits: dict[str, tuple[int
                 continue
             if role != "train_split" or not trainable:
                 continue
-            n_methods, smote = len(conf["methods"]), bool(conf["predictor"]["smote"])
+            n_methods, smote = len(conf.methods), conf.predictor.smote
             if training_problems(n_queries, seq_len, n_methods, smote=smote, split=split):  # the aligned split's rule
                 per_method = n_queries - seq_len + 1
                 problems.append(f"{where}: the {profile.name} profile leaves {n_queries} queries, {per_method} "
@@ -260,14 +261,15 @@ def _speed_problems(conf: dict[str, Any], name: str, splits: dict[str, tuple[int
     return problems
 
 
-def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, DatasetPlan]:
+def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]:
     from vpr_smr.datasets import DatasetError, frames_settings, load_dataset
 
-    needed = list(dict.fromkeys([conf["train_split"], *conf["eval_splits"], conf["table_split"]]))
-    longest = max(conf["seq_lens"])
+    needed = list(dict.fromkeys([conf.train_split, *conf.eval_splits, conf.table_split]))
+    longest = max(conf.seq_lens)
     plans = {}
-    for name, dataset in conf["datasets"].items():
-        root = dataset.get("root")
+    for name, settings in conf.datasets.items():
+        dataset = settings.to_json()  # the entry as given: the loader reads its own keys
+        root = settings.root
         if "root" in dataset and not root:
             problems.append(f"datasets.{name}.root is not set: give the folder where dataset {name!r} is on disk")
             continue
@@ -288,7 +290,7 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
                                     f"sequence length {longest} (seq_lens): lengthen the split or shorten the "
                                     "sequences")
         problems.extend(_velocity_problems(conf, name, pair, [s for s in needed if s in pair.splits]))
-        train = pair.splits.get(conf["train_split"])
+        train = pair.splits.get(conf.train_split)
         trainable = False
         if train is not None and train[1] - train[0] >= longest:
             found = _training_problems(conf, train)
@@ -298,7 +300,7 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
             problems.extend(_speed_problems(conf, name, pair.splits, trainable))
         overlaps = split_overlaps({split: pair.splits[split] for split in needed if split in pair.splits},
                                   pair.reference_splits)
-        if overlaps and not conf["allow_split_overlap"]:
+        if overlaps and not conf.allow_split_overlap:
             problems.extend(
                 f"datasets.{name}: splits {overlap}: the predictor would be scored on "
                 "frames it was trained or validated on. Make the split ranges disjoint, or set "
@@ -321,7 +323,7 @@ def _check_datasets(conf: dict[str, Any], problems: list[str]) -> dict[str, Data
             warnings=tuple(f"datasets.{name}: {t.name} frames: {t.order_note}"
                            for t in (pair.reference, pair.query) if t.order_note),
             overlaps=tuple(overlaps),
-            source=f"{dataset['loader']} loader: {pair.source}",
+            source=f"{settings.loader} loader: {pair.source}",
             radius=pair.radius,
             reference_splits=dict(pair.reference_splits),
             positions_files=_positions_files(dataset),
@@ -365,15 +367,16 @@ def _checked_before() -> dict[str, dict[str, Any]]:
         return {}
 
 
-def _check_methods(conf: dict[str, Any], problems: list[str], metrics: dict[str, str]) -> dict[str, str | None]:
+def _check_methods(conf: Config, problems: list[str], metrics: dict[str, str]) -> dict[str, str | None]:
     """Every backend, backend setting and checkpoint (keys and shapes, strictly). A method whose settings and
     checkpoint file are unchanged since its check last passed is not checked again: loading PyTorch and a
     checkpoint would otherwise cost seconds on every run, also one that has nothing to do."""
     checked = _checked_before()
     passed: dict[str, dict[str, Any]] = {}
     checkpoints = {}
-    for name, method in conf["methods"].items():
-        checkpoint = method.get("checkpoint")
+    for name, settings in conf.methods.items():
+        method = settings.to_json()  # the entry as given: the backend reads its own settings
+        checkpoint = settings.checkpoint
         checkpoints[name] = checkpoint if checkpoint and checkpoint != "package" else None
         key = _method_key(method)
         if key is not None and key in checked:
@@ -423,15 +426,15 @@ def _check_method(name: str, method: dict[str, Any], problems: list[str]) -> str
     return method.get("distance") or cls.distance
 
 
-def _check_output(conf: dict[str, Any], problems: list[str]) -> None:
-    folder = run_dir(conf)
+def _check_output(conf: Config, problems: list[str]) -> None:
+    folder = conf.run_dir
     existing = next((p for p in (folder, *folder.parents) if p.exists()), Path("."))
     if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
         problems.append(f"output: cannot write the run folder {folder}: {existing} is not a writable folder; "
                         "set `output` to a folder you can write")
 
 
-def preflight(conf: dict[str, Any]) -> Plan:
+def preflight(conf: Config) -> Plan:
     """Check a validated configuration; one ConfigError lists every problem found."""
     problems: list[str] = []
     datasets = _check_datasets(conf, problems)

@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import json
 import shlex
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.paths import attributes_path
 
 if TYPE_CHECKING:
+    from vpr_smr.pipeline.config import Config
     from vpr_smr.pipeline.plan import Plan
 
 
@@ -19,8 +20,26 @@ def split_attributes(out: str, methods: Sequence[str], split: str) -> Callable[[
     return lambda wc: [attributes_path(out, wc.dataset, method, wc.seq_len, split) for method in methods]
 
 
-def extraction_options(conf: dict[str, Any]) -> str:
-    options = {"--batch-size": conf["extraction"]["batch_size"], "--num-workers": conf["extraction"]["num_workers"]}
+def evaluation_attributes(out: str, methods: Sequence[str], splits: Sequence[str]) -> Callable[[Any], list[str]]:
+    """Every method's attributes of each of ``splits``, split by split (``split_option``'s order)."""
+    return lambda wc: [attributes_path(out, wc.dataset, method, wc.seq_len, split) for split in splits
+                       for method in methods]
+
+
+def split_option(option: str, splits: Sequence[str], items: Sequence[str]) -> str:
+    """``OPTION SPLIT ITEM...`` once per split, every word quoted on its own (used unquoted in a rule): ``items``
+    holds each split's items in turn, as many for every split (``evaluation_attributes``); empty without items."""
+    if not splits or not items:
+        return ""
+    per_split, rest = divmod(len(items), len(splits))
+    if rest:
+        raise ValueError(f"{len(items)} files for {len(splits)} splits: not as many for each")
+    return " ".join(shlex.join([option, split, *items[i * per_split:(i + 1) * per_split]])
+                    for i, split in enumerate(splits))
+
+
+def extraction_options(conf: Config) -> str:
+    options = {"--batch-size": conf.extraction.batch_size, "--num-workers": conf.extraction.num_workers}
     return " ".join(f"{key} {value}" for key, value in options.items() if value is not None)
 
 
@@ -36,18 +55,23 @@ def name_pairs(names: Sequence[str], paths: Sequence[str]) -> str:
 
 def method_pairs(methods: Sequence[str], held_out: str, paths: Sequence[str]) -> str:
     """``METHOD=PATH`` arguments for the methods but ``held_out``, in the configuration's order."""
-    others = [method for method in methods if method != held_out]
     if not paths:
         return ""
-    return name_pairs(others, paths)
+    return " ".join(shlex.quote(item) for item in method_items(methods, held_out, paths))
 
 
-def speed_profiles(conf: dict[str, Any]) -> list[str]:
+def method_items(methods: Sequence[str], held_out: str, paths: Sequence[str]) -> list[str]:
+    """``METHOD=PATH`` items (unquoted) for the methods but ``held_out``, in the configuration's order."""
+    others = [method for method in methods if method != held_out]
+    return [f"{method}={path}" for method, path in zip(others, paths, strict=True)]
+
+
+def speed_profiles(conf: Config) -> list[str]:
     """The speed experiment's profiles by name (``eval.scoring.speed``: ``0.5x``, ``varying``), in the
     configuration's order: the names of its files and the ``profile`` wildcard's values."""
     from vpr_smr.eval.scoring.speed import profile_names
 
-    return profile_names(conf["speed"]["profiles"])
+    return profile_names(conf.speed.profiles)
 
 
 # What the report rule always gives the report besides the configuration's experiments: the standard VPR metrics
@@ -55,21 +79,21 @@ def speed_profiles(conf: dict[str, Any]) -> list[str]:
 REPORT_INPUTS = {"metrics", "datasets"}
 
 
-def report_outputs(conf: dict[str, Any], experiments: set[str],
+def report_outputs(conf: Config, experiments: set[str],
                    speed_datasets: list[str] | None = None) -> list[str]:
     """The report's files, relative to the run folder (``eval.report.registry.expected_outputs``); the speed
     experiment's figures for ``speed_datasets`` only (default: every dataset)."""
     from vpr_smr.eval.report.registry import expected_outputs
 
-    return expected_outputs(list(conf["datasets"]), conf["seq_lens"], conf["modes"], experiments | REPORT_INPUTS,
-                            table_seq_lens=[conf["table_seq_len"]], speed_datasets=speed_datasets)
+    return expected_outputs(list(conf.datasets), conf.seq_lens, conf.modes, experiments | REPORT_INPUTS,
+                            table_seq_lens=[conf.table_seq_len], speed_datasets=speed_datasets)
 
 
-def report_settings(conf: dict[str, Any]) -> str:
-    """The configuration minus what changes speed only (``extraction``) as JSON text in the configuration's own
-    order (not sorted like ``plan.canonical``: the methods' order is the pooled training order, part of the
-    predictor's recipe): shown in the report, a param of it."""
-    return json.dumps({key: value for key, value in conf.items() if key != "extraction"}, separators=(",", ":"))
+def report_settings(settings: Mapping[str, Any]) -> str:
+    """The configuration's settings (``Config.to_json``) minus what changes speed only (``extraction``) as JSON text
+    in the configuration's own order (not sorted like ``plan.canonical``: the methods' order is the pooled training
+    order, part of the predictor's recipe): shown in the report, a param of it."""
+    return json.dumps({key: value for key, value in settings.items() if key != "extraction"}, separators=(",", ":"))
 
 
 def report_datasets(plan: Plan) -> str:

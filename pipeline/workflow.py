@@ -21,7 +21,7 @@ import yaml
 from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import overrides_path
 from vpr_smr.pipeline import console
-from vpr_smr.pipeline.config import ConfigError, load_config, parse_overrides, run_dir
+from vpr_smr.pipeline.config import ConfigError, load_config, parse_overrides
 from vpr_smr.pipeline.plan import PLAN_ENV, preflight, save_plan
 
 PACKAGE = Path(__file__).resolve().parent
@@ -135,11 +135,11 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
         return _snakemake(command, None if verbose else console.DryRunView(sys.stdout, sys.stderr))
     # Our lock on the run folder replaces Snakemake's lock on the working folder: it names the run that holds
     # it and cannot outlive a killed run, so no `--unlock` is ever needed.
-    with run_lock(run_dir(conf)):
-        view = None if verbose else console.ProgressView(snakemake_log(run_dir(conf)), sys.stdout, sys.stderr)
+    with run_lock(conf.run_dir):
+        view = None if verbose else console.ProgressView(snakemake_log(conf.run_dir), sys.stdout, sys.stderr)
         status = _snakemake(command + ["--nolock"], view)
     if status == 0:
-        out = run_dir(conf)
+        out = conf.run_dir
         print(f"\ntables:  {out / 'tables'}\nfigures: {out / 'figures'}")
         if (out / "report.html").is_file():
             print(f"report:  {out / 'report.html'}")

@@ -46,3 +46,22 @@ def colour_frames(tmp_path):
             cv2.imwrite(str(folder / f"frame{i:03d}.png"), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
         settings[side] = str(folder)
     return settings
+
+
+@pytest.fixture(scope="session")
+def predictor_file(tmp_path_factory):
+    """A predictor trained at L = 3 on frames 0..47 of dataset "d" (``training_sets.train_predictor``), trained once;
+    tests only read it."""
+    from training_sets import train_predictor
+
+    return train_predictor(tmp_path_factory.mktemp("predictor"))
+
+
+@pytest.fixture(scope="session")
+def full_report_run(tmp_path_factory):
+    """(run folder, files written) of ``report_runs.build_run`` with every experiment and the speed experiment's
+    files: dataset d, methods m1 and m2, L 2 and 4, both modes; built once, tests only read it."""
+    from report_runs import build_run, speed_files
+
+    folder = tmp_path_factory.mktemp("full_report_run")
+    return build_run(folder, speed=speed_files(folder))

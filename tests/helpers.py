@@ -1,7 +1,9 @@
-"""Helpers shared by the tests (not part of the package): small files in the pipeline's formats."""
+"""Helpers shared by the tests (not part of the package): the tests' folders, small files in the pipeline's formats,
+a tiny plugin network, frames of known colours, query features by hand and a researcher's own route."""
 
 from __future__ import annotations
 
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -9,7 +11,12 @@ import h5py
 import numpy as np
 
 from vpr_smr.core.io import atomic_h5
+from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.io import open_distance_matrix
+
+# The tests folder and the checkout, wherever a test module sits below tests/ (this file stays in tests/).
+TESTS = Path(__file__).resolve().parent
+REPO = TESTS.parent
 
 
 def write_distance_matrix(path: Path | str, distance_matrix: np.ndarray, provenance: dict[str, Any]) -> None:
@@ -22,27 +29,6 @@ def read_distance_matrix(path: Path | str) -> np.ndarray:
     """A references x queries matrix from our HDF5 file (``distance_matrix``) or a user's ``.npy``, in memory."""
     with open_distance_matrix(path) as matrix:
         return np.asarray(matrix[()] if isinstance(matrix, h5py.Dataset) else np.array(matrix))
-
-
-# --- naive references of sequence matching (SPEC section 4), written from the definitions, one value at a time ---
-
-
-def sequence_matrix(distance_matrix: np.ndarray, seq_len: int) -> np.ndarray:
-    """``S[i, j] = sum_{k < L} D[i + k, j + k]``, shape ``(R - L + 1) x (Q - L + 1)``, float64."""
-    d = np.asarray(distance_matrix, dtype=np.float64)
-    rows, cols = d.shape[0] - seq_len + 1, d.shape[1] - seq_len + 1
-    return np.array([[sum(d[i + k, j + k] for k in range(seq_len)) for j in range(cols)] for i in range(rows)])
-
-
-def single_frame_matches(distance_matrix: np.ndarray) -> np.ndarray:
-    """Best reference per query: ``argmin_r D[r, q]`` (first index on ties)."""
-    return np.argmin(distance_matrix, axis=0)
-
-
-def sequence_matches(sequence: np.ndarray, seq_len: int) -> tuple[np.ndarray, np.ndarray]:
-    """Reference index matched to each query ``a >= L - 1`` and its sequence distance ``min_i S[i, j]``."""
-    best = np.argmin(sequence, axis=0)
-    return best + seq_len - 1, sequence[best, np.arange(sequence.shape[1])]
 
 
 # --- a tiny learned backend, written as a plugin module (``module:TinyNet``) that tests and jobs import ---
@@ -86,3 +72,67 @@ def reference_colour(i: int) -> tuple[int, int, int]:
 
 def query_colour(i: int) -> tuple[int, int, int]:
     return (99, 15 + 8 * i, 230 - 5 * i)
+
+
+# --- query features by hand (the restoration, evaluation and ablation tests) ---
+
+
+def make_features(sequence_correct, rank_correct, **overrides) -> QueryFeatures:
+    """QueryFeatures by hand; ``all_single_correct`` is filled in when the dataclass has that field."""
+    n = len(sequence_correct)
+    rank_correct = np.asarray(rank_correct, dtype=bool)
+    values = {
+        "queries": np.arange(1, n + 1),
+        "attributes": np.zeros((n, rank_correct.shape[1], 4)),
+        "rank_references": np.tile(np.arange(rank_correct.shape[1]) + 100, (n, 1)),  # never the removed match
+        "single_match": np.zeros(n, int),
+        "sequence_match": np.arange(n),
+        "sequence_distance": np.array([0.1, 0.2, 0.3, 0.4])[:n],
+        "labels": np.zeros(n, int),
+        "single_correct": np.ones(n, bool),
+        "sequence_correct": np.asarray(sequence_correct, dtype=bool),
+        "rank_correct": rank_correct,
+        "sequence_min": 0.1,
+        "sequence_max": 0.4,
+        "all_single_correct": np.ones(n + 1, bool),
+        **overrides,
+    }
+    names = {f.name for f in fields(QueryFeatures)}
+    return QueryFeatures(**{k: v for k, v in values.items() if k in names})
+
+
+# --- a researcher's own route and the README's examples (the own-data tests) ---
+
+def sample_names() -> list[str]:
+    """The file names of the shipped Nordland sample, sorted."""
+    from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
+
+    return sorted(p.name for p in (DEFAULT_ROOT / "summer").iterdir())
+
+
+def write_route(folder: Path, n: int, start: int = 1000, name: str = "img{}.jpg", scale: int = 1) -> tuple[Path, Path]:
+    """``n`` real frames of the shipped sample (summer as reference, winter as query) as JPEGs named without
+    zero padding (img1.jpg .. imgN.jpg), the way a camera or a script often names them; ``scale`` enlarges them."""
+    import cv2
+
+    from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
+
+    names = sample_names()
+    reference, query = folder / "reference", folder / "query"
+    for path, season in ((reference, "summer"), (query, "winter")):
+        path.mkdir(parents=True)
+        for i in range(n):
+            image = cv2.imread(str(DEFAULT_ROOT / season / names[start + i]))
+            image = cv2.resize(image, None, fx=scale, fy=scale, interpolation=cv2.INTER_CUBIC)
+            cv2.imwrite(str(path / name.format(i + 1)), image)
+    return reference, query
+
+
+def readme_block(marker: str) -> str:
+    """The fenced block that follows ``<!-- marker ... -->`` in the README."""
+    import re
+
+    text = (REPO / "README.md").read_text()
+    match = re.search(rf"<!-- {marker}[^>]*-->\n```[a-z]*\n(.*?)```", text, re.S)
+    assert match, f"README.md has no block after <!-- {marker} -->"
+    return match.group(1)

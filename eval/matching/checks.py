@@ -1,4 +1,4 @@
-"""Checks of a distance matrix before sequence matching (SPEC section 4): its shape and its values.
+"""Checks of a distance matrix before sequence matching (method §4): its shape and its values.
 
 Matrices are references x queries; a sequence of length ``L`` needs ``L`` references and ``L`` queries.
 """
@@ -67,7 +67,7 @@ def check_finite(values: np.ndarray, name: str = "distance matrix", *, first_col
                  queries_first: bool = False) -> None:
     """Raise ``NonFiniteError`` when ``values`` has NaN or inf: the whole matrix, or a block of its consecutive
     query columns starting at ``first_column``; ``values`` is references x query columns, or query columns x
-    references with ``queries_first`` (the layout of ``attributes.read_columns``)."""
+    references with ``queries_first`` (the layout of ``matcher.read_columns``)."""
     if not np.issubdtype(values.dtype, np.inexact) or np.all(np.isfinite(values)):
         return
     by_column = values if queries_first else values.T

@@ -1,4 +1,4 @@
-"""Reference x query distance matrices (SPEC section 3), in memory or written block by block to chunked HDF5."""
+"""Reference x query distance matrices (method §3), in memory or written block by block to chunked HDF5."""
 
 from __future__ import annotations
 
@@ -108,7 +108,7 @@ def write_distance_blocks(out: Any, reference: np.ndarray, query: Any, metric: s
         out[:, start:stop] = distance_columns(reference, query[query_offset + start : query_offset + stop], metric)
 
 
-POSITIONS = ("reference_positions", "query_positions")  # SPEC 11: one position per frame, when the pair has them
+POSITIONS = ("reference_positions", "query_positions")  # method §11: one position per frame, when the pair has them
 
 
 def _check_descriptors(f: Any, descriptors: Path, split: str, ranges: dict[str, tuple[int, int]]) -> None:
@@ -138,7 +138,7 @@ def main(descriptors: Path | str, out: Path | str, split: str, split_range: tupl
     ``metric`` (one of ``METRICS``) overrides the file's ``distance`` (its backend's default): the workflow passes
     the method's ``distance`` setting here, so that changing it does not recompute the descriptors.
 
-    When the descriptor file holds ``reference_positions`` and ``query_positions`` (SPEC 11), the split's slices
+    When the descriptor file holds ``reference_positions`` and ``query_positions`` (method §11), the split's slices
     of them are written beside the matrix under the same names: the ground truth of the later stages. The
     provenance's ``split_range`` is the query range; ``reference_range`` is added only when it differs.
     """
@@ -153,7 +153,7 @@ def main(descriptors: Path | str, out: Path | str, split: str, split_range: tupl
             # frames of both traverses: other ranges would be scored against the wrong references
             raise ValueError(f"{descriptors} has no positions, so split {split!r} must cover the same frames of "
                              f"both traverses: --reference-frames {ref_lo} {ref_hi} differs from --frames {lo} "
-                             f"{hi}; give a dataset positions (SPEC 11) to use separate ranges")
+                             f"{hi}; give a dataset positions (method §11) to use separate ranges")
         if metric is None:
             metric = f.attrs["distance"]
             metric = metric.decode() if isinstance(metric, bytes) else str(metric)

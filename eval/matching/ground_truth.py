@@ -1,4 +1,4 @@
-"""Which references show the place of a query (SPEC 1 and 11): frame indices within a tolerance, or positions
+"""Which references show the place of a query (method §§1 and 11): frame indices within a tolerance, or positions
 within a radius.
 
 A frame-aligned pair is the special case ``p = frame index``, ``radius = tolerance``: ``GroundTruth.aligned``
@@ -55,7 +55,7 @@ class GroundTruth:
 
     @classmethod
     def aligned(cls, n_reference: int, n_query: int, tolerance: int) -> GroundTruth:
-        """A frame-aligned pair (SPEC 1): positions are frame indices, the radius is the tolerance in frames."""
+        """A frame-aligned pair (method §1): positions are frame indices, the radius is the tolerance in frames."""
         if tolerance < 0:
             raise ValueError(f"the tolerance is a number of frames >= 0, got {tolerance}")
         return cls(np.arange(n_reference, dtype=np.float64), np.arange(n_query, dtype=np.float64), float(tolerance))
@@ -91,7 +91,7 @@ class GroundTruth:
         return self.correct(np.arange(self.shape[0]), np.full(self.shape[0], query))
 
     def is_aligned_band(self) -> bool:
-        """Whether this is ``aligned(R, Q, tolerance)`` (frame indices, an integer radius): SPEC 1's band."""
+        """Whether this is ``aligned(R, Q, tolerance)`` (frame indices, an integer radius): method §1's band."""
         n_ref, n_query = self.shape
         return (self.reference_positions.ndim == 1 and float(self.radius).is_integer()
                 and np.array_equal(self.reference_positions, np.arange(n_ref))

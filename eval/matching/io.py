@@ -57,7 +57,7 @@ class SimilarityAsDistance:
 @contextmanager
 def open_distance_matrix(path: Path | str, similarity: bool = False) -> Iterator[Any]:
     """The references x queries matrix of ``path``, lazily: a read-only memory map of a ``.npy``, or the
-    ``distance_matrix`` dataset of our HDF5 file (read by column blocks, see ``eval.matching.attributes.read_columns``).
+    ``distance_matrix`` dataset of our HDF5 file (read by column blocks, see ``eval.matching.matcher.read_columns``).
     ``similarity``: the file holds similarities (larger = more similar), read as distances ``max(M) - M``
     (``SimilarityAsDistance``).
 
@@ -126,7 +126,7 @@ def _blocks(matrix: Any) -> Iterator[tuple[slice, slice]]:
 
 def check_non_negative(path: Path | str, matrix: Any) -> None:
     """Raise ValueError naming ``path``, the count and minimum of the negative values and the fix, when the matrix
-    has any beyond float rounding: SPEC 5 divides each query column by its maximum, which presumes distances >= 0.
+    has any beyond float rounding: method §5 divides each query column by its maximum, which presumes distances >= 0.
     Squared L2 and cosine distances of (nearly) identical descriptors come out about -1e-6 in float32 (faiss, as
     in the authors' code): values down to ``-NEGATIVE_ROUNDING`` times the largest magnitude pass unchanged.
     One pass in blocks; NaN passes here (the attributes stage names it)."""
@@ -169,7 +169,7 @@ def stored_positions(path: Path | str) -> tuple[np.ndarray, np.ndarray] | None:
 def split_ground_truth(path: Path | str, shape: tuple[int, ...], tolerance: int, radius: float | None = None,
                        reference_positions: Path | str | None = None,
                        query_positions: Path | str | None = None) -> GroundTruth:
-    """The ground truth of the matrix in ``path`` (SPEC 1 and 11): the positions files given (``.npy`` or CSV, one
+    """The ground truth of the matrix in ``path`` (method §§1 and 11): the positions files given (``.npy`` or CSV, one
     position per frame), else the positions the distance file holds, each within ``radius``; else frame indices
     within ``tolerance``. Errors name the option or file and the fix."""
     if (reference_positions is None) != (query_positions is None):
@@ -212,18 +212,23 @@ def split_ground_truth(path: Path | str, shape: tuple[int, ...], tolerance: int,
 # split): 4-20 % of the queries as distances, 80-96 % as their similarities max(D) - D, even where recall@1 is 2.5 %;
 # a matrix of noise sits near 50 %.
 SIMILARITY_SHARE = 2 / 3
+# The test reads at most this many queries, evenly spaced: a share needs no more, and reading every column of a
+# 9000 x 9000 matrix took longer than its sequence matching.
+SIMILARITY_SAMPLE = 512
 
 
 def similarity_evidence(matrix: Any, truth: GroundTruth, block_queries: int = 256) -> tuple[int, int, int, int]:
-    """Over the queries with correct and wrong references: how many there are, for how many the correct
-    references' mean value is larger than the wrong ones', and for how many the column's largest and its smallest
-    value is a correct reference (first index on ties). Read in blocks of ``block_queries`` columns."""
+    """Over the queries with correct and wrong references (every query, or ``SIMILARITY_SAMPLE`` evenly spaced
+    ones of a larger matrix): how many there are, for how many the correct references' mean value is larger than the
+    wrong ones', and for how many the column's largest and its smallest value is a correct reference (first index on
+    ties). Read in blocks of ``block_queries`` columns."""
     n_ref, n_query = (int(n) for n in matrix.shape)
     references = np.arange(n_ref)[:, None]
+    sample = np.unique(np.linspace(0, n_query - 1, min(n_query, SIMILARITY_SAMPLE)).round().astype(np.int64))
     counted = larger = at_max = at_min = 0
-    for start in range(0, n_query, block_queries):
-        queries = np.arange(start, min(n_query, start + block_queries))
-        values = np.asarray(matrix[:, start : queries[-1] + 1], dtype=np.float64)
+    for start in range(0, len(sample), block_queries):
+        queries = sample[start : start + block_queries]
+        values = np.asarray(matrix[:, queries], dtype=np.float64)
         correct = truth.correct(references, queries[None, :])
         n_correct = correct.sum(axis=0)
         both = (n_correct > 0) & (n_correct < n_ref) & np.isfinite(values).all(axis=0)
@@ -254,8 +259,9 @@ def similarity_warning(path: Path | str, matrix: Any, truth: GroundTruth) -> str
     counted, larger, at_max, at_min = similarity_evidence(matrix, truth)
     if counted == 0 or larger < SIMILARITY_SHARE * counted:
         return None
+    sampled = "" if matrix.shape[1] <= SIMILARITY_SAMPLE else f" (an even sample of its {matrix.shape[1]})"
     return (f"{path} looks like a similarity matrix (larger = more similar), not distances: for {larger} of its "
-            f"{counted} queries ({100 * larger / counted:.0f} %) the correct references' values are larger on "
+            f"{counted} queries{sampled} ({100 * larger / counted:.0f} %) the correct references' values are larger on "
             f"average than the others' (distances are smaller there), and a column's largest value is a correct "
             f"reference for {at_max} queries, its smallest for {at_min}. If it holds similarities, give --similarity "
             "(read as distances max(M) - M); it is scored as distances here")

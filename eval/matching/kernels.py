@@ -1,14 +1,14 @@
-"""Compiled (numba) kernel of ``eval.matching.attributes.block_features``: the same numbers, bit for bit, in one pass.
+"""Compiled (numba) kernel of the fixed matcher's fast path (``fixed.block_features``): the same numbers, in one pass.
 
 The matrix is read in its own layout (references x queries, rows contiguous), row by row, so a memory-mapped
 ``.npy`` is never transposed or copied. For a block of query columns, running sums along the diagonals (``T``
 normalised, ``V`` raw, a ring of the last ``L + 1`` rows) and along each row give every screened ``full_d``,
 ``past_d``, ``S``, row sum and current value as one subtraction, in float64; the minimum (for ``S`` also the
 maximum) of each group of ``GROUP`` consecutive diagonals or rows is kept per query. Then per query, every group
-whose minimum lies within ``margin`` (twice the bound on the screening error, ``attributes._error_bound``) of the
+whose minimum lies within ``margin`` (twice the bound on the screening error, ``fixed._error_bound``) of the
 ``K``-th smallest group minimum is recomputed exactly, as the definition does it (``0 + x_0 + x_1 + ...``, each
 ``x`` divided by its column maximum in float64), and the ``K`` best are kept in ascending index order with strict
-comparisons: equal values lowest index first, SPEC 5's tie rule. Every group that can hold one of the ``K`` best
+comparisons: equal values lowest index first, method §5's tie rule. Every group that can hold one of the ``K`` best
 exact values is scanned (the ``K``-th group minimum bounds the ``K``-th smallest screened value from above), so
 the result equals the numpy path's exactly; only the amount of work differs.
 
@@ -36,29 +36,9 @@ def _matrix(dtype: types.Type) -> types.Array:
     return types.Array(dtype, 2, "A", readonly=True)
 
 
-def _range_signature(dtype: types.Type) -> Signature:
-    return types.void(_matrix(dtype), types.Array(dtype, 1, "A"), types.Array(dtype, 1, "A"), types.float64[:])
-
-
 def _block_signature(dtype: types.Type) -> Signature:
     f8, i8 = types.float64, types.int64
     return types.void(_matrix(dtype), f8[:], i8, f8, f8, f8[:, :, :], i8[:, :], i8[:], i8[:], f8[:], f8[:])
-
-
-def _column_range(raw: np.ndarray, col_max: np.ndarray, col_min: np.ndarray, col_bad: np.ndarray) -> None:
-    """Per column of ``raw`` (R x W): its maximum and minimum, and in ``col_bad`` a sum of ``v - v`` that is NaN
-    when the column holds a NaN or an infinity (0 otherwise)."""
-    n_ref, width = raw.shape
-    col_max[:] = raw[0]
-    col_min[:] = raw[0]
-    col_bad[:] = 0.0
-    for r in range(n_ref):
-        row = raw[r]
-        for c in range(width):
-            v = row[c]
-            col_max[c] = v if v > col_max[c] else col_max[c]
-            col_min[c] = v if v < col_min[c] else col_min[c]
-            col_bad[c] += v - v
 
 
 @njit(cache=True, nogil=True)
@@ -162,6 +142,24 @@ def _mean_full(raw: np.ndarray, col_max: np.ndarray, j: int, lo: int, hi: int, s
     for m in range(lo, hi + 1):
         total += _diag(raw, col_max, m, j, seq_len, True)
     return total / (hi - lo + 1)
+
+
+@njit(cache=True, nogil=True)
+def _bounds(i: int, seq_len: int, n_index: int) -> tuple[int, int, int, int]:
+    """First and last trajectory (inclusive) of A3's block and of A4's group around trajectory ``i``, as
+    ``formulas.block_range`` and ``formulas.group_range``."""
+    lo = seq_len * (i // seq_len)
+    return lo, min(n_index - 1, lo + seq_len - 1), max(0, i - GROUP_HALF_WIDTH), min(n_index - 1, i + GROUP_HALF_WIDTH)
+
+
+@njit(cache=True, nogil=True)
+def _rates(out: np.ndarray, past_sorted: float, row_sorted: float, current_sorted: float, last: float,
+           past: float, block_mean: float, group_mean: float) -> None:
+    """A1..A4 of one rank into ``out`` (4 values), the expressions of ``formulas.attribute_rates``."""
+    out[0] = past_sorted / (row_sorted + EPS)
+    out[1] = current_sorted / (last + EPS)
+    out[2] = past / (block_mean + EPS)
+    out[3] = past / (group_mean + EPS)
 
 
 def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, margin_raw: float,
@@ -273,14 +271,10 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
             rank_diagonals[j, k] = i
             last = np.float64(raw[i + seq_len - 1, j + seq_len - 1]) / col_max[j + seq_len - 1]
             past = _diag(raw, col_max, i, j, seq_len - 1, True)
-            lo = seq_len * (i // seq_len)
-            block_mean = _mean_full(raw, col_max, j, lo, min(n_diag - 1, lo + seq_len - 1), seq_len)
-            group_mean = _mean_full(raw, col_max, j, max(0, i - GROUP_HALF_WIDTH),
-                                    min(n_diag - 1, i + GROUP_HALF_WIDTH), seq_len)
-            attributes[j, k, 0] = past_sorted[j, k] / (row_sorted[j, k] + EPS)
-            attributes[j, k, 1] = current_sorted[j, k] / (last + EPS)
-            attributes[j, k, 2] = past / (block_mean + EPS)
-            attributes[j, k, 3] = past / (group_mean + EPS)
+            block_lo, block_hi, group_lo, group_hi = _bounds(i, seq_len, n_diag)
+            _rates(attributes[j, k], past_sorted[j, k], row_sorted[j, k], current_sorted[j, k], last, past,
+                   _mean_full(raw, col_max, j, block_lo, block_hi, seq_len),
+                   _mean_full(raw, col_max, j, group_lo, group_hi, seq_len))
         sequence_distance[j] = values[4][j, 0]
         sequence_diagonal[j] = index[4][j, 0]
         sequence_max[j] = -values[5][j, 0]  # the smallest -S, as the numpy path's ``largest`` selection
@@ -290,21 +284,15 @@ _COMPILED: dict[tuple[str, np.dtype], Any] = {}
 
 
 def compiled(name: str, dtype: np.dtype) -> Any:
-    """The entry point ``name`` (``column_range`` or ``block``) for a float32 or float64 matrix, compiled for one
+    """The entry point ``name`` (``block``) for a float32 or float64 matrix, compiled for one
     signature only (any strides, read-only or not) and loaded from numba's on-disk cache on first use: a process
     loads only what it runs (each compiled version costs about 0.1 s to load, about 9 s to compile)."""
     key = (name, np.dtype(dtype))
     if key not in _COMPILED:
         nb_type = types.float32 if key[1] == np.float32 else types.float64
-        function, signature = {"column_range": (_column_range, _range_signature),
-                               "block": (_block, _block_signature)}[name]
+        function, signature = {"block": (_block, _block_signature)}[name]
         _COMPILED[key] = njit(signature(nb_type), cache=True, nogil=True)(function)
     return _COMPILED[key]
-
-
-def column_range(raw: np.ndarray, col_max: np.ndarray, col_min: np.ndarray, col_bad: np.ndarray) -> None:
-    """``_column_range`` compiled for ``raw``'s dtype."""
-    compiled("column_range", raw.dtype)(raw, col_max, col_min, col_bad)
 
 
 def thread_count() -> int:

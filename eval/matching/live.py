@@ -1,9 +1,9 @@
 """Sequence matching, SMR attributes and the predictor's decision one frame at a time, for a robot.
 
-``LiveMatcher`` keeps the last ``L`` columns of the distance matrix in a ring buffer and runs the batch code
-(``eval.matching.attributes.block_features``) on that window, so every frame costs ``O(R x L)`` and its result is
-the batch computation's, bit for bit (paper-mode attributes, SPEC 5's tie rule). Column normalisation needs
-only the column itself, so nothing else about the past is kept.
+``LiveMatcher`` keeps the last ``L`` columns of the distance matrix in a ring buffer and runs the batch sequence
+matcher (``matcher.SequenceMatcher.block_features``) on that window, so every frame costs ``O(R x L)`` (times the
+velocities) and its result is the batch computation's, bit for bit (paper-mode attributes, method §5's tie rule).
+Column normalisation needs only the column itself, so nothing else about the past is kept.
 
 The descriptors must be compared with the distance their method's batch matrices use (``mad`` for SAD, ``l2`` for
 the learned backends, or the method's ``distance`` setting): ``from_descriptors`` takes the reference descriptors
@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_VELOCITIES, KEPT_CLASSES
-from vpr_smr.eval.matching.attributes import Matching, block_features, check_matching
+from vpr_smr.eval.matching.attributes import Matching, check_matching
 from vpr_smr.eval.matching.distances import distance_columns, prepare_references
-from vpr_smr.eval.matching.velocity import check_velocities, first_reference, velocity_block_features
+from vpr_smr.eval.matching.matcher import SequenceMatcher, check_velocities
 
 
 @dataclass(frozen=True)
@@ -37,10 +37,10 @@ class LiveResult:
     query: int  # index of the current frame (0 for the first frame fed)
     single_match: int  # argmin_r D[r, query]
     sequence_match: int  # reference at which the best sequence ends
-    sequence_distance: float  # min_i S[i, query - L + 1] (SPEC 11: min_r S[r, query])
+    sequence_distance: float  # min_i S[i, query - L + 1] (method §11: min_r S[r, query])
     attributes: np.ndarray  # (K, 4): A1..A4 (the paper's names) of ranks 0..K-1
     rank_references: np.ndarray  # (K,): reference matched by the rank-k diagonal (trajectory), where it ends
-    label: int | None = None  # predicted class 0..3 (SPEC 6), with a predictor
+    label: int | None = None  # predicted class 0..3 (method §6), with a predictor
     keep: bool | None = None  # the predictor keeps the sequence match (label 0 or 2)
 
 
@@ -50,15 +50,14 @@ class LiveMatcher:
     ``predictor``: any object with ``predict_proba(X)`` (``X`` of shape ``(n, 4)``, A1..A4 of rank 0, as
     ``eval.predictor.SMRPredictor``) and ``classes_``. ``distance`` is the metric of ``eval.distances`` that the
     descriptors' method uses; it is required with ``references`` (``from_descriptors`` reads it from the file).
-    ``velocities``: SeqSLAM's velocity search (SPEC 11; default ``(1.0,)``, the paper's fixed matcher), as the
+    ``velocities``: SeqSLAM's velocity search (method §11; default ``(1.0,)``, the paper's fixed matcher), as the
     batch ``attributes`` stage takes them: each step equals the batch result of its query.
     """
 
     def __init__(self, seq_len: int, references: np.ndarray | None = None, predictor: Any = None,
                  distance: str | None = None, n_ranks: int = 4,
                  velocities: tuple[float, ...] = DEFAULT_VELOCITIES) -> None:
-        if seq_len < 2:
-            raise ValueError(f"sequence length must be at least 2, got {seq_len}")
+        self.matcher = SequenceMatcher(seq_len, check_velocities(velocities))
         if references is not None and distance is None:
             raise ValueError("LiveMatcher with references needs distance=, the metric of the descriptors' method "
                              "('mad' for sad, 'l2' for the learned backends, or the method's distance setting); "
@@ -144,9 +143,9 @@ class LiveMatcher:
             raise ValueError(f"a distance column must be 1-D (one value per reference), got shape {column.shape}")
         if self._buffer is None:
             n_ref = len(column)
-            if n_ref < self.seq_len or first_reference(self.seq_len, self.velocities) > n_ref - 1:
-                raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}"
-                                 + (f" at velocities {list(self.velocities)}" if n_ref >= self.seq_len else ""))
+            if n_ref < self.seq_len:
+                raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}")
+            self.matcher.check_references(n_ref)
             dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
             self._buffer = np.empty((self.seq_len, n_ref), dtype=dtype)
         if len(column) != self._buffer.shape[1]:
@@ -156,13 +155,9 @@ class LiveMatcher:
         if self.frames < self.seq_len:
             return None
         window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % self.seq_len]
-        r_min = first_reference(self.seq_len, self.velocities)
-        n_ranks = min(self.n_ranks, self._buffer.shape[1] - r_min)
+        n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.matcher.first_reference)
         first = self.frames - self.seq_len  # the window's first frame: errors name frames, not window rows
-        if self.velocities == DEFAULT_VELOCITIES:
-            out = block_features(window, self.seq_len, n_ranks, first_column=first)
-        else:
-            out = velocity_block_features(window, self.seq_len, n_ranks, self.velocities, first_column=first)
+        out = self.matcher.block_features(window, n_ranks, first)
         attributes = out["attributes"][0]
         label = keep = None
         if self.predictor is not None:
@@ -172,10 +167,10 @@ class LiveMatcher:
         return LiveResult(
             query=self.frames - 1,
             single_match=int(out["single_match"][0]),
-            sequence_match=int(out["sequence_diagonal"][0]) + r_min,
+            sequence_match=int(out["sequence_match"][0]),
             sequence_distance=float(out["sequence_distance"][0]),
             attributes=attributes,
-            rank_references=out["rank_diagonals"][0] + r_min,
+            rank_references=out["rank_references"][0],
             label=label,
             keep=keep,
         )

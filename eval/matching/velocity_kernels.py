@@ -1,4 +1,4 @@
-"""Compiled (numba) kernel of ``eval.matching.velocity.velocity_block_features``: the same numbers, bit for bit.
+"""Compiled (numba) kernel of the velocity search (``velocity.block_features``): the same numbers, bit for bit.
 
 One query at a time, the end references are walked in tiles of ``TILE``: for each velocity (in the tie rule's
 order) and each term ``k`` one contiguous pass adds the raw and the normalised values of the shifted column to the
@@ -6,7 +6,7 @@ tile's running sums (``0 + x_0 + x_1 + ...``, the definition's order), then ``S`
 the tile are replaced where that velocity's ``S`` is strictly smaller (or no earlier velocity reaches the
 reference). The tile's sums stay in the L1 cache, and the normalised columns are divided once each (a ring of the
 last ``L``). The ``K`` smallest values are kept by insertion in ascending index order with strict comparisons (equal
-values lowest index first, SPEC 5's tie rule), skipping every group of ``GROUP`` values whose minimum cannot enter.
+values lowest index first, method §5's tie rule), skipping every group of ``GROUP`` values whose minimum cannot enter.
 
 The kernel releases the GIL: ``block_features`` runs parts of the block's queries on a few threads.
 """
@@ -19,8 +19,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 from numba import njit
 
-from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # plain globals: numba freezes them at compile time
-from vpr_smr.eval.matching.kernels import _insert, empty_outputs  # the fixed matcher's sorted top-K insertion: one copy
+# the fixed matcher's kernel's sorted top-K insertion and attribute formulas: one copy of each
+from vpr_smr.eval.matching.kernels import _bounds, _insert, _rates, empty_outputs
 
 TILE = 256  # end references per tile: the tile's sums (2 KB each) stay in the L1 cache
 GROUP = 64  # values per group of the K-smallest scan
@@ -183,13 +183,10 @@ def _queries(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int
         for k in range(n_ranks):
             i = index[k]
             rank_index[j, k] = i
-            lo = seq_len * (i // seq_len)
-            block_mean = _mean_full(full, lo, min(n_index - 1, lo + seq_len - 1))
-            group_mean = _mean_full(full, max(0, i - GROUP_HALF_WIDTH), min(n_index - 1, i + GROUP_HALF_WIDTH))
-            attributes[j, k, 0] = past_sorted[k] / (row_sorted[k] + EPS)
-            attributes[j, k, 1] = current_sorted[k] / (current[i + r_min] + EPS)  # traj[L-1] = Dn[r, a]
-            attributes[j, k, 2] = past[i] / (block_mean + EPS)
-            attributes[j, k, 3] = past[i] / (group_mean + EPS)
+            block_lo, block_hi, group_lo, group_hi = _bounds(i, seq_len, n_index)
+            _rates(attributes[j, k], past_sorted[k], row_sorted[k], current_sorted[k],
+                   current[i + r_min],  # traj[L-1] = Dn[r, a]: o_{L-1} = 0
+                   past[i], _mean_full(full, block_lo, block_hi), _mean_full(full, group_lo, group_hi))
 
 
 def thread_count() -> int:

@@ -1,10 +1,11 @@
-"""The predictor's defaults (SPEC 7) and what its training needs, in a module without scikit-learn so that
+"""The predictor's defaults (method §7) and what its training needs, in a module without scikit-learn so that
 validating and checking a configuration stays fast: ``SMRPredictor``'s keyword defaults are these values, a
 validated configuration carries all of them, and the check before the first job asks ``training_problems``."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 PAPER_PARAMS = {"alpha": 1e-4, "learning_rate_init": 1e-3}  # the authors' code (the paper's text says 1e-3 / 1e-4)
@@ -21,7 +22,7 @@ DEFAULTS: dict[str, Any] = {
     "column_order": CODE_COLUMN_ORDER,
 }
 
-CV_FOLDS = 5  # SPEC 7: 5-fold StratifiedKFold
+CV_FOLDS = 5  # method §7: 5-fold StratifiedKFold
 # MLPClassifier's default validation_fraction: early_stopping holds out ceil(10 %) of the (resampled) training
 # samples, stratified when there are two classes, and refuses a validation set of fewer than 2 samples.
 VALIDATION_FRACTION = 0.1
@@ -35,6 +36,25 @@ MIN_FIT_SAMPLES = next(n for n in range(1, 1000) if math.ceil(VALIDATION_FRACTIO
 MIN_TRAIN_SAMPLES = {True: 11, False: 14}
 
 
+# Names an evaluation split may not have: the predictor's numbers of a split ``s`` are ``f1_s`` and ``n_s`` beside
+# ``f1_cv`` (cross-validation) and ``n_train``, and its class counts are keyed ``train`` beside the splits'.
+RESERVED_SPLIT_NAMES = ("train", "cv")
+
+
+def validation_split(eval_splits: Sequence[str]) -> str | None:
+    """The predictor's validation split: the first of ``eval_splits`` (the configuration's order), none when there
+    is one split only. Its macro F1 decides whether a predictor can be trusted (the warnings), and the
+    leave-one-method-out predictors are scored on it. It does not depend on the table split, so that choosing
+    another table split retrains nothing."""
+    return eval_splits[0] if len(eval_splits) > 1 else None
+
+
+def ablation_splits(eval_splits: Sequence[str]) -> tuple[str, ...]:
+    """The splits Table II (the attribute ablation) scores: the validation split and the last of ``eval_splits``
+    (``records.AttributeScores``' ``val`` and ``test``; its method mean is the last split's), or the one split."""
+    return tuple(dict.fromkeys([eval_splits[0], eval_splits[-1]]))
+
+
 def training_problems(n_train_queries: int, seq_len: int, n_methods: int = 1, smote: bool = True,
                       split: str = "train") -> list[str]:
     """What the configuration check can tell from split lengths alone: why a predictor cannot be trained on a
@@ -42,7 +62,7 @@ def training_problems(n_train_queries: int, seq_len: int, n_methods: int = 1, sm
     (``smote``: the predictor's setting). Empty when some labelling of that many samples can train; the train
     stage checks the real class counts (``check_training_labels``).
 
-    Each method gives ``n_train_queries - seq_len + 1`` samples (the queries with a sequence match, SPEC 4).
+    Each method gives ``n_train_queries - seq_len + 1`` samples (the queries with a sequence match, method §4).
     """
     per_method = max(0, n_train_queries - seq_len + 1)
     pooled = per_method * n_methods

@@ -1,4 +1,4 @@
-"""The SMR predictor (SPEC sections 5 and 7): column order, SMOTE, StandardScaler, MLPClassifier; stored without pickle.
+"""The SMR predictor (method §§5 and 7): column order, SMOTE, StandardScaler, MLPClassifier; stored without pickle.
 
 ``SMRPredictor`` is a scikit-learn estimator (``clone``, ``get_params(deep=True)``, ``cross_validate`` work). Its
 ``fit`` builds and fits an imbalanced-learn ``Pipeline`` (so SMOTE resamples the training samples only, also inside
@@ -8,7 +8,7 @@ loaded back without unpickling anything.
 
 Callers always pass the attributes in the paper's names order A1, A2, A3, A4 (``QueryFeatures.attributes[:, k, :]``);
 ``column_order`` (default ``(0, 1, 3, 2)``) picks the network's input columns from them: the authors' code order
-``[A1, A2, A4, A3]`` (min sum, min value, group, block), which changes the trained network (SPEC 5).
+``[A1, A2, A4, A3]`` (min sum, min value, group, block), which changes the trained network (method §5).
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ class TrainingDataError(ValueError):
 
 
 def class_counts(labels: np.ndarray) -> list[int]:
-    """Samples per label 0..3 (SPEC 6), zeros included."""
+    """Samples per label 0..3 (method §6), zeros included."""
     counts: list[int] = np.bincount(np.asarray(labels, dtype=np.int64), minlength=N_LABELS).tolist()
     return counts
 
@@ -61,7 +61,7 @@ def format_counts(counts: Sequence[int]) -> str:
 
 
 def count_text(labels: np.ndarray) -> str:
-    """``0: 17, 1: 0, 2: 0, 3: 1``: every label 0..3 (SPEC 6) counted; other labels (scikit-learn's checks) as
+    """``0: 17, 1: 0, 2: 0, 3: 1``: every label 0..3 (method §6) counted; other labels (scikit-learn's checks) as
     found."""
     labels = np.asarray(labels)
     if labels.dtype.kind in "iu" and (labels.size == 0 or (labels.min() >= 0 and labels.max() < N_LABELS)):
@@ -126,7 +126,7 @@ def check_training_labels(labels: np.ndarray, where: str, smote: bool = True, ra
     if problems:
         raise TrainingDataError(
             f"{where}: the predictor cannot be trained on {len(labels)} samples with class counts "
-            f"{count_text(labels)} (labels 0..3 of SPEC 6): {'; '.join(problems)}. "
+            f"{count_text(labels)} (labels 0..3 of method §6): {'; '.join(problems)}. "
             f"Fix: {TRAINING_FIX}")
 
 
@@ -146,7 +146,7 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
 
     ``column_order``: indices into the A1..A4 input fed to the network, in that order (the authors' code order by
     default; ``(k,)`` for attribute ``k`` alone; None for the input as given). ``smote=False`` (or a class with a
-    single training sample) skips SMOTE. The other parameters are the MLP's (SPEC 7).
+    single training sample) skips SMOTE. The other parameters are the MLP's (method §7).
     """
 
     def __init__(

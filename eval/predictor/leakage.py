@@ -10,9 +10,9 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from vpr_smr.core.io import read_provenance
+from vpr_smr.core.records import FORMAT, Record, decode
 
 TRAINED_ON = "trained_on_frames"  # the predictor file's attribute: the frame ranges it was trained on
 
@@ -22,9 +22,9 @@ class SplitLeakError(ValueError):
 
 
 @dataclass(frozen=True)
-class FrameRange:
+class FrameRange(Record):
     """Frames ``lo .. hi-1`` of both traverses of a dataset: one split of a features file. A split of traverses
-    with positions (SPEC 11) may give its references apart: ``reference = (lo, hi)``; ``lo .. hi-1`` are then
+    with positions (method §11) may give its references apart: ``reference = (lo, hi)``; ``lo .. hi-1`` are then
     its queries."""
 
     dataset: str
@@ -63,16 +63,6 @@ class FrameRange:
         return (f"{self.dataset!r} split {self.split!r} (queries [{self.lo}, {self.hi}), references "
                 f"[{self.reference[0]}, {self.reference[1]}))")
 
-    def to_json(self) -> list[Any]:
-        plain = [self.dataset, self.split, self.lo, self.hi]
-        return plain if self.reference is None else [*plain, *self.reference]
-
-    @classmethod
-    def from_json(cls, value: Sequence[Any]) -> FrameRange:
-        dataset, split, lo, hi, *reference = value
-        own = (int(reference[0]), int(reference[1])) if reference else None
-        return cls(str(dataset), str(split), int(lo), int(hi), own)
-
 
 def frame_range(features: Path | str) -> FrameRange | None:
     """The split a features file covers, from its provenance (``split_range``: its queries, or its frames of both
@@ -93,8 +83,13 @@ def frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:
 
 
 def trained_on(predictor: Path | str) -> list[FrameRange]:
-    """The frame ranges a predictor file was trained on (none recorded: an empty list)."""
-    return [FrameRange.from_json(v) for v in read_provenance(predictor).get(TRAINED_ON, [])]
+    """The frame ranges a predictor file was trained on (none recorded: an empty list); a file of another results
+    format (an earlier layout of its ranges) raises a ValueError saying to train it again."""
+    try:
+        return decode(list[FrameRange], read_provenance(predictor).get(TRAINED_ON, []), TRAINED_ON)
+    except (KeyError, TypeError, ValueError) as error:
+        raise ValueError(f"{predictor}: its {TRAINED_ON} are not in results format {FORMAT} ({error}): the predictor "
+                         "was trained by another vpr-smr; train it again with this version") from None
 
 
 def check_disjoint(trained: Sequence[FrameRange], scored: Sequence[FrameRange], allow_overlap: bool,

@@ -1,10 +1,11 @@
-"""Typed results of the predictor stages, each the one home of its keys in the JSON files (SPEC 7, Table II).
+"""Typed results of the predictor stages, each the one home of its keys in the JSON files (method §7, Table II).
 
 ``train.main`` builds a ``PredictorReport`` (the ``L<L>.json`` beside each predictor, and the predictor's ``report``
-attribute) and ``ablation.attributes_main`` an ``AttributeAblation``; the report reads both back with ``from_json``,
-which takes exactly the layout ``to_json`` writes (a missing key is an error, not a default). ``write_json`` sorts
-keys, so the keys and values here alone decide a file's bytes. The numbers of a split that was not given (val,
-test) are absent from a file, never null.
+attribute) and ``ablation.attributes_main`` an ``AttributeAblation``; each record's fields are its JSON layout
+(``core.records``, the one codec of every record), and the report reads both back with ``from_json``, which takes
+exactly that layout (a missing entry is an error, not a default; a file of another results format is refused).
+``write_json`` sorts keys, so the fields and values here alone decide a file's bytes. The numbers of a split that
+was not given are absent from a file, never null.
 """
 
 from __future__ import annotations
@@ -12,23 +13,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
+from vpr_smr.core.records import FileRecord, Record
+
 Json = dict[str, Any]
-EVALUATION_SPLITS = ("val", "test")  # the splits a predictor may be scored on, in the order train.main scores them
-
-
-def _ints(values: Any) -> tuple[int, ...]:
-    return tuple(values)
-
-
-def _matrix(rows: Any) -> tuple[tuple[int, ...], ...]:
-    return tuple(_ints(row) for row in rows)
-
-
 # --- a trained predictor -----------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
-class SplitScores:
+class SplitScores(Record):
     """One seed's predictor on one evaluation split: macro F1, samples, class counts, confusion (rows true label)."""
 
     f1: float
@@ -38,11 +30,10 @@ class SplitScores:
 
 
 @dataclass(frozen=True)
-class SeedReport:
-    """One training seed: its predictor's settings, cross-validated F1, iterations and scores per given split.
-
-    Written flat: ``class_counts`` maps ``train`` and each split to its counts, and a split ``s`` adds ``f1_s``,
-    ``n_s`` and ``confusion_s``. ``params`` holds JSON values (lists, not tuples), as the file does.
+class SeedReport(Record):
+    """One training seed: its predictor's settings, cross-validated F1, iterations, the train split's class counts
+    and the scores per given evaluation split (by the split's name). ``params`` holds JSON values (lists, not
+    tuples), as the file does.
     """
 
     seed: int
@@ -56,24 +47,6 @@ class SeedReport:
         """Macro F1 on ``split``, None when it was not given."""
         return self.splits[split].f1 if split in self.splits else None
 
-    def to_json(self) -> Json:
-        out: Json = {"seed": self.seed, "params": dict(self.params), "f1_cv": self.f1_cv, "n_iter": self.n_iter,
-                     "class_counts": {"train": list(self.train_class_counts),
-                                      **{name: list(s.class_counts) for name, s in self.splits.items()}}}
-        for name, scores in self.splits.items():
-            out[f"f1_{name}"], out[f"n_{name}"] = scores.f1, scores.n
-            out[f"confusion_{name}"] = [list(row) for row in scores.confusion]
-        return out
-
-    @classmethod
-    def from_json(cls, data: Json) -> SeedReport:
-        counts = data["class_counts"]
-        splits = {name: SplitScores(data[f"f1_{name}"], data[f"n_{name}"], _ints(counts[name]),
-                                    _matrix(data[f"confusion_{name}"]))
-                  for name in EVALUATION_SPLITS if name in counts}
-        return cls(data["seed"], dict(data["params"]), data["f1_cv"], data["n_iter"], _ints(counts["train"]),
-                   splits)
-
 
 def chance_f1(class_counts: tuple[int, ...]) -> float:
     """Macro F1 at chance on a split with these class counts: ``1 / K`` for the ``K`` classes present, the expected
@@ -83,7 +56,7 @@ def chance_f1(class_counts: tuple[int, ...]) -> float:
     return 1.0 / present if present else 0.0
 
 
-def seed_problems(seed: SeedReport, split: str = "val") -> list[str]:
+def seed_problems(seed: SeedReport, split: str) -> list[str]:
     """Why one seed's predictor cannot be trusted on ``split`` (empty when it can, when the split was not given, or
     when it holds one class only): a macro F1 at or below chance, or one class predicted for every sample."""
     scores = seed.splits.get(split)
@@ -104,10 +77,9 @@ def seed_problems(seed: SeedReport, split: str = "val") -> list[str]:
 
 
 @dataclass(frozen=True)
-class PredictorReport:
-    """The report of ``train.main``: every seed (the first one's predictor is the predictor file) and, at the top
-    level, the first seed's numbers in the layout of earlier reports. ``seed_models``: the predictor files, only
-    when there are several seeds."""
+class PredictorReport(FileRecord):
+    """The report of ``train.main``: every seed (the first one's predictor is the predictor file; ``first_seed``
+    gives its numbers). ``seed_models``: the predictor files, only when there are several seeds."""
 
     meta: Json
     n_train: int
@@ -115,7 +87,8 @@ class PredictorReport:
     seed_models: tuple[str, ...] | None = None
 
     def first_seed(self) -> Json:
-        """The top-level numbers: the first seed's settings, train class counts, F1, sample counts, iterations."""
+        """The first seed's settings, train class counts, F1, sample counts and iterations, flat (``f1_<split>``,
+        ``n_<split>``), as the predictor table takes them."""
         first = self.seeds[0]
         out: Json = {"params": dict(first.params), "train_class_counts": list(first.train_class_counts),
                      "f1_cv": first.f1_cv, "n_iter": first.n_iter}
@@ -123,37 +96,19 @@ class PredictorReport:
             out[f"f1_{name}"], out[f"n_{name}"] = scores.f1, scores.n
         return out
 
-    def warning(self, split: str = "val") -> str:
+    def warning(self, split: str) -> str:
         """Every seed whose predictor cannot be trusted on ``split`` and why (``seed_problems``), in one line; empty
         when none."""
         parts = [f"seed {seed.seed}: {'; '.join(problems)}" for seed in self.seeds
                  if (problems := seed_problems(seed, split))]
         return " | ".join(parts)
 
-    def to_json(self) -> Json:
-        out = {"meta": dict(self.meta), "n_train": self.n_train, **self.first_seed(),
-               "seeds": [seed.to_json() for seed in self.seeds]}
-        if self.seed_models is not None:
-            out["seed_models"] = list(self.seed_models)
-        return out
-
-    @classmethod
-    def from_json(cls, data: Json) -> PredictorReport:
-        report = cls(dict(data["meta"]), data["n_train"], tuple(SeedReport.from_json(s) for s in data["seeds"]),
-                     tuple(data["seed_models"]) if "seed_models" in data else None)
-        # the top level repeats the first seed: a file where they differ was not written by train.main
-        for key, value in report.first_seed().items():
-            if data[key] != value:
-                raise ValueError(f"predictor report: top-level {key!r} {data[key]!r} is not the first seed's "
-                                 f"{value!r}")
-        return report
-
 
 # --- Table II ------------------------------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
-class AttributeScores:
+class AttributeScores(Record):
     """A predictor on one attribute set: its input columns (None: all four) and macro F1 of cross-validation, on
     the val and test splits pooled, and the mean over the methods' test splits (the last four only when given)."""
 
@@ -165,33 +120,12 @@ class AttributeScores:
     n_test: int | None = None
     f1_test_method_mean: float | None = None
 
-    OPTIONAL = ("f1_val", "n_val", "f1_test", "n_test", "f1_test_method_mean")
-
-    def to_json(self) -> Json:
-        optional = {name: getattr(self, name) for name in self.OPTIONAL if getattr(self, name) is not None}
-        return {"columns": None if self.columns is None else list(self.columns), "f1_cv": self.f1_cv, **optional}
-
-    @classmethod
-    def from_json(cls, data: Json) -> AttributeScores:
-        columns = data["columns"]
-        return cls(None if columns is None else _ints(columns), data["f1_cv"],
-                   **{name: data[name] for name in cls.OPTIONAL if name in data})
-
 
 @dataclass(frozen=True)
-class AttributeAblation:
+class AttributeAblation(FileRecord):
     """Table II for one dataset and sequence length (``ablation.attributes_main``): per attribute set its scores."""
 
     meta: Json
     params: Json
     n_train: int
     attributes: dict[str, AttributeScores]
-
-    def to_json(self) -> Json:
-        return {"meta": dict(self.meta), "params": dict(self.params), "n_train": self.n_train,
-                "attributes": {name: scores.to_json() for name, scores in self.attributes.items()}}
-
-    @classmethod
-    def from_json(cls, data: Json) -> AttributeAblation:
-        return cls(dict(data["meta"]), dict(data["params"]), data["n_train"],
-                   {name: AttributeScores.from_json(scores) for name, scores in data["attributes"].items()})

@@ -1,4 +1,4 @@
-"""Train one predictor per dataset and sequence length on the train split of every method, pooled (SPEC 7).
+"""Train one predictor per dataset and sequence length on the train split of every method, pooled (method §7).
 
 The recipe of the authors' code, for seed 0: the rank-0 attributes (A1..A4 columns) and labels of the methods'
 train splits, concatenated in the configuration's order, shuffled with ``sklearn.utils.shuffle(X, y,
@@ -11,7 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -20,10 +20,11 @@ from sklearn.metrics import confusion_matrix
 from sklearn.utils import shuffle
 
 from vpr_smr.core.constants import LABELS
-from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix, write_json
+from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix
 from vpr_smr.core.paths import predictor_report_path, seed_predictor_path
 from vpr_smr.core.progress import write_progress
-from vpr_smr.eval.matching.attributes import common_matching, read_features
+from vpr_smr.core.records import save
+from vpr_smr.eval.matching.attributes import QueryFeatures, common_matching, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
 from vpr_smr.eval.predictor.leakage import TRAINED_ON, check_disjoint, frame_ranges
 from vpr_smr.eval.predictor.records import PredictorReport, SeedReport, SplitScores
@@ -36,14 +37,20 @@ SEEDED = ("random_state", "smote_random_state")  # the predictor's seeds that a 
 def pooled(paths: Sequence[Path | str]) -> tuple[np.ndarray, np.ndarray]:
     """Rank-0 attributes (A1..A4 columns) and labels of several feature files, stacked in the given order."""
     if not paths:
-        raise ValueError("no features files given to pool (train, val or test split)")
+        raise ValueError("no features files given to pool (the train split or an evaluation split)")
     parts = []
     for path in paths:
         if not Path(path).is_file():
             raise FileNotFoundError(f"features file not found: {path} (run vpr-smr attributes)")
         parts.append(read_features(path))
-    return (np.concatenate([f.attributes[:, 0, :] for f in parts]),
-            np.concatenate([f.labels for f in parts]))
+    return rank0(parts)
+
+
+def rank0(features: Sequence[QueryFeatures]) -> tuple[np.ndarray, np.ndarray]:
+    """Rank-0 attributes (A1..A4 columns) and labels of several methods' features, stacked in the given order: the
+    pooled training samples of the recipe (``pooled`` reads them from files, the speed experiment computes them)."""
+    return (np.concatenate([f.attributes[:, 0, :] for f in features]),
+            np.concatenate([f.labels for f in features]))
 
 
 def seeded_params(params: dict[str, Any] | None, seed: int) -> dict[str, Any]:
@@ -95,6 +102,16 @@ def check_trainable(y_train: np.ndarray, params: dict[str, Any], seeds: Sequence
         check_training_labels(shuffle(y_train, random_state=seed), where, smote)
 
 
+def seeded_training(
+    x_train: np.ndarray, y_train: np.ndarray, params: dict[str, Any] | None, seed: int
+) -> tuple[SMRPredictor, np.ndarray, np.ndarray]:
+    """Seed ``seed`` of the recipe, its one implementation (``train_seed``, the speed experiment's ``fit_pooled``):
+    the unfitted ``SMRPredictor(**seeded_params(params, seed))`` and the pooled samples shuffled with ``seed``,
+    which it is fitted on (and cross-validated on: the folds fit clones, so the fit is the same either way)."""
+    x, y = shuffle(x_train, y_train, random_state=seed)
+    return SMRPredictor(**seeded_params(params, seed)), x, y
+
+
 def train_seed(
     x_train: np.ndarray,
     y_train: np.ndarray,
@@ -102,10 +119,10 @@ def train_seed(
     seed: int,
     evaluation: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
 ) -> tuple[SMRPredictor, SeedReport]:
-    """Shuffle the pooled train set with ``seed``, cross-validate and fit a predictor with ``seeded_params``, and
-    score it on each ``evaluation`` split (name -> (X, y)). Returns the fitted predictor and its numbers."""
-    x, y = shuffle(x_train, y_train, random_state=seed)
-    predictor = SMRPredictor(**seeded_params(params, seed))
+    """Shuffle the pooled train set with ``seed``, cross-validate and fit a predictor with ``seeded_params``
+    (``seeded_training``), and score it on each ``evaluation`` split (name -> (X, y)). Returns the fitted predictor
+    and its numbers."""
+    predictor, x, y = seeded_training(x_train, y_train, params, seed)
     # the settings as JSON holds them (lists, not tuples), so that a report read back equals the one written
     settings = json.loads(json.dumps(predictor.get_params()))
     f1_cv = cross_validated_f1(predictor, x, y)
@@ -119,44 +136,67 @@ def train_seed(
             tuple(map(tuple, confusion_matrix(y_eval, predicted, labels=list(LABELS)).tolist())))
     numbers = SeedReport(seed, settings, f1_cv, predictor.n_iter_,
                          tuple(np.bincount(y, minlength=len(LABELS)).tolist()), splits)
-    log.info("seed %d: f1 cv %.3f, val %s, test %s, %d iterations", seed, numbers.f1_cv, numbers.f1("val"),
-             numbers.f1("test"), numbers.n_iter)
+    log.info("seed %d: f1 cv %.3f%s, %d iterations", seed, numbers.f1_cv, split_f1s(numbers), numbers.n_iter)
     return predictor, numbers
+
+
+def split_f1s(numbers: SeedReport) -> str:
+    """``, check 0.712, final 0.698``: the macro F1 on each evaluation split, by the splits' own names."""
+    return "".join(f", {name} {scores.f1:.3f}" for name, scores in numbers.splits.items())
+
+
+def check_validation(evaluate: Mapping[str, Sequence[Path | str]], validation: str | None) -> str | None:
+    """The validation split: ``validation`` when it is one of the evaluation splits, by default the first of them
+    (None when there are none)."""
+    if validation is None:
+        return next(iter(evaluate), None)
+    if validation not in evaluate:
+        raise ValueError(f"the validation split {validation!r} is not among the evaluation splits given "
+                         f"({', '.join(map(repr, evaluate)) or 'none'})")
+    return validation
 
 
 def main(
     train: Sequence[Path | str],
     out: Path | str,
     params: dict[str, Any] | None = None,
-    val: Sequence[Path | str] = (),
-    test: Sequence[Path | str] = (),
+    evaluate: Mapping[str, Sequence[Path | str]] | None = None,
     meta: dict[str, Any] | None = None,
     seeds: int | Sequence[int] = (0,),
     allow_split_overlap: bool = False,
+    validation: str | None = None,
 ) -> PredictorReport:
     """Train one predictor per seed on the pooled ``train`` files (the configuration's method order) and report.
 
+    ``evaluate``: the evaluation splits by their names (the configuration's, e.g. ``{"val": [...], "test": [...]}``
+    or ``{"check": [...], "final": [...]}``), each split's files of every method, pooled in the given order: the
+    predictors' macro F1 on each. ``validation``: the split whose F1 decides whether a predictor can be trusted
+    (the warning; default: the first of ``evaluate``, none when it is empty).
+
     ``seeds``: a list (seed 0 first: the authors' recipe), or a count ``n`` for seeds ``0..n-1``. The first seed's
     predictor is written to ``out`` (.h5), the others to ``<out stem>.seed<s>.h5`` beside it, and the report to
-    ``out`` with suffix ``.json``: per seed (``seeds``: f1_cv, f1_val, f1_test, n_iter, class_counts, confusion
-    matrices of val and test over labels 0..3) and, at the top level, the first seed's numbers (meta, params, n_train,
-    train_class_counts, f1_cv, f1_val, f1_test, n_val, n_test, n_iter) and ``seed_models`` (when several seeds):
-    ``records.PredictorReport``, which is returned. Nothing is written until every seed has finished, so an
-    interrupted training leaves no file. ``val`` and ``test`` may not share frames with ``train``
+    ``out`` with suffix ``.json``: meta, n_train, per seed (``seeds``: params, f1_cv, n_iter, train_class_counts and
+    per evaluation split by its name f1, n, class_counts and the confusion matrix over labels 0..3) and
+    ``seed_models`` (when several seeds): ``records.PredictorReport``, which is returned. The first predictor file
+    holds it as its ``report``, the others a report of their own seed alone. Nothing is written until every seed has
+    finished, so an interrupted training leaves no file. The evaluation splits may not share frames with ``train``
     (``allow_split_overlap``: a deliberate experiment); each predictor file records the frame ranges it was trained
     on, which every later stage checks.
     """
     out = check_suffix(out, HDF5_SUFFIXES, "the predictor (HDF5; its report goes beside it as .json)")
     seeds = _seeds(seeds)
     params = predictor_params(params)
+    evaluate = {name: list(paths) for name, paths in (evaluate or {}).items() if paths}
+    validation = check_validation(evaluate, validation)
+    scored = [path for paths in evaluate.values() for path in paths]
     trained = frame_ranges(train)
-    check_disjoint(trained, frame_ranges([*val, *test]), allow_split_overlap, "the predictor")
+    check_disjoint(trained, frame_ranges(scored), allow_split_overlap, "the predictor")
     # the labels it learns and is scored on must come from one matcher and one kind of ground truth, which its
     # files record for every stage that applies it
-    matching = common_matching([*train, *val, *test])
+    matching = common_matching([*train, *scored])
     x_train, y_train = pooled(train)
     check_trainable(y_train, params, seeds, describe(meta, len(train)))
-    evaluation = {name: pooled(paths) for name, paths in (("val", val), ("test", test)) if paths}
+    evaluation = {name: pooled(paths) for name, paths in evaluate.items()}
     log.info("training on %d samples, class counts %s, seeds %s", len(y_train),
              np.bincount(y_train, minlength=len(LABELS)), seeds)
     # several seeds take about a minute each: a progress line per seed, which `vpr-smr run` shows for the job
@@ -173,13 +213,12 @@ def main(
     paths = [out] + [Path(seed_predictor_path(out, seed)) for seed in seeds[1:]]
     report = PredictorReport(dict(meta or {}), int(len(y_train)), tuple(numbers for _, numbers in fitted),
                              tuple(str(p) for p in paths) if len(seeds) > 1 else None)
-    warning = report.warning()
+    warning = report.warning(validation) if validation is not None else ""
     if warning:  # `vpr-smr run` shows the warnings of its jobs' logs; the predictor table and the report say it too
         log.warning("%s: this predictor cannot be trusted: %s", describe(meta, len(train)), warning)
     for i, ((predictor, numbers), path) in enumerate(zip(fitted, paths, strict=True)):
-        # the first predictor keeps the whole report, the others their own seed's numbers
-        predictor.save(path, matching, report=report.to_json() if i == 0 else {"meta": report.meta,
-                                                                               **numbers.to_json()},
-                       **{TRAINED_ON: [r.to_json() for r in trained]})
-    write_json(predictor_report_path(out), report.to_json())
+        # the first predictor keeps the whole report, the others a report of their own seed alone
+        own = report if i == 0 else PredictorReport(report.meta, report.n_train, (numbers,))
+        predictor.save(path, matching, report=own.to_json(), **{TRAINED_ON: [r.to_json() for r in trained]})
+    save(predictor_report_path(out), report)
     return report

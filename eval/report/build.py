@@ -1,4 +1,4 @@
-"""Tables and figures of every experiment, from the stages' JSON files, and the HTML report (SPEC section 10).
+"""Tables and figures of every experiment, from the stages' JSON files, and the HTML report (method §10).
 
 Each experiment is optional: a table or figure is written only when its inputs are given. ``expected_outputs``
 lists, from the configuration alone, the files ``main`` writes, so that a workflow can declare them.
@@ -19,15 +19,20 @@ import numpy as np
 from vpr_smr.core.constants import MATCHERS, RECALL_AT
 from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path
+from vpr_smr.core.records import FormatError
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report import registry
-from vpr_smr.eval.report.results import Order, WrittenFigure, WrittenTable, ground_truth_text, split_text
+from vpr_smr.eval.report.results import (
+    Order,
+    Splits,
+    WrittenFigure,
+    WrittenTable,
+    ground_truth_text,
+    split_text,
+    split_word,
+)
 from vpr_smr.eval.report.table1 import (
-    OUTCOME_COLUMNS,
-    QUERY_COLUMNS,
-    TABLE1_COLUMNS,
-    TABLE1_NUMBERS,
     UNDEFINED,
     evaluation_order,
     is_reduction,
@@ -36,50 +41,49 @@ from vpr_smr.eval.report.table1 import (
     table1_rows,
     tex_escape,
 )
-from vpr_smr.eval.scoring.records import KEY_META, Evaluation, HeldOut, Timing, VPRMetrics
+from vpr_smr.eval.scoring.records import KEY_META, Evaluation, HeldOut, ModeRemoval, Timing, VPRMetrics
 from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
-from vpr_smr.eval.scoring.speed import SpeedResult
+from vpr_smr.eval.scoring.speed import SpeedResult, SpeedScores
 
-SEQ_LEN_COLUMNS = (*TABLE1_NUMBERS, "auc_vpr_sm", "auc_vpr_sm_pred", *QUERY_COLUMNS, "n_seeds_defined",
-                   *OUTCOME_COLUMNS)
-# warning: the seeds whose predictor cannot be trusted on the validation split, and why (PredictorReport.warning)
-PREDICTOR_COLUMNS = ("dataset", "seq_len", "n_train", "train_class_0", "train_class_1", "train_class_2",
-                     "train_class_3", "f1_cv", "f1_val", "f1_test", "n_val", "n_test", "warning")
-PREDICTOR_METHOD_COLUMNS = ("dataset", "seq_len", "method", "split", "n_queries", "f1_macro", "class_0", "class_1",
-                            "class_2", "class_3", "predicted_0", "predicted_1", "predicted_2", "predicted_3")
-CONFUSION_COLUMNS = ("dataset", "seq_len", "method", "true_class", "predicted_0", "predicted_1", "predicted_2",
-                     "predicted_3", "total")
-TRUST_COLUMNS = ("dataset", "method", "seq_len", "mode", "trust", "removed", "max_recall", "auc", "aoc",
-                 "auc_vpr_sm", "aoc_vpr_sm", "reduction_pct", "outcome", "n_queries")
-TABLE2_F1 = ("f1_cv", "f1_val", "f1_test", "f1_test_method_mean")
-TABLE2_COLUMNS = ("dataset", "seq_len", "attributes", *TABLE2_F1, "n_train", "n_val", "n_test")
-RESTORATION_COLUMNS = (
-    "dataset", "method", "seq_len", "mode", "removed", "restored", "restored_correct", "restored_wrong",
-    "wrong_to_right", "right_to_wrong", "max_recall_removal", "max_recall_restoration", "auc_vpr_sm", "auc_removal",
-    "auc_restoration", "auc_difference", "aoc_removal", "aoc_restoration", "aoc_difference", "reduction_pct",
-    "n_queries",
-)
-LOMO_COLUMNS = ("dataset", "seq_len", "held_out", "mode", "n_queries", "f1_pooled", "f1_without", "removed_pooled",
-                "removed_without", "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled",
-                "reduction_pct_without", "outcome_pooled", "outcome_without")
-TIMING_COLUMNS = ("dataset", "method", "seq_len", "split", "n_queries", "attributes_seconds", "predict_seconds",
-                  "ms_per_query", "ms_attributes_per_query", "ms_predict_per_query")
+# Every table's columns, in its files' order: registry.TABLES
+
+# Table II's numbers (records.AttributeScores) of the validation split and the last evaluation split: its columns
+# name the splits (table2_keys: f1_val and f1_test for the splits val and test, f1_check and f1_final for check and
+# final)
+TABLE2_ROLES = {"f1_val": ("val", "f1_{}"), "f1_test": ("test", "f1_{}"),
+                "f1_test_method_mean": ("test", "f1_{}_method_mean"), "n_val": ("val", "n_{}"),
+                "n_test": ("test", "n_{}")}
 ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
-VPR_METRICS_COLUMNS = ("dataset", "method", "seq_len", "split", "mode", "matcher", "n_queries",
-                       *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p", "pr_auc", "extended_precision")
-SPEED_NUMBERS = ("recall_at_1_single", "recall_at_1_sequence", "max_recall", "aoc_vpr_sm", "aoc_vpr_sm_pred",
-                 "reduction_pct", "outcome", "f1_macro")
-# speed: the constant profile's speed (empty for varying); mean_speed: the simulated table query's mean step
-SPEED_COLUMNS = ("dataset", "method", "seq_len", "profile", "speed", "mean_speed", "matcher", "velocities",
-                 *SPEED_NUMBERS, "n_queries", "n_queries_single")
-DATASET_COLUMNS = ("dataset", "reference", "query", "n_frames", "splits", "tolerance", "pairing", "overlaps",
-                   "frames_sha256", "source")
 
 # --- Table II ---------------------------------------------------------------------------------------------------
 
 
-def table2_rows(ablations: Sequence[AttributeAblation], order: Order | None = None) -> list[dict[str, Any]]:
+def table2_keys(splits: Splits) -> dict[str, str]:
+    """``records.AttributeScores``' numbers -> Table II's columns, named by the validation split (``val``) and the
+    last evaluation split (``test``); without a validation split, its numbers have no column."""
+    names = {"val": splits.validation, "test": splits.last}
+    return {key: pattern.format(names[role]) for key, (role, pattern) in TABLE2_ROLES.items()
+            if names[role] is not None}
+
+
+def table2_f1(splits: Splits) -> tuple[str, ...]:
+    """Table II's F1 columns (``registry.TABLE2_F1``) named by ``splits``."""
+    return tuple(column.name for column in registry.expand(registry.TABLE2_F1, splits))
+
+
+def table2_splits(ablations: Sequence[AttributeAblation]) -> Splits:
+    """The split names of Table II when none are given: ``val`` and ``test``, as the records name them."""
+    scores = [numbers for ablation in ablations for numbers in ablation.attributes.values()]
+    validation = any(numbers.f1_val is not None for numbers in scores)
+    return Splits("test", ("val", "test") if validation else ("test",))
+
+
+def table2_rows(ablations: Sequence[AttributeAblation], order: Order | None = None,
+                splits: Splits | None = None) -> list[dict[str, Any]]:
+    """Table II's rows, the columns of the validation and the table split named by ``splits`` (default: ``val``
+    and ``test``, the records' own names)."""
     order = order or Order.of(ablation.meta for ablation in ablations)
+    keys = table2_keys(splits or table2_splits(ablations))
     rows = []
     for ablation in ablations:
         meta = ablation.meta
@@ -87,8 +91,8 @@ def table2_rows(ablations: Sequence[AttributeAblation], order: Order | None = No
             if name in ablation.attributes:
                 numbers = ablation.attributes[name]
                 rows.append({"dataset": meta["dataset"], "seq_len": meta["seq_len"], "attributes": name,
-                             **{k: getattr(numbers, k) for k in TABLE2_F1}, "n_train": ablation.n_train,
-                             "n_val": numbers.n_val, "n_test": numbers.n_test})
+                             "f1_cv": numbers.f1_cv, "n_train": ablation.n_train,
+                             **{column: getattr(numbers, key) for key, column in keys.items()}})
     return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"]),
                                        ATTRIBUTE_ORDER.index(r["attributes"])))
 
@@ -101,46 +105,63 @@ def _f1(value: Any) -> str:
     return "" if value is None else f"{value:.2f}"
 
 
-def _sample_note(group: list[dict[str, Any]]) -> str:
-    """The samples Table II's F1 is over: the pooled train split (cross-validation) and the val and test splits."""
-    first = group[0]
-    parts = [f"{name} {first[key]} samples" for name, key in (("train", "n_train"), ("validation", "n_val"),
-                                                              ("test", "n_test")) if first.get(key) is not None]
+def _sample_note(group: list[dict[str, Any]], splits: Splits) -> str:
+    """The samples Table II's F1 is over: the pooled train split (cross-validation), the validation and the last
+    evaluation split, each by its name."""
+    first, keys = group[0], table2_keys(splits)
+    named = [(splits.train, "n_train"), *((splits.validation, keys.get("n_val")), (splits.last, keys.get("n_test")))]
+    parts = [f"{split_word(str(name))} {first[key]} samples" for name, key in named
+             if key is not None and first.get(key) is not None]
     return "F1 over " + ", ".join(parts) + " (every method pooled)" if parts else ""
 
 
-def table2_markdown(rows: list[dict[str, Any]]) -> str:
+def _table2_headings(splits: Splits, long: bool) -> list[str]:
+    """Table II's F1 headings: cross-validation, the validation and the last split by name, the method mean; the
+    registry's labels (``long``, Markdown) or LaTeX's short ones."""
+    if long:
+        return [column.header for column in registry.expand(registry.TABLE2_F1, splits)]
+    validation, table = splits.validation, tex_escape(str(splits.last))
+    return ["F1 (CV)", *([f"F1 ({tex_escape(validation)})"] if validation is not None else []), f"F1 ({table})",
+            f"F1 ({table}, method mean)"]
+
+
+def table2_markdown(rows: list[dict[str, Any]], splits: Splits | None = None) -> str:
+    splits = splits or Splits("test", ("val", "test"))
+    f1 = table2_f1(splits)
     out = ["# Table II: macro F1 of the predictor by attribute (A1 minimum sum rate, A2 minimum value rate, "
            "A3 block sum rate, A4 group sum rate)", ""]
     groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
     for (dataset, seq_len), group in groups.items():
-        note = _sample_note(group)
+        note = _sample_note(group, splits)
+        headings = ["A1", "A2", "A3", "A4", *_table2_headings(splits, long=True)]
         out += [f"## {dataset}, sequence length {seq_len}", ""] + ([note, ""] if note else []) + [
-                "| A1 | A2 | A3 | A4 | F1 cross-validation | F1 validation | F1 test | F1 test, mean over methods |",
-                "|---|---|---|---|---|---|---|---|"]
+                "| " + " | ".join(headings) + " |", "|" + "---|" * len(headings)]
         for row in group:
-            cells = _marks(row["attributes"], "✓", "×") + [_f1(row[k]) for k in TABLE2_F1]
+            cells = _marks(row["attributes"], "✓", "×") + [_f1(row.get(k)) for k in f1]
             out.append("| " + " | ".join(cells) + " |")
         out.append("")
     return "\n".join(out)
 
 
-def table2_latex(rows: list[dict[str, Any]]) -> str:
+def table2_latex(rows: list[dict[str, Any]], splits: Splits | None = None) -> str:
+    splits = splits or Splits("test", ("val", "test"))
+    f1 = table2_f1(splits)
     out = []
     groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
     for (dataset, seq_len), group in groups.items():
-        out += [f"% {dataset}, sequence length {seq_len}", r"\begin{tabular}{c|c|c|c|c|c|c|c}",
-                r"A1 & A2 & A3 & A4 & F1 (CV) & F1 (val) & F1 (test) & F1 (test, method mean)\\", r"\hline"]
+        headings = ["A1", "A2", "A3", "A4", *_table2_headings(splits, long=False)]
+        out += [f"% {dataset}, sequence length {seq_len}", r"\begin{tabular}{" + "|".join("c" * len(headings)) + "}",
+                " & ".join(headings) + r"\\", r"\hline"]
         for row in group:
-            cells = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row[k]) for k in TABLE2_F1]
+            cells = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row.get(k)) for k in f1]
             out.append(" & ".join(cells) + r"\\")
-        note = _sample_note(group)
+        note = _sample_note(group, splits)
         if note:
-            out.append(rf"\multicolumn{{8}}{{l}}{{\footnotesize {tex_escape(note)}}}\\")
+            out.append(rf"\multicolumn{{{len(headings)}}}{{l}}{{\footnotesize {tex_escape(note)}}}\\")
         out += [r"\end{tabular}", ""]
     return "\n".join(out)
 
@@ -148,14 +169,22 @@ def table2_latex(rows: list[dict[str, Any]]) -> str:
 # --- the other tables -----------------------------------------------------------------------------------------
 
 
-def predictor_rows(predictors: Sequence[PredictorReport], order: Order | None = None) -> list[dict[str, Any]]:
+def predictor_rows(predictors: Sequence[PredictorReport], order: Order | None = None,
+                   splits: Splits | None = None) -> list[dict[str, Any]]:
+    """The pooled predictors' numbers (the registry's predictor columns) and warnings, judged on ``splits``'
+    validation split (default: the reports' splits, in the order first seen, the first of them the validation
+    split)."""
     order = order or Order.of(report.meta for report in predictors)
+    seen = tuple(dict.fromkeys(name for report in predictors for name in report.seeds[0].splits))
+    validation = splits.validation if splits is not None else next(iter(seen), None)
+    splits = splits or Splits(None, seen)
     rows = []
     for report in predictors:
         numbers = {"n_train": report.n_train, **report.first_seed()}  # the predictor file's seed
         counts = numbers["train_class_counts"]
-        rows.append({**{k: numbers.get(k) for k in PREDICTOR_COLUMNS}, **report.meta,
-                     **{f"train_class_{c}": counts[c] for c in range(4)}, "warning": report.warning()})
+        rows.append({**{k: numbers.get(k) for k in registry.table("predictor").names(splits)}, **report.meta,
+                     **{f"train_class_{c}": counts[c] for c in range(4)},
+                     "warning": report.warning(validation) if validation is not None else ""})
     return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"])))
 
 
@@ -312,12 +341,19 @@ def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | N
     return rows
 
 
+def _speed_numbers(scores: SpeedScores) -> dict[str, Any]:
+    """A method's speed scores flat: recall@1, F1 and its reduction's numbers."""
+    return {"recall_at_1_single": scores.recall_at_1_single, "recall_at_1_sequence": scores.recall_at_1_sequence,
+            **scores.reduction.to_json(), "f1_macro": scores.f1_macro}
+
+
 def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> list[dict[str, Any]]:
     """The speed experiment: one row per dataset, L, method, profile and matcher (fixed, then velocity search), the
     datasets and methods in the configuration's order and the profiles in the order given (the configuration's)."""
     order = order or Order.of(result.meta for result in results)
     profiles: dict[str, int] = {}
     seen: set[tuple[str, int, str]] = set()
+    columns = registry.table("speed").names()
     rows = []
     for result in results:
         dataset, seq_len, profile = str(result.meta["dataset"]), int(result.meta["seq_len"]), result.profile
@@ -330,8 +366,8 @@ def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> li
                 rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "profile": profile,
                              "speed": result.speed, "mean_speed": result.mean_speed, "matcher": matcher,
                              "velocities": " ".join(f"{v:g}" for v in numbers.velocities),
-                             **{key: getattr(scores, key) for key in SPEED_NUMBERS}, "n_queries": scores.n_queries,
-                             "n_queries_single": scores.n_queries_single})
+                             **{k: v for k, v in _speed_numbers(scores).items() if k in columns},
+                             "n_queries": scores.n_queries, "n_queries_single": scores.n_queries_single})
     matchers = list(SPEED_MATCHERS)
     return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), r["seq_len"], order.method(r["method"]),
                                        profiles[r["profile"]], matchers.index(r["matcher"])
@@ -342,7 +378,7 @@ def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None
     """One row per dataset card (``pipeline.plan.dataset_cards``), in the configuration's order."""
     order = order or Order(tuple(datasets))
     return [{"dataset": name, "reference": info.get("reference", ""), "query": info.get("query", ""),
-             # a dataset with positions (SPEC 11): reference / query frames; a frame-aligned one as it was
+             # a dataset with positions (method §11): reference / query frames; a frame-aligned one as it was
              "n_frames": info.get("n_frames") if info.get("n_query_frames") is None
              else f"{info.get('n_frames')} / {info['n_query_frames']}",
              "splits": split_text(info.get("splits", {}), info.get("reference_splits")),
@@ -420,17 +456,27 @@ def _write_table(stem: Path, columns: Sequence[str], rows: list[dict[str, Any]],
     """``<stem>.csv`` (full precision), ``.md`` and ``.tex`` (4 decimals, or the given special layouts): those of
     ``suffixes``, in that order.
 
-    ``notes``: per dataset whose splits overlap, a warning under the title and a ``split_overlap`` CSV column.
+    ``notes``: per dataset whose splits overlap, a warning under the title and a ``split_overlap`` CSV column
+    (``registry.SPLIT_OVERLAP``).
     """
     notes = notes or {}
     markdown = _flagged(markdown if markdown is not None else markdown_table(columns, rows, title), notes)
     latex = _flagged(latex if latex is not None else latex_table(columns, rows, title), notes, latex=True)
     if notes:
-        columns = [*columns, "split_overlap"]
-        rows = [{**row, "split_overlap": notes.get(row.get("dataset", ""), "")} for row in rows]
+        overlap = registry.SPLIT_OVERLAP.name
+        columns = [*columns, overlap]
+        rows = [{**row, overlap: notes.get(row.get("dataset", ""), "")} for row in rows]
     texts = {".md": markdown, ".tex": latex}
     return [_write_csv(stem.with_suffix(suffix), columns, rows) if suffix == ".csv"
             else _write_text(stem.with_suffix(suffix), texts[suffix]) for suffix in suffixes]
+
+
+def _flat_mode(numbers: ModeRemoval) -> dict[str, Any]:
+    """One mode's numbers as JSON, the reduction's and the curves' entries beside recall@1 and the trust levels
+    (what a figure's panel reads)."""
+    data = numbers.to_json()
+    return {**{key: value for key, value in data.items() if key not in ("reduction", "curves")},
+            **data["reduction"], **data.get("curves", {})}
 
 
 def _figure_panels(items: list[Evaluation], split: str, mode: str, restoration: bool = False
@@ -442,7 +488,7 @@ def _figure_panels(items: list[Evaluation], split: str, mode: str, restoration: 
         result = evaluation.splits[split]
         numbers = result.modes[mode]
         if not restoration:
-            panels.append((evaluation.meta["method"], {**numbers.to_json(), "n_queries": result.n_queries,
+            panels.append((evaluation.meta["method"], {**_flat_mode(numbers), "n_queries": result.n_queries,
                                                        "removed": result.removed}))
             continue
         if result.restoration is None or numbers.curves is None:
@@ -469,51 +515,56 @@ class Inputs:
     seq_len_ablation: bool
     order: Order
     speed: list[SpeedResult]
+    splits: Splits  # the configuration's split names by role (``split`` is their table split)
 
 
 def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[WrittenTable]:
-    contents: dict[str, tuple[Sequence[str], list[dict[str, Any]], dict[str, str]]] = {}
+    contents: dict[str, tuple[list[dict[str, Any]], dict[str, str]]] = {}
     evaluations, split, order = inputs.evaluations, inputs.split, inputs.order
 
-    def table(name: str, columns: Sequence[str], rows: list[dict[str, Any]], **special: str) -> None:
+    def table(name: str, rows: list[dict[str, Any]], **special: str) -> None:
         registry.table(name)  # only a declared table is written
-        contents[name] = (columns, rows, special)
+        contents[name] = (rows, special)
 
     if evaluations:
         rows = table1_rows(evaluations, split, inputs.table_seq_lens, order)
-        table("table1", TABLE1_COLUMNS, rows, markdown=table1_markdown(rows, split), latex=table1_latex(rows, split))
-        table("predictor_methods", PREDICTOR_METHOD_COLUMNS, predictor_method_rows(evaluations, split, order))
-        table("predictor_confusion", CONFUSION_COLUMNS, confusion_rows(evaluations, split, order))
+        table("table1", rows, markdown=table1_markdown(rows, split), latex=table1_latex(rows, split))
+        table("predictor_methods", predictor_method_rows(evaluations, split, order))
+        table("predictor_confusion", confusion_rows(evaluations, split, order))
         trust = trust_rows(evaluations, split, order)
         if trust:
-            table("trust_levels", TRUST_COLUMNS, trust)
+            table("trust_levels", trust)
         restoration = restoration_rows(evaluations, split, order)
         if restoration:
-            table("restoration", RESTORATION_COLUMNS, restoration)
-        table("timing", TIMING_COLUMNS, timing_rows(evaluations, inputs.timings, order))
+            table("restoration", restoration)
+        table("timing", timing_rows(evaluations, inputs.timings, order))
         if inputs.seq_len_ablation:
-            table("ablation_seq_len", SEQ_LEN_COLUMNS, table1_rows(evaluations, split, order=order))
+            table("ablation_seq_len", table1_rows(evaluations, split, order=order))
     if inputs.metrics:
-        table("vpr_metrics", VPR_METRICS_COLUMNS, vpr_metrics_rows(inputs.metrics, split, order))
+        table("vpr_metrics", vpr_metrics_rows(inputs.metrics, split, order))
     if inputs.predictors:
-        table("predictor", PREDICTOR_COLUMNS, predictor_rows(inputs.predictors, order))
+        title = registry.PREDICTOR_TITLE.format(splits=", ".join(map(split_word, inputs.splits.evaluation)))
+        table("predictor", predictor_rows(inputs.predictors, order, inputs.splits), title=title)
     if inputs.ablations:
-        rows = table2_rows(inputs.ablations, order)
-        table("table2", TABLE2_COLUMNS, rows, markdown=table2_markdown(rows), latex=table2_latex(rows))
+        rows = table2_rows(inputs.ablations, order, inputs.splits)
+        table("table2", rows, markdown=table2_markdown(rows, inputs.splits), latex=table2_latex(rows, inputs.splits))
     if inputs.lomo:
-        table("leave_one_method_out", LOMO_COLUMNS, lomo_rows(inputs.lomo, order))
+        table("leave_one_method_out", lomo_rows(inputs.lomo, order))
     if inputs.datasets:
-        table("datasets", DATASET_COLUMNS, dataset_rows(inputs.datasets, order))
+        table("datasets", dataset_rows(inputs.datasets, order))
     if inputs.speed:
-        table("speed", SPEED_COLUMNS, speed_rows(inputs.speed, order))
+        table("speed", speed_rows(inputs.speed, order))
 
     written = []
-    for spec in registry.TABLES:  # in the registry's order, with its titles and files
+    for spec in registry.TABLES:  # in the registry's order, with its columns, titles and files
         if spec.name in contents:
-            columns, rows, special = contents[spec.name]
-            files = _write_table(out_dir / registry.TABLES_DIR / spec.name, columns, rows, spec.title, spec.suffixes,
-                                 notes=notes, **special)
-            written.append(WrittenTable(spec.name, tuple(columns), tuple(rows), tuple(files)))
+            rows, special = contents[spec.name]
+            columns = spec.expanded(inputs.splits)  # a column per split where the registry says so
+            title = special.pop("title", spec.title)  # a title naming the run's splits, else the registry's
+            files = _write_table(out_dir / registry.TABLES_DIR / spec.name, [c.name for c in columns], rows, title,
+                                 spec.suffixes, notes=notes, **special)
+            written.append(WrittenTable(spec.name, columns, tuple(rows), tuple(files),
+                                        None if title == spec.title else title))
     return written
 
 
@@ -695,6 +746,8 @@ def _read(paths: Sequence[Path | str], what: str, from_json: Callable[[dict[str,
     for path, data in _load(paths, what):
         try:
             record = from_json(data)
+        except FormatError as error:  # of another vpr-smr: say which format and to compute it again
+            raise FormatError(f"{path}: {_article(what)} file {error}") from None
         except (KeyError, TypeError, ValueError, AttributeError, IndexError) as error:
             raise ValueError(f"{path}: not {_article(what)} file: {_reason(error)}") from None
         missing = [key for key in meta if key not in record.meta]
@@ -717,7 +770,9 @@ def main(
     match_figures: Sequence[Path | str] = (),
     matrix_figures: Sequence[Path | str] = (),
     speed: Sequence[Path | str] = (),
-    split: str = "test",
+    split: str | None = None,
+    eval_splits: Sequence[str] | None = None,
+    train_split: str | None = None,
     table_seq_lens: Collection[int] | None = None,
     seq_len_ablation: bool = False,
     methods: Sequence[str] = (),
@@ -737,6 +792,9 @@ def main(
     ``match_figures`` and ``matrix_figures``: the match inspector's PNGs (``core.paths.match_figure_path`` and
     ``matrix_figure_path``), shown in the page, placed by their file names. ``speed``: the speed experiment's
     files (``scoring.speed.main``, one per dataset and profile, in the configuration's order of profiles).
+    ``split``, ``eval_splits``, ``train_split``: the configuration's table_split, eval_splits and train_split, which
+    the tables show and name (``results.Splits.resolve``; default: the one split every evaluation holds, the
+    splits of the inputs with it last, ``train``).
     ``table_seq_lens``: the sequence lengths of Table I and
     of the per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
     Datasets and methods keep the order the evaluations come in (the workflow gives them in the configuration's
@@ -754,6 +812,10 @@ def main(
     read_predictors = _read(predictors, "predictor report", PredictorReport.from_json, PREDICTOR_META)
     read_lomo = _read(leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
     read_speed = _read(speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
+    splits = Splits.resolve(split, eval_splits, train_split,
+                            [*(list(e.splits) for e in read_evaluations), *(list(m.splits) for m in read_metrics)],
+                            [name for report in read_predictors for name in report.seeds[0].splits])
+    split = splits.table or ""  # none only without evaluations and metrics, which alone show a split
     base = evaluation_order(read_evaluations, methods)
     order = Order.of([*(e.meta for e in read_evaluations), *(m.meta for m in read_metrics),
                       *(h.meta for h in read_lomo), *(p.meta for p in read_predictors),
@@ -767,7 +829,7 @@ def main(
         _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
         read_metrics,
         dict(datasets or {}), split, None if table_seq_lens is None else {int(s) for s in table_seq_lens},
-        seq_len_ablation, order, read_speed)
+        seq_len_ablation, order, read_speed, splits)
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]
@@ -777,5 +839,5 @@ def main(
                                       [*order.datasets], split, order)
         written.append(html_report.main(
             out_dir / registry.HTML, tables, [*figures, *inspected], order=order, split=split, config=config,
-            provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets))
+            provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets, splits=splits))
     return written

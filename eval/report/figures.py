@@ -1,4 +1,4 @@
-"""Figures of the report (SPEC section 10), one PNG each, named predictably from the configuration.
+"""Figures of the report (method §10), one PNG each, named predictably from the configuration.
 
 Names (``<d>`` dataset, ``<L>`` sequence length, ``<mode>`` paper or standard):
 

@@ -1,4 +1,4 @@
-"""``report.html``: one self-contained page that leads with the run's findings (SPEC 10).
+"""``report.html``: one self-contained page that leads with the run's findings (method §10).
 
 The page, top to bottom: per dataset, Table I in the paper's layout with a few sentences saying what it shows;
 then one section per experiment the run made, its figure next to a compact table and the whole table folded
@@ -28,6 +28,7 @@ from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.findings import sentences, speed_sentences
 from vpr_smr.eval.report.results import (
     Order,
+    Splits,
     WrittenFigure,
     WrittenTable,
     ground_truth_text,
@@ -63,23 +64,7 @@ from vpr_smr.eval.report.view import (
 TEMPLATES = Path(__file__).resolve().parent / "templates"
 TEMPLATE = "report.html.j2"
 DESCRIPTOR_KEYS = ("dataset", "method", "checkpoint_sha256", "frames_sha256", "vpr_smr_version")
-# Column headers of the compact tables (the folded whole tables keep the CSV's column names).
-LABELS = {
-    "seq_len": "L", "recall_at_1_single": "R@1 single", "recall_at_1_sequence": "R@1 sequence",
-    "max_recall": "max recall", "aoc_vpr_sm": "AOC VPR+SM", "aoc_vpr_sm_pred": "AOC VPR+SM+Pred",
-    "reduction_pct": "AOC reduction (%)", "n_queries": "queries", "f1_macro": "macro F1",
-    **{f"class_{c}": f"true {c}" for c in range(4)}, **{f"predicted_{c}": f"predicted {c}" for c in range(4)},
-    "n_train": "train samples", "f1_cv": "F1 cross-validation", "f1_val": "F1 validation", "f1_test": "F1 test",
-    "f1_test_method_mean": "F1 test, mean over methods", "n_val": "val samples", "n_test": "test samples",
-    "restored_correct": "restored correct", "wrong_to_right": "wrong to right", "right_to_wrong": "right to wrong",
-    "auc_removal": "PR AUC removal", "auc_restoration": "PR AUC restoration", "auc_difference": "difference",
-    "held_out": "held out", "f1_pooled": "F1 pooled", "f1_without": "F1 without", "removed_pooled": "removed pooled",
-    "removed_without": "removed without", "aoc_pooled": "AOC pooled", "aoc_without": "AOC without",
-    "reduction_pct_pooled": "reduction pooled (%)", "reduction_pct_without": "reduction without (%)",
-    "ms_per_query": "ms per query", "ms_attributes_per_query": "attributes (ms)",
-    "ms_predict_per_query": "prediction (ms)", "recall_at_1": "R@1", "recall_at_5": "R@5", "recall_at_10": "R@10",
-    "recall_at_20": "R@20", "recall_at_100p": "R@100P", "pr_auc": "PR-AUC", "extended_precision": "EP",
-}
+# The tables' columns, their headers and formats, and what the compact tables show: registry.TABLES
 MATCHER_TEXT = {"single": "single frame", "sequence": "sequence", "sequence_predictor": "sequence + predictor"}
 ATTRIBUTES = ("A1", "A2", "A3", "A4")
 
@@ -108,37 +93,45 @@ def _is_text(column: str, rows: Sequence[dict[str, Any]]) -> bool:
     return isinstance(value, str)
 
 
-def data_table(table_id: str, columns: Sequence[str], rows: Sequence[dict[str, Any]], short: bool = True,
-               caption: str = "", note: str = "", labels: dict[str, str] | None = None) -> TableView:
-    """A sortable table of ``rows``' ``columns``: short labels (``LABELS``, ``labels``) or the CSV's names."""
-    names = {**LABELS, **(labels or {})}
-    head = tuple(Column(names.get(c, c.replace("_", " ")) if short else c, "text" if _is_text(c, rows) else "num",
-                        title=c) for c in columns)
+def data_table(table_id: str, columns: Sequence[registry.Column], rows: Sequence[dict[str, Any]], short: bool = True,
+               caption: str = "", note: str = "") -> TableView:
+    """A sortable table of ``rows``' ``columns``: headed by their labels (``short``) or by their names (the CSV's
+    headers)."""
+    head = tuple(Column(c.header if short else c.name, "text" if _is_text(c.name, rows) else "num", title=c.name)
+                 for c in columns)
     body = tuple(tuple(row_cell(row, c) for c in columns) for row in rows)
     return TableView(table_id, head, body, caption=caption, note=note)
 
 
-def row_cell(row: dict[str, Any], column: str) -> Cell:
+def row_cell(row: dict[str, Any], column: registry.Column) -> Cell:
     """``cell`` of a row's value; an undefined reduction says why, from the row's outcome of that reduction
     (``reduction_pct`` -> ``outcome``, ``reduction_pct_pooled`` -> ``outcome_pooled``)."""
-    value = row.get(column)
-    outcome = row.get(column.replace("reduction_pct", "outcome")) if is_reduction(column) else None
+    value = row.get(column.name)
+    outcome = row.get(column.name.replace("reduction_pct", "outcome")) if is_reduction(column.name) else None
     if value is None and outcome in words.SHORT:
         return Cell(f"{UNDEFINED}: {words.SHORT[outcome]}", kind="na")
-    return cell(value, column)
+    return cell(value, column.name, fmt=column.fmt)
 
 
-def pivot(table_id: str, rows: Sequence[dict[str, Any]], row_key: str, row_label: str, column_key: str,
-          value_key: str, caption: str = "") -> TableView:
-    """``value_key`` of ``rows`` with one row per ``row_key`` and one column per ``column_key`` (in first-seen
-    order), e.g. the reduction per trust level (rows) and method (columns)."""
-    row_values = sorted(set(r[row_key] for r in rows))
-    column_values = unique(str(r[column_key]) for r in rows)
-    by_key = {(r[row_key], str(r[column_key])): r for r in rows}
-    head = (Column(row_label), *(Column(c) for c in column_values))
-    body = tuple((cell(v, row_key), *(row_cell(by_key.get((v, c), {}), value_key) for c in column_values))
+def _pivot(spec: registry.Table) -> registry.Pivot:
+    if spec.pivot is None:
+        raise ValueError(f"table {spec.name!r} declares no pivot")
+    return spec.pivot
+
+
+def pivot(table_id: str, rows: Sequence[dict[str, Any]], spec: registry.Table) -> TableView:
+    """The registered table ``spec``'s pivot of ``rows``: its value with one row per value of its rows' column
+    (sorted) and one column per value of its columns' (in first-seen order), e.g. the reduction per trust level
+    (rows) and method (columns)."""
+    layout = _pivot(spec)
+    row, value, key = spec.column(layout.rows), spec.column(layout.values[0]), layout.columns[0]
+    row_values = sorted(set(r[row.name] for r in rows))
+    column_values = unique(str(r[key]) for r in rows)
+    by_key = {(r[row.name], str(r[key])): r for r in rows}
+    head = (Column(row.header), *(Column(c) for c in column_values))
+    body = tuple((cell(v, row.name, fmt=row.fmt), *(row_cell(by_key.get((v, c), {}), value) for c in column_values))
                  for v in row_values)
-    return TableView(table_id, head, body, caption=caption)
+    return TableView(table_id, head, body, caption=spec.caption)
 
 
 def folded(table: WrittenTable, run_dir: Path) -> Folded:
@@ -147,28 +140,30 @@ def folded(table: WrittenTable, run_dir: Path) -> Folded:
     files = ", ".join(_relative(path, run_dir) for path in table.files)
     view = data_table(f"all-{table.name}", table.columns, table.rows, short=False)
     rows = f"{len(table.rows)} row" + ("" if len(table.rows) == 1 else "s")
-    return Folded(f"{spec.title}: the whole table, {rows} ({files})", view)
+    return Folded(f"{table.title or spec.title}: the whole table, {rows} ({files})", view)
 
 
 def _where(rows: Iterable[dict[str, Any]], **match: Any) -> list[dict[str, Any]]:
     return [r for r in rows if all(str(r.get(k)) == str(v) for k, v in match.items())]
 
 
-def speed_table(rows: Sequence[dict[str, Any]]) -> TableView:
-    """Sequence recall@1, then the AOC reduction, per profile (rows) and method and matcher (columns)."""
-    profiles = unique(str(r["profile"]) for r in rows)
-    columns = list(dict.fromkeys((str(r["method"]), str(r["matcher"])) for r in rows))
-    values = {(str(r["profile"]), str(r["method"]), str(r["matcher"])): r for r in rows}
-    head = (Column("profile", "text"), *(Column(f"{method} · {matcher}") for method, matcher in columns))
+def speed_table(table_id: str, rows: Sequence[dict[str, Any]]) -> TableView:
+    """The speed table's pivot: sequence recall@1, then the AOC reduction, per profile (rows, in the order given)
+    and method and matcher (columns)."""
+    spec = registry.table("speed")
+    layout = _pivot(spec)
+    profile = spec.column(layout.rows)
+    profiles = unique(str(r[profile.name]) for r in rows)
+    columns = list(dict.fromkeys(tuple(str(r[key]) for key in layout.columns) for r in rows))
+    values = {(str(r[profile.name]), *(str(r[key]) for key in layout.columns)): r for r in rows}
+    head = (Column(profile.header, "text"), *(Column(" · ".join(names)) for names in columns))
     body = []
-    for key, name in (("recall_at_1_sequence", "R@1 sequence"), ("reduction_pct", "AOC reduction (%)")):
-        for profile in profiles:
-            found = [values.get((profile, method, matcher)) for method, matcher in columns]
-            body.append((text_cell(f"{profile}: {name}", header=True),
-                         *(row_cell(r or {}, key) for r in found)))
-    return TableView(anchor("speed", rows[0]["dataset"], rows[0]["seq_len"]), head, tuple(body),
-                     caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and "
-                             "method · matcher (columns); single-frame recall@1 and the AOCs: the whole table below")
+    for value in (spec.column(name) for name in layout.values):
+        for name in profiles:
+            found = [values.get((name, *names)) for names in columns]
+            body.append((text_cell(f"{name}: {value.header}", header=True),
+                         *(row_cell(r or {}, value) for r in found)))
+    return TableView(table_id, head, tuple(body), caption=spec.caption)
 
 
 # --- Table I and the findings -----------------------------------------------------------------------------------
@@ -228,10 +223,11 @@ class _Builder:
     """Makes the sections from the written tables and figures (by registry name)."""
 
     def __init__(self, tables: Sequence[WrittenTable], figures: Sequence[WrittenFigure], order: Order, split: str,
-                 run_dir: Path) -> None:
+                 run_dir: Path, splits: Splits | None = None) -> None:
         self.tables = {t.name: t for t in tables}
         self.figures = list(figures)
         self.order, self.split, self.run_dir = order, split, run_dir
+        self.splits = splits or Splits(split, (split,))
 
     def rows(self, name: str) -> tuple[dict[str, Any], ...]:
         table = self.tables.get(name)
@@ -245,6 +241,21 @@ class _Builder:
 
     def named(self, name: str) -> list[WrittenFigure]:
         return [f for f in self.figures if f.name == name]
+
+    @staticmethod
+    def of(figure: WrittenFigure, rows: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
+        """The rows of ``figure``'s dataset, L and mode (those it is of)."""
+        keys = {"dataset": figure.dataset, "seq_len": figure.seq_len, "mode": figure.mode}
+        return _where(rows, **{key: value for key, value in keys.items() if value is not None})
+
+    def columns(self, name: str, rows: Sequence[dict[str, Any]]) -> list[registry.Column]:
+        """What the compact tables of the registered table ``name`` show of ``rows``: its ``page`` columns, an
+        ``if_any`` one only where a row has a value in it."""
+        return [c for c in registry.table(name).shown(self.splits) if not c.if_any or any(r.get(c.name) for r in rows)]
+
+    def compact(self, name: str, table_id: str, rows: Sequence[dict[str, Any]], caption: str = "") -> TableView:
+        """The compact table of the registered table ``name``: its page columns of ``rows``, headed by labels."""
+        return data_table(table_id, self.columns(name, rows), rows, caption=caption)
 
     def table_lens(self) -> set[int]:
         """Table I's sequence lengths (the per-L figures'); every L when there is no Table I."""
@@ -269,9 +280,7 @@ class _Builder:
         rows = self.rows("table1")
         blocks = []
         for f in self.named("pr"):
-            shown = _where(rows, dataset=f.dataset, seq_len=f.seq_len, mode=f.mode)
-            table = data_table(anchor("pr", f.dataset, f.seq_len, f.mode), (
-                "method", "recall_at_1_single", "recall_at_1_sequence", "max_recall", "reduction_pct"), shown)
+            table = self.compact("table1", anchor("pr", f.dataset, f.seq_len, f.mode), self.of(f, rows))
             blocks.append(Block(self._title(f), (self.figure(f),), (table,)))
         if not blocks and not rows:
             return None
@@ -287,9 +296,8 @@ class _Builder:
             return None
         blocks = []
         for f in self.named("trust"):
-            shown = _where(rows, dataset=f.dataset, seq_len=f.seq_len, mode=f.mode)
-            table = pivot(anchor("trust", f.dataset, f.seq_len, f.mode), shown, "trust", "trust level", "method",
-                          "reduction_pct", caption="AOC reduction (%) per trust level (columns: methods)")
+            table = pivot(anchor("trust", f.dataset, f.seq_len, f.mode), self.of(f, rows),
+                          registry.table("trust_levels"))
             blocks.append(Block(self._title(f), (self.figure(f),), (table,)))
         return Section("trust-levels", "Trust levels", (
             "A match the predictor marks wrong is removed only when its confidence is at least the trust level; "
@@ -302,12 +310,9 @@ class _Builder:
             return None
         blocks = []
         for f in self.named("restoration"):
-            shown = _where(rows, dataset=f.dataset, seq_len=f.seq_len, mode=f.mode)
             bars = [b for b in self.named("restoration_auc") if (b.dataset, b.seq_len, b.mode) ==
                     (f.dataset, f.seq_len, f.mode)]
-            table = data_table(anchor("restoration", f.dataset, f.seq_len, f.mode), (
-                "method", "removed", "restored", "wrong_to_right", "right_to_wrong", "auc_difference"), shown,
-                labels={"auc_difference": "PR AUC difference"})
+            table = self.compact("restoration", anchor("restoration", f.dataset, f.seq_len, f.mode), self.of(f, rows))
             blocks.append(Block(self._title(f), (self.figure(f),), (table,),
                                 aside=tuple(self.figure(bar) for bar in bars)))
         return Section("restoration", "Match restoration", (
@@ -320,9 +325,7 @@ class _Builder:
             return None
         blocks = []
         for f in self.named("seq_len"):
-            shown = _where(rows, dataset=f.dataset, mode=f.mode)
-            table = pivot(anchor("seq-len", f.dataset, f.mode), shown, "seq_len", "L", "method", "reduction_pct",
-                          caption="AOC reduction (%) per sequence length (columns: methods)")
+            table = pivot(anchor("seq-len", f.dataset, f.mode), self.of(f, rows), registry.table("ablation_seq_len"))
             blocks.append(Block(self._title(f), (self.figure(f),), (table,)))
         return Section("sequence-length", "Sequence-length ablation", (
             "PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
@@ -334,13 +337,13 @@ class _Builder:
             return None
         blocks = []
         for f in self.named("speed"):
-            shown = _where(rows, dataset=f.dataset, seq_len=f.seq_len)
-            blocks.append(Block(self._title(f), (self.figure(f),), (speed_table(shown),),
-                                tuple(speed_sentences(shown, self.split))))
+            shown = self.of(f, rows)
+            table = speed_table(anchor("speed", f.dataset, f.seq_len), shown)
+            blocks.append(Block(self._title(f), (self.figure(f),), (table,), tuple(speed_sentences(shown, self.split))))
         velocities = unique(str(r["velocities"]).replace(" ", ", ") for r in rows if r["matcher"] == "velocity")
         return Section("speed", "Speed profiles", (
-            "The table split's query re-driven at other speeds (SPEC 11): a constant profile c advances c places per "
-            "query frame (the query driven c times as fast; 1x is the aligned pair), the varying one "
+            "The table split's query re-driven at other speeds (method §11): a constant profile c advances c places "
+            "per query frame (the query driven c times as fast; 1x is the aligned pair), the varying one "
             "1 + 0.5 sin(2 pi t / 200) places; the query's frames are the nearest to its positions, its distance "
             "matrix the aligned one's columns, and a match is correct within the tolerance of its position. The "
             "fixed matcher is the paper's (slope 1); velocity search tries the slopes "
@@ -358,24 +361,22 @@ class _Builder:
         for dataset in sorted(datasets, key=self.order.dataset):
             tables = []
             for f in (c for c in confusion if c.dataset == dataset):
-                shown = _where(methods, dataset=dataset, seq_len=f.seq_len)
-                tables.append(data_table(anchor("predictor", dataset, f.seq_len), (
-                    "method", "n_queries", "f1_macro", *(f"class_{c}" for c in range(4))), shown,
-                    caption=f"Per method, {self.split} split, L = {f.seq_len}: macro F1 and the true classes' counts "
-                            "(the predicted counts: the whole table below)"))
+                caption = registry.table("predictor_methods").caption.format(split=self.split, seq_len=f.seq_len)
+                tables.append(self.compact("predictor_methods", anchor("predictor", dataset, f.seq_len),
+                                           self.of(f, methods), caption))
             shown = _where(pooled, dataset=dataset)
             if shown:
-                columns = ("seq_len", "n_train", "f1_cv", "f1_val", "f1_test", "n_val", "n_test")
-                warned = any(row.get("warning") for row in shown)
-                tables.append(data_table(anchor("predictor-pooled", dataset), (*columns, *(
-                    ("warning",) if warned else ())), shown,
-                    caption="The pooled predictor (seed 0) per sequence length" + (
-                        "; warning: the seeds whose predictor cannot be trusted on the validation split" if warned
-                        else "")))
+                columns = self.columns("predictor", shown)
+                caption = registry.table("predictor").caption
+                if any(column.if_any for column in columns):  # the warning column: a row has a warning
+                    validation = self.splits.validation
+                    caption += ("; warning: the seeds whose predictor cannot be trusted on the "
+                                f"{'validation' if validation in (None, 'val') else validation} split")
+                tables.append(data_table(anchor("predictor-pooled", dataset), columns, shown, caption=caption))
             figures = tuple(self.figure(c) for c in confusion if c.dataset == dataset)
             blocks.append(Block(dataset, figures, tuple(tables)))
         return Section("predictor", "The predictor alone", (
-            "Classes (SPEC 6): 0 correct before and after sequence matching, 1 correct before only, 2 correct after "
+            "Classes (method §6): 0 correct before and after sequence matching, 1 correct before only, 2 correct after "
             "only, 3 wrong both; the predictor keeps the matches of classes 0 and 2. Cross-validation uses SMOTE "
             "inside the folds. The confusion matrix sums every method.",), tuple(blocks),
             self.folded("predictor", "predictor_methods", "predictor_confusion"))
@@ -385,17 +386,16 @@ class _Builder:
         if not rows:
             return None
         blocks = []
+        shown_columns = self.columns("table2", rows)
+        f1 = [column for column in shown_columns if not column.note]  # the rest: the samples, said in the note
         for dataset, seq_len in self.keys(rows):
             shown = _where(rows, dataset=dataset, seq_len=seq_len)
-            head = (*(Column(a, "text") for a in ATTRIBUTES), *(Column(LABELS[k]) for k in (
-                "f1_cv", "f1_val", "f1_test", "f1_test_method_mean")))
+            head = (*(Column(a, "text") for a in ATTRIBUTES), *(Column(c.header) for c in f1))
             body = tuple((*(text_cell("✓" if r["attributes"] in (a, "all") else "×") for a in ATTRIBUTES),
-                          *(cell(r.get(k), k) for k in ("f1_cv", "f1_val", "f1_test", "f1_test_method_mean")))
+                          *(row_cell(r, c) for c in f1))
                          for r in shown)
             first = shown[0]
-            counts = [f"{first[k]} {name}" for k, name in (("n_train", "training samples (cross-validation)"),
-                                                           ("n_val", "validation"), ("n_test", "test samples"))
-                      if first.get(k) is not None]
+            counts = [f"{first[c.name]} {c.header}" for c in shown_columns if c.note and first.get(c.name) is not None]
             note = "Macro F1 over " + ", ".join(counts) + ", every method pooled." if counts else ""
             table = TableView(anchor("table2", dataset, seq_len), head, body, note=note)
             blocks.append(Block(f"{dataset}, L = {seq_len}", (), (table,)))
@@ -409,14 +409,11 @@ class _Builder:
             return None
         blocks = []
         for dataset in sorted(unique(str(r["dataset"]) for r in rows), key=self.order.dataset):
-            shown = _where(rows, dataset=dataset)
-            table = data_table(anchor("lomo", dataset), (
-                "held_out", "seq_len", "mode", "f1_pooled", "f1_without", "removed_pooled", "removed_without",
-                "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without"), shown)
+            table = self.compact("leave_one_method_out", anchor("lomo", dataset), _where(rows, dataset=dataset))
             blocks.append(Block(dataset, (), (table,)))
         return Section("leave-one-method-out", "Leave one method out", (
-            "Each method's test split under the pooled predictor and under one trained on every other method: how "
-            "well the predictor carries over to a method it has not seen.",), tuple(blocks),
+            f"Each method's {self.split} split under the pooled predictor and under one trained on every other "
+            "method: how well the predictor carries over to a method it has not seen.",), tuple(blocks),
             self.folded("leave_one_method_out"))
 
     def timing(self) -> Section | None:
@@ -429,9 +426,7 @@ class _Builder:
             shown = [r for r in _where(rows, dataset=dataset, split=self.split)
                      if not lens or int(r["seq_len"]) in lens]
             if shown:
-                table = data_table(anchor("timing", dataset), (
-                    "method", "seq_len", "n_queries", "ms_per_query", "ms_attributes_per_query",
-                    "ms_predict_per_query"), shown)
+                table = self.compact("timing", anchor("timing", dataset), shown)
                 blocks.append(Block(f"{dataset}, {self.split} split", (), (table,)))
         return Section("timing", "Inference time", (
             "Time per query of the attributes and of the prediction (this machine; every other number of the report "
@@ -447,9 +442,7 @@ class _Builder:
         for dataset, seq_len in self.keys(rows):
             shown = [{**r, "matcher": MATCHER_TEXT.get(str(r["matcher"]), r["matcher"])}
                      for r in _where(rows, dataset=dataset, seq_len=seq_len, mode=mode)]
-            columns = ("method", "matcher", "n_queries", *(c for c in rows[0] if c.startswith("recall_at_")),
-                       "pr_auc", "extended_precision")
-            table = data_table(anchor("metrics", dataset, seq_len, mode), columns, shown)
+            table = self.compact("vpr_metrics", anchor("metrics", dataset, seq_len, mode), shown)
             blocks.append(Block(f"{dataset}, L = {seq_len}, {self.split} split, {mode} mode", (), (table,)))
         return Section("vpr-metrics", "Standard VPR metrics", (
             "Recall@N (a query counts when a correct reference is among its N best matches), recall at 100 % "
@@ -486,7 +479,7 @@ def cards(datasets: dict[str, dict[str, Any]] | None, order: Order) -> tuple[Car
     for name in sorted(datasets or {}, key=order.dataset):
         info = (datasets or {})[name]
         splits = info.get("splits", {})
-        reference_splits = info.get("reference_splits") or {}  # SPEC 11: reference ranges that differ
+        reference_splits = info.get("reference_splits") or {}  # method §11: reference ranges that differ
         items = [
             ("reference / query", f"{info.get('reference', '')} / {info.get('query', '')}", False),
             ("frames", str(info.get("n_frames", "")) if info.get("n_query_frames") is None  # frame-aligned
@@ -547,14 +540,16 @@ def build_page(
     run_dir: Path,
     *,
     order: Order | None = None,
-    split: str = "test",
+    split: str,
     config: str | dict[str, Any] | None = None,
     provenance: dict[str, Any] | None = None,
     descriptor_paths: Sequence[Path | str] = (),
     title: str = "vpr-smr report",
     datasets: dict[str, dict[str, Any]] | None = None,
+    splits: Splits | None = None,
 ) -> Page:
-    """The page's view model from the tables and figures of the run folder ``run_dir``."""
+    """The page's view model from the tables and figures of the run folder ``run_dir``: ``split`` is the table
+    split, ``splits`` every split's name by role (default: ``split`` alone)."""
     order = order or Order(tuple(datasets or {}))
     by_name = {t.name: t for t in tables}
     general, files = provenance_rows(provenance, descriptor_paths)
@@ -562,16 +557,17 @@ def build_page(
     lens = sorted({int(r["seq_len"]) for r in by_name["table1"].rows}) if "table1" in by_name else []
     run = config.get("run") if isinstance(config, dict) else None
     subtitle = " · ".join([
-        *([f"run {run}"] if run else []), f"vpr-smr {version}", f"{split} split",
+        *([f"run {run}"] if run else []), f"vpr-smr {version}", *([f"{split} split"] if split else []),
         *([f"Table I at L = {', '.join(map(str, lens))}"] if lens else []),
         f"generated {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}",
     ])
     found = findings(by_name.get("table1"), split, by_name.get("predictor"))
     table1_files = (", ".join(_relative(p, run_dir) for p in by_name["table1"].files[1:]) + " hold this layout; "
                     + _relative(by_name["table1"].files[0], run_dir) + " every column") if "table1" in by_name else ""
-    sections = _Builder(tables, figures, order, split, run_dir).sections()
+    sections = _Builder(tables, figures, order, split, run_dir, splits).sections()
     dataset_table = by_name.get("datasets")
-    descriptor_table = data_table("provenance-files", ("file", *DESCRIPTOR_KEYS), files, short=False) if files else None
+    descriptor_table = data_table("provenance-files", [registry.Column(key) for key in ("file", *DESCRIPTOR_KEYS)],
+                                  files, short=False) if files else None
     page_cards = cards(datasets, order)
     nav = [*([("findings", "Findings")] if found else []), *((s.id, s.title) for s in sections),
            *([("datasets", "Datasets")] if page_cards or dataset_table else []),
@@ -600,17 +596,18 @@ def main(
     figures: Sequence[WrittenFigure],
     *,
     order: Order | None = None,
-    split: str = "test",
+    split: str,
     config: str | dict[str, Any] | None = None,
     provenance: dict[str, Any] | None = None,
     descriptor_paths: Sequence[Path | str] = (),
     title: str = "vpr-smr report",
     datasets: dict[str, dict[str, Any]] | None = None,
+    splits: Splits | None = None,
 ) -> Path:
     """Write the page to ``out`` (temporary name, then rename; its folder is the run folder) and return its path."""
     out = Path(out)
     page = build_page(tables, figures, out.parent, order=order, split=split, config=config, provenance=provenance,
-                      descriptor_paths=descriptor_paths, title=title, datasets=datasets)
+                      descriptor_paths=descriptor_paths, title=title, datasets=datasets, splits=splits)
     text = render(page)
     with atomic_path(out) as tmp:
         tmp.write_text(text, encoding="utf-8")

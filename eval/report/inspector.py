@@ -38,7 +38,7 @@ from vpr_smr.datasets import TraversePair, load_frames
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import is_npy, open_distance_matrix, split_ground_truth
-from vpr_smr.eval.matching.velocity import offsets
+from vpr_smr.eval.matching.matcher import SequenceMatcher
 from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
 from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, velocities_text
 
@@ -125,7 +125,7 @@ def _flag(value: str) -> bool:
 
 def _row(record: dict[str, str]) -> QueryRow:
     if int(record["label"]) not in CLASS_TEXT:
-        raise ValueError(f"label {record['label']!r} is not a class 0..3 (SPEC 6)")
+        raise ValueError(f"label {record['label']!r} is not a class 0..3 (method §6)")
     kept = _optional(record["kept"], float)
     return QueryRow(
         split=record["split"], query=int(record["query"]), single_match=int(record["single_match"]),
@@ -209,13 +209,10 @@ def _verdict(correct: bool) -> tuple[str, str]:
 def _sequence_sum(columns: np.ndarray, reference: int, seq_len: int,
                   velocities: Sequence[float] = DEFAULT_VELOCITIES) -> float | None:
     """``S[reference, query]`` from the window ``columns`` (split-local rows x the ``L`` columns ending at the
-    query): the smallest sum of ``D`` along a trajectory of ``velocities`` ending there (SPEC 11; the diagonal
-    ``sum_k D[reference - k, query - k]`` for the fixed matcher), or None when every trajectory leaves the split."""
-    if not 0 <= reference < columns.shape[0]:
-        return None
-    sums = [sum(float(columns[reference - int(o), k]) for k, o in enumerate(offsets(v, seq_len)))
-            for v in velocities if reference - int(offsets(v, seq_len)[0]) >= 0]
-    return min(sums) if sums else None
+    query), by the sequence matcher of the run's ``velocities``, or None when no trajectory ends there."""
+    found = SequenceMatcher(seq_len, tuple(velocities)).sequences(columns.T)
+    index = reference - found.first_reference
+    return float(found.sums[0, index]) if 0 <= index < found.sums.shape[1] else None
 
 
 def _decision_lines(row: QueryRow) -> list[tuple[str, str]]:
@@ -507,7 +504,7 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
     descriptors were computed from (default: the distances file's); the images are refused when theirs differs.
     ``split``: None is the queries CSV's only split. ``split_range``: the split's frames ``(lo, hi)`` (default: the
     distances file's ``split_range``; for a ``.npy``, ``0 .. Q``; its references: the file's ``reference_range``
-    when it has one, SPEC 11). ``tolerance``: frames of the ground-truth band; ``radius``: the ground truth's with
+    when it has one, method §11). ``tolerance``: frames of the ground-truth band; ``radius``: the ground truth's with
     positions (those the distances file holds, or ``reference_positions`` and ``query_positions`` of a user's
     matrix, as ``vpr-smr metrics`` takes them). ``velocities``: the run's sequence matcher. ``similarity``: the
     ``.npy`` holds similarities, read as distances ``max(M) - M`` (``vpr-smr queries --similarity``).

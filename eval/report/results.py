@@ -7,14 +7,65 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.constants import MODES
+from vpr_smr.eval.predictor.defaults import validation_split
+
+if TYPE_CHECKING:  # the registry imports this module
+    from vpr_smr.eval.report.registry import Column
 
 
 def unique(values: Iterable[str]) -> tuple[str, ...]:
     """``values`` without repeats, in the order first seen."""
     return tuple(dict.fromkeys(values))
+
+
+def split_word(name: str) -> str:
+    """A split's name as the tables' headings and notes say it: ``val`` spelt out (``validation``), any other name,
+    the configuration's, as it is."""
+    return "validation" if name == "val" else name
+
+
+@dataclass(frozen=True)
+class Splits:
+    """The run's split names by role, the configuration's: ``table`` (table_split: the split of every table and
+    figure), ``evaluation`` (eval_splits, in its order) and ``train`` (train_split). ``validation``: the predictor's
+    validation split (``predictor.defaults.validation_split``); ``last``: the last evaluation split, Table II's
+    other one (``predictor.defaults.ablation_splits``)."""
+
+    table: str | None
+    evaluation: tuple[str, ...]
+    train: str = "train"
+
+    @property
+    def validation(self) -> str | None:
+        return validation_split(self.evaluation)
+
+    @property
+    def last(self) -> str | None:
+        return self.evaluation[-1] if self.evaluation else self.table
+
+    @classmethod
+    def resolve(cls, table: str | None, evaluation: Sequence[str] | None, train: str | None,
+                tables: Sequence[Iterable[str]], seen: Iterable[str] = ()) -> Splits:
+        """The splits given, the others from the inputs': ``table`` defaults to the one split that every input of
+        ``tables`` (e.g. each evaluation's splits) holds (None without such inputs), ``evaluation`` to the splits
+        of ``tables`` and ``seen`` (e.g. the predictors'), in the order first seen, the table split last."""
+        held = [list(names) for names in tables]
+        if table is None and held:
+            common = [name for name in held[0] if all(name in names for names in held[1:])]
+            if len(common) != 1:
+                raise ValueError(f"the inputs hold the splits {', '.join(map(repr, common)) or 'none in common'}: "
+                                 "name the split the tables show (the configuration's table_split)")
+            table = common[0]
+        if evaluation is None:
+            names = unique([*(name for names in held for name in names), *seen])
+            evaluation = [*(name for name in names if name != table), *([table] if table is not None else [])]
+        elif table is not None and table not in evaluation:
+            raise ValueError(f"the table split {table!r} is not among the evaluation splits "
+                             f"{', '.join(map(repr, evaluation))}")
+        return cls(table, tuple(evaluation), train or "train")
 
 
 @dataclass(frozen=True)
@@ -61,12 +112,15 @@ class Order:
 
 @dataclass(frozen=True)
 class WrittenTable:
-    """A registered table as written: its columns, its rows (the CSV's, unrounded) and its files (CSV first)."""
+    """A registered table as written: its columns (the registry's, one per split where it declares so), its rows
+    (the CSV's, unrounded), its files (CSV first) and its title where it is not the registry's (one naming the run's
+    splits)."""
 
     name: str
-    columns: tuple[str, ...]
+    columns: tuple[Column, ...]
     rows: tuple[dict[str, Any], ...]
     files: tuple[Path, ...]
+    title: str | None = None
 
 
 @dataclass(frozen=True)
@@ -88,7 +142,7 @@ class WrittenFigure:
 
 def split_text(splits: dict[str, Sequence[int]], reference_splits: dict[str, Sequence[int]] | None = None) -> str:
     """``train [0, 500): 500 frames; ...``: each split's frames (half-open) and their number; a split whose
-    reference range differs (SPEC 11) gives both: ``train references [0, 400): 400, queries [0, 600): 600``."""
+    reference range differs (method §11) gives both: ``train references [0, 400): 400, queries [0, 600): 600``."""
     def one(split: str, lo: int, hi: int) -> str:
         reference = (reference_splits or {}).get(split)
         if reference is None:
@@ -99,7 +153,7 @@ def split_text(splits: dict[str, Sequence[int]], reference_splits: dict[str, Seq
 
 
 def ground_truth_text(info: dict[str, Any]) -> str:
-    """A dataset card's ground truth: positions within the radius (SPEC 11), else frames within the tolerance."""
+    """A dataset card's ground truth: positions within the radius (method §11), else frames within the tolerance."""
     if info.get("radius") is not None:
         return f"positions within {info['radius']:g} (the positions' unit)"
     return f"{info.get('tolerance', '')} frames"

@@ -1,8 +1,9 @@
-"""Table I (SPEC 10): the area over the PR curve at max recall per dataset and method, with and without the
+"""Table I (method §10): the area over the PR curve at max recall per dataset and method, with and without the
 predictor, in the paper's layout (methods as columns, then Mean and Improved) for Markdown, LaTeX and the HTML page.
 
-The rows are the CSV's (``table1_rows``: one per dataset, method, L and mode, in the configuration's order);
-``table1_blocks`` groups them into the paper's tables, one per dataset, mode and L.
+The rows are the CSV's (``table1_rows``: one per dataset, method, L and mode, in the configuration's order; its
+columns are declared in ``registry``); ``table1_blocks`` groups them into the paper's tables, one per dataset, mode
+and L.
 """
 
 from __future__ import annotations
@@ -14,21 +15,11 @@ from typing import Any
 import numpy as np
 
 from vpr_smr.eval.report import outcome_words as words
-from vpr_smr.eval.report.results import Order
+from vpr_smr.eval.report.results import Order, Splits
 from vpr_smr.eval.scoring.records import Evaluation, EvaluationSplit
 
 UNDEFINED = "n/a"  # a reduction whose baseline AOC is 0: JSON null, an empty CSV cell
-SEED_COLUMNS = ("reduction_pct_mean", "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds")
-TABLE1_NUMBERS = ("dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence", "max_recall",
-                  "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct", *SEED_COLUMNS)
-# n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
-# n_queries_single: those recall_at_1_single is over (paper mode: every query of the split, SPEC 8)
-QUERY_COLUMNS = ("n_queries", "n_queries_single")
-# What the seed-0 predictor did (``curves.outcome``), the matches it removed, the baseline's own maximum recall and
-# AOC there (what the baseline is worth where the predictor leaves no recall), and the seeds the spread leaves out
-OUTCOME_COLUMNS = ("outcome", "removed", "max_recall_vpr_sm", "aoc_vpr_sm_own", "seeds_left_out")
-# n_seeds_defined: the seeds whose reduction is defined (the baseline's AOC not 0), which the seed columns are over
-TABLE1_COLUMNS = (*TABLE1_NUMBERS, *QUERY_COLUMNS, "n_seeds_defined", *OUTCOME_COLUMNS)
+# The CSV's columns: registry.table("table1")
 ROW_NAMES = ("VPR+SM", "VPR+SM+Pred", "Reduction (%)")
 SEED_ROW_NAME = "Reduction over seeds (%)"
 PLUS_MINUS = " ± "  # mean ± std over the seeds ($\pm$ in LaTeX)
@@ -53,11 +44,14 @@ def _mode_numbers(split_result: EvaluationSplit, mode: str) -> dict[str, Any]:
             "n_queries": n_queries, "n_queries_single": split_result.n_queries_split if mode == "paper" else n_queries}
 
 
-def table1_rows(evaluations: Sequence[Evaluation], split: str = "test",
+def table1_rows(evaluations: Sequence[Evaluation], split: str | None = None,
                 seq_lens: Collection[int] | None = None, order: Order | None = None) -> list[dict[str, Any]]:
-    """One row per (dataset, method, L, mode) of the evaluations, optionally only the sequence lengths given; by
-    mode, L, dataset and method, each in the configuration's ``order`` (default: the evaluations')."""
+    """One row per (dataset, method, L, mode) of the evaluations' ``split`` (the configuration's table_split;
+    default: the one split every evaluation holds), optionally only the sequence lengths given; by mode, L, dataset
+    and method, each in the configuration's ``order`` (default: the evaluations')."""
     order = order or evaluation_order(evaluations)
+    if split is None:
+        split = str(Splits.resolve(None, None, None, [list(e.splits) for e in evaluations]).table)
     rows = []
     for evaluation in evaluations:
         meta, result = evaluation.meta, evaluation.splits[split]
@@ -166,7 +160,7 @@ def _number(value: float | None, fmt: str) -> str:
     return UNDEFINED if value is None else fmt.format(value)
 
 
-def _query_note(datasets: dict[str, list[dict[str, Any]]], split: str, mode: str) -> str:
+def _query_note(datasets: dict[str, list[dict[str, Any]]], split: str | None, mode: str) -> str:
     """Per dataset: the queries the table is over (those with a sequence match) and, in paper mode, the split's
     every query, which single-frame recall@1 is over."""
     parts = []
@@ -178,7 +172,8 @@ def _query_note(datasets: dict[str, list[dict[str, Any]]], split: str, mode: str
             if single and single != n:
                 text += f" (single-frame recall@1 over all {single} of the split)"
             parts.append(text)
-    return f"{split} split, {mode} mode: " + "; ".join(parts) if parts else ""
+    named = f"{split} split, " if split else ""
+    return f"{named}{mode} mode: " + "; ".join(parts) if parts else ""
 
 
 def _span(values: Iterable[Any]) -> str:
@@ -189,8 +184,10 @@ def _span(values: Iterable[Any]) -> str:
     return str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
 
 
-def table1_markdown(rows: list[dict[str, Any]], split: str = "test") -> str:
-    out = [f"# Table I: area over the precision-recall curve at max recall ({split} split)", "",
+def table1_markdown(rows: list[dict[str, Any]], split: str | None = None) -> str:
+    """Table I as markdown; ``split``: the table split the rows are of, named in the title and notes."""
+    named = f" ({split} split)" if split else ""
+    out = [f"# Table I: area over the precision-recall curve at max recall{named}", "",
            "Rows VPR+SM, VPR+SM+Pred, Reduction: the seed-0 predictor (the authors' recipe); "
            "Reduction over seeds: mean ± sample standard deviation over the predictor seeds.", ""]
     undefined = False
@@ -236,8 +233,9 @@ def _tex_reduction(row: dict[str, Any] | None, value: float | None) -> str:
     return words.reduction_cell(row, text) if row is not None else text
 
 
-def table1_latex(rows: list[dict[str, Any]], split: str = "test") -> str:
-    out = [f"% Table I ({tex_escape(split)} split)"]
+def table1_latex(rows: list[dict[str, Any]], split: str | None = None) -> str:
+    """Table I as LaTeX tabulars; ``split``: the table split the rows are of, named in the first comment."""
+    out = [f"% Table I ({tex_escape(split)} split)" if split else "% Table I"]
     for (mode, seq_len), datasets in _groups(rows).items():
         undefined = False  # each tabular has its own footnote: only where one of its cells is n/a
         methods = [r["method"] for r in next(iter(datasets.values()))]

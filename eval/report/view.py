@@ -120,17 +120,9 @@ class Page:
 # --- cells ------------------------------------------------------------------------------------------------------
 
 
-def _decimals(column: str) -> int:
-    if is_reduction(column) or column.endswith("_pct"):
-        return 2
-    if column.startswith("ms_") or column.endswith("_seconds"):
-        return 3
-    return 4
-
-
-def cell(value: Any, column: str = "", header: bool = False) -> Cell:
-    """The cell of a table value: numbers rounded by column (reductions 2 decimals, times 3, others 4) and
-    kept whole for sorting; a reduction coloured by its sign; None as ``n/a`` in a reduction column, else empty."""
+def cell(value: Any, column: str = "", header: bool = False, fmt: str = ".4f") -> Cell:
+    """The cell of a table value: a float written with its column's ``fmt`` (``registry.Column``'s) and kept whole
+    for sorting; a reduction coloured by its sign; None as ``n/a`` in a reduction column, else empty."""
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return Cell(UNDEFINED if is_reduction(column) else "", kind="na", header=header)
     if isinstance(value, bool):
@@ -141,8 +133,7 @@ def cell(value: Any, column: str = "", header: bool = False) -> Cell:
         kind = "num"
         if is_reduction(column) and value != 0:
             kind = "up" if value > 0 else "down"
-        text = f"{value:g}" if column == "trust" else f"{value:.{_decimals(column)}f}"
-        return Cell(text, sort=repr(value), kind=kind, header=header)
+        return Cell(f"{value:{fmt}}", sort=repr(value), kind=kind, header=header)
     text = str(value)
     code = "sha256" in column or column == "file" or (len(text) > 40 and " " not in text)
     return Cell(text, kind="code" if code else "text", header=header)

@@ -1,4 +1,4 @@
-"""Match removal and precision-recall (SPEC section 8), in paper and standard mode.
+"""Match removal and precision-recall (method §8), in paper and standard mode.
 
 A curve is two arrays, recall and precision, whose first point is ``(R=0, P=1)``. Both modes share
 ``keep_mask`` and ``compare_curves``; only the curve differs, selected by the ``mode`` parameter.

@@ -1,7 +1,8 @@
-"""Evaluation of one method on one dataset: match removal by the predictor, PR curves, AOC, F1 (SPEC 7-9).
+"""Evaluation of one method on one dataset: match removal by the predictor, PR curves, AOC, F1 (method §§7-9).
 
-The seed-0 predictor (the authors' recipe) gives every curve and the headline numbers; every seed's predictor gives
-the reduction and AOC numbers under ``seeds``, summarised in ``seed_summary``, so a table can show their spread.
+The seed-0 predictor (the authors' recipe) gives every curve and the headline numbers; every other seed's predictor
+gives the reduction and AOC numbers under ``other_seeds``, and every seed's are summarised in ``seed_summary``, so a
+table can show their spread.
 """
 
 from __future__ import annotations
@@ -16,8 +17,9 @@ import numpy as np
 from sklearn.metrics import confusion_matrix
 
 from vpr_smr.core.constants import DEFAULT_TRUST_LEVELS, LABELS, MODES
-from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance, write_json
+from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance
 from vpr_smr.core.paths import timing_path
+from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import QueryFeatures, check_matching, common_matching, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
@@ -48,7 +50,7 @@ def rank_probabilities(predictor: Any, features: QueryFeatures, ranks: int | Non
 
 
 def recall_at_1(features: QueryFeatures, mode: str) -> dict[str, float]:
-    """Recall@1 before and after sequence matching, by the mode's rule (SPEC 8).
+    """Recall@1 before and after sequence matching, by the mode's rule (method §8).
 
     Paper mode divides single-frame recall by every query of the split (the first ``L-1`` included, as the
     authors do); standard mode by the evaluated queries (those with a sequence match).
@@ -154,7 +156,8 @@ def evaluate_split(
     with the seconds the seed-0 predictor took to classify the split (a timing, kept out of the record).
 
     ``predictors`` are in seed order, seed 0 first: the first gives the curves, the predictor's own numbers
-    (macro F1, confusion matrix) and restoration; each gives one entry of ``seeds``.
+    (macro F1, confusion matrix) and restoration; each gives one entry of the split's ``seeds`` (the first's are
+    its own numbers, written once).
     """
     predictors = [predictors] if isinstance(predictors, SMRPredictor) else list(predictors)
     seeds = list(range(len(predictors))) if seeds is None else list(seeds)
@@ -186,7 +189,8 @@ def evaluate_split(
         predicted_counts=tuple(np.bincount(numbers.predicted, minlength=4).tolist()),
         removed=numbers.removed,
         modes=numbers.modes,
-        seeds=tuple(seed_numbers),
+        seed=seed_numbers[0].seed,
+        other_seeds=tuple(seed_numbers[1:]),
         seed_summary=seed_summary(seed_numbers),
         restoration=restored,
     )
@@ -235,6 +239,6 @@ def main(
         timings[split] = SplitTiming.of(attributes_seconds, predict_seconds, splits[split].n_queries)
     evaluation = Evaluation(dict(meta or {}), tuple(str(p) for p in predictor_paths), splits)
     timing = Timing(dict(evaluation.meta), timings)
-    write_json(timing_path(out), timing.to_json())
-    write_json(out, evaluation.to_json())
+    save(timing_path(out), timing)
+    save(out, evaluation)
     return evaluation, timing

@@ -7,12 +7,13 @@ from pathlib import Path
 from typing import Any
 
 from vpr_smr.core.constants import MODES
-from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, write_json
+from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
+from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import Matching, check_matching, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
 from vpr_smr.eval.scoring.evaluate import removal
-from vpr_smr.eval.scoring.records import HeldOut, HeldOutScores
+from vpr_smr.eval.scoring.records import HeldOut, HeldOutPredictors, HeldOutScores
 
 
 def main(
@@ -38,6 +39,6 @@ def main(
         scores[name] = HeldOutScores.of(str(path), removal(
             features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_, tuple(modes),
             curves=False))
-    result = HeldOut(dict(meta or {}), len(features_.queries), scores["pooled"], scores["without"])
-    write_json(out, result.to_json())
+    result = HeldOut(dict(meta or {}), len(features_.queries), HeldOutPredictors(scores["pooled"], scores["without"]))
+    save(out, result)
     return result

@@ -3,8 +3,8 @@ of every split.
 
 Frame indices (``query``, ``single_match``, ``sequence_match``, ``true_reference``) are the dataset's: the split's
 first query (reference) frame plus the index within the split. The true reference of query ``a`` is ``a`` in a
-frame-aligned pair, the reference nearest to its position otherwise (SPEC 11; the lowest on ties).
-``A1..A4`` are the rank-0 attributes under the paper's names (SPEC 5: minimum sum, minimum value, block sum and group
+frame-aligned pair, the reference nearest to its position otherwise (method §11; the lowest on ties).
+``A1..A4`` are the rank-0 attributes under the paper's names (method §5: minimum sum, minimum value, block sum and group
 sum rates), the order ``QueryFeatures.attributes`` stores them in; the predictor takes them in that order and feeds
 its network the code's order ``[A1, A2, A4, A3]`` itself (``SMRPredictor.column_order``). ``predicted_class``,
 ``probability`` (its class probability, the highest) and ``kept`` (1 when the predicted class is one of
@@ -66,7 +66,7 @@ class SplitQueries:
     features: QueryFeatures
     single_distance: np.ndarray  # (N,)
     prediction: Prediction | None
-    reference_first_frame: int | None = None  # the split's first reference frame when its ranges differ (SPEC 11)
+    reference_first_frame: int | None = None  # the split's first reference frame when its ranges differ (method §11)
     true_reference: np.ndarray | None = None  # (N,) split-local; None: the query's own index (frame-aligned)
     velocities: tuple[float, ...] = DEFAULT_VELOCITIES  # the sequence matcher's
 

@@ -1,4 +1,4 @@
-"""Match restoration, the second filter (SPEC section 9).
+"""Match restoration, the second filter (method §9).
 
 After match removal, each query whose sequence match was removed looks at its next best sequence matches (ranks
 1..K-1 of ``QueryFeatures``), whose attributes the predictor classifies like the rank-0 ones. The removed match is
@@ -9,7 +9,7 @@ correctness of the restored match itself (``rank_correct``), not of the match it
 Threshold value of a restored query: it keeps its own rank-0 sequence distance ``m_a`` (``sequence_distance``).
 The distance threshold is the confidence of the query's localisation, swept once per query; the authors' code does
 the same (its restored matches are tested against ``min_i S``), and the alternative's own sum is not a comparable
-score (the ranks are ordered by the column-normalised sums of SPEC 5, not by ``S``).
+score (the ranks are ordered by the column-normalised sums of method §5, not by ``S``).
 """
 
 from __future__ import annotations
@@ -51,7 +51,7 @@ def restore(
     attributes of query ``n``; rank 0 decides removal (with the trust level ``trust``, as in match removal), ranks
     1.. are the alternatives. An alternative is eligible when its predicted class is 0 or 2, its probability of that
     class is at least ``min_score`` (the paper's restoration threshold; the authors use 0) and it is not the removed
-    match itself (the normalised ranking of SPEC 5 can differ from ``argmin S``).
+    match itself (the normalised ranking of method §5 can differ from ``argmin S``).
     """
     probabilities = np.asarray(probabilities, dtype=np.float64)
     classes = np.asarray(classes)

@@ -1,5 +1,5 @@
-"""The ``speed`` experiment (SPEC 11, "Simulated speed profiles"): Table I's numbers when the query traverse is driven
-at another speed than the references, with the paper's fixed matcher against SeqSLAM's velocity search.
+"""The ``speed`` experiment (method §11, "Simulated speed profiles"): Table I's numbers when the query traverse is
+driven at another speed than the references, with the paper's fixed matcher against SeqSLAM's velocity search.
 
 A profile ``s(t) > 0`` (places advanced per query frame) turns a frame-aligned split ``[lo, hi)`` into a simulated
 query: positions ``p_0 = lo``, ``p_{t+1} = p_t + s(t)``, query frame ``t`` is the query traverse's frame
@@ -21,19 +21,21 @@ import logging
 import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_VELOCITIES, N_LABELS
-from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance, write_json
+from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance
+from vpr_smr.core.records import FileRecord, Record, save
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import is_npy, open_distance_matrix, stored_positions
-from vpr_smr.eval.matching.velocity import check_velocities
+from vpr_smr.eval.matching.matcher import check_velocities
 from vpr_smr.eval.predictor.leakage import FrameRange, check_disjoint, frame_ranges
+from vpr_smr.eval.scoring.records import Reduction
 
 if TYPE_CHECKING:
     from vpr_smr.eval.predictor.estimator import SMRPredictor
@@ -55,7 +57,7 @@ VARYING = "varying"
 VARYING_AMPLITUDE = 0.5  # s(t) = 1 + 0.5 sin(2 pi t / 200): between 0.5x and 1.5x, mean 1 over whole periods
 VARYING_PERIOD = 200  # query frames per period
 MATCHERS = ("fixed", "velocity")  # the paper's slope-1 matcher, SeqSLAM's velocity search
-MODE = "paper"  # Table I's numbers, paper mode (SPEC 8)
+MODE = "paper"  # Table I's numbers, paper mode (method §8)
 SEED = 0  # the predictor's seed: the authors' recipe (see main)
 PROFILE_HELP = "a constant speed such as 0.5x, 1x or 2x (places per query frame, > 0), or 'varying'"
 
@@ -115,11 +117,11 @@ def profile_names(values: Sequence[str | float]) -> list[str]:
 
 
 def simulate(profile: SpeedProfile, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
-    """The simulated query of the split ``[lo, hi)`` (SPEC 11): ``(frames, positions)``, absolute frame indices of
+    """The simulated query of the split ``[lo, hi)`` (method §11): ``(frames, positions)``, absolute frame indices of
     the query traverse and positions in places (the references keep ``p = i``).
 
     ``p_0 = lo`` and ``p_{t+1} = p_t + s(t)``, added in this order in float64; frame ``t`` is ``floor(p_t + 0.5)``.
-    SPEC 11 does not say where the query stops: here at the last ``t`` whose frame is still inside the split
+    The paper does not say where the query stops: here at the last ``t`` whose frame is still inside the split
     (``< hi``), so a query at ``c``x has about ``(hi - lo) / c`` frames, and no frame past the split is read.
     """
     lo, hi = int(lo), int(hi)
@@ -152,33 +154,22 @@ def simulated_split(matrix: Any, lo: int, frames: np.ndarray, positions: np.ndar
 
 
 @dataclass(frozen=True)
-class SpeedScores:
-    """One method's table split under one matcher and its predictor: Table I's numbers (paper mode, seed 0)."""
+class SpeedScores(Record):
+    """One method's table split under one matcher and its predictor: Table I's numbers (paper mode, seed 0):
+    recall@1, the reduction as an evaluation records it (its ``outcome`` says what the removal did: a degenerate
+    predictor is named, not hidden), macro F1 and the matches removed."""
 
     n_queries: int  # simulated queries with a sequence match: every sequence number is over them
-    n_queries_single: int  # every simulated query of the split: paper mode's single-frame recall@1 (SPEC 8)
+    n_queries_single: int  # every simulated query of the split: paper mode's single-frame recall@1 (method §8)
     recall_at_1_single: float
     recall_at_1_sequence: float
-    max_recall: float
-    auc_vpr_sm: float
-    auc_vpr_sm_pred: float
-    aoc_vpr_sm: float
-    aoc_vpr_sm_pred: float
-    reduction_pct: float | None  # None (null) when the baseline's AOC is 0
+    reduction: Reduction
     f1_macro: float
     removed: int
-    outcome: str  # what the removal did (``curves.outcome``): a degenerate predictor is named, not hidden
-
-    def to_json(self) -> Json:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    @classmethod
-    def from_json(cls, data: Json) -> SpeedScores:
-        return cls(**{f.name: data[f.name] for f in fields(cls)})
 
 
 @dataclass(frozen=True)
-class SpeedMatcher:
+class SpeedMatcher(Record):
     """One matcher: its velocities, its predictor's training samples (every method's simulated train split) and
     each method's scores, in the configuration's order."""
 
@@ -187,20 +178,9 @@ class SpeedMatcher:
     train_class_counts: tuple[int, ...]
     methods: dict[str, SpeedScores]
 
-    def to_json(self) -> Json:
-        return {"velocities": list(self.velocities), "n_train": self.n_train,
-                "train_class_counts": list(self.train_class_counts),
-                "methods": {name: scores.to_json() for name, scores in self.methods.items()}}
-
-    @classmethod
-    def from_json(cls, data: Json) -> SpeedMatcher:
-        return cls(tuple(float(v) for v in data["velocities"]), int(data["n_train"]),
-                   tuple(int(c) for c in data["train_class_counts"]),
-                   {name: SpeedScores.from_json(scores) for name, scores in data["methods"].items()})
-
 
 @dataclass(frozen=True)
-class SpeedResult:
+class SpeedResult(FileRecord):
     """One dataset under one speed profile (``main``): per matcher (``MATCHERS``), every method's scores.
 
     ``meta``: dataset, seq_len, profile, tolerance, mode, seed, the train and table splits (name, lo, hi).
@@ -219,17 +199,6 @@ class SpeedResult:
     @property
     def profile(self) -> str:
         return str(self.meta["profile"])
-
-    def to_json(self) -> Json:
-        return {"meta": dict(self.meta), "speed": self.speed, "mean_speed": self.mean_speed,
-                "n_train_queries": self.n_train_queries, "n_table_queries": self.n_table_queries,
-                "matchers": {name: matcher.to_json() for name, matcher in self.matchers.items()}}
-
-    @classmethod
-    def from_json(cls, data: Json) -> SpeedResult:
-        return cls(dict(data["meta"]), None if data["speed"] is None else float(data["speed"]),
-                   float(data["mean_speed"]), int(data["n_train_queries"]), int(data["n_table_queries"]),
-                   {name: SpeedMatcher.from_json(m) for name, m in data["matchers"].items()})
 
 
 # --- the stage ----------------------------------------------------------------------------------------------------
@@ -250,7 +219,7 @@ def _split_of(path: Path, shape: tuple[int, ...]) -> _Split:
                          "frame-aligned split, whose matrix is square (the split's frames of both traverses)")
     provenance = read_provenance(path) if not is_npy(path) else {}
     if "reference_range" in provenance or stored_positions(path) is not None:
-        raise ValueError(f"{path}: a split of a dataset with positions (SPEC 11); the speed experiment simulates "
+        raise ValueError(f"{path}: a split of a dataset with positions (method §11); the speed experiment simulates "
                          "from a frame-aligned split (the same frames of both traverses, no positions)")
     lo, hi = provenance.get("split_range", (0, shape[0]))
     if int(hi) - int(lo) != shape[0]:
@@ -286,24 +255,22 @@ def _method_features(path: Path, profile: SpeedProfile, seq_len: int, tolerance:
 def fit_pooled(train: Sequence[QueryFeatures], params: dict[str, Any] | None, where: str,
                seed: int = SEED) -> SMRPredictor:
     """The pooled predictor of Table I fitted on ``train`` (every method's features, the configuration's order):
-    rank-0 attributes concatenated, shuffled with ``seed``, ``SMRPredictor`` with ``seeded_params`` (SPEC 7). The
-    cross-validation that ``train.train_seed`` runs beside it changes nothing fitted and is left out."""
-    from sklearn.utils import shuffle
-
-    from vpr_smr.eval.predictor.estimator import SMRPredictor, TrainingDataError
-    from vpr_smr.eval.predictor.train import check_trainable, predictor_params, seeded_params
+    ``train.rank0`` pools them and ``train.seeded_training`` gives seed ``seed`` of the recipe, as
+    ``vpr-smr train`` fits it. The cross-validation that ``train.train_seed`` runs beside it changes nothing
+    fitted and is left out."""
+    from vpr_smr.eval.predictor.estimator import TrainingDataError
+    from vpr_smr.eval.predictor.train import check_trainable, predictor_params, rank0, seeded_training
 
     settings = predictor_params(params)
-    x = np.concatenate([f.attributes[:, 0, :] for f in train])
-    y = np.concatenate([f.labels for f in train])
+    x, y = rank0(train)
     try:
         check_trainable(y, settings, [seed], where)
     except TrainingDataError as error:  # a fast profile shortens the train split: say how to leave it out
         raise TrainingDataError(f"{error}; or leave the fastest speed profiles out (speed.profiles), or switch the "
                                 "experiment off (experiments.speed: false)") from None
-    x, y = shuffle(x, y, random_state=seed)
-    predictor: SMRPredictor = SMRPredictor(**seeded_params(settings, seed)).fit(x, y)
-    return predictor
+    predictor, x, y = seeded_training(x, y, settings, seed)
+    fitted: SMRPredictor = predictor.fit(x, y)
+    return fitted
 
 
 def score(features: QueryFeatures, predictor: SMRPredictor) -> SpeedScores:
@@ -314,14 +281,10 @@ def score(features: QueryFeatures, predictor: SMRPredictor) -> SpeedScores:
     probabilities = predictor.predict_proba(features.attributes[:, 0, :])
     result = removal(features, probabilities, predictor.classes_, (MODE,), curves=False)
     numbers = result.modes[MODE]
-    reduction = numbers.reduction
     return SpeedScores(
         n_queries=len(features.queries), n_queries_single=len(features.all_single_correct),
         recall_at_1_single=numbers.recall_at_1_single, recall_at_1_sequence=numbers.recall_at_1_sequence,
-        max_recall=reduction.max_recall, auc_vpr_sm=reduction.auc_vpr_sm, auc_vpr_sm_pred=reduction.auc_vpr_sm_pred,
-        aoc_vpr_sm=reduction.aoc_vpr_sm, aoc_vpr_sm_pred=reduction.aoc_vpr_sm_pred,
-        reduction_pct=reduction.reduction_pct, f1_macro=result.f1_macro, removed=result.removed,
-        outcome=reduction.outcome)
+        reduction=numbers.reduction, f1_macro=result.f1_macro, removed=result.removed)
 
 
 def _frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:
@@ -352,7 +315,7 @@ def main(
 ) -> SpeedResult:
     """The speed experiment of one dataset under one profile, written to ``out`` (JSON, ``SpeedResult``).
 
-    ``train`` and ``test``: per method (the configuration's order, the pooled training order of SPEC 7) its train
+    ``train`` and ``test``: per method (the configuration's order, the pooled training order of method §7) its train
     and table split's distance file (square, frame-aligned; the file's ``split_range`` gives ``lo``).
     ``velocities``: the velocity matcher's search set; the fixed matcher is ``(1.0,)``. ``params``: the
     predictor's settings.
@@ -408,6 +371,6 @@ def main(
             "table_split": [table_split.name, table_split.lo, table_split.hi]}
     mean_speed = float((table_positions[-1] - table_positions[0]) / max(len(table_positions) - 1, 1))
     result = SpeedResult(meta, profile.speed, mean_speed, n_queries["train"], n_queries["test"], results)
-    write_json(out, result.to_json())  # the timings stay in the log: two runs give identical files
+    save(out, result)  # the timings stay in the log: two runs give identical files
     log.info("profile %s: %.1f s in all", profile.name, time.perf_counter() - begin)
     return result

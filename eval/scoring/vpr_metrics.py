@@ -2,20 +2,20 @@
 per-query table of the same scoring (``vpr-smr queries``, or ``metrics --queries``; ``eval.scoring.queries``).
 
 One split's ``R x Q`` matrix ``D``: a match ``r`` of query ``q`` is correct iff ``|r - q| <= tolerance`` for a
-frame-aligned pair, iff its position is within the radius of the query's with positions (SPEC 11,
+frame-aligned pair, iff its position is within the radius of the query's with positions (method §11,
 ``GroundTruth``). Rankings are stable (equal distances: the lower reference or diagonal index first). With velocity
-search (SPEC 11) the sequence candidates are the end references ``r_min .. R-1`` of ``S[r, a] = min_v S_v[r, a]``.
-Evaluated queries: ``a = L-1 .. Q-1``, those with a sequence match (SPEC 4). One item per metric, its denominator
+search (method §11) the sequence candidates are the end references ``r_min .. R-1`` of ``S[r, a] = min_v S_v[r, a]``.
+Evaluated queries: ``a = L-1 .. Q-1``, those with a sequence match (method §4). One item per metric, its denominator
 last:
 
 - single recall@N: queries whose N nearest references (``D[:, q]`` ascending) hold a correct one / all Q queries
-  of the split in paper mode (the authors' rule, SPEC 8), the evaluated queries in standard mode.
+  of the split in paper mode (the authors' rule, method §8), the evaluated queries in standard mode.
 - sequence recall@N: evaluated queries ``a`` whose N best diagonals (``S[i, j] = sum_k D[i+k, j+k]``,
   ``j = a-L+1``, ascending) hold one matching a correct reference ``i + L - 1`` / the evaluated queries.
 - sequence_predictor recall@N: as sequence, a query whose match the seed-0 predictor removes (rank-0 predicted
   class not in KEPT_CLASSES, trust level 0) counting as not retrieved / the evaluated queries.
 - recall_at_100p: the highest recall of a point of precision 1 on the mode's PR curve / the curve's recall
-  denominator (SPEC 8: paper the curve's queries whose match is correct, standard all the curve's queries).
+  denominator (method §8: paper the curve's queries whose match is correct, standard all the curve's queries).
 - pr_auc: the trapezoid area under the mode's whole PR curve (``curves.area``; not cut to a maximum recall).
 - extended_precision: ``(P_R0 + recall_at_100p) / 2`` (VPR-Bench), ``P_R0`` the precision of the curve's first
   point in threshold order with recall > 0 (0 when none).
@@ -62,7 +62,7 @@ from vpr_smr.eval.matching.attributes import (
     query_features,
     read_features,
 )
-from vpr_smr.eval.matching.checks import NonFiniteError, check_finite, check_shape
+from vpr_smr.eval.matching.checks import check_shape
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import (
     open_distance_matrix,
@@ -70,7 +70,7 @@ from vpr_smr.eval.matching.io import (
     split_ground_truth,
     warn_if_similar,
 )
-from vpr_smr.eval.matching.velocity import check_velocities, first_reference, offsets
+from vpr_smr.eval.matching.matcher import SequenceMatcher, as_matrix, check_velocities
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_range, frame_ranges, trained_on
 from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, recall_at_full_precision
@@ -85,15 +85,14 @@ __all__ = [
 log = logging.getLogger("vpr_smr")
 
 ALL_SPLIT = "all"  # the split's name when ``distances`` is one file
-BLOCK_VALUES = 1 << 20  # matrix values per block of query columns (8 MB of float64)
 NOT_RETRIEVED = np.iinfo(np.int64).max  # the rank of a query without any correct candidate
 DISTANCE_SUFFIXES = (".npy", *HDF5_SUFFIXES)
 
 
 @dataclass(frozen=True)
 class MatcherSettings:
-    """The sequence matcher of a metrics or queries stage and where its ground truth comes from (SPEC 11):
-    ``velocities`` searched (``(1.0,)``: SPEC 4's fixed matcher); positions files (one matrix only) or the positions
+    """The sequence matcher of a metrics or queries stage and where its ground truth comes from (method §11):
+    ``velocities`` searched (``(1.0,)``: method §4's fixed matcher); positions files (one matrix only) or the positions
     a distance file holds, within ``radius``; without positions, frame indices within the stage's tolerance."""
 
     velocities: tuple[float, ...] = DEFAULT_VELOCITIES
@@ -121,33 +120,9 @@ class Retrieval:
     distance_max: float  # D.max() of the split
 
 
-def _best_correct_rank(values: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-    """Per column of ``values`` (candidates x queries), the stable rank of its best-ranked candidate among rows
-    ``lo .. hi`` (inclusive, clipped to the rows; the correct ones); ``NOT_RETRIEVED`` where that range is empty."""
-    n_rows, n_cols = values.shape
-    lo, hi = np.maximum(lo, 0), np.minimum(hi, n_rows - 1)
-    best = np.full(n_cols, NOT_RETRIEVED, dtype=np.int64)
-    if n_cols == 0 or not np.any(lo <= hi):
-        return best
-    rows = np.arange(n_rows)[:, None]
-    cols = np.arange(n_cols)
-    for t in range(int((hi - lo).max()) + 1):
-        candidate = lo + t
-        valid = candidate <= hi
-        candidate = np.where(valid, candidate, 0)
-        value = values[candidate, cols]
-        rank = np.count_nonzero(values < value, axis=0)
-        equal = values == value
-        tied = np.count_nonzero(equal, axis=0) > 1
-        if np.any(tied):  # equal values before the candidate rank ahead of it
-            rank[tied] += np.count_nonzero(equal[:, tied] & (rows < candidate[tied]), axis=0)
-        best = np.where(valid, np.minimum(best, rank), best)
-    return best
-
-
-def _best_correct_rank_where(values: np.ndarray, correct: np.ndarray) -> np.ndarray:
-    """``_best_correct_rank`` with the correct candidates as a mask (positions within a radius need not form one
-    range of rows): the stable rank of the lowest (value, row) among the correct rows of each column."""
+def _best_correct_rank(values: np.ndarray, correct: np.ndarray) -> np.ndarray:
+    """Per column of ``values`` (candidates x queries), the stable rank of its best-ranked correct candidate (the
+    lowest (value, row) among the rows ``correct`` marks); ``NOT_RETRIEVED`` where no candidate is correct."""
     n_rows, n_cols = values.shape
     best = np.argmin(np.where(correct, values, np.inf), axis=0)  # first row on ties: the best-ranked of them
     cols = np.arange(n_cols)
@@ -157,127 +132,49 @@ def _best_correct_rank_where(values: np.ndarray, correct: np.ndarray) -> np.ndar
     return np.where(correct.any(axis=0), rank, NOT_RETRIEVED).astype(np.int64)
 
 
-def _velocity_sequences(block: np.ndarray, j0: int, n: int, seq_len: int,
-                        velocities: tuple[float, ...]) -> tuple[np.ndarray, int]:
-    """``S[r, a] = min_v S_v[r, a]`` (SPEC 11) for ``n`` queries whose windows start at block column ``j0``, rows
-    ``r = r_min .. R-1``; each ``S_v`` summed in the definition's order, +inf where its trajectory is not valid."""
-    n_ref = block.shape[0]
-    r_min = first_reference(seq_len, velocities)
-    out = np.full((n_ref - r_min, n), np.inf)
-    for velocity in velocities:
-        offset = offsets(velocity, seq_len)
-        first = int(offset[0])  # the lowest end reference whose trajectory starts inside the matrix
-        if first > n_ref - 1:
-            continue
-        acc = np.zeros((n_ref - first, n))
-        for k in range(seq_len):
-            rows = slice(first - int(offset[k]), n_ref - int(offset[k]))
-            acc += block[rows, j0 + k : j0 + k + n]
-        np.minimum(out[first - r_min :], acc, out=out[first - r_min :])
-    return out, r_min
-
-
 def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries: int | None = None,
               velocities: tuple[float, ...] = DEFAULT_VELOCITIES, ground_truth: GroundTruth | None = None
               ) -> Retrieval:
     """Rankings of single-frame and sequence matching of one split's ``R x Q`` matrix (any 2-D array-like that
-    slices by columns: ``np.ndarray``, memmap, ``h5py.Dataset``), read ``block_queries`` query columns at a time.
-    ``velocities`` and ``ground_truth`` as ``query_features`` takes them (default: SPEC 4 and frame-aligned)."""
-    matrix = distance_matrix if hasattr(distance_matrix, "shape") else np.asarray(distance_matrix)
-    check_shape(tuple(matrix.shape), seq_len)
+    slices by columns: ``np.ndarray``, memmap, ``h5py.Dataset``), read by the sequence matcher's blocks of query
+    columns. ``velocities`` and ``ground_truth`` as ``query_features`` takes them (default: the fixed matcher and
+    frames within ``tolerance``)."""
+    matrix = as_matrix(distance_matrix)
+    matcher = SequenceMatcher(seq_len, check_velocities(velocities))
+    matcher.check(tuple(matrix.shape))
     if tolerance < 0:
         raise ValueError(f"the tolerance is a number of frames >= 0, got {tolerance}")
-    velocities = check_velocities(velocities)
-    if ground_truth is not None:
-        ground_truth.check_shape(tuple(matrix.shape))
-    if velocities != DEFAULT_VELOCITIES or (ground_truth is not None and not ground_truth.is_aligned_band()):
-        truth = ground_truth or GroundTruth.aligned(int(matrix.shape[0]), int(matrix.shape[1]), tolerance)
-        return _general_retrieval(matrix, seq_len, block_queries, velocities, truth)
-    if ground_truth is not None:
-        tolerance = int(ground_truth.radius)  # the aligned band: SPEC 1's tolerance
     n_ref, n_query = (int(n) for n in matrix.shape)
-    n_diag = n_ref - seq_len + 1
-    step = block_queries or max(16, BLOCK_VALUES // max(n_ref, 1))
-    single_rank, single_match, single_distance = [], [], []
-    sequence_rank, sequence_match, sequence_distance = [], [], []
-    d_min, d_max = np.inf, -np.inf
-    for a0 in range(0, n_query, step):
-        a1 = min(n_query, a0 + step)
-        lo = max(0, a0 - seq_len + 1)  # the L-1 columns before the block: its first queries' sequences
-        block = np.asarray(matrix[:, lo:a1], dtype=np.float64)
-        try:
-            check_finite(block, first_column=lo)
-        except NonFiniteError as error:
-            raise error.counted_in(matrix) from None
-        own = block[:, a0 - lo :]  # the block's own query columns
-        d_min, d_max = min(d_min, float(own.min())), max(d_max, float(own.max()))
-        queries = np.arange(a0, a1)
-        match = np.argmin(own, axis=0)
-        single_match.append(match)
-        single_distance.append(own[match, np.arange(len(queries))])
-        single_rank.append(_best_correct_rank(own, queries - tolerance, queries + tolerance))
-        first = max(a0, seq_len - 1)  # the block's evaluated queries a = first .. a1-1, columns j = a-L+1
-        if first >= a1:
-            continue
-        j0 = first - seq_len + 1 - lo
-        n = a1 - first
-        s = np.zeros((n_diag, n))
-        for k in range(seq_len):  # 0 + D[i, j] + D[i+1, j+1] + ...: the definition's order (SPEC 4), as attributes
-            s += block[k : k + n_diag, j0 + k : j0 + k + n]
-        j = np.arange(first, a1) - seq_len + 1
-        diagonal = np.argmin(s, axis=0)
-        sequence_match.append(diagonal + seq_len - 1)
-        sequence_distance.append(s[diagonal, np.arange(n)])
-        sequence_rank.append(_best_correct_rank(s, j - tolerance, j + tolerance))
-    return Retrieval(
-        np.concatenate(single_rank), np.concatenate(single_match), np.concatenate(single_distance),
-        np.concatenate(sequence_rank), np.concatenate(sequence_match), np.concatenate(sequence_distance),
-        float(d_min), float(d_max))
-
-
-def _general_retrieval(matrix: Any, seq_len: int, block_queries: int | None, velocities: tuple[float, ...],
-                       ground_truth: GroundTruth) -> Retrieval:
-    """``retrieval`` with velocity search and any ground truth (positions within a radius): the correct candidates
-    of each query as a mask, ``S`` over the end references ``r_min .. R-1``."""
-    n_ref, n_query = (int(n) for n in matrix.shape)
-    r_min = first_reference(seq_len, velocities)
-    if r_min > n_ref - 1:
-        raise ValueError(f"{n_ref} references are too few for sequence length {seq_len} at velocities "
-                         f"{list(velocities)}")
-    step = block_queries or max(16, BLOCK_VALUES // max(n_ref, 1))
-    parts: dict[str, list[np.ndarray]] = {key: [] for key in ("single_rank", "single_match", "single_distance",
-                                                              "sequence_rank", "sequence_match", "sequence_distance")}
-    d_min, d_max = np.inf, -np.inf
+    truth = ground_truth or GroundTruth.aligned(n_ref, n_query, tolerance)
+    truth.check_shape((n_ref, n_query))
     references = np.arange(n_ref)
-    for a0 in range(0, n_query, step):
-        a1 = min(n_query, a0 + step)
-        lo = max(0, a0 - seq_len + 1)
-        block = np.asarray(matrix[:, lo:a1], dtype=np.float64)
-        try:
-            check_finite(block, first_column=lo)
-        except NonFiniteError as error:
-            raise error.counted_in(matrix) from None
-        own = block[:, a0 - lo :]
-        d_min, d_max = min(d_min, float(own.min())), max(d_max, float(own.max()))
-        queries = np.arange(a0, a1)
+    r_min = matcher.first_reference
+
+    def block(start: int, columns: np.ndarray) -> dict[str, Any]:
+        # the first block also ranks the single frames of the first L-1 queries, which end no sequence
+        own_from = 0 if start == 0 else seq_len - 1
+        found = matcher.sequences(columns, start)  # checks the block for NaN and inf first
+        own = columns[own_from:].astype(np.float64, copy=False).T  # the block's own query columns
+        queries = np.arange(start + own_from, start + len(columns))
         match = np.argmin(own, axis=0)
-        parts["single_match"].append(match)
-        parts["single_distance"].append(own[match, np.arange(len(queries))])
-        parts["single_rank"].append(_best_correct_rank_where(own, ground_truth.correct(references[:, None], queries)))
-        first = max(a0, seq_len - 1)
-        if first >= a1:
-            continue
-        n = a1 - first
-        s, _ = _velocity_sequences(block, first - seq_len + 1 - lo, n, seq_len, velocities)
+        ends = np.arange(start + seq_len - 1, start + len(columns))
+        s = found.sums.T  # (end references, queries)
         best = np.argmin(s, axis=0)
-        parts["sequence_match"].append(best + r_min)
-        parts["sequence_distance"].append(s[best, np.arange(n)])
-        correct = ground_truth.correct(references[r_min:, None], np.arange(first, a1))
-        parts["sequence_rank"].append(_best_correct_rank_where(s, correct))
-    joined = {key: np.concatenate(value) for key, value in parts.items()}
+        return {
+            "single_rank": _best_correct_rank(own, truth.correct(references[:, None], queries)),
+            "single_match": match,
+            "single_distance": own[match, np.arange(len(queries))],
+            "sequence_rank": _best_correct_rank(s, truth.correct(references[r_min:, None], ends)),
+            "sequence_match": best + r_min,
+            "sequence_distance": s[best, np.arange(len(ends))],
+            "range": (float(own.min()), float(own.max())),
+        }
+
+    parts = matcher.map_blocks(matrix, block, block_queries)
+    joined = {key: np.concatenate([p[key] for p in parts]) for key in parts[0] if key != "range"}
     return Retrieval(joined["single_rank"], joined["single_match"], joined["single_distance"],
                      joined["sequence_rank"], joined["sequence_match"], joined["sequence_distance"],
-                     float(d_min), float(d_max))
+                     min(p["range"][0] for p in parts), max(p["range"][1] for p in parts))
 
 
 def recall_at(ranks: np.ndarray, ns: Sequence[int] = RECALL_AT, retrieved: np.ndarray | None = None
@@ -413,7 +310,7 @@ def _first_frame(*paths: Path | str | None) -> int:
 
 def _reference_first_frame(*paths: Path | str | None) -> int | None:
     """The split's first reference frame when its reference range differs from its query range (the distances
-    stage records ``reference_range`` then, SPEC 11), else None."""
+    stage records ``reference_range`` then, method §11), else None."""
     for path in paths:
         if path is not None and h5py.is_hdf5(path):
             stored = read_provenance(path).get("reference_range")

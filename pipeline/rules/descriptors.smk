@@ -2,7 +2,7 @@ rule descriptors:
     input:
         checkpoint=lambda wc: [PLAN.checkpoints[wc.method]] if PLAN.checkpoints[wc.method] else [],
         lists=lambda wc: list(PLAN.datasets[wc.dataset].list_files),
-        positions=lambda wc: list(PLAN.datasets[wc.dataset].positions_files),  # SPEC 11: the positions CSVs
+        positions=lambda wc: list(PLAN.datasets[wc.dataset].positions_files),  # method §11: the positions CSVs
     output:
         descriptors_path(OUT, "{dataset}", "{method}"),
     log:
@@ -11,7 +11,7 @@ rule descriptors:
         dataset=lambda wc: canonical(PLAN.datasets[wc.dataset].frames_settings),
         frames_sha256=lambda wc: PLAN.datasets[wc.dataset].frames_sha256,
         # without `distance`: it changes the distance matrices, not the descriptors
-        method=lambda wc: canonical(descriptor_settings(conf["methods"][wc.method])),
+        method=lambda wc: canonical(descriptor_settings(conf.methods[wc.method].to_json())),
     threads: 2
     resources:
         gpu=1,

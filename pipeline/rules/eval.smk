@@ -7,7 +7,7 @@ rule distances:
         log_path(OUT, distances_path(OUT, "{dataset}", "{method}", "{split}")),
     params:
         frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[wc.split]),
-        # SPEC 11: a split's reference range, only where it differs from its (query) range
+        # method §11: a split's reference range, only where it differs from its (query) range
         reference_frames=lambda wc: "--reference-frames {} {}".format(*PLAN.datasets[wc.dataset].reference_splits[
             wc.split]) if wc.split in PLAN.datasets[wc.dataset].reference_splits else "",
         metric=lambda wc: PLAN.metrics[wc.method],  # the method's `distance`, or its backend's default
@@ -25,7 +25,7 @@ rule attributes:
         log_path(OUT, attributes_path(OUT, "{dataset}", "{method}", "{seq_len}", "{split}")),
     params:
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
-        # SPEC 11: datasets with positions; their distance files hold the positions, this is the ground truth
+        # method §11: datasets with positions; their distance files hold the positions, this is the ground truth
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
         velocities=VELOCITIES,
     shell:
@@ -35,30 +35,33 @@ rule attributes:
 
 rule train:
     input:
-        train=split_attributes(OUT, METHODS, conf["train_split"]),
-        val=split_attributes(OUT, METHODS, "val") if "val" in conf["eval_splits"] else [],
-        test=split_attributes(OUT, METHODS, "test") if "test" in conf["eval_splits"] else [],
+        train=split_attributes(OUT, METHODS, conf.train_split),
+        # every evaluation split (the configuration's names and order), each with every method's attributes
+        evaluate=evaluation_attributes(OUT, METHODS, conf.eval_splits),
     output:
-        models=predictor_paths(OUT, "{dataset}", "{seq_len}", conf["seeds"]),
+        models=predictor_paths(OUT, "{dataset}", "{seq_len}", conf.seeds),
         report=predictor_report_path(predictor_path(OUT, "{dataset}", "{seq_len}")),
     log:
         log_path(OUT, predictor_path(OUT, "{dataset}", "{seq_len}")),
     params:
         overlap=ALLOW_OVERLAP,
-        predictor=canonical(conf["predictor"]),
-        seeds=conf["seeds"],
+        predictor=canonical(conf.predictor.to_json()),
+        seeds=conf.seeds,
         layout=RESULTS_LAYOUT,  # its files' layout: a run of an earlier one trains again, and scores again below
+        # --evaluate SPLIT PATH... per evaluation split, each word quoted already: the shell command uses them unquoted
+        evaluate=lambda wc, input: split_option("--evaluate", conf.eval_splits, input.evaluate),
+        validation=VALIDATION_OPTION,
     shell:
         "vpr-smr train --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
-        " --predictor {params.predictor:q} --seeds {params.seeds} --train {input.train:q} --val {input.val:q}"
-        " --test {input.test:q} --out {output.models[0]:q} {params.overlap} > {log:q} 2>&1"
+        " --predictor {params.predictor:q} --seeds {params.seeds} --train {input.train:q} {params.evaluate}"
+        " {params.validation} --out {output.models[0]:q} {params.overlap} > {log:q} 2>&1"
 
 
 rule evaluate:
     input:
         attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
-                             for split in conf["eval_splits"]],
-        predictors=predictor_paths(OUT, "{dataset}", "{seq_len}", conf["seeds"]),
+                             for split in conf.eval_splits],
+        predictors=predictor_paths(OUT, "{dataset}", "{seq_len}", conf.seeds),
     output:
         evaluation=evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}"),
         timing=timing_path(evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}")),
@@ -67,9 +70,9 @@ rule evaluate:
     params:
         overlap=ALLOW_OVERLAP,
         # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
-        attributes=lambda wc, input: name_pairs(conf["eval_splits"], input.attributes),
-        modes=" ".join(conf["modes"]),
-        trust_levels=" ".join(str(level) for level in conf["trust_levels"]) if "trust" in EXPERIMENTS else "",
+        attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
+        modes=" ".join(conf.modes),
+        trust_levels=" ".join(str(level) for level in conf.trust_levels) if "trust" in EXPERIMENTS else "",
         restoration="" if "restoration" in EXPERIMENTS else "--no-restoration",
     shell:
         "vpr-smr evaluate --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
@@ -80,9 +83,9 @@ rule evaluate:
 
 rule vpr_metrics:
     input:
-        distances=lambda wc: [distances_path(OUT, wc.dataset, wc.method, split) for split in conf["eval_splits"]],
+        distances=lambda wc: [distances_path(OUT, wc.dataset, wc.method, split) for split in conf.eval_splits],
         attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
-                             for split in conf["eval_splits"]],
+                             for split in conf.eval_splits],
         predictor=predictor_path(OUT, "{dataset}", "{seq_len}"),  # seed 0 (the authors' recipe)
     output:
         vpr_metrics_path(OUT, "{dataset}", "{method}", "{seq_len}"),
@@ -91,12 +94,12 @@ rule vpr_metrics:
     params:
         overlap=ALLOW_OVERLAP,
         # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
-        distances=lambda wc, input: name_pairs(conf["eval_splits"], input.distances),
-        attributes=lambda wc, input: name_pairs(conf["eval_splits"], input.attributes),
+        distances=lambda wc, input: name_pairs(conf.eval_splits, input.distances),
+        attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
         velocities=VELOCITIES,
-        modes=" ".join(conf["modes"]),
+        modes=" ".join(conf.modes),
     shell:
         "vpr-smr metrics --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
         " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius}"
@@ -109,9 +112,9 @@ rule vpr_metrics:
 # reruns the metrics and the report, not this table and the match inspector that reads it.
 rule queries:
     input:
-        distances=lambda wc: [distances_path(OUT, wc.dataset, wc.method, split) for split in conf["eval_splits"]],
+        distances=lambda wc: [distances_path(OUT, wc.dataset, wc.method, split) for split in conf.eval_splits],
         attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
-                             for split in conf["eval_splits"]],
+                             for split in conf.eval_splits],
         predictor=predictor_path(OUT, "{dataset}", "{seq_len}"),  # seed 0 (the authors' recipe)
     output:
         queries_path(OUT, "{dataset}", "{method}", "{seq_len}"),
@@ -120,8 +123,8 @@ rule queries:
     params:
         overlap=ALLOW_OVERLAP,
         # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
-        distances=lambda wc, input: name_pairs(conf["eval_splits"], input.distances),
-        attributes=lambda wc, input: name_pairs(conf["eval_splits"], input.attributes),
+        distances=lambda wc, input: name_pairs(conf.eval_splits, input.distances),
+        attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
         velocities=VELOCITIES,

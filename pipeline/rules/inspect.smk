@@ -5,7 +5,7 @@
 rule inspect:
     input:
         queries=queries_path(OUT, "{dataset}", "{method}", "{seq_len}"),
-        distances=distances_path(OUT, "{dataset}", "{method}", conf["table_split"]),
+        distances=distances_path(OUT, "{dataset}", "{method}", conf.table_split),
     output:
         matches=match_figure_path(OUT, "{dataset}", "{method}", "{seq_len}"),
         matrix=matrix_figure_path(OUT, "{dataset}", "{method}", "{seq_len}"),
@@ -15,11 +15,11 @@ rule inspect:
         # the images are read for the thumbnails: the frames' settings and fingerprint, as the descriptors job's
         dataset=lambda wc: canonical(PLAN.datasets[wc.dataset].frames_settings),
         frames_sha256=lambda wc: PLAN.datasets[wc.dataset].frames_sha256,
-        frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[conf["table_split"]]),
+        frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[conf.table_split]),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
         velocities=VELOCITIES,
-        split=conf["table_split"],
+        split=conf.table_split,
     shell:
         "vpr-smr inspect --queries {input.queries:q} --distances {input.distances:q}"
         " --dataset {wildcards.dataset:q} --dataset-settings {params.dataset:q}"

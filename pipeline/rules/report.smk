@@ -3,47 +3,52 @@
 
 rule attribute_ablation:
     input:
-        train=split_attributes(OUT, METHODS, conf["train_split"]),
-        val=split_attributes(OUT, METHODS, "val") if "val" in conf["eval_splits"] else [],
-        test=split_attributes(OUT, METHODS, "test") if "test" in conf["eval_splits"] else [],
+        train=split_attributes(OUT, METHODS, conf.train_split),
+        # the validation split (the first of eval_splits), then the last of them: Table II's two
+        evaluate=evaluation_attributes(OUT, METHODS, TABLE2_SPLITS),
     output:
         attribute_ablation_path(OUT, "{dataset}", "{seq_len}"),
     log:
         log_path(OUT, attribute_ablation_path(OUT, "{dataset}", "{seq_len}")),
     params:
         overlap=ALLOW_OVERLAP,
-        predictor=canonical(conf["predictor"]),
+        layout=RESULTS_LAYOUT,  # its file's layout: a run of an earlier one computes it again
+        predictor=canonical(conf.predictor.to_json()),
+        # --evaluate SPLIT PATH... per split, each word quoted already: the shell command uses them unquoted
+        evaluate=lambda wc, input: split_option("--evaluate", TABLE2_SPLITS, input.evaluate),
     shell:
         "vpr-smr ablation attributes --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
-        " --predictor {params.predictor:q} --train {input.train:q} --val {input.val:q} --test {input.test:q}"
+        " --predictor {params.predictor:q} --train {input.train:q} {params.evaluate}"
         " --out {output:q} {params.overlap} > {log:q} 2>&1"
 
 
 rule predictor_without:
     # The held-out method's files are not inputs: a change to them does not retrain this predictor.
     input:
-        train=lambda wc: other_attributes(OUT, METHODS, wc, conf["train_split"]),
-        val=lambda wc: other_attributes(OUT, METHODS, wc, "val") if "val" in conf["eval_splits"] else [],
+        train=lambda wc: other_attributes(OUT, METHODS, wc, conf.train_split),
+        # the validation split's, scored by this predictor's report (none without a validation split)
+        validation=lambda wc: other_attributes(OUT, METHODS, wc, VALIDATION) if VALIDATION else [],
     output:
         without_predictor_path(OUT, "{dataset}", "{seq_len}", "{method}"),
     log:
         log_path(OUT, without_predictor_path(OUT, "{dataset}", "{seq_len}", "{method}")),
     params:
         overlap=ALLOW_OVERLAP,
-        predictor=canonical(conf["predictor"]),
+        predictor=canonical(conf.predictor.to_json()),
         # METHOD=PATH items, each quoted already: the shell command uses them unquoted
         train=lambda wc, input: method_pairs(METHODS, wc.method, input.train),
-        val=lambda wc, input: method_pairs(METHODS, wc.method, input.val),
+        evaluate=lambda wc, input: split_option("--evaluate", [VALIDATION] if VALIDATION else [],
+                                                method_items(METHODS, wc.method, input.validation)),
         layout=RESULTS_LAYOUT,  # its file's layout, as the pooled predictor's
     shell:
         "vpr-smr ablation without --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
         " --method {wildcards.method:q} --predictor {params.predictor:q} --train {params.train}"
-        " --val {params.val} --out {output:q} {params.overlap} > {log:q} 2>&1"
+        " {params.evaluate} --out {output:q} {params.overlap} > {log:q} 2>&1"
 
 
 rule held_out:
     input:
-        attributes=attributes_path(OUT, "{dataset}", "{method}", "{seq_len}", conf["table_split"]),
+        attributes=attributes_path(OUT, "{dataset}", "{method}", "{seq_len}", conf.table_split),
         pooled=predictor_path(OUT, "{dataset}", "{seq_len}"),
         without=without_predictor_path(OUT, "{dataset}", "{seq_len}", "{method}"),
     output:
@@ -52,7 +57,7 @@ rule held_out:
         log_path(OUT, held_out_path(OUT, "{dataset}", "{seq_len}", "{method}")),
     params:
         overlap=ALLOW_OVERLAP,
-        modes=" ".join(conf["modes"]),
+        modes=" ".join(conf.modes),
     shell:
         "vpr-smr ablation held-out --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
         " --seq-len {wildcards.seq_len} --attributes {input.attributes:q} --pooled {input.pooled:q}"
@@ -88,17 +93,21 @@ rule report:
     log:
         report_log_path(OUT),
     params:
-        split=conf["table_split"],
+        split=conf.table_split,
+        # the configuration's split names: the tables' columns and headings name them
+        eval_splits=" ".join(map(shlex.quote, conf.eval_splits)),
+        train_split=conf.train_split,
         table_seq_len=TABLE_L,
         seq_len_ablation="--seq-len-ablation" if "seq_len" in EXPERIMENTS else "",
         # what the report shows as the run's configuration: every setting that changes a number
-        settings=report_settings(conf),
+        settings=report_settings(conf.to_json()),
         datasets=report_datasets(PLAN),  # the configuration's order of datasets and splits
     shell:
         "vpr-smr report --evaluations {input.evaluations:q} --timings {input.timings:q}"
         " --predictors {input.predictors:q} --attribute-ablations {input.attribute_ablations:q}"
         " --leave-one-out {input.leave_one_out:q} --metrics {input.metrics:q}"
         " --match-figures {input.match_figures:q} --matrix-figures {input.matrix_figures:q} --speed {input.speed:q}"
-        " --descriptors {input.descriptors:q} --split {params.split:q} --table-seq-lens {params.table_seq_len}"
+        " --descriptors {input.descriptors:q} --split {params.split:q} --eval-splits {params.eval_splits}"
+        " --train-split {params.train_split:q} --table-seq-lens {params.table_seq_len}"
         " {params.seq_len_ablation} --settings {params.settings:q} --datasets {params.datasets:q}"
         " --out {OUT:q} > {log:q} 2>&1"

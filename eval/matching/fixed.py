@@ -1,0 +1,254 @@
+"""The fixed matcher's fast path (velocity 1 only): the same numbers as the velocity search's, in O(1) per diagonal.
+
+Inside ``matcher.SequenceMatcher`` only: with ``velocities=(1.0,)`` every trajectory is a diagonal, so one block of
+query columns can be screened by running sums along its diagonals instead of summing ``L`` terms per reference.
+
+1. *Screening.* Running sums along the diagonals (a prefix sum over the block's columns, in diagonal coordinates)
+   give every diagonal sum ``full_d``, ``past_d``, the row sums and ``S`` as a difference of two prefix sums, in
+   float32. Partial selection finds a bound on each query's ``K``-th smallest screened value: the ``K``-th smallest
+   of the minima of strided groups of 32 values (one reduction, then ``np.partition`` of a 32 times shorter row).
+2. *Exact recomputation.* Every candidate within a rigorous bound of the float32 rounding error of that ``K``-th
+   value is recomputed in float64 exactly as the definition does it (``0 + x_0 + x_1 + ...`` in this order), and the
+   ``K`` best are taken by a stable sort on (value, diagonal): the tie rule of method §5, equal ``full_d`` lowest
+   diagonal first. Only a handful of candidates per query pass the bound (all of them only when values tie
+   massively), so this costs ``O(K L)`` per query; so do A3/A4, whose block and group means take ``L + 5`` exact
+   ``full_m`` each.
+
+Every reported number is therefore the float64 value of the definition, bit for bit, whatever the block size or the
+screening precision (float32 only decides which few candidates are recomputed), and equals the velocity search's
+with ``(1.0,)``. The compiled kernel (``kernels``) screens in float64 with the same error bounds, reading the matrix
+in its own layout.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from types import ModuleType
+from typing import Any
+
+import numpy as np
+from numpy.lib.stride_tricks import as_strided
+
+from vpr_smr.eval.matching.checks import NonFiniteError, check_finite
+from vpr_smr.eval.matching.formulas import attribute_rates, block_range, group_range, padded, select
+
+KERNEL_CHUNK_VALUES = 16 << 20  # values per read of a lazy (HDF5) matrix on the compiled path: 64 MB of float32
+
+
+# --- screening: running sums along diagonals --------------------------------------------------------------------
+
+
+def _diagonal_view(array: np.ndarray, row: int, col: int, shape: tuple[int, int]) -> np.ndarray:
+    """Read-only ``view[j, d] = array[row + j, col - j + d]`` (the caller keeps the indices in range)."""
+    item = array.strides[1]
+    return as_strided(array[row:, col:], shape=shape, strides=(array.strides[0] - item, item), writeable=False)
+
+
+def _diagonal_prefix(x: np.ndarray, n_queries: int) -> np.ndarray:
+    """Prefix sums along the diagonals of the block ``x`` (columns of D as rows, shape ``(Wb, R)``).
+
+    ``out[q + 1, s] = sum_{q' <= q} x[q', s + q' - (w - 1)]`` (terms outside ``x`` are 0) with ``w = n_queries``,
+    so that the sum of the ``n`` entries of diagonal ``d`` starting at block column ``j`` is
+    ``out[j + n, s] - out[j, s]`` with ``s = d - j + w - 1``. One pass over the block; the Python loop runs over
+    its columns only.
+    """
+    n_cols, n_ref = x.shape
+    width = n_ref + n_queries - 1
+    out = np.empty((n_cols + 1, width), dtype=x.dtype)
+    out[0] = 0
+    for q in range(n_cols):  # np.cumsum(axis=0) is 3 times slower than this loop of row additions
+        lo = n_queries - 1 - q  # s at which column q's row 0 lies
+        s0, s1 = max(lo, 0), min(lo + n_ref, width)
+        np.add(out[q, s0:s1], x[q, s0 - lo : s1 - lo], out=out[q + 1, s0:s1])
+        out[q + 1, :s0] = out[q, :s0]
+        out[q + 1, s1:] = out[q, s1:]
+    return out
+
+
+def _window_sums(prefix: np.ndarray, n_terms: int, n_queries: int, n_diag: int) -> np.ndarray:
+    """``out[j, d]`` = screened sum of the first ``n_terms`` entries of diagonal ``d`` from block column ``j``,
+    padded for ``formulas.select``."""
+    shape = (n_queries, n_diag)
+    out = padded(n_queries, n_diag, prefix.dtype)
+    np.subtract(_diagonal_view(prefix, n_terms, n_queries - 1, shape), _diagonal_view(prefix, 0, n_queries - 1, shape),
+                out=out[:, :n_diag])
+    return out
+
+
+def _error_bound(dtype: np.dtype, n_cols: int, seq_len: int, magnitude: float) -> float:
+    """Bound on ``|screened - exact|`` of a window sum: float rounding of prefix sums over ``n_cols`` values of size
+    at most ``magnitude`` (both ends, Higham's gamma_n), of the screened inputs, and of the float64 reference sum."""
+    unit = float(np.finfo(dtype).eps) / 2
+    return magnitude * (unit * (2.2 * n_cols * n_cols + 6 * seq_len + 4) + 1.2e-16 * seq_len * seq_len)
+
+
+
+def numpy_block_features(
+    columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, first_column: int = 0
+) -> dict[str, np.ndarray]:
+    """``block_features`` in numpy: float32 (``screen_dtype``) screening by the prefix sums of the block."""
+    raw = columns
+    n_cols, n_ref = raw.shape
+    n_queries, n_diag, k = n_cols - seq_len + 1, n_ref - seq_len + 1, n_ranks
+
+    raw_max, raw_min = raw.max(axis=1), raw.min(axis=1)  # NaN and inf show up here: no separate pass
+    if not (np.all(np.isfinite(raw_max)) and np.all(np.isfinite(raw_min))):
+        check_finite(raw, first_column=first_column, queries_first=True)
+    col_max = raw_max.astype(np.float64)
+    col_max[col_max == 0] = 1.0  # each column divided by its maximum; a zero maximum by 1
+    magnitude_raw = float(max(np.abs(raw_max).max(), np.abs(raw_min).max()))
+    magnitude = float((np.maximum(np.abs(raw_max), np.abs(raw_min)) / np.abs(col_max)).max()) * (1 + 1e-6)
+
+    def value(j: np.ndarray, r: np.ndarray, normalised: bool) -> np.ndarray:
+        """D[r, j] (block column j) in float64, divided by its column maximum."""
+        v: np.ndarray = raw[j, r].astype(np.float64)
+        return v / col_max[j] if normalised else v
+
+    def diagonal_sum(j: np.ndarray, d: np.ndarray, n_terms: int, normalised: bool) -> np.ndarray:
+        """``0 + x_0 + x_1 + ...`` along diagonal d from block column j, the definition's order."""
+        acc = np.zeros(len(j))
+        for c in range(n_terms):
+            acc += value(j + c, d + c, normalised)
+        return acc
+
+    def row_sum(j: np.ndarray, r: np.ndarray, n_terms: int) -> np.ndarray:
+        acc = np.zeros(len(j))
+        for c in range(n_terms):
+            acc += value(j + c, r, True)
+        return acc
+
+    screen = np.dtype(screen_dtype)
+    if screen.itemsize < 8 and not (1e-30 < magnitude_raw < 1e30 and magnitude < 1e30):
+        screen = np.dtype(np.float64)  # float32 would under- or overflow
+    margin = 2 * _error_bound(screen, n_cols, seq_len, magnitude)
+    margin_raw = 2 * _error_bound(screen, n_cols, seq_len, magnitude_raw)
+    x = padded(n_cols, n_ref, screen)  # the normalised block, padded for the current column's values
+    np.divide(raw, col_max.astype(screen)[:, None], out=x[:, :n_ref])
+
+    # Diagonal sums of the normalised window: full_d (L terms) ranks the diagonals, past_d (L-1 terms) gives A1.
+    prefix = _diagonal_prefix(x[:, :n_ref], n_queries)
+    full = _window_sums(prefix, seq_len, n_queries, n_diag)
+    _, rank_diagonals = select(full, n_diag, k, margin, lambda j, d: diagonal_sum(j, d, seq_len, True))
+    del full
+    past = _window_sums(prefix, seq_len - 1, n_queries, n_diag)
+    del prefix
+    past_sorted, _ = select(past, n_diag, k, margin, lambda j, d: diagonal_sum(j, d, seq_len - 1, True))
+    del past
+
+    # Row sums over the L-1 past columns of the window: a prefix sum over the block's columns.
+    row_prefix = np.empty((n_cols + 1, n_ref), dtype=screen)
+    row_prefix[0] = 0
+    for q in range(n_cols):
+        np.add(row_prefix[q], x[q, :n_ref], out=row_prefix[q + 1])
+    row_past = padded(n_queries, n_ref, screen)
+    np.subtract(row_prefix[seq_len - 1 : seq_len - 1 + n_queries], row_prefix[:n_queries], out=row_past[:, :n_ref])
+    del row_prefix
+    row_past_sorted, _ = select(row_past, n_ref, k, margin, lambda j, r: row_sum(j, r, seq_len - 1))
+    del row_past
+
+    current_sorted, _ = select(x[seq_len - 1 :], n_ref, k, margin, lambda j, r: value(j + seq_len - 1, r, True))
+    del x
+    single_match = np.argmin(raw[seq_len - 1 :], axis=1)  # first index on ties, as np.argmin of the column
+
+    # S on the raw distances: its argmin is the sequence match, its extremes the split's threshold range.
+    prefix = _diagonal_prefix(raw.astype(screen, copy=False), n_queries)
+    s_approx = _window_sums(prefix, seq_len, n_queries, n_diag)
+    del prefix
+    s_min, s_arg = select(s_approx, n_diag, 1, margin_raw, lambda j, d: diagonal_sum(j, d, seq_len, False))
+    s_approx[:, n_diag:] = -np.inf
+    s_max, _ = select(s_approx, n_diag, 1, margin_raw, lambda j, d: diagonal_sum(j, d, seq_len, False), largest=True)
+    del s_approx
+
+    # A2..A4 of the ranked diagonals: a few values each, recomputed exactly.
+    j = np.repeat(np.arange(n_queries), k)
+    i = rank_diagonals.ravel()
+    past_ranked = diagonal_sum(j, i, seq_len - 1, True).reshape(n_queries, k)
+    last = value(j + seq_len - 1, i + seq_len - 1, True).reshape(n_queries, k)  # diag_i[L-1]
+    block_mean = _mean_full(diagonal_sum, j, *block_range(i, seq_len, n_diag), seq_len)
+    group_mean = _mean_full(diagonal_sum, j, *group_range(i, n_diag), seq_len)
+    attributes = attribute_rates(past_sorted, row_past_sorted, current_sorted, last, past_ranked,
+                                 block_mean.reshape(n_queries, k), group_mean.reshape(n_queries, k))
+    return {
+        "attributes": attributes,
+        "rank_diagonals": rank_diagonals.astype(np.int64),
+        "single_match": single_match.astype(np.int64),
+        "sequence_diagonal": s_arg[:, 0].astype(np.int64),
+        "sequence_distance": s_min[:, 0],
+        "sequence_max": s_max[:, 0],
+    }
+
+
+def _compiled_features(kernels: ModuleType, raw: np.ndarray, seq_len: int, n_ranks: int, first_column: int,
+                       block_queries: int | None = None) -> dict[str, np.ndarray] | None:
+    """``block_features`` of ``raw`` (references x query columns, float32/float64, any strides) by the compiled
+    kernel; None when the values' range is too extreme for its float64 screening (the numpy path then runs)."""
+    step = min(block_queries or kernels.BLOCK_QUERIES, kernels.BLOCK_QUERIES)
+    # numpy's reductions along the rows read the matrix in its layout as fast as a kernel would, without a second
+    # compiled entry point to load (each costs about 0.85 s per process); NaN and inf show up in the extremes
+    col_max, col_min = raw.max(axis=0), raw.min(axis=0)
+    if not (np.all(np.isfinite(col_max)) and np.all(np.isfinite(col_min))):
+        check_finite(raw, first_column=first_column)
+    col_max64 = col_max.astype(np.float64)
+    col_max64[col_max64 == 0] = 1.0  # a zero maximum divides by 1
+    size = np.maximum(np.abs(col_max), np.abs(col_min)).astype(np.float64)
+    magnitude_raw = float(size.max())
+    magnitude = float((size / np.abs(col_max64)).max()) * (1 + 1e-6)
+    # Far from 1 the float64 running sums could overflow or lose the relative error bound (subnormals).
+    if not (1e-200 < magnitude_raw < 1e200 and magnitude < 1e200):
+        return None
+    n_cols = step + seq_len - 1
+    margin = 2 * _error_bound(np.dtype(np.float64), n_cols, seq_len, magnitude)
+    margin_raw = 2 * _error_bound(np.dtype(np.float64), n_cols, seq_len, magnitude_raw)
+    out: dict[str, np.ndarray] = kernels.column_blocks(raw, col_max64, seq_len, n_ranks, margin, margin_raw, step)
+    return out
+
+
+def _mean_full(diagonal_sum: Callable[..., np.ndarray], j: np.ndarray, lo: np.ndarray, hi: np.ndarray,
+               seq_len: int) -> np.ndarray:
+    """Mean of ``full_m`` over the diagonals ``m = lo .. hi`` (inclusive) of block column ``j``: the block and
+    group sums of method §5 (a sum over ``L`` entries of the entry-wise mean of those diagonals)."""
+    width = int((hi - lo).max()) + 1
+    total = np.zeros(len(j))
+    for t in range(width):
+        inside = lo + t <= hi
+        total += np.where(inside, diagonal_sum(j, np.minimum(lo + t, hi), seq_len, True), 0.0)
+    mean: np.ndarray = total / (hi - lo + 1)
+    return mean
+
+
+
+def block_features(raw: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any, first_column: int,
+                   kernels: ModuleType | None) -> dict[str, np.ndarray]:
+    """The fixed matcher's numbers for one block ``raw`` (``(Wb, R)``, float32/float64): by the compiled ``kernels``
+    when given (and the values' range allows its float64 screening), else in numpy."""
+    if kernels is not None:
+        out = _compiled_features(kernels, raw.T, seq_len, n_ranks, first_column)
+        if out is not None:
+            return out
+    return numpy_block_features(raw, seq_len, n_ranks, screen_dtype, first_column)
+
+
+def compiled_matrix_features(kernels: ModuleType, matrix: Any, seq_len: int,
+                             n_ranks: int) -> dict[str, np.ndarray] | None:
+    """The fixed matcher's numbers for every query of a whole matrix by the compiled kernel, reading the matrix in
+    its own layout: a float32/float64 array or memmap as one view (no copy), anything else (HDF5, integers to
+    convert) in chunks of whole rows of about ``KERNEL_CHUNK_VALUES`` values. None when a chunk's range is too
+    extreme for the kernel's float64 screening."""
+    n_ref, n_query = (int(n) for n in matrix.shape)
+    n_out = n_query - seq_len + 1
+    in_place = isinstance(matrix, np.ndarray) and matrix.dtype in (np.float32, np.float64)
+    chunk = n_out if in_place else max(kernels.BLOCK_QUERIES, KERNEL_CHUNK_VALUES // max(n_ref, 1))
+    parts = []
+    try:
+        for first in range(0, n_out, chunk):
+            last = min(n_out, first + chunk)
+            raw = np.asarray(matrix[:, first : last + seq_len - 1])  # a view of an array or memmap; HDF5 reads
+            if raw.dtype not in (np.float32, np.float64):
+                raw = raw.astype(np.float64)
+            out = _compiled_features(kernels, raw, seq_len, n_ranks, first)
+            if out is None:
+                return None
+            parts.append(out)
+    except NonFiniteError as error:  # a chunk names the first bad value; the count is the whole matrix's
+        raise error.counted_in(matrix) from None
+    return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}

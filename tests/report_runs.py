@@ -1,0 +1,175 @@
+"""A whole report run by hand: every experiment's JSON of two methods on one dataset ``d`` (L = 2 and 4), the
+standard VPR metrics, match-inspector figures and the speed experiment's files, given to the report (the report's,
+the registry's, the speed experiment's and the browser's tests)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from vpr_smr.core.io import write_json
+from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport, SeedReport, SplitScores
+from vpr_smr.eval.scoring import speed
+from vpr_smr.eval.scoring.records import Reduction
+from vpr_smr.eval.scoring.speed import SpeedProfile
+
+
+def predictor_report(seq_len: int) -> PredictorReport:
+    """A one-seed predictor report of dataset d, scored on val and test."""
+    diagonal = ((10, 0, 0, 0), (0, 5, 0, 0), (0, 0, 3, 0), (0, 0, 0, 2))
+    seed = SeedReport(0, {}, 0.5, 30, (30, 10, 10, 7), {"val": SplitScores(0.4, 20, (10, 5, 3, 2), diagonal),
+                                                        "test": SplitScores(0.3, 20, (10, 5, 3, 2), diagonal)})
+    return PredictorReport({"dataset": "d", "seq_len": seq_len}, 57, (seed,))
+
+
+DATASET_CARD = {  # as pipeline.plan.dataset_cards gives it
+    "reference": "summer", "query": "winter", "n_frames": 60, "tolerance": 2, "splits": {"test": [0, 60]},
+    "pairing": "by file name (the same names in both folders)", "overlaps": [], "frames_sha256": "cd" * 32,
+    "source": "folders loader: image folders /data/route/summer (reference) and /data/route/winter (query): every "
+              "image in them, in natural file-name order",
+}
+RUN_EXPERIMENTS = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out",
+                   "metrics", "datasets"}
+
+
+def metrics_record(method: str, seq_len: int, modes=("paper", "standard"), dataset: str = "d"):
+    """The standard VPR metrics of one method, by hand: every value distinct, from the method's, mode's and
+    matcher's position."""
+    from vpr_smr.core.constants import MATCHERS, RECALL_AT
+    from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
+
+    base = 0.1 + 0.3 * (sum(map(ord, method)) % 3)
+
+    def numbers(m: int, k: int) -> MatcherMetrics:
+        value = round(base + 0.05 * m + 0.1 * k, 6)
+        return MatcherMetrics(60 - seq_len + 1 if k else 60, {n: round(value + 0.01 * i, 6)
+                                                              for i, n in enumerate(RECALL_AT)},
+                              round(value / 2, 6), round(value * 0.9, 6), round(value * 0.8, 6))
+
+    return VPRMetrics({"dataset": dataset, "method": method, "seq_len": seq_len, "tolerance": 2},
+                      {"test": SplitMetrics({mode: {matcher: numbers(m, k) for k, matcher in enumerate(MATCHERS)}
+                                             for m, mode in enumerate(modes)})})
+
+
+def small_png(path: Path, width: int = 240, height: int = 120, shade: int = 0) -> Path:
+    """A small PNG (a grey ramp), standing in for a figure the report is given."""
+    import cv2
+
+    ramp = np.tile(np.linspace(0, 255, width, dtype=np.uint8), (height, 1))
+    ok, data = cv2.imencode(".png", np.stack([ramp, np.full_like(ramp, shade), ramp[:, ::-1]], axis=2))
+    assert ok
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data.tobytes())
+    return path
+
+
+def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), methods=("m1", "m2"),
+              trust_levels=(0.0, 0.9), restoration=True, ablations=True, metrics=True, inspector=True,
+              **options) -> tuple[Path, list[Path]]:
+    """Every experiment's JSON for the ``methods`` (in that configuration order) on one dataset ``d``, the
+    standard VPR metrics and match-inspector figures at L = 4, then report.main; returns (run folder, files).
+    ``options`` go to report.main."""
+    from vpr_smr.core.paths import match_figure_path, matrix_figure_path, queries_path
+    from vpr_smr.eval.matching.attributes import query_features
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.scoring.evaluate import evaluate_split
+    from vpr_smr.eval.scoring.records import (
+        Evaluation,
+        HeldOut,
+        HeldOutPredictors,
+        HeldOutScores,
+        ModeRemoval,
+        Reduction,
+        SplitTiming,
+        Timing,
+    )
+
+    rng = np.random.default_rng(0)
+    run = tmp_path / "run"
+    evaluations, timings, predictors = [], [], []
+    for seq_len in seq_lens:
+        for i, method in enumerate(methods):
+            matrix = rng.random((60, 60)) + (0.5 + 0.2 * i) * (1 - np.eye(60))
+            features = query_features(matrix, seq_len)
+            fitted = [SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=s).fit(
+                features.attributes[:, 0], features.labels) for s in (0, 1)]
+            result, seconds = evaluate_split(features, fitted, modes=modes, trust_levels=trust_levels,
+                                             restoration=restoration)
+            meta = {"dataset": "d", "method": method, "seq_len": seq_len}
+            path = tmp_path / f"e_{method}_L{seq_len}.json"
+            write_json(path, Evaluation(meta, ("p.h5",), {"test": result}).to_json())
+            evaluations.append(path)
+            timings.append(tmp_path / f"e_{method}_L{seq_len}.timing.json")
+            write_json(timings[-1], Timing(meta, {"test": SplitTiming.of(0.2, seconds, result.n_queries)}).to_json())
+        path = tmp_path / f"p_L{seq_len}.json"
+        write_json(path, predictor_report(seq_len).to_json())
+        predictors.append(path)
+    ablation = tmp_path / "a.json"
+    table2 = AttributeAblation({"dataset": "d", "seq_len": 4}, {}, 57, {
+        name: AttributeScores(None, 0.5, f1_val=0.5, f1_test=0.5) for name in ("A1", "A2", "A3", "A4", "all")})
+    write_json(ablation, table2.to_json())
+    lomo = tmp_path / "lomo.json"
+    halved = Reduction(1.0, 0.8, 0.9, 0.2, 0.1, 50.0, 1.0, 0.2, "improved")
+    scores = HeldOutScores("p.h5", 0.5, 3, {mode: ModeRemoval(0.5, 0.5, halved) for mode in modes})
+    write_json(lomo, HeldOut({"dataset": "d", "method": methods[0], "seq_len": 4}, 57,
+                             HeldOutPredictors(scores, scores)).to_json())
+    metric_files, match_figures, matrix_figures = [], [], []
+    if metrics:
+        for method in methods:
+            metric_files.append(tmp_path / f"metrics_{method}.json")
+            write_json(metric_files[-1], metrics_record(method, 4, modes).to_json())
+            queries = Path(queries_path(run, "d", method, 4))  # written by the queries job (vpr-smr queries)
+            queries.parent.mkdir(parents=True, exist_ok=True)
+            queries.write_text("split,query\ntest,0\n")
+    if inspector:
+        for i, method in enumerate(methods):
+            match_figures.append(small_png(Path(match_figure_path(run, "d", method, 4)), 320, 160, 40 * i))
+            matrix_figures.append(small_png(Path(matrix_figure_path(run, "d", method, 4)), 160, 160, 40 * i + 20))
+    written = main(run, evaluations, predictors, [ablation] if ablations else [], [lomo] if ablations else [],
+                   timings=timings, metrics=metric_files, match_figures=match_figures, matrix_figures=matrix_figures,
+                   table_seq_lens=[4], seq_len_ablation=len(seq_lens) > 1,
+                   config="run: demo\nseq_lens: [2, 4]\n",
+                   provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}},
+                   datasets={"d": DATASET_CARD}, **options)
+    return run, written
+
+
+# --- the speed experiment's files ---
+
+
+def speed_record(profile: str, numbers: dict[tuple[str, str], tuple[float, float | None]]) -> dict:
+    """A hand-made speed file of dataset d, L = 4: per (method, matcher), sequence recall@1 and the reduction."""
+    parsed = SpeedProfile.parse(profile)
+    matchers = {}
+    for matcher, velocities in (("fixed", (1.0,)), ("velocity", (0.5, 1.0, 2.0))):
+        methods = {}
+        for method in ("m1", "m2"):
+            recall, reduction = numbers[(method, matcher)]
+            outcome = "nothing_to_reduce" if reduction is None else "improved" if reduction > 0 else "worse"
+            removal = Reduction(0.9, 0.5, 0.6, 0.4, 0.3, reduction, 0.9, 0.4, outcome)
+            methods[method] = speed.SpeedScores(57, 60, 0.3, recall, removal, 0.5, 3)
+        matchers[matcher] = speed.SpeedMatcher(velocities, 100, (40, 20, 20, 20), methods)
+    meta = {"dataset": "d", "seq_len": 4, "profile": parsed.name, "tolerance": 2, "mode": "paper", "seed": 0,
+            "train_split": ["train", 0, 60], "table_split": ["test", 60, 120]}
+    return speed.SpeedResult(meta, parsed.speed, parsed.speed or 1.02, 60, 60, matchers).to_json()
+
+
+SPEED_NUMBERS = {  # (method, matcher): sequence recall@1, AOC reduction (%)
+    "1x": {("m1", "fixed"): (0.8, 50.0), ("m2", "fixed"): (0.6, 30.0), ("m1", "velocity"): (0.8, 40.0),
+           ("m2", "velocity"): (0.6, 20.0)},
+    "2x": {("m1", "fixed"): (0.2, 10.0), ("m2", "fixed"): (0.1, -30.0), ("m1", "velocity"): (0.7, 40.0),
+           ("m2", "velocity"): (0.5, 20.0)},
+    "varying": {("m1", "fixed"): (0.4, None), ("m2", "fixed"): (0.2, 5.0), ("m1", "velocity"): (0.7, 1.0),
+                ("m2", "velocity"): (0.6, 2.0)},
+}
+
+
+def speed_files(folder: Path) -> list[Path]:
+    """The speed files of ``SPEED_NUMBERS`` (dataset d, methods m1 and m2, L = 4), in the profiles' order."""
+    files = []
+    for profile, numbers in SPEED_NUMBERS.items():
+        files.append(folder / f"speed_{profile}.json")
+        write_json(files[-1], speed_record(profile, numbers))
+    return files

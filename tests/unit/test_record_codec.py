@@ -1,0 +1,285 @@
+"""The one codec of every result record (core.records): each record type survives a round trip through JSON with its
+types (tuples, int keys, None, NaN, nested records), and a file of another results format is refused by name."""
+
+import dataclasses
+import json
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+from vpr_smr.core.io import write_json
+from vpr_smr.core.records import (
+    FORMAT,
+    FileRecord,
+    FormatError,
+    MissingEntry,
+    Record,
+    decode,
+    encode,
+    load,
+    save,
+)
+from vpr_smr.eval.matching.attributes import POSITIONS, Matching
+from vpr_smr.eval.predictor.leakage import TRAINED_ON, FrameRange, trained_on
+from vpr_smr.eval.predictor.records import (
+    AttributeAblation,
+    AttributeScores,
+    PredictorReport,
+    SeedReport,
+    SplitScores,
+)
+from vpr_smr.eval.scoring.records import (
+    Evaluation,
+    EvaluationSplit,
+    HeldOut,
+    HeldOutPredictors,
+    HeldOutScores,
+    MatcherMetrics,
+    ModeRemoval,
+    PRCurve,
+    Reduction,
+    RemovalCurves,
+    RestorationMode,
+    RestorationNumbers,
+    SeedNumbers,
+    SeedSummary,
+    SplitMetrics,
+    SplitTiming,
+    Timing,
+    TrustNumbers,
+    VPRMetrics,
+)
+from vpr_smr.eval.scoring.speed import SpeedMatcher, SpeedResult, SpeedScores
+
+NAN, INF = float("nan"), float("inf")
+META = {"dataset": "d", "method": "m", "seq_len": 4, "tolerance": 2, "split": ["test", 10, 60]}
+
+# --- one record of each type, hand-made: NaN and infinities, None (null, and absent), nested records -------------
+
+CURVE = PRCurve((0.0, 0.25, 0.5), (1.0, NAN, 0.5))
+REDUCTION = Reduction(0.5, 0.4, 0.45, 0.1, 0.05, 50.0, 0.75, 0.125, "improved")
+UNDEFINED = Reduction(1.0, 1.0, 1.0, 0.0, 0.0, None, 1.0, 0.0, "nothing_to_reduce")
+CURVES = RemovalCurves(0.25, INF, CURVE, PRCurve((0.5,), (-INF,)))
+TRUST = TrustNumbers(3, 0.5, 0.4, NAN, 0.3, 0.2, None, "removed_all")
+MODE = ModeRemoval(0.6, 0.7, REDUCTION, CURVES, {"0.0": TRUST, "0.9": dataclasses.replace(TRUST, removed=0)},
+                   {"0.0": CURVE, "0.9": PRCurve((), ())})
+BARE_MODE = ModeRemoval(0.6, NAN, UNDEFINED)  # no curves, no trust levels: absent from the file
+SEED = SeedNumbers(3, 0.61, 7, {"paper": REDUCTION, "standard": UNDEFINED})
+SUMMARY = SeedSummary(3, 2, 12.5, NAN, -3.0, 28.0, {0: "improved", 3: "worse", 12: "nothing_to_reduce"})
+NO_SUMMARY = SeedSummary(1, 0, None, None, None, None, {0: "nothing_to_reduce"})
+RESTORED = RestorationMode(0.5, 0.4, 0.6, 0.3, 0.35, 0.4, 0.05, 0.1, 0.05, -0.05, None, CURVE)
+RESTORED_CURVES = dataclasses.replace(RESTORED, reduction_pct=50.0, curve_vpr_sm=CURVE, curve_removal=CURVE)
+RESTORATION = RestorationNumbers(0.9, 0.5, 4, 3, 2, 1, 1, 0, (2, 1, 0), {"paper": RESTORED,
+                                                                         "standard": RESTORED_CURVES})
+SPLIT = EvaluationSplit(57, 60, 0.5, 0.55, 0.7, 0.61, ((5, 0, 1, 0), (0, 4, 0, 0), (0, 0, 3, 2), (1, 0, 0, 9)),
+                        (6, 4, 5, 10), (6, 4, 4, 11), 7, {"paper": MODE, "standard": BARE_MODE}, 0, (SEED,),
+                        {"paper": SUMMARY, "standard": NO_SUMMARY}, RESTORATION)
+BARE_SPLIT = dataclasses.replace(SPLIT, other_seeds=(), restoration=None, seed=5)
+EVALUATION = Evaluation(META, ("p.h5", "p.seed3.h5"), {"val": BARE_SPLIT, "test": SPLIT})
+SPLIT_TIMING = SplitTiming.of(0.25, 0.125, 57)
+TIMING = Timing(META, {"val": SPLIT_TIMING, "test": SplitTiming(0.0, 0.0, 0.0, 0)})
+HELD_OUT_SCORES = HeldOutScores("p.h5", 0.5, 3, {"paper": MODE, "standard": BARE_MODE})
+HELD_OUT_PREDICTORS = HeldOutPredictors(HELD_OUT_SCORES, dataclasses.replace(HELD_OUT_SCORES, path="w.h5"))
+HELD_OUT = HeldOut(META, 57, HELD_OUT_PREDICTORS)
+MATCHER = MatcherMetrics(57, {1: 0.5, 5: 0.75, 10: NAN, 20: 1.0}, 0.25, 0.6, INF)
+SPLIT_METRICS = SplitMetrics({"paper": {"single": MATCHER, "sequence": MATCHER}, "standard": {}})
+METRICS = VPRMetrics({**META, "predictor": None}, {"test": SPLIT_METRICS})
+SPLIT_SCORES = SplitScores(0.4, 20, (10, 5, 3, 2), ((10, 0, 0, 0), (0, 5, 0, 0), (1, 0, 2, 0), (0, 0, 0, 2)))
+SEED_REPORT = SeedReport(2, {"hidden_layer_sizes": [8, 8], "alpha": 1e-4, "smote": True, "column_order": None},
+                         0.52, 31, (30, 10, 10, 7), {"check": SPLIT_SCORES,
+                                                     "final": dataclasses.replace(SPLIT_SCORES, f1=NAN)})
+PREDICTOR = PredictorReport({"dataset": "d", "seq_len": 4}, 57,
+                            (SEED_REPORT, dataclasses.replace(SEED_REPORT, seed=3, splits={})), ("p.h5", "p.seed3.h5"))
+ONE_SEED = PredictorReport({"dataset": "d", "seq_len": 4}, 57, (SEED_REPORT,))
+ATTRIBUTE_SCORES = AttributeScores((0, 2), 0.4, f1_val=0.5, n_val=20, f1_test=NAN, n_test=24, f1_test_method_mean=0.45)
+ABLATION = AttributeAblation({"dataset": "d", "seq_len": 4}, {"max_iter": 40}, 57,
+                             {"A1": AttributeScores((0,), 0.3), "all": dataclasses.replace(ATTRIBUTE_SCORES,
+                                                                                           columns=None)})
+FRAMES = FrameRange("d", "train", 0, 40, (5, 50))
+SPEED_SCORES = SpeedScores(57, 60, 0.3, 0.8, UNDEFINED, 0.5, 3)
+SPEED_MATCHER = SpeedMatcher((0.5, 1.0, 2.0), 100, (40, 20, 20, 20), {"m1": SPEED_SCORES,
+                                                                      "m2": dataclasses.replace(SPEED_SCORES,
+                                                                                                reduction=REDUCTION)})
+SPEED = SpeedResult({"dataset": "d", "seq_len": 4, "profile": "varying"}, None, 1.02, 60, 59,
+                    {"fixed": SPEED_MATCHER, "velocity": SPEED_MATCHER})
+
+SAMPLES = {
+    "PRCurve": CURVE, "Reduction": REDUCTION, "RemovalCurves": CURVES, "TrustNumbers": TRUST, "ModeRemoval": MODE,
+    "ModeRemoval, bare": BARE_MODE, "SeedNumbers": SEED, "SeedSummary": SUMMARY, "SeedSummary, undefined": NO_SUMMARY,
+    "RestorationMode": RESTORED, "RestorationMode, curves": RESTORED_CURVES, "RestorationNumbers": RESTORATION,
+    "EvaluationSplit": SPLIT, "EvaluationSplit, bare": BARE_SPLIT, "Evaluation": EVALUATION,
+    "SplitTiming": SPLIT_TIMING, "Timing": TIMING, "HeldOutScores": HELD_OUT_SCORES,
+    "HeldOutPredictors": HELD_OUT_PREDICTORS, "HeldOut": HELD_OUT, "MatcherMetrics": MATCHER,
+    "SplitMetrics": SPLIT_METRICS, "VPRMetrics": METRICS, "SplitScores": SPLIT_SCORES, "SeedReport": SEED_REPORT,
+    "PredictorReport": PREDICTOR, "PredictorReport, one seed": ONE_SEED, "AttributeScores": ATTRIBUTE_SCORES,
+    "AttributeAblation": ABLATION, "FrameRange": FRAMES, "FrameRange, aligned": FrameRange("d", "test", 40, 80),
+    "SpeedScores": SPEED_SCORES, "SpeedMatcher": SPEED_MATCHER, "SpeedResult": SPEED,
+    "Matching": Matching((0.5, 1.0, 2.0), POSITIONS), "Matching, fixed": Matching(),
+}
+
+
+def assert_same(read, written, where="record"):
+    """``read`` is ``written``: the same types all the way down (tuples stay tuples, int keys ints) and the same
+    values, NaN equal to NaN (a mapping's keys in any order: a file's are sorted)."""
+    assert type(read) is type(written), f"{where}: {type(read).__name__} read, {type(written).__name__} written"
+    if dataclasses.is_dataclass(written):
+        for f in dataclasses.fields(written):
+            assert_same(getattr(read, f.name), getattr(written, f.name), f"{where}.{f.name}")
+    elif isinstance(written, tuple | list):
+        assert len(read) == len(written), where
+        for i, (a, b) in enumerate(zip(read, written, strict=True)):
+            assert_same(a, b, f"{where}[{i}]")
+    elif isinstance(written, dict):  # in any order: a file's keys are sorted
+        assert set(read) == set(written), where
+        for key in written:
+            assert_same(read[key], written[key], f"{where}.{key}")
+    elif isinstance(written, float) and math.isnan(written):
+        assert math.isnan(read), where
+    else:
+        assert read == written, where
+
+
+def _subclasses(cls):
+    for sub in cls.__subclasses__():
+        yield sub
+        yield from _subclasses(sub)
+
+
+def test_every_record_type_has_a_sample():
+    record_types = {cls for cls in _subclasses(Record) if dataclasses.is_dataclass(cls)}
+    assert record_types == {type(record) for record in SAMPLES.values()}
+
+
+@pytest.mark.parametrize("name", list(SAMPLES))
+def test_a_record_survives_the_round_trip_through_a_file(name, tmp_path):
+    record = SAMPLES[name]
+    assert_same(type(record).from_json(record.to_json()), record)
+    write_json(tmp_path / "r.json", record.to_json())  # as a stage writes it: NaN and Infinity, keys sorted
+    text = (tmp_path / "r.json").read_text()
+    read = type(record).from_json(json.loads(text))
+    assert_same(read, record)
+    write_json(tmp_path / "again.json", read.to_json())
+    assert (tmp_path / "again.json").read_text() == text  # byte for byte
+
+
+def test_the_layout_is_the_fields():
+    data = json.loads(json.dumps(EVALUATION.to_json()))
+    assert data["format"] == FORMAT and list(data) == ["format", "meta", "predictors", "splits"]
+    test, val = data["splits"]["test"], data["splits"]["val"]
+    # a field that defaults to None is absent while None; any other None is null
+    assert "restoration" not in val and "curves" not in test["modes"]["standard"]
+    assert test["modes"]["standard"]["reduction"]["reduction_pct"] is None
+    assert test["restoration"]["modes"]["paper"]["reduction_pct"] is None
+    assert "curve_vpr_sm" not in test["restoration"]["modes"]["paper"]
+    # an embedded record is its own object; int keys are their decimal text; tuples are lists
+    assert test["modes"]["paper"]["reduction"] == dataclasses.asdict(REDUCTION)
+    assert test["seed_summary"]["paper"]["outcomes"] == {"0": "improved", "3": "worse", "12": "nothing_to_reduce"}
+    assert test["confusion_matrix"][3] == [1, 0, 0, 9] and test["seed"] == 0 and len(test["other_seeds"]) == 1
+    assert SPEED.to_json()["speed"] is None and SPEED.to_json()["matchers"]["fixed"]["methods"]["m1"]["reduction"][
+        "outcome"] == "nothing_to_reduce"
+    assert FRAMES.to_json() == {"dataset": "d", "split": "train", "lo": 0, "hi": 40, "reference": [5, 50]}
+    assert "reference" not in FrameRange("d", "test", 0, 4).to_json()
+    # only a whole file's record says its format
+    assert "format" not in SPLIT.to_json() and "format" not in SEED_REPORT.to_json()
+
+
+def test_the_first_seed_is_written_once():
+    data = json.loads(json.dumps(PREDICTOR.to_json()))
+    assert set(data) == {"format", "meta", "n_train", "seeds", "seed_models"}
+    assert PREDICTOR.first_seed()["f1_check"] == 0.4 and PREDICTOR.first_seed()["n_final"] == 20
+    assert [seed.seed for seed in SPLIT.seeds] == [0, 3]
+    assert SPLIT.seeds[0] == SeedNumbers(0, SPLIT.f1_macro, SPLIT.removed, {"paper": REDUCTION,
+                                                                            "standard": UNDEFINED})
+
+
+def test_numpy_values_are_written_as_python_numbers():
+    record = Reduction(np.float64(0.5), np.float32(0.25), 0.5, np.float64(NAN), 0.0, None, 1.0, 0.0, "improved")
+    data = encode(record)
+    assert type(data["max_recall"]) is float and data["auc_vpr_sm"] == 0.25 and type(data["auc_vpr_sm"]) is float
+    assert encode({np.int64(3): np.arange(3)}) == {"3": [0, 1, 2]}
+    assert json.dumps(data["aoc_vpr_sm"]) == "NaN"
+
+
+def test_an_int_where_a_float_is_declared_reads_as_that_float():
+    data = {**dataclasses.asdict(REDUCTION), "max_recall": 1, "aoc_vpr_sm": 0}
+    read = Reduction.from_json(data)
+    assert type(read.max_recall) is float and read.max_recall == 1.0 and read.aoc_vpr_sm == 0.0
+
+
+def test_bad_data_is_refused_naming_the_entry():
+    data = json.loads(json.dumps(EVALUATION.to_json()))
+    del data["splits"]["test"]["modes"]["paper"]["reduction"]["outcome"]
+    with pytest.raises(MissingEntry, match=r"splits\.test\.modes\.paper\.reduction\.outcome"):
+        Evaluation.from_json(data)
+    data = json.loads(json.dumps(EVALUATION.to_json()))
+    data["splits"]["test"]["seeds"] = []  # the layout of an earlier version
+    with pytest.raises(ValueError, match=r"splits\.test: unexpected entries 'seeds'"):
+        Evaluation.from_json(data)
+    data = json.loads(json.dumps(EVALUATION.to_json()))
+    data["splits"]["test"]["other_seeds"][0]["removed"] = "7"
+    with pytest.raises(TypeError, match=r"splits\.test\.other_seeds\[0\]\.removed: an integer expected"):
+        Evaluation.from_json(data)
+    data = json.loads(json.dumps(EVALUATION.to_json()))
+    data["splits"]["test"]["seed_summary"]["paper"]["outcomes"]["first"] = "improved"
+    with pytest.raises(ValueError, match="an integer key expected, found 'first'"):
+        Evaluation.from_json(data)
+    with pytest.raises(TypeError, match=r"recall_at_100p: a number expected, found NoneType None"):
+        MatcherMetrics.from_json({**MATCHER.to_json(), "recall_at_100p": None})
+    with pytest.raises(ValueError, match="2 items expected, found 3"):
+        decode(tuple[int, int], [1, 2, 3], "pair")
+
+
+def test_a_file_of_another_format_is_refused_naming_the_file(tmp_path):
+    path = tmp_path / "L4.json"
+    save(path, EVALUATION)
+    assert_same(load(path, Evaluation), EVALUATION)
+    for found, said in ((FORMAT - 1, f"written in results format {FORMAT - 1}"), (None, "records no results format"),
+                        ("3x", "written in results format '3x'")):
+        data = EVALUATION.to_json()
+        if found is None:
+            del data["format"]
+        else:
+            data["format"] = found
+        write_json(path, data)
+        with pytest.raises(FormatError, match="compute it again") as error:
+            load(path, Evaluation)
+        assert str(error.value).startswith(f"{path}: ") and said in str(error.value)
+        assert f"reads results format {FORMAT}" in str(error.value)
+        with pytest.raises(FormatError, match=said):
+            Evaluation.from_json(data)
+    with pytest.raises(ValueError, match=f"{path}: not a JSON file"):
+        path.write_text("{")
+        load(path, Evaluation)
+
+
+@pytest.mark.parametrize("record", [EVALUATION, TIMING, HELD_OUT, METRICS, PREDICTOR, ABLATION, SPEED],
+                         ids=lambda record: type(record).__name__)
+def test_every_file_record_checks_its_format(record):
+    assert isinstance(record, FileRecord)
+    data = {**record.to_json(), "format": FORMAT + 1}
+    with pytest.raises(FormatError, match=f"written in results format {FORMAT + 1}"):
+        type(record).from_json(data)
+
+
+def test_the_report_names_a_file_of_another_format(tmp_path):
+    from vpr_smr.eval.report.build import main
+
+    old = tmp_path / "e.json"
+    write_json(old, {**EVALUATION.to_json(), "format": FORMAT - 1})
+    with pytest.raises(FormatError, match=f"{old}: an evaluation file written in results format {FORMAT - 1}.*"
+                                          "compute it again"):
+        main(tmp_path / "run", [old], html=False)
+
+
+def test_a_predictor_of_another_format_says_to_train_it_again(tmp_path):
+    path = tmp_path / "p.h5"
+    with h5py.File(path, "w") as f:  # the frame ranges as an earlier version wrote them: a list each
+        f.attrs[TRAINED_ON] = json.dumps([["d", "train", 0, 40]])
+    with pytest.raises(ValueError, match=f"{path}: its {TRAINED_ON} are not in results format {FORMAT}.*train it "
+                                         "again"):
+        trained_on(path)
+    with h5py.File(path, "w") as f:
+        f.attrs[TRAINED_ON] = json.dumps([FRAMES.to_json()])
+    assert trained_on(path) == [FRAMES]

@@ -1,0 +1,562 @@
+"""Table I layout against the paper's own Table I (its Mean and Improved columns are derived values)."""
+
+import csv
+import json
+
+import numpy as np
+import pytest
+from report_runs import DATASET_CARD, RUN_EXPERIMENTS, build_run, metrics_record, predictor_report, small_png
+
+from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores
+from vpr_smr.eval.report.build import table1_latex, table1_markdown, table2_latex, table2_markdown, table2_rows
+from vpr_smr.eval.report.table1 import tex_escape
+
+METHODS = ("AP-GeM", "CosPlace", "EigenPlaces", "MixVPR", "NetVLAD", "SAD", "SALAD")
+PAPER = {  # smr_paper.tex, Table I: VPR+SM, VPR+SM+Pred, Reduction (%) per method
+    "Nordland": (
+        (0.6522, 0.0220, 0.0155, 0.0061, 0.2478, 0.2164, 0.0017),
+        (0.4862, 0.0136, 0.0106, 0.0042, 0.1274, 0.1050, 0.0011),
+        (25.46, 38.17, 31.31, 31.96, 48.61, 51.46, 37.55),
+    ),
+    "Oxford RobotCar": (
+        (0.0950, 0.0842, 0.0867, 0.0363, 0.0519, 0.1479, 0.0769),
+        (0.1085, 0.0880, 0.0682, 0.0257, 0.0312, 0.0975, 0.0561),
+        (-14.22, -4.45, 21.31, 29.34, 39.83, 34.07, 26.95),
+    ),
+}
+
+
+@pytest.fixture
+def rows():
+    return [
+        {"dataset": dataset, "method": method, "seq_len": 4, "mode": "paper", "aoc_vpr_sm": base[i],
+         "aoc_vpr_sm_pred": pred[i], "reduction_pct": reduction[i],
+         "outcome": "improved" if reduction[i] > 0 else "worse"}
+        for dataset, (base, pred, reduction) in PAPER.items()
+        for i, method in enumerate(METHODS)
+    ]
+
+
+def test_markdown_means_and_improved_match_the_paper(rows):
+    text = table1_markdown(rows)
+    assert "| dataset | | AP-GeM | CosPlace | EigenPlaces | MixVPR | NetVLAD | SAD | SALAD | Mean | Improved |" in text
+    # The paper's Mean column: 0.1660, 0.1069, 37.79 (Nordland); 0.0827, 0.0679 (RobotCar).
+    assert "| Nordland | VPR+SM | 0.6522 | 0.0220 | 0.0155 | 0.0061 | 0.2478 | 0.2164 | 0.0017 | 0.1660 |  |" in text
+    assert "|  | VPR+SM+Pred | 0.4862 |" in text and "| 0.0011 | 0.1069 |  |" in text
+    assert "| 37.55 | 37.79 | 7 / 7 |" in text
+    assert "| Oxford RobotCar | VPR+SM |" in text and "| 0.0769 | 0.0827 |  |" in text
+    assert "| 0.0561 | 0.0679 |  |" in text
+    # The paper prints 18.97, the mean of its unrounded reductions; of the rounded ones here it is
+    # 132.83 / 7 = 18.976 -> 18.98.
+    assert "|  | Reduction (%) | -14.22 | -4.45 |" in text and "| 26.95 | 18.98 | 5 / 7 |" in text
+    assert "## paper mode, sequence length 4" in text
+
+
+def test_latex_colours_reductions(rows):
+    text = table1_latex(rows)
+    assert r"\textcolor{red}{-14.22}" in text and r"\textcolor{green}{25.46}" in text
+    assert r"Oxford RobotCar & VPR+SM & 0.0950" in text and r"& 5 / 7\\" in text
+    assert r"Reduction (\%)" in text
+
+
+def test_latex_footnotes_an_undefined_reduction_in_its_own_tabular_only(rows):
+    from vpr_smr.eval.report.table1 import UNDEFINED, UNDEFINED_NOTE
+
+    # two (mode, L) blocks: L = 4 with one n/a reduction, then L = 8 with every reduction defined
+    first = [dict(row) for row in rows]
+    first[0].update(reduction_pct=None, outcome="nothing_to_reduce", max_recall=0.5, max_recall_vpr_sm=0.5)
+    second = [{**row, "seq_len": 8} for row in rows]
+    text = table1_latex(first + second)
+    tabulars = text.split(r"\end{tabular}")[:-1]
+    assert len(tabulars) == 2 and "sequence length 4" in tabulars[0] and "sequence length 8" in tabulars[1]
+    note = tex_escape(UNDEFINED_NOTE)
+    assert UNDEFINED in tabulars[0].replace(note, "") and note in tabulars[0]
+    assert UNDEFINED not in tabulars[1] and note not in tabulars[1]
+    # the other way round: the footnote goes with the second tabular only
+    tabulars = table1_latex(second + first).split(r"\end{tabular}")[:-1]
+    assert note not in tabulars[0] and note in tabulars[1]
+
+
+def test_seed_row_shows_mean_and_sample_std(rows):
+    for row, values in zip(rows[:7], ((10, 20, 30), (1, 1, 1), (-5, 5, 0), (0, 0, 0), (2, 4, 6), (1, 2, 3),
+                                      (3, 3, 3)), strict=True):
+        row.update(reduction_pct_mean=float(np.mean(values)), reduction_pct_std=float(np.std(values, ddof=1)),
+                   n_seeds=3)
+    for row in rows[7:]:
+        row.update(reduction_pct_mean=1.0, reduction_pct_std=0.0, n_seeds=3)
+    text = table1_markdown(rows)
+    # AP-GeM 10, 20, 30: mean 20, std 10; CosPlace 1, 1, 1: 1 ± 0; EigenPlaces -5, 5, 0: 0 ± 5;
+    # the mean of the seven means (20 + 1 + 0 + 0 + 4 + 2 + 3) / 7 = 4.29; improved on average: 5 of 7
+    assert ("|  | Reduction over seeds (%) | 20.00 ± 10.00 | 1.00 ± 0.00 | 0.00 ± 5.00 | 0.00 ± 0.00 | "
+            "4.00 ± 2.00 | 2.00 ± 1.00 | 3.00 ± 0.00 | 4.29 | 5 / 7 (3 seeds) |") in text
+    assert r"20.00 $\pm$ 10.00" in table1_latex(rows)
+
+
+def test_table2_marks_the_attributes_used():
+    ablation = AttributeAblation({"dataset": "Nordland", "seq_len": 4}, {}, 100, {
+        name: AttributeScores(None, f1, f1_val=f1, f1_test=f1, f1_test_method_mean=f1)
+        for name, f1 in (("A1", 0.42), ("A2", 0.42), ("A3", 0.40), ("A4", 0.37), ("all", 0.54))})
+    rows = table2_rows([ablation])
+    assert [r["attributes"] for r in rows] == ["A1", "A2", "A3", "A4", "all"]
+    text = table2_markdown(rows)
+    # the paper's Table II rows
+    assert "| × | × | ✓ | × | 0.40 | 0.40 | 0.40 | 0.40 |" in text
+    assert "| ✓ | ✓ | ✓ | ✓ | 0.54 | 0.54 | 0.54 | 0.54 |" in text
+    assert r"$\times$ & $\times$ & $\times$ & $\checkmark$ & 0.37" in table2_latex(rows)
+
+
+def test_every_experiment_gives_its_tables_and_figures(tmp_path):
+    from vpr_smr.eval.report.registry import expected_outputs
+
+    run, written = build_run(tmp_path)
+    expected = expected_outputs(["d"], [2, 4], ["paper", "standard"], RUN_EXPERIMENTS, table_seq_lens=[4])
+    assert sorted(str(p.relative_to(run)) for p in written) == sorted(expected)
+    assert all((run / p).stat().st_size > 0 for p in expected)
+    # Table I holds L = 4 only; the sequence-length table holds both, and its L = 4 rows equal Table I's
+    table1 = list(csv.DictReader(open(run / "tables" / "table1.csv")))
+    ablation = list(csv.DictReader(open(run / "tables" / "ablation_seq_len.csv")))
+    assert {r["seq_len"] for r in table1} == {"4"} and {r["seq_len"] for r in ablation} == {"2", "4"}
+    assert [{k: r[k] for k in table1[0]} for r in ablation if r["seq_len"] == "4"] == table1
+    assert table1[0]["n_seeds"] == "2"
+    restoration = list(csv.DictReader(open(run / "tables" / "restoration.csv")))
+    assert len(restoration) == 2 * 2 * 2  # methods x L x modes
+    for row in restoration:
+        assert float(row["auc_difference"]) == pytest.approx(float(row["auc_restoration"]) - float(row["auc_removal"]))
+    confusion = list(csv.DictReader(open(run / "tables" / "predictor_confusion.csv")))
+    assert {r["method"] for r in confusion} == {"m1", "m2", "all"}
+    for true_class in range(4):  # the "all" rows are the sums of the methods' rows
+        rows = [r for r in confusion if r["seq_len"] == "4" and r["true_class"] == str(true_class)]
+        total = {r["method"]: int(r["total"]) for r in rows}
+        assert total["all"] == total["m1"] + total["m2"]
+    trust = list(csv.DictReader(open(run / "tables" / "trust_levels.csv")))
+    assert {r["trust"] for r in trust} == {"0.0", "0.9"}
+
+
+def test_tables_and_figures_with_standard_mode_only(tmp_path):
+    import json
+
+    from vpr_smr.core.io import write_json
+    from vpr_smr.eval.matching.attributes import query_features
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.scoring.evaluate import evaluate_split
+    from vpr_smr.eval.scoring.records import Evaluation
+
+    rng = np.random.default_rng(0)
+    matrix = rng.random((60, 60)) + 0.7 * (1 - np.eye(60))  # the diagonal is often, not always, the best
+    features = query_features(matrix, 4)
+    predictor = SMRPredictor(hidden_layer_sizes=(8,), max_iter=50).fit(features.attributes[:, 0], features.labels)
+    result, _ = evaluate_split(features, predictor, modes=("standard",), trust_levels=(0.0, 0.9))
+    evaluation = Evaluation({"dataset": "d", "method": "m", "seq_len": 4}, ("p.h5",), {"test": result})
+    write_json(tmp_path / "e.json", evaluation.to_json())
+    write_json(tmp_path / "p.json", predictor_report(4).to_json())
+    main(tmp_path / "out", [tmp_path / "e.json"], [tmp_path / "p.json"], html=False)
+    assert (tmp_path / "out" / "tables" / "table1.csv").read_text().splitlines()[1].startswith("d,m,4,standard,")
+    assert sorted(p.name for p in (tmp_path / "out" / "figures").iterdir()) == [
+        "confusion_d_L4.png", "pr_d_L4_standard.png", "trust_d_L4_standard.png"]
+    assert json.loads((tmp_path / "e.json").read_text())["splits"]["test"]["n_queries"] == 57
+    assert not (tmp_path / "out" / "tables" / "restoration.csv").exists()
+    assert not (tmp_path / "out" / "report.html").exists()
+
+
+# --- the HTML page: Table I, the findings in words, the sections of the run ------------------------------------
+
+
+def _table_texts(page: str, table_id: str) -> list[list[str]]:
+    """The cells' texts of the page's table ``table_id``, row by row (header row first)."""
+    import html
+    import re
+
+    found = re.search(rf'<table id="{re.escape(table_id)}"[^>]*>(.*?)</table>', page, re.S)
+    assert found, f"no table {table_id}"
+    return [[html.unescape(re.sub(r"<[^>]+>", "", c)).strip() for c in re.findall(r"<t[hd][^>]*>(.*?)</t[hd]>", r,
+                                                                                   re.S)]
+            for r in re.findall(r"<tr>(.*?)</tr>", found.group(1), re.S)]
+
+
+def test_table1_in_the_page_has_the_papers_layout_and_numbers(rows, tmp_path):
+    from vpr_smr.eval.report import html, registry
+    from vpr_smr.eval.report.results import WrittenTable
+    from vpr_smr.eval.report.table1 import table1_blocks
+
+    blocks = table1_blocks(rows)
+    assert [(b.dataset, b.methods) for b in blocks] == [("Nordland", METHODS), ("Oxford RobotCar", METHODS)]
+    view = html.table1_view(blocks[1], "t")
+    assert [c.kind for c in view.rows[2][1:3]] == ["down", "down"] and view.rows[2][3].kind == "up"
+    table = WrittenTable("table1", registry.table("table1").columns, tuple(rows), (tmp_path / "tables" / "table1.csv",))
+    page = html.main(tmp_path / "report.html", [table], [], split="test").read_text()
+    nordland = _table_texts(page, "table1-nordland-paper-4")
+    assert nordland[0] == ["", *METHODS, "Mean", "Improved"]  # methods as columns, in the rows' order
+    # the paper's numbers; its Mean column 0.1660, 0.1069, 37.79 and 7 of 7 improved
+    assert nordland[1] == ["VPR+SM", "0.6522", "0.0220", "0.0155", "0.0061", "0.2478", "0.2164", "0.0017", "0.1660",
+                           ""]
+    assert nordland[2] == ["VPR+SM+Pred", "0.4862", "0.0136", "0.0106", "0.0042", "0.1274", "0.1050", "0.0011",
+                           "0.1069", ""]
+    assert nordland[3] == ["Reduction (%)", "25.46", "38.17", "31.31", "31.96", "48.61", "51.46", "37.55", "37.79",
+                           "7 / 7"]
+    robotcar = _table_texts(page, "table1-oxford-robotcar-paper-4")
+    assert robotcar[1][-2:] == ["0.0827", ""] and robotcar[2][-2:] == ["0.0679", ""]
+    assert robotcar[3] == ["Reduction (%)", "-14.22", "-4.45", "21.31", "29.34", "39.83", "34.07", "26.95", "18.98",
+                           "5 / 7"]
+    # the page leads with Table I, then the rest; no sorting on the paper's layout
+    assert page.index('id="findings"') < page.index('id="pr-curves"') < page.index('id="provenance"')
+    assert 'class="paper table1"' in page
+
+
+def finding_block(reductions, seeds=None, mode="paper", seq_len=4, dataset="nordland_sample"):
+    """A Table I block of one dataset by hand: (method, reduction %) and, optionally, per method
+    (mean, std, n_seeds, n_seeds_defined) over the seeds."""
+    from vpr_smr.eval.report.table1 import Table1Block
+
+    rows = []
+    for i, (method, reduction) in enumerate(reductions):
+        outcome = ("nothing_to_reduce" if reduction is None else "improved" if reduction > 0 else
+                   "worse" if reduction < 0 else "unchanged")
+        row = {"dataset": dataset, "method": method, "seq_len": seq_len, "mode": mode, "aoc_vpr_sm": 0.5,
+               "aoc_vpr_sm_pred": 0.4, "reduction_pct": reduction, "outcome": outcome, "max_recall": 0.9,
+               "max_recall_vpr_sm": 0.9}
+        if seeds is not None:
+            mean, std, n_seeds, defined = seeds[i]
+            row.update(reduction_pct_mean=mean, reduction_pct_std=std, n_seeds=n_seeds, n_seeds_defined=defined)
+        rows.append(row)
+    return Table1Block(dataset, mode, seq_len, tuple(rows))
+
+
+def test_the_findings_in_words():
+    from vpr_smr.eval.report.findings import sentences
+
+    # the demo's numbers, and a method whose baseline AOC is 0 (its reduction undefined)
+    block = finding_block(
+        [("SAD", -0.819238062820179), ("HOG", 76.7084537482669), ("EfficientNet-Lite0", 11.585629961797641),
+         ("Perfect", None)],
+        [(-0.8428717970517386, 0.030005601863029824, 5, 5), (78.37245222695637, 3.5256116744623283, 5, 5),
+         (11.976893870677142, 1.0418886489552452, 5, 5), (None, None, 5, 0)])
+    # "of 4": a method whose reduction is undefined counts as not improved (and gets its own sentence)
+    assert sentences(block, "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
+        "the PR curve for 2 of 4 methods: HOG by 76.7 %, EfficientNet-Lite0 by 11.6 %; it made SAD's 0.8 % worse.",
+        "For Perfect, baseline AOC 0 up to the predictor's maximum recall 0.9000: nothing to reduce, the reduction "
+        "is undefined.",
+        "The mean reduction over these 3 methods is 29.2 % (Table I's Mean).",
+        "Over 5 predictor seeds (mean ± sample standard deviation) the reduction is SAD -0.8 ± 0.0 %, HOG "
+        "78.4 ± 3.5 % and EfficientNet-Lite0 12.0 ± 1.0 %; on average it helps 2 of 4 methods; it is undefined for "
+        "Perfect.",
+    ]
+    # one method, one seed
+    one = finding_block([("hog", 5.0)], [(5.0, 0.0, 1, 1)], mode="standard", seq_len=2, dataset="d")
+    assert sentences(one, "val") == [
+        "On d (val split, L = 2, standard mode, seed-0 predictor) the predictor reduced hog's area over the PR "
+        "curve by 5.0 %.", "One predictor seed was run, so there is no spread over seeds."]
+    assert sentences(finding_block([("sad", -2.04)]), "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor made sad's area over "
+        "the PR curve 2.0 % worse (larger)."]
+    # nothing to reduce anywhere; none improved, one unchanged; only some seeds defined
+    nothing = finding_block([("a", None), ("b", None)], [(None, None, 3, 0), (None, None, 3, 0)])
+    assert sentences(nothing, "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) each of the 2 methods' area over the "
+        "PR curve is already 0 without the predictor: there is nothing to reduce, so the reduction is undefined.",
+        "Over 3 predictor seeds the reduction is undefined for every method."]
+    mixed = finding_block([("a", -3.0), ("b", 0.0), ("c", -0.01)], [(-3.0, 1.0, 3, 2), (0.0, 0.0, 3, 3),
+                                                                   (0.5, 0.25, 3, 3)])
+    assert sentences(mixed, "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
+        "the PR curve for none of the 3 methods; it made a's 3.0 % and c's 0.01 % worse; it left b's unchanged.",
+        "The mean reduction over the 3 methods is -1.0 % (Table I's Mean).",
+        "Over 3 predictor seeds (mean ± sample standard deviation) the reduction is a -3.0 ± 1.0 % (2 of 3 seeds), "
+        "b 0.0 ± 0.0 % and c 0.5 ± 0.2 %; on average it helps 1 of 3 methods."]
+    # two methods, one reduction defined
+    half = finding_block([("m2", 0.0), ("m1", None)], [(0.0, 0.0, 2, 1), (None, None, 2, 0)])
+    assert sentences(half, "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
+        "the PR curve for none of the 2 methods; it left m2's unchanged.",
+        "For m1, baseline AOC 0 up to the predictor's maximum recall 0.9000: nothing to reduce, the reduction is "
+        "undefined.",
+        "Over 2 predictor seeds (mean ± sample standard deviation) the reduction is m2 0.0 ± 0.0 % (1 of 2 seeds); "
+        "on average it helps 0 of 2 methods; it is undefined for m1."]
+
+
+SECTIONS = ("findings", "pr-curves", "trust-levels", "restoration", "sequence-length", "predictor", "table-ii",
+            "leave-one-method-out", "timing", "vpr-metrics", "match-inspector", "datasets", "provenance",
+            "configuration")
+
+
+def test_the_page_has_a_section_per_experiment_in_order(tmp_path):
+    import html
+
+    run, _ = build_run(tmp_path, modes=("paper",), seq_lens=(2, 4))
+    page = (run / "report.html").read_text()
+    positions = [page.index(f'<section id="{name}">') for name in SECTIONS]
+    assert positions == sorted(positions)
+    assert all(f'<a href="#{name}">' in page for name in SECTIONS)  # and the navigation links each
+    text = html.unescape(page)
+    assert "On d (test split, L = 4, paper mode, seed-0 predictor) the predictor " in text
+    # the AOC's maximum recall is the predictor curve's (curves.compare_curves, method §8), where the dotted line is
+    assert "up to VPR+SM+Pred's maximum recall (dotted line); VPR+SM's curve is cut there" in text
+    # the match inspector: a figure per method, the per-query CSV named
+    assert text.count("figures/matches_d_m1_L4.png") == 1 and "figures/distance_matrix_d_m2_L4.png" in text
+    assert "queries/d/m1/L4.csv." in text and "not in the run folder" not in text
+    assert DATASET_CARD["source"] in text and "split test" in text  # the dataset card
+    assert page.count("<img ") == len(list((run / "figures").iterdir()))  # every figure of the run, once
+
+
+def test_a_switched_off_experiment_leaves_no_section(tmp_path):
+    run, written = build_run(tmp_path, modes=("paper",), seq_lens=(4,), trust_levels=(), restoration=False,
+                             ablations=False, metrics=False, inspector=False)
+    page = (run / "report.html").read_text()
+    kept = ("findings", "pr-curves", "predictor", "timing", "datasets", "provenance", "configuration")
+    for name in SECTIONS:
+        assert (f'<section id="{name}">' in page) == (name in kept), name
+        assert (f'href="#{name}"' in page) == (name in kept), name
+    assert {p.name for p in written if p.suffix == ".csv"} == {
+        "table1.csv", "predictor_methods.csv", "predictor_confusion.csv", "timing.csv", "predictor.csv",
+        "datasets.csv"}
+    for word in ("Trust level", "restoration", "Table II", "Leave one method out", "VPR metrics", "inspector"):
+        assert word not in page.replace("Restoration", ""), word
+
+
+def test_method_order_is_the_configurations(tmp_path):
+    from vpr_smr.eval.report.build import table1_rows
+    from vpr_smr.eval.report.table1 import evaluation_order
+    from vpr_smr.eval.scoring.records import Evaluation
+
+    run, _ = build_run(tmp_path, modes=("paper",), seq_lens=(4,), methods=("zeta", "alpha"))
+    tables = run / "tables"
+    assert "| dataset | | zeta | alpha | Mean | Improved |" in (tables / "table1.md").read_text()
+    assert r"& zeta & alpha & Mean & Improved\\" in (tables / "table1.tex").read_text()
+    for name in ("table1", "predictor_methods", "timing", "vpr_metrics", "restoration"):
+        methods = [r["method"] for r in csv.DictReader(open(tables / f"{name}.csv"))]
+        assert methods.index("zeta") < methods.index("alpha"), name
+    confusion = list(dict.fromkeys(r["method"] for r in csv.DictReader(open(tables / "predictor_confusion.csv"))))
+    assert confusion == ["zeta", "alpha", "all"]
+    page = (run / "report.html").read_text()
+    assert _table_texts(page, "table1-d-paper-4")[0] == ["", "zeta", "alpha", "Mean", "Improved"]
+    assert page.index("matches_d_zeta_L4.png") < page.index("matches_d_alpha_L4.png")
+    # an explicit order wins over the evaluations'
+    evaluations = [Evaluation.from_json(json.loads(p.read_text())) for p in sorted(tmp_path.glob("e_*_L4.json"))]
+    assert [r["method"] for r in table1_rows(evaluations)] == ["alpha", "zeta"]  # the order given (here sorted)
+    order = evaluation_order(evaluations, methods=("zeta", "alpha"))
+    assert [r["method"] for r in table1_rows(evaluations, order=order)] == ["zeta", "alpha"]
+
+
+def test_vpr_metrics_table_equals_the_records(tmp_path):
+    from vpr_smr.core.constants import MATCHERS, RECALL_AT
+
+    run, _ = build_run(tmp_path, modes=("paper", "standard"), seq_lens=(4,), methods=("m2", "m1"))
+    rows = list(csv.DictReader(open(run / "tables" / "vpr_metrics.csv")))
+    expected = [(method, mode, matcher) for method in ("m2", "m1") for mode in ("paper", "standard")
+                for matcher in MATCHERS]
+    assert [(r["method"], r["mode"], r["matcher"]) for r in rows] == expected
+    for row in rows:
+        numbers = metrics_record(row["method"], 4, ("paper", "standard")).splits["test"].modes[row["mode"]][
+            row["matcher"]]
+        assert (row["dataset"], row["seq_len"], row["split"]) == ("d", "4", "test")
+        assert int(row["n_queries"]) == numbers.n_queries
+        assert [float(row[f"recall_at_{n}"]) for n in RECALL_AT] == [numbers.recall_at[n] for n in RECALL_AT]
+        assert float(row["recall_at_100p"]) == numbers.recall_at_100p and float(row["pr_auc"]) == numbers.pr_auc
+        assert float(row["extended_precision"]) == numbers.extended_precision
+    # the page: paper mode's metrics per method and matcher, to 4 decimals
+    shown = _table_texts((run / "report.html").read_text(), "metrics-d-4-paper")
+    assert shown[0] == ["method", "matcher", "queries", "R@1", "R@5", "R@10", "R@20", "R@100P", "PR-AUC", "EP"]
+    first = metrics_record("m2", 4).splits["test"].modes["paper"]["single"]
+    assert shown[1] == ["m2", "single frame", str(first.n_queries), *(f"{first.recall_at[n]:.4f}" for n in RECALL_AT),
+                        f"{first.recall_at_100p:.4f}", f"{first.pr_auc:.4f}", f"{first.extended_precision:.4f}"]
+    assert [r[:2] for r in shown[1:]] == [[m, t] for m in ("m2", "m1")
+                                          for t in ("single frame", "sequence", "sequence + predictor")]
+
+
+def test_the_dataset_card_table(tmp_path):
+    run, _ = build_run(tmp_path, modes=("paper",), seq_lens=(4,), metrics=False, inspector=False)
+    (row,) = csv.DictReader(open(run / "tables" / "datasets.csv"))
+    assert row == {"dataset": "d", "reference": "summer", "query": "winter", "n_frames": "60",
+                   "splits": "test [0, 60): 60 frames", "tolerance": "2",
+                   "pairing": "by file name (the same names in both folders)", "overlaps": "",
+                   "frames_sha256": "cd" * 32, "source": DATASET_CARD["source"]}
+    assert "| d | summer | winter | 60 | test [0, 60): 60 frames | 2 |" in (run / "tables" / "datasets.md").read_text()
+
+
+def test_inspector_figures_are_placed_by_their_names(tmp_path):
+    from vpr_smr.eval.report.build import inspector_figures
+
+    a = small_png(tmp_path / "figures" / "matches_my_route_net_vlad_L4.png")
+    b = small_png(tmp_path / "figures" / "distance_matrix_my_route_net_vlad_L4.png")
+    c = small_png(tmp_path / "figures" / "matches_my_route_hog_L4.png")
+    found = inspector_figures({"matches": [a, c], "distance_matrix": [b]}, [("my_route", "hog", 4)],
+                              ["my", "my_route"], "test")
+    assert [(f.name, f.dataset, f.method, f.seq_len) for f in found] == [
+        ("matches", "my_route", "hog", 4), ("matches", "my_route", "net_vlad", 4),
+        ("distance_matrix", "my_route", "net_vlad", 4)]
+    with pytest.raises(ValueError, match="names no dataset, method and L"):
+        inspector_figures({"matches": [small_png(tmp_path / "other.png")]}, [], ["d"], "test")
+    with pytest.raises(FileNotFoundError, match="match inspector figure not found"):
+        inspector_figures({"matches": [tmp_path / "missing.png"]}, [], ["d"], "test")
+
+
+def test_a_wrong_file_given_to_the_report_is_named(tmp_path):
+    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.scoring import vpr_metrics
+    from vpr_smr.eval.scoring.records import meta_key
+
+    build_run(tmp_path / "made", modes=("paper",), seq_lens=(4,), ablations=False, inspector=False)
+    made = tmp_path / "made"
+    evaluation, metrics = made / "e_m1_L4.json", made / "metrics_m1.json"
+    out = tmp_path / "run"
+
+    def report(**inputs):
+        main(out, **{"evaluations": [evaluation], "predictors": [made / "p_L4.json"], **inputs})
+
+    not_json = tmp_path / "notes.json"
+    not_json.write_text("dataset: d\n")
+    with pytest.raises(ValueError, match=r"notes.json: not an evaluation file: Expecting value: line 1"):
+        report(evaluations=[not_json])
+    binary = tmp_path / "figure.json"
+    binary.write_bytes(b"\x89PNG\r\n\x1a\n\xff\xfe")
+    with pytest.raises(ValueError, match=r"figure.json: not a predictor report file: .*decode"):
+        report(predictors=[binary])
+    listed = tmp_path / "list.json"
+    listed.write_text("[1, 2]")
+    with pytest.raises(ValueError, match=r"list.json: not a timing file: it holds a JSON list, not an object"):
+        report(timings=[listed])
+    # the wrong kind of JSON: an evaluation as the VPR metrics, VPR metrics as an evaluation, as a timing
+    with pytest.raises(ValueError, match=r"e_m1_L4.json: not a VPR metrics file: "):
+        report(metrics=[evaluation])
+    with pytest.raises(ValueError, match=r"metrics_m1.json: not an evaluation file: it has no 'predictors' entry"):
+        report(evaluations=[metrics])
+    with pytest.raises(ValueError, match=r"metrics_m1.json: not a timing file: it has no "
+                                         r"'splits.test.attributes_seconds' entry"):
+        report(timings=[metrics])
+    # `vpr-smr metrics D.npy` without --dataset and --method: no dataset or method in its meta
+    matrix = tmp_path / "D.npy"
+    np.save(matrix, np.random.default_rng(0).random((30, 30)) + 1 - np.eye(30))
+    anonymous = tmp_path / "anonymous.json"
+    vpr_metrics.main(matrix, 4, 2, anonymous, modes=("paper",))
+    with pytest.raises(ValueError, match=r"anonymous.json: a VPR metrics file without dataset, method in its meta, "
+                                         r"which the report needs: rerun vpr-smr metrics with --dataset and "
+                                         r"--method"):
+        report(metrics=[anonymous])
+    assert not out.exists()
+    with pytest.raises(ValueError, match=r"the meta has no dataset, method \(it has seq_len, tolerance\)"):
+        meta_key({"seq_len": 4, "tolerance": 2})
+
+
+def test_the_report_command_names_a_wrong_file(tmp_path, capsys):
+    from vpr_smr.pipeline.cli import main as cli
+
+    build_run(tmp_path / "made", modes=("paper",), seq_lens=(4,), ablations=False, inspector=False)
+    made = tmp_path / "made"
+    assert cli(["report", "--evaluations", str(made / "e_m1_L4.json"), "--predictors", str(made / "p_L4.json"),
+                "--metrics", str(made / "e_m1_L4.json"), "--out", str(tmp_path / "run")]) == 2
+    error = capsys.readouterr().err
+    assert f"{made / 'e_m1_L4.json'}: not a VPR metrics file: " in error and "--debug" not in error
+
+
+def test_datasets_and_splits_keep_the_configurations_order(tmp_path):
+    import html
+
+    from vpr_smr.eval.report.build import main
+
+    def card(overlap: str) -> dict:  # splits as configured: train, val, test (alphabetically test, train, val)
+        return {**DATASET_CARD, "n_frames": 120, "splits": {"train": [0, 60], "val": [60, 90], "test": [80, 120]},
+                "overlaps": [overlap]}
+
+    # as the report rule gives them (pipeline.rule_helpers.report_datasets): JSON text in the configuration's order
+    cards = json.loads(json.dumps({"zeta": card("'val' and 'test' share [80, 90)"),
+                                   "alpha": card("'val' and 'test' share frames [85, 90)")}))
+    run = tmp_path / "run"
+    main(run, config={"run": "toy"}, datasets=cards)
+    rows = list(csv.DictReader(open(run / "tables" / "datasets.csv")))
+    splits = "train [0, 60): 60 frames; val [60, 90): 30 frames; test [80, 120): 40 frames"
+    assert [(r["dataset"], r["splits"]) for r in rows] == [("zeta", splits), ("alpha", splits)]
+    md = (run / "tables" / "datasets.md").read_text()
+    assert md.index("| zeta |") < md.index("| alpha |") and f"| {splits} |" in md
+    assert md.index("Warning, zeta:") < md.index("Warning, alpha:")  # the overlap warnings, in order too
+    tex = (run / "tables" / "datasets.tex").read_text()
+    assert tex.index(r"Warning, zeta:") < tex.index(r"Warning, alpha:") and tex.index("zeta &") < tex.index("alpha &")
+    text = html.unescape((run / "report.html").read_text())
+    assert text.index("Warning, zeta:") < text.index("Warning, alpha:")
+    cards_at = text.index('class="cards"')
+    zeta, alpha = text.index("<h3>zeta</h3>", cards_at), text.index("<h3>alpha</h3>", cards_at)
+    assert zeta < alpha
+    shown = [text.index(f"split {name}", zeta) for name in ("train", "val", "test")]
+    assert shown == sorted(shown) and shown[-1] < alpha
+
+
+# --- every table's columns as the registry declares them, in every file and on the page ----------------------------
+
+# the page's compact table of each registered table in build_run's run (dataset d, L = 4, paper mode)
+COMPACT = {"table1": "pr-d-4-paper", "restoration": "restoration-d-4-paper", "predictor_methods": "predictor-d-4",
+           "predictor": "predictor-pooled-d", "leave_one_method_out": "lomo-d", "timing": "timing-d",
+           "vpr_metrics": "metrics-d-4-paper", "table2": "table2-d-4", "trust_levels": "trust-d-4-paper",
+           "ablation_seq_len": "seq-len-d-paper", "speed": "speed-d-4"}
+PAPER_LAYOUT = ("table1", "table2")  # their Markdown and LaTeX files have the paper's layout, not the columns
+
+
+def _headers(page: str, table_id: str) -> list[tuple[str, str]]:
+    """(text, title) of the header cells of the page's table ``table_id`` (title: the CSV name, where shown)."""
+    import html
+    import re
+
+    found = re.search(rf'<table id="{re.escape(table_id)}"[^>]*>.*?<tr>(.*?)</tr>', page, re.S)
+    assert found, f"no table {table_id}"
+    return [(html.unescape(re.sub(r"<[^>]+>", "", text)).strip(), html.unescape(title or ""))
+            for title, text in re.findall(r'<th scope="col"[^>]*?(?: title="([^"]*)")?>(.*?)</th>', found.group(1),
+                                          re.S)]
+
+
+def test_every_declared_column_is_in_the_files_and_on_the_page(full_report_run):
+    from vpr_smr.eval.report import registry
+    from vpr_smr.eval.report.results import Splits
+
+    run, _ = full_report_run
+    page = (run / "report.html").read_text()
+    splits = Splits("test", ("val", "test"))  # the run's: its evaluations' test split, its predictors' val and test
+    assert {spec.name for spec in registry.TABLES} == set(COMPACT) | {"predictor_confusion", "datasets"}
+    for spec in registry.TABLES:
+        names = list(spec.names(splits))
+        stem = run / "tables" / spec.name
+        with open(stem.with_suffix(".csv"), newline="") as handle:
+            reader = csv.DictReader(handle)
+            assert reader.fieldnames == names, spec.name
+            rows = list(reader)
+        assert rows, spec.name
+        if spec.name not in PAPER_LAYOUT:
+            md = [line for line in stem.with_suffix(".md").read_text().splitlines() if line.startswith("| ")]
+            assert [cell.strip() for cell in md[0].strip("|").split("|")] == names, spec.name
+            tex = stem.with_suffix(".tex").read_text().splitlines()
+            head = tex[tex.index(next(line for line in tex if line.startswith(r"\begin{tabular}"))) + 1]
+            assert [c.replace(r"\_", "_") for c in head.removesuffix(r"\\").split(" & ")] == names, spec.name
+        # the page's whole table: every column by its name, every number written as its column says
+        whole = _table_texts(page, f"all-{spec.name}")
+        assert whole[0] == names and len(whole) == len(rows) + 1, spec.name
+        for row, shown in zip(rows, whole[1:], strict=True):
+            for column, text in zip(spec.expanded(splits), shown, strict=True):
+                value = row[column.name]
+                if "." in value and value.replace(".", "").replace("-", "").replace("e", "").isdigit():
+                    assert text == format(float(value), column.fmt), (spec.name, column.name, value, text)
+                elif value:
+                    assert text == value, (spec.name, column.name)
+        # the compact table: the declared columns by their labels, the name on hover where the label differs
+        if spec.pivot is not None:
+            header = _headers(page, COMPACT[spec.name])[0][0]
+            assert header == spec.column(spec.pivot.rows).header, spec.name
+            cells = [row[0] for row in _table_texts(page, COMPACT[spec.name])[1:]]
+            if spec.name == "speed":  # a row per profile and value
+                assert [c.split(": ")[1] for c in cells] == [spec.column(v).header for v in spec.pivot.values
+                                                             for _ in range(3)]
+            continue
+        shown = [c for c in spec.shown(splits) if not c.if_any or any(row[c.name] for row in rows)]
+        headers = _headers(page, COMPACT[spec.name]) if spec.page else []
+        if spec.name == "table2":  # the attributes used, then F1; the samples said in the note below
+            assert [text for text, _ in headers] == ["A1", "A2", "A3", "A4", *(c.header for c in shown if not c.note)]
+            assert all(c.header in page for c in shown if c.note)
+            continue
+        assert headers == [(c.header, c.name if c.header != c.name else "") for c in shown], spec.name
+    # a few of the labels, spelt out
+    assert [text for text, _ in _headers(page, "pr-d-4-paper")] == [
+        "method", "R@1 single", "R@1 sequence", "max recall", "AOC reduction (%)"]
+    assert _headers(page, "restoration-d-4-paper")[-1] == ("PR AUC difference", "auc_difference")
+    assert [text for text, _ in _headers(page, "predictor-pooled-d")] == [
+        "L", "train samples", "F1 cross-validation", "F1 validation", "F1 test", "val samples", "test samples"]
+    assert _headers(page, "trust-d-4-paper")[0][0] == "trust level" and _headers(page, "timing-d")[-1] == (
+        "prediction (ms)", "ms_predict_per_query")
+    assert [text for text, _ in _headers(page, "metrics-d-4-paper")][3:] == [
+        "R@1", "R@5", "R@10", "R@20", "R@100P", "PR-AUC", "EP"]

@@ -1,0 +1,260 @@
+"""Changing a setting reruns exactly the jobs that use it, and the tables change where they should, nowhere else.
+
+One complete run of a tiny workflow (two methods, 120 frames of the shipped sample, L = 3) is copied, with its
+Snakemake metadata and file times, for each family of settings; the expected jobs are worked out from the
+data flow (descriptors -> distances per split -> attributes per split -> one predictor per dataset and L -> one
+evaluation per method; Table II from every method's features; a predictor without each method from the others'
+train and val features, tested with the pooled one on the method's table split; per method at the table's L, the
+VPR metrics (which also depend on the metric modes) and the per-query CSV (which does not) from its distances,
+attributes and the seed-0 predictor, and the match inspector from its per-query CSV and the table split's
+distances; the speed experiment per profile at the table's L from every method's train and table distances, the
+tolerance and the predictor's settings -> report), not from the workflow's own output.
+"""
+
+import csv
+import re
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import pytest
+import torch
+import yaml
+from helpers import TINY_NET, tiny_net_model
+
+from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
+
+pytestmark = pytest.mark.slow
+
+BASE = {
+    "run": "r",
+    "output": "results",
+    "seq_lens": [3],
+    "seeds": 2,
+    "trust_levels": [0.0, 0.5],
+    "datasets": {"sample": {"loader": "nordland_sample", "root": str(DEFAULT_ROOT), "frames": [1000, 1120],
+                            "splits": {"train": [0, 50], "val": [50, 80], "test": [80, 120]}}},
+    "methods": {"sad": {"backend": "sad"}, "tiny": {"backend": "tinynet:TinyNet", "checkpoint": "tiny.pt"}},
+    "predictor": {"max_iter": 60},
+    "speed": {"profiles": [0.5, "varying"]},  # two profiles: 2x would leave too few train queries of 50 frames
+}
+METHODS = ("sad", "tiny")
+PROFILES = ("0.5x", "varying")
+SPLITS = ("train", "val", "test")
+
+
+def write_config(folder, conf):
+    (folder / "c.yaml").write_text(yaml.safe_dump(conf))
+
+
+def vpr_smr(folder, *args, timeout=600):
+    env = {"PYTHONPATH": str(folder), "PATH": "/usr/bin:/bin", "OMP_NUM_THREADS": "1"}
+    return subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", *args], cwd=folder, env=env,
+                          capture_output=True, text=True, timeout=timeout)
+
+
+def planned(folder):
+    """``{(rule, first output)}`` of a dry run (`--verbose`: Snakemake's list of jobs), relative to the run folder."""
+    result = vpr_smr(folder, "run", "c.yaml", "-n", "--verbose")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    jobs = re.findall(r"^rule (\w+):\n(?:    .*\n)*?    output: ([^,\n]+)", result.stdout, flags=re.MULTILINE)
+    return {(rule, output.removeprefix("results/r/")) for rule, output in jobs if rule != "all"}
+
+
+def descriptors(*methods):
+    return {("descriptors", f"descriptors/sample/{m}.h5") for m in methods}
+
+
+def distances(methods=METHODS, splits=SPLITS):
+    return {("distances", f"distances/sample/{m}/{s}.h5") for m in methods for s in splits}
+
+
+def attributes(methods=METHODS, splits=SPLITS, seq_len=3):
+    return {("attributes", f"attributes/sample/{m}/L{seq_len}/{s}.h5") for m in methods for s in splits}
+
+
+def train(seq_len=3):
+    return {("train", f"predictors/sample/L{seq_len}.h5")}
+
+
+def evaluate(methods=METHODS, seq_len=3):
+    return {("evaluate", f"evaluation/sample/{m}/L{seq_len}.json") for m in methods}
+
+
+def attribute_ablation(seq_len=3):
+    return {("attribute_ablation", f"ablation/attributes/sample/L{seq_len}.json")}
+
+
+def without(methods=METHODS, seq_len=3):
+    """The leave-one-method-out predictor trained without each of ``methods``."""
+    return {("predictor_without", f"predictors/sample/L{seq_len}/without_{m}.h5") for m in methods}
+
+
+def held_out(methods=METHODS, seq_len=3):
+    return {("held_out", f"ablation/without/sample/L{seq_len}/{m}.json") for m in methods}
+
+
+def metrics(methods=METHODS, seq_len=3):
+    """The standard VPR metrics of each method at the table's L."""
+    return {("vpr_metrics", f"metrics/sample/{m}/L{seq_len}.json") for m in methods}
+
+
+def queries(methods=METHODS, seq_len=3):
+    """The per-query CSV of each method at the table's L (its own job: the metric modes do not change it)."""
+    return {("queries", f"queries/sample/{m}/L{seq_len}.csv") for m in methods}
+
+
+def inspect(methods=METHODS, seq_len=3):
+    """The match inspector's figures of each method at the table's L."""
+    return {("inspect", f"figures/matches_sample_{m}_L{seq_len}.png") for m in methods}
+
+
+def speed(profiles=PROFILES, seq_len=3):
+    """The speed experiment's profiles at the table's L (each reads every method's train and table distances)."""
+    return {("speed", f"speed/sample/L{seq_len}/{p}.json") for p in profiles}
+
+
+REPORT = {("report", "tables/table1.csv")}
+
+
+def other(method):
+    return [m for m in METHODS if m != method]
+
+
+@pytest.fixture(scope="module")
+def base(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("base")
+    (folder / "tinynet.py").write_text(TINY_NET)
+    torch.manual_seed(0)
+    net = tiny_net_model()
+    torch.save(net.state_dict(), folder / "tiny.pt")
+    write_config(folder, BASE)
+    result = vpr_smr(folder, "run", "c.yaml")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    assert planned(folder) == set()
+    return folder
+
+
+@pytest.fixture
+def copy(base, tmp_path):
+    folder = tmp_path / "run"
+    shutil.copytree(base, folder, symlinks=True)  # copy2 keeps file times: Snakemake sees the same state
+    return folder
+
+
+def change(folder, edit):
+    conf = yaml.safe_load((folder / "c.yaml").read_text())
+    edit(conf)
+    write_config(folder, conf)
+
+
+def table1(folder):
+    with open(folder / "results" / "r" / "tables" / "table1.csv") as handle:
+        return {(r["method"], r["mode"]): r for r in csv.DictReader(handle)}
+
+
+# Everything downstream of the pooled predictor of L = 3: every method's evaluation, held-out test, VPR metrics
+# (the seed-0 predictor's matcher), per-query CSV (its decisions) and match inspector (which reads that CSV)
+PREDICTOR_ON = train() | evaluate() | held_out() | metrics() | queries() | inspect() | REPORT
+ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | without() | PREDICTOR_ON | speed()
+
+
+@pytest.mark.parametrize(("edit", "expected"), [
+    pytest.param(lambda c: c["datasets"]["sample"].update(tolerance=3),
+                 attributes() | attribute_ablation() | without() | PREDICTOR_ON | speed(), id="tolerance"),
+    # the test split feeds Table II's test F1 and the held-out scores, not the leave-one-out training
+    pytest.param(lambda c: c["datasets"]["sample"]["splits"].update(test=[85, 120]),
+                 distances(splits=["test"]) | attributes(splits=["test"]) | attribute_ablation() | PREDICTOR_ON
+                 | speed(), id="split-range"),
+    pytest.param(lambda c: c["datasets"]["sample"].update(frames=[1000, 1121]),
+                 descriptors(*METHODS) | ALL_BUT_DESCRIPTORS, id="frames"),
+    # the predictor without tiny never reads tiny's files
+    pytest.param(lambda c: c["methods"]["tiny"].update(preprocessing="vpr-methods-evaluation"),
+                 descriptors("tiny") | distances(["tiny"]) | attributes(["tiny"]) | attribute_ablation()
+                 | without(other("tiny")) | PREDICTOR_ON | speed(), id="backend-setting"),
+    # the distance changes the distance matrices, not the descriptors: no extraction reruns
+    pytest.param(lambda c: c["methods"]["sad"].update(distance="l2"),
+                 distances(["sad"]) | attributes(["sad"]) | attribute_ablation()
+                 | without(other("sad")) | PREDICTOR_ON | speed(), id="distance"),
+    # Table I moves to L = 4 (table_seq_len: 4 when listed), with its ablations; L = 3 stays as it is
+    pytest.param(lambda c: c.update(seq_lens=[3, 4]),
+                 attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | attribute_ablation(4) | without(seq_len=4)
+                 | held_out(seq_len=4) | metrics(seq_len=4) | queries(seq_len=4) | inspect(seq_len=4)
+                 | speed(seq_len=4) | REPORT, id="seq-lens"),
+    pytest.param(lambda c: c["predictor"].update(max_iter=61),
+                 attribute_ablation() | without() | PREDICTOR_ON | speed(), id="predictor"),
+    pytest.param(lambda c: c.update(seeds=3), PREDICTOR_ON, id="seeds"),
+    # the per-query CSV does not depend on the modes: it and the match inspector that reads it stay as they are
+    pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | held_out() | metrics() | REPORT, id="modes"),
+    pytest.param(lambda c: c.update(trust_levels=[0.0, 0.6]), evaluate() | REPORT, id="trust-levels"),
+    pytest.param(lambda c: c.update(experiments={"restoration": False}), evaluate() | REPORT, id="restoration-off"),
+    pytest.param(lambda c: c.update(experiments={"attribute_ablation": False}), REPORT, id="table2-off"),
+    # the inspector draws the table split; the metrics and the per-query CSV cover every evaluated split
+    pytest.param(lambda c: c.update(table_split="val"), held_out() | inspect() | speed() | REPORT, id="table-split"),
+    # the speed experiment's own settings: its jobs (a new profile: that one's) and the report
+    pytest.param(lambda c: c["speed"].update(velocities=[1.0, 2.0]), speed() | REPORT, id="speed-velocities"),
+    pytest.param(lambda c: c["speed"].update(profiles=[0.5, 1.5, "varying"]), speed(["1.5x"]) | REPORT,
+                 id="speed-profiles"),
+    pytest.param(lambda c: c.update(experiments={"speed": False}), REPORT, id="speed-off"),
+    # the run's sequence matcher (method §11): every attributes job and what reads them; the default written out as 1
+    # is 1.0 to every job (only the report, which lists the configuration as written, redraws)
+    pytest.param(lambda c: c.update(sequence_matching={"velocities": [0.8, 1.0, 1.25]}),
+                 attributes() | attribute_ablation() | without() | PREDICTOR_ON, id="velocities"),
+    pytest.param(lambda c: c.update(sequence_matching={"velocities": [1]}), REPORT, id="velocity-1-is-1.0"),
+    pytest.param(lambda c: c.update(extraction={"batch_size": 3}), set(), id="batch-size-reruns-nothing"),
+])
+def test_a_changed_setting_plans_exactly_its_jobs(copy, edit, expected):
+    change(copy, edit)
+    assert planned(copy) == expected
+
+
+def test_dataset_root_reruns_everything(copy, tmp_path):
+    # The same frames under another root: the descriptors read other files, so everything reruns.
+    shutil.copytree(DEFAULT_ROOT, tmp_path / "sample_copy")
+    change(copy, lambda c: c["datasets"]["sample"].update(root=str(tmp_path / "sample_copy")))
+    assert planned(copy) == descriptors(*METHODS) | ALL_BUT_DESCRIPTORS
+
+
+def test_checkpoint_content_reruns_its_method(copy):
+    torch.manual_seed(1)
+    net = tiny_net_model()
+    torch.save(net.state_dict(), copy / "tiny.pt")
+    assert planned(copy) == (descriptors("tiny") | distances(["tiny"]) | attributes(["tiny"])
+                             | attribute_ablation() | without(other("tiny")) | PREDICTOR_ON | speed())
+
+
+def test_command_line_override_reaches_the_jobs(copy):
+    result = vpr_smr(copy, "run", "c.yaml", "-n", "--verbose", "--config", "predictor.max_iter=61")
+    assert result.returncode == 0, result.stderr[-3000:]
+    rules = set(re.findall(r"^rule (\w+):", result.stdout, flags=re.MULTILINE)) - {"all"}
+    assert rules == {"train", "evaluate", "attribute_ablation", "predictor_without", "held_out", "vpr_metrics",
+                     "queries", "inspect", "speed", "report"}
+
+
+def test_tables_change_where_they_should(copy):
+    before = table1(copy)
+    change(copy, lambda c: c["methods"]["sad"].update(distance="l2"))
+    result = vpr_smr(copy, "run", "c.yaml")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    after = table1(copy)
+    assert set(before) == set(after)
+    single_frame = ("recall_at_1_single", "recall_at_1_sequence", "aoc_vpr_sm", "max_recall")
+    for (method, mode), row in after.items():
+        if method == "tiny":  # its matrices are untouched; only the (shared) predictor changed
+            assert {k: row[k] for k in single_frame[:2]} == {k: before[method, mode][k] for k in single_frame[:2]}
+    sad_l2 = [after["sad", m]["recall_at_1_sequence"] != before["sad", m]["recall_at_1_sequence"]
+              or after["sad", m]["aoc_vpr_sm"] != before["sad", m]["aoc_vpr_sm"] for m in ("paper", "standard")]
+    assert any(sad_l2), "SAD with squared L2 instead of the mean absolute difference left its numbers unchanged"
+    assert planned(copy) == set()
+
+
+def test_table_split_changes_only_the_tables(copy):
+    evaluations = sorted((copy / "results" / "r" / "evaluation").rglob("*.json"))
+    times = [p.stat().st_mtime_ns for p in evaluations]
+    change(copy, lambda c: c.update(table_split="val"))
+    result = vpr_smr(copy, "run", "c.yaml")
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert [p.stat().st_mtime_ns for p in evaluations] == times
+    md = (copy / "results" / "r" / "tables" / "table1.md").read_text()
+    assert "val split" in md or "(val)" in md, textwrap.shorten(md, 300)
