@@ -35,5 +35,6 @@ DEFAULT_VELOCITIES = (1.0,)
 # write them, so that a run made by an earlier layout writes them again instead of failing to read them; every result
 # JSON records it as its "format" (core.records.FORMAT), and a file of another is refused. 2: predictor files record
 # their matching, every reduction its outcome (0.5.0). 3: one codec writes every record, an embedded record as its
-# own object, the first seed's numbers once.
-RESULTS_LAYOUT = 3
+# own object, the first seed's numbers once. 4: Table II's numbers keyed by the splits' names; only the first
+# predictor seed is cross-validated (the others' f1_cv is null).
+RESULTS_LAYOUT = 4

@@ -131,7 +131,7 @@ def cmd_train(args: argparse.Namespace) -> None:
                         meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)),
                         allow_split_overlap=args.allow_split_overlap, validation=args.validation)
     first = report.seeds[0]  # the predictor file's seed
-    log.info("predictor macro F1: cv %.3f%s", first.f1_cv, train.split_f1s(first))
+    log.info("predictor macro F1: %s%s", train.cv_text(first), train.split_f1s(first))
 
 
 def _split_paths(items: list[str], option: str = "--attributes", name: str = "SPLIT") -> dict[str, str]:

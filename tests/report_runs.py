@@ -9,7 +9,14 @@ from pathlib import Path
 import numpy as np
 
 from vpr_smr.core.io import write_json
-from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport, SeedReport, SplitScores
+from vpr_smr.eval.predictor.records import (
+    AttributeAblation,
+    AttributeScores,
+    AttributeSplit,
+    PredictorReport,
+    SeedReport,
+    SplitScores,
+)
 from vpr_smr.eval.scoring import speed
 from vpr_smr.eval.scoring.records import Reduction
 from vpr_smr.eval.scoring.speed import SpeedProfile
@@ -108,7 +115,8 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
         predictors.append(path)
     ablation = tmp_path / "a.json"
     table2 = AttributeAblation({"dataset": "d", "seq_len": 4}, {}, 57, {
-        name: AttributeScores(None, 0.5, f1_val=0.5, f1_test=0.5) for name in ("A1", "A2", "A3", "A4", "all")})
+        name: AttributeScores(None, 0.5, {"val": AttributeSplit(0.5, 20, 0.5), "test": AttributeSplit(0.5, 30, 0.5)})
+        for name in ("A1", "A2", "A3", "A4", "all")})
     write_json(ablation, table2.to_json())
     lomo = tmp_path / "lomo.json"
     halved = Reduction(1.0, 0.8, 0.9, 0.2, 0.1, 50.0, 1.0, 0.2, "improved")

@@ -51,7 +51,7 @@ def validation_split(eval_splits: Sequence[str]) -> str | None:
 
 def ablation_splits(eval_splits: Sequence[str]) -> tuple[str, ...]:
     """The splits Table II (the attribute ablation) scores: the validation split and the last of ``eval_splits``
-    (``records.AttributeScores``' ``val`` and ``test``; its method mean is the last split's), or the one split."""
+    (the table shows the last one's mean over methods too), or the one split."""
     return tuple(dict.fromkeys([eval_splits[0], eval_splits[-1]]))
 
 

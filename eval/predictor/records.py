@@ -31,14 +31,14 @@ class SplitScores(Record):
 
 @dataclass(frozen=True)
 class SeedReport(Record):
-    """One training seed: its predictor's settings, cross-validated F1, iterations, the train split's class counts
-    and the scores per given evaluation split (by the split's name). ``params`` holds JSON values (lists, not
-    tuples), as the file does.
+    """One training seed: its predictor's settings, cross-validated F1 (None: not cross-validated, as every seed
+    but the first), iterations, the train split's class counts and the scores per given evaluation split (by the
+    split's name). ``params`` holds JSON values (lists, not tuples), as the file does.
     """
 
     seed: int
     params: Json
-    f1_cv: float
+    f1_cv: float | None
     n_iter: int
     train_class_counts: tuple[int, ...]
     splits: dict[str, SplitScores]
@@ -108,17 +108,23 @@ class PredictorReport(FileRecord):
 
 
 @dataclass(frozen=True)
+class AttributeSplit(Record):
+    """A predictor on one attribute set, on one evaluation split: the macro F1 over every method's samples pooled,
+    their number, and the mean of the per-method macro F1 (the paper's Table II averages over methods)."""
+
+    f1: float
+    n: int
+    f1_method_mean: float
+
+
+@dataclass(frozen=True)
 class AttributeScores(Record):
-    """A predictor on one attribute set: its input columns (None: all four) and macro F1 of cross-validation, on
-    the val and test splits pooled, and the mean over the methods' test splits (the last four only when given)."""
+    """A predictor on one attribute set: its input columns (None: all four), macro F1 of cross-validation, and its
+    scores on each given evaluation split, by the split's name (the configuration's)."""
 
     columns: tuple[int, ...] | None
     f1_cv: float
-    f1_val: float | None = None
-    n_val: int | None = None
-    f1_test: float | None = None
-    n_test: int | None = None
-    f1_test_method_mean: float | None = None
+    splits: dict[str, AttributeSplit]
 
 
 @dataclass(frozen=True)

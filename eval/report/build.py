@@ -20,7 +20,7 @@ from vpr_smr.core.constants import MATCHERS, RECALL_AT
 from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path
 from vpr_smr.core.records import FormatError
-from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
+from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.results import (
@@ -31,6 +31,7 @@ from vpr_smr.eval.report.results import (
     ground_truth_text,
     split_text,
     split_word,
+    unique,
 )
 from vpr_smr.eval.report.table1 import (
     UNDEFINED,
@@ -47,23 +48,22 @@ from vpr_smr.eval.scoring.speed import SpeedResult, SpeedScores
 
 # Every table's columns, in its files' order: registry.TABLES
 
-# Table II's numbers (records.AttributeScores) of the validation split and the last evaluation split: its columns
-# name the splits (table2_keys: f1_val and f1_test for the splits val and test, f1_check and f1_final for check and
-# final)
-TABLE2_ROLES = {"f1_val": ("val", "f1_{}"), "f1_test": ("test", "f1_{}"),
-                "f1_test_method_mean": ("test", "f1_{}_method_mean"), "n_val": ("val", "n_{}"),
-                "n_test": ("test", "n_{}")}
 ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
 
 # --- Table II ---------------------------------------------------------------------------------------------------
 
 
-def table2_keys(splits: Splits) -> dict[str, str]:
-    """``records.AttributeScores``' numbers -> Table II's columns, named by the validation split (``val``) and the
-    last evaluation split (``test``); without a validation split, its numbers have no column."""
-    names = {"val": splits.validation, "test": splits.last}
-    return {key: pattern.format(names[role]) for key, (role, pattern) in TABLE2_ROLES.items()
-            if names[role] is not None}
+def table2_cells(numbers: AttributeScores, splits: Splits) -> dict[str, Any]:
+    """One attribute set's Table II cells (``registry.TABLE2_F1`` and ``TABLE2_COUNTS``) by the splits' names: F1 and
+    samples of the validation split and of the last evaluation split, and the last one's mean over methods; a split
+    the record does not hold has no cells."""
+    cells: dict[str, Any] = {}
+    for name in unique(name for name in (splits.validation, splits.last) if name is not None):
+        if name in numbers.splits:
+            cells[f"f1_{name}"], cells[f"n_{name}"] = numbers.splits[name].f1, numbers.splits[name].n
+    if splits.last in numbers.splits:
+        cells[f"f1_{splits.last}_method_mean"] = numbers.splits[splits.last].f1_method_mean
+    return cells
 
 
 def table2_f1(splits: Splits) -> tuple[str, ...]:
@@ -72,18 +72,19 @@ def table2_f1(splits: Splits) -> tuple[str, ...]:
 
 
 def table2_splits(ablations: Sequence[AttributeAblation]) -> Splits:
-    """The split names of Table II when none are given: ``val`` and ``test``, as the records name them."""
-    scores = [numbers for ablation in ablations for numbers in ablation.attributes.values()]
-    validation = any(numbers.f1_val is not None for numbers in scores)
-    return Splits("test", ("val", "test") if validation else ("test",))
+    """The split names of Table II when none are given: the records' own, in the order first seen (the validation
+    split first, the last evaluation split last)."""
+    names = unique(name for ablation in ablations for numbers in ablation.attributes.values()
+                   for name in numbers.splits)
+    return Splits(names[-1] if names else None, names)
 
 
 def table2_rows(ablations: Sequence[AttributeAblation], order: Order | None = None,
                 splits: Splits | None = None) -> list[dict[str, Any]]:
-    """Table II's rows, the columns of the validation and the table split named by ``splits`` (default: ``val``
-    and ``test``, the records' own names)."""
+    """Table II's rows, the columns of the validation and the last evaluation split named by ``splits`` (default:
+    the records' own names, ``table2_splits``)."""
     order = order or Order.of(ablation.meta for ablation in ablations)
-    keys = table2_keys(splits or table2_splits(ablations))
+    splits = splits or table2_splits(ablations)
     rows = []
     for ablation in ablations:
         meta = ablation.meta
@@ -92,7 +93,7 @@ def table2_rows(ablations: Sequence[AttributeAblation], order: Order | None = No
                 numbers = ablation.attributes[name]
                 rows.append({"dataset": meta["dataset"], "seq_len": meta["seq_len"], "attributes": name,
                              "f1_cv": numbers.f1_cv, "n_train": ablation.n_train,
-                             **{column: getattr(numbers, key) for key, column in keys.items()}})
+                             **table2_cells(numbers, splits)})
     return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"]),
                                        ATTRIBUTE_ORDER.index(r["attributes"])))
 
@@ -108,10 +109,10 @@ def _f1(value: Any) -> str:
 def _sample_note(group: list[dict[str, Any]], splits: Splits) -> str:
     """The samples Table II's F1 is over: the pooled train split (cross-validation), the validation and the last
     evaluation split, each by its name."""
-    first, keys = group[0], table2_keys(splits)
-    named = [(splits.train, "n_train"), *((splits.validation, keys.get("n_val")), (splits.last, keys.get("n_test")))]
-    parts = [f"{split_word(str(name))} {first[key]} samples" for name, key in named
-             if key is not None and first.get(key) is not None]
+    first = group[0]
+    named = [(splits.train, "n_train"), *((name, f"n_{name}") for name in unique(
+        name for name in (splits.validation, splits.last) if name is not None))]
+    parts = [f"{split_word(str(name))} {first[key]} samples" for name, key in named if first.get(key) is not None]
     return "F1 over " + ", ".join(parts) + " (every method pooled)" if parts else ""
 
 

@@ -3,7 +3,9 @@
 import json
 
 import numpy as np
+import pytest
 from helpers import make_features
+from sklearn.metrics import f1_score
 
 from vpr_smr.eval.matching.attributes import write_features
 from vpr_smr.eval.predictor.ablation import attribute_f1, attributes_main, train_without
@@ -23,16 +25,24 @@ def separable_by_a2(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def test_the_attribute_that_separates_the_classes_alone_scores_highest():
-    f1 = attribute_f1(separable_by_a2(120, 0), val=[separable_by_a2(60, 1)], test=[separable_by_a2(60, 2),
-                                                                                   separable_by_a2(40, 3)],
-                      params=PARAMS)
+    test = [separable_by_a2(60, 2), separable_by_a2(40, 3)]
+    f1 = attribute_f1(separable_by_a2(120, 0), {"check": [separable_by_a2(60, 1)], "final": test}, params=PARAMS)
     assert list(f1) == ["A1", "A2", "A3", "A4", "all"]
-    assert f1["A2"].columns == (1,) and f1["all"].columns is None
-    for split in ("f1_cv", "f1_val", "f1_test", "f1_test_method_mean"):
-        assert getattr(f1["A2"], split) >= 0.98 and getattr(f1["all"], split) >= 0.9
+    assert f1["A2"].columns == (1,) and f1["all"].columns is None and list(f1["A2"].splits) == ["check", "final"]
+
+    def numbers(scores):
+        return (scores.f1_cv, *(getattr(scores.splits[split], key) for split in ("check", "final")
+                                for key in ("f1", "f1_method_mean")))
+
+    for number in range(5):
+        assert numbers(f1["A2"])[number] >= 0.98 and numbers(f1["all"])[number] >= 0.9
         # noise alone: about chance (0.5) on two balanced classes, far below A2
-        assert max(getattr(f1[name], split) for name in ("A1", "A3", "A4")) < 0.8
-    assert f1["A2"].n_test == 100
+        assert max(numbers(f1[name])[number] for name in ("A1", "A3", "A4")) < 0.8
+    assert f1["A2"].splits["final"].n == 100 and f1["A2"].splits["check"].n == 60
+    # the method mean: the mean of each method's own macro F1 (a predictor of A2 alone, fitted as attribute_f1 fits it)
+    predictor = SMRPredictor(**{**PARAMS, "column_order": (1,)}).fit(*separable_by_a2(120, 0))
+    expected = np.mean([f1_score(y, predictor.predict(x), average="macro") for x, y in test])
+    assert f1["A2"].splits["final"].f1_method_mean == pytest.approx(expected, abs=1e-12)
 
 
 def _write(path, x, y):
@@ -53,7 +63,7 @@ def test_attributes_main_writes_every_attribute_set(tmp_path):
                              meta={"dataset": "d", "seq_len": 4})
     written = json.loads((tmp_path / "t2.json").read_text())
     assert written["n_train"] == 80 and set(written["attributes"]) == {"A1", "A2", "A3", "A4", "all"}
-    assert written["attributes"]["A2"]["f1_test"] == result.attributes["A2"].f1_test >= 0.98
+    assert written["attributes"]["A2"]["splits"]["test"]["f1"] == result.attributes["A2"].splits["test"].f1 >= 0.98
     assert written["attributes"]["A2"]["columns"] == [1] and written["attributes"]["all"]["columns"] is None
 
 

@@ -19,7 +19,13 @@ from vpr_smr.core.records import FORMAT, load
 from vpr_smr.eval.matching.attributes import Matching, QueryFeatures, query_features, write_features
 from vpr_smr.eval.predictor.defaults import MIN_TRAIN_SAMPLES, training_problems
 from vpr_smr.eval.predictor.estimator import SMRPredictor, fit_problem, label_problems
-from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport, SeedReport
+from vpr_smr.eval.predictor.records import (
+    AttributeAblation,
+    AttributeScores,
+    AttributeSplit,
+    PredictorReport,
+    SeedReport,
+)
 from vpr_smr.eval.report import build as report
 from vpr_smr.eval.report import registry
 from vpr_smr.eval.scoring.curves import Curve, compare_curves, reduction_pct
@@ -243,7 +249,7 @@ def test_query_counts_in_every_evaluation_table(tmp_path):
 
 def test_table2_gives_its_sample_counts():
     ablation = AttributeAblation({"dataset": "d", "seq_len": 4}, {}, 147, {
-        name: AttributeScores(None, 0.5, f1_val=0.5, n_val=97, f1_test=0.5, n_test=107)
+        name: AttributeScores(None, 0.5, {"val": AttributeSplit(0.5, 97, 0.5), "test": AttributeSplit(0.5, 107, 0.5)})
         for name in ("A1", "A2", "A3", "A4", "all")})
     rows = report.table2_rows([ablation])
     assert {(r["n_train"], r["n_val"], r["n_test"]) for r in rows} == {(147, 97, 107)}

@@ -26,6 +26,7 @@ from vpr_smr.eval.predictor.leakage import TRAINED_ON, FrameRange, trained_on
 from vpr_smr.eval.predictor.records import (
     AttributeAblation,
     AttributeScores,
+    AttributeSplit,
     PredictorReport,
     SeedReport,
     SplitScores,
@@ -91,11 +92,13 @@ SEED_REPORT = SeedReport(2, {"hidden_layer_sizes": [8, 8], "alpha": 1e-4, "smote
                          0.52, 31, (30, 10, 10, 7), {"check": SPLIT_SCORES,
                                                      "final": dataclasses.replace(SPLIT_SCORES, f1=NAN)})
 PREDICTOR = PredictorReport({"dataset": "d", "seq_len": 4}, 57,
-                            (SEED_REPORT, dataclasses.replace(SEED_REPORT, seed=3, splits={})), ("p.h5", "p.seed3.h5"))
+                            (SEED_REPORT, dataclasses.replace(SEED_REPORT, seed=3, f1_cv=None, splits={})),
+                            ("p.h5", "p.seed3.h5"))
 ONE_SEED = PredictorReport({"dataset": "d", "seq_len": 4}, 57, (SEED_REPORT,))
-ATTRIBUTE_SCORES = AttributeScores((0, 2), 0.4, f1_val=0.5, n_val=20, f1_test=NAN, n_test=24, f1_test_method_mean=0.45)
+ATTRIBUTE_SCORES = AttributeScores((0, 2), 0.4, {"check": AttributeSplit(0.5, 20, 0.55),
+                                                 "final": AttributeSplit(NAN, 24, 0.45)})
 ABLATION = AttributeAblation({"dataset": "d", "seq_len": 4}, {"max_iter": 40}, 57,
-                             {"A1": AttributeScores((0,), 0.3), "all": dataclasses.replace(ATTRIBUTE_SCORES,
+                             {"A1": AttributeScores((0,), 0.3, {}), "all": dataclasses.replace(ATTRIBUTE_SCORES,
                                                                                            columns=None)})
 FRAMES = FrameRange("d", "train", 0, 40, (5, 50))
 SPEED_SCORES = SpeedScores(57, 60, 0.3, 0.8, UNDEFINED, 0.5, 3)
@@ -114,6 +117,7 @@ SAMPLES = {
     "HeldOutPredictors": HELD_OUT_PREDICTORS, "HeldOut": HELD_OUT, "MatcherMetrics": MATCHER,
     "SplitMetrics": SPLIT_METRICS, "VPRMetrics": METRICS, "SplitScores": SPLIT_SCORES, "SeedReport": SEED_REPORT,
     "PredictorReport": PREDICTOR, "PredictorReport, one seed": ONE_SEED, "AttributeScores": ATTRIBUTE_SCORES,
+    "AttributeSplit": ATTRIBUTE_SCORES.splits["check"],
     "AttributeAblation": ABLATION, "FrameRange": FRAMES, "FrameRange, aligned": FrameRange("d", "test", 40, 80),
     "SpeedScores": SPEED_SCORES, "SpeedMatcher": SPEED_MATCHER, "SpeedResult": SPEED,
     "Matching": Matching((0.5, 1.0, 2.0), POSITIONS), "Matching, fixed": Matching(),

@@ -175,8 +175,9 @@ def test_predictor_file_layouts(predictor_files):
     assert report.first_seed()["f1_val"] == first["splits"]["val"]["f1"] and report.first_seed()["n_test"] == 24
     table2 = json.loads((tmp / "t2.json").read_text())
     assert set(table2) == {"format", "meta", "params", "n_train", "attributes"}
-    assert set(table2["attributes"]["A3"]) == {"columns", "f1_cv", "f1_val", "n_val", "f1_test", "n_test",
-                                               "f1_test_method_mean"}
+    assert set(table2["attributes"]["A3"]) == {"columns", "f1_cv", "splits"}
+    assert set(table2["attributes"]["A3"]["splits"]) == {"val", "test"}
+    assert set(table2["attributes"]["A3"]["splits"]["val"]) == {"f1", "n", "f1_method_mean"}
 
 
 def test_a_predictor_file_missing_a_key_or_disagreeing_is_refused(predictor_files):

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from report_runs import DATASET_CARD, RUN_EXPERIMENTS, build_run, metrics_record, predictor_report, small_png
 
-from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores
+from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, AttributeSplit
 from vpr_smr.eval.report.build import table1_latex, table1_markdown, table2_latex, table2_markdown, table2_rows
 from vpr_smr.eval.report.table1 import tex_escape
 
@@ -94,7 +94,7 @@ def test_seed_row_shows_mean_and_sample_std(rows):
 
 def test_table2_marks_the_attributes_used():
     ablation = AttributeAblation({"dataset": "Nordland", "seq_len": 4}, {}, 100, {
-        name: AttributeScores(None, f1, f1_val=f1, f1_test=f1, f1_test_method_mean=f1)
+        name: AttributeScores(None, f1, {"val": AttributeSplit(f1, 50, f1), "test": AttributeSplit(f1, 60, f1)})
         for name, f1 in (("A1", 0.42), ("A2", 0.42), ("A3", 0.40), ("A4", 0.37), ("all", 0.54))})
     rows = table2_rows([ablation])
     assert [r["attributes"] for r in rows] == ["A1", "A2", "A3", "A4", "all"]

@@ -8,6 +8,8 @@ import h5py
 import numpy as np
 import pytest
 from imblearn.over_sampling import SMOTE
+from sklearn.metrics import f1_score
+from sklearn.model_selection import StratifiedKFold
 from sklearn.neural_network import MLPClassifier
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils import shuffle
@@ -122,6 +124,28 @@ def test_report_per_seed_and_files(files, tmp_path):
         assert json.loads(f.attrs["report"])["seeds"] == written["seeds"][1:]
 
 
+def test_only_the_first_seed_is_cross_validated_and_the_fit_does_not_depend_on_it(files, tmp_path):
+    parts, paths = files
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        report = train.main([paths["a"], paths["b"]], tmp_path / "p.h5", PARAMS, seeds=2)
+        unchecked = train.main([paths["a"], paths["b"]], tmp_path / "q.h5", PARAMS, seeds=2, cross_validate=False)
+        # seed 0's cross-validation written out: 5 stratified folds (seeded 0) of the shuffled pooled samples, SMOTE
+        # fitted on each training fold only (the predictor's pipeline), the mean macro F1 of the held-out folds
+        x, y = shuffle(*(np.concatenate(a) for a in zip(parts["a"], parts["b"], strict=True)), random_state=0)
+        scores = []
+        for fit, held in StratifiedKFold(5, shuffle=True, random_state=0).split(x, y):
+            model = SMRPredictor(**train.seeded_params(PARAMS, 0)).fit(x[fit], y[fit])
+            scores.append(f1_score(y[held], model.predict(x[held]), average="macro"))
+    assert report.seeds[0].f1_cv == pytest.approx(np.mean(scores), abs=1e-12)
+    assert report.seeds[1].f1_cv is None and [s.f1_cv for s in unchecked.seeds] == [None, None]
+    assert json.loads((tmp_path / "p.json").read_text())["seeds"][1]["f1_cv"] is None
+    for a, b in (("p.h5", "q.h5"), ("p.seed1.h5", "q.seed1.h5")):  # the folds fit clones: the same predictor
+        first, second = SMRPredictor.load(tmp_path / a), SMRPredictor.load(tmp_path / b)
+        assert all(np.array_equal(u, v) for u, v in zip(first.coefs_, second.coefs_, strict=True))
+        assert first.n_iter_ == second.n_iter_
+
+
 def test_single_seed_report_has_no_seed_models(files, tmp_path):
     _, paths = files
     with warnings.catch_warnings():
@@ -139,9 +163,9 @@ def test_interrupted_training_writes_nothing(files, tmp_path, monkeypatch):
 
     def interrupt(self, *args, **kwargs):
         calls.append(1)
-        # two epochs a fit: seed 0 (5 folds + final fit) takes 12 calls, seed 1's folds 10; call 23 is in the
-        # final fit of seed 1, after seed 0 has finished
-        if len(calls) == 23:
+        # two epochs a fit: seed 0 (5 folds + final fit) takes 12 calls, seed 1 (its fit alone: only the first seed
+        # is cross-validated) 2; call 13 is in the fit of seed 1, after seed 0 has finished
+        if len(calls) == 13:
             raise KeyboardInterrupt
         return original(self, *args, **kwargs)
 
@@ -151,7 +175,7 @@ def test_interrupted_training_writes_nothing(files, tmp_path, monkeypatch):
         warnings.simplefilter("ignore")
         with pytest.raises(KeyboardInterrupt):
             train.main([paths["a"], paths["b"]], out / "p.h5", {**PARAMS, "max_iter": 2}, seeds=2)
-    assert len(calls) == 23
+    assert len(calls) == 13
     assert not out.exists() or list(out.iterdir()) == []
 
 
