@@ -35,6 +35,27 @@ from vpr_smr.eval.matching.formulas import attribute_rates, block_range, group_r
 KERNEL_CHUNK_VALUES = 16 << 20  # values per read of a lazy (HDF5) matrix on the compiled path: 64 MB of float32
 
 
+class Workspace:
+    """The numpy path's large scratch arrays, reused from one block of queries to the next (``SequenceMatcher.features``
+    keeps one per matrix). A fresh array of a few MB is mapped anew by the allocator and costs a page fault per 4 KB
+    on its first write: up to a fifth of this path's time on a 3000 x 3000 matrix, varying with the process's heap.
+    Scratch only: no result is a view of one of these arrays."""
+
+    def __init__(self) -> None:
+        self._arrays: dict[str, np.ndarray] = {}
+
+    def empty(self, name: str, shape: tuple[int, int], dtype: np.dtype) -> np.ndarray:
+        """An uninitialised ``shape`` array of ``dtype``: the one named ``name`` again when it has that shape."""
+        array = self._arrays.get(name)
+        if array is None or array.shape != shape or array.dtype != dtype:
+            array = self._arrays[name] = np.empty(shape, dtype=dtype)
+        return array
+
+    def padded(self, name: str, n_rows: int, n_values: int, dtype: np.dtype) -> np.ndarray:
+        """``formulas.padded`` in the array named ``name``."""
+        return padded(n_rows, n_values, dtype, lambda shape, dtype: self.empty(name, shape, dtype))
+
+
 # --- screening: running sums along diagonals --------------------------------------------------------------------
 
 
@@ -44,7 +65,7 @@ def _diagonal_view(array: np.ndarray, row: int, col: int, shape: tuple[int, int]
     return as_strided(array[row:, col:], shape=shape, strides=(array.strides[0] - item, item), writeable=False)
 
 
-def _diagonal_prefix(x: np.ndarray, n_queries: int) -> np.ndarray:
+def _diagonal_prefix(x: np.ndarray, n_queries: int, workspace: Workspace) -> np.ndarray:
     """Prefix sums along the diagonals of the block ``x`` (columns of D as rows, shape ``(Wb, R)``).
 
     ``out[q + 1, s] = sum_{q' <= q} x[q', s + q' - (w - 1)]`` (terms outside ``x`` are 0) with ``w = n_queries``,
@@ -54,7 +75,7 @@ def _diagonal_prefix(x: np.ndarray, n_queries: int) -> np.ndarray:
     """
     n_cols, n_ref = x.shape
     width = n_ref + n_queries - 1
-    out = np.empty((n_cols + 1, width), dtype=x.dtype)
+    out = workspace.empty("prefix", (n_cols + 1, width), x.dtype)
     out[0] = 0
     for q in range(n_cols):  # np.cumsum(axis=0) is 3 times slower than this loop of row additions
         lo = n_queries - 1 - q  # s at which column q's row 0 lies
@@ -65,11 +86,11 @@ def _diagonal_prefix(x: np.ndarray, n_queries: int) -> np.ndarray:
     return out
 
 
-def _window_sums(prefix: np.ndarray, n_terms: int, n_queries: int, n_diag: int) -> np.ndarray:
+def _window_sums(prefix: np.ndarray, n_terms: int, n_queries: int, n_diag: int, workspace: Workspace) -> np.ndarray:
     """``out[j, d]`` = screened sum of the first ``n_terms`` entries of diagonal ``d`` from block column ``j``,
-    padded for ``formulas.select``."""
+    padded for ``formulas.select`` (one array of ``workspace``: each use ends before the next begins)."""
     shape = (n_queries, n_diag)
-    out = padded(n_queries, n_diag, prefix.dtype)
+    out = workspace.padded("window", n_queries, n_diag, prefix.dtype)
     np.subtract(_diagonal_view(prefix, n_terms, n_queries - 1, shape), _diagonal_view(prefix, 0, n_queries - 1, shape),
                 out=out[:, :n_diag])
     return out
@@ -84,10 +105,13 @@ def _error_bound(dtype: np.dtype, n_cols: int, seq_len: int, magnitude: float) -
 
 
 def numpy_block_features(
-    columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, first_column: int = 0
+    columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, first_column: int = 0,
+    workspace: Workspace | None = None,
 ) -> dict[str, np.ndarray]:
-    """``block_features`` in numpy: float32 (``screen_dtype``) screening by the prefix sums of the block."""
+    """``block_features`` in numpy: float32 (``screen_dtype``) screening by the prefix sums of the block; its scratch
+    arrays from ``workspace`` (a new one when None)."""
     raw = columns
+    work = workspace or Workspace()
     n_cols, n_ref = raw.shape
     n_queries, n_diag, k = n_cols - seq_len + 1, n_ref - seq_len + 1, n_ranks
 
@@ -122,25 +146,25 @@ def numpy_block_features(
         screen = np.dtype(np.float64)  # float32 would under- or overflow
     margin = 2 * _error_bound(screen, n_cols, seq_len, magnitude)
     margin_raw = 2 * _error_bound(screen, n_cols, seq_len, magnitude_raw)
-    x = padded(n_cols, n_ref, screen)  # the normalised block, padded for the current column's values
+    x = work.padded("x", n_cols, n_ref, screen)  # the normalised block, padded for the current column's values
     np.divide(raw, col_max.astype(screen)[:, None], out=x[:, :n_ref])
 
     # Diagonal sums of the normalised window: full_d (L terms) ranks the diagonals, past_d (L-1 terms) gives A1.
-    prefix = _diagonal_prefix(x[:, :n_ref], n_queries)
-    full = _window_sums(prefix, seq_len, n_queries, n_diag)
+    prefix = _diagonal_prefix(x[:, :n_ref], n_queries, work)
+    full = _window_sums(prefix, seq_len, n_queries, n_diag, work)
     _, rank_diagonals = select(full, n_diag, k, margin, lambda j, d: diagonal_sum(j, d, seq_len, True))
     del full
-    past = _window_sums(prefix, seq_len - 1, n_queries, n_diag)
+    past = _window_sums(prefix, seq_len - 1, n_queries, n_diag, work)
     del prefix
     past_sorted, _ = select(past, n_diag, k, margin, lambda j, d: diagonal_sum(j, d, seq_len - 1, True))
     del past
 
     # Row sums over the L-1 past columns of the window: a prefix sum over the block's columns.
-    row_prefix = np.empty((n_cols + 1, n_ref), dtype=screen)
+    row_prefix = work.empty("rows", (n_cols + 1, n_ref), screen)
     row_prefix[0] = 0
     for q in range(n_cols):
         np.add(row_prefix[q], x[q, :n_ref], out=row_prefix[q + 1])
-    row_past = padded(n_queries, n_ref, screen)
+    row_past = work.padded("row_past", n_queries, n_ref, screen)
     np.subtract(row_prefix[seq_len - 1 : seq_len - 1 + n_queries], row_prefix[:n_queries], out=row_past[:, :n_ref])
     del row_prefix
     row_past_sorted, _ = select(row_past, n_ref, k, margin, lambda j, r: row_sum(j, r, seq_len - 1))
@@ -151,8 +175,8 @@ def numpy_block_features(
     single_match = np.argmin(raw[seq_len - 1 :], axis=1)  # first index on ties, as np.argmin of the column
 
     # S on the raw distances: its argmin is the sequence match, its extremes the split's threshold range.
-    prefix = _diagonal_prefix(raw.astype(screen, copy=False), n_queries)
-    s_approx = _window_sums(prefix, seq_len, n_queries, n_diag)
+    prefix = _diagonal_prefix(raw.astype(screen, copy=False), n_queries, work)
+    s_approx = _window_sums(prefix, seq_len, n_queries, n_diag, work)
     del prefix
     s_min, s_arg = select(s_approx, n_diag, 1, margin_raw, lambda j, d: diagonal_sum(j, d, seq_len, False))
     s_approx[:, n_diag:] = -np.inf
@@ -218,14 +242,15 @@ def _mean_full(diagonal_sum: Callable[..., np.ndarray], j: np.ndarray, lo: np.nd
 
 
 def block_features(raw: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any, first_column: int,
-                   kernels: ModuleType | None) -> dict[str, np.ndarray]:
+                   kernels: ModuleType | None, workspace: Workspace | None = None) -> dict[str, np.ndarray]:
     """The fixed matcher's numbers for one block ``raw`` (``(Wb, R)``, float32/float64): by the compiled ``kernels``
-    when given (and the values' range allows its float64 screening), else in numpy."""
+    when given (and the values' range allows its float64 screening), else in numpy (``workspace``: its scratch
+    arrays, reused over a matrix's blocks)."""
     if kernels is not None:
         out = _compiled_features(kernels, raw.T, seq_len, n_ranks, first_column)
         if out is not None:
             return out
-    return numpy_block_features(raw, seq_len, n_ranks, screen_dtype, first_column)
+    return numpy_block_features(raw, seq_len, n_ranks, screen_dtype, first_column, workspace)
 
 
 def compiled_matrix_features(kernels: ModuleType, matrix: Any, seq_len: int,

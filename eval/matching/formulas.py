@@ -48,10 +48,12 @@ def group_size(n_values: int) -> int:
     return SCREEN_GROUP if n_values >= 16 * SCREEN_GROUP else 1
 
 
-def padded(n_rows: int, n_values: int, dtype: np.dtype) -> np.ndarray:
-    """An ``(n_rows, n_values + pad)`` array whose pad columns hold +inf, as ``select`` expects."""
+def padded(n_rows: int, n_values: int, dtype: np.dtype,
+           empty: Callable[[tuple[int, int], np.dtype], np.ndarray] = np.empty) -> np.ndarray:
+    """An ``(n_rows, n_values + pad)`` array whose pad columns hold +inf, as ``select`` expects (from ``empty``,
+    e.g. a reused scratch array)."""
     group = group_size(n_values)
-    out = np.empty((n_rows, -(-n_values // group) * group), dtype=dtype)
+    out = empty((n_rows, -(-n_values // group) * group), dtype)
     out[:, n_values:] = np.inf
     return out
 

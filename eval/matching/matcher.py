@@ -281,7 +281,8 @@ class SequenceMatcher:
         return Sequences(sums, np.asarray(order, dtype=np.float64)[best], self.first_reference)
 
     def block_features(self, columns: np.ndarray, n_ranks: int, first_column: int = 0, *,
-                       total_queries: int | None = None, screen_dtype: Any = np.float32) -> dict[str, np.ndarray]:
+                       total_queries: int | None = None, screen_dtype: Any = np.float32,
+                       workspace: fixed.Workspace | None = None) -> dict[str, np.ndarray]:
         """The attributes, matches and ``S`` range of the queries of one block (``columns`` as ``map_blocks`` gives
         it): ``attributes (w, K, 4)``, ``rank_references (w, K)`` (where the rank-``k`` best trajectory ends),
         ``single_match``, ``sequence_match``, ``sequence_distance`` (``min_r S``), ``sequence_max`` (``max_r S``)
@@ -290,7 +291,7 @@ class SequenceMatcher:
         ``n_ranks`` must be 1 .. ``R - r_min``. ``total_queries``: the queries of the whole run the block belongs
         to, so that a compiled kernel is chosen where the whole run pays for its fixed cost (the results are the
         same on every path). ``screen_dtype`` only decides which candidates the fixed matcher's numpy path
-        recomputes in float64."""
+        recomputes in float64; ``workspace``: its scratch arrays, reused over the blocks of one matrix."""
         raw = _float_block(columns)
         n_cols, n_ref = raw.shape
         if n_cols < self.seq_len:
@@ -305,7 +306,7 @@ class SequenceMatcher:
         run_queries = max(n_queries, total_queries or 0)
         if self.is_fixed:
             out = fixed.block_features(raw, self.seq_len, n_ranks, screen_dtype, first_column,
-                                       fixed_kernels(n_ref * (run_queries + self.seq_len - 1)))
+                                       fixed_kernels(n_ref * (run_queries + self.seq_len - 1)), workspace)
         else:
             order, table = self._table()
             col_max = velocity.column_max(raw, first_column)
@@ -335,8 +336,10 @@ class SequenceMatcher:
             out = fixed.compiled_matrix_features(kernels, matrix, self.seq_len, n_ranks)
             if out is not None:
                 return _as_references(out, self.first_reference)
+        workspace = fixed.Workspace()
         parts = self.map_blocks(matrix, lambda start, columns: self.block_features(
-            columns, n_ranks, start, total_queries=n_out, screen_dtype=screen_dtype), block_queries)
+            columns, n_ranks, start, total_queries=n_out, screen_dtype=screen_dtype, workspace=workspace),
+            block_queries)
         return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
 
 
