@@ -48,10 +48,12 @@ __all__ = [
 BLOCK_VALUES = 1 << 20  # about 1 M values per block of query columns (4 MB of float32): measured fastest
 TRANSPOSE_ROWS = 256
 KERNEL: str | None = None  # "numba" or "numpy" forces a path; None: VPR_SMR_KERNEL, else where the kernels pay
-# The fixed matcher's compiled kernel costs about 0.65-0.8 s per process before its first result (numba's import and
-# first dispatch, its on-disk cache warm) and then saves about 15 ns per matrix value on 2 cores: it pays from about
-# 50 M values.
-KERNEL_MIN_VALUES = 50_000_000
+# The fixed matcher's compiled kernel costs about 0.65 s per process before its first result (numba's import and
+# first dispatch, its on-disk cache warm). Whole `vpr-smr attributes` runs on 2 cores (2026-11-27, the numpy path
+# reusing its scratch arrays): 9000 x 9000 at L 4 numpy 1.24-1.28 s, numba 1.71 s; at L 10 1.43-1.48 against
+# 1.34-1.40 s; 12000 x 12000 at L 4 1.82-1.88 against 2.20-2.28 s, at L 10 2.04 against 1.61 s: it pays from about
+# 100 M values.
+KERNEL_MIN_VALUES = 100_000_000
 # The velocity kernel costs about 0.5-0.7 s per process before its first result, then saves 1.5-4 ns per unit of
 # work (|V| L R additions per query; benchmarks/velocity.py): it pays from about 300 M units. Once loaded, it is used
 # from LOADED_MIN_WORK units per call on (below, threads do not pay).
