@@ -169,7 +169,7 @@ def cmd_metrics(args: argparse.Namespace) -> None:
                               predictor=args.predictor, attributes=_split_paths(args.attributes or []),
                               modes=tuple(args.modes), queries=args.queries, meta=meta,
                               allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
-                              similarity=args.similarity)
+                              similarity=args.similarity, sweep=args.sweep)
     print(vpr_metrics.format_metrics(result))
 
 
@@ -623,6 +623,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
     p.add_argument("--queries", help="also write one row per evaluated query to this .csv (as vpr-smr queries "
                                       "does); both files or neither are written")
+    p.add_argument("--sweep", action="store_true",
+                   help="also recall@1 and the predictor's AOC reduction over the tolerances 0, 1, 2, 5, 10 frames "
+                        "(radii 5, 10, 25, 50 with positions): how the conclusions depend on the protocol")
     p.add_argument("--dataset", help="the dataset's name, written in the metrics' meta")
     p.add_argument("--method", help="the method's name, written in the metrics' meta")
     _required(p, "--out")

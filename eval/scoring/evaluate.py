@@ -23,7 +23,14 @@ from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import QueryFeatures, check_matching, common_matching, read_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
-from vpr_smr.eval.scoring.curves import compare_curves, curve, keep_mask, outcome, recall_at_full_precision
+from vpr_smr.eval.scoring.curves import (
+    Curve,
+    compare_curves,
+    curve,
+    keep_mask,
+    outcome,
+    recall_at_full_precision,
+)
 from vpr_smr.eval.scoring.records import (
     Evaluation,
     EvaluationSplit,
@@ -60,6 +67,22 @@ def recall_at_1(features: QueryFeatures, mode: str) -> dict[str, float]:
             "recall_at_1_sequence": float(features.sequence_correct.mean())}
 
 
+def compare_removal(features: QueryFeatures, mode: str, keep: np.ndarray) -> tuple[Curve, Curve, Reduction]:
+    """One removal of matches (``keep``: the matches kept) against VPR+SM in ``mode`` (method §8): the baseline's
+    curve, the curve with the removal, and Table I's numbers of the two."""
+    n = len(features.queries)
+    distances, correct = features.sequence_distance, features.sequence_correct
+    s_range = (features.sequence_min, features.sequence_max)
+    baseline = curve(mode, distances, correct, keep_mask(n=n), *s_range)
+    kept = curve(mode, distances, correct, keep, *s_range)
+    comparison = compare_curves(baseline, kept)
+    reduction = Reduction(comparison.max_recall, comparison.auc_baseline, comparison.auc_predictor,
+                          comparison.aoc_baseline, comparison.aoc_predictor, comparison.reduction_pct,
+                          comparison.max_recall_baseline, comparison.aoc_baseline_own,
+                          outcome(n, int((~keep).sum()), comparison))
+    return baseline, kept, reduction
+
+
 def _mode_removal(
     features: QueryFeatures,
     mode: str,
@@ -72,14 +95,7 @@ def _mode_removal(
     n = len(features.queries)
     distances, correct = features.sequence_distance, features.sequence_correct
     s_range = (features.sequence_min, features.sequence_max)
-    baseline = curve(mode, distances, correct, keep_mask(n=n), *s_range)
-    keep = keep_mask(predicted, confidence)
-    with_predictor = curve(mode, distances, correct, keep, *s_range)
-    comparison = compare_curves(baseline, with_predictor)
-    reduction = Reduction(comparison.max_recall, comparison.auc_baseline, comparison.auc_predictor,
-                          comparison.aoc_baseline, comparison.aoc_predictor, comparison.reduction_pct,
-                          comparison.max_recall_baseline, comparison.aoc_baseline_own,
-                          outcome(n, int((~keep).sum()), comparison))
+    baseline, with_predictor, reduction = compare_removal(features, mode, keep_mask(predicted, confidence))
     removal_curves = RemovalCurves(recall_at_full_precision(baseline), recall_at_full_precision(with_predictor),
                                    PRCurve.of(baseline), PRCurve.of(with_predictor)) if curves else None
     trust, trust_numbers = {}, {}

@@ -338,11 +338,31 @@ class MatcherMetrics(Record):
 
 
 @dataclass(frozen=True)
+class SweepPoint(Record):
+    """One tolerance (frames) or radius (the positions' unit): recall@1 by the mode's rule (method §8.5) and, with a
+    predictor, Table I's numbers of its removal."""
+
+    threshold: float
+    recall_at_1_single: float
+    recall_at_1_sequence: float
+    reduction: Reduction | None = None
+
+
+@dataclass(frozen=True)
+class ProtocolSweep(Record):
+    """One split's sweep: ``unit`` (``frames`` or ``positions``), and per mode a point per threshold, in order."""
+
+    unit: str
+    modes: dict[str, tuple[SweepPoint, ...]]
+
+
+@dataclass(frozen=True)
 class SplitMetrics(Record):
     """One split: per mode (``core.constants.MODES``), per matcher (``core.constants.MATCHERS``; without a
     predictor, ``sequence_predictor`` is absent)."""
 
     modes: dict[str, dict[str, MatcherMetrics]]
+    sweep: ProtocolSweep | None = None  # recall@1 and the reduction over tolerances or radii (``sweep``), when asked
 
 
 @dataclass(frozen=True)

@@ -76,6 +76,7 @@ from vpr_smr.eval.predictor.leakage import check_disjoint, frame_range, frame_ra
 from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, recall_at_full_precision
 from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
 from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
+from vpr_smr.eval.scoring.sweep import protocol_sweep
 
 __all__ = [
     "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "extended_precision", "format_metrics", "main",
@@ -261,11 +262,13 @@ def score_split(
     velocities: tuple[float, ...] = DEFAULT_VELOCITIES,
     reference_first_frame: int | None = None,
     ground_truth: GroundTruth | None = None,
+    sweep: bool = False,
 ) -> ScoredSplit:
     """The metrics of one split's matrix per mode and matcher (``sequence_predictor`` only with ``predictor``: an
     object with ``predict_proba`` and ``classes_``, e.g. ``SMRPredictor``). ``features``: the split's attributes
     (``query_features`` of the same matrix; computed when None). ``velocities`` and ``ground_truth`` as
-    ``query_features`` takes them."""
+    ``query_features`` takes them. ``sweep``: also recall@1 and the predictor's reduction over the tolerances or
+    radii of ``sweep.protocol_sweep`` (a ground truth of frames or positions only)."""
     unknown = [mode for mode in modes if mode not in MODES]
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
@@ -276,8 +279,10 @@ def score_split(
         features = query_features(distance_matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth)
     _check_agree(found, features, seq_len, f"split {split!r}")
     prediction = Prediction.of(predictor, features) if predictor is not None else None
+    swept = protocol_sweep(features, found.single_match, truth, modes,
+                           prediction.kept if prediction is not None else None) if sweep else None
     metrics = SplitMetrics({mode: _mode_metrics(mode, found, features, seq_len, truth, prediction)
-                            for mode in modes})
+                            for mode in modes}, swept)
     true_reference = None if truth.is_aligned_band() else np.array(
         [int(np.argmin(truth.distance(np.arange(shape[0]), np.full(shape[0], a)))) for a in features.queries],
         dtype=np.int64)
@@ -366,6 +371,7 @@ def _score_all(
     allow_split_overlap: bool,
     matcher: MatcherSettings,
     similarity: bool = False,
+    sweep: bool = False,
 ) -> tuple[dict[str, ScoredSplit], Path | None]:
     """Every split of ``distances`` scored (``score_split``) in the given order, after every input is checked;
     the predictor file (None without one). What ``main`` and ``queries_main`` share: one implementation of the
@@ -404,7 +410,8 @@ def _score_all(
                 results[split] = score_split(matrix, seq_len, tolerance, model, tuple(modes), features, split,
                                              _first_frame(attributes_file, path), velocities=matcher.velocities,
                                              ground_truth=truth,
-                                             reference_first_frame=_reference_first_frame(attributes_file, path))
+                                             reference_first_frame=_reference_first_frame(attributes_file, path),
+                                             sweep=sweep)
             except ValueError as error:
                 given = f" and {attributes_file}" if attributes_file is not None else ""
                 raise ValueError(f"{path}{given}: {error}") from None
@@ -428,6 +435,7 @@ def main(
     allow_split_overlap: bool = False,
     matcher: MatcherSettings = MatcherSettings(),
     similarity: bool = False,
+    sweep: bool = False,
 ) -> VPRMetrics:
     """The standard VPR metrics of every split of ``distances`` (split -> ``.npy`` or our HDF5; one path: one split
     named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with ``queries``, the per-query table
@@ -437,12 +445,14 @@ def main(
     ``attributes`` (split -> our features ``.h5``) spares recomputing a split's attributes; they must come from the
     same matrix, ``seq_len`` and ``tolerance``. ``predictor``: the seed-0 predictor file; it may not score frames it
     was trained on (``allow_split_overlap``: a deliberate experiment). ``meta`` (dataset, method) is written with
-    ``seq_len``, ``tolerance`` and the predictor's path. Every input is checked before any work.
+    ``seq_len``, ``tolerance`` and the predictor's path. ``sweep``: each split also records recall@1 and the
+    predictor's reduction over the tolerances or radii of ``sweep.protocol_sweep`` (``records.ProtocolSweep``).
+    Every input is checked before any work.
     """
     out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
     queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
     results, predictor_file = _score_all(distances, seq_len, tolerance, predictor, attributes, modes,
-                                         allow_split_overlap, matcher, similarity)
+                                         allow_split_overlap, matcher, similarity, sweep)
     info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance),
             **matcher_provenance(matcher.velocities, matcher.radius), **similarity_provenance(similarity)}
     if predictor_file is not None:

@@ -1,0 +1,61 @@
+"""How a conclusion depends on the ground-truth protocol (method §13.4): recall@1 before and after sequence matching
+and Table I's reduction over a range of frame tolerances or position radii.
+
+Neither the matches nor the predictor's decisions depend on the ground truth (the attributes are computed from the
+distances alone), so one split's matches and one predictor's keep-mask are scored again under each tolerance; nothing
+is matched or predicted again. A ground truth given as a matrix or lists has no tolerance to vary: it has no sweep.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import replace
+
+import numpy as np
+
+from vpr_smr.eval.matching.attributes import QueryFeatures, labels_from_correctness
+from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.scoring.evaluate import compare_removal, recall_at_1
+from vpr_smr.eval.scoring.records import ProtocolSweep, SweepPoint
+
+# The protocols the field reports: Nordland within 0 (the same frame), 1, 2 or 10 frames; 25 m and its neighbours
+# for positions (seqNet reports recall over such a sweep of radii).
+FRAME_TOLERANCES: tuple[float, ...] = (0, 1, 2, 5, 10)
+RADII: tuple[float, ...] = (5, 10, 25, 50)
+FRAMES, POSITIONS = "frames", "positions"
+
+
+def sweep_thresholds(truth: GroundTruth) -> tuple[str, tuple[float, ...]]:
+    """The unit and the thresholds a ground truth is swept over: frame tolerances for a frame-aligned pair, radii for
+    positions."""
+    return (FRAMES, FRAME_TOLERANCES) if truth.is_aligned_band() else (POSITIONS, RADII)
+
+
+def rescored(features: QueryFeatures, single_matches: np.ndarray, truth: GroundTruth) -> QueryFeatures:
+    """``features`` with every correctness and label of ``truth`` (the matches are kept): ``single_matches`` is the
+    single-frame match of every query of the split, the first ``L - 1`` too (paper mode's recall@1 counts them)."""
+    queries = features.queries
+    single = truth.correct(features.single_match, queries)
+    sequence = truth.correct(features.sequence_match, queries)
+    first = np.arange(len(single_matches) - len(queries))
+    return replace(features, single_correct=single, sequence_correct=sequence,
+                   labels=labels_from_correctness(single, sequence),
+                   rank_correct=truth.correct(features.rank_references, queries[:, None]),
+                   all_single_correct=np.concatenate([truth.correct(single_matches[first], first), single]))
+
+
+def protocol_sweep(features: QueryFeatures, single_matches: np.ndarray, truth: GroundTruth, modes: Sequence[str],
+                   kept: np.ndarray | None = None, thresholds: Sequence[float] | None = None) -> ProtocolSweep:
+    """Recall@1 and, with ``kept`` (the predictor's keep-mask of the evaluated queries), the reduction of its
+    removal, per mode, under ``truth`` with each of ``thresholds`` (default ``sweep_thresholds``) as its tolerance or
+    radius."""
+    unit, default = sweep_thresholds(truth)
+    points: dict[str, list[SweepPoint]] = {mode: [] for mode in modes}
+    for threshold in (default if thresholds is None else thresholds):
+        scored = rescored(features, single_matches, replace(truth, radius=float(threshold)))
+        for mode in modes:
+            recall = recall_at_1(scored, mode)
+            reduction = compare_removal(scored, mode, kept)[2] if kept is not None else None
+            points[mode].append(SweepPoint(float(threshold), recall["recall_at_1_single"],
+                                           recall["recall_at_1_sequence"], reduction))
+    return ProtocolSweep(unit, {mode: tuple(found) for mode, found in points.items()})
