@@ -1,6 +1,6 @@
 """The one pickle vpr-smr reads: a NumPy array of Python objects in a ``.npy`` (VPR-Bench's ``ground_truth_new.npy``,
 rows of ``[query, [references]]``), through an unpickler that can build nothing but NumPy arrays, lists, tuples and
-numbers.
+numbers (and the bytes of an array's data, which pickle protocol 2 writes through ``_codecs.encode``).
 
 NumPy stores an object array as its ``.npy`` header followed by a pickle of the whole array. ``numpy.load`` would
 need ``allow_pickle=True`` for it, which runs whatever the pickle names; here the header is parsed by NumPy's header
@@ -32,6 +32,14 @@ def _numpy_callables() -> dict[str, Any]:
             "_frombuffer": np.arange(2).__reduce_ex__(5)[0]}
 
 
+def _latin1_bytes(text: str, encoding: str) -> bytes:
+    """What ``_codecs.encode(text, "latin1")`` builds, and nothing else: pickle protocol 2 has no opcode for bytes, so
+    Python 3 writes the raw data of a NumPy array that way (VPR-Bench's helper downgrades its pickles to protocol 2)."""
+    if not isinstance(text, str) or encoding.replace("-", "").lower() not in ("latin1", "iso88591"):
+        raise RefusedPickle(f"_codecs.encode of {type(text).__name__} as {encoding!r}")
+    return text.encode("latin1")
+
+
 _NUMPY = _numpy_callables()
 # (module, name) as a pickle names them -> what is built. Python 2's pickles name the builtins module __builtin__.
 # ``range``: a Python 3 writer of VPR-Bench's lists as range(lo, hi) pickles it so; it holds numbers only.
@@ -39,6 +47,7 @@ ALLOWED: dict[tuple[str, str], Any] = {
     **{(f"numpy.{core}.multiarray", name): _NUMPY[name] for core in ("core", "_core")
        for name in ("_reconstruct", "scalar")},
     **{(f"numpy.{core}.numeric", "_frombuffer"): _NUMPY["_frombuffer"] for core in ("core", "_core")},
+    ("_codecs", "encode"): _latin1_bytes,
     ("numpy", "ndarray"): np.ndarray,
     ("numpy", "dtype"): np.dtype,
     **{(module, name): kind for module in ("builtins", "__builtin__")
