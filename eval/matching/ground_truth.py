@@ -347,7 +347,8 @@ class MatrixTruth(GroundTruth):
     def correct(self, reference: Any, query: Any) -> np.ndarray:
         reference, query = np.asarray(reference), np.asarray(query)
         byte = self.bits[reference >> 3, query]
-        correct: np.ndarray = ((byte >> (7 - (reference & 7))) & 1).astype(bool)
+        shift = (7 - (reference & 7)).astype(np.uint8)  # in uint8: the byte is not widened to int64
+        correct: np.ndarray = ((byte >> shift) & 1).astype(bool)
         return correct
 
     def correct_references(self, query: int) -> np.ndarray:
