@@ -34,7 +34,7 @@ from vpr_smr.eval.matching.io import (
 from vpr_smr.eval.matching.matcher import SequenceMatcher, as_matrix, check_velocities, read_columns
 
 __all__ = [
-    "ATTRIBUTE_NAMES", "QueryFeatures", "is_correct", "labels_from_correctness", "query_features",
+    "ATTRIBUTE_NAMES", "QueryFeatures", "labels_from_correctness", "query_features",
 ]
 
 ATTRIBUTE_NAMES = ("A1", "A2", "A3", "A4")  # minimum sum, minimum value, block sum, group sum rates
@@ -62,13 +62,6 @@ class QueryFeatures:
     sequence_min: float  # S.min() of the whole split
     sequence_max: float  # S.max() of the whole split
     all_single_correct: np.ndarray  # (Q,) bool: single-frame correctness of every query, the first L-1 included
-
-
-def is_correct(reference: np.ndarray, query: np.ndarray, tolerance: int) -> np.ndarray:
-    """Ground truth of a frame-aligned pair: a match is correct iff ``|r - q| <= tolerance`` (``GroundTruth``
-    generalises it to positions)."""
-    correct: np.ndarray = np.abs(np.asarray(reference) - np.asarray(query)) <= tolerance
-    return correct
 
 
 def labels_from_correctness(single_correct: np.ndarray, sequence_correct: np.ndarray) -> np.ndarray:
@@ -204,16 +197,17 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
         provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
         provenance.update({**matcher_provenance(velocities, radius), **reading_provenance(similarity, key, transpose)})
         write_features(out, features, {**provenance, "seq_len": seq_len, "tolerance": tolerance,
-                                       "attributes_seconds": seconds, **truth_provenance(truth, seq_len)})
+                                       "attributes_seconds": seconds, **truth_provenance(truth, seq_len, without)})
     log.info("%d queries, %.1f µs per query", len(features.queries), 1e6 * seconds / max(len(features.queries), 1))
     return features
 
 
-def truth_provenance(truth: GroundTruth, seq_len: int) -> dict[str, Any]:
+def truth_provenance(truth: GroundTruth, seq_len: int, without: np.ndarray | None = None) -> dict[str, Any]:
     """What an attributes file records of its ground truth: ``GroundTruth.provenance`` as ``ground_truth``, and how
-    many queries have no correct reference, of all (``queries_without_correct``) and of those with a sequence match
-    (``evaluated_without_correct``, queries ``L - 1`` on)."""
-    without = truth.without_correct()
+    many queries have no correct reference (``without``: ``truth.without_correct()``, computed when None), of all
+    (``queries_without_correct``) and of those with a sequence match (``evaluated_without_correct``, queries
+    ``L - 1`` on)."""
+    without = truth.without_correct() if without is None else without
     return {"ground_truth": truth.provenance(), "queries_without_correct": int(without.sum()),
             "evaluated_without_correct": int(without[seq_len - 1 :].sum())}
 
