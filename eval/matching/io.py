@@ -51,6 +51,8 @@ class SimilarityAsDistance:
 
     def __init__(self, similarity: Any) -> None:
         self.similarity = similarity
+        self.chunks = getattr(similarity, "chunks", None)
+        self.column_major = _by_columns(similarity)  # read it in its source's storage order (``_blocks``)
         self.shape: tuple[int, ...] = tuple(similarity.shape)
         self.ndim = 2
         self.dtype = np.dtype(np.float64)
@@ -134,14 +136,20 @@ def _check_matrix(path: Path, matrix: Any) -> None:
                          "queries): it holds no values; write it again")
 
 
+def _by_columns(matrix: Any) -> bool:
+    """Whether ``matrix`` is stored by columns: a chunked HDF5 dataset, a Fortran-ordered array (a transposed
+    ``.npy``), or a lazily transposed one (``core.arrays.Transposed``, a MATLAB v7.3 variable)."""
+    return (getattr(matrix, "chunks", None) is not None
+            or bool(getattr(getattr(matrix, "flags", None), "f_contiguous", False))
+            or bool(getattr(matrix, "column_major", False)))
+
+
 def _blocks(matrix: Any) -> Iterator[tuple[slice, slice]]:
-    """Blocks of about ``SCAN_VALUES`` values in the matrix's storage order: whole chunk columns of a chunked HDF5
-    dataset, column blocks of a Fortran-ordered array, row blocks otherwise."""
+    """Blocks of about ``SCAN_VALUES`` values in the matrix's storage order (``_by_columns``): whole chunk columns of
+    a chunked HDF5 dataset, column blocks of a matrix stored by columns, row blocks otherwise."""
     n_rows, n_cols = matrix.shape
     chunks = getattr(matrix, "chunks", None)
-    by_columns = (chunks is not None or bool(getattr(getattr(matrix, "flags", None), "f_contiguous", False))
-                  or bool(getattr(matrix, "column_major", False)))
-    if by_columns and n_rows:
+    if _by_columns(matrix) and n_rows:
         unit = chunks[1] if chunks is not None else 1
         step = max(unit, SCAN_VALUES // n_rows // unit * unit)
         for start in range(0, n_cols, step):
