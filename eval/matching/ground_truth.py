@@ -395,6 +395,12 @@ class MatrixTruth(GroundTruth):
         ranges = ((offset[0] + r_lo, offset[0] + r_hi), (offset[1] + q_lo, offset[1] + q_hi))
         return MatrixTruth(bits, n_reference, self.source, False, ranges)
 
+    def sized(self, shape: tuple[int, int]) -> MatrixTruth:
+        """Per-query lists (``open_ended``) as the ``R x Q`` matrix of the frames their indices count (no correct
+        pair past those they name); its provenance is the lists', not a slice of them."""
+        part = self.sliced((0, shape[0]), (0, shape[1]))
+        return MatrixTruth(part.bits, part.n_reference, self.source, False, self.ranges)
+
     def true_references(self, queries: np.ndarray) -> np.ndarray:
         """The correct reference nearest to the query's own frame (the lowest on ties: where positions = frame
         indices would place it); ``NO_REFERENCE`` for a query without one. Frames count in the file's indices, so a

@@ -218,11 +218,14 @@ def split_ranges(path: Path | str) -> tuple[tuple[int, int], tuple[int, int]] | 
 
 
 def fit_ground_truth(path: Path | str, shape: tuple[int, ...], truth: GroundTruth) -> GroundTruth:
-    """The ground truth of a file (``truth``) for the matrix in ``path``: as it is when it has the matrix's shape;
-    sliced to the frames a distance file of vpr-smr covers (a split of the dataset the file's frames are); per-query
-    lists sized to the matrix when every pair lies in it. Errors name both files, both shapes and the fix."""
+    """The ground truth of a file (``truth``) for the matrix in ``path``: a matrix as it is when it has the matrix's
+    shape (a matrix of the whole dataset would have at least the split's last frame); else sliced to the frames a
+    distance file of vpr-smr covers (a split of the dataset whose frames the file's indices count), which per-query
+    lists always are (they name frames, and their shape is only the largest index they name); per-query lists of a
+    user's matrix sized to it when every pair lies in it. Errors name both files, both shapes and the fix."""
     shape = (int(shape[0]), int(shape[1]))
-    if truth.shape == shape:
+    lists = isinstance(truth, MatrixTruth) and truth.open_ended
+    if truth.shape == shape and not lists:
         return truth
     ranges = split_ranges(path)
     if ranges is not None:
@@ -239,7 +242,7 @@ def fit_ground_truth(path: Path | str, shape: tuple[int, ...], truth: GroundTrut
                              "dataset, or of this split's") from None
     if isinstance(truth, MatrixTruth) and truth.open_ended:
         if truth.shape[0] <= shape[0] and truth.shape[1] <= shape[1]:
-            return truth.sliced((0, shape[0]), (0, shape[1]))
+            return truth.sized(shape)
         raise ValueError(f"{path} is {shape[0]} x {shape[1]} (references x queries), but the ground truth "
                          f"{truth.describe()} names references up to {truth.shape[0] - 1} and queries up to "
                          f"{truth.shape[1] - 1}: give the ground truth of this matrix's frames (indices from 0), or "

@@ -139,6 +139,14 @@ def test_a_dataset_ground_truth_is_cut_to_each_split(real, tmp_path):
     for name in ("band.npy", "band.json"):
         given = run(tmp_path, name, *distances, "--ground-truth", str(folder / name), attributes=False)
         assert_same_numbers(given, expected)
+    # lists name the dataset's frames whatever their largest index: lists of frames 0..39 hold no pair of the
+    # 40 frames 60..99, though their shape is the split's
+    write_distance_matrix(tmp_path / "late.h5", d[60:100, 60:100], {"dataset": "sample", "split": "test",
+                                                                      "split_range": [60, 100]})
+    write_json_lists(tmp_path / "early.json", lists_of(band(40, 40, 2)))
+    early = run(tmp_path, "early", "--distances", str(tmp_path / "late.h5"), "--ground-truth",
+                str(tmp_path / "early.json"), attributes=False)["metrics"]["splits"]["all"]
+    assert early["queries_without_correct"] == 40 and early["modes"]["paper"]["single"]["recall_at"]["20"] == 0
     # a split's references apart from its queries (method §11): frames 40..99 against queries 60..99
     write_distance_matrix(tmp_path / "apart.h5", d[40:100, 60:100], {"dataset": "sample", "split": "test",
                                                                        "split_range": [60, 100],
