@@ -7,7 +7,9 @@ stopped) is named for what it is, with the fix. No message passes on a library's
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -62,10 +64,29 @@ def file_kind(head: bytes) -> str:
     return UNKNOWN
 
 
+def mat_version(head: bytes) -> str | None:
+    """``"7.3"`` (HDF5 inside, read with h5py) or ``"5"`` (read with SciPy) for a MATLAB ``.mat`` file's first
+    bytes, None for anything else. MATLAB writes the version in the header's text and again as the 16-bit number at
+    byte 124 (0x0200 for 7.3, 0x0100 for 5; the bytes 126-127, ``IM`` or ``MI``, give its byte order)."""
+    if file_kind(head) != MAT:
+        return None
+    if head.startswith(b"MATLAB 7.3"):
+        return "7.3"
+    if len(head) >= 128:
+        version = int.from_bytes(head[124:126], "little" if head[126:128] == b"IM" else "big")
+        return "7.3" if version == 0x0200 else "5"
+    return "5"
+
+
 def _shown(head: bytes) -> str:
     """`` (it starts with 'a,b,c')`` for text, else empty."""
     text = text_start(head)
     return f" (it starts with {(text.strip().splitlines() or [''])[0][:40]!r})" if text is not None else ""
+
+
+def what_it_is(head: bytes) -> str:
+    """What a file is, from its first bytes, as a message says it: ``text (it starts with 'a,b,c')``."""
+    return f"{KINDS[file_kind(head)]}{_shown(head)}"
 
 
 SAVE_NUMBERS = "save the numbers with numpy.save(path, numpy.asarray(values, dtype=float))"
@@ -79,12 +100,22 @@ def not_npy(path: Path, head: bytes, what: str) -> str:
         return f"{path} is empty (0 bytes), not {what} (a NumPy .npy array): write it again ({SAVE_NUMBERS})"
     if kind == PICKLE:
         return f"{path} is a Python pickle, not {what} (a NumPy .npy array), {NEVER_PICKLE}: {SAVE_NUMBERS}"
-    return f"{path} is {KINDS[kind]}{_shown(head)}, not {what} (a NumPy .npy array): {SAVE_NUMBERS}"
+    return f"{path} is {what_it_is(head)}, not {what} (a NumPy .npy array): {SAVE_NUMBERS}"
 
 
-def load_npy(path: Path | str, what: str = "a numeric array", mmap: bool = False) -> np.ndarray:
-    """The array of a ``.npy`` file (a read-only memory map with ``mmap``), never unpickling anything. A file that
-    is not a ``.npy`` array, an array of Python objects, or a truncated file raises ValueError naming ``path``,
+@dataclass(frozen=True)
+class NpyHeader:
+    """What a ``.npy`` file's header says, and where its data (or, for an array of objects, its pickle) starts."""
+
+    shape: tuple[int, ...]
+    fortran_order: bool
+    dtype: np.dtype[Any]
+    data_start: int
+
+
+def npy_header(path: Path | str, what: str = "a numeric array") -> NpyHeader:
+    """The header of the ``.npy`` file ``path``, parsed by NumPy's header readers alone (no data is read, nothing
+    is unpickled). A file that is not a ``.npy`` array or has a damaged header raises ValueError naming ``path``,
     what it is instead and the fix; ``what`` says what the file should hold."""
     path = Path(path)
     head = read_head(path)
@@ -93,11 +124,20 @@ def load_npy(path: Path | str, what: str = "a numeric array", mmap: bool = False
     with open(path, "rb") as handle:
         try:
             version = np.lib.format.read_magic(handle)
-            shape, _, dtype = (np.lib.format.read_array_header_1_0(handle) if version == (1, 0) else
-                                     np.lib.format.read_array_header_2_0(handle))
+            shape, fortran_order, dtype = (np.lib.format.read_array_header_1_0(handle) if version == (1, 0) else
+                                           np.lib.format.read_array_header_2_0(handle))
         except ValueError as error:
             raise ValueError(f"{path} has a damaged .npy header ({error}): write it again ({SAVE_NUMBERS})") from None
-        data_start = handle.tell()
+        return NpyHeader(tuple(int(n) for n in shape), bool(fortran_order), np.dtype(dtype), handle.tell())
+
+
+def load_npy(path: Path | str, what: str = "a numeric array", mmap: bool = False) -> np.ndarray:
+    """The array of a ``.npy`` file (a read-only memory map with ``mmap``), never unpickling anything. A file that
+    is not a ``.npy`` array, an array of Python objects, or a truncated file raises ValueError naming ``path``,
+    what it is instead and the fix; ``what`` says what the file should hold."""
+    path = Path(path)
+    header = npy_header(path, what)
+    shape, dtype, data_start = header.shape, header.dtype, header.data_start
     if dtype.hasobject:
         raise ValueError(f"{path} holds an array of Python objects (dtype {dtype}, stored as a pickle), {NEVER_PICKLE},"
                          f" not {what}: {SAVE_NUMBERS}")

@@ -75,7 +75,9 @@ def cmd_attributes(args: argparse.Namespace) -> None:
 
     attributes.main(args.distances, args.out, args.seq_len, args.tolerance, velocities=args.velocities,
                     radius=args.radius, reference_positions=args.reference_positions,
-                    query_positions=args.query_positions, similarity=args.similarity)
+                    query_positions=args.query_positions, similarity=args.similarity, key=args.key,
+                    transpose=args.transpose, ground_truth=args.ground_truth,
+                    ground_truth_key=args.ground_truth_key)
 
 
 def _check_seq_len(args: argparse.Namespace, *groups: Iterable[str] | None) -> None:
@@ -169,7 +171,8 @@ def cmd_metrics(args: argparse.Namespace) -> None:
                               predictor=args.predictor, attributes=_split_paths(args.attributes or []),
                               modes=tuple(args.modes), queries=args.queries, meta=meta,
                               allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
-                              similarity=args.similarity, sweep=args.sweep)
+                              similarity=args.similarity, key=args.key, transpose=args.transpose,
+                              sweep=args.sweep)
     print(vpr_metrics.format_metrics(result))
 
 
@@ -179,14 +182,15 @@ def cmd_queries(args: argparse.Namespace) -> None:
     vpr_metrics.queries_main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
                              predictor=args.predictor, attributes=_split_paths(args.attributes or []),
                              allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
-                             similarity=args.similarity)
+                             similarity=args.similarity, key=args.key, transpose=args.transpose)
 
 
 def _matcher(args: argparse.Namespace) -> Any:
     """The matcher options of ``_ground_truth_options`` as ``vpr_metrics.MatcherSettings``."""
     from vpr_smr.eval.scoring.vpr_metrics import MatcherSettings
 
-    return MatcherSettings(tuple(args.velocities), args.radius, args.reference_positions, args.query_positions)
+    return MatcherSettings(tuple(args.velocities), args.radius, args.reference_positions, args.query_positions,
+                           args.ground_truth, args.ground_truth_key)
 
 
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
@@ -242,7 +246,8 @@ def cmd_inspect(args: argparse.Namespace) -> None:
         per_class=args.per_class, mistakes=args.mistakes, seed=args.seed,
         split_range=(args.frames[0], args.frames[1]) if args.frames else None, radius=args.radius,
         velocities=tuple(args.velocities), reference_positions=args.reference_positions,
-        query_positions=args.query_positions, similarity=args.similarity)
+        query_positions=args.query_positions, similarity=args.similarity, key=args.key, transpose=args.transpose,
+        ground_truth=args.ground_truth, ground_truth_key=args.ground_truth_key)
     log.info("wrote %s", " and ".join(str(path) for path in written if path is not None))
 
 
@@ -401,7 +406,8 @@ def _allow_overlap(parser: argparse.ArgumentParser) -> None:
 
 
 def _matcher_options(parser: argparse.ArgumentParser) -> None:
-    """The sequence matcher and its ground truth: velocity search and positions within a radius."""
+    """The sequence matcher, its ground truth (frames within a tolerance, positions within a radius, or a file) and
+    how a user's matrix is read."""
     parser.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE,
                         help="frame-aligned pairs: a match within this many frames is correct (default 2)")
     parser.add_argument("--velocities", type=float, nargs="+", default=list(DEFAULT_VELOCITIES), metavar="V",
@@ -413,15 +419,29 @@ def _matcher_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--query-positions", metavar="PATH", help="one position per query frame (.npy or CSV)")
     parser.add_argument("--radius", type=float,
                         help="with positions: a match within this distance (the positions' unit) is correct")
+    parser.add_argument("--ground-truth", metavar="FILE",
+                        help="the ground truth as a file instead of --tolerance or positions: a boolean references x "
+                             "queries matrix (.npy, .npz, .mat, e.g. VPR_Tutorial's GThard) or per-query lists of "
+                             "correct references (JSON {\"query\": [reference, ...]}, CSV query,reference, "
+                             "VPR-Bench's ground_truth_new.npy); a file of a whole dataset is cut to the split of "
+                             "an .h5 of vpr-smr distances")
+    parser.add_argument("--ground-truth-key", metavar="NAME",
+                        help="the variable of a --ground-truth .npz or .mat holding several (e.g. GThard)")
     parser.add_argument("--similarity", action="store_true",
-                        help="the .npy matrix holds similarities (larger = more similar): read as distances "
+                        help="the matrix holds similarities (larger = more similar): read as distances "
                              "max(M) - M, recorded in the outputs")
+    parser.add_argument("--key", metavar="NAME",
+                        help="the array of an .npz, or the variable of a MATLAB .mat, holding the matrix (default: "
+                             "the file's only 2-D numeric one)")
+    parser.add_argument("--transpose", action="store_true",
+                        help="the matrix file is queries x references (vpr-smr reads references x queries)")
 
 
 def _matrix_options(parser: argparse.ArgumentParser, predictor_help: str) -> None:
     """The options of the commands that read users' distance matrices (``metrics``, ``queries``)."""
     parser.add_argument("--distances", nargs="+", required=True, metavar="PATH or SPLIT=PATH",
-                        help="references x queries matrices (.npy or our .h5): one file, or one SPLIT=PATH per split")
+                        help="references x queries matrices (.npy, .npz, .mat or our .h5): one file, or one "
+                             "SPLIT=PATH per split")
     parser.add_argument("--seq-len", type=int, required=True)
     _matcher_options(parser)
     parser.add_argument("--predictor", help=predictor_help)
@@ -459,7 +479,7 @@ SHARED_HELP = {
     "--dataset": "the dataset's name (a key of the configuration's datasets)",
     "--method": "the method's name (a key of the configuration's methods)",
     "--queries": "the per-query table (.csv) of vpr-smr queries",
-    "--distances": "the distance matrix: our .h5, or a references x queries .npy",
+    "--distances": "the distance matrix: our .h5, or a references x queries .npy, .npz or .mat",
     "--matrix-figure": "where to write the distance-matrix figure (.png)",
     "--modes": "the metric modes: paper (the authors' rules) and/or standard",
 }
@@ -579,7 +599,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.set_defaults(func=cmd_distances)
 
     p = sub.add_parser("attributes", help="sequence matching, SMR attributes and labels of a distance matrix")
-    p.add_argument("--distances", required=True, help="our .h5 or a references x queries .npy")
+    p.add_argument("--distances", required=True, help="our .h5, or a references x queries .npy, .npz or .mat")
     p.add_argument("--seq-len", type=int, required=True)
     _matcher_options(p)
     p.add_argument("--out", required=True, help=".csv (query,A1,A2,A3,A4,label) or .h5 (everything)")

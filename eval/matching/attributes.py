@@ -22,18 +22,19 @@ import numpy as np
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
 from vpr_smr.core.records import Record
-from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
+from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import (
-    is_npy,
+    is_user_matrix,
     open_distance_matrix,
-    similarity_provenance,
+    reading_provenance,
     split_ground_truth,
     warn_if_similar,
 )
 from vpr_smr.eval.matching.matcher import SequenceMatcher, as_matrix, check_velocities, read_columns
 
 __all__ = [
-    "ATTRIBUTE_NAMES", "QueryFeatures", "is_correct", "labels_from_correctness", "query_features",
+    "ATTRIBUTE_NAMES", "QueryFeatures", "labels_from_correctness", "query_features",
 ]
 
 ATTRIBUTE_NAMES = ("A1", "A2", "A3", "A4")  # minimum sum, minimum value, block sum, group sum rates
@@ -61,13 +62,6 @@ class QueryFeatures:
     sequence_min: float  # S.min() of the whole split
     sequence_max: float  # S.max() of the whole split
     all_single_correct: np.ndarray  # (Q,) bool: single-frame correctness of every query, the first L-1 included
-
-
-def is_correct(reference: np.ndarray, query: np.ndarray, tolerance: int) -> np.ndarray:
-    """Ground truth of a frame-aligned pair: a match is correct iff ``|r - q| <= tolerance`` (``GroundTruth``
-    generalises it to positions)."""
-    correct: np.ndarray = np.abs(np.asarray(reference) - np.asarray(query)) <= tolerance
-    return correct
 
 
 def labels_from_correctness(single_correct: np.ndarray, sequence_correct: np.ndarray) -> np.ndarray:
@@ -163,13 +157,18 @@ def write_csv(path: Path | str, features: QueryFeatures) -> None:
 def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
          velocities: Sequence[float] = DEFAULT_VELOCITIES, radius: float | None = None,
          reference_positions: Path | str | None = None, query_positions: Path | str | None = None,
-         similarity: bool = False) -> QueryFeatures:
-    """Features of the matrix in ``distances`` (``.npy`` or our ``.h5``) written to ``out``.
+         similarity: bool = False, key: str | None = None, transpose: bool = False,
+         ground_truth: Path | str | None = None, ground_truth_key: str | None = None) -> QueryFeatures:
+    """Features of the matrix in ``distances`` (``.npy``, ``.npz``, ``.mat`` or our ``.h5``) written to ``out``.
 
     ``out`` ending in ``.csv`` gets the rank-0 table (``write_csv``); ``.h5``/``.hdf5`` every field of
-    ``QueryFeatures`` as HDF5, with the distance file's provenance, ``seq_len``, ``tolerance`` and
-    ``attributes_seconds`` (the time of the computation, reading included), and ``velocities`` and ``radius`` when
-    they are not the frame-aligned defaults; another suffix is an error, before anything is read. The ground truth:
+    ``QueryFeatures`` as HDF5, with the distance file's provenance, ``seq_len``, ``tolerance``,
+    ``attributes_seconds`` (the time of the computation, reading included), the ground truth (``ground_truth``:
+    ``GroundTruth.provenance``) and its ``queries_without_correct`` (of every query of the matrix) and
+    ``evaluated_without_correct`` (of the queries with a sequence match), and ``velocities`` and ``radius`` when they
+    are not the frame-aligned defaults; another suffix is an error, before anything is read. ``key``,
+    ``transpose``, ``similarity``: how a user's matrix is read (``io.open_distance_matrix``). The ground truth:
+    ``ground_truth`` (a file, ``ground_truth_files.read_ground_truth``, its variable ``ground_truth_key``), else
     ``io.split_ground_truth`` (positions within ``radius``, or frame indices within ``tolerance``). Errors name the
     distance file (negative distances included: ``io.check_non_negative``).
     """
@@ -177,25 +176,40 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     velocities = check_velocities(velocities, "--velocities")
     distances = Path(distances)
     start = time.perf_counter()
-    with open_distance_matrix(distances, similarity) as matrix:
-        ground_truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
-                                          query_positions)
-        warn_if_similar(distances, matrix, ground_truth, similarity)
+    truth_file = None if ground_truth is None else read_ground_truth(ground_truth, ground_truth_key)
+    with open_distance_matrix(distances, similarity, key, transpose) as matrix:
+        truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
+                                   query_positions, truth_file)
+        warn_if_similar(distances, matrix, truth, similarity)
         try:
-            features = query_features(matrix, seq_len, tolerance, velocities=velocities, ground_truth=ground_truth)
+            features = query_features(matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth)
         except ValueError as error:
             raise ValueError(f"{distances}: {error}") from None
     seconds = time.perf_counter() - start
+    without = truth.without_correct()
+    if without.any():
+        log.info("%s: %d of its %d queries have no correct reference under %s (never correct, still counted)",
+                 distances, int(without.sum()), len(without), truth.describe())
     if out.suffix.lower() in CSV_SUFFIXES:
         write_csv(out, features)
     else:
-        provenance = read_provenance(distances) if not is_npy(distances) else {}
+        provenance = read_provenance(distances) if not is_user_matrix(distances) else {}
         provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
-        provenance.update({**matcher_provenance(velocities, radius), **similarity_provenance(similarity)})
+        provenance.update({**matcher_provenance(velocities, radius), **reading_provenance(similarity, key, transpose)})
         write_features(out, features, {**provenance, "seq_len": seq_len, "tolerance": tolerance,
-                                       "attributes_seconds": seconds})
+                                       "attributes_seconds": seconds, **truth_provenance(truth, seq_len, without)})
     log.info("%d queries, %.1f µs per query", len(features.queries), 1e6 * seconds / max(len(features.queries), 1))
     return features
+
+
+def truth_provenance(truth: GroundTruth, seq_len: int, without: np.ndarray | None = None) -> dict[str, Any]:
+    """What an attributes file records of its ground truth: ``GroundTruth.provenance`` as ``ground_truth``, and how
+    many queries have no correct reference (``without``: ``truth.without_correct()``, computed when None), of all
+    (``queries_without_correct``) and of those with a sequence match (``evaluated_without_correct``, queries
+    ``L - 1`` on)."""
+    without = truth.without_correct() if without is None else without
+    return {"ground_truth": truth.provenance(), "queries_without_correct": int(without.sum()),
+            "evaluated_without_correct": int(without[seq_len - 1 :].sum())}
 
 
 def matcher_provenance(velocities: Sequence[float], radius: float | None) -> dict[str, Any]:
@@ -209,34 +223,50 @@ def matcher_provenance(velocities: Sequence[float], radius: float | None) -> dic
     return out
 
 
-FRAMES, POSITIONS = "frames", "positions"  # the kinds of ground truth: a frame tolerance, positions within a radius
-
-
 @dataclass(frozen=True)
 class Matching(Record):
     """What made the matches and labels of an attributes file, beyond ``L``: the velocities searched (sorted: the
-    same set in another order is the same matcher) and the kind of ground truth (``FRAMES`` or ``POSITIONS``). A
-    predictor learns from such labels, so its file records the ``Matching`` it was trained with and every stage
-    that applies it compares."""
+    same set in another order is the same matcher) and the kind of ground truth (``FRAMES``, ``POSITIONS`` or
+    ``MATRIX``). A predictor learns from such labels, so its file records the ``Matching`` it was trained with and
+    every stage that applies it compares (``applies_to``)."""
 
     velocities: tuple[float, ...] = DEFAULT_VELOCITIES
     ground_truth: str = FRAMES
 
     @classmethod
-    def of(cls, velocities: Sequence[float], radius: float | None) -> Matching:
-        """A stage's matcher: positions within ``radius`` when it has one, else frame indices."""
-        return cls(tuple(sorted(float(v) for v in velocities)), FRAMES if radius is None else POSITIONS)
+    def of(cls, velocities: Sequence[float], kind: str = FRAMES) -> Matching:
+        """A stage's matcher and the kind of its ground truth (``GroundTruth.kind``)."""
+        if kind not in (FRAMES, POSITIONS, MATRIX):
+            raise ValueError(f"unknown kind of ground truth {kind!r}; one of {FRAMES}, {POSITIONS}, {MATRIX}")
+        return cls(tuple(sorted(float(v) for v in velocities)), kind)
 
     @classmethod
     def stored(cls, path: Path | str) -> Matching:
-        """The matching an attributes file was computed with (``matcher_provenance``)."""
+        """The matching an attributes file was computed with (``matcher_provenance``, ``truth_provenance``); a file
+        that does not record its ``ground_truth`` (written before it did) is of positions when it records a radius,
+        else of frames."""
         stored = read_provenance(path)
-        return cls.of(stored.get("velocities", DEFAULT_VELOCITIES), stored.get("radius"))
+        truth = stored.get("ground_truth")
+        kind = truth.get("kind") if isinstance(truth, dict) else None
+        if kind is None:
+            kind = FRAMES if stored.get("radius") is None else POSITIONS
+        return cls.of(stored.get("velocities", DEFAULT_VELOCITIES), str(kind))
+
+    def applies_to(self, other: Matching) -> bool:
+        """Whether a predictor trained on attributes of this matching may score where ``other`` is used: the same
+        velocities (its matches are that matcher's), and the same kind of ground truth or a matrix on either side.
+        Frames and positions tell a frame-aligned pair from one driven at other speeds, whose attributes differ;
+        a matrix (or lists) says which frames are correct, not how the traverses were driven, and the field's
+        matrices exist for both, so scoring with one is another protocol (an experiment, as another tolerance or
+        radius is), not a sign of the wrong predictor."""
+        return self.velocities == other.velocities and (
+            self.ground_truth == other.ground_truth or MATRIX in (self.ground_truth, other.ground_truth))
 
     def __str__(self) -> str:
         velocities = ("the fixed matcher (velocities [1.0])" if self.velocities == DEFAULT_VELOCITIES else
                       f"velocity search over {list(self.velocities)}")
-        truth = "frame indices within a tolerance" if self.ground_truth == FRAMES else "positions within a radius"
+        truth = {FRAMES: "frame indices within a tolerance", POSITIONS: "positions within a radius",
+                 MATRIX: "a matrix (or lists) of correct references"}[self.ground_truth]
         return f"{velocities}, ground truth from {truth}"
 
 
@@ -256,10 +286,10 @@ def common_matching(paths: Sequence[Path | str]) -> Matching:
 
 def check_matching(predictor: Any, matching: Matching, where: str, ground_truth: bool = True) -> None:
     """Raise ValueError naming both when ``predictor`` was trained on attributes of another matcher (or, with
-    ``ground_truth``, another kind of ground truth) than ``matching``, what ``where`` scores with: its classes would
-    describe other matches and other labels. The record is the ``matching_`` that ``SMRPredictor.load`` reads from
-    the file (``path_``); a predictor fitted in this process (never loaded) has none and passes; one loaded from a
-    file without the record is refused, with the fix."""
+    ``ground_truth``, a kind of ground truth it does not apply to: ``Matching.applies_to``) than ``matching``, what
+    ``where`` scores with: its classes would describe other matches and other labels. The record is the
+    ``matching_`` that ``SMRPredictor.load`` reads from the file (``path_``); a predictor fitted in this process
+    (never loaded) has none and passes; one loaded from a file without the record is refused, with the fix."""
     if not hasattr(predictor, "path_"):
         return
     trained: Matching | None = predictor.matching_
@@ -267,7 +297,7 @@ def check_matching(predictor: Any, matching: Matching, where: str, ground_truth:
         raise ValueError(f"{predictor.path_} does not record the sequence matcher and ground truth it was trained "
                          f"with (it was written before vpr-smr 0.5.0), so it cannot be checked against {where}, of "
                          f"{matching}: train it again (vpr-smr train)")
-    if ground_truth and trained != matching:
+    if ground_truth and not trained.applies_to(matching):
         raise ValueError(f"{predictor.path_} was trained on attributes of {trained}, but it is applied to {where}, "
                          f"of {matching}: give the predictor trained with this matcher (the same velocities, and "
                          "positions with a radius or not), or train one for it")
@@ -277,17 +307,42 @@ def check_matching(predictor: Any, matching: Matching, where: str, ground_truth:
                          f"was trained with ({list(trained.velocities)}), or train one for these")
 
 
-def check_matcher(paths: Sequence[Path | str], velocities: Sequence[float], radius: float | None) -> None:
-    """Raise ValueError when an attributes file was computed with other velocities, another kind of ground truth
-    or another radius than a stage is given (its labels and matches would not be this matcher's)."""
-    expected = Matching.of(velocities, radius)
+def check_matcher(paths: Sequence[Path | str], velocities: Sequence[float], radius: float | None,
+                  ground_truth: GroundTruth | None = None) -> None:
+    """Raise ValueError when an attributes file was computed with other velocities, another kind of ground truth,
+    another radius, or another ground-truth file (its SHA-256 and variable; ``ground_truth``: the stage's file) than
+    a stage is given: its labels and matches would not be this matcher's."""
+    kind = ground_truth.kind if ground_truth is not None else (FRAMES if radius is None else POSITIONS)
+    expected = Matching.of(velocities, kind)
+    given_file = None if ground_truth is None else _file_identity(ground_truth.provenance())
     for path in paths:
-        found, stored = Matching.stored(path), read_provenance(path).get("radius")
+        stored_provenance = read_provenance(path)
+        found, stored = Matching.stored(path), stored_provenance.get("radius")
         if found != expected or (radius is not None and (stored is None or float(stored) != float(radius))):
             given = "" if radius is None else f" within {float(radius):g}"
             held = "" if stored is None else f" within {float(stored):g}"
             raise ValueError(f"{path} holds attributes of {found}{held}, but this stage was given {expected}{given}: "
-                             "give the same --velocities and --radius, or recompute them")
+                             "give the same --velocities, --radius and --ground-truth, or recompute them")
+        stored_truth = stored_provenance.get("ground_truth")
+        held_file = _file_identity(stored_truth) if isinstance(stored_truth, dict) else None
+        if given_file is not None and held_file != given_file:
+            raise ValueError(f"{path} holds attributes labelled with the ground truth {_file_text(held_file)}, but "
+                             f"this stage was given {_file_text(given_file)}: give the same --ground-truth (and "
+                             "--ground-truth-key), or recompute the attributes with it")
+
+
+def _file_identity(provenance: dict[str, Any]) -> tuple[str, str, str | None] | None:
+    """(file name, SHA-256, variable) of a ground truth's provenance, None for one not from a file."""
+    if provenance.get("sha256") is None:
+        return None
+    return str(provenance.get("file")), str(provenance["sha256"]), provenance.get("key")
+
+
+def _file_text(identity: tuple[str, str, str | None] | None) -> str:
+    if identity is None:
+        return "not from a file"
+    name, sha256, key = identity
+    return f"{name}{'' if key is None else ':' + key} (SHA-256 {sha256[:12]}...)"
 
 
 def check_seq_len(paths: Sequence[Path | str], seq_len: int, option: str = "--seq-len") -> None:

@@ -1,4 +1,5 @@
-"""Reading a distance matrix, ours (HDF5) or a user's (``.npy``), lazily and checked."""
+"""Reading a distance matrix, ours (HDF5) or a user's (``.npy``, ``.npz``, MATLAB ``.mat``), lazily and checked, and
+the ground truth that scores it."""
 
 from __future__ import annotations
 
@@ -11,8 +12,10 @@ from typing import Any
 import h5py
 import numpy as np
 
-from vpr_smr.core.files import KINDS, NPY, file_kind, load_npy, read_head
-from vpr_smr.eval.matching.ground_truth import GroundTruth, read_positions
+from vpr_smr.core.arrays import ARRAY_SUFFIXES, open_array
+from vpr_smr.core.files import KINDS, MAT, NPY, ZIP, file_kind, read_head, what_it_is
+from vpr_smr.core.io import read_provenance
+from vpr_smr.eval.matching.ground_truth import GroundTruth, MatrixTruth, read_positions
 
 log = logging.getLogger("vpr_smr")
 
@@ -23,14 +26,23 @@ CHUNK_CACHE_SLOTS = 10007
 NEGATIVE_ROUNDING = 1e-5  # negatives down to this fraction of the largest |distance| are float rounding
 SCAN_VALUES = 1 << 24  # values per block of the scan for negative distances (64 MB of float32)
 
-def is_npy(path: Path | str) -> bool:
-    """A user's matrix: a ``.npy`` file (any case), as opposed to the HDF5 files the stages write."""
-    return Path(path).suffix.lower() == ".npy"
+USER_MATRIX = "a references x queries matrix"  # what a user's matrix file should hold, as errors say it
 
 
-def similarity_provenance(similarity: bool) -> dict[str, str]:
-    """What an output records of a matrix read with ``--similarity`` (nothing otherwise)."""
-    return {"distances_from": "similarity: max(M) - M"} if similarity else {}
+def is_user_matrix(path: Path | str) -> bool:
+    """A user's matrix (``.npy``, ``.npz`` or ``.mat``, any case), as opposed to the HDF5 files the stages write."""
+    return Path(path).suffix.lower() in ARRAY_SUFFIXES
+
+
+def reading_provenance(similarity: bool = False, key: str | None = None, transpose: bool = False) -> dict[str, Any]:
+    """What an output records of how a user's matrix was read: ``--similarity``, ``--key``, ``--transpose``
+    (nothing for a matrix read as it is)."""
+    out: dict[str, Any] = {"distances_from": "similarity: max(M) - M"} if similarity else {}
+    if key is not None:
+        out["distances_key"] = key
+    if transpose:
+        out["distances_transposed"] = True
+    return out
 
 
 class SimilarityAsDistance:
@@ -39,6 +51,8 @@ class SimilarityAsDistance:
 
     def __init__(self, similarity: Any) -> None:
         self.similarity = similarity
+        self.chunks = getattr(similarity, "chunks", None)
+        self.column_major = _by_columns(similarity)  # read it in its source's storage order (``_blocks``)
         self.shape: tuple[int, ...] = tuple(similarity.shape)
         self.ndim = 2
         self.dtype = np.dtype(np.float64)
@@ -55,35 +69,45 @@ class SimilarityAsDistance:
 
 
 @contextmanager
-def open_distance_matrix(path: Path | str, similarity: bool = False) -> Iterator[Any]:
-    """The references x queries matrix of ``path``, lazily: a read-only memory map of a ``.npy``, or the
-    ``distance_matrix`` dataset of our HDF5 file (read by column blocks, see ``eval.matching.matcher.read_columns``).
-    ``similarity``: the file holds similarities (larger = more similar), read as distances ``max(M) - M``
-    (``SimilarityAsDistance``).
+def open_distance_matrix(path: Path | str, similarity: bool = False, key: str | None = None,
+                         transpose: bool = False) -> Iterator[Any]:
+    """The references x queries matrix of ``path``, lazily where the format allows: a read-only memory map of a
+    ``.npy``, the array ``key`` of an ``.npz``, the variable ``key`` of a MATLAB ``.mat`` (v5 in memory; v7.3 read by
+    column blocks as MATLAB shows it), or the ``distance_matrix`` dataset of our HDF5 file (read by column blocks, see
+    ``eval.matching.matcher.read_columns``). ``key``: default, the file's only 2-D numeric array. ``transpose``: the
+    user's file is queries x references. ``similarity``: the file holds similarities (larger = more similar), read as
+    distances ``max(M) - M`` (``SimilarityAsDistance``).
 
-    Raises ``FileNotFoundError``/``ValueError`` naming the file when it is missing, neither a ``.npy`` nor HDF5, has
-    no ``distance_matrix`` dataset, or does not hold a 2-D numeric matrix.
+    Raises ``FileNotFoundError``/``ValueError`` naming the file, what it holds and the fix when it is missing, of
+    another format, has no such variable (or several and no ``key``), has no ``distance_matrix`` dataset, or does
+    not hold a 2-D numeric matrix with values.
     """
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"distance matrix not found: {path}")
-    if is_npy(path):
-        array = load_npy(path, "a references x queries matrix", mmap=True)
-        _check_matrix(path, array)
-        matrix: Any = SimilarityAsDistance(array) if similarity else array
-        check_non_negative(path, matrix)
-        try:
-            yield matrix
-        finally:
-            del matrix, array  # the memory map closes when its last reference goes
+    if is_user_matrix(path):
+        with open_array(path, key, transpose, USER_MATRIX) as array:
+            _check_matrix(path, array)
+            matrix: Any = SimilarityAsDistance(array) if similarity else array
+            check_non_negative(path, matrix)
+            try:
+                yield matrix
+            finally:
+                del matrix, array  # a memory map closes when its last reference goes
         return
     if not h5py.is_hdf5(path):
-        kind = file_kind(read_head(path))
-        if kind == NPY:
-            raise ValueError(f"{path} is a NumPy .npy array, but its name does not end in .npy: rename it (the "
+        head = read_head(path)
+        suffix = {NPY: ".npy", ZIP: ".npz", MAT: ".mat"}.get(file_kind(head))
+        if suffix is not None:
+            raise ValueError(f"{path} is {what_it_is(head)}, but its name does not end in {suffix}: rename it (the "
                              "suffix says how the file is read)")
-        raise ValueError(f"{path} is {KINDS[kind]}, neither a NumPy .npy array nor HDF5: give a references x queries "
-                         "matrix as either (numpy.save(path, matrix) writes a .npy)")
+        raise ValueError(f"{path} is {KINDS[file_kind(head)]}, neither a NumPy .npy/.npz array, a MATLAB .mat file nor "
+                         "HDF5 of vpr-smr distances: give a references x queries matrix as one of them, its name "
+                         "ending in its format (numpy.save(path, matrix) writes a .npy)")
+    if key is not None or transpose:
+        option = "--key" if key is not None else "--transpose"
+        raise ValueError(f"{option}: {path} is a distance file of vpr-smr (its dataset distance_matrix, references x "
+                         f"queries): leave {option} out")
     try:
         handle = h5py.File(path, "r", rdcc_nbytes=CHUNK_CACHE_BYTES, rdcc_nslots=CHUNK_CACHE_SLOTS)
     except OSError as error:  # h5py's reason, e.g. "truncated file: eof = 1000, ... stored_eof = 4096"
@@ -91,7 +115,9 @@ def open_distance_matrix(path: Path | str, similarity: bool = False) -> Iterator
                          "copy or download that stopped?); compute or copy it again") from None
     with handle as f:
         if "distance_matrix" not in f:
-            raise ValueError(f"{path} has no 'distance_matrix' dataset")
+            found = ", ".join(f) or "nothing"
+            raise ValueError(f"{path} has no 'distance_matrix' dataset (it holds {found}): give a distance file of "
+                             "vpr-smr distances; a MATLAB v7.3 file must end in .mat")
         matrix = f["distance_matrix"]
         _check_matrix(path, matrix)
         if similarity:
@@ -105,15 +131,25 @@ def _check_matrix(path: Path, matrix: Any) -> None:
         raise ValueError(f"{path}: expected a numeric matrix (references x queries), got {matrix.dtype}")
     if matrix.ndim != 2:
         raise ValueError(f"{path}: distance matrix must be 2-D (references x queries), got shape {matrix.shape}")
+    if 0 in matrix.shape:
+        raise ValueError(f"{path}: the distance matrix is {matrix.shape[0]} x {matrix.shape[1]} (references x "
+                         "queries): it holds no values; write it again")
+
+
+def _by_columns(matrix: Any) -> bool:
+    """Whether ``matrix`` is stored by columns: a chunked HDF5 dataset, a Fortran-ordered array (a transposed
+    ``.npy``), or a lazily transposed one (``core.arrays.Transposed``, a MATLAB v7.3 variable)."""
+    return (getattr(matrix, "chunks", None) is not None
+            or bool(getattr(getattr(matrix, "flags", None), "f_contiguous", False))
+            or bool(getattr(matrix, "column_major", False)))
 
 
 def _blocks(matrix: Any) -> Iterator[tuple[slice, slice]]:
-    """Blocks of about ``SCAN_VALUES`` values in the matrix's storage order: whole chunk columns of a chunked HDF5
-    dataset, column blocks of a Fortran-ordered array, row blocks otherwise."""
+    """Blocks of about ``SCAN_VALUES`` values in the matrix's storage order (``_by_columns``): whole chunk columns of
+    a chunked HDF5 dataset, column blocks of a matrix stored by columns, row blocks otherwise."""
     n_rows, n_cols = matrix.shape
     chunks = getattr(matrix, "chunks", None)
-    by_columns = chunks is not None or bool(getattr(getattr(matrix, "flags", None), "f_contiguous", False))
-    if by_columns and n_rows:
+    if _by_columns(matrix) and n_rows:
         unit = chunks[1] if chunks is not None else 1
         step = max(unit, SCAN_VALUES // n_rows // unit * unit)
         for start in range(0, n_cols, step):
@@ -149,7 +185,7 @@ def check_non_negative(path: Path | str, matrix: Any) -> None:
             minimum = min(minimum, low)
     if count == 0 or minimum >= -NEGATIVE_ROUNDING * largest:
         return
-    option = "give --similarity (read as distances max(M) - M), or " if is_npy(path) else ""
+    option = "give --similarity (read as distances max(M) - M), or " if is_user_matrix(path) else ""
     raise ValueError(
         f"{path}: {count} negative values in the distance matrix (minimum {minimum:.6g}); distances must be >= 0 "
         "(smaller = more similar; the attributes divide each query column by its maximum). If these are "
@@ -159,9 +195,9 @@ def check_non_negative(path: Path | str, matrix: Any) -> None:
 
 def stored_positions(path: Path | str) -> tuple[np.ndarray, np.ndarray] | None:
     """The split's ``reference_positions`` and ``query_positions`` that a distance file of a dataset with positions
-    holds (the distances stage copies them), or None (a frame-aligned split, or a ``.npy``)."""
+    holds (the distances stage copies them), or None (a frame-aligned split, or a user's matrix)."""
     path = Path(path)
-    if is_npy(path) or not h5py.is_hdf5(path):
+    if is_user_matrix(path) or not h5py.is_hdf5(path):
         return None
     with h5py.File(path, "r") as f:
         if "reference_positions" not in f and "query_positions" not in f:
@@ -171,12 +207,71 @@ def stored_positions(path: Path | str) -> tuple[np.ndarray, np.ndarray] | None:
         return np.asarray(f["reference_positions"][()]), np.asarray(f["query_positions"][()])
 
 
+def split_ranges(path: Path | str) -> tuple[tuple[int, int], tuple[int, int]] | None:
+    """The dataset frames a distance file of vpr-smr covers: (its references' range, its queries' range), from its
+    ``split_range`` (and ``reference_range`` when the distances stage was given one apart); None for a user's
+    matrix."""
+    path = Path(path)
+    if is_user_matrix(path) or not h5py.is_hdf5(path):
+        return None
+    stored = read_provenance(path)
+    if stored.get("split_range") is None:
+        return None
+    queries = (int(stored["split_range"][0]), int(stored["split_range"][1]))
+    reference = stored.get("reference_range")
+    return (queries if reference is None else (int(reference[0]), int(reference[1]))), queries
+
+
+def fit_ground_truth(path: Path | str, shape: tuple[int, ...], truth: GroundTruth) -> GroundTruth:
+    """The ground truth of a file (``truth``) for the matrix in ``path``: a matrix as it is when it has the matrix's
+    shape (a matrix of the whole dataset would have at least the split's last frame); else sliced to the frames a
+    distance file of vpr-smr covers (a split of the dataset whose frames the file's indices count), which per-query
+    lists always are (they name frames, and their shape is only the largest index they name); per-query lists of a
+    user's matrix sized to it when every pair lies in it. Errors name both files, both shapes and the fix."""
+    shape = (int(shape[0]), int(shape[1]))
+    lists = isinstance(truth, MatrixTruth) and truth.open_ended
+    if truth.shape == shape and not lists:
+        return truth
+    ranges = split_ranges(path)
+    if ranges is not None:
+        (r_lo, r_hi), (q_lo, q_hi) = ranges
+        if (r_hi - r_lo, q_hi - q_lo) != shape:
+            raise ValueError(f"{path} is {shape[0]} x {shape[1]}, but it records references [{r_lo}, {r_hi}) and "
+                             f"queries [{q_lo}, {q_hi}): compute it again (vpr-smr distances)")
+        try:
+            return truth.sliced((r_lo, r_hi), (q_lo, q_hi))
+        except ValueError as error:
+            raise ValueError(f"{path} covers references [{r_lo}, {r_hi}) and queries [{q_lo}, {q_hi}) of its "
+                             f"dataset, but the ground truth {truth.describe()} is {truth.shape[0]} x {truth.shape[1]} "
+                             f"(references x queries; {error}): give the ground truth of every frame of the "
+                             "dataset, or of this split's") from None
+    if isinstance(truth, MatrixTruth) and truth.open_ended:
+        if truth.shape[0] <= shape[0] and truth.shape[1] <= shape[1]:
+            return truth.sized(shape)
+        raise ValueError(f"{path} is {shape[0]} x {shape[1]} (references x queries), but the ground truth "
+                         f"{truth.describe()} names references up to {truth.shape[0] - 1} and queries up to "
+                         f"{truth.shape[1] - 1}: give the ground truth of this matrix's frames (indices from 0), or "
+                         "the matrix of the frames it names")
+    try:
+        truth.check_shape(shape)
+    except ValueError as error:
+        raise ValueError(f"{path}: {error}") from None
+    return truth
+
+
 def split_ground_truth(path: Path | str, shape: tuple[int, ...], tolerance: int, radius: float | None = None,
                        reference_positions: Path | str | None = None,
-                       query_positions: Path | str | None = None) -> GroundTruth:
-    """The ground truth of the matrix in ``path`` (method §§1 and 11): the positions files given (``.npy`` or CSV, one
-    position per frame), else the positions the distance file holds, each within ``radius``; else frame indices
-    within ``tolerance``. Errors name the option or file and the fix."""
+                       query_positions: Path | str | None = None, ground_truth: GroundTruth | None = None
+                       ) -> GroundTruth:
+    """The ground truth of the matrix in ``path`` (method §§1 and 11): a ground-truth file's (``ground_truth``, read
+    by ``ground_truth_files.read_ground_truth``; ``fit_ground_truth``); else the positions files given (``.npy`` or
+    CSV, one position per frame), else the positions the distance file holds, each within ``radius``; else frame
+    indices within ``tolerance``. Errors name the option or file and the fix."""
+    if ground_truth is not None:
+        if radius is not None or reference_positions is not None or query_positions is not None:
+            raise ValueError(f"--ground-truth {ground_truth.describe()} and positions (--reference-positions, "
+                             "--query-positions, --radius) are two ground truths: give one of them")
+        return fit_ground_truth(path, shape, ground_truth)
     if (reference_positions is None) != (query_positions is None):
         raise ValueError("give both --reference-positions and --query-positions (one position per frame of each "
                          "traverse), or neither")
@@ -204,7 +299,7 @@ def split_ground_truth(path: Path | str, shape: tuple[int, ...], tolerance: int,
     if radius is None:
         raise ValueError(f"{where}: a ground truth from positions needs --radius (in the positions' unit, e.g. "
                          "metres): a match is correct within that distance of the query's position")
-    truth = GroundTruth(positions[0], positions[1], radius)
+    truth = GroundTruth.positions(positions[0], positions[1], radius)
     try:
         truth.check_shape(shape)
     except ValueError as error:
@@ -251,8 +346,8 @@ def similarity_evidence(matrix: Any, truth: GroundTruth, block_queries: int = 25
 
 
 def warn_if_similar(path: Path | str, matrix: Any, truth: GroundTruth, similarity: bool) -> None:
-    """Log ``similarity_warning`` for a user's ``.npy`` read as distances (the stages' own files are distances)."""
-    if not similarity and is_npy(path):
+    """Log ``similarity_warning`` for a user's matrix read as distances (the stages' own files are distances)."""
+    if not similarity and is_user_matrix(path):
         warning = similarity_warning(path, matrix, truth)
         if warning:
             log.warning(warning)

@@ -84,7 +84,7 @@ class LiveMatcher:
     @predictor.setter
     def predictor(self, predictor: Any) -> None:
         if predictor is not None:  # its attributes must be this matcher's (live frames have no ground truth)
-            check_matching(predictor, Matching.of(self.velocities, None), "a LiveMatcher (velocities=)",
+            check_matching(predictor, Matching.of(self.velocities), "a LiveMatcher (velocities=)",
                            ground_truth=False)
         self._predictor = predictor
 

@@ -6,11 +6,12 @@ Two PNG figures of one method, dataset, sequence length ``L`` and split (the wor
   predictor's most confident mistakes), one row each: the ``L`` query frames of the sequence, the single-frame
   match, the sequence match and the true reference as thumbnails, framed green (correct) or red (wrong) and
   captioned with their distances, and what the predictor decided (kept or removed, right or wrong);
-- the distance-matrix figure: the split's ``D`` (references x queries, block means when large), the ground-truth
-  band ``|r - q| <= tolerance`` and every sequence match, kept or removed by the predictor.
+- the distance-matrix figure: the split's ``D`` (references x queries, block means when large), the ground truth
+  (the band ``|r - q| <= tolerance``, or the outline of the correct matches of positions or a ground-truth matrix)
+  and every sequence match, kept or removed by the predictor.
 
-The match figure needs the dataset's images; without them (a user's ``.npy`` matrix and its queries CSV) the
-distance-matrix figure is drawn alone.
+The match figure needs the dataset's images; without them (a user's matrix and its queries CSV) the distance-matrix
+figure is drawn alone.
 
 The queries come from the queries CSV (``eval.scoring``'s, one row per evaluated query), read by column name; its
 frame indices are the dataset's, the distance matrix's are the split's (``D[r - ref_lo, q - lo]``; ``ref_lo``
@@ -36,8 +37,9 @@ from vpr_smr.core.constants import DEFAULT_VELOCITIES
 from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
 from vpr_smr.datasets import TraversePair, load_frames
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
-from vpr_smr.eval.matching.ground_truth import GroundTruth
-from vpr_smr.eval.matching.io import is_npy, open_distance_matrix, split_ground_truth
+from vpr_smr.eval.matching.ground_truth import POSITIONS, GroundTruth
+from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
+from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, split_ground_truth
 from vpr_smr.eval.matching.matcher import SequenceMatcher
 from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
 from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, velocities_text
@@ -67,7 +69,7 @@ class QueryRow:
     sequence_match: int
     sequence_distance: float
     sequence_correct: bool
-    true_reference: int
+    true_reference: int | None  # None: the query has no correct reference
     label: int
     predicted_class: int | None
     probability: float | None
@@ -99,7 +101,7 @@ class MatchRecord:
     (``L`` query frames, then the single-frame match, the sequence match and the true reference)."""
 
     queries: tuple[int, ...]
-    frames: tuple[tuple[int, ...], ...]
+    frames: tuple[tuple[int | None, ...], ...]  # None: a query without a correct reference has no true one
     reasons: tuple[str, ...]
 
 
@@ -131,7 +133,7 @@ def _row(record: dict[str, str]) -> QueryRow:
         split=record["split"], query=int(record["query"]), single_match=int(record["single_match"]),
         single_distance=float(record["single_distance"]), single_correct=_flag(record["single_correct"]),
         sequence_match=int(record["sequence_match"]), sequence_distance=float(record["sequence_distance"]),
-        sequence_correct=_flag(record["sequence_correct"]), true_reference=int(record["true_reference"]),
+        sequence_correct=_flag(record["sequence_correct"]), true_reference=_optional(record["true_reference"], int),
         label=int(record["label"]), predicted_class=_optional(record["predicted_class"], int),
         probability=_optional(record["probability"], float), kept=None if kept is None else bool(kept),
         velocities=record["velocities"],
@@ -266,16 +268,20 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
         row = sample.row
         q = row.query - lo
         columns = np.asarray(matrix[:, q - seq_len + 1 : q + 1], dtype=np.float64)
-        true_local = row.true_reference - reference_lo
-        true_d = float(columns[true_local, -1]) if 0 <= true_local < columns.shape[0] else None
-        true_s = _sequence_sum(columns, true_local, seq_len, velocities)
         single_word, single_colour = _verdict(row.single_correct)
         sequence_word, sequence_colour = _verdict(row.sequence_correct)
-        true_text = f"true r={row.true_reference}"
-        true_text += "" if true_d is None else f"\nD={true_d:.4g}" + ("" if true_s is None else f" S={true_s:.4g}")
+        if row.true_reference is None:
+            true_text = "no correct reference"
+        else:
+            true_local = row.true_reference - reference_lo
+            true_d = float(columns[true_local, -1]) if 0 <= true_local < columns.shape[0] else None
+            true_s = _sequence_sum(columns, true_local, seq_len, velocities)
+            true_text = f"true r={row.true_reference}"
+            true_text += "" if true_d is None else f"\nD={true_d:.4g}" + ("" if true_s is None else f" S={true_s:.4g}")
         query_frames = [row.query - seq_len + 1 + k for k in range(seq_len)]
-        shown = [("query", f, f"q {f}", NEUTRAL if k < seq_len - 1 else "black", 1.0 if k < seq_len - 1 else 2.0)
-                 for k, f in enumerate(query_frames)]
+        shown: list[tuple[str, int | None, str, str, float]] = [
+            ("query", f, f"q {f}", NEUTRAL if k < seq_len - 1 else "black", 1.0 if k < seq_len - 1 else 2.0)
+            for k, f in enumerate(query_frames)]
         shown += [
             ("reference", row.single_match, f"single r={row.single_match}\nD={row.single_distance:.4g} "
              f"{single_word}", single_colour, 3.5),
@@ -285,7 +291,11 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
         ]
         for j, (side, frame, caption, colour, width) in enumerate(shown):
             ax = fig.add_subplot(grid[i, j])
-            ax.imshow(image(side, frame), interpolation="nearest", aspect="auto")
+            if frame is None:  # a query without a correct reference: nothing to show but the caption
+                ax.set_xticks([])
+                ax.set_yticks([])
+            else:
+                ax.imshow(image(side, frame), interpolation="nearest", aspect="auto")
             _frame(ax, colour, width)
             ax.set_xlabel(caption, fontsize=7, labelpad=2)
             if i == 0:
@@ -350,7 +360,7 @@ def draw_matrix(path: Path | str, matrix: Any, lo: int, rows: Sequence[QueryRow]
         if correct.any():
             ax.contour(lo + queries, ref_lo + refs, correct, levels=[0.5], colors="tab:cyan", linewidths=0.7)
             rule = (f"|(r - {ref_lo}) - (q - {lo})| <= {tolerance}" if truth.is_aligned_band()
-                    else f"positions within {truth.radius:g} of the query's")
+                    else f"{truth.describe()} of the query's" if truth.kind == POSITIONS else truth.describe())
             ax.plot([], [], color="tab:cyan", lw=0.7, label=f"ground truth: {rule}")
     kept = [r for r in rows if r.kept is True]
     removed = [r for r in rows if r.kept is False]
@@ -385,7 +395,7 @@ def _text(value: Any) -> str | None:
 
 
 def _distance_provenance(path: Path) -> dict[str, Any]:
-    return read_provenance(path) if h5py.is_hdf5(path) else {}
+    return read_provenance(path) if not is_user_matrix(path) and h5py.is_hdf5(path) else {}
 
 
 def _split_range(path: Path, provenance: dict[str, Any], given: tuple[int, int] | None,
@@ -396,8 +406,8 @@ def _split_range(path: Path, provenance: dict[str, Any], given: tuple[int, int] 
         raise ValueError(f"{path} holds frames {stored_range[0]}..{stored_range[1] - 1}, not the split's "
                          f"{given[0]}..{given[1] - 1}: run the workflow again")
     split_range = given if given is not None else stored_range
-    if split_range is None and not h5py.is_hdf5(path):
-        # a user's matrix (.npy): `vpr-smr queries` numbers its queries from 0, so the inspector does too
+    if split_range is None and (is_user_matrix(path) or not h5py.is_hdf5(path)):
+        # a user's matrix: `vpr-smr queries` numbers its queries from 0, so the inspector does too
         return 0, n_queries
     if split_range is None:
         raise ValueError(f"{path} does not say which frames it covers: give the split's frames (--frames LO HI)")
@@ -494,7 +504,9 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
          tolerance: int, match_figure: Path | str | None, matrix_figure: Path | str, per_class: int = 2,
          mistakes: int = 4, seed: int = 0, split_range: tuple[int, int] | None = None, radius: float | None = None,
          velocities: Sequence[float] = DEFAULT_VELOCITIES, reference_positions: Path | str | None = None,
-         query_positions: Path | str | None = None, similarity: bool = False) -> tuple[Path | None, Path]:
+         query_positions: Path | str | None = None, similarity: bool = False, key: str | None = None,
+         transpose: bool = False, ground_truth: Path | str | None = None,
+         ground_truth_key: str | None = None) -> tuple[Path | None, Path]:
     """The ``inspect`` stage: the match figure (unless ``match_figure`` is None) and the distance-matrix figure of
     ``split`` (PNG, all or none); returns their paths (the match figure's or None, the matrix figure's).
 
@@ -506,8 +518,9 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
     distances file's ``split_range``; for a ``.npy``, ``0 .. Q``; its references: the file's ``reference_range``
     when it has one, method §11). ``tolerance``: frames of the ground-truth band; ``radius``: the ground truth's with
     positions (those the distances file holds, or ``reference_positions`` and ``query_positions`` of a user's
-    matrix, as ``vpr-smr metrics`` takes them). ``velocities``: the run's sequence matcher. ``similarity``: the
-    ``.npy`` holds similarities, read as distances ``max(M) - M`` (``vpr-smr queries --similarity``).
+    matrix, as ``vpr-smr metrics`` takes them); ``ground_truth``: a ground-truth file instead (its variable
+    ``ground_truth_key``), outlined. ``velocities``: the run's sequence matcher. ``similarity``, ``key``,
+    ``transpose``: how a user's matrix is read, as ``vpr-smr queries`` read it (``io.open_distance_matrix``).
     The queries CSV must be this matrix's at ``seq_len``: its rows of ``split`` are exactly the queries
     ``lo + L - 1 .. hi - 1``, and each sampled row's single-frame match and distance are its column's minimum.
     """
@@ -534,16 +547,17 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
             raise ValueError(f"dataset {name!r}: its frames changed on disk since the run computed its "
                              f"descriptors (the frame lists' SHA-256 is {pair.fingerprint()[:12]}..., the run's "
                              f"{expected[:12]}...); run the workflow again")
+    truth_file = None if ground_truth is None else read_ground_truth(ground_truth, ground_truth_key)
     all_rows = read_queries(queries_csv)
     split = _split_of(all_rows, queries_csv, split)
     rows = [r for r in all_rows if r.split == split]
-    with open_distance_matrix(distances, similarity) as matrix:
+    with open_distance_matrix(distances, similarity, key, transpose) as matrix:
         lo, hi = _split_range(distances, provenance, split_range, int(matrix.shape[1]))
         stored_reference = provenance.get("reference_range")
         if stored_reference is not None:
             ref_lo, ref_hi = int(stored_reference[0]), int(stored_reference[1])
-        else:  # a user's .npy counts its references from 0, as `vpr-smr queries` does
-            ref_lo, ref_hi = (0, int(matrix.shape[0])) if is_npy(distances) else (lo, hi)
+        else:  # a user's matrix counts its references from 0, as `vpr-smr queries` does
+            ref_lo, ref_hi = (0, int(matrix.shape[0])) if is_user_matrix(distances) else (lo, hi)
         if pair is not None and not (0 <= lo < hi <= len(pair.query) and 0 <= ref_lo < ref_hi <= len(pair.reference)):
             raise ValueError(f"split {split!r} = frames {lo}..{hi - 1} is outside dataset {name!r}'s "
                              f"{len(pair.query)} frames: run the workflow again")
@@ -558,9 +572,8 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
                              f"{split!r} has {ref_hi - ref_lo} reference frames ({ref_lo}..{ref_hi - 1}) and "
                              f"{hi - lo} query frames ({lo}..{hi - 1}): run the workflow again")
         truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
-                                   query_positions)
-        rule = (f"|r - q| <= {tolerance}" if truth.is_aligned_band()
-                else f"positions within {truth.radius:g}")
+                                   query_positions, truth_file)
+        rule = f"|r - q| <= {tolerance}" if truth.is_aligned_band() else truth.describe()
         match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct ({rule}), "
                        "red = wrong; D = single-frame distance, S = sequence distance")
         _check_matches(samples, matrix, queries_csv, distances, lo, ref_lo)

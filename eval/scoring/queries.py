@@ -3,7 +3,9 @@ of every split.
 
 Frame indices (``query``, ``single_match``, ``sequence_match``, ``true_reference``) are the dataset's: the split's
 first query (reference) frame plus the index within the split. The true reference of query ``a`` is ``a`` in a
-frame-aligned pair, the reference nearest to its position otherwise (method §11; the lowest on ties).
+frame-aligned pair, the reference nearest to its position otherwise (method §11; the lowest on ties), and with a
+ground-truth matrix the correct reference nearest to the query's own frame (``GroundTruth.true_references``); the
+cell is empty for a query without any correct reference.
 ``A1..A4`` are the rank-0 attributes under the paper's names (method §5: minimum sum, minimum value, block sum and group
 sum rates), the order ``QueryFeatures.attributes`` stores them in; the predictor takes them in that order and feeds
 its network the code's order ``[A1, A2, A4, A3]`` itself (``SMRPredictor.column_order``). ``predicted_class``,
@@ -26,6 +28,7 @@ import numpy as np
 from vpr_smr.core.constants import DEFAULT_VELOCITIES
 from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, QueryFeatures
+from vpr_smr.eval.matching.ground_truth import NO_REFERENCE
 from vpr_smr.eval.scoring.curves import keep_mask
 
 QUERY_COLUMNS = (
@@ -67,7 +70,8 @@ class SplitQueries:
     single_distance: np.ndarray  # (N,)
     prediction: Prediction | None
     reference_first_frame: int | None = None  # the split's first reference frame when its ranges differ (method §11)
-    true_reference: np.ndarray | None = None  # (N,) split-local; None: the query's own index (frame-aligned)
+    # (N,) split-local, NO_REFERENCE for a query without a correct one; None: the query's own index (frame-aligned)
+    true_reference: np.ndarray | None = None
     velocities: tuple[float, ...] = DEFAULT_VELOCITIES  # the sequence matcher's
 
 
@@ -98,7 +102,7 @@ def query_rows(table: SplitQueries) -> Iterator[list[str]]:
             str(int(f.single_correct[n])),
             str(first_ref + int(f.sequence_match[n])), _number(f.sequence_distance[n]),
             str(int(f.sequence_correct[n])),
-            str(first_ref + int(true_reference[n])),
+            "" if true_reference[n] == NO_REFERENCE else str(first_ref + int(true_reference[n])),
             *(_number(v) for v in f.attributes[n, 0, :]),
             str(int(f.labels[n])), *predicted, velocities,
         ]

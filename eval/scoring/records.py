@@ -350,25 +350,33 @@ class SweepPoint(Record):
 
 @dataclass(frozen=True)
 class ProtocolSweep(Record):
-    """One split's sweep: ``unit`` (``frames`` or ``positions``), and per mode a point per threshold, in order."""
+    """One split's sweep: ``kind`` (``frames``: tolerances; ``positions``: radii), and per mode a point per
+    threshold, in order."""
 
-    unit: str
+    kind: str
     modes: dict[str, tuple[SweepPoint, ...]]
 
 
 @dataclass(frozen=True)
 class SplitMetrics(Record):
     """One split: per mode (``core.constants.MODES``), per matcher (``core.constants.MATCHERS``; without a
-    predictor, ``sequence_predictor`` is absent)."""
+    predictor, ``sequence_predictor`` is absent). ``queries_without_correct``: how many of the split's queries no
+    reference is correct for (never correct, counted in every denominator: paper-mode single-frame recall's, all
+    queries); ``evaluated_without_correct``: how many of those have a sequence match (every other denominator's
+    queries). Both absent in files written before they were recorded."""
 
     modes: dict[str, dict[str, MatcherMetrics]]
+    queries_without_correct: int | None = None
+    evaluated_without_correct: int | None = None
     sweep: ProtocolSweep | None = None  # recall@1 and the reduction over tolerances or radii (``sweep``), when asked
 
 
 @dataclass(frozen=True)
 class VPRMetrics(FileRecord):
     """The standard VPR metrics of one distance matrix per split (``vpr-smr metrics``; in a run, one method on one
-    dataset at one L). ``meta``: dataset, method, seq_len, tolerance and the predictor file (seed 0) when given."""
+    dataset at one L). ``meta``: dataset, method, seq_len, tolerance, the ground truth (``ground_truth``:
+    ``GroundTruth.provenance``; absent in files written before it was recorded) and the predictor file (seed 0)
+    when given."""
 
     meta: Json
     splits: dict[str, SplitMetrics]

@@ -32,7 +32,7 @@ from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance
 from vpr_smr.core.records import FileRecord, Record, save
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
-from vpr_smr.eval.matching.io import is_npy, open_distance_matrix, stored_positions
+from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, stored_positions
 from vpr_smr.eval.matching.matcher import check_velocities
 from vpr_smr.eval.predictor.leakage import FrameRange, check_disjoint, frame_ranges
 from vpr_smr.eval.scoring.records import Reduction
@@ -146,7 +146,8 @@ def simulated_split(matrix: Any, lo: int, frames: np.ndarray, positions: np.ndar
     # one read of the columns' range (an HDF5 dataset takes no repeated indices), then the simulated order
     block = np.asarray(matrix[:, first : last + 1])
     simulated = np.ascontiguousarray(block[:, columns - first])
-    truth = GroundTruth(np.arange(matrix.shape[0], dtype=np.float64), np.asarray(positions) - lo, float(tolerance))
+    truth = GroundTruth.positions(np.arange(matrix.shape[0], dtype=np.float64), np.asarray(positions) - lo,
+                                  float(tolerance))
     return simulated, truth
 
 
@@ -217,7 +218,7 @@ def _split_of(path: Path, shape: tuple[int, ...]) -> _Split:
     if shape[0] != shape[1]:
         raise ValueError(f"{path}: a {shape[0]}x{shape[1]} matrix; the speed experiment simulates from a "
                          "frame-aligned split, whose matrix is square (the split's frames of both traverses)")
-    provenance = read_provenance(path) if not is_npy(path) else {}
+    provenance = read_provenance(path) if not is_user_matrix(path) else {}
     if "reference_range" in provenance or stored_positions(path) is not None:
         raise ValueError(f"{path}: a split of a dataset with positions (method §11); the speed experiment simulates "
                          "from a frame-aligned split (the same frames of both traverses, no positions)")
@@ -289,7 +290,7 @@ def score(features: QueryFeatures, predictor: SMRPredictor) -> SpeedScores:
 
 def _frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:
     """The splits the distance files cover (``leakage.frame_ranges``); a user's ``.npy`` says nothing of its frames."""
-    return frame_ranges([path for path in paths if not is_npy(path)])
+    return frame_ranges([path for path in paths if not is_user_matrix(path)])
 
 
 def _check_methods(train: Mapping[str, Path | str], test: Mapping[str, Path | str]) -> list[str]:

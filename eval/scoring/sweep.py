@@ -14,7 +14,7 @@ from dataclasses import replace
 import numpy as np
 
 from vpr_smr.eval.matching.attributes import QueryFeatures, labels_from_correctness
-from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.matching.ground_truth import FRAMES, GroundTruth, PositionTruth
 from vpr_smr.eval.scoring.evaluate import compare_removal, recall_at_1
 from vpr_smr.eval.scoring.records import ProtocolSweep, SweepPoint
 
@@ -22,13 +22,15 @@ from vpr_smr.eval.scoring.records import ProtocolSweep, SweepPoint
 # for positions (seqNet reports recall over such a sweep of radii).
 FRAME_TOLERANCES: tuple[float, ...] = (0, 1, 2, 5, 10)
 RADII: tuple[float, ...] = (5, 10, 25, 50)
-FRAMES, POSITIONS = "frames", "positions"
 
 
 def sweep_thresholds(truth: GroundTruth) -> tuple[str, tuple[float, ...]]:
-    """The unit and the thresholds a ground truth is swept over: frame tolerances for a frame-aligned pair, radii for
-    positions."""
-    return (FRAMES, FRAME_TOLERANCES) if truth.is_aligned_band() else (POSITIONS, RADII)
+    """The kind and the thresholds a ground truth is swept over: frame tolerances for frames, radii for positions;
+    a ground truth given as a matrix or lists has none (ValueError)."""
+    if not isinstance(truth, PositionTruth):
+        raise ValueError(f"the ground truth {truth.describe()} has no tolerance or radius to vary: the protocol "
+                         "sweep needs frame indices within a tolerance or positions within a radius")
+    return (truth.kind, FRAME_TOLERANCES if truth.kind == FRAMES else RADII)
 
 
 def rescored(features: QueryFeatures, single_matches: np.ndarray, truth: GroundTruth) -> QueryFeatures:
@@ -49,13 +51,14 @@ def protocol_sweep(features: QueryFeatures, single_matches: np.ndarray, truth: G
     """Recall@1 and, with ``kept`` (the predictor's keep-mask of the evaluated queries), the reduction of its
     removal, per mode, under ``truth`` with each of ``thresholds`` (default ``sweep_thresholds``) as its tolerance or
     radius."""
-    unit, default = sweep_thresholds(truth)
+    kind, default = sweep_thresholds(truth)
+    assert isinstance(truth, PositionTruth)  # sweep_thresholds refuses the others
     points: dict[str, list[SweepPoint]] = {mode: [] for mode in modes}
     for threshold in (default if thresholds is None else thresholds):
-        scored = rescored(features, single_matches, replace(truth, radius=float(threshold)))
+        scored = rescored(features, single_matches, truth.within(float(threshold)))
         for mode in modes:
             recall = recall_at_1(scored, mode)
             reduction = compare_removal(scored, mode, kept)[2] if kept is not None else None
             points[mode].append(SweepPoint(float(threshold), recall["recall_at_1_single"],
                                            recall["recall_at_1_sequence"], reduction))
-    return ProtocolSweep(unit, {mode: tuple(found) for mode, found in points.items()})
+    return ProtocolSweep(kind, {mode: tuple(found) for mode, found in points.items()})

@@ -2,9 +2,11 @@
 per-query table of the same scoring (``vpr-smr queries``, or ``metrics --queries``; ``eval.scoring.queries``).
 
 One split's ``R x Q`` matrix ``D``: a match ``r`` of query ``q`` is correct iff ``|r - q| <= tolerance`` for a
-frame-aligned pair, iff its position is within the radius of the query's with positions (method §11,
-``GroundTruth``). Rankings are stable (equal distances: the lower reference or diagonal index first). With velocity
-search (method §11) the sequence candidates are the end references ``r_min .. R-1`` of ``S[r, a] = min_v S_v[r, a]``.
+frame-aligned pair, iff its position is within the radius of the query's with positions (method §11), iff
+``G[r, q]`` for a ground-truth file (a boolean matrix or per-query lists): one ``GroundTruth``. A query without any
+correct reference is never correct and counts in every denominator; each split records how many there are.
+Rankings are stable (equal distances: the lower reference or diagonal index first). With velocity search (method
+§11) the sequence candidates are the end references ``r_min .. R-1`` of ``S[r, a] = min_v S_v[r, a]``.
 Evaluated queries: ``a = L-1 .. Q-1``, those with a sequence match (method §4). One item per metric, its denominator
 last:
 
@@ -42,6 +44,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from vpr_smr.core.arrays import ARRAY_SUFFIXES
 from vpr_smr.core.constants import DEFAULT_VELOCITIES, MODES, RECALL_AT
 from vpr_smr.core.io import (
     CSV_SUFFIXES,
@@ -63,10 +66,12 @@ from vpr_smr.eval.matching.attributes import (
     read_features,
 )
 from vpr_smr.eval.matching.checks import check_shape
-from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
+from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import (
+    is_user_matrix,
     open_distance_matrix,
-    similarity_provenance,
+    reading_provenance,
     split_ground_truth,
     warn_if_similar,
 )
@@ -87,19 +92,28 @@ log = logging.getLogger("vpr_smr")
 
 ALL_SPLIT = "all"  # the split's name when ``distances`` is one file
 NOT_RETRIEVED = np.iinfo(np.int64).max  # the rank of a query without any correct candidate
-DISTANCE_SUFFIXES = (".npy", *HDF5_SUFFIXES)
+DISTANCE_SUFFIXES = (*ARRAY_SUFFIXES, *HDF5_SUFFIXES)
 
 
 @dataclass(frozen=True)
 class MatcherSettings:
     """The sequence matcher of a metrics or queries stage and where its ground truth comes from (method §11):
-    ``velocities`` searched (``(1.0,)``: method §4's fixed matcher); positions files (one matrix only) or the positions
-    a distance file holds, within ``radius``; without positions, frame indices within the stage's tolerance."""
+    ``velocities`` searched (``(1.0,)``: method §4's fixed matcher); a ground-truth file (``ground_truth``, its
+    variable ``ground_truth_key``: a boolean matrix or per-query lists, ``ground_truth_files.read_ground_truth``);
+    else positions files (one matrix only) or the positions a distance file holds, within ``radius``; without
+    positions, frame indices within the stage's tolerance."""
 
     velocities: tuple[float, ...] = DEFAULT_VELOCITIES
     radius: float | None = None
     reference_positions: Path | str | None = None
     query_positions: Path | str | None = None
+    ground_truth: Path | str | None = None
+    ground_truth_key: str | None = None
+
+    @property
+    def kind(self) -> str:
+        """The kind of ground truth these settings give (``GroundTruth.kind``)."""
+        return MATRIX if self.ground_truth is not None else FRAMES if self.radius is None else POSITIONS
 
 
 @dataclass(frozen=True)
@@ -146,7 +160,7 @@ def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries:
     if tolerance < 0:
         raise ValueError(f"the tolerance is a number of frames >= 0, got {tolerance}")
     n_ref, n_query = (int(n) for n in matrix.shape)
-    truth = ground_truth or GroundTruth.aligned(n_ref, n_query, tolerance)
+    truth = GroundTruth.aligned(n_ref, n_query, tolerance) if ground_truth is None else ground_truth
     truth.check_shape((n_ref, n_query))
     references = np.arange(n_ref)
     r_min = matcher.first_reference
@@ -273,19 +287,18 @@ def score_split(
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
     shape = tuple(int(n) for n in distance_matrix.shape)
-    truth = ground_truth or GroundTruth.aligned(shape[0], shape[1], tolerance)
+    truth = GroundTruth.aligned(shape[0], shape[1], tolerance) if ground_truth is None else ground_truth
     found = retrieval(distance_matrix, seq_len, tolerance, block_queries, velocities, truth)
     if features is None:
         features = query_features(distance_matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth)
     _check_agree(found, features, seq_len, f"split {split!r}")
     prediction = Prediction.of(predictor, features) if predictor is not None else None
+    without = truth.without_correct()
     swept = protocol_sweep(features, found.single_match, truth, modes,
                            prediction.kept if prediction is not None else None) if sweep else None
     metrics = SplitMetrics({mode: _mode_metrics(mode, found, features, seq_len, truth, prediction)
-                            for mode in modes}, swept)
-    true_reference = None if truth.is_aligned_band() else np.array(
-        [int(np.argmin(truth.distance(np.arange(shape[0]), np.full(shape[0], a)))) for a in features.queries],
-        dtype=np.int64)
+                            for mode in modes}, int(without.sum()), int(without[seq_len - 1 :].sum()), swept)
+    true_reference = None if truth.is_aligned_band() else truth.true_references(features.queries)
     queries = SplitQueries(split, first_frame, features, found.single_distance[seq_len - 1 :], prediction,
                            reference_first_frame, true_reference, velocities)
     return ScoredSplit(metrics, queries)
@@ -302,11 +315,16 @@ def _predictor_seq_len(path: Path | str) -> int | None:
     return None if value is None else int(value)
 
 
+def _ours(path: Path | str) -> bool:
+    """An HDF5 file of vpr-smr (a MATLAB v7.3 ``.mat`` is HDF5 too, and a user's)."""
+    return not is_user_matrix(path) and h5py.is_hdf5(path)
+
+
 def _first_frame(*paths: Path | str | None) -> int:
     """The split's first frame in the dataset: the frame range of the first HDF5 file of ``paths`` that records
     one (attributes, then distances), else 0 (a user's matrix)."""
     for path in paths:
-        if path is not None and h5py.is_hdf5(path):
+        if path is not None and _ours(path):
             found = frame_range(path)
             if found is not None:
                 return found.lo
@@ -325,16 +343,18 @@ def _reference_first_frame(*paths: Path | str | None) -> int | None:
 
 
 def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], predictor: Path | None,
-                  seq_len: int, tolerance: int, matcher: MatcherSettings) -> None:
+                  seq_len: int, tolerance: int, matcher: MatcherSettings,
+                  file_truth: GroundTruth | None = None) -> None:
     check_velocities(matcher.velocities, "--velocities")
     if matcher.reference_positions is not None and len(distances) > 1:
         raise ValueError("--reference-positions and --query-positions give the positions of one matrix: give one "
                          "--distances file with them (the distance files of a dataset with positions hold their own)")
     for split, path in distances.items():
-        check_suffix(path, DISTANCE_SUFFIXES, f"split {split!r}'s distance matrix (.npy or HDF5)", "--distances")
+        check_suffix(path, DISTANCE_SUFFIXES, f"split {split!r}'s distance matrix (.npy, .npz, .mat or HDF5)",
+                     "--distances")
         if not path.is_file():
             raise FileNotFoundError(f"distance matrix of split {split!r} not found: {path} (run vpr-smr distances, "
-                                    "or give a references x queries .npy)")
+                                    "or give a references x queries .npy, .npz or .mat)")
     extra = sorted(set(attributes) - set(distances))
     if extra:
         raise ValueError(f"--attributes names splits {extra} that --distances does not give; splits: "
@@ -345,12 +365,12 @@ def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path],
             raise FileNotFoundError(f"attributes of split {split!r} not found: {path} (run vpr-smr attributes, "
                                     "or leave --attributes out to compute them)")
         stored = read_provenance(path).get("tolerance")
-        # with positions the radius is the ground truth (check_matcher compares it); the tolerance plays no part
-        if matcher.radius is None and stored is not None and int(stored) != int(tolerance):
+        # with positions or a ground-truth file, the tolerance plays no part (check_matcher compares them)
+        if matcher.kind == FRAMES and stored is not None and int(stored) != int(tolerance):
             raise ValueError(f"{path} holds attributes at tolerance {int(stored)}, but --tolerance is {tolerance}: "
                              f"give --tolerance {int(stored)}, or attributes computed at {tolerance}")
     check_seq_len(list(attributes.values()), seq_len)
-    check_matcher(list(attributes.values()), matcher.velocities, matcher.radius)
+    check_matcher(list(attributes.values()), matcher.velocities, matcher.radius, file_truth)
     if predictor is not None:
         check_suffix(predictor, HDF5_SUFFIXES, "the predictor (HDF5)", "--predictor")
         if not predictor.is_file():
@@ -359,6 +379,16 @@ def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path],
         if trained is not None and trained != seq_len:
             raise ValueError(f"{predictor} was trained at sequence length {trained}, but --seq-len is {seq_len}: "
                              f"give the predictor of L = {seq_len}, or --seq-len {trained}")
+
+
+@dataclass(frozen=True)
+class Scored:
+    """Every split scored, the predictor file (None without one) and the ground truth's provenance (of the file,
+    whole, when one was given; else of the first split's: frames or positions are the same for every split)."""
+
+    splits: dict[str, ScoredSplit]
+    predictor: Path | None
+    ground_truth: dict[str, Any]
 
 
 def _score_all(
@@ -371,11 +401,12 @@ def _score_all(
     allow_split_overlap: bool,
     matcher: MatcherSettings,
     similarity: bool = False,
+    key: str | None = None,
+    transpose: bool = False,
     sweep: bool = False,
-) -> tuple[dict[str, ScoredSplit], Path | None]:
-    """Every split of ``distances`` scored (``score_split``) in the given order, after every input is checked;
-    the predictor file (None without one). What ``main`` and ``queries_main`` share: one implementation of the
-    per-query table."""
+) -> Scored:
+    """Every split of ``distances`` scored (``score_split``) in the given order, after every input is checked.
+    What ``main`` and ``queries_main`` share: one implementation of the per-query table."""
     splits = {ALL_SPLIT: Path(distances)} if isinstance(distances, str | Path) else {
         str(name): Path(path) for name, path in distances.items()}
     if not splits:
@@ -385,26 +416,30 @@ def _score_all(
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
     predictor_file = Path(predictor) if predictor is not None else None
-    _check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher)
+    file_truth = (None if matcher.ground_truth is None
+                  else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key))
+    _check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)
     model = None
     if predictor_file is not None:
-        scored = [p for p in (*splits.values(), *attribute_paths.values()) if h5py.is_hdf5(p)]
+        scored = [p for p in (*splits.values(), *attribute_paths.values()) if _ours(p)]
         check_disjoint(trained_on(predictor_file), frame_ranges(scored), allow_split_overlap,
                        f"predictor {predictor_file}")
         model = SMRPredictor.load(predictor_file)
-        check_matching(model, Matching.of(matcher.velocities, matcher.radius),
+        check_matching(model, Matching.of(matcher.velocities, matcher.kind),
                        "these matrices (--velocities, --radius)")
     results: dict[str, ScoredSplit] = {}
+    recorded: dict[str, Any] | None = None if file_truth is None else file_truth.provenance()
     for split, path in splits.items():
         attributes_file = attribute_paths.get(split)
-        with open_distance_matrix(path, similarity) as matrix:
+        with open_distance_matrix(path, similarity, key, transpose) as matrix:
             try:
                 check_shape(tuple(matrix.shape), seq_len)
             except ValueError as error:
                 raise ValueError(f"{path}: {error}; give a --seq-len of at most {min(matrix.shape)}") from None
             features = read_features(attributes_file) if attributes_file is not None else None
             truth = split_ground_truth(path, tuple(matrix.shape), tolerance, matcher.radius,
-                                       matcher.reference_positions, matcher.query_positions)
+                                       matcher.reference_positions, matcher.query_positions, file_truth)
+            recorded = truth.provenance() if recorded is None else recorded
             warn_if_similar(path, matrix, truth, similarity)
             try:
                 results[split] = score_split(matrix, seq_len, tolerance, model, tuple(modes), features, split,
@@ -415,11 +450,16 @@ def _score_all(
             except ValueError as error:
                 given = f" and {attributes_file}" if attributes_file is not None else ""
                 raise ValueError(f"{path}{given}: {error}") from None
-        first_mode = results[split].metrics.modes[modes[0]] if modes else {}
+        split_metrics = results[split].metrics
+        if split_metrics.queries_without_correct:
+            log.info("%s: %d of its queries have no correct reference under %s (never correct, counted in every "
+                     "denominator)", split, split_metrics.queries_without_correct, truth.describe())
+        first_mode = split_metrics.modes[modes[0]] if modes else {}
         if first_mode:
             log.info("%s: recall@1 single %.4f, sequence %.4f (%s mode)", split,
                      first_mode["single"].recall_at[1], first_mode["sequence"].recall_at[1], modes[0])
-    return results, predictor_file
+    assert recorded is not None  # splits is not empty
+    return Scored(results, predictor_file, recorded)
 
 
 def main(
@@ -435,34 +475,40 @@ def main(
     allow_split_overlap: bool = False,
     matcher: MatcherSettings = MatcherSettings(),
     similarity: bool = False,
+    key: str | None = None,
+    transpose: bool = False,
     sweep: bool = False,
 ) -> VPRMetrics:
-    """The standard VPR metrics of every split of ``distances`` (split -> ``.npy`` or our HDF5; one path: one split
-    named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with ``queries``, the per-query table
-    (``queries.QUERY_COLUMNS``) of every split in the given order, as ``queries_main`` writes it. Both files are
-    written to temporary names and renamed into place only when both are written.
+    """The standard VPR metrics of every split of ``distances`` (split -> ``.npy``, ``.npz``, ``.mat`` or our
+    HDF5; one path: one split named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with
+    ``queries``, the per-query table (``queries.QUERY_COLUMNS``) of every split in the given order, as
+    ``queries_main`` writes it. Both files are written to temporary names and renamed into place only when both are
+    written.
 
     ``attributes`` (split -> our features ``.h5``) spares recomputing a split's attributes; they must come from the
-    same matrix, ``seq_len`` and ``tolerance``. ``predictor``: the seed-0 predictor file; it may not score frames it
-    was trained on (``allow_split_overlap``: a deliberate experiment). ``meta`` (dataset, method) is written with
-    ``seq_len``, ``tolerance`` and the predictor's path. ``sweep``: each split also records recall@1 and the
-    predictor's reduction over the tolerances or radii of ``sweep.protocol_sweep`` (``records.ProtocolSweep``).
-    Every input is checked before any work.
+    same matrix, ``seq_len`` and ground truth. ``predictor``: the seed-0 predictor file; it may not score frames it
+    was trained on (``allow_split_overlap``: a deliberate experiment). ``key``, ``transpose``, ``similarity``: how a
+    user's matrix is read (``io.open_distance_matrix``). ``meta`` (dataset, method) is written with ``seq_len``,
+    ``tolerance``, the ground truth (``ground_truth``: ``GroundTruth.provenance``), how the matrices were read and
+    the predictor's path; each split records its queries without a correct reference. ``sweep``: each split
+    also records recall@1 and the predictor's reduction over the tolerances or radii of ``sweep.protocol_sweep``
+    (``records.ProtocolSweep``). Every input is checked before any work.
     """
     out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
     queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
-    results, predictor_file = _score_all(distances, seq_len, tolerance, predictor, attributes, modes,
-                                         allow_split_overlap, matcher, similarity, sweep)
+    scored = _score_all(distances, seq_len, tolerance, predictor, attributes, modes, allow_split_overlap, matcher,
+                        similarity, key, transpose, sweep)
     info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance),
-            **matcher_provenance(matcher.velocities, matcher.radius), **similarity_provenance(similarity)}
-    if predictor_file is not None:
-        info["predictor"] = str(predictor_file)
-    result = VPRMetrics(info, {split: scored_split.metrics for split, scored_split in results.items()})
+            **matcher_provenance(matcher.velocities, matcher.radius),
+            **reading_provenance(similarity, key, transpose), "ground_truth": scored.ground_truth}
+    if scored.predictor is not None:
+        info["predictor"] = str(scored.predictor)
+    result = VPRMetrics(info, {split: scored_split.metrics for split, scored_split in scored.splits.items()})
     with ExitStack() as stack:  # both files are renamed into place only when both are written
         out_tmp = stack.enter_context(atomic_path(out))
         if queries is not None:
             write_queries(stack.enter_context(atomic_path(queries)),
-                          [scored_split.queries for scored_split in results.values()])
+                          [scored_split.queries for scored_split in scored.splits.values()])
         write_json(out_tmp, result.to_json())
     return result
 
@@ -497,14 +543,16 @@ def queries_main(
     allow_split_overlap: bool = False,
     matcher: MatcherSettings = MatcherSettings(),
     similarity: bool = False,
+    key: str | None = None,
+    transpose: bool = False,
 ) -> Path:
     """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS``) of every split of ``distances`` in
     the given order, written to ``out`` (CSV), as ``main``'s ``queries`` (the same code; no metric mode changes
     it). The inputs as ``main``'s."""
     out = check_suffix(out, CSV_SUFFIXES, "the per-query table (CSV)")
-    results, _ = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher,
-                            similarity)
-    write_queries(out, [scored_split.queries for scored_split in results.values()])
-    log.info("wrote %d queries of %d splits to %s", sum(len(r.queries.features.queries) for r in results.values()),
-             len(results), out)
+    scored = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher,
+                        similarity, key, transpose)
+    write_queries(out, [scored_split.queries for scored_split in scored.splits.values()])
+    log.info("wrote %d queries of %d splits to %s",
+             sum(len(r.queries.features.queries) for r in scored.splits.values()), len(scored.splits), out)
     return out

@@ -174,7 +174,7 @@ def test_non_finite_distances_are_named_by_row_and_column(tmp_path, capsys, comm
 @pytest.mark.parametrize(("name", "content", "message"), [
     ("nan.npy", np.array([[0.0, np.nan, 1.0], [1.0, 0.5, 0.0], [0.5, 0.5, 0.5]]), "non-finite"),
     ("flat.npy", np.arange(9.0), "must be 2-D"),
-    ("matrix.txt", None, "is text, neither a NumPy .npy array nor HDF5"),
+    ("matrix.txt", None, "is text, neither a NumPy .npy/.npz array, a MATLAB .mat file nor HDF5"),
     ("missing.npy", "absent", "not found"),
 ])
 def test_bad_distance_matrices(tmp_path, capsys, name, content, message):

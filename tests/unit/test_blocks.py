@@ -92,7 +92,7 @@ def test_features_stage_csv_by_hand(tmp_path):
 
 @pytest.mark.parametrize("content, message", [
     (None, "distance matrix not found"),
-    (b"not a matrix", "is text, neither a NumPy .npy array nor HDF5"),
+    (b"not a matrix", "is text, neither a NumPy .npy/.npz array, a MATLAB .mat file nor HDF5"),
     ("h5-empty", "has no 'distance_matrix' dataset"),
     (np.zeros((3, 3, 2)), "must be 2-D"),
     (np.array(["a", "b"]), "expected a numeric matrix"),

@@ -8,10 +8,9 @@ import warnings
 import h5py
 import numpy as np
 import pytest
+from sample_matrix import sample_distances
 
 from vpr_smr.core.io import read_provenance
-from vpr_smr.datasets import read_image
-from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 from vpr_smr.eval.matching.attributes import Matching, query_features, write_features
 from vpr_smr.eval.matching.live import LiveMatcher
 from vpr_smr.eval.predictor.estimator import SMRPredictor
@@ -53,21 +52,10 @@ def test_positions_of_another_length_are_refused(tmp_path, capsys):
 
 @pytest.fixture(scope="module")
 def sample_matrices(tmp_path_factory):
-    """SAD distances (mean absolute difference of 8x8-patch-normalised 64x32 grey frames, written out here) of
-    summer (references) and winter (queries) frames 3300-3419 of the sample, and their similarities max(D) - D."""
-    import cv2
-
-    def sad(path):
-        grey = cv2.resize(cv2.cvtColor(read_image(path), cv2.COLOR_RGB2GRAY), (64, 32)).astype(np.float64)
-        patches = grey.reshape(4, 8, 8, 8).swapaxes(1, 2).reshape(32, 64)
-        std = patches.std(axis=1, keepdims=True)
-        return np.where(std > 0, (patches - patches.mean(axis=1, keepdims=True)) / np.where(std > 0, std, 1), 0).ravel()
-
+    """SAD distances (``sample_matrix.sample_distances``) of summer (references) and winter (queries) frames
+    3301-3420 of the sample, and their similarities max(D) - D."""
     folder = tmp_path_factory.mktemp("sample")
-    names = [f"images-{10 * i:05d}.png" for i in range(3301, 3421)]
-    reference = np.stack([sad(DEFAULT_ROOT / "summer" / n) for n in names])
-    query = np.stack([sad(DEFAULT_ROOT / "winter" / n) for n in names])
-    distances = np.abs(reference[:, None, :] - query[None, :, :]).mean(axis=2)
+    distances = sample_distances(3301, 120)
     np.save(folder / "D.npy", distances)
     np.save(folder / "S.npy", distances.max() - distances)
     return folder, distances

@@ -49,7 +49,8 @@ def test_utm_names_and_csv_give_the_same_positions_and_ground_truth(tmp_path):
     np.testing.assert_array_equal(by_csv.reference.positions, by_names.reference.positions)
     np.testing.assert_array_equal(by_csv.query.positions, by_names.query.positions)
     r, q = np.meshgrid(np.arange(8), np.arange(5), indexing="ij")
-    truths = [GroundTruth(p.reference.positions, p.query.positions, p.radius).correct(r, q) for p in (by_names, by_csv)]
+    truths = [GroundTruth.positions(p.reference.positions, p.query.positions, p.radius).correct(r, q)
+              for p in (by_names, by_csv)]
     np.testing.assert_array_equal(truths[0], truths[1])
     # by hand: query t at east 2 + 15 t, 3 m across; reference i at east 10 i: within 5 m iff |10 i - 2 - 15 t| <= 4
     expected = np.abs(10 * r - 2 - 15 * q) <= 4

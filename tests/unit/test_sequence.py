@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 from oracles import sequence_matches, sequence_matrix, single_frame_matches
 
-from vpr_smr.eval.matching.attributes import is_correct, query_features
+from vpr_smr.eval.matching.attributes import query_features
+from vpr_smr.eval.matching.ground_truth import GroundTruth
 
 # A 4 x 3 matrix (references x queries) worked through by hand.
 D = np.array([[1, 2, 4], [2, 1, 2], [4, 4, 1], [4, 2, 2]], dtype=float)
@@ -47,7 +48,8 @@ def test_query_features_match_the_naive_reference(seq_len):
 
 
 def test_ground_truth_tolerance():
-    np.testing.assert_array_equal(is_correct([0, 3, 5, 9], [2, 5, 8, 9], 2), [True, True, False, True])
+    truth = GroundTruth.aligned(10, 10, 2)
+    np.testing.assert_array_equal(truth.correct([0, 3, 5, 9], [2, 5, 8, 9]), [True, True, False, True])
 
 
 @pytest.mark.parametrize(

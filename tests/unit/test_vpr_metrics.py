@@ -186,8 +186,10 @@ def test_cli_on_a_users_npy(user_matrix, tmp_path):
     out = tmp_path / "m.json"
     assert cli(["metrics", "--distances", str(path), "--seq-len", "3", "--out", str(out)]) == 0
     data = json.loads(out.read_text())
-    assert data["meta"] == {"seq_len": 3, "tolerance": 2}
+    assert data["meta"] == {"seq_len": 3, "tolerance": 2, "ground_truth": {"kind": "frames", "tolerance": 2}}
     assert list(data["splits"]) == ["all"]
+    # a square matrix within 2 frames: every query has a correct reference
+    assert data["splits"]["all"]["queries_without_correct"] == data["splits"]["all"]["evaluated_without_correct"] == 0
     single, sequence = naive_recalls(d, 3, 2)
     paper = data["splits"]["all"]["modes"]["paper"]
     assert set(paper) == {"single", "sequence"}
@@ -205,7 +207,7 @@ def test_cli_with_a_predictor(user_matrix, matrix_predictor, tmp_path):
                 "--out", str(out)]) == 0
     data = json.loads(out.read_text())
     assert data["meta"] == {"dataset": "d", "method": "mine", "seq_len": 3, "tolerance": 2,
-                            "predictor": str(predictor_file)}
+                            "ground_truth": {"kind": "frames", "tolerance": 2}, "predictor": str(predictor_file)}
     standard = data["splits"]["test"]["modes"]["standard"]
     assert list(data["splits"]["test"]["modes"]) == ["standard"]
     # recall@1 of the predictor matcher, worked out apart from the command: the predictor file's own decision on the
@@ -272,7 +274,7 @@ def test_missing_distances_and_wrong_suffix(tmp_path, capsys):
     (tmp_path / "D.txt").write_text("1 2\n3 4\n")
     assert cli(["metrics", "--distances", f"val={tmp_path / 'D.txt'}", "--seq-len", "3",
                 "--out", str(tmp_path / "m.json")]) == 2
-    assert "must end in .npy, .h5 or .hdf5" in capsys.readouterr().err
+    assert "must end in .npy, .npz, .mat, .h5 or .hdf5" in capsys.readouterr().err
     assert cli(["metrics", "--distances", "a.npy", "b.npy", "--seq-len", "3", "--out", str(tmp_path / "m.json")]) == 2
     assert "--distances takes SPLIT=PATH items" in capsys.readouterr().err
 
