@@ -10,6 +10,7 @@ from typing import Any
 from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.datasets.base import (
     DatasetError,
+    GroundTruthFile,
     Traverse,
     TraversePair,
     positions_pairing,
@@ -49,7 +50,8 @@ __all__ = [
 
 # Settings that only reach the distances and attributes jobs: the descriptors of a dataset depend on the others.
 # `radius` (method §11) is the ground truth of pairs with positions, as `tolerance` is of frame-aligned ones.
-SPLIT_SETTINGS = ("splits", "tolerance", "radius")
+# `ground_truth` (method §13) gives the correct references from a file instead.
+SPLIT_SETTINGS = ("splits", "tolerance", "radius", "ground_truth")
 # Loader arguments that are not settings: the workflow fills them in.
 _INTERNAL = ("name", "check_files")
 
@@ -175,7 +177,19 @@ def _range(name: str, split: str, value: Any) -> tuple[int, int]:
 
 
 def _ground_truth(name: str, conf: dict[str, Any], pair: TraversePair) -> dict[str, Any]:
-    """The entry's ``tolerance`` or ``radius``, whichever the pair's ground truth uses, as ``replace`` arguments."""
+    """The entry's ``tolerance`` or ``radius``, whichever the pair's ground truth uses, or its ``ground_truth`` file
+    (method §13), as ``replace`` arguments."""
+    entry = conf.get("ground_truth")
+    if entry is not None:
+        given = [key for key in ("tolerance", "radius") if key in conf]
+        if given:
+            raise DatasetError(f"datasets.{name}: both ground_truth and {given[0]} are set; the file says which "
+                               f"references are correct, so {given[0]} would be ignored: remove one of them")
+        if pair.has_positions:
+            raise DatasetError(f"datasets.{name}.ground_truth is set, but the frames have positions: their ground "
+                               "truth is `radius` (method §11); remove ground_truth, or the positions")
+        form = "matrix" if "matrix" in entry else "lists"
+        return {"ground_truth": GroundTruthFile(form, str(entry[form]), entry.get("key"))}
     if not pair.has_positions:
         return {"tolerance": conf.get("tolerance", pair.tolerance), "radius": conf.get("radius")}
     if "tolerance" in conf:

@@ -123,6 +123,8 @@ class TraversePair:
     reference_splits: dict[str, tuple[int, int]] = field(default_factory=dict)  # reference ranges that differ
     position_unit: str = ""  # the positions' unit, e.g. "metres", for messages about the radius
     position_source: str = ""  # where the positions came from, e.g. "the CSVs a.csv and b.csv, x, y as given"
+    # method §13: the correct references from a file (the configuration's ``ground_truth``), in place of the tolerance
+    ground_truth: GroundTruthFile | None = None
 
     def __post_init__(self) -> None:
         if (self.reference.positions is None) != (self.query.positions is None):
@@ -220,6 +222,17 @@ class TraversePair:
                 assert traverse.positions is not None
                 digest.update(np.ascontiguousarray(traverse.positions, dtype="<f8").tobytes())
         return digest.hexdigest()
+
+
+@dataclass(frozen=True)
+class GroundTruthFile:
+    """A dataset's ground truth given as a file (method §13): ``form`` ``matrix`` (a boolean references x queries
+    matrix over the dataset's frames) or ``lists`` (per-query lists of correct references), ``key`` the variable of a
+    ``.npz`` or ``.mat`` file."""
+
+    form: str
+    path: str
+    key: str | None = None
 
 
 def radius_text(radius: float, unit: str) -> str:

@@ -187,6 +187,7 @@ class Experiments(Section):
     leave_one_method_out: bool
     seq_len_ablation: bool
     speed: bool
+    protocol_sweep: bool
 
 
 @dataclass(frozen=True)
@@ -279,7 +280,8 @@ class Config(Section):
                               None if column_order is None else tuple(column_order), source=_text(predictor)),
             MappingProxyType(datasets), MappingProxyType(methods), conf["table_seq_len"],
             Experiments(**{key: bool(chosen[key]) for key in ("trust_levels", "restoration", "attribute_ablation",
-                                                              "leave_one_method_out", "seq_len_ablation", "speed")},
+                                                              "leave_one_method_out", "seq_len_ablation", "speed",
+                                                              "protocol_sweep")},
                         source=_text(chosen)),
             SpeedSettings(tuple(speed["profiles"]), tuple(speed["velocities"]), source=_text(speed)),
             source=_text(conf))
@@ -306,7 +308,20 @@ def validated_json(conf: dict[str, Any], source: str = "configuration") -> dict[
     _fill_defaults(schema, conf)
     _fill_predictor(conf)
     _check_together(conf, source)
+    _resolve_ground_truth_files(conf, source)
     return conf
+
+
+def _resolve_ground_truth_files(conf: dict[str, Any], source: str) -> None:
+    """A dataset's ground-truth file given relative is looked for from the configuration's folder (method §13): the
+    file belongs to the configuration, wherever vpr-smr runs. Written back as that path, so that the jobs, the
+    report and the plan name the one file."""
+    folder = Path(source).parent if Path(source).is_file() else Path(".")
+    for dataset in conf["datasets"].values():
+        entry = dataset.get("ground_truth")
+        for form in ("matrix", "lists"):
+            if entry is not None and form in entry and not Path(entry[form]).is_absolute():
+                entry[form] = str(folder / entry[form])
 
 
 def _fill_predictor(conf: dict[str, Any]) -> None:
@@ -363,6 +378,8 @@ def experiments(conf: Config) -> set[str]:
         names.add("seq_len")
     if chosen.speed:
         names.add("speed")
+    if chosen.protocol_sweep:
+        names.add("protocol_sweep")
     return names
 
 

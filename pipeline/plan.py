@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from vpr_smr.datasets.base import GroundTruthFile
 from vpr_smr.pipeline.config import Config, ConfigError, experiments
 
 
@@ -40,6 +41,15 @@ class DatasetPlan:
     radius: float | None = None
     reference_splits: dict[str, tuple[int, int]] = field(default_factory=dict)
     positions_files: tuple[str, ...] = ()
+    # method §13: the ground truth from a file (None: `tolerance` or `radius`), and how it reads ("gt.npy (a matrix)")
+    ground_truth: GroundTruthFile | None = None
+    ground_truth_text: str = ""
+
+    @property
+    def has_tolerance(self) -> bool:
+        """Whether a match is correct within ``tolerance`` frames: a frame-aligned pair without a ground-truth file
+        (the speed experiment and the protocol sweep's frame tolerances need it)."""
+        return self.radius is None and self.ground_truth is None
 
     def reference_range(self, split: str) -> tuple[int, int]:
         """A split's reference range: its own, or its (query) range."""
@@ -78,6 +88,7 @@ def plan_from_json(data: dict[str, Any], conf: Config) -> Plan | None:
         **d,
         **{key: {k: (int(lo), int(hi)) for k, (lo, hi) in d[key].items()} for key in ("splits", "reference_splits")},
         **{key: tuple(d[key]) for key in ("list_files", "overlaps", "traverses", "warnings", "positions_files")},
+        "ground_truth": None if d["ground_truth"] is None else GroundTruthFile(**d["ground_truth"]),
     }) for name, d in plan["datasets"].items()}
     return Plan(datasets, dict(plan["checkpoints"]), tuple(plan["warnings"]), dict(plan["metrics"]))
 
@@ -114,8 +125,13 @@ def dataset_cards(plan: Plan) -> dict[str, dict[str, Any]]:
     return {name: {"reference": d.traverses[0], "query": d.traverses[1], "n_frames": d.n_frames,
                    "tolerance": d.tolerance, "splits": {k: list(v) for k, v in d.splits.items()},
                    "pairing": d.pairing, "overlaps": list(d.overlaps), "frames_sha256": d.frames_sha256,
-                   "source": d.source, **_positions_card(d)}
+                   "source": d.source, **_positions_card(d), **_ground_truth_card(d)}
             for name, d in plan.datasets.items()}
+
+
+def _ground_truth_card(d: DatasetPlan) -> dict[str, Any]:
+    """A card's entry of a dataset whose ground truth is a file (method §13); none otherwise."""
+    return {} if d.ground_truth is None else {"ground_truth": d.ground_truth_text}
 
 
 def _positions_card(d: DatasetPlan) -> dict[str, Any]:
@@ -296,7 +312,10 @@ def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]
             found = _training_problems(conf, train)
             problems.extend(f"datasets.{name}: {problem}" for problem in found)
             trainable = not found
-        if pair.radius is None and "speed" in experiments(conf):  # the Snakefile's SPEED_DATASETS
+        truth_notes: list[str] = []
+        truth_text = _ground_truth_problems(name, pair, [s for s in conf.eval_splits if s in pair.splits], problems,
+                                            truth_notes)
+        if pair.radius is None and pair.ground_truth is None and "speed" in experiments(conf):  # SPEED_DATASETS
             problems.extend(_speed_problems(conf, name, pair.splits, trainable))
         overlaps = split_overlaps({split: pair.splits[split] for split in needed if split in pair.splits},
                                   pair.reference_splits)
@@ -321,14 +340,54 @@ def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]
             pairing=pair.pairing,
             traverses=(pair.reference.name, pair.query.name),
             warnings=tuple(f"datasets.{name}: {t.name} frames: {t.order_note}"
-                           for t in (pair.reference, pair.query) if t.order_note),
+                           for t in (pair.reference, pair.query) if t.order_note) + tuple(truth_notes),
             overlaps=tuple(overlaps),
             source=f"{settings.loader} loader: {pair.source}",
             radius=pair.radius,
             reference_splits=dict(pair.reference_splits),
             positions_files=_positions_files(dataset),
+            ground_truth=pair.ground_truth,
+            ground_truth_text=truth_text,
         )
     return plans
+
+
+def _ground_truth_problems(name: str, pair: Any, eval_splits: list[str], problems: list[str],
+                           notes: list[str]) -> str:
+    """Check a dataset's ground-truth file (method §13) before any job: found, of the form the configuration says,
+    one entry per frame of both traverses (lists: every index in range); a note per evaluation split with queries
+    that have no correct reference (they count as wrong in every denominator). Returns how the tables name it."""
+    from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
+
+    given = pair.ground_truth
+    if given is None:
+        return ""
+    where = f"datasets.{name}.ground_truth.{given.form}"
+    if not Path(given.path).is_file():
+        problems.append(f"{where}: file not found: {given.path} (a relative path is looked for from the "
+                        "configuration's folder)")
+        return ""
+    shape = (len(pair.reference), len(pair.query))
+    try:
+        truth = read_ground_truth(given.path, given.key, shape, key_option=f"datasets.{name}.ground_truth.key")
+    except (OSError, ValueError) as error:
+        problems.append(f"{where}: {error} (the dataset has {shape[0]} reference and {shape[1]} query frames)")
+        return ""
+    source = getattr(truth, "source", None)
+    lists = source is not None and source.lists
+    if lists != (given.form == "lists"):
+        held, other = ("per-query lists", "matrix") if lists else ("a matrix", "lists")
+        problems.append(f"{where}: {given.path} holds {held}: write it as ground_truth: {{{other}: ...}} "
+                        f"instead, or give the other file")
+        return ""
+    for split in eval_splits:
+        lo, hi = pair.splits[split]
+        missing = int(truth.sliced(pair.reference_range(split), (lo, hi)).without_correct().sum())
+        if missing:
+            notes.append(f"datasets.{name}: {missing} of the {hi - lo} queries of split {split!r} have no correct "
+                         f"reference in {Path(given.path).name}: they count in every recall and precision, never "
+                         "as correct (method §13)")
+    return truth.describe()
 
 
 def _file_stamp(path: Path | str) -> list[Any]:

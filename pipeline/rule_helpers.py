@@ -79,14 +79,16 @@ def speed_profiles(conf: Config) -> list[str]:
 REPORT_INPUTS = {"metrics", "datasets"}
 
 
-def report_outputs(conf: Config, experiments: set[str],
-                   speed_datasets: list[str] | None = None) -> list[str]:
+def report_outputs(conf: Config, experiments: set[str], speed_datasets: list[str] | None = None,
+                   sweep_datasets: list[str] | None = None) -> list[str]:
     """The report's files, relative to the run folder (``eval.report.registry.expected_outputs``); the speed
-    experiment's figures for ``speed_datasets`` only (default: every dataset)."""
+    experiment's figures for ``speed_datasets`` only and the protocol sweep's for ``sweep_datasets`` only (default:
+    every dataset)."""
     from vpr_smr.eval.report.registry import expected_outputs
 
     return expected_outputs(list(conf.datasets), conf.seq_lens, conf.modes, experiments | REPORT_INPUTS,
-                            table_seq_lens=[conf.table_seq_len], speed_datasets=speed_datasets)
+                            table_seq_lens=[conf.table_seq_len], speed_datasets=speed_datasets,
+                            sweep_datasets=sweep_datasets)
 
 
 def report_settings(settings: Mapping[str, Any]) -> str:
@@ -103,3 +105,20 @@ def report_datasets(plan: Plan) -> str:
     from vpr_smr.pipeline.plan import dataset_cards
 
     return json.dumps(dataset_cards(plan), separators=(",", ":"))
+
+
+def ground_truth_input(plan: Plan, dataset: str) -> list[str]:
+    """The dataset's ground-truth file (method §13) as an input of the jobs that score (none for a tolerance or a
+    radius), so that a changed file scores again."""
+    given = plan.datasets[dataset].ground_truth
+    return [given.path] if given is not None else []
+
+
+def ground_truth_option(plan: Plan, dataset: str) -> str:
+    """``--ground-truth FILE [--ground-truth-key NAME]`` of a dataset whose ground truth is a file, quoted (used
+    unquoted in a rule); empty for a tolerance or a radius (their own options say them)."""
+    given = plan.datasets[dataset].ground_truth
+    if given is None:
+        return ""
+    key = ["--ground-truth-key", given.key] if given.key is not None else []
+    return shlex.join(["--ground-truth", given.path, *key])

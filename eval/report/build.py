@@ -9,7 +9,7 @@ from __future__ import annotations
 import csv
 import json
 import re
-from collections.abc import Callable, Collection, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Protocol, TypeVar
@@ -29,6 +29,7 @@ from vpr_smr.eval.report.results import (
     WrittenFigure,
     WrittenTable,
     ground_truth_text,
+    provenance_text,
     split_text,
     split_word,
     unique,
@@ -375,6 +376,31 @@ def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> li
                                        if r["matcher"] in matchers else len(matchers), r["matcher"]))
 
 
+def sweep_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[dict[str, Any]]:
+    """The protocol sweep of the table ``split`` (``records.ProtocolSweep``, in the VPR metrics of a run with the
+    sweep): one row per dataset, method, L, mode and tolerance or radius, in the configuration's order."""
+    order = order or Order.of(record.meta for record in records)
+    rows = []
+    for record in records:
+        dataset, method, seq_len = record.key
+        found = record.splits.get(split)
+        if found is None or found.sweep is None:
+            continue
+        for mode, points in found.sweep.modes.items():
+            for point in points:
+                reduction = point.reduction
+                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
+                             "ground_truth": found.sweep.kind, "threshold": point.threshold,
+                             "recall_at_1_single": point.recall_at_1_single,
+                             "recall_at_1_sequence": point.recall_at_1_sequence,
+                             **({} if reduction is None else {
+                                 "max_recall": reduction.max_recall, "aoc_vpr_sm": reduction.aoc_vpr_sm,
+                                 "aoc_vpr_sm_pred": reduction.aoc_vpr_sm_pred,
+                                 "reduction_pct": reduction.reduction_pct, "outcome": reduction.outcome})})
+    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), r["seq_len"], order.mode(r["mode"]),
+                                       order.method(r["method"]), r["threshold"]))
+
+
 def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None) -> list[dict[str, Any]]:
     """One row per dataset card (``pipeline.plan.dataset_cards``), in the configuration's order."""
     order = order or Order(tuple(datasets))
@@ -383,7 +409,9 @@ def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None
              "n_frames": info.get("n_frames") if info.get("n_query_frames") is None
              else f"{info.get('n_frames')} / {info['n_query_frames']}",
              "splits": split_text(info.get("splits", {}), info.get("reference_splits")),
-             "tolerance": info.get("tolerance") if info.get("radius") is None else ground_truth_text(info),
+             # the ground truth: frames within the tolerance as the number, else its text (positions, a file)
+             "tolerance": info.get("tolerance") if info.get("radius") is None and info.get("ground_truth") is None
+             else ground_truth_text(info),
              "pairing": info.get("pairing", ""),
              "overlaps": "; ".join(info.get("overlaps", [])), "frames_sha256": info.get("frames_sha256", ""),
              "source": info.get("source", "")}
@@ -451,18 +479,37 @@ def _flagged(text: str, notes: dict[str, str], latex: bool = False) -> str:
     return f"{title}\n\n" + "\n".join(lines) + "\n" + rest
 
 
+def protocol_line(rows: Iterable[dict[str, Any]], protocols: Mapping[str, str]) -> str:
+    """``Correct matches: d within 2 frames``: the ground truth of each dataset of ``rows`` (``protocols``: dataset ->
+    ``GroundTruth.describe``'s text), in the rows' order; empty when none is known."""
+    named = unique(str(row["dataset"]) for row in rows if "dataset" in row)
+    parts = [f"{name} {protocols[name]}" for name in named if protocols.get(name)]
+    return "Correct matches: " + "; ".join(parts) if parts else ""
+
+
+def _with_protocol(text: str, line: str, latex: bool = False) -> str:
+    """The table's text with ``line`` (``protocol_line``) under its title line."""
+    if not line:
+        return text
+    title, _, rest = text.partition("\n")
+    return f"{title}\n% {line}\n{rest}" if latex else f"{title}\n\n{line}\n{rest}"
+
+
 def _write_table(stem: Path, columns: Sequence[str], rows: list[dict[str, Any]], title: str,
                  suffixes: Sequence[str] = (".csv", ".md", ".tex"), markdown: str | None = None,
-                 latex: str | None = None, notes: dict[str, str] | None = None) -> list[Path]:
+                 latex: str | None = None, notes: dict[str, str] | None = None, protocol: str = "") -> list[Path]:
     """``<stem>.csv`` (full precision), ``.md`` and ``.tex`` (4 decimals, or the given special layouts): those of
     ``suffixes``, in that order.
 
     ``notes``: per dataset whose splits overlap, a warning under the title and a ``split_overlap`` CSV column
-    (``registry.SPLIT_OVERLAP``).
+    (``registry.SPLIT_OVERLAP``). ``protocol``: the ground truth the numbers were scored with (``protocol_line``),
+    under the title of the Markdown and LaTeX files.
     """
     notes = notes or {}
-    markdown = _flagged(markdown if markdown is not None else markdown_table(columns, rows, title), notes)
-    latex = _flagged(latex if latex is not None else latex_table(columns, rows, title), notes, latex=True)
+    markdown = _flagged(_with_protocol(markdown if markdown is not None else markdown_table(columns, rows, title),
+                                       protocol), notes)
+    latex = _flagged(_with_protocol(latex if latex is not None else latex_table(columns, rows, title), protocol,
+                                    latex=True), notes, latex=True)
     if notes:
         overlap = registry.SPLIT_OVERLAP.name
         columns = [*columns, overlap]
@@ -500,6 +547,17 @@ def _figure_panels(items: list[Evaluation], split: str, mode: str, restoration: 
     return panels
 
 
+def protocols(datasets: Mapping[str, dict[str, Any]] | None, metrics: Sequence[VPRMetrics]) -> dict[str, str]:
+    """Per dataset the ground truth its numbers were scored with, as the tables and figures say it: from its card
+    (``results.ground_truth_text``), else from what its VPR metrics recorded (``GroundTruth.provenance``)."""
+    out = {name: ground_truth_text(info) for name, info in (datasets or {}).items()}
+    for record in metrics:
+        recorded = record.meta.get("ground_truth")
+        if record.key[0] not in out and isinstance(recorded, dict):
+            out[record.key[0]] = provenance_text(recorded)
+    return out
+
+
 @dataclass(frozen=True)
 class Inputs:
     """The run's result files, read, and how the report is to show them."""
@@ -517,6 +575,12 @@ class Inputs:
     order: Order
     speed: list[SpeedResult]
     splits: Splits  # the configuration's split names by role (``split`` is their table split)
+    protocols: dict[str, str]  # per dataset its ground truth as the tables say it ("within 2 frames")
+
+    def correct(self, dataset: str) -> str:
+        """``; correct: within 2 frames``: what a figure's title adds of its dataset's ground truth (empty if none)."""
+        text = self.protocols.get(dataset)
+        return f"; correct: {text}" if text else ""
 
 
 def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[WrittenTable]:
@@ -555,6 +619,9 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
         table("datasets", dataset_rows(inputs.datasets, order))
     if inputs.speed:
         table("speed", speed_rows(inputs.speed, order))
+    sweep = sweep_rows(inputs.metrics, split, order)
+    if sweep:
+        table("protocol_sweep", sweep)
 
     written = []
     for spec in registry.TABLES:  # in the registry's order, with its columns, titles and files
@@ -562,8 +629,10 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
             rows, special = contents[spec.name]
             columns = spec.expanded(inputs.splits)  # a column per split where the registry says so
             title = special.pop("title", spec.title)  # a title naming the run's splits, else the registry's
+            # the datasets table says each dataset's ground truth in a column of its own
+            protocol = "" if spec.name == "datasets" else protocol_line(rows, inputs.protocols)
             files = _write_table(out_dir / registry.TABLES_DIR / spec.name, [c.name for c in columns], rows, title,
-                                 spec.suffixes, notes=notes, **special)
+                                 spec.suffixes, notes=notes, protocol=protocol, **special)
             written.append(WrittenTable(spec.name, columns, tuple(rows), tuple(files),
                                         None if title == spec.title else title))
     return written
@@ -585,7 +654,7 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
             continue
         result0 = items[0].splits[split]
         for mode in sorted(result0.modes, key=order.mode):
-            title = f"{dataset}, L={seq_len}, {mode} mode ({split})"
+            title = f"{dataset}, L={seq_len}, {mode} mode ({split}{inputs.correct(dataset)})"
             names = {"dataset": dataset, "seq_len": seq_len, "mode": mode}
             panels = _figure_panels(items, split, mode)
             keep("pr", title, fig.pr_figure(file("pr", **names), panels, title), dataset, seq_len, mode)
@@ -603,16 +672,34 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
                 keep("restoration_auc", title, path, dataset, seq_len, mode)
         matrix = np.sum([np.array(e.splits[split].confusion_matrix) for e in items], axis=0)
         path = fig.confusion_figure(file("confusion", dataset=dataset, seq_len=seq_len), matrix,
-                                    f"{dataset}, L={seq_len}: all methods ({split})")
+                                    f"{dataset}, L={seq_len}: all methods ({split}{inputs.correct(dataset)})")
         keep("confusion", f"{dataset}, L={seq_len}", path, dataset, seq_len)
     if inputs.seq_len_ablation and inputs.evaluations:
-        figures += _seq_len_figures(out_dir, table1_rows(inputs.evaluations, split, order=order), order)
+        figures += _seq_len_figures(out_dir, table1_rows(inputs.evaluations, split, order=order), order, inputs)
     if inputs.speed:
-        figures += _speed_figures(out_dir, speed_rows(inputs.speed, order), order, split)
+        figures += _speed_figures(out_dir, speed_rows(inputs.speed, order), order, split, inputs)
+    figures += _sweep_figures(out_dir, sweep_rows(inputs.metrics, split, order), order, split)
     return figures
 
 
-def _speed_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, split: str) -> list[WrittenFigure]:
+def _sweep_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, split: str) -> list[WrittenFigure]:
+    """One protocol-sweep figure per dataset, L and mode of the sweep's rows."""
+    out = []
+    groups: dict[tuple[str, int, str], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["dataset"], row["seq_len"], row["mode"]), []).append(row)
+    spec = registry.figure("protocol_sweep")
+    for (dataset, seq_len, mode), group in groups.items():
+        title = f"{dataset}, L={seq_len}, {mode} mode ({split}): the same matches under other ground truths"
+        path = fig.sweep_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len, mode=mode), group,
+                                order.sorted_methods(r["method"] for r in group), title)
+        out.append(WrittenFigure("protocol_sweep", f"{spec.title}: {dataset}, L={seq_len}, {mode} mode", path, dataset,
+                                 seq_len, mode))
+    return out
+
+
+def _speed_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, split: str,
+                   inputs: Inputs) -> list[WrittenFigure]:
     """One speed figure per dataset and L of the speed experiment's rows."""
     out = []
     groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
@@ -620,15 +707,15 @@ def _speed_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, spli
         groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
     spec = registry.figure("speed")
     for (dataset, seq_len), group in groups.items():
-        title = (f"{dataset}, L={seq_len}, paper mode ({split}): simulated query speeds, fixed matcher against "
-                 "velocity search")
+        title = (f"{dataset}, L={seq_len}, paper mode ({split}{inputs.correct(dataset)}): simulated query speeds, "
+                 "fixed matcher against velocity search")
         path = fig.speed_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len), group,
                                 order.sorted_methods(r["method"] for r in group), title)
         out.append(WrittenFigure("speed", f"{spec.title}: {dataset}, L={seq_len}", path, dataset, seq_len))
     return out
 
 
-def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order) -> list[WrittenFigure]:
+def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, inputs: Inputs) -> list[WrittenFigure]:
     out = []
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in rows:
@@ -642,7 +729,7 @@ def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order) ->
         for r in group:
             i, j = methods.index(r["method"]), seq_lens.index(int(r["seq_len"]))
             bottoms[i, j], tops[i, j] = r["auc_vpr_sm"], r["auc_vpr_sm_pred"]
-        title = f"{dataset}, {mode} mode\nPR AUC, VPR+SM (bar bottom) -> VPR+SM+Pred (top)"
+        title = f"{dataset}, {mode} mode{inputs.correct(dataset)}\nPR AUC, VPR+SM (bar bottom) -> VPR+SM+Pred (top)"
         spec = registry.figure("seq_len")
         path = fig.change_bars(out_dir / spec.file(dataset=dataset, mode=mode), methods, [f"L{s}" for s in seq_lens],
                                np.nan_to_num(bottoms), np.nan_to_num(tops), title)
@@ -830,7 +917,7 @@ def main(
         _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
         read_metrics,
         dict(datasets or {}), split, None if table_seq_lens is None else {int(s) for s in table_seq_lens},
-        seq_len_ablation, order, read_speed, splits)
+        seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics))
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]

@@ -173,6 +173,39 @@ def restoration_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]],
     return save(fig, path)
 
 
+def sweep_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], title: str) -> Path:
+    """The protocol sweep of one dataset, L and mode (``build.sweep_rows``' rows): recall@1 (left; sequence solid,
+    single frame dotted) and the predictor's AOC reduction (right) against the ground truth's tolerance (frames) or
+    radius (positions); one colour per method. An undefined reduction is a gap."""
+    from matplotlib.lines import Line2D
+
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, 2, figsize=(9.6, 3.8))
+    colours = {method: f"C{i % 10}" for i, method in enumerate(methods)}
+    kind = rows[0]["ground_truth"] if rows else "frames"
+    xlabel = "tolerance (frames)" if kind == "frames" else "radius (the positions' unit)"
+    thresholds = sorted({float(r["threshold"]) for r in rows})
+    for method in methods:
+        mine = sorted((r for r in rows if r["method"] == method), key=lambda r: r["threshold"])
+        x = [r["threshold"] for r in mine]
+        axes[0].plot(x, [r["recall_at_1_sequence"] for r in mine], "-", marker="o", ms=3, color=colours[method])
+        axes[0].plot(x, [r["recall_at_1_single"] for r in mine], ":", lw=0.9, color=colours[method])
+        reductions = [np.nan if r.get("reduction_pct") is None else r["reduction_pct"] for r in mine]
+        axes[1].plot(x, reductions, "-", marker="o", ms=3, color=colours[method])
+    axes[0].set(xlabel=xlabel, ylabel="recall@1", ylim=(0, 1.02))
+    axes[1].axhline(0, color="black", lw=0.6)
+    axes[1].set(xlabel=xlabel, ylabel="AOC reduction by the predictor (%)")
+    for ax in axes:
+        ax.set_xticks(thresholds, [f"{t:g}" for t in thresholds])
+    handles = [Line2D([], [], color=colours[m], lw=2, label=m) for m in methods]
+    handles += [Line2D([], [], color="black", ls="-", label="after sequence matching"),
+                Line2D([], [], color="black", ls=":", lw=0.9, label="single frame")]
+    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 5), fontsize=8)
+    fig.suptitle(wrapped(title, fig.get_figwidth()))
+    fig.tight_layout(rect=(0, 0.12, 1, 1))
+    return save(fig, path)
+
+
 def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], title: str) -> Path:
     """The speed experiment of one dataset (``build.speed_rows``' rows): sequence recall@1 (left) and the
     predictor's AOC reduction (right) against the query's speed ratio, log scale. One colour per method; the fixed

@@ -214,3 +214,65 @@ def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
                        f"{percent(100 * fixed)} with the fixed matcher and {percent(100 * velocity)} with velocity "
                        "search.")
     return out
+
+
+def _threshold(kind: str, value: float) -> str:
+    """``2 frames``, ``radius 25``: a sweep's ground truth as a sentence says it."""
+    return f"{value:g} frame{'' if value == 1 else 's'}" if kind == "frames" else f"radius {value:g}"
+
+
+def _flip(values: dict[str, list[tuple[float, float | None]]]) -> tuple[str, float, float, float, float] | None:
+    """The first name whose values are above 0 at one threshold and below at another: (name, threshold, value,
+    threshold, value), the positive first; None when every sign holds (zeros and undefined values decide nothing)."""
+    for name, points in values.items():
+        above = [(t, v) for t, v in points if v is not None and v > 0]
+        below = [(t, v) for t, v in points if v is not None and v < 0]
+        if above and below:
+            return name, *above[0], *below[0]
+    return None
+
+
+def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """One sentence on the protocol sweep of one dataset, L and mode (``build.sweep_rows``' rows): every conclusion
+    that changes with the ground truth's tolerance or radius (the predictor's reduction changing sign for a method,
+    sequence matching's gain over single frames changing sign, two methods swapping places by sequence recall@1),
+    or that none does."""
+    if not rows:
+        return []
+    first = rows[0]
+    kind = str(first["ground_truth"])
+    thresholds = sorted({float(r["threshold"]) for r in rows})
+    names = list(dict.fromkeys(str(r["method"]) for r in rows))
+    by_method = {name: sorted((r for r in rows if r["method"] == name), key=lambda r: r["threshold"])
+                 for name in names}
+    changes = []
+    flipped = _flip({name: [(r["threshold"], r.get("reduction_pct")) for r in mine]
+                     for name, mine in by_method.items()})
+    if flipped:
+        name, t_up, up, t_down, down = flipped
+        changes.append(f"the predictor's AOC reduction for {name} changes sign ({signed(up)} within "
+                       f"{_threshold(kind, t_up)}, {signed(down)} within {_threshold(kind, t_down)})")
+    gains = {name: [(r["threshold"], r["recall_at_1_sequence"] - r["recall_at_1_single"]) for r in mine]
+             for name, mine in by_method.items()}
+    flipped = _flip(gains)
+    if flipped:
+        name, t_up, up, t_down, down = flipped
+        changes.append(f"sequence matching changes {name}'s recall@1 by {100 * up:+.1f} points within "
+                       f"{_threshold(kind, t_up)} but {100 * down:+.1f} within {_threshold(kind, t_down)}")
+    recall = {(str(r["method"]), float(r["threshold"])): float(r["recall_at_1_sequence"]) for r in rows}
+    for i, a in enumerate(names):
+        swap = next(((b, t1, t2) for b in names[i + 1:] for t1 in thresholds for t2 in thresholds
+                     if recall.get((a, t1), 0) > recall.get((b, t1), 0)
+                     and recall.get((a, t2), 0) < recall.get((b, t2), 0)), None)
+        if swap:
+            b, t1, t2 = swap
+            changes.append(f"{a} and {b} swap places by sequence recall@1 ({a} ahead within "
+                           f"{_threshold(kind, t1)}, {b} within {_threshold(kind, t2)})")
+            break
+    where = (f"From {_threshold(kind, thresholds[0])} to {_threshold(kind, thresholds[-1])} ({first['dataset']}, "
+             f"{first['split']} split, L = {first['seq_len']}, {first['mode']} mode)")
+    if changes:
+        return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}."]
+    return [f"{where}, no conclusion depends on the ground truth: the predictor's AOC reduction keeps its sign for "
+            f"every method, so does sequence matching's gain over single frames, and no two methods swap places by "
+            "sequence recall@1."]

@@ -15,7 +15,7 @@ from __future__ import annotations
 import base64
 import json
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -25,7 +25,7 @@ from vpr_smr.core.io import atomic_path, package_version, read_provenance
 from vpr_smr.core.paths import queries_path
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report import registry
-from vpr_smr.eval.report.findings import sentences, speed_sentences
+from vpr_smr.eval.report.findings import sentences, speed_sentences, sweep_sentences
 from vpr_smr.eval.report.results import (
     Order,
     Splits,
@@ -223,11 +223,17 @@ class _Builder:
     """Makes the sections from the written tables and figures (by registry name)."""
 
     def __init__(self, tables: Sequence[WrittenTable], figures: Sequence[WrittenFigure], order: Order, split: str,
-                 run_dir: Path, splits: Splits | None = None) -> None:
+                 run_dir: Path, splits: Splits | None = None, protocols: Mapping[str, str] | None = None) -> None:
         self.tables = {t.name: t for t in tables}
         self.figures = list(figures)
         self.order, self.split, self.run_dir = order, split, run_dir
         self.splits = splits or Splits(split, (split,))
+        self.protocols = dict(protocols or {})  # per dataset its ground truth ("within 2 frames"), as the tables say
+
+    def correct(self, dataset: str) -> str:
+        """`` · correct: within 2 frames``: what a block's title says of its dataset's ground truth."""
+        text = self.protocols.get(dataset)
+        return f" · correct: {text}" if text else ""
 
     def rows(self, name: str) -> tuple[dict[str, Any], ...]:
         table = self.tables.get(name)
@@ -266,14 +272,13 @@ class _Builder:
         return sorted({(str(r["dataset"]), int(r["seq_len"])) for r in rows},
                       key=lambda key: (self.order.dataset(key[0]), key[1]))
 
-    @staticmethod
-    def _title(figure: WrittenFigure) -> str:
+    def _title(self, figure: WrittenFigure) -> str:
         parts = [figure.dataset] + ([f"L = {figure.seq_len}"] if figure.seq_len is not None else [])
-        return ", ".join(parts) + (f", {figure.mode} mode" if figure.mode else "")
+        return ", ".join(parts) + (f", {figure.mode} mode" if figure.mode else "") + self.correct(figure.dataset)
 
     def sections(self) -> list[Section]:
         makers = (self.pr, self.trust, self.restoration, self.seq_len, self.speed, self.predictor, self.table2,
-                  self.lomo, self.timing, self.vpr_metrics, self.inspector)
+                  self.lomo, self.timing, self.vpr_metrics, self.protocol_sweep, self.inspector)
         return [s for s in (make() for make in makers) if s is not None]
 
     def pr(self) -> Section | None:
@@ -443,13 +448,30 @@ class _Builder:
             shown = [{**r, "matcher": MATCHER_TEXT.get(str(r["matcher"]), r["matcher"])}
                      for r in _where(rows, dataset=dataset, seq_len=seq_len, mode=mode)]
             table = self.compact("vpr_metrics", anchor("metrics", dataset, seq_len, mode), shown)
-            blocks.append(Block(f"{dataset}, L = {seq_len}, {self.split} split, {mode} mode", (), (table,)))
+            blocks.append(Block(f"{dataset}, L = {seq_len}, {self.split} split, {mode} mode{self.correct(dataset)}", (),
+                                (table,)))
         return Section("vpr-metrics", "Standard VPR metrics", (
             "Recall@N (a query counts when a correct reference is among its N best matches), recall at 100 % "
             "precision (R@100P), the area under the PR curve (PR-AUC) and extended precision (EP), for single-frame "
             "matching, sequence matching, and sequence matching with the predictor (a removed match counts as not "
             f"retrieved). The whole table has every mode ({', '.join(modes)}).",), tuple(blocks),
             self.folded("vpr_metrics"))
+
+    def protocol_sweep(self) -> Section | None:
+        rows = self.rows("protocol_sweep")
+        if not rows:
+            return None
+        blocks = []
+        for f in self.named("protocol_sweep"):
+            shown = self.of(f, rows)
+            table = pivot(anchor("protocol-sweep", f.dataset, f.seq_len, f.mode), shown,
+                          registry.table("protocol_sweep"))
+            blocks.append(Block(self._title(f), (self.figure(f),), (table,), tuple(sweep_sentences(shown))))
+        return Section("protocol-sweep", "Protocol sweep", (
+            "How the conclusions depend on the ground truth (method §13): the same sequence matches and the same "
+            "seed-0 predictor's decisions, scored as correct within other tolerances (frames) or radii (positions). "
+            "Nothing is matched or predicted again; only which matches count as correct changes.",),
+            tuple(blocks), self.folded("protocol_sweep"))
 
     def inspector(self) -> Section | None:
         figures = [f for f in self.figures if f.name in ("matches", "distance_matrix")]
@@ -564,7 +586,8 @@ def build_page(
     found = findings(by_name.get("table1"), split, by_name.get("predictor"))
     table1_files = (", ".join(_relative(p, run_dir) for p in by_name["table1"].files[1:]) + " hold this layout; "
                     + _relative(by_name["table1"].files[0], run_dir) + " every column") if "table1" in by_name else ""
-    sections = _Builder(tables, figures, order, split, run_dir, splits).sections()
+    protocols = {name: ground_truth_text(info) for name, info in (datasets or {}).items()}
+    sections = _Builder(tables, figures, order, split, run_dir, splits, protocols).sections()
     dataset_table = by_name.get("datasets")
     descriptor_table = data_table("provenance-files", [registry.Column(key) for key in ("file", *DESCRIPTOR_KEYS)],
                                   files, short=False) if files else None

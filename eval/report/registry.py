@@ -263,6 +263,16 @@ TABLES = (
                    Column("outcome_without")),
           page=("held_out", "seq_len", "mode", "f1_pooled", "f1_without", "removed_pooled", "removed_without",
                 "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
+    Table("protocol_sweep", "Protocol sweep: recall@1 and the predictor's AOC reduction under other ground-truth "
+          "tolerances (frames) or radii (positions), from the same matches and the same seed-0 predictor (method §13)",
+          ("protocol_sweep",),
+          # ground_truth: the kind swept (frames or positions); threshold: its tolerance in frames or its radius
+          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, Column("ground_truth"),
+                   Column("threshold", "tolerance or radius", "g"), RECALL_SINGLE, RECALL_SEQUENCE, MAX_RECALL,
+                   AOC_VPR_SM, AOC_VPR_SM_PRED, REDUCTION, OUTCOME),
+          pivot=Pivot("threshold", ("method",), ("reduction_pct",)),
+          caption="AOC reduction (%) per tolerance or radius (rows) and method (columns); recall@1: the figure and "
+                  "the whole table below"),
     Table("datasets", "Datasets: traverses, frames per split, tolerance, frame lists and where the images came from",
           ("datasets",),
           columns=(DATASET, Column("reference"), Column("query"), Column("n_frames"), Column("splits"),
@@ -279,6 +289,7 @@ FIGURES = (
     Figure("confusion", "Confusion matrix", ("table1",), "confusion_{dataset}_L{seq_len}.png"),
     Figure("seq_len", "Sequence-length ablation", ("table1", "seq_len"), "seq_len_{dataset}_{mode}.png"),
     Figure("speed", "Speed profiles", ("speed",), "speed_{dataset}_L{seq_len}.png"),
+    Figure("protocol_sweep", "Protocol sweep", ("protocol_sweep",), "protocol_sweep_{dataset}_L{seq_len}_{mode}.png"),
 )
 
 
@@ -306,6 +317,7 @@ def expected_outputs(
     table_seq_lens: Collection[int] | None = None,
     html: bool = True,
     speed_datasets: Collection[str] | None = None,
+    sweep_datasets: Collection[str] | None = None,
 ) -> list[str]:
     """Paths (relative to the run folder) that ``main`` writes, from the configuration alone.
 
@@ -314,9 +326,11 @@ def expected_outputs(
     configured), ``"restoration"``, ``"seq_len"`` (the sequence-length ablation), ``"attributes"`` (Table II),
     ``"leave_one_method_out"``, ``"metrics"`` (the standard VPR metrics given), ``"datasets"`` (dataset cards
     given), ``"speed"`` (the speed experiment, at ``table_seq_lens``, for ``speed_datasets``: default every
-    dataset; those with positions have none); each table and figure of ``registry`` is listed when all of its
-    experiments are.
+    dataset; those with positions have none), ``"protocol_sweep"`` (the protocol sweep, for ``sweep_datasets``:
+    default every dataset; those whose ground truth is a file have none); each table and figure of ``registry`` is
+    listed when all of its experiments are.
     """
+    only = {"speed": speed_datasets, "protocol_sweep": sweep_datasets}  # figures of some datasets only
     out = [path for spec in TABLES if spec.enabled(experiments) for path in spec.files()]
     figure_lens = [s for s in seq_lens if table_seq_lens is None or s in table_seq_lens]
     per_seq_len = [spec for spec in FIGURES if spec.per_seq_len and spec.enabled(experiments)]
@@ -324,9 +338,9 @@ def expected_outputs(
         for seq_len in sorted(figure_lens):
             for mode in modes:
                 out += [spec.file(dataset=dataset, seq_len=seq_len, mode=mode) for spec in per_seq_len
-                        if spec.per_mode]
+                        if spec.per_mode and _shown(only.get(spec.name), dataset)]
             out += [spec.file(dataset=dataset, seq_len=seq_len) for spec in per_seq_len if not spec.per_mode
-                    and (spec.name != "speed" or speed_datasets is None or dataset in speed_datasets)]
+                    and _shown(only.get(spec.name), dataset)]
     # the figures over every sequence length (one per dataset and mode)
     out += [spec.file(dataset=dataset, mode=mode) for spec in FIGURES
             if not spec.per_seq_len and spec.enabled(experiments) for dataset in sorted(datasets)
@@ -334,3 +348,8 @@ def expected_outputs(
     if html:
         out.append(HTML)
     return out
+
+
+def _shown(datasets: Collection[str] | None, dataset: str) -> bool:
+    """Whether a figure of ``dataset`` is written, when only ``datasets`` have it (None: every dataset)."""
+    return datasets is None or dataset in datasets

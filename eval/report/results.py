@@ -153,7 +153,23 @@ def split_text(splits: dict[str, Sequence[int]], reference_splits: dict[str, Seq
 
 
 def ground_truth_text(info: dict[str, Any]) -> str:
-    """A dataset card's ground truth: positions within the radius (method §11), else frames within the tolerance."""
+    """A dataset card's ground truth: its file (method §13, as ``GroundTruth.describe`` says it), positions within
+    the radius (method §11), else frames within the tolerance."""
+    if info.get("ground_truth"):
+        return str(info["ground_truth"])
     if info.get("radius") is not None:
         return f"positions within {info['radius']:g} (the positions' unit)"
-    return f"{info.get('tolerance', '')} frames"
+    tolerance = info.get("tolerance", "")
+    return f"within {tolerance} frame{'' if tolerance == 1 else 's'}"
+
+
+def provenance_text(recorded: dict[str, Any]) -> str:
+    """What an output recorded of its ground truth (``GroundTruth.provenance``: kind, tolerance or radius, file), as
+    ``ground_truth_text`` says it."""
+    if recorded.get("kind") == "matrix":
+        name = Path(str(recorded.get("file", ""))).name + (f":{recorded['key']}" if recorded.get("key") else "")
+        lists = "lists" in str(recorded.get("form", ""))
+        return f"{name} ({'per-query lists' if lists else 'a matrix'})"
+    if recorded.get("kind") == "positions":
+        return f"positions within {recorded.get('radius', 0):g} (the positions' unit)"
+    return ground_truth_text({"tolerance": recorded.get("tolerance", "")})

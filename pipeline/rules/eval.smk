@@ -18,7 +18,8 @@ rule distances:
 
 rule attributes:
     input:
-        distances_path(OUT, "{dataset}", "{method}", "{split}"),
+        distances=distances_path(OUT, "{dataset}", "{method}", "{split}"),
+        truth=lambda wc: ground_truth_input(PLAN, wc.dataset),
     output:
         attributes_path(OUT, "{dataset}", "{method}", "{seq_len}", "{split}"),
     log:
@@ -27,10 +28,12 @@ rule attributes:
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
         # method §11: datasets with positions; their distance files hold the positions, this is the ground truth
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
+        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
         velocities=VELOCITIES,
     shell:
-        "vpr-smr attributes --distances {input:q} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
-        " {params.radius} --velocities {params.velocities} --out {output:q} > {log:q} 2>&1"
+        "vpr-smr attributes --distances {input.distances:q} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
+        " {params.radius} {params.ground_truth} --velocities {params.velocities} --out {output:q} > {log:q} 2>&1"
 
 
 rule train:
@@ -87,6 +90,7 @@ rule vpr_metrics:
         attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
                              for split in conf.eval_splits],
         predictor=predictor_path(OUT, "{dataset}", "{seq_len}"),  # seed 0 (the authors' recipe)
+        truth=lambda wc: ground_truth_input(PLAN, wc.dataset),
     output:
         vpr_metrics_path(OUT, "{dataset}", "{method}", "{seq_len}"),
     log:
@@ -98,13 +102,16 @@ rule vpr_metrics:
         attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
+        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
         velocities=VELOCITIES,
         modes=" ".join(conf.modes),
+        sweep=lambda wc: "--sweep" if "protocol_sweep" in EXPERIMENTS and wc.dataset in SWEEP_DATASETS else "",
     shell:
         "vpr-smr metrics --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius}"
+        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
         " --velocities {params.velocities} --distances {params.distances}"
-        " --attributes {params.attributes} --predictor {input.predictor:q} --modes {params.modes}"
+        " --attributes {params.attributes} --predictor {input.predictor:q} --modes {params.modes} {params.sweep}"
         " --out {output:q} {params.overlap} > {log:q} 2>&1"
 
 
@@ -116,6 +123,7 @@ rule queries:
         attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
                              for split in conf.eval_splits],
         predictor=predictor_path(OUT, "{dataset}", "{seq_len}"),  # seed 0 (the authors' recipe)
+        truth=lambda wc: ground_truth_input(PLAN, wc.dataset),
     output:
         queries_path(OUT, "{dataset}", "{method}", "{seq_len}"),
     log:
@@ -127,8 +135,10 @@ rule queries:
         attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
+        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
         velocities=VELOCITIES,
     shell:
-        "vpr-smr queries --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius}"
+        "vpr-smr queries --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
         " --velocities {params.velocities} --distances {params.distances} --attributes {params.attributes} --predictor {input.predictor:q}"
         " --out {output:q} {params.overlap} > {log:q} 2>&1"

@@ -6,6 +6,7 @@ rule inspect:
     input:
         queries=queries_path(OUT, "{dataset}", "{method}", "{seq_len}"),
         distances=distances_path(OUT, "{dataset}", "{method}", conf.table_split),
+        truth=lambda wc: ground_truth_input(PLAN, wc.dataset),
     output:
         matches=match_figure_path(OUT, "{dataset}", "{method}", "{seq_len}"),
         matrix=matrix_figure_path(OUT, "{dataset}", "{method}", "{seq_len}"),
@@ -18,11 +19,13 @@ rule inspect:
         frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[conf.table_split]),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
+        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
         velocities=VELOCITIES,
         split=conf.table_split,
     shell:
         "vpr-smr inspect --queries {input.queries:q} --distances {input.distances:q}"
         " --dataset {wildcards.dataset:q} --dataset-settings {params.dataset:q}"
         " --frames-sha256 {params.frames_sha256} --seq-len {wildcards.seq_len} --split {params.split:q}"
-        " --frames {params.frames} --tolerance {params.tolerance} {params.radius} --velocities {params.velocities}"
+        " --frames {params.frames} --tolerance {params.tolerance} {params.radius} {params.ground_truth} --velocities {params.velocities}"
         " --match-figure {output.matches:q} --matrix-figure {output.matrix:q} > {log:q} 2>&1"

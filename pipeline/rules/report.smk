@@ -89,7 +89,7 @@ rule report:
         # read for their provenance (checkpoint and frame-list hashes) only
         descriptors=expand(descriptors_path(OUT, "{dataset}", "{method}"), dataset=DATASETS, method=METHODS),
     output:
-        [f"{OUT}/{name}" for name in report_outputs(conf, EXPERIMENTS, SPEED_DATASETS)],
+        [f"{OUT}/{name}" for name in report_outputs(conf, EXPERIMENTS, SPEED_DATASETS, SWEEP_DATASETS)],
     log:
         report_log_path(OUT),
     params:

@@ -40,6 +40,7 @@ from vpr_smr.eval.scoring.records import (
     MatcherMetrics,
     ModeRemoval,
     PRCurve,
+    ProtocolSweep,
     Reduction,
     RemovalCurves,
     RestorationMode,
@@ -48,6 +49,7 @@ from vpr_smr.eval.scoring.records import (
     SeedSummary,
     SplitMetrics,
     SplitTiming,
+    SweepPoint,
     Timing,
     TrustNumbers,
     VPRMetrics,
@@ -85,7 +87,10 @@ HELD_OUT_SCORES = HeldOutScores("p.h5", 0.5, 3, {"paper": MODE, "standard": BARE
 HELD_OUT_PREDICTORS = HeldOutPredictors(HELD_OUT_SCORES, dataclasses.replace(HELD_OUT_SCORES, path="w.h5"))
 HELD_OUT = HeldOut(META, 57, HELD_OUT_PREDICTORS)
 MATCHER = MatcherMetrics(57, {1: 0.5, 5: 0.75, 10: NAN, 20: 1.0}, 0.25, 0.6, INF)
+SWEEP_POINT = SweepPoint(2.0, 0.25, 0.5, REDUCTION)
+PROTOCOL_SWEEP = ProtocolSweep("frames", {"paper": (SweepPoint(0.0, 0.1, 0.2), SWEEP_POINT), "standard": ()})
 SPLIT_METRICS = SplitMetrics({"paper": {"single": MATCHER, "sequence": MATCHER}, "standard": {}})
+SWEPT_METRICS = SplitMetrics({"paper": {"single": MATCHER}}, 3, 1, PROTOCOL_SWEEP)
 METRICS = VPRMetrics({**META, "predictor": None}, {"test": SPLIT_METRICS})
 SPLIT_SCORES = SplitScores(0.4, 20, (10, 5, 3, 2), ((10, 0, 0, 0), (0, 5, 0, 0), (1, 0, 2, 0), (0, 0, 0, 2)))
 SEED_REPORT = SeedReport(2, {"hidden_layer_sizes": [8, 8], "alpha": 1e-4, "smote": True, "column_order": None},
@@ -115,7 +120,9 @@ SAMPLES = {
     "EvaluationSplit": SPLIT, "EvaluationSplit, bare": BARE_SPLIT, "Evaluation": EVALUATION,
     "SplitTiming": SPLIT_TIMING, "Timing": TIMING, "HeldOutScores": HELD_OUT_SCORES,
     "HeldOutPredictors": HELD_OUT_PREDICTORS, "HeldOut": HELD_OUT, "MatcherMetrics": MATCHER,
-    "SplitMetrics": SPLIT_METRICS, "VPRMetrics": METRICS, "SplitScores": SPLIT_SCORES, "SeedReport": SEED_REPORT,
+    "SplitMetrics": SPLIT_METRICS,
+    "SplitMetrics, swept": SWEPT_METRICS, "SweepPoint": SWEEP_POINT, "ProtocolSweep": PROTOCOL_SWEEP,
+    "VPRMetrics": METRICS, "SplitScores": SPLIT_SCORES, "SeedReport": SEED_REPORT,
     "PredictorReport": PREDICTOR, "PredictorReport, one seed": ONE_SEED, "AttributeScores": ATTRIBUTE_SCORES,
     "AttributeSplit": ATTRIBUTE_SCORES.splits["check"],
     "AttributeAblation": ABLATION, "FrameRange": FRAMES, "FrameRange, aligned": FrameRange("d", "test", 40, 80),
