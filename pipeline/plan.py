@@ -376,8 +376,8 @@ def _ground_truth_problems(name: str, pair: Any, eval_splits: list[str], problem
     source = getattr(truth, "source", None)
     lists = source is not None and source.lists
     if lists != (given.form == "lists"):
-        held, other = ("per-query lists", "matrix") if lists else ("a matrix", "lists")
-        problems.append(f"{where}: {given.path} holds {held}: write it as ground_truth: {{{other}: ...}} "
+        held, form = ("per-query lists", "lists") if lists else ("a matrix", "matrix")
+        problems.append(f"{where}: {given.path} holds {held}: write it as ground_truth: {{{form}: ...}} "
                         f"instead, or give the other file")
         return ""
     for split in eval_splits:

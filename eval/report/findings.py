@@ -14,6 +14,7 @@ import numpy as np
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.table1 import Table1Block
 from vpr_smr.eval.scoring.curves import NOTHING_TO_REDUCE
+from vpr_smr.eval.scoring.sweep import within
 
 AOC = "area over the PR curve"
 
@@ -216,11 +217,6 @@ def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
     return out
 
 
-def _threshold(kind: str, value: float) -> str:
-    """``2 frames``, ``radius 25``: a sweep's ground truth as a sentence says it."""
-    return f"{value:g} frame{'' if value == 1 else 's'}" if kind == "frames" else f"radius {value:g}"
-
-
 def _flip(values: dict[str, list[tuple[float, float | None]]]) -> tuple[str, float, float, float, float] | None:
     """The first name whose values are above 0 at one threshold and below at another: (name, threshold, value,
     threshold, value), the positive first; None when every sign holds (zeros and undefined values decide nothing)."""
@@ -250,15 +246,15 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
                      for name, mine in by_method.items()})
     if flipped:
         name, t_up, up, t_down, down = flipped
-        changes.append(f"the predictor's AOC reduction for {name} changes sign ({signed(up)} within "
-                       f"{_threshold(kind, t_up)}, {signed(down)} within {_threshold(kind, t_down)})")
+        changes.append(f"the predictor's AOC reduction for {name} changes sign ({signed(up)} "
+                       f"{within(kind, t_up)}, {signed(down)} {within(kind, t_down)})")
     gains = {name: [(r["threshold"], r["recall_at_1_sequence"] - r["recall_at_1_single"]) for r in mine]
              for name, mine in by_method.items()}
     flipped = _flip(gains)
     if flipped:
         name, t_up, up, t_down, down = flipped
-        changes.append(f"sequence matching changes {name}'s recall@1 by {100 * up:+.1f} points within "
-                       f"{_threshold(kind, t_up)} but {100 * down:+.1f} within {_threshold(kind, t_down)}")
+        changes.append(f"sequence matching changes {name}'s recall@1 by {100 * up:+.1f} points "
+                       f"{within(kind, t_up)} but {100 * down:+.1f} {within(kind, t_down)}")
     recall = {(str(r["method"]), float(r["threshold"])): float(r["recall_at_1_sequence"]) for r in rows}
     for i, a in enumerate(names):
         swap = next(((b, t1, t2) for b in names[i + 1:] for t1 in thresholds for t2 in thresholds
@@ -266,11 +262,13 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
                      and recall.get((a, t2), 0) < recall.get((b, t2), 0)), None)
         if swap:
             b, t1, t2 = swap
-            changes.append(f"{a} and {b} swap places by sequence recall@1 ({a} ahead within "
-                           f"{_threshold(kind, t1)}, {b} within {_threshold(kind, t2)})")
+            changes.append(f"{a} and {b} swap places by sequence recall@1 ({a} ahead "
+                           f"{within(kind, t1)}, {b} {within(kind, t2)})")
             break
-    where = (f"From {_threshold(kind, thresholds[0])} to {_threshold(kind, thresholds[-1])} ({first['dataset']}, "
-             f"{first['split']} split, L = {first['seq_len']}, {first['mode']} mode)")
+    low, high = thresholds[0], thresholds[-1]
+    span = f"{low:g} to {high:g} frames" if kind == "frames" else f"a radius of {low:g} to {high:g}"
+    where = (f"With matches counted correct within {span} ({first['dataset']}, {first['split']} split, "
+             f"L = {first['seq_len']}, {first['mode']} mode)")
     if changes:
         return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}."]
     return [f"{where}, no conclusion depends on the ground truth: the predictor's AOC reduction keeps its sign for "

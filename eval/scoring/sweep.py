@@ -24,6 +24,13 @@ FRAME_TOLERANCES: tuple[float, ...] = (0, 1, 2, 5, 10)
 RADII: tuple[float, ...] = (5, 10, 25, 50)
 
 
+def within(kind: str, threshold: float) -> str:
+    """``within 1 frame``, ``within 2 frames``, ``positions within 25``: one point of a sweep in words."""
+    if kind == FRAMES:
+        return f"within {threshold:g} frame{'' if threshold == 1 else 's'}"
+    return f"positions within {threshold:g}"
+
+
 def sweep_thresholds(truth: GroundTruth) -> tuple[str, tuple[float, ...]]:
     """The kind and the thresholds a ground truth is swept over: frame tolerances for frames, radii for positions;
     a ground truth given as a matrix or lists has none (ValueError)."""

@@ -81,7 +81,7 @@ from vpr_smr.eval.predictor.leakage import check_disjoint, frame_range, frame_ra
 from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, recall_at_full_precision
 from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
 from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
-from vpr_smr.eval.scoring.sweep import protocol_sweep
+from vpr_smr.eval.scoring.sweep import protocol_sweep, within
 
 __all__ = [
     "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "extended_precision", "format_metrics", "main",
@@ -526,9 +526,27 @@ def format_metrics(result: VPRMetrics) -> str:
                 recalls = [f"{metrics.recall_at[n]:.4f}" if n in metrics.recall_at else "-" for n in ns]
                 rows.append([split, mode, matcher, str(metrics.n_queries), *recalls, f"{metrics.recall_at_100p:.4f}",
                              f"{metrics.pr_auc:.4f}", f"{metrics.extended_precision:.4f}"])
-    widths = [max(len(row[i]) for row in rows) for i in range(len(header))]
-    # names left-aligned, numbers right-aligned, as a reader compares them down a column
-    return "\n".join("  ".join(cell.ljust(width) if i < 3 else cell.rjust(width)
+    text = _aligned(rows, 3)
+    sweep = [["split", "mode", "ground truth", "R@1 single", "R@1 sequence", "AOC reduction (%)"]]
+    for split, scored in result.splits.items():
+        if scored.sweep is None:
+            continue
+        for mode, points in scored.sweep.modes.items():
+            for point in points:
+                reduction = point.reduction.reduction_pct if point.reduction is not None else None
+                sweep.append([split, mode, within(scored.sweep.kind, point.threshold),
+                              f"{point.recall_at_1_single:.4f}", f"{point.recall_at_1_sequence:.4f}",
+                              "-" if reduction is None else f"{reduction:.2f}"])
+    if all(row[-1] == "-" for row in sweep[1:]):  # no predictor: no reduction to show
+        sweep = [row[:-1] for row in sweep]
+    return text if len(sweep) == 1 else f"{text}\n\nprotocol sweep (method §13):\n{_aligned(sweep, 3)}"
+
+
+def _aligned(rows: list[list[str]], names: int) -> str:
+    """``rows`` as plain-text columns: the first ``names`` cells left-aligned, numbers right-aligned, as a reader
+    compares them down a column."""
+    widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
+    return "\n".join("  ".join(cell.ljust(width) if i < names else cell.rjust(width)
                                for i, (cell, width) in enumerate(zip(row, widths, strict=True))).rstrip()
                      for row in rows)
 
