@@ -60,8 +60,8 @@ def predictor_file(tmp_path_factory):
 @pytest.fixture(scope="session")
 def full_report_run(tmp_path_factory):
     """(run folder, files written) of ``report_runs.build_run`` with every experiment and the speed experiment's
-    files: dataset d, methods m1 and m2, L 2 and 4, both modes; built once, tests only read it."""
+    files and a protocol sweep: dataset d, methods m1 and m2, L 2 and 4, both modes; built once, tests only read it."""
     from report_runs import build_run, speed_files
 
     folder = tmp_path_factory.mktemp("full_report_run")
-    return build_run(folder, speed=speed_files(folder))
+    return build_run(folder, speed=speed_files(folder), sweep=True)

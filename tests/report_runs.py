@@ -40,11 +40,19 @@ RUN_EXPERIMENTS = {"table1", "predictor", "trust", "restoration", "seq_len", "at
                    "metrics", "datasets"}
 
 
-def metrics_record(method: str, seq_len: int, modes=("paper", "standard"), dataset: str = "d"):
+def metrics_record(method: str, seq_len: int, modes=("paper", "standard"), dataset: str = "d", sweep: bool = False):
     """The standard VPR metrics of one method, by hand: every value distinct, from the method's, mode's and
-    matcher's position."""
+    matcher's position; with ``sweep``, a protocol sweep over 0, 2 and 10 frames whose reduction falls with the
+    tolerance."""
     from vpr_smr.core.constants import MATCHERS, RECALL_AT
-    from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
+    from vpr_smr.eval.scoring.records import (
+        MatcherMetrics,
+        ProtocolSweep,
+        Reduction,
+        SplitMetrics,
+        SweepPoint,
+        VPRMetrics,
+    )
 
     base = 0.1 + 0.3 * (sum(map(ord, method)) % 3)
 
@@ -54,9 +62,15 @@ def metrics_record(method: str, seq_len: int, modes=("paper", "standard"), datas
                                                               for i, n in enumerate(RECALL_AT)},
                               round(value / 2, 6), round(value * 0.9, 6), round(value * 0.8, 6))
 
+    def point(tolerance: int) -> SweepPoint:
+        reduction = Reduction(1.0, 0.8, 0.9, 0.2, 0.1, 50.0 - 4 * tolerance, 1.0, 0.2, "improved")
+        return SweepPoint(float(tolerance), round(base + 0.01 * tolerance, 6), round(base + 0.02 * tolerance, 6),
+                          reduction)
+
+    swept = ProtocolSweep("frames", {mode: tuple(point(t) for t in (0, 2, 10)) for mode in modes}) if sweep else None
     return VPRMetrics({"dataset": dataset, "method": method, "seq_len": seq_len, "tolerance": 2},
                       {"test": SplitMetrics({mode: {matcher: numbers(m, k) for k, matcher in enumerate(MATCHERS)}
-                                             for m, mode in enumerate(modes)})})
+                                             for m, mode in enumerate(modes)}, sweep=swept)})
 
 
 def small_png(path: Path, width: int = 240, height: int = 120, shade: int = 0) -> Path:
@@ -73,7 +87,7 @@ def small_png(path: Path, width: int = 240, height: int = 120, shade: int = 0) -
 
 def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), methods=("m1", "m2"),
               trust_levels=(0.0, 0.9), restoration=True, ablations=True, metrics=True, inspector=True,
-              **options) -> tuple[Path, list[Path]]:
+              sweep=False, **options) -> tuple[Path, list[Path]]:
     """Every experiment's JSON for the ``methods`` (in that configuration order) on one dataset ``d``, the
     standard VPR metrics and match-inspector figures at L = 4, then report.main; returns (run folder, files).
     ``options`` go to report.main."""
@@ -127,7 +141,7 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
     if metrics:
         for method in methods:
             metric_files.append(tmp_path / f"metrics_{method}.json")
-            write_json(metric_files[-1], metrics_record(method, 4, modes).to_json())
+            write_json(metric_files[-1], metrics_record(method, 4, modes, sweep=sweep).to_json())
             queries = Path(queries_path(run, "d", method, 4))  # written by the queries job (vpr-smr queries)
             queries.parent.mkdir(parents=True, exist_ok=True)
             queries.write_text("split,query\ntest,0\n")

@@ -202,6 +202,14 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     return features
 
 
+def recorded_ground_truth(paths: Sequence[Path | str]) -> dict[str, Any]:
+    """``{"ground_truth": ...}``: the ground truth the first of several attributes files records
+    (``truth_provenance``), for the meta of what is computed from them; empty when it records none (a file written
+    before it did)."""
+    recorded = read_provenance(paths[0]).get("ground_truth") if paths else None
+    return {"ground_truth": recorded} if isinstance(recorded, dict) else {}
+
+
 def truth_provenance(truth: GroundTruth, seq_len: int, without: np.ndarray | None = None) -> dict[str, Any]:
     """What an attributes file records of its ground truth: ``GroundTruth.provenance`` as ``ground_truth``, and how
     many queries have no correct reference (``without``: ``truth.without_correct()``, computed when None), of all

@@ -263,7 +263,7 @@ TABLES = (
                    Column("outcome_without")),
           page=("held_out", "seq_len", "mode", "f1_pooled", "f1_without", "removed_pooled", "removed_without",
                 "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
-    Table("protocol_sweep", "Protocol sweep: recall@1 and the predictor's AOC reduction under other ground-truth "
+    Table("protocol_sweep", "Protocol sweep: recall@1 and the AOC reduction of the predictor under other ground-truth "
           "tolerances (frames) or radii (positions), from the same matches and the same seed-0 predictor (method §13)",
           ("protocol_sweep",),
           # ground_truth: the kind swept (frames or positions); threshold: its tolerance in frames or its radius

@@ -20,7 +20,13 @@ from vpr_smr.core.constants import DEFAULT_TRUST_LEVELS, LABELS, MODES
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance
 from vpr_smr.core.paths import timing_path
 from vpr_smr.core.records import save
-from vpr_smr.eval.matching.attributes import QueryFeatures, check_matching, common_matching, read_features
+from vpr_smr.eval.matching.attributes import (
+    QueryFeatures,
+    check_matching,
+    common_matching,
+    read_features,
+    recorded_ground_truth,
+)
 from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
 from vpr_smr.eval.scoring.curves import (
@@ -253,7 +259,8 @@ def main(
         # Timings change from run to run: they go in their own file, so that two runs give identical results.
         attributes_seconds = float(read_provenance(path).get("attributes_seconds", 0.0))
         timings[split] = SplitTiming.of(attributes_seconds, predict_seconds, splits[split].n_queries)
-    evaluation = Evaluation(dict(meta or {}), tuple(str(p) for p in predictor_paths), splits)
+    meta = {**recorded_ground_truth(list(features_paths.values())), **(meta or {})}
+    evaluation = Evaluation(meta, tuple(str(p) for p in predictor_paths), splits)
     timing = Timing(dict(evaluation.meta), timings)
     save(timing_path(out), timing)
     save(out, evaluation)

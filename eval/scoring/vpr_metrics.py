@@ -416,6 +416,10 @@ def _score_all(
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
     predictor_file = Path(predictor) if predictor is not None else None
+    if sweep and matcher.ground_truth is not None:  # before any file is read
+        raise ValueError(f"--sweep varies a tolerance (frames) or a radius (positions), but --ground-truth "
+                         f"{matcher.ground_truth} says which references are correct, with nothing to vary: leave out "
+                         "--sweep, or score with --tolerance (or positions and --radius) instead")
     file_truth = (None if matcher.ground_truth is None
                   else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key))
     _check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)

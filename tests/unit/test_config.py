@@ -23,7 +23,7 @@ def test_demo_config_is_valid_and_gets_defaults():
     assert conf.eval_splits == ("val", "test") and conf.output == "results"
     assert conf.table_seq_len == 4 and conf.seeds == 5
     assert experiments(conf) == {"table1", "predictor", "trust", "restoration", "attributes",
-                                 "leave_one_method_out", "seq_len", "speed"}
+                                 "leave_one_method_out", "seq_len", "speed", "protocol_sweep"}
     preflight(conf)
 
 
@@ -64,7 +64,7 @@ def test_experiments_follow_the_settings(tmp_path):
         experiments: {restoration: false}
     """)
     # one method: no leave-one-method-out; one L: no sequence-length ablation; restoration switched off
-    assert experiments(load_config(path)) == {"table1", "predictor", "trust", "attributes", "speed"}
+    assert experiments(load_config(path)) == {"table1", "predictor", "trust", "attributes", "speed", "protocol_sweep"}
     assert "trust" not in experiments(load_config(path, {"trust_levels": []}))
 
 

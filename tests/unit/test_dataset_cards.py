@@ -70,5 +70,7 @@ def test_cards_of_a_dataset_with_positions_show_both_ranges_and_the_radius():
     assert split_text(splits, {"train": (0, 400)}) == (
         "train references [0, 400): 400, queries [0, 600): 600; test [600, 900): 300 frames")
     assert split_text(splits) == "train [0, 600): 600 frames; test [600, 900): 300 frames"
-    assert ground_truth_text({"tolerance": 2}) == "2 frames"
+    assert ground_truth_text({"tolerance": 2}) == "within 2 frames"
+    assert ground_truth_text({"tolerance": 1}) == "within 1 frame"
+    assert ground_truth_text({"tolerance": 2, "ground_truth": "GT.npz:GThard (a matrix)"}) == "GT.npz:GThard (a matrix)"
     assert ground_truth_text({"tolerance": 2, "radius": 25.0}) == "positions within 25 (the positions' unit)"

@@ -83,7 +83,8 @@ def test_misspelt_split_setting_is_named_with_the_closest_key(tmp_path):
     message = str(error.value)
     assert "datasets.corridor.tolerence" in message and "(did you mean 'tolerance'?)" in message
     assert message.endswith("its settings: loader, reference, query, reference_list, query_list, pairing, "
-                            "reference_positions, query_positions, positions, frames, splits, tolerance, radius")
+                            "reference_positions, query_positions, positions, frames, splits, tolerance, radius, "
+                            "ground_truth")
 
 
 # --- every image fully decoded ---

@@ -486,7 +486,7 @@ def test_datasets_and_splits_keep_the_configurations_order(tmp_path):
 COMPACT = {"table1": "pr-d-4-paper", "restoration": "restoration-d-4-paper", "predictor_methods": "predictor-d-4",
            "predictor": "predictor-pooled-d", "leave_one_method_out": "lomo-d", "timing": "timing-d",
            "vpr_metrics": "metrics-d-4-paper", "table2": "table2-d-4", "trust_levels": "trust-d-4-paper",
-           "ablation_seq_len": "seq-len-d-paper", "speed": "speed-d-4"}
+           "ablation_seq_len": "seq-len-d-paper", "speed": "speed-d-4", "protocol_sweep": "protocol-sweep-d-4-paper"}
 PAPER_LAYOUT = ("table1", "table2")  # their Markdown and LaTeX files have the paper's layout, not the columns
 
 
