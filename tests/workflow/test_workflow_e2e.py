@@ -70,7 +70,8 @@ def run(tmp_path_factory):
 
 
 TABLES = ["table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
-          "ablation_seq_len", "vpr_metrics", "predictor", "table2", "leave_one_method_out", "datasets", "speed"]
+          "ablation_seq_len", "vpr_metrics", "predictor", "table2", "leave_one_method_out", "datasets", "speed",
+          "protocol_sweep"]
 METHODS = ("sad", "hog", "effnet")
 
 
@@ -83,14 +84,14 @@ def test_every_table_and_figure(run):
     assert f"tables:  {out / 'tables'}" in stdout and f"report:  {out / 'report.html'}" in stdout
     assert sorted(p.name for p in (out / "tables").iterdir()) == sorted(
         f"{name}.{ext}" for name in TABLES for ext in ("csv", "md", "tex"))
-    per_mode = [f"{kind}_sample_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc")
-                for mode in ("paper", "standard")]
+    per_mode = [f"{kind}_sample_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc",
+                                                            "protocol_sweep") for mode in ("paper", "standard")]
     inspector = [f"{kind}_sample_{method}_L4.png" for kind in ("matches", "distance_matrix") for method in METHODS]
     assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
         [*per_mode, "confusion_sample_L4.png", "seq_len_sample_paper.png", "seq_len_sample_standard.png",
          "speed_sample_L4.png", *inspector])
     html = (out / "report.html").read_text()  # the report's figures and the match inspector's, each once
-    assert html.count("<img") == 12 + len(inspector) and "http://" not in html and "https://" not in html
+    assert html.count("<img") == 14 + len(inspector) and "http://" not in html and "https://" not in html
 
 
 def test_table1_has_the_seed_spread(run):
