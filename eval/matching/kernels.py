@@ -10,7 +10,9 @@ whose minimum lies within ``margin`` (twice the bound on the screening error, ``
 ``x`` divided by its column maximum in float64), and the ``K`` best are kept in ascending index order with strict
 comparisons: equal values lowest index first, method §5's tie rule. Every group that can hold one of the ``K`` best
 exact values is scanned (the ``K``-th group minimum bounds the ``K``-th smallest screened value from above), so
-the result equals the numpy path's exactly; only the amount of work differs.
+the result equals the numpy path's exactly; only the amount of work differs. The training-free scorers' candidates
+(method §12) come from the same scans: the ``n`` smallest ``S`` (the sequence match is the first of them) and the
+``n`` smallest raw values of the current column (kept exactly: their group minima need no margin).
 
 The kernels release the GIL: ``column_blocks`` runs blocks of query columns on a few threads.
 """
@@ -38,7 +40,8 @@ def _matrix(dtype: types.Type) -> types.Array:
 
 def _block_signature(dtype: types.Type) -> Signature:
     f8, i8 = types.float64, types.int64
-    return types.void(_matrix(dtype), f8[:], i8, f8, f8, f8[:, :, :], i8[:, :], i8[:], i8[:], f8[:], f8[:])
+    return types.void(_matrix(dtype), f8[:], i8, f8, f8, f8[:, :, :], i8[:, :], i8[:], i8[:], f8[:], f8[:],
+                      f8[:, :], i8[:, :], f8[:, :], i8[:, :])
 
 
 @njit(cache=True, nogil=True)
@@ -73,7 +76,7 @@ def _diag(raw: np.ndarray, col_max: np.ndarray, d: int, j: int, n_terms: int, no
 @njit(cache=True, nogil=True)
 def _exact(raw: np.ndarray, col_max: np.ndarray, kind: int, i: int, j: int, seq_len: int) -> float:
     """The definition's float64 value of item ``i`` of query ``j``: kind 0 full_d, 1 past_d, 2 row sum of the
-    past, 3 current value, 4 S, 5 -S."""
+    past, 3 current value, 4 S, 5 -S, 6 the raw current value ``D[i, a]``."""
     if kind == 0:
         return _diag(raw, col_max, i, j, seq_len, True)
     if kind == 1:
@@ -88,6 +91,9 @@ def _exact(raw: np.ndarray, col_max: np.ndarray, kind: int, i: int, j: int, seq_
         return current
     if kind == 4:
         return _diag(raw, col_max, i, j, seq_len, False)
+    if kind == 6:
+        raw_current: float = np.float64(raw[i, j + seq_len - 1])
+        return raw_current
     return -_diag(raw, col_max, i, j, seq_len, False)
 
 
@@ -164,14 +170,20 @@ def _rates(out: np.ndarray, past_sorted: float, row_sorted: float, current_sorte
 
 def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, margin_raw: float,
           attributes: np.ndarray, rank_diagonals: np.ndarray, single_match: np.ndarray,
-          sequence_diagonal: np.ndarray, sequence_distance: np.ndarray, sequence_max: np.ndarray) -> None:
+          sequence_diagonal: np.ndarray, sequence_distance: np.ndarray, sequence_max: np.ndarray,
+          sequence_values: np.ndarray, sequence_index: np.ndarray, single_values: np.ndarray,
+          single_index: np.ndarray) -> None:
     """``block_features`` of the block ``raw`` (R x W: all references, W = w + L - 1 consecutive query columns,
     any strides) into the outputs over its ``w`` queries; ``col_max`` is the block's column maxima in float64
-    (0 replaced by 1). ``margin`` bounds twice the screening error of the normalised sums, ``margin_raw`` of S."""
+    (0 replaced by 1). ``margin`` bounds twice the screening error of the normalised sums, ``margin_raw`` of S.
+    ``sequence_values``/``sequence_index`` (``w x n``, ``n`` at most the diagonals) receive the ``n`` smallest ``S``
+    and their diagonals, ``single_values``/``single_index`` (``w x n'``) the ``n'`` smallest ``D[r, a]`` and their
+    references, ascending, equal values lowest index first; a width of 0 computes none."""
     n_ref, width = raw.shape
     n_queries = width - seq_len + 1
     n_diag = n_ref - seq_len + 1
     n_ranks = attributes.shape[1]
+    n_sequence, n_single = sequence_values.shape[1], single_values.shape[1]
     gd, gr = (n_diag + GROUP - 1) // GROUP, (n_ref + GROUP - 1) // GROUP
     h_full = np.full((gd, n_queries), np.inf)
     h_past = np.full((gd, n_queries), np.inf)
@@ -179,6 +191,7 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
     h_smax = np.full((gd, n_queries), np.inf)  # holds -max, so that the same selection finds it
     h_row = np.full((gr, n_queries), np.inf)
     h_cur = np.full((gr, n_queries), np.inf)
+    h_raw = np.full((gr if n_single > 0 else 0, n_queries), np.inf)  # the raw current values, for the candidates
     ring = seq_len + 1
     t = np.zeros((ring, width + 1))  # t[r % ring, c + 1]: sum along the diagonal ending at (r, c); t[:, 0] = 0
     v = np.zeros((ring, width + 1))
@@ -226,6 +239,8 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
             a = hl[j] - h[j]
             head[j] = a if a < head[j] else head[j]
         _minimum(h_cur[g], x[seq_len - 1 :])
+        if n_single > 0:
+            _minimum(h_raw[g], y[seq_len - 1 :])
         current = row[seq_len - 1 :]
         for j in range(n_queries):
             if current[j] < best[j]:
@@ -252,17 +267,21 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
                 a = vo[j] - vcl[j]
                 head[j] = a if a < head[j] else head[j]
 
-    # Exact recomputation: every kind's candidates of group g together, so that g's rows are read once.
-    heads = (h_full, h_past, h_row, h_cur, h_smin, h_smax)
-    counts = (n_ranks, n_ranks, n_ranks, n_ranks, 1, 1)
-    sizes = (n_diag, n_diag, n_ref, n_ref, n_diag, n_diag)
-    kinds = (0, 1, 2, 3, 4, 5)
+    # Exact recomputation: every kind's candidates of group g together, so that g's rows are read once. The
+    # smallest S are as many as the candidates asked for (the first is the sequence match); the raw current values
+    # are exact already (their margin is 0) and scanned only when candidates are asked for.
+    heads = (h_full, h_past, h_row, h_cur, h_smin, h_smax, h_raw)
+    counts = (n_ranks, n_ranks, n_ranks, n_ranks, max(1, n_sequence), 1, n_single)
+    sizes = (n_diag, n_diag, n_ref, n_ref, n_diag, n_diag, n_ref)
+    kinds = (0, 1, 2, 3, 4, 5, 6)
+    margins = (margin, margin, margin, margin, margin_raw, margin_raw, 0.0)
+    n_kinds = 7 if n_single > 0 else 6
     values = [np.empty((n_queries, c)) for c in counts]
     index = [np.empty((n_queries, c), dtype=np.int64) for c in counts]
     filled = [np.zeros(n_queries, dtype=np.int64) for _ in counts]
-    limits = [_limits(heads[q], counts[q], margin if q < 4 else margin_raw) for q in range(6)]
+    limits = [_limits(heads[q], counts[q], margins[q]) if q < n_kinds else np.empty(0) for q in range(7)]
     for g in range(gr):
-        for q in range(6):
+        for q in range(n_kinds):
             _scan(heads[q], limits[q], g, sizes[q], kinds[q], raw, col_max, seq_len, values[q], index[q], filled[q])
     full_index, past_sorted, row_sorted, current_sorted = index[0], values[1], values[2], values[3]
     for j in range(n_queries):
@@ -278,6 +297,12 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
         sequence_distance[j] = values[4][j, 0]
         sequence_diagonal[j] = index[4][j, 0]
         sequence_max[j] = -values[5][j, 0]  # the smallest -S, as the numpy path's ``largest`` selection
+        for k in range(n_sequence):
+            sequence_values[j, k] = values[4][j, k]
+            sequence_index[j, k] = index[4][j, k]
+        for k in range(n_single):
+            single_values[j, k] = values[6][j, k]
+            single_index[j, k] = index[6][j, k]
 
 
 _COMPILED: dict[tuple[str, np.dtype], Any] = {}
@@ -303,8 +328,14 @@ def thread_count() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def empty_outputs(n_queries: int, n_ranks: int) -> dict[str, np.ndarray]:
-    """The arrays ``block_features`` returns, for ``n_queries`` queries and ``n_ranks`` ranks, to be filled."""
+# the candidates of the training-free scorers (method §12): the n smallest S and D[r, a] and their indices
+CANDIDATE_KEYS = ("sequence_candidates", "sequence_candidate_diagonals", "single_candidates",
+                  "single_candidate_references")
+
+
+def empty_outputs(n_queries: int, n_ranks: int, n_sequence: int = 0, n_single: int = 0) -> dict[str, np.ndarray]:
+    """The arrays ``block_features`` returns, for ``n_queries`` queries, ``n_ranks`` ranks and the ``n_sequence``
+    and ``n_single`` candidates (``CANDIDATE_KEYS``; widths of 0: none asked for), to be filled."""
     return {
         "attributes": np.empty((n_queries, n_ranks, 4)),
         "rank_diagonals": np.empty((n_queries, n_ranks), dtype=np.int64),
@@ -312,16 +343,23 @@ def empty_outputs(n_queries: int, n_ranks: int) -> dict[str, np.ndarray]:
         "sequence_diagonal": np.empty(n_queries, dtype=np.int64),
         "sequence_distance": np.empty(n_queries),
         "sequence_max": np.empty(n_queries),
+        "sequence_candidates": np.empty((n_queries, n_sequence)),
+        "sequence_candidate_diagonals": np.empty((n_queries, n_sequence), dtype=np.int64),
+        "single_candidates": np.empty((n_queries, n_single)),
+        "single_candidate_references": np.empty((n_queries, n_single), dtype=np.int64),
     }
 
 
 def column_blocks(raw: np.ndarray, col_max: np.ndarray, seq_len: int, n_ranks: int, margin: float,
-                  margin_raw: float, block_queries: int = BLOCK_QUERIES) -> dict[str, np.ndarray]:
+                  margin_raw: float, block_queries: int = BLOCK_QUERIES, n_sequence: int = 0,
+                  n_single: int = 0) -> dict[str, np.ndarray]:
     """``block`` over all queries of ``raw`` (R x W), in blocks of ``block_queries`` query columns on
-    ``thread_count()`` threads. The margins must hold for blocks of ``block_queries + L - 1`` columns."""
+    ``thread_count()`` threads, with ``n_sequence`` and ``n_single`` candidates (``empty_outputs``). The margins
+    must hold for blocks of ``block_queries + L - 1`` columns."""
     n_out = raw.shape[1] - seq_len + 1
-    out = empty_outputs(n_out, n_ranks)
-    keys = ("attributes", "rank_diagonals", "single_match", "sequence_diagonal", "sequence_distance", "sequence_max")
+    out = empty_outputs(n_out, n_ranks, n_sequence, n_single)
+    keys = ("attributes", "rank_diagonals", "single_match", "sequence_diagonal", "sequence_distance", "sequence_max",
+            *CANDIDATE_KEYS)
 
     block = compiled("block", raw.dtype)
 
