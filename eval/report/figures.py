@@ -229,3 +229,79 @@ def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
     fig.suptitle(wrapped(title, fig.get_figwidth()))
     fig.tight_layout(rect=(0, 0.12, 1, 1))
     return save(fig, path)
+
+
+# --- the training-free baselines (method §12) -------------------------------------------------------------------
+
+# one colour per scorer, the same in both baseline figures; the predictor stands out, the oracle is a ceiling
+SCORER_COLOURS = {"uniqueness": "tab:blue", "single_uniqueness": "tab:cyan", "spread": "tab:olive",
+                  "distance": "tab:gray", "random": "tab:pink", "oracle": "black", "predictor": "tab:orange"}
+
+
+def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any, title: str) -> Path:
+    """Each scorer's AOC reduction per method at the seed-0 predictor's budget (``report.baselines.baseline_rows``
+    of one dataset, mode and L): a group of bars per method, the training-free scorers first, the best of them
+    (``comparison.best``, edged) just before the predictor's bar; random as its mean over the seeds with the sample
+    standard deviation as an error bar; the oracle's reduction a dashed line over the group (the ceiling at that
+    budget). An undefined reduction has no bar and is named under the axis."""
+    plt = _pyplot()
+    methods = list(comparison.methods)
+    best = comparison.best
+    order = [name for name in SCORER_COLOURS if name not in ("oracle", "predictor", best)]
+    order += ([best] if best is not None else []) + ["predictor"]
+    by = {(r["method"], r["scorer"]): r for r in rows}
+    fig, ax = plt.subplots(figsize=(max(5.0, min(14.0, 0.55 * len(order) * len(methods) + 2.5)), 4.2))
+    width = 0.8 / len(order)
+    missing = []
+    for s, scorer in enumerate(order):
+        x = np.arange(len(methods)) - 0.4 + width * (s + 0.5)
+        values, errors = [], []
+        for method in methods:
+            row = by.get((method, scorer), {})
+            value = row.get("reduction_pct_mean" if scorer == "random" else "reduction_pct")
+            values.append(np.nan if value is None else float(value))
+            errors.append(row.get("reduction_pct_std") or 0.0 if scorer == "random" else 0.0)
+            if value is None and row:
+                missing.append(f"{method}: {scorer} ({SHORT.get(str(row.get('outcome')), 'undefined')})")
+        label = scorer + (" (best training-free)" if scorer == best else "")
+        ax.bar(x, values, width=width * 0.92, color=SCORER_COLOURS[scorer], label=label,
+               edgecolor="black", lw=1.2 if scorer in (best, "predictor") else 0.3,
+               yerr=errors if scorer == "random" else None, capsize=2)
+    for m, method in enumerate(methods):
+        ceiling = by.get((method, "oracle"), {}).get("reduction_pct")
+        if ceiling is not None:
+            ax.hlines(ceiling, m - 0.42, m + 0.42, colors="black", linestyles="--", lw=1.0,
+                      label="oracle (ceiling)" if m == 0 else None)
+    ax.axhline(0, color="black", lw=0.6)
+    ax.set_xticks(np.arange(len(methods)), methods, rotation=20, ha="right")
+    ax.set(ylabel="AOC reduction at the predictor's budget (%)", title=wrapped(title, fig.get_figwidth() - 0.6))
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=7)
+    note = ("undefined: " + "; ".join(missing)) if missing else ""
+    if note:
+        fig.text(0.01, 0.005, wrapped(note, fig.get_figwidth(), 7), fontsize=7, va="bottom")
+    fig.tight_layout(rect=(0, 0.16 if note else 0.1, 1, 1))
+    return save(fig, path)
+
+
+def detection_figure(path: Path, panels: Sequence[tuple[str, Any]], title: str) -> Path:
+    """Precision-recall curves of detecting the wrong sequence matches, one panel per method (``panels``: method
+    and its ``records.SplitBaselines``): each scorer's curve as the steps its average precision sums (random's first
+    seed), the fraction of wrong matches (a random ranking's expected precision) dotted."""
+    from vpr_smr.eval.scoring.baselines import SCORERS
+
+    fig, axes = _panels(len(panels))
+    for ax, (method, found) in zip(axes, panels, strict=True):
+        for scorer in (name for name in SCORERS if name in found.detection):
+            numbers = found.detection[scorer]
+            if numbers.curve is None or not numbers.curve.recall:
+                continue
+            recall = [0.0, *numbers.curve.recall]
+            precision = [numbers.curve.precision[0], *numbers.curve.precision]
+            ax.plot(recall, precision, drawstyle="steps-pre", color=SCORER_COLOURS.get(scorer), label=scorer,
+                    lw=1.6 if scorer == "predictor" else 1.0, ls="--" if scorer == "oracle" else "-")
+        ax.axhline(found.wrong_fraction, color="grey", lw=0.8, ls=":", label="fraction of wrong matches")
+        ax.set(title=wrapped(f"{method}\n{found.n_wrong} of {found.n_queries} matches wrong", 3.0),
+               xlabel="recall of wrong matches", ylim=(0, 1.02), xlim=(0, 1))
+    _finish(fig, axes, title, legend_size=7)
+    return save(fig, path)

@@ -275,8 +275,8 @@ def test_the_findings_in_words():
         "on average it helps 0 of 2 methods; it is undefined for m1."]
 
 
-SECTIONS = ("findings", "pr-curves", "trust-levels", "restoration", "sequence-length", "predictor", "table-ii",
-            "leave-one-method-out", "timing", "vpr-metrics", "match-inspector", "datasets", "provenance",
+SECTIONS = ("findings", "baselines", "pr-curves", "trust-levels", "restoration", "sequence-length", "predictor",
+            "table-ii", "leave-one-method-out", "timing", "vpr-metrics", "match-inspector", "datasets", "provenance",
             "configuration")
 
 
@@ -303,13 +303,14 @@ def test_a_switched_off_experiment_leaves_no_section(tmp_path):
     run, written = build_run(tmp_path, modes=("paper",), seq_lens=(4,), trust_levels=(), restoration=False,
                              ablations=False, metrics=False, inspector=False)
     page = (run / "report.html").read_text()
-    kept = ("findings", "pr-curves", "predictor", "timing", "datasets", "provenance", "configuration")
+    # the baselines always run in a workflow (no switch), as Table I does
+    kept = ("findings", "baselines", "pr-curves", "predictor", "timing", "datasets", "provenance", "configuration")
     for name in SECTIONS:
         assert (f'<section id="{name}">' in page) == (name in kept), name
         assert (f'href="#{name}"' in page) == (name in kept), name
     assert {p.name for p in written if p.suffix == ".csv"} == {
         "table1.csv", "predictor_methods.csv", "predictor_confusion.csv", "timing.csv", "predictor.csv",
-        "datasets.csv"}
+        "datasets.csv", "baselines.csv", "wrong_match_detection.csv"}
     for word in ("Trust level", "restoration", "Table II", "Leave one method out", "VPR metrics", "inspector"):
         assert word not in page.replace("Restoration", ""), word
 
@@ -486,7 +487,8 @@ def test_datasets_and_splits_keep_the_configurations_order(tmp_path):
 COMPACT = {"table1": "pr-d-4-paper", "restoration": "restoration-d-4-paper", "predictor_methods": "predictor-d-4",
            "predictor": "predictor-pooled-d", "leave_one_method_out": "lomo-d", "timing": "timing-d",
            "vpr_metrics": "metrics-d-4-paper", "table2": "table2-d-4", "trust_levels": "trust-d-4-paper",
-           "ablation_seq_len": "seq-len-d-paper", "speed": "speed-d-4"}
+           "ablation_seq_len": "seq-len-d-paper", "speed": "speed-d-4", "baselines": "baselines-d-4-paper",
+           "wrong_match_detection": "detection-d-4"}
 PAPER_LAYOUT = ("table1", "table2")  # their Markdown and LaTeX files have the paper's layout, not the columns
 
 
@@ -550,6 +552,12 @@ def test_every_declared_column_is_in_the_files_and_on_the_page(full_report_run):
             assert all(c.header in page for c in shown if c.note)
             continue
         assert headers == [(c.header, c.name if c.header != c.name else "") for c in shown], spec.name
+    # the baselines' compact tables: a row per scorer, a column per method (their own layout, no page columns)
+    for table_id in (COMPACT["baselines"], COMPACT["wrong_match_detection"]):
+        assert [text for text, _ in _headers(page, table_id)] == ["scorer", "m1", "m2"], table_id
+    scorers = [row[0] for row in _table_texts(page, COMPACT["wrong_match_detection"])[1:]]
+    assert scorers == ["uniqueness", "single_uniqueness", "spread", "distance", "random", "oracle", "predictor",
+                       "wrong fraction"]
     # a few of the labels, spelt out
     assert [text for text, _ in _headers(page, "pr-d-4-paper")] == [
         "method", "R@1 single", "R@1 sequence", "max recall", "AOC reduction (%)"]
