@@ -11,8 +11,9 @@ whose minimum lies within ``margin`` (twice the bound on the screening error, ``
 comparisons: equal values lowest index first, method §5's tie rule. Every group that can hold one of the ``K`` best
 exact values is scanned (the ``K``-th group minimum bounds the ``K``-th smallest screened value from above), so
 the result equals the numpy path's exactly; only the amount of work differs. The training-free scorers' candidates
-(method §12) come from the same scans: the ``n`` smallest ``S`` (the sequence match is the first of them) and the
-``n`` smallest raw values of the current column (kept exactly: their group minima need no margin).
+(method §12): the ``n`` smallest ``S`` come from the same scan (the sequence match is the first of them), bounded on
+the group minima and recomputed by parts of ``FINE`` diagonals; the ``n`` smallest raw values of the current column
+are exact already and are kept as the rows stream by (``_keep_smallest``), without a second read of the matrix.
 
 The kernels release the GIL: ``column_blocks`` runs blocks of query columns on a few threads.
 """
@@ -30,6 +31,13 @@ from numba.core.typing.templates import Signature
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # plain globals: numba freezes them at compile time
 
 GROUP = 32  # diagonals (rows) per screening group
+# The scorers' n smallest S keep a minimum per FINE diagonals besides the one per GROUP: the bound and the first test
+# stay on the GROUP minima, and within a group that passes only the parts that pass are recomputed. For n ~ 12, most
+# of the n groups a bound lets through hold one candidate: recomputing them whole cost +33 % of the kernel's time at
+# 3000 x 3000 (one thread), by parts +15 %; bounding on the FINE minima themselves costs as much in bookkeeping over
+# four times the groups.
+FINE = 8
+PARTS = GROUP // FINE
 BLOCK_QUERIES = 256  # query columns per kernel call (measured: 128 and 64 are slower)
 
 
@@ -76,7 +84,7 @@ def _diag(raw: np.ndarray, col_max: np.ndarray, d: int, j: int, n_terms: int, no
 @njit(cache=True, nogil=True)
 def _exact(raw: np.ndarray, col_max: np.ndarray, kind: int, i: int, j: int, seq_len: int) -> float:
     """The definition's float64 value of item ``i`` of query ``j``: kind 0 full_d, 1 past_d, 2 row sum of the
-    past, 3 current value, 4 S, 5 -S, 6 the raw current value ``D[i, a]``."""
+    past, 3 current value, 4 S, 5 -S."""
     if kind == 0:
         return _diag(raw, col_max, i, j, seq_len, True)
     if kind == 1:
@@ -91,9 +99,6 @@ def _exact(raw: np.ndarray, col_max: np.ndarray, kind: int, i: int, j: int, seq_
         return current
     if kind == 4:
         return _diag(raw, col_max, i, j, seq_len, False)
-    if kind == 6:
-        raw_current: float = np.float64(raw[i, j + seq_len - 1])
-        return raw_current
     return -_diag(raw, col_max, i, j, seq_len, False)
 
 
@@ -132,6 +137,54 @@ def _scan(heads: np.ndarray, limit: np.ndarray, g: int, n_values: int, kind: int
                 value = _exact(raw, col_max, kind, i, j, seq_len)
                 if filled[j] < count or value < values[j, count - 1]:  # most fail here: no insertion
                     filled[j] = _insert(values[j], index[j], filled[j], value, i)
+
+
+@njit(cache=True, nogil=True)
+def _scan_parts(heads: np.ndarray, parts: np.ndarray, limit: np.ndarray, g: int, n_values: int, kind: int,
+                raw: np.ndarray, col_max: np.ndarray, seq_len: int, values: np.ndarray, index: np.ndarray,
+                filled: np.ndarray) -> None:
+    """``_scan`` of group ``g`` recomputing only its parts (``FINE`` items each, minima ``parts``) within the limit."""
+    if g >= heads.shape[0]:
+        return
+    row = heads[g]
+    count = values.shape[1]
+    for j in range(len(row)):
+        if row[j] <= limit[j]:
+            for f in range(g * PARTS, min(parts.shape[0], (g + 1) * PARTS)):
+                if parts[f, j] <= limit[j]:
+                    for i in range(f * FINE, min(n_values, (f + 1) * FINE)):
+                        value = _exact(raw, col_max, kind, i, j, seq_len)
+                        if filled[j] < count or value < values[j, count - 1]:
+                            filled[j] = _insert(values[j], index[j], filled[j], value, i)
+
+
+@njit(cache=True, nogil=True)
+def _keep_smallest(current: np.ndarray, above: np.ndarray, r: int, values: np.ndarray, index: np.ndarray,
+                   filled: np.ndarray) -> None:
+    """Row ``r``'s value of each query (``current``) into its ``values.shape[1]`` smallest so far, kept ascending
+    with their rows (``_insert``: called for ascending ``r``, equal values keep the lowest row); ``above``: each
+    query's largest kept value once it keeps as many as it may (+inf before). Most rows enter no query's smallest:
+    one vectorised count first, the insertions only where one does."""
+    count = values.shape[1]
+    entering = 0
+    for j in range(len(current)):
+        entering += current[j] < above[j]
+    if entering == 0:
+        return
+    for j in range(len(current)):
+        if current[j] < above[j]:
+            filled[j] = _insert(values[j], index[j], filled[j], current[j], r)
+            if filled[j] == count:
+                above[j] = values[j, count - 1]
+
+
+@njit(cache=True, nogil=True)
+def _coarse(parts: np.ndarray, n_groups: int) -> np.ndarray:
+    """The minimum of every ``PARTS`` consecutive rows of ``parts``: the ``GROUP`` minima of ``FINE`` ones."""
+    out = np.full((n_groups, parts.shape[1]), np.inf)
+    for f in range(parts.shape[0]):
+        _minimum(out[f // PARTS], parts[f])
+    return out
 
 
 @njit(cache=True, nogil=True)
@@ -185,13 +238,18 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
     n_ranks = attributes.shape[1]
     n_sequence, n_single = sequence_values.shape[1], single_values.shape[1]
     gd, gr = (n_diag + GROUP - 1) // GROUP, (n_ref + GROUP - 1) // GROUP
+    # the smallest S by parts of FINE when candidates are asked for (the sequence match alone: by GROUP, as before)
+    s_size = FINE if n_sequence > 0 else GROUP
     h_full = np.full((gd, n_queries), np.inf)
     h_past = np.full((gd, n_queries), np.inf)
-    h_smin = np.full((gd, n_queries), np.inf)
+    h_smin = np.full(((n_diag + s_size - 1) // s_size, n_queries), np.inf)
     h_smax = np.full((gd, n_queries), np.inf)  # holds -max, so that the same selection finds it
     h_row = np.full((gr, n_queries), np.inf)
     h_cur = np.full((gr, n_queries), np.inf)
-    h_raw = np.full((gr if n_single > 0 else 0, n_queries), np.inf)  # the raw current values, for the candidates
+    # the single-frame candidates: exact values, kept as the rows stream by (ascending r: ties lowest r first);
+    # ``above`` is each query's n-th smallest so far once it has n (+inf before), which a new value must be below
+    filled_single = np.zeros(n_queries, dtype=np.int64)
+    above = np.full(n_queries, np.inf)
     ring = seq_len + 1
     t = np.zeros((ring, width + 1))  # t[r % ring, c + 1]: sum along the diagonal ending at (r, c); t[:, 0] = 0
     v = np.zeros((ring, width + 1))
@@ -240,7 +298,7 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
             head[j] = a if a < head[j] else head[j]
         _minimum(h_cur[g], x[seq_len - 1 :])
         if n_single > 0:
-            _minimum(h_raw[g], y[seq_len - 1 :])
+            _keep_smallest(y[seq_len - 1 :], above, r, single_values, single_index, filled_single)
         current = row[seq_len - 1 :]
         for j in range(n_queries):
             if current[j] < best[j]:
@@ -258,7 +316,7 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
             for j in range(n_queries):
                 a = tpl[j] - to[j]
                 head[j] = a if a < head[j] else head[j]
-            head = h_smin[g]
+            head = h_smin[(r - seq_len + 1) // s_size]
             for j in range(n_queries):
                 a = vcl[j] - vo[j]
                 head[j] = a if a < head[j] else head[j]
@@ -270,19 +328,26 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
     # Exact recomputation: every kind's candidates of group g together, so that g's rows are read once. The
     # smallest S are as many as the candidates asked for (the first is the sequence match); the raw current values
     # are exact already (their margin is 0) and scanned only when candidates are asked for.
-    heads = (h_full, h_past, h_row, h_cur, h_smin, h_smax, h_raw)
-    counts = (n_ranks, n_ranks, n_ranks, n_ranks, max(1, n_sequence), 1, n_single)
-    sizes = (n_diag, n_diag, n_ref, n_ref, n_diag, n_diag, n_ref)
-    kinds = (0, 1, 2, 3, 4, 5, 6)
-    margins = (margin, margin, margin, margin, margin_raw, margin_raw, 0.0)
-    n_kinds = 7 if n_single > 0 else 6
+    p_smin = h_smin  # the parts of S, with candidates; their group minima are the heads
+    if n_sequence > 0:
+        h_smin = _coarse(p_smin, gd)
+    heads = (h_full, h_past, h_row, h_cur, h_smin, h_smax)
+    counts = (n_ranks, n_ranks, n_ranks, n_ranks, max(1, n_sequence), 1)
+    sizes = (n_diag, n_diag, n_ref, n_ref, n_diag, n_diag)
+    kinds = (0, 1, 2, 3, 4, 5)
+    margins = (margin, margin, margin, margin, margin_raw, margin_raw)
     values = [np.empty((n_queries, c)) for c in counts]
     index = [np.empty((n_queries, c), dtype=np.int64) for c in counts]
     filled = [np.zeros(n_queries, dtype=np.int64) for _ in counts]
-    limits = [_limits(heads[q], counts[q], margins[q]) if q < n_kinds else np.empty(0) for q in range(7)]
+    limits = [_limits(heads[q], counts[q], margins[q]) for q in range(6)]
     for g in range(gr):
-        for q in range(n_kinds):
-            _scan(heads[q], limits[q], g, sizes[q], kinds[q], raw, col_max, seq_len, values[q], index[q], filled[q])
+        for q in range(6):
+            if q == 4 and n_sequence > 0:
+                _scan_parts(heads[q], p_smin, limits[q], g, sizes[q], kinds[q], raw, col_max, seq_len, values[q],
+                            index[q], filled[q])
+            else:
+                _scan(heads[q], limits[q], g, sizes[q], kinds[q], raw, col_max, seq_len, values[q], index[q],
+                      filled[q])
     full_index, past_sorted, row_sorted, current_sorted = index[0], values[1], values[2], values[3]
     for j in range(n_queries):
         for k in range(n_ranks):
@@ -300,9 +365,6 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
         for k in range(n_sequence):
             sequence_values[j, k] = values[4][j, k]
             sequence_index[j, k] = index[4][j, k]
-        for k in range(n_single):
-            single_values[j, k] = values[6][j, k]
-            single_index[j, k] = index[6][j, k]
 
 
 _COMPILED: dict[tuple[str, np.dtype], Any] = {}
