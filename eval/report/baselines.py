@@ -130,25 +130,35 @@ def best_scorer(rows: Iterable[dict[str, Any]]) -> dict[str, Any] | None:
     return max(candidates, key=lambda r: (headline(r), -SCORERS.index(r["scorer"])))
 
 
-def best_by_row(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], dict[str, Any]]:
-    """Per (dataset, method, L, mode) of ``baseline_rows``, the best training-free scorer's row."""
+def _groups(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], list[dict[str, Any]]]:
+    """``baseline_rows`` by (dataset, method, L, mode)."""
     groups: dict[tuple[str, str, int, str], list[dict[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), []).append(row)
-    return {key: best for key, group in groups.items() if (best := best_scorer(group)) is not None}
+    return groups
+
+
+def best_by_row(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], dict[str, Any]]:
+    """Per (dataset, method, L, mode) of ``baseline_rows``, the best training-free scorer's row."""
+    return {key: best for key, group in _groups(rows).items() if (best := best_scorer(group)) is not None}
 
 
 def with_best(table_rows: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """The sequence-length ablation's rows (Table I's) with the best training-free scorer of each (dataset,
     method, L, mode) beside the predictor: ``best_scorer``, its ``best_scorer_reduction_pct`` and the outcome that
-    says why it is undefined (``best_scorer_outcome``, not a column)."""
-    best = best_by_row(rows)
+    says why it is undefined (``best_scorer_outcome``, not a column: where no training-free reduction is defined,
+    the outcome they share, e.g. nothing to reduce, and no scorer)."""
+    groups = _groups(rows)
     out = []
     for row in table_rows:
-        found = best.get((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]))
-        extra = {} if found is None else {
-            "best_scorer": found["scorer"], "best_scorer_reduction_pct": headline(found),
-            "best_scorer_outcome": found["outcome"]}
+        group = groups.get((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), [])
+        found = best_scorer(group)
+        if found is not None:
+            extra = {"best_scorer": found["scorer"], "best_scorer_reduction_pct": headline(found),
+                     "best_scorer_outcome": found["outcome"]}
+        else:
+            outcomes = {r["outcome"] for r in group if r["scorer"] in TRAINING_FREE}
+            extra = {"best_scorer_outcome": outcomes.pop()} if len(outcomes) == 1 else {}
         out.append({**row, **extra})
     return out
 

@@ -241,6 +241,9 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
     oracle = comparison.oracle_mean
     if oracle is not None:
         text += f"; oracle removal at the same budget would reduce the AOC by {size(oracle)}"
-        if n > 1:
+        defined = sum(value is not None for value in comparison.oracle)
+        if defined < n:
+            text += f" (mean over the {methods(defined)} where it is defined)"
+        elif n > 1:
             text += " (mean over the methods)"
     return text + "."

@@ -568,3 +568,36 @@ def test_every_declared_column_is_in_the_files_and_on_the_page(full_report_run):
         "prediction (ms)", "ms_predict_per_query")
     assert [text for text, _ in _headers(page, "metrics-d-4-paper")][3:] == [
         "R@1", "R@5", "R@10", "R@20", "R@100P", "PR-AUC", "EP"]
+
+
+def test_the_baselines_sentence_is_computed_from_the_numbers():
+    from vpr_smr.eval.report.baselines import best_scorer, comparisons, with_best
+    from vpr_smr.eval.report.findings import baseline_sentence
+
+    # reductions at the seed-0 budget per method (a, b, c); random is compared by its mean over the seeds
+    numbers = {"uniqueness": (30.0, 10.0, 2.0), "single_uniqueness": (5.0, 40.0, -1.0), "spread": (-3.0, -2.0, -9.0),
+               "distance": (0.0, 0.0, 0.0), "random": (1.0, 2.0, 3.0), "oracle": (90.0, 95.0, None),
+               "predictor": (50.0, 20.0, 2.0)}
+    rows = [{"dataset": "d", "method": method, "seq_len": 4, "mode": "paper", "scorer": scorer, "budget": 7,
+             "reduction_pct": values[i], "reduction_pct_mean": 60.0 if scorer == "random" else values[i],
+             "outcome": "improved" if values[i] is not None else "nothing_to_reduce"}
+            for scorer, values in numbers.items() for i, method in enumerate("abc")]
+    (found,) = comparisons(rows)
+    # means over the methods: uniqueness 14.0, single_uniqueness 14.67, spread -4.67, distance 0, random 60 (its mean)
+    assert found.best == "random" and found.best_values == (60.0, 60.0, 60.0)
+    assert found.beaten == 0 and found.oracle == (90.0, 95.0, None)
+    assert baseline_sentence(found, "test") == (
+        "On d (test split, L = 4, paper mode), at the seed-0 predictor's budget the predictor beats the best "
+        "training-free scorer (random, mean reduction 60.0 %) for 0 of 3 methods; oracle removal at the same budget "
+        "would reduce the AOC by 92.5 % (mean over the 2 methods where it is defined).")
+    rows = [dict(r, reduction_pct_mean=r["reduction_pct"]) for r in rows]  # random's mean now its seed-0 number
+    (found,) = comparisons(rows)  # random's mean 2.0 now: single_uniqueness (14.67) is the best
+    assert found.best == "single_uniqueness" and found.beaten == 2  # a: 50 > 5, c: 2 > -1; not b: 20 < 40
+    assert baseline_sentence(found, "test").startswith(
+        "On d (test split, L = 4, paper mode), at the seed-0 predictor's budget the predictor beats the best "
+        "training-free scorer (single_uniqueness, mean reduction 14.7 %) for 2 of 3 methods;")
+    # per row of the sequence-length ablation: the best training-free scorer of that method
+    assert best_scorer([r for r in rows if r["method"] == "a"])["scorer"] == "uniqueness"
+    assert best_scorer([r for r in rows if r["method"] == "b"])["scorer"] == "single_uniqueness"
+    (row,) = with_best([{"dataset": "d", "method": "c", "seq_len": 4, "mode": "paper"}], rows)
+    assert (row["best_scorer"], row["best_scorer_reduction_pct"]) == ("random", 3.0)
