@@ -85,7 +85,8 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
                 rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
                              "scorer": scorer, "budget": first.budget, "removed": first.scorers[scorer].removed,
                              "max_recall": numbers.max_recall, "aoc_vpr_sm": numbers.aoc_vpr_sm,
-                             "aoc": numbers.aoc_vpr_sm_pred, "reduction_pct": numbers.reduction_pct,
+                             "aoc": numbers.aoc_vpr_sm_pred, "auc": numbers.auc_vpr_sm_pred,
+                             "reduction_pct": numbers.reduction_pct,
                              "outcome": numbers.outcome, "reduction_pct_mean": mean, "reduction_pct_std": std,
                              "reduction_pct_min": low, "reduction_pct_max": high, "n_seeds": len(values),
                              "n_seeds_defined": defined, "n_queries": found.n_queries})
@@ -145,9 +146,10 @@ def best_by_row(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str
 
 def with_best(table_rows: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
     """The sequence-length ablation's rows (Table I's) with the best training-free scorer of each (dataset,
-    method, L, mode) beside the predictor: ``best_scorer``, its ``best_scorer_reduction_pct`` and the outcome that
-    says why it is undefined (``best_scorer_outcome``, not a column: where no training-free reduction is defined,
-    the outcome they share, e.g. nothing to reduce, and no scorer)."""
+    method, L, mode) beside the predictor: ``best_scorer``, its ``best_scorer_reduction_pct``, and (not columns)
+    the outcome that says why it is undefined (``best_scorer_outcome``: where no training-free reduction is
+    defined, the outcome they share, e.g. nothing to reduce, and no scorer) and its PR AUC at the seed-0 budget
+    (``best_scorer_auc``, which the sequence-length figure marks)."""
     groups = _groups(rows)
     out = []
     for row in table_rows:
@@ -155,7 +157,7 @@ def with_best(table_rows: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any
         found = best_scorer(group)
         if found is not None:
             extra = {"best_scorer": found["scorer"], "best_scorer_reduction_pct": headline(found),
-                     "best_scorer_outcome": found["outcome"]}
+                     "best_scorer_outcome": found["outcome"], "best_scorer_auc": found.get("auc")}
         else:
             outcomes = {r["outcome"] for r in group if r["scorer"] in TRAINING_FREE}
             extra = {"best_scorer_outcome": outcomes.pop()} if len(outcomes) == 1 else {}

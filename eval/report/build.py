@@ -623,7 +623,10 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
                                     f"{dataset}, L={seq_len}: all methods ({split})")
         keep("confusion", f"{dataset}, L={seq_len}", path, dataset, seq_len)
     if inputs.seq_len_ablation and inputs.evaluations:
-        figures += _seq_len_figures(out_dir, table1_rows(inputs.evaluations, split, order=order), order)
+        rows = table1_rows(inputs.evaluations, split, order=order)
+        if inputs.baselines:  # the best training-free scorer's PR AUC marked beside the predictor's bar
+            rows = with_best(rows, baseline_rows(inputs.baselines, split, order=order))
+        figures += _seq_len_figures(out_dir, rows, order)
     if inputs.baselines:
         figures += _baseline_figures(out_dir, inputs)
     if inputs.speed:
@@ -692,13 +695,18 @@ def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order) ->
         seq_lens = sorted({int(r["seq_len"]) for r in group})
         bottoms = np.full((len(methods), len(seq_lens)), np.nan)
         tops = np.full_like(bottoms, np.nan)
+        best = np.full_like(bottoms, np.nan)
         for r in group:
             i, j = methods.index(r["method"]), seq_lens.index(int(r["seq_len"]))
             bottoms[i, j], tops[i, j] = r["auc_vpr_sm"], r["auc_vpr_sm_pred"]
+            if r.get("best_scorer_auc") is not None:
+                best[i, j] = r["best_scorer_auc"]
         title = f"{dataset}, {mode} mode\nPR AUC, VPR+SM (bar bottom) -> VPR+SM+Pred (top)"
         spec = registry.figure("seq_len")
         path = fig.change_bars(out_dir / spec.file(dataset=dataset, mode=mode), methods, [f"L{s}" for s in seq_lens],
-                               np.nan_to_num(bottoms), np.nan_to_num(tops), title)
+                               np.nan_to_num(bottoms), np.nan_to_num(tops), title,
+                               markers=best if not np.isnan(best).all() else None,
+                               marker_label="best training-free scorer at the predictor's budget")
         out.append(WrittenFigure("seq_len", f"{spec.title}: {dataset}, {mode} mode", path, dataset, mode=mode))
     return out
 

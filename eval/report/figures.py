@@ -122,9 +122,11 @@ def confusion_figure(path: Path, matrix: np.ndarray, title: str) -> Path:
 
 
 def change_bars(path: Path, methods: Sequence[str], groups: Sequence[str], bottoms: np.ndarray, tops: np.ndarray,
-                title: str, ylabel: str = "PR AUC") -> Path:
+                title: str, ylabel: str = "PR AUC", markers: np.ndarray | None = None,
+                marker_label: str = "") -> Path:
     """One bar per method and group (e.g. sequence length) from ``bottoms[m, g]`` to ``tops[m, g]``: green when
-    the top is higher, red when lower (the paper's sequence-length figure)."""
+    the top is higher, red when lower (the paper's sequence-length figure); ``markers[m, g]`` (NaN: none), e.g. the
+    best training-free scorer's value, a black cross on its bar (``marker_label`` in a legend)."""
     plt = _pyplot()
     n_methods, n_groups = len(methods), len(groups)
     fig, ax = plt.subplots(figsize=(max(4.0, min(12.0, 0.3 * n_methods * n_groups + 2)), 3.8))
@@ -134,14 +136,19 @@ def change_bars(path: Path, methods: Sequence[str], groups: Sequence[str], botto
         height = tops[:, g] - bottoms[:, g]
         colours = [UP if h >= 0 else DOWN for h in height]
         ax.bar(x, height, width=width * 0.9, bottom=bottoms[:, g], color=colours, edgecolor="black", lw=0.4)
+        if markers is not None:
+            ax.plot(x, markers[:, g], "x", color="black", ms=5, mew=1.2, label=marker_label if g == 0 else None)
         if n_groups > 1:
             for xi, top in zip(x, np.maximum(tops[:, g], bottoms[:, g]), strict=True):
                 ax.text(xi, top, str(group), ha="center", va="bottom", fontsize=6)
     ax.set_xticks(np.arange(n_methods), list(methods), rotation=30, ha="right")
-    low, high = float(np.min([bottoms, tops])), float(np.max([bottoms, tops]))
+    shown = [bottoms, tops] + ([markers[~np.isnan(markers)]] if markers is not None else [])
+    low, high = min(float(np.min(a)) for a in shown if a.size), max(float(np.max(a)) for a in shown if a.size)
     pad = max(0.02, 0.1 * (high - low))
     ax.set(ylabel=ylabel, title=wrapped(title, fig.get_figwidth() - 0.6),
            ylim=(max(0.0, low - pad), min(1.05, high + pad)))
+    if markers is not None and marker_label:
+        ax.legend(loc="best", fontsize=7)
     fig.tight_layout()
     return save(fig, path)
 

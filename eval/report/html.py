@@ -197,6 +197,29 @@ def scorer_table(table_id: str, rows: Sequence[dict[str, Any]], value: str, capt
     return TableView(table_id, head, tuple(body), caption=caption)
 
 
+def best_scorer_table(table_id: str, rows: Sequence[dict[str, Any]]) -> TableView:
+    """The sequence-length ablation's best training-free scorer beside the predictor: a row per L, a column per
+    method, each cell the scorer and its reduction (%), then the predictor's."""
+    methods = unique(str(r["method"]) for r in rows)
+    lens = sorted({int(r["seq_len"]) for r in rows})
+    by = {(int(r["seq_len"]), str(r["method"])): r for r in rows}
+    head = (Column("L"), *(Column(m, "text") for m in methods))
+    body = []
+    for seq_len in lens:
+        cells = []
+        for method in methods:
+            row = by.get((seq_len, method), {})
+            value = row.get("best_scorer_reduction_pct")
+            best = (f"{row['best_scorer']} {value:.2f}" if value is not None and row.get("best_scorer")
+                    else f"{UNDEFINED}: {words.SHORT[row['best_scorer_outcome']]}"
+                    if row.get("best_scorer_outcome") in words.SHORT else UNDEFINED)
+            predictor = row.get("reduction_pct")
+            cells.append(text_cell(f"{best} · predictor {UNDEFINED if predictor is None else f'{predictor:.2f}'}"))
+        body.append((cell(seq_len, "seq_len"), *cells))
+    return TableView(table_id, head, tuple(body), caption="The best training-free scorer's AOC reduction (%) beside "
+                     "the predictor's, per sequence length (rows) and method (columns)")
+
+
 # --- Table I and the findings -----------------------------------------------------------------------------------
 
 
@@ -390,11 +413,16 @@ class _Builder:
             return None
         blocks = []
         for f in self.named("seq_len"):
-            table = pivot(anchor("seq-len", f.dataset, f.mode), self.of(f, rows), registry.table("ablation_seq_len"))
-            blocks.append(Block(self._title(f), (self.figure(f),), (table,)))
-        return Section("sequence-length", "Sequence-length ablation", (
-            "PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
-            "green where the predictor helps, red where it hurts.",), tuple(blocks), self.folded("ablation_seq_len"))
+            shown = self.of(f, rows)
+            tables = [pivot(anchor("seq-len", f.dataset, f.mode), shown, registry.table("ablation_seq_len"))]
+            if any(r.get("best_scorer") for r in shown):
+                tables.append(best_scorer_table(anchor("seq-len-best", f.dataset, f.mode), shown))
+            blocks.append(Block(self._title(f), (self.figure(f),), tuple(tables)))
+        intro = ("PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
+                 "green where the predictor helps, red where it hurts; a cross marks the best training-free scorer's "
+                 "PR AUC at the predictor's budget (method §12), whose name and reduction the second table gives.")
+        return Section("sequence-length", "Sequence-length ablation", (intro,), tuple(blocks),
+                       self.folded("ablation_seq_len"))
 
     def speed(self) -> Section | None:
         rows = self.rows("speed")
