@@ -217,7 +217,10 @@ def _baseline_settings(args: argparse.Namespace) -> Any:
 
     if getattr(args, "no_baselines", False):
         return None
-    return BaselineSettings(args.r_window, args.spread_k)
+    try:
+        return BaselineSettings(args.r_window, args.spread_k)
+    except ValueError as error:  # the settings' names as this command spells them
+        raise ValueError(f"--r-window {args.r_window}, --spread-k {args.spread_k}: {error}") from None
 
 
 def _matcher(args: argparse.Namespace) -> Any:

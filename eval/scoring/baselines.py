@@ -102,15 +102,16 @@ def spread_positions(truth: GroundTruth) -> np.ndarray:
     return np.arange(truth.shape[0], dtype=np.float64)
 
 
-def check_candidates(features: QueryFeatures, settings: BaselineSettings, where: str) -> None:
+def check_candidates(features: QueryFeatures, settings: BaselineSettings, where: str, other_fix: str = "") -> None:
     """ValueError naming ``where`` (the attributes file) when it keeps fewer candidates per query than the
-    scorers' settings need."""
+    scorers' settings need (``other_fix``: another way out the stage offers, said after the first)."""
     held, needed = features.n_candidates, settings.candidates
     if held < needed:
         what = "no candidates" if held == 0 else f"{held} candidates per query"
         raise ValueError(f"{where} holds {what} for the training-free scorers, but r_window {settings.r_window} and "
                          f"spread_k {settings.spread_k} need {needed} (the smallest S and D values of each query): "
-                         f"compute the attributes again with vpr-smr attributes --candidates {needed}")
+                         f"compute the attributes again with vpr-smr attributes --candidates {needed}"
+                         + (f", {other_fix}" if other_fix else ""))
 
 
 # --- the scorers ----------------------------------------------------------------------------------------------

@@ -466,7 +466,8 @@ def _score_all(
                 raise ValueError(f"{path}: {error}; give a --seq-len of at most {min(matrix.shape)}") from None
             features = read_features(attributes_file) if attributes_file is not None else None
             if features is not None and baselines is not None:
-                check_candidates(features, baselines, str(attributes_file))
+                check_candidates(features, baselines, str(attributes_file),
+                                 "leave --attributes out (they are computed here), or give --no-baselines")
             truth = split_ground_truth(path, tuple(matrix.shape), tolerance, matcher.radius,
                                        matcher.reference_positions, matcher.query_positions, file_truth)
             recorded = truth.provenance() if recorded is None else recorded
