@@ -706,7 +706,7 @@ def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order) ->
         path = fig.change_bars(out_dir / spec.file(dataset=dataset, mode=mode), methods, [f"L{s}" for s in seq_lens],
                                np.nan_to_num(bottoms), np.nan_to_num(tops), title,
                                markers=best if not np.isnan(best).all() else None,
-                               marker_label="best training-free scorer at the predictor's budget")
+                               marker_label="best training-free scorer, same budget (compare with the bar top)")
         out.append(WrittenFigure("seq_len", f"{spec.title}: {dataset}, {mode} mode", path, dataset, mode=mode))
     return out
 

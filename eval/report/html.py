@@ -419,8 +419,10 @@ class _Builder:
                 tables.append(best_scorer_table(anchor("seq-len-best", f.dataset, f.mode), shown))
             blocks.append(Block(self._title(f), (self.figure(f),), tuple(tables)))
         intro = ("PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
-                 "green where the predictor helps, red where it hurts; a cross marks the best training-free scorer's "
-                 "PR AUC at the predictor's budget (method §12), whose name and reduction the second table gives.")
+                 "green where the predictor helps, red where it hurts; a cross marks the PR AUC of the best "
+                 "training-free scorer removing as many matches as the predictor (method §12): compare it with the "
+                 "bar's top, each over its own curve; the second table gives its name and AOC reduction beside the "
+                 "predictor's.")
         return Section("sequence-length", "Sequence-length ablation", (intro,), tuple(blocks),
                        self.folded("ablation_seq_len"))
 
