@@ -1,7 +1,9 @@
 """Facts of the method that several stages use, each set here once (docs/method.md sections cited per constant).
 
-Plain module-level values (ints, floats, tuples of them): the compiled kernels (``eval.matching.kernels``) read
-``EPS`` and ``GROUP_HALF_WIDTH`` as globals, which numba freezes at compile time.
+Plain module-level values (ints, floats, tuples of them), and the two rules of the training-free scorers' window
+that the attributes stage, the scorers and the workflow share (``half_window``, ``candidates_needed``): the compiled
+kernels (``eval.matching.kernels``) read ``EPS`` and ``GROUP_HALF_WIDTH`` as globals, which numba freezes at compile
+time.
 """
 
 from __future__ import annotations
@@ -30,6 +32,31 @@ DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)
 # method §11: velocities (reference frames per query frame) searched by sequence matching; (1.0,) is method §4's fixed
 # slope-1 matcher, the paper's. pipeline/config_schema.json repeats it as `sequence_matching.velocities`' default.
 DEFAULT_VELOCITIES = (1.0,)
+
+# method §12: the training-free scorers' settings; pipeline/config_schema.json repeats them as the `baselines`
+# defaults, and tests/unit/test_config.py checks that both agree. uniqueness looks for the smallest S outside the
+# window |r - r*| <= r_window / 2 around the sequence match (OpenSeqSLAM2's rWindow); spread takes the K best end
+# references.
+DEFAULT_R_WINDOW = 10
+DEFAULT_SPREAD_K = 10
+
+
+def half_window(r_window: int) -> int:
+    """``w``: uniqueness looks outside ``|r - r*| <= w`` (method §12). OpenSeqSLAM2 excludes ``|r - r*| <=
+    r_window / 2``, which for whole references is ``floor(r_window / 2)`` (a ``round`` agrees for an even
+    ``r_window``; Python's and MATLAB's ``round`` would disagree with each other for an odd one)."""
+    if int(r_window) != r_window or r_window < 0:
+        raise ValueError(f"r_window is a number of reference frames >= 0, got {r_window}")
+    return int(r_window) // 2
+
+
+def candidates_needed(r_window: int = DEFAULT_R_WINDOW, spread_k: int = DEFAULT_SPREAD_K) -> int:
+    """How many of the smallest ``S`` (and ``D``) values per query the training-free scorers need (method §12):
+    the smallest ``S`` outside a window of at most ``2 w + 1`` references is among the ``2 w + 2`` smallest, and
+    spread takes the ``K`` smallest."""
+    if int(spread_k) != spread_k or spread_k < 1:
+        raise ValueError(f"spread_k is a number of end references >= 1, got {spread_k}")
+    return max(2 * half_window(r_window) + 2, int(spread_k))
 
 # The layout of the result files (predictors, evaluations, the speed experiment's): a job param of the rules that
 # write them, so that a run made by an earlier layout writes them again instead of failing to read them; every result

@@ -70,6 +70,11 @@ def vpr_metrics_path(run: Path | str, dataset: str, method: str, seq_len: int | 
     return f"{run}/metrics/{dataset}/{method}/L{seq_len}.json"
 
 
+def baselines_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
+    """The training-free baselines of one method at one L (``vpr-smr baselines``, method §12), every evaluated split."""
+    return f"{run}/baselines/{dataset}/{method}/L{seq_len}.json"
+
+
 def queries_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
     """One row per evaluated query of every evaluated split: matches, distances, attributes, label, prediction."""
     return f"{run}/queries/{dataset}/{method}/L{seq_len}.csv"

@@ -11,7 +11,14 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, METRICS, MODES
+from vpr_smr.core.constants import (
+    DEFAULT_R_WINDOW,
+    DEFAULT_SPREAD_K,
+    DEFAULT_TOLERANCE,
+    DEFAULT_VELOCITIES,
+    METRICS,
+    MODES,
+)
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix, package_version
 from vpr_smr.pipeline.config import ConfigError, load_config, schema_default
 from vpr_smr.pipeline.console import LOG_FORMAT
@@ -77,7 +84,8 @@ def cmd_attributes(args: argparse.Namespace) -> None:
                     radius=args.radius, reference_positions=args.reference_positions,
                     query_positions=args.query_positions, similarity=args.similarity, key=args.key,
                     transpose=args.transpose, ground_truth=args.ground_truth,
-                    ground_truth_key=args.ground_truth_key)
+                    ground_truth_key=args.ground_truth_key,
+                    n_candidates=attributes.DEFAULT_CANDIDATES if args.candidates is None else args.candidates)
 
 
 def _check_seq_len(args: argparse.Namespace, *groups: Iterable[str] | None) -> None:
@@ -172,8 +180,11 @@ def cmd_metrics(args: argparse.Namespace) -> None:
                               modes=tuple(args.modes), queries=args.queries, meta=meta,
                               allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
                               similarity=args.similarity, key=args.key, transpose=args.transpose,
-                              sweep=args.sweep)
+                              sweep=args.sweep, baselines=_baseline_settings(args))
     print(vpr_metrics.format_metrics(result))
+    found = vpr_metrics.format_baselines(result)
+    if found:
+        print(f"\ntraining-free scorers (method §12; r_window {args.r_window}, spread_k {args.spread_k}):\n{found}")
 
 
 def cmd_queries(args: argparse.Namespace) -> None:
@@ -182,7 +193,34 @@ def cmd_queries(args: argparse.Namespace) -> None:
     vpr_metrics.queries_main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
                              predictor=args.predictor, attributes=_split_paths(args.attributes or []),
                              allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
-                             similarity=args.similarity, key=args.key, transpose=args.transpose)
+                             similarity=args.similarity, key=args.key, transpose=args.transpose,
+                             baselines=_baseline_settings(args))
+
+
+def cmd_baselines(args: argparse.Namespace) -> None:
+    from vpr_smr.eval.scoring import vpr_metrics
+
+    attributes = _split_paths(args.attributes)
+    _check_seq_len(args, attributes.values())
+    settings = _baseline_settings(args)
+    assert settings is not None  # the baselines command has no --no-baselines
+    vpr_metrics.baselines_main(_split_paths(args.distances, "--distances"), attributes, args.predictors,
+                               args.seq_len, args.tolerance, args.out, settings, tuple(args.modes),
+                               meta={"dataset": args.dataset, "method": args.method},
+                               allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
+                               similarity=args.similarity, key=args.key, transpose=args.transpose)
+
+
+def _baseline_settings(args: argparse.Namespace) -> Any:
+    """The scorers' settings of ``_baseline_options`` (``baselines.BaselineSettings``), None with --no-baselines."""
+    from vpr_smr.eval.scoring.baselines import BaselineSettings
+
+    if getattr(args, "no_baselines", False):
+        return None
+    try:
+        return BaselineSettings(args.r_window, args.spread_k)
+    except ValueError as error:  # the settings' names as this command spells them
+        raise ValueError(f"--r-window {args.r_window}, --spread-k {args.spread_k}: {error}") from None
 
 
 def _matcher(args: argparse.Namespace) -> Any:
@@ -258,7 +296,7 @@ def cmd_report(args: argparse.Namespace) -> None:
     written = report.main(args.out, args.evaluations, args.predictors, args.attribute_ablations or (),
                           args.leave_one_out or (), timings=args.timings or (), metrics=args.metrics or (),
                           match_figures=args.match_figures or (), matrix_figures=args.matrix_figures or (),
-                          speed=args.speed or (),
+                          speed=args.speed or (), baselines=args.baselines or (),
                           split=args.split, eval_splits=args.eval_splits, train_split=args.train_split,
                           table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
                           config=_json_object(args.settings, "--settings") if args.settings else None,
@@ -384,6 +422,7 @@ OUT_FILES = {
     "ablation attributes": ("the attribute ablation (JSON)", JSON_SUFFIXES),
     "ablation without": ("the predictor (HDF5; its report goes beside it as .json)", HDF5_SUFFIXES),
     "ablation held-out": ("the leave-one-method-out evaluation (JSON)", JSON_SUFFIXES),
+    "baselines": ("the training-free baselines (JSON)", JSON_SUFFIXES),
     "speed": ("the speed experiment's result (JSON)", JSON_SUFFIXES),
 }
 
@@ -435,6 +474,20 @@ def _matcher_options(parser: argparse.ArgumentParser) -> None:
                              "the file's only 2-D numeric one)")
     parser.add_argument("--transpose", action="store_true",
                         help="the matrix file is queries x references (vpr-smr reads references x queries)")
+
+
+def _baseline_options(parser: argparse.ArgumentParser, switch: bool = True) -> None:
+    """The training-free scorers' settings (method §12); ``switch``: also --no-baselines."""
+    parser.add_argument("--r-window", type=int, default=DEFAULT_R_WINDOW, metavar="FRAMES",
+                        help="uniqueness: the smallest sequence distance outside |r - r*| <= r_window / 2 of the "
+                             f"match, over the match's (OpenSeqSLAM2's rWindow; default {DEFAULT_R_WINDOW})")
+    parser.add_argument("--spread-k", type=int, default=DEFAULT_SPREAD_K, metavar="K",
+                        help="spread: the spread of the K best end references' positions (default "
+                             f"{DEFAULT_SPREAD_K})")
+    if switch:
+        parser.add_argument("--no-baselines", action="store_true",
+                            help="leave out the training-free scorers (needed for --attributes files computed "
+                                 "with --candidates 0)")
 
 
 def _matrix_options(parser: argparse.ArgumentParser, predictor_help: str) -> None:
@@ -602,6 +655,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--distances", required=True, help="our .h5, or a references x queries .npy, .npz or .mat")
     p.add_argument("--seq-len", type=int, required=True)
     _matcher_options(p)
+    p.add_argument("--candidates", type=int, default=None, metavar="N",
+                   help="the .h5 keeps the N smallest sequence and single-frame distances of each query, which the "
+                        "training-free scorers (method §12) need: at least max(2 floor(r_window / 2) + 2, spread_k) "
+                        "(default 12: that of the default settings; 0: none)")
     p.add_argument("--out", required=True, help=".csv (query,A1,A2,A3,A4,label) or .h5 (everything)")
     p.set_defaults(func=cmd_attributes)
 
@@ -648,6 +705,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "(radii 5, 10, 25, 50 with positions): how the conclusions depend on the protocol")
     p.add_argument("--dataset", help="the dataset's name, written in the metrics' meta")
     p.add_argument("--method", help="the method's name, written in the metrics' meta")
+    _baseline_options(p)
     _required(p, "--out")
     _allow_overlap(p)
     p.set_defaults(func=cmd_metrics)
@@ -657,9 +715,30 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog="e.g. vpr-smr queries --distances val=val.h5 test=test.h5 --seq-len 4 --predictor L4.h5 "
                               "--out queries.csv (the same table as vpr-smr metrics --queries)")
     _matrix_options(p, "the seed-0 predictor (.h5): fills predicted_class, probability and kept")
+    _baseline_options(p)
     _required(p, "--out")
     _allow_overlap(p)
     p.set_defaults(func=cmd_queries)
+
+    p = sub.add_parser("baselines", help="training-free scorers against the predictor: wrong-match detection and "
+                                         "removal at every predictor seed's budget (method §12)",
+                       epilog="e.g. vpr-smr baselines --dataset D --method M --seq-len 4 --distances val=v.h5 "
+                              "test=t.h5 --attributes val=va.h5 test=ta.h5 --predictors L4.h5 L4.seed1.h5 "
+                              "--out L4.json")
+    _required(p, "--dataset", "--method")
+    p.add_argument("--seq-len", type=int, required=True)
+    p.add_argument("--distances", nargs="+", required=True, metavar="SPLIT=PATH",
+                   help="each split's distance matrix (our .h5, or .npy, .npz, .mat): the ground truth's shape and "
+                        "positions")
+    p.add_argument("--attributes", nargs="+", required=True, metavar="SPLIT=PATH",
+                   help="each split's attributes (.h5) with the scorers' candidates (vpr-smr attributes)")
+    p.add_argument("--predictors", nargs="+", required=True, help="one per seed, seed 0 first: their budgets")
+    _matcher_options(p)
+    _baseline_options(p, switch=False)
+    p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
+    _required(p, "--out")
+    _allow_overlap(p)
+    p.set_defaults(func=cmd_baselines)
 
     p = sub.add_parser("ablation", help="the predictor's ablations")
     ablation_sub = p.add_subparsers(dest="ablation_command", required=True)
@@ -751,6 +830,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--attribute-ablations", nargs="*", help="Table II's files (vpr-smr ablation attributes)")
     p.add_argument("--leave-one-out", nargs="*", help="the held-out methods' files (vpr-smr ablation held-out)")
     p.add_argument("--timings", nargs="*", help="the evaluations' .timing.json files (matched by dataset, method, L)")
+    p.add_argument("--baselines", nargs="*",
+                   help="the training-free baselines' .json files (vpr-smr baselines), each of one dataset, method and "
+                        "L: their tables, figures and findings, and the best of them in the sequence-length ablation")
     p.add_argument("--metrics", nargs="*", help="the standard VPR metrics files (vpr-smr metrics), at the table's L")
     p.add_argument("--match-figures", nargs="*", help="the match inspector's match figures (vpr-smr inspect)")
     p.add_argument("--matrix-figures", nargs="*", help="the match inspector's distance-matrix figures")

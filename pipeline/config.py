@@ -13,6 +13,7 @@ from typing import Any
 
 import yaml
 
+from vpr_smr.core.constants import candidates_needed
 from vpr_smr.core.suggest import did_you_mean
 
 SCHEMA_PATH = Path(__file__).with_name("config_schema.json")
@@ -156,6 +157,22 @@ class SequenceMatching(Section):
 
 
 @dataclass(frozen=True)
+class BaselineScorers(Section):
+    """``baselines``: the training-free scorers' settings (method §12), params of the attributes, baselines, metrics
+    and queries jobs."""
+
+    r_window: int
+    spread_k: int
+
+    @property
+    def candidates(self) -> int:
+        """The candidates per query the attributes jobs keep for these settings (``core.constants.candidates_needed``:
+        ``max(2 floor(r_window / 2) + 2, spread_k)``), their param: a setting that leaves it unchanged does not
+        recompute the attributes."""
+        return candidates_needed(self.r_window, self.spread_k)
+
+
+@dataclass(frozen=True)
 class Extraction(Section):
     """``extraction``: how fast descriptors are computed (a job's resource, not a param); None: the default."""
 
@@ -232,6 +249,7 @@ class Config(Section):
     seq_lens: tuple[int, ...]
     modes: tuple[str, ...]
     sequence_matching: SequenceMatching
+    baselines: BaselineScorers
     train_split: str
     allow_split_overlap: bool
     eval_splits: tuple[str, ...]
@@ -271,6 +289,8 @@ class Config(Section):
         return cls(
             conf["run"], conf["output"], tuple(conf["seq_lens"]), tuple(conf["modes"]),
             SequenceMatching(tuple(conf["sequence_matching"]["velocities"]), source=_text(conf["sequence_matching"])),
+            BaselineScorers(int(conf["baselines"]["r_window"]), int(conf["baselines"]["spread_k"]),
+                            source=_text(conf["baselines"])),
             conf["train_split"], conf["allow_split_overlap"], tuple(conf["eval_splits"]), conf["table_split"],
             tuple(conf["trust_levels"]), conf["seeds"],
             Extraction(extraction["batch_size"], extraction["num_workers"], source=_text(extraction)),
@@ -365,7 +385,7 @@ def _check_together(conf: dict[str, Any], source: str) -> None:
 def experiments(conf: Config) -> set[str]:
     """The experiments a validated configuration runs, by the names of ``eval.report.registry.expected_outputs``."""
     chosen = conf.experiments
-    names = {"table1", "predictor"}
+    names = {"table1", "predictor", "baselines"}
     if chosen.trust_levels and conf.trust_levels:
         names.add("trust")
     if chosen.restoration:

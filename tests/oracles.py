@@ -272,3 +272,72 @@ def naive_vit_tokens(sd: dict[str, torch.Tensor], image: torch.Tensor, depth: in
         hidden = 0.5 * hidden * (1 + torch.erf(hidden / math.sqrt(2)))
         x = x + sd[b + "ls2.gamma"] * linear(hidden, b + "mlp.fc2")
     return layer_norm(x, p + "norm")
+
+
+# --- the training-free scorers (method §12), one query at a time ---------------------------------------------------
+
+
+def naive_end_sums(d, a, seq_len, velocities):
+    """``{r: S[r, a]}`` of every end reference with a trajectory (method §11; the fixed matcher at ``(1.0,)``), by
+    the definition, in plain Python."""
+    by_tie_rule = sorted(velocities, key=lambda v: (abs(Fraction(repr(v)) - 1), v))
+    best = {}
+    for r in range(d.shape[0]):
+        for v in by_tie_rule:
+            cells = naive_trajectory(r, a, seq_len, v)
+            if cells is not None:
+                s = naive_sum(d, cells)
+                if r not in best or s < best[r]:
+                    best[r] = s
+    return best
+
+
+def naive_windowed_uniqueness(values, window):
+    """SeqSLAM's windowed uniqueness of one query, literally: ``values`` maps each candidate reference to its value;
+    ``r*`` the lowest reference of the smallest value; the smallest value with ``|r - r*| > window`` over it; 1 when
+    none lies outside or both are 0 (at or below 0: rounding of 0), +inf when only the best is."""
+    best_ref = min(values, key=lambda r: (values[r], r))
+    best = values[best_ref]
+    outside = [values[r] for r in values if abs(r - best_ref) > window]
+    if not outside:
+        return 1.0
+    second = min(outside)
+    if best <= 0:
+        return 1.0 if second <= 0 else math.inf
+    return second / best
+
+
+def naive_scores(d, seq_len, velocities, r_window, spread_k, positions, correct, seed=0):
+    """Every training-free scorer's ``c_a`` of every evaluated query, from method §12's definitions one query at a
+    time: S by its definition (no candidates), sorts by (value, reference), ``np.std`` of the chosen positions
+    (``(R, d)`` positions: the root of the summed per-axis variances). ``correct``: the sequence matches' verdicts."""
+    d = np.asarray(d, dtype=np.float64)
+    window = r_window // 2
+    out = {name: [] for name in ("uniqueness", "single_uniqueness", "spread", "distance")}
+    for a in range(seq_len - 1, d.shape[1]):
+        sums = naive_end_sums(d, a, seq_len, velocities)
+        out["uniqueness"].append(naive_windowed_uniqueness(sums, window))
+        out["single_uniqueness"].append(naive_windowed_uniqueness({r: float(d[r, a]) for r in range(d.shape[0])},
+                                                                  window))
+        best = sorted(sums, key=lambda r: (sums[r], r))[:spread_k]
+        chosen = np.asarray(positions, dtype=np.float64)[best]
+        spread = np.std(chosen) if chosen.ndim == 1 else math.sqrt(sum(np.var(chosen[:, k])
+                                                                         for k in range(chosen.shape[1])))
+        out["spread"].append(-spread)
+        out["distance"].append(-min(sums.values()))
+    n = d.shape[1] - seq_len + 1
+    out["random"] = list(np.random.default_rng(seed).permutation(n).astype(float))
+    out["oracle"] = [1.0 if c else 0.0 for c in correct]
+    return {name: np.array(values, dtype=np.float64) for name, values in out.items()}
+
+
+def naive_removed(confidence, budget):
+    """The queries a scorer removes at a budget: the ``budget`` lowest confidences, equal ones by the lower index."""
+    return set(sorted(range(len(confidence)), key=lambda n: (confidence[n], n))[:budget])
+
+
+def naive_oracle_removed(distances, correct, budget):
+    """The oracle's removal: the wrong matches of smallest sequence distance first (then the lower index), at most
+    all of them."""
+    wrong = [n for n in range(len(correct)) if not correct[n]]
+    return set(sorted(wrong, key=lambda n: (distances[n], n))[:budget])

@@ -37,7 +37,7 @@ DATASET_CARD = {  # as pipeline.plan.dataset_cards gives it
               "image in them, in natural file-name order",
 }
 RUN_EXPERIMENTS = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out",
-                   "metrics", "datasets"}
+                   "metrics", "datasets", "baselines"}
 
 
 def metrics_record(method: str, seq_len: int, modes=("paper", "standard"), dataset: str = "d", sweep: bool = False):
@@ -87,16 +87,19 @@ def small_png(path: Path, width: int = 240, height: int = 120, shade: int = 0) -
 
 def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), methods=("m1", "m2"),
               trust_levels=(0.0, 0.9), restoration=True, ablations=True, metrics=True, inspector=True,
-              sweep=False, **options) -> tuple[Path, list[Path]]:
+              baselines=True, sweep=False, **options) -> tuple[Path, list[Path]]:
     """Every experiment's JSON for the ``methods`` (in that configuration order) on one dataset ``d``, the
-    standard VPR metrics and match-inspector figures at L = 4, then report.main; returns (run folder, files).
-    ``options`` go to report.main."""
+    training-free baselines of every L (computed from the same features and predictors), the standard VPR metrics
+    and match-inspector figures at L = 4, then report.main; returns (run folder, files). ``options`` go to
+    report.main."""
     from vpr_smr.core.paths import match_figure_path, matrix_figure_path, queries_path
     from vpr_smr.eval.matching.attributes import query_features
     from vpr_smr.eval.predictor.estimator import SMRPredictor
     from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.scoring.baselines import DEFAULT_SETTINGS, Prediction, split_baselines
     from vpr_smr.eval.scoring.evaluate import evaluate_split
     from vpr_smr.eval.scoring.records import (
+        Baselines,
         Evaluation,
         HeldOut,
         HeldOutPredictors,
@@ -109,11 +112,11 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
 
     rng = np.random.default_rng(0)
     run = tmp_path / "run"
-    evaluations, timings, predictors = [], [], []
+    evaluations, timings, predictors, baseline_files = [], [], [], []
     for seq_len in seq_lens:
         for i, method in enumerate(methods):
             matrix = rng.random((60, 60)) + (0.5 + 0.2 * i) * (1 - np.eye(60))
-            features = query_features(matrix, seq_len)
+            features = query_features(matrix, seq_len, n_candidates=DEFAULT_SETTINGS.candidates)
             fitted = [SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=s).fit(
                 features.attributes[:, 0], features.labels) for s in (0, 1)]
             result, seconds = evaluate_split(features, fitted, modes=modes, trust_levels=trust_levels,
@@ -124,6 +127,13 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
             evaluations.append(path)
             timings.append(tmp_path / f"e_{method}_L{seq_len}.timing.json")
             write_json(timings[-1], Timing(meta, {"test": SplitTiming.of(0.2, seconds, result.n_queries)}).to_json())
+            if baselines:
+                predictions = [Prediction(s, p.predict_proba(features.attributes[:, 0]), p.classes_)
+                               for s, p in enumerate(fitted)]
+                found = split_baselines(features, DEFAULT_SETTINGS, np.arange(60.0), predictions, modes)
+                baseline_files.append(tmp_path / f"b_{method}_L{seq_len}.json")
+                write_json(baseline_files[-1], Baselines({**meta, **DEFAULT_SETTINGS.meta()},
+                                                         {"test": found}).to_json())
         path = tmp_path / f"p_L{seq_len}.json"
         write_json(path, predictor_report(seq_len).to_json())
         predictors.append(path)
@@ -151,6 +161,7 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
             matrix_figures.append(small_png(Path(matrix_figure_path(run, "d", method, 4)), 160, 160, 40 * i + 20))
     written = main(run, evaluations, predictors, [ablation] if ablations else [], [lomo] if ablations else [],
                    timings=timings, metrics=metric_files, match_figures=match_figures, matrix_figures=matrix_figures,
+                   baselines=baseline_files,
                    table_seq_lens=[4], seq_len_ablation=len(seq_lens) > 1,
                    config="run: demo\nseq_lens: [2, 4]\n",
                    provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}},

@@ -19,7 +19,7 @@ from typing import Any
 import h5py
 import numpy as np
 
-from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES
+from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, candidates_needed
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
 from vpr_smr.core.records import Record
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
@@ -34,10 +34,17 @@ from vpr_smr.eval.matching.io import (
 from vpr_smr.eval.matching.matcher import SequenceMatcher, as_matrix, check_velocities, read_columns
 
 __all__ = [
-    "ATTRIBUTE_NAMES", "QueryFeatures", "labels_from_correctness", "query_features",
+    "ATTRIBUTE_NAMES", "CANDIDATE_FIELDS", "DEFAULT_CANDIDATES", "QueryFeatures", "labels_from_correctness",
+    "query_features",
 ]
 
 ATTRIBUTE_NAMES = ("A1", "A2", "A3", "A4")  # minimum sum, minimum value, block sum, group sum rates
+
+
+DEFAULT_CANDIDATES = candidates_needed()  # 12: r_window 10, K 10
+# QueryFeatures' candidate arrays: written when computed, absent from files computed without them
+CANDIDATE_FIELDS = ("sequence_candidates", "sequence_candidate_references", "single_candidates",
+                    "single_candidate_references")
 
 
 @dataclass(frozen=True)
@@ -62,6 +69,18 @@ class QueryFeatures:
     sequence_min: float  # S.min() of the whole split
     sequence_max: float  # S.max() of the whole split
     all_single_correct: np.ndarray  # (Q,) bool: single-frame correctness of every query, the first L-1 included
+    # The training-free scorers' candidates (method §12), None when not computed: the n smallest S[r, a] ascending
+    # (equal values lowest r first; the first is the sequence match) and their end references, and the n smallest
+    # D[r, a] of the query's own column and their references; +inf and -1 where a split has fewer than n.
+    sequence_candidates: np.ndarray | None = None  # (N, n) float64
+    sequence_candidate_references: np.ndarray | None = None  # (N, n) int64
+    single_candidates: np.ndarray | None = None  # (N, n) float64
+    single_candidate_references: np.ndarray | None = None  # (N, n) int64
+
+    @property
+    def n_candidates(self) -> int:
+        """How many candidates per query this holds (0: none)."""
+        return 0 if self.sequence_candidates is None else int(self.sequence_candidates.shape[1])
 
 
 def labels_from_correctness(single_correct: np.ndarray, sequence_correct: np.ndarray) -> np.ndarray:
@@ -81,6 +100,7 @@ def query_features(
     *,
     velocities: Sequence[float] = DEFAULT_VELOCITIES,
     ground_truth: GroundTruth | None = None,
+    n_candidates: int = 0,
 ) -> QueryFeatures:
     """Sequence matching, attributes and labels of one split's ``R x Q`` distance matrix.
 
@@ -89,6 +109,7 @@ def query_features(
     which candidates are recomputed in float64: the results are the same for float32 and float64.
     ``velocities``: SeqSLAM's velocity search (method §11; ``(1.0,)``, the default, is the fixed matcher of §4).
     ``ground_truth``: which matches are correct (default: frame-aligned within ``tolerance``, method §1).
+    ``n_candidates``: also the training-free scorers' candidates (``core.constants.candidates_needed``; 0: none).
     """
     matcher = SequenceMatcher(seq_len, check_velocities(velocities))
     matrix = as_matrix(distance_matrix)
@@ -96,7 +117,7 @@ def query_features(
     if ground_truth is None:
         ground_truth = GroundTruth.aligned(matrix.shape[0], matrix.shape[1], tolerance)
     ground_truth.check_shape(tuple(matrix.shape))
-    result = matcher.features(matrix, n_ranks, block_queries, screen_dtype)
+    result = matcher.features(matrix, n_ranks, block_queries, screen_dtype, n_candidates)
     n_query = matrix.shape[1]
     queries = np.arange(seq_len - 1, n_query)
     rank_refs = result["rank_references"]
@@ -122,18 +143,25 @@ def query_features(
             ground_truth.correct(np.argmin(read_columns(matrix, 0, seq_len - 1), axis=1), np.arange(seq_len - 1)),
             single_correct,
         ]),
+        **{name: result[name] for name in CANDIDATE_FIELDS if name in result},
     )
 
 
 def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:
+    """Every field of ``features`` as a dataset of its name; the candidates only when computed."""
     with atomic_h5(path, provenance) as f:
         for field in fields(QueryFeatures):
-            f[field.name] = getattr(features, field.name)
+            value = getattr(features, field.name)
+            if value is not None:
+                f[field.name] = value
 
 
 def read_features(path: Path | str) -> QueryFeatures:
+    """The features ``write_features`` wrote; a file without the candidates (computed without them, or before
+    they existed) reads with them None."""
     with h5py.File(path, "r") as f:
-        values = {field.name: f[field.name][()] for field in fields(QueryFeatures)}
+        values = {field.name: f[field.name][()] for field in fields(QueryFeatures)
+                  if field.name in f or field.name not in CANDIDATE_FIELDS}
     values["sequence_min"] = float(values["sequence_min"])
     values["sequence_max"] = float(values["sequence_max"])
     return QueryFeatures(**values)
@@ -158,7 +186,8 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
          velocities: Sequence[float] = DEFAULT_VELOCITIES, radius: float | None = None,
          reference_positions: Path | str | None = None, query_positions: Path | str | None = None,
          similarity: bool = False, key: str | None = None, transpose: bool = False,
-         ground_truth: Path | str | None = None, ground_truth_key: str | None = None) -> QueryFeatures:
+         ground_truth: Path | str | None = None, ground_truth_key: str | None = None,
+         n_candidates: int = DEFAULT_CANDIDATES) -> QueryFeatures:
     """Features of the matrix in ``distances`` (``.npy``, ``.npz``, ``.mat`` or our ``.h5``) written to ``out``.
 
     ``out`` ending in ``.csv`` gets the rank-0 table (``write_csv``); ``.h5``/``.hdf5`` every field of
@@ -170,9 +199,13 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     ``transpose``, ``similarity``: how a user's matrix is read (``io.open_distance_matrix``). The ground truth:
     ``ground_truth`` (a file, ``ground_truth_files.read_ground_truth``, its variable ``ground_truth_key``), else
     ``io.split_ground_truth`` (positions within ``radius``, or frame indices within ``tolerance``). Errors name the
-    distance file (negative distances included: ``io.check_non_negative``).
+    distance file (negative distances included: ``io.check_non_negative``). ``n_candidates``: how many of the
+    smallest ``S`` and ``D`` values per query the HDF5 file keeps for the training-free scorers (method §12;
+    ``core.constants.candidates_needed``), recorded as ``n_candidates``; 0 keeps none.
     """
     out = check_suffix(out, OUT_SUFFIXES, "the attributes (.csv table or HDF5)")
+    if n_candidates < 0:
+        raise ValueError(f"--candidates is a number of candidates per query >= 0, got {n_candidates}")
     velocities = check_velocities(velocities, "--velocities")
     distances = Path(distances)
     start = time.perf_counter()
@@ -182,7 +215,8 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
                                    query_positions, truth_file)
         warn_if_similar(distances, matrix, truth, similarity)
         try:
-            features = query_features(matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth)
+            features = query_features(matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth,
+                                      n_candidates=n_candidates if out.suffix.lower() not in CSV_SUFFIXES else 0)
         except ValueError as error:
             raise ValueError(f"{distances}: {error}") from None
     seconds = time.perf_counter() - start
@@ -196,6 +230,8 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
         provenance = read_provenance(distances) if not is_user_matrix(distances) else {}
         provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
         provenance.update({**matcher_provenance(velocities, radius), **reading_provenance(similarity, key, transpose)})
+        if n_candidates:  # recorded only when kept, so that a file without them reads as it always did
+            provenance["n_candidates"] = int(n_candidates)
         write_features(out, features, {**provenance, "seq_len": seq_len, "tolerance": tolerance,
                                        "attributes_seconds": seconds, **truth_provenance(truth, seq_len, without)})
     log.info("%d queries, %.1f µs per query", len(features.queries), 1e6 * seconds / max(len(features.queries), 1))

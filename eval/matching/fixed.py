@@ -106,10 +106,12 @@ def _error_bound(dtype: np.dtype, n_cols: int, seq_len: int, magnitude: float) -
 
 def numpy_block_features(
     columns: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any = np.float32, first_column: int = 0,
-    workspace: Workspace | None = None,
+    workspace: Workspace | None = None, n_sequence: int = 0, n_single: int = 0,
 ) -> dict[str, np.ndarray]:
     """``block_features`` in numpy: float32 (``screen_dtype``) screening by the prefix sums of the block; its scratch
-    arrays from ``workspace`` (a new one when None)."""
+    arrays from ``workspace`` (a new one when None). ``n_sequence``/``n_single``: how many of the smallest ``S`` and
+    raw current values ``D[r, a]`` to report with their indices (``kernels.CANDIDATE_KEYS``; at most the diagonals
+    and the references)."""
     raw = columns
     work = workspace or Workspace()
     n_cols, n_ref = raw.shape
@@ -173,12 +175,21 @@ def numpy_block_features(
     current_sorted, _ = select(x[seq_len - 1 :], n_ref, k, margin, lambda j, r: value(j + seq_len - 1, r, True))
     del x
     single_match = np.argmin(raw[seq_len - 1 :], axis=1)  # first index on ties, as np.argmin of the column
+    if n_single > 0:  # the raw values are exact: selected with no margin, as velocity's _smallest does
+        current_raw = work.padded("current_raw", n_queries, n_ref, raw.dtype)
+        current_raw[:, :n_ref] = raw[seq_len - 1 :]
+        single_values, single_index = select(current_raw, n_ref, n_single, 0.0,
+                                             lambda j, r: value(j + seq_len - 1, r, False))
+    else:
+        single_values, single_index = np.empty((n_queries, 0)), np.empty((n_queries, 0), dtype=np.int64)
 
     # S on the raw distances: its argmin is the sequence match, its extremes the split's threshold range.
     prefix = _diagonal_prefix(raw.astype(screen, copy=False), n_queries, work)
     s_approx = _window_sums(prefix, seq_len, n_queries, n_diag, work)
     del prefix
-    s_min, s_arg = select(s_approx, n_diag, 1, margin_raw, lambda j, d: diagonal_sum(j, d, seq_len, False))
+    # the smallest S: the sequence match and distance, then the scorers' candidates (the first of them is the match)
+    s_min, s_arg = select(s_approx, n_diag, max(1, n_sequence), margin_raw,
+                          lambda j, d: diagonal_sum(j, d, seq_len, False))
     s_approx[:, n_diag:] = -np.inf
     s_max, _ = select(s_approx, n_diag, 1, margin_raw, lambda j, d: diagonal_sum(j, d, seq_len, False), largest=True)
     del s_approx
@@ -199,13 +210,19 @@ def numpy_block_features(
         "sequence_diagonal": s_arg[:, 0].astype(np.int64),
         "sequence_distance": s_min[:, 0],
         "sequence_max": s_max[:, 0],
+        "sequence_candidates": s_min[:, :n_sequence],
+        "sequence_candidate_diagonals": s_arg[:, :n_sequence].astype(np.int64),
+        "single_candidates": single_values,
+        "single_candidate_references": single_index.astype(np.int64),
     }
 
 
 def _compiled_features(kernels: ModuleType, raw: np.ndarray, seq_len: int, n_ranks: int, first_column: int,
-                       block_queries: int | None = None) -> dict[str, np.ndarray] | None:
+                       block_queries: int | None = None, n_sequence: int = 0,
+                       n_single: int = 0) -> dict[str, np.ndarray] | None:
     """``block_features`` of ``raw`` (references x query columns, float32/float64, any strides) by the compiled
-    kernel; None when the values' range is too extreme for its float64 screening (the numpy path then runs)."""
+    kernel, with ``n_sequence`` and ``n_single`` candidates; None when the values' range is too extreme for its
+    float64 screening (the numpy path then runs)."""
     step = min(block_queries or kernels.BLOCK_QUERIES, kernels.BLOCK_QUERIES)
     # numpy's reductions along the rows read the matrix in its layout as fast as a kernel would, without a second
     # compiled entry point to load (each costs about 0.85 s per process); NaN and inf show up in the extremes
@@ -223,7 +240,8 @@ def _compiled_features(kernels: ModuleType, raw: np.ndarray, seq_len: int, n_ran
     n_cols = step + seq_len - 1
     margin = 2 * _error_bound(np.dtype(np.float64), n_cols, seq_len, magnitude)
     margin_raw = 2 * _error_bound(np.dtype(np.float64), n_cols, seq_len, magnitude_raw)
-    out: dict[str, np.ndarray] = kernels.column_blocks(raw, col_max64, seq_len, n_ranks, margin, margin_raw, step)
+    out: dict[str, np.ndarray] = kernels.column_blocks(raw, col_max64, seq_len, n_ranks, margin, margin_raw, step,
+                                                       n_sequence, n_single)
     return out
 
 
@@ -242,23 +260,24 @@ def _mean_full(diagonal_sum: Callable[..., np.ndarray], j: np.ndarray, lo: np.nd
 
 
 def block_features(raw: np.ndarray, seq_len: int, n_ranks: int, screen_dtype: Any, first_column: int,
-                   kernels: ModuleType | None, workspace: Workspace | None = None) -> dict[str, np.ndarray]:
-    """The fixed matcher's numbers for one block ``raw`` (``(Wb, R)``, float32/float64): by the compiled ``kernels``
-    when given (and the values' range allows its float64 screening), else in numpy (``workspace``: its scratch
-    arrays, reused over a matrix's blocks)."""
+                   kernels: ModuleType | None, workspace: Workspace | None = None, n_sequence: int = 0,
+                   n_single: int = 0) -> dict[str, np.ndarray]:
+    """The fixed matcher's numbers for one block ``raw`` (``(Wb, R)``, float32/float64), with ``n_sequence`` and
+    ``n_single`` candidates: by the compiled ``kernels`` when given (and the values' range allows its float64
+    screening), else in numpy (``workspace``: its scratch arrays, reused over a matrix's blocks)."""
     if kernels is not None:
-        out = _compiled_features(kernels, raw.T, seq_len, n_ranks, first_column)
+        out = _compiled_features(kernels, raw.T, seq_len, n_ranks, first_column, None, n_sequence, n_single)
         if out is not None:
             return out
-    return numpy_block_features(raw, seq_len, n_ranks, screen_dtype, first_column, workspace)
+    return numpy_block_features(raw, seq_len, n_ranks, screen_dtype, first_column, workspace, n_sequence, n_single)
 
 
-def compiled_matrix_features(kernels: ModuleType, matrix: Any, seq_len: int,
-                             n_ranks: int) -> dict[str, np.ndarray] | None:
-    """The fixed matcher's numbers for every query of a whole matrix by the compiled kernel, reading the matrix in
-    its own layout: a float32/float64 array or memmap as one view (no copy), anything else (HDF5, integers to
-    convert) in chunks of whole rows of about ``KERNEL_CHUNK_VALUES`` values. None when a chunk's range is too
-    extreme for the kernel's float64 screening."""
+def compiled_matrix_features(kernels: ModuleType, matrix: Any, seq_len: int, n_ranks: int, n_sequence: int = 0,
+                             n_single: int = 0) -> dict[str, np.ndarray] | None:
+    """The fixed matcher's numbers for every query of a whole matrix by the compiled kernel, with ``n_sequence``
+    and ``n_single`` candidates, reading the matrix in its own layout: a float32/float64 array or memmap as one view
+    (no copy), anything else (HDF5, integers to convert) in chunks of whole rows of about ``KERNEL_CHUNK_VALUES``
+    values. None when a chunk's range is too extreme for the kernel's float64 screening."""
     n_ref, n_query = (int(n) for n in matrix.shape)
     n_out = n_query - seq_len + 1
     in_place = isinstance(matrix, np.ndarray) and matrix.dtype in (np.float32, np.float64)
@@ -270,7 +289,7 @@ def compiled_matrix_features(kernels: ModuleType, matrix: Any, seq_len: int,
             raw = np.asarray(matrix[:, first : last + seq_len - 1])  # a view of an array or memmap; HDF5 reads
             if raw.dtype not in (np.float32, np.float64):
                 raw = raw.astype(np.float64)
-            out = _compiled_features(kernels, raw, seq_len, n_ranks, first)
+            out = _compiled_features(kernels, raw, seq_len, n_ranks, first, None, n_sequence, n_single)
             if out is None:
                 return None
             parts.append(out)

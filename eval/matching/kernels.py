@@ -10,7 +10,10 @@ whose minimum lies within ``margin`` (twice the bound on the screening error, ``
 ``x`` divided by its column maximum in float64), and the ``K`` best are kept in ascending index order with strict
 comparisons: equal values lowest index first, method §5's tie rule. Every group that can hold one of the ``K`` best
 exact values is scanned (the ``K``-th group minimum bounds the ``K``-th smallest screened value from above), so
-the result equals the numpy path's exactly; only the amount of work differs.
+the result equals the numpy path's exactly; only the amount of work differs. The training-free scorers' candidates
+(method §12): the ``n`` smallest ``S`` come from the same scan (the sequence match is the first of them), bounded on
+the group minima and recomputed by parts of ``FINE`` diagonals; the ``n`` smallest raw values of the current column
+are exact already and are kept as the rows stream by (``_keep_smallest``), without a second read of the matrix.
 
 The kernels release the GIL: ``column_blocks`` runs blocks of query columns on a few threads.
 """
@@ -28,6 +31,13 @@ from numba.core.typing.templates import Signature
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # plain globals: numba freezes them at compile time
 
 GROUP = 32  # diagonals (rows) per screening group
+# The scorers' n smallest S keep a minimum per FINE diagonals besides the one per GROUP: the bound and the first test
+# stay on the GROUP minima, and within a group that passes only the parts that pass are recomputed. For n ~ 12, most
+# of the n groups a bound lets through hold one candidate: recomputing them whole cost +33 % of the kernel's time at
+# 3000 x 3000 (one thread), by parts +15 %; bounding on the FINE minima themselves costs as much in bookkeeping over
+# four times the groups.
+FINE = 8
+PARTS = GROUP // FINE
 BLOCK_QUERIES = 256  # query columns per kernel call (measured: 128 and 64 are slower)
 
 
@@ -38,7 +48,8 @@ def _matrix(dtype: types.Type) -> types.Array:
 
 def _block_signature(dtype: types.Type) -> Signature:
     f8, i8 = types.float64, types.int64
-    return types.void(_matrix(dtype), f8[:], i8, f8, f8, f8[:, :, :], i8[:, :], i8[:], i8[:], f8[:], f8[:])
+    return types.void(_matrix(dtype), f8[:], i8, f8, f8, f8[:, :, :], i8[:, :], i8[:], i8[:], f8[:], f8[:],
+                      f8[:, :], i8[:, :], f8[:, :], i8[:, :])
 
 
 @njit(cache=True, nogil=True)
@@ -129,6 +140,54 @@ def _scan(heads: np.ndarray, limit: np.ndarray, g: int, n_values: int, kind: int
 
 
 @njit(cache=True, nogil=True)
+def _scan_parts(heads: np.ndarray, parts: np.ndarray, limit: np.ndarray, g: int, n_values: int, kind: int,
+                raw: np.ndarray, col_max: np.ndarray, seq_len: int, values: np.ndarray, index: np.ndarray,
+                filled: np.ndarray) -> None:
+    """``_scan`` of group ``g`` recomputing only its parts (``FINE`` items each, minima ``parts``) within the limit."""
+    if g >= heads.shape[0]:
+        return
+    row = heads[g]
+    count = values.shape[1]
+    for j in range(len(row)):
+        if row[j] <= limit[j]:
+            for f in range(g * PARTS, min(parts.shape[0], (g + 1) * PARTS)):
+                if parts[f, j] <= limit[j]:
+                    for i in range(f * FINE, min(n_values, (f + 1) * FINE)):
+                        value = _exact(raw, col_max, kind, i, j, seq_len)
+                        if filled[j] < count or value < values[j, count - 1]:
+                            filled[j] = _insert(values[j], index[j], filled[j], value, i)
+
+
+@njit(cache=True, nogil=True)
+def _keep_smallest(current: np.ndarray, above: np.ndarray, r: int, values: np.ndarray, index: np.ndarray,
+                   filled: np.ndarray) -> None:
+    """Row ``r``'s value of each query (``current``) into its ``values.shape[1]`` smallest so far, kept ascending
+    with their rows (``_insert``: called for ascending ``r``, equal values keep the lowest row); ``above``: each
+    query's largest kept value once it keeps as many as it may (+inf before). Most rows enter no query's smallest:
+    one vectorised count first, the insertions only where one does."""
+    count = values.shape[1]
+    entering = 0
+    for j in range(len(current)):
+        entering += current[j] < above[j]
+    if entering == 0:
+        return
+    for j in range(len(current)):
+        if current[j] < above[j]:
+            filled[j] = _insert(values[j], index[j], filled[j], current[j], r)
+            if filled[j] == count:
+                above[j] = values[j, count - 1]
+
+
+@njit(cache=True, nogil=True)
+def _coarse(parts: np.ndarray, n_groups: int) -> np.ndarray:
+    """The minimum of every ``PARTS`` consecutive rows of ``parts``: the ``GROUP`` minima of ``FINE`` ones."""
+    out = np.full((n_groups, parts.shape[1]), np.inf)
+    for f in range(parts.shape[0]):
+        _minimum(out[f // PARTS], parts[f])
+    return out
+
+
+@njit(cache=True, nogil=True)
 def _minimum(heads: np.ndarray, values: np.ndarray) -> None:
     """``heads = min(heads, values)`` element-wise (a select, so that it vectorises)."""
     for j in range(len(heads)):
@@ -164,21 +223,33 @@ def _rates(out: np.ndarray, past_sorted: float, row_sorted: float, current_sorte
 
 def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, margin_raw: float,
           attributes: np.ndarray, rank_diagonals: np.ndarray, single_match: np.ndarray,
-          sequence_diagonal: np.ndarray, sequence_distance: np.ndarray, sequence_max: np.ndarray) -> None:
+          sequence_diagonal: np.ndarray, sequence_distance: np.ndarray, sequence_max: np.ndarray,
+          sequence_values: np.ndarray, sequence_index: np.ndarray, single_values: np.ndarray,
+          single_index: np.ndarray) -> None:
     """``block_features`` of the block ``raw`` (R x W: all references, W = w + L - 1 consecutive query columns,
     any strides) into the outputs over its ``w`` queries; ``col_max`` is the block's column maxima in float64
-    (0 replaced by 1). ``margin`` bounds twice the screening error of the normalised sums, ``margin_raw`` of S."""
+    (0 replaced by 1). ``margin`` bounds twice the screening error of the normalised sums, ``margin_raw`` of S.
+    ``sequence_values``/``sequence_index`` (``w x n``, ``n`` at most the diagonals) receive the ``n`` smallest ``S``
+    and their diagonals, ``single_values``/``single_index`` (``w x n'``) the ``n'`` smallest ``D[r, a]`` and their
+    references, ascending, equal values lowest index first; a width of 0 computes none."""
     n_ref, width = raw.shape
     n_queries = width - seq_len + 1
     n_diag = n_ref - seq_len + 1
     n_ranks = attributes.shape[1]
+    n_sequence, n_single = sequence_values.shape[1], single_values.shape[1]
     gd, gr = (n_diag + GROUP - 1) // GROUP, (n_ref + GROUP - 1) // GROUP
+    # the smallest S by parts of FINE when candidates are asked for (the sequence match alone: by GROUP, as before)
+    s_size = FINE if n_sequence > 0 else GROUP
     h_full = np.full((gd, n_queries), np.inf)
     h_past = np.full((gd, n_queries), np.inf)
-    h_smin = np.full((gd, n_queries), np.inf)
+    h_smin = np.full(((n_diag + s_size - 1) // s_size, n_queries), np.inf)
     h_smax = np.full((gd, n_queries), np.inf)  # holds -max, so that the same selection finds it
     h_row = np.full((gr, n_queries), np.inf)
     h_cur = np.full((gr, n_queries), np.inf)
+    # the single-frame candidates: exact values, kept as the rows stream by (ascending r: ties lowest r first);
+    # ``above`` is each query's n-th smallest so far once it has n (+inf before), which a new value must be below
+    filled_single = np.zeros(n_queries, dtype=np.int64)
+    above = np.full(n_queries, np.inf)
     ring = seq_len + 1
     t = np.zeros((ring, width + 1))  # t[r % ring, c + 1]: sum along the diagonal ending at (r, c); t[:, 0] = 0
     v = np.zeros((ring, width + 1))
@@ -226,6 +297,8 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
             a = hl[j] - h[j]
             head[j] = a if a < head[j] else head[j]
         _minimum(h_cur[g], x[seq_len - 1 :])
+        if n_single > 0:
+            _keep_smallest(y[seq_len - 1 :], above, r, single_values, single_index, filled_single)
         current = row[seq_len - 1 :]
         for j in range(n_queries):
             if current[j] < best[j]:
@@ -243,7 +316,7 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
             for j in range(n_queries):
                 a = tpl[j] - to[j]
                 head[j] = a if a < head[j] else head[j]
-            head = h_smin[g]
+            head = h_smin[(r - seq_len + 1) // s_size]
             for j in range(n_queries):
                 a = vcl[j] - vo[j]
                 head[j] = a if a < head[j] else head[j]
@@ -252,18 +325,29 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
                 a = vo[j] - vcl[j]
                 head[j] = a if a < head[j] else head[j]
 
-    # Exact recomputation: every kind's candidates of group g together, so that g's rows are read once.
+    # Exact recomputation: every kind's candidates of group g together, so that g's rows are read once. The
+    # smallest S are as many as the candidates asked for (the first is the sequence match); the raw current values
+    # are exact already (their margin is 0) and scanned only when candidates are asked for.
+    p_smin = h_smin  # the parts of S, with candidates; their group minima are the heads
+    if n_sequence > 0:
+        h_smin = _coarse(p_smin, gd)
     heads = (h_full, h_past, h_row, h_cur, h_smin, h_smax)
-    counts = (n_ranks, n_ranks, n_ranks, n_ranks, 1, 1)
+    counts = (n_ranks, n_ranks, n_ranks, n_ranks, max(1, n_sequence), 1)
     sizes = (n_diag, n_diag, n_ref, n_ref, n_diag, n_diag)
     kinds = (0, 1, 2, 3, 4, 5)
+    margins = (margin, margin, margin, margin, margin_raw, margin_raw)
     values = [np.empty((n_queries, c)) for c in counts]
     index = [np.empty((n_queries, c), dtype=np.int64) for c in counts]
     filled = [np.zeros(n_queries, dtype=np.int64) for _ in counts]
-    limits = [_limits(heads[q], counts[q], margin if q < 4 else margin_raw) for q in range(6)]
+    limits = [_limits(heads[q], counts[q], margins[q]) for q in range(6)]
     for g in range(gr):
         for q in range(6):
-            _scan(heads[q], limits[q], g, sizes[q], kinds[q], raw, col_max, seq_len, values[q], index[q], filled[q])
+            if q == 4 and n_sequence > 0:
+                _scan_parts(heads[q], p_smin, limits[q], g, sizes[q], kinds[q], raw, col_max, seq_len, values[q],
+                            index[q], filled[q])
+            else:
+                _scan(heads[q], limits[q], g, sizes[q], kinds[q], raw, col_max, seq_len, values[q], index[q],
+                      filled[q])
     full_index, past_sorted, row_sorted, current_sorted = index[0], values[1], values[2], values[3]
     for j in range(n_queries):
         for k in range(n_ranks):
@@ -278,6 +362,9 @@ def _block(raw: np.ndarray, col_max: np.ndarray, seq_len: int, margin: float, ma
         sequence_distance[j] = values[4][j, 0]
         sequence_diagonal[j] = index[4][j, 0]
         sequence_max[j] = -values[5][j, 0]  # the smallest -S, as the numpy path's ``largest`` selection
+        for k in range(n_sequence):
+            sequence_values[j, k] = values[4][j, k]
+            sequence_index[j, k] = index[4][j, k]
 
 
 _COMPILED: dict[tuple[str, np.dtype], Any] = {}
@@ -303,8 +390,14 @@ def thread_count() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def empty_outputs(n_queries: int, n_ranks: int) -> dict[str, np.ndarray]:
-    """The arrays ``block_features`` returns, for ``n_queries`` queries and ``n_ranks`` ranks, to be filled."""
+# the candidates of the training-free scorers (method §12): the n smallest S and D[r, a] and their indices
+CANDIDATE_KEYS = ("sequence_candidates", "sequence_candidate_diagonals", "single_candidates",
+                  "single_candidate_references")
+
+
+def empty_outputs(n_queries: int, n_ranks: int, n_sequence: int = 0, n_single: int = 0) -> dict[str, np.ndarray]:
+    """The arrays ``block_features`` returns, for ``n_queries`` queries, ``n_ranks`` ranks and the ``n_sequence``
+    and ``n_single`` candidates (``CANDIDATE_KEYS``; widths of 0: none asked for), to be filled."""
     return {
         "attributes": np.empty((n_queries, n_ranks, 4)),
         "rank_diagonals": np.empty((n_queries, n_ranks), dtype=np.int64),
@@ -312,16 +405,23 @@ def empty_outputs(n_queries: int, n_ranks: int) -> dict[str, np.ndarray]:
         "sequence_diagonal": np.empty(n_queries, dtype=np.int64),
         "sequence_distance": np.empty(n_queries),
         "sequence_max": np.empty(n_queries),
+        "sequence_candidates": np.empty((n_queries, n_sequence)),
+        "sequence_candidate_diagonals": np.empty((n_queries, n_sequence), dtype=np.int64),
+        "single_candidates": np.empty((n_queries, n_single)),
+        "single_candidate_references": np.empty((n_queries, n_single), dtype=np.int64),
     }
 
 
 def column_blocks(raw: np.ndarray, col_max: np.ndarray, seq_len: int, n_ranks: int, margin: float,
-                  margin_raw: float, block_queries: int = BLOCK_QUERIES) -> dict[str, np.ndarray]:
+                  margin_raw: float, block_queries: int = BLOCK_QUERIES, n_sequence: int = 0,
+                  n_single: int = 0) -> dict[str, np.ndarray]:
     """``block`` over all queries of ``raw`` (R x W), in blocks of ``block_queries`` query columns on
-    ``thread_count()`` threads. The margins must hold for blocks of ``block_queries + L - 1`` columns."""
+    ``thread_count()`` threads, with ``n_sequence`` and ``n_single`` candidates (``empty_outputs``). The margins
+    must hold for blocks of ``block_queries + L - 1`` columns."""
     n_out = raw.shape[1] - seq_len + 1
-    out = empty_outputs(n_out, n_ranks)
-    keys = ("attributes", "rank_diagonals", "single_match", "sequence_diagonal", "sequence_distance", "sequence_max")
+    out = empty_outputs(n_out, n_ranks, n_sequence, n_single)
+    keys = ("attributes", "rank_diagonals", "single_match", "sequence_diagonal", "sequence_distance", "sequence_max",
+            *CANDIDATE_KEYS)
 
     block = compiled("block", raw.dtype)
 

@@ -14,7 +14,8 @@ live matcher, the speed experiment and the plan's checks):
   (``read_columns``), which counts NaN and inf over the whole matrix when a block holds one;
 - ``sequences``: ``S`` of a block and the velocity of each end reference's best trajectory;
 - ``block_features`` / ``features``: the four attributes of the ``K`` best trajectories (method §5), the single
-  and the sequence match, per block or over a whole matrix.
+  and the sequence match, per block or over a whole matrix; with ``n_candidates``, also the training-free scorers'
+  candidates (method §12): the ``n`` smallest ``S[r, a]`` and the ``n`` smallest ``D[r, a]`` with their references.
 
 Inside, the numbers come from one of four implementations that give the same float64 values bit for bit (each sum
 ``0 + x_0 + x_1 + ...`` in the definition's order): for any velocities the numpy twin (``velocity``) and its
@@ -284,11 +285,18 @@ class SequenceMatcher:
 
     def block_features(self, columns: np.ndarray, n_ranks: int, first_column: int = 0, *,
                        total_queries: int | None = None, screen_dtype: Any = np.float32,
-                       workspace: fixed.Workspace | None = None) -> dict[str, np.ndarray]:
+                       workspace: fixed.Workspace | None = None, n_candidates: int = 0) -> dict[str, np.ndarray]:
         """The attributes, matches and ``S`` range of the queries of one block (``columns`` as ``map_blocks`` gives
         it): ``attributes (w, K, 4)``, ``rank_references (w, K)`` (where the rank-``k`` best trajectory ends),
         ``single_match``, ``sequence_match``, ``sequence_distance`` (``min_r S``), ``sequence_max`` (``max_r S``)
         and ``sequence_velocity`` (the velocity of the sequence match).
+
+        With ``n_candidates`` ``n > 0``, also the training-free scorers' candidates (method §12), each ``(w, n)``
+        in ascending order, equal values lowest reference first: ``sequence_candidates`` and
+        ``sequence_candidate_references``, the ``n`` smallest ``S[r, a]`` and their end references (the first is
+        the sequence match and its distance, bit for bit), and ``single_candidates`` and
+        ``single_candidate_references``, the ``n`` smallest ``D[r, a]`` (the first is the single-frame match);
+        where fewer end references or references exist, the rest is ``+inf`` and reference ``-1``.
 
         ``n_ranks`` must be 1 .. ``R - r_min``. ``total_queries``: the queries of the whole run the block belongs
         to, so that a compiled kernel is chosen where the whole run pays for its fixed cost (the results are the
@@ -306,25 +314,35 @@ class SequenceMatcher:
                              f"got {n_ranks}")
         n_queries = n_cols - self.seq_len + 1
         run_queries = max(n_queries, total_queries or 0)
+        n_sequence, n_single = self.candidate_counts(n_ref, n_candidates)
         if self.is_fixed:
             out = fixed.block_features(raw, self.seq_len, n_ranks, screen_dtype, first_column,
-                                       fixed_kernels(n_ref * (run_queries + self.seq_len - 1)), workspace)
+                                       fixed_kernels(n_ref * (run_queries + self.seq_len - 1)), workspace,
+                                       n_sequence, n_single)
         else:
             order, table = self._table()
             col_max = velocity.column_max(raw, first_column)
             per_query = len(order) * self.seq_len * n_ref
             kernels = velocity_kernels(per_query * n_queries, per_query * run_queries)
             if kernels is not None:
-                out = kernels.block_features(raw, col_max, table, r_min, n_ranks)
+                out = kernels.block_features(raw, col_max, table, r_min, n_ranks, n_sequence, n_single)
             else:
-                out = velocity.block_features(raw, col_max, table, r_min, n_ranks)
+                out = velocity.block_features(raw, col_max, table, r_min, n_ranks, n_sequence, n_single)
             out["sequence_velocity"] = np.asarray(order, dtype=np.float64)[out.pop("sequence_index")]
-        return _as_references(out, r_min)
+        return _as_references(out, r_min, n_candidates)
+
+    def candidate_counts(self, n_ref: int, n_candidates: int) -> tuple[int, int]:
+        """How many of the ``n_candidates`` smallest ``S`` and ``D`` values exist in a split of ``n_ref``
+        references: at most the end references with a trajectory, and the references."""
+        if n_candidates < 0:
+            raise ValueError(f"n_candidates must be >= 0, got {n_candidates}")
+        return min(n_candidates, n_ref - self.first_reference), min(n_candidates, n_ref)
 
     def features(self, matrix: Any, n_ranks: int, block_queries: int | None = None,
-                 screen_dtype: Any = np.float32) -> dict[str, np.ndarray]:
+                 screen_dtype: Any = np.float32, n_candidates: int = 0) -> dict[str, np.ndarray]:
         """``block_features`` of every query ``a >= L - 1`` of a whole ``R x Q`` matrix (any 2-D array-like that
-        slices by columns), read one block of query columns at a time; ``n_ranks`` is capped at ``R - r_min``."""
+        slices by columns), read one block of query columns at a time; ``n_ranks`` is capped at ``R - r_min``;
+        ``n_candidates``: the scorers' candidates, as ``block_features`` gives them."""
         matrix = as_matrix(matrix)
         self.check(tuple(matrix.shape))
         block_dtype(np.dtype(matrix.dtype))
@@ -335,21 +353,39 @@ class SequenceMatcher:
         if kernels is not None:
             # The fixed matcher's compiled kernel reads the matrix in its own layout (no transpose); it gives None
             # where its float64 screening cannot bound the values' range, and the blocks below then run.
-            out = fixed.compiled_matrix_features(kernels, matrix, self.seq_len, n_ranks)
+            out = fixed.compiled_matrix_features(kernels, matrix, self.seq_len, n_ranks,
+                                                 *self.candidate_counts(n_ref, n_candidates))
             if out is not None:
-                return _as_references(out, self.first_reference)
+                return _as_references(out, self.first_reference, n_candidates)
         workspace = fixed.Workspace()
         parts = self.map_blocks(matrix, lambda start, columns: self.block_features(
-            columns, n_ranks, start, total_queries=n_out, screen_dtype=screen_dtype, workspace=workspace),
-            block_queries)
+            columns, n_ranks, start, total_queries=n_out, screen_dtype=screen_dtype, workspace=workspace,
+            n_candidates=n_candidates), block_queries)
         return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
 
 
-def _as_references(out: dict[str, np.ndarray], r_min: int) -> dict[str, np.ndarray]:
+def _padded(values: np.ndarray, width: int, fill: float | int) -> np.ndarray:
+    """``values`` (rows x k) widened to ``width`` columns of ``fill``."""
+    out = np.full((len(values), width), fill, dtype=values.dtype)
+    out[:, : values.shape[1]] = values
+    return out
+
+
+def _as_references(out: dict[str, np.ndarray], r_min: int, n_candidates: int = 0) -> dict[str, np.ndarray]:
     """The implementations' indices ``i`` of end references, as references ``r_min + i``; the fixed matcher's
-    sequence matches are all of velocity 1."""
+    sequence matches are all of velocity 1. The candidates (with ``n_candidates``) padded to ``n_candidates``
+    columns with ``+inf`` and reference ``-1`` where the split has fewer; without, none."""
     out["rank_references"] = out.pop("rank_diagonals") + r_min
     out["sequence_match"] = out.pop("sequence_diagonal") + r_min
     if "sequence_velocity" not in out:
         out["sequence_velocity"] = np.ones(len(out["sequence_match"]))
+    sequence_references = out.pop("sequence_candidate_diagonals") + r_min
+    if n_candidates > 0:
+        out["sequence_candidates"] = _padded(out["sequence_candidates"], n_candidates, np.inf)
+        out["sequence_candidate_references"] = _padded(sequence_references, n_candidates, -1)
+        out["single_candidates"] = _padded(out["single_candidates"], n_candidates, np.inf)
+        out["single_candidate_references"] = _padded(out["single_candidate_references"], n_candidates, -1)
+    else:
+        for key in ("sequence_candidates", "single_candidates", "single_candidate_references"):
+            del out[key]
     return out

@@ -40,16 +40,17 @@ def column_max(raw: np.ndarray, first_column: int) -> np.ndarray:
     return col_max
 
 
-def block_features(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int,
-                   n_ranks: int) -> dict[str, np.ndarray]:
+def block_features(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int, n_ranks: int,
+                   n_sequence: int = 0, n_single: int = 0) -> dict[str, np.ndarray]:
     """The features of every query of the block ``raw`` (``(Wb, R)``), in chunks of about ``CHUNK_VALUES`` values;
     ``velocity_kernels.block_features`` computes the same. ``sequence_index`` holds the index of ``v*`` in
-    ``table``."""
+    ``table``; ``n_sequence`` and ``n_single``: how many of the smallest ``S`` and ``D[r, a]`` to report
+    (``kernels.CANDIDATE_KEYS``, the sequence candidates indexed by ``i``)."""
     seq_len = table.shape[1]
     n_queries = raw.shape[0] - seq_len + 1
     step = max(1, CHUNK_VALUES // raw.shape[1])
     parts = [_numpy_chunk(raw[j : min(n_queries, j + step) + seq_len - 1], col_max[j : j + step + seq_len - 1],
-                          table, r_min, n_ranks) for j in range(0, n_queries, step)]
+                          table, r_min, n_ranks, n_sequence, n_single) for j in range(0, n_queries, step)]
     return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
 
 
@@ -60,8 +61,8 @@ def sequence_sums(y: np.ndarray, table: np.ndarray, r_min: int) -> tuple[np.ndar
     return s, best
 
 
-def _numpy_chunk(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int,
-                 n_ranks: int) -> dict[str, np.ndarray]:
+def _numpy_chunk(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int, n_ranks: int,
+                 n_sequence: int = 0, n_single: int = 0) -> dict[str, np.ndarray]:
     """The features of the queries of ``raw`` (``(w + L - 1, R)``, a slice of the block) in numpy: per velocity and
     per term one shifted addition over the chunk, each sum accumulated ``0 + x_0 + x_1 + ...`` as defined."""
     seq_len = table.shape[1]
@@ -89,6 +90,8 @@ def _numpy_chunk(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min:
     group_mean = _mean(full, *group_range(rank_index, n_index))
     attributes = attribute_rates(past_sorted, row_past_sorted, current_sorted, last, past_ranked, block_mean,
                                  group_mean)
+    sequence_values, sequence_candidates = _smallest(s, n_sequence)
+    single_values, single_index = _smallest(y[seq_len - 1 :], n_single)
     return {
         "attributes": attributes,
         "rank_diagonals": rank_index.astype(np.int64),
@@ -97,6 +100,10 @@ def _numpy_chunk(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min:
         "sequence_distance": s[rows, sequence_index],
         "sequence_max": s.max(axis=1),
         "sequence_index": best[rows, sequence_index],
+        "sequence_candidates": sequence_values,
+        "sequence_candidate_diagonals": sequence_candidates.astype(np.int64),
+        "single_candidates": single_values,
+        "single_candidate_references": single_index.astype(np.int64),
     }
 
 
@@ -151,9 +158,12 @@ def _best_trajectories(y: np.ndarray, x: np.ndarray | None, table: np.ndarray,
 
 
 def _smallest(values: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """The ``count`` smallest values of each row (ascending) and their column indices, equal values lowest index
-    first (a stable sort's order): ``formulas.select`` on exact values (no screening margin)."""
+    """The ``count`` smallest values of each row (ascending, float64) and their column indices, equal values lowest
+    index first (a stable sort's order): ``formulas.select`` on exact values (no screening margin); none for a
+    ``count`` of 0."""
     n_rows, n = values.shape
+    if count == 0:
+        return np.empty((n_rows, 0)), np.empty((n_rows, 0), dtype=np.int64)
     screened = padded(n_rows, n, values.dtype)
     screened[:, :n] = values
     return select(screened, n, count, 0.0, lambda rows, cols: values[rows, cols])

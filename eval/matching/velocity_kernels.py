@@ -29,8 +29,11 @@ MIN_THREAD_QUERIES = 16  # queries per thread at least: fewer do not pay for a t
 
 @njit(cache=True, nogil=True)
 def _smallest(values: np.ndarray, out: np.ndarray, index: np.ndarray) -> None:
-    """The ``len(out)`` smallest of ``values`` into ``out`` (ascending) and their indices into ``index``."""
+    """The ``len(out)`` smallest of ``values`` into ``out`` (ascending) and their indices into ``index``; nothing for
+    an empty ``out``."""
     capacity = len(out)
+    if capacity == 0:
+        return
     count = 0
     for g0 in range(0, len(values), GROUP):
         g1 = min(len(values), g0 + GROUP)
@@ -134,9 +137,12 @@ def _best_trajectories(raw: np.ndarray, x: np.ndarray, table: np.ndarray, r_min:
 @njit(cache=True, nogil=True)
 def _queries(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int, q0: int, q1: int,
              attributes: np.ndarray, rank_index: np.ndarray, single_match: np.ndarray, sequence_index: np.ndarray,
-             sequence_distance: np.ndarray, sequence_max: np.ndarray, sequence_velocity: np.ndarray) -> None:
+             sequence_distance: np.ndarray, sequence_max: np.ndarray, sequence_candidates: np.ndarray,
+             sequence_candidate_index: np.ndarray, single_candidates: np.ndarray, single_candidate_index: np.ndarray,
+             sequence_velocity: np.ndarray) -> None:
     """The features of block queries ``q0 .. q1 - 1`` of ``raw`` (``(Wb, R)``, rows contiguous) into the outputs'
-    rows ``q0 .. q1 - 1``; ``sequence_velocity`` receives the index of ``v*`` in ``table``'s order."""
+    rows ``q0 .. q1 - 1``; ``sequence_velocity`` receives the index of ``v*`` in ``table``'s order, the candidates
+    (widths 0: none) the smallest ``S`` by ``i`` and the smallest ``D[r, a]`` by ``r``."""
     n_ref = raw.shape[1]
     n_vel, seq_len = table.shape
     n_index = n_ref - r_min
@@ -170,6 +176,8 @@ def _queries(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int
             if column[r] < column[at]:
                 at = r
         single_match[j] = at
+        _smallest(s, sequence_candidates[j], sequence_candidate_index[j])
+        _smallest(column, single_candidates[j], single_candidate_index[j])
 
         row_past[:] = 0.0
         for k in range(seq_len - 1):
@@ -197,15 +205,17 @@ def thread_count() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def block_features(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int,
-                   n_ranks: int) -> dict[str, np.ndarray]:
+def block_features(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int, n_ranks: int,
+                   n_sequence: int = 0, n_single: int = 0) -> dict[str, np.ndarray]:
     """The numpy path's ``_numpy_chunk`` over all queries of the block ``raw`` (``(Wb, R)``, float32 or float64),
     ``col_max`` its columns' maxima (float64, 0 replaced by 1), ``table`` the offsets ``(|V|, L)`` in the tie rule's
-    order. ``sequence_index`` holds the index of ``v*`` in ``table``. The queries are split over threads."""
+    order, with ``n_sequence`` and ``n_single`` candidates. ``sequence_index`` holds the index of ``v*`` in
+    ``table``. The queries are split over threads."""
     raw = np.ascontiguousarray(raw)
     table = np.ascontiguousarray(table, dtype=np.int64)
     n_queries = raw.shape[0] - table.shape[1] + 1
-    out = {**empty_outputs(n_queries, n_ranks), "sequence_index": np.empty(n_queries, dtype=np.int64)}
+    out = {**empty_outputs(n_queries, n_ranks, n_sequence, n_single),
+           "sequence_index": np.empty(n_queries, dtype=np.int64)}
     outputs = tuple(out.values())
 
     def run(bounds: tuple[int, int]) -> None:

@@ -7,6 +7,7 @@ lists, from the configuration alone, the files ``main`` writes, so that a workfl
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import re
 from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
@@ -23,6 +24,7 @@ from vpr_smr.core.records import FormatError
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report import registry
+from vpr_smr.eval.report.baselines import baseline_rows, comparisons, detection_rows, with_best
 from vpr_smr.eval.report.results import (
     Order,
     Splits,
@@ -43,7 +45,15 @@ from vpr_smr.eval.report.table1 import (
     table1_rows,
     tex_escape,
 )
-from vpr_smr.eval.scoring.records import KEY_META, Evaluation, HeldOut, ModeRemoval, Timing, VPRMetrics
+from vpr_smr.eval.scoring.records import (
+    KEY_META,
+    Baselines,
+    Evaluation,
+    HeldOut,
+    ModeRemoval,
+    Timing,
+    VPRMetrics,
+)
 from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
 from vpr_smr.eval.scoring.speed import SpeedResult, SpeedScores
 
@@ -581,6 +591,7 @@ class Inputs:
         """``; correct: within 2 frames``: what a figure's title adds of its dataset's ground truth (empty if none)."""
         text = self.protocols.get(dataset)
         return f"; correct: {text}" if text else ""
+    baselines: list[Baselines] = dataclasses.field(default_factory=list)
 
 
 def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[WrittenTable]:
@@ -604,7 +615,13 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
             table("restoration", restoration)
         table("timing", timing_rows(evaluations, inputs.timings, order))
         if inputs.seq_len_ablation:
-            table("ablation_seq_len", table1_rows(evaluations, split, order=order))
+            rows = table1_rows(evaluations, split, order=order)
+            if inputs.baselines:  # the best training-free scorer of every L beside the predictor
+                rows = with_best(rows, baseline_rows(inputs.baselines, split, order=order))
+            table("ablation_seq_len", rows)
+    if inputs.baselines:
+        table("baselines", baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order))
+        table("wrong_match_detection", detection_rows(inputs.baselines, split, inputs.table_seq_lens, order))
     if inputs.metrics:
         table("vpr_metrics", vpr_metrics_rows(inputs.metrics, split, order))
     if inputs.predictors:
@@ -675,7 +692,12 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
                                     f"{dataset}, L={seq_len}: all methods ({split}{inputs.correct(dataset)})")
         keep("confusion", f"{dataset}, L={seq_len}", path, dataset, seq_len)
     if inputs.seq_len_ablation and inputs.evaluations:
-        figures += _seq_len_figures(out_dir, table1_rows(inputs.evaluations, split, order=order), order, inputs)
+        rows = table1_rows(inputs.evaluations, split, order=order)
+        if inputs.baselines:  # the best training-free scorer's PR AUC marked beside the predictor's bar
+            rows = with_best(rows, baseline_rows(inputs.baselines, split, order=order))
+        figures += _seq_len_figures(out_dir, rows, order, inputs)
+    if inputs.baselines:
+        figures += _baseline_figures(out_dir, inputs)
     if inputs.speed:
         figures += _speed_figures(out_dir, speed_rows(inputs.speed, order), order, split, inputs)
     figures += _sweep_figures(out_dir, sweep_rows(inputs.metrics, split, order), order, split)
@@ -695,6 +717,40 @@ def _sweep_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, spli
                                 order.sorted_methods(r["method"] for r in group), title)
         out.append(WrittenFigure("protocol_sweep", f"{spec.title}: {dataset}, L={seq_len}, {mode} mode", path, dataset,
                                  seq_len, mode))
+    return out
+
+
+def _baseline_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
+    """Per dataset and table L: per mode, each scorer's reduction at the predictor's budget per method
+    (``baselines``); and the precision-recall curves of detecting wrong matches, a panel per method
+    (``detection``)."""
+    split, order = inputs.split, inputs.order
+    out = []
+    rows = baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order)
+    spec = registry.figure("baselines")
+    for comparison in comparisons(rows):
+        shown = [r for r in rows if (r["dataset"], r["mode"], r["seq_len"]) ==
+                 (comparison.dataset, comparison.mode, comparison.seq_len)]
+        title = (f"{comparison.dataset}, L={comparison.seq_len}, {comparison.mode} mode ({split}): AOC reduction at "
+                 "the seed-0 predictor's budget")
+        path = fig.baselines_figure(out_dir / spec.file(dataset=comparison.dataset, seq_len=comparison.seq_len,
+                                                        mode=comparison.mode), shown, comparison, title)
+        out.append(WrittenFigure("baselines", f"{spec.title}: {comparison.dataset}, L={comparison.seq_len}, "
+                                 f"{comparison.mode} mode", path, comparison.dataset, comparison.seq_len,
+                                 comparison.mode))
+    spec = registry.figure("detection")
+    groups: dict[tuple[str, int], list[Baselines]] = {}
+    for record in inputs.baselines:
+        dataset, _, seq_len = record.key
+        if inputs.table_seq_lens is None or seq_len in inputs.table_seq_lens:
+            groups.setdefault((dataset, seq_len), []).append(record)
+    for (dataset, seq_len), records in sorted(groups.items(), key=lambda item: (order.dataset(item[0][0]),
+                                                                                item[0][1])):
+        records = sorted(records, key=lambda r: order.method(r.key[1]))
+        title = f"{dataset}, L={seq_len} ({split}): detecting wrong sequence matches"
+        path = fig.detection_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len),
+                                    [(r.key[1], r.splits[split]) for r in records], title)
+        out.append(WrittenFigure("detection", f"{spec.title}: {dataset}, L={seq_len}", path, dataset, seq_len))
     return out
 
 
@@ -726,13 +782,18 @@ def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, in
         seq_lens = sorted({int(r["seq_len"]) for r in group})
         bottoms = np.full((len(methods), len(seq_lens)), np.nan)
         tops = np.full_like(bottoms, np.nan)
+        best = np.full_like(bottoms, np.nan)
         for r in group:
             i, j = methods.index(r["method"]), seq_lens.index(int(r["seq_len"]))
             bottoms[i, j], tops[i, j] = r["auc_vpr_sm"], r["auc_vpr_sm_pred"]
+            if r.get("best_scorer_auc") is not None:
+                best[i, j] = r["best_scorer_auc"]
         title = f"{dataset}, {mode} mode{inputs.correct(dataset)}\nPR AUC, VPR+SM (bar bottom) -> VPR+SM+Pred (top)"
         spec = registry.figure("seq_len")
         path = fig.change_bars(out_dir / spec.file(dataset=dataset, mode=mode), methods, [f"L{s}" for s in seq_lens],
-                               np.nan_to_num(bottoms), np.nan_to_num(tops), title)
+                               np.nan_to_num(bottoms), np.nan_to_num(tops), title,
+                               markers=best if not np.isnan(best).all() else None,
+                               marker_label="best training-free scorer, same budget (compare with the bar top)")
         out.append(WrittenFigure("seq_len", f"{spec.title}: {dataset}, {mode} mode", path, dataset, mode=mode))
     return out
 
@@ -858,6 +919,7 @@ def main(
     match_figures: Sequence[Path | str] = (),
     matrix_figures: Sequence[Path | str] = (),
     speed: Sequence[Path | str] = (),
+    baselines: Sequence[Path | str] = (),
     split: str | None = None,
     eval_splits: Sequence[str] | None = None,
     train_split: str | None = None,
@@ -880,6 +942,8 @@ def main(
     ``match_figures`` and ``matrix_figures``: the match inspector's PNGs (``core.paths.match_figure_path`` and
     ``matrix_figure_path``), shown in the page, placed by their file names. ``speed``: the speed experiment's
     files (``scoring.speed.main``, one per dataset and profile, in the configuration's order of profiles).
+    ``baselines``: the training-free baselines (``vpr-smr baselines``, one per dataset, method and L): their
+    tables, figures and findings, and the best of them in the sequence-length ablation.
     ``split``, ``eval_splits``, ``train_split``: the configuration's table_split, eval_splits and train_split, which
     the tables show and name (``results.Splits.resolve``; default: the one split every evaluation holds, the
     splits of the inputs with it last, ``train``).
@@ -900,12 +964,16 @@ def main(
     read_predictors = _read(predictors, "predictor report", PredictorReport.from_json, PREDICTOR_META)
     read_lomo = _read(leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
     read_speed = _read(speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
+    read_baselines = _read(baselines, "baselines", Baselines.from_json, KEY_META)
+
     splits = Splits.resolve(split, eval_splits, train_split,
-                            [*(list(e.splits) for e in read_evaluations), *(list(m.splits) for m in read_metrics)],
+                            [*(list(e.splits) for e in read_evaluations), *(list(m.splits) for m in read_metrics),
+                             *(list(b.splits) for b in read_baselines)],
                             [name for report in read_predictors for name in report.seeds[0].splits])
     split = splits.table or ""  # none only without evaluations and metrics, which alone show a split
     base = evaluation_order(read_evaluations, methods)
     order = Order.of([*(e.meta for e in read_evaluations), *(m.meta for m in read_metrics),
+                      *(b.meta for b in read_baselines),
                       *(h.meta for h in read_lomo), *(p.meta for p in read_predictors),
                       *({"dataset": name} for name in datasets or {}),
                       # a speed file lists its methods in the configuration's order, under each matcher
@@ -917,7 +985,7 @@ def main(
         _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
         read_metrics,
         dict(datasets or {}), split, None if table_seq_lens is None else {int(s) for s in table_seq_lens},
-        seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics))
+        seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines)
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]

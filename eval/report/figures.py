@@ -122,9 +122,11 @@ def confusion_figure(path: Path, matrix: np.ndarray, title: str) -> Path:
 
 
 def change_bars(path: Path, methods: Sequence[str], groups: Sequence[str], bottoms: np.ndarray, tops: np.ndarray,
-                title: str, ylabel: str = "PR AUC") -> Path:
+                title: str, ylabel: str = "PR AUC", markers: np.ndarray | None = None,
+                marker_label: str = "") -> Path:
     """One bar per method and group (e.g. sequence length) from ``bottoms[m, g]`` to ``tops[m, g]``: green when
-    the top is higher, red when lower (the paper's sequence-length figure)."""
+    the top is higher, red when lower (the paper's sequence-length figure); ``markers[m, g]`` (NaN: none), e.g. the
+    best training-free scorer's value, a black cross on its bar (``marker_label`` in a legend)."""
     plt = _pyplot()
     n_methods, n_groups = len(methods), len(groups)
     fig, ax = plt.subplots(figsize=(max(4.0, min(12.0, 0.3 * n_methods * n_groups + 2)), 3.8))
@@ -134,14 +136,19 @@ def change_bars(path: Path, methods: Sequence[str], groups: Sequence[str], botto
         height = tops[:, g] - bottoms[:, g]
         colours = [UP if h >= 0 else DOWN for h in height]
         ax.bar(x, height, width=width * 0.9, bottom=bottoms[:, g], color=colours, edgecolor="black", lw=0.4)
+        if markers is not None:
+            ax.plot(x, markers[:, g], "x", color="black", ms=5, mew=1.2, label=marker_label if g == 0 else None)
         if n_groups > 1:
             for xi, top in zip(x, np.maximum(tops[:, g], bottoms[:, g]), strict=True):
                 ax.text(xi, top, str(group), ha="center", va="bottom", fontsize=6)
     ax.set_xticks(np.arange(n_methods), list(methods), rotation=30, ha="right")
-    low, high = float(np.min([bottoms, tops])), float(np.max([bottoms, tops]))
+    shown = [bottoms, tops] + ([markers[~np.isnan(markers)]] if markers is not None else [])
+    low, high = min(float(np.min(a)) for a in shown if a.size), max(float(np.max(a)) for a in shown if a.size)
     pad = max(0.02, 0.1 * (high - low))
     ax.set(ylabel=ylabel, title=wrapped(title, fig.get_figwidth() - 0.6),
            ylim=(max(0.0, low - pad), min(1.05, high + pad)))
+    if markers is not None and marker_label:
+        ax.legend(loc="best", fontsize=7)
     fig.tight_layout()
     return save(fig, path)
 
@@ -261,4 +268,80 @@ def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
     fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 5), fontsize=8)
     fig.suptitle(wrapped(title, fig.get_figwidth()))
     fig.tight_layout(rect=(0, 0.12, 1, 1))
+    return save(fig, path)
+
+
+# --- the training-free baselines (method §12) -------------------------------------------------------------------
+
+# one colour per scorer, the same in both baseline figures; the predictor stands out, the oracle is a ceiling
+SCORER_COLOURS = {"uniqueness": "tab:blue", "single_uniqueness": "tab:cyan", "spread": "tab:olive",
+                  "distance": "tab:gray", "random": "tab:pink", "oracle": "black", "predictor": "tab:orange"}
+
+
+def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any, title: str) -> Path:
+    """Each scorer's AOC reduction per method at the seed-0 predictor's budget (``report.baselines.baseline_rows``
+    of one dataset, mode and L): a group of bars per method, the training-free scorers first, the best of them
+    (``comparison.best``, edged) just before the predictor's bar; random as its mean over the seeds with the sample
+    standard deviation as an error bar; the oracle's reduction a dashed line over the group (the ceiling at that
+    budget). An undefined reduction has no bar and is named under the axis."""
+    plt = _pyplot()
+    methods = list(comparison.methods)
+    best = comparison.best
+    order = [name for name in SCORER_COLOURS if name not in ("oracle", "predictor", best)]
+    order += ([best] if best is not None else []) + ["predictor"]
+    by = {(r["method"], r["scorer"]): r for r in rows}
+    fig, ax = plt.subplots(figsize=(max(5.0, min(14.0, 0.55 * len(order) * len(methods) + 2.5)), 4.2))
+    width = 0.8 / len(order)
+    missing = []
+    for s, scorer in enumerate(order):
+        x = np.arange(len(methods)) - 0.4 + width * (s + 0.5)
+        values, errors = [], []
+        for method in methods:
+            row = by.get((method, scorer), {})
+            value = row.get("reduction_pct_mean" if scorer == "random" else "reduction_pct")
+            values.append(np.nan if value is None else float(value))
+            errors.append(row.get("reduction_pct_std") or 0.0 if scorer == "random" else 0.0)
+            if value is None and row:
+                missing.append(f"{method}: {scorer} ({SHORT.get(str(row.get('outcome')), 'undefined')})")
+        label = scorer + (" (best training-free)" if scorer == best else "")
+        ax.bar(x, values, width=width * 0.92, color=SCORER_COLOURS[scorer], label=label,
+               edgecolor="black", lw=1.2 if scorer in (best, "predictor") else 0.3,
+               yerr=errors if scorer == "random" else None, capsize=2)
+    for m, method in enumerate(methods):
+        ceiling = by.get((method, "oracle"), {}).get("reduction_pct")
+        if ceiling is not None:
+            ax.hlines(ceiling, m - 0.42, m + 0.42, colors="black", linestyles="--", lw=1.0,
+                      label="oracle (ceiling)" if m == 0 else None)
+    ax.axhline(0, color="black", lw=0.6)
+    ax.set_xticks(np.arange(len(methods)), methods, rotation=20, ha="right")
+    ax.set(ylabel="AOC reduction at the predictor's budget (%)", title=wrapped(title, fig.get_figwidth() - 0.6))
+    handles, labels = ax.get_legend_handles_labels()
+    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=7)
+    note = ("undefined: " + "; ".join(missing)) if missing else ""
+    if note:
+        fig.text(0.01, 0.005, wrapped(note, fig.get_figwidth(), 7), fontsize=7, va="bottom")
+    fig.tight_layout(rect=(0, 0.16 if note else 0.1, 1, 1))
+    return save(fig, path)
+
+
+def detection_figure(path: Path, panels: Sequence[tuple[str, Any]], title: str) -> Path:
+    """Precision-recall curves of detecting the wrong sequence matches, one panel per method (``panels``: method
+    and its ``records.SplitBaselines``): each scorer's curve as the steps its average precision sums (random's first
+    seed), the fraction of wrong matches (a random ranking's expected precision) dotted."""
+    from vpr_smr.eval.scoring.baselines import SCORERS
+
+    fig, axes = _panels(len(panels))
+    for ax, (method, found) in zip(axes, panels, strict=True):
+        for scorer in (name for name in SCORERS if name in found.detection):
+            numbers = found.detection[scorer]
+            if numbers.curve is None or not numbers.curve.recall:
+                continue
+            recall = [0.0, *numbers.curve.recall]
+            precision = [numbers.curve.precision[0], *numbers.curve.precision]
+            ax.plot(recall, precision, drawstyle="steps-pre", color=SCORER_COLOURS.get(scorer), label=scorer,
+                    lw=1.6 if scorer == "predictor" else 1.0, ls="--" if scorer == "oracle" else "-")
+        ax.axhline(found.wrong_fraction, color="grey", lw=0.8, ls=":", label="fraction of wrong matches")
+        ax.set(title=wrapped(f"{method}\n{found.n_wrong} of {found.n_queries} matches wrong", 3.0),
+               xlabel="recall of wrong matches", ylim=(0, 1.02), xlim=(0, 1))
+    _finish(fig, axes, title, legend_size=7)
     return save(fig, path)

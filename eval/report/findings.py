@@ -1,7 +1,9 @@
-"""The report's findings in words: a few sentences per dataset, mode and L that say what Table I shows.
+"""The report's findings in words: a few sentences per dataset, mode and L that say what Table I shows, what the
+speed experiment shows, and how the predictor compares with the training-free scorers (method §12).
 
-Every number in them is one of Table I's (``table1.Table1Block``: the seed-0 predictor's reductions and the seed
-summary), rounded for reading; the table beside them keeps the exact values.
+Every number in them is one of the tables' (``table1.Table1Block``: the seed-0 predictor's reductions and the seed
+summary; ``baselines.Comparison``: the baselines table's), rounded for reading; the table beside them keeps the
+exact values.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from vpr_smr.eval.report import outcome_words as words
+from vpr_smr.eval.report.baselines import Comparison
 from vpr_smr.eval.report.table1 import Table1Block
 from vpr_smr.eval.scoring.curves import NOTHING_TO_REDUCE
 from vpr_smr.eval.scoring.sweep import within
@@ -274,3 +277,31 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
     return [f"{where}, no conclusion depends on the ground truth: the predictor's AOC reduction keeps its sign for "
             f"every method, so does sequence matching's gain over single frames, and no two methods swap places by "
             "sequence recall@1."]
+# --- the training-free baselines (method §12) -------------------------------------------------------------------
+
+
+def baseline_sentence(comparison: Comparison, split: str) -> str:
+    """For how many methods the seed-0 predictor's AOC reduction beats the best training-free scorer's at its budget
+    (the scorer with the largest mean reduction over the methods; random's is its mean over the seeds), and what
+    removing only wrong matches (the oracle) would do at that budget, mean over the methods."""
+    where = (f"On {comparison.dataset} ({split} split, L = {comparison.seq_len}, {comparison.mode} mode), at the "
+             "seed-0 predictor's budget")
+    n = len(comparison.methods)
+    if comparison.best is None:
+        text = f"{where} no training-free scorer has a defined AOC reduction for any of the {methods(n)}"
+    else:
+        best_mean = comparison.best_mean
+        mean = "" if best_mean is None else f", mean reduction {signed(best_mean)}"
+        text = (f"{where} the predictor beats the best training-free scorer ({comparison.best}{mean}) for "
+                f"{comparison.beaten} of {methods(n)}")
+        if comparison.undefined:
+            text += f" (a reduction is undefined for {listed(list(comparison.undefined))})"
+    oracle = comparison.oracle_mean
+    if oracle is not None:
+        text += f"; oracle removal at the same budget would reduce the AOC by {size(oracle)}"
+        defined = sum(value is not None for value in comparison.oracle)
+        if defined < n:
+            text += f" (mean over the {methods(defined)} where it is defined)"
+        elif n > 1:
+            text += " (mean over the methods)"
+    return text + "."

@@ -25,7 +25,8 @@ from vpr_smr.core.io import atomic_path, package_version, read_provenance
 from vpr_smr.core.paths import queries_path
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report import registry
-from vpr_smr.eval.report.findings import sentences, speed_sentences, sweep_sentences
+from vpr_smr.eval.report.baselines import comparisons, headline
+from vpr_smr.eval.report.findings import baseline_sentence, sentences, speed_sentences, sweep_sentences
 from vpr_smr.eval.report.results import (
     Order,
     Splits,
@@ -166,6 +167,59 @@ def speed_table(table_id: str, rows: Sequence[dict[str, Any]]) -> TableView:
     return TableView(table_id, head, tuple(body), caption=spec.caption)
 
 
+def scorer_table(table_id: str, rows: Sequence[dict[str, Any]], value: str, caption: str) -> TableView:
+    """A compact table of the baselines (``baselines`` or ``wrong_match_detection`` rows of one dataset, L and
+    mode): a row per scorer, a column per method, ``value`` in each cell; ``random``'s reduction as its mean ±
+    sample standard deviation over the seeds (``baselines.headline``), its average precision as the mean over its
+    seeds; the detection table ends with the fraction of wrong matches."""
+    methods = unique(str(r["method"]) for r in rows)
+    scorers = unique(str(r["scorer"]) for r in rows)
+    by = {(str(r["method"]), str(r["scorer"])): r for r in rows}
+    head = (Column("scorer", "text"), *(Column(m) for m in methods))
+    body = []
+    for scorer in scorers:
+        cells = []
+        for method in methods:
+            row = by.get((method, scorer), {})
+            if scorer == "random" and value == "reduction_pct" and row:
+                mean, std = headline(row), row.get("reduction_pct_std")
+                text = UNDEFINED if mean is None else f"{mean:.2f}" + ("" if std is None else f" ± {std:.2f}")
+                cells.append(Cell(text, "" if mean is None else repr(mean),
+                                  "na" if mean is None else "up" if mean > 0 else "down" if mean < 0 else "num"))
+            elif scorer == "random" and row.get(f"{value}_mean") is not None:
+                cells.append(cell(row[f"{value}_mean"], value, fmt=".4f"))
+            else:
+                cells.append(row_cell(row, registry.Column(value, fmt=".2f" if value == "reduction_pct" else ".4f")))
+        body.append((text_cell(scorer, header=True), *cells))
+    if value == "average_precision" and rows:
+        body.append((text_cell("wrong fraction", header=True),
+                     *(cell(by[(m, scorers[0])]["wrong_fraction"], fmt=".4f") for m in methods)))
+    return TableView(table_id, head, tuple(body), caption=caption)
+
+
+def best_scorer_table(table_id: str, rows: Sequence[dict[str, Any]]) -> TableView:
+    """The sequence-length ablation's best training-free scorer beside the predictor: a row per L, a column per
+    method, each cell the scorer and its reduction (%), then the predictor's."""
+    methods = unique(str(r["method"]) for r in rows)
+    lens = sorted({int(r["seq_len"]) for r in rows})
+    by = {(int(r["seq_len"]), str(r["method"])): r for r in rows}
+    head = (Column("L"), *(Column(m, "text") for m in methods))
+    body = []
+    for seq_len in lens:
+        cells = []
+        for method in methods:
+            row = by.get((seq_len, method), {})
+            value = row.get("best_scorer_reduction_pct")
+            best = (f"{row['best_scorer']} {value:.2f}" if value is not None and row.get("best_scorer")
+                    else f"{UNDEFINED}: {words.SHORT[row['best_scorer_outcome']]}"
+                    if row.get("best_scorer_outcome") in words.SHORT else UNDEFINED)
+            predictor = row.get("reduction_pct")
+            cells.append(text_cell(f"{best} · predictor {UNDEFINED if predictor is None else f'{predictor:.2f}'}"))
+        body.append((cell(seq_len, "seq_len"), *cells))
+    return TableView(table_id, head, tuple(body), caption="The best training-free scorer's AOC reduction (%) beside "
+                     "the predictor's, per sequence length (rows) and method (columns)")
+
+
 # --- Table I and the findings -----------------------------------------------------------------------------------
 
 
@@ -277,9 +331,43 @@ class _Builder:
         return ", ".join(parts) + (f", {figure.mode} mode" if figure.mode else "") + self.correct(figure.dataset)
 
     def sections(self) -> list[Section]:
-        makers = (self.pr, self.trust, self.restoration, self.seq_len, self.speed, self.predictor, self.table2,
-                  self.lomo, self.timing, self.vpr_metrics, self.protocol_sweep, self.inspector)
+        makers = (self.baselines, self.pr, self.trust, self.restoration, self.seq_len, self.speed, self.predictor,
+                  self.table2, self.lomo, self.timing, self.vpr_metrics, self.protocol_sweep, self.inspector)
         return [s for s in (make() for make in makers) if s is not None]
+
+    def baselines(self) -> Section | None:
+        """Right after Table I: is the predictor better than a simple rule? The sentence of every dataset, mode and
+        L first, then per dataset, L and mode each scorer's reduction at the predictor's budget, and per dataset and
+        L the detection of wrong matches."""
+        rows, detection = self.rows("baselines"), self.rows("wrong_match_detection")
+        if not rows and not detection:
+            return None
+        found = comparisons(rows)
+        blocks = []
+        for f in self.named("baselines"):
+            table = scorer_table(anchor("baselines", f.dataset, f.seq_len, f.mode), self.of(f, rows),
+                                 "reduction_pct", registry.table("baselines").caption)
+            blocks.append(Block(self._title(f), (self.figure(f),), (table,)))
+        for f in self.named("detection"):
+            shown = self.of(f, detection)
+            table = scorer_table(anchor("detection", f.dataset, f.seq_len), shown, "average_precision",
+                                 registry.table("wrong_match_detection").caption)
+            blocks.append(Block(f"{self._title(f)}: detecting wrong matches", (self.figure(f),), (table,)))
+        budget = ("Each scorer gives every query a confidence that its sequence match is correct and removes as "
+                  "many matches as the predictor does (its budget: the seed-0 predictor's, and every seed's for the "
+                  "spread over seeds), those of lowest confidence; the oracle removes only wrong matches, those of "
+                  "smallest sequence distance first, at most all of them. Each removal is scored as Table I scores "
+                  "the predictor's: the AOC at its own maximum recall against VPR+SM's curve cut there.")
+        scorers = ("uniqueness: SeqSLAM's, the smallest sequence distance outside a window around the match over "
+                   "the match's; single_uniqueness: the same on the query's own distances; spread: minus the spread "
+                   "of the best end references; distance: minus the sequence distance (a threshold on it, which is "
+                   "what VPR+SM's curve already sweeps: about 0 by construction); random: a random order; oracle: "
+                   "the ground truth. Detecting wrong matches is threshold-free: the average precision and ROC AUC "
+                   "of each confidence against the wrong matches (a random ranking's average precision is the "
+                   "fraction of wrong matches).")
+        intro = tuple(baseline_sentence(c, self.split) for c in found) + (budget, scorers)
+        return Section("baselines", "Is the predictor better than a simple rule?", intro, tuple(blocks),
+                       self.folded("baselines", "wrong_match_detection"))
 
     def pr(self) -> Section | None:
         rows = self.rows("table1")
@@ -330,11 +418,18 @@ class _Builder:
             return None
         blocks = []
         for f in self.named("seq_len"):
-            table = pivot(anchor("seq-len", f.dataset, f.mode), self.of(f, rows), registry.table("ablation_seq_len"))
-            blocks.append(Block(self._title(f), (self.figure(f),), (table,)))
-        return Section("sequence-length", "Sequence-length ablation", (
-            "PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
-            "green where the predictor helps, red where it hurts.",), tuple(blocks), self.folded("ablation_seq_len"))
+            shown = self.of(f, rows)
+            tables = [pivot(anchor("seq-len", f.dataset, f.mode), shown, registry.table("ablation_seq_len"))]
+            if any(r.get("best_scorer") for r in shown):
+                tables.append(best_scorer_table(anchor("seq-len-best", f.dataset, f.mode), shown))
+            blocks.append(Block(self._title(f), (self.figure(f),), tuple(tables)))
+        intro = ("PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
+                 "green where the predictor helps, red where it hurts; a cross marks the PR AUC of the best "
+                 "training-free scorer removing as many matches as the predictor (method §12): compare it with the "
+                 "bar's top, each over its own curve; the second table gives its name and AOC reduction beside the "
+                 "predictor's.")
+        return Section("sequence-length", "Sequence-length ablation", (intro,), tuple(blocks),
+                       self.folded("ablation_seq_len"))
 
     def speed(self) -> Section | None:
         rows = self.rows("speed")

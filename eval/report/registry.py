@@ -186,6 +186,10 @@ TABLE2_F1 = (F1_CV, Column("f1_{validation}", "F1 {word}"), Column("f1_{last}", 
 TABLE2_COUNTS = (Column("n_train", "training samples (cross-validation)", note=True),
                  Column("n_{validation}", "{word}", note=True), Column("n_{last}", "{word} samples", note=True))
 MS = ".3f"  # times on the page
+# The sequence-length ablation's best training-free scorer beside the predictor (method §12; ``baselines.with_best``)
+BEST_SCORER = (Column("best_scorer", "best training-free scorer"),
+               Column("best_scorer_reduction_pct", "its AOC reduction (%)", REDUCTION.fmt))
+SCORER = Column("scorer")
 
 TABLES = (
     Table("table1", "Table I: area over the PR curve at max recall", ("table1",),
@@ -226,9 +230,28 @@ TABLES = (
                    Column("pr_auc", "PR-AUC"), Column("extended_precision", "EP")),
           page=("method", "matcher", "n_queries", *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p", "pr_auc",
                 "extended_precision")),
+    Table("baselines", "Training-free baselines: AOC at max recall of each scorer removing as many matches as the "
+          "predictor (method §12), per dataset, method, L and mode", ("baselines",),
+          # budget: what the seed-0 predictor removes; removed: what the scorer removed (the oracle at most every
+          # wrong match); aoc: the scorer's AOC at its own maximum recall; the seed columns: every seed's budget
+          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, SCORER, Column("budget"), REMOVED, MAX_RECALL, AOC_VPR_SM,
+                   Column("aoc", "AOC"), REDUCTION, OUTCOME, *SEEDS, Column("n_seeds_defined"), N_QUERIES),
+          caption="AOC reduction (%) of each scorer (rows) per method (columns) at the seed-0 predictor's budget; "
+                  "random: mean ± sample standard deviation over the seeds"),
+    Table("wrong_match_detection", "Detecting wrong matches: average precision and ROC AUC of each scorer against "
+          "the wrong sequence matches (method §12), per dataset, method and L", ("baselines",),
+          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, SCORER, Column("average_precision", "AP"),
+                   Column("roc_auc", "ROC AUC"), Column("average_precision_mean", "AP mean"),
+                   Column("average_precision_std", "AP std"), Column("roc_auc_mean", "ROC AUC mean"),
+                   Column("roc_auc_std", "ROC AUC std"), Column("n_seeds"),
+                   Column("wrong_fraction", "wrong matches (random's AP)"), Column("n_wrong"), N_QUERIES),
+          caption="Average precision of detecting the wrong sequence matches (rows: scorers, columns: methods); "
+                  "random: mean over its seeds; the last row: the fraction of wrong matches, a random ranking's "
+                  "expected average precision"),
     Table("ablation_seq_len", "Sequence-length ablation: Table I columns per dataset, method and sequence length",
           ("table1", "seq_len"),
-          columns=(*TABLE1_NUMBERS, AUC_VPR_SM, Column("auc_vpr_sm_pred"), *QUERIES, SEEDS_DEFINED, *OUTCOMES),
+          columns=(*TABLE1_NUMBERS, AUC_VPR_SM, Column("auc_vpr_sm_pred"), *QUERIES, SEEDS_DEFINED, *OUTCOMES,
+                   *BEST_SCORER),
           pivot=Pivot("seq_len", ("method",), ("reduction_pct",)),
           caption="AOC reduction (%) per sequence length (columns: methods)"),
     Table("speed", "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search "
@@ -288,6 +311,8 @@ FIGURES = (
            "restoration_auc_{dataset}_L{seq_len}_{mode}.png"),
     Figure("confusion", "Confusion matrix", ("table1",), "confusion_{dataset}_L{seq_len}.png"),
     Figure("seq_len", "Sequence-length ablation", ("table1", "seq_len"), "seq_len_{dataset}_{mode}.png"),
+    Figure("baselines", "Training-free baselines", ("baselines",), "baselines_{dataset}_L{seq_len}_{mode}.png"),
+    Figure("detection", "Detecting wrong matches", ("baselines",), "detection_{dataset}_L{seq_len}.png"),
     Figure("speed", "Speed profiles", ("speed",), "speed_{dataset}_L{seq_len}.png"),
     Figure("protocol_sweep", "Protocol sweep", ("protocol_sweep",), "protocol_sweep_{dataset}_L{seq_len}_{mode}.png"),
 )
@@ -325,10 +350,10 @@ def expected_outputs(
     timing, PR and confusion figures), ``"predictor"`` (predictor reports given), ``"trust"`` (trust levels
     configured), ``"restoration"``, ``"seq_len"`` (the sequence-length ablation), ``"attributes"`` (Table II),
     ``"leave_one_method_out"``, ``"metrics"`` (the standard VPR metrics given), ``"datasets"`` (dataset cards
-    given), ``"speed"`` (the speed experiment, at ``table_seq_lens``, for ``speed_datasets``: default every
-    dataset; those with positions have none), ``"protocol_sweep"`` (the protocol sweep, for ``sweep_datasets``:
-    default every dataset; those whose ground truth is a file have none); each table and figure of ``registry`` is
-    listed when all of its experiments are.
+    given), ``"baselines"`` (the training-free baselines given), ``"speed"`` (the speed experiment, at
+    ``table_seq_lens``, for ``speed_datasets``: default every dataset; those with positions have none),
+    ``"protocol_sweep"`` (the protocol sweep, for ``sweep_datasets``: default every dataset; those whose ground truth
+    is a file have none); each table and figure of ``registry`` is listed when all of its experiments are.
     """
     only = {"speed": speed_datasets, "protocol_sweep": sweep_datasets}  # figures of some datasets only
     out = [path for spec in TABLES if spec.enabled(experiments) for path in spec.files()]

@@ -13,6 +13,10 @@ its network the code's order ``[A1, A2, A4, A3]`` itself (``SMRPredictor.column_
 ``core.constants.KEPT_CLASSES``) are the seed-0 predictor's, empty without a predictor. ``velocities``: the
 velocities the sequence matcher searched (``1`` for the fixed matcher), so that a reader of the table (the match
 inspector) knows which matcher made its sequence matches.
+
+Then one column per scorer of method §12 (``SCORE_COLUMNS``: ``c_uniqueness`` .. ``c_predictor``), its confidence
+``c_a`` that the sequence match is correct (higher: more likely; ``c_random`` of seed 0, ``c_predictor`` the seed-0
+predictor's ``1 - P(class 1) - P(class 3)``); empty where not computed (``c_predictor`` without a predictor).
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ from vpr_smr.core.constants import DEFAULT_VELOCITIES
 from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, QueryFeatures
 from vpr_smr.eval.matching.ground_truth import NO_REFERENCE
+from vpr_smr.eval.scoring.baselines import SCORERS
 from vpr_smr.eval.scoring.curves import keep_mask
 
 QUERY_COLUMNS = (
@@ -36,6 +41,9 @@ QUERY_COLUMNS = (
     "sequence_correct", "true_reference", *ATTRIBUTE_NAMES, "label", "predicted_class", "probability", "kept",
     "velocities",
 )
+# the scorers' confidences (method §12), after QUERY_COLUMNS: a reader of the columns above (the match inspector)
+# reads a table written before these existed as it always did
+SCORE_COLUMNS = tuple(f"c_{name}" for name in SCORERS)
 
 
 @dataclass(frozen=True)
@@ -45,13 +53,15 @@ class Prediction:
 
     predicted: np.ndarray  # (N,) class
     probability: np.ndarray  # (N,) the highest class probability
+    probabilities: np.ndarray | None = None  # (N, C) every class's, columns in ``classes`` order
+    classes: np.ndarray | None = None
 
     @classmethod
     def of(cls, predictor: Any, features: QueryFeatures) -> Prediction:
         """``predictor`` (``predict_proba`` and ``classes_``, e.g. ``SMRPredictor``) on ``features``' rank 0."""
         probabilities = np.asarray(predictor.predict_proba(features.attributes[:, 0, :]))
-        predicted = np.asarray(predictor.classes_)[np.argmax(probabilities, axis=1)]
-        return cls(predicted, probabilities.max(axis=1))
+        classes = np.asarray(predictor.classes_)
+        return cls(classes[np.argmax(probabilities, axis=1)], probabilities.max(axis=1), probabilities, classes)
 
     @property
     def kept(self) -> np.ndarray:
@@ -73,6 +83,7 @@ class SplitQueries:
     # (N,) split-local, NO_REFERENCE for a query without a correct one; None: the query's own index (frame-aligned)
     true_reference: np.ndarray | None = None
     velocities: tuple[float, ...] = DEFAULT_VELOCITIES  # the sequence matcher's
+    scores: dict[str, np.ndarray] | None = None  # scorer -> (N,) c_a (method §12), None: not computed
 
 
 def velocities_text(velocities: Sequence[float]) -> str:
@@ -93,6 +104,8 @@ def query_rows(table: SplitQueries) -> Iterator[list[str]]:
     prediction = table.prediction
     kept = prediction.kept if prediction is not None else None
     velocities = velocities_text(table.velocities)
+    scores = table.scores or {}
+    by_scorer = [scores.get(name) for name in SCORERS]
     for n, query in enumerate(f.queries):
         predicted = ["", "", ""] if prediction is None or kept is None else [
             str(int(prediction.predicted[n])), _number(prediction.probability[n]), str(int(kept[n]))]
@@ -105,6 +118,7 @@ def query_rows(table: SplitQueries) -> Iterator[list[str]]:
             "" if true_reference[n] == NO_REFERENCE else str(first_ref + int(true_reference[n])),
             *(_number(v) for v in f.attributes[n, 0, :]),
             str(int(f.labels[n])), *predicted, velocities,
+            *("" if values is None else _number(values[n]) for values in by_scorer),
         ]
 
 
@@ -112,7 +126,7 @@ def write_queries(path: Path | str, tables: Sequence[SplitQueries]) -> None:
     """The table of every split in the given order, written atomically (``core.io.atomic_path``)."""
     with atomic_path(path) as tmp, open(tmp, "w", newline="") as handle:
         writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow(QUERY_COLUMNS)
+        writer.writerow((*QUERY_COLUMNS, *SCORE_COLUMNS))
         for table in tables:
             if len(table.single_distance) != len(table.features.queries):
                 raise ValueError(f"split {table.split!r}: {len(table.single_distance)} single-frame distances for "

@@ -319,6 +319,75 @@ class HeldOut(FileRecord):
         return self.predictors.without
 
 
+# --- training-free baselines (eval.scoring.baselines, method §12) ------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Detection(Record):
+    """How well one scorer detects wrong sequence matches (method §12.3): the queries whose sequence match is wrong
+    are the positives, ranked by ``-c_a``. ``average_precision`` is None without a wrong match, ``roc_auc`` when
+    every match or none is wrong. ``curve``: its precision-recall curve at each threshold where recall grows (the
+    points the average precision sums), for the figure; None where a table needs the numbers only."""
+
+    average_precision: float | None
+    roc_auc: float | None
+    curve: PRCurve | None = None
+
+
+@dataclass(frozen=True)
+class ScorerRemoval(Record):
+    """One scorer's removal at a predictor seed's budget: how many matches it removed (the budget, or fewer for
+    ``oracle`` when there are fewer wrong matches) and Table I's numbers of that removal per mode."""
+
+    removed: int
+    modes: dict[str, Reduction]
+
+
+@dataclass(frozen=True)
+class BudgetRemoval(Record):
+    """Removal at the budget of the seed-``seed`` predictor (method §12.2): ``budget`` is how many matches that
+    predictor removes; every scorer of ``scorers`` (``predictor`` itself included, by its own removal) removes as
+    many."""
+
+    seed: int
+    budget: int
+    scorers: dict[str, ScorerRemoval]
+
+
+@dataclass(frozen=True)
+class SplitBaselines(Record):
+    """The training-free scorers, the oracle and the predictor on one split (method §12). ``detection``: each
+    scorer's wrong-match detection, ``random`` and ``predictor`` by the first seed; ``random_detection``: random's
+    for every seed of ``seeds``, in that order (without curves); ``removal``: per predictor seed, every scorer's
+    removal at its budget (None without a predictor)."""
+
+    n_queries: int
+    n_wrong: int  # queries whose sequence match is wrong: the positives of detection
+    seeds: tuple[int, ...]
+    detection: dict[str, Detection]
+    random_detection: tuple[Detection, ...]
+    removal: tuple[BudgetRemoval, ...] | None = None
+
+    @property
+    def wrong_fraction(self) -> float:
+        """The fraction of wrong matches: the average precision of a random ranking."""
+        return self.n_wrong / max(self.n_queries, 1)
+
+
+@dataclass(frozen=True)
+class Baselines(FileRecord):
+    """The training-free baselines of one method on one dataset at one L (``baselines.main``): ``meta`` holds the
+    dataset, method, seq_len, the scorers' settings (``r_window``, ``spread_k``), the ground truth and the predictor
+    files (one per seed, seed 0 first); one ``SplitBaselines`` per evaluated split."""
+
+    meta: Json
+    splits: dict[str, SplitBaselines]
+
+    @property
+    def key(self) -> tuple[str, str, int]:
+        return meta_key(self.meta)
+
+
 # --- the standard VPR metrics (eval.scoring.vpr_metrics) --------------------------------------------------------
 
 
@@ -369,6 +438,7 @@ class SplitMetrics(Record):
     queries_without_correct: int | None = None
     evaluated_without_correct: int | None = None
     sweep: ProtocolSweep | None = None  # recall@1 and the reduction over tolerances or radii (``sweep``), when asked
+    baselines: SplitBaselines | None = None  # the training-free scorers (method §12), when computed
 
 
 @dataclass(frozen=True)

@@ -1,5 +1,8 @@
-"""The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher, and the
-per-query table of the same scoring (``vpr-smr queries``, or ``metrics --queries``; ``eval.scoring.queries``).
+"""The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher, the
+per-query table of the same scoring (``vpr-smr queries``, or ``metrics --queries``; ``eval.scoring.queries``), and the
+training-free baselines of a run (``vpr-smr baselines``: method §12's scorers, ``eval.scoring.baselines``, at the
+budget of every predictor seed). ``metrics`` and ``queries`` compute the scorers too (their detection of wrong
+matches, with a predictor their removal at its budget; their confidences in the per-query table).
 
 One split's ``R x Q`` matrix ``D``: a match ``r`` of query ``q`` is correct iff ``|r - q| <= tolerance`` for a
 frame-aligned pair, iff its position is within the radius of the query's with positions (method §11), iff
@@ -55,6 +58,7 @@ from vpr_smr.core.io import (
     read_provenance,
     write_json,
 )
+from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import (
     Matching,
     QueryFeatures,
@@ -78,14 +82,23 @@ from vpr_smr.eval.matching.io import (
 from vpr_smr.eval.matching.matcher import SequenceMatcher, as_matrix, check_velocities
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_range, frame_ranges, trained_on
+from vpr_smr.eval.scoring import baselines as scorers
+from vpr_smr.eval.scoring.baselines import (
+    DEFAULT_SETTINGS,
+    BaselineSettings,
+    check_candidates,
+    split_baselines,
+    spread_positions,
+)
 from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, recall_at_full_precision
 from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
-from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
+from vpr_smr.eval.scoring.records import Baselines, MatcherMetrics, SplitMetrics, VPRMetrics
 from vpr_smr.eval.scoring.sweep import protocol_sweep, within
 
 __all__ = [
-    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "extended_precision", "format_metrics", "main",
-    "matcher_metrics", "precision_at_first_recall", "queries_main", "recall_at", "retrieval", "score_split",
+    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "baselines_main", "extended_precision",
+    "format_baselines", "format_metrics", "main", "matcher_metrics", "precision_at_first_recall", "queries_main",
+    "recall_at", "retrieval", "score_split",
 ]
 
 log = logging.getLogger("vpr_smr")
@@ -277,12 +290,16 @@ def score_split(
     reference_first_frame: int | None = None,
     ground_truth: GroundTruth | None = None,
     sweep: bool = False,
+    baselines: BaselineSettings | None = None,
 ) -> ScoredSplit:
     """The metrics of one split's matrix per mode and matcher (``sequence_predictor`` only with ``predictor``: an
     object with ``predict_proba`` and ``classes_``, e.g. ``SMRPredictor``). ``features``: the split's attributes
     (``query_features`` of the same matrix; computed when None). ``velocities`` and ``ground_truth`` as
     ``query_features`` takes them. ``sweep``: also recall@1 and the predictor's reduction over the tolerances or
-    radii of ``sweep.protocol_sweep`` (a ground truth of frames or positions only)."""
+    radii of ``sweep.protocol_sweep`` (a ground truth of frames or positions only). ``baselines``: also the
+    training-free scorers of method §12 with these settings (their detection of wrong matches, and with
+    ``predictor`` their removal at its budget; ``SplitMetrics.baselines``) and their confidences in the per-query
+    table; ``features`` read from a file must then hold the candidates the settings need."""
     unknown = [mode for mode in modes if mode not in MODES]
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
@@ -290,17 +307,27 @@ def score_split(
     truth = GroundTruth.aligned(shape[0], shape[1], tolerance) if ground_truth is None else ground_truth
     found = retrieval(distance_matrix, seq_len, tolerance, block_queries, velocities, truth)
     if features is None:
-        features = query_features(distance_matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth)
+        features = query_features(distance_matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth,
+                                  n_candidates=baselines.candidates if baselines is not None else 0)
     _check_agree(found, features, seq_len, f"split {split!r}")
     prediction = Prediction.of(predictor, features) if predictor is not None else None
     without = truth.without_correct()
     swept = protocol_sweep(features, found.single_match, truth, modes,
                            prediction.kept if prediction is not None else None) if sweep else None
+    found_baselines, scores = None, None
+    if baselines is not None:
+        check_candidates(features, baselines, "the attributes")
+        positions = spread_positions(truth)
+        scored = [] if prediction is None or prediction.probabilities is None or prediction.classes is None else [
+            scorers.Prediction(0, prediction.probabilities, prediction.classes)]
+        found_baselines = split_baselines(features, baselines, positions, scored, modes)
+        scores = scorers.query_scores(features, baselines, positions, 0, scored[0] if scored else None)
     metrics = SplitMetrics({mode: _mode_metrics(mode, found, features, seq_len, truth, prediction)
-                            for mode in modes}, int(without.sum()), int(without[seq_len - 1 :].sum()), swept)
+                            for mode in modes}, int(without.sum()), int(without[seq_len - 1 :].sum()), swept,
+                           found_baselines)
     true_reference = None if truth.is_aligned_band() else truth.true_references(features.queries)
     queries = SplitQueries(split, first_frame, features, found.single_distance[seq_len - 1 :], prediction,
-                           reference_first_frame, true_reference, velocities)
+                           reference_first_frame, true_reference, velocities, scores)
     return ScoredSplit(metrics, queries)
 
 
@@ -404,6 +431,7 @@ def _score_all(
     key: str | None = None,
     transpose: bool = False,
     sweep: bool = False,
+    baselines: BaselineSettings | None = None,
 ) -> Scored:
     """Every split of ``distances`` scored (``score_split``) in the given order, after every input is checked.
     What ``main`` and ``queries_main`` share: one implementation of the per-query table."""
@@ -441,6 +469,9 @@ def _score_all(
             except ValueError as error:
                 raise ValueError(f"{path}: {error}; give a --seq-len of at most {min(matrix.shape)}") from None
             features = read_features(attributes_file) if attributes_file is not None else None
+            if features is not None and baselines is not None:
+                check_candidates(features, baselines, str(attributes_file),
+                                 "leave --attributes out (they are computed here), or give --no-baselines")
             truth = split_ground_truth(path, tuple(matrix.shape), tolerance, matcher.radius,
                                        matcher.reference_positions, matcher.query_positions, file_truth)
             recorded = truth.provenance() if recorded is None else recorded
@@ -450,7 +481,7 @@ def _score_all(
                                              _first_frame(attributes_file, path), velocities=matcher.velocities,
                                              ground_truth=truth,
                                              reference_first_frame=_reference_first_frame(attributes_file, path),
-                                             sweep=sweep)
+                                             sweep=sweep, baselines=baselines)
             except ValueError as error:
                 given = f" and {attributes_file}" if attributes_file is not None else ""
                 raise ValueError(f"{path}{given}: {error}") from None
@@ -482,6 +513,7 @@ def main(
     key: str | None = None,
     transpose: bool = False,
     sweep: bool = False,
+    baselines: BaselineSettings | None = DEFAULT_SETTINGS,
 ) -> VPRMetrics:
     """The standard VPR metrics of every split of ``distances`` (split -> ``.npy``, ``.npz``, ``.mat`` or our
     HDF5; one path: one split named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with
@@ -496,15 +528,19 @@ def main(
     ``tolerance``, the ground truth (``ground_truth``: ``GroundTruth.provenance``), how the matrices were read and
     the predictor's path; each split records its queries without a correct reference. ``sweep``: each split
     also records recall@1 and the predictor's reduction over the tolerances or radii of ``sweep.protocol_sweep``
-    (``records.ProtocolSweep``). Every input is checked before any work.
+    (``records.ProtocolSweep``). ``baselines`` (default: the default settings; None: none): each split also
+    records the training-free scorers of method §12 (``records.SplitBaselines``: their detection of wrong matches
+    and, with ``predictor``, their removal at its budget), the per-query table their confidences, and the meta the
+    settings (``r_window``, ``spread_k``). Every input is checked before any work.
     """
     out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
     queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
     scored = _score_all(distances, seq_len, tolerance, predictor, attributes, modes, allow_split_overlap, matcher,
-                        similarity, key, transpose, sweep)
+                        similarity, key, transpose, sweep, baselines)
     info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance),
             **matcher_provenance(matcher.velocities, matcher.radius),
-            **reading_provenance(similarity, key, transpose), "ground_truth": scored.ground_truth}
+            **reading_provenance(similarity, key, transpose), "ground_truth": scored.ground_truth,
+            **(baselines.meta() if baselines is not None else {})}
     if scored.predictor is not None:
         info["predictor"] = str(scored.predictor)
     result = VPRMetrics(info, {split: scored_split.metrics for split, scored_split in scored.splits.items()})
@@ -546,13 +582,47 @@ def format_metrics(result: VPRMetrics) -> str:
     return text if len(sweep) == 1 else f"{text}\n\nprotocol sweep (method §13):\n{_aligned(sweep, 3)}"
 
 
-def _aligned(rows: list[list[str]], names: int) -> str:
-    """``rows`` as plain-text columns: the first ``names`` cells left-aligned, numbers right-aligned, as a reader
+def _aligned(rows: Sequence[Sequence[str]], names: int) -> str:
+    """Rows of cells as plain-text columns: the first ``names`` left-aligned, numbers right-aligned, as a reader
     compares them down a column."""
     widths = [max(len(row[i]) for row in rows) for i in range(len(rows[0]))]
     return "\n".join("  ".join(cell.ljust(width) if i < names else cell.rjust(width)
                                for i, (cell, width) in enumerate(zip(row, widths, strict=True))).rstrip()
                      for row in rows)
+
+
+def _fraction(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.4f}"
+
+
+def format_baselines(result: VPRMetrics) -> str:
+    """The training-free scorers of every split (method §12) as plain text: each scorer's average precision and ROC
+    AUC of detecting wrong matches (with the fraction of wrong matches, a random ranking's average precision), and
+    with a predictor each scorer's AOC reduction at its budget per mode; empty when none were computed."""
+    parts = []
+    for split, scored in result.splits.items():
+        found = scored.baselines
+        if found is None:
+            continue
+        parts.append(f"{split}: detecting the {found.n_wrong} wrong sequence matches of {found.n_queries} queries "
+                     f"(fraction {found.wrong_fraction:.4f}: a random ranking's average precision)")
+        rows = [["scorer", "AP", "ROC AUC"]]
+        rows += [[name, _fraction(numbers.average_precision), _fraction(numbers.roc_auc)]
+                 for name, numbers in found.detection.items()]
+        parts.append(_aligned(rows, 1))
+        for budget in found.removal or ():
+            parts.append(f"{split}: removal at the seed-{budget.seed} predictor's budget of {budget.budget} matches")
+            rows = [["mode", "scorer", "removed", "max recall", "AOC VPR+SM", "AOC", "reduction %", "outcome"]]
+            modes = list(dict.fromkeys(mode for removal in budget.scorers.values() for mode in removal.modes))
+            for mode in modes:  # one mode's scorers together, as a reader compares them
+                for name, removal in budget.scorers.items():
+                    numbers = removal.modes[mode]
+                    rows.append([mode, name, str(removal.removed), f"{numbers.max_recall:.4f}",
+                                 f"{numbers.aoc_vpr_sm:.4f}", f"{numbers.aoc_vpr_sm_pred:.4f}",
+                                 "n/a" if numbers.reduction_pct is None else f"{numbers.reduction_pct:.2f}",
+                                 numbers.outcome])
+            parts.append(_aligned(rows, 2))
+    return "\n\n".join(parts)
 
 
 def queries_main(
@@ -567,14 +637,89 @@ def queries_main(
     similarity: bool = False,
     key: str | None = None,
     transpose: bool = False,
+    baselines: BaselineSettings | None = DEFAULT_SETTINGS,
 ) -> Path:
-    """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS``) of every split of ``distances`` in
-    the given order, written to ``out`` (CSV), as ``main``'s ``queries`` (the same code; no metric mode changes
-    it). The inputs as ``main``'s."""
+    """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS`` and ``SCORE_COLUMNS``) of every split
+    of ``distances`` in the given order, written to ``out`` (CSV), as ``main``'s ``queries`` (the same code; no
+    metric mode changes it). The inputs as ``main``'s."""
     out = check_suffix(out, CSV_SUFFIXES, "the per-query table (CSV)")
     scored = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher,
-                        similarity, key, transpose)
+                        similarity, key, transpose, baselines=baselines)
     write_queries(out, [scored_split.queries for scored_split in scored.splits.values()])
     log.info("wrote %d queries of %d splits to %s",
              sum(len(r.queries.features.queries) for r in scored.splits.values()), len(scored.splits), out)
     return out
+
+
+def baselines_main(
+    distances: Mapping[str, Path | str],
+    attributes: Mapping[str, Path | str],
+    predictors: Sequence[Path | str],
+    seq_len: int,
+    tolerance: int,
+    out: Path | str,
+    settings: BaselineSettings = DEFAULT_SETTINGS,
+    modes: Sequence[str] = MODES,
+    meta: Mapping[str, Any] | None = None,
+    allow_split_overlap: bool = False,
+    matcher: MatcherSettings = MatcherSettings(),
+    similarity: bool = False,
+    key: str | None = None,
+    transpose: bool = False,
+) -> Baselines:
+    """The ``baselines`` stage (method §12): per split, every scorer's detection of wrong matches and its removal
+    at the budget of each predictor seed (``predictors``: seed 0 first), written to ``out`` (JSON,
+    ``records.Baselines``).
+
+    ``attributes`` (split -> our features ``.h5``, holding the candidates ``settings`` need) give the matches and
+    their verdicts; ``distances`` (the same splits' matrices, read for their shape and the positions they hold) the
+    ground truth, as ``main`` builds it (``matcher``, ``tolerance``), whose reference positions ``spread`` measures.
+    ``meta`` (dataset, method) is written with ``seq_len``, the settings, the ground truth and the predictor files.
+    Every input is checked before any work."""
+    out = check_suffix(out, JSON_SUFFIXES, "the training-free baselines (JSON)")
+    distance_paths = {str(name): Path(path) for name, path in distances.items()}
+    attribute_paths = {str(name): Path(path) for name, path in attributes.items()}
+    if not attribute_paths or set(distance_paths) != set(attribute_paths):
+        raise ValueError(f"give every split's attributes and distances (--attributes names "
+                         f"{', '.join(attribute_paths) or 'none'}, --distances {', '.join(distance_paths) or 'none'})")
+    if not predictors:
+        raise ValueError("the baselines need the predictor files (one per seed, seed 0 first): their budgets")
+    unknown = [mode for mode in modes if mode not in MODES]
+    if unknown:
+        raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
+    file_truth = (None if matcher.ground_truth is None
+                  else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key))
+    _check_inputs(distance_paths, attribute_paths, None, seq_len, tolerance, matcher, file_truth)
+    models = []
+    for path in map(Path, predictors):
+        _check_inputs({}, {}, path, seq_len, tolerance, matcher)
+        check_disjoint(trained_on(path), frame_ranges(attribute_paths.values()), allow_split_overlap,
+                       f"predictor {path}")
+        models.append(SMRPredictor.load(path))
+        check_matching(models[-1], Matching.of(matcher.velocities, matcher.kind),
+                       "the attributes " + ", ".join(map(str, attribute_paths.values())))
+    features = {split: read_features(path) for split, path in attribute_paths.items()}
+    for split, path in attribute_paths.items():
+        check_candidates(features[split], settings, str(path))
+    splits = {}
+    recorded: dict[str, Any] | None = None if file_truth is None else file_truth.provenance()
+    for split in attribute_paths:
+        path = distance_paths[split]
+        with open_distance_matrix(path, similarity, key, transpose) as matrix:
+            shape = tuple(int(n) for n in matrix.shape)
+            truth = split_ground_truth(path, shape, tolerance, matcher.radius, matcher.reference_positions,
+                                       matcher.query_positions, file_truth)
+        if len(features[split].queries) != shape[1] - seq_len + 1:
+            raise ValueError(f"{attribute_paths[split]} holds {len(features[split].queries)} queries, but {path} is "
+                             f"a {shape[0]} x {shape[1]} matrix ({shape[1] - seq_len + 1} queries at L = {seq_len}): "
+                             "give the attributes computed from it")
+        recorded = truth.provenance() if recorded is None else recorded
+        attributes_0 = features[split].attributes[:, 0, :]
+        predictions = [scorers.Prediction(seed, np.asarray(model.predict_proba(attributes_0)),
+                                          np.asarray(model.classes_)) for seed, model in enumerate(models)]
+        splits[split] = split_baselines(features[split], settings, spread_positions(truth), predictions, modes)
+    info = {**dict(meta or {}), "seq_len": int(seq_len), **settings.meta(), "ground_truth": recorded,
+            "predictors": [str(path) for path in predictors]}
+    result = Baselines(info, splits)
+    save(out, result)
+    return result

@@ -31,9 +31,12 @@ rule attributes:
         # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
         ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
         velocities=VELOCITIES,
+        # the candidates the training-free scorers need (method §12): only a change of their number recomputes these
+        candidates=conf.baselines.candidates,
     shell:
         "vpr-smr attributes --distances {input.distances:q} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
-        " {params.radius} {params.ground_truth} --velocities {params.velocities} --out {output:q} > {log:q} 2>&1"
+        " {params.radius} {params.ground_truth} --velocities {params.velocities} --candidates {params.candidates}"
+        " --out {output:q} > {log:q} 2>&1"
 
 
 rule train:
@@ -84,6 +87,36 @@ rule evaluate:
         " --out {output.evaluation:q} {params.overlap} > {log:q} 2>&1"
 
 
+# The training-free scorers against the predictor (method §12), at every predictor seed's budget: every L, so that
+# the sequence-length ablation shows the best of them beside the predictor.
+rule baselines:
+    input:
+        distances=lambda wc: [distances_path(OUT, wc.dataset, wc.method, split) for split in conf.eval_splits],
+        attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
+                             for split in conf.eval_splits],
+        predictors=predictor_paths(OUT, "{dataset}", "{seq_len}", conf.seeds),
+    output:
+        baselines_path(OUT, "{dataset}", "{method}", "{seq_len}"),
+    log:
+        log_path(OUT, baselines_path(OUT, "{dataset}", "{method}", "{seq_len}")),
+    params:
+        overlap=ALLOW_OVERLAP,
+        # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
+        distances=lambda wc, input: name_pairs(conf.eval_splits, input.distances),
+        attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
+        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
+        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        velocities=VELOCITIES,
+        baselines=BASELINES,
+        modes=" ".join(conf.modes),
+    shell:
+        "vpr-smr baselines --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
+        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius}"
+        " --velocities {params.velocities} --distances {params.distances} --attributes {params.attributes}"
+        " --predictors {input.predictors:q} {params.baselines} --modes {params.modes}"
+        " --out {output:q} {params.overlap} > {log:q} 2>&1"
+
+
 rule vpr_metrics:
     input:
         distances=lambda wc: [distances_path(OUT, wc.dataset, wc.method, split) for split in conf.eval_splits],
@@ -105,13 +138,15 @@ rule vpr_metrics:
         # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
         ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
         velocities=VELOCITIES,
+        baselines=BASELINES,
         modes=" ".join(conf.modes),
         sweep=lambda wc: "--sweep" if "protocol_sweep" in EXPERIMENTS and wc.dataset in SWEEP_DATASETS else "",
     shell:
         "vpr-smr metrics --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
         " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
         " --velocities {params.velocities} --distances {params.distances}"
-        " --attributes {params.attributes} --predictor {input.predictor:q} --modes {params.modes} {params.sweep}"
+        " --attributes {params.attributes} --predictor {input.predictor:q} {params.baselines} --modes {params.modes}"
+        " {params.sweep}"
         " --out {output:q} {params.overlap} > {log:q} 2>&1"
 
 
@@ -138,7 +173,8 @@ rule queries:
         # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
         ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
         velocities=VELOCITIES,
+        baselines=BASELINES,
     shell:
         "vpr-smr queries --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
         " --velocities {params.velocities} --distances {params.distances} --attributes {params.attributes} --predictor {input.predictor:q}"
-        " --out {output:q} {params.overlap} > {log:q} 2>&1"
+        " {params.baselines} --out {output:q} {params.overlap} > {log:q} 2>&1"

@@ -68,6 +68,9 @@ rule report:
     input:
         evaluations=expand(evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}"),
                            dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
+        # the training-free baselines (method §12), every L: their table, figures and the sequence-length ablation
+        baselines=expand(baselines_path(OUT, "{dataset}", "{method}", "{seq_len}"),
+                         dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
         # matched to their evaluations by the report, by dataset, method and L
         timings=expand(timing_path(evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}")),
                        dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
@@ -103,7 +106,7 @@ rule report:
         settings=report_settings(conf.to_json()),
         datasets=report_datasets(PLAN),  # the configuration's order of datasets and splits
     shell:
-        "vpr-smr report --evaluations {input.evaluations:q} --timings {input.timings:q}"
+        "vpr-smr report --evaluations {input.evaluations:q} --baselines {input.baselines:q} --timings {input.timings:q}"
         " --predictors {input.predictors:q} --attribute-ablations {input.attribute_ablations:q}"
         " --leave-one-out {input.leave_one_out:q} --metrics {input.metrics:q}"
         " --match-figures {input.match_figures:q} --matrix-figures {input.matrix_figures:q} --speed {input.speed:q}"

@@ -13,6 +13,7 @@ BENCHMARKS = REPO / "benchmarks"
     ("attributes.py", ("ratio (a) attributes / load+sum:", "ratio (b) peak / matrix:", "ratio (d) L=10 / L=2")),
     ("live.py", ("ratio live per frame / batch per query:",)),
     ("nordland_scale.py", ("ratio peak / 8 GB:",)),
+    ("candidates.py", ("400 x 400, numpy in process, per query", "vpr-smr attributes (default path)")),
 ])
 def test_benchmark_runs_small(script, ratio_lines):
     done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--small"], capture_output=True, text=True,

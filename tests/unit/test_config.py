@@ -22,8 +22,9 @@ def test_demo_config_is_valid_and_gets_defaults():
     assert conf.seq_lens == (2, 4, 6, 8, 10) and conf.modes == ("paper", "standard")
     assert conf.eval_splits == ("val", "test") and conf.output == "results"
     assert conf.table_seq_len == 4 and conf.seeds == 5
-    assert experiments(conf) == {"table1", "predictor", "trust", "restoration", "attributes",
+    assert experiments(conf) == {"table1", "predictor", "baselines", "trust", "restoration", "attributes",
                                  "leave_one_method_out", "seq_len", "speed", "protocol_sweep"}
+    assert (conf.baselines.r_window, conf.baselines.spread_k, conf.baselines.candidates) == (10, 10, 12)
     preflight(conf)
 
 
@@ -64,7 +65,8 @@ def test_experiments_follow_the_settings(tmp_path):
         experiments: {restoration: false}
     """)
     # one method: no leave-one-method-out; one L: no sequence-length ablation; restoration switched off
-    assert experiments(load_config(path)) == {"table1", "predictor", "trust", "attributes", "speed", "protocol_sweep"}
+    assert experiments(load_config(path)) == {"table1", "predictor", "baselines", "trust", "attributes", "speed",
+                                              "protocol_sweep"}
     assert "trust" not in experiments(load_config(path, {"trust_levels": []}))
 
 
@@ -140,10 +142,12 @@ def test_preflight_names_missing_checkpoint_and_root(tmp_path):
 
 def test_schema_defaults_agree_with_the_library():
     # The schema repeats what a JSON schema cannot import: core.constants owns these values.
-    from vpr_smr.core.constants import DEFAULT_TRUST_LEVELS, MODES
+    from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, DEFAULT_TRUST_LEVELS, MODES
     from vpr_smr.pipeline.config import SCHEMA_PATH, schema_default
 
     assert tuple(schema_default("trust_levels")) == DEFAULT_TRUST_LEVELS
+    assert schema_default("baselines", "r_window") == DEFAULT_R_WINDOW
+    assert schema_default("baselines", "spread_k") == DEFAULT_SPREAD_K
     assert tuple(schema_default("modes")) == MODES
     assert tuple(json.loads(SCHEMA_PATH.read_text())["properties"]["modes"]["items"]["enum"]) == MODES
 

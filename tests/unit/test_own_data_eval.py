@@ -240,7 +240,8 @@ def test_query_counts_in_every_evaluation_table(tmp_path):
     assert list(rows("table1")[0])[:15] == list(registry.table("table1").names()[:15])
     assert list(rows("ablation_seq_len")[0])[15:] == ["auc_vpr_sm", "auc_vpr_sm_pred", "n_queries",
                                                      "n_queries_single", "n_seeds_defined",
-                                                     *(column.name for column in registry.OUTCOMES)]
+                                                     *(column.name for column in registry.OUTCOMES),
+                                                     *(column.name for column in registry.BEST_SCORER)]
     assert list(rows("restoration")[0])[-2:] == ["reduction_pct", "n_queries"]
     assert "d: 57 queries with a sequence match (single-frame recall@1 over all 60 of the split)" in (
         tables / "table1.md").read_text()

@@ -92,18 +92,19 @@ def test_a_report_run_writes_exactly_the_registry(full_report_run):
     run, written = full_report_run
     written = sorted(str(p.relative_to(run)) for p in written)
     tables = ("table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
-              "vpr_metrics", "ablation_seq_len", "speed", "predictor", "table2", "leave_one_method_out",
-              "protocol_sweep", "datasets")
+              "vpr_metrics", "baselines", "wrong_match_detection", "ablation_seq_len", "speed", "predictor", "table2",
+              "leave_one_method_out", "protocol_sweep", "datasets")
     by_hand = (
         [f"tables/{name}.{ext}" for name in tables for ext in ("csv", "md", "tex")]
-        + [f"figures/{kind}_d_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc",
+        + [f"figures/{kind}_d_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc", "baselines",
                                                             "protocol_sweep") for mode in ("paper", "standard")]
         + ["figures/confusion_d_L4.png", "figures/seq_len_d_paper.png", "figures/seq_len_d_standard.png",
-           "figures/speed_d_L4.png", "report.html"]
+           "figures/speed_d_L4.png", "figures/detection_d_L4.png", "report.html"]
     )
     assert written == sorted(by_hand)
     assert written == sorted(expected_outputs(["d"], [2, 4], ["paper", "standard"],
-                                              ALL_EXPERIMENTS | {"metrics", "datasets"}, table_seq_lens=[4]))
+                                              ALL_EXPERIMENTS | {"metrics", "datasets", "baselines"},
+                                              table_seq_lens=[4]))
     assert [spec.name for spec in registry.TABLES] == list(tables)
     for spec in registry.FIGURES:  # each registered figure was written at least once
         prefix = spec.pattern.split("{")[0]

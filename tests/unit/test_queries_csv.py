@@ -12,12 +12,14 @@ from worked_matrix import DECISION, SEQ_LEN, TOLERANCE, D, FixedPredictor
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH, KEPT_CLASSES
 from vpr_smr.eval.matching.attributes import main as attributes_main
 from vpr_smr.eval.predictor.estimator import SMRPredictor
-from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, write_queries
+from vpr_smr.eval.scoring.baselines import BaselineSettings
+from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, SCORE_COLUMNS, write_queries
 from vpr_smr.eval.scoring.vpr_metrics import main, score_split
 
 COLUMNS = ["split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
            "sequence_distance", "sequence_correct", "true_reference", "A1", "A2", "A3", "A4", "label",
            "predicted_class", "probability", "kept", "velocities"]
+SCORES = ["c_uniqueness", "c_single_uniqueness", "c_spread", "c_distance", "c_random", "c_oracle", "c_predictor"]
 
 
 def read(path):
@@ -49,11 +51,11 @@ def spec_attributes(d, seq_len, a):
 
 def test_columns_and_values_by_hand(tmp_path):
     # the 6 x 6 matrix of worked_matrix.py (L = 2, tolerance 0), worked out there by hand
-    assert list(QUERY_COLUMNS) == COLUMNS
+    assert list(QUERY_COLUMNS) == COLUMNS and list(SCORE_COLUMNS) == SCORES
     scored = score_split(D, SEQ_LEN, TOLERANCE, FixedPredictor(DECISION, confidence=0.7))
     write_queries(tmp_path / "q.csv", [scored.queries])
     header, rows = read(tmp_path / "q.csv")
-    assert header == COLUMNS
+    assert header == COLUMNS + SCORES and all(r[name] == "" for r in rows for name in SCORES)  # not asked for
     column = {name: [r[name] for r in rows] for name in COLUMNS}
     assert column["split"] == ["all"] * 5
     assert column["query"] == column["true_reference"] == ["1", "2", "3", "4", "5"]
@@ -68,6 +70,31 @@ def test_columns_and_values_by_hand(tmp_path):
     assert [float(v) for v in column["probability"]] == pytest.approx([0.7] * 5)
     assert column["kept"] == ["0", "1", "1", "0", "1"]
     assert column["velocities"] == ["1"] * 5  # the fixed matcher
+
+
+def test_scorer_columns_by_hand(tmp_path):
+    # the worked matrix with r_window 2 (uniqueness looks past |r - r*| <= 1) and spread_k 3 (method §12)
+    scored = score_split(D, SEQ_LEN, TOLERANCE, FixedPredictor(DECISION, confidence=0.7),
+                         baselines=BaselineSettings(r_window=2, spread_k=3))
+    write_queries(tmp_path / "q.csv", [scored.queries])
+    header, rows = read(tmp_path / "q.csv")
+    assert header == COLUMNS + SCORES
+    column = {name: [float(r[name]) for r in rows] for name in SCORES}
+    # S of a1..a5 by end reference 1..5 (worked_matrix.py): the best outside the window over the best
+    #   a1 [4, 7, 10, 10, 10] r* 1: 10 / 4;  a2 [10, 4, 7, 10, 10] r* 2: 10 / 4;  a3 [10, 10, 5, 6, 7] r* 3: 7 / 5
+    #   a4 [10, 10, 10, 7, 6] r* 5: 10 / 6;  a5 [2.5, 10, 10, 10, 3] r* 1: 3 / 2.5
+    assert column["c_uniqueness"] == pytest.approx([2.5, 2.5, 1.4, 10 / 6, 1.2])
+    # D[:, a] of a1..a5 around the single-frame match: q1 r 2 (2): 5 / 2; q2 r 2 (1): 5; q3 r 4 (1): 5;
+    # q4 r 0 (2): D[4, 4] = 3 / 2; q5 r 5 (0): 0.5 outside over 0: +inf
+    assert column["c_single_uniqueness"] == pytest.approx([2.5, 5, 5, 1.5, np.inf])
+    # the 3 best end references (ties to the lowest): a1 1, 2, 3; a2 2, 3, 1; a3 3, 4, 5; a4 5, 4, 1; a5 1, 5, 2
+    assert column["c_spread"] == pytest.approx([-np.std([1, 2, 3]), -np.std([2, 3, 1]), -np.std([3, 4, 5]),
+                                                -np.std([5, 4, 1]), -np.std([1, 5, 2])])
+    assert column["c_distance"] == [-4, -4, -5, -6, -2.5]
+    assert column["c_random"] == np.random.default_rng(0).permutation(5).tolist()
+    assert column["c_oracle"] == [1, 1, 1, 0, 0]
+    # 1 - P(class 1) - P(class 3): the decided class has 0.7, the others 0.1 (DECISION 1, 0, 2, 3, 0)
+    assert column["c_predictor"] == pytest.approx([0.2, 0.8, 0.8, 0.2, 0.8])
 
 
 def test_the_velocities_column_names_the_matcher(tmp_path):
@@ -105,7 +132,7 @@ def test_frames_attributes_and_prediction(splits, predictor_file, tmp_path):
     main(distances, 3, 2, tmp_path / "m.json", predictor=predictor_file, attributes=attributes,
          queries=tmp_path / "q.csv")
     header, rows = read(tmp_path / "q.csv")
-    assert header == COLUMNS
+    assert header == COLUMNS + SCORES
     # splits in the given order (test, then val); frames: the split's first frame plus the index in the split,
     # from the attributes file (test) or the distances file (val)
     assert [r["split"] for r in rows] == ["test"] * 10 + ["val"] * 10
@@ -154,7 +181,8 @@ def test_the_queries_command_writes_the_metrics_commands_table(splits, predictor
     # one implementation: the same bytes, whatever modes the metrics were computed in
     assert (tmp_path / "q.csv").read_bytes() == (tmp_path / "from_metrics.csv").read_bytes()
     header, rows = read(tmp_path / "q.csv")
-    assert header == COLUMNS and len(rows) == 20 and all(r["kept"] in ("0", "1") for r in rows)
+    assert header == COLUMNS + SCORES and len(rows) == 20 and all(r["kept"] in ("0", "1") for r in rows)
+    assert all(r["c_predictor"] and r["c_uniqueness"] for r in rows)  # the scorers, by default
     # without a predictor: its columns are empty; a user's single .npy is split "all"
     np.save(tmp_path / "D.npy", D)
     assert cli(["queries", "--distances", str(tmp_path / "D.npy"), "--seq-len", str(SEQ_LEN), "--tolerance",

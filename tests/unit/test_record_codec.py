@@ -32,6 +32,9 @@ from vpr_smr.eval.predictor.records import (
     SplitScores,
 )
 from vpr_smr.eval.scoring.records import (
+    Baselines,
+    BudgetRemoval,
+    Detection,
     Evaluation,
     EvaluationSplit,
     HeldOut,
@@ -45,8 +48,10 @@ from vpr_smr.eval.scoring.records import (
     RemovalCurves,
     RestorationMode,
     RestorationNumbers,
+    ScorerRemoval,
     SeedNumbers,
     SeedSummary,
+    SplitBaselines,
     SplitMetrics,
     SplitTiming,
     SweepPoint,
@@ -87,11 +92,20 @@ HELD_OUT_SCORES = HeldOutScores("p.h5", 0.5, 3, {"paper": MODE, "standard": BARE
 HELD_OUT_PREDICTORS = HeldOutPredictors(HELD_OUT_SCORES, dataclasses.replace(HELD_OUT_SCORES, path="w.h5"))
 HELD_OUT = HeldOut(META, 57, HELD_OUT_PREDICTORS)
 MATCHER = MatcherMetrics(57, {1: 0.5, 5: 0.75, 10: NAN, 20: 1.0}, 0.25, 0.6, INF)
-SWEEP_POINT = SweepPoint(2.0, 0.25, 0.5, REDUCTION)
-PROTOCOL_SWEEP = ProtocolSweep("frames", {"paper": (SweepPoint(0.0, 0.1, 0.2), SWEEP_POINT), "standard": ()})
+DETECTION = Detection(0.75, None, CURVE)
+NO_DETECTION = Detection(None, None)  # no wrong match: nothing to detect, no curve
+SCORER_REMOVAL = ScorerRemoval(7, {"paper": REDUCTION, "standard": UNDEFINED})
+BUDGET = BudgetRemoval(3, 7, {"uniqueness": SCORER_REMOVAL, "oracle": dataclasses.replace(SCORER_REMOVAL, removed=5)})
+SPLIT_BASELINES = SplitBaselines(57, 12, (0, 3), {"uniqueness": DETECTION, "random": NO_DETECTION},
+                                 (NO_DETECTION, Detection(0.2, 0.5)), (BUDGET, dataclasses.replace(BUDGET, seed=0)))
+NO_BUDGET = SplitBaselines(57, 0, (0,), {"oracle": NO_DETECTION}, (NO_DETECTION,))  # no predictor: no removal
+BASELINES = Baselines({**META, "r_window": 10, "spread_k": 10}, {"val": NO_BUDGET, "test": SPLIT_BASELINES})
 SPLIT_METRICS = SplitMetrics({"paper": {"single": MATCHER, "sequence": MATCHER}, "standard": {}})
-SWEPT_METRICS = SplitMetrics({"paper": {"single": MATCHER}}, 3, 1, PROTOCOL_SWEEP)
-METRICS = VPRMetrics({**META, "predictor": None}, {"test": SPLIT_METRICS})
+SWEEP_POINT = SweepPoint(2.0, 0.5, 0.6, REDUCTION)
+SWEEP = ProtocolSweep("frames", {"paper": (SWEEP_POINT, SweepPoint(0.0, 0.1, 0.2)), "standard": ()})
+WITH_BASELINES = dataclasses.replace(SPLIT_METRICS, queries_without_correct=2, evaluated_without_correct=1,
+                                     sweep=SWEEP, baselines=SPLIT_BASELINES)
+METRICS = VPRMetrics({**META, "predictor": None}, {"test": SPLIT_METRICS, "val": WITH_BASELINES})
 SPLIT_SCORES = SplitScores(0.4, 20, (10, 5, 3, 2), ((10, 0, 0, 0), (0, 5, 0, 0), (1, 0, 2, 0), (0, 0, 0, 2)))
 SEED_REPORT = SeedReport(2, {"hidden_layer_sizes": [8, 8], "alpha": 1e-4, "smote": True, "column_order": None},
                          0.52, 31, (30, 10, 10, 7), {"check": SPLIT_SCORES,
@@ -121,13 +135,16 @@ SAMPLES = {
     "SplitTiming": SPLIT_TIMING, "Timing": TIMING, "HeldOutScores": HELD_OUT_SCORES,
     "HeldOutPredictors": HELD_OUT_PREDICTORS, "HeldOut": HELD_OUT, "MatcherMetrics": MATCHER,
     "SplitMetrics": SPLIT_METRICS,
-    "SplitMetrics, swept": SWEPT_METRICS, "SweepPoint": SWEEP_POINT, "ProtocolSweep": PROTOCOL_SWEEP,
     "VPRMetrics": METRICS, "SplitScores": SPLIT_SCORES, "SeedReport": SEED_REPORT,
     "PredictorReport": PREDICTOR, "PredictorReport, one seed": ONE_SEED, "AttributeScores": ATTRIBUTE_SCORES,
     "AttributeSplit": ATTRIBUTE_SCORES.splits["check"],
     "AttributeAblation": ABLATION, "FrameRange": FRAMES, "FrameRange, aligned": FrameRange("d", "test", 40, 80),
     "SpeedScores": SPEED_SCORES, "SpeedMatcher": SPEED_MATCHER, "SpeedResult": SPEED,
     "Matching": Matching((0.5, 1.0, 2.0), POSITIONS), "Matching, fixed": Matching(),
+    "Detection": DETECTION, "Detection, undefined": NO_DETECTION, "ScorerRemoval": SCORER_REMOVAL,
+    "BudgetRemoval": BUDGET, "SplitBaselines": SPLIT_BASELINES, "SplitBaselines, no predictor": NO_BUDGET,
+    "Baselines": BASELINES, "SplitMetrics, sweep and baselines": WITH_BASELINES, "SweepPoint": SWEEP_POINT,
+    "ProtocolSweep": SWEEP,
 }
 
 

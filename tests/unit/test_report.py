@@ -275,8 +275,8 @@ def test_the_findings_in_words():
         "on average it helps 0 of 2 methods; it is undefined for m1."]
 
 
-SECTIONS = ("findings", "pr-curves", "trust-levels", "restoration", "sequence-length", "predictor", "table-ii",
-            "leave-one-method-out", "timing", "vpr-metrics", "match-inspector", "datasets", "provenance",
+SECTIONS = ("findings", "baselines", "pr-curves", "trust-levels", "restoration", "sequence-length", "predictor",
+            "table-ii", "leave-one-method-out", "timing", "vpr-metrics", "match-inspector", "datasets", "provenance",
             "configuration")
 
 
@@ -303,13 +303,14 @@ def test_a_switched_off_experiment_leaves_no_section(tmp_path):
     run, written = build_run(tmp_path, modes=("paper",), seq_lens=(4,), trust_levels=(), restoration=False,
                              ablations=False, metrics=False, inspector=False)
     page = (run / "report.html").read_text()
-    kept = ("findings", "pr-curves", "predictor", "timing", "datasets", "provenance", "configuration")
+    # the baselines always run in a workflow (no switch), as Table I does
+    kept = ("findings", "baselines", "pr-curves", "predictor", "timing", "datasets", "provenance", "configuration")
     for name in SECTIONS:
         assert (f'<section id="{name}">' in page) == (name in kept), name
         assert (f'href="#{name}"' in page) == (name in kept), name
     assert {p.name for p in written if p.suffix == ".csv"} == {
         "table1.csv", "predictor_methods.csv", "predictor_confusion.csv", "timing.csv", "predictor.csv",
-        "datasets.csv"}
+        "datasets.csv", "baselines.csv", "wrong_match_detection.csv"}
     for word in ("Trust level", "restoration", "Table II", "Leave one method out", "VPR metrics", "inspector"):
         assert word not in page.replace("Restoration", ""), word
 
@@ -486,7 +487,8 @@ def test_datasets_and_splits_keep_the_configurations_order(tmp_path):
 COMPACT = {"table1": "pr-d-4-paper", "restoration": "restoration-d-4-paper", "predictor_methods": "predictor-d-4",
            "predictor": "predictor-pooled-d", "leave_one_method_out": "lomo-d", "timing": "timing-d",
            "vpr_metrics": "metrics-d-4-paper", "table2": "table2-d-4", "trust_levels": "trust-d-4-paper",
-           "ablation_seq_len": "seq-len-d-paper", "speed": "speed-d-4", "protocol_sweep": "protocol-sweep-d-4-paper"}
+           "ablation_seq_len": "seq-len-d-paper", "speed": "speed-d-4", "baselines": "baselines-d-4-paper",
+           "wrong_match_detection": "detection-d-4", "protocol_sweep": "protocol-sweep-d-4-paper"}
 PAPER_LAYOUT = ("table1", "table2")  # their Markdown and LaTeX files have the paper's layout, not the columns
 
 
@@ -550,6 +552,12 @@ def test_every_declared_column_is_in_the_files_and_on_the_page(full_report_run):
             assert all(c.header in page for c in shown if c.note)
             continue
         assert headers == [(c.header, c.name if c.header != c.name else "") for c in shown], spec.name
+    # the baselines' compact tables: a row per scorer, a column per method (their own layout, no page columns)
+    for table_id in (COMPACT["baselines"], COMPACT["wrong_match_detection"]):
+        assert [text for text, _ in _headers(page, table_id)] == ["scorer", "m1", "m2"], table_id
+    scorers = [row[0] for row in _table_texts(page, COMPACT["wrong_match_detection"])[1:]]
+    assert scorers == ["uniqueness", "single_uniqueness", "spread", "distance", "random", "oracle", "predictor",
+                       "wrong fraction"]
     # a few of the labels, spelt out
     assert [text for text, _ in _headers(page, "pr-d-4-paper")] == [
         "method", "R@1 single", "R@1 sequence", "max recall", "AOC reduction (%)"]
@@ -560,3 +568,36 @@ def test_every_declared_column_is_in_the_files_and_on_the_page(full_report_run):
         "prediction (ms)", "ms_predict_per_query")
     assert [text for text, _ in _headers(page, "metrics-d-4-paper")][3:] == [
         "R@1", "R@5", "R@10", "R@20", "R@100P", "PR-AUC", "EP"]
+
+
+def test_the_baselines_sentence_is_computed_from_the_numbers():
+    from vpr_smr.eval.report.baselines import best_scorer, comparisons, with_best
+    from vpr_smr.eval.report.findings import baseline_sentence
+
+    # reductions at the seed-0 budget per method (a, b, c); random is compared by its mean over the seeds
+    numbers = {"uniqueness": (30.0, 10.0, 2.0), "single_uniqueness": (5.0, 40.0, -1.0), "spread": (-3.0, -2.0, -9.0),
+               "distance": (0.0, 0.0, 0.0), "random": (1.0, 2.0, 3.0), "oracle": (90.0, 95.0, None),
+               "predictor": (50.0, 20.0, 2.0)}
+    rows = [{"dataset": "d", "method": method, "seq_len": 4, "mode": "paper", "scorer": scorer, "budget": 7,
+             "reduction_pct": values[i], "reduction_pct_mean": 60.0 if scorer == "random" else values[i],
+             "outcome": "improved" if values[i] is not None else "nothing_to_reduce"}
+            for scorer, values in numbers.items() for i, method in enumerate("abc")]
+    (found,) = comparisons(rows)
+    # means over the methods: uniqueness 14.0, single_uniqueness 14.67, spread -4.67, distance 0, random 60 (its mean)
+    assert found.best == "random" and found.best_values == (60.0, 60.0, 60.0)
+    assert found.beaten == 0 and found.oracle == (90.0, 95.0, None)
+    assert baseline_sentence(found, "test") == (
+        "On d (test split, L = 4, paper mode), at the seed-0 predictor's budget the predictor beats the best "
+        "training-free scorer (random, mean reduction 60.0 %) for 0 of 3 methods; oracle removal at the same budget "
+        "would reduce the AOC by 92.5 % (mean over the 2 methods where it is defined).")
+    rows = [dict(r, reduction_pct_mean=r["reduction_pct"]) for r in rows]  # random's mean now its seed-0 number
+    (found,) = comparisons(rows)  # random's mean 2.0 now: single_uniqueness (14.67) is the best
+    assert found.best == "single_uniqueness" and found.beaten == 2  # a: 50 > 5, c: 2 > -1; not b: 20 < 40
+    assert baseline_sentence(found, "test").startswith(
+        "On d (test split, L = 4, paper mode), at the seed-0 predictor's budget the predictor beats the best "
+        "training-free scorer (single_uniqueness, mean reduction 14.7 %) for 2 of 3 methods;")
+    # per row of the sequence-length ablation: the best training-free scorer of that method
+    assert best_scorer([r for r in rows if r["method"] == "a"])["scorer"] == "uniqueness"
+    assert best_scorer([r for r in rows if r["method"] == "b"])["scorer"] == "single_uniqueness"
+    (row,) = with_best([{"dataset": "d", "method": "c", "seq_len": 4, "mode": "paper"}], rows)
+    assert (row["best_scorer"], row["best_scorer_reduction_pct"]) == ("random", 3.0)

@@ -75,7 +75,7 @@ def test_cli_prints_every_metric_as_a_table(tmp_path, capsys):
     lines = capsys.readouterr().out.splitlines()
     assert lines[0].split() == ["split", "mode", "matcher", "queries", "R@1", "R@5", "R@10", "R@20", "R@100P",
                                 "PR-AUC", "EP"]
-    rows = [line.split() for line in lines[1:]]
+    rows = [line.split() for line in lines[1 : lines.index("")]]  # the training-free scorers follow
     # one row per mode and matcher, in the JSON's order; the numbers worked out by hand above (EXPECTED), rounded
     assert [row[:3] for row in rows] == [["all", mode, matcher] for mode in MODES for matcher in ("single",
                                                                                                   "sequence")]
@@ -186,7 +186,8 @@ def test_cli_on_a_users_npy(user_matrix, tmp_path):
     out = tmp_path / "m.json"
     assert cli(["metrics", "--distances", str(path), "--seq-len", "3", "--out", str(out)]) == 0
     data = json.loads(out.read_text())
-    assert data["meta"] == {"seq_len": 3, "tolerance": 2, "ground_truth": {"kind": "frames", "tolerance": 2}}
+    assert data["meta"] == {"seq_len": 3, "tolerance": 2, "ground_truth": {"kind": "frames", "tolerance": 2},
+                            "r_window": 10, "spread_k": 10}
     assert list(data["splits"]) == ["all"]
     # a square matrix within 2 frames: every query has a correct reference
     assert data["splits"]["all"]["queries_without_correct"] == data["splits"]["all"]["evaluated_without_correct"] == 0
@@ -207,7 +208,8 @@ def test_cli_with_a_predictor(user_matrix, matrix_predictor, tmp_path):
                 "--out", str(out)]) == 0
     data = json.loads(out.read_text())
     assert data["meta"] == {"dataset": "d", "method": "mine", "seq_len": 3, "tolerance": 2,
-                            "ground_truth": {"kind": "frames", "tolerance": 2}, "predictor": str(predictor_file)}
+                            "ground_truth": {"kind": "frames", "tolerance": 2}, "predictor": str(predictor_file),
+                            "r_window": 10, "spread_k": 10}
     standard = data["splits"]["test"]["modes"]["standard"]
     assert list(data["splits"]["test"]["modes"]) == ["standard"]
     # recall@1 of the predictor matcher, worked out apart from the command: the predictor file's own decision on the

@@ -3,12 +3,12 @@
 One complete run of a tiny workflow (two methods, 120 frames of the shipped sample, L = 3) is copied, with its
 Snakemake metadata and file times, for each family of settings; the expected jobs are worked out from the
 data flow (descriptors -> distances per split -> attributes per split -> one predictor per dataset and L -> one
-evaluation per method; Table II from every method's features; a predictor without each method from the others'
-train and val features, tested with the pooled one on the method's table split; per method at the table's L, the
-VPR metrics (which also depend on the metric modes) and the per-query CSV (which does not) from its distances,
-attributes and the seed-0 predictor, and the match inspector from its per-query CSV and the table split's
-distances; the speed experiment per profile at the table's L from every method's train and table distances, the
-tolerance and the predictor's settings -> report), not from the workflow's own output.
+evaluation and one baselines file per method; Table II from every method's features; a predictor without each
+method from the others' train and val features, tested with the pooled one on the method's table split; per
+method at the table's L, the VPR metrics (which also depend on the metric modes) and the per-query CSV (which does
+not) from its distances, attributes and the seed-0 predictor, and the match inspector from its per-query CSV and
+the table split's distances; the speed experiment per profile at the table's L from every method's train and table
+distances, the tolerance and the predictor's settings -> report), not from the workflow's own output.
 """
 
 import csv
@@ -100,6 +100,12 @@ def metrics(methods=METHODS, seq_len=3):
     return {("vpr_metrics", f"metrics/sample/{m}/L{seq_len}.json") for m in methods}
 
 
+def baselines(methods=METHODS, seq_len=3):
+    """The training-free baselines of each method at every L (method §12): its distances and attributes, every
+    predictor seed, the scorers' settings and the metric modes."""
+    return {("baselines", f"baselines/sample/{m}/L{seq_len}.json") for m in methods}
+
+
 def queries(methods=METHODS, seq_len=3):
     """The per-query CSV of each method at the table's L (its own job: the metric modes do not change it)."""
     return {("queries", f"queries/sample/{m}/L{seq_len}.csv") for m in methods}
@@ -154,9 +160,10 @@ def table1(folder):
         return {(r["method"], r["mode"]): r for r in csv.DictReader(handle)}
 
 
-# Everything downstream of the pooled predictor of L = 3: every method's evaluation, held-out test, VPR metrics
-# (the seed-0 predictor's matcher), per-query CSV (its decisions) and match inspector (which reads that CSV)
-PREDICTOR_ON = train() | evaluate() | held_out() | metrics() | queries() | inspect() | REPORT
+# Everything downstream of the pooled predictor of L = 3: every method's evaluation, baselines (every seed's budget),
+# held-out test, VPR metrics (the seed-0 predictor's matcher), per-query CSV (its decisions) and match inspector
+# (which reads that CSV)
+PREDICTOR_ON = train() | evaluate() | baselines() | held_out() | metrics() | queries() | inspect() | REPORT
 ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | without() | PREDICTOR_ON | speed()
 
 
@@ -179,14 +186,15 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
                  | without(other("sad")) | PREDICTOR_ON | speed(), id="distance"),
     # Table I moves to L = 4 (table_seq_len: 4 when listed), with its ablations; L = 3 stays as it is
     pytest.param(lambda c: c.update(seq_lens=[3, 4]),
-                 attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | attribute_ablation(4) | without(seq_len=4)
-                 | held_out(seq_len=4) | metrics(seq_len=4) | queries(seq_len=4) | inspect(seq_len=4)
-                 | speed(seq_len=4) | REPORT, id="seq-lens"),
+                 attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | baselines(seq_len=4) | attribute_ablation(4)
+                 | without(seq_len=4) | held_out(seq_len=4) | metrics(seq_len=4) | queries(seq_len=4)
+                 | inspect(seq_len=4) | speed(seq_len=4) | REPORT, id="seq-lens"),
     pytest.param(lambda c: c["predictor"].update(max_iter=61),
                  attribute_ablation() | without() | PREDICTOR_ON | speed(), id="predictor"),
     pytest.param(lambda c: c.update(seeds=3), PREDICTOR_ON, id="seeds"),
     # the per-query CSV does not depend on the modes: it and the match inspector that reads it stay as they are
-    pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | held_out() | metrics() | REPORT, id="modes"),
+    pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | baselines() | held_out() | metrics() | REPORT,
+                 id="modes"),
     pytest.param(lambda c: c.update(trust_levels=[0.0, 0.6]), evaluate() | REPORT, id="trust-levels"),
     pytest.param(lambda c: c.update(experiments={"restoration": False}), evaluate() | REPORT, id="restoration-off"),
     pytest.param(lambda c: c.update(experiments={"attribute_ablation": False}), REPORT, id="table2-off"),
@@ -203,6 +211,13 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
                  attributes() | attribute_ablation() | without() | PREDICTOR_ON, id="velocities"),
     pytest.param(lambda c: c.update(sequence_matching={"velocities": [1]}), REPORT, id="velocity-1-is-1.0"),
     pytest.param(lambda c: c.update(extraction={"batch_size": 3}), set(), id="batch-size-reruns-nothing"),
+    # the training-free scorers' settings (method §12): the jobs that score them; the attributes (and all below) only
+    # when the candidates they keep change in number: spread_k 12 keeps max(2 * 5 + 2, 12) = 12 as before,
+    # r_window 14 needs 2 * 7 + 2 = 16
+    pytest.param(lambda c: c.update(baselines={"spread_k": 12}), baselines() | metrics() | queries() | inspect()
+                 | REPORT, id="baselines-spread-k"),
+    pytest.param(lambda c: c.update(baselines={"r_window": 14}),
+                 attributes() | attribute_ablation() | without() | PREDICTOR_ON, id="baselines-r-window"),
 ])
 def test_a_changed_setting_plans_exactly_its_jobs(copy, edit, expected):
     change(copy, edit)
@@ -228,8 +243,8 @@ def test_command_line_override_reaches_the_jobs(copy):
     result = vpr_smr(copy, "run", "c.yaml", "-n", "--verbose", "--config", "predictor.max_iter=61")
     assert result.returncode == 0, result.stderr[-3000:]
     rules = set(re.findall(r"^rule (\w+):", result.stdout, flags=re.MULTILINE)) - {"all"}
-    assert rules == {"train", "evaluate", "attribute_ablation", "predictor_without", "held_out", "vpr_metrics",
-                     "queries", "inspect", "speed", "report"}
+    assert rules == {"train", "evaluate", "baselines", "attribute_ablation", "predictor_without", "held_out",
+                     "vpr_metrics", "queries", "inspect", "speed", "report"}
 
 
 def test_tables_change_where_they_should(copy):

@@ -71,7 +71,7 @@ def run(tmp_path_factory):
 
 TABLES = ["table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
           "ablation_seq_len", "vpr_metrics", "predictor", "table2", "leave_one_method_out", "datasets", "speed",
-          "protocol_sweep"]
+          "baselines", "wrong_match_detection", "protocol_sweep"]
 METHODS = ("sad", "hog", "effnet")
 
 
@@ -85,13 +85,14 @@ def test_every_table_and_figure(run):
     assert sorted(p.name for p in (out / "tables").iterdir()) == sorted(
         f"{name}.{ext}" for name in TABLES for ext in ("csv", "md", "tex"))
     per_mode = [f"{kind}_sample_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc",
-                                                            "protocol_sweep") for mode in ("paper", "standard")]
+                                                            "baselines", "protocol_sweep")
+                for mode in ("paper", "standard")]
     inspector = [f"{kind}_sample_{method}_L4.png" for kind in ("matches", "distance_matrix") for method in METHODS]
     assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
         [*per_mode, "confusion_sample_L4.png", "seq_len_sample_paper.png", "seq_len_sample_standard.png",
-         "speed_sample_L4.png", *inspector])
+         "speed_sample_L4.png", "detection_sample_L4.png", *inspector])
     html = (out / "report.html").read_text()  # the report's figures and the match inspector's, each once
-    assert html.count("<img") == 14 + len(inspector) and "http://" not in html and "https://" not in html
+    assert html.count("<img") == 17 + len(inspector) and "http://" not in html and "https://" not in html
 
 
 def test_table1_has_the_seed_spread(run):
@@ -157,6 +158,42 @@ def test_tables_agree_with_each_other(run):
                                   "aoc_vpr_sm_pred", "reduction_pct", "n_queries", "n_queries_single")}
         # 2x: the test split's 110 frames driven twice as fast are 55 queries, 52 with a sequence match
         assert speed[method, "2x", "velocity"]["n_queries"] == "52"
+
+
+def test_the_baselines_agree_with_table1_and_the_per_query_table(run):
+    out, _ = run
+    table1 = {(r["method"], r["mode"]): r for r in table(out, "table1")}
+    rows = table(out, "baselines")
+    assert {(r["method"], r["mode"], r["scorer"]) for r in rows} == {
+        (m, mode, s) for m in METHODS for mode in ("paper", "standard")
+        for s in ("uniqueness", "single_uniqueness", "spread", "distance", "random", "oracle", "predictor")}
+    for r in rows:
+        paper = table1[r["method"], r["mode"]]
+        # every scorer removes as many matches as the seed-0 predictor (the oracle at most every wrong one)
+        assert r["budget"] == paper["removed"] and int(r["removed"]) <= int(r["budget"])
+        if r["scorer"] == "predictor":  # the predictor's own removal: Table I's numbers
+            assert {k: r[k] for k in ("max_recall", "aoc_vpr_sm", "reduction_pct", "outcome")} == {
+                k: paper[k] for k in ("max_recall", "aoc_vpr_sm", "reduction_pct", "outcome")}
+            assert r["aoc"] == paper["aoc_vpr_sm_pred"] and r["reduction_pct_mean"] == paper["reduction_pct_mean"]
+        if r["scorer"] == "oracle" and r["reduction_pct"]:
+            assert float(r["reduction_pct"]) >= 0  # removing wrong matches never makes the curve worse
+        if r["scorer"] == "distance" and r["mode"] == "standard" and r["reduction_pct"]:
+            assert float(r["reduction_pct"]) == pytest.approx(0, abs=1e-9)  # a threshold on m_a: nothing new
+    detection = {(r["method"], r["scorer"]): r for r in table(out, "wrong_match_detection")}
+    for method in METHODS:  # the oracle finds every wrong match first; with none there is nothing to detect
+        oracle = detection[method, "oracle"]
+        assert oracle["average_precision"] == ("1.0" if oracle["n_wrong"] != "0" else "")
+    # the sequence-length ablation names the best training-free scorer at every L beside the predictor, none where
+    # no training-free reduction is defined (a perfect VPR+SM: nothing to reduce)
+    for r in table(out, "ablation_seq_len"):
+        scorers = ("uniqueness", "single_uniqueness", "spread", "distance", "random")
+        assert r["best_scorer"] in scorers or (r["best_scorer"] == r["best_scorer_reduction_pct"] == ""
+                                               and r["outcome"] == "nothing_to_reduce"), r
+    queries = list(csv.DictReader(open(out / "queries" / "sample" / "hog" / "L4.csv")))
+    assert all(r["c_oracle"] == ("1.0" if r["sequence_correct"] == "1" else "0.0") for r in queries)
+    assert all(float(r["c_distance"]) == -float(r["sequence_distance"]) for r in queries)
+    html = (out / "report.html").read_text()
+    assert "the predictor beats the best training-free scorer (" in html
 
 
 def test_leave_one_method_out_never_saw_the_method(run):

@@ -1,0 +1,221 @@
+"""The training-free baselines' tables (method §12): the rows of ``baselines`` (removal at the predictor's budget)
+and ``wrong_match_detection``, the best training-free scorer of each row of the sequence-length ablation, and the
+comparison of one dataset, mode and L that the findings sentence and the figure show.
+
+Every number comes from the ``vpr-smr baselines`` files (``records.Baselines``), unrounded. A scorer's number at a
+budget is the seed-0 predictor's budget (as Table I is the seed-0 predictor's), and every seed's budget gives the
+mean and sample standard deviation over the seeds (undefined with fewer than two seeds whose reduction is
+defined); ``random``'s headline number is that mean, since one draw of a random order says little.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection, Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from vpr_smr.eval.report.results import Order
+from vpr_smr.eval.scoring.baselines import ORACLE, PREDICTOR, RANDOM, SCORERS, TRAINING_FREE
+from vpr_smr.eval.scoring.records import Baselines, SplitBaselines
+
+
+def _split(record: Baselines, split: str) -> SplitBaselines:
+    dataset, method, seq_len = record.key
+    if split not in record.splits:
+        raise ValueError(f"the baselines of {dataset}, {method}, L{seq_len} have no split {split!r} (the table "
+                         f"split); they have {', '.join(record.splits) or 'none'}")
+    return record.splits[split]
+
+
+def _spread(values: Sequence[float | None]) -> tuple[float | None, float | None, int]:
+    """Mean and sample standard deviation (ddof 1) of the defined values, and how many are defined; the standard
+    deviation is undefined (None) with fewer than two."""
+    defined = np.array([v for v in values if v is not None], dtype=np.float64)
+    if not len(defined):
+        return None, None, 0
+    return float(defined.mean()), (float(defined.std(ddof=1)) if len(defined) > 1 else None), len(defined)
+
+
+def _extremes(values: Sequence[float | None]) -> tuple[float | None, float | None]:
+    defined = [v for v in values if v is not None]
+    return (min(defined), max(defined)) if defined else (None, None)
+
+
+def _sorted(records: Iterable[Baselines], order: Order | None) -> list[Baselines]:
+    records = list(records)
+    order = order or Order.of(record.meta for record in records)
+    seen: set[tuple[str, str, int]] = set()
+    for record in records:
+        if record.key in seen:
+            dataset, method, seq_len = record.key
+            raise ValueError(f"two baselines files of {dataset}, {method}, L{seq_len}")
+        seen.add(record.key)
+    return sorted(records, key=lambda r: (order.dataset(r.key[0]), r.key[2], order.method(r.key[1])))
+
+
+def headline(row: dict[str, Any]) -> float | None:
+    """The number a scorer is compared by: its reduction at the seed-0 predictor's budget; random's mean over the
+    seeds."""
+    value: float | None = row.get("reduction_pct_mean" if row["scorer"] == RANDOM else "reduction_pct")
+    return value
+
+
+def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection[int] | None = None,
+                  order: Order | None = None) -> list[dict[str, Any]]:
+    """The ``baselines`` table: one row per dataset, method, L, mode and scorer (in ``SCORERS``' order) of the
+    records' ``split`` (a record without a predictor has none), optionally only the sequence lengths given; by mode,
+    L, dataset and method in the configuration's ``order``."""
+    order = order or Order.of(record.meta for record in records)
+    rows = []
+    for record in _sorted(records, order):
+        dataset, method, seq_len = record.key
+        found = _split(record, split)
+        if (seq_lens is not None and seq_len not in seq_lens) or not found.removal:
+            continue
+        first = found.removal[0]
+        modes = sorted({mode for removal in first.scorers.values() for mode in removal.modes}, key=order.mode)
+        for mode in modes:
+            for scorer in (name for name in SCORERS if name in first.scorers):
+                numbers = first.scorers[scorer].modes[mode]
+                values = [budget.scorers[scorer].modes[mode].reduction_pct for budget in found.removal]
+                mean, std, defined = _spread(values)
+                low, high = _extremes(values)
+                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
+                             "scorer": scorer, "budget": first.budget, "removed": first.scorers[scorer].removed,
+                             "max_recall": numbers.max_recall, "aoc_vpr_sm": numbers.aoc_vpr_sm,
+                             "aoc": numbers.aoc_vpr_sm_pred, "auc": numbers.auc_vpr_sm_pred,
+                             "reduction_pct": numbers.reduction_pct,
+                             "outcome": numbers.outcome, "reduction_pct_mean": mean, "reduction_pct_std": std,
+                             "reduction_pct_min": low, "reduction_pct_max": high, "n_seeds": len(values),
+                             "n_seeds_defined": defined, "n_queries": found.n_queries})
+    return sorted(rows, key=lambda r: (order.mode(r["mode"]), r["seq_len"], order.dataset(r["dataset"]),
+                                       order.method(r["method"]), SCORERS.index(r["scorer"])))
+
+
+def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collection[int] | None = None,
+                   order: Order | None = None) -> list[dict[str, Any]]:
+    """The ``wrong_match_detection`` table: one row per dataset, method, L and scorer of the records' ``split``:
+    average precision and ROC AUC (``random`` and ``predictor``: the first seed's; ``random`` also their mean and
+    sample standard deviation over its seeds), and the wrong matches they are over."""
+    order = order or Order.of(record.meta for record in records)
+    rows = []
+    for record in _sorted(records, order):
+        dataset, method, seq_len = record.key
+        if seq_lens is not None and seq_len not in seq_lens:
+            continue
+        found = _split(record, split)
+        for scorer in (name for name in SCORERS if name in found.detection):
+            numbers = found.detection[scorer]
+            row = {"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "scorer": scorer,
+                   "average_precision": numbers.average_precision, "roc_auc": numbers.roc_auc,
+                   "average_precision_mean": None, "average_precision_std": None, "roc_auc_mean": None,
+                   "roc_auc_std": None, "n_seeds": 1, "wrong_fraction": found.wrong_fraction,
+                   "n_wrong": found.n_wrong, "n_queries": found.n_queries}
+            if scorer == RANDOM:
+                ap = _spread([d.average_precision for d in found.random_detection])
+                auc = _spread([d.roc_auc for d in found.random_detection])
+                row.update(average_precision_mean=ap[0], average_precision_std=ap[1], roc_auc_mean=auc[0],
+                           roc_auc_std=auc[1], n_seeds=len(found.random_detection))
+            rows.append(row)
+    return rows
+
+
+def best_scorer(rows: Iterable[dict[str, Any]]) -> dict[str, Any] | None:
+    """The row of the training-free scorer with the largest ``headline`` number among ``rows`` (one method's, one
+    mode's), the first in ``SCORERS``' order on a tie; None when none is defined."""
+    candidates = [r for r in rows if r["scorer"] in TRAINING_FREE and headline(r) is not None]
+    if not candidates:
+        return None
+    return max(candidates, key=lambda r: (headline(r), -SCORERS.index(r["scorer"])))
+
+
+def _groups(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], list[dict[str, Any]]]:
+    """``baseline_rows`` by (dataset, method, L, mode)."""
+    groups: dict[tuple[str, str, int, str], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), []).append(row)
+    return groups
+
+
+def best_by_row(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], dict[str, Any]]:
+    """Per (dataset, method, L, mode) of ``baseline_rows``, the best training-free scorer's row."""
+    return {key: best for key, group in _groups(rows).items() if (best := best_scorer(group)) is not None}
+
+
+def with_best(table_rows: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The sequence-length ablation's rows (Table I's) with the best training-free scorer of each (dataset,
+    method, L, mode) beside the predictor: ``best_scorer``, its ``best_scorer_reduction_pct``, and (not columns)
+    the outcome that says why it is undefined (``best_scorer_outcome``: where no training-free reduction is
+    defined, the outcome they share, e.g. nothing to reduce, and no scorer) and its PR AUC at the seed-0 budget
+    (``best_scorer_auc``, which the sequence-length figure marks)."""
+    groups = _groups(rows)
+    out = []
+    for row in table_rows:
+        group = groups.get((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), [])
+        found = best_scorer(group)
+        if found is not None:
+            extra = {"best_scorer": found["scorer"], "best_scorer_reduction_pct": headline(found),
+                     "best_scorer_outcome": found["outcome"], "best_scorer_auc": found.get("auc")}
+        else:
+            outcomes = {r["outcome"] for r in group if r["scorer"] in TRAINING_FREE}
+            extra = {"best_scorer_outcome": outcomes.pop()} if len(outcomes) == 1 else {}
+        out.append({**row, **extra})
+    return out
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """One dataset, mode and L: per method the predictor's reduction, the best training-free scorer's (the one
+    with the largest mean over the methods, ``best``) and the oracle's, all at the seed-0 predictor's budget."""
+
+    dataset: str
+    mode: str
+    seq_len: int
+    methods: tuple[str, ...]
+    best: str | None
+    predictor: tuple[float | None, ...]
+    best_values: tuple[float | None, ...]
+    oracle: tuple[float | None, ...]
+    budgets: tuple[int, ...]
+
+    @property
+    def beaten(self) -> int:
+        """Methods where the predictor's reduction is above the best training-free scorer's (both defined)."""
+        return sum(p is not None and b is not None and p > b
+                   for p, b in zip(self.predictor, self.best_values, strict=True))
+
+    @property
+    def undefined(self) -> tuple[str, ...]:
+        """Methods where either reduction is undefined: neither beats the other there."""
+        return tuple(m for m, p, b in zip(self.methods, self.predictor, self.best_values, strict=True)
+                     if p is None or b is None)
+
+    @property
+    def best_mean(self) -> float | None:
+        return _spread(self.best_values)[0]
+
+    @property
+    def oracle_mean(self) -> float | None:
+        return _spread(self.oracle)[0]
+
+
+def comparisons(rows: Sequence[dict[str, Any]]) -> list[Comparison]:
+    """``baseline_rows`` grouped by dataset, mode and L (in the rows' order), each a ``Comparison``."""
+    groups: dict[tuple[str, str, int], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["dataset"], row["mode"], int(row["seq_len"])), []).append(row)
+    out = []
+    for (dataset, mode, seq_len), group in groups.items():
+        methods = tuple(dict.fromkeys(str(r["method"]) for r in group))
+        by = {(str(r["method"]), str(r["scorer"])): r for r in group}
+        values = {name: tuple(headline(by[(m, name)]) if (m, name) in by else None for m in methods)
+                  for name in SCORERS}
+        means = {name: _spread(values[name])[0] for name in TRAINING_FREE}
+        defined = [name for name in TRAINING_FREE if means[name] is not None]
+        best = max(defined, key=lambda name: (means[name] or 0.0, -SCORERS.index(name))) if defined else None
+        out.append(Comparison(dataset, mode, seq_len, methods, best, values[PREDICTOR],
+                              values[best] if best is not None else tuple(None for _ in methods), values[ORACLE],
+                              tuple(int(by[(m, PREDICTOR)]["budget"]) for m in methods if (m, PREDICTOR) in by)))
+    return out

@@ -1,0 +1,284 @@
+"""Is the predictor better than a simple rule? The training-free scorers of method §12 and their two protocols.
+
+Every scorer gives each evaluated query ``a`` a confidence ``c_a`` (higher: its sequence match more likely correct).
+They are pure functions of the candidates the sequence matcher keeps with the attributes (``QueryFeatures``' ``n``
+smallest ``S[r, a]`` and ``D[r, a]`` of each query and their references), the sequence distance ``m_a``, the ground
+truth's verdicts and the settings (``BaselineSettings``), so no distance matrix is read here:
+
+- ``uniqueness``: SeqSLAM's windowed uniqueness, the smallest ``S`` outside ``|r - r*| <= w`` over ``m_a``
+  (``w = floor(r_window / 2)``, ``core.constants.half_window``); 1 when no end reference lies outside the window or both
+  numbers are 0, ``+inf`` when only ``m_a`` is;
+- ``single_uniqueness``: the same on the query's own column ``D[:, a]`` around the single-frame match;
+- ``spread``: minus the population standard deviation of the positions of the ``K`` best end references (frame
+  indices, or with positions the root of the summed per-axis variances);
+- ``distance``: ``-m_a``; ``random``: ``numpy.random.default_rng(seed).permutation(N)``; ``oracle``: 1 for a correct
+  sequence match, 0 for a wrong one; ``predictor``: ``1 - P(class 1) - P(class 3)``.
+
+The protocols: ``removal_at_budget`` (each scorer removes as many matches as a predictor seed does, the ``k`` lowest
+``c_a`` by a stable sort; the oracle the wrong matches of smallest ``m_a``, at most all of them), scored by Table I's
+numbers (``evaluate.compare_removal``: one PR curve, AOC and reduction for everything); ``detection`` (average
+precision and ROC AUC of ``-c_a`` against the wrong matches, threshold-free).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, MODES, candidates_needed, half_window
+from vpr_smr.eval.matching.attributes import QueryFeatures
+from vpr_smr.eval.matching.ground_truth import POSITIONS, GroundTruth, PositionTruth
+from vpr_smr.eval.scoring.curves import keep_mask
+from vpr_smr.eval.scoring.evaluate import compare_removal
+from vpr_smr.eval.scoring.records import BudgetRemoval, Detection, PRCurve, ScorerRemoval, SplitBaselines
+
+__all__ = [
+    "DEFAULT_SETTINGS", "ORACLE", "PREDICTOR", "RANDOM", "SCORERS", "TRAINING_FREE", "BaselineSettings", "Prediction",
+    "check_candidates",
+    "detection", "keep_lowest", "oracle_keep", "predictor_confidence", "query_scores", "random_scores",
+    "removal_at_budget", "split_baselines", "spread", "spread_positions", "uniqueness",
+]
+
+RANDOM, ORACLE, PREDICTOR = "random", "oracle", "predictor"
+# every scorer, in the order of the tables; the first five need no training
+SCORERS = ("uniqueness", "single_uniqueness", "spread", "distance", RANDOM, ORACLE, PREDICTOR)
+TRAINING_FREE = SCORERS[:5]
+
+
+@dataclass(frozen=True)
+class BaselineSettings:
+    """The scorers' settings (the configuration's ``baselines``): ``r_window`` (uniqueness's window, reference
+    frames) and ``spread_k`` (the end references spread measures)."""
+
+    r_window: int = DEFAULT_R_WINDOW
+    spread_k: int = DEFAULT_SPREAD_K
+
+    def __post_init__(self) -> None:
+        candidates_needed(self.r_window, self.spread_k)  # a ValueError naming the bad setting
+
+    @property
+    def half_window(self) -> int:
+        return half_window(self.r_window)
+
+    @property
+    def candidates(self) -> int:
+        """The candidates per query an attributes file must hold (``core.constants.candidates_needed``)."""
+        return candidates_needed(self.r_window, self.spread_k)
+
+    def meta(self) -> dict[str, int]:
+        """What an output records of the settings."""
+        return {"r_window": int(self.r_window), "spread_k": int(self.spread_k)}
+
+
+DEFAULT_SETTINGS = BaselineSettings()  # the configuration's defaults (method §12: r_window 10, K 10)
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """One predictor seed on a split's rank-0 attributes: its class probabilities (columns in ``classes`` order)."""
+
+    seed: int
+    probabilities: np.ndarray  # (N, C)
+    classes: np.ndarray  # (C,)
+
+    @property
+    def keep(self) -> np.ndarray:
+        """The matches it keeps (method §8, trust level 0): its predicted class is 0 or 2."""
+        return keep_mask(self.classes[np.argmax(self.probabilities, axis=1)], self.probabilities.max(axis=1))
+
+
+# --- the one use of the ground truth beyond the matches' verdicts -----------------------------------------------
+
+
+def spread_positions(truth: GroundTruth) -> np.ndarray:
+    """The reference positions ``spread`` measures: those of a ground truth of positions (``(R,)`` or ``(R, d)``),
+    else the frame indices ``0 .. R-1`` (frames within a tolerance, a matrix or per-query lists). The one place the
+    scorers read a ground truth: every verdict they use is ``QueryFeatures.sequence_correct``
+    (``GroundTruth.correct`` of the attributes stage)."""
+    if isinstance(truth, PositionTruth) and truth.kind == POSITIONS:
+        return truth.reference_positions
+    return np.arange(truth.shape[0], dtype=np.float64)
+
+
+def check_candidates(features: QueryFeatures, settings: BaselineSettings, where: str, other_fix: str = "") -> None:
+    """ValueError naming ``where`` (the attributes file) when it keeps fewer candidates per query than the
+    scorers' settings need (``other_fix``: another way out the stage offers, said after the first)."""
+    held, needed = features.n_candidates, settings.candidates
+    if held < needed:
+        what = "no candidates" if held == 0 else f"{held} candidates per query"
+        raise ValueError(f"{where} holds {what} for the training-free scorers, but r_window {settings.r_window} and "
+                         f"spread_k {settings.spread_k} need {needed} (the smallest S and D values of each query): "
+                         f"compute the attributes again with vpr-smr attributes --candidates {needed}"
+                         + (f", {other_fix}" if other_fix else ""))
+
+
+# --- the scorers ----------------------------------------------------------------------------------------------
+
+
+def uniqueness(values: np.ndarray, references: np.ndarray, window: int) -> np.ndarray:
+    """SeqSLAM's windowed uniqueness per row: the smallest value whose reference lies more than ``window`` from the
+    first candidate's (the best), divided by the best value. ``values``/``references``: each row's smallest values
+    ascending with their references (``-1``: none), as the matcher keeps them; they must reach past the window
+    (``2 window + 2`` candidates, or every reference). 1 where no reference lies outside the window or both values
+    are 0, ``+inf`` where only the best is 0. A best value at or below 0 counts as 0 (a negative one is float
+    rounding of 0: distances of identical descriptors)."""
+    values, references = np.asarray(values, dtype=np.float64), np.asarray(references)
+    best, match = values[:, 0], references[:, 0]
+    outside = (references >= 0) & (np.abs(references - match[:, None]) > window)
+    found = outside.any(axis=1)
+    second = values[np.arange(len(values)), np.argmax(outside, axis=1)]
+    zero = best <= 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = second / best
+    out: np.ndarray = np.where(~found, 1.0, np.where(zero, np.where(second <= 0, 1.0, np.inf), ratio))
+    return out
+
+
+def spread(references: np.ndarray, positions: np.ndarray, count: int) -> np.ndarray:
+    """Per row, the population standard deviation of the positions of its first ``count`` references (as many as
+    it has, when fewer): ``positions`` ``(R,)`` gives it directly, ``(R, d)`` as the root of the summed per-axis
+    variances."""
+    references = np.asarray(references)
+    valid = references[:, :count] >= 0
+    n = int(valid.sum(axis=1).min()) if len(references) else 0  # every query of a split has as many end references
+    chosen = np.asarray(positions, dtype=np.float64)[references[:, :n]]
+    # relative to the best one's: the spread does not change, and a frame index and a position that are the same
+    # up to an offset (a split's frames, UTM metres) give the same bits
+    chosen = chosen - chosen[:, :1]
+    out: np.ndarray = (np.std(chosen, axis=1) if chosen.ndim == 2
+                       else np.sqrt(np.var(chosen, axis=1).sum(axis=-1)))
+    return out
+
+
+def random_scores(n_queries: int, seed: int) -> np.ndarray:
+    """A uniformly random order of the queries: ``numpy.random.default_rng(seed).permutation(n_queries)``."""
+    return np.random.default_rng(seed).permutation(n_queries).astype(np.float64)
+
+
+def predictor_confidence(probabilities: np.ndarray, classes: np.ndarray) -> np.ndarray:
+    """``1 - P(class 1) - P(class 3)``: the predictor's probability that the sequence match is correct (a class
+    the predictor was not trained on has probability 0)."""
+    values = np.asarray(probabilities, dtype=np.float64)
+    labels: list[int] = [int(c) for c in np.asarray(classes).tolist()]
+    out = np.ones(len(values))
+    for label in (1, 3):
+        if label in labels:
+            out = out - values[:, labels.index(label)]
+    return out
+
+
+def query_scores(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int = 0,
+                 prediction: Prediction | None = None) -> dict[str, np.ndarray]:
+    """Every scorer's ``c_a`` of one split's evaluated queries, in ``SCORERS``' order: ``random`` of ``seed``,
+    ``predictor`` only with ``prediction``. The features must hold the candidates (``check_candidates``)."""
+    if features.sequence_candidates is None or features.single_candidates is None:
+        raise ValueError("the features hold no candidates for the training-free scorers")
+    assert features.sequence_candidate_references is not None and features.single_candidate_references is not None
+    window = settings.half_window
+    scores = {
+        "uniqueness": uniqueness(features.sequence_candidates, features.sequence_candidate_references, window),
+        "single_uniqueness": uniqueness(features.single_candidates, features.single_candidate_references, window),
+        "spread": -spread(features.sequence_candidate_references, positions, settings.spread_k),
+        "distance": -np.asarray(features.sequence_distance, dtype=np.float64),
+        RANDOM: random_scores(len(features.queries), seed),
+        ORACLE: np.asarray(features.sequence_correct, dtype=np.float64),
+    }
+    if prediction is not None:
+        scores[PREDICTOR] = predictor_confidence(prediction.probabilities, prediction.classes)
+    return scores
+
+
+# --- removal at the predictor's budget (method §12.2) ---------------------------------------------------------
+
+
+def keep_lowest(confidence: np.ndarray, budget: int) -> np.ndarray:
+    """The keep-mask that removes the ``budget`` queries of lowest ``confidence`` (a stable sort: among equal values
+    the lower query index goes first)."""
+    keep = np.ones(len(confidence), dtype=bool)
+    keep[np.argsort(confidence, kind="stable")[:budget]] = False
+    return keep
+
+
+def oracle_keep(distances: np.ndarray, correct: np.ndarray, budget: int) -> np.ndarray:
+    """The oracle's keep-mask: it removes the wrong matches of smallest sequence distance first (equal distances:
+    the lower query index), ``budget`` of them or all of them when there are fewer."""
+    wrong = np.flatnonzero(~np.asarray(correct, dtype=bool))
+    keep = np.ones(len(correct), dtype=bool)
+    keep[wrong[np.argsort(np.asarray(distances)[wrong], kind="stable")][:budget]] = False
+    return keep
+
+
+def removal_at_budget(features: QueryFeatures, scores: Mapping[str, np.ndarray], prediction: Prediction,
+                      modes: Sequence[str] = MODES) -> BudgetRemoval:
+    """Every scorer of ``scores`` (``predictor`` by the prediction's own removal, ``oracle`` by ``oracle_keep``, the
+    others by ``keep_lowest``) removing as many matches as ``prediction`` does, each scored against VPR+SM by
+    ``evaluate.compare_removal`` in ``modes``."""
+    keep_predictor = prediction.keep
+    budget = int((~keep_predictor).sum())
+    out = {}
+    for name in (n for n in SCORERS if n in scores or n == PREDICTOR):
+        if name == PREDICTOR:
+            keep = keep_predictor
+        elif name == ORACLE:
+            keep = oracle_keep(features.sequence_distance, features.sequence_correct, budget)
+        else:
+            keep = keep_lowest(scores[name], budget)
+        out[name] = ScorerRemoval(int((~keep).sum()), {mode: compare_removal(features, mode, keep)[2]
+                                                        for mode in modes})
+    return BudgetRemoval(prediction.seed, budget, out)
+
+
+# --- detecting wrong matches (method §12.3) -------------------------------------------------------------------
+
+
+def detection(wrong: np.ndarray, confidence: np.ndarray, curve: bool = True) -> Detection:
+    """Average precision and ROC AUC of ranking the queries by ``-confidence`` against ``wrong`` (the positives),
+    as scikit-learn's ``average_precision_score`` and ``roc_auc_score`` define them: one point per distinct
+    threshold (equal scores enter together), ``AP = sum (R_i - R_{i-1}) P_i``, the ROC area by the trapezoid rule.
+    Infinite confidences rank as any other value. ``curve``: also the PR curve's points where recall grows."""
+    wrong = np.asarray(wrong, dtype=bool)
+    score = -np.asarray(confidence, dtype=np.float64)
+    positives = int(wrong.sum())
+    negatives = len(wrong) - positives
+    if positives == 0:
+        return Detection(None, None, None)
+    order = np.argsort(-score, kind="stable")  # the most suspect first
+    ranked, hits = score[order], wrong[order]
+    last = np.r_[ranked[1:] != ranked[:-1], True]  # the last query of each run of equal scores: one threshold
+    tp, fp = np.cumsum(hits)[last], np.cumsum(~hits)[last]
+    precision, recall = tp / (tp + fp), tp / positives
+    average_precision = float(np.sum(np.diff(np.r_[0.0, recall]) * precision))
+    roc_auc = None
+    if negatives > 0:
+        tpr, fpr = np.r_[0.0, recall], np.r_[0.0, fp / negatives]
+        roc_auc = float(np.sum(np.diff(fpr) * (tpr[1:] + tpr[:-1]) / 2))
+    points = None
+    if curve:
+        grows = np.diff(np.r_[0, tp]) > 0
+        points = PRCurve(tuple(recall[grows].tolist()), tuple(precision[grows].tolist()))
+    return Detection(average_precision, roc_auc, points)
+
+
+# --- one split ------------------------------------------------------------------------------------------------
+
+
+def split_baselines(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray,
+                    predictions: Sequence[Prediction] = (), modes: Sequence[str] = MODES) -> SplitBaselines:
+    """Both protocols of method §12 on one split: every scorer's wrong-match detection (``random`` and
+    ``predictor`` by the first prediction's seed, 0 without one; ``random`` also per seed), and with
+    ``predictions`` (one per predictor seed, the first first) every scorer's removal at each seed's budget."""
+    seeds = tuple(p.seed for p in predictions) or (0,)
+    first = predictions[0] if predictions else None
+    scores = query_scores(features, settings, positions, seeds[0], first)
+    wrong = ~np.asarray(features.sequence_correct, dtype=bool)
+    found = {name: detection(wrong, value) for name, value in scores.items()}
+    n = len(features.queries)
+    random_found = tuple(detection(wrong, random_scores(n, seed), curve=False) for seed in seeds)
+    removal = None
+    if predictions:
+        removal = tuple(removal_at_budget(
+            features, scores if p is first else {**scores, RANDOM: random_scores(n, p.seed)}, p, modes)
+            for p in predictions)
+    return SplitBaselines(n, int(wrong.sum()), seeds, found, random_found, removal)
