@@ -95,6 +95,7 @@ rule baselines:
         attributes=lambda wc: [attributes_path(OUT, wc.dataset, wc.method, wc.seq_len, split)
                              for split in conf.eval_splits],
         predictors=predictor_paths(OUT, "{dataset}", "{seq_len}", conf.seeds),
+        truth=lambda wc: ground_truth_input(PLAN, wc.dataset),
     output:
         baselines_path(OUT, "{dataset}", "{method}", "{seq_len}"),
     log:
@@ -106,12 +107,14 @@ rule baselines:
         attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
+        # method §13: a dataset's ground-truth file (its input above), cut to each split by the stage
+        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
         velocities=VELOCITIES,
         baselines=BASELINES,
         modes=" ".join(conf.modes),
     shell:
         "vpr-smr baselines --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius}"
+        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
         " --velocities {params.velocities} --distances {params.distances} --attributes {params.attributes}"
         " --predictors {input.predictors:q} {params.baselines} --modes {params.modes}"
         " --out {output:q} {params.overlap} > {log:q} 2>&1"

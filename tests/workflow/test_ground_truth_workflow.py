@@ -6,6 +6,7 @@ every table's title, and has no protocol sweep; the tolerance run has one."""
 from __future__ import annotations
 
 import csv
+import json
 import re
 import subprocess
 import sys
@@ -67,6 +68,10 @@ def test_a_band_file_gives_the_numbers_of_the_tolerance(tables):
                 {k: v for k, v in b.items() if not TIMES.search(k)}, name
         assert "Correct matches: sample gt.npy (a matrix)" in (file / f"{name}.md").read_text(), name
         assert "Correct matches: sample within 2 frames" in (tolerance / f"{name}.md").read_text(), name
+    # the scoring jobs read the file: their outputs record it
+    for kind in ("metrics", "baselines"):
+        for path in (file.parent / kind).rglob("*.json"):
+            assert json.loads(path.read_text())["meta"]["ground_truth"]["kind"] == "matrix", path
     (card,) = read(file / "datasets.csv")
     assert card["tolerance"] == "gt.npy (a matrix)"
     sweep = read(tolerance / "protocol_sweep.csv")
