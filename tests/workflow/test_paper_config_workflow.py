@@ -54,7 +54,7 @@ def test_dry_run_plans_every_job(tmp_path):
     assert counts == {"all": "1", "descriptors": "21", "distances": "63", "attributes": "63", "train": "3",
                       "evaluate": "21", "attribute_ablation": "3", "predictor_without": "21", "held_out": "21",
                       "vpr_metrics": "21", "queries": "21", "inspect": "21", "speed": "18", "report": "1",
-                      "total": "299"}
+                      "baselines": "21", "total": "320"}
     for dataset in ("nordland", "robotcar", "sfu_mountain"):
         for method in METHODS:
             assert f"descriptors/{dataset}/{method}.h5" in result.stdout

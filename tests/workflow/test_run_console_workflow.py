@@ -92,24 +92,25 @@ def test_a_run_prints_a_compact_progress_view(good_run):
     lines = out.splitlines()
     assert len(lines) < 40 and err == "", out + err
     # one line per finished job (stdout is not a terminal): 2 descriptors, 3 distances and 3 attributes per method,
-    # one predictor, one evaluation, VPR metrics, per-query CSV and match inspector per method, the report;
-    # Snakemake's `all` counts as the 25th step
+    # one predictor, one evaluation, training-free baselines, VPR metrics, per-query CSV and match inspector per
+    # method, the report; Snakemake's `all` counts as the 27th step
     expected = {f"descriptors d/{m}" for m in METHODS} | {f"distances d/{m}/{s}" for m in METHODS for s in SPLITS} \
         | {f"attributes d/{m}/L3/{s}" for m in METHODS for s in SPLITS} | {"train d/L3", "report"} \
-        | {f"{rule} d/{m}/L3" for m in METHODS for rule in ("evaluate", "vpr_metrics", "queries", "inspect")}
-    done = [re.fullmatch(r"\[ ?(\d+)/25\] \d+:\d\d:\d\d done (\S+(?: \S+)?)(?:; running .*)?", line) for line in lines]
+        | {f"{rule} d/{m}/L3" for m in METHODS for rule in ("evaluate", "baselines", "vpr_metrics", "queries",
+                                                                       "inspect")}
+    done = [re.fullmatch(r"\[ ?(\d+)/27\] \d+:\d\d:\d\d done (\S+(?: \S+)?)(?:; running .*)?", line) for line in lines]
     done = [match for match in done if match]
-    assert sorted(int(match[1]) for match in done) == list(range(1, 25))
+    assert sorted(int(match[1]) for match in done) == list(range(1, 27))
     assert {match[2] for match in done} == expected
-    assert "25 jobs to run" in lines and any(re.fullmatch(r"25 of 25 jobs done in \S+", line) for line in lines)
+    assert "27 jobs to run" in lines and any(re.fullmatch(r"27 of 27 jobs done in \S+", line) for line in lines)
     run = os.path.join("out put ü", "r")
     assert f"tables:  {run}/tables" in lines and f"report:  {run}/report.html" in lines
     # Snakemake's whole output is in the log named at the start
     log = re.fullmatch(r"Snakemake's output: (.*)", lines[0])[1]
     assert log.startswith(f"{run}/logs/snakemake-") and log.endswith(".log")
     text = (folder / log).read_text(encoding="utf-8")
-    assert "Building DAG of jobs..." in text and "25 of 25 steps (100%) done" in text
-    assert len(re.findall(r"^Finished jobid: \d+ \(Rule: \w+\)$", text, flags=re.MULTILINE)) == 25
+    assert "Building DAG of jobs..." in text and "27 of 27 steps (100%) done" in text
+    assert len(re.findall(r"^Finished jobid: \d+ \(Rule: \w+\)$", text, flags=re.MULTILINE)) == 27
 
 
 @pytest.mark.slow
@@ -119,7 +120,8 @@ def test_dry_run_counts_jobs_per_rule_and_verbose_lists_them(tmp_path, sample):
     assert status == 0, out + err
     rows = dict(re.findall(r"^(\w+) +(\d+)$", out, flags=re.MULTILINE))
     assert rows == {"descriptors": "1", "distances": "3", "attributes": "3", "train": "1", "evaluate": "1",
-                    "vpr_metrics": "1", "queries": "1", "inspect": "1", "report": "1", "all": "1", "total": "14"}
+                    "vpr_metrics": "1", "queries": "1", "inspect": "1", "report": "1", "all": "1", "baselines": "1",
+                    "total": "15"}
     assert len(out.splitlines()) < 20 and "rule descriptors:" not in out
     status, out, err = finish(start(tmp_path, conf, "-n", "--verbose"))
     assert status == 0 and len(re.findall(r"^rule distances:$", out, flags=re.MULTILINE)) == 3, out + err
@@ -135,7 +137,7 @@ def test_a_failed_job_shows_its_log_and_error(tmp_path, sample):
     output = tmp_path / "res ults ü"  # absolute this time
     status, out, err = finish(start(tmp_path / "work", config(output, data, methods=("sad",))))
     assert status != 0 and "Traceback" not in out + err
-    assert re.search(r"^\[ ?0/14\] \S+ FAILED descriptors d/sad$", out, flags=re.MULTILINE), out
+    assert re.search(r"^\[ ?0/15\] \S+ FAILED descriptors d/sad$", out, flags=re.MULTILINE), out
     log = output / "r" / "logs" / "descriptors" / "d" / "sad.log"
     lines = err.splitlines()
     assert lines[0] == "vpr-smr run: job failed: rule descriptors (dataset=d, method=sad)"

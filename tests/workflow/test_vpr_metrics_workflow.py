@@ -35,7 +35,7 @@ def test_workflow_rule(tmp_path):
     run = tmp_path / "results" / "r"
     data = json.loads((run / "metrics/sample/sad/L3.json").read_text())
     assert data["meta"] == {"dataset": "sample", "method": "sad", "seq_len": 3, "tolerance": 2,
-                            "ground_truth": {"kind": "frames", "tolerance": 2},
+                            "ground_truth": {"kind": "frames", "tolerance": 2}, "r_window": 10, "spread_k": 10,
                             "predictor": "results/r/predictors/sample/L3.h5"}
     assert set(data["splits"]) == {"val", "test"}  # the default eval_splits (write_json sorts the keys)
     rows = list(csv.DictReader(open(run / "queries/sample/sad/L3.csv")))
