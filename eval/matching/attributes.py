@@ -123,8 +123,6 @@ def query_features(
     rank_refs = result["rank_references"]
     single = result["single_match"]
     seq_match = result["sequence_match"]
-    single_correct = ground_truth.correct(single, queries)
-    sequence_correct = ground_truth.correct(seq_match, queries)
     return QueryFeatures(
         queries=queries,
         attributes=result["attributes"],
@@ -132,19 +130,25 @@ def query_features(
         single_match=single,
         sequence_match=seq_match,
         sequence_distance=result["sequence_distance"],
-        labels=labels_from_correctness(single_correct, sequence_correct),
-        single_correct=single_correct,
-        sequence_correct=sequence_correct,
-        rank_correct=ground_truth.correct(rank_refs, queries[:, None]),
         sequence_min=float(result["sequence_distance"].min()),
         sequence_max=float(result["sequence_max"].max()),
-        # Paper mode's single-frame recall@1 counts every query of the split (method §8): the first L-1 too.
-        all_single_correct=np.concatenate([
-            ground_truth.correct(np.argmin(read_columns(matrix, 0, seq_len - 1), axis=1), np.arange(seq_len - 1)),
-            single_correct,
-        ]),
+        **verdicts(ground_truth, queries, single, seq_match, rank_refs,
+                   np.argmin(read_columns(matrix, 0, seq_len - 1), axis=1)),
         **{name: result[name] for name in CANDIDATE_FIELDS if name in result},
     )
+
+
+def verdicts(truth: GroundTruth, queries: np.ndarray, single_match: np.ndarray, sequence_match: np.ndarray,
+             rank_references: np.ndarray, first_single: np.ndarray) -> dict[str, np.ndarray]:
+    """The fields of ``QueryFeatures`` that the ground truth decides: each match's correctness under ``truth`` and
+    the labels (method §6). ``first_single``: the single-frame matches of the first ``L - 1`` queries, which have no
+    sequence match; paper mode's single-frame recall@1 counts every query of the split (method §8)."""
+    single = truth.correct(single_match, queries)
+    sequence = truth.correct(sequence_match, queries)
+    return {"labels": labels_from_correctness(single, sequence), "single_correct": single,
+            "sequence_correct": sequence, "rank_correct": truth.correct(rank_references, queries[:, None]),
+            "all_single_correct": np.concatenate([truth.correct(first_single, np.arange(len(first_single))),
+                                                  single])}
 
 
 def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
-from vpr_smr.eval.matching.attributes import QueryFeatures, labels_from_correctness
+from vpr_smr.eval.matching.attributes import QueryFeatures, verdicts
 from vpr_smr.eval.matching.ground_truth import FRAMES, GroundTruth, PositionTruth
 from vpr_smr.eval.scoring.evaluate import compare_removal, recall_at_1
 from vpr_smr.eval.scoring.records import ProtocolSweep, SweepPoint
@@ -43,14 +44,10 @@ def sweep_thresholds(truth: GroundTruth) -> tuple[str, tuple[float, ...]]:
 def rescored(features: QueryFeatures, single_matches: np.ndarray, truth: GroundTruth) -> QueryFeatures:
     """``features`` with every correctness and label of ``truth`` (the matches are kept): ``single_matches`` is the
     single-frame match of every query of the split, the first ``L - 1`` too (paper mode's recall@1 counts them)."""
-    queries = features.queries
-    single = truth.correct(features.single_match, queries)
-    sequence = truth.correct(features.sequence_match, queries)
-    first = np.arange(len(single_matches) - len(queries))
-    return replace(features, single_correct=single, sequence_correct=sequence,
-                   labels=labels_from_correctness(single, sequence),
-                   rank_correct=truth.correct(features.rank_references, queries[:, None]),
-                   all_single_correct=np.concatenate([truth.correct(single_matches[first], first), single]))
+    first = single_matches[: len(single_matches) - len(features.queries)]
+    changes: dict[str, Any] = verdicts(truth, features.queries, features.single_match, features.sequence_match,
+                                       features.rank_references, first)
+    return replace(features, **changes)
 
 
 def protocol_sweep(features: QueryFeatures, single_matches: np.ndarray, truth: GroundTruth, modes: Sequence[str],
