@@ -1,0 +1,211 @@
+"""Bootstrap intervals over queries (method §8.7): how far a number of a split could move with other queries.
+
+One resampling serves every number of a split: ``RESAMPLES`` draws of the split's evaluated queries with
+replacement (``numpy.random.default_rng(BOOTSTRAP_SEED).integers``), each turned into per-query multiplicities
+(``query_weights``). A number's interval is the 2.5th and 97.5th percentile of its value over the draws (the
+percentile bootstrap). Because every scorer, seed and mode of a split sees the same draws, the interval of a
+difference between two of them (``difference``) is paired: it is the percentile interval of the per-draw difference.
+
+A draw repeats some queries and leaves others out; a number on a draw is the number computed on those queries, with
+every repeated query counted as often as drawn. The curves and areas below are the rules of ``curves`` and
+``baselines.detection`` with per-query weights in place of counting each query once, and equal, draw by draw, to
+those functions applied to the drawn queries (the tests check it). Where a number is undefined on a draw (a
+reduction whose baseline leaves nothing to reduce, an average precision without a wrong match), the draw is left
+out; fewer than ``MIN_DEFINED`` of the draws defined and there is no interval (None), which every table and
+sentence names in words.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+
+import numpy as np
+
+from vpr_smr.core.records import Record
+from vpr_smr.eval.scoring.curves import AOC_ZERO, PAPER_THRESHOLDS
+
+CONFIDENCE = 0.95
+RESAMPLES = 1000
+BOOTSTRAP_SEED = 0
+# An interval needs this share of the draws defined: below it, the defined draws are a biased sample of the split
+MIN_DEFINED = CONFIDENCE
+# Draws computed at once: a (CHUNK x queries) block of weights and of cumulative sums stays a few tens of MB
+CHUNK = 100
+
+
+@dataclass(frozen=True)
+class Interval(Record):
+    """A ``CONFIDENCE`` percentile bootstrap interval over queries: ``low <= high``."""
+
+    low: float
+    high: float
+
+    def excludes_zero(self) -> bool:
+        """True when the interval lies wholly above or wholly below 0: only then does a number have a direction."""
+        return self.low > 0 or self.high < 0
+
+    def sign(self) -> int:
+        """+1 wholly above 0, -1 wholly below, 0 when it contains 0."""
+        return 1 if self.low > 0 else -1 if self.high < 0 else 0
+
+
+Statistic = Callable[[np.ndarray], np.ndarray]  # (draws x queries) weights -> one value per draw (NaN: undefined)
+
+
+def query_weights(n_queries: int, resamples: int = RESAMPLES, seed: int = BOOTSTRAP_SEED) -> Iterator[np.ndarray]:
+    """The draws as blocks of per-query multiplicities, ``CHUNK`` draws a block: row ``b`` counts how often each
+    query is in draw ``b`` (each draw takes ``n_queries`` queries with replacement). Draw ``b`` is row ``b`` of
+    ``default_rng(seed).integers(0, n_queries, (resamples, n_queries))``, whatever the block size."""
+    rng = np.random.default_rng(seed)
+    for start in range(0, resamples, CHUNK):
+        rows = min(CHUNK, resamples - start)
+        drawn = rng.integers(0, n_queries, size=(rows, n_queries))
+        offsets = (np.arange(rows) * n_queries)[:, None]
+        yield np.bincount((drawn + offsets).ravel(), minlength=rows * n_queries).reshape(rows, n_queries)
+
+
+def draws(statistic: Statistic, n_queries: int, resamples: int = RESAMPLES, seed: int = BOOTSTRAP_SEED) -> np.ndarray:
+    """``statistic`` on every draw: one float per draw, NaN where undefined."""
+    if n_queries == 0:
+        return np.full(resamples, np.nan)
+    return np.concatenate([np.asarray(statistic(block), dtype=np.float64)
+                           for block in query_weights(n_queries, resamples, seed)])
+
+
+def percentile_interval(values: np.ndarray) -> Interval | None:
+    """The ``CONFIDENCE`` percentile interval of the defined (finite) values; None when fewer than ``MIN_DEFINED``
+    of them are defined."""
+    values = np.asarray(values, dtype=np.float64)
+    defined = values[np.isfinite(values)]
+    if len(values) == 0 or len(defined) < MIN_DEFINED * len(values):
+        return None
+    tail = 100 * (1 - CONFIDENCE) / 2
+    low, high = np.percentile(defined, [tail, 100 - tail])
+    return Interval(float(low), float(high))
+
+
+def interval(statistic: Statistic, n_queries: int) -> Interval | None:
+    """The bootstrap interval of one number of a split of ``n_queries`` evaluated queries."""
+    return percentile_interval(draws(statistic, n_queries))
+
+
+def difference(first: Statistic, second: Statistic, n_queries: int) -> Interval | None:
+    """The paired interval of ``first - second`` on the same draws (undefined where either is)."""
+    return interval(lambda weights: first(weights) - second(weights), n_queries)
+
+
+# --- the rules of curves.py with weights ---------------------------------------------------------------------
+
+
+def _precision_recall(tp: np.ndarray, fp: np.ndarray, positives: np.ndarray, start_at_nothing_kept: bool
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """``curves._precision_recall`` per draw: (0, 0) where TP is 0, the point (R=0, P=1) first. A point where no
+    query of the draw is kept yet (TP + FP = 0) is the first point again when ``start_at_nothing_kept`` (the standard
+    curve has a point per kept distance, and a distance of queries the draw left out is no point of its curve)."""
+    tp, fp = tp.astype(np.float64), fp.astype(np.float64)
+    has_tp = tp > 0
+    precision = np.where(has_tp, tp / np.maximum(tp + fp, 1), 0.0)
+    recall = np.where(has_tp, tp / np.maximum(positives, 1)[:, None], 0.0)
+    if start_at_nothing_kept:
+        precision = np.where(tp + fp == 0, 1.0, precision)
+    rows = len(tp)
+    return (np.concatenate([np.zeros((rows, 1)), recall], axis=1),
+            np.concatenate([np.ones((rows, 1)), precision], axis=1))
+
+
+def weighted_curve(mode: str, distances: np.ndarray, correct: np.ndarray, keep: np.ndarray, weights: np.ndarray,
+                   sequence_min: float, sequence_max: float) -> tuple[np.ndarray, np.ndarray]:
+    """``curves.curve`` of every draw of ``weights`` (draws x queries): (recall, precision), each draws x points.
+
+    Paper mode keeps its grid of thresholds over the whole split's ``S`` (a property of the split, not of its
+    queries); the standard curve has a point per distinct kept distance of the split, where a draw that left out
+    every query of that distance repeats its previous point (which adds no area)."""
+    correct = np.asarray(correct, dtype=bool)
+    keep = np.asarray(keep, dtype=bool)
+    weights = np.asarray(weights, dtype=np.float64)
+    if mode == "paper":
+        thresholds = np.linspace(sequence_min, sequence_max, PAPER_THRESHOLDS)
+        order = np.argsort(distances, kind="stable")
+        cut = np.searchsorted(distances[order], thresholds, side="right")
+        kept = weights[:, order] * keep[order]
+        hits = correct[order]
+        tp = _counts_at(np.cumsum(kept * hits, axis=1), cut)
+        fp = _counts_at(np.cumsum(kept * ~hits, axis=1), cut)
+        return _precision_recall(tp, fp, weights @ correct, start_at_nothing_kept=False)
+    if mode == "standard":
+        inside = np.flatnonzero(keep)
+        order = inside[np.argsort(distances[inside], kind="stable")]
+        sorted_distances = distances[order]
+        last = np.r_[sorted_distances[1:] != sorted_distances[:-1], True] if len(order) else np.zeros(0, bool)
+        kept, hits = weights[:, order], correct[order]
+        tp = np.cumsum(kept * hits, axis=1)[:, last]
+        fp = np.cumsum(kept * ~hits, axis=1)[:, last]
+        return _precision_recall(tp, fp, weights.sum(axis=1), start_at_nothing_kept=True)
+    raise ValueError(f"unknown metric mode {mode!r}")
+
+
+def _counts_at(cumulative: np.ndarray, cut: np.ndarray) -> np.ndarray:
+    """The cumulative count of the first ``cut`` sorted queries, per draw (0 for none)."""
+    padded = np.concatenate([np.zeros((len(cumulative), 1)), cumulative], axis=1)
+    return padded[:, cut]
+
+
+def _areas_up_to(recall: np.ndarray, precision: np.ndarray, max_recall: np.ndarray) -> np.ndarray:
+    """The trapezoid area of each draw's curve cut to ``recall <= max_recall`` (``curves.cut_curve`` then
+    ``curves.area``): recall never falls along a curve, so the kept points are a prefix."""
+    segments = np.diff(recall, axis=1) * (precision[:, 1:] + precision[:, :-1]) / 2
+    cumulative = np.concatenate([np.zeros((len(recall), 1)), np.cumsum(segments, axis=1)], axis=1)
+    points = (recall <= max_recall[:, None]).sum(axis=1)
+    return cumulative[np.arange(len(recall)), np.maximum(points - 1, 0)]
+
+
+@dataclass(frozen=True)
+class WeightedComparison:
+    """``curves.compare_curves`` per draw: the AOCs at the predictor's maximum recall and the reduction in per
+    cent (NaN where ``curves.reduction_pct`` is None)."""
+
+    aoc_baseline: np.ndarray
+    aoc_predictor: np.ndarray
+    reduction_pct: np.ndarray
+
+
+def weighted_comparison(mode: str, distances: np.ndarray, correct: np.ndarray, keep: np.ndarray,
+                        weights: np.ndarray, sequence_min: float, sequence_max: float) -> WeightedComparison:
+    """Every match kept (VPR+SM) against the matches of ``keep`` (VPR+SM+Pred, or a scorer's removal), per draw."""
+    everything = np.ones(len(distances), dtype=bool)
+    base_recall, base_precision = weighted_curve(mode, distances, correct, everything, weights,
+                                                 sequence_min, sequence_max)
+    recall, precision = weighted_curve(mode, distances, correct, keep, weights, sequence_min, sequence_max)
+    max_recall = recall[:, -1]
+    aoc_base = np.maximum(0.0, max_recall - _areas_up_to(base_recall, base_precision, max_recall))
+    aoc_pred = np.maximum(0.0, max_recall - _areas_up_to(recall, precision, max_recall))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reduction = np.where(aoc_base > AOC_ZERO, 100.0 * (aoc_base - aoc_pred) / aoc_base, np.nan)
+    return WeightedComparison(aoc_base, aoc_pred, reduction)
+
+
+def weighted_average_precision(wrong: np.ndarray, confidence: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """``baselines.detection``'s average precision per draw (NaN for a draw without a wrong match): the queries
+    ranked by ``-confidence``, equal scores entering together, ``AP = sum (R_i - R_{i-1}) P_i``."""
+    wrong = np.asarray(wrong, dtype=bool)
+    score = -np.asarray(confidence, dtype=np.float64)
+    weights = np.asarray(weights, dtype=np.float64)
+    order = np.argsort(-score, kind="stable")
+    ranked = score[order]
+    last = np.r_[ranked[1:] != ranked[:-1], True] if len(order) else np.zeros(0, bool)
+    tp = np.cumsum((weights * wrong)[:, order], axis=1)[:, last]
+    fp = np.cumsum((weights * ~wrong)[:, order], axis=1)[:, last]
+    positives = (weights * wrong).sum(axis=1)
+    # a threshold that no drawn query reached adds no recall, whatever its precision
+    precision = np.divide(tp, tp + fp, out=np.ones_like(tp), where=tp + fp > 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        recall = tp / positives[:, None]
+        gained = np.diff(np.concatenate([np.zeros((len(tp), 1)), recall], axis=1), axis=1)
+        return np.where(positives > 0, np.sum(gained * precision, axis=1), np.nan)
+
+
+def weighted_mean(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """The mean of per-query ``values`` (e.g. 1 for a correct match) in every draw."""
+    weights = np.asarray(weights, dtype=np.float64)
+    return (weights @ np.asarray(values, dtype=np.float64)) / weights.sum(axis=1)
