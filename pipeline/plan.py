@@ -313,7 +313,7 @@ def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]
             problems.extend(f"datasets.{name}: {problem}" for problem in found)
             trainable = not found
         truth_notes: list[str] = []
-        truth_text = _ground_truth_problems(name, pair, [s for s in conf.eval_splits if s in pair.splits], problems,
+        truth_text = ground_truth_problems(name, pair, [s for s in conf.eval_splits if s in pair.splits], problems,
                                             truth_notes)
         if pair.radius is None and pair.ground_truth is None and "speed" in experiments(conf):  # SPEED_DATASETS
             problems.extend(_speed_problems(conf, name, pair.splits, trainable))
@@ -352,7 +352,7 @@ def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]
     return plans
 
 
-def _ground_truth_problems(name: str, pair: Any, eval_splits: list[str], problems: list[str],
+def ground_truth_problems(name: str, pair: Any, eval_splits: list[str], problems: list[str],
                            notes: list[str]) -> str:
     """Check a dataset's ground-truth file (method §13) before any job: found, of the form the configuration says,
     one entry per frame of both traverses (lists: every index in range); a note per evaluation split with queries
