@@ -412,11 +412,12 @@ def format_report(report: DatasetReport) -> str:
 
 
 def main(settings: dict[str, Any], name: str | None = None, decode: bool = True, workers: int = 4,
-         check_ground_truth: GroundTruthCheck | None = None) -> int:
+         check_ground_truth: GroundTruthCheck | None = None, source: str | None = None) -> int:
     """``vpr-smr dataset check``: print the report of a dataset's configuration entry (``{loader: ..., ...}``, as
     in a configuration's ``datasets``); 0 if all is well, 1 on problems found, 2 when the dataset cannot be
     loaded at all (unknown loader, missing or misspelt options, missing root or frame lists). An entry with a
-    ``ground_truth`` file needs ``check_ground_truth`` (``vpr-smr run``'s check of it), whose problems count."""
+    ``ground_truth`` file needs ``check_ground_truth`` (``vpr-smr run``'s check of it), whose problems count.
+    ``source``: the configuration file the settings come from, which an error then names with the setting's key."""
     from vpr_smr.datasets import LOADERS, load_dataset, required_options, unknown_option
 
     loader_name = settings.get("loader")
@@ -426,6 +427,9 @@ def main(settings: dict[str, Any], name: str | None = None, decode: bool = True,
         return 2
     for key in settings:
         problem = unknown_option(loader_name, key)
+        if problem and source:
+            print(f"error: {source}: datasets.{name or loader_name}.{key}: {problem}", file=sys.stderr)
+            return 2
         if problem:
             print(f"error: {problem} (as options: {', '.join(map(cli_option, loader_options_of(loader_name)))})",
                   file=sys.stderr)
@@ -440,7 +444,7 @@ def main(settings: dict[str, Any], name: str | None = None, decode: bool = True,
     try:
         pair = load_dataset(name or loader_name, settings, check_files=False)
     except DatasetError as error:
-        print(f"error: {error}", file=sys.stderr)
+        print(f"error: {f'{source}: ' if source else ''}{error}", file=sys.stderr)
         return 2
     report = check_dataset(pair, decode=decode, workers=workers)
     if pair.ground_truth is not None:

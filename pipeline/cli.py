@@ -408,7 +408,7 @@ def cmd_dataset_check(args: argparse.Namespace) -> int:
             raise ConfigError(f"{args.config}: give --dataset, one of {', '.join(datasets)}" if name is None else
                               f"{args.config}: datasets has no {name!r}; it has {', '.join(datasets)}")
         return check.main(datasets[name].to_json(), name=name, decode=args.decode,
-                          check_ground_truth=_check_ground_truth)
+                          check_ground_truth=_check_ground_truth, source=str(args.config))
     if not args.name:
         raise ConfigError("give a loader and its options (vpr-smr dataset check folders --reference DIR --query DIR"
                           " ...), or a configuration (vpr-smr dataset check --config my.yaml --dataset NAME)")

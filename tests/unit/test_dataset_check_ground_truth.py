@@ -37,7 +37,8 @@ def test_an_index_out_of_range_fails_naming_the_file_and_the_index(tmp_path, cap
     assert problem.startswith("  ground truth: datasets.mine.ground_truth.lists: ")
     assert (f"{tmp_path / 'gt.json'} names reference 15 (the pair query 7, reference 15), but the matrix has 12 "
             "references (0..11)") in problem
-    assert out.splitlines()[-1] == "status: PROBLEMS (0 missing files, 0 unreadable files, the ground-truth file refused)"
+    assert out.splitlines()[-1] == ("status: PROBLEMS (0 missing files, 0 unreadable files, the ground-truth file "
+                                    "refused)")
 
 
 def test_a_good_file_is_named_and_passes(tmp_path, capsys):
