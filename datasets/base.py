@@ -235,6 +235,11 @@ class GroundTruthFile:
     key: str | None = None
 
 
+def relative_note(path: Path | str) -> str:
+    """`` (a relative path, looked for from the working folder /x)`` for a relative path not found, else empty."""
+    return "" if Path(path).is_absolute() else f" (a relative path, looked for from the working folder {Path.cwd()})"
+
+
 def radius_text(radius: float, unit: str) -> str:
     """``25 m``, or ``3 (the unit of the CSVs' x and y)``: a radius with its unit, for messages and cards."""
     return f"{radius:g} m" if unit == "metres" else f"{radius:g} ({unit})" if unit else f"{radius:g}"
@@ -294,8 +299,7 @@ def sorted_images(folder: Path | str) -> tuple[Path, ...]:
     """
     folder = Path(folder)
     if not folder.is_dir():
-        note = "" if folder.is_absolute() else f" (a relative path, looked for from the working folder {Path.cwd()})"
-        raise DatasetError(f"image folder not found: {folder}{note}")
+        raise DatasetError(f"image folder not found: {folder}{relative_note(folder)}")
     files = sorted((p for p in folder.iterdir() if not p.name.startswith(".")),
                    key=lambda p: (natural_key(p.name), p.name))
     others = [p.name for p in files if p.suffix.lower() not in IMAGE_SUFFIXES]

@@ -12,7 +12,7 @@ import math
 import os
 import sys
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -21,7 +21,19 @@ from typing import Any
 import cv2
 import numpy as np
 
-from vpr_smr.datasets.base import MAX_LISTED, DatasetError, Traverse, TraversePair, list_files, radius_text
+from vpr_smr.datasets.base import (
+    MAX_LISTED,
+    DatasetError,
+    GroundTruthFile,
+    Traverse,
+    TraversePair,
+    list_files,
+    radius_text,
+)
+
+# Checks a pair's ground-truth file (dataset name, pair) -> (problems, notes): the pipeline's own check before the
+# first job, handed in because reading the file belongs to the stages above this one.
+GroundTruthCheck = Callable[[str, TraversePair], tuple[list[str], list[str]]]
 
 SHOWN_NAMES = 3  # file names shown from each end of a traverse, in the order used
 MAX_HINT_DIRS = 200  # folders looked into when guessing a mis-set root (a root may hold many files)
@@ -195,6 +207,9 @@ class DatasetReport:
     pairs: list[tuple[int, str, str]] = field(default_factory=list)  # (frame, reference name, query name)
     radius: float | None = None  # pairs with positions (method §11): the ground truth's radius, in position_unit
     position_unit: str = ""
+    ground_truth: GroundTruthFile | None = None  # a ground-truth file (method §13) in place of the tolerance
+    truth_problems: list[str] = field(default_factory=list)  # what is wrong with that file, as `run` refuses it
+    truth_notes: list[str] = field(default_factory=list)
 
     @property
     def positioned(self) -> bool:
@@ -202,7 +217,7 @@ class DatasetReport:
 
     @property
     def ok(self) -> bool:
-        return all(not t.bad and not t.unpositioned for t in self.traverses)
+        return all(not t.bad and not t.unpositioned for t in self.traverses) and not self.truth_problems
 
     @property
     def status(self) -> int:
@@ -329,6 +344,11 @@ def _split_line(s: SplitCheck) -> str:
 
 
 def _heading(report: DatasetReport) -> str:
+    given = report.ground_truth
+    if given is not None:
+        key = f", key {given.key}" if given.key else ""
+        return (f"dataset {report.dataset!r}: {report.frames} aligned frames, correct matches from the ground-truth "
+                f"file {given.path} ({given.form}{key})")
     if not report.positioned:
         return f"dataset {report.dataset!r}: {report.frames} aligned frames, tolerance {report.tolerance}"
     reference, query = report.traverses
@@ -377,6 +397,8 @@ def format_report(report: DatasetReport) -> str:
         if t.errors:
             shown = [f"{path} ({reason})" for path, reason in t.errors.items()]
             lines.append(f"  unreadable files ({t.role} {t.name}, {len(shown)}): {list_files(shown)}")
+    lines.extend(f"  note: {note}" for note in report.truth_notes)
+    lines.extend(f"  ground truth: {problem}" for problem in report.truth_problems)
     if report.ok:
         lines.append("status: OK")
     else:
@@ -384,14 +406,18 @@ def format_report(report: DatasetReport) -> str:
         unreadable = sum(len(t.errors) for t in report.traverses)
         unpositioned = sum(len(t.unpositioned) for t in report.traverses)
         without = f", {unpositioned} frames without a position" if unpositioned else ""
-        lines.append(f"status: PROBLEMS ({missing} missing files, {unreadable} unreadable files{without})")
+        truth = ", the ground-truth file refused" if report.truth_problems else ""
+        lines.append(f"status: PROBLEMS ({missing} missing files, {unreadable} unreadable files{without}{truth})")
     return "\n".join(lines)
 
 
-def main(settings: dict[str, Any], name: str | None = None, decode: bool = True, workers: int = 4) -> int:
+def main(settings: dict[str, Any], name: str | None = None, decode: bool = True, workers: int = 4,
+         check_ground_truth: GroundTruthCheck | None = None, source: str | None = None) -> int:
     """``vpr-smr dataset check``: print the report of a dataset's configuration entry (``{loader: ..., ...}``, as
     in a configuration's ``datasets``); 0 if all is well, 1 on problems found, 2 when the dataset cannot be
-    loaded at all (unknown loader, missing or misspelt options, missing root or frame lists)."""
+    loaded at all (unknown loader, missing or misspelt options, missing root or frame lists). An entry with a
+    ``ground_truth`` file needs ``check_ground_truth`` (``vpr-smr run``'s check of it), whose problems count.
+    ``source``: the configuration file the settings come from, which an error then names with the setting's key."""
     from vpr_smr.datasets import LOADERS, load_dataset, required_options, unknown_option
 
     loader_name = settings.get("loader")
@@ -401,6 +427,9 @@ def main(settings: dict[str, Any], name: str | None = None, decode: bool = True,
         return 2
     for key in settings:
         problem = unknown_option(loader_name, key)
+        if problem and source:
+            print(f"error: {source}: datasets.{name or loader_name}.{key}: {problem}", file=sys.stderr)
+            return 2
         if problem:
             print(f"error: {problem} (as options: {', '.join(map(cli_option, loader_options_of(loader_name)))})",
                   file=sys.stderr)
@@ -415,9 +444,14 @@ def main(settings: dict[str, Any], name: str | None = None, decode: bool = True,
     try:
         pair = load_dataset(name or loader_name, settings, check_files=False)
     except DatasetError as error:
-        print(f"error: {error}", file=sys.stderr)
+        print(f"error: {f'{source}: ' if source else ''}{error}", file=sys.stderr)
         return 2
     report = check_dataset(pair, decode=decode, workers=workers)
+    if pair.ground_truth is not None:
+        if check_ground_truth is None:
+            raise ValueError("a dataset with a ground-truth file is checked with check_ground_truth")
+        report.ground_truth = pair.ground_truth
+        report.truth_problems, report.truth_notes = check_ground_truth(name or loader_name, pair)
     print(format_report(report))
     return report.status
 

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vpr_smr.datasets.base import DatasetError, list_files
+from vpr_smr.datasets.base import DatasetError, list_files, relative_note
 
 __all__ = [
     "METRES", "XY_UNIT", "CsvPositions", "UtmZone", "csv_pair_positions", "median_spacing", "positions_from_csv",
@@ -99,8 +99,8 @@ def read_position_csv(path: Path | str) -> CsvPositions:
     """The rows of a positions CSV; errors name the file, the line and the fix."""
     path = Path(path).expanduser()
     if not path.is_file():
-        note = "" if path.is_absolute() else f" (a relative path, looked for from the working folder {Path.cwd()})"
-        raise DatasetError(f"positions file not found: {path}{note}; fix reference_positions / query_positions")
+        raise DatasetError(f"positions file not found: {path}{relative_note(path)}; fix reference_positions / "
+                           "query_positions")
     with path.open(newline="", encoding="utf-8-sig") as file:  # utf-8-sig: a spreadsheet's byte-order mark
         lines = [(number, row) for number, row in enumerate(csv.reader(file), start=1) if any(f.strip() for f in row)]
     if not lines:

@@ -379,6 +379,17 @@ DATASET_OPTIONS = ("root", "reference", "query", "reference_list", "query_list",
                    "reference_positions", "query_positions", "positions", "radius")
 
 
+def _check_ground_truth(name: str, pair: Any) -> tuple[list[str], list[str]]:
+    """``dataset check``'s check of a ground-truth file: the one ``vpr-smr run`` makes before its first job, its notes
+    over every split of the pair."""
+    from vpr_smr.pipeline.plan import ground_truth_problems
+
+    problems: list[str] = []
+    notes: list[str] = []
+    ground_truth_problems(name, pair, list(pair.splits), problems, notes)
+    return problems, notes
+
+
 def cmd_dataset_check(args: argparse.Namespace) -> int:
     from vpr_smr.datasets import check
 
@@ -396,11 +407,12 @@ def cmd_dataset_check(args: argparse.Namespace) -> int:
         if name is None or name not in datasets:
             raise ConfigError(f"{args.config}: give --dataset, one of {', '.join(datasets)}" if name is None else
                               f"{args.config}: datasets has no {name!r}; it has {', '.join(datasets)}")
-        return check.main(datasets[name].to_json(), name=name, decode=args.decode)
+        return check.main(datasets[name].to_json(), name=name, decode=args.decode,
+                          check_ground_truth=_check_ground_truth, source=str(args.config))
     if not args.name:
         raise ConfigError("give a loader and its options (vpr-smr dataset check folders --reference DIR --query DIR"
                           " ...), or a configuration (vpr-smr dataset check --config my.yaml --dataset NAME)")
-    return check.main({"loader": args.name, **given}, decode=args.decode)
+    return check.main({"loader": args.name, **given}, decode=args.decode, check_ground_truth=_check_ground_truth)
 
 
 def cmd_run(args: argparse.Namespace) -> int:

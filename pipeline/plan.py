@@ -15,7 +15,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from vpr_smr.datasets.base import GroundTruthFile
+from vpr_smr.datasets.base import GroundTruthFile, relative_note
 from vpr_smr.pipeline.config import Config, ConfigError, experiments
 
 
@@ -156,10 +156,6 @@ def _positions_files(settings: dict[str, Any]) -> tuple[str, ...]:
     return tuple(str(v) for k, v in sorted(settings.items()) if k.endswith("_positions") and v)
 
 
-def _relative_note(value: str) -> str:
-    return "" if os.path.isabs(value) else f" (a relative path, looked for from the working folder {Path.cwd()})"
-
-
 def _shared(a: tuple[int, int], b: tuple[int, int]) -> tuple[int, int] | None:
     lo, hi = max(a[0], b[0]), min(a[1], b[1])
     return (lo, hi) if lo < hi else None
@@ -292,8 +288,8 @@ def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]
         try:
             pair = load_dataset(name, dataset)
         except DatasetError as error:
-            note = _relative_note(str(root)) if root and not Path(root).exists() else ""
-            problems.append(f"{error}{note}")
+            note = relative_note(root) if root and not Path(root).exists() else ""
+            problems.append(f"{error}{'' if note in str(error) else note}")  # said once, if the loader said it
             continue
         for split in needed:
             if split not in pair.splits:
@@ -313,7 +309,7 @@ def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]
             problems.extend(f"datasets.{name}: {problem}" for problem in found)
             trainable = not found
         truth_notes: list[str] = []
-        truth_text = _ground_truth_problems(name, pair, [s for s in conf.eval_splits if s in pair.splits], problems,
+        truth_text = ground_truth_problems(name, pair, [s for s in conf.eval_splits if s in pair.splits], problems,
                                             truth_notes)
         if pair.radius is None and pair.ground_truth is None and "speed" in experiments(conf):  # SPEED_DATASETS
             problems.extend(_speed_problems(conf, name, pair.splits, trainable))
@@ -328,7 +324,7 @@ def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]
             )
         for path in _list_files(dataset):
             if not Path(path).is_file():
-                problems.append(f"datasets.{name}: frame list not found: {path}{_relative_note(path)}")
+                problems.append(f"datasets.{name}: frame list not found: {path}{relative_note(path)}")
         plans[name] = DatasetPlan(
             frames_settings=frames_settings(dataset),
             splits={k: (int(lo), int(hi)) for k, (lo, hi) in pair.splits.items()},
@@ -352,7 +348,7 @@ def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]
     return plans
 
 
-def _ground_truth_problems(name: str, pair: Any, eval_splits: list[str], problems: list[str],
+def ground_truth_problems(name: str, pair: Any, eval_splits: list[str], problems: list[str],
                            notes: list[str]) -> str:
     """Check a dataset's ground-truth file (method §13) before any job: found, of the form the configuration says,
     one entry per frame of both traverses (lists: every index in range); a note per evaluation split with queries
@@ -475,7 +471,7 @@ def _check_method(name: str, method: dict[str, Any], problems: list[str]) -> str
                         "of its downloaded checkpoint file")
         return None
     if checkpoint and checkpoint != "package" and not Path(checkpoint).is_file():
-        problems.append(f"methods.{name}.checkpoint: file not found: {checkpoint}{_relative_note(checkpoint)}")
+        problems.append(f"methods.{name}.checkpoint: file not found: {checkpoint}{relative_note(checkpoint)}")
         return None
     try:  # every key and shape of the checkpoint, and every backend setting, before the first job
         check_checkpoint(method, method=name)
@@ -493,13 +489,14 @@ def _check_output(conf: Config, problems: list[str]) -> None:
                         "set `output` to a folder you can write")
 
 
-def preflight(conf: Config) -> Plan:
-    """Check a validated configuration; one ConfigError lists every problem found."""
+def preflight(conf: Config, source: str = "the configuration") -> Plan:
+    """Check a validated configuration; one ConfigError lists every problem found (``source``: the file, for the
+    message)."""
     problems: list[str] = []
     datasets = _check_datasets(conf, problems)
     metrics: dict[str, str] = {}
     checkpoints = _check_methods(conf, problems, metrics)
     _check_output(conf, problems)
     if problems:
-        raise ConfigError("the configuration cannot run:\n  " + "\n  ".join(problems))
+        raise ConfigError(f"{source} cannot run:\n  " + "\n  ".join(problems))
     return Plan(datasets, checkpoints, tuple(warning for d in datasets.values() for warning in d.warnings), metrics)

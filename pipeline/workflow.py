@@ -124,7 +124,7 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
     """
     parsed = parse_overrides(overrides)
     conf = load_config(config, parsed)
-    plan = preflight(conf)  # a clean error before Snakemake starts, and the only check of this run
+    plan = preflight(conf, str(config))  # a clean error before Snakemake starts, and the only check of this run
     for warning in plan.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     # Snakemake (and each cluster job that parses the workflow) reads the plan instead of checking again

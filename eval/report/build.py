@@ -507,15 +507,18 @@ def _with_protocol(text: str, line: str, latex: bool = False) -> str:
 
 def _write_table(stem: Path, columns: Sequence[str], rows: list[dict[str, Any]], title: str,
                  suffixes: Sequence[str] = (".csv", ".md", ".tex"), markdown: str | None = None,
-                 latex: str | None = None, notes: dict[str, str] | None = None, protocol: str = "") -> list[Path]:
+                 latex: str | None = None, notes: dict[str, str] | None = None,
+                 protocols: Mapping[str, str] | None = None) -> list[Path]:
     """``<stem>.csv`` (full precision), ``.md`` and ``.tex`` (4 decimals, or the given special layouts): those of
     ``suffixes``, in that order.
 
     ``notes``: per dataset whose splits overlap, a warning under the title and a ``split_overlap`` CSV column
-    (``registry.SPLIT_OVERLAP``). ``protocol``: the ground truth the numbers were scored with (``protocol_line``),
-    under the title of the Markdown and LaTeX files.
+    (``registry.SPLIT_OVERLAP``). ``protocols``: per dataset the ground truth the numbers were scored with, a line
+    under the title of the Markdown and LaTeX files (``protocol_line``) and a ``correct_matches`` CSV column
+    (``registry.CORRECT_MATCHES``, each row its dataset's): a CSV has no place for a line that every reader skips.
     """
-    notes = notes or {}
+    notes, protocols = notes or {}, protocols or {}
+    protocol = protocol_line(rows, protocols)
     markdown = _flagged(_with_protocol(markdown if markdown is not None else markdown_table(columns, rows, title),
                                        protocol), notes)
     latex = _flagged(_with_protocol(latex if latex is not None else latex_table(columns, rows, title), protocol,
@@ -524,6 +527,10 @@ def _write_table(stem: Path, columns: Sequence[str], rows: list[dict[str, Any]],
         overlap = registry.SPLIT_OVERLAP.name
         columns = [*columns, overlap]
         rows = [{**row, overlap: notes.get(row.get("dataset", ""), "")} for row in rows]
+    if protocol:
+        correct = registry.CORRECT_MATCHES.name
+        columns = [*columns, correct]
+        rows = [{**row, correct: protocols.get(str(row.get("dataset", "")), "")} for row in rows]
     texts = {".md": markdown, ".tex": latex}
     return [_write_csv(stem.with_suffix(suffix), columns, rows) if suffix == ".csv"
             else _write_text(stem.with_suffix(suffix), texts[suffix]) for suffix in suffixes]
@@ -647,9 +654,9 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
             columns = spec.expanded(inputs.splits)  # a column per split where the registry says so
             title = special.pop("title", spec.title)  # a title naming the run's splits, else the registry's
             # the datasets table says each dataset's ground truth in a column of its own
-            protocol = "" if spec.name == "datasets" else protocol_line(rows, inputs.protocols)
+            protocols = {} if spec.name == "datasets" else inputs.protocols
             files = _write_table(out_dir / registry.TABLES_DIR / spec.name, [c.name for c in columns], rows, title,
-                                 spec.suffixes, notes=notes, protocol=protocol, **special)
+                                 spec.suffixes, notes=notes, protocols=protocols, **special)
             written.append(WrittenTable(spec.name, columns, tuple(rows), tuple(files),
                                         None if title == spec.title else title))
     return written

@@ -38,6 +38,9 @@ def _pyplot() -> Any:
     return plt
 
 
+NOTE_LINE = 7 * 1.4 / 72  # inches per line of a 7-point note under a figure's axes
+
+
 def wrapped(title: str, width_inches: float, points: float = TITLE_POINTS) -> str:
     """``title`` broken into lines that fit ``width_inches`` at ``points`` (its own line breaks kept), so that no
     title runs past its figure's edge."""
@@ -315,12 +318,14 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
     ax.axhline(0, color="black", lw=0.6)
     ax.set_xticks(np.arange(len(methods)), methods, rotation=20, ha="right")
     ax.set(ylabel="AOC reduction at the predictor's budget (%)", title=wrapped(title, fig.get_figwidth() - 0.6))
-    handles, labels = ax.get_legend_handles_labels()
-    fig.legend(handles, labels, loc="lower center", ncol=min(len(labels), 5), fontsize=7)
-    note = ("undefined: " + "; ".join(missing)) if missing else ""
-    if note:
-        fig.text(0.01, 0.005, wrapped(note, fig.get_figwidth(), 7), fontsize=7, va="bottom")
-    fig.tight_layout(rect=(0, 0.16 if note else 0.1, 1, 1))
+    # the legend right of the axes, the note under them: neither covers the other or a bar
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), borderaxespad=0, fontsize=7)
+    bottom = 0.0
+    if missing:
+        note = wrapped("undefined: " + "; ".join(missing), fig.get_figwidth(), 7)
+        fig.text(0.01, 0.005, note, fontsize=7, va="bottom")
+        bottom = min(0.5, 0.02 + NOTE_LINE * (note.count("\n") + 1) / fig.get_figheight())
+    fig.tight_layout(rect=(0, bottom, 1, 1))
     return save(fig, path)
 
 

@@ -165,6 +165,9 @@ F1_MACRO, F1_CV = Column("f1_macro", "macro F1"), Column("f1_cv", "F1 cross-vali
 PREDICTED = tuple(Column(f"predicted_{c}", f"predicted {c}") for c in range(4))
 # the column the report adds to every table's CSV in a run whose splits share frames (allow_split_overlap)
 SPLIT_OVERLAP = Column("split_overlap")
+# the column the report adds to every table's CSV whose datasets' ground truth is known: each row's dataset's, as
+# the Markdown and LaTeX files' "Correct matches:" line under the title says it ("within 2 frames", "gt.npy (a matrix)")
+CORRECT_MATCHES = Column("correct_matches")
 
 # Table I's and the sequence-length table's numbers (per dataset, method, L and mode), with the spread of the
 # reduction over the predictor seeds

@@ -22,8 +22,9 @@ last:
 - recall_at_100p: the highest recall of a point of precision 1 on the mode's PR curve / the curve's recall
   denominator (method §8: paper the curve's queries whose match is correct, standard all the curve's queries).
 - pr_auc: the trapezoid area under the mode's whole PR curve (``curves.area``; not cut to a maximum recall).
-- extended_precision: ``(P_R0 + recall_at_100p) / 2`` (VPR-Bench), ``P_R0`` the precision of the curve's first
-  point in threshold order with recall > 0 (0 when none).
+- extended_precision: ``(P_R0 + recall_at_100p) / 2`` (VPR-Bench), ``P_R0`` the precision at the strictest
+  threshold that accepts a match: the share correct of the curve's kept matches at the smallest distance (ties
+  together; 0 when none is kept), as VPR-Bench's ``precision[-2]`` of scikit-learn's curve.
 
 The PR curves (``curves.curve``): the sequence matchers' as ``evaluate`` builds them (``sequence_distance``,
 ``sequence_correct``, the split's ``S`` range; with the predictor its keep mask), over the evaluated queries; the
@@ -97,7 +98,7 @@ from vpr_smr.eval.scoring.sweep import protocol_sweep, within
 
 __all__ = [
     "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "baselines_main", "extended_precision",
-    "format_baselines", "format_metrics", "main", "matcher_metrics", "precision_at_first_recall", "queries_main",
+    "format_baselines", "format_metrics", "main", "matcher_metrics", "precision_at_strictest", "queries_main",
     "recall_at", "retrieval", "score_split",
 ]
 
@@ -216,21 +217,30 @@ def recall_at(ranks: np.ndarray, ns: Sequence[int] = RECALL_AT, retrieved: np.nd
     return {int(n): float(hits[:, i].mean()) for i, n in enumerate(ns)}
 
 
-def precision_at_first_recall(curve_: Curve) -> float:
-    """``P_R0``: the precision of the first point (threshold order) whose recall is above 0; 0 when none is."""
-    above = np.flatnonzero(np.asarray(curve_.recall) > 0)
-    return float(curve_.precision[above[0]]) if len(above) else 0.0
+def precision_at_strictest(distances: np.ndarray, correct: np.ndarray, keep: np.ndarray) -> float:
+    """``P_R0``: the precision at the strictest threshold that accepts a match, the share correct of the kept
+    matches at the smallest distance (all of them when tied); 0 when none is kept. VPR-Bench's ``precision[-2]`` of
+    scikit-learn's curve: a wrong most-confident match gives 0, whatever follows (not the precision at the first
+    non-zero recall)."""
+    kept = np.asarray(distances, dtype=np.float64)[keep]
+    if len(kept) == 0:
+        return 0.0
+    best = kept == kept.min()
+    return float(np.asarray(correct, dtype=bool)[keep][best].mean())
 
 
-def extended_precision(curve_: Curve) -> float:
-    """VPR-Bench's extended precision ``(P_R0 + R_P100) / 2``."""
-    return (precision_at_first_recall(curve_) + recall_at_full_precision(curve_)) / 2
+def extended_precision(p_r0: float, curve_: Curve) -> float:
+    """VPR-Bench's extended precision ``(P_R0 + R_P100) / 2`` (``P_R0``: ``precision_at_strictest``)."""
+    return (p_r0 + recall_at_full_precision(curve_)) / 2
 
 
-def matcher_metrics(ranks: np.ndarray, curve_: Curve, retrieved: np.ndarray | None = None) -> MatcherMetrics:
-    """One matcher in one mode: recall@N over ``ranks``' queries and the numbers of its PR curve."""
+def matcher_metrics(ranks: np.ndarray, mode: str, distances: np.ndarray, correct: np.ndarray, keep: np.ndarray,
+                    distance_range: tuple[float, float], retrieved: np.ndarray | None = None) -> MatcherMetrics:
+    """One matcher in one mode: recall@N over ``ranks``' queries and the numbers of its PR curve (``curves.curve``
+    of ``distances``, ``correct``, ``keep`` and the split's ``distance_range``)."""
+    curve_ = curve(mode, distances, correct, keep, *distance_range)
     return MatcherMetrics(len(ranks), recall_at(ranks, RECALL_AT, retrieved), recall_at_full_precision(curve_),
-                          area(curve_), extended_precision(curve_))
+                          area(curve_), extended_precision(precision_at_strictest(distances, correct, keep), curve_))
 
 
 def _mode_metrics(mode: str, found: Retrieval, features: QueryFeatures, seq_len: int, ground_truth: GroundTruth,
@@ -239,19 +249,18 @@ def _mode_metrics(mode: str, found: Retrieval, features: QueryFeatures, seq_len:
     single = slice(0, n_query) if mode == "paper" else slice(seq_len - 1, n_query)
     single_correct = ground_truth.correct(found.single_match[single], np.arange(n_query)[single])
     single_keep = keep_mask(n=len(single_correct))
-    single_curve = curve(mode, found.single_distance[single], single_correct, single_keep, found.distance_min,
-                         found.distance_max)
     n = len(features.queries)
     s_range = (features.sequence_min, features.sequence_max)
     out = {
-        "single": matcher_metrics(found.single_rank[single], single_curve),
-        "sequence": matcher_metrics(found.sequence_rank, curve(
-            mode, features.sequence_distance, features.sequence_correct, keep_mask(n=n), *s_range)),
+        "single": matcher_metrics(found.single_rank[single], mode, found.single_distance[single], single_correct,
+                                  single_keep, (found.distance_min, found.distance_max)),
+        "sequence": matcher_metrics(found.sequence_rank, mode, features.sequence_distance, features.sequence_correct,
+                                    keep_mask(n=n), s_range),
     }
     if prediction is not None:
         kept = prediction.kept
-        out["sequence_predictor"] = matcher_metrics(found.sequence_rank, curve(
-            mode, features.sequence_distance, features.sequence_correct, kept, *s_range), kept)
+        out["sequence_predictor"] = matcher_metrics(found.sequence_rank, mode, features.sequence_distance,
+                                                    features.sequence_correct, kept, s_range, kept)
     return out
 
 

@@ -29,11 +29,13 @@ EXPECTED = {
         # t=0 TP1 FP0 (.2, 1); t=1 TP2 FP1 (.4, 2/3); t=2 TP2 FP3 (.4, .4). AUC .2 + .2 (1 + 2/3) / 2 = 11/30.
         "single": (5, 0.4, 1.0, 0.2, 11 / 30, (1 + 0.2) / 2),
         # ranks 0 0 0 1 1. Curve: 2.5 F -> (0, 0); 4 T T -> (.4, 2/3); 5 T -> (.6, .75); 6 F -> (.6, .6).
-        # AUC .4 (2/3) / 2 + .2 (2/3 + 3/4) / 2 = 2/15 + 17/120 = 33/120. P_R0 2/3, R@100P 0.
-        "sequence": (5, 0.6, 1.0, 0.0, 33 / 120, (2 / 3) / 2),
+        # AUC .4 (2/3) / 2 + .2 (2/3 + 3/4) / 2 = 2/15 + 17/120 = 33/120. P_R0 0 (VPR-Bench: the most confident
+        # match, 2.5, is wrong), R@100P 0: EP 0.
+        "sequence": (5, 0.6, 1.0, 0.0, 33 / 120, 0.0),
         # kept a2 (4 T), a3 (5 T), a5 (2.5 F): R@1 a2, a3 = 2/5; R@5 a2, a3, a5 = 3/5.
         # Curve: 2.5 -> (0, 0); 4 -> (.2, .5); 5 -> (.4, 2/3). AUC .2 (.5) / 2 + .2 (.5 + 2/3) / 2 = 1/6.
-        "sequence_predictor": (5, 0.4, 0.6, 0.0, 1 / 6, 0.5 / 2),
+        # The most confident kept match (2.5) is wrong: P_R0 0, EP 0.
+        "sequence_predictor": (5, 0.4, 0.6, 0.0, 1 / 6, 0.0),
     },
     "paper": {
         # every query q0..q5: ranks 0 1 0 2 1 0 -> R@1 3/6. Curve: 1999 thresholds over [0, 5], recall over the
@@ -41,11 +43,11 @@ EXPECTED = {
         # grid 5 k / 1998). AUC 1/3 + (2/3)(1 + .75) / 2 = 11/12; R@100P 1/3; EP (1 + 1/3) / 2.
         "single": (6, 0.5, 1.0, 1 / 3, 11 / 12, (1 + 1 / 3) / 2),
         # thresholds over [2.5, 10], recall over the 3 right sequence matches: (0, 0); from 4 (2/3, 2/3); from 5
-        # (1, .75); from 6 (1, .6). AUC (2/3)(2/3) / 2 + (1/3)(2/3 + 3/4) / 2 = 2/9 + 17/72 = 33/72.
-        "sequence": (5, 0.6, 1.0, 0.0, 33 / 72, (2 / 3) / 2),
+        # (1, .75); from 6 (1, .6). AUC (2/3)(2/3) / 2 + (1/3)(2/3 + 3/4) / 2 = 2/9 + 17/72 = 33/72. EP 0 (2.5 wrong).
+        "sequence": (5, 0.6, 1.0, 0.0, 33 / 72, 0.0),
         # recall over the 3 right matches (removed a1 included): (0, 0); from 4 (1/3, .5); from 5 (2/3, 2/3).
-        # AUC (1/3)(.5) / 2 + (1/3)(.5 + 2/3) / 2 = 1/12 + 7/36 = 5/18.
-        "sequence_predictor": (5, 0.4, 0.6, 0.0, 5 / 18, 0.5 / 2),
+        # AUC (1/3)(.5) / 2 + (1/3)(.5 + 2/3) / 2 = 1/12 + 7/36 = 5/18. EP 0 (2.5 wrong).
+        "sequence_predictor": (5, 0.4, 0.6, 0.0, 5 / 18, 0.0),
     },
 }
 

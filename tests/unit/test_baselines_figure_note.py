@@ -1,0 +1,71 @@
+"""The baselines figure's note of undefined reductions is readable: drawn whole, and covered by neither the legend
+nor the axes and their labels (hand-made records of three methods, four reductions undefined)."""
+
+from __future__ import annotations
+
+from vpr_smr.eval.report import figures
+from vpr_smr.eval.report.baselines import Comparison
+
+METHODS = ("hog", "sad", "netvlad")
+VALUES = {"uniqueness": 12.0, "single_uniqueness": 8.0, "spread": -3.0, "distance": 5.0, "random": 2.0,
+          "oracle": 60.0, "predictor": 20.0}
+UNDEFINED = {("netvlad", "spread"), ("netvlad", "distance"), ("netvlad", "uniqueness"), ("sad", "predictor")}
+
+
+def rows():
+    out = []
+    for method in METHODS:
+        for scorer, value in VALUES.items():
+            row = {"method": method, "scorer": scorer, "outcome": "improved"}
+            if (method, scorer) in UNDEFINED:
+                row.update(reduction_pct=None, outcome="removed_all" if scorer == "predictor" else "nothing_to_reduce")
+            elif scorer == "random":
+                row.update(reduction_pct_mean=value, reduction_pct_std=1.5)
+            else:
+                row["reduction_pct"] = value
+            out.append(row)
+    return out
+
+
+def overlap(a, b):
+    return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
+
+
+def test_the_note_is_covered_by_nothing(tmp_path, monkeypatch):
+    drawn = {}
+
+    def keep(fig, path):
+        drawn["fig"] = fig
+        return path
+
+    monkeypatch.setattr(figures, "save", keep)
+    comparison = Comparison("corridor", "paper", 5, METHODS, "uniqueness", (20.0, None, 18.0), (12.0, 12.0, None),
+                            (60.0, 60.0, 60.0), (3, 4, 5))
+    figures.baselines_figure(tmp_path / "b.png", rows(), comparison, "corridor, L=5, paper mode: AOC reduction")
+    fig = drawn["fig"]
+    renderer = fig.canvas.get_renderer()
+    (ax,) = fig.axes
+    (note,) = fig.texts
+    text = note.get_text()
+    for method, scorer in UNDEFINED:
+        assert f"{method}: {scorer} (" in text.replace("\n", " ")
+    assert "sad: predictor (removed every match)" in text.replace("\n", " ")
+    box = note.get_window_extent(renderer)
+    assert box.y0 >= 0 and box.x0 >= 0 and box.x1 <= fig.bbox.x1  # whole on the canvas
+    legends = [*fig.legends, *[legend for legend in [ax.get_legend()] if legend is not None]]
+    assert legends
+    for legend in legends:
+        assert not overlap(box, legend.get_window_extent(renderer))
+    assert not overlap(box, ax.get_tightbbox(renderer))  # the axes with their tick labels and the legend
+    figures._pyplot().close(fig)
+
+
+def test_without_an_undefined_reduction_there_is_no_note(tmp_path, monkeypatch):
+    drawn = {}
+    monkeypatch.setattr(figures, "save", lambda fig, path: drawn.setdefault("fig", fig) and path)
+    defined = [r for r in rows() if r.get("reduction_pct", 0.0) is not None]
+    comparison = Comparison("corridor", "paper", 5, METHODS, "uniqueness", (20.0, 20.0, 20.0), (12.0, 12.0, 12.0),
+                            (60.0, 60.0, 60.0), (3, 4, 5))
+    figures.baselines_figure(tmp_path / "b.png", defined, comparison, "corridor")
+    assert drawn["fig"].texts == []
+    figures._pyplot().close(drawn["fig"])
