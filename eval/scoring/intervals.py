@@ -17,13 +17,13 @@ sentence names in words.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from vpr_smr.core.records import Record
 from vpr_smr.eval.scoring.curves import AOC_ZERO, PAPER_THRESHOLDS
+from vpr_smr.eval.scoring.records import Interval as Interval  # the record, written in the results' files
 
 CONFIDENCE = 0.95
 RESAMPLES = 1000
@@ -34,29 +34,16 @@ MIN_DEFINED = CONFIDENCE
 CHUNK = 100
 
 
-@dataclass(frozen=True)
-class Interval(Record):
-    """A ``CONFIDENCE`` percentile bootstrap interval over queries: ``low <= high``."""
-
-    low: float
-    high: float
-
-    def excludes_zero(self) -> bool:
-        """True when the interval lies wholly above or wholly below 0: only then does a number have a direction."""
-        return self.low > 0 or self.high < 0
-
-    def sign(self) -> int:
-        """+1 wholly above 0, -1 wholly below, 0 when it contains 0."""
-        return 1 if self.low > 0 else -1 if self.high < 0 else 0
-
-
 Statistic = Callable[[np.ndarray], np.ndarray]  # (draws x queries) weights -> one value per draw (NaN: undefined)
 
 
-def query_weights(n_queries: int, resamples: int = RESAMPLES, seed: int = BOOTSTRAP_SEED) -> Iterator[np.ndarray]:
+def query_weights(n_queries: int, resamples: int | None = None, seed: int = BOOTSTRAP_SEED
+                  ) -> Iterator[np.ndarray]:
     """The draws as blocks of per-query multiplicities, ``CHUNK`` draws a block: row ``b`` counts how often each
     query is in draw ``b`` (each draw takes ``n_queries`` queries with replacement). Draw ``b`` is row ``b`` of
-    ``default_rng(seed).integers(0, n_queries, (resamples, n_queries))``, whatever the block size."""
+    ``default_rng(seed).integers(0, n_queries, (resamples, n_queries))``, whatever the block size (``resamples``:
+    ``RESAMPLES`` unless given)."""
+    resamples = RESAMPLES if resamples is None else resamples
     rng = np.random.default_rng(seed)
     for start in range(0, resamples, CHUNK):
         rows = min(CHUNK, resamples - start)
@@ -65,8 +52,10 @@ def query_weights(n_queries: int, resamples: int = RESAMPLES, seed: int = BOOTST
         yield np.bincount((drawn + offsets).ravel(), minlength=rows * n_queries).reshape(rows, n_queries)
 
 
-def draws(statistic: Statistic, n_queries: int, resamples: int = RESAMPLES, seed: int = BOOTSTRAP_SEED) -> np.ndarray:
+def draws(statistic: Statistic, n_queries: int, resamples: int | None = None, seed: int = BOOTSTRAP_SEED
+          ) -> np.ndarray:
     """``statistic`` on every draw: one float per draw, NaN where undefined."""
+    resamples = RESAMPLES if resamples is None else resamples
     if n_queries == 0:
         return np.full(resamples, np.nan)
     return np.concatenate([np.asarray(statistic(block), dtype=np.float64)
@@ -157,7 +146,8 @@ def _areas_up_to(recall: np.ndarray, precision: np.ndarray, max_recall: np.ndarr
     segments = np.diff(recall, axis=1) * (precision[:, 1:] + precision[:, :-1]) / 2
     cumulative = np.concatenate([np.zeros((len(recall), 1)), np.cumsum(segments, axis=1)], axis=1)
     points = (recall <= max_recall[:, None]).sum(axis=1)
-    return cumulative[np.arange(len(recall)), np.maximum(points - 1, 0)]
+    areas: np.ndarray = cumulative[np.arange(len(recall)), np.maximum(points - 1, 0)]
+    return areas
 
 
 @dataclass(frozen=True)
@@ -170,19 +160,60 @@ class WeightedComparison:
     reduction_pct: np.ndarray
 
 
-def weighted_comparison(mode: str, distances: np.ndarray, correct: np.ndarray, keep: np.ndarray,
-                        weights: np.ndarray, sequence_min: float, sequence_max: float) -> WeightedComparison:
-    """Every match kept (VPR+SM) against the matches of ``keep`` (VPR+SM+Pred, or a scorer's removal), per draw."""
-    everything = np.ones(len(distances), dtype=bool)
-    base_recall, base_precision = weighted_curve(mode, distances, correct, everything, weights,
-                                                 sequence_min, sequence_max)
-    recall, precision = weighted_curve(mode, distances, correct, keep, weights, sequence_min, sequence_max)
+def _compared(base: tuple[np.ndarray, np.ndarray], kept: tuple[np.ndarray, np.ndarray]) -> WeightedComparison:
+    """``curves.compare_curves`` of two weighted curves of the same draws."""
+    (base_recall, base_precision), (recall, precision) = base, kept
     max_recall = recall[:, -1]
     aoc_base = np.maximum(0.0, max_recall - _areas_up_to(base_recall, base_precision, max_recall))
     aoc_pred = np.maximum(0.0, max_recall - _areas_up_to(recall, precision, max_recall))
     with np.errstate(divide="ignore", invalid="ignore"):
         reduction = np.where(aoc_base > AOC_ZERO, 100.0 * (aoc_base - aoc_pred) / aoc_base, np.nan)
     return WeightedComparison(aoc_base, aoc_pred, reduction)
+
+
+def weighted_comparison(mode: str, distances: np.ndarray, correct: np.ndarray, keep: np.ndarray,
+                        weights: np.ndarray, sequence_min: float, sequence_max: float) -> WeightedComparison:
+    """Every match kept (VPR+SM) against the matches of ``keep`` (VPR+SM+Pred, or a scorer's removal), per draw."""
+    everything = np.ones(len(distances), dtype=bool)
+    base = weighted_curve(mode, distances, correct, everything, weights, sequence_min, sequence_max)
+    return _compared(base, weighted_curve(mode, distances, correct, keep, weights, sequence_min, sequence_max))
+
+
+def comparison_draws(mode: str, distances: np.ndarray, correct: np.ndarray, keeps: Sequence[np.ndarray],
+                     sequence_min: float, sequence_max: float) -> list[WeightedComparison]:
+    """``weighted_comparison`` of each of ``keeps`` on every draw of the split's queries (all NaN for a split
+    without queries), VPR+SM's curve computed once per block of draws for all of them."""
+    n = len(distances)
+    if n == 0:
+        nothing = np.full(RESAMPLES, np.nan)
+        return [WeightedComparison(nothing, nothing, nothing) for _ in keeps]
+    everything = np.ones(n, dtype=bool)
+    blocks: list[list[WeightedComparison]] = [[] for _ in keeps]
+    for weights in query_weights(n):
+        base = weighted_curve(mode, distances, correct, everything, weights, sequence_min, sequence_max)
+        for found, keep in zip(blocks, keeps, strict=True):
+            found.append(_compared(base, weighted_curve(mode, distances, correct, keep, weights,
+                                                        sequence_min, sequence_max)))
+    return [WeightedComparison(*(np.concatenate([getattr(block, name) for block in found])
+                                 for name in ("aoc_baseline", "aoc_predictor", "reduction_pct")))
+            for found in blocks]
+
+
+def weighted_restoration_reduction(mode: str, distances: np.ndarray, removal: tuple[np.ndarray, np.ndarray],
+                                   restoration: tuple[np.ndarray, np.ndarray], weights: np.ndarray,
+                                   sequence_min: float, sequence_max: float) -> np.ndarray:
+    """``restoration.compare``'s ``reduction_pct`` per draw (NaN where undefined): ``removal`` and ``restoration``
+    are each (correctness, keep-mask) of the queries; both AOCs are taken over each curve's whole extent at the
+    larger of the two maximum recalls."""
+    recall_removal, precision_removal = weighted_curve(mode, distances, removal[0], removal[1], weights,
+                                                       sequence_min, sequence_max)
+    recall_restored, precision_restored = weighted_curve(mode, distances, restoration[0], restoration[1], weights,
+                                                         sequence_min, sequence_max)
+    max_recall = np.maximum(recall_removal[:, -1], recall_restored[:, -1])
+    aoc_removal = np.maximum(0.0, max_recall - _areas_up_to(recall_removal, precision_removal, max_recall))
+    aoc_restored = np.maximum(0.0, max_recall - _areas_up_to(recall_restored, precision_restored, max_recall))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(aoc_removal > AOC_ZERO, 100.0 * (aoc_removal - aoc_restored) / aoc_removal, np.nan)
 
 
 def weighted_average_precision(wrong: np.ndarray, confidence: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -208,4 +239,5 @@ def weighted_average_precision(wrong: np.ndarray, confidence: np.ndarray, weight
 def weighted_mean(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """The mean of per-query ``values`` (e.g. 1 for a correct match) in every draw."""
     weights = np.asarray(weights, dtype=np.float64)
-    return (weights @ np.asarray(values, dtype=np.float64)) / weights.sum(axis=1)
+    means: np.ndarray = (weights @ np.asarray(values, dtype=np.float64)) / weights.sum(axis=1)
+    return means
