@@ -109,34 +109,33 @@ def weighted_curve(mode: str, distances: np.ndarray, correct: np.ndarray, keep: 
 
     Paper mode keeps its grid of thresholds over the whole split's ``S`` (a property of the split, not of its
     queries); the standard curve has a point per distinct kept distance of the split, where a draw that left out
-    every query of that distance repeats its previous point (which adds no area)."""
+    every query of that distance repeats its previous point (which adds no area). Integer ``weights`` (the draws'
+    multiplicities) are summed as 32-bit integers: exact, and half the memory traffic of floats."""
     correct = np.asarray(correct, dtype=bool)
     keep = np.asarray(keep, dtype=bool)
-    weights = np.asarray(weights, dtype=np.float64)
+    weights = np.asarray(weights)
+    weights = weights.astype(np.int32 if np.issubdtype(weights.dtype, np.integer) else np.float64, copy=False)
+    if mode not in ("paper", "standard"):
+        raise ValueError(f"unknown metric mode {mode!r}")
+    # only the kept queries, by distance: the removed ones add nothing to either count
+    inside = np.flatnonzero(keep)
+    order = inside[np.argsort(distances[inside], kind="stable")]
+    kept, hits = weights[:, order], correct[order]
+    tp = np.cumsum(kept * hits, axis=1)
+    fp = np.cumsum(kept * ~hits, axis=1)
     if mode == "paper":
-        thresholds = np.linspace(sequence_min, sequence_max, PAPER_THRESHOLDS)
-        order = np.argsort(distances, kind="stable")
-        cut = np.searchsorted(distances[order], thresholds, side="right")
-        kept = weights[:, order] * keep[order]
-        hits = correct[order]
-        tp = _counts_at(np.cumsum(kept * hits, axis=1), cut)
-        fp = _counts_at(np.cumsum(kept * ~hits, axis=1), cut)
-        return _precision_recall(tp, fp, weights @ correct, start_at_nothing_kept=False)
-    if mode == "standard":
-        inside = np.flatnonzero(keep)
-        order = inside[np.argsort(distances[inside], kind="stable")]
-        sorted_distances = distances[order]
-        last = np.r_[sorted_distances[1:] != sorted_distances[:-1], True] if len(order) else np.zeros(0, bool)
-        kept, hits = weights[:, order], correct[order]
-        tp = np.cumsum(kept * hits, axis=1)[:, last]
-        fp = np.cumsum(kept * ~hits, axis=1)[:, last]
-        return _precision_recall(tp, fp, weights.sum(axis=1), start_at_nothing_kept=True)
-    raise ValueError(f"unknown metric mode {mode!r}")
+        cut = np.searchsorted(distances[order], np.linspace(sequence_min, sequence_max, PAPER_THRESHOLDS),
+                              side="right")
+        return _precision_recall(_counts_at(tp, cut), _counts_at(fp, cut), weights @ correct,
+                                 start_at_nothing_kept=False)
+    sorted_distances = distances[order]
+    last = np.r_[sorted_distances[1:] != sorted_distances[:-1], True] if len(order) else np.zeros(0, bool)
+    return _precision_recall(tp[:, last], fp[:, last], weights.sum(axis=1), start_at_nothing_kept=True)
 
 
 def _counts_at(cumulative: np.ndarray, cut: np.ndarray) -> np.ndarray:
     """The cumulative count of the first ``cut`` sorted queries, per draw (0 for none)."""
-    padded = np.concatenate([np.zeros((len(cumulative), 1)), cumulative], axis=1)
+    padded = np.concatenate([np.zeros((len(cumulative), 1), cumulative.dtype), cumulative], axis=1)
     return padded[:, cut]
 
 
@@ -182,21 +181,30 @@ def weighted_comparison(mode: str, distances: np.ndarray, correct: np.ndarray, k
 def comparison_draws(mode: str, distances: np.ndarray, correct: np.ndarray, keeps: Sequence[np.ndarray],
                      sequence_min: float, sequence_max: float) -> list[WeightedComparison]:
     """``weighted_comparison`` of each of ``keeps`` on every draw of the split's queries (all NaN for a split
-    without queries), VPR+SM's curve computed once per block of draws for all of them."""
+    without queries), VPR+SM's curve computed once per block of draws for all of them, and each distinct keep-mask
+    once (a trust level that changes nothing, a scorer that removes what the predictor does)."""
     n = len(distances)
     if n == 0:
         nothing = np.full(RESAMPLES, np.nan)
         return [WeightedComparison(nothing, nothing, nothing) for _ in keeps]
     everything = np.ones(n, dtype=bool)
-    blocks: list[list[WeightedComparison]] = [[] for _ in keeps]
+    masks = [np.asarray(keep, dtype=bool) for keep in keeps]
+    distinct: dict[bytes, int] = {}
+    for mask in masks:
+        distinct.setdefault(np.packbits(mask).tobytes(), len(distinct))
+    which = [distinct[np.packbits(mask).tobytes()] for mask in masks]
+    firsts = [masks[which.index(index)] for index in range(len(distinct))]
+    blocks: list[list[WeightedComparison]] = [[] for _ in firsts]
     for weights in query_weights(n):
         base = weighted_curve(mode, distances, correct, everything, weights, sequence_min, sequence_max)
-        for found, keep in zip(blocks, keeps, strict=True):
-            found.append(_compared(base, weighted_curve(mode, distances, correct, keep, weights,
-                                                        sequence_min, sequence_max)))
-    return [WeightedComparison(*(np.concatenate([getattr(block, name) for block in found])
-                                 for name in ("aoc_baseline", "aoc_predictor", "reduction_pct")))
-            for found in blocks]
+        for found, keep in zip(blocks, firsts, strict=True):
+            kept = base if keep.all() else weighted_curve(mode, distances, correct, keep, weights,
+                                                          sequence_min, sequence_max)
+            found.append(_compared(base, kept))
+    joined = [WeightedComparison(*(np.concatenate([getattr(block, name) for block in found])
+                                   for name in ("aoc_baseline", "aoc_predictor", "reduction_pct")))
+              for found in blocks]
+    return [joined[index] for index in which]
 
 
 def weighted_restoration_reduction(mode: str, distances: np.ndarray, removal: tuple[np.ndarray, np.ndarray],
