@@ -229,13 +229,15 @@ def weighted_average_precision(wrong: np.ndarray, confidence: np.ndarray, weight
     ranked by ``-confidence``, equal scores entering together, ``AP = sum (R_i - R_{i-1}) P_i``."""
     wrong = np.asarray(wrong, dtype=bool)
     score = -np.asarray(confidence, dtype=np.float64)
-    weights = np.asarray(weights, dtype=np.float64)
+    weights = np.asarray(weights)
+    weights = weights.astype(np.int32 if np.issubdtype(weights.dtype, np.integer) else np.float64, copy=False)
     order = np.argsort(-score, kind="stable")
     ranked = score[order]
     last = np.r_[ranked[1:] != ranked[:-1], True] if len(order) else np.zeros(0, bool)
-    tp = np.cumsum((weights * wrong)[:, order], axis=1)[:, last]
-    fp = np.cumsum((weights * ~wrong)[:, order], axis=1)[:, last]
-    positives = (weights * wrong).sum(axis=1)
+    ranked_weights, hits = weights[:, order], wrong[order]
+    tp = np.cumsum(ranked_weights * hits, axis=1)[:, last].astype(np.float64)
+    fp = np.cumsum(ranked_weights * ~hits, axis=1)[:, last].astype(np.float64)
+    positives = weights @ wrong
     # a threshold that no drawn query reached adds no recall, whatever its precision
     precision = np.divide(tp, tp + fp, out=np.ones_like(tp), where=tp + fp > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
