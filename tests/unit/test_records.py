@@ -104,13 +104,18 @@ def test_records_round_trip_byte_for_byte(stage_files):
 
 
 def test_held_out_file_layout(stage_files):
-    tmp, _, _, scores = stage_files
+    tmp, evaluation, _, scores = stage_files
     data = json.loads((tmp / "h.json").read_text())
     assert set(data) == {"format", "meta", "n_queries", "predictors"}
     assert set(data["predictors"]) == {"pooled", "without"}
     assert set(data["predictors"]["pooled"]) == {"path", "f1_macro", "removed", "modes"}
     assert set(data["predictors"]["without"]["modes"]["paper"]) == HELD_OUT_MODE_KEYS
     assert scores.n_queries == data["n_queries"] == 37
+    # the held-out reductions carry their bootstrap intervals: the pooled predictor is the evaluation's seed 0 on
+    # the same test split, so its numbers are that split's, intervals and all
+    for mode in ("paper", "standard"):
+        assert scores.pooled.modes[mode].reduction == evaluation.splits["test"].modes[mode].reduction
+        assert scores.pooled.modes[mode].reduction.aoc_vpr_sm_ci is not None
 
 
 def test_a_file_missing_a_key_is_refused(stage_files):
