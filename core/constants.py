@@ -63,5 +63,6 @@ def candidates_needed(r_window: int = DEFAULT_R_WINDOW, spread_k: int = DEFAULT_
 # JSON records it as its "format" (core.records.FORMAT), and a file of another is refused. 2: predictor files record
 # their matching, every reduction its outcome (0.5.0). 3: one codec writes every record, an embedded record as its
 # own object, the first seed's numbers once. 4: Table II's numbers keyed by the splits' names; only the first
-# predictor seed is cross-validated (the others' f1_cv is null).
-RESULTS_LAYOUT = 4
+# predictor seed is cross-validated (the others' f1_cv is null). 5: bootstrap intervals over queries beside the
+# numbers the tables show, the scorers against the predictor paired, a standard deviation of one seed null.
+RESULTS_LAYOUT = 5

@@ -149,7 +149,8 @@ def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
         defined = r.get("n_seeds_defined", r["n_seeds"])
         why = f"; {left_out}" if left_out else ""
         part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds{why})"
-        texts.append(f"{r['reduction_pct_mean']:.2f}{PLUS_MINUS}{r['reduction_pct_std']:.2f}{part}")
+        # a standard deviation of one seed is undefined (None), never 0
+        texts.append(f"{r['reduction_pct_mean']:.2f}{PLUS_MINUS}{_number(r['reduction_pct_std'], '{:.2f}')}{part}")
     means = [r.get("reduction_pct_mean") for r in rows]
     mean, note = _reduction_mean(means)
     n_seeds = rows[0].get("n_seeds", "")

@@ -23,7 +23,8 @@ precision and ROC AUC of ``-c_a`` against the wrong matches, threshold-free).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 
@@ -31,8 +32,16 @@ from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, MODES, ca
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.ground_truth import POSITIONS, GroundTruth, PositionTruth
 from vpr_smr.eval.scoring.curves import keep_mask
-from vpr_smr.eval.scoring.evaluate import compare_removal
-from vpr_smr.eval.scoring.records import BudgetRemoval, Detection, PRCurve, ScorerRemoval, SplitBaselines
+from vpr_smr.eval.scoring.evaluate import compare_removal, removal_draws, with_intervals
+from vpr_smr.eval.scoring.intervals import draws, percentile_interval, weighted_average_precision
+from vpr_smr.eval.scoring.records import (
+    BudgetRemoval,
+    Detection,
+    PRCurve,
+    ScorerRemoval,
+    SplitBaselines,
+    Versus,
+)
 
 __all__ = [
     "DEFAULT_SETTINGS", "ORACLE", "PREDICTOR", "RANDOM", "SCORERS", "TRAINING_FREE", "BaselineSettings", "Prediction",
@@ -211,23 +220,38 @@ def oracle_keep(distances: np.ndarray, correct: np.ndarray, budget: int) -> np.n
 
 
 def removal_at_budget(features: QueryFeatures, scores: Mapping[str, np.ndarray], prediction: Prediction,
-                      modes: Sequence[str] = MODES) -> BudgetRemoval:
+                      modes: Sequence[str] = MODES, intervals: bool = False) -> BudgetRemoval:
     """Every scorer of ``scores`` (``predictor`` by the prediction's own removal, ``oracle`` by ``oracle_keep``, the
     others by ``keep_lowest``) removing as many matches as ``prediction`` does, each scored against VPR+SM by
-    ``evaluate.compare_removal`` in ``modes``."""
+    ``evaluate.compare_removal`` in ``modes`` (with ``intervals``, with its bootstrap intervals over queries)."""
+    return _removal_at_budget(features, scores, prediction, modes, intervals)[0]
+
+
+def _removal_at_budget(features: QueryFeatures, scores: Mapping[str, np.ndarray], prediction: Prediction,
+                       modes: Sequence[str], intervals: bool) -> tuple[BudgetRemoval, dict[str, dict[str, np.ndarray]]]:
+    """``removal_at_budget``; with ``intervals`` every reduction with its bootstrap intervals (method §8.7) and,
+    per mode and scorer, its reduction on every draw (the same draws for all: VPR+SM's curve once per block)."""
     keep_predictor = prediction.keep
     budget = int((~keep_predictor).sum())
-    out = {}
+    keeps = {}
     for name in (n for n in SCORERS if n in scores or n == PREDICTOR):
         if name == PREDICTOR:
-            keep = keep_predictor
+            keeps[name] = keep_predictor
         elif name == ORACLE:
-            keep = oracle_keep(features.sequence_distance, features.sequence_correct, budget)
+            keeps[name] = oracle_keep(features.sequence_distance, features.sequence_correct, budget)
         else:
-            keep = keep_lowest(scores[name], budget)
-        out[name] = ScorerRemoval(int((~keep).sum()), {mode: compare_removal(features, mode, keep)[2]
-                                                        for mode in modes})
-    return BudgetRemoval(prediction.seed, budget, out)
+            keeps[name] = keep_lowest(scores[name], budget)
+    numbers = {name: {mode: compare_removal(features, mode, keep)[2] for mode in modes}
+               for name, keep in keeps.items()}
+    reductions: dict[str, dict[str, np.ndarray]] = {}
+    if intervals:
+        for mode in modes:
+            found = removal_draws(features, mode, list(keeps.values()))
+            reductions[mode] = {name: drawn.reduction_pct for name, drawn in zip(keeps, found, strict=True)}
+            for name, drawn in zip(keeps, found, strict=True):
+                numbers[name][mode] = with_intervals(numbers[name][mode], drawn)
+    out = {name: ScorerRemoval(int((~keep).sum()), numbers[name]) for name, keep in keeps.items()}
+    return BudgetRemoval(prediction.seed, budget, out), reductions
 
 
 # --- detecting wrong matches (method §12.3) -------------------------------------------------------------------
@@ -268,17 +292,28 @@ def split_baselines(features: QueryFeatures, settings: BaselineSettings, positio
                     predictions: Sequence[Prediction] = (), modes: Sequence[str] = MODES) -> SplitBaselines:
     """Both protocols of method §12 on one split: every scorer's wrong-match detection (``random`` and
     ``predictor`` by the first prediction's seed, 0 without one; ``random`` also per seed), and with
-    ``predictions`` (one per predictor seed, the first first) every scorer's removal at each seed's budget."""
+    ``predictions`` (one per predictor seed, the first first) every scorer's removal at each seed's budget.
+
+    The first seed's numbers carry their bootstrap intervals over queries (method §8.7): every scorer's detection
+    AP, its removal at the first budget, and (``versus_predictor``) each training-free scorer against the predictor,
+    paired over the same draws."""
     seeds = tuple(p.seed for p in predictions) or (0,)
     first = predictions[0] if predictions else None
     scores = query_scores(features, settings, positions, seeds[0], first)
     wrong = ~np.asarray(features.sequence_correct, dtype=bool)
-    found = {name: detection(wrong, value) for name, value in scores.items()}
     n = len(features.queries)
+    precisions = {name: draws(partial(weighted_average_precision, wrong, value), n) for name, value in scores.items()}
+    found = {name: replace(detection(wrong, value), average_precision_ci=percentile_interval(precisions[name]))
+             for name, value in scores.items()}
     random_found = tuple(detection(wrong, random_scores(n, seed), curve=False) for seed in seeds)
-    removal = None
+    removal, versus = None, None
     if predictions:
-        removal = tuple(removal_at_budget(
-            features, scores if p is first else {**scores, RANDOM: random_scores(n, p.seed)}, p, modes)
-            for p in predictions)
-    return SplitBaselines(n, int(wrong.sum()), seeds, found, random_found, removal)
+        assert first is not None
+        first_removal, reductions = _removal_at_budget(features, scores, first, modes, intervals=True)
+        removal = (first_removal, *(removal_at_budget(features, {**scores, RANDOM: random_scores(n, p.seed)}, p,
+                                                      modes) for p in predictions[1:]))
+        versus = {name: Versus(
+            {mode: percentile_interval(reductions[mode][name] - reductions[mode][PREDICTOR]) for mode in modes},
+            percentile_interval(precisions[name] - precisions[PREDICTOR]))
+            for name in TRAINING_FREE if name in scores}
+    return SplitBaselines(n, int(wrong.sum()), seeds, found, random_found, removal, versus)

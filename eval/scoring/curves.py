@@ -17,6 +17,9 @@ from vpr_smr.core.constants import KEPT_CLASSES, MODES
 PAPER_THRESHOLDS = 1999
 # An AOC this small is 0: the trapezoid sum of a curve whose precision is 1 everywhere leaves about 1e-16
 AOC_ZERO = 1e-9
+# A reduction (per cent) of smaller magnitude is no change (method §8.4): two removals that keep the same matches
+# give curves equal up to the trapezoid sums' rounding, e.g. 2.1e-14 %
+UNCHANGED_PCT = 1e-6
 
 
 @dataclass(frozen=True)
@@ -168,8 +171,8 @@ def outcome(n_queries: int, removed: int, comparison: Comparison) -> str:
     """What removing ``removed`` of ``n_queries`` matches did, by the first that applies: no match correct to
     begin with; every match removed; none correct kept (maximum recall 0); both AOCs 0 (nothing to reduce); the
     baseline's AOC 0 and the predictor's not (worse, the percentage undefined); nothing removed (a reduction of 0);
-    else improved, worse or unchanged by the sign of the reduction. The reduction is undefined (None) exactly for
-    the outcomes of ``UNDEFINED``."""
+    else improved or worse by the sign of the reduction, unchanged when its magnitude is below ``UNCHANGED_PCT``.
+    The reduction is undefined (None) exactly for the outcomes of ``UNDEFINED``."""
     if comparison.max_recall_baseline <= 0:
         return NO_CORRECT_MATCH
     if n_queries > 0 and removed >= n_queries:
@@ -180,9 +183,9 @@ def outcome(n_queries: int, removed: int, comparison: Comparison) -> str:
         return WORSE_FROM_ZERO if comparison.aoc_predictor > AOC_ZERO else NOTHING_TO_REDUCE
     if removed == 0:
         return KEPT_ALL
-    if comparison.reduction_pct > 0:
-        return IMPROVED
-    return WORSE if comparison.reduction_pct < 0 else UNCHANGED
+    if abs(comparison.reduction_pct) < UNCHANGED_PCT:
+        return UNCHANGED
+    return IMPROVED if comparison.reduction_pct > 0 else WORSE
 
 
 def recall_at_full_precision(curve_: Curve) -> float:

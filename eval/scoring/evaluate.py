@@ -37,6 +37,7 @@ from vpr_smr.eval.scoring.curves import (
     outcome,
     recall_at_full_precision,
 )
+from vpr_smr.eval.scoring.intervals import WeightedComparison, comparison_draws, percentile_interval
 from vpr_smr.eval.scoring.records import (
     Evaluation,
     EvaluationSplit,
@@ -73,9 +74,11 @@ def recall_at_1(features: QueryFeatures, mode: str) -> dict[str, float]:
             "recall_at_1_sequence": float(features.sequence_correct.mean())}
 
 
-def compare_removal(features: QueryFeatures, mode: str, keep: np.ndarray) -> tuple[Curve, Curve, Reduction]:
+def compare_removal(features: QueryFeatures, mode: str, keep: np.ndarray, intervals: bool = False
+                    ) -> tuple[Curve, Curve, Reduction]:
     """One removal of matches (``keep``: the matches kept) against VPR+SM in ``mode`` (method §8): the baseline's
-    curve, the curve with the removal, and Table I's numbers of the two."""
+    curve, the curve with the removal, and Table I's numbers of the two (with ``intervals``, their bootstrap
+    intervals over queries, method §8.7)."""
     n = len(features.queries)
     distances, correct = features.sequence_distance, features.sequence_correct
     s_range = (features.sequence_min, features.sequence_max)
@@ -86,7 +89,23 @@ def compare_removal(features: QueryFeatures, mode: str, keep: np.ndarray) -> tup
                           comparison.aoc_baseline, comparison.aoc_predictor, comparison.reduction_pct,
                           comparison.max_recall_baseline, comparison.aoc_baseline_own,
                           outcome(n, int((~keep).sum()), comparison))
+    if intervals:
+        reduction = with_intervals(reduction, removal_draws(features, mode, [keep])[0])
     return baseline, kept, reduction
+
+
+def removal_draws(features: QueryFeatures, mode: str, keeps: Sequence[np.ndarray]) -> list[WeightedComparison]:
+    """Each removal of ``keeps`` against VPR+SM in ``mode`` on every bootstrap draw of the split's queries (method
+    §8.7): the same draws for all, so that differences between them are paired."""
+    return comparison_draws(mode, features.sequence_distance, features.sequence_correct, keeps,
+                            features.sequence_min, features.sequence_max)
+
+
+def with_intervals(reduction: Reduction, draws: WeightedComparison) -> Reduction:
+    """``reduction`` with the percentile intervals of its reduction and AOCs over ``draws`` (of the same removal)."""
+    return replace(reduction, reduction_pct_ci=percentile_interval(draws.reduction_pct),
+                   aoc_vpr_sm_ci=percentile_interval(draws.aoc_baseline),
+                   aoc_vpr_sm_pred_ci=percentile_interval(draws.aoc_predictor))
 
 
 def _mode_removal(
@@ -96,25 +115,32 @@ def _mode_removal(
     confidence: np.ndarray,
     trust_levels: tuple[float, ...],
     curves: bool,
+    intervals: bool,
 ) -> ModeRemoval:
-    """One mode of ``removal``: the baseline against the predictor, and per trust level the AUC (and curve)."""
+    """One mode of ``removal``: the baseline against the predictor, and per trust level the AUC (and curve); with
+    ``intervals`` the reductions' bootstrap intervals (one pass over the draws for all of them)."""
     n = len(features.queries)
     distances, correct = features.sequence_distance, features.sequence_correct
     s_range = (features.sequence_min, features.sequence_max)
-    baseline, with_predictor, reduction = compare_removal(features, mode, keep_mask(predicted, confidence))
+    keep = keep_mask(predicted, confidence)
+    trust_keeps = [keep_mask(predicted, confidence, level) for level in trust_levels]
+    draws = removal_draws(features, mode, [keep, *trust_keeps]) if intervals else None
+    baseline, with_predictor, reduction = compare_removal(features, mode, keep)
+    if draws is not None:
+        reduction = with_intervals(reduction, draws[0])
     removal_curves = RemovalCurves(recall_at_full_precision(baseline), recall_at_full_precision(with_predictor),
                                    PRCurve.of(baseline), PRCurve.of(with_predictor)) if curves else None
     trust, trust_numbers = {}, {}
-    for level in trust_levels:
-        keep = keep_mask(predicted, confidence, level)
-        trust_curve = curve(mode, distances, correct, keep, *s_range)
+    for index, (level, level_keep) in enumerate(zip(trust_levels, trust_keeps, strict=True)):
+        trust_curve = curve(mode, distances, correct, level_keep, *s_range)
         level_comparison = compare_curves(baseline, trust_curve)
         trust[str(level)] = PRCurve.of(trust_curve)
-        removed = int((~keep).sum())
+        removed = int((~level_keep).sum())
         trust_numbers[str(level)] = TrustNumbers(
             removed, level_comparison.max_recall, level_comparison.auc_predictor,
             level_comparison.aoc_predictor, level_comparison.auc_baseline, level_comparison.aoc_baseline,
-            level_comparison.reduction_pct, outcome(n, removed, level_comparison))
+            level_comparison.reduction_pct, outcome(n, removed, level_comparison),
+            percentile_interval(draws[1 + index].reduction_pct) if draws is not None else None)
     single = recall_at_1(features, mode)
     return ModeRemoval(single["recall_at_1_single"], single["recall_at_1_sequence"], reduction, removal_curves,
                        trust_numbers if trust_levels else None, trust if trust_levels and curves else None)
@@ -127,18 +153,21 @@ def removal(
     modes: tuple[str, ...] = MODES,
     trust_levels: tuple[float, ...] = (),
     curves: bool = True,
+    intervals: bool = False,
 ) -> Removal:
     """Match removal (the first filter) by one predictor's rank-0 probabilities ``(N, C)``: per mode the baseline
-    against the predictor, and per trust level the AUC (and, with ``curves``, every curve)."""
+    against the predictor, and per trust level the AUC (and, with ``curves``, every curve; with ``intervals``, the
+    reductions' bootstrap intervals over queries)."""
     predicted = np.asarray(classes)[np.argmax(probabilities, axis=1)]
     confidence = probabilities.max(axis=1)
     return Removal(
         predicted, macro_f1(features.labels, predicted), int((~keep_mask(predicted, confidence)).sum()),
-        {mode: _mode_removal(features, mode, predicted, confidence, trust_levels, curves) for mode in modes})
+        {mode: _mode_removal(features, mode, predicted, confidence, trust_levels, curves, intervals)
+         for mode in modes})
 
 
 def seed_summary(seeds: Sequence[SeedNumbers]) -> dict[str, SeedSummary]:
-    """Per mode: mean, sample standard deviation (ddof 1; 0 for one seed), min and max of ``reduction_pct`` over
+    """Per mode: mean, sample standard deviation (ddof 1; None under two seeds), min and max of ``reduction_pct`` over
     the ``n_seeds_defined`` of the ``n_seeds`` seeds where it is defined (all None when it is nowhere), and every
     seed's outcome, which says why a seed is left out."""
     out = {}
@@ -150,7 +179,7 @@ def seed_summary(seeds: Sequence[SeedNumbers]) -> dict[str, SeedSummary]:
             n_seeds=len(reductions),
             n_seeds_defined=len(values),
             reduction_pct_mean=float(values.mean()) if defined else None,
-            reduction_pct_std=(float(values.std(ddof=1)) if len(values) > 1 else 0.0) if defined else None,
+            reduction_pct_std=float(values.std(ddof=1)) if len(values) > 1 else None,
             reduction_pct_min=float(values.min()) if defined else None,
             reduction_pct_max=float(values.max()) if defined else None,
             outcomes={s.seed: s.modes[mode].outcome for s in seeds},
@@ -178,8 +207,9 @@ def evaluate_split(
     with the seconds the seed-0 predictor took to classify the split (a timing, kept out of the record).
 
     ``predictors`` are in seed order, seed 0 first: the first gives the curves, the predictor's own numbers
-    (macro F1, confusion matrix) and restoration; each gives one entry of the split's ``seeds`` (the first's are
-    its own numbers, written once).
+    (macro F1, confusion matrix), restoration and the bootstrap intervals over queries (method §8.7); each gives
+    one entry of the split's ``seeds`` (the first's are its own numbers, written once; the others' spread is the
+    seeds' spread, without intervals).
     """
     predictors = [predictors] if isinstance(predictors, SMRPredictor) else list(predictors)
     seeds = list(range(len(predictors))) if seeds is None else list(seeds)
@@ -189,14 +219,14 @@ def evaluate_split(
     start = time.perf_counter()
     probabilities = first.predict_proba(features.attributes[:, 0, :])
     predict_seconds = time.perf_counter() - start
-    numbers = removal(features, probabilities, first.classes_, tuple(modes), tuple(trust_levels))
+    numbers = removal(features, probabilities, first.classes_, tuple(modes), tuple(trust_levels), intervals=True)
     seed_numbers = [SeedNumbers.of(seed, numbers if predictor is first else removal(
         features, predictor.predict_proba(features.attributes[:, 0, :]), predictor.classes_, tuple(modes),
         curves=False)) for seed, predictor in zip(seeds, predictors, strict=True)]
     restored = None
     if restoration:
         restored = _without_shared_curves(evaluate_restoration(
-            features, rank_probabilities(first, features), first.classes_, tuple(modes)))
+            features, rank_probabilities(first, features), first.classes_, tuple(modes), intervals=True))
     split = EvaluationSplit(
         n_queries=len(features.queries),
         n_queries_split=len(features.all_single_correct),

@@ -26,7 +26,7 @@ def main(
     allow_split_overlap: bool = False,
 ) -> HeldOut:
     """The held-out method's test split (``features``) under the pooled predictor and the ``without_`` one
-    (``records.HeldOut``), written to ``out``."""
+    (``records.HeldOut``, each reduction with its bootstrap interval over queries), written to ``out``."""
     check_suffix(out, JSON_SUFFIXES, "the leave-one-method-out evaluation (JSON)")
     features_ = read_features(features)
     scores = {}
@@ -38,7 +38,7 @@ def main(
         check_matching(predictor, Matching.stored(features), str(features))
         scores[name] = HeldOutScores.of(str(path), removal(
             features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_, tuple(modes),
-            curves=False))
+            curves=False, intervals=True))
     result = HeldOut({**recorded_ground_truth([features]), **(meta or {})}, len(features_.queries),
                      HeldOutPredictors(scores["pooled"], scores["without"]))
     save(out, result)

@@ -17,13 +17,13 @@ sentence names in words.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from vpr_smr.core.records import Record
 from vpr_smr.eval.scoring.curves import AOC_ZERO, PAPER_THRESHOLDS
+from vpr_smr.eval.scoring.records import Interval as Interval  # the record, written in the results' files
 
 CONFIDENCE = 0.95
 RESAMPLES = 1000
@@ -34,29 +34,16 @@ MIN_DEFINED = CONFIDENCE
 CHUNK = 100
 
 
-@dataclass(frozen=True)
-class Interval(Record):
-    """A ``CONFIDENCE`` percentile bootstrap interval over queries: ``low <= high``."""
-
-    low: float
-    high: float
-
-    def excludes_zero(self) -> bool:
-        """True when the interval lies wholly above or wholly below 0: only then does a number have a direction."""
-        return self.low > 0 or self.high < 0
-
-    def sign(self) -> int:
-        """+1 wholly above 0, -1 wholly below, 0 when it contains 0."""
-        return 1 if self.low > 0 else -1 if self.high < 0 else 0
-
-
 Statistic = Callable[[np.ndarray], np.ndarray]  # (draws x queries) weights -> one value per draw (NaN: undefined)
 
 
-def query_weights(n_queries: int, resamples: int = RESAMPLES, seed: int = BOOTSTRAP_SEED) -> Iterator[np.ndarray]:
+def query_weights(n_queries: int, resamples: int | None = None, seed: int = BOOTSTRAP_SEED
+                  ) -> Iterator[np.ndarray]:
     """The draws as blocks of per-query multiplicities, ``CHUNK`` draws a block: row ``b`` counts how often each
     query is in draw ``b`` (each draw takes ``n_queries`` queries with replacement). Draw ``b`` is row ``b`` of
-    ``default_rng(seed).integers(0, n_queries, (resamples, n_queries))``, whatever the block size."""
+    ``default_rng(seed).integers(0, n_queries, (resamples, n_queries))``, whatever the block size (``resamples``:
+    ``RESAMPLES`` unless given)."""
+    resamples = RESAMPLES if resamples is None else resamples
     rng = np.random.default_rng(seed)
     for start in range(0, resamples, CHUNK):
         rows = min(CHUNK, resamples - start)
@@ -65,8 +52,10 @@ def query_weights(n_queries: int, resamples: int = RESAMPLES, seed: int = BOOTST
         yield np.bincount((drawn + offsets).ravel(), minlength=rows * n_queries).reshape(rows, n_queries)
 
 
-def draws(statistic: Statistic, n_queries: int, resamples: int = RESAMPLES, seed: int = BOOTSTRAP_SEED) -> np.ndarray:
+def draws(statistic: Statistic, n_queries: int, resamples: int | None = None, seed: int = BOOTSTRAP_SEED
+          ) -> np.ndarray:
     """``statistic`` on every draw: one float per draw, NaN where undefined."""
+    resamples = RESAMPLES if resamples is None else resamples
     if n_queries == 0:
         return np.full(resamples, np.nan)
     return np.concatenate([np.asarray(statistic(block), dtype=np.float64)
@@ -120,34 +109,33 @@ def weighted_curve(mode: str, distances: np.ndarray, correct: np.ndarray, keep: 
 
     Paper mode keeps its grid of thresholds over the whole split's ``S`` (a property of the split, not of its
     queries); the standard curve has a point per distinct kept distance of the split, where a draw that left out
-    every query of that distance repeats its previous point (which adds no area)."""
+    every query of that distance repeats its previous point (which adds no area). Integer ``weights`` (the draws'
+    multiplicities) are summed as 32-bit integers: exact, and half the memory traffic of floats."""
     correct = np.asarray(correct, dtype=bool)
     keep = np.asarray(keep, dtype=bool)
-    weights = np.asarray(weights, dtype=np.float64)
+    weights = np.asarray(weights)
+    weights = weights.astype(np.int32 if np.issubdtype(weights.dtype, np.integer) else np.float64, copy=False)
+    if mode not in ("paper", "standard"):
+        raise ValueError(f"unknown metric mode {mode!r}")
+    # only the kept queries, by distance: the removed ones add nothing to either count
+    inside = np.flatnonzero(keep)
+    order = inside[np.argsort(distances[inside], kind="stable")]
+    kept, hits = weights[:, order], correct[order]
+    tp = np.cumsum(kept * hits, axis=1)
+    fp = np.cumsum(kept * ~hits, axis=1)
     if mode == "paper":
-        thresholds = np.linspace(sequence_min, sequence_max, PAPER_THRESHOLDS)
-        order = np.argsort(distances, kind="stable")
-        cut = np.searchsorted(distances[order], thresholds, side="right")
-        kept = weights[:, order] * keep[order]
-        hits = correct[order]
-        tp = _counts_at(np.cumsum(kept * hits, axis=1), cut)
-        fp = _counts_at(np.cumsum(kept * ~hits, axis=1), cut)
-        return _precision_recall(tp, fp, weights @ correct, start_at_nothing_kept=False)
-    if mode == "standard":
-        inside = np.flatnonzero(keep)
-        order = inside[np.argsort(distances[inside], kind="stable")]
-        sorted_distances = distances[order]
-        last = np.r_[sorted_distances[1:] != sorted_distances[:-1], True] if len(order) else np.zeros(0, bool)
-        kept, hits = weights[:, order], correct[order]
-        tp = np.cumsum(kept * hits, axis=1)[:, last]
-        fp = np.cumsum(kept * ~hits, axis=1)[:, last]
-        return _precision_recall(tp, fp, weights.sum(axis=1), start_at_nothing_kept=True)
-    raise ValueError(f"unknown metric mode {mode!r}")
+        cut = np.searchsorted(distances[order], np.linspace(sequence_min, sequence_max, PAPER_THRESHOLDS),
+                              side="right")
+        return _precision_recall(_counts_at(tp, cut), _counts_at(fp, cut), weights @ correct,
+                                 start_at_nothing_kept=False)
+    sorted_distances = distances[order]
+    last = np.r_[sorted_distances[1:] != sorted_distances[:-1], True] if len(order) else np.zeros(0, bool)
+    return _precision_recall(tp[:, last], fp[:, last], weights.sum(axis=1), start_at_nothing_kept=True)
 
 
 def _counts_at(cumulative: np.ndarray, cut: np.ndarray) -> np.ndarray:
     """The cumulative count of the first ``cut`` sorted queries, per draw (0 for none)."""
-    padded = np.concatenate([np.zeros((len(cumulative), 1)), cumulative], axis=1)
+    padded = np.concatenate([np.zeros((len(cumulative), 1), cumulative.dtype), cumulative], axis=1)
     return padded[:, cut]
 
 
@@ -157,7 +145,8 @@ def _areas_up_to(recall: np.ndarray, precision: np.ndarray, max_recall: np.ndarr
     segments = np.diff(recall, axis=1) * (precision[:, 1:] + precision[:, :-1]) / 2
     cumulative = np.concatenate([np.zeros((len(recall), 1)), np.cumsum(segments, axis=1)], axis=1)
     points = (recall <= max_recall[:, None]).sum(axis=1)
-    return cumulative[np.arange(len(recall)), np.maximum(points - 1, 0)]
+    areas: np.ndarray = cumulative[np.arange(len(recall)), np.maximum(points - 1, 0)]
+    return areas
 
 
 @dataclass(frozen=True)
@@ -170,13 +159,9 @@ class WeightedComparison:
     reduction_pct: np.ndarray
 
 
-def weighted_comparison(mode: str, distances: np.ndarray, correct: np.ndarray, keep: np.ndarray,
-                        weights: np.ndarray, sequence_min: float, sequence_max: float) -> WeightedComparison:
-    """Every match kept (VPR+SM) against the matches of ``keep`` (VPR+SM+Pred, or a scorer's removal), per draw."""
-    everything = np.ones(len(distances), dtype=bool)
-    base_recall, base_precision = weighted_curve(mode, distances, correct, everything, weights,
-                                                 sequence_min, sequence_max)
-    recall, precision = weighted_curve(mode, distances, correct, keep, weights, sequence_min, sequence_max)
+def _compared(base: tuple[np.ndarray, np.ndarray], kept: tuple[np.ndarray, np.ndarray]) -> WeightedComparison:
+    """``curves.compare_curves`` of two weighted curves of the same draws."""
+    (base_recall, base_precision), (recall, precision) = base, kept
     max_recall = recall[:, -1]
     aoc_base = np.maximum(0.0, max_recall - _areas_up_to(base_recall, base_precision, max_recall))
     aoc_pred = np.maximum(0.0, max_recall - _areas_up_to(recall, precision, max_recall))
@@ -185,18 +170,74 @@ def weighted_comparison(mode: str, distances: np.ndarray, correct: np.ndarray, k
     return WeightedComparison(aoc_base, aoc_pred, reduction)
 
 
+def weighted_comparison(mode: str, distances: np.ndarray, correct: np.ndarray, keep: np.ndarray,
+                        weights: np.ndarray, sequence_min: float, sequence_max: float) -> WeightedComparison:
+    """Every match kept (VPR+SM) against the matches of ``keep`` (VPR+SM+Pred, or a scorer's removal), per draw."""
+    everything = np.ones(len(distances), dtype=bool)
+    base = weighted_curve(mode, distances, correct, everything, weights, sequence_min, sequence_max)
+    return _compared(base, weighted_curve(mode, distances, correct, keep, weights, sequence_min, sequence_max))
+
+
+def comparison_draws(mode: str, distances: np.ndarray, correct: np.ndarray, keeps: Sequence[np.ndarray],
+                     sequence_min: float, sequence_max: float) -> list[WeightedComparison]:
+    """``weighted_comparison`` of each of ``keeps`` on every draw of the split's queries (all NaN for a split
+    without queries), VPR+SM's curve computed once per block of draws for all of them, and each distinct keep-mask
+    once (a trust level that changes nothing, a scorer that removes what the predictor does)."""
+    n = len(distances)
+    if n == 0:
+        nothing = np.full(RESAMPLES, np.nan)
+        return [WeightedComparison(nothing, nothing, nothing) for _ in keeps]
+    everything = np.ones(n, dtype=bool)
+    masks = [np.asarray(keep, dtype=bool) for keep in keeps]
+    distinct: dict[bytes, int] = {}
+    for mask in masks:
+        distinct.setdefault(np.packbits(mask).tobytes(), len(distinct))
+    which = [distinct[np.packbits(mask).tobytes()] for mask in masks]
+    firsts = [masks[which.index(index)] for index in range(len(distinct))]
+    blocks: list[list[WeightedComparison]] = [[] for _ in firsts]
+    for weights in query_weights(n):
+        base = weighted_curve(mode, distances, correct, everything, weights, sequence_min, sequence_max)
+        for found, keep in zip(blocks, firsts, strict=True):
+            kept = base if keep.all() else weighted_curve(mode, distances, correct, keep, weights,
+                                                          sequence_min, sequence_max)
+            found.append(_compared(base, kept))
+    joined = [WeightedComparison(*(np.concatenate([getattr(block, name) for block in found])
+                                   for name in ("aoc_baseline", "aoc_predictor", "reduction_pct")))
+              for found in blocks]
+    return [joined[index] for index in which]
+
+
+def weighted_restoration_reduction(mode: str, distances: np.ndarray, removal: tuple[np.ndarray, np.ndarray],
+                                   restoration: tuple[np.ndarray, np.ndarray], weights: np.ndarray,
+                                   sequence_min: float, sequence_max: float) -> np.ndarray:
+    """``restoration.compare``'s ``reduction_pct`` per draw (NaN where undefined): ``removal`` and ``restoration``
+    are each (correctness, keep-mask) of the queries; both AOCs are taken over each curve's whole extent at the
+    larger of the two maximum recalls."""
+    recall_removal, precision_removal = weighted_curve(mode, distances, removal[0], removal[1], weights,
+                                                       sequence_min, sequence_max)
+    recall_restored, precision_restored = weighted_curve(mode, distances, restoration[0], restoration[1], weights,
+                                                         sequence_min, sequence_max)
+    max_recall = np.maximum(recall_removal[:, -1], recall_restored[:, -1])
+    aoc_removal = np.maximum(0.0, max_recall - _areas_up_to(recall_removal, precision_removal, max_recall))
+    aoc_restored = np.maximum(0.0, max_recall - _areas_up_to(recall_restored, precision_restored, max_recall))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(aoc_removal > AOC_ZERO, 100.0 * (aoc_removal - aoc_restored) / aoc_removal, np.nan)
+
+
 def weighted_average_precision(wrong: np.ndarray, confidence: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """``baselines.detection``'s average precision per draw (NaN for a draw without a wrong match): the queries
     ranked by ``-confidence``, equal scores entering together, ``AP = sum (R_i - R_{i-1}) P_i``."""
     wrong = np.asarray(wrong, dtype=bool)
     score = -np.asarray(confidence, dtype=np.float64)
-    weights = np.asarray(weights, dtype=np.float64)
+    weights = np.asarray(weights)
+    weights = weights.astype(np.int32 if np.issubdtype(weights.dtype, np.integer) else np.float64, copy=False)
     order = np.argsort(-score, kind="stable")
     ranked = score[order]
     last = np.r_[ranked[1:] != ranked[:-1], True] if len(order) else np.zeros(0, bool)
-    tp = np.cumsum((weights * wrong)[:, order], axis=1)[:, last]
-    fp = np.cumsum((weights * ~wrong)[:, order], axis=1)[:, last]
-    positives = (weights * wrong).sum(axis=1)
+    ranked_weights, hits = weights[:, order], wrong[order]
+    tp = np.cumsum(ranked_weights * hits, axis=1)[:, last].astype(np.float64)
+    fp = np.cumsum(ranked_weights * ~hits, axis=1)[:, last].astype(np.float64)
+    positives = weights @ wrong
     # a threshold that no drawn query reached adds no recall, whatever its precision
     precision = np.divide(tp, tp + fp, out=np.ones_like(tp), where=tp + fp > 0)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -208,4 +249,5 @@ def weighted_average_precision(wrong: np.ndarray, confidence: np.ndarray, weight
 def weighted_mean(values: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """The mean of per-query ``values`` (e.g. 1 for a correct match) in every draw."""
     weights = np.asarray(weights, dtype=np.float64)
-    return (weights @ np.asarray(values, dtype=np.float64)) / weights.sum(axis=1)
+    means: np.ndarray = (weights @ np.asarray(values, dtype=np.float64)) / weights.sum(axis=1)
+    return means

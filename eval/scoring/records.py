@@ -27,6 +27,24 @@ Json = dict[str, Any]
 
 
 @dataclass(frozen=True)
+class Interval(Record):
+    """A ``intervals.CONFIDENCE`` percentile bootstrap interval over queries (method §8.7): ``low <= high``. Its
+    rules are ``eval.scoring.intervals``'; the record lives here, with the records that hold it, so that reading a
+    file needs no scikit-learn."""
+
+    low: float
+    high: float
+
+    def excludes_zero(self) -> bool:
+        """True when the interval lies wholly above or wholly below 0: only then does a number have a direction."""
+        return self.low > 0 or self.high < 0
+
+    def sign(self) -> int:
+        """+1 wholly above 0, -1 wholly below, 0 when it contains 0."""
+        return 1 if self.low > 0 else -1 if self.high < 0 else 0
+
+
+@dataclass(frozen=True)
 class PRCurve(Record):
     """A precision-recall curve as written: the two lists of ``curves.Curve``."""
 
@@ -45,7 +63,10 @@ class Reduction(Record):
 
     ``max_recall`` is the predictor's, where both AOCs are taken; ``max_recall_vpr_sm`` and ``aoc_vpr_sm_own`` are
     the baseline's own maximum recall and AOC there, which stand in for it when the predictor leaves no recall to
-    compare at. ``outcome`` is ``curves.outcome``'s: what the removal did, in a word a table can show.
+    compare at. ``outcome`` is ``curves.outcome``'s: what the removal did, in a word a table can show. The
+    ``_ci`` fields are the bootstrap intervals over queries (method §8.7) of ``reduction_pct``, ``aoc_vpr_sm`` and
+    ``aoc_vpr_sm_pred``, for the numbers a table shows (the first seed's, a scorer's at its budget, held out, the
+    sweep's); absent elsewhere, and None where too few draws define the number.
     """
 
     max_recall: float
@@ -57,6 +78,9 @@ class Reduction(Record):
     max_recall_vpr_sm: float
     aoc_vpr_sm_own: float
     outcome: str
+    reduction_pct_ci: Interval | None = None
+    aoc_vpr_sm_ci: Interval | None = None
+    aoc_vpr_sm_pred_ci: Interval | None = None
 
 
 @dataclass(frozen=True)
@@ -71,7 +95,8 @@ class RemovalCurves(Record):
 
 @dataclass(frozen=True)
 class TrustNumbers(Record):
-    """Match removal at one trust level against the baseline (``outcome``: as ``Reduction``'s)."""
+    """Match removal at one trust level against the baseline (``outcome``, ``reduction_pct_ci``: as
+    ``Reduction``'s)."""
 
     removed: int
     max_recall: float
@@ -81,6 +106,7 @@ class TrustNumbers(Record):
     aoc_vpr_sm: float
     reduction_pct: float | None
     outcome: str
+    reduction_pct_ci: Interval | None = None
 
 
 @dataclass(frozen=True)
@@ -127,7 +153,8 @@ class SeedNumbers(Record):
 
 @dataclass(frozen=True)
 class SeedSummary(Record):
-    """``reduction_pct`` over the seeds of one mode: all None when no seed's reduction is defined.
+    """``reduction_pct`` over the seeds of one mode: all None when no seed's reduction is defined, the standard
+    deviation (ddof 1) None when fewer than two are.
     ``outcomes``: every seed's outcome (``Reduction.outcome``) by seed, so that a table can say which seeds the
     spread leaves out and why."""
 
@@ -162,6 +189,7 @@ class RestorationMode(Record):
     curve_restoration: PRCurve
     curve_vpr_sm: PRCurve | None = None
     curve_removal: PRCurve | None = None
+    reduction_pct_ci: Interval | None = None  # its bootstrap interval over queries (method §8.7)
 
     NUMBERS = ("max_recall", "max_recall_removal", "max_recall_restoration", "auc_vpr_sm", "auc_removal",
                "auc_restoration", "auc_difference", "aoc_removal", "aoc_restoration", "aoc_difference",
@@ -327,11 +355,13 @@ class Detection(Record):
     """How well one scorer detects wrong sequence matches (method §12.3): the queries whose sequence match is wrong
     are the positives, ranked by ``-c_a``. ``average_precision`` is None without a wrong match, ``roc_auc`` when
     every match or none is wrong. ``curve``: its precision-recall curve at each threshold where recall grows (the
-    points the average precision sums), for the figure; None where a table needs the numbers only."""
+    points the average precision sums), for the figure; None where a table needs the numbers only.
+    ``average_precision_ci``: its bootstrap interval over queries (method §8.7), for the first seed's detection."""
 
     average_precision: float | None
     roc_auc: float | None
     curve: PRCurve | None = None
+    average_precision_ci: Interval | None = None
 
 
 @dataclass(frozen=True)
@@ -355,11 +385,22 @@ class BudgetRemoval(Record):
 
 
 @dataclass(frozen=True)
+class Versus(Record):
+    """A training-free scorer against the seed-0 predictor, paired over the same draws of the queries (method
+    §8.7): per mode the interval of its reduction at the seed-0 budget minus the predictor's, and of its detection's
+    average precision minus the predictor's (None where too few draws define them)."""
+
+    reduction_pct_difference_ci: dict[str, Interval | None]
+    average_precision_difference_ci: Interval | None
+
+
+@dataclass(frozen=True)
 class SplitBaselines(Record):
     """The training-free scorers, the oracle and the predictor on one split (method §12). ``detection``: each
     scorer's wrong-match detection, ``random`` and ``predictor`` by the first seed; ``random_detection``: random's
     for every seed of ``seeds``, in that order (without curves); ``removal``: per predictor seed, every scorer's
-    removal at its budget (None without a predictor)."""
+    removal at its budget (None without a predictor); ``versus_predictor``: every training-free scorer against the
+    seed-0 predictor (``Versus``; None without a predictor)."""
 
     n_queries: int
     n_wrong: int  # queries whose sequence match is wrong: the positives of detection
@@ -367,6 +408,7 @@ class SplitBaselines(Record):
     detection: dict[str, Detection]
     random_detection: tuple[Detection, ...]
     removal: tuple[BudgetRemoval, ...] | None = None
+    versus_predictor: dict[str, Versus] | None = None
 
     @property
     def wrong_fraction(self) -> float:
@@ -409,12 +451,17 @@ class MatcherMetrics(Record):
 @dataclass(frozen=True)
 class SweepPoint(Record):
     """One tolerance (frames) or radius (the positions' unit): recall@1 by the mode's rule (method §8.5) and, with a
-    predictor, Table I's numbers of its removal."""
+    predictor, Table I's numbers of its removal. ``recall_at_1_single_evaluated``: single-frame recall@1 over the
+    same evaluated queries as ``recall_at_1_sequence`` (in both modes), and ``recall_change_ci`` the paired
+    bootstrap interval (method §8.7) of ``recall_at_1_sequence - recall_at_1_single_evaluated``: the change that
+    sequence matching makes over the same queries."""
 
     threshold: float
     recall_at_1_single: float
     recall_at_1_sequence: float
     reduction: Reduction | None = None
+    recall_at_1_single_evaluated: float | None = None
+    recall_change_ci: Interval | None = None
 
 
 @dataclass(frozen=True)

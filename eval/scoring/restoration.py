@@ -14,13 +14,14 @@ score (the ranks are ordered by the column-normalised sums of method §5, not by
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from vpr_smr.core.constants import KEPT_CLASSES
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, reduction_pct
+from vpr_smr.eval.scoring.intervals import draws, percentile_interval, weighted_restoration_reduction
 from vpr_smr.eval.scoring.records import PRCurve, RestorationMode, RestorationNumbers
 
 
@@ -110,8 +111,10 @@ def evaluate_restoration(
     modes: tuple[str, ...],
     trust: float = 0.0,
     min_score: float = 0.0,
+    intervals: bool = False,
 ) -> RestorationNumbers:
-    """Counts of the second filter and, per mode, the three curves (baseline, removal, restoration) compared."""
+    """Counts of the second filter and, per mode, the three curves (baseline, removal, restoration) compared; with
+    ``intervals``, the bootstrap interval over queries (method §8.7) of each mode's ``reduction_pct``."""
     result = restore(features, probabilities, classes, trust, min_score)
     restored = result.restored
     n_ranks = features.rank_references.shape[1]
@@ -123,6 +126,11 @@ def evaluate_restoration(
         removal = curve(mode, distances, features.sequence_correct, ~result.removed, *s_range)
         restoration = curve(mode, distances, result.correct, result.keep, *s_range)
         modes_[mode] = compare(baseline, removal, restoration)
+        if intervals:
+            def statistic(weights: np.ndarray, mode: str = mode) -> np.ndarray:
+                return weighted_restoration_reduction(mode, distances, (features.sequence_correct, ~result.removed),
+                                                      (result.correct, result.keep), weights, *s_range)
+            modes_[mode] = replace(modes_[mode], reduction_pct_ci=percentile_interval(draws(statistic, n)))
     return RestorationNumbers(
         trust=trust,
         min_score=min_score,

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -17,6 +18,7 @@ import numpy as np
 from vpr_smr.eval.matching.attributes import QueryFeatures, verdicts
 from vpr_smr.eval.matching.ground_truth import FRAMES, GroundTruth, PositionTruth
 from vpr_smr.eval.scoring.evaluate import compare_removal, recall_at_1
+from vpr_smr.eval.scoring.intervals import difference, weighted_mean
 from vpr_smr.eval.scoring.records import ProtocolSweep, SweepPoint
 
 # The protocols the field reports: Nordland within 0 (the same frame), 1, 2 or 10 frames; 25 m and its neighbours
@@ -54,15 +56,20 @@ def protocol_sweep(features: QueryFeatures, single_matches: np.ndarray, truth: G
                    kept: np.ndarray | None = None, thresholds: Sequence[float] | None = None) -> ProtocolSweep:
     """Recall@1 and, with ``kept`` (the predictor's keep-mask of the evaluated queries), the reduction of its
     removal, per mode, under ``truth`` with each of ``thresholds`` (default ``sweep_thresholds``) as its tolerance or
-    radius."""
+    radius; with the change sequence matching makes to recall@1 over the same evaluated queries, and the bootstrap
+    intervals over queries (method §8.7) of that change and of the reduction."""
     kind, default = sweep_thresholds(truth)
     assert isinstance(truth, PositionTruth)  # sweep_thresholds refuses the others
     points: dict[str, list[SweepPoint]] = {mode: [] for mode in modes}
     for threshold in (default if thresholds is None else thresholds):
         scored = rescored(features, single_matches, truth.within(float(threshold)))
+        single = np.asarray(scored.single_correct, dtype=np.float64)
+        sequence = np.asarray(scored.sequence_correct, dtype=np.float64)
+        change = difference(partial(weighted_mean, sequence), partial(weighted_mean, single), len(single))
         for mode in modes:
             recall = recall_at_1(scored, mode)
-            reduction = compare_removal(scored, mode, kept)[2] if kept is not None else None
+            reduction = compare_removal(scored, mode, kept, intervals=True)[2] if kept is not None else None
             points[mode].append(SweepPoint(float(threshold), recall["recall_at_1_single"],
-                                           recall["recall_at_1_sequence"], reduction))
+                                           recall["recall_at_1_sequence"], reduction,
+                                           float(single.mean()) if len(single) else None, change))
     return ProtocolSweep(kind, {mode: tuple(found) for mode, found in points.items()})

@@ -35,7 +35,7 @@ def test_each_point_equals_a_fresh_scoring_at_its_tolerance(mode):
         recall = recall_at_1(fresh, mode)
         assert point.recall_at_1_single == recall["recall_at_1_single"]
         assert point.recall_at_1_sequence == recall["recall_at_1_sequence"]
-        assert point.reduction == compare_removal(fresh, mode, kept)[2]
+        assert point.reduction == compare_removal(fresh, mode, kept, intervals=True)[2]
 
 
 def test_positions_sweep_radii_and_a_matrix_has_nothing_to_sweep():

@@ -40,6 +40,7 @@ from vpr_smr.eval.scoring.records import (
     HeldOut,
     HeldOutPredictors,
     HeldOutScores,
+    Interval,
     MatcherMetrics,
     ModeRemoval,
     PRCurve,
@@ -57,6 +58,7 @@ from vpr_smr.eval.scoring.records import (
     SweepPoint,
     Timing,
     TrustNumbers,
+    Versus,
     VPRMetrics,
 )
 from vpr_smr.eval.scoring.speed import SpeedMatcher, SpeedResult, SpeedScores
@@ -69,16 +71,23 @@ META = {"dataset": "d", "method": "m", "seq_len": 4, "tolerance": 2, "split": ["
 CURVE = PRCurve((0.0, 0.25, 0.5), (1.0, NAN, 0.5))
 REDUCTION = Reduction(0.5, 0.4, 0.45, 0.1, 0.05, 50.0, 0.75, 0.125, "improved")
 UNDEFINED = Reduction(1.0, 1.0, 1.0, 0.0, 0.0, None, 1.0, 0.0, "nothing_to_reduce")
+SPREAD = Interval(-2.5, 61.0)
+# the first seed's numbers, with their bootstrap intervals (one None: absent from the file)
+REDUCTION_CI = dataclasses.replace(REDUCTION, reduction_pct_ci=SPREAD, aoc_vpr_sm_ci=Interval(0.05, 0.2),
+                                   aoc_vpr_sm_pred_ci=Interval(0.0, 0.0))
+UNDEFINED_CI = dataclasses.replace(UNDEFINED, aoc_vpr_sm_ci=Interval(0.0, INF), aoc_vpr_sm_pred_ci=Interval(NAN, 0.0))
 CURVES = RemovalCurves(0.25, INF, CURVE, PRCurve((0.5,), (-INF,)))
 TRUST = TrustNumbers(3, 0.5, 0.4, NAN, 0.3, 0.2, None, "removed_all")
-MODE = ModeRemoval(0.6, 0.7, REDUCTION, CURVES, {"0.0": TRUST, "0.9": dataclasses.replace(TRUST, removed=0)},
+MODE = ModeRemoval(0.6, 0.7, REDUCTION_CI, CURVES, {"0.0": TRUST, "0.9": dataclasses.replace(
+                       TRUST, removed=0, reduction_pct=12.0, outcome="improved", reduction_pct_ci=SPREAD)},
                    {"0.0": CURVE, "0.9": PRCurve((), ())})
-BARE_MODE = ModeRemoval(0.6, NAN, UNDEFINED)  # no curves, no trust levels: absent from the file
+BARE_MODE = ModeRemoval(0.6, NAN, UNDEFINED_CI)  # no curves, no trust levels: absent from the file
 SEED = SeedNumbers(3, 0.61, 7, {"paper": REDUCTION, "standard": UNDEFINED})
 SUMMARY = SeedSummary(3, 2, 12.5, NAN, -3.0, 28.0, {0: "improved", 3: "worse", 12: "nothing_to_reduce"})
 NO_SUMMARY = SeedSummary(1, 0, None, None, None, None, {0: "nothing_to_reduce"})
 RESTORED = RestorationMode(0.5, 0.4, 0.6, 0.3, 0.35, 0.4, 0.05, 0.1, 0.05, -0.05, None, CURVE)
-RESTORED_CURVES = dataclasses.replace(RESTORED, reduction_pct=50.0, curve_vpr_sm=CURVE, curve_removal=CURVE)
+RESTORED_CURVES = dataclasses.replace(RESTORED, reduction_pct=50.0, curve_vpr_sm=CURVE, curve_removal=CURVE,
+                                      reduction_pct_ci=Interval(20.0, 75.5))
 RESTORATION = RestorationNumbers(0.9, 0.5, 4, 3, 2, 1, 1, 0, (2, 1, 0), {"paper": RESTORED,
                                                                          "standard": RESTORED_CURVES})
 SPLIT = EvaluationSplit(57, 60, 0.5, 0.55, 0.7, 0.61, ((5, 0, 1, 0), (0, 4, 0, 0), (0, 0, 3, 2), (1, 0, 0, 9)),
@@ -92,16 +101,20 @@ HELD_OUT_SCORES = HeldOutScores("p.h5", 0.5, 3, {"paper": MODE, "standard": BARE
 HELD_OUT_PREDICTORS = HeldOutPredictors(HELD_OUT_SCORES, dataclasses.replace(HELD_OUT_SCORES, path="w.h5"))
 HELD_OUT = HeldOut(META, 57, HELD_OUT_PREDICTORS)
 MATCHER = MatcherMetrics(57, {1: 0.5, 5: 0.75, 10: NAN, 20: 1.0}, 0.25, 0.6, INF)
-DETECTION = Detection(0.75, None, CURVE)
+DETECTION = Detection(0.75, None, CURVE, Interval(0.5, 0.875))
 NO_DETECTION = Detection(None, None)  # no wrong match: nothing to detect, no curve
 SCORER_REMOVAL = ScorerRemoval(7, {"paper": REDUCTION, "standard": UNDEFINED})
+SCORER_REMOVAL_CI = ScorerRemoval(7, {"paper": REDUCTION_CI, "standard": UNDEFINED_CI})
+VERSUS = Versus({"paper": Interval(-40.0, -1.5), "standard": None}, Interval(0.0625, 0.25))
 BUDGET = BudgetRemoval(3, 7, {"uniqueness": SCORER_REMOVAL, "oracle": dataclasses.replace(SCORER_REMOVAL, removed=5)})
 SPLIT_BASELINES = SplitBaselines(57, 12, (0, 3), {"uniqueness": DETECTION, "random": NO_DETECTION},
-                                 (NO_DETECTION, Detection(0.2, 0.5)), (BUDGET, dataclasses.replace(BUDGET, seed=0)))
+                                 (NO_DETECTION, Detection(0.2, 0.5)),
+                                 (dataclasses.replace(BUDGET, scorers={"uniqueness": SCORER_REMOVAL_CI}), BUDGET),
+                                 {"uniqueness": VERSUS, "random": Versus({"paper": None}, None)})
 NO_BUDGET = SplitBaselines(57, 0, (0,), {"oracle": NO_DETECTION}, (NO_DETECTION,))  # no predictor: no removal
 BASELINES = Baselines({**META, "r_window": 10, "spread_k": 10}, {"val": NO_BUDGET, "test": SPLIT_BASELINES})
 SPLIT_METRICS = SplitMetrics({"paper": {"single": MATCHER, "sequence": MATCHER}, "standard": {}})
-SWEEP_POINT = SweepPoint(2.0, 0.5, 0.6, REDUCTION)
+SWEEP_POINT = SweepPoint(2.0, 0.5, 0.6, REDUCTION_CI, 0.55, Interval(-0.03125, 0.125))
 SWEEP = ProtocolSweep("frames", {"paper": (SWEEP_POINT, SweepPoint(0.0, 0.1, 0.2)), "standard": ()})
 WITH_BASELINES = dataclasses.replace(SPLIT_METRICS, queries_without_correct=2, evaluated_without_correct=1,
                                      sweep=SWEEP, baselines=SPLIT_BASELINES)
@@ -144,7 +157,7 @@ SAMPLES = {
     "Detection": DETECTION, "Detection, undefined": NO_DETECTION, "ScorerRemoval": SCORER_REMOVAL,
     "BudgetRemoval": BUDGET, "SplitBaselines": SPLIT_BASELINES, "SplitBaselines, no predictor": NO_BUDGET,
     "Baselines": BASELINES, "SplitMetrics, sweep and baselines": WITH_BASELINES, "SweepPoint": SWEEP_POINT,
-    "ProtocolSweep": SWEEP,
+    "ProtocolSweep": SWEEP, "Interval": SPREAD, "Versus": VERSUS, "ScorerRemoval, intervals": SCORER_REMOVAL_CI,
 }
 
 
@@ -202,7 +215,12 @@ def test_the_layout_is_the_fields():
     assert test["restoration"]["modes"]["paper"]["reduction_pct"] is None
     assert "curve_vpr_sm" not in test["restoration"]["modes"]["paper"]
     # an embedded record is its own object; int keys are their decimal text; tuples are lists
-    assert test["modes"]["paper"]["reduction"] == dataclasses.asdict(REDUCTION)
+    assert test["modes"]["paper"]["reduction"] == dataclasses.asdict(REDUCTION_CI)
+    assert test["modes"]["paper"]["reduction"]["reduction_pct_ci"] == {"low": -2.5, "high": 61.0}
+    # an interval that is None is absent: the other seeds' numbers have none
+    assert test["other_seeds"][0]["modes"]["paper"] == {
+        key: value for key, value in dataclasses.asdict(REDUCTION).items() if not key.endswith("_ci")}
+    assert "reduction_pct_ci" not in test["modes"]["standard"]["reduction"]
     assert test["seed_summary"]["paper"]["outcomes"] == {"0": "improved", "3": "worse", "12": "nothing_to_reduce"}
     assert test["confusion_matrix"][3] == [1, 0, 0, 9] and test["seed"] == 0 and len(test["other_seeds"]) == 1
     assert SPEED.to_json()["speed"] is None and SPEED.to_json()["matchers"]["fixed"]["methods"]["m1"]["reduction"][
@@ -218,8 +236,8 @@ def test_the_first_seed_is_written_once():
     assert set(data) == {"format", "meta", "n_train", "seeds", "seed_models"}
     assert PREDICTOR.first_seed()["f1_check"] == 0.4 and PREDICTOR.first_seed()["n_final"] == 20
     assert [seed.seed for seed in SPLIT.seeds] == [0, 3]
-    assert SPLIT.seeds[0] == SeedNumbers(0, SPLIT.f1_macro, SPLIT.removed, {"paper": REDUCTION,
-                                                                            "standard": UNDEFINED})
+    assert SPLIT.seeds[0] == SeedNumbers(0, SPLIT.f1_macro, SPLIT.removed, {"paper": REDUCTION_CI,
+                                                                            "standard": UNDEFINED_CI})
 
 
 def test_numpy_values_are_written_as_python_numbers():

@@ -24,6 +24,8 @@ SPLIT_KEYS = {"n_queries", "n_queries_split", "recall_at_1_single_all", "recall_
 MODE_KEYS = {"recall_at_1_single", "recall_at_1_sequence", "reduction", "curves", "trust_auc", "trust"}
 REDUCTION_KEYS = {"max_recall", "auc_vpr_sm", "auc_vpr_sm_pred", "aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct",
                   "max_recall_vpr_sm", "aoc_vpr_sm_own", "outcome"}
+# the first seed's numbers carry their bootstrap intervals (method §8.7); a None one is absent
+INTERVAL_KEYS = {"reduction_pct_ci", "aoc_vpr_sm_ci", "aoc_vpr_sm_pred_ci"}
 CURVES_KEYS = {"recall_at_100_precision_vpr_sm", "recall_at_100_precision_vpr_sm_pred", "curve_vpr_sm",
                "curve_vpr_sm_pred"}
 RESTORATION_MODE_KEYS = {"max_recall", "max_recall_removal", "max_recall_restoration", "auc_vpr_sm", "auc_removal",
@@ -71,7 +73,10 @@ def test_evaluation_file_layout(stage_files):
     assert set(split) == SPLIT_KEYS
     paper = split["modes"]["paper"]
     assert set(paper) == MODE_KEYS and set(paper["trust_auc"]) == {"0.0", "0.9"}
-    assert set(paper["reduction"]) == REDUCTION_KEYS and set(paper["curves"]) == CURVES_KEYS
+    assert set(paper["curves"]) == CURVES_KEYS
+    # both AOCs have intervals; the reduction is undefined here (its baseline AOC is 0), and so is its interval
+    assert paper["reduction"]["reduction_pct"] is None
+    assert set(paper["reduction"]) == REDUCTION_KEYS | INTERVAL_KEYS - {"reduction_pct_ci"}
     # seed 0's numbers are written once: the split's own; the other seed's under other_seeds
     assert split["seed"] == 0 and [seed["seed"] for seed in split["other_seeds"]] == [1]
     assert set(split["other_seeds"][0]["modes"]["standard"]) == REDUCTION_KEYS
@@ -99,13 +104,18 @@ def test_records_round_trip_byte_for_byte(stage_files):
 
 
 def test_held_out_file_layout(stage_files):
-    tmp, _, _, scores = stage_files
+    tmp, evaluation, _, scores = stage_files
     data = json.loads((tmp / "h.json").read_text())
     assert set(data) == {"format", "meta", "n_queries", "predictors"}
     assert set(data["predictors"]) == {"pooled", "without"}
     assert set(data["predictors"]["pooled"]) == {"path", "f1_macro", "removed", "modes"}
     assert set(data["predictors"]["without"]["modes"]["paper"]) == HELD_OUT_MODE_KEYS
     assert scores.n_queries == data["n_queries"] == 37
+    # the held-out reductions carry their bootstrap intervals: the pooled predictor is the evaluation's seed 0 on
+    # the same test split, so its numbers are that split's, intervals and all
+    for mode in ("paper", "standard"):
+        assert scores.pooled.modes[mode].reduction == evaluation.splits["test"].modes[mode].reduction
+        assert scores.pooled.modes[mode].reduction.aoc_vpr_sm_ci is not None
 
 
 def test_a_file_missing_a_key_is_refused(stage_files):
