@@ -17,6 +17,8 @@ from vpr_smr.core.constants import KEPT_CLASSES, MODES
 PAPER_THRESHOLDS = 1999
 # An AOC this small is 0: the trapezoid sum of a curve whose precision is 1 everywhere leaves about 1e-16
 AOC_ZERO = 1e-9
+# A reduction (in %) smaller in magnitude than this is unchanged: floating-point noise, not a result (method §8.4)
+UNCHANGED_PCT = 1e-6
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vpr_smr.core.records import FileRecord, Record
+from vpr_smr.eval.scoring.intervals import Interval
 
 if TYPE_CHECKING:  # curves imports scikit-learn, which the speed experiment's records (and the workflow) do without
     from vpr_smr.eval.scoring.curves import Curve
@@ -57,6 +58,9 @@ class Reduction(Record):
     max_recall_vpr_sm: float
     aoc_vpr_sm_own: float
     outcome: str
+    reduction_pct_ci: Interval | None = None
+    aoc_vpr_sm_ci: Interval | None = None
+    aoc_vpr_sm_pred_ci: Interval | None = None
 
 
 @dataclass(frozen=True)
@@ -81,6 +85,7 @@ class TrustNumbers(Record):
     aoc_vpr_sm: float
     reduction_pct: float | None
     outcome: str
+    reduction_pct_ci: Interval | None = None
 
 
 @dataclass(frozen=True)
@@ -162,6 +167,7 @@ class RestorationMode(Record):
     curve_restoration: PRCurve
     curve_vpr_sm: PRCurve | None = None
     curve_removal: PRCurve | None = None
+    reduction_pct_ci: Interval | None = None
 
     NUMBERS = ("max_recall", "max_recall_removal", "max_recall_restoration", "auc_vpr_sm", "auc_removal",
                "auc_restoration", "auc_difference", "aoc_removal", "aoc_restoration", "aoc_difference",
@@ -332,6 +338,7 @@ class Detection(Record):
     average_precision: float | None
     roc_auc: float | None
     curve: PRCurve | None = None
+    average_precision_ci: Interval | None = None
 
 
 @dataclass(frozen=True)
@@ -355,6 +362,15 @@ class BudgetRemoval(Record):
 
 
 @dataclass(frozen=True)
+class Versus(Record):
+    """A training-free scorer against the seed-0 predictor, paired over the same draws: per mode, the scorer's
+    reduction minus the predictor's (both at the seed-0 budget), and its detection AP minus the predictor's."""
+
+    reduction_pct_difference_ci: dict[str, Interval | None]
+    average_precision_difference_ci: Interval | None
+
+
+@dataclass(frozen=True)
 class SplitBaselines(Record):
     """The training-free scorers, the oracle and the predictor on one split (method §12). ``detection``: each
     scorer's wrong-match detection, ``random`` and ``predictor`` by the first seed; ``random_detection``: random's
@@ -367,6 +383,7 @@ class SplitBaselines(Record):
     detection: dict[str, Detection]
     random_detection: tuple[Detection, ...]
     removal: tuple[BudgetRemoval, ...] | None = None
+    versus_predictor: dict[str, Versus] | None = None
 
     @property
     def wrong_fraction(self) -> float:
@@ -415,6 +432,8 @@ class SweepPoint(Record):
     recall_at_1_single: float
     recall_at_1_sequence: float
     reduction: Reduction | None = None
+    recall_at_1_single_evaluated: float | None = None
+    recall_change_ci: Interval | None = None
 
 
 @dataclass(frozen=True)
