@@ -111,7 +111,10 @@ def row_cell(row: dict[str, Any], column: registry.Column) -> Cell:
     outcome = row.get(column.name.replace("reduction_pct", "outcome")) if is_reduction(column.name) else None
     if value is None and outcome in words.SHORT:
         return Cell(f"{UNDEFINED}: {words.SHORT[outcome]}", kind="na")
-    return cell(value, column.name, fmt=column.fmt)
+    found = cell(value, column.name, fmt=column.fmt)
+    if is_reduction(column.name) and found.kind in ("up", "down"):  # coloured only where its interval says so
+        return Cell(found.text, found.sort, {1: "up", -1: "down"}.get(words.direction(row, column.name) or 0, "num"))
+    return found
 
 
 def _pivot(spec: registry.Table) -> registry.Pivot:
@@ -184,8 +187,8 @@ def scorer_table(table_id: str, rows: Sequence[dict[str, Any]], value: str, capt
             if scorer == "random" and value == "reduction_pct" and row:
                 mean, std = headline(row), row.get("reduction_pct_std")
                 text = UNDEFINED if mean is None else f"{mean:.2f}" + ("" if std is None else f" ± {std:.2f}")
-                cells.append(Cell(text, "" if mean is None else repr(mean),
-                                  "na" if mean is None else "up" if mean > 0 else "down" if mean < 0 else "num"))
+                # the seeds' spread, not an interval over queries: not coloured
+                cells.append(Cell(text, "" if mean is None else repr(mean), "na" if mean is None else "num"))
             elif scorer == "random" and row.get(f"{value}_mean") is not None:
                 cells.append(cell(row[f"{value}_mean"], value, fmt=".4f"))
             else:
@@ -232,21 +235,31 @@ def table1_view(block: Table1Block, table_id: str) -> TableView:
     for i, name in enumerate(ROW_NAMES):
         column = "reduction_pct" if i == 2 else "aoc"
         # the numbers' cells (sorting value, colour), with Table I's words where a number would mislead
-        texts = cells(block.rows, summary, i, "{:.2f}" if i == 2 else "{:.4f}")
+        texts = cells(block.rows, summary, i, ".2f" if i == 2 else ".4f")
         numbers = [cell(v, column) for v in summary[i]]
-        row = [Cell(t, c.sort, c.kind) for t, c in zip(texts, numbers, strict=True)]
+        # colour: a method's reduction only where its interval says a direction (``outcome_words.direction``)
+        kinds = [_reduction_kind(r, c.kind) for r, c in zip(block.rows, numbers, strict=False)] + [
+            "num" if i == 2 and summary[i][-1] is not None else numbers[-1].kind]
+        row = [Cell(t, c.sort, k) for t, c, k in zip(texts, numbers, kinds, strict=True)]
         if i == 2 and note:
             row[-1] = Cell(row[-1].text + note, row[-1].sort, row[-1].kind)
         rows.append((text_cell(name, header=True), *row, text_cell(improved if i == 2 else "")))
     if block.has_seeds:
         texts, last = block.seed_cells()
-        means = [r.get("reduction_pct_mean") for r in block.rows]
-        kinds = ["na" if m is None else "up" if m > 0 else "down" if m < 0 else "num" for m in means] + ["num"]
+        # the seeds' spread is no interval over queries: the means are not coloured
+        kinds = ["na" if r.get("reduction_pct_mean") is None else "num" for r in block.rows] + ["num"]
         rows.append((text_cell(SEED_ROW_NAME, header=True),
                      *(Cell(t, kind=k) for t, k in zip(texts, kinds, strict=True)), text_cell(last)))
     undefined = any(c.text.startswith(UNDEFINED) for row in rows for c in row)
     below = [*notes(block.rows), *([UNDEFINED_NOTE] if undefined else [])]
     return TableView(table_id, head, tuple(rows), note=" ".join(below), sortable=False, css="paper table1")
+
+
+def _reduction_kind(row: dict[str, Any], kind: str) -> str:
+    """A reduction cell's class: ``up``/``down`` only where ``outcome_words.direction`` says so, else neutral."""
+    if kind not in ("up", "down"):
+        return kind
+    return {1: "up", -1: "down"}.get(words.direction(row) or 0, "num")
 
 
 def predictor_warnings(predictor: WrittenTable | None, dataset: str, seq_len: int) -> list[str]:

@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report.table1 import UNDEFINED, is_reduction
 
 
@@ -131,7 +132,7 @@ def cell(value: Any, column: str = "", header: bool = False, fmt: str = ".4f") -
         return Cell(str(value), sort=str(value), header=header)
     if isinstance(value, float):
         kind = "num"
-        if is_reduction(column) and value != 0:
+        if is_reduction(column) and value != 0 and not bounds.is_bound(column):
             kind = "up" if value > 0 else "down"
         return Cell(f"{value:{fmt}}", sort=repr(value), kind=kind, header=header)
     text = str(value)

@@ -40,21 +40,35 @@ def rows():
 def test_markdown_means_and_improved_match_the_paper(rows):
     text = table1_markdown(rows)
     assert "| dataset | | AP-GeM | CosPlace | EigenPlaces | MixVPR | NetVLAD | SAD | SALAD | Mean | Improved |" in text
-    # The paper's Mean column: 0.1660, 0.1069, 37.79 (Nordland); 0.0827, 0.0679 (RobotCar).
-    assert "| Nordland | VPR+SM | 0.6522 | 0.0220 | 0.0155 | 0.0061 | 0.2478 | 0.2164 | 0.0017 | 0.1660 |  |" in text
-    assert "|  | VPR+SM+Pred | 0.4862 |" in text and "| 0.0011 | 0.1069 |  |" in text
-    assert "| 37.55 | 37.79 | 7 / 7 |" in text
-    assert "| Oxford RobotCar | VPR+SM |" in text and "| 0.0769 | 0.0827 |  |" in text
-    assert "| 0.0561 | 0.0679 |  |" in text
+    # The paper's Mean column: 0.1660, 0.1069, 37.79 (Nordland); 0.0827, 0.0679 (RobotCar). The paper's numbers
+    # have no interval over queries: each method's cell says [n/a]; a Mean over methods has none to say.
+    assert ("| Nordland | VPR+SM | 0.6522 [n/a] | 0.0220 [n/a] | 0.0155 [n/a] | 0.0061 [n/a] | 0.2478 [n/a] | "
+            "0.2164 [n/a] | 0.0017 [n/a] | 0.1660 |  |") in text
+    assert "|  | VPR+SM+Pred | 0.4862 [n/a] |" in text and "| 0.0011 [n/a] | 0.1069 |  |" in text
+    assert "| 37.55 [n/a] | 37.79 | 7 / 7 |" in text
+    assert "| Oxford RobotCar | VPR+SM |" in text and "| 0.0769 [n/a] | 0.0827 |  |" in text
+    assert "| 0.0561 [n/a] | 0.0679 |  |" in text
     # The paper prints 18.97, the mean of its unrounded reductions; of the rounded ones here it is
     # 132.83 / 7 = 18.976 -> 18.98.
-    assert "|  | Reduction (%) | -14.22 | -4.45 |" in text and "| 26.95 | 18.98 | 5 / 7 |" in text
+    assert "|  | Reduction (%) | -14.22 [n/a] | -4.45 [n/a] |" in text and "| 26.95 [n/a] | 18.98 | 5 / 7 |" in text
     assert "## paper mode, sequence length 4" in text
 
 
+def with_intervals(rows, half=5.0):
+    """The rows with intervals: each number's +- ``half`` (the AOCs' +- half / 1000)."""
+    return [{**r, "reduction_pct_ci_low": r["reduction_pct"] - half, "reduction_pct_ci_high": r["reduction_pct"] + half,
+             "aoc_vpr_sm_ci_low": r["aoc_vpr_sm"] - half / 1000, "aoc_vpr_sm_ci_high": r["aoc_vpr_sm"] + half / 1000,
+             "aoc_vpr_sm_pred_ci_low": r["aoc_vpr_sm_pred"] - half / 1000,
+             "aoc_vpr_sm_pred_ci_high": r["aoc_vpr_sm_pred"] + half / 1000} for r in rows]
+
+
 def test_latex_colours_reductions(rows):
-    text = table1_latex(rows)
-    assert r"\textcolor{red}{-14.22}" in text and r"\textcolor{green}{25.46}" in text
+    # without intervals nothing has a direction: no colour
+    assert r"\textcolor{black}{-14.22} [n/a]" in table1_latex(rows)
+    text = table1_latex(with_intervals(rows))
+    # -14.22 [-19.22, -9.22] below 0: red; 25.46 [20.46, 30.46] above: green; -4.45 [-9.45, 0.55] contains 0
+    assert r"\textcolor{red}{-14.22} [-19.22, -9.22]" in text and r"\textcolor{green}{25.46} [20.46, 30.46]" in text
+    assert r"\textcolor{black}{-4.45} [-9.45, 0.55]" in text
     assert r"Oxford RobotCar & VPR+SM & 0.0950" in text and r"& 5 / 7\\" in text
     assert r"Reduction (\%)" in text
 
@@ -63,9 +77,9 @@ def test_latex_footnotes_an_undefined_reduction_in_its_own_tabular_only(rows):
     from vpr_smr.eval.report.table1 import UNDEFINED, UNDEFINED_NOTE
 
     # two (mode, L) blocks: L = 4 with one n/a reduction, then L = 8 with every reduction defined
-    first = [dict(row) for row in rows]
+    first = with_intervals(rows)
     first[0].update(reduction_pct=None, outcome="nothing_to_reduce", max_recall=0.5, max_recall_vpr_sm=0.5)
-    second = [{**row, "seq_len": 8} for row in rows]
+    second = [{**row, "seq_len": 8} for row in with_intervals(rows)]
     text = table1_latex(first + second)
     tabulars = text.split(r"\end{tabular}")[:-1]
     assert len(tabulars) == 2 and "sequence length 4" in tabulars[0] and "sequence length 8" in tabulars[1]
@@ -90,6 +104,49 @@ def test_seed_row_shows_mean_and_sample_std(rows):
     assert ("|  | Reduction over seeds (%) | 20.00 ± 10.00 | 1.00 ± 0.00 | 0.00 ± 5.00 | 0.00 ± 0.00 | "
             "4.00 ± 2.00 | 2.00 ± 1.00 | 3.00 ± 0.00 | 4.29 | 5 / 7 (3 seeds) |") in text
     assert r"20.00 $\pm$ 10.00" in table1_latex(rows)
+
+
+def test_a_seed_row_of_one_defined_seed_says_n_a_and_its_mean_is_like_with_like():
+    # the issue's 28-query split: hog's seed-0 reduction undefined and one of its 5 seeds defined (a file of the
+    # old layout wrote that seed's std as 0.0); sad's seed 0 is 3.20 with an interval containing 0, all 5 defined
+    hog = {"dataset": "d", "method": "hog", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": 0.0,
+           "reduction_pct": None, "outcome": "nothing_to_reduce", "max_recall": 0.5, "max_recall_vpr_sm": 0.5,
+           "reduction_pct_mean": -88.19, "reduction_pct_std": 0.0, "n_seeds": 5, "n_seeds_defined": 1,
+           "seeds_left_out": "seeds 0, 1, 2, 3: nothing to reduce", "n_queries": 28}
+    sad = {"dataset": "d", "method": "sad", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.5, "aoc_vpr_sm_pred": 0.484,
+           "reduction_pct": 3.2, "outcome": "improved", "max_recall": 0.9, "max_recall_vpr_sm": 0.9,
+           "reduction_pct_ci_low": -40.0, "reduction_pct_ci_high": 35.0, "reduction_pct_mean": 4.0,
+           "reduction_pct_std": 1.5, "n_seeds": 5, "n_seeds_defined": 5, "n_queries": 28}
+    text = table1_markdown([hog, sad])
+    # seed 0: the Mean over sad alone (3.20), named; sad improved but its interval contains 0
+    assert ("|  | Reduction (%) | n/a: nothing to reduce | 3.20 [-40.00, 35.00] | 3.20 (mean over 1 of 2 methods: "
+            "sad) | 1 / 2 (0 with the interval above 0) |") in text
+    # over the seeds: hog's std of one value is n/a (never 0.00); the Mean is sad's alone (4.00, not the
+    # (-88.19 + 4.00) / 2 = -42.10 of one seed's number and a mean of five), and says so
+    assert ("|  | Reduction over seeds (%) | -88.19 ± n/a (1 of 5 seeds; seeds 0, 1, 2, 3: nothing to reduce) | "
+            "4.00 ± 1.50 | 4.00 (mean over 1 of 2 methods, those with all 5 seeds: sad) | 1 / 2 (5 seeds) |") in text
+    assert "0.00 (" not in text and "± 0.00" not in text
+    # two Means of opposite sign say why
+    sad_worse = {**sad, "reduction_pct_mean": -2.0}
+    assert ("| -2.00 (mean over 1 of 2 methods, those with all 5 seeds: sad; opposite in sign to the seed-0 Mean "
+            "3.20, which is seed 0's predictor alone over sad, this one every seed's over sad) |"
+            ) in table1_markdown([hog, sad_worse])
+    assert r"-88.19 $\pm$ n/a" in table1_latex([hog, sad])
+
+
+def test_an_unchanged_reduction_is_neutral():
+    from vpr_smr.eval.report import html
+    from vpr_smr.eval.report.registry import Column
+    from vpr_smr.eval.report.table1 import table1_blocks
+
+    # floating-point noise: 2.1e-14 %, which scoring calls unchanged, with an interval that is all but 0
+    row = {"dataset": "d", "method": "uniqueness", "seq_len": 4, "mode": "standard", "aoc_vpr_sm": 0.2,
+           "aoc_vpr_sm_pred": 0.2, "reduction_pct": 2.1e-14, "outcome": "unchanged", "max_recall": 0.9,
+           "max_recall_vpr_sm": 0.9, "reduction_pct_ci_low": 1e-14, "reduction_pct_ci_high": 3e-14}
+    (block,) = table1_blocks([row])
+    assert html.table1_view(block, "t").rows[2][1].kind == "num"  # not "up" (green)
+    assert html.row_cell(row, Column("reduction_pct", fmt=".2f")).kind == "num"
+    assert r"\textcolor{black}{0.00} [0.00, 0.00]" in table1_latex([row])
 
 
 def test_table2_marks_the_attributes_used():
@@ -182,22 +239,28 @@ def test_table1_in_the_page_has_the_papers_layout_and_numbers(rows, tmp_path):
     blocks = table1_blocks(rows)
     assert [(b.dataset, b.methods) for b in blocks] == [("Nordland", METHODS), ("Oxford RobotCar", METHODS)]
     view = html.table1_view(blocks[1], "t")
-    assert [c.kind for c in view.rows[2][1:3]] == ["down", "down"] and view.rows[2][3].kind == "up"
+    # without intervals no reduction has a direction: none coloured
+    assert {c.kind for c in view.rows[2][1:]} == {"num", "text"}
+    # with them: -14.22 [-19.22, -9.22] worse, -4.45 [-9.45, 0.55] no direction, 21.31 [16.31, 26.31] better
+    view = html.table1_view(table1_blocks(with_intervals(rows))[1], "t")
+    assert [c.kind for c in view.rows[2][1:4]] == ["down", "num", "up"]
+    assert view.rows[2][1].text == "-14.22 [-19.22, -9.22]"
     table = WrittenTable("table1", registry.table("table1").columns, tuple(rows), (tmp_path / "tables" / "table1.csv",))
     page = html.main(tmp_path / "report.html", [table], [], split="test").read_text()
     nordland = _table_texts(page, "table1-nordland-paper-4")
     assert nordland[0] == ["", *METHODS, "Mean", "Improved"]  # methods as columns, in the rows' order
     # the paper's numbers; its Mean column 0.1660, 0.1069, 37.79 and 7 of 7 improved
-    assert nordland[1] == ["VPR+SM", "0.6522", "0.0220", "0.0155", "0.0061", "0.2478", "0.2164", "0.0017", "0.1660",
-                           ""]
-    assert nordland[2] == ["VPR+SM+Pred", "0.4862", "0.0136", "0.0106", "0.0042", "0.1274", "0.1050", "0.0011",
-                           "0.1069", ""]
-    assert nordland[3] == ["Reduction (%)", "25.46", "38.17", "31.31", "31.96", "48.61", "51.46", "37.55", "37.79",
-                           "7 / 7"]
+    # (the paper's numbers have no interval: [n/a] beside each method's)
+    assert nordland[1] == ["VPR+SM", *(f"{v} [n/a]" for v in ("0.6522", "0.0220", "0.0155", "0.0061", "0.2478",
+                                                               "0.2164", "0.0017")), "0.1660", ""]
+    assert nordland[2] == ["VPR+SM+Pred", *(f"{v} [n/a]" for v in ("0.4862", "0.0136", "0.0106", "0.0042", "0.1274",
+                                                                    "0.1050", "0.0011")), "0.1069", ""]
+    assert nordland[3] == ["Reduction (%)", *(f"{v} [n/a]" for v in ("25.46", "38.17", "31.31", "31.96", "48.61",
+                                                                      "51.46", "37.55")), "37.79", "7 / 7"]
     robotcar = _table_texts(page, "table1-oxford-robotcar-paper-4")
     assert robotcar[1][-2:] == ["0.0827", ""] and robotcar[2][-2:] == ["0.0679", ""]
-    assert robotcar[3] == ["Reduction (%)", "-14.22", "-4.45", "21.31", "29.34", "39.83", "34.07", "26.95", "18.98",
-                           "5 / 7"]
+    assert robotcar[3] == ["Reduction (%)", *(f"{v} [n/a]" for v in ("-14.22", "-4.45", "21.31", "29.34", "39.83",
+                                                                      "34.07", "26.95")), "18.98", "5 / 7"]
     # the page leads with Table I, then the rest; no sorting on the paper's layout
     assert page.index('id="findings"') < page.index('id="pr-curves"') < page.index('id="provenance"')
     assert 'class="paper table1"' in page
@@ -522,10 +585,17 @@ def test_every_declared_column_is_in_the_files_and_on_the_page(full_report_run):
         assert rows, spec.name
         if spec.name not in PAPER_LAYOUT:
             md = [line for line in stem.with_suffix(".md").read_text().splitlines() if line.startswith("| ")]
-            assert [cell.strip() for cell in md[0].strip("|").split("|")] == names, spec.name
+            # Markdown and LaTeX write a number's interval in its cell, a difference's interval in one column
+            merged = []
+            for name in names:
+                if name.endswith("_ci_low") and name.removesuffix("_ci_low") not in names:
+                    merged.append(name.removesuffix("_low"))
+                elif not name.endswith(("_ci_low", "_ci_high")):
+                    merged.append(name)
+            assert [cell.strip() for cell in md[0].strip("|").split("|")] == merged, spec.name
             tex = stem.with_suffix(".tex").read_text().splitlines()
             head = tex[tex.index(next(line for line in tex if line.startswith(r"\begin{tabular}"))) + 1]
-            assert [c.replace(r"\_", "_") for c in head.removesuffix(r"\\").split(" & ")] == names, spec.name
+            assert [c.replace(r"\_", "_") for c in head.removesuffix(r"\\").split(" & ")] == merged, spec.name
         # the page's whole table: every column by its name, every number written as its column says
         whole = _table_texts(page, f"all-{spec.name}")
         assert whole[0] == names and len(whole) == len(rows) + 1, spec.name
