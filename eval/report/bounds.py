@@ -74,6 +74,12 @@ def with_interval(text: str, row: Mapping[str, Any], name: str, fmt: str) -> str
     return f"{text} {bracket(of(row, name), fmt)}"
 
 
-def span(interval: Interval, digits: int = 1, unit: str = " %") -> str:
-    """An interval as a sentence says it: ``-40.0 % to 35.0 %``."""
-    return f"{interval.low:.{digits}f}{unit} to {interval.high:.{digits}f}{unit}"
+def number(value: float) -> str:
+    """A bound as a sentence says it: one decimal, two significant digits below 0.05 in magnitude."""
+    return f"{value:.1f}" if abs(value) >= 0.05 or value == 0 else f"{value:.2g}"
+
+
+def span(interval: Interval, unit: str = " %", fmt: str = "") -> str:
+    """An interval as a sentence says it: ``-40.0 % to 35.0 %`` (``fmt``: a format spec instead of ``number``)."""
+    low, high = (f"{v:{fmt}}" if fmt else number(v) for v in (interval.low, interval.high))
+    return f"{low}{unit} to {high}{unit}"

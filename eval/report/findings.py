@@ -380,8 +380,11 @@ def _untold(rows: Sequence[dict[str, Any]]) -> list[str]:
 # --- the training-free baselines (method §12) -------------------------------------------------------------------
 
 
-def _difference(interval: Interval | None) -> str:
-    return "no interval" if interval is None else f"interval {bounds.span(interval, unit=' points')}"
+def _difference(interval: Interval | None, ap: bool = False) -> str:
+    """The interval of a paired difference: of reductions in points (per cent), of average precisions in AP."""
+    if interval is None:
+        return "no interval"
+    return f"interval {bounds.span(interval, unit='', fmt='.3f') if ap else bounds.span(interval, unit=' points')}"
 
 
 def baseline_sentence(comparison: Comparison, split: str) -> str:
@@ -447,11 +450,11 @@ def detection_sentence(found: Sequence[DetectionComparison], split: str) -> str:
         if difference is None:
             text += ", without an interval of the difference: nothing tells which detects better"
         elif difference.sign() > 0:
-            text += f", and beats the predictor ({_difference(difference)})"
+            text += f", and beats the predictor (difference {_difference(difference, ap=True)})"
         elif difference.sign() < 0:
-            text += f", and the predictor beats it ({_difference(difference)})"
+            text += f", and the predictor beats it (difference {_difference(difference, ap=True)})"
         else:
-            text += (f"; the {_difference(difference)} contains 0: {one.n_queries} queries are too few to tell which "
+            text += (f"; the difference's {_difference(difference, ap=True)} contains 0: {one.n_queries} queries are too few to tell which "
                      "detects better")
         parts.append(text)
     return (f"Detecting wrong matches on {first.dataset} ({split} split, L = {first.seq_len}), average precision "
