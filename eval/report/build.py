@@ -22,8 +22,8 @@ from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path
 from vpr_smr.core.records import FormatError
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport
-from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report import bounds, registry
+from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report.baselines import baseline_rows, comparisons, detection_rows, with_best
 from vpr_smr.eval.report.results import (
     Order,
@@ -1031,5 +1031,6 @@ def main(
                                       [*order.datasets], split, order)
         written.append(html_report.main(
             out_dir / registry.HTML, tables, [*figures, *inspected], order=order, split=split, config=config,
-            provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets, splits=splits))
+            provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets, splits=splits,
+            protocols=inputs.protocols))
     return written

@@ -400,7 +400,10 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
     else:
         best_mean = comparison.best_mean
         mean = "" if best_mean is None else f", mean seed-0 reduction {signed(best_mean)}"
-        wins, losses, untold, none = [], [], [], []
+        wins: list[str] = []
+        losses: list[str] = []
+        untold: list[str] = []
+        none: list[str] = []
         differences = comparison.differences or tuple(None for _ in comparison.methods)
         for method, difference in zip(comparison.methods, differences, strict=True):
             sign = None if difference is None else difference.sign()
@@ -454,8 +457,8 @@ def detection_sentence(found: Sequence[DetectionComparison], split: str) -> str:
         elif difference.sign() < 0:
             text += f", and the predictor beats it (difference {_difference(difference, ap=True)})"
         else:
-            text += (f"; the difference's {_difference(difference, ap=True)} contains 0: {one.n_queries} queries are too few to tell which "
-                     "detects better")
+            text += (f"; the difference's {_difference(difference, ap=True)} contains 0: {one.n_queries} queries are "
+                     "too few to tell which detects better")
         parts.append(text)
     return (f"Detecting wrong matches on {first.dataset} ({split} split, L = {first.seq_len}), average precision "
             "among the training-free scorers (seed 0): " + "; ".join(parts) + ".")

@@ -25,8 +25,15 @@ from vpr_smr.core.io import atomic_path, package_version, read_provenance
 from vpr_smr.core.paths import queries_path
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report import registry
-from vpr_smr.eval.report.baselines import comparisons, headline
-from vpr_smr.eval.report.findings import baseline_sentence, sentences, speed_sentences, sweep_sentences
+from vpr_smr.eval.report.baselines import comparisons, detection_comparisons, headline
+from vpr_smr.eval.report.findings import (
+    baseline_sentence,
+    detection_sentence,
+    sentences,
+    speed_sentences,
+    sweep_sentences,
+)
+from vpr_smr.eval.report.findings import headline as finding_headline
 from vpr_smr.eval.report.results import (
     Order,
     Splits,
@@ -279,7 +286,8 @@ def findings(table1: WrittenTable | None, split: str, predictor: WrittenTable | 
         warned = predictor_warnings(predictor, block.dataset, block.seq_len)
         out.append(Finding(title, (*warned, *sentences(block, split)),
                            table1_view(block, anchor("table1", block.dataset, block.mode, block.seq_len)),
-                           block.query_note(split)))
+                           block.query_note(split), finding_headline(block, split)
+                           + (" The predictor cannot be trusted here (details below)." if warned else "")))
     return tuple(out)
 
 
@@ -378,7 +386,11 @@ class _Builder:
                    "the ground truth. Detecting wrong matches is threshold-free: the average precision and ROC AUC "
                    "of each confidence against the wrong matches (a random ranking's average precision is the "
                    "fraction of wrong matches).")
-        intro = tuple(baseline_sentence(c, self.split) for c in found) + (budget, scorers)
+        by_key: dict[tuple[str, int], list[Any]] = {}
+        for one in detection_comparisons(detection):
+            by_key.setdefault((one.dataset, one.seq_len), []).append(one)
+        detected = tuple(detection_sentence(group, self.split) for group in by_key.values())
+        intro = tuple(baseline_sentence(c, self.split) for c in found) + detected + (budget, scorers)
         return Section("baselines", "Is the predictor better than a simple rule?", intro, tuple(blocks),
                        self.folded("baselines", "wrong_match_detection"))
 
@@ -677,9 +689,11 @@ def build_page(
     title: str = "vpr-smr report",
     datasets: dict[str, dict[str, Any]] | None = None,
     splits: Splits | None = None,
+    protocols: Mapping[str, str] | None = None,
 ) -> Page:
     """The page's view model from the tables and figures of the run folder ``run_dir``: ``split`` is the table
-    split, ``splits`` every split's name by role (default: ``split`` alone)."""
+    split, ``splits`` every split's name by role (default: ``split`` alone), ``protocols`` per dataset its ground
+    truth as the tables say it (``build.protocols``; default: from the dataset cards)."""
     order = order or Order(tuple(datasets or {}))
     by_name = {t.name: t for t in tables}
     general, files = provenance_rows(provenance, descriptor_paths)
@@ -694,7 +708,9 @@ def build_page(
     found = findings(by_name.get("table1"), split, by_name.get("predictor"))
     table1_files = (", ".join(_relative(p, run_dir) for p in by_name["table1"].files[1:]) + " hold this layout; "
                     + _relative(by_name["table1"].files[0], run_dir) + " every column") if "table1" in by_name else ""
-    protocols = {name: ground_truth_text(info) for name, info in (datasets or {}).items()}
+    if protocols is None:
+        protocols = {name: ground_truth_text(info) for name, info in (datasets or {}).items()}
+    named = [f"{name} {text}" for name, text in protocols.items() if text]
     sections = _Builder(tables, figures, order, split, run_dir, splits, protocols).sections()
     dataset_table = by_name.get("datasets")
     descriptor_table = data_table("provenance-files", [registry.Column(key) for key in ("file", *DESCRIPTOR_KEYS)],
@@ -708,7 +724,7 @@ def build_page(
         findings_files=table1_files, sections=tuple(sections), cards=page_cards,
         datasets_table=folded(dataset_table, run_dir) if dataset_table else None, cite=how_to_cite(version),
         provenance=_provenance_table(general), descriptor_files=descriptor_table, configuration=_config_text(config),
-        nav=tuple(nav))
+        nav=tuple(nav), ground_truth="Correct matches: " + "; ".join(named) if named else "")
 
 
 def render(page: Page) -> str:
@@ -734,11 +750,13 @@ def main(
     title: str = "vpr-smr report",
     datasets: dict[str, dict[str, Any]] | None = None,
     splits: Splits | None = None,
+    protocols: Mapping[str, str] | None = None,
 ) -> Path:
     """Write the page to ``out`` (temporary name, then rename; its folder is the run folder) and return its path."""
     out = Path(out)
     page = build_page(tables, figures, out.parent, order=order, split=split, config=config, provenance=provenance,
-                      descriptor_paths=descriptor_paths, title=title, datasets=datasets, splits=splits)
+                      descriptor_paths=descriptor_paths, title=title, datasets=datasets, splits=splits,
+                      protocols=protocols)
     text = render(page)
     with atomic_path(out) as tmp:
         tmp.write_text(text, encoding="utf-8")

@@ -168,8 +168,8 @@ PREDICTED = tuple(Column(f"predicted_{c}", f"predicted {c}") for c in range(4))
 def with_ci(column: Column) -> tuple[Column, Column, Column]:
     """A number and the bounds of its 95 % bootstrap interval over queries (``bounds``: ``<name>_ci_low`` and
     ``_ci_high``, empty without one): three CSV columns, one Markdown and LaTeX cell ``78.20 [70.10, 85.00]``."""
-    return (column, *(Column(f"{column.name}_ci_{end}", f"{column.header}, {end}", column.fmt)
-                      for end in ("low", "high")))
+    low, high = (Column(f"{column.name}_ci_{end}", f"{column.header}, {end}", column.fmt) for end in ("low", "high"))
+    return column, low, high
 
 
 def bound_columns(name: str, label: str, fmt: str = ".4f") -> tuple[Column, Column]:

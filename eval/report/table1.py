@@ -297,7 +297,7 @@ def _tex_reduction(row: dict[str, Any] | None, value: float | None) -> str:
         return tex_escape(words.reduction_cell(row, UNDEFINED)) if row is not None else UNDEFINED
     if row is None:
         return f"{value:.2f}"
-    colour = {1: "green", -1: "red"}.get(words.direction(row), "black")
+    colour = {1: "green", -1: "red"}.get(words.direction(row) or 0, "black")
     text = rf"\textcolor{{{colour}}}{{{value:.2f}}} {bounds.bracket(bounds.of(row, 'reduction_pct'), '.2f')}"
     return tex_escape(words.reduction_cell(row, "@@")).replace("@@", text)
 

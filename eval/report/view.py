@@ -88,9 +88,10 @@ class Finding:
     """Table I of one dataset in one mode at one L, in the paper's layout, with what it shows in words."""
 
     title: str
-    sentences: tuple[str, ...]
+    sentences: tuple[str, ...]  # the details, folded below the table: warnings, every sentence, the seeds
     table: TableView
     note: str = ""  # the queries the numbers are over
+    headline: str = ""  # the first screen's one sentence (``findings.headline``)
 
 
 @dataclass(frozen=True)
@@ -116,6 +117,7 @@ class Page:
     descriptor_files: TableView | None
     configuration: str
     nav: tuple[tuple[str, str], ...] = field(default=())  # (anchor, title) of every section on the page
+    ground_truth: str = ""  # the first screen's line: each dataset's ground truth ("Correct matches: ...")
 
 
 # --- cells ------------------------------------------------------------------------------------------------------
