@@ -158,9 +158,10 @@ def _with_interval(value: float | None, row: dict[str, Any], name: str, fmt: str
 
 
 def _aoc_mean_note(rows: Sequence[dict[str, Any]]) -> str:
-    """`` (mean over k of n methods)`` when some methods' AOCs are left out of the AOC rows' Mean."""
-    counted = sum(not words.at_recall_zero(r) for r in rows)
-    return "" if counted in (0, len(rows)) else f" (mean over {counted} of {len(rows)} methods)"
+    """`` (mean over k of n methods: a, b)`` when some methods' AOCs are left out of the AOC rows' Mean."""
+    counted = [r for r in rows if not words.at_recall_zero(r)]
+    return "" if len(counted) in (0, len(rows)) else (
+        f" (mean over {len(counted)} of {len(rows)} methods: {_names(counted)})")
 
 
 def notes(rows: Sequence[dict[str, Any]]) -> list[str]:
