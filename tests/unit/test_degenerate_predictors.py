@@ -269,7 +269,8 @@ def test_the_aoc_means_leave_out_a_method_whose_aocs_are_at_recall_zero():
     text = table1_markdown(rows)
     # b's AOCs are taken at recall 0: the means are a's alone, 0.2 and 0.1, not (0.2 + 0) / 2
     # (the methods a Mean is over are named; no interval: [n/a] beside each method's number)
-    assert "| d | VPR+SM | 0.2000 [n/a] | 0.0000 [n/a] (own: 0.3000) | 0.2000 (mean over 1 of 2 methods: a) |  |" in text
+    assert ("| d | VPR+SM | 0.2000 [n/a] | 0.0000 [n/a] (own: 0.3000) | 0.2000 (mean over 1 of 2 methods: a) |  |"
+            in text)
     assert "|  | VPR+SM+Pred | 0.1000 [n/a] | removed every match | 0.1000 (mean over 1 of 2 methods: a) |  |" in text
     assert ("|  | Reduction (%) | 50.00 [n/a] | n/a: removed every match | 50.00 (mean over 1 of 2 methods: a) | "
             "1 / 2 |") in text
