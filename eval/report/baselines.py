@@ -5,7 +5,9 @@ comparison of one dataset, mode and L that the findings sentence and the figure 
 Every number comes from the ``vpr-smr baselines`` files (``records.Baselines``), unrounded. A scorer's number at a
 budget is the seed-0 predictor's budget (as Table I is the seed-0 predictor's), and every seed's budget gives the
 mean and sample standard deviation over the seeds (undefined with fewer than two seeds whose reduction is
-defined); ``random``'s headline number is that mean, since one draw of a random order says little.
+defined); ``random``'s table cell shows that mean, since one draw of a random order says little. Comparisons (the
+best scorer, the sentences) set like against like: every scorer's seed-0 number against the seed-0 predictor's,
+each with its interval over queries and the paired interval of its difference from the predictor's (``bounds``).
 """
 
 from __future__ import annotations
@@ -16,9 +18,11 @@ from typing import Any
 
 import numpy as np
 
+from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report.results import Order
 from vpr_smr.eval.scoring.baselines import ORACLE, PREDICTOR, RANDOM, SCORERS, TRAINING_FREE
-from vpr_smr.eval.scoring.records import Baselines, SplitBaselines
+from vpr_smr.eval.scoring.intervals import Interval
+from vpr_smr.eval.scoring.records import Baselines, SplitBaselines, Versus
 
 
 def _split(record: Baselines, split: str) -> SplitBaselines:
@@ -56,8 +60,8 @@ def _sorted(records: Iterable[Baselines], order: Order | None) -> list[Baselines
 
 
 def headline(row: dict[str, Any]) -> float | None:
-    """The number a scorer is compared by: its reduction at the seed-0 predictor's budget; random's mean over the
-    seeds."""
+    """The number a scorer's table cell shows: its reduction at the seed-0 predictor's budget; random's mean over the
+    seeds (beside its spread). Comparisons take every scorer's seed-0 number instead (like with like)."""
     value: float | None = row.get("reduction_pct_mean" if row["scorer"] == RANDOM else "reduction_pct")
     return value
 
@@ -75,6 +79,7 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
         if (seq_lens is not None and seq_len not in seq_lens) or not found.removal:
             continue
         first = found.removal[0]
+        versus: dict[str, Versus] = found.versus_predictor or {}
         modes = sorted({mode for removal in first.scorers.values() for mode in removal.modes}, key=order.mode)
         for mode in modes:
             for scorer in (name for name in SCORERS if name in first.scorers):
@@ -89,7 +94,12 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
                              "reduction_pct": numbers.reduction_pct,
                              "outcome": numbers.outcome, "reduction_pct_mean": mean, "reduction_pct_std": std,
                              "reduction_pct_min": low, "reduction_pct_max": high, "n_seeds": len(values),
-                             "n_seeds_defined": defined, "n_queries": found.n_queries})
+                             "n_seeds_defined": defined, "n_queries": found.n_queries,
+                             **bounds.flat("aoc_vpr_sm", numbers.aoc_vpr_sm_ci),
+                             **bounds.flat("aoc", numbers.aoc_vpr_sm_pred_ci),
+                             **bounds.flat("reduction_pct", numbers.reduction_pct_ci),
+                             **bounds.flat("reduction_pct_difference", versus[scorer].reduction_pct_difference_ci
+                                           .get(mode) if scorer in versus else None)})
     return sorted(rows, key=lambda r: (order.mode(r["mode"]), r["seq_len"], order.dataset(r["dataset"]),
                                        order.method(r["method"]), SCORERS.index(r["scorer"])))
 
@@ -106,13 +116,17 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
         if seq_lens is not None and seq_len not in seq_lens:
             continue
         found = _split(record, split)
+        versus = found.versus_predictor or {}
         for scorer in (name for name in SCORERS if name in found.detection):
             numbers = found.detection[scorer]
             row = {"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "scorer": scorer,
                    "average_precision": numbers.average_precision, "roc_auc": numbers.roc_auc,
                    "average_precision_mean": None, "average_precision_std": None, "roc_auc_mean": None,
                    "roc_auc_std": None, "n_seeds": 1, "wrong_fraction": found.wrong_fraction,
-                   "n_wrong": found.n_wrong, "n_queries": found.n_queries}
+                   "n_wrong": found.n_wrong, "n_queries": found.n_queries,
+                   **bounds.flat("average_precision", numbers.average_precision_ci),
+                   **bounds.flat("average_precision_difference", versus[scorer].average_precision_difference_ci
+                                 if scorer in versus else None)}
             if scorer == RANDOM:
                 ap = _spread([d.average_precision for d in found.random_detection])
                 auc = _spread([d.roc_auc for d in found.random_detection])
@@ -122,13 +136,13 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
     return rows
 
 
-def best_scorer(rows: Iterable[dict[str, Any]]) -> dict[str, Any] | None:
-    """The row of the training-free scorer with the largest ``headline`` number among ``rows`` (one method's, one
-    mode's), the first in ``SCORERS``' order on a tie; None when none is defined."""
-    candidates = [r for r in rows if r["scorer"] in TRAINING_FREE and headline(r) is not None]
+def best_scorer(rows: Iterable[dict[str, Any]], key: str = "reduction_pct") -> dict[str, Any] | None:
+    """The row of the training-free scorer with the largest seed-0 ``key`` among ``rows`` (one method's, one
+    mode's: as the seed-0 predictor's), the first in ``SCORERS``' order on a tie; None when none is defined."""
+    candidates = [r for r in rows if r["scorer"] in TRAINING_FREE and r.get(key) is not None]
     if not candidates:
         return None
-    return max(candidates, key=lambda r: (headline(r), -SCORERS.index(r["scorer"])))
+    return max(candidates, key=lambda r: (r[key], -SCORERS.index(r["scorer"])))
 
 
 def _groups(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], list[dict[str, Any]]]:
@@ -156,7 +170,7 @@ def with_best(table_rows: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any
         group = groups.get((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), [])
         found = best_scorer(group)
         if found is not None:
-            extra = {"best_scorer": found["scorer"], "best_scorer_reduction_pct": headline(found),
+            extra = {"best_scorer": found["scorer"], "best_scorer_reduction_pct": found["reduction_pct"],
                      "best_scorer_outcome": found["outcome"], "best_scorer_auc": found.get("auc")}
         else:
             outcomes = {r["outcome"] for r in group if r["scorer"] in TRAINING_FREE}
@@ -168,7 +182,9 @@ def with_best(table_rows: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any
 @dataclass(frozen=True)
 class Comparison:
     """One dataset, mode and L: per method the predictor's reduction, the best training-free scorer's (the one
-    with the largest mean over the methods, ``best``) and the oracle's, all at the seed-0 predictor's budget."""
+    with the largest mean over the methods of its seed-0 reductions, ``best``) and the oracle's, all seed 0's at the
+    seed-0 predictor's budget; ``differences``: per method the paired interval of the best scorer's reduction minus
+    the predictor's (None without one); ``n_queries``: per method the queries they are over."""
 
     dataset: str
     mode: str
@@ -179,12 +195,14 @@ class Comparison:
     best_values: tuple[float | None, ...]
     oracle: tuple[float | None, ...]
     budgets: tuple[int, ...]
+    differences: tuple[Interval | None, ...] = ()
+    n_queries: tuple[int | None, ...] = ()
 
     @property
     def beaten(self) -> int:
-        """Methods where the predictor's reduction is above the best training-free scorer's (both defined)."""
-        return sum(p is not None and b is not None and p > b
-                   for p, b in zip(self.predictor, self.best_values, strict=True))
+        """Methods where the predictor beats the best training-free scorer: the interval of the scorer's reduction
+        minus the predictor's lies below 0."""
+        return sum(d is not None and d.sign() < 0 for d in self.differences)
 
     @property
     def undefined(self) -> tuple[str, ...]:
@@ -210,12 +228,49 @@ def comparisons(rows: Sequence[dict[str, Any]]) -> list[Comparison]:
     for (dataset, mode, seq_len), group in groups.items():
         methods = tuple(dict.fromkeys(str(r["method"]) for r in group))
         by = {(str(r["method"]), str(r["scorer"])): r for r in group}
-        values = {name: tuple(headline(by[(m, name)]) if (m, name) in by else None for m in methods)
+        values = {name: tuple(by[(m, name)]["reduction_pct"] if (m, name) in by else None for m in methods)
                   for name in SCORERS}
         means = {name: _spread(values[name])[0] for name in TRAINING_FREE}
         defined = [name for name in TRAINING_FREE if means[name] is not None]
         best = max(defined, key=lambda name: (means[name] or 0.0, -SCORERS.index(name))) if defined else None
+        differences = tuple(bounds.of(by[(m, best)], "reduction_pct_difference") if (m, best) in by else None
+                            for m in methods) if best is not None else tuple(None for _ in methods)
         out.append(Comparison(dataset, mode, seq_len, methods, best, values[PREDICTOR],
                               values[best] if best is not None else tuple(None for _ in methods), values[ORACLE],
-                              tuple(int(by[(m, PREDICTOR)]["budget"]) for m in methods if (m, PREDICTOR) in by)))
+                              tuple(int(by[(m, PREDICTOR)]["budget"]) for m in methods if (m, PREDICTOR) in by),
+                              differences, tuple(by[(m, PREDICTOR)].get("n_queries") if (m, PREDICTOR) in by
+                                                 else None for m in methods)))
+    return out
+
+
+@dataclass(frozen=True)
+class DetectionComparison:
+    """One dataset, L and method: the training-free scorer with the highest seed-0 average precision of detecting
+    wrong matches (``best``, None when none is defined), its and the seed-0 predictor's, and the paired interval of
+    the difference (the scorer's minus the predictor's)."""
+
+    dataset: str
+    seq_len: int
+    method: str
+    best: str | None
+    average_precision: float | None
+    predictor: float | None
+    difference: Interval | None
+    n_queries: int
+
+
+def detection_comparisons(rows: Sequence[dict[str, Any]]) -> list[DetectionComparison]:
+    """``detection_rows`` per dataset, L and method (in the rows' order), each a ``DetectionComparison``."""
+    groups: dict[tuple[str, int, str], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((str(row["dataset"]), int(row["seq_len"]), str(row["method"])), []).append(row)
+    out = []
+    for (dataset, seq_len, method), group in groups.items():
+        best = best_scorer(group, "average_precision")
+        predictor = next((r for r in group if r["scorer"] == PREDICTOR), None)
+        out.append(DetectionComparison(
+            dataset, seq_len, method, None if best is None else str(best["scorer"]),
+            None if best is None else best["average_precision"],
+            None if predictor is None else predictor["average_precision"],
+            None if best is None else bounds.of(best, "average_precision_difference"), int(group[0]["n_queries"])))
     return out

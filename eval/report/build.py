@@ -22,8 +22,8 @@ from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path
 from vpr_smr.core.records import FormatError
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport
+from vpr_smr.eval.report import bounds, registry
 from vpr_smr.eval.report import figures as fig
-from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.baselines import baseline_rows, comparisons, detection_rows, with_best
 from vpr_smr.eval.report.results import (
     Order,
@@ -247,7 +247,7 @@ def trust_rows(evaluations: Sequence[Evaluation], split: str, order: Order | Non
             for mode, numbers in result.modes.items():
                 for level, values in (numbers.trust_auc or {}).items():
                     rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
-                                 "mode": mode, "trust": float(level), **values.to_json(),
+                                 "mode": mode, "trust": float(level), **bounds.flatten(values.to_json()),
                                  "n_queries": result.n_queries})
     return rows
 
@@ -262,7 +262,7 @@ def restoration_rows(evaluations: Sequence[Evaluation], split: str, order: Order
                 continue
             for mode, numbers in result.restoration.modes.items():
                 rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
-                             "mode": mode, **result.restoration.counts(), **numbers.to_json(),
+                             "mode": mode, **result.restoration.counts(), **bounds.flatten(numbers.to_json()),
                              "n_queries": result.n_queries})
     return rows
 
@@ -284,6 +284,8 @@ def lomo_rows(results: Sequence[HeldOut], order: Order | None = None) -> list[di
                 "reduction_pct_without": without.modes[mode].reduction.reduction_pct,
                 "outcome_pooled": pooled.modes[mode].reduction.outcome,
                 "outcome_without": without.modes[mode].reduction.outcome,
+                **bounds.flat("reduction_pct_pooled", pooled.modes[mode].reduction.reduction_pct_ci),
+                **bounds.flat("reduction_pct_without", without.modes[mode].reduction.reduction_pct_ci),
             })
     return sorted(rows, key=lambda r: (order.mode(r["mode"]), order.dataset(r["dataset"]), int(r["seq_len"]),
                                        order.method(r["held_out"])))
@@ -399,14 +401,22 @@ def sweep_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = 
         for mode, points in found.sweep.modes.items():
             for point in points:
                 reduction = point.reduction
+                # recall_at_1_single_evaluated: over the same queries as the sequence recall, which
+                # recall_change_ci (sequence minus single, paired) is of
                 rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
                              "ground_truth": found.sweep.kind, "threshold": point.threshold,
                              "recall_at_1_single": point.recall_at_1_single,
                              "recall_at_1_sequence": point.recall_at_1_sequence,
+                             "recall_at_1_single_evaluated": point.recall_at_1_single_evaluated,
+                             **bounds.flat("recall_change", point.recall_change_ci),
+                             # the evaluated queries: the sequence matcher's recall@1 denominator
+                             "n_queries": found.modes[mode]["sequence"].n_queries
+                             if "sequence" in found.modes.get(mode, {}) else None,
                              **({} if reduction is None else {
                                  "max_recall": reduction.max_recall, "aoc_vpr_sm": reduction.aoc_vpr_sm,
                                  "aoc_vpr_sm_pred": reduction.aoc_vpr_sm_pred,
-                                 "reduction_pct": reduction.reduction_pct, "outcome": reduction.outcome})})
+                                 "reduction_pct": reduction.reduction_pct, "outcome": reduction.outcome,
+                                 **bounds.flat("reduction_pct", reduction.reduction_pct_ci)})})
     return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), r["seq_len"], order.mode(r["mode"]),
                                        order.method(r["method"]), r["threshold"]))
 
@@ -439,18 +449,44 @@ def _cell(value: Any, column: str = "") -> str:
     return str(value)
 
 
+def _shown(columns: Sequence[str]) -> list[str]:
+    """The Markdown and LaTeX columns: a number's interval bounds (``bounds``) go into its cell, and the bounds of
+    an interval without its number (a paired difference) into one column ``<name>_ci``."""
+    out: list[str] = []
+    for column in columns:
+        name = bounds.base(column)
+        if not bounds.is_bound(column):
+            out.append(column)
+        elif name not in columns and f"{name}_ci" not in out:
+            out.append(f"{name}_ci")
+    return out
+
+
+def _text(row: dict[str, Any], column: str, columns: Sequence[str]) -> str:
+    """A Markdown or LaTeX cell: the number with its interval ``78.2000 [70.1000, 85.0000]`` where the table has its
+    bounds, the interval alone in a ``<name>_ci`` column; ``[n/a]`` without one."""
+    if column.endswith("_ci") and column not in columns:
+        return bounds.bracket(bounds.of(row, column.removesuffix("_ci")), ".4f")
+    text = _cell(row.get(column), column)
+    if bounds.columns(column)[0] in columns and row.get(column) is not None:
+        text += " " + bounds.bracket(bounds.of(row, column), ".4f")
+    return text
+
+
 def markdown_table(columns: Sequence[str], rows: Iterable[dict[str, Any]], title: str = "") -> str:
+    shown = _shown(columns)
     out = [f"# {title}", ""] if title else []
-    out += ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
-    out += ["| " + " | ".join(_cell(row.get(c), c) for c in columns) + " |" for row in rows]
+    out += ["| " + " | ".join(shown) + " |", "|" + "---|" * len(shown)]
+    out += ["| " + " | ".join(_text(row, c, columns) for c in shown) + " |" for row in rows]
     return "\n".join(out) + "\n"
 
 
 def latex_table(columns: Sequence[str], rows: Iterable[dict[str, Any]], title: str = "") -> str:
+    shown = _shown(columns)
     out = [f"% {title}"] if title else []
-    out += [r"\begin{tabular}{" + "l" * len(columns) + "}", " & ".join(tex_escape(c) for c in columns) + r"\\",
+    out += [r"\begin{tabular}{" + "l" * len(shown) + "}", " & ".join(tex_escape(c) for c in shown) + r"\\",
             r"\hline"]
-    out += [" & ".join(tex_escape(_cell(row.get(c), c)) for c in columns) + r"\\" for row in rows]
+    out += [" & ".join(tex_escape(_text(row, c, columns)) for c in shown) + r"\\" for row in rows]
     return "\n".join(out + [r"\end{tabular}", ""])
 
 
@@ -1002,5 +1038,6 @@ def main(
                                       [*order.datasets], split, order)
         written.append(html_report.main(
             out_dir / registry.HTML, tables, [*figures, *inspected], order=order, split=split, config=config,
-            provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets, splits=splits))
+            provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets, splits=splits,
+            protocols=inputs.protocols))
     return written

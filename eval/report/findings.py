@@ -13,10 +13,12 @@ from typing import Any
 
 import numpy as np
 
+from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report import outcome_words as words
-from vpr_smr.eval.report.baselines import Comparison
-from vpr_smr.eval.report.table1 import Table1Block
-from vpr_smr.eval.scoring.curves import NOTHING_TO_REDUCE
+from vpr_smr.eval.report.baselines import Comparison, DetectionComparison
+from vpr_smr.eval.report.table1 import UNDEFINED, Table1Block, seed_std
+from vpr_smr.eval.scoring.curves import NOTHING_TO_REDUCE, UNCHANGED
+from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.sweep import within
 
 AOC = "area over the PR curve"
@@ -48,7 +50,7 @@ def listed(items: Sequence[str]) -> str:
 def _seed_part(row: dict[str, Any]) -> str | None:
     """``method mean ± std %`` over the seeds (and how many, with the seeds left out and why, when only some are
     defined); None when undefined."""
-    mean, std = row.get("reduction_pct_mean"), row.get("reduction_pct_std")
+    mean, std = row.get("reduction_pct_mean"), seed_std(row)
     if mean is None:
         return None
     n_seeds = row["n_seeds"]
@@ -89,19 +91,55 @@ def _why_undefined(rows: Sequence[dict[str, Any]]) -> str:
     return f" ({'; '.join(reasons)})" if reasons else ""
 
 
+def _verdict(row: dict[str, Any]) -> str:
+    """What a method's seed-0 reduction says, by its interval (``outcome_words.direction``): ``better``,
+    ``worse``, ``same`` (unchanged), ``untold`` (the interval contains 0) or ``no_interval``."""
+    found = words.direction(row)
+    if found is None:
+        return "no_interval"
+    if found:
+        return "better" if found > 0 else "worse"
+    return "same" if row.get("outcome") == UNCHANGED else "untold"
+
+
+def _queries(rows: Sequence[dict[str, Any]]) -> str:
+    """The queries the rows' numbers are over: ``28``, or ``28-31`` where the methods differ."""
+    known = sorted({int(r["n_queries"]) for r in rows if r.get("n_queries") is not None})
+    return "" if not known else str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
+
+
+def too_few(row: dict[str, Any], split: str) -> str:
+    """The sentence of a method whose reduction's interval contains 0 (or that has none)."""
+    n = _queries([row])
+    on = f"On the {split} split's {n} queries" if n else f"On the {split} split"
+    interval = bounds.of(row, "reduction_pct")
+    if interval is None:
+        return (f"{on} {row['method']}'s reduction of {signed(float(row['reduction_pct']))} has no interval: "
+                "nothing tells whether the predictor helps.")
+    return (f"{on} the interval of {row['method']}'s reduction, {bounds.span(interval)}, contains 0: too few "
+            "queries to tell whether the predictor helps.")
+
+
+def _with_span(row: dict[str, Any], text: str) -> str:
+    interval = bounds.of(row, "reduction_pct")
+    return text if interval is None else f"{text} (interval {bounds.span(interval)})"
+
+
 def sentences(block: Table1Block, split: str) -> list[str]:
-    """What the predictor did to the area over the PR curve of each method of one dataset, mode and L. A method
+    """What the predictor did to the area over the PR curve of each method of one dataset, mode and L. A direction
+    (reduced, made worse) is stated only where the reduction's 95 % interval over queries excludes 0; a method whose
+    interval contains 0, or that has none, gets a sentence saying that its queries are too few to tell. A method
     whose predictor was degenerate (removed every match, kept no correct one, made a perfect baseline worse, kept
     every match) gets its own sentence saying what happened (``outcome_words``) and counts as not improved."""
     rows = block.rows
     where = f"On {block.dataset} ({split} split, L = {block.seq_len}, {block.mode} mode, seed-0 predictor)"
     plain = [r for r in rows if not words.is_degenerate(r)]
     degenerate = [r for r in rows if words.is_degenerate(r)]
-    better = sorted(((str(r["method"]), float(r["reduction_pct"])) for r in plain if r["reduction_pct"] > 0),
-                    key=lambda item: -item[1])
-    worse = sorted(((str(r["method"]), float(r["reduction_pct"])) for r in plain if r["reduction_pct"] < 0),
-                   key=lambda item: item[1])
-    same = [str(r["method"]) for r in plain if r["reduction_pct"] == 0]
+    verdicts = {str(r["method"]): _verdict(r) for r in plain}
+    better = sorted((r for r in plain if verdicts[str(r["method"])] == "better"), key=lambda r: -r["reduction_pct"])
+    worse = sorted((r for r in plain if verdicts[str(r["method"])] == "worse"), key=lambda r: r["reduction_pct"])
+    same = [str(r["method"]) for r in plain if verdicts[str(r["method"])] == "same"]
+    untold = [r for r in plain if verdicts[str(r["method"])] in ("untold", "no_interval")]
     out = []
     if degenerate and all(r.get("outcome") == NOTHING_TO_REDUCE and not words.lowered_recall(r) for r in rows):
         whose = f"{rows[0]['method']}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
@@ -109,33 +147,64 @@ def sentences(block: Table1Block, split: str) -> list[str]:
                    "reduction is undefined.")
         return out + _seed_sentences(block)
     if len(rows) == 1 and plain:
-        method, value = str(rows[0]["method"]), float(rows[0]["reduction_pct"])
-        if value > 0:
-            out.append(f"{where} the predictor reduced {method}'s {AOC} by {size(value)}.")
-        elif value < 0:
-            out.append(f"{where} the predictor made {method}'s {AOC} {size(value)} worse (larger).")
-        else:
+        row = rows[0]
+        method, value = str(row["method"]), float(row["reduction_pct"])
+        verdict = verdicts[method]
+        if verdict == "better":
+            out.append(_with_span(row, f"{where} the predictor reduced {method}'s {AOC} by {size(value)}") + ".")
+        elif verdict == "worse":
+            out.append(_with_span(row, f"{where} the predictor made {method}'s {AOC} {size(value)} worse (larger)")
+                       + ".")
+        elif verdict == "same":
             out.append(f"{where} the predictor left {method}'s {AOC} unchanged.")
+        else:
+            out += [f"{where} {method}'s reduction is {signed(value)}.", too_few(row, split)]
     elif len(rows) == 1:
         out.append(f"{where}, for {rows[0]['method']}, {words.note(rows[0])}.")
     else:
         if better:
             clauses = [f"reduced the {AOC} for {len(better)} of {methods(len(rows))}: "
-                       + ", ".join(f"{m} by {size(v)}" for m, v in better)]
+                       + ", ".join(_with_span(r, f"{r['method']} by {size(r['reduction_pct'])}") for r in better)]
         else:
             clauses = [f"reduced the {AOC} for none of the {len(rows)} methods"]
         if worse:
-            clauses.append("it made " + listed([f"{m}'s {size(v)}" for m, v in worse]) + " worse")
+            clauses.append("it made " + listed([_with_span(r, f"{r['method']}'s {size(r['reduction_pct'])}")
+                                                for r in worse]) + " worse")
         if same:
             clauses.append("it left " + listed([f"{m}'s" for m in same]) + " unchanged")
+        if untold:
+            clauses.append("too few queries to tell for " + listed([str(r["method"]) for r in untold]))
         out.append(f"{where} the predictor " + "; ".join(clauses) + ".")
+        out += [too_few(r, split) for r in untold]
         out += [f"For {r['method']}, {words.note(r)}." for r in degenerate]
         defined = [float(r["reduction_pct"]) for r in rows if r["reduction_pct"] is not None]
         if len(defined) > 1:
             these = "these" if len(defined) < len(rows) else "the"
             out.append(f"The mean reduction over {these} {len(defined)} methods is {signed(float(np.mean(defined)))} "
-                       "(Table I's Mean).")
+                       "(Table I's Mean, seed 0).")
     return out + _seed_sentences(block)
+
+
+VERDICT = {"better": "it helps", "worse": "it hurts", "same": "unchanged", "untold": "too few queries to tell",
+           "no_interval": "no interval to tell by"}
+
+
+def headline(block: Table1Block, split: str) -> str:
+    """The first screen's one sentence of a Table I block: per method the seed-0 reduction, its interval and what
+    they say (a direction only where the interval excludes 0)."""
+    parts = []
+    for row in block.rows:
+        method = str(row["method"])
+        if words.is_degenerate(row):
+            parts.append(f"{method} {UNDEFINED if row.get('reduction_pct') is None else signed(row['reduction_pct'])}"
+                         f", {words.SHORT[str(row['outcome'])]}")
+            continue
+        interval = bounds.bracket(bounds.of(row, "reduction_pct"), ".1f")
+        parts.append(f"{method} {signed(float(row['reduction_pct']))} {interval}, {VERDICT[_verdict(row)]}")
+    n = _queries(block.rows)
+    queries = f"{n} {split} queries" if n else f"{split} split"
+    return (f"{block.dataset} ({queries}, L = {block.seq_len}, {block.mode} mode): the seed-0 predictor's AOC "
+            f"reduction with its 95 % interval is " + "; ".join(parts) + ".")
 
 
 # --- the speed experiment ---------------------------------------------------------------------------------------
@@ -245,19 +314,18 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
     by_method = {name: sorted((r for r in rows if r["method"] == name), key=lambda r: r["threshold"])
                  for name in names}
     changes = []
-    flipped = _flip({name: [(r["threshold"], r.get("reduction_pct")) for r in mine]
+    # a sign counts only where the interval excludes 0 (``bounds``): elsewhere the queries are too few to tell it
+    flipped = _flip({name: [(r["threshold"], r.get("reduction_pct") if words.direction(r) else None) for r in mine]
                      for name, mine in by_method.items()})
     if flipped:
         name, t_up, up, t_down, down = flipped
         changes.append(f"the predictor's AOC reduction for {name} changes sign ({signed(up)} "
                        f"{within(kind, t_up)}, {signed(down)} {within(kind, t_down)})")
-    gains = {name: [(r["threshold"], r["recall_at_1_sequence"] - r["recall_at_1_single"]) for r in mine]
-             for name, mine in by_method.items()}
-    flipped = _flip(gains)
+    flipped = _flip({name: [(r["threshold"], _gain(r)) for r in mine] for name, mine in by_method.items()})
     if flipped:
         name, t_up, up, t_down, down = flipped
-        changes.append(f"sequence matching changes {name}'s recall@1 by {100 * up:+.1f} points "
-                       f"{within(kind, t_up)} but {100 * down:+.1f} {within(kind, t_down)}")
+        changes.append(f"sequence matching changes {name}'s recall@1 over the same queries by {100 * up:+.1f} "
+                       f"points {within(kind, t_up)} but {100 * down:+.1f} {within(kind, t_down)}")
     recall = {(str(r["method"]), float(r["threshold"])): float(r["recall_at_1_sequence"]) for r in rows}
     for i, a in enumerate(names):
         swap = next(((b, t1, t2) for b in names[i + 1:] for t1 in thresholds for t2 in thresholds
@@ -272,18 +340,58 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
     span = f"{low:g} to {high:g} frames" if kind == "frames" else f"a radius of {low:g} to {high:g}"
     where = (f"With matches counted correct within {span} ({first['dataset']}, {first['split']} split, "
              f"L = {first['seq_len']}, {first['mode']} mode)")
+    untold = _untold(rows)
     if changes:
-        return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}."]
+        return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}.", *untold]
     return [f"{where}, no conclusion depends on the ground truth: the predictor's AOC reduction keeps its sign for "
-            f"every method, so does sequence matching's gain over single frames, and no two methods swap places by "
-            "sequence recall@1."]
+            f"every method, so does sequence matching's gain over single frames (each where its interval excludes "
+            "0), and no two methods swap places by sequence recall@1.", *untold]
+
+
+def _gain(row: dict[str, Any]) -> float | None:
+    """Sequence matching's change of recall@1 over single frames on the same queries (``recall_at_1_single_
+    evaluated``), where its paired interval (``recall_change``) excludes 0; None elsewhere: no direction. Never
+    the single-frame recall over another denominator."""
+    single = row.get("recall_at_1_single_evaluated")
+    if single is None or not (bounds.sign(row, "recall_change") or 0):
+        return None
+    return float(row["recall_at_1_sequence"]) - float(single)
+
+
+def _untold(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """A sentence naming the thresholds (per method) where the sweep's intervals contain 0 or are missing: there
+    the queries are too few to tell the sign of the reduction or of sequence matching's change."""
+    kind = str(rows[0]["ground_truth"])
+    parts = []
+    for name in dict.fromkeys(str(r["method"]) for r in rows):
+        mine = [r for r in rows if r["method"] == name]
+        reduction = [r for r in mine if r.get("reduction_pct") is not None and words.direction(r) in (0, None)
+                     and r.get("outcome") != UNCHANGED]
+        change = [r for r in mine if _gain(r) is None]
+        for what, found in (("its AOC reduction", reduction), ("sequence matching's change of recall@1", change)):
+            if found:
+                where = ", ".join(f"{r['threshold']:g}" for r in found)
+                parts.append(f"{name}, {what} at {where}{' frames' if kind == 'frames' else ''}")
+    if not parts:
+        return []
+    n = _queries(rows)
+    over = f"its {n} queries are" if n else "its queries are"
+    return [f"Where an interval contains 0 (or there is none) {over} too few to tell the sign: {'; '.join(parts)}."]
 # --- the training-free baselines (method §12) -------------------------------------------------------------------
 
 
+def _difference(interval: Interval | None, ap: bool = False) -> str:
+    """The interval of a paired difference: of reductions in points (per cent), of average precisions in AP."""
+    if interval is None:
+        return "no interval"
+    return f"interval {bounds.span(interval, unit='', fmt='.3f') if ap else bounds.span(interval, unit=' points')}"
+
+
 def baseline_sentence(comparison: Comparison, split: str) -> str:
-    """For how many methods the seed-0 predictor's AOC reduction beats the best training-free scorer's at its budget
-    (the scorer with the largest mean reduction over the methods; random's is its mean over the seeds), and what
-    removing only wrong matches (the oracle) would do at that budget, mean over the methods."""
+    """Whether the seed-0 predictor's AOC reduction beats the best training-free scorer's at its budget (the scorer
+    with the largest mean of its seed-0 reductions over the methods: seed 0 against seed 0), method by method by the
+    paired interval of the difference (a direction only where it excludes 0), and what removing only wrong matches
+    (the oracle) would do at that budget, mean over the methods."""
     where = (f"On {comparison.dataset} ({split} split, L = {comparison.seq_len}, {comparison.mode} mode), at the "
              "seed-0 predictor's budget")
     n = len(comparison.methods)
@@ -291,9 +399,26 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
         text = f"{where} no training-free scorer has a defined AOC reduction for any of the {methods(n)}"
     else:
         best_mean = comparison.best_mean
-        mean = "" if best_mean is None else f", mean reduction {signed(best_mean)}"
+        mean = "" if best_mean is None else f", mean seed-0 reduction {signed(best_mean)}"
+        wins: list[str] = []
+        losses: list[str] = []
+        untold: list[str] = []
+        none: list[str] = []
+        differences = comparison.differences or tuple(None for _ in comparison.methods)
+        for method, difference in zip(comparison.methods, differences, strict=True):
+            sign = None if difference is None else difference.sign()
+            target = none if sign is None else wins if sign < 0 else losses if sign > 0 else untold
+            target.append(f"{method} ({_difference(difference)})" if difference is not None else method)
         text = (f"{where} the predictor beats the best training-free scorer ({comparison.best}{mean}) for "
-                f"{comparison.beaten} of {methods(n)}")
+                f"{len(wins)} of {methods(n)}" + (f": {listed(wins)}" if wins else ""))
+        if losses:
+            text += f"; {comparison.best} beats the predictor for {listed(losses)}"
+        if untold:
+            queries = _span_of(comparison.n_queries)
+            text += (f"; for {listed(untold)} the interval of the difference contains 0: "
+                     f"{queries + ' queries are ' if queries else 'the queries are '}too few to tell")
+        if none:
+            text += f"; no interval of the difference for {listed(none)}"
         if comparison.undefined:
             text += f" (a reduction is undefined for {listed(list(comparison.undefined))})"
     oracle = comparison.oracle_mean
@@ -305,3 +430,35 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
         elif n > 1:
             text += " (mean over the methods)"
     return text + "."
+
+
+def _span_of(values: Sequence[int | None]) -> str:
+    known = sorted({int(v) for v in values if v is not None})
+    return "" if not known else str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
+
+
+def detection_sentence(found: Sequence[DetectionComparison], split: str) -> str:
+    """Wrong-match detection on one dataset and L: per method the training-free scorer with the highest average
+    precision (seed 0's, as the predictor's) and whether it beats the predictor, by the paired interval of the
+    difference (a direction only where it excludes 0)."""
+    first = found[0]
+    parts = []
+    for one in found:
+        if one.best is None or one.average_precision is None:
+            parts.append(f"for {one.method} no training-free scorer has an average precision (no wrong match)")
+            continue
+        against = "" if one.predictor is None else f" against the predictor's {one.predictor:.3f}"
+        text = f"for {one.method} {one.best} has the highest, {one.average_precision:.3f}{against}"
+        difference = one.difference
+        if difference is None:
+            text += ", without an interval of the difference: nothing tells which detects better"
+        elif difference.sign() > 0:
+            text += f", and beats the predictor (difference {_difference(difference, ap=True)})"
+        elif difference.sign() < 0:
+            text += f", and the predictor beats it (difference {_difference(difference, ap=True)})"
+        else:
+            text += (f"; the difference's {_difference(difference, ap=True)} contains 0: {one.n_queries} queries are "
+                     "too few to tell which detects better")
+        parts.append(text)
+    return (f"Detecting wrong matches on {first.dataset} ({split} split, L = {first.seq_len}), average precision "
+            "among the training-free scorers (seed 0): " + "; ".join(parts) + ".")

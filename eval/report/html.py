@@ -25,8 +25,15 @@ from vpr_smr.core.io import atomic_path, package_version, read_provenance
 from vpr_smr.core.paths import queries_path
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report import registry
-from vpr_smr.eval.report.baselines import comparisons, headline
-from vpr_smr.eval.report.findings import baseline_sentence, sentences, speed_sentences, sweep_sentences
+from vpr_smr.eval.report.baselines import comparisons, detection_comparisons, headline
+from vpr_smr.eval.report.findings import (
+    baseline_sentence,
+    detection_sentence,
+    sentences,
+    speed_sentences,
+    sweep_sentences,
+)
+from vpr_smr.eval.report.findings import headline as finding_headline
 from vpr_smr.eval.report.results import (
     Order,
     Splits,
@@ -111,7 +118,10 @@ def row_cell(row: dict[str, Any], column: registry.Column) -> Cell:
     outcome = row.get(column.name.replace("reduction_pct", "outcome")) if is_reduction(column.name) else None
     if value is None and outcome in words.SHORT:
         return Cell(f"{UNDEFINED}: {words.SHORT[outcome]}", kind="na")
-    return cell(value, column.name, fmt=column.fmt)
+    found = cell(value, column.name, fmt=column.fmt)
+    if is_reduction(column.name) and found.kind in ("up", "down"):  # coloured only where its interval says so
+        return Cell(found.text, found.sort, {1: "up", -1: "down"}.get(words.direction(row, column.name) or 0, "num"))
+    return found
 
 
 def _pivot(spec: registry.Table) -> registry.Pivot:
@@ -184,8 +194,8 @@ def scorer_table(table_id: str, rows: Sequence[dict[str, Any]], value: str, capt
             if scorer == "random" and value == "reduction_pct" and row:
                 mean, std = headline(row), row.get("reduction_pct_std")
                 text = UNDEFINED if mean is None else f"{mean:.2f}" + ("" if std is None else f" ± {std:.2f}")
-                cells.append(Cell(text, "" if mean is None else repr(mean),
-                                  "na" if mean is None else "up" if mean > 0 else "down" if mean < 0 else "num"))
+                # the seeds' spread, not an interval over queries: not coloured
+                cells.append(Cell(text, "" if mean is None else repr(mean), "na" if mean is None else "num"))
             elif scorer == "random" and row.get(f"{value}_mean") is not None:
                 cells.append(cell(row[f"{value}_mean"], value, fmt=".4f"))
             else:
@@ -232,21 +242,31 @@ def table1_view(block: Table1Block, table_id: str) -> TableView:
     for i, name in enumerate(ROW_NAMES):
         column = "reduction_pct" if i == 2 else "aoc"
         # the numbers' cells (sorting value, colour), with Table I's words where a number would mislead
-        texts = cells(block.rows, summary, i, "{:.2f}" if i == 2 else "{:.4f}")
+        texts = cells(block.rows, summary, i, ".2f" if i == 2 else ".4f")
         numbers = [cell(v, column) for v in summary[i]]
-        row = [Cell(t, c.sort, c.kind) for t, c in zip(texts, numbers, strict=True)]
+        # colour: a method's reduction only where its interval says a direction (``outcome_words.direction``)
+        kinds = [_reduction_kind(r, c.kind) for r, c in zip(block.rows, numbers, strict=False)] + [
+            "num" if i == 2 and summary[i][-1] is not None else numbers[-1].kind]
+        row = [Cell(t, c.sort, k) for t, c, k in zip(texts, numbers, kinds, strict=True)]
         if i == 2 and note:
             row[-1] = Cell(row[-1].text + note, row[-1].sort, row[-1].kind)
         rows.append((text_cell(name, header=True), *row, text_cell(improved if i == 2 else "")))
     if block.has_seeds:
         texts, last = block.seed_cells()
-        means = [r.get("reduction_pct_mean") for r in block.rows]
-        kinds = ["na" if m is None else "up" if m > 0 else "down" if m < 0 else "num" for m in means] + ["num"]
+        # the seeds' spread is no interval over queries: the means are not coloured
+        kinds = ["na" if r.get("reduction_pct_mean") is None else "num" for r in block.rows] + ["num"]
         rows.append((text_cell(SEED_ROW_NAME, header=True),
                      *(Cell(t, kind=k) for t, k in zip(texts, kinds, strict=True)), text_cell(last)))
     undefined = any(c.text.startswith(UNDEFINED) for row in rows for c in row)
     below = [*notes(block.rows), *([UNDEFINED_NOTE] if undefined else [])]
     return TableView(table_id, head, tuple(rows), note=" ".join(below), sortable=False, css="paper table1")
+
+
+def _reduction_kind(row: dict[str, Any], kind: str) -> str:
+    """A reduction cell's class: ``up``/``down`` only where ``outcome_words.direction`` says so, else neutral."""
+    if kind not in ("up", "down"):
+        return kind
+    return {1: "up", -1: "down"}.get(words.direction(row) or 0, "num")
 
 
 def predictor_warnings(predictor: WrittenTable | None, dataset: str, seq_len: int) -> list[str]:
@@ -266,7 +286,8 @@ def findings(table1: WrittenTable | None, split: str, predictor: WrittenTable | 
         warned = predictor_warnings(predictor, block.dataset, block.seq_len)
         out.append(Finding(title, (*warned, *sentences(block, split)),
                            table1_view(block, anchor("table1", block.dataset, block.mode, block.seq_len)),
-                           block.query_note(split)))
+                           block.query_note(split), finding_headline(block, split)
+                           + (" The predictor cannot be trusted here (details below)." if warned else "")))
     return tuple(out)
 
 
@@ -365,7 +386,11 @@ class _Builder:
                    "the ground truth. Detecting wrong matches is threshold-free: the average precision and ROC AUC "
                    "of each confidence against the wrong matches (a random ranking's average precision is the "
                    "fraction of wrong matches).")
-        intro = tuple(baseline_sentence(c, self.split) for c in found) + (budget, scorers)
+        by_key: dict[tuple[str, int], list[Any]] = {}
+        for one in detection_comparisons(detection):
+            by_key.setdefault((one.dataset, one.seq_len), []).append(one)
+        detected = tuple(detection_sentence(group, self.split) for group in by_key.values())
+        intro = tuple(baseline_sentence(c, self.split) for c in found) + detected + (budget, scorers)
         return Section("baselines", "Is the predictor better than a simple rule?", intro, tuple(blocks),
                        self.folded("baselines", "wrong_match_detection"))
 
@@ -664,9 +689,11 @@ def build_page(
     title: str = "vpr-smr report",
     datasets: dict[str, dict[str, Any]] | None = None,
     splits: Splits | None = None,
+    protocols: Mapping[str, str] | None = None,
 ) -> Page:
     """The page's view model from the tables and figures of the run folder ``run_dir``: ``split`` is the table
-    split, ``splits`` every split's name by role (default: ``split`` alone)."""
+    split, ``splits`` every split's name by role (default: ``split`` alone), ``protocols`` per dataset its ground
+    truth as the tables say it (``build.protocols``; default: from the dataset cards)."""
     order = order or Order(tuple(datasets or {}))
     by_name = {t.name: t for t in tables}
     general, files = provenance_rows(provenance, descriptor_paths)
@@ -681,7 +708,9 @@ def build_page(
     found = findings(by_name.get("table1"), split, by_name.get("predictor"))
     table1_files = (", ".join(_relative(p, run_dir) for p in by_name["table1"].files[1:]) + " hold this layout; "
                     + _relative(by_name["table1"].files[0], run_dir) + " every column") if "table1" in by_name else ""
-    protocols = {name: ground_truth_text(info) for name, info in (datasets or {}).items()}
+    if protocols is None:
+        protocols = {name: ground_truth_text(info) for name, info in (datasets or {}).items()}
+    named = [f"{name} {text}" for name, text in protocols.items() if text]
     sections = _Builder(tables, figures, order, split, run_dir, splits, protocols).sections()
     dataset_table = by_name.get("datasets")
     descriptor_table = data_table("provenance-files", [registry.Column(key) for key in ("file", *DESCRIPTOR_KEYS)],
@@ -695,7 +724,7 @@ def build_page(
         findings_files=table1_files, sections=tuple(sections), cards=page_cards,
         datasets_table=folded(dataset_table, run_dir) if dataset_table else None, cite=how_to_cite(version),
         provenance=_provenance_table(general), descriptor_files=descriptor_table, configuration=_config_text(config),
-        nav=tuple(nav))
+        nav=tuple(nav), ground_truth="Correct matches: " + "; ".join(named) if named else "")
 
 
 def render(page: Page) -> str:
@@ -721,11 +750,13 @@ def main(
     title: str = "vpr-smr report",
     datasets: dict[str, dict[str, Any]] | None = None,
     splits: Splits | None = None,
+    protocols: Mapping[str, str] | None = None,
 ) -> Path:
     """Write the page to ``out`` (temporary name, then rename; its folder is the run folder) and return its path."""
     out = Path(out)
     page = build_page(tables, figures, out.parent, order=order, split=split, config=config, provenance=provenance,
-                      descriptor_paths=descriptor_paths, title=title, datasets=datasets, splits=splits)
+                      descriptor_paths=descriptor_paths, title=title, datasets=datasets, splits=splits,
+                      protocols=protocols)
     text = render(page)
     with atomic_path(out) as tmp:
         tmp.write_text(text, encoding="utf-8")

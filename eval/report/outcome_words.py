@@ -11,6 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from vpr_smr.eval.report import bounds
 from vpr_smr.eval.scoring.curves import (
     HARMFUL,
     IMPROVED,
@@ -21,6 +22,7 @@ from vpr_smr.eval.scoring.curves import (
     NOTHING_TO_REDUCE,
     REMOVED_ALL,
     UNDEFINED,
+    WORSE,
     WORSE_FROM_ZERO,
 )
 
@@ -52,6 +54,19 @@ def lowered_recall(row: Mapping[str, Any]) -> bool:
 
 def improved(row: Mapping[str, Any]) -> bool:
     return row.get("outcome") == IMPROVED
+
+
+def direction(row: Mapping[str, Any], name: str = "reduction_pct") -> int | None:
+    """What the reduction ``name`` of ``row`` says: +1 (improved, its interval above 0), -1 (worse, below 0), 0 (no
+    direction: the interval contains 0, or the outcome is neither improved nor worse, e.g. ``unchanged``), None (an
+    improved or worse outcome without an interval: nothing to tell it by)."""
+    outcome = row.get(name.replace("reduction_pct", "outcome"))
+    if outcome not in (IMPROVED, WORSE):
+        return 0
+    sign = bounds.sign(row, name)
+    if sign is None:
+        return None
+    return sign if sign == (1 if outcome == IMPROVED else -1) else 0
 
 
 def improved_on_average(row: Mapping[str, Any]) -> bool:

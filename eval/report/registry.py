@@ -163,6 +163,20 @@ RECALL_SINGLE = Column("recall_at_1_single", "R@1 single")
 RECALL_SEQUENCE = Column("recall_at_1_sequence", "R@1 sequence")
 F1_MACRO, F1_CV = Column("f1_macro", "macro F1"), Column("f1_cv", "F1 cross-validation")
 PREDICTED = tuple(Column(f"predicted_{c}", f"predicted {c}") for c in range(4))
+
+
+def with_ci(column: Column) -> tuple[Column, Column, Column]:
+    """A number and the bounds of its 95 % bootstrap interval over queries (``bounds``: ``<name>_ci_low`` and
+    ``_ci_high``, empty without one): three CSV columns, one Markdown and LaTeX cell ``78.20 [70.10, 85.00]``."""
+    low, high = (Column(f"{column.name}_ci_{end}", f"{column.header}, {end}", column.fmt) for end in ("low", "high"))
+    return column, low, high
+
+
+def bound_columns(name: str, label: str, fmt: str = ".4f") -> tuple[Column, Column]:
+    """The bounds of the interval of a number no column holds (a paired difference): ``<name>_ci_low``, ``_high``."""
+    return Column(f"{name}_ci_low", f"{label}, low", fmt), Column(f"{name}_ci_high", f"{label}, high", fmt)
+
+
 # the column the report adds to every table's CSV in a run whose splits share frames (allow_split_overlap)
 SPLIT_OVERLAP = Column("split_overlap")
 # the column the report adds to every table's CSV whose datasets' ground truth is known: each row's dataset's, as
@@ -172,8 +186,8 @@ CORRECT_MATCHES = Column("correct_matches")
 # Table I's and the sequence-length table's numbers (per dataset, method, L and mode), with the spread of the
 # reduction over the predictor seeds
 SEEDS = (*(Column(f"reduction_pct_{s}", fmt=REDUCTION.fmt) for s in ("mean", "std", "min", "max")), Column("n_seeds"))
-TABLE1_NUMBERS = (DATASET, METHOD, SEQ_LEN, MODE, RECALL_SINGLE, RECALL_SEQUENCE, MAX_RECALL, AOC_VPR_SM,
-                  AOC_VPR_SM_PRED, REDUCTION, *SEEDS)
+TABLE1_NUMBERS = (DATASET, METHOD, SEQ_LEN, MODE, RECALL_SINGLE, RECALL_SEQUENCE, MAX_RECALL, *with_ci(AOC_VPR_SM),
+                  *with_ci(AOC_VPR_SM_PRED), *with_ci(REDUCTION), *SEEDS)
 # n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
 # n_queries_single: those recall_at_1_single is over (paper mode: every query of the split)
 QUERIES = (N_QUERIES, Column("n_queries_single"))
@@ -209,7 +223,7 @@ TABLES = (
           ("table1",), columns=(DATASET, SEQ_LEN, METHOD, Column("true_class"), *PREDICTED, Column("total"))),
     Table("trust_levels", "Trust-level ablation: PR AUC per trust level", ("table1", "trust"),
           columns=(DATASET, METHOD, SEQ_LEN, MODE, Column("trust", "trust level", "g"), REMOVED, MAX_RECALL,
-                   Column("auc"), Column("aoc"), AUC_VPR_SM, AOC_VPR_SM, REDUCTION, OUTCOME, N_QUERIES),
+                   Column("auc"), Column("aoc"), AUC_VPR_SM, AOC_VPR_SM, *with_ci(REDUCTION), OUTCOME, N_QUERIES),
           pivot=Pivot("trust", ("method",), ("reduction_pct",)),
           caption="AOC reduction (%) per trust level (columns: methods)"),
     Table("restoration", "Match restoration (second filter): removal against restoration", ("table1", "restoration"),
@@ -218,7 +232,7 @@ TABLES = (
                    Column("max_recall_removal"), Column("max_recall_restoration"), AUC_VPR_SM,
                    Column("auc_removal", "PR AUC removal"), Column("auc_restoration", "PR AUC restoration"),
                    Column("auc_difference", "PR AUC difference"), Column("aoc_removal"), Column("aoc_restoration"),
-                   Column("aoc_difference"), REDUCTION, N_QUERIES),
+                   Column("aoc_difference"), *with_ci(REDUCTION), N_QUERIES),
           page=("method", "removed", "restored", "wrong_to_right", "right_to_wrong", "auc_difference")),
     Table("timing", "Inference time per query: attributes + prediction", ("table1",),
           columns=(DATASET, METHOD, SEQ_LEN, SPLIT, N_QUERIES, Column("attributes_seconds", fmt=MS),
@@ -237,13 +251,18 @@ TABLES = (
           "predictor (method §12), per dataset, method, L and mode", ("baselines",),
           # budget: what the seed-0 predictor removes; removed: what the scorer removed (the oracle at most every
           # wrong match); aoc: the scorer's AOC at its own maximum recall; the seed columns: every seed's budget
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, SCORER, Column("budget"), REMOVED, MAX_RECALL, AOC_VPR_SM,
-                   Column("aoc", "AOC"), REDUCTION, OUTCOME, *SEEDS, Column("n_seeds_defined"), N_QUERIES),
+          # reduction_pct_difference: the scorer's reduction minus the seed-0 predictor's, paired over the same draws
+          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, SCORER, Column("budget"), REMOVED, MAX_RECALL,
+                   *with_ci(AOC_VPR_SM), *with_ci(Column("aoc", "AOC")), *with_ci(REDUCTION), OUTCOME,
+                   *bound_columns("reduction_pct_difference", "reduction minus the predictor's (%)", REDUCTION.fmt),
+                   *SEEDS, Column("n_seeds_defined"), N_QUERIES),
           caption="AOC reduction (%) of each scorer (rows) per method (columns) at the seed-0 predictor's budget; "
                   "random: mean ± sample standard deviation over the seeds"),
     Table("wrong_match_detection", "Detecting wrong matches: average precision and ROC AUC of each scorer against "
           "the wrong sequence matches (method §12), per dataset, method and L", ("baselines",),
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, SCORER, Column("average_precision", "AP"),
+          # average_precision_difference: the scorer's AP minus the seed-0 predictor's, paired over the same draws
+          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, SCORER, *with_ci(Column("average_precision", "AP")),
+                   *bound_columns("average_precision_difference", "AP minus the predictor's"),
                    Column("roc_auc", "ROC AUC"), Column("average_precision_mean", "AP mean"),
                    Column("average_precision_std", "AP std"), Column("roc_auc_mean", "ROC AUC mean"),
                    Column("roc_auc_std", "ROC AUC std"), Column("n_seeds"),
@@ -284,8 +303,9 @@ TABLES = (
           columns=(DATASET, SEQ_LEN, Column("held_out"), MODE, N_QUERIES, Column("f1_pooled", "F1 pooled"),
                    Column("f1_without", "F1 without"), Column("removed_pooled"), Column("removed_without"),
                    AOC_VPR_SM, Column("aoc_pooled", "AOC pooled"), Column("aoc_without", "AOC without"),
-                   Column("reduction_pct_pooled", "reduction pooled (%)", REDUCTION.fmt),
-                   Column("reduction_pct_without", "reduction without (%)", REDUCTION.fmt), Column("outcome_pooled"),
+                   *with_ci(Column("reduction_pct_pooled", "reduction pooled (%)", REDUCTION.fmt)),
+                   *with_ci(Column("reduction_pct_without", "reduction without (%)", REDUCTION.fmt)),
+                   Column("outcome_pooled"),
                    Column("outcome_without")),
           page=("held_out", "seq_len", "mode", "f1_pooled", "f1_without", "removed_pooled", "removed_without",
                 "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
@@ -294,8 +314,11 @@ TABLES = (
           ("protocol_sweep",),
           # ground_truth: the kind swept (frames or positions); threshold: its tolerance in frames or its radius
           columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, Column("ground_truth"),
-                   Column("threshold", "tolerance or radius", "g"), RECALL_SINGLE, RECALL_SEQUENCE, MAX_RECALL,
-                   AOC_VPR_SM, AOC_VPR_SM_PRED, REDUCTION, OUTCOME),
+                   Column("threshold", "tolerance or radius", "g"), RECALL_SINGLE, RECALL_SEQUENCE,
+                   # single-frame recall@1 over the sequence recall's queries, and the paired interval of the change
+                   Column("recall_at_1_single_evaluated", "R@1 single, same queries"),
+                   *bound_columns("recall_change", "R@1 sequence minus single"), MAX_RECALL,
+                   AOC_VPR_SM, AOC_VPR_SM_PRED, *with_ci(REDUCTION), OUTCOME, N_QUERIES),
           pivot=Pivot("threshold", ("method",), ("reduction_pct",)),
           caption="AOC reduction (%) per tolerance or radius (rows) and method (columns); recall@1: the figure and "
                   "the whole table below"),

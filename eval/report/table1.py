@@ -14,9 +14,10 @@ from typing import Any
 
 import numpy as np
 
+from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.results import Order, Splits
-from vpr_smr.eval.scoring.records import Evaluation, EvaluationSplit
+from vpr_smr.eval.scoring.records import Evaluation, EvaluationSplit, Reduction
 
 UNDEFINED = "n/a"  # a reduction whose baseline AOC is 0: JSON null, an empty CSV cell
 # The CSV's columns: registry.table("table1")
@@ -38,10 +39,25 @@ def _mode_numbers(split_result: EvaluationSplit, mode: str) -> dict[str, Any]:
     summary = split_result.seed_summary[mode]
     seeds = {key: value for key, value in summary.to_json().items() if key != "outcomes"}
     # recall@1 single by the mode's rule: paper mode over every query of the split (n_queries_single)
-    return {**numbers.reduction.to_json(), "recall_at_1_single": numbers.recall_at_1_single,
-            "recall_at_1_sequence": numbers.recall_at_1_sequence, **seeds, "seed_outcomes": summary.outcomes,
+    reduction = numbers.reduction
+    # each interval as its two columns (``bounds``); the std of fewer than two seeds is none (n/a), never 0
+    return {**reduction_numbers(reduction), "recall_at_1_single": numbers.recall_at_1_single,
+            "recall_at_1_sequence": numbers.recall_at_1_sequence, **seeds,
+            "reduction_pct_std": seeds["reduction_pct_std"] if summary.n_seeds_defined > 1 else None,
+            "seed_outcomes": summary.outcomes,
             "seeds_left_out": words.seeds_left_out(summary.outcomes), "removed": split_result.removed,
             "n_queries": n_queries, "n_queries_single": split_result.n_queries_split if mode == "paper" else n_queries}
+
+
+INTERVALS = ("aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")  # Reduction's numbers that carry an interval
+
+
+def reduction_numbers(reduction: Reduction) -> dict[str, Any]:
+    """A ``Reduction`` as a table row's columns: its numbers, and its intervals as ``bounds``' two columns each."""
+    data = {key: value for key, value in reduction.to_json().items() if not key.endswith("_ci")}
+    for name in INTERVALS:
+        data.update(bounds.flat(name, getattr(reduction, f"{name}_ci")))
+    return data
 
 
 def table1_rows(evaluations: Sequence[Evaluation], split: str | None = None,
@@ -82,18 +98,33 @@ def _defined(values: Iterable[float | None]) -> list[float]:
     return [v for v in values if v is not None]
 
 
-def _reduction_mean(values: Sequence[float | None]) -> tuple[float | None, str]:
-    """The mean of the defined reductions and, when some are undefined, how many it is over."""
-    defined = _defined(values)
-    mean = float(np.mean(defined)) if defined else None
-    # over some of the methods: say how many; over none there is no mean, and n/a says so
-    note = "" if len(defined) in (0, len(values)) else f" (mean over {len(defined)} of {len(values)} methods)"
+def _reduction_mean(rows: Sequence[dict[str, Any]], key: str = "reduction_pct") -> tuple[float | None, str]:
+    """The mean of the rows' defined ``key`` (the seed-0 reductions) and, when some are undefined, the methods it
+    is over, named."""
+    over = [r for r in rows if r.get(key) is not None]
+    mean = float(np.mean([r[key] for r in over])) if over else None
+    # over some of the methods: name them; over none there is no mean, and n/a says so
+    note = "" if len(over) in (0, len(rows)) else f" (mean over {len(over)} of {len(rows)} methods: {_names(over)})"
     return mean, note
+
+
+def _names(rows: Iterable[dict[str, Any]]) -> str:
+    return ", ".join(str(r["method"]) for r in rows)
 
 
 def _improved(rows: Sequence[dict[str, Any]], improved: Callable[[dict[str, Any]], bool]) -> str:
     """How many of all the methods improve: a method whose reduction is undefined counts as not improved."""
     return f"{sum(improved(r) for r in rows)} / {len(rows)}"
+
+
+def _improved_seed0(rows: Sequence[dict[str, Any]]) -> str:
+    """Improved for the seed-0 reductions, and how many of those improved have an interval above 0 where some
+    improved one has an interval that does not lie above 0 (``bounds``: only those are a direction)."""
+    text = _improved(rows, words.improved)
+    signs = [bounds.sign(r, "reduction_pct") for r in rows if words.improved(r)]
+    if any(sign is not None for sign in signs) and any(sign != 1 for sign in signs):
+        text += f" ({signs.count(1)} with the interval above 0)"
+    return text
 
 
 def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str, str]:
@@ -102,29 +133,35 @@ def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str,
     defined; the AOCs' over those whose AOCs are taken at a recall above 0 (``outcome_words.at_recall_zero``: both
     are 0 there, which is no AOC to average)."""
     reductions = [r["reduction_pct"] for r in rows]
-    mean, note = _reduction_mean(reductions)
+    mean, note = _reduction_mean(rows)
     counted = [not words.at_recall_zero(r) for r in rows]
     values = [[r["aoc_vpr_sm"] for r in rows], [r["aoc_vpr_sm_pred"] for r in rows]]
     means = [float(np.mean([v for v, c in zip(row, counted, strict=True) if c])) if any(counted) else None
              for row in values]
     return ([row + [m] for row, m in zip(values, means, strict=True)] + [reductions + [mean]], note,
-            _improved(rows, words.improved))
+            _improved_seed0(rows))
 
 
-def cells(rows: Sequence[dict[str, Any]], summary: list[list[float | None]], row: int, number: str
-          ) -> list[str]:
+def cells(rows: Sequence[dict[str, Any]], summary: list[list[float | None]], row: int, fmt: str) -> list[str]:
     """The texts of one of Table I's three rows (``row`` 0, 1, 2: VPR+SM, VPR+SM+Pred, Reduction) per method and
-    Mean, numbers formatted with ``number``, each method's cell saying in words where a number would mislead
-    (``outcome_words``)."""
+    Mean, numbers formatted with ``fmt`` (a format spec), each method's number with its interval (``bounds``) and
+    its cell saying in words where a number would mislead (``outcome_words``)."""
     method_cell = (words.baseline_cell, words.predictor_cell, words.reduction_cell)[row]
-    texts = [method_cell(r, _number(v, number)) for r, v in zip(rows, summary[row][:-1], strict=True)]
-    return texts + [_number(summary[row][-1], number) + (_aoc_mean_note(rows) if row < 2 else "")]
+    texts = [method_cell(r, _with_interval(v, r, INTERVALS[row], fmt))
+             for r, v in zip(rows, summary[row][:-1], strict=True)]
+    return texts + [_number(summary[row][-1], fmt) + (_aoc_mean_note(rows) if row < 2 else "")]
+
+
+def _with_interval(value: float | None, row: dict[str, Any], name: str, fmt: str) -> str:
+    """A method's number and its interval; ``n/a`` alone where the number is undefined."""
+    return UNDEFINED if value is None else bounds.with_interval(_number(value, fmt), row, name, fmt)
 
 
 def _aoc_mean_note(rows: Sequence[dict[str, Any]]) -> str:
-    """`` (mean over k of n methods)`` when some methods' AOCs are left out of the AOC rows' Mean."""
-    counted = sum(not words.at_recall_zero(r) for r in rows)
-    return "" if counted in (0, len(rows)) else f" (mean over {counted} of {len(rows)} methods)"
+    """`` (mean over k of n methods: a, b)`` when some methods' AOCs are left out of the AOC rows' Mean."""
+    counted = [r for r in rows if not words.at_recall_zero(r)]
+    return "" if len(counted) in (0, len(rows)) else (
+        f" (mean over {len(counted)} of {len(rows)} methods: {_names(counted)})")
 
 
 def notes(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -136,10 +173,25 @@ def _has_seeds(rows: list[dict[str, Any]]) -> bool:
     return all(r.get("n_seeds") is not None for r in rows)
 
 
+def seed_std(row: dict[str, Any]) -> float | None:
+    """The sample standard deviation over the seeds: None (n/a) over fewer than two defined seeds, never 0."""
+    defined = row.get("n_seeds_defined", row.get("n_seeds", 0))
+    std: float | None = row.get("reduction_pct_std")
+    return std if defined is not None and int(defined) > 1 else None
+
+
+def _every_seed(row: dict[str, Any]) -> bool:
+    """Every seed's reduction is defined: the row's mean is a mean of all ``n_seeds`` seeds."""
+    return row.get("reduction_pct_mean") is not None and row.get("n_seeds_defined", row["n_seeds"]) == row["n_seeds"]
+
+
 def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
-    """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the seeds counted, and those left
-    out named with the reason, where only some are), the mean of the defined means, and how many methods improve
-    on average (a method one of whose seeds did harm the mean cannot show does not)."""
+    """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the std ``n/a`` over fewer than two
+    seeds, the seeds counted, and those left out named with the reason, where only some are), their Mean, and how
+    many methods improve on average (a method one of whose seeds did harm the mean cannot show does not).
+
+    The Mean averages like with like: the means of all the seeds, over the methods whose every seed is defined
+    (named where some are left out); where it and the seed-0 Mean above differ in sign, it says why."""
     texts = []
     for r in rows:
         left_out = r.get("seeds_left_out", "")
@@ -149,16 +201,28 @@ def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
         defined = r.get("n_seeds_defined", r["n_seeds"])
         why = f"; {left_out}" if left_out else ""
         part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds{why})"
-        # a standard deviation of one seed is undefined (None), never 0
-        texts.append(f"{r['reduction_pct_mean']:.2f}{PLUS_MINUS}{_number(r['reduction_pct_std'], '{:.2f}')}{part}")
-    means = [r.get("reduction_pct_mean") for r in rows]
-    mean, note = _reduction_mean(means)
+        std = seed_std(r)
+        texts.append(f"{r['reduction_pct_mean']:.2f}{PLUS_MINUS}{UNDEFINED if std is None else f'{std:.2f}'}{part}")
     n_seeds = rows[0].get("n_seeds", "")
-    return texts + [_number(mean, "{:.2f}") + note], f"{_improved(rows, words.improved_on_average)} ({n_seeds} seeds)"
+    full = [r for r in rows if _every_seed(r)]
+    mean = float(np.mean([r["reduction_pct_mean"] for r in full])) if full else None
+    if mean is None:
+        note = f" (no method has all {n_seeds} seeds' reductions defined)" if any(
+            r.get("reduction_pct_mean") is not None for r in rows) else ""
+    else:
+        parts = [] if len(full) == len(rows) else [
+            f"mean over {len(full)} of {len(rows)} methods, those with all {n_seeds} seeds: {_names(full)}"]
+        seed0, _ = _reduction_mean(rows)
+        if seed0 is not None and seed0 * mean < 0:
+            over = [r for r in rows if r.get("reduction_pct") is not None]
+            parts.append(f"opposite in sign to the seed-0 Mean {seed0:.2f}, which is seed 0's predictor alone over "
+                         f"{_names(over)}, this one every seed's over {_names(full)}")
+        note = f" ({'; '.join(parts)})" if parts else ""
+    return texts + [_number(mean, ".2f") + note], f"{_improved(rows, words.improved_on_average)} ({n_seeds} seeds)"
 
 
 def _number(value: float | None, fmt: str) -> str:
-    return UNDEFINED if value is None else fmt.format(value)
+    return UNDEFINED if value is None else f"{value:{fmt}}"
 
 
 def _query_note(datasets: dict[str, list[dict[str, Any]]], split: str | None, mode: str) -> str:
@@ -202,7 +266,7 @@ def table1_markdown(rows: list[dict[str, Any]], split: str | None = None) -> str
         for dataset, dataset_rows in datasets.items():
             summary, note, improved = _summary(dataset_rows)
             for i, name in enumerate(ROW_NAMES):
-                texts = cells(dataset_rows, summary, i, "{:.2f}" if i == 2 else "{:.4f}")
+                texts = cells(dataset_rows, summary, i, ".2f" if i == 2 else ".4f")
                 if i == 2:
                     texts[-1] += note
                 last = improved if i == 2 else ""
@@ -227,11 +291,16 @@ def tex_escape(text: Any) -> str:
 
 
 def _tex_reduction(row: dict[str, Any] | None, value: float | None) -> str:
-    """A reduction in colour (green better, red worse); a method's ``row`` says in words where it is undefined."""
+    """A method's reduction and its interval, in colour only where the interval says a direction (green better, red
+    worse; black where it contains 0, where there is none, and for the Mean); a method's ``row`` says in words
+    where it is undefined."""
     if value is None:
         return tex_escape(words.reduction_cell(row, UNDEFINED)) if row is not None else UNDEFINED
-    text = rf"\textcolor{{{'green' if value > 0 else 'red' if value < 0 else 'black'}}}{{{value:.2f}}}"
-    return words.reduction_cell(row, text) if row is not None else text
+    if row is None:
+        return f"{value:.2f}"
+    colour = {1: "green", -1: "red"}.get(words.direction(row) or 0, "black")
+    text = rf"\textcolor{{{colour}}}{{{value:.2f}}} {bounds.bracket(bounds.of(row, 'reduction_pct'), '.2f')}"
+    return tex_escape(words.reduction_cell(row, "@@")).replace("@@", text)
 
 
 def table1_latex(rows: list[dict[str, Any]], split: str | None = None) -> str:
@@ -256,7 +325,7 @@ def table1_latex(rows: list[dict[str, Any]], split: str | None = None) -> str:
                     texts.append(_tex_reduction(None, summary[2][-1]) + tex_escape(note))
                     last = improved
                 else:
-                    texts, last = [tex_escape(t) for t in cells(dataset_rows, summary, i, "{:.4f}")], ""
+                    texts, last = [tex_escape(t) for t in cells(dataset_rows, summary, i, ".4f")], ""
                 label = tex_escape(dataset) if i == 0 else ""
                 out.append(f"{label} & {tex_escape(name)} & " + " & ".join(texts) + f" & {last}" + r"\\")
             if _has_seeds(dataset_rows):

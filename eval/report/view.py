@@ -10,6 +10,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report.table1 import UNDEFINED, is_reduction
 
 
@@ -87,9 +88,10 @@ class Finding:
     """Table I of one dataset in one mode at one L, in the paper's layout, with what it shows in words."""
 
     title: str
-    sentences: tuple[str, ...]
+    sentences: tuple[str, ...]  # the details, folded below the table: warnings, every sentence, the seeds
     table: TableView
     note: str = ""  # the queries the numbers are over
+    headline: str = ""  # the first screen's one sentence (``findings.headline``)
 
 
 @dataclass(frozen=True)
@@ -115,6 +117,7 @@ class Page:
     descriptor_files: TableView | None
     configuration: str
     nav: tuple[tuple[str, str], ...] = field(default=())  # (anchor, title) of every section on the page
+    ground_truth: str = ""  # the first screen's line: each dataset's ground truth ("Correct matches: ...")
 
 
 # --- cells ------------------------------------------------------------------------------------------------------
@@ -131,7 +134,7 @@ def cell(value: Any, column: str = "", header: bool = False, fmt: str = ".4f") -
         return Cell(str(value), sort=str(value), header=header)
     if isinstance(value, float):
         kind = "num"
-        if is_reduction(column) and value != 0:
+        if is_reduction(column) and value != 0 and not bounds.is_bound(column):
             kind = "up" if value > 0 else "down"
         return Cell(f"{value:{fmt}}", sort=repr(value), kind=kind, header=header)
     text = str(value)

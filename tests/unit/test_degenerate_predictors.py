@@ -113,7 +113,7 @@ def test_table1_names_a_predictor_that_removed_every_match(removed_all):
     build.main(tmp_path / "run", [tmp_path / "e.json"], [tmp_path / "p.json"])
     md = (tmp_path / "run" / "tables" / "table1.md").read_text()
     standard = md.split("## standard mode")[1]
-    assert f"| corridor | VPR+SM | 0.0000 (own: {aoc:.4f}) |" in standard
+    assert f"| corridor | VPR+SM | 0.0000 [n/a] (own: {aoc:.4f}) |" in standard
     assert "|  | VPR+SM+Pred | removed every match |" in standard
     assert "|  | Reduction (%) | n/a: removed every match | n/a | 0 / 1 |" in standard
     # both seeds removed everything: the spread says which and why, and no method counts as improved on average
@@ -247,7 +247,7 @@ def test_a_lowered_recall_is_said_and_the_baseline_keeps_its_own_aoc():
            "aoc_vpr_sm_pred": 0.0, "reduction_pct": None, "outcome": curves.NOTHING_TO_REDUCE,
            "max_recall": 1 / 3, "max_recall_vpr_sm": 1.0, "aoc_vpr_sm_own": 0.4, "n_queries": 130, "removed": 90}
     text = table1_markdown([row])
-    assert "| corridor | VPR+SM | 0.0000 (own: 0.4000) | 0.0000 |  |" in text
+    assert "| corridor | VPR+SM | 0.0000 [n/a] (own: 0.4000) | 0.0000 |  |" in text
     note = ("baseline AOC 0 up to the predictor's maximum recall 0.3333: nothing to reduce, the reduction is "
             "undefined (the predictor lowered the maximum recall from 1.0000; VPR+SM's own AOC is 0.4000 at its own "
             "maximum recall 1.0000)")
@@ -268,6 +268,9 @@ def test_the_aoc_means_leave_out_a_method_whose_aocs_are_at_recall_zero():
              "removed": 21}]
     text = table1_markdown(rows)
     # b's AOCs are taken at recall 0: the means are a's alone, 0.2 and 0.1, not (0.2 + 0) / 2
-    assert "| d | VPR+SM | 0.2000 | 0.0000 (own: 0.3000) | 0.2000 (mean over 1 of 2 methods) |  |" in text
-    assert "|  | VPR+SM+Pred | 0.1000 | removed every match | 0.1000 (mean over 1 of 2 methods) |  |" in text
-    assert "|  | Reduction (%) | 50.00 | n/a: removed every match | 50.00 (mean over 1 of 2 methods) | 1 / 2 |" in text
+    # (the methods a Mean is over are named; no interval: [n/a] beside each method's number)
+    assert ("| d | VPR+SM | 0.2000 [n/a] | 0.0000 [n/a] (own: 0.3000) | 0.2000 (mean over 1 of 2 methods: a) |  |"
+            in text)
+    assert "|  | VPR+SM+Pred | 0.1000 [n/a] | removed every match | 0.1000 (mean over 1 of 2 methods: a) |  |" in text
+    assert ("|  | Reduction (%) | 50.00 [n/a] | n/a: removed every match | 50.00 (mean over 1 of 2 methods: a) | "
+            "1 / 2 |") in text

@@ -166,20 +166,22 @@ def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
     run = tmp_path / "run"
     report.main(run, evaluations, [predictors])
     md = (run / "tables" / "table1.md").read_text()
-    assert "| d | VPR+SM | 0.2000 | 0.0000 | 0.4000 | 0.2000 |  |" in md  # AOCs: every method, (0.2 + 0 + 0.4) / 3
+    # AOCs: every method, (0.2 + 0 + 0.4) / 3; these hand-made files have no intervals: [n/a]
+    assert "| d | VPR+SM | 0.2000 [n/a] | 0.0000 [n/a] | 0.4000 [n/a] | 0.2000 |  |" in md
     # (10 + 30) / 2 = 20; two methods improve, m2 (nothing to reduce) does not: 2 of the 3
-    assert ("|  | Reduction (%) | 10.00 | n/a: nothing to reduce | 30.00 | 20.00 (mean over 2 of 3 methods) "
-            "| 2 / 3 |") in md
+    assert ("|  | Reduction (%) | 10.00 [n/a] | n/a: nothing to reduce | 30.00 [n/a] | 20.00 (mean over 2 of 3 "
+            "methods: m1, m3) | 2 / 3 |") in md
     # seed means 12 ± 2 and 28 ± 8, their mean 20; m2's three seeds are left out, and why
     assert ("|  | Reduction over seeds (%) | 12.00 ± 2.00 | n/a: seeds 0, 1, 2: nothing to reduce | 28.00 ± 8.00 "
-            "| 20.00 (mean over 2 of 3 methods) | 2 / 3 (3 seeds) |") in md
+            "| 20.00 (mean over 2 of 3 methods, those with all 3 seeds: m1, m3) | 2 / 3 (3 seeds) |") in md
     assert ("m2: baseline AOC 0 up to the predictor's maximum recall 1.0000: nothing to reduce, the reduction is "
             "undefined.") in md
     assert "n/a: the reduction is undefined (why: beside it, and below)" in md
     assert "d: 57 queries with a sequence match (single-frame recall@1 over all 60 of the split)" in md
     tex = (run / "tables" / "table1.tex").read_text()
     assert r"& n/a: nothing to reduce &" in tex
-    assert r"\textcolor{green}{20.00} (mean over 2 of 3 methods) & 2 / 3\\" in tex
+    # a Mean has no interval: not coloured
+    assert r"& 20.00 (mean over 2 of 3 methods: m1, m3) & 2 / 3\\" in tex
     rows = list(csv.DictReader(open(run / "tables" / "table1.csv")))
     assert [r["reduction_pct"] for r in rows] == ["10.0", "", "30.0"]  # undefined: an empty CSV cell
     assert [r["reduction_pct_mean"] for r in rows] == ["12.0", "", "28.0"]
@@ -195,13 +197,14 @@ def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
     # m2's reduction_pct (with its outcome's reason) and its seed mean, std, min and max in Table I's CSV; its
     # reduction in the trust table
     reason = '<td class="na">n/a: nothing to reduce</td>'
-    assert undefined("all-table1") == 4 and undefined("all-table1", reason) == 1
-    assert undefined("all-trust_levels") == 0 and undefined("all-trust_levels", reason) == 1
+    # and every row's reduction interval bounds (none in these files: 3 rows x 2 bounds)
+    assert undefined("all-table1") == 4 + 6 and undefined("all-table1", reason) == 1
+    assert undefined("all-trust_levels") == 0 + 6 and undefined("all-trust_levels", reason) == 1
     # the paper's layout: m2's Reduction and Reduction over seeds, each with its reason
     assert undefined("table1-d-paper-4", reason) == 1
     assert html.count('<td class="na">n/a: seeds 0, 1, 2: nothing to reduce</td>') == 1
     # Table I's whole table, the paper layout, the PR section's table, the whole trust table (no trust figure here)
-    assert html.count('<td class="na">n/a</td>') == 4 and html.count(reason) == 1 + 1 + 1 + 1
+    assert html.count('<td class="na">n/a</td>') == 4 + 6 + 6 and html.count(reason) == 1 + 1 + 1 + 1
 
 
 def test_leave_one_out_rows_show_na():
@@ -238,11 +241,12 @@ def test_query_counts_in_every_evaluation_table(tmp_path):
         assert {(r["seq_len"], r["n_queries"]) for r in rows(name)} <= {("2", "59"), ("4", "57")}, name
     # the existing columns keep their order, the counts come last
     assert list(rows("table1")[0])[:15] == list(registry.table("table1").names()[:15])
-    assert list(rows("ablation_seq_len")[0])[15:] == ["auc_vpr_sm", "auc_vpr_sm_pred", "n_queries",
+    assert list(rows("ablation_seq_len")[0])[21:] == ["auc_vpr_sm", "auc_vpr_sm_pred", "n_queries",
                                                      "n_queries_single", "n_seeds_defined",
                                                      *(column.name for column in registry.OUTCOMES),
                                                      *(column.name for column in registry.BEST_SCORER)]
-    assert list(rows("restoration")[0])[-2:] == ["reduction_pct", "n_queries"]
+    assert list(rows("restoration")[0])[-4:] == ["reduction_pct", "reduction_pct_ci_low", "reduction_pct_ci_high",
+                                                 "n_queries"]
     assert "d: 57 queries with a sequence match (single-frame recall@1 over all 60 of the split)" in (
         tables / "table1.md").read_text()
     assert r"d: 57 queries with a sequence match" in (tables / "table1.tex").read_text()

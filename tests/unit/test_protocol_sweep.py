@@ -46,12 +46,20 @@ def test_positions_sweep_radii_and_a_matrix_has_nothing_to_sweep():
 
 
 def _rows(reductions: dict[str, list[float | None]], recalls: dict[str, list[float]], single: float = 0.1):
+    """Sweep rows by hand; each reduction's interval its value +- 1 (a direction), single-frame recall@1 ``single``
+    over all queries and over the evaluated ones, sequence matching's change with an interval +- 0.05 about it."""
     out = []
     for method in reductions:
         for threshold, reduction, recall in zip((0, 2, 10), reductions[method], recalls[method], strict=True):
-            out.append({"dataset": "d", "method": method, "seq_len": 4, "split": "test", "mode": "paper",
-                        "ground_truth": "frames", "threshold": float(threshold), "recall_at_1_single": single,
-                        "recall_at_1_sequence": recall, "reduction_pct": reduction})
+            row = {"dataset": "d", "method": method, "seq_len": 4, "split": "test", "mode": "paper",
+                   "ground_truth": "frames", "threshold": float(threshold), "recall_at_1_single": single,
+                   "recall_at_1_sequence": recall, "reduction_pct": reduction, "recall_at_1_single_evaluated": single,
+                   "recall_change_ci_low": recall - single - 0.05, "recall_change_ci_high": recall - single + 0.05,
+                   "n_queries": 28}
+            if reduction is not None:
+                row.update(outcome="improved" if reduction > 0 else "worse" if reduction < 0 else "unchanged",
+                           reduction_pct_ci_low=reduction - 1, reduction_pct_ci_high=reduction + 1)
+            out.append(row)
     return out
 
 
@@ -63,12 +71,43 @@ def test_the_sentence_names_a_sign_change_and_a_swap():
     assert "the predictor's AOC reduction for a changes sign (12.5 % within 0 frames, -4.2 % within 10 frames)" \
         in sentence
     assert "a and b swap places by sequence recall@1 (a ahead within 2 frames, b within 0 frames)" in sentence
+    # the same numbers with a's interval at 10 frames containing 0: no sign change, and a sentence says why
+    rows[2].update(reduction_pct_ci_low=-9.0, reduction_pct_ci_high=1.0)
+    first, untold = sweep_sentences(rows)
+    assert "changes sign" not in first
+    assert untold == ("Where an interval contains 0 (or there is none) its 28 queries are too few to tell the sign: "
+                      "a, its AOC reduction at 10 frames.")
+
+
+def test_sequence_matching_is_compared_over_the_same_queries():
+    # the issue's paper-mode case: single-frame recall@1 over all 31 queries against sequence recall@1 over the 28
+    # evaluated ones is a change of denominator; over the same 28 queries the change is what counts
+    rows = _rows({"hog": [None, None, None]}, {"hog": [0.6, 0.6429, 0.6]})
+    changes = {0.0: (0.45, 0.4452, 0.3, 0.6), 2.0: (0.6452, 0.6071, -0.1, 0.18), 10.0: (0.5, 0.75, -0.25, -0.05)}
+    for row in rows:
+        single, evaluated, low, high = changes[row["threshold"]]
+        row.update(recall_at_1_single=single, recall_at_1_single_evaluated=evaluated, recall_change_ci_low=low,
+                   recall_change_ci_high=high)
+    # over all queries the gain is +15.0, -0.2, +10.0 points (no sign change, though -0.2 at 2 frames is one of
+    # denominators); over the same queries +15.5 (interval above 0), +3.6 (contains 0), -15.0 (below 0)
+    first, untold = sweep_sentences(rows)
+    assert ("sequence matching changes hog's recall@1 over the same queries by +15.5 points within 0 frames but "
+            "-15.0 within 10 frames") in first
+    assert untold == ("Where an interval contains 0 (or there is none) its 28 queries are too few to tell the sign: "
+                      "hog, sequence matching's change of recall@1 at 2 frames.")
+    # without intervals (a file of the old layout): no direction at all
+    bare = [{k: v for k, v in row.items() if not k.startswith("recall_change")} for row in rows]
+    first, untold = sweep_sentences(bare)
+    assert "no conclusion depends on the ground truth" in first and "at 0, 2, 10 frames" in untold
 
 
 def test_the_sentence_says_when_nothing_changes():
     rows = _rows({"a": [1.0, 2.0, 3.0], "b": [None, 0.0, 5.0]}, {"a": [0.2, 0.5, 0.9], "b": [0.1, 0.4, 0.8]})
-    (sentence,) = sweep_sentences(rows)
+    sentence, untold = sweep_sentences(rows)
     assert "no conclusion depends on the ground truth" in sentence
+    # a's 1.0 [0.0, 2.0] and b's change of recall 0.1 - 0.1 = 0 [-0.05, 0.05] at 0 frames contain 0
+    assert untold == ("Where an interval contains 0 (or there is none) its 28 queries are too few to tell the sign: "
+                      "a, its AOC reduction at 0 frames; b, sequence matching's change of recall@1 at 0 frames.")
 
 
 def test_rows_from_metrics_in_the_configurations_order():

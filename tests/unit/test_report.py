@@ -40,21 +40,35 @@ def rows():
 def test_markdown_means_and_improved_match_the_paper(rows):
     text = table1_markdown(rows)
     assert "| dataset | | AP-GeM | CosPlace | EigenPlaces | MixVPR | NetVLAD | SAD | SALAD | Mean | Improved |" in text
-    # The paper's Mean column: 0.1660, 0.1069, 37.79 (Nordland); 0.0827, 0.0679 (RobotCar).
-    assert "| Nordland | VPR+SM | 0.6522 | 0.0220 | 0.0155 | 0.0061 | 0.2478 | 0.2164 | 0.0017 | 0.1660 |  |" in text
-    assert "|  | VPR+SM+Pred | 0.4862 |" in text and "| 0.0011 | 0.1069 |  |" in text
-    assert "| 37.55 | 37.79 | 7 / 7 |" in text
-    assert "| Oxford RobotCar | VPR+SM |" in text and "| 0.0769 | 0.0827 |  |" in text
-    assert "| 0.0561 | 0.0679 |  |" in text
+    # The paper's Mean column: 0.1660, 0.1069, 37.79 (Nordland); 0.0827, 0.0679 (RobotCar). The paper's numbers
+    # have no interval over queries: each method's cell says [n/a]; a Mean over methods has none to say.
+    assert ("| Nordland | VPR+SM | 0.6522 [n/a] | 0.0220 [n/a] | 0.0155 [n/a] | 0.0061 [n/a] | 0.2478 [n/a] | "
+            "0.2164 [n/a] | 0.0017 [n/a] | 0.1660 |  |") in text
+    assert "|  | VPR+SM+Pred | 0.4862 [n/a] |" in text and "| 0.0011 [n/a] | 0.1069 |  |" in text
+    assert "| 37.55 [n/a] | 37.79 | 7 / 7 |" in text
+    assert "| Oxford RobotCar | VPR+SM |" in text and "| 0.0769 [n/a] | 0.0827 |  |" in text
+    assert "| 0.0561 [n/a] | 0.0679 |  |" in text
     # The paper prints 18.97, the mean of its unrounded reductions; of the rounded ones here it is
     # 132.83 / 7 = 18.976 -> 18.98.
-    assert "|  | Reduction (%) | -14.22 | -4.45 |" in text and "| 26.95 | 18.98 | 5 / 7 |" in text
+    assert "|  | Reduction (%) | -14.22 [n/a] | -4.45 [n/a] |" in text and "| 26.95 [n/a] | 18.98 | 5 / 7 |" in text
     assert "## paper mode, sequence length 4" in text
 
 
+def with_intervals(rows, half=5.0):
+    """The rows with intervals: each number's +- ``half`` (the AOCs' +- half / 1000)."""
+    return [{**r, "reduction_pct_ci_low": r["reduction_pct"] - half, "reduction_pct_ci_high": r["reduction_pct"] + half,
+             "aoc_vpr_sm_ci_low": r["aoc_vpr_sm"] - half / 1000, "aoc_vpr_sm_ci_high": r["aoc_vpr_sm"] + half / 1000,
+             "aoc_vpr_sm_pred_ci_low": r["aoc_vpr_sm_pred"] - half / 1000,
+             "aoc_vpr_sm_pred_ci_high": r["aoc_vpr_sm_pred"] + half / 1000} for r in rows]
+
+
 def test_latex_colours_reductions(rows):
-    text = table1_latex(rows)
-    assert r"\textcolor{red}{-14.22}" in text and r"\textcolor{green}{25.46}" in text
+    # without intervals nothing has a direction: no colour
+    assert r"\textcolor{black}{-14.22} [n/a]" in table1_latex(rows)
+    text = table1_latex(with_intervals(rows))
+    # -14.22 [-19.22, -9.22] below 0: red; 25.46 [20.46, 30.46] above: green; -4.45 [-9.45, 0.55] contains 0
+    assert r"\textcolor{red}{-14.22} [-19.22, -9.22]" in text and r"\textcolor{green}{25.46} [20.46, 30.46]" in text
+    assert r"\textcolor{black}{-4.45} [-9.45, 0.55]" in text
     assert r"Oxford RobotCar & VPR+SM & 0.0950" in text and r"& 5 / 7\\" in text
     assert r"Reduction (\%)" in text
 
@@ -63,9 +77,9 @@ def test_latex_footnotes_an_undefined_reduction_in_its_own_tabular_only(rows):
     from vpr_smr.eval.report.table1 import UNDEFINED, UNDEFINED_NOTE
 
     # two (mode, L) blocks: L = 4 with one n/a reduction, then L = 8 with every reduction defined
-    first = [dict(row) for row in rows]
+    first = with_intervals(rows)
     first[0].update(reduction_pct=None, outcome="nothing_to_reduce", max_recall=0.5, max_recall_vpr_sm=0.5)
-    second = [{**row, "seq_len": 8} for row in rows]
+    second = [{**row, "seq_len": 8} for row in with_intervals(rows)]
     text = table1_latex(first + second)
     tabulars = text.split(r"\end{tabular}")[:-1]
     assert len(tabulars) == 2 and "sequence length 4" in tabulars[0] and "sequence length 8" in tabulars[1]
@@ -90,6 +104,49 @@ def test_seed_row_shows_mean_and_sample_std(rows):
     assert ("|  | Reduction over seeds (%) | 20.00 ± 10.00 | 1.00 ± 0.00 | 0.00 ± 5.00 | 0.00 ± 0.00 | "
             "4.00 ± 2.00 | 2.00 ± 1.00 | 3.00 ± 0.00 | 4.29 | 5 / 7 (3 seeds) |") in text
     assert r"20.00 $\pm$ 10.00" in table1_latex(rows)
+
+
+def test_a_seed_row_of_one_defined_seed_says_n_a_and_its_mean_is_like_with_like():
+    # the issue's 28-query split: hog's seed-0 reduction undefined and one of its 5 seeds defined (a file of the
+    # old layout wrote that seed's std as 0.0); sad's seed 0 is 3.20 with an interval containing 0, all 5 defined
+    hog = {"dataset": "d", "method": "hog", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": 0.0,
+           "reduction_pct": None, "outcome": "nothing_to_reduce", "max_recall": 0.5, "max_recall_vpr_sm": 0.5,
+           "reduction_pct_mean": -88.19, "reduction_pct_std": 0.0, "n_seeds": 5, "n_seeds_defined": 1,
+           "seeds_left_out": "seeds 0, 1, 2, 3: nothing to reduce", "n_queries": 28}
+    sad = {"dataset": "d", "method": "sad", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.5, "aoc_vpr_sm_pred": 0.484,
+           "reduction_pct": 3.2, "outcome": "improved", "max_recall": 0.9, "max_recall_vpr_sm": 0.9,
+           "reduction_pct_ci_low": -40.0, "reduction_pct_ci_high": 35.0, "reduction_pct_mean": 4.0,
+           "reduction_pct_std": 1.5, "n_seeds": 5, "n_seeds_defined": 5, "n_queries": 28}
+    text = table1_markdown([hog, sad])
+    # seed 0: the Mean over sad alone (3.20), named; sad improved but its interval contains 0
+    assert ("|  | Reduction (%) | n/a: nothing to reduce | 3.20 [-40.00, 35.00] | 3.20 (mean over 1 of 2 methods: "
+            "sad) | 1 / 2 (0 with the interval above 0) |") in text
+    # over the seeds: hog's std of one value is n/a (never 0.00); the Mean is sad's alone (4.00, not the
+    # (-88.19 + 4.00) / 2 = -42.10 of one seed's number and a mean of five), and says so
+    assert ("|  | Reduction over seeds (%) | -88.19 ± n/a (1 of 5 seeds; seeds 0, 1, 2, 3: nothing to reduce) | "
+            "4.00 ± 1.50 | 4.00 (mean over 1 of 2 methods, those with all 5 seeds: sad) | 1 / 2 (5 seeds) |") in text
+    assert "0.00 (" not in text and "± 0.00" not in text
+    # two Means of opposite sign say why
+    sad_worse = {**sad, "reduction_pct_mean": -2.0}
+    assert ("| -2.00 (mean over 1 of 2 methods, those with all 5 seeds: sad; opposite in sign to the seed-0 Mean "
+            "3.20, which is seed 0's predictor alone over sad, this one every seed's over sad) |"
+            ) in table1_markdown([hog, sad_worse])
+    assert r"-88.19 $\pm$ n/a" in table1_latex([hog, sad])
+
+
+def test_an_unchanged_reduction_is_neutral():
+    from vpr_smr.eval.report import html
+    from vpr_smr.eval.report.registry import Column
+    from vpr_smr.eval.report.table1 import table1_blocks
+
+    # floating-point noise: 2.1e-14 %, which scoring calls unchanged, with an interval that is all but 0
+    row = {"dataset": "d", "method": "uniqueness", "seq_len": 4, "mode": "standard", "aoc_vpr_sm": 0.2,
+           "aoc_vpr_sm_pred": 0.2, "reduction_pct": 2.1e-14, "outcome": "unchanged", "max_recall": 0.9,
+           "max_recall_vpr_sm": 0.9, "reduction_pct_ci_low": 1e-14, "reduction_pct_ci_high": 3e-14}
+    (block,) = table1_blocks([row])
+    assert html.table1_view(block, "t").rows[2][1].kind == "num"  # not "up" (green)
+    assert html.row_cell(row, Column("reduction_pct", fmt=".2f")).kind == "num"
+    assert r"\textcolor{black}{0.00} [0.00, 0.00]" in table1_latex([row])
 
 
 def test_table2_marks_the_attributes_used():
@@ -182,30 +239,38 @@ def test_table1_in_the_page_has_the_papers_layout_and_numbers(rows, tmp_path):
     blocks = table1_blocks(rows)
     assert [(b.dataset, b.methods) for b in blocks] == [("Nordland", METHODS), ("Oxford RobotCar", METHODS)]
     view = html.table1_view(blocks[1], "t")
-    assert [c.kind for c in view.rows[2][1:3]] == ["down", "down"] and view.rows[2][3].kind == "up"
+    # without intervals no reduction has a direction: none coloured
+    assert {c.kind for c in view.rows[2][1:]} == {"num", "text"}
+    # with them: -14.22 [-19.22, -9.22] worse, -4.45 [-9.45, 0.55] no direction, 21.31 [16.31, 26.31] better
+    view = html.table1_view(table1_blocks(with_intervals(rows))[1], "t")
+    assert [c.kind for c in view.rows[2][1:4]] == ["down", "num", "up"]
+    assert view.rows[2][1].text == "-14.22 [-19.22, -9.22]"
     table = WrittenTable("table1", registry.table("table1").columns, tuple(rows), (tmp_path / "tables" / "table1.csv",))
     page = html.main(tmp_path / "report.html", [table], [], split="test").read_text()
     nordland = _table_texts(page, "table1-nordland-paper-4")
     assert nordland[0] == ["", *METHODS, "Mean", "Improved"]  # methods as columns, in the rows' order
     # the paper's numbers; its Mean column 0.1660, 0.1069, 37.79 and 7 of 7 improved
-    assert nordland[1] == ["VPR+SM", "0.6522", "0.0220", "0.0155", "0.0061", "0.2478", "0.2164", "0.0017", "0.1660",
-                           ""]
-    assert nordland[2] == ["VPR+SM+Pred", "0.4862", "0.0136", "0.0106", "0.0042", "0.1274", "0.1050", "0.0011",
-                           "0.1069", ""]
-    assert nordland[3] == ["Reduction (%)", "25.46", "38.17", "31.31", "31.96", "48.61", "51.46", "37.55", "37.79",
-                           "7 / 7"]
+    # (the paper's numbers have no interval: [n/a] beside each method's)
+    assert nordland[1] == ["VPR+SM", *(f"{v} [n/a]" for v in ("0.6522", "0.0220", "0.0155", "0.0061", "0.2478",
+                                                               "0.2164", "0.0017")), "0.1660", ""]
+    assert nordland[2] == ["VPR+SM+Pred", *(f"{v} [n/a]" for v in ("0.4862", "0.0136", "0.0106", "0.0042", "0.1274",
+                                                                    "0.1050", "0.0011")), "0.1069", ""]
+    assert nordland[3] == ["Reduction (%)", *(f"{v} [n/a]" for v in ("25.46", "38.17", "31.31", "31.96", "48.61",
+                                                                      "51.46", "37.55")), "37.79", "7 / 7"]
     robotcar = _table_texts(page, "table1-oxford-robotcar-paper-4")
     assert robotcar[1][-2:] == ["0.0827", ""] and robotcar[2][-2:] == ["0.0679", ""]
-    assert robotcar[3] == ["Reduction (%)", "-14.22", "-4.45", "21.31", "29.34", "39.83", "34.07", "26.95", "18.98",
-                           "5 / 7"]
+    assert robotcar[3] == ["Reduction (%)", *(f"{v} [n/a]" for v in ("-14.22", "-4.45", "21.31", "29.34", "39.83",
+                                                                      "34.07", "26.95")), "18.98", "5 / 7"]
     # the page leads with Table I, then the rest; no sorting on the paper's layout
     assert page.index('id="findings"') < page.index('id="pr-curves"') < page.index('id="provenance"')
     assert 'class="paper table1"' in page
 
 
-def finding_block(reductions, seeds=None, mode="paper", seq_len=4, dataset="nordland_sample"):
+def finding_block(reductions, seeds=None, mode="paper", seq_len=4, dataset="nordland_sample", intervals=None,
+                  n_queries=None):
     """A Table I block of one dataset by hand: (method, reduction %) and, optionally, per method
-    (mean, std, n_seeds, n_seeds_defined) over the seeds."""
+    (mean, std, n_seeds, n_seeds_defined) over the seeds, (low, high) of the reduction's interval (None: none)
+    and the queries."""
     from vpr_smr.eval.report.table1 import Table1Block
 
     rows = []
@@ -218,38 +283,66 @@ def finding_block(reductions, seeds=None, mode="paper", seq_len=4, dataset="nord
         if seeds is not None:
             mean, std, n_seeds, defined = seeds[i]
             row.update(reduction_pct_mean=mean, reduction_pct_std=std, n_seeds=n_seeds, n_seeds_defined=defined)
+        if intervals is not None and intervals[i] is not None:
+            row.update(reduction_pct_ci_low=intervals[i][0], reduction_pct_ci_high=intervals[i][1])
+        if n_queries is not None:
+            row["n_queries"] = n_queries
         rows.append(row)
     return Table1Block(dataset, mode, seq_len, tuple(rows))
 
 
 def test_the_findings_in_words():
-    from vpr_smr.eval.report.findings import sentences
+    from vpr_smr.eval.report.findings import headline, sentences
 
-    # the demo's numbers, and a method whose baseline AOC is 0 (its reduction undefined)
+    # the demo's numbers, and a method whose baseline AOC is 0 (its reduction undefined); HOG's and SAD's
+    # intervals exclude 0, EfficientNet-Lite0's contains it
     block = finding_block(
         [("SAD", -0.819238062820179), ("HOG", 76.7084537482669), ("EfficientNet-Lite0", 11.585629961797641),
          ("Perfect", None)],
         [(-0.8428717970517386, 0.030005601863029824, 5, 5), (78.37245222695637, 3.5256116744623283, 5, 5),
-         (11.976893870677142, 1.0418886489552452, 5, 5), (None, None, 5, 0)])
+         (11.976893870677142, 1.0418886489552452, 5, 5), (None, None, 5, 0)],
+        intervals=[(-1.5, -0.2), (70.1, 85.0), (-3.04, 25.0), None], n_queries=31)
     # "of 4": a method whose reduction is undefined counts as not improved (and gets its own sentence)
     assert sentences(block, "test") == [
         "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
-        "the PR curve for 2 of 4 methods: HOG by 76.7 %, EfficientNet-Lite0 by 11.6 %; it made SAD's 0.8 % worse.",
+        "the PR curve for 1 of 4 methods: HOG by 76.7 % (interval 70.1 % to 85.0 %); it made SAD's 0.8 % "
+        "(interval -1.5 % to -0.2 %) worse; too few queries to tell for EfficientNet-Lite0.",
+        "On the test split's 31 queries the interval of EfficientNet-Lite0's reduction, -3.0 % to 25.0 %, contains "
+        "0: too few queries to tell whether the predictor helps.",
         "For Perfect, baseline AOC 0 up to the predictor's maximum recall 0.9000: nothing to reduce, the reduction "
         "is undefined.",
-        "The mean reduction over these 3 methods is 29.2 % (Table I's Mean).",
+        "The mean reduction over these 3 methods is 29.2 % (Table I's Mean, seed 0).",
         "Over 5 predictor seeds (mean ± sample standard deviation) the reduction is SAD -0.8 ± 0.0 %, HOG "
         "78.4 ± 3.5 % and EfficientNet-Lite0 12.0 ± 1.0 %; on average it helps 2 of 4 methods; it is undefined for "
         "Perfect.",
     ]
-    # one method, one seed
-    one = finding_block([("hog", 5.0)], [(5.0, 0.0, 1, 1)], mode="standard", seq_len=2, dataset="d")
+    # the first screen's sentence: each method's number, interval and what they say
+    assert headline(block, "test") == (
+        "nordland_sample (31 test queries, L = 4, paper mode): the seed-0 predictor's AOC reduction with its 95 % "
+        "interval is SAD -0.8 % [-1.5, -0.2], it hurts; HOG 76.7 % [70.1, 85.0], it helps; EfficientNet-Lite0 "
+        "11.6 % [-3.0, 25.0], too few queries to tell; Perfect n/a, nothing to reduce.")
+    # the issue's 28-query split: an interval containing 0 gives no direction, whatever the sign of the number
+    sad = finding_block([("sad", 3.2)], intervals=[(-40.0, 35.0)], n_queries=28, dataset="corridor")
+    assert sentences(sad, "test") == [
+        "On corridor (test split, L = 4, paper mode, seed-0 predictor) sad's reduction is 3.2 %.",
+        "On the test split's 28 queries the interval of sad's reduction, -40.0 % to 35.0 %, contains 0: too few "
+        "queries to tell whether the predictor helps."]
+    # the same number with an interval excluding 0: the direction
+    assert sentences(finding_block([("sad", 3.2)], intervals=[(0.5, 6.0)], n_queries=28, dataset="corridor"),
+                     "test") == ["On corridor (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced "
+                                 "sad's area over the PR curve by 3.2 % (interval 0.5 % to 6.0 %)."]
+    # a file without intervals: no direction, the "no interval" wording
+    assert sentences(finding_block([("sad", -2.04)], n_queries=28), "test") == [
+        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) sad's reduction is -2.0 %.",
+        "On the test split's 28 queries sad's reduction of -2.0 % has no interval: nothing tells whether the "
+        "predictor helps."]
+    # one method, one seed; its interval below 0
+    one = finding_block([("hog", -5.0)], [(5.0, None, 1, 1)], mode="standard", seq_len=2, dataset="d",
+                        intervals=[(-9.0, -1.0)])
     assert sentences(one, "val") == [
-        "On d (val split, L = 2, standard mode, seed-0 predictor) the predictor reduced hog's area over the PR "
-        "curve by 5.0 %.", "One predictor seed was run, so there is no spread over seeds."]
-    assert sentences(finding_block([("sad", -2.04)]), "test") == [
-        "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor made sad's area over "
-        "the PR curve 2.0 % worse (larger)."]
+        "On d (val split, L = 2, standard mode, seed-0 predictor) the predictor made hog's area over the PR curve "
+        "5.0 % worse (larger) (interval -9.0 % to -1.0 %).", "One predictor seed was run, so there is no spread "
+        "over seeds."]
     # nothing to reduce anywhere; none improved, one unchanged; only some seeds defined
     nothing = finding_block([("a", None), ("b", None)], [(None, None, 3, 0), (None, None, 3, 0)])
     assert sentences(nothing, "test") == [
@@ -257,21 +350,24 @@ def test_the_findings_in_words():
         "PR curve is already 0 without the predictor: there is nothing to reduce, so the reduction is undefined.",
         "Over 3 predictor seeds the reduction is undefined for every method."]
     mixed = finding_block([("a", -3.0), ("b", 0.0), ("c", -0.01)], [(-3.0, 1.0, 3, 2), (0.0, 0.0, 3, 3),
-                                                                   (0.5, 0.25, 3, 3)])
+                                                                   (0.5, 0.25, 3, 3)],
+                          intervals=[(-4.0, -2.0), (0.0, 0.0), (-0.02, -0.005)])
+    # a: 2 of 3 seeds defined: its std (of two values) is shown
     assert sentences(mixed, "test") == [
         "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
-        "the PR curve for none of the 3 methods; it made a's 3.0 % and c's 0.01 % worse; it left b's unchanged.",
-        "The mean reduction over the 3 methods is -1.0 % (Table I's Mean).",
+        "the PR curve for none of the 3 methods; it made a's 3.0 % (interval -4.0 % to -2.0 %) and c's 0.01 % "
+        "(interval -0.02 % to -0.005 %) worse; it left b's unchanged.",
+        "The mean reduction over the 3 methods is -1.0 % (Table I's Mean, seed 0).",
         "Over 3 predictor seeds (mean ± sample standard deviation) the reduction is a -3.0 ± 1.0 % (2 of 3 seeds), "
         "b 0.0 ± 0.0 % and c 0.5 ± 0.2 %; on average it helps 1 of 3 methods."]
-    # two methods, one reduction defined
+    # two methods, one reduction defined; m2's one defined seed has no std (its 0.0 is not shown)
     half = finding_block([("m2", 0.0), ("m1", None)], [(0.0, 0.0, 2, 1), (None, None, 2, 0)])
     assert sentences(half, "test") == [
         "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
         "the PR curve for none of the 2 methods; it left m2's unchanged.",
         "For m1, baseline AOC 0 up to the predictor's maximum recall 0.9000: nothing to reduce, the reduction is "
         "undefined.",
-        "Over 2 predictor seeds (mean ± sample standard deviation) the reduction is m2 0.0 ± 0.0 % (1 of 2 seeds); "
+        "Over 2 predictor seeds (mean ± sample standard deviation) the reduction is m2 0.0 % (1 of 2 seeds); "
         "on average it helps 0 of 2 methods; it is undefined for m1."]
 
 
@@ -524,10 +620,17 @@ def test_every_declared_column_is_in_the_files_and_on_the_page(full_report_run):
         assert rows, spec.name
         if spec.name not in PAPER_LAYOUT:
             md = [line for line in stem.with_suffix(".md").read_text().splitlines() if line.startswith("| ")]
-            assert [cell.strip() for cell in md[0].strip("|").split("|")] == names, spec.name
+            # Markdown and LaTeX write a number's interval in its cell, a difference's interval in one column
+            merged = []
+            for name in names:
+                if name.endswith("_ci_low") and name.removesuffix("_ci_low") not in names:
+                    merged.append(name.removesuffix("_low"))
+                elif not name.endswith(("_ci_low", "_ci_high")):
+                    merged.append(name)
+            assert [cell.strip() for cell in md[0].strip("|").split("|")] == merged, spec.name
             tex = stem.with_suffix(".tex").read_text().splitlines()
             head = tex[tex.index(next(line for line in tex if line.startswith(r"\begin{tabular}"))) + 1]
-            assert [c.replace(r"\_", "_") for c in head.removesuffix(r"\\").split(" & ")] == names, spec.name
+            assert [c.replace(r"\_", "_") for c in head.removesuffix(r"\\").split(" & ")] == merged, spec.name
         # the page's whole table: every column by its name, every number written as its column says
         whole = _table_texts(page, f"all-{spec.name}")
         assert whole[0] == names and len(whole) == len(rows) + 1, spec.name
@@ -573,33 +676,57 @@ def test_every_declared_column_is_in_the_files_and_on_the_page(full_report_run):
 
 
 def test_the_baselines_sentence_is_computed_from_the_numbers():
-    from vpr_smr.eval.report.baselines import best_scorer, comparisons, with_best
-    from vpr_smr.eval.report.findings import baseline_sentence
+    from vpr_smr.eval.report.baselines import best_scorer, comparisons, detection_comparisons, with_best
+    from vpr_smr.eval.report.findings import baseline_sentence, detection_sentence
 
-    # reductions at the seed-0 budget per method (a, b, c); random is compared by its mean over the seeds
+    # reductions at the seed-0 budget per method (a, b, c); random's mean over its seeds is 60, its seed 0 1, 2, 3
     numbers = {"uniqueness": (30.0, 10.0, 2.0), "single_uniqueness": (5.0, 40.0, -1.0), "spread": (-3.0, -2.0, -9.0),
                "distance": (0.0, 0.0, 0.0), "random": (1.0, 2.0, 3.0), "oracle": (90.0, 95.0, None),
                "predictor": (50.0, 20.0, 2.0)}
+    # the paired intervals of single_uniqueness's reduction minus the predictor's: a -45 below 0 (the predictor
+    # beats it), b +20 above (it beats the predictor), c -3 containing 0
+    differences = {"a": (-60.0, -30.0), "b": (5.0, 35.0), "c": (-10.0, 4.0)}
     rows = [{"dataset": "d", "method": method, "seq_len": 4, "mode": "paper", "scorer": scorer, "budget": 7,
              "reduction_pct": values[i], "reduction_pct_mean": 60.0 if scorer == "random" else values[i],
-             "outcome": "improved" if values[i] is not None else "nothing_to_reduce"}
+             "outcome": "improved" if values[i] is not None else "nothing_to_reduce", "n_queries": 28,
+             **({"reduction_pct_difference_ci_low": differences[method][0],
+                 "reduction_pct_difference_ci_high": differences[method][1]} if scorer == "single_uniqueness" else {})}
             for scorer, values in numbers.items() for i, method in enumerate("abc")]
     (found,) = comparisons(rows)
-    # means over the methods: uniqueness 14.0, single_uniqueness 14.67, spread -4.67, distance 0, random 60 (its mean)
-    assert found.best == "random" and found.best_values == (60.0, 60.0, 60.0)
-    assert found.beaten == 0 and found.oracle == (90.0, 95.0, None)
+    # like with like: seed 0 against seed 0 (random's 60 over its seeds is not set against seed-0 numbers); means
+    # over the methods: uniqueness 14.0, single_uniqueness 14.67, spread -4.67, distance 0, random 2.0
+    assert found.best == "single_uniqueness" and found.best_values == (5.0, 40.0, -1.0)
+    assert found.beaten == 1 and found.oracle == (90.0, 95.0, None)
     assert baseline_sentence(found, "test") == (
         "On d (test split, L = 4, paper mode), at the seed-0 predictor's budget the predictor beats the best "
-        "training-free scorer (random, mean reduction 60.0 %) for 0 of 3 methods; oracle removal at the same budget "
-        "would reduce the AOC by 92.5 % (mean over the 2 methods where it is defined).")
-    rows = [dict(r, reduction_pct_mean=r["reduction_pct"]) for r in rows]  # random's mean now its seed-0 number
-    (found,) = comparisons(rows)  # random's mean 2.0 now: single_uniqueness (14.67) is the best
-    assert found.best == "single_uniqueness" and found.beaten == 2  # a: 50 > 5, c: 2 > -1; not b: 20 < 40
-    assert baseline_sentence(found, "test").startswith(
-        "On d (test split, L = 4, paper mode), at the seed-0 predictor's budget the predictor beats the best "
-        "training-free scorer (single_uniqueness, mean reduction 14.7 %) for 2 of 3 methods;")
-    # per row of the sequence-length ablation: the best training-free scorer of that method
+        "training-free scorer (single_uniqueness, mean seed-0 reduction 14.7 %) for 1 of 3 methods: a (interval "
+        "-60.0 points to -30.0 points); single_uniqueness beats the predictor for b (interval 5.0 points to 35.0 "
+        "points); for c (interval -10.0 points to 4.0 points) the interval of the difference contains 0: 28 "
+        "queries are too few to tell; oracle removal at the same budget would reduce the AOC by 92.5 % (mean over "
+        "the 2 methods where it is defined).")
+    # a file without the paired intervals: no direction for any method
+    (bare,) = comparisons([{k: v for k, v in r.items() if "difference" not in k} for r in rows])
+    assert bare.beaten == 0 and "for 0 of 3 methods; no interval of the difference for a, b and c;" in (
+        baseline_sentence(bare, "test"))
+    # per row of the sequence-length ablation: the best training-free scorer of that method, by seed 0
     assert best_scorer([r for r in rows if r["method"] == "a"])["scorer"] == "uniqueness"
     assert best_scorer([r for r in rows if r["method"] == "b"])["scorer"] == "single_uniqueness"
     (row,) = with_best([{"dataset": "d", "method": "c", "seq_len": 4, "mode": "paper"}], rows)
     assert (row["best_scorer"], row["best_scorer_reduction_pct"]) == ("random", 3.0)
+    # wrong-match detection (the issue's numbers): the highest seed-0 AP and the paired interval against the
+    # predictor's; random's mean over seeds (0.9) is not what it is compared by
+    aps = {"a": {"uniqueness": 0.787, "spread": 0.5, "random": 0.3, "predictor": 0.714},
+           "b": {"uniqueness": 0.570, "spread": 0.5, "random": 0.3, "predictor": 0.490}}
+    ap_differences = {"a": (0.02, 0.13), "b": (-0.05, 0.2)}
+    detection = [{"dataset": "d", "method": method, "seq_len": 4, "scorer": scorer, "average_precision": ap,
+                  "average_precision_mean": 0.9 if scorer == "random" else None, "n_queries": 28,
+                  **({"average_precision_difference_ci_low": ap_differences[method][0],
+                      "average_precision_difference_ci_high": ap_differences[method][1]} if scorer == "uniqueness"
+                     else {})}
+                 for method, scores in aps.items() for scorer, ap in scores.items()]
+    assert detection_sentence(detection_comparisons(detection), "test") == (
+        "Detecting wrong matches on d (test split, L = 4), average precision among the training-free scorers "
+        "(seed 0): for a uniqueness has the highest, 0.787 against the predictor's 0.714, and beats the predictor "
+        "(difference interval 0.020 to 0.130); for b uniqueness has the highest, 0.570 against the predictor's "
+        "0.490; the difference's interval -0.050 to 0.200 contains 0: 28 queries are too few to tell which detects "
+        "better.")

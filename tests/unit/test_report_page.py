@@ -32,3 +32,34 @@ def test_the_template_escapes_what_it_is_given(tmp_path):
     page = (tmp_path / "run" / "report.html").read_text()
     assert "<script>alert(1)</script>" not in page and "&lt;script&gt;alert(1)&lt;/script&gt; &amp; more" in page
     assert "<b>x</b>" not in page and page.count("<script>") == 1  # the page's own sorting script
+
+
+def test_the_first_screen_says_each_finding_in_one_sentence(tmp_path):
+    import re
+
+    from vpr_smr.eval.report import html as report_html
+    from vpr_smr.eval.report import registry
+    from vpr_smr.eval.report.results import WrittenTable
+
+    # a 28-query split: sad's reduction 3.2 % with an interval containing 0, hog's 40 % with one above 0
+    rows = [{"dataset": "corridor", "method": method, "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.5,
+             "aoc_vpr_sm_pred": aoc, "reduction_pct": reduction, "outcome": "improved", "max_recall": 0.9,
+             "max_recall_vpr_sm": 0.9, "reduction_pct_ci_low": low, "reduction_pct_ci_high": high, "n_queries": 28,
+             "reduction_pct_mean": reduction, "reduction_pct_std": None, "n_seeds": 1, "n_seeds_defined": 1}
+            for method, aoc, reduction, low, high in (("sad", 0.484, 3.2, -40.0, 35.0), ("hog", 0.3, 40.0, 20.0, 55.0))]
+    table = WrittenTable("table1", registry.table("table1").columns, tuple(rows), (tmp_path / "tables" / "t.csv",))
+    page = report_html.main(tmp_path / "report.html", [table], [], split="test",
+                            protocols={"corridor": "within 2 frames"}).read_text()
+    text = html.unescape(page)
+    first = text[text.index('id="findings"'):text.index('<article class="finding">')]
+    assert "Correct matches: corridor within 2 frames" in first
+    assert re.findall(r"<li>(.*?)</li>", first) == [
+        "corridor (28 test queries, L = 4, paper mode): the seed-0 predictor's AOC reduction with its 95 % interval "
+        "is sad 3.2 % [-40.0, 35.0], too few queries to tell; hog 40.0 % [20.0, 55.0], it helps."]
+    # the sentences in full are folded below the table, the seed note among them
+    details = text[text.index('<details class="finding-details">'):]
+    assert "On the test split's 28 queries the interval of sad's reduction, -40.0 % to 35.0 %, contains 0" in details
+    assert "One predictor seed was run" in details
+    # sad's cell is not green; hog's is
+    assert '<td class="num">3.20 [-40.00, 35.00]</td>' in page.replace(' data-sort="3.2"', "")
+    assert '<td class="up">40.00 [20.00, 55.00]</td>' in page.replace(' data-sort="40.0"', "")

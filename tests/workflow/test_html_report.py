@@ -122,7 +122,11 @@ def test_report_in_a_headless_browser(tmp_path):
                 "", "m2", "m1", "Mean", "Improved"]
             box = table1.bounding_box()
             assert box is not None and box["y"] < HEIGHT and box["y"] + box["height"] <= HEIGHT, box
-            assert page.locator("#findings p.lead").first.inner_text().startswith("On d (test split, L = 4, paper")
+            # above it, one sentence per finding and the ground truth used
+            assert page.locator("#findings ul.headlines li").first.inner_text().startswith("d (")
+            assert "L = 4, paper mode): the seed-0 predictor's AOC reduction with its 95 % interval is" in (
+                page.locator("#findings ul.headlines li").first.inner_text())
+            assert page.locator("#findings p.ground-truth").inner_text().startswith("Correct matches: d ")
             shot = tmp_path / "first_screen.png"
             page.screenshot(path=str(shot))
             assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 10_000
