@@ -244,9 +244,10 @@ def test_query_counts_in_every_evaluation_table(tmp_path):
     assert list(rows("ablation_seq_len")[0])[21:] == ["auc_vpr_sm", "auc_vpr_sm_pred", "n_queries",
                                                      "n_queries_single", "n_seeds_defined",
                                                      *(column.name for column in registry.OUTCOMES),
-                                                     *(column.name for column in registry.BEST_SCORER)]
-    assert list(rows("restoration")[0])[-4:] == ["reduction_pct", "reduction_pct_ci_low", "reduction_pct_ci_high",
-                                                 "n_queries"]
+                                                     *(column.name for column in registry.BEST_SCORER),
+                                                     registry.CORRECT_MATCHES.name]
+    assert list(rows("restoration")[0])[-5:] == ["reduction_pct", "reduction_pct_ci_low", "reduction_pct_ci_high",
+                                                 "n_queries", registry.CORRECT_MATCHES.name]
     assert "d: 57 queries with a sequence match (single-frame recall@1 over all 60 of the split)" in (
         tables / "table1.md").read_text()
     assert r"d: 57 queries with a sequence match" in (tables / "table1.tex").read_text()
