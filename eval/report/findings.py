@@ -76,10 +76,8 @@ def _seed_sentences(block: Table1Block) -> list[str]:
     if not shown:
         return [f"Over {n_seeds} predictor seeds the reduction is undefined for every method"
                 + _why_undefined(undefined) + "."]
-    improved = sum(words.improved_on_average(row) for row in rows)
+    # numbers only: the seeds' spread measures training, not the queries, so no direction is claimed from it
     text = f"Over {n_seeds} predictor seeds (mean ± sample standard deviation) the reduction is {listed(shown)}"
-    if len(rows) > 1:
-        text += f"; on average it helps {improved} of {methods(len(rows))}"
     if undefined:
         text += f"; it is undefined for {listed([str(r['method']) for r in undefined])}" + _why_undefined(undefined)
     return [text + "."]
@@ -303,8 +301,8 @@ def _flip(values: dict[str, list[tuple[float, float | None]]]) -> tuple[str, flo
 def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
     """One sentence on the protocol sweep of one dataset, L and mode (``build.sweep_rows``' rows): every conclusion
     that changes with the ground truth's tolerance or radius (the predictor's reduction changing sign for a method,
-    sequence matching's gain over single frames changing sign, two methods swapping places by sequence recall@1),
-    or that none does."""
+    sequence matching's gain over single frames changing sign), or that none does. Which of two methods is ahead by
+    recall@1 is not said: the files hold no interval of the difference between two methods."""
     if not rows:
         return []
     first = rows[0]
@@ -326,16 +324,6 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
         name, t_up, up, t_down, down = flipped
         changes.append(f"sequence matching changes {name}'s recall@1 over the same queries by {100 * up:+.1f} "
                        f"points {within(kind, t_up)} but {100 * down:+.1f} {within(kind, t_down)}")
-    recall = {(str(r["method"]), float(r["threshold"])): float(r["recall_at_1_sequence"]) for r in rows}
-    for i, a in enumerate(names):
-        swap = next(((b, t1, t2) for b in names[i + 1:] for t1 in thresholds for t2 in thresholds
-                     if recall.get((a, t1), 0) > recall.get((b, t1), 0)
-                     and recall.get((a, t2), 0) < recall.get((b, t2), 0)), None)
-        if swap:
-            b, t1, t2 = swap
-            changes.append(f"{a} and {b} swap places by sequence recall@1 ({a} ahead "
-                           f"{within(kind, t1)}, {b} {within(kind, t2)})")
-            break
     low, high = thresholds[0], thresholds[-1]
     span = f"{low:g} to {high:g} frames" if kind == "frames" else f"a radius of {low:g} to {high:g}"
     where = (f"With matches counted correct within {span} ({first['dataset']}, {first['split']} split, "
@@ -345,7 +333,7 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
         return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}.", *untold]
     return [f"{where}, no conclusion depends on the ground truth: the predictor's AOC reduction keeps its sign for "
             f"every method, so does sequence matching's gain over single frames (each where its interval excludes "
-            "0), and no two methods swap places by sequence recall@1.", *untold]
+            "0).", *untold]
 
 
 def _gain(row: dict[str, Any]) -> float | None:
