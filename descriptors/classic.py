@@ -12,7 +12,8 @@ FMA): HOG descriptors differed by up to 3.6e-7 between two machines, enough to r
 - ``hog``: OpenCV's ``HOGDescriptor`` (unsigned gradients, Gaussian block window, trilinear voting, L2-Hys) in
   float64 with only correctly rounded operations (+, -, *, /, sqrt) in a fixed order, OpenCV's arctangent
   polynomial in place of ``atan2``, the window's exponentials computed in decimal arithmetic, histogram sums in the
-  input's order (``np.bincount``), norms as exactly rounded sums (``math.fsum``); rounded to float32 once, at the end.
+  input's order (``np.bincount``), block norms as running sums (``np.cumsum``), the descriptor's norm an
+  exactly rounded sum (``math.fsum``); rounded to float32 once, at the end.
 
 No step depends on the CPU, the BLAS or a library's dispatch, so the result is the same bytes everywhere.
 """
@@ -119,8 +120,10 @@ def _hog_layout(width: int, height: int, cell: int, block: int, bins: int) -> tu
             np.array([blocks_x * blocks_y, block_values]))
 
 
-def _fsum_rows(values: np.ndarray) -> np.ndarray:
-    return np.array([math.fsum(row) for row in values])
+def _row_sums(values: np.ndarray) -> np.ndarray:
+    """Each row's sum from left to right (a running sum, whose order no SIMD path can change)."""
+    sums: np.ndarray = np.cumsum(values, axis=1)[:, -1]
+    return sums
 
 
 def hog(image: np.ndarray, cell: int = 8, block: int = 16, bins: int = 9) -> np.ndarray:
@@ -152,14 +155,15 @@ def hog(image: np.ndarray, cell: int = 8, block: int = 16, bins: int = 9) -> np.
     second = (first + 1) % bins
     upper = (magnitude * share).ravel()
     lower = (magnitude - magnitude * share).ravel()
-    votes = np.concatenate([lower[pixel] * weight, upper[pixel] * weight])
-    bins_at = np.concatenate([entry + first[pixel], entry + second[pixel]])
-    histogram = np.bincount(bins_at, weights=votes, minlength=int(n_blocks * block_values))
+    size = int(n_blocks * block_values)
+    # each histogram entry sums its lower-bin votes in vote order, then its upper-bin votes in vote order
+    histogram = (np.bincount(entry + first[pixel], weights=lower[pixel] * weight, minlength=size)
+                 + np.bincount(entry + second[pixel], weights=upper[pixel] * weight, minlength=size))
     blocks = histogram.reshape(int(n_blocks), int(block_values))
     # L2-Hys per block, as OpenCV: normalise (divisor + 0.1 per value), clip at 0.2, normalise again (+ 1e-3)
-    scale = 1.0 / (np.sqrt(_fsum_rows(blocks * blocks)) + block_values * L2HYS_EPS_PER_VALUE)
+    scale = 1.0 / (np.sqrt(_row_sums(blocks * blocks)) + block_values * L2HYS_EPS_PER_VALUE)
     blocks = np.minimum(blocks * scale[:, None], L2HYS_CLIP)
-    blocks = blocks * (1.0 / (np.sqrt(_fsum_rows(blocks * blocks)) + L2HYS_EPS))[:, None]
+    blocks = blocks * (1.0 / (np.sqrt(_row_sums(blocks * blocks)) + L2HYS_EPS))[:, None]
     return blocks.ravel()
 
 
