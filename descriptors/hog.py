@@ -24,6 +24,9 @@ class HOG(Backend):
         c = self.conf
         if c["width"] % c["cell"] or c["height"] % c["cell"] or c["block"] % c["cell"]:
             raise ValueError("hog: width, height and block must be multiples of cell")
+        if c["bins"] < 2 or c["block"] > min(c["width"], c["height"]):
+            raise ValueError(f"hog: bins must be at least 2 (got {c['bins']}) and block at most the width and height "
+                             f"(got block {c['block']} for {c['width']}x{c['height']})")
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
         # OpenCV's grey, INTER_AREA and HOGDescriptor rules in exact float64 NumPy (descriptors.classic): OpenCV's

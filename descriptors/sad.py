@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from typing import Any, ClassVar
 
 import numpy as np
@@ -10,22 +9,22 @@ import torch
 
 from vpr_smr.descriptors.base import Backend
 from vpr_smr.descriptors.classic import grey as to_grey
-from vpr_smr.descriptors.classic import resize_area
+from vpr_smr.descriptors.classic import resize_area, row_sums
 
 
 def patch_normalise(grey: np.ndarray, patch: int) -> np.ndarray:
     """Each ``patch x patch`` block to zero mean and unit (population) std; a constant block becomes 0.
 
-    The sums are exactly rounded (``math.fsum``, float64), so the result does not depend on a library's summation
-    order or SIMD path (``descriptors.classic``)."""
+    The sums run left to right (``classic.row_sums``, float64), so the result does not depend on a library's
+    summation order or SIMD path."""
     h, w = grey.shape
     if h % patch or w % patch:
         raise ValueError(f"image size {w}x{h} is not a multiple of the patch size {patch}")
     blocks = grey.reshape(h // patch, patch, w // patch, patch).astype(np.float64).transpose(0, 2, 1, 3)
     flat = blocks.reshape(-1, patch * patch)
-    mean = np.array([math.fsum(row) for row in flat]) / flat.shape[1]
+    mean = row_sums(flat) / flat.shape[1]
     centred = flat - mean[:, None]
-    std = np.sqrt(np.array([math.fsum(row) for row in centred * centred]) / flat.shape[1])
+    std = np.sqrt(row_sums(centred * centred) / flat.shape[1])
     normalised = np.divide(centred, std[:, None], out=np.zeros_like(centred), where=std[:, None] > 0)
     result: np.ndarray = normalised.reshape(blocks.shape).transpose(0, 2, 1, 3).reshape(h, w)
     return result
