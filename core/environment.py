@@ -10,8 +10,10 @@ BLAS, whose kernel (``blas[].kernel``, chosen by CPU) and thread count change it
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import platform
+from collections.abc import MutableMapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -56,7 +58,7 @@ class NumericEnvironment(Record):
 
 def _cpu() -> tuple[str, list[str]]:
     """The CPU's model name and flags, from /proc/cpuinfo (Linux), else what ``platform`` says and no flags."""
-    model, flags = platform.processor() or platform.machine(), []
+    model, flags = platform.processor() or platform.machine(), list[str]()
     try:
         text = CPUINFO.read_text(errors="replace")
     except OSError:
@@ -75,7 +77,7 @@ def _cpu() -> tuple[str, list[str]]:
 
 def _thread_pools() -> tuple[ThreadPool, ...]:
     """The BLAS and OpenMP libraries this process has loaded, with their thread counts and kernels."""
-    from threadpoolctl import threadpool_info
+    from threadpoolctl import threadpool_info  # type: ignore[import-untyped]  # ships no type information
 
     pools = []
     for info in threadpool_info():
@@ -104,6 +106,12 @@ def current() -> NumericEnvironment:
         numpy=np.__version__,
         python=platform.python_version(),
     )
+
+
+def record_in(attrs: MutableMapping[str, Any]) -> None:
+    """Write ``current()`` into an HDF5 file's attributes (``attrs``) as JSON text under ``ENVIRONMENT_KEY``, as
+    ``core.io.atomic_h5`` writes a dict: call it once the work is done, so the libraries it used are loaded."""
+    attrs[ENVIRONMENT_KEY] = json.dumps(current().to_json(), sort_keys=True)
 
 
 def recorded() -> dict[str, Any]:

@@ -7,8 +7,9 @@ FMA): HOG descriptors differed by up to 3.6e-7 between two machines, enough to r
 - ``grey``: OpenCV's 8-bit rule, in integers: ``(4899 R + 9617 G + 1868 B + 8192) >> 14``.
 - ``resize_area``: the exact area average (each output pixel is the mean of the source over its footprint) as a
   ratio of integers, rounded to nearest, ties to even. It is OpenCV's ``INTER_AREA`` when both sides shrink or
-  both grow (OpenCV rounds its own weights, so a pixel may differ by one grey level at non-integer factors); an
-  integer enlargement repeats pixels, exactly as OpenCV.
+  both grow, up to one grey level (OpenCV rounds its own weights at non-integer factors, and its 2x2 reduction
+  rounds ties up); an integer enlargement (the demo's 64x32 frames to HOG's 128x64) repeats pixels, exactly as
+  OpenCV. Where one side shrinks and the other grows, OpenCV interpolates linearly instead.
 - ``hog``: OpenCV's ``HOGDescriptor`` (unsigned gradients, Gaussian block window, trilinear voting, L2-Hys) in
   float64 with only correctly rounded operations (+, -, *, /, sqrt) in a fixed order: OpenCV's arctangent
   polynomial in place of ``atan2``, the window's exponentials computed in decimal arithmetic, each block's cells
@@ -163,7 +164,8 @@ def hog(image: np.ndarray, cell: int = 8, block: int = 16, bins: int = 9) -> np.
     scale = 1.0 / (np.sqrt(row_sums(blocks * blocks)) + blocks.shape[1] * L2HYS_EPS_PER_VALUE)
     blocks = np.minimum(blocks * scale[:, None], L2HYS_CLIP)
     blocks = blocks * (1.0 / (np.sqrt(row_sums(blocks * blocks)) + L2HYS_EPS))[:, None]
-    return blocks.ravel()
+    result: np.ndarray = blocks.ravel()
+    return result
 
 
 def l2_normalised(values: np.ndarray) -> np.ndarray:

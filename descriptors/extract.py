@@ -205,8 +205,9 @@ def main(
             compute_descriptors(t, backend, batch_size, num_workers, desc=role)
             for role, t in (("reference", pair.reference), ("query", pair.query))
         )
-    # the numeric environment is information, not provenance: ``is_done`` does not compare it
-    with atomic_h5(out, {**provenance, **environment.recorded()}) as f:
+    with atomic_h5(out, provenance) as f:
+        # the numeric environment is information, not provenance: ``is_done`` does not compare it
+        environment.record_in(f.attrs)
         f.attrs["distance"] = backend.distance
         for role, traverse, values in zip(("reference", "query"), (pair.reference, pair.query), arrays, strict=True):
             f.create_dataset(role, data=values)

@@ -115,6 +115,7 @@ class Page:
     descriptor_files: TableView | None
     configuration: str
     nav: tuple[tuple[str, str], ...] = field(default=())  # (anchor, title) of every section on the page
+    across_machines: str = ""  # which numbers another machine may change, in the provenance section
 
 
 # --- cells ------------------------------------------------------------------------------------------------------
