@@ -190,6 +190,7 @@ def main(
     num_workers: int | None = None,
 ) -> Path:
     """Write ``out`` (HDF5) with the descriptors of both traverses; skip if already done with this provenance."""
+    from vpr_smr.core import environment
     from vpr_smr.core.io import atomic_h5
 
     out = Path(out)
@@ -205,6 +206,8 @@ def main(
             for role, t in (("reference", pair.reference), ("query", pair.query))
         )
     with atomic_h5(out, provenance) as f:
+        # the numeric environment is information, not provenance: ``is_done`` does not compare it
+        environment.record_in(f.attrs)
         f.attrs["distance"] = backend.distance
         for role, traverse, values in zip(("reference", "query"), (pair.reference, pair.query), arrays, strict=True):
             f.create_dataset(role, data=values)

@@ -1,18 +1,19 @@
-"""HOG: OpenCV's histogram of oriented gradients, a classical weight-free global descriptor."""
+"""HOG: OpenCV's histogram of oriented gradients (its rules, computed exactly), a weight-free global descriptor."""
 
 from __future__ import annotations
 
 from typing import Any, ClassVar
 
-import cv2
 import numpy as np
 import torch
 
 from vpr_smr.descriptors.base import Backend
+from vpr_smr.descriptors.classic import grey as to_grey
+from vpr_smr.descriptors.classic import hog, l2_normalised, resize_area
 
 
 class HOG(Backend):
-    """Grey image resized to ``width x height``, OpenCV ``HOGDescriptor``, L2-normalised."""
+    """Grey image resized to ``width x height``, OpenCV's ``HOGDescriptor`` (block stride = cell), L2-normalised."""
 
     name: ClassVar[str] = "hog"
     default_conf: ClassVar[dict[str, Any]] = {"width": 128, "height": 64, "cell": 8, "block": 16, "bins": 9}
@@ -23,22 +24,16 @@ class HOG(Backend):
         c = self.conf
         if c["width"] % c["cell"] or c["height"] % c["cell"] or c["block"] % c["cell"]:
             raise ValueError("hog: width, height and block must be multiples of cell")
-
-    def _descriptor(self) -> cv2.HOGDescriptor:
-        # Built per call: cv2 objects do not pickle into DataLoader workers.
-        c = self.conf
-        return cv2.HOGDescriptor(
-            (c["width"], c["height"]), (c["block"], c["block"]), (c["cell"], c["cell"]), (c["cell"], c["cell"]),
-            c["bins"],
-        )
+        if c["bins"] < 2 or c["block"] > min(c["width"], c["height"]):
+            raise ValueError(f"hog: bins must be at least 2 (got {c['bins']}) and block at most the width and height "
+                             f"(got block {c['block']} for {c['width']}x{c['height']})")
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
-        grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
-        grey = cv2.resize(grey, (self.conf["width"], self.conf["height"]), interpolation=cv2.INTER_AREA)
-        # OpenCV's stubs say Sequence[float]; compute returns an ndarray, which np.asarray passes through.
-        values = np.asarray(self._descriptor().compute(grey)).ravel().astype(np.float32)
-        norm = np.linalg.norm(values)
-        return torch.from_numpy(values / norm if norm > 0 else values)
+        # OpenCV's grey, INTER_AREA and HOGDescriptor rules in exact float64 NumPy (descriptors.classic): OpenCV's
+        # own SIMD paths differ by CPU, which reordered near-ties between machines
+        c = self.conf
+        grey = resize_area(to_grey(image), c["width"], c["height"])
+        return torch.from_numpy(l2_normalised(hog(grey, c["cell"], c["block"], c["bins"])))
 
     def forward(self, batch: torch.Tensor) -> np.ndarray:
         return batch.numpy().astype(np.float32)

@@ -4,24 +4,30 @@ from __future__ import annotations
 
 from typing import Any, ClassVar
 
-import cv2
 import numpy as np
 import torch
 
 from vpr_smr.descriptors.base import Backend
+from vpr_smr.descriptors.classic import grey as to_grey
+from vpr_smr.descriptors.classic import resize_area, row_sums
 
 
 def patch_normalise(grey: np.ndarray, patch: int) -> np.ndarray:
-    """Each ``patch x patch`` block to zero mean and unit (population) std; a constant block becomes 0."""
+    """Each ``patch x patch`` block to zero mean and unit (population) std; a constant block becomes 0.
+
+    The sums run left to right (``classic.row_sums``, float64), so the result does not depend on a library's
+    summation order or SIMD path."""
     h, w = grey.shape
     if h % patch or w % patch:
         raise ValueError(f"image size {w}x{h} is not a multiple of the patch size {patch}")
-    blocks = grey.reshape(h // patch, patch, w // patch, patch).astype(np.float64)
-    mean = blocks.mean(axis=(1, 3), keepdims=True)
-    std = blocks.std(axis=(1, 3), keepdims=True)
-    centred = blocks - mean
-    normalised: np.ndarray = np.divide(centred, std, out=np.zeros_like(centred), where=std > 0)
-    return normalised.reshape(h, w)
+    blocks = grey.reshape(h // patch, patch, w // patch, patch).astype(np.float64).transpose(0, 2, 1, 3)
+    flat = blocks.reshape(-1, patch * patch)
+    mean = row_sums(flat) / flat.shape[1]
+    centred = flat - mean[:, None]
+    std = np.sqrt(row_sums(centred * centred) / flat.shape[1])
+    normalised = np.divide(centred, std[:, None], out=np.zeros_like(centred), where=std[:, None] > 0)
+    result: np.ndarray = normalised.reshape(blocks.shape).transpose(0, 2, 1, 3).reshape(h, w)
+    return result
 
 
 class SAD(Backend):
@@ -33,10 +39,8 @@ class SAD(Backend):
     distance = "mad"
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
-        grey = cv2.cvtColor(image, cv2.COLOR_RGB2GRAY)
-        size = (self.conf["width"], self.conf["height"])
-        if grey.shape[::-1] != size:
-            grey = cv2.resize(grey, size, interpolation=cv2.INTER_AREA)
+        # OpenCV's grey and INTER_AREA rules, computed exactly (the same bytes on every machine)
+        grey = resize_area(to_grey(image), self.conf["width"], self.conf["height"])
         return torch.from_numpy(patch_normalise(grey, self.conf["patch"]).astype(np.float32).ravel())
 
     def forward(self, batch: torch.Tensor) -> np.ndarray:

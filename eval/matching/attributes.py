@@ -19,6 +19,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from vpr_smr.core import environment
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, candidates_needed
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
 from vpr_smr.core.records import Record
@@ -236,8 +237,10 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
         provenance.update({**matcher_provenance(velocities, radius), **reading_provenance(similarity, key, transpose)})
         if n_candidates:  # recorded only when kept, so that a file without them reads as it always did
             provenance["n_candidates"] = int(n_candidates)
+        # this stage's own numeric environment replaces the one its distances file recorded (information only)
         write_features(out, features, {**provenance, "seq_len": seq_len, "tolerance": tolerance,
-                                       "attributes_seconds": seconds, **truth_provenance(truth, seq_len, without)})
+                                       "attributes_seconds": seconds, **truth_provenance(truth, seq_len, without),
+                                       **environment.recorded()})
     log.info("%d queries, %.1f µs per query", len(features.queries), 1e6 * seconds / max(len(features.queries), 1))
     return features
 

@@ -8,6 +8,7 @@ from typing import Any
 import h5py
 import numpy as np
 
+from vpr_smr.core import environment
 from vpr_smr.core.constants import METRICS
 from vpr_smr.core.io import HDF5_SUFFIXES, atomic_h5, check_suffix
 
@@ -167,6 +168,8 @@ def main(descriptors: Path | str, out: Path | str, split: str, split_range: tupl
         with atomic_h5(out, {**provenance, "metric": metric}) as g:
             dataset = g.create_dataset("distance_matrix", shape=shape, dtype=np.float32, chunks=distance_chunks(*shape))
             write_distance_blocks(dataset, reference, f["query"], metric, lo, block_queries)
+            # information only: l2 and cosine go through the BLAS, whose kernel and threads round them
+            environment.record_in(g.attrs)
             if all(k in f for k in POSITIONS):
                 g.create_dataset("reference_positions", data=f["reference_positions"][ref_lo:ref_hi])
                 g.create_dataset("query_positions", data=f["query_positions"][lo:hi])

@@ -19,6 +19,7 @@ import numpy as np
 from sklearn.metrics import confusion_matrix
 from sklearn.utils import shuffle
 
+from vpr_smr.core import environment
 from vpr_smr.core.constants import LABELS
 from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix
 from vpr_smr.core.paths import predictor_report_path, seed_predictor_path
@@ -222,7 +223,9 @@ def main(
             write_progress(len(fitted), len(seeds), "seeds", time.monotonic() - started)
 
     paths = [out] + [Path(seed_predictor_path(out, seed)) for seed in seeds[1:]]
-    report = PredictorReport({**recorded_ground_truth(list(train)), **(meta or {})}, int(len(y_train)),
+    # the numeric environment (BLAS kernel and threads) is information for the reader, never compared as a setting
+    report = PredictorReport({**recorded_ground_truth(list(train)), **(meta or {}), **environment.recorded()},
+                             int(len(y_train)),
                              tuple(numbers for _, numbers in fitted),
                              tuple(str(p) for p in paths) if len(seeds) > 1 else None)
     warning = report.warning(validation) if validation is not None else ""

@@ -72,6 +72,12 @@ from vpr_smr.eval.report.view import (
 TEMPLATES = Path(__file__).resolve().parent / "templates"
 TEMPLATE = "report.html.j2"
 DESCRIPTOR_KEYS = ("dataset", "method", "checkpoint_sha256", "frames_sha256", "vpr_smr_version")
+# What another machine may change, measured on the demo (docs/method.md §7.5); shown in the provenance section
+ACROSS_MACHINES = ("SAD's and HOG's descriptors are the same bytes on every CPU, and the predictor's training "
+                   "through the BLAS changed no number of the demo; the l2 and cosine distances go through the "
+                   "BLAS, whose kernel and threads moved the demo's seed-0 Table I reductions by up to 7 points "
+                   "(HOG), so compare runs on different machines by their spread over seeds. Each file records "
+                   "its machine's numeric environment under `environment` (method §7.5).")
 # The tables' columns, their headers and formats, and what the compact tables show: registry.TABLES
 MATCHER_TEXT = {"single": "single frame", "sequence": "sequence", "sequence_predictor": "sequence + predictor"}
 ATTRIBUTES = ("A1", "A2", "A3", "A4")
@@ -724,7 +730,8 @@ def build_page(
         findings_files=table1_files, sections=tuple(sections), cards=page_cards,
         datasets_table=folded(dataset_table, run_dir) if dataset_table else None, cite=how_to_cite(version),
         provenance=_provenance_table(general), descriptor_files=descriptor_table, configuration=_config_text(config),
-        nav=tuple(nav), ground_truth="Correct matches: " + "; ".join(named) if named else "")
+        nav=tuple(nav), ground_truth="Correct matches: " + "; ".join(named) if named else "",
+        across_machines=ACROSS_MACHINES)
 
 
 def render(page: Page) -> str:

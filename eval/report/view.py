@@ -118,6 +118,7 @@ class Page:
     configuration: str
     nav: tuple[tuple[str, str], ...] = field(default=())  # (anchor, title) of every section on the page
     ground_truth: str = ""  # the first screen's line: each dataset's ground truth ("Correct matches: ...")
+    across_machines: str = ""  # which numbers another machine may change, in the provenance section
 
 
 # --- cells ------------------------------------------------------------------------------------------------------

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 from sklearn.metrics import confusion_matrix
 
+from vpr_smr.core import environment
 from vpr_smr.core.constants import DEFAULT_TRUST_LEVELS, LABELS, MODES
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance
 from vpr_smr.core.paths import timing_path
@@ -289,7 +290,7 @@ def main(
         # Timings change from run to run: they go in their own file, so that two runs give identical results.
         attributes_seconds = float(read_provenance(path).get("attributes_seconds", 0.0))
         timings[split] = SplitTiming.of(attributes_seconds, predict_seconds, splits[split].n_queries)
-    meta = {**recorded_ground_truth(list(features_paths.values())), **(meta or {})}
+    meta = {**recorded_ground_truth(list(features_paths.values())), **(meta or {}), **environment.recorded()}
     evaluation = Evaluation(meta, tuple(str(p) for p in predictor_paths), splits)
     timing = Timing(dict(evaluation.meta), timings)
     save(timing_path(out), timing)

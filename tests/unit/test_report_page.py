@@ -21,6 +21,9 @@ def test_provenance_of_descriptor_files_in_the_page(tmp_path):
     text = html.unescape(page)
     assert 'vpr-smr: sequence-matching receptiveness for visual place recognition", version 9.9' in text
     assert "Hussaini, T. Fischer and M. Milford" in text
+    # what another machine may change, said in the provenance section
+    provenance = text[text.index('<section id="provenance">'):text.index('<section id="configuration">')]
+    assert "On another machine:" in provenance and "the same bytes on every CPU" in provenance
     # no experiment given: no section of one, nothing about Table I
     assert 'id="findings"' not in page and 'id="pr-curves"' not in page and "<img" not in page
 
