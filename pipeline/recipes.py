@@ -5,7 +5,9 @@ job uses), the SHA-256 of every file it reads from outside the run folder (a che
 ground-truth file) and the results format. ``vpr-smr run`` records the recipe of every output its jobs write
 (``core.paths.recipes_path``) and, before the next run, compares each existing output's recorded recipe with the one
 the configuration gives now: an output that differs, or records none, is rerun (Snakemake's ``--forcerun``, which
-reruns what depends on it too), whatever Snakemake's own state in ``.snakemake`` says or whether it is there.
+reruns what depends on it too), whatever Snakemake's own state in ``.snakemake`` says or whether it is there. An
+output made before vpr-smr recorded recipes is left to Snakemake's own record where one is there, and recorded once
+a run has brought every output up to date.
 
 Paths in a recipe are portable: the run folder is written ``{run}`` and the working folder's prefix is dropped, so
 that moving the project folder, or the results to another ``output``, changes no recipe by itself.
@@ -46,11 +48,13 @@ class Recipes(FileRecord):
 
 @dataclass(frozen=True)
 class Job:
-    """A job of the workflow as the configuration gives it now: its outputs (paths as the rules write them) and
-    its recipe."""
+    """A job of the workflow as the configuration gives it now: its outputs (paths as the rules write them), its
+    recipe, and whether Snakemake holds its own record of them (``.snakemake``: then Snakemake's own checks judge an
+    output of ours that records nothing, one made before vpr-smr recorded recipes)."""
 
     outputs: tuple[str, ...]
     recipe: Recipe
+    snakemake_record: bool = False
 
 
 @dataclass(frozen=True)
@@ -62,12 +66,15 @@ class Stale:
 
 
 def portable(text: str, run_dir: Path, cwd: Path) -> str:
-    """``text`` with the run folder written ``{run}`` and the working folder's prefix dropped."""
-    for run in dict.fromkeys([str(run_dir.resolve()), str(run_dir)]):  # absolute first: it may hold the other
-        text = text.replace(run + os.sep, RUN + os.sep)
-        if text == run:
-            text = RUN
-    return text.replace(str(cwd.resolve()) + os.sep, "")
+    """``text`` with the run folder (absolute, or as given from ``cwd``) written ``{run}`` and ``cwd``'s prefix
+    dropped."""
+    absolute = run_dir if run_dir.is_absolute() else cwd / run_dir
+    forms = [str(absolute)]  # absolute first: it holds the relative form
+    if absolute.is_relative_to(cwd):
+        forms.append(str(absolute.relative_to(cwd)))
+    for run in dict.fromkeys(forms):
+        text = RUN if text == run else text.replace(run + os.sep, RUN + os.sep)
+    return text.replace(str(cwd) + os.sep, "")
 
 
 def sha256(path: Path) -> str:
@@ -109,7 +116,9 @@ def workflow_jobs(snakefile: Path, configfiles: list[str], run_dir: Path) -> lis
                     if given not in hashes:  # a missing one: Snakemake says so
                         hashes[given] = sha256(Path(given)) if os.path.isfile(given) else "missing"
                     inputs[portable(given, run_dir, cwd)] = hashes[given]
-            jobs.append(Job(outputs, Recipe(job.rule.name, params, inputs)))
+            persistence = workflow.persistence
+            known = persistence.has_metadata(job) and not persistence.has_outdated_metadata(job)
+            jobs.append(Job(outputs, Recipe(job.rule.name, params, inputs), bool(known)))
     return jobs
 
 
@@ -179,7 +188,8 @@ def load_recipes(run_dir: Path) -> tuple[dict[str, Recipe], str | None]:
         return load(path, Recipes).outputs, None
     except FormatError:
         found = json.loads(path.read_text()).get("format")
-        return {}, f"made in results format {found}, this vpr-smr writes results format {FORMAT}"
+        return {}, (f"no record of the settings that made it that this vpr-smr can read ({path} is in results format "
+                    f"{found}, this vpr-smr writes results format {FORMAT})")
     except ValueError as error:
         return {}, f"its record is unreadable ({error})"
 
@@ -194,6 +204,8 @@ def stale(jobs: list[Job], run_dir: Path) -> list[Stale]:
             if not os.path.exists(output):
                 continue  # Snakemake makes it anyway
             before = recorded.get(_relative(output, run_dir))
+            if before is None and job.snakemake_record:
+                continue  # made before recipes were recorded: Snakemake's own record judges it
             if before is None:
                 reasons = [unusable or f"no record of the settings that made it ({recipes_path(run_dir)} has none)"]
             else:
@@ -204,11 +216,19 @@ def stale(jobs: list[Job], run_dir: Path) -> list[Stale]:
     return sorted(found, key=lambda item: item.output)
 
 
-def record(jobs: list[Job], run_dir: Path, since: float) -> None:
+def record(jobs: list[Job], run_dir: Path, since: float, complete: bool = False) -> None:
     """Record the recipe of every output a job wrote at or after ``since`` (the start of the run): the outputs this
-    run made, with the recipe it made them by; the others keep their records."""
+    run made, with the recipe it made them by; the others keep their records. ``complete``: the run made every
+    output of ``jobs`` up to date, so that those recording nothing that Snakemake's own record vouched for are
+    recorded too."""
     recorded, _ = load_recipes(run_dir)
-    made = {_relative(output, run_dir): job.recipe for job in jobs for output in job.outputs
-            if os.path.exists(output) and os.stat(output).st_mtime >= since}
+    made = {}
+    for job in jobs:
+        for output in job.outputs:
+            key = _relative(output, run_dir)
+            if not os.path.exists(output):
+                continue
+            if os.stat(output).st_mtime >= since or (complete and job.snakemake_record and key not in recorded):
+                made[key] = job.recipe
     if made:
         save(recipes_path(run_dir), Recipes({**recorded, **made}))

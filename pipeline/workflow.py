@@ -162,10 +162,11 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
     # it and cannot outlive a killed run, so no `--unlock` is ever needed.
     with run_lock(conf.run_dir):
         view = None if verbose else console.ProgressView(snakemake_log(conf.run_dir), sys.stdout, sys.stderr)
+        status = 1
         try:
             status = _snakemake(command + ["--nolock"], view)
         finally:  # also after a failed or stopped run: what it made is recorded, the rest keeps its record
-            recipes.record(jobs, conf.run_dir, since)
+            recipes.record(jobs, conf.run_dir, since, complete=status == 0 and not extra)
     if status == 0:
         out = conf.run_dir
         print(f"\ntables:  {out / 'tables'}\nfigures: {out / 'figures'}")
