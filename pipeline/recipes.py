@@ -10,12 +10,11 @@ output made before vpr-smr recorded recipes is left to Snakemake's own record wh
 a run has brought every output up to date.
 
 Paths in a recipe are portable: the run folder is written ``{run}`` and the working folder's prefix is dropped, so
-that moving the project folder, or the results to another ``output``, changes no recipe by itself.
+that moving the project folder changes no recipe by itself.
 """
 
 from __future__ import annotations
 
-import hashlib
 import json
 import logging
 import os
@@ -77,19 +76,13 @@ def portable(text: str, run_dir: Path, cwd: Path) -> str:
     return text.replace(str(cwd) + os.sep, "")
 
 
-def sha256(path: Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
-
-
 def workflow_jobs(snakefile: Path, configfiles: list[str], run_dir: Path) -> list[Job]:
     """Every job of the workflow of ``configfiles`` with its recipe now, from Snakemake's graph of jobs (built as
     if every job had to run, without looking at any output)."""
     from snakemake.api import SnakemakeApi
     from snakemake.settings.types import ConfigSettings, DAGSettings, OutputSettings, Quietness, ResourceSettings
+
+    from vpr_smr.eval.matching.ground_truth_files import file_sha256
 
     cwd = Path.cwd()
     hashes: dict[str, str] = {}
@@ -114,7 +107,7 @@ def workflow_jobs(snakefile: Path, configfiles: list[str], run_dir: Path) -> lis
             for given in map(str, job.input):
                 if not given.startswith(run):
                     if given not in hashes:  # a missing one: Snakemake says so
-                        hashes[given] = sha256(Path(given)) if os.path.isfile(given) else "missing"
+                        hashes[given] = file_sha256(given) if os.path.isfile(given) else "missing"
                     inputs[portable(given, run_dir, cwd)] = hashes[given]
             persistence = workflow.persistence
             known = persistence.has_metadata(job) and not persistence.has_outdated_metadata(job)
