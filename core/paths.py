@@ -117,6 +117,11 @@ def report_log_path(run: Path | str) -> str:
     return f"{run}/logs/report.log"
 
 
+def recipes_path(run: Path | str) -> str:
+    """What made each output of the run (``pipeline.recipes``): its rule's settings and the files it read."""
+    return f"{run}/recipes.json"
+
+
 # What `vpr-smr run` keeps between runs, in Snakemake's folder of the working folder (which cluster jobs see too):
 # configuration overrides, the plan of the check before the first job, the methods whose check passed.
 WORKFLOW_STATE = Path(".snakemake", "vpr-smr")

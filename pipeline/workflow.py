@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import fcntl
 import hashlib
+import math
 import os
 import re
 import signal
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from datetime import datetime
@@ -20,7 +22,7 @@ import yaml
 
 from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import overrides_path
-from vpr_smr.pipeline import console
+from vpr_smr.pipeline import console, recipes
 from vpr_smr.pipeline.config import ConfigError, load_config, parse_overrides
 from vpr_smr.pipeline.plan import PLAN_ENV, preflight, save_plan
 
@@ -81,21 +83,27 @@ def run_lock(folder: Path) -> Iterator[None]:
         handle.close()
 
 
-def snakemake_command(config: Path | str, overrides: dict[str, Any], cores: int | None, profile: str,
-                      dry_run: bool, extra: list[str]) -> list[str]:
-    configfiles = [str(config)]
+def configfiles(config: Path | str, overrides: dict[str, Any]) -> list[str]:
+    """The configuration file and, with overrides, a second one that Snakemake merges into it as we merge them:
+    `--config key=value` would reach the workflow with every nested value as a string. Named by its content, in
+    Snakemake's folder of the working directory, which cluster jobs see too."""
+    files = [str(config)]
     if overrides:
-        # A second configuration file, merged into the first by Snakemake as we merge them: `--config key=value`
-        # would reach the workflow with every nested value as a string. Named by its content, in Snakemake's
-        # folder of the working directory, which cluster jobs see too.
         text = yaml.safe_dump(overrides, sort_keys=True)
         path = overrides_path(hashlib.sha256(text.encode()).hexdigest())
         if not path.is_file():
             with atomic_path(path) as tmp:
                 tmp.write_text(text)
-        configfiles.append(str(path))
-    command = [sys.executable, "-m", "snakemake", "--snakefile", str(SNAKEFILE), "--configfile", *configfiles,
-               "--profile", str(profile_path(profile))]
+        files.append(str(path))
+    return files
+
+
+def snakemake_command(config: Path | str, overrides: dict[str, Any], cores: int | None, profile: str,
+                      dry_run: bool, extra: list[str], forcerun: list[str] | None = None) -> list[str]:
+    command = [sys.executable, "-m", "snakemake", "--snakefile", str(SNAKEFILE)]
+    if forcerun:  # before the next option, which ends its list of files
+        command += ["--forcerun", *forcerun]
+    command += ["--configfile", *configfiles(config, overrides), "--profile", str(profile_path(profile))]
     if cores is not None:
         command += ["--cores", str(cores)]
     if dry_run:
@@ -122,6 +130,8 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
     Shows a compact progress view and sends Snakemake's own output to ``<run folder>/logs/snakemake-<time>.log``;
     ``verbose`` shows Snakemake's output instead, unchanged.
     """
+    since = math.floor(time.time())  # an output at least as new as this was made by this run (whole seconds:
+    # some filesystems keep no finer times)
     parsed = parse_overrides(overrides)
     conf = load_config(config, parsed)
     plan = preflight(conf, str(config))  # a clean error before Snakemake starts, and the only check of this run
@@ -130,14 +140,33 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
     # Snakemake (and each cluster job that parses the workflow) reads the plan instead of checking again
     os.environ[PLAN_ENV] = str(save_plan(plan, conf).resolve())
     check_cluster_interpreter(profile_path(profile))
-    command = snakemake_command(config, parsed, cores, profile, dry_run, list(extra or []))
+    # Each existing output's recorded recipe against the configuration's now, whatever Snakemake's own state says
+    try:
+        jobs = recipes.workflow_jobs(SNAKEFILE, configfiles(config, parsed), conf.run_dir)
+    except Exception as error:  # no graph of jobs: Snakemake, run next, says why in its own words
+        print(f"warning: the outputs' recorded settings were not compared: {error}", file=sys.stderr)
+        jobs = []
+    rerun = recipes.stale(jobs, conf.run_dir)
+    if rerun:
+        print(f"{len(rerun)} job{'s' if len(rerun) > 1 else ''} made {'their' if len(rerun) > 1 else 'its'} outputs "
+              f"with other settings or files than the configuration's now; {'would run' if dry_run else 'runs'} "
+              "again (with what depends on them):")
+        for item in rerun:
+            print(f"  {item.output}: {item.reason}")
+        sys.stdout.flush()
+    command = snakemake_command(config, parsed, cores, profile, dry_run, list(extra or []),
+                                [item.output for item in rerun])
     if dry_run:
         return _snakemake(command, None if verbose else console.DryRunView(sys.stdout, sys.stderr))
     # Our lock on the run folder replaces Snakemake's lock on the working folder: it names the run that holds
     # it and cannot outlive a killed run, so no `--unlock` is ever needed.
     with run_lock(conf.run_dir):
         view = None if verbose else console.ProgressView(snakemake_log(conf.run_dir), sys.stdout, sys.stderr)
-        status = _snakemake(command + ["--nolock"], view)
+        status = 1
+        try:
+            status = _snakemake(command + ["--nolock"], view)
+        finally:  # also after a failed or stopped run: what it made is recorded, the rest keeps its record
+            recipes.record(jobs, conf.run_dir, since, complete=status == 0 and not extra)
     if status == 0:
         out = conf.run_dir
         print(f"\ntables:  {out / 'tables'}\nfigures: {out / 'figures'}")

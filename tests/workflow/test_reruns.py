@@ -273,3 +273,34 @@ def test_table_split_changes_only_the_tables(copy):
     assert [p.stat().st_mtime_ns for p in evaluations] == times
     md = (copy / "results" / "r" / "tables" / "table1.md").read_text()
     assert "val split" in md or "(val)" in md, textwrap.shorten(md, 300)
+
+
+def test_outputs_know_their_settings_without_snakemake_state(copy, tmp_path):
+    """Without Snakemake's record (`.snakemake` deleted), a changed predictor setting still reruns exactly what it
+    changes: every job that hands that setting to its stage is named with why, Snakemake adds what reads their
+    files. The project moved to another folder, unchanged, reruns nothing."""
+    shutil.rmtree(copy / ".snakemake")
+    change(copy, lambda c: c["predictor"].update(max_iter=61))
+    result = vpr_smr(copy, "run", "c.yaml", "-n")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    why = "made with predictor.max_iter 60, the configuration now says 61"
+    named = {"predictors/sample/L3.h5", "ablation/attributes/sample/L3.json", "predictors/sample/L3/without_sad.h5",
+             "predictors/sample/L3/without_tiny.h5", "speed/sample/L3/0.5x.json", "speed/sample/L3/varying.json"}
+    expected = {f"  results/r/{path}: {why}" for path in named}
+    # the report hands its stage the whole configuration, the predictor's settings among it
+    expected.add(f"  results/r/tables/table1.csv: {why.replace('predictor.', 'settings.predictor.')}")
+    lines = [line for line in result.stdout.splitlines() if line.startswith("  results/")]
+    assert sorted(lines) == sorted(expected)
+    assert "7 jobs made their outputs with other settings or files than the configuration's now" in result.stdout
+    assert planned(copy) == attribute_ablation() | without() | PREDICTOR_ON | speed()
+
+    change(copy, lambda c: c["predictor"].update(max_iter=60))
+    moved = tmp_path / "elsewhere" / "project"
+    moved.parent.mkdir()
+    shutil.move(copy, moved)  # a rename: file times kept
+    # every absolute path changes: the checkpoint given as one now names the same file at its new place
+    change(moved, lambda c: c["methods"]["tiny"].update(checkpoint=str(moved / "tiny.pt")))
+    assert not any((moved / ".snakemake" / "metadata").iterdir())  # dry runs record nothing for Snakemake
+    result = vpr_smr(moved, "run", "c.yaml", "-n")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    assert "Nothing to be done" in result.stdout and "results/" not in result.stdout, result.stdout

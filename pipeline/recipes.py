@@ -1,0 +1,227 @@
+"""What made each output of a run, recorded in the run folder and compared before every run.
+
+A job's recipe is what its rule hands it: the rule's ``params`` (by the Snakefile's design exactly the settings the
+job uses), the SHA-256 of every file it reads from outside the run folder (a checkpoint, frame lists, positions, a
+ground-truth file) and the results format. ``vpr-smr run`` records the recipe of every output its jobs write
+(``core.paths.recipes_path``) and, before the next run, compares each existing output's recorded recipe with the one
+the configuration gives now: an output that differs, or records none, is rerun (Snakemake's ``--forcerun``, which
+reruns what depends on it too), whatever Snakemake's own state in ``.snakemake`` says or whether it is there. An
+output made before vpr-smr recorded recipes is left to Snakemake's own record where one is there, and recorded once
+a run has brought every output up to date.
+
+Paths in a recipe are portable: the run folder is written ``{run}`` and the working folder's prefix is dropped, so
+that moving the project folder changes no recipe by itself.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from vpr_smr.core.paths import recipes_path
+from vpr_smr.core.records import FORMAT, FileRecord, FormatError, Record, load, save
+
+RUN = "{run}"  # the run folder in a recorded recipe
+
+
+@dataclass(frozen=True)
+class Recipe(Record):
+    """What made one output: its rule, the rule's params as text, the hashes of the files it read from outside the
+    run folder (portable path -> SHA-256)."""
+
+    rule: str
+    params: dict[str, str]
+    inputs: dict[str, str]
+
+
+@dataclass(frozen=True)
+class Recipes(FileRecord):
+    """Every recorded output of a run (its path in the run folder -> its recipe); the results format is the file's."""
+
+    outputs: dict[str, Recipe]
+
+
+@dataclass(frozen=True)
+class Job:
+    """A job of the workflow as the configuration gives it now: its outputs (paths as the rules write them), its
+    recipe, and whether Snakemake holds its own record of them (``.snakemake``: then Snakemake's own checks judge an
+    output of ours that records nothing, one made before vpr-smr recorded recipes)."""
+
+    outputs: tuple[str, ...]
+    recipe: Recipe
+    snakemake_record: bool = False
+
+
+@dataclass(frozen=True)
+class Stale:
+    """A job to run again: its first output and why."""
+
+    output: str
+    reason: str
+
+
+def portable(text: str, run_dir: Path, cwd: Path) -> str:
+    """``text`` with the run folder (absolute, or as given from ``cwd``) written ``{run}`` and ``cwd``'s prefix
+    dropped."""
+    absolute = run_dir if run_dir.is_absolute() else cwd / run_dir
+    forms = [str(absolute)]  # absolute first: it holds the relative form
+    if absolute.is_relative_to(cwd):
+        forms.append(str(absolute.relative_to(cwd)))
+    for run in dict.fromkeys(forms):
+        text = RUN if text == run else text.replace(run + os.sep, RUN + os.sep)
+    return text.replace(str(cwd) + os.sep, "")
+
+
+def workflow_jobs(snakefile: Path, configfiles: list[str], run_dir: Path) -> list[Job]:
+    """Every job of the workflow of ``configfiles`` with its recipe now, from Snakemake's graph of jobs (built as
+    if every job had to run, without looking at any output)."""
+    from snakemake.api import SnakemakeApi
+    from snakemake.settings.types import ConfigSettings, DAGSettings, OutputSettings, Quietness, ResourceSettings
+
+    from vpr_smr.eval.matching.ground_truth_files import file_sha256
+
+    cwd = Path.cwd()
+    hashes: dict[str, str] = {}
+    run = str(run_dir) + "/"
+    jobs = []
+    # its notes ("Building DAG of jobs...") are not ours to show; no log file of its own either
+    settings = OutputSettings(quiet={Quietness.ALL}, log_level_override=logging.WARNING, enable_file_logging=False)
+    with SnakemakeApi(settings) as api:
+        workflow_api = api.workflow(resource_settings=ResourceSettings(cores=1), snakefile=snakefile,
+                                    config_settings=ConfigSettings(configfiles=[Path(f) for f in configfiles]))
+        workflow_api.dag(DAGSettings())
+        # Snakemake's API runs or prints a graph of jobs but does not return one: its own two steps build it
+        workflow = workflow_api._workflow
+        workflow._prepare_dag(forceall=True, ignore_incomplete=True, lock_warn_only=True, nolock=True)
+        workflow._build_dag()
+        for job in workflow.dag.jobs:
+            outputs = tuple(str(f) for f in job.output)
+            if not outputs:  # the target rule
+                continue
+            params = {name: portable(str(value), run_dir, cwd) for name, value in job.params.items()}
+            inputs = {}
+            for given in map(str, job.input):
+                if not given.startswith(run):
+                    if given not in hashes:  # a missing one: Snakemake says so
+                        hashes[given] = file_sha256(given) if os.path.isfile(given) else "missing"
+                    inputs[portable(given, run_dir, cwd)] = hashes[given]
+            persistence = workflow.persistence
+            known = persistence.has_metadata(job) and not persistence.has_outdated_metadata(job)
+            jobs.append(Job(outputs, Recipe(job.rule.name, params, inputs), bool(known)))
+    return jobs
+
+
+def _shown(value: Any) -> str:
+    return json.dumps(value) if not isinstance(value, str) else (value if value and " " not in value else repr(value))
+
+
+def _changes(name: str, old: Any, new: Any) -> list[str]:
+    """Each setting that differs between two values of a param (JSON objects key by key), as text."""
+    if isinstance(old, dict) and isinstance(new, dict):
+        found = []
+        for key in [*old, *(k for k in new if k not in old)]:
+            where = f"{name}.{key}"
+            if key not in new:
+                found.append(f"made with {where} {_shown(old[key])}, the configuration now has none")
+            elif key not in old:
+                found.append(f"made without {where}, the configuration now says {_shown(new[key])}")
+            else:
+                found += _changes(where, old[key], new[key])
+        return found
+    if old == new:
+        return []
+    return [f"made with {name} {_shown(old)}, the configuration now says {_shown(new)}"]
+
+
+def _json(text: str) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
+
+
+def differences(recorded: Recipe, now: Recipe) -> list[str]:
+    """Why an output recorded as made by ``recorded`` is not what ``now`` would make: one sentence per changed
+    setting or file; empty when they agree."""
+    if recorded.rule != now.rule:
+        return [f"made by rule {recorded.rule}, the workflow now makes it by rule {now.rule}"]
+    found = []
+    for name in [*recorded.params, *(k for k in now.params if k not in recorded.params)]:
+        if name not in now.params:
+            found.append(f"made with {name} {_shown(recorded.params[name])}, the workflow now has no such setting")
+        elif name not in recorded.params:
+            found.append(f"made without {name}, the configuration now says {_shown(now.params[name])}")
+        else:
+            found += _changes(name, _json(recorded.params[name]), _json(now.params[name]))
+    for path in [*recorded.inputs, *(k for k in now.inputs if k not in recorded.inputs)]:
+        if path not in now.inputs:
+            found.append(f"made from {path}, which it no longer reads")
+        elif path not in recorded.inputs:
+            found.append(f"made without {path}, which it now reads")
+        elif recorded.inputs[path] != now.inputs[path]:
+            found.append(f"{path} changed since (SHA-256 {recorded.inputs[path][:12]}..., now "
+                         f"{now.inputs[path][:12]}...)")
+    return found
+
+
+def _relative(output: str, run_dir: Path) -> str:
+    return RUN + output[len(str(run_dir)):] if output.startswith(str(run_dir) + "/") else output
+
+
+def load_recipes(run_dir: Path) -> tuple[dict[str, Recipe], str | None]:
+    """The recorded recipes of a run folder, and why none can be used when so (another results format)."""
+    path = Path(recipes_path(run_dir))
+    if not path.is_file():
+        return {}, None
+    try:
+        return load(path, Recipes).outputs, None
+    except FormatError:
+        found = json.loads(path.read_text()).get("format")
+        return {}, (f"no record of the settings that made it that this vpr-smr can read ({path} is in results format "
+                    f"{found}, this vpr-smr writes results format {FORMAT})")
+    except ValueError as error:
+        return {}, f"its record is unreadable ({error})"
+
+
+def stale(jobs: list[Job], run_dir: Path) -> list[Stale]:
+    """Every job with an existing output whose recorded recipe differs from its recipe now (or that records none),
+    with why (the first output that says so)."""
+    recorded, unusable = load_recipes(run_dir)
+    found = []
+    for job in jobs:
+        for output in job.outputs:
+            if not os.path.exists(output):
+                continue  # Snakemake makes it anyway
+            before = recorded.get(_relative(output, run_dir))
+            if before is None and job.snakemake_record:
+                continue  # made before recipes were recorded: Snakemake's own record judges it
+            if before is None:
+                reasons = [unusable or f"no record of the settings that made it ({recipes_path(run_dir)} has none)"]
+            else:
+                reasons = differences(before, job.recipe)
+            if reasons:
+                found.append(Stale(output, "; ".join(reasons)))
+                break
+    return sorted(found, key=lambda item: item.output)
+
+
+def record(jobs: list[Job], run_dir: Path, since: float, complete: bool = False) -> None:
+    """Record the recipe of every output a job wrote at or after ``since`` (the start of the run): the outputs this
+    run made, with the recipe it made them by; the others keep their records. ``complete``: the run made every
+    output of ``jobs`` up to date, so that those recording nothing that Snakemake's own record vouched for are
+    recorded too."""
+    recorded, _ = load_recipes(run_dir)
+    made = {}
+    for job in jobs:
+        for output in job.outputs:
+            key = _relative(output, run_dir)
+            if not os.path.exists(output):
+                continue
+            if os.stat(output).st_mtime >= since or (complete and job.snakemake_record and key not in recorded):
+                made[key] = job.recipe
+    if made:
+        save(recipes_path(run_dir), Recipes({**recorded, **made}))
