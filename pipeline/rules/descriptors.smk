@@ -12,6 +12,8 @@ rule descriptors:
         frames_sha256=lambda wc: PLAN.datasets[wc.dataset].frames_sha256,
         # without `distance`: it changes the distance matrices, not the descriptors
         method=lambda wc: canonical(descriptor_settings(conf.methods[wc.method].to_json())),
+        # what the backend's code computes: a new revision computes the descriptors again
+        revision=lambda wc: descriptor_revision(conf.methods[wc.method].backend),
     threads: 2
     resources:
         gpu=1,
