@@ -16,8 +16,9 @@ queries; ``without_correct`` says which queries those are.
 
 from __future__ import annotations
 
+import array
 from abc import ABC, abstractmethod
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -339,18 +340,35 @@ class MatrixTruth(GroundTruth):
         return cls(bits, n_reference, source, open_ended)
 
     @classmethod
-    def of_rows(cls, rows: Iterable[tuple[Any, range | np.ndarray]], shape: tuple[int, int],
+    def of_rows(cls, rows: Iterable[tuple[Any, range | Sequence[int] | np.ndarray]], shape: tuple[int, int],
                 source: TruthSource | None = None, open_ended: bool = False) -> MatrixTruth:
         """The matrix of ``shape`` whose correct cells are each row's references of its query: a query and a range
-        (set byte by byte, never expanded) or an int64 array of references, or an array of queries and one of
-        references (pairs). Every index must lie in ``shape`` (the readers check them as they read)."""
+        (set byte by byte, never expanded) or a list or array of references, or an array of queries and one of
+        references (pairs). Lists are set ``PAIRS_CHUNK`` pairs at a time. Every index must lie in ``shape`` (the
+        readers check them as they read)."""
         n_reference, n_query = (int(n) for n in shape)
         bits = np.zeros((-(-n_reference // 8), n_query), dtype=np.uint8)
-        for query, references in rows:
-            if isinstance(references, range):
-                _set_range(bits[:, query], references)
-            elif len(references):
-                np.bitwise_or.at(bits, (references >> 3, query), (1 << (7 - (references & 7))).astype(np.uint8))
+        queries, references = array.array("q"), array.array("q")
+
+        def flush() -> None:
+            pairs = np.array(references, dtype=np.int64)  # copies: the buffers are emptied for the next chunk
+            np.bitwise_or.at(bits, (pairs >> 3, np.array(queries, dtype=np.int64)),
+                             (1 << (7 - (pairs & 7))).astype(np.uint8))
+            del queries[:], references[:]
+
+        for query, correct in rows:
+            if isinstance(correct, range):
+                _set_range(bits[:, query], correct)
+                continue
+            if isinstance(query, np.ndarray):
+                queries.extend(query.astype(np.int64))
+            else:
+                queries.extend([query] * len(correct))
+            references.extend(np.asarray(correct, dtype=np.int64) if isinstance(correct, np.ndarray) else correct)
+            if len(references) >= PAIRS_CHUNK:
+                flush()
+        if len(references):
+            flush()
         return cls(bits, n_reference, source, open_ended)
 
     @property
@@ -441,6 +459,7 @@ class MatrixTruth(GroundTruth):
 
 
 RANGE_CHUNK = 1 << 20  # the indices of a range with a step other than 1 set a time
+PAIRS_CHUNK = 1 << 20  # the listed pairs set a time (16 MiB of indices)
 
 
 def _set_range(column: np.ndarray, references: range) -> None:

@@ -20,6 +20,7 @@ import json
 import math
 import numbers
 from collections import Counter
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -56,8 +57,14 @@ def file_sha256(path: Path | str) -> str:
 PICKLE_BYTES_PER_QUERY = 1024
 PICKLE_BYTES_PER_REFERENCE = 256
 PICKLE_BYTES_SLACK = 1 << 16
+# The most references listed one by one (not as a range) that a file may name per byte of it, plus LISTED_SLACK: each
+# takes at least a byte of a file unless a pickle repeats one list for many queries (through its memo). Bounds the
+# time spent on the lists by the file's size.
+LISTED_PER_BYTE = 8
+LISTED_SLACK = 1 << 20
 
-Row = tuple[Any, "range | np.ndarray"]  # a query (or an array of queries) and its references (a range or int64 array)
+References = range | list[int] | np.ndarray  # a query's references: a range, indices, or int64 indices (pairs)
+Listed = tuple[Any, Any, str]  # a query, its references as the file holds them, and how errors name them
 
 
 class _Named(ValueError):
@@ -72,7 +79,8 @@ class _Bounds:
     def __init__(self, path: Path, shape: tuple[int, int] | None) -> None:
         self.path, self.shape = path, shape
         self.top = [-1, -1]  # the largest reference, query
-        self.pairs = 0
+        self.pairs = self.listed = 0
+        self.most_listed = LISTED_PER_BYTE * path.stat().st_size + LISTED_SLACK
 
     def most(self, axis: int) -> int:
         """How many references (0) or queries (1) there may be."""
@@ -91,7 +99,7 @@ class _Bounds:
         return _Named(f"{self.path} names {name} {value} (the pair query {query}, reference {reference}), but "
                       f"{self.limit(axis)}: {fix}")
 
-    def references(self, value: Any, what: str) -> range | np.ndarray:
+    def references(self, value: Any, what: str) -> References:
         """A query's correct references: a list, tuple, range or 1-D array of indices, or a single index; a list
         longer than the matrix has references is refused before it is converted, a range is never expanded."""
         if isinstance(value, np.ndarray):
@@ -99,37 +107,56 @@ class _Bounds:
                 raise ValueError(f"{what} is an array of shape {value.shape}, not a list of frame indices")
             if value.ndim == 0:
                 value = value.item()
-        if isinstance(value, range | list | tuple | np.ndarray):
-            if len(value) > self.most(0):
-                shown = f" ({value!r})" if isinstance(value, range) else ""
-                raise ValueError(f"{what}{shown} number {len(value)}, more than {self.limit(0)}: a query's list "
-                                 "names each correct reference once; give the ground truth of the matrix's frames")
-            if isinstance(value, range):
-                if len(value) and min(value[0], value[-1]) < 0:
-                    raise ValueError(f"{what} is {value!r}, whose indices are not all frame indices (integers >= 0)")
-                return value
-            items = value.tolist() if isinstance(value, np.ndarray) else value
-            return np.array([_index(item, f"{what}, item {i}") for i, item in enumerate(items)], dtype=np.int64)
-        return np.array([_index(value, what)], dtype=np.int64)
+        if not isinstance(value, range | list | tuple | np.ndarray):
+            return [_index(value, what)]
+        if len(value) > self.most(0):
+            shown = f" ({value!r})" if isinstance(value, range) else ""
+            raise ValueError(f"{what}{shown} number {len(value)}, more than {self.limit(0)}: a query's list names "
+                             "each correct reference once; give the ground truth of the matrix's frames")
+        if isinstance(value, range):
+            if len(value) and min(value[0], value[-1]) < 0:
+                raise ValueError(f"{what} is {value!r}, whose indices are not all frame indices (integers >= 0)")
+            return value
+        if isinstance(value, np.ndarray) and value.dtype.kind in "iu" and (not len(value) or value.min() >= 0):
+            return value.astype(np.int64)
+        items = value.tolist() if isinstance(value, np.ndarray) else value
+        return [_index(item, f"{what}, item {i}") for i, item in enumerate(items)]
 
-    def add(self, query: Any, references: range | np.ndarray) -> None:
+    def rows(self, listed: list[Listed]) -> Iterator[tuple[Any, References]]:
+        """The rows read and checked (``references``, ``add``), each converted again as the matrix is built, so
+        that no more than one query's list exists at a time, however often a pickle repeats one; pairs (an array of
+        queries, checked line by line) as they are."""
+        for query, value, what in listed:
+            yield (query, value) if isinstance(query, np.ndarray) else (query, self.references(value, what))
+
+    def add(self, query: int | np.ndarray, references: References) -> None:
         """Count a query's (or an array of queries') references, refusing the first index the matrix cannot hold
         and, where the matrix is not known, a file implying more than ``MAX_TRUTH_CELLS`` cells or pairs."""
-        top_query = int(np.max(query)) if np.size(query) else -1
+        queries, top_query = (None, query) if not isinstance(query, np.ndarray) else (
+            query, int(query.max()) if len(query) else -1)
         if top_query >= self.most(1):
-            i = int(np.argmax(query))
+            at = 0 if queries is None else int(np.argmax(queries))
             reference = references if isinstance(references, range) else (
-                references[i] if np.ndim(query) else references[:1].tolist() or "none")
+                list(references[:1]) or "none" if queries is None else references[at])
             raise self.beyond("query", top_query, top_query, reference, 1)
         if len(references):
-            top = max(references[0], references[-1]) if isinstance(references, range) else int(references.max())
+            if isinstance(references, range):
+                top, at = max(references[0], references[-1]), 0
+            else:
+                at = int(np.argmax(references))
+                top = int(references[at])
             if top >= self.most(0):
-                i = 0 if isinstance(references, range) else int(np.argmax(references))
-                shown_query = query if np.ndim(query) == 0 else np.asarray(query)[i]
-                raise self.beyond("reference", top, shown_query, top, 0)
+                raise self.beyond("reference", top, query if queries is None else queries[at], top, 0)
             self.top[0] = max(self.top[0], top)
         self.top[1] = max(self.top[1], top_query)
         self.pairs += len(references)
+        if not isinstance(references, range):
+            self.listed += len(references)
+            if self.listed > self.most_listed:
+                size = self.path.stat().st_size
+                raise _Named(f"{self.path} lists more than {self.most_listed} references one by one, more than its "
+                             f"{size} bytes hold ({LISTED_PER_BYTE} per byte, plus {LISTED_SLACK}): a pickle repeating "
+                             "one list for many queries is not read; give each query its own list, or a range")
         if self.shape is None and max(self.pairs, (self.top[0] + 1) * (self.top[1] + 1)) > MAX_TRUTH_CELLS:
             raise _Named(f"{self.path} names references up to {self.top[0]} and queries up to {self.top[1]} "
                          f"({self.pairs} pairs so far), more than {self.limit(0)} ({MAX_TRUTH_CELLS // 8 >> 20} MiB "
@@ -146,7 +173,7 @@ def _index(value: Any, what: str) -> int:
     return int(number)
 
 
-def _json_lists(path: Path, bounds: _Bounds) -> list[Row]:
+def _json_lists(path: Path, bounds: _Bounds) -> list[Listed]:
     def unique(items: list[tuple[str, Any]]) -> dict[str, Any]:
         repeated = sorted(key for key, n in Counter(key for key, _ in items).items() if n > 1)
         if repeated:
@@ -160,7 +187,7 @@ def _json_lists(path: Path, bounds: _Bounds) -> list[Row]:
     if not isinstance(data, dict):
         raise ValueError(f"holds a JSON {type(data).__name__}, not an object of per-query lists "
                          '{"query": [reference, ...], ...}')
-    rows: list[Row] = []
+    rows: list[Listed] = []
     for key, value in data.items():
         try:
             query = int(key.strip())
@@ -168,12 +195,12 @@ def _json_lists(path: Path, bounds: _Bounds) -> list[Row]:
             raise ValueError(f"its key {key!r} is not a query index (the keys are query frame indices, e.g. "
                              '"12")') from None
         query = _index(query, f"query {key!r}")
-        rows.append((query, bounds.references(value, f"query {key!r}'s references")))
-        bounds.add(*rows[-1])
+        rows.append((query, value, f"query {key!r}'s references"))
+        bounds.add(query, bounds.references(value, rows[-1][2]))
     return rows
 
 
-def _csv_pairs(path: Path, bounds: _Bounds) -> list[Row]:
+def _csv_pairs(path: Path, bounds: _Bounds) -> list[Listed]:
     queries, references = array.array("q"), array.array("q")
     with path.open(newline="", encoding="utf-8") as handle:
         reader = csv.reader(handle)
@@ -193,13 +220,13 @@ def _csv_pairs(path: Path, bounds: _Bounds) -> list[Row]:
             except ValueError as error:
                 raise ValueError(str(error) if "frame index" in str(error) else
                                  f"line {line}: {','.join(row)!r} is not a pair of frame indices") from None
-            bounds.add(query, np.array([reference], dtype=np.int64))
+            bounds.add(query, [reference])
             queries.append(query)
             references.append(reference)
-    return [(np.frombuffer(queries, dtype=np.int64), np.frombuffer(references, dtype=np.int64))]
+    return [(np.frombuffer(queries, dtype=np.int64), np.frombuffer(references, dtype=np.int64), "the pairs")]
 
 
-def _vpr_bench_lists(path: Path, bounds: _Bounds) -> list[Row]:
+def _vpr_bench_lists(path: Path, bounds: _Bounds) -> list[Listed]:
     """VPR-Bench's rows ``[query, references]`` (its own code reads ``row[1]`` as the list of correct references;
     the query is ``row[0]``). A file with more rows than the matrix has queries, or larger than such lists can be,
     is refused before its pickle is read."""
@@ -228,7 +255,7 @@ def _vpr_bench_lists(path: Path, bounds: _Bounds) -> list[Row]:
     if not (rows.ndim == 1 or (rows.ndim == 2 and rows.shape[1] == 2)):
         raise ValueError(f"holds an array of objects of shape {rows.shape}, not VPR-Bench's rows of "
                          "[query, [references]]")
-    read: list[Row] = []
+    read: list[Listed] = []
     seen: dict[int, int] = {}
     for number, row in enumerate(rows):  # a 1-D array holds [query, references] items, a 2-D one rows of two
         if not (isinstance(row, np.ndarray | list | tuple) and len(row) == 2):
@@ -237,13 +264,13 @@ def _vpr_bench_lists(path: Path, bounds: _Bounds) -> list[Row]:
         if query in seen:
             raise ValueError(f"rows {seen[query]} and {number} both give query {query}: give each query once")
         seen[query] = number
-        read.append((query, bounds.references(row[1], f"row {number} (query {query}): the references")))
-        bounds.add(*read[-1])
+        read.append((query, row[1], f"row {number} (query {query}): the references"))
+        bounds.add(query, bounds.references(row[1], read[-1][2]))
     return read
 
 
-def _lists(path: Path, head: bytes, bounds: _Bounds) -> tuple[list[Row], str]:
-    """The rows of a lists file, each checked against ``bounds`` as it is read, and its form."""
+def _lists(path: Path, head: bytes, bounds: _Bounds) -> tuple[list[Listed], str]:
+    """The rows of a lists file as it holds them, each checked against ``bounds`` as it is read, and its form."""
     suffix = path.suffix.lower()
     if suffix == ".npy":
         return _vpr_bench_lists(path, bounds), "vpr-bench lists"
@@ -329,5 +356,5 @@ def read_ground_truth(path: Path | str, key: str | None = None, shape: tuple[int
                          "query's correct references")
     source = TruthSource(str(path), sha256, form)
     if shape is not None:
-        return MatrixTruth.of_rows(rows, shape, source)
-    return MatrixTruth.of_rows(rows, (bounds.top[0] + 1, bounds.top[1] + 1), source, open_ended=True)
+        return MatrixTruth.of_rows(bounds.rows(rows), shape, source)
+    return MatrixTruth.of_rows(bounds.rows(rows), (bounds.top[0] + 1, bounds.top[1] + 1), source, open_ended=True)

@@ -190,3 +190,31 @@ def test_matrices_declaring_more_than_the_matrix_or_the_cap_are_refused_unread(t
                                              r"more than the 4 x 4 matrix it scores: give the ground truth of the "
                                              r"matrix's frames \(references x queries\); nothing of it was read"):
             read_ground_truth(tmp_path / name, shape=(4, 4))
+
+
+def test_a_pickle_repeating_one_list_for_many_queries_is_refused_by_its_size(tmp_path):
+    shared = list(range(1000))  # one list object: the pickle's memo writes it once, then 2 bytes per repetition
+    path = save_rows(tmp_path / "memo.npy", [[q, shared] for q in range(2000)])
+    size = path.stat().st_size
+    most = 8 * size + 2**20  # LISTED_PER_BYTE references per byte, plus LISTED_SLACK
+    assert 2000 * 1000 > most
+    for shape in (None, (1000, 2000)):
+        with pytest.raises(ValueError, match=rf"memo.npy lists more than {most} references one by one, more than its "
+                                             rf"{size} bytes hold \(8 per byte, plus 1048576\)"):
+            read_ground_truth(path, shape=shape)
+    # the same lists, each written out: read, every cell correct
+    own = save_rows(tmp_path / "own.npy", [[q, list(range(1000))] for q in range(20)])
+    assert int(read_ground_truth(own, shape=(1000, 20)).bits.sum()) == 20 * 1000 // 8 * 255
+
+
+def test_ranges_and_lists_set_the_cells_they_name_in_chunks(tmp_path, monkeypatch):
+    import vpr_smr.eval.matching.ground_truth as ground_truth
+
+    monkeypatch.setattr(ground_truth, "PAIRS_CHUNK", 2)
+    monkeypatch.setattr(ground_truth, "RANGE_CHUNK", 2)
+    path = save_rows(tmp_path / "gt.npy", [[0, range(1, 8, 3)], [1, range(7, 0, -2)], [2, [0, 9, 9, 3]],
+                                           [3, range(2, 19)], [4, np.array([5, 6], dtype=np.int32)]])
+    truth = read_ground_truth(path, shape=(20, 6))
+    correct = {0: [1, 4, 7], 1: [1, 3, 5, 7], 2: [0, 3, 9], 3: list(range(2, 19)), 4: [5, 6], 5: []}
+    for query, references in correct.items():
+        assert np.flatnonzero(truth.correct_references(query)).tolist() == references
