@@ -9,6 +9,11 @@
 
 Lists name the correct pairs only, not how many frames there are: their matrix is the smallest that holds every
 pair, and a query they do not name has no correct reference. Every error names the file and the fix.
+
+Every reader is bounded (method §13.2) by the matrix the file scores, when the caller knows it (the workflow's check
+before its first job), else by ``MAX_TRUTH_CELLS``: a matrix's declared shape is checked before its data is read,
+lists index by index as they are read (a ``range`` by its length and ends, never expanded), VPR-Bench's rows and
+bytes before its pickle is read, and the pickle's arrays and lists by ``core.pickles``' budget as it is read.
 """
 
 from __future__ import annotations
@@ -93,11 +98,14 @@ class _Bounds:
                     "matrix it scores is not known")
         return f"the matrix has {self.shape[axis]} {('references', 'queries')[axis]} (0..{self.shape[axis] - 1})"
 
+    @property
+    def fix(self) -> str:
+        return ("give the ground truth of the matrix's frames" if self.shape is not None else
+                "give the ground truth of the distance matrices' frames (indices from 0)")
+
     def beyond(self, name: str, value: int, query: Any, reference: Any, axis: int) -> _Named:
-        fix = ("give the ground truth of the matrix's frames" if self.shape is not None else
-               "give the ground truth of the distance matrices' frames (indices from 0)")
         return _Named(f"{self.path} names {name} {value} (the pair query {query}, reference {reference}), but "
-                      f"{self.limit(axis)}: {fix}")
+                      f"{self.limit(axis)}: {self.fix}")
 
     def references(self, value: Any, what: str) -> References:
         """A query's correct references: a list, tuple, range or 1-D array of indices, or a single index; a list
@@ -112,7 +120,7 @@ class _Bounds:
         if len(value) > self.most(0):
             shown = f" ({value!r})" if isinstance(value, range) else ""
             raise ValueError(f"{what}{shown} number {len(value)}, more than {self.limit(0)}: a query's list names "
-                             "each correct reference once; give the ground truth of the matrix's frames")
+                             f"each correct reference once; {self.fix}")
         if isinstance(value, range):
             if len(value) and min(value[0], value[-1]) < 0:
                 raise ValueError(f"{what} is {value!r}, whose indices are not all frame indices (integers >= 0)")
@@ -160,7 +168,7 @@ class _Bounds:
         if self.shape is None and max(self.pairs, (self.top[0] + 1) * (self.top[1] + 1)) > MAX_TRUTH_CELLS:
             raise _Named(f"{self.path} names references up to {self.top[0]} and queries up to {self.top[1]} "
                          f"({self.pairs} pairs so far), more than {self.limit(0)} ({MAX_TRUTH_CELLS // 8 >> 20} MiB "
-                         "as bits): give the ground truth of the distance matrices' frames (indices from 0)")
+                         f"as bits): {self.fix}")
 
 
 def _index(value: Any, what: str) -> int:
@@ -232,8 +240,7 @@ def _vpr_bench_lists(path: Path, bounds: _Bounds) -> list[Listed]:
     is refused before its pickle is read."""
     n_rows = npy_header(path, MATRIX_WHAT).shape[:1] or (1,)
     if n_rows[0] > bounds.most(1):
-        raise ValueError(f"its header says {n_rows[0]} rows, but {bounds.limit(1)}: one row per query; give the "
-                         "ground truth of the matrix's frames")
+        raise ValueError(f"its header says {n_rows[0]} rows, but {bounds.limit(1)}: one row per query; {bounds.fix}")
     if bounds.shape is not None:
         n_reference, n_query = bounds.shape
         most = PICKLE_BYTES_SLACK + n_query * (PICKLE_BYTES_PER_QUERY + n_reference * PICKLE_BYTES_PER_REFERENCE)

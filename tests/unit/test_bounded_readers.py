@@ -59,7 +59,7 @@ print(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss // 1024)
     assert lines[0] == (f"{path}: row 0 (query 0): the references (range(0, 1000000000000)) number 1000000000000, "
                         "more than the 8589934592 cells (references x queries) vpr-smr reads from a ground truth "
                         "when the matrix it scores is not known: a query's list names each correct reference once; "
-                        "give the ground truth of the matrix's frames")
+                        "give the ground truth of the distance matrices' frames (indices from 0)")
     assert "the references (range(0, 1000000000000)) number 1000000000000, more than the matrix has 100 " \
            "references (0..99)" in lines[1]
     assert lines[2] == "(30000000, 2) 30000000 2"
