@@ -25,7 +25,7 @@ import json
 import math
 import numbers
 from collections import Counter
-from collections.abc import Iterator
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -69,7 +69,9 @@ LISTED_PER_BYTE = 8
 LISTED_SLACK = 1 << 20
 
 References = range | list[int] | np.ndarray  # a query's references: a range, indices, or int64 indices (pairs)
-Listed = tuple[Any, Any, str]  # a query, its references as the file holds them, and how errors name them
+# a query, its references as the file holds them, and a label from which ``_Bounds.what`` names them in errors (a
+# row's number, a JSON key: not a text per row, which would take more memory than the row)
+Listed = tuple[Any, Any, Any]
 
 
 class _Named(ValueError):
@@ -85,6 +87,7 @@ class _Bounds:
         self.path, self.shape = path, shape
         self.top = [-1, -1]  # the largest reference, query
         self.pairs = self.listed = 0
+        self.what: Callable[[Any, Any], str] = lambda label, query: f"query {query}'s references"  # label, query
         self.most_listed = LISTED_PER_BYTE * path.stat().st_size + LISTED_SLACK
 
     def most(self, axis: int) -> int:
@@ -128,14 +131,17 @@ class _Bounds:
         if isinstance(value, np.ndarray) and value.dtype.kind in "iu" and (not len(value) or value.min() >= 0):
             return value.astype(np.int64)
         items = value.tolist() if isinstance(value, np.ndarray) else value
+        if all(type(item) is int and item >= 0 for item in items):  # the usual case, without a text per item
+            return list(items)
         return [_index(item, f"{what}, item {i}") for i, item in enumerate(items)]
 
-    def rows(self, listed: list[Listed]) -> Iterator[tuple[Any, References]]:
+    def rows(self, listed: Iterable[Listed]) -> Iterator[tuple[Any, References]]:
         """The rows read and checked (``references``, ``add``), each converted again as the matrix is built, so
         that no more than one query's list exists at a time, however often a pickle repeats one; pairs (an array of
         queries, checked line by line) as they are."""
-        for query, value, what in listed:
-            yield (query, value) if isinstance(query, np.ndarray) else (query, self.references(value, what))
+        for query, value, label in listed:
+            yield (query, value) if isinstance(query, np.ndarray) else (
+                query, self.references(value, self.what(label, query)))
 
     def add(self, query: int | np.ndarray, references: References) -> None:
         """Count a query's (or an array of queries') references, refusing the first index the matrix cannot hold
@@ -181,7 +187,7 @@ def _index(value: Any, what: str) -> int:
     return int(number)
 
 
-def _json_lists(path: Path, bounds: _Bounds) -> list[Listed]:
+def _json_lists(path: Path, bounds: _Bounds) -> Callable[[], Iterator[Listed]]:
     def unique(items: list[tuple[str, Any]]) -> dict[str, Any]:
         repeated = sorted(key for key, n in Counter(key for key, _ in items).items() if n > 1)
         if repeated:
@@ -195,20 +201,23 @@ def _json_lists(path: Path, bounds: _Bounds) -> list[Listed]:
     if not isinstance(data, dict):
         raise ValueError(f"holds a JSON {type(data).__name__}, not an object of per-query lists "
                          '{"query": [reference, ...], ...}')
-    rows: list[Listed] = []
-    for key, value in data.items():
-        try:
-            query = int(key.strip())
-        except ValueError:
-            raise ValueError(f"its key {key!r} is not a query index (the keys are query frame indices, e.g. "
-                             '"12")') from None
-        query = _index(query, f"query {key!r}")
-        rows.append((query, value, f"query {key!r}'s references"))
-        bounds.add(query, bounds.references(value, rows[-1][2]))
-    return rows
+    bounds.what = lambda key, query: f"query {key!r}'s references"
+
+    def listed() -> Iterator[Listed]:
+        for key, value in data.items():
+            try:
+                query = int(key.strip())
+            except ValueError:
+                raise ValueError(f"its key {key!r} is not a query index (the keys are query frame indices, e.g. "
+                                 '"12")') from None
+            yield _index(query, f"query {key!r}"), value, key
+
+    for query, value, key in listed():
+        bounds.add(query, bounds.references(value, bounds.what(key, query)))
+    return listed
 
 
-def _csv_pairs(path: Path, bounds: _Bounds) -> list[Listed]:
+def _csv_pairs(path: Path, bounds: _Bounds) -> Callable[[], Iterator[Listed]]:
     queries, references = array.array("q"), array.array("q")
     with path.open(newline="", encoding="utf-8") as handle:
         reader = csv.reader(handle)
@@ -231,10 +240,21 @@ def _csv_pairs(path: Path, bounds: _Bounds) -> list[Listed]:
             bounds.add(query, [reference])
             queries.append(query)
             references.append(reference)
-    return [(np.frombuffer(queries, dtype=np.int64), np.frombuffer(references, dtype=np.int64), "the pairs")]
+    pairs = (np.array(queries, dtype=np.int64), np.array(references, dtype=np.int64), None)
+    return lambda: iter([pairs])
 
 
-def _vpr_bench_lists(path: Path, bounds: _Bounds) -> list[Listed]:
+def _once(queries: np.ndarray) -> None:
+    """Refuse rows giving a query twice, naming the first repetition (in 8 bytes per row, not a dict of rows)."""
+    order = np.argsort(queries, kind="stable")
+    repeated = np.flatnonzero(queries[order][1:] == queries[order][:-1])
+    if len(repeated):
+        at = repeated[np.argmin(order[repeated + 1])]  # the earliest second row of a query, after its first
+        first, second = int(order[at]), int(order[at + 1])
+        raise ValueError(f"rows {first} and {second} both give query {queries[second]}: give each query once")
+
+
+def _vpr_bench_lists(path: Path, bounds: _Bounds) -> Callable[[], Iterator[Listed]]:
     """VPR-Bench's rows ``[query, references]`` (its own code reads ``row[1]`` as the list of correct references;
     the query is ``row[0]``). A file with more rows than the matrix has queries, or larger than such lists can be,
     is refused before its pickle is read."""
@@ -262,22 +282,25 @@ def _vpr_bench_lists(path: Path, bounds: _Bounds) -> list[Listed]:
     if not (rows.ndim == 1 or (rows.ndim == 2 and rows.shape[1] == 2)):
         raise ValueError(f"holds an array of objects of shape {rows.shape}, not VPR-Bench's rows of "
                          "[query, [references]]")
-    read: list[Listed] = []
-    seen: dict[int, int] = {}
-    for number, row in enumerate(rows):  # a 1-D array holds [query, references] items, a 2-D one rows of two
-        if not (isinstance(row, np.ndarray | list | tuple) and len(row) == 2):
-            raise ValueError(f"row {number} is {row!r}, not [query, [references]]")
-        query = _index(row[0], f"row {number}: the query")
-        if query in seen:
-            raise ValueError(f"rows {seen[query]} and {number} both give query {query}: give each query once")
-        seen[query] = number
-        read.append((query, row[1], f"row {number} (query {query}): the references"))
-        bounds.add(query, bounds.references(row[1], read[-1][2]))
-    return read
+    bounds.what = lambda number, query: f"row {number} (query {query}): the references"
+
+    def listed() -> Iterator[Listed]:
+        for number, row in enumerate(rows):  # a 1-D array holds [query, references] items, a 2-D one rows of two
+            if not (isinstance(row, np.ndarray | list | tuple) and len(row) == 2):
+                raise ValueError(f"row {number} is {row!r}, not [query, [references]]")
+            yield _index(row[0], f"row {number}: the query"), row[1], number
+
+    queries = array.array("q")
+    for query, value, number in listed():
+        bounds.add(query, bounds.references(value, bounds.what(number, query)))
+        queries.append(query)
+    _once(np.array(queries, dtype=np.int64))
+    return listed
 
 
-def _lists(path: Path, head: bytes, bounds: _Bounds) -> tuple[list[Listed], str]:
-    """The rows of a lists file as it holds them, each checked against ``bounds`` as it is read, and its form."""
+def _lists(path: Path, head: bytes, bounds: _Bounds) -> tuple[Callable[[], Iterator[Listed]], str]:
+    """The rows of a lists file as it holds them (read again by each call: nothing per row is kept), each checked
+    against ``bounds`` as it is read, and its form."""
     suffix = path.suffix.lower()
     if suffix == ".npy":
         return _vpr_bench_lists(path, bounds), "vpr-bench lists"
@@ -363,5 +386,5 @@ def read_ground_truth(path: Path | str, key: str | None = None, shape: tuple[int
                          "query's correct references")
     source = TruthSource(str(path), sha256, form)
     if shape is not None:
-        return MatrixTruth.of_rows(bounds.rows(rows), shape, source)
-    return MatrixTruth.of_rows(bounds.rows(rows), (bounds.top[0] + 1, bounds.top[1] + 1), source, open_ended=True)
+        return MatrixTruth.of_rows(bounds.rows(rows()), shape, source)
+    return MatrixTruth.of_rows(bounds.rows(rows()), (bounds.top[0] + 1, bounds.top[1] + 1), source, open_ended=True)

@@ -218,3 +218,9 @@ def test_ranges_and_lists_set_the_cells_they_name_in_chunks(tmp_path, monkeypatc
     correct = {0: [1, 4, 7], 1: [1, 3, 5, 7], 2: [0, 3, 9], 3: list(range(2, 19)), 4: [5, 6], 5: []}
     for query, references in correct.items():
         assert np.flatnonzero(truth.correct_references(query)).tolist() == references
+
+
+def test_a_query_given_by_two_rows_is_named_by_its_first_two_rows(tmp_path):
+    path = save_rows(tmp_path / "twice.npy", [[3, [0]], [1, [0]], [3, [1]], [1, [1]], [1, [2]]])
+    with pytest.raises(ValueError, match="twice.npy: rows 0 and 2 both give query 3: give each query once"):
+        read_ground_truth(path)
