@@ -155,11 +155,11 @@ class _Bounds:
             raise self.beyond("query", top_query, top_query, reference, 1)
         if len(references):
             if isinstance(references, range):
-                top, at = max(references[0], references[-1]), 0
+                top = max(references[0], references[-1])
             else:
-                at = int(np.argmax(references))
-                top = int(references[at])
+                top = max(references) if isinstance(references, list) else int(references.max())
             if top >= self.most(0):
+                at = 0 if queries is None else int(np.argmax(references))
                 raise self.beyond("reference", top, query if queries is None else queries[at], top, 0)
             self.top[0] = max(self.top[0], top)
         self.top[1] = max(self.top[1], top_query)
