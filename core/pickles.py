@@ -8,6 +8,11 @@ readers (``core.files.npy_header``) and the pickle after it by ``ArraysOnlyUnpic
 out only the few callables NumPy's own pickles of arrays, dtypes and scalars name, and refuses any other with its
 name. Pickle opcodes build strings, numbers, lists, tuples, dicts and sets without ``find_class``; the caller checks
 the structure it gets.
+
+What the pickle builds is bounded by the file's size: opcodes build at most a few objects per byte, and the
+callables handed out that could build more (an array of a declared shape, ``list(range(...))``) first check what
+they would build against ``BUILT_PER_BYTE`` bytes per byte of the file (``PickleTooLarge``, before allocating). A
+``range`` stays lazy: its reader checks its length before using it.
 """
 
 from __future__ import annotations
@@ -20,7 +25,7 @@ import numpy as np
 
 from vpr_smr.core.files import npy_header
 
-__all__ = ["ArraysOnlyUnpickler", "RefusedPickle", "load_object_npy"]
+__all__ = ["ArraysOnlyUnpickler", "PickleTooLarge", "RefusedPickle", "load_object_npy"]
 
 
 def _numpy_callables() -> dict[str, Any]:
@@ -42,7 +47,8 @@ def _latin1_bytes(text: str, encoding: str) -> bytes:
 
 _NUMPY = _numpy_callables()
 # (module, name) as a pickle names them -> what is built. Python 2's pickles name the builtins module __builtin__.
-# ``range``: a Python 3 writer of VPR-Bench's lists as range(lo, hi) pickles it so; it holds numbers only.
+# ``range``: a Python 3 writer of VPR-Bench's lists as range(lo, hi) pickles it so; it holds numbers only. Arrays,
+# lists and tuples are built by ``ArraysOnlyUnpickler.find_class``'s bounded versions of these.
 ALLOWED: dict[tuple[str, str], Any] = {
     **{(f"numpy.{core}.multiarray", name): _NUMPY[name] for core in ("core", "_core")
        for name in ("_reconstruct", "scalar")},
@@ -53,6 +59,12 @@ ALLOWED: dict[tuple[str, str], Any] = {
     **{(module, name): kind for module in ("builtins", "__builtin__")
        for name, kind in (("list", list), ("tuple", tuple), ("range", range))},
 }
+# What a pickle may build through the callables above, in bytes per byte of the file (plus BUILT_SLACK): every
+# element of an array or list it builds takes at least one byte of opcodes (a NumPy number's raw data takes its own
+# size), and a Python reference takes 8 bytes. A tiny pickle cannot ask for a huge array or list(range(10**12)).
+BUILT_PER_BYTE = 8
+BUILT_SLACK = 1 << 20
+REFERENCE_BYTES = 8  # an element of a list, tuple or object array
 
 
 class RefusedPickle(ValueError):
@@ -60,30 +72,101 @@ class RefusedPickle(ValueError):
     ``module.name``. Nothing of the pickle was run."""
 
 
+class PickleTooLarge(ValueError):
+    """A pickle asks for more than ``BUILT_PER_BYTE`` bytes per byte of its file: ``args[0]`` says what and how
+    much; it was refused before being allocated."""
+
+
+class _Budget:
+    """The bytes a pickle's arrays, lists and tuples may still take, charged before each is built."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = self.left = limit
+
+    def charge(self, what: str, n_bytes: int) -> None:
+        if n_bytes > self.left:
+            raise PickleTooLarge(f"would build {what} of {n_bytes} bytes, beyond the {self.limit} bytes its file can "
+                                 f"hold ({BUILT_PER_BYTE} bytes per byte of the file, plus {BUILT_SLACK})")
+        self.left -= n_bytes
+
+    def array(self, shape: Any, dtype: Any) -> None:
+        """Charge an array of ``shape`` and ``dtype`` (left to NumPy to refuse when they are not a shape and a
+        dtype)."""
+        try:
+            dims = [int(n) for n in (shape if isinstance(shape, tuple | list) else (shape,))]
+            itemsize = np.dtype(dtype).itemsize
+        except (TypeError, ValueError):
+            return
+        count = 1
+        for n in dims:
+            count *= max(n, 0)
+        self.charge(f"an array of shape {tuple(dims)}", count * max(itemsize, 1))
+
+    def sequence(self, kind: type, items: Any) -> Any:
+        """``kind(items)`` (a list or tuple), charged by ``len(items)`` before it is built."""
+        self.charge(f"a {kind.__name__} of {len(items)} items", REFERENCE_BYTES * len(items))
+        return kind(items)
+
+
+def _bounded_callables(budget: _Budget) -> dict[Any, Any]:
+    """The callables of ``ALLOWED`` that allocate by a size the pickle states, each charging ``budget`` first;
+    keyed by the callable they replace."""
+
+    class BoundedArray(np.ndarray):
+        """``numpy.ndarray`` as a pickle builds it: by its constructor or ``_reconstruct`` and ``__setstate__``."""
+
+        def __new__(cls, shape: Any, dtype: Any = float, *args: Any, **kwargs: Any) -> BoundedArray:
+            budget.array(shape, dtype)
+            return super().__new__(cls, shape, dtype, *args, **kwargs)
+
+        def __setstate__(self, state: Any) -> None:
+            if isinstance(state, tuple) and len(state) >= 4:  # ([version,] shape, dtype, is_fortran, data)
+                budget.array(state[-4], state[-3])
+            super().__setstate__(state)
+
+    def reconstruct(subtype: Any, shape: Any, dtype: Any) -> Any:
+        if subtype is not BoundedArray:
+            raise RefusedPickle(f"_reconstruct of {getattr(subtype, '__name__', type(subtype).__name__)}")
+        budget.array(shape, dtype)
+        return _NUMPY["_reconstruct"](subtype, shape, dtype)
+
+    return {np.ndarray: BoundedArray, _NUMPY["_reconstruct"]: reconstruct,
+            list: lambda items=(): budget.sequence(list, items),
+            tuple: lambda items=(): budget.sequence(tuple, items)}
+
+
 class ArraysOnlyUnpickler(pickle.Unpickler):
-    """A ``pickle.Unpickler`` that builds NumPy arrays, dtypes and scalars, lists, tuples and numbers only."""
+    """A ``pickle.Unpickler`` that builds NumPy arrays, dtypes and scalars, lists, tuples and numbers only, and
+    arrays, lists and tuples of ``limit`` bytes in all at most (``PickleTooLarge``, before allocating)."""
+
+    def __init__(self, file: Any, *, limit: int, encoding: str = "ASCII") -> None:
+        super().__init__(file, encoding=encoding)
+        self._bounded = _bounded_callables(_Budget(limit))
 
     def find_class(self, module: str, name: str) -> Any:
         try:
-            return ALLOWED[module, name]
+            found = ALLOWED[module, name]
         except KeyError:
             raise RefusedPickle(f"{module}.{name}") from None
+        return self._bounded.get(found, found)
 
 
 def load_object_npy(path: Path | str, what: str) -> np.ndarray:
-    """The array of objects in the ``.npy`` file ``path``, unpickled by ``ArraysOnlyUnpickler``; ``what`` says what
-    the file should hold (for errors). Raises ``RefusedPickle`` (the name refused) when the pickle names anything
-    else, and ValueError naming ``path`` when it is not an array of objects or its pickle is damaged."""
+    """The array of objects in the ``.npy`` file ``path``, unpickled by ``ArraysOnlyUnpickler`` with
+    ``BUILT_PER_BYTE`` bytes per byte of the file; ``what`` says what the file should hold (for errors). Raises
+    ``RefusedPickle`` (the name refused) when the pickle names anything else, ``PickleTooLarge`` when it asks for
+    more, and ValueError naming ``path`` when it is not an array of objects or its pickle is damaged."""
     path = Path(path)
     header = npy_header(path, what)
     if not header.dtype.hasobject:
         raise ValueError(f"{path} holds an array of {header.dtype}, not {what} (an array of Python objects)")
+    limit = BUILT_PER_BYTE * path.stat().st_size + BUILT_SLACK
     with open(path, "rb") as handle:
         handle.seek(header.data_start)
         try:
             # latin1: Python 2's pickles (VPR-Bench wrote its files with Python 2) hold NumPy's raw bytes as str
-            array = ArraysOnlyUnpickler(handle, encoding="latin1").load()
-        except RefusedPickle:
+            array = ArraysOnlyUnpickler(handle, limit=limit, encoding="latin1").load()
+        except (RefusedPickle, PickleTooLarge):
             raise
         except (pickle.UnpicklingError, EOFError, TypeError, ValueError, AttributeError, IndexError) as error:
             raise ValueError(f"{path}: its pickle cannot be read ({type(error).__name__}: {error}): the file is "
@@ -92,4 +175,4 @@ def load_object_npy(path: Path | str, what: str) -> np.ndarray:
         found = f"shape {array.shape}" if isinstance(array, np.ndarray) else type(array).__name__
         raise ValueError(f"{path}: its header says an array of shape {header.shape}, but its pickle holds {found}: "
                          "the file is damaged; write it again")
-    return array
+    return np.asarray(array)  # a plain ndarray (the pickle's arrays are built as BoundedArray)

@@ -16,8 +16,9 @@ queries; ``without_correct`` says which queries those are.
 
 from __future__ import annotations
 
+import array
 from abc import ABC, abstractmethod
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,14 +29,18 @@ from vpr_smr.core.files import load_npy
 from vpr_smr.core.io import CSV_SUFFIXES
 
 __all__ = [
-    "FRAMES", "GROUND_TRUTH_KINDS", "MATRIX", "POSITIONS", "GroundTruth", "MatrixTruth", "PositionTruth",
-    "TruthSource", "read_positions",
+    "FRAMES", "GROUND_TRUTH_KINDS", "MATRIX", "MAX_TRUTH_CELLS", "POSITIONS", "GroundTruth", "MatrixTruth",
+    "PositionTruth", "TruthSource", "read_positions",
 ]
 
 FRAMES, POSITIONS, MATRIX = "frames", "positions", "matrix"  # the kinds of ground truth
 GROUND_TRUTH_KINDS = (FRAMES, POSITIONS, MATRIX)
 BLOCK_VALUES = 1 << 22  # reference x query cells looked at a time by the whole-matrix passes (4 MB of booleans)
 NO_REFERENCE = -1  # ``true_references`` of a query without any correct reference
+# The most cells (references x queries) a ground-truth file may declare or imply when the matrix it scores is not known
+# where it is read (the commands' --ground-truth, read before any distance matrix): 2**33, 1 GiB as bits. Pittsburgh
+# 250k's test split is 2.1e9 cells, Nordland's 27592 x 27592 frames 0.76e9 (method §13.2).
+MAX_TRUTH_CELLS = 1 << 33
 
 
 def _as_positions(values: np.ndarray, what: str) -> np.ndarray:
@@ -334,6 +339,38 @@ class MatrixTruth(GroundTruth):
         np.bitwise_or.at(bits, (references >> 3, queries), (1 << (7 - (references & 7))).astype(np.uint8))
         return cls(bits, n_reference, source, open_ended)
 
+    @classmethod
+    def of_rows(cls, rows: Iterable[tuple[Any, range | Sequence[int] | np.ndarray]], shape: tuple[int, int],
+                source: TruthSource | None = None, open_ended: bool = False) -> MatrixTruth:
+        """The matrix of ``shape`` whose correct cells are each row's references of its query: a query and a range
+        (set byte by byte, never expanded) or a list or array of references, or an array of queries and one of
+        references (pairs). Lists are set ``PAIRS_CHUNK`` pairs at a time. Every index must lie in ``shape`` (the
+        readers check them as they read)."""
+        n_reference, n_query = (int(n) for n in shape)
+        bits = np.zeros((-(-n_reference // 8), n_query), dtype=np.uint8)
+        queries, references = array.array("q"), array.array("q")
+
+        def flush() -> None:
+            pairs = np.array(references, dtype=np.int64)  # copies: the buffers are emptied for the next chunk
+            np.bitwise_or.at(bits, (pairs >> 3, np.array(queries, dtype=np.int64)),
+                             (1 << (7 - (pairs & 7))).astype(np.uint8))
+            del queries[:], references[:]
+
+        for query, correct in rows:
+            if isinstance(correct, range):
+                _set_range(bits[:, query], correct)
+                continue
+            if isinstance(query, np.ndarray):
+                queries.extend(query.astype(np.int64))
+            else:
+                queries.extend([query] * len(correct))
+            references.extend(np.asarray(correct, dtype=np.int64) if isinstance(correct, np.ndarray) else correct)
+            if len(references) >= PAIRS_CHUNK:
+                flush()
+        if len(references):
+            flush()
+        return cls(bits, n_reference, source, open_ended)
+
     @property
     def shape(self) -> tuple[int, int]:
         return self.n_reference, int(self.bits.shape[1])
@@ -419,6 +456,32 @@ class MatrixTruth(GroundTruth):
             gap = np.where(correct, np.abs(references - (chosen[None, :] + offset)), np.iinfo(np.int64).max)
             out[block] = np.where(correct.any(axis=0), np.argmin(gap, axis=0), NO_REFERENCE)
         return out
+
+
+RANGE_CHUNK = 1 << 20  # the indices of a range with a step other than 1 set a time
+PAIRS_CHUNK = 1 << 20  # the listed pairs set a time (16 MiB of indices)
+
+
+def _set_range(column: np.ndarray, references: range) -> None:
+    """Set the bits of ``references`` in a packed column (bit ``7 - r % 8`` of byte ``r // 8``): a run of
+    consecutive references byte by byte (a first and a last partial byte), another step ``RANGE_CHUNK`` at a time."""
+    if not len(references):
+        return
+    if abs(references.step) == 1:
+        lo, hi = min(references[0], references[-1]), max(references[0], references[-1]) + 1
+        first, last = lo >> 3, (hi - 1) >> 3
+        head, tail = 0xFF >> (lo & 7), (0xFF << (7 - ((hi - 1) & 7))) & 0xFF
+        if first == last:
+            column[first] |= head & tail
+            return
+        column[first] |= head
+        column[first + 1 : last] = 0xFF
+        column[last] |= tail
+        return
+    for start in range(0, len(references), RANGE_CHUNK):
+        part = references[start : start + RANGE_CHUNK]
+        indices = np.arange(part.start, part.stop, part.step, dtype=np.int64)
+        np.bitwise_or.at(column, indices >> 3, (1 << (7 - (indices & 7))).astype(np.uint8))
 
 
 def read_positions(path: Path | str) -> np.ndarray:
