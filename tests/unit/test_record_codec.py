@@ -9,6 +9,7 @@ import h5py
 import numpy as np
 import pytest
 
+from vpr_smr.core.environment import NumericEnvironment, ThreadPool
 from vpr_smr.core.io import write_json
 from vpr_smr.core.records import (
     FORMAT,
@@ -140,7 +141,13 @@ SPEED_MATCHER = SpeedMatcher((0.5, 1.0, 2.0), 100, (40, 20, 20, 20), {"m1": SPEE
 SPEED = SpeedResult({"dataset": "d", "seq_len": 4, "profile": "varying"}, None, 1.02, 60, 59,
                     {"fixed": SPEED_MATCHER, "velocity": SPEED_MATCHER})
 
+POOL = ThreadPool("blas", "openblas", "0.3.27", 2, "Haswell")
+ENVIRONMENT = NumericEnvironment("x86_64", "AMD EPYC 7B13", 2, ("avx", "avx2", "fma"), "0123456789abcdef",
+                                 (POOL, ThreadPool("openmp", "libgomp", "", 1, "")), "4.10.0", False, "2.1.3",
+                                 "3.11.7")
+
 SAMPLES = {
+    "ThreadPool": POOL, "NumericEnvironment": ENVIRONMENT,
     "PRCurve": CURVE, "Reduction": REDUCTION, "RemovalCurves": CURVES, "TrustNumbers": TRUST, "ModeRemoval": MODE,
     "ModeRemoval, bare": BARE_MODE, "SeedNumbers": SEED, "SeedSummary": SUMMARY, "SeedSummary, undefined": NO_SUMMARY,
     "RestorationMode": RESTORED, "RestorationMode, curves": RESTORED_CURVES, "RestorationNumbers": RESTORATION,
