@@ -392,8 +392,12 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
         losses: list[str] = []
         untold: list[str] = []
         none: list[str] = []
+        same: list[str] = []
         differences = comparison.differences or tuple(None for _ in comparison.methods)
         for method, difference in zip(comparison.methods, differences, strict=True):
+            if _identical(difference):
+                same.append(method)
+                continue
             sign = None if difference is None else difference.sign()
             target = none if sign is None else wins if sign < 0 else losses if sign > 0 else untold
             target.append(f"{method} ({_difference(difference)})" if difference is not None else method)
@@ -401,6 +405,9 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
                 f"{len(wins)} of {methods(n)}" + (f": {listed(wins)}" if wins else ""))
         if losses:
             text += f"; {comparison.best} beats the predictor for {listed(losses)}"
+        if same:
+            text += (f"; for {listed(same)} the two reductions are equal on every draw of the queries (the same "
+                     "matches removed)")
         if untold:
             queries = _span_of(comparison.n_queries)
             text += (f"; for {listed(untold)} the interval of the difference contains 0: "
@@ -418,6 +425,12 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
         elif n > 1:
             text += " (mean over the methods)"
     return text + "."
+
+
+def _identical(difference: Interval | None) -> bool:
+    """A paired difference that is 0 on every draw: the two numbers are the same, which is no direction and no lack
+    of queries either."""
+    return difference is not None and difference.low == 0 == difference.high
 
 
 def _span_of(values: Sequence[int | None]) -> str:
@@ -438,7 +451,9 @@ def detection_sentence(found: Sequence[DetectionComparison], split: str) -> str:
         against = "" if one.predictor is None else f" against the predictor's {one.predictor:.3f}"
         text = f"for {one.method} {one.best} has the highest, {one.average_precision:.3f}{against}"
         difference = one.difference
-        if difference is None:
+        if _identical(difference):
+            text += ", the same on every draw of the queries (the same ranking of the wrong matches)"
+        elif difference is None:
             text += ", without an interval of the difference: nothing tells which detects better"
         elif difference.sign() > 0:
             text += f", and beats the predictor (difference {_difference(difference, ap=True)})"

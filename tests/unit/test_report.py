@@ -704,6 +704,13 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         "points); for c (interval -10.0 points to 4.0 points) the interval of the difference contains 0: 28 "
         "queries are too few to tell; oracle removal at the same budget would reduce the AOC by 92.5 % (mean over "
         "the 2 methods where it is defined).")
+    # a difference that is 0 on every draw (the scorer removed the predictor's very matches): equal, which is
+    # neither a direction nor too few queries
+    same = [{**r, "reduction_pct_difference_ci_low": 0.0, "reduction_pct_difference_ci_high": 0.0}
+            if r["method"] == "c" and r["scorer"] == "single_uniqueness" else r for r in rows]
+    (tied,) = comparisons(same)
+    assert "; for c the two reductions are equal on every draw of the queries (the same matches removed);" in (
+        baseline_sentence(tied, "test")) and "too few" not in baseline_sentence(tied, "test")
     # a file without the paired intervals: no direction for any method
     (bare,) = comparisons([{k: v for k, v in r.items() if "difference" not in k} for r in rows])
     assert bare.beaten == 0 and "for 0 of 3 methods; no interval of the difference for a, b and c;" in (
@@ -730,3 +737,11 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         "(difference interval 0.020 to 0.130); for b uniqueness has the highest, 0.570 against the predictor's "
         "0.490; the difference's interval -0.050 to 0.200 contains 0: 28 queries are too few to tell which detects "
         "better.")
+    # the predictor ranks b's wrong matches as uniqueness does: the same AP, and 0 on every draw
+    tied_ap = [{**r, "average_precision_difference_ci_low": 0.0, "average_precision_difference_ci_high": 0.0}
+               if r["method"] == "b" and r["scorer"] == "uniqueness" else
+               {**r, "average_precision": 0.570} if r["method"] == "b" and r["scorer"] == "predictor" else r
+               for r in detection]
+    assert detection_sentence(detection_comparisons(tied_ap), "test").endswith(
+        "for b uniqueness has the highest, 0.570 against the predictor's 0.570, the same on every draw of the "
+        "queries (the same ranking of the wrong matches).")
