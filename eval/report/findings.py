@@ -306,8 +306,32 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
     if not rows:
         return []
     first = rows[0]
-    kind = str(first["ground_truth"])
+    changes = _sweep_changes(rows)
     thresholds = sorted({float(r["threshold"]) for r in rows})
+    low, high = thresholds[0], thresholds[-1]
+    span = f"{low:g} to {high:g} frames" if first["ground_truth"] == "frames" else f"a radius of {low:g} to {high:g}"
+    where = (f"With matches counted correct within {span} ({first['dataset']}, {first['split']} split, "
+             f"L = {first['seq_len']}, {first['mode']} mode)")
+    untold = _untold(rows)
+    if changes:
+        return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}.", *untold]
+    return [f"{where}, no conclusion depends on the ground truth: the predictor's AOC reduction keeps its sign for "
+            f"every method, so does sequence matching's gain over single frames (each where its interval excludes "
+            "0).", *untold]
+
+
+def sweep_headline(rows: Sequence[dict[str, Any]]) -> str:
+    """The first screen's one sentence on the protocol sweep of one dataset, L and mode: whether a conclusion
+    depends on the ground truth (``sweep_sentences`` has which)."""
+    first = rows[0]
+    depends = "a conclusion depends" if _sweep_changes(rows) else "no conclusion depends"
+    return (f"{first['dataset']} (L = {first['seq_len']}, {first['mode']} mode), scored again under other "
+            f"{'tolerances' if first['ground_truth'] == 'frames' else 'radii'}: {depends} on the ground truth.")
+
+
+def _sweep_changes(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """The conclusions that change across the sweep, in words (a sign only where its interval excludes 0)."""
+    kind = str(rows[0]["ground_truth"])
     names = list(dict.fromkeys(str(r["method"]) for r in rows))
     by_method = {name: sorted((r for r in rows if r["method"] == name), key=lambda r: r["threshold"])
                  for name in names}
@@ -324,16 +348,7 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
         name, t_up, up, t_down, down = flipped
         changes.append(f"sequence matching changes {name}'s recall@1 over the same queries by {100 * up:+.1f} "
                        f"points {within(kind, t_up)} but {100 * down:+.1f} {within(kind, t_down)}")
-    low, high = thresholds[0], thresholds[-1]
-    span = f"{low:g} to {high:g} frames" if kind == "frames" else f"a radius of {low:g} to {high:g}"
-    where = (f"With matches counted correct within {span} ({first['dataset']}, {first['split']} split, "
-             f"L = {first['seq_len']}, {first['mode']} mode)")
-    untold = _untold(rows)
-    if changes:
-        return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}.", *untold]
-    return [f"{where}, no conclusion depends on the ground truth: the predictor's AOC reduction keeps its sign for "
-            f"every method, so does sequence matching's gain over single frames (each where its interval excludes "
-            "0).", *untold]
+    return changes
 
 
 def _gain(row: dict[str, Any]) -> float | None:
@@ -425,6 +440,50 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
         elif n > 1:
             text += " (mean over the methods)"
     return text + "."
+
+
+def _by_verdict(verdicts: Sequence[tuple[str, str]], order: Sequence[str]) -> str:
+    """``better for a and b; too few queries to tell for c``: the methods grouped by verdict, in ``order``."""
+    groups = {verdict: [method for method, said in verdicts if said == verdict] for verdict in order}
+    return "; ".join(f"{verdict} for {listed(names)}" for verdict, names in groups.items() if names)
+
+
+def _paired(difference: Interval | None, lower_is_predictor: bool) -> str:
+    """A paired difference (a scorer's number minus the predictor's) in words, from the predictor's side."""
+    if difference is None:
+        return "no interval"
+    if _identical(difference):
+        return "equal"
+    sign = difference.sign()
+    if sign == 0:
+        return "too few queries to tell"
+    return "better" if (sign < 0) == lower_is_predictor else "worse"
+
+
+VERDICTS = ("better", "worse", "equal", "too few queries to tell", "no interval")
+
+
+def baseline_headline(comparison: Comparison) -> str:
+    """The first screen's one sentence of the baselines on one dataset, mode and L: per method whether the seed-0
+    predictor's reduction is better than the best training-free scorer's, by the paired interval."""
+    where = f"{comparison.dataset} (L = {comparison.seq_len}, {comparison.mode} mode)"
+    if comparison.best is None:
+        return f"{where}: no training-free scorer has a defined AOC reduction."
+    differences = comparison.differences or tuple(None for _ in comparison.methods)
+    verdicts = [(method, _paired(difference, lower_is_predictor=True))
+                for method, difference in zip(comparison.methods, differences, strict=True)]
+    return (f"{where}, the predictor against the best training-free scorer ({comparison.best}) at its budget: "
+            f"{_by_verdict(verdicts, VERDICTS)}.")
+
+
+def detection_headline(found: Sequence[DetectionComparison]) -> str:
+    """The first screen's one sentence of wrong-match detection on one dataset and L: per method whether the
+    predictor's average precision is better than the best training-free scorer's, by the paired interval."""
+    first = found[0]
+    verdicts = [(one.method, "no wrong match" if one.best is None or one.average_precision is None
+                 else _paired(one.difference, lower_is_predictor=True)) for one in found]
+    return (f"{first.dataset} (L = {first.seq_len}), detecting wrong matches, the predictor against the best "
+            f"training-free scorer: {_by_verdict(verdicts, (*VERDICTS, 'no wrong match'))}.")
 
 
 def _identical(difference: Interval | None) -> bool:

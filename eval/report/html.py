@@ -27,10 +27,13 @@ from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.baselines import comparisons, detection_comparisons, headline
 from vpr_smr.eval.report.findings import (
+    baseline_headline,
     baseline_sentence,
+    detection_headline,
     detection_sentence,
     sentences,
     speed_sentences,
+    sweep_headline,
     sweep_sentences,
 )
 from vpr_smr.eval.report.findings import headline as finding_headline
@@ -397,8 +400,9 @@ class _Builder:
             by_key.setdefault((one.dataset, one.seq_len), []).append(one)
         detected = tuple(detection_sentence(group, self.split) for group in by_key.values())
         intro = tuple(baseline_sentence(c, self.split) for c in found) + detected + (budget, scorers)
+        headlines = (*(baseline_headline(c) for c in found), *(detection_headline(g) for g in by_key.values()))
         return Section("baselines", "Is the predictor better than a simple rule?", intro, tuple(blocks),
-                       self.folded("baselines", "wrong_match_detection"))
+                       self.folded("baselines", "wrong_match_detection"), headlines)
 
     def pr(self) -> Section | None:
         rows = self.rows("table1")
@@ -588,16 +592,19 @@ class _Builder:
         if not rows:
             return None
         blocks = []
+        headlines = []
         for f in self.named("protocol_sweep"):
             shown = self.of(f, rows)
             table = pivot(anchor("protocol-sweep", f.dataset, f.seq_len, f.mode), shown,
                           registry.table("protocol_sweep"))
             blocks.append(Block(self._title(f), (self.figure(f),), (table,), tuple(sweep_sentences(shown))))
+            if shown:
+                headlines.append(sweep_headline(shown))
         return Section("protocol-sweep", "Protocol sweep", (
             "How the conclusions depend on the ground truth (method §13): the same sequence matches and the same "
             "seed-0 predictor's decisions, scored as correct within other tolerances (frames) or radii (positions). "
             "Nothing is matched or predicted again; only which matches count as correct changes.",),
-            tuple(blocks), self.folded("protocol_sweep"))
+            tuple(blocks), self.folded("protocol_sweep"), tuple(headlines))
 
     def inspector(self) -> Section | None:
         figures = [f for f in self.figures if f.name in ("matches", "distance_matrix")]

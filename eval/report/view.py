@@ -81,6 +81,7 @@ class Section:
     intro: tuple[str, ...] = ()
     blocks: tuple[Block, ...] = ()
     folded: tuple[Folded, ...] = ()
+    headlines: tuple[str, ...] = ()  # its findings' one sentence each, on the first screen
 
 
 @dataclass(frozen=True)

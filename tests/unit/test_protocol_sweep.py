@@ -9,7 +9,7 @@ import pytest
 from vpr_smr.eval.matching.attributes import query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.report.build import sweep_rows
-from vpr_smr.eval.report.findings import sweep_sentences
+from vpr_smr.eval.report.findings import sweep_headline, sweep_sentences
 from vpr_smr.eval.scoring.evaluate import compare_removal, recall_at_1
 from vpr_smr.eval.scoring.records import SplitMetrics, VPRMetrics
 from vpr_smr.eval.scoring.sweep import FRAME_TOLERANCES, RADII, protocol_sweep, sweep_thresholds
@@ -72,6 +72,8 @@ def test_the_sentence_names_a_sign_change_and_never_a_swap_without_an_interval()
         in sentence
     # a is behind b within 0 frames and ahead within 2, but no interval of their difference says so
     assert "swap" not in sentence
+    assert sweep_headline(rows) == ("d (L = 4, paper mode), scored again under other tolerances: a conclusion "
+                                    "depends on the ground truth.")
     # the same numbers with a's interval at 10 frames containing 0: no sign change, and a sentence says why
     rows[2].update(reduction_pct_ci_low=-9.0, reduction_pct_ci_high=1.0)
     first, untold = sweep_sentences(rows)

@@ -677,7 +677,12 @@ def test_every_declared_column_is_in_the_files_and_on_the_page(full_report_run):
 
 def test_the_baselines_sentence_is_computed_from_the_numbers():
     from vpr_smr.eval.report.baselines import best_scorer, comparisons, detection_comparisons, with_best
-    from vpr_smr.eval.report.findings import baseline_sentence, detection_sentence
+    from vpr_smr.eval.report.findings import (
+        baseline_headline,
+        baseline_sentence,
+        detection_headline,
+        detection_sentence,
+    )
 
     # reductions at the seed-0 budget per method (a, b, c); random's mean over its seeds is 60, its seed 0 1, 2, 3
     numbers = {"uniqueness": (30.0, 10.0, 2.0), "single_uniqueness": (5.0, 40.0, -1.0), "spread": (-3.0, -2.0, -9.0),
@@ -704,6 +709,10 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         "points); for c (interval -10.0 points to 4.0 points) the interval of the difference contains 0: 28 "
         "queries are too few to tell; oracle removal at the same budget would reduce the AOC by 92.5 % (mean over "
         "the 2 methods where it is defined).")
+    # the first screen's sentence: the methods by what the paired interval says
+    assert baseline_headline(found) == (
+        "d (L = 4, paper mode), the predictor against the best training-free scorer (single_uniqueness) at its "
+        "budget: better for a; worse for b; too few queries to tell for c.")
     # a difference that is 0 on every draw (the scorer removed the predictor's very matches): equal, which is
     # neither a direction nor too few queries
     same = [{**r, "reduction_pct_difference_ci_low": 0.0, "reduction_pct_difference_ci_high": 0.0}
@@ -737,6 +746,10 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         "(difference interval 0.020 to 0.130); for b uniqueness has the highest, 0.570 against the predictor's "
         "0.490; the difference's interval -0.050 to 0.200 contains 0: 28 queries are too few to tell which detects "
         "better.")
+    # uniqueness's AP minus the predictor's is above 0 for a (the predictor worse), contains 0 for b
+    assert detection_headline(detection_comparisons(detection)) == (
+        "d (L = 4), detecting wrong matches, the predictor against the best training-free scorer: worse for a; too "
+        "few queries to tell for b.")
     # the predictor ranks b's wrong matches as uniqueness does: the same AP, and 0 on every draw
     tied_ap = [{**r, "average_precision_difference_ci_low": 0.0, "average_precision_difference_ci_high": 0.0}
                if r["method"] == "b" and r["scorer"] == "uniqueness" else

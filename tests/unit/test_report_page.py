@@ -59,6 +59,22 @@ def test_the_first_screen_says_each_finding_in_one_sentence(tmp_path):
     assert re.findall(r"<li>(.*?)</li>", first) == [
         "corridor (28 test queries, L = 4, paper mode): the seed-0 predictor's AOC reduction with its 95 % interval "
         "is sad 3.2 % [-40.0, 35.0], too few queries to tell; hog 40.0 % [20.0, 55.0], it helps."]
+    # a finding of another section is on the first screen too, in one sentence, with a link to its section
+    scored = [{"dataset": "corridor", "method": method, "seq_len": 4, "mode": "paper", "scorer": scorer,
+               "budget": 5, "reduction_pct": value, "reduction_pct_mean": value, "outcome": "improved",
+               "n_queries": 28, **({"reduction_pct_difference_ci_low": low, "reduction_pct_difference_ci_high": high}
+                                   if scorer == "uniqueness" else {})}
+              for method, low, high in (("sad", -30.0, -2.0), ("hog", -5.0, 9.0))
+              for scorer, value in (("uniqueness", 1.0), ("predictor", 20.0))]
+    baselines = WrittenTable("baselines", registry.table("baselines").columns, tuple(scored),
+                             (tmp_path / "tables" / "b.csv",))
+    page_with = report_html.main(tmp_path / "with.html", [table, baselines], [], split="test").read_text()
+    first_with = html.unescape(page_with)
+    first_with = first_with[first_with.index('id="findings"'):first_with.index('<article class="finding">')]
+    assert re.findall(r"<li>(.*?)</li>", first_with)[1] == (
+        "corridor (L = 4, paper mode), the predictor against the best training-free scorer (uniqueness) at its "
+        'budget: better for sad; too few queries to tell for hog. <a href="#baselines">Is the predictor better '
+        "than a simple rule?</a>")
     # the sentences in full are folded below the table, the seed note among them
     details = text[text.index('<details class="finding-details">'):]
     assert "On the test split's 28 queries the interval of sad's reduction, -40.0 % to 35.0 %, contains 0" in details
