@@ -11,6 +11,7 @@ import pytest
 
 from vpr_smr.core.environment import NumericEnvironment, ThreadPool
 from vpr_smr.core.io import write_json
+from vpr_smr.pipeline.recipes import Recipe, Recipes
 from vpr_smr.core.records import (
     FORMAT,
     FileRecord,
@@ -146,8 +147,11 @@ ENVIRONMENT = NumericEnvironment("x86_64", "AMD EPYC 7B13", 2, ("avx", "avx2", "
                                  (POOL, ThreadPool("openmp", "libgomp", "", 1, "")), "4.10.0", False, "2.1.3",
                                  "3.11.7")
 
+RECIPE = Recipe("train", {"settings": '{"max_iter": 10000}', "layout": "5"}, {"data/lists/a.txt": "ab" * 32})
+RECIPES = Recipes({"predictors/d/L4.h5": RECIPE, "tables/table1.csv": Recipe("report", {}, {})})
+
 SAMPLES = {
-    "ThreadPool": POOL, "NumericEnvironment": ENVIRONMENT,
+    "Recipe": RECIPE, "Recipes": RECIPES, "ThreadPool": POOL, "NumericEnvironment": ENVIRONMENT,
     "PRCurve": CURVE, "Reduction": REDUCTION, "RemovalCurves": CURVES, "TrustNumbers": TRUST, "ModeRemoval": MODE,
     "ModeRemoval, bare": BARE_MODE, "SeedNumbers": SEED, "SeedSummary": SUMMARY, "SeedSummary, undefined": NO_SUMMARY,
     "RestorationMode": RESTORED, "RestorationMode, curves": RESTORED_CURVES, "RestorationNumbers": RESTORATION,
