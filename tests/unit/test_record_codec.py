@@ -11,7 +11,6 @@ import pytest
 
 from vpr_smr.core.environment import NumericEnvironment, ThreadPool
 from vpr_smr.core.io import write_json
-from vpr_smr.pipeline.recipes import Recipe, Recipes
 from vpr_smr.core.records import (
     FORMAT,
     FileRecord,
@@ -64,6 +63,7 @@ from vpr_smr.eval.scoring.records import (
     VPRMetrics,
 )
 from vpr_smr.eval.scoring.speed import SpeedMatcher, SpeedResult, SpeedScores
+from vpr_smr.pipeline.recipes import Recipe, Recipes
 
 NAN, INF = float("nan"), float("inf")
 META = {"dataset": "d", "method": "m", "seq_len": 4, "tolerance": 2, "split": ["test", 10, 60]}
