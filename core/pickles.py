@@ -9,14 +9,17 @@ out only the few callables NumPy's own pickles of arrays, dtypes and scalars nam
 name. Pickle opcodes build strings, numbers, lists, tuples, dicts and sets without ``find_class``; the caller checks
 the structure it gets.
 
-What the pickle builds is bounded by the file's size: opcodes build at most a few objects per byte, and the
+What the pickle builds is bounded by the file's size: opcodes build at most one object per byte or two (an empty
+list appended to a list, two bytes, takes about 64 bytes of memory: a few dozen bytes per byte at the most), and the
 callables handed out that could build more (an array of a declared shape, ``list(range(...))``) first check what
-they would build against ``BUILT_PER_BYTE`` bytes per byte of the file (``PickleTooLarge``, before allocating). A
-``range`` stays lazy: its reader checks its length before using it.
+they would build against ``BUILT_PER_BYTE`` bytes per byte of the file (``PickleTooLarge``, before allocating); an
+array whose shape or dtype is not plainly numbers and a dtype is refused (``RefusedPickle``), never let through
+uncounted. A ``range`` stays lazy: its reader checks its length before using it.
 """
 
 from __future__ import annotations
 
+import operator
 import pickle
 from pathlib import Path
 from typing import Any
@@ -90,13 +93,16 @@ class _Budget:
         self.left -= n_bytes
 
     def array(self, shape: Any, dtype: Any) -> None:
-        """Charge an array of ``shape`` and ``dtype`` (left to NumPy to refuse when they are not a shape and a
-        dtype)."""
+        """Charge an array of ``shape`` and ``dtype``; refuse one whose shape is not whole numbers (an int, or a
+        tuple, list or array of them: NumPy takes each) or whose dtype is none, rather than build it uncounted."""
+        items = shape.ravel().tolist() if isinstance(shape, np.ndarray) else (
+            list(shape) if isinstance(shape, tuple | list) else [shape])
         try:
-            dims = [int(n) for n in (shape if isinstance(shape, tuple | list) else (shape,))]
+            dims = [operator.index(n) for n in items]
             itemsize = np.dtype(dtype).itemsize
-        except (TypeError, ValueError):
-            return
+        except (TypeError, ValueError) as error:
+            raise RefusedPickle(f"an array of shape {type(shape).__name__} {str(shape)[:60]} and dtype "
+                                f"{str(dtype)[:60]} ({error})") from None
         count = 1
         for n in dims:
             count *= max(n, 0)

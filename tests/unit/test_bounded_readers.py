@@ -110,6 +110,9 @@ class Reduces:
     (Reduces(_reconstruct, (np.ndarray, (10**10,), "O")), r"an array of shape \(10000000000,\) of 80000000000 bytes"),
     (Reduces(_reconstruct, (np.ndarray, (0,), "b"), (1, (10**9,), np.dtype("O"), False, [])),
      r"an array of shape \(1000000000,\) of 8000000000 bytes"),
+    # NumPy takes an array as a shape: it is counted as one, not let through
+    (Reduces(np.ndarray, (np.array([3000, 3000]), np.dtype("O"))),
+     r"an array of shape \(3000, 3000\) of 72000000 bytes"),
 ])
 def test_a_pickle_asking_for_more_than_its_file_holds_is_refused_before_building(tmp_path, built, what):
     path = save_rows(tmp_path / "gt.npy", [[0, built]])
@@ -117,6 +120,13 @@ def test_a_pickle_asking_for_more_than_its_file_holds_is_refused_before_building
     with pytest.raises(ValueError, match=rf"gt.npy: its pickle would build {what}, beyond the {limit} bytes its file "
                                          r"can hold \(8 bytes per byte of the file, plus 1048576\): it is not a "
                                          "ground truth, and it was refused before being built"):
+        read_ground_truth(path)
+
+
+def test_an_array_whose_shape_is_not_whole_numbers_is_refused_not_built(tmp_path):
+    path = save_rows(tmp_path / "gt.npy", [[0, Reduces(np.ndarray, ([3.5, "x"], np.dtype("O")))]])
+    with pytest.raises(ValueError, match=r"gt.npy: its pickle names an array of shape list \[3.5, 'x'\] and dtype "
+                                         r"object .*, which vpr-smr refuses to build"):
         read_ground_truth(path)
 
 
