@@ -136,3 +136,13 @@ def readme_block(marker: str) -> str:
     match = re.search(rf"<!-- {marker}[^>]*-->\n```[a-z]*\n(.*?)```", text, re.S)
     assert match, f"README.md has no block after <!-- {marker} -->"
     return match.group(1)
+
+
+def bootstrap_indices(n: int, draws: int) -> np.ndarray:
+    """The queries the tool's bootstrap draws (method §8.7), written out naively: runs of b consecutive queries
+    (the smallest b with b**3 >= n), wrapping around, ceil(n / b) runs a draw, the first n kept; the runs' starts
+    are the first ``draws`` rows of ``default_rng(0).integers(0, n, (1000, runs))``."""
+    block = next(b for b in range(1, n + 2) if b**3 >= n)
+    runs = -(-n // block)
+    starts = np.random.default_rng(0).integers(0, n, (1000, runs))[:draws]
+    return np.array([[(s + j) % n for s in row for j in range(block)][:n] for row in starts])

@@ -1,10 +1,12 @@
-"""The bootstrap over queries (method §8.7) against the naive one: draw the queries' indices, take the drawn queries
+"""The bootstrap over queries (method §8.7) against the naive one: draw the queries' indices (runs of consecutive
+queries, ``helpers.bootstrap_indices``), take the drawn queries
 (repeats and all) and score them with the functions that score a split (curves, scikit-learn)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from helpers import bootstrap_indices
 from sklearn.metrics import average_precision_score
 
 from vpr_smr.eval.scoring import curves
@@ -23,18 +25,27 @@ def _split(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def _drawn_indices(n: int, draws: int) -> np.ndarray:
-    return np.random.default_rng(iv.BOOTSTRAP_SEED).integers(0, n, size=(draws, n))
+    return bootstrap_indices(n, draws)
 
 
 def _weights(n: int, draws: int) -> np.ndarray:
     return np.concatenate(list(iv.query_weights(n, draws)))
 
 
-def test_weights_are_the_drawn_indices_counted_whatever_the_block_size() -> None:
-    drawn = _drawn_indices(N, 250)  # more than one block of CHUNK draws
+def test_weights_are_the_drawn_indices_counted_whatever_the_chunk_size() -> None:
+    drawn = bootstrap_indices(N, 250)  # more than one chunk of CHUNK draws
     expected = np.stack([np.bincount(row, minlength=N) for row in drawn])
     np.testing.assert_array_equal(_weights(N, 250), expected)
     assert (expected.sum(axis=1) == N).all()
+
+
+def test_a_draw_takes_runs_of_the_cube_root_of_the_queries() -> None:
+    # b^3 >= n: 27 -> 3 (not 4, as a floating cube root rounded up would give), 28 -> 4, 2573 -> 14, 1 -> 1
+    assert [iv.block_length(n) for n in (1, 2, 8, 9, 27, 28, 2573)] == [1, 2, 2, 3, 3, 4, 14]
+    # 10 queries, runs of 3 (4 runs, the last cut to 1): each draw holds whole runs of consecutive queries
+    (weights,) = list(iv.query_weights(10, resamples=1))
+    start = int(np.random.default_rng(0).integers(0, 10, (1, 4))[0, 0])
+    assert weights[0, start] >= 1 and weights[0, (start + 1) % 10] >= 1 and weights[0, (start + 2) % 10] >= 1
 
 
 @pytest.mark.parametrize("mode", ["paper", "standard"])
@@ -104,8 +115,14 @@ def test_a_paired_difference_of_a_number_with_itself_is_exactly_zero() -> None:
 
 def test_the_interval_of_a_mean_covers_the_normal_approximation() -> None:
     # 400 coin flips with 120 heads: the bootstrap interval of the mean is close to p +- 1.96 sqrt(p(1-p)/n)
-    values = np.r_[np.ones(120), np.zeros(280)]
+    # in a random order (independent neighbours), as runs of consecutive queries are then
+    values = np.random.default_rng(3).permutation(np.r_[np.ones(120), np.zeros(280)])
     got = iv.interval(lambda weights: iv.weighted_mean(values, weights), len(values))
     half = 1.96 * np.sqrt(0.3 * 0.7 / 400)
     assert got is not None
     assert got.low == pytest.approx(0.3 - half, abs=0.01) and got.high == pytest.approx(0.3 + half, abs=0.01)
+    # the same values in two runs (neighbours alike, as along a route): the runs of 8 consecutive queries carry
+    # that, and the interval is more than twice as wide
+    runs = np.r_[np.ones(120), np.zeros(280)]
+    wide = iv.interval(lambda weights: iv.weighted_mean(runs, weights), len(runs))
+    assert wide is not None and wide.high - wide.low > 2 * (got.high - got.low)

@@ -1,8 +1,8 @@
-"""The intervals the scoring stages record (method §8.7) against the naive bootstrap: draw the queries' indices with
-``default_rng(0).integers(0, N, (RESAMPLES, N))``, take the drawn queries (repeats and all), score them with the
-functions that score a split (``compare_removal``, restoration, ``baselines.detection``, recall@1) and take the
-2.5th and 97.5th percentiles by hand. Also: ``unchanged`` for rounding noise, the seeds' spread of one seed, and a
-results file of the previous format refused."""
+"""The intervals the scoring stages record (method §8.7) against the naive bootstrap: draw the queries' indices as
+the tool does (runs of consecutive queries, ``helpers.bootstrap_indices``), take the drawn queries (repeats and all),
+score them with the functions that score a split (``compare_removal``, restoration, ``baselines.detection``,
+recall@1) and take the 2.5th and 97.5th percentiles by hand. Also: ``unchanged`` for rounding noise, the seeds'
+spread of one seed, and a results file of the previous format refused."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from dataclasses import fields, replace
 
 import numpy as np
 import pytest
-from helpers import make_features
+from helpers import bootstrap_indices, make_features
 
 from vpr_smr.core.records import FormatError, load
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
@@ -52,8 +52,8 @@ def fewer_draws(monkeypatch: pytest.MonkeyPatch, request: pytest.FixtureRequest)
 
 
 def drawn(n: int = N) -> np.ndarray:
-    """The draws the tool takes: rows of ``default_rng(0).integers(0, N, (1000, N))``, the first ``DRAWS``."""
-    return np.random.default_rng(0).integers(0, n, (1000, n))[:DRAWS]
+    """The draws the tool takes (runs of consecutive queries, ``helpers.bootstrap_indices``), the first ``DRAWS``."""
+    return bootstrap_indices(n, DRAWS)
 
 
 def naive_interval(values: list[float | None]) -> Interval | None:
