@@ -230,7 +230,12 @@ def comparisons(rows: Sequence[dict[str, Any]]) -> list[Comparison]:
         by = {(str(r["method"]), str(r["scorer"])): r for r in group}
         values = {name: tuple(by[(m, name)]["reduction_pct"] if (m, name) in by else None for m in methods)
                   for name in SCORERS}
-        means = {name: _spread(values[name])[0] for name in TRAINING_FREE}
+        # like with like: the scorers are ranked by their means over the methods where every one of them is
+        # defined (each over its own only where no method is); the ranking picks whom to compare, the paired
+        # intervals per method then decide
+        common = [i for i in range(len(methods)) if all(values[name][i] is not None for name in TRAINING_FREE)]
+        means = {name: _spread([values[name][i] for i in common] if common else values[name])[0]
+                 for name in TRAINING_FREE}
         defined = [name for name in TRAINING_FREE if means[name] is not None]
         best = max(defined, key=lambda name: (means[name] or 0.0, -SCORERS.index(name))) if defined else None
         differences = tuple(bounds.of(by[(m, best)], "reduction_pct_difference") if (m, best) in by else None

@@ -709,6 +709,10 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         "points); for c (interval -10.0 points to 4.0 points) the interval of the difference contains 0: 28 "
         "queries are too few to tell; oracle removal at the same budget would reduce the AOC by 92.5 % (mean over "
         "the 2 methods where it is defined).")
+    # a scorer defined for one method only is ranked on the methods every scorer has: spread's 20 on b alone is
+    # not set against single_uniqueness's 14.67 over three methods (on b, single_uniqueness has 40)
+    partial = [{**r, "reduction_pct": {"b": 20.0}.get(r["method"])} if r["scorer"] == "spread" else r for r in rows]
+    assert comparisons(partial)[0].best == "single_uniqueness"
     # the first screen's sentence: the methods by what the paired interval says
     assert baseline_headline(found) == (
         "d (L = 4, paper mode), the predictor against the best training-free scorer (single_uniqueness) at its "
