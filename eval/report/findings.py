@@ -316,6 +316,11 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
     untold = _untold(rows)
     if changes:
         return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}.", *untold]
+    if not _any_sign(rows):
+        n = _queries(rows)
+        return [f"{where}, {f'its {n} queries are' if n else 'the queries are'} too few to tell the sign of the "
+                "predictor's AOC reduction or of sequence matching's change of recall@1 at any tolerance: whether "
+                "a conclusion depends on the ground truth cannot be told."]
     return [f"{where}, no conclusion depends on the ground truth: the predictor's AOC reduction keeps its sign for "
             f"every method, so does sequence matching's gain over single frames (each where its interval excludes "
             "0).", *untold]
@@ -325,9 +330,10 @@ def sweep_headline(rows: Sequence[dict[str, Any]]) -> str:
     """The first screen's one sentence on the protocol sweep of one dataset, L and mode: whether a conclusion
     depends on the ground truth (``sweep_sentences`` has which)."""
     first = rows[0]
-    depends = "a conclusion depends" if _sweep_changes(rows) else "no conclusion depends"
+    said = ("a conclusion depends on" if _sweep_changes(rows) else "no conclusion depends on" if _any_sign(rows)
+            else "too few queries to tell whether a conclusion depends on")
     return (f"{first['dataset']} (L = {first['seq_len']}, {first['mode']} mode), scored again under other "
-            f"{'tolerances' if first['ground_truth'] == 'frames' else 'radii'}: {depends} on the ground truth.")
+            f"{'tolerances' if first['ground_truth'] == 'frames' else 'radii'}: {said} the ground truth.")
 
 
 def _sweep_changes(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -360,6 +366,11 @@ def _gain(row: dict[str, Any]) -> float | None:
     if single is None or not (bounds.sign(row, "recall_change") or 0):
         return None
     return float(row["recall_at_1_sequence"]) - float(single)
+
+
+def _any_sign(rows: Sequence[dict[str, Any]]) -> bool:
+    """Whether some reduction or change of recall@1 of the sweep has a direction (its interval excludes 0)."""
+    return any(words.direction(r) in (1, -1) or _gain(r) is not None for r in rows)
 
 
 def _untold(rows: Sequence[dict[str, Any]]) -> list[str]:
