@@ -3,8 +3,9 @@
 Information, not a setting: every stage records it under ``ENVIRONMENT_KEY`` (an HDF5 attribute of the descriptor
 files, an entry of the predictor's and the evaluation's ``meta``), and nothing compares it to decide whether an
 output must be computed again. It says why a number may differ on another machine (method document, "Reproducibility
-across machines"): the classic descriptors are the same bytes everywhere; the predictor's training goes through the
-BLAS, whose kernel (``blas[].kernel``, chosen by CPU) and thread count change its rounding.
+across machines"): the classic descriptors are the same bytes everywhere; the l2 and cosine distances go through the
+BLAS, whose kernel (``thread_pools[].kernel``, chosen by CPU) and thread count change their rounding, and with it
+the demo's Table I (the predictor's training through the BLAS changed no number there).
 """
 
 from __future__ import annotations

@@ -141,9 +141,13 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
     os.environ[PLAN_ENV] = str(save_plan(plan, conf).resolve())
     check_cluster_interpreter(profile_path(profile))
     # Each existing output's recorded recipe against the configuration's now, whatever Snakemake's own state says
+    from snakemake.exceptions import RuleException, WorkflowError  # Snakemake's errors: imported only to run it
+
     try:
         jobs = recipes.workflow_jobs(SNAKEFILE, configfiles(config, parsed), conf.run_dir)
-    except Exception as error:  # no graph of jobs: Snakemake, run next, says why in its own words
+    except (WorkflowError, RuleException) as error:  # Snakemake, run next, says why in its own words
+        # only Snakemake's own errors of building the graph: any other (a fault of the comparison) stops the run,
+        # never a silent "Nothing to be done"
         print(f"warning: the outputs' recorded settings were not compared: {error}", file=sys.stderr)
         jobs = []
     rerun = recipes.stale(jobs, conf.run_dir)

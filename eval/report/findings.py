@@ -16,7 +16,7 @@ import numpy as np
 from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import Comparison, DetectionComparison
-from vpr_smr.eval.report.table1 import UNDEFINED, Table1Block, seed_std
+from vpr_smr.eval.report.table1 import UNDEFINED, Table1Block
 from vpr_smr.eval.scoring.curves import NOTHING_TO_REDUCE, UNCHANGED
 from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.sweep import within
@@ -50,7 +50,7 @@ def listed(items: Sequence[str]) -> str:
 def _seed_part(row: dict[str, Any]) -> str | None:
     """``method mean ± std %`` over the seeds (and how many, with the seeds left out and why, when only some are
     defined); None when undefined."""
-    mean, std = row.get("reduction_pct_mean"), seed_std(row)
+    mean, std = row.get("reduction_pct_mean"), row.get("reduction_pct_std")
     if mean is None:
         return None
     n_seeds = row["n_seeds"]

@@ -40,10 +40,9 @@ def _mode_numbers(split_result: EvaluationSplit, mode: str) -> dict[str, Any]:
     seeds = {key: value for key, value in summary.to_json().items() if key != "outcomes"}
     # recall@1 single by the mode's rule: paper mode over every query of the split (n_queries_single)
     reduction = numbers.reduction
-    # each interval as its two columns (``bounds``); the std of fewer than two seeds is none (n/a), never 0
+    # each interval as its two columns (``bounds``); the std of fewer than two seeds is None (``seed_summary``)
     return {**reduction_numbers(reduction), "recall_at_1_single": numbers.recall_at_1_single,
             "recall_at_1_sequence": numbers.recall_at_1_sequence, **seeds,
-            "reduction_pct_std": seeds["reduction_pct_std"] if summary.n_seeds_defined > 1 else None,
             "seed_outcomes": summary.outcomes,
             "seeds_left_out": words.seeds_left_out(summary.outcomes), "removed": split_result.removed,
             "n_queries": n_queries, "n_queries_single": split_result.n_queries_split if mode == "paper" else n_queries}
@@ -173,13 +172,6 @@ def _has_seeds(rows: list[dict[str, Any]]) -> bool:
     return all(r.get("n_seeds") is not None for r in rows)
 
 
-def seed_std(row: dict[str, Any]) -> float | None:
-    """The sample standard deviation over the seeds: None (n/a) over fewer than two defined seeds, never 0."""
-    defined = row.get("n_seeds_defined", row.get("n_seeds", 0))
-    std: float | None = row.get("reduction_pct_std")
-    return std if defined is not None and int(defined) > 1 else None
-
-
 def _every_seed(row: dict[str, Any]) -> bool:
     """Every seed's reduction is defined: the row's mean is a mean of all ``n_seeds`` seeds."""
     return row.get("reduction_pct_mean") is not None and row.get("n_seeds_defined", row["n_seeds"]) == row["n_seeds"]
@@ -201,7 +193,7 @@ def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
         defined = r.get("n_seeds_defined", r["n_seeds"])
         why = f"; {left_out}" if left_out else ""
         part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds{why})"
-        std = seed_std(r)
+        std = r.get("reduction_pct_std")  # None under two defined seeds (evaluate.seed_summary), shown n/a
         texts.append(f"{r['reduction_pct_mean']:.2f}{PLUS_MINUS}{UNDEFINED if std is None else f'{std:.2f}'}{part}")
     n_seeds = rows[0].get("n_seeds", "")
     full = [r for r in rows if _every_seed(r)]

@@ -135,8 +135,8 @@ def weighted_curve(mode: str, distances: np.ndarray, correct: np.ndarray, keep: 
     inside = np.flatnonzero(keep)
     order = inside[np.argsort(distances[inside], kind="stable")]
     kept, hits = weights[:, order], correct[order]
-    tp = np.cumsum(kept * hits, axis=1)
-    fp = np.cumsum(kept * ~hits, axis=1)
+    tp = np.cumsum(kept * hits, axis=1, dtype=weights.dtype)  # numpy would widen int32 sums to int64
+    fp = np.cumsum(kept * ~hits, axis=1, dtype=weights.dtype)
     if mode == "paper":
         cut = np.searchsorted(distances[order], np.linspace(sequence_min, sequence_max, PAPER_THRESHOLDS),
                               side="right")
@@ -249,8 +249,8 @@ def weighted_average_precision(wrong: np.ndarray, confidence: np.ndarray, weight
     ranked = score[order]
     last = np.r_[ranked[1:] != ranked[:-1], True] if len(order) else np.zeros(0, bool)
     ranked_weights, hits = weights[:, order], wrong[order]
-    tp = np.cumsum(ranked_weights * hits, axis=1)[:, last].astype(np.float64)
-    fp = np.cumsum(ranked_weights * ~hits, axis=1)[:, last].astype(np.float64)
+    tp = np.cumsum(ranked_weights * hits, axis=1, dtype=weights.dtype)[:, last].astype(np.float64)
+    fp = np.cumsum(ranked_weights * ~hits, axis=1, dtype=weights.dtype)[:, last].astype(np.float64)
     positives = weights @ wrong
     # a threshold that no drawn query reached adds no recall, whatever its precision
     precision = np.divide(tp, tp + fp, out=np.ones_like(tp), where=tp + fp > 0)

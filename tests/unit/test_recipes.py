@@ -6,7 +6,10 @@ import os
 import time
 from pathlib import Path
 
+import pytest
+
 from vpr_smr.core.records import FORMAT
+from vpr_smr.pipeline import recipes
 from vpr_smr.pipeline.recipes import Job, Recipe, Recipes, differences, portable, record, stale
 
 PREDICTOR = '{"alpha":0.0001,"max_iter":10000,"smote":true}'
@@ -129,3 +132,29 @@ def test_an_unrecorded_output_that_snakemake_has_a_record_of_is_left_to_snakemak
     record([job], run, since=time.time(), complete=True)
     assert json.loads((run / "recipes.json").read_text())["outputs"] == {"{run}/old.h5": train().to_json(),
                                                                           "{run}/old.h5.json": train().to_json()}
+
+
+def test_a_fault_of_the_comparison_stops_the_run_and_snakemake_s_own_error_is_left_to_it(tmp_path, monkeypatch,
+                                                                                        capsys):
+    from snakemake.exceptions import WorkflowError
+
+    from vpr_smr.pipeline import workflow
+
+    root = Path(__file__).resolve().parents[2]
+    monkeypatch.chdir(root)
+    overrides = [f"output={tmp_path}"]
+
+    def broken(*args, **kwargs):
+        raise KeyError("a fault of the comparison")
+
+    monkeypatch.setattr(recipes, "workflow_jobs", broken)
+    # never a silent "Nothing to be done" with the stale outputs left in place
+    with pytest.raises(KeyError, match="a fault of the comparison"):
+        workflow.run(root / "configs" / "demo.yaml", dry_run=True, overrides=overrides)
+
+    def snakemake_says(*args, **kwargs):
+        raise WorkflowError("no graph of jobs")
+
+    monkeypatch.setattr(recipes, "workflow_jobs", snakemake_says)
+    workflow.run(root / "configs" / "demo.yaml", dry_run=True, overrides=overrides)
+    assert "warning: the outputs' recorded settings were not compared: no graph of jobs" in capsys.readouterr().err

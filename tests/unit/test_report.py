@@ -107,11 +107,12 @@ def test_seed_row_shows_mean_and_sample_std(rows):
 
 
 def test_a_seed_row_of_one_defined_seed_says_n_a_and_its_mean_is_like_with_like():
-    # the issue's 28-query split: hog's seed-0 reduction undefined and one of its 5 seeds defined (a file of the
-    # old layout wrote that seed's std as 0.0); sad's seed 0 is 3.20 with an interval containing 0, all 5 defined
+    # the issue's 28-query split: hog's seed-0 reduction undefined and one of its 5 seeds defined (its std None, as
+    # evaluate.seed_summary writes it; 0.9 wrote 0.0); sad's seed 0 is 3.20 with an interval containing 0, all 5
+    # defined
     hog = {"dataset": "d", "method": "hog", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": 0.0,
            "reduction_pct": None, "outcome": "nothing_to_reduce", "max_recall": 0.5, "max_recall_vpr_sm": 0.5,
-           "reduction_pct_mean": -88.19, "reduction_pct_std": 0.0, "n_seeds": 5, "n_seeds_defined": 1,
+           "reduction_pct_mean": -88.19, "reduction_pct_std": None, "n_seeds": 5, "n_seeds_defined": 1,
            "seeds_left_out": "seeds 0, 1, 2, 3: nothing to reduce", "n_queries": 28}
     sad = {"dataset": "d", "method": "sad", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.5, "aoc_vpr_sm_pred": 0.484,
            "reduction_pct": 3.2, "outcome": "improved", "max_recall": 0.9, "max_recall_vpr_sm": 0.9,
@@ -361,7 +362,7 @@ def test_the_findings_in_words():
         "Over 3 predictor seeds (mean ± sample standard deviation) the reduction is a -3.0 ± 1.0 % (2 of 3 seeds), "
         "b 0.0 ± 0.0 % and c 0.5 ± 0.2 %."]
     # two methods, one reduction defined; m2's one defined seed has no std (its 0.0 is not shown)
-    half = finding_block([("m2", 0.0), ("m1", None)], [(0.0, 0.0, 2, 1), (None, None, 2, 0)])
+    half = finding_block([("m2", 0.0), ("m1", None)], [(0.0, None, 2, 1), (None, None, 2, 0)])
     assert sentences(half, "test") == [
         "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
         "the PR curve for none of the 2 methods; it left m2's unchanged.",
