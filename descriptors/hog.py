@@ -22,11 +22,15 @@ class HOG(Backend):
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
         super().__init__(conf)
         c = self.conf
-        if c["width"] % c["cell"] or c["height"] % c["cell"] or c["block"] % c["cell"]:
-            raise ValueError("hog: width, height and block must be multiples of cell")
-        if c["bins"] < 2 or c["block"] > min(c["width"], c["height"]):
-            raise ValueError(f"hog: bins must be at least 2 (got {c['bins']}) and block at most the width and height "
-                             f"(got block {c['block']} for {c['width']}x{c['height']})")
+        problems = [f"{key} {c[key]} is not a multiple of cell {c['cell']}" for key in ("width", "height", "block")
+                    if c[key] % c["cell"]]
+        if c["bins"] < 2:
+            problems.append(f"bins is {c['bins']}, at least 2 are needed")
+        if c["block"] > min(c["width"], c["height"]):
+            problems.append(f"block {c['block']} is larger than the {c['width']}x{c['height']} image")
+        if problems:
+            defaults = ", ".join(f"{key} {value}" for key, value in self.default_conf.items())
+            raise ValueError(f"hog: {'; '.join(problems)}: set the method's settings so (the defaults: {defaults})")
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:
         # OpenCV's grey, INTER_AREA and HOGDescriptor rules in exact float64 NumPy (descriptors.classic): OpenCV's

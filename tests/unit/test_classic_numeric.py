@@ -90,3 +90,14 @@ def test_hog_agrees_with_opencvs_plain_path_to_float32_rounding(images):
 def test_l2_normalised_by_hand():
     np.testing.assert_array_equal(l2_normalised(np.array([3.0, 4.0])), np.array([0.6, 0.8], np.float32))
     np.testing.assert_array_equal(l2_normalised(np.zeros(3)), np.zeros(3, np.float32))
+
+
+def test_hog_settings_it_cannot_compute_are_each_named_with_their_values():
+    from vpr_smr.descriptors.hog import HOG
+
+    with pytest.raises(ValueError, match=r"^hog: height 60 is not a multiple of cell 8; bins is 1, at least 2 are "
+                                         r"needed: set the method's settings so \(the defaults: width 128, height 64, "
+                                         r"cell 8, block 16, bins 9\)$"):
+        HOG({"height": 60, "bins": 1})
+    with pytest.raises(ValueError, match=r"^hog: block 32 is larger than the 24x16 image: "):
+        HOG({"width": 24, "height": 16, "block": 32})
