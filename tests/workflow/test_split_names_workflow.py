@@ -82,7 +82,7 @@ def test_the_tables_name_the_users_splits(tables):
     assert (four["n_check"], four["n_final"], four["n_train"]) == (str(2 * 67), str(2 * 67), str(2 * 97))
     columns, _ = read(user, "table2")
     assert columns == ["dataset", "seq_len", "attributes", "f1_cv", "f1_check", "f1_final", "f1_final_method_mean",
-                       "n_train", "n_check", "n_final"]
+                       "n_train", "n_check", "n_final", "correct_matches"]
     table2 = (user / "table2.md").read_text()
     assert "| F1 cross-validation | F1 check | F1 final | F1 final, mean over methods |" in table2
     assert "F1 over fit 194 samples, check 134 samples, final 134 samples (every method pooled)" in table2
