@@ -20,9 +20,10 @@ import numpy as np
 
 from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report.results import Order
-from vpr_smr.eval.scoring.baselines import ORACLE, PREDICTOR, RANDOM, SCORERS, TRAINING_FREE
+from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.records import Baselines, SplitBaselines, Versus
+from vpr_smr.eval.scoring.scorers import ORACLE, PREDICTOR, RANDOM
 
 
 def _split(record: Baselines, split: str) -> SplitBaselines:
@@ -68,7 +69,7 @@ def headline(row: dict[str, Any]) -> float | None:
 
 def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection[int] | None = None,
                   order: Order | None = None) -> list[dict[str, Any]]:
-    """The ``baselines`` table: one row per dataset, method, L, mode and scorer (in ``SCORERS``' order) of the
+    """The ``baselines`` table: one row per dataset, method, L, mode and scorer (in the registry's order) of the
     records' ``split`` (a record without a predictor has none), optionally only the sequence lengths given; by mode,
     L, dataset and method in the configuration's ``order``."""
     order = order or Order.of(record.meta for record in records)
@@ -82,7 +83,7 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
         versus: dict[str, Versus] = found.versus_predictor or {}
         modes = sorted({mode for removal in first.scorers.values() for mode in removal.modes}, key=order.mode)
         for mode in modes:
-            for scorer in (name for name in SCORERS if name in first.scorers):
+            for scorer in (name for name in scorers.names() if name in first.scorers):
                 numbers = first.scorers[scorer].modes[mode]
                 values = [budget.scorers[scorer].modes[mode].reduction_pct for budget in found.removal]
                 mean, std, defined = _spread(values)
@@ -101,7 +102,7 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
                              **bounds.flat("reduction_pct_difference", versus[scorer].reduction_pct_difference_ci
                                            .get(mode) if scorer in versus else None)})
     return sorted(rows, key=lambda r: (order.mode(r["mode"]), r["seq_len"], order.dataset(r["dataset"]),
-                                       order.method(r["method"]), SCORERS.index(r["scorer"])))
+                                       order.method(r["method"]), scorers.names().index(r["scorer"])))
 
 
 def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collection[int] | None = None,
@@ -117,7 +118,7 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
             continue
         found = _split(record, split)
         versus = found.versus_predictor or {}
-        for scorer in (name for name in SCORERS if name in found.detection):
+        for scorer in (name for name in scorers.names() if name in found.detection):
             numbers = found.detection[scorer]
             row = {"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "scorer": scorer,
                    "average_precision": numbers.average_precision, "roc_auc": numbers.roc_auc,
@@ -138,11 +139,11 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
 
 def best_scorer(rows: Iterable[dict[str, Any]], key: str = "reduction_pct") -> dict[str, Any] | None:
     """The row of the training-free scorer with the largest seed-0 ``key`` among ``rows`` (one method's, one
-    mode's: as the seed-0 predictor's), the first in ``SCORERS``' order on a tie; None when none is defined."""
-    candidates = [r for r in rows if r["scorer"] in TRAINING_FREE and r.get(key) is not None]
+    mode's: as the seed-0 predictor's), the first in the registry's order on a tie; None when none is defined."""
+    candidates = [r for r in rows if r["scorer"] in scorers.training_free() and r.get(key) is not None]
     if not candidates:
         return None
-    return max(candidates, key=lambda r: (r[key], -SCORERS.index(r["scorer"])))
+    return max(candidates, key=lambda r: (r[key], -scorers.names().index(r["scorer"])))
 
 
 def _groups(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], list[dict[str, Any]]]:
@@ -173,7 +174,7 @@ def with_best(table_rows: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any
             extra = {"best_scorer": found["scorer"], "best_scorer_reduction_pct": found["reduction_pct"],
                      "best_scorer_outcome": found["outcome"], "best_scorer_auc": found.get("auc")}
         else:
-            outcomes = {r["outcome"] for r in group if r["scorer"] in TRAINING_FREE}
+            outcomes = {r["outcome"] for r in group if r["scorer"] in scorers.training_free()}
             extra = {"best_scorer_outcome": outcomes.pop()} if len(outcomes) == 1 else {}
         out.append({**row, **extra})
     return out
@@ -229,15 +230,15 @@ def comparisons(rows: Sequence[dict[str, Any]]) -> list[Comparison]:
         methods = tuple(dict.fromkeys(str(r["method"]) for r in group))
         by = {(str(r["method"]), str(r["scorer"])): r for r in group}
         values = {name: tuple(by[(m, name)]["reduction_pct"] if (m, name) in by else None for m in methods)
-                  for name in SCORERS}
+                  for name in scorers.names()}
         # like with like: the scorers are ranked by their means over the methods where every one of them is
         # defined (each over its own only where no method is); the ranking picks whom to compare, the paired
         # intervals per method then decide
-        common = [i for i in range(len(methods)) if all(values[name][i] is not None for name in TRAINING_FREE)]
-        means = {name: _spread([values[name][i] for i in common] if common else values[name])[0]
-                 for name in TRAINING_FREE}
-        defined = [name for name in TRAINING_FREE if means[name] is not None]
-        best = max(defined, key=lambda name: (means[name] or 0.0, -SCORERS.index(name))) if defined else None
+        free = scorers.training_free()
+        common = [i for i in range(len(methods)) if all(values[name][i] is not None for name in free)]
+        means = {name: _spread([values[name][i] for i in common] if common else values[name])[0] for name in free}
+        defined = [name for name in free if means[name] is not None]
+        best = max(defined, key=lambda name: (means[name] or 0.0, -scorers.names().index(name))) if defined else None
         differences = tuple(bounds.of(by[(m, best)], "reduction_pct_difference") if (m, best) in by else None
                             for m in methods) if best is not None else tuple(None for _ in methods)
         out.append(Comparison(dataset, mode, seq_len, methods, best, values[PREDICTOR],

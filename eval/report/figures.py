@@ -22,6 +22,7 @@ import numpy as np
 
 from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.report.outcome_words import SHORT
+from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.curves import LOST_ALL, REMOVED_ALL
 
 UP, DOWN = "tab:green", "tab:red"
@@ -276,11 +277,6 @@ def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
 
 # --- the training-free baselines (method §12) -------------------------------------------------------------------
 
-# one colour per scorer, the same in both baseline figures; the predictor stands out, the oracle is a ceiling
-SCORER_COLOURS = {"uniqueness": "tab:blue", "single_uniqueness": "tab:cyan", "spread": "tab:olive",
-                  "distance": "tab:gray", "random": "tab:pink", "oracle": "black", "predictor": "tab:orange"}
-
-
 def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any, title: str) -> Path:
     """Each scorer's AOC reduction per method at the seed-0 predictor's budget (``report.baselines.baseline_rows``
     of one dataset, mode and L): a group of bars per method, the training-free scorers first, the best of them
@@ -290,7 +286,7 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
     plt = _pyplot()
     methods = list(comparison.methods)
     best = comparison.best
-    order = [name for name in SCORER_COLOURS if name not in ("oracle", "predictor", best)]
+    order = [name for name in scorers.names() if name not in ("oracle", "predictor", best)]
     order += ([best] if best is not None else []) + ["predictor"]
     by = {(r["method"], r["scorer"]): r for r in rows}
     fig, ax = plt.subplots(figsize=(max(5.0, min(14.0, 0.55 * len(order) * len(methods) + 2.5)), 4.2))
@@ -307,7 +303,7 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
             if value is None and row:
                 missing.append(f"{method}: {scorer} ({SHORT.get(str(row.get('outcome')), 'undefined')})")
         label = scorer + (" (best training-free)" if scorer == best else "")
-        ax.bar(x, values, width=width * 0.92, color=SCORER_COLOURS[scorer], label=label,
+        ax.bar(x, values, width=width * 0.92, color=scorers.colour(scorer), label=label,
                edgecolor="black", lw=1.2 if scorer in (best, "predictor") else 0.3,
                yerr=errors if scorer == "random" else None, capsize=2)
     for m, method in enumerate(methods):
@@ -333,17 +329,15 @@ def detection_figure(path: Path, panels: Sequence[tuple[str, Any]], title: str) 
     """Precision-recall curves of detecting the wrong sequence matches, one panel per method (``panels``: method
     and its ``records.SplitBaselines``): each scorer's curve as the steps its average precision sums (random's first
     seed), the fraction of wrong matches (a random ranking's expected precision) dotted."""
-    from vpr_smr.eval.scoring.baselines import SCORERS
-
     fig, axes = _panels(len(panels))
     for ax, (method, found) in zip(axes, panels, strict=True):
-        for scorer in (name for name in SCORERS if name in found.detection):
+        for scorer in (name for name in scorers.names() if name in found.detection):
             numbers = found.detection[scorer]
             if numbers.curve is None or not numbers.curve.recall:
                 continue
             recall = [0.0, *numbers.curve.recall]
             precision = [numbers.curve.precision[0], *numbers.curve.precision]
-            ax.plot(recall, precision, drawstyle="steps-pre", color=SCORER_COLOURS.get(scorer), label=scorer,
+            ax.plot(recall, precision, drawstyle="steps-pre", color=scorers.colour(scorer), label=scorer,
                     lw=1.6 if scorer == "predictor" else 1.0, ls="--" if scorer == "oracle" else "-")
         ax.axhline(found.wrong_fraction, color="grey", lw=0.8, ls=":", label="fraction of wrong matches")
         ax.set(title=wrapped(f"{method}\n{found.n_wrong} of {found.n_queries} matches wrong", 3.0),

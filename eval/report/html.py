@@ -71,6 +71,7 @@ from vpr_smr.eval.report.view import (
     cell,
     text_cell,
 )
+from vpr_smr.eval.scoring import scorers as scorer_registry
 
 TEMPLATES = Path(__file__).resolve().parent / "templates"
 TEMPLATE = "report.html.j2"
@@ -388,18 +389,16 @@ class _Builder:
                   "spread over seeds), those of lowest confidence; the oracle removes only wrong matches, those of "
                   "smallest sequence distance first, at most all of them. Each removal is scored as Table I scores "
                   "the predictor's: the AOC at its own maximum recall against VPR+SM's curve cut there.")
-        scorers = ("uniqueness: SeqSLAM's, the smallest sequence distance outside a window around the match over "
-                   "the match's; single_uniqueness: the same on the query's own distances; spread: minus the spread "
-                   "of the best end references; distance: minus the sequence distance (a threshold on it, which is "
-                   "what VPR+SM's curve already sweeps: about 0 by construction); random: a random order; oracle: "
-                   "the ground truth. Detecting wrong matches is threshold-free: the average precision and ROC AUC "
-                   "of each confidence against the wrong matches (a random ranking's average precision is the "
-                   "fraction of wrong matches).")
+        # each scorer as its registry entry describes it; the predictor is the page's subject, described above
+        described = "; ".join(f"{s.name}: {s.description}" for s in scorer_registry.REGISTRY if s.kind != "predictor")
+        scorers_text = (described + ". Detecting wrong matches is threshold-free: the average precision and ROC AUC "
+                        "of each confidence against the wrong matches (a random ranking's average precision is the "
+                        "fraction of wrong matches).")
         by_key: dict[tuple[str, int], list[Any]] = {}
         for one in detection_comparisons(detection):
             by_key.setdefault((one.dataset, one.seq_len), []).append(one)
         detected = tuple(detection_sentence(group, self.split) for group in by_key.values())
-        intro = tuple(baseline_sentence(c, self.split) for c in found) + detected + (budget, scorers)
+        intro = tuple(baseline_sentence(c, self.split) for c in found) + detected + (budget, scorers_text)
         headlines = (*(baseline_headline(c) for c in found), *(detection_headline(g) for g in by_key.values()))
         return Section("baselines", "Is the predictor better than a simple rule?", intro, tuple(blocks),
                        self.folded("baselines", "wrong_match_detection"), headlines)

@@ -1,4 +1,5 @@
 """Is the predictor better than a simple rule? The training-free scorers of method §12 and their two protocols.
+Each scorer is one entry of ``scorers.REGISTRY`` (its kind, colour, description, settings and confidence).
 
 Every scorer gives each evaluated query ``a`` a confidence ``c_a`` (higher: its sequence match more likely correct).
 They are pure functions of the candidates the sequence matcher keeps with the attributes (``QueryFeatures``' ``n``
@@ -28,9 +29,10 @@ from functools import partial
 
 import numpy as np
 
-from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, MODES, candidates_needed, half_window
+from vpr_smr.core.constants import MODES
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.ground_truth import POSITIONS, GroundTruth, PositionTruth
+from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.curves import keep_mask
 from vpr_smr.eval.scoring.evaluate import compare_removal, removal_draws, with_intervals
 from vpr_smr.eval.scoring.intervals import draws, percentile_interval, weighted_average_precision
@@ -42,6 +44,17 @@ from vpr_smr.eval.scoring.records import (
     SplitBaselines,
     Versus,
 )
+from vpr_smr.eval.scoring.scorers import (
+    DEFAULT_SETTINGS,
+    ORACLE,
+    PREDICTOR,
+    RANDOM,
+    BaselineSettings,
+    predictor_confidence,
+    random_scores,
+    spread,
+    uniqueness,
+)
 
 __all__ = [
     "DEFAULT_SETTINGS", "ORACLE", "PREDICTOR", "RANDOM", "SCORERS", "TRAINING_FREE", "BaselineSettings", "Prediction",
@@ -50,38 +63,10 @@ __all__ = [
     "removal_at_budget", "split_baselines", "spread", "spread_positions", "uniqueness",
 ]
 
-RANDOM, ORACLE, PREDICTOR = "random", "oracle", "predictor"
-# every scorer, in the order of the tables; the first five need no training
-SCORERS = ("uniqueness", "single_uniqueness", "spread", "distance", RANDOM, ORACLE, PREDICTOR)
-TRAINING_FREE = SCORERS[:5]
-
-
-@dataclass(frozen=True)
-class BaselineSettings:
-    """The scorers' settings (the configuration's ``baselines``): ``r_window`` (uniqueness's window, reference
-    frames) and ``spread_k`` (the end references spread measures)."""
-
-    r_window: int = DEFAULT_R_WINDOW
-    spread_k: int = DEFAULT_SPREAD_K
-
-    def __post_init__(self) -> None:
-        candidates_needed(self.r_window, self.spread_k)  # a ValueError naming the bad setting
-
-    @property
-    def half_window(self) -> int:
-        return half_window(self.r_window)
-
-    @property
-    def candidates(self) -> int:
-        """The candidates per query an attributes file must hold (``core.constants.candidates_needed``)."""
-        return candidates_needed(self.r_window, self.spread_k)
-
-    def meta(self) -> dict[str, int]:
-        """What an output records of the settings."""
-        return {"r_window": int(self.r_window), "spread_k": int(self.spread_k)}
-
-
-DEFAULT_SETTINGS = BaselineSettings()  # the configuration's defaults (method §12: r_window 10, K 10)
+# the registry's names as declared, for callers that read them once; the code here reads ``scorers.REGISTRY`` as it
+# runs (``scorers.names``, ``scorers.training_free``)
+SCORERS = scorers.names()
+TRAINING_FREE = scorers.training_free()
 
 
 @dataclass(frozen=True)
@@ -126,76 +111,19 @@ def check_candidates(features: QueryFeatures, settings: BaselineSettings, where:
 # --- the scorers ----------------------------------------------------------------------------------------------
 
 
-def uniqueness(values: np.ndarray, references: np.ndarray, window: int) -> np.ndarray:
-    """SeqSLAM's windowed uniqueness per row: the smallest value whose reference lies more than ``window`` from the
-    first candidate's (the best), divided by the best value. ``values``/``references``: each row's smallest values
-    ascending with their references (``-1``: none), as the matcher keeps them; they must reach past the window
-    (``2 window + 2`` candidates, or every reference). 1 where no reference lies outside the window or both values
-    are 0, ``+inf`` where only the best is 0. A best value at or below 0 counts as 0 (a negative one is float
-    rounding of 0: distances of identical descriptors)."""
-    values, references = np.asarray(values, dtype=np.float64), np.asarray(references)
-    best, match = values[:, 0], references[:, 0]
-    outside = (references >= 0) & (np.abs(references - match[:, None]) > window)
-    found = outside.any(axis=1)
-    second = values[np.arange(len(values)), np.argmax(outside, axis=1)]
-    zero = best <= 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = second / best
-    out: np.ndarray = np.where(~found, 1.0, np.where(zero, np.where(second <= 0, 1.0, np.inf), ratio))
-    return out
-
-
-def spread(references: np.ndarray, positions: np.ndarray, count: int) -> np.ndarray:
-    """Per row, the population standard deviation of the positions of its first ``count`` references (as many as
-    it has, when fewer): ``positions`` ``(R,)`` gives it directly, ``(R, d)`` as the root of the summed per-axis
-    variances."""
-    references = np.asarray(references)
-    valid = references[:, :count] >= 0
-    n = int(valid.sum(axis=1).min()) if len(references) else 0  # every query of a split has as many end references
-    chosen = np.asarray(positions, dtype=np.float64)[references[:, :n]]
-    # relative to the best one's: the spread does not change, and a frame index and a position that are the same
-    # up to an offset (a split's frames, UTM metres) give the same bits
-    chosen = chosen - chosen[:, :1]
-    out: np.ndarray = (np.std(chosen, axis=1) if chosen.ndim == 2
-                       else np.sqrt(np.var(chosen, axis=1).sum(axis=-1)))
-    return out
-
-
-def random_scores(n_queries: int, seed: int) -> np.ndarray:
-    """A uniformly random order of the queries: ``numpy.random.default_rng(seed).permutation(n_queries)``."""
-    return np.random.default_rng(seed).permutation(n_queries).astype(np.float64)
-
-
-def predictor_confidence(probabilities: np.ndarray, classes: np.ndarray) -> np.ndarray:
-    """``1 - P(class 1) - P(class 3)``: the predictor's probability that the sequence match is correct (a class
-    the predictor was not trained on has probability 0)."""
-    values = np.asarray(probabilities, dtype=np.float64)
-    labels: list[int] = [int(c) for c in np.asarray(classes).tolist()]
-    out = np.ones(len(values))
-    for label in (1, 3):
-        if label in labels:
-            out = out - values[:, labels.index(label)]
-    return out
-
-
 def query_scores(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int = 0,
                  prediction: Prediction | None = None) -> dict[str, np.ndarray]:
-    """Every scorer's ``c_a`` of one split's evaluated queries, in ``SCORERS``' order: ``random`` of ``seed``,
-    ``predictor`` only with ``prediction``. The features must hold the candidates (``check_candidates``)."""
+    """Every registered scorer's ``c_a`` of one split's evaluated queries, in ``scorers.REGISTRY``'s order (each
+    by its ``confidence``): ``random`` of ``seed``, ``predictor`` only with ``prediction``. The features must hold
+    the candidates (``check_candidates``)."""
     if features.sequence_candidates is None or features.single_candidates is None:
         raise ValueError("the features hold no candidates for the training-free scorers")
-    assert features.sequence_candidate_references is not None and features.single_candidate_references is not None
-    window = settings.half_window
-    scores = {
-        "uniqueness": uniqueness(features.sequence_candidates, features.sequence_candidate_references, window),
-        "single_uniqueness": uniqueness(features.single_candidates, features.single_candidate_references, window),
-        "spread": -spread(features.sequence_candidate_references, positions, settings.spread_k),
-        "distance": -np.asarray(features.sequence_distance, dtype=np.float64),
-        RANDOM: random_scores(len(features.queries), seed),
-        ORACLE: np.asarray(features.sequence_correct, dtype=np.float64),
-    }
-    if prediction is not None:
-        scores[PREDICTOR] = predictor_confidence(prediction.probabilities, prediction.classes)
+    scores = {}
+    for one in scorers.REGISTRY:
+        if one.confidence is not None:
+            scores[one.name] = one.confidence(features, settings, positions, seed)
+        elif prediction is not None:  # the predictor
+            scores[one.name] = predictor_confidence(prediction.probabilities, prediction.classes)
     return scores
 
 
@@ -234,7 +162,7 @@ def _removal_at_budget(features: QueryFeatures, scores: Mapping[str, np.ndarray]
     keep_predictor = prediction.keep
     budget = int((~keep_predictor).sum())
     keeps = {}
-    for name in (n for n in SCORERS if n in scores or n == PREDICTOR):
+    for name in (n for n in scorers.names() if n in scores or n == PREDICTOR):
         if name == PREDICTOR:
             keeps[name] = keep_predictor
         elif name == ORACLE:
@@ -315,5 +243,5 @@ def split_baselines(features: QueryFeatures, settings: BaselineSettings, positio
         versus = {name: Versus(
             {mode: percentile_interval(reductions[mode][name] - reductions[mode][PREDICTOR]) for mode in modes},
             percentile_interval(precisions[name] - precisions[PREDICTOR]))
-            for name in TRAINING_FREE if name in scores}
+            for name in scorers.training_free() if name in scores}
     return SplitBaselines(n, int(wrong.sum()), seeds, found, random_found, removal, versus)

@@ -33,7 +33,7 @@ from vpr_smr.core.constants import DEFAULT_VELOCITIES
 from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, QueryFeatures
 from vpr_smr.eval.matching.ground_truth import NO_REFERENCE
-from vpr_smr.eval.scoring.baselines import SCORERS
+from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.curves import keep_mask
 
 QUERY_COLUMNS = (
@@ -42,8 +42,13 @@ QUERY_COLUMNS = (
     "velocities",
 )
 # the scorers' confidences (method §12), after QUERY_COLUMNS: a reader of the columns above (the match inspector)
-# reads a table written before these existed as it always did
-SCORE_COLUMNS = tuple(f"c_{name}" for name in SCORERS)
+# reads a table written before these existed as it always did; one per entry of scorers.REGISTRY, read as it runs
+def score_columns() -> tuple[str, ...]:
+    """The scorers' columns: ``c_<name>`` of every registered scorer, in the registry's order."""
+    return tuple(f"c_{name}" for name in scorers.names())
+
+
+SCORE_COLUMNS = score_columns()  # as declared, for callers that read them once
 
 
 @dataclass(frozen=True)
@@ -105,7 +110,7 @@ def query_rows(table: SplitQueries) -> Iterator[list[str]]:
     kept = prediction.kept if prediction is not None else None
     velocities = velocities_text(table.velocities)
     scores = table.scores or {}
-    by_scorer = [scores.get(name) for name in SCORERS]
+    by_scorer = [scores.get(name) for name in scorers.names()]
     for n, query in enumerate(f.queries):
         predicted = ["", "", ""] if prediction is None or kept is None else [
             str(int(prediction.predicted[n])), _number(prediction.probability[n]), str(int(kept[n]))]
@@ -126,7 +131,7 @@ def write_queries(path: Path | str, tables: Sequence[SplitQueries]) -> None:
     """The table of every split in the given order, written atomically (``core.io.atomic_path``)."""
     with atomic_path(path) as tmp, open(tmp, "w", newline="") as handle:
         writer = csv.writer(handle, lineterminator="\n")
-        writer.writerow((*QUERY_COLUMNS, *SCORE_COLUMNS))
+        writer.writerow((*QUERY_COLUMNS, *score_columns()))
         for table in tables:
             if len(table.single_distance) != len(table.features.queries):
                 raise ValueError(f"split {table.split!r}: {len(table.single_distance)} single-frame distances for "

@@ -1,0 +1,214 @@
+"""The scorers of method §12, one registry entry each: ``REGISTRY``, in the order of the tables and figures.
+
+A scorer is a ``Scorer`` record: its name, its kind (training-free, the oracle or the predictor), its colour in the
+figures, its description in the report, the baselines settings it reads, and, for all but the predictor, the function
+computing its confidence ``c_a`` of a split's evaluated queries from one signature (``Confidence``). Everything that
+lists scorers (``baselines.query_scores``, the per-query table's ``c_<name>`` columns, the report's tables, figures
+and description) reads ``REGISTRY`` when it runs, so a new scorer is one more entry here.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, candidates_needed, half_window
+from vpr_smr.eval.matching.attributes import QueryFeatures
+
+__all__ = [
+    "DEFAULT_SETTINGS", "KINDS", "ORACLE", "PREDICTOR", "RANDOM", "REGISTRY", "BaselineSettings", "Confidence",
+    "Scorer", "colour", "names", "predictor_confidence", "random_scores", "scorer", "spread", "training_free",
+    "uniqueness",
+]
+
+RANDOM, ORACLE, PREDICTOR = "random", "oracle", "predictor"
+Kind = Literal["training-free", "oracle", "predictor"]
+KINDS: tuple[Kind, ...] = ("training-free", "oracle", "predictor")
+Setting = Literal["r_window", "spread_k"]
+
+
+@dataclass(frozen=True)
+class BaselineSettings:
+    """The scorers' settings (the configuration's ``baselines``): ``r_window`` (uniqueness's window, reference
+    frames) and ``spread_k`` (the end references spread measures)."""
+
+    r_window: int = DEFAULT_R_WINDOW
+    spread_k: int = DEFAULT_SPREAD_K
+
+    def __post_init__(self) -> None:
+        candidates_needed(self.r_window, self.spread_k)  # a ValueError naming the bad setting
+
+    @property
+    def half_window(self) -> int:
+        return half_window(self.r_window)
+
+    @property
+    def candidates(self) -> int:
+        """The candidates per query an attributes file must hold (``core.constants.candidates_needed``)."""
+        return candidates_needed(self.r_window, self.spread_k)
+
+    def meta(self) -> dict[str, int]:
+        """What an output records of the settings."""
+        return {"r_window": int(self.r_window), "spread_k": int(self.spread_k)}
+
+
+DEFAULT_SETTINGS = BaselineSettings()  # the configuration's defaults (method §12: r_window 10, K 10)
+
+# a scorer's c_a of a split's evaluated queries: the features (with their candidates), the settings, the reference
+# positions ``spread`` measures (``baselines.spread_positions``) and the random seed
+Confidence = Callable[[QueryFeatures, BaselineSettings, np.ndarray, int], np.ndarray]
+
+
+@dataclass(frozen=True)
+class Scorer:
+    """One scorer of method §12. ``confidence`` is None for the predictor only (its ``c_a`` comes from a trained
+    model's probabilities, ``predictor_confidence``); ``description`` is the report's clause after ``name:``."""
+
+    name: str
+    kind: Kind
+    colour: str  # a Matplotlib colour, the same in both baseline figures
+    description: str
+    settings: tuple[Setting, ...]  # the baselines settings it reads
+    confidence: Confidence | None
+
+    def __post_init__(self) -> None:
+        if self.kind not in KINDS:
+            raise ValueError(f"scorer {self.name!r}: kind {self.kind!r} is none of {', '.join(KINDS)}")
+        if (self.confidence is None) != (self.kind == "predictor"):
+            raise ValueError(f"scorer {self.name!r}: every scorer but the predictor computes its own confidence")
+        if not self.colour or not self.description:
+            raise ValueError(f"scorer {self.name!r} needs a colour and a description")
+
+
+# --- the computations ------------------------------------------------------------------------------------------
+
+
+def uniqueness(values: np.ndarray, references: np.ndarray, window: int) -> np.ndarray:
+    """SeqSLAM's windowed uniqueness per row: the smallest value whose reference lies more than ``window`` from the
+    first candidate's (the best), divided by the best value. ``values``/``references``: each row's smallest values
+    ascending with their references (``-1``: none), as the matcher keeps them; they must reach past the window
+    (``2 window + 2`` candidates, or every reference). 1 where no reference lies outside the window or both values
+    are 0, ``+inf`` where only the best is 0. A best value at or below 0 counts as 0 (a negative one is float
+    rounding of 0: distances of identical descriptors)."""
+    values, references = np.asarray(values, dtype=np.float64), np.asarray(references)
+    best, match = values[:, 0], references[:, 0]
+    outside = (references >= 0) & (np.abs(references - match[:, None]) > window)
+    found = outside.any(axis=1)
+    second = values[np.arange(len(values)), np.argmax(outside, axis=1)]
+    zero = best <= 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = second / best
+    out: np.ndarray = np.where(~found, 1.0, np.where(zero, np.where(second <= 0, 1.0, np.inf), ratio))
+    return out
+
+
+def spread(references: np.ndarray, positions: np.ndarray, count: int) -> np.ndarray:
+    """Per row, the population standard deviation of the positions of its first ``count`` references (as many as
+    it has, when fewer): ``positions`` ``(R,)`` gives it directly, ``(R, d)`` as the root of the summed per-axis
+    variances."""
+    references = np.asarray(references)
+    valid = references[:, :count] >= 0
+    n = int(valid.sum(axis=1).min()) if len(references) else 0  # every query of a split has as many end references
+    chosen = np.asarray(positions, dtype=np.float64)[references[:, :n]]
+    # relative to the best one's: the spread does not change, and a frame index and a position that are the same
+    # up to an offset (a split's frames, UTM metres) give the same bits
+    chosen = chosen - chosen[:, :1]
+    out: np.ndarray = (np.std(chosen, axis=1) if chosen.ndim == 2
+                       else np.sqrt(np.var(chosen, axis=1).sum(axis=-1)))
+    return out
+
+
+def random_scores(n_queries: int, seed: int) -> np.ndarray:
+    """A uniformly random order of the queries: ``numpy.random.default_rng(seed).permutation(n_queries)``."""
+    return np.random.default_rng(seed).permutation(n_queries).astype(np.float64)
+
+
+def predictor_confidence(probabilities: np.ndarray, classes: np.ndarray) -> np.ndarray:
+    """``1 - P(class 1) - P(class 3)``: the predictor's probability that the sequence match is correct (a class
+    the predictor was not trained on has probability 0)."""
+    values = np.asarray(probabilities, dtype=np.float64)
+    labels: list[int] = [int(c) for c in np.asarray(classes).tolist()]
+    out = np.ones(len(values))
+    for label in (1, 3):
+        if label in labels:
+            out = out - values[:, labels.index(label)]
+    return out
+
+
+# --- each scorer's confidence (``Confidence``): the features hold the candidates (``baselines.check_candidates``) -
+
+
+def _sequence_uniqueness(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray,
+                         seed: int) -> np.ndarray:
+    assert features.sequence_candidates is not None and features.sequence_candidate_references is not None
+    return uniqueness(features.sequence_candidates, features.sequence_candidate_references, settings.half_window)
+
+
+def _single_uniqueness(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray,
+                       seed: int) -> np.ndarray:
+    assert features.single_candidates is not None and features.single_candidate_references is not None
+    return uniqueness(features.single_candidates, features.single_candidate_references, settings.half_window)
+
+
+def _spread(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int) -> np.ndarray:
+    assert features.sequence_candidate_references is not None
+    return -spread(features.sequence_candidate_references, positions, settings.spread_k)
+
+
+def _distance(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int) -> np.ndarray:
+    return -np.asarray(features.sequence_distance, dtype=np.float64)
+
+
+def _random(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int) -> np.ndarray:
+    return random_scores(len(features.queries), seed)
+
+
+def _oracle(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int) -> np.ndarray:
+    return np.asarray(features.sequence_correct, dtype=np.float64)
+
+
+# --- the registry ----------------------------------------------------------------------------------------------
+
+# every scorer, in the order of the tables; the predictor stands out in the figures, the oracle is a ceiling
+REGISTRY: tuple[Scorer, ...] = (
+    Scorer("uniqueness", "training-free", "tab:blue",
+           "SeqSLAM's, the smallest sequence distance outside a window around the match over the match's",
+           ("r_window",), _sequence_uniqueness),
+    Scorer("single_uniqueness", "training-free", "tab:cyan", "the same on the query's own distances",
+           ("r_window",), _single_uniqueness),
+    Scorer("spread", "training-free", "tab:olive", "minus the spread of the best end references", ("spread_k",),
+           _spread),
+    Scorer("distance", "training-free", "tab:gray",
+           "minus the sequence distance (a threshold on it, which is what VPR+SM's curve already sweeps: about 0 by "
+           "construction)", (), _distance),
+    Scorer(RANDOM, "training-free", "tab:pink", "a random order", (), _random),
+    Scorer(ORACLE, "oracle", "black", "the ground truth", (), _oracle),
+    Scorer(PREDICTOR, "predictor", "tab:orange", "one minus the predictor's probabilities of classes 1 and 3", (),
+           None),
+)
+
+
+def names() -> tuple[str, ...]:
+    """Every registered scorer's name, in the registry's order."""
+    return tuple(s.name for s in REGISTRY)
+
+
+def training_free() -> tuple[str, ...]:
+    """The names of the training-free scorers (kind ``training-free``), in the registry's order."""
+    return tuple(s.name for s in REGISTRY if s.kind == "training-free")
+
+
+def scorer(name: str) -> Scorer:
+    """The registered scorer ``name``; a ValueError naming the registered ones when there is none."""
+    for s in REGISTRY:
+        if s.name == name:
+            return s
+    raise ValueError(f"no scorer {name!r} is registered (eval/scoring/scorers.py REGISTRY has {', '.join(names())})")
+
+
+def colour(name: str) -> str:
+    """The figures' colour of the registered scorer ``name``."""
+    return scorer(name).colour

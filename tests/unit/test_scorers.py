@@ -1,0 +1,99 @@
+"""The scorers' registry (eval/scoring/scorers.py): every entry declares its colour and description, and one more
+training-free entry reaches the scores, both protocols, the per-query table and the figure with no other edit."""
+
+from __future__ import annotations
+
+import csv
+
+import numpy as np
+import pytest
+from matplotlib.colors import is_color_like, to_rgba
+
+from vpr_smr.eval.matching.attributes import query_features
+from vpr_smr.eval.report import figures
+from vpr_smr.eval.report.baselines import Comparison
+from vpr_smr.eval.scoring import scorers
+from vpr_smr.eval.scoring.baselines import (
+    SCORERS,
+    TRAINING_FREE,
+    BaselineSettings,
+    Prediction,
+    query_scores,
+    split_baselines,
+)
+from vpr_smr.eval.scoring.queries import SplitQueries, write_queries
+
+
+def test_every_scorer_declares_its_colour_description_and_settings():
+    assert scorers.names() == SCORERS == ("uniqueness", "single_uniqueness", "spread", "distance", "random",
+                                          "oracle", "predictor")
+    assert TRAINING_FREE == ("uniqueness", "single_uniqueness", "spread", "distance", "random")  # by kind
+    fields = set(BaselineSettings().meta())
+    for one in scorers.REGISTRY:
+        assert is_color_like(one.colour) and one.description.strip(), one.name
+        assert set(one.settings) <= fields, one.name
+    assert len({one.colour for one in scorers.REGISTRY}) == len(scorers.REGISTRY)  # told apart in a figure
+    assert scorers.colour("oracle") == "black"
+    with pytest.raises(ValueError, match=r"no scorer 'nope' is registered .* uniqueness, single_uniqueness"):
+        scorers.scorer("nope")
+
+
+def test_a_scorer_without_its_confidence_or_colour_is_refused():
+    with pytest.raises(ValueError, match="every scorer but the predictor computes its own confidence"):
+        scorers.Scorer("x", "training-free", "tab:red", "an x", (), None)
+    with pytest.raises(ValueError, match="'x' needs a colour and a description"):
+        scorers.Scorer("x", "training-free", "", "an x", (), lambda f, s, p, seed: f.sequence_distance)
+
+
+def _single_distance(features, settings, positions, seed):
+    return -features.single_candidates[:, 0]
+
+
+NEW = scorers.Scorer("single_distance", "training-free", "tab:red", "minus the single-frame distance", (),
+                     _single_distance)
+
+
+def test_one_more_entry_reaches_everything(monkeypatch, tmp_path):
+    registry = (*scorers.REGISTRY[:4], NEW, *scorers.REGISTRY[4:])
+    monkeypatch.setattr(scorers, "REGISTRY", registry)
+    d = np.random.default_rng(11).random((40, 30))
+    settings = BaselineSettings()
+    features = query_features(d, 3, n_candidates=settings.candidates)
+    positions = np.arange(40.0)
+    rng = np.random.default_rng(2)
+    prediction = Prediction(0, rng.dirichlet(np.ones(4), len(features.queries)), np.arange(4))
+
+    scores = query_scores(features, settings, positions, 0, prediction)
+    assert list(scores) == ["uniqueness", "single_uniqueness", "spread", "distance", "single_distance", "random",
+                            "oracle", "predictor"]
+    np.testing.assert_array_equal(scores["single_distance"], -d.min(axis=0)[features.queries])  # -D[single, a]
+
+    found = split_baselines(features, settings, positions, [prediction])
+    assert "single_distance" in found.detection and "single_distance" in found.removal[0].scorers
+    assert "single_distance" in found.versus_predictor  # a training-free scorer against the predictor
+
+    path = tmp_path / "queries.csv"
+    write_queries(path, [SplitQueries("test", 0, features, d.min(axis=0)[features.queries], None, scores=scores)])
+    with open(path, newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [float(r["c_single_distance"]) for r in rows] == scores["single_distance"].tolist()
+
+    drawn = {}
+
+    def keep(fig, p):
+        drawn["fig"] = fig
+        return p
+
+    monkeypatch.setattr(figures, "save", keep)
+    methods = ("hog", "sad")
+    rows = [{"method": m, "scorer": s, "outcome": "improved", "reduction_pct": 5.0, "reduction_pct_mean": 5.0,
+             "reduction_pct_std": 1.0} for m in methods for s in scorers.names()]
+    comparison = Comparison("corridor", "paper", 5, methods, "uniqueness", (20.0, 18.0), (12.0, 12.0),
+                            (60.0, 60.0), (3, 4))
+    figures.baselines_figure(tmp_path / "b.png", rows, comparison, "corridor")
+    (ax,) = drawn["fig"].axes
+    labels = [text.get_text() for text in ax.get_legend().get_texts()]
+    assert "single_distance" in labels
+    bars = [c for c in ax.containers if c.get_label() == "single_distance"]
+    assert bars and all(patch.get_facecolor() == to_rgba("tab:red") for patch in bars[0])
+    figures._pyplot().close(drawn["fig"])
