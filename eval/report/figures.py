@@ -280,9 +280,10 @@ def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
 def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any, title: str) -> Path:
     """Each scorer's AOC reduction per method at the seed-0 predictor's budget (``report.baselines.baseline_rows``
     of one dataset, mode and L): a group of bars per method, the training-free scorers first, the best of them
-    (``comparison.best``, edged) just before the predictor's bar; random as its mean over the seeds with the sample
-    standard deviation as an error bar; the oracle's reduction a dashed line over the group (the ceiling at that
-    budget). An undefined reduction has no bar and is named under the axis."""
+    (``comparison.best``, edged) just before the predictor's bar, each with its 95 % interval over the queries as an
+    error bar; random as its mean over the seeds with the sample standard deviation as its error bar; the oracle's
+    reduction a dashed line over the group (the ceiling at that budget). An undefined reduction has no bar and is
+    named under the axis."""
     plt = _pyplot()
     methods = list(comparison.methods)
     best = comparison.best
@@ -294,18 +295,20 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
     missing = []
     for s, scorer in enumerate(order):
         x = np.arange(len(methods)) - 0.4 + width * (s + 0.5)
-        values, errors = [], []
+        values, below, above = [], [], []
         for method in methods:
             row = by.get((method, scorer), {})
             value = row.get("reduction_pct_mean" if scorer == "random" else "reduction_pct")
             values.append(np.nan if value is None else float(value))
-            errors.append(row.get("reduction_pct_std") or 0.0 if scorer == "random" else 0.0)
+            low, high = _whisker(row, scorer, value)
+            below.append(low)
+            above.append(high)
             if value is None and row:
                 missing.append(f"{method}: {scorer} ({SHORT.get(str(row.get('outcome')), 'undefined')})")
         label = scorer + (" (best training-free)" if scorer == best else "")
         ax.bar(x, values, width=width * 0.92, color=scorers.colour(scorer), label=label,
                edgecolor="black", lw=1.2 if scorer in (best, "predictor") else 0.3,
-               yerr=errors if scorer == "random" else None, capsize=2)
+               yerr=np.array([below, above]), capsize=2)
     for m, method in enumerate(methods):
         ceiling = by.get((method, "oracle"), {}).get("reduction_pct")
         if ceiling is not None:
@@ -323,6 +326,21 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
         bottom = min(0.5, 0.02 + NOTE_LINE * (note.count("\n") + 1) / fig.get_figheight())
     fig.tight_layout(rect=(0, bottom, 1, 1))
     return save(fig, path)
+
+
+def _whisker(row: dict[str, Any], scorer: str, value: Any) -> tuple[float, float]:
+    """How far an error bar reaches below and above a bar: random's seed standard deviation each way, any other
+    scorer's 95 % interval over the queries (``<name>_ci_low/high``; a percentile interval may leave out its own
+    point, then the bar's side is 0); none without a value or an interval."""
+    if value is None:
+        return 0.0, 0.0
+    if scorer == "random":
+        spread = float(row.get("reduction_pct_std") or 0.0)
+        return spread, spread
+    low, high = row.get("reduction_pct_ci_low"), row.get("reduction_pct_ci_high")
+    if low is None or high is None:
+        return 0.0, 0.0
+    return max(0.0, float(value) - float(low)), max(0.0, float(high) - float(value))
 
 
 def detection_figure(path: Path, panels: Sequence[tuple[str, Any]], title: str) -> Path:

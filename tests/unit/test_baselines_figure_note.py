@@ -3,6 +3,8 @@ nor the axes and their labels (hand-made records of three methods, four reductio
 
 from __future__ import annotations
 
+import numpy as np
+
 from vpr_smr.eval.report import figures
 from vpr_smr.eval.report.baselines import Comparison
 
@@ -68,4 +70,29 @@ def test_without_an_undefined_reduction_there_is_no_note(tmp_path, monkeypatch):
                             (60.0, 60.0, 60.0), (3, 4, 5))
     figures.baselines_figure(tmp_path / "b.png", defined, comparison, "corridor")
     assert drawn["fig"].texts == []
+    figures._pyplot().close(drawn["fig"])
+
+
+def test_each_bar_carries_its_interval_and_random_its_seed_spread(tmp_path, monkeypatch):
+    drawn = {}
+
+    def keep(fig, path):
+        drawn["fig"] = fig
+        return path
+
+    monkeypatch.setattr(figures, "save", keep)
+    with_intervals = []
+    for row in rows():
+        if row.get("reduction_pct") is not None:  # each scorer's interval: 4 below its value, 6 above
+            value = row["reduction_pct"]
+            row.update(reduction_pct_ci_low=value - 4.0, reduction_pct_ci_high=value + 6.0)
+        with_intervals.append(row)
+    comparison = Comparison("corridor", "paper", 5, METHODS, "uniqueness", (20.0, None, 18.0), (12.0, 12.0, None),
+                            (60.0, 60.0, 60.0), (3, 4, 5))
+    figures.baselines_figure(tmp_path / "b.png", with_intervals, comparison, "corridor")
+    (ax,) = drawn["fig"].axes
+    # every error bar's vertical segments: the predictor's hog bar (20) reaches 16 to 26, random's (2 ± 1.5) 0.5 to 3.5
+    spans = {tuple(np.round(np.asarray(segment)[:, 1], 6)) for collection in ax.collections
+             for segment in collection.get_segments() if np.asarray(segment).ndim == 2}
+    assert (16.0, 26.0) in spans and (0.5, 3.5) in spans and (8.0, 18.0) in spans  # uniqueness: 12 - 4 to 12 + 6
     figures._pyplot().close(drawn["fig"])
