@@ -127,8 +127,7 @@ def weighted_curve(mode: str, distances: np.ndarray, correct: np.ndarray, keep: 
     multiplicities) are summed as 32-bit integers: exact, and half the memory traffic of floats."""
     correct = np.asarray(correct, dtype=bool)
     keep = np.asarray(keep, dtype=bool)
-    weights = np.asarray(weights)
-    weights = weights.astype(np.int32 if np.issubdtype(weights.dtype, np.integer) else np.float64, copy=False)
+    weights = _multiplicities(weights)
     if mode not in ("paper", "standard"):
         raise ValueError(f"unknown metric mode {mode!r}")
     # only the kept queries, by distance: the removed ones add nothing to either count
@@ -145,6 +144,13 @@ def weighted_curve(mode: str, distances: np.ndarray, correct: np.ndarray, keep: 
     sorted_distances = distances[order]
     last = np.r_[sorted_distances[1:] != sorted_distances[:-1], True] if len(order) else np.zeros(0, bool)
     return _precision_recall(tp[:, last], fp[:, last], weights.sum(axis=1), start_at_nothing_kept=True)
+
+
+def _multiplicities(weights: np.ndarray) -> np.ndarray:
+    """The draws' weights to sum: integer multiplicities as 32-bit integers (exact, half the memory traffic of
+    floats), any other weights as floats."""
+    weights = np.asarray(weights)
+    return weights.astype(np.int32 if np.issubdtype(weights.dtype, np.integer) else np.float64, copy=False)
 
 
 def _counts_at(cumulative: np.ndarray, cut: np.ndarray) -> np.ndarray:
@@ -175,13 +181,22 @@ class WeightedComparison:
 
 def _compared(base: tuple[np.ndarray, np.ndarray], kept: tuple[np.ndarray, np.ndarray]) -> WeightedComparison:
     """``curves.compare_curves`` of two weighted curves of the same draws."""
-    (base_recall, base_precision), (recall, precision) = base, kept
-    max_recall = recall[:, -1]
-    aoc_base = np.maximum(0.0, max_recall - _areas_up_to(base_recall, base_precision, max_recall))
-    aoc_pred = np.maximum(0.0, max_recall - _areas_up_to(recall, precision, max_recall))
+    max_recall = kept[0][:, -1]
+    aoc_base, aoc_pred = _aoc(base, max_recall), _aoc(kept, max_recall)
+    return WeightedComparison(aoc_base, aoc_pred, _reduction(aoc_base, aoc_pred))
+
+
+def _aoc(curve: tuple[np.ndarray, np.ndarray], max_recall: np.ndarray) -> np.ndarray:
+    """Each draw's AOC of ``curve`` (recall, precision) at ``max_recall``, floored at 0 (``curves.compare_curves``)."""
+    aoc: np.ndarray = np.maximum(0.0, max_recall - _areas_up_to(*curve, max_recall))
+    return aoc
+
+
+def _reduction(before: np.ndarray, after: np.ndarray) -> np.ndarray:
+    """``curves.reduction_pct`` per draw: NaN where ``before`` is 0 (up to ``AOC_ZERO``)."""
     with np.errstate(divide="ignore", invalid="ignore"):
-        reduction = np.where(aoc_base > AOC_ZERO, 100.0 * (aoc_base - aoc_pred) / aoc_base, np.nan)
-    return WeightedComparison(aoc_base, aoc_pred, reduction)
+        reduction: np.ndarray = np.where(before > AOC_ZERO, 100.0 * (before - after) / before, np.nan)
+    return reduction
 
 
 def weighted_comparison(mode: str, distances: np.ndarray, correct: np.ndarray, keep: np.ndarray,
@@ -227,15 +242,10 @@ def weighted_restoration_reduction(mode: str, distances: np.ndarray, removal: tu
     """``restoration.compare``'s ``reduction_pct`` per draw (NaN where undefined): ``removal`` and ``restoration``
     are each (correctness, keep-mask) of the queries; both AOCs are taken over each curve's whole extent at the
     larger of the two maximum recalls."""
-    recall_removal, precision_removal = weighted_curve(mode, distances, removal[0], removal[1], weights,
-                                                       sequence_min, sequence_max)
-    recall_restored, precision_restored = weighted_curve(mode, distances, restoration[0], restoration[1], weights,
-                                                         sequence_min, sequence_max)
-    max_recall = np.maximum(recall_removal[:, -1], recall_restored[:, -1])
-    aoc_removal = np.maximum(0.0, max_recall - _areas_up_to(recall_removal, precision_removal, max_recall))
-    aoc_restored = np.maximum(0.0, max_recall - _areas_up_to(recall_restored, precision_restored, max_recall))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(aoc_removal > AOC_ZERO, 100.0 * (aoc_removal - aoc_restored) / aoc_removal, np.nan)
+    removed = weighted_curve(mode, distances, removal[0], removal[1], weights, sequence_min, sequence_max)
+    restored = weighted_curve(mode, distances, restoration[0], restoration[1], weights, sequence_min, sequence_max)
+    max_recall = np.maximum(removed[0][:, -1], restored[0][:, -1])
+    return _reduction(_aoc(removed, max_recall), _aoc(restored, max_recall))
 
 
 def weighted_average_precision(wrong: np.ndarray, confidence: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -243,8 +253,7 @@ def weighted_average_precision(wrong: np.ndarray, confidence: np.ndarray, weight
     ranked by ``-confidence``, equal scores entering together, ``AP = sum (R_i - R_{i-1}) P_i``."""
     wrong = np.asarray(wrong, dtype=bool)
     score = -np.asarray(confidence, dtype=np.float64)
-    weights = np.asarray(weights)
-    weights = weights.astype(np.int32 if np.issubdtype(weights.dtype, np.integer) else np.float64, copy=False)
+    weights = _multiplicities(weights)
     order = np.argsort(-score, kind="stable")
     ranked = score[order]
     last = np.r_[ranked[1:] != ranked[:-1], True] if len(order) else np.zeros(0, bool)
