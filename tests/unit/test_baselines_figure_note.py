@@ -4,6 +4,7 @@ nor the axes and their labels (hand-made records of three methods, four reductio
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from vpr_smr.eval.report import figures
 from vpr_smr.eval.report.baselines import Comparison
@@ -33,14 +34,20 @@ def overlap(a, b):
     return a.x0 < b.x1 and b.x0 < a.x1 and a.y0 < b.y1 and b.y0 < a.y1
 
 
-def test_the_note_is_covered_by_nothing(tmp_path, monkeypatch):
-    drawn = {}
+@pytest.fixture
+def drawn(monkeypatch):
+    """The figure a call draws, kept instead of saved: ``drawn["fig"]``."""
+    kept = {}
 
     def keep(fig, path):
-        drawn["fig"] = fig
+        kept["fig"] = fig
         return path
 
     monkeypatch.setattr(figures, "save", keep)
+    return kept
+
+
+def test_the_note_is_covered_by_nothing(tmp_path, drawn):
     comparison = Comparison("corridor", "paper", 5, METHODS, "uniqueness", (20.0, None, 18.0), (12.0, 12.0, None),
                             (60.0, 60.0, 60.0), (3, 4, 5))
     figures.baselines_figure(tmp_path / "b.png", rows(), comparison, "corridor, L=5, paper mode: AOC reduction")
@@ -73,14 +80,7 @@ def test_without_an_undefined_reduction_there_is_no_note(tmp_path, monkeypatch):
     figures._pyplot().close(drawn["fig"])
 
 
-def test_each_bar_carries_its_interval_and_random_its_seed_spread(tmp_path, monkeypatch):
-    drawn = {}
-
-    def keep(fig, path):
-        drawn["fig"] = fig
-        return path
-
-    monkeypatch.setattr(figures, "save", keep)
+def test_each_bar_carries_its_interval_and_random_its_seed_spread(tmp_path, drawn):
     with_intervals = []
     for row in rows():
         if row.get("reduction_pct") is not None:  # each scorer's interval: 4 below its value, 6 above
