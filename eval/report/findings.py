@@ -102,8 +102,7 @@ def _verdict(row: dict[str, Any]) -> str:
 
 def _queries(rows: Sequence[dict[str, Any]]) -> str:
     """The queries the rows' numbers are over: ``28``, or ``28-31`` where the methods differ."""
-    known = sorted({int(r["n_queries"]) for r in rows if r.get("n_queries") is not None})
-    return "" if not known else str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
+    return _span_of([r.get("n_queries") for r in rows])
 
 
 def too_few(row: dict[str, Any], split: str) -> str:
@@ -460,8 +459,9 @@ def _by_verdict(verdicts: Sequence[tuple[str, str]], order: Sequence[str]) -> st
     return "; ".join(f"{verdict} for {listed(names)}" for verdict, names in groups.items() if names)
 
 
-def _paired(difference: Interval | None, lower_is_predictor: bool) -> str:
-    """A paired difference (a scorer's number minus the predictor's) in words, from the predictor's side."""
+def _paired(difference: Interval | None) -> str:
+    """A paired difference (a scorer's number minus the predictor's, higher better for both) in words, from the
+    predictor's side: better where the difference lies below 0."""
     if difference is None:
         return "no interval"
     if _identical(difference):
@@ -469,7 +469,7 @@ def _paired(difference: Interval | None, lower_is_predictor: bool) -> str:
     sign = difference.sign()
     if sign == 0:
         return "too few queries to tell"
-    return "better" if (sign < 0) == lower_is_predictor else "worse"
+    return "better" if sign < 0 else "worse"
 
 
 VERDICTS = ("better", "worse", "equal", "too few queries to tell", "no interval")
@@ -482,7 +482,7 @@ def baseline_headline(comparison: Comparison) -> str:
     if comparison.best is None:
         return f"{where}: no training-free scorer has a defined AOC reduction."
     differences = comparison.differences or tuple(None for _ in comparison.methods)
-    verdicts = [(method, _paired(difference, lower_is_predictor=True))
+    verdicts = [(method, _paired(difference))
                 for method, difference in zip(comparison.methods, differences, strict=True)]
     return (f"{where}, the predictor against the best training-free scorer ({comparison.best}) at its budget: "
             f"{_by_verdict(verdicts, VERDICTS)}.")
@@ -493,7 +493,7 @@ def detection_headline(found: Sequence[DetectionComparison]) -> str:
     predictor's average precision is better than the best training-free scorer's, by the paired interval."""
     first = found[0]
     verdicts = [(one.method, "no wrong match" if one.best is None or one.average_precision is None
-                 else _paired(one.difference, lower_is_predictor=True)) for one in found]
+                 else _paired(one.difference)) for one in found]
     return (f"{first.dataset} (L = {first.seq_len}), detecting wrong matches, the predictor against the best "
             f"training-free scorer: {_by_verdict(verdicts, (*VERDICTS, 'no wrong match'))}.")
 
@@ -505,6 +505,7 @@ def _identical(difference: Interval | None) -> bool:
 
 
 def _span_of(values: Sequence[int | None]) -> str:
+    """``28``, or ``28-31`` where the values differ; empty where none is known."""
     known = sorted({int(v) for v in values if v is not None})
     return "" if not known else str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
 
