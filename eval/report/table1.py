@@ -52,11 +52,9 @@ INTERVALS = ("aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")  # Reduction's nu
 
 
 def reduction_numbers(reduction: Reduction) -> dict[str, Any]:
-    """A ``Reduction`` as a table row's columns: its numbers, and its intervals as ``bounds``' two columns each."""
-    data = {key: value for key, value in reduction.to_json().items() if not key.endswith("_ci")}
-    for name in INTERVALS:
-        data.update(bounds.flat(name, getattr(reduction, f"{name}_ci")))
-    return data
+    """A ``Reduction`` as a table row's columns: its numbers, and its intervals as ``bounds``' two columns each
+    (``bounds.flatten``, as every other record's row)."""
+    return bounds.flatten(reduction.to_json())
 
 
 def table1_rows(evaluations: Sequence[Evaluation], split: str | None = None,
