@@ -1,0 +1,118 @@
+"""Sequence matchers, selected by name: the one seam every stage builds its matcher through.
+
+Built-in matchers are listed in ``MATCHERS``; third-party ones register through the entry point group
+``vpr_smr.matchers`` (``name = "package.module:Class"``, a subclass of ``Matcher``). A stage never reads a
+matcher's settings: it holds a ``MatcherSpec`` (the name and the settings, validated, defaults filled), records it
+in its files' provenance (``MatcherSpec.provenance``), compares it (``==``) and builds the matcher from it
+(``MatcherSpec.build``).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from importlib.metadata import entry_points
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.matching.matchers.base import Matcher
+
+__all__ = ["DEFAULT_MATCHER", "ENTRY_POINT_GROUP", "MATCHERS", "MatcherSpec", "available_matchers", "matcher_class"]
+
+ENTRY_POINT_GROUP = "vpr_smr.matchers"
+DEFAULT_MATCHER = "seqslam"
+
+# name -> "module:Class" within this package, imported on first use
+MATCHERS: dict[str, str] = {
+    "seqslam": "seqslam:SeqSLAM",
+}
+
+
+def available_matchers() -> list[str]:
+    """The built-in matchers and those installed packages register, sorted."""
+    return sorted(set(MATCHERS) | {ep.name for ep in entry_points(group=ENTRY_POINT_GROUP)})
+
+
+def matcher_class(name: str) -> type[Matcher]:
+    """The matcher class of ``name`` (built in, or an entry point of ``ENTRY_POINT_GROUP``); ValueError listing the
+    available ones."""
+    from vpr_smr.eval.matching.matchers.base import Matcher
+
+    cls: Any = None
+    if name in MATCHERS:
+        module_name, _, class_name = MATCHERS[name].partition(":")
+        cls = getattr(importlib.import_module(f".{module_name}", __name__), class_name)
+    else:
+        for ep in entry_points(group=ENTRY_POINT_GROUP):
+            if ep.name == name:
+                cls = ep.load()
+                break
+    if cls is None:
+        raise ValueError(f"unknown sequence matcher {name!r}; available: {', '.join(available_matchers())} "
+                         f"(a package adds one through the entry point group {ENTRY_POINT_GROUP})")
+    if not (isinstance(cls, type) and issubclass(cls, Matcher)):
+        raise ValueError(f"the sequence matcher {name!r} ({cls!r}) is not a subclass of "
+                         "vpr_smr.eval.matching.matchers.Matcher")
+    if cls.name != name:
+        raise ValueError(f"the sequence matcher registered as {name!r} calls itself {cls.name!r}")
+    return cls
+
+
+@dataclass(frozen=True)
+class MatcherSpec:
+    """A matcher by name and settings: ``settings`` is the canonical JSON text of the matcher's settings record
+    (every field, defaults filled, keys in declaration order), so that two specs are equal exactly when they make
+    the same matches, and the spec is hashable."""
+
+    name: str = DEFAULT_MATCHER
+    settings: str = ""
+
+    @classmethod
+    def of(cls, name: str = DEFAULT_MATCHER, settings: Mapping[str, Any] | None = None,
+           where: str = "sequence_matching") -> MatcherSpec:
+        """The spec of ``name`` with ``settings`` (missing ones at their defaults); ValueError naming ``where``
+        and the setting for an unknown or invalid one."""
+        record = matcher_class(name).settings_of(settings or {}, where)
+        return cls(name, json.dumps(_jsonable(dataclasses.asdict(record))))
+
+    @property
+    def values(self) -> dict[str, Any]:
+        """The settings as JSON data (lists for tuples)."""
+        data: dict[str, Any] = json.loads(self.settings or "{}")
+        return data
+
+    def record(self) -> Any:
+        """The matcher's typed settings record."""
+        return matcher_class(self.name).settings_of(self.values, f"matcher {self.name}")
+
+    def build(self, seq_len: int) -> Matcher:
+        """The matcher itself, for sequences of ``seq_len``."""
+        return matcher_class(self.name)(seq_len, self.record())
+
+    def provenance(self) -> dict[str, Any]:
+        """What a file records of its matcher: ``{"name": ..., "settings": {...}}``."""
+        return {"name": self.name, "settings": self.values}
+
+    @classmethod
+    def from_provenance(cls, data: Any, where: str) -> MatcherSpec:
+        """The spec a file's ``matcher`` provenance records (``provenance``); ValueError naming ``where``."""
+        if not (isinstance(data, Mapping) and isinstance(data.get("name"), str)
+                and isinstance(data.get("settings", {}), Mapping)):
+            raise ValueError(f"{where}: its matcher record {data!r} is not of the form "
+                             "{\"name\": ..., \"settings\": {...}}: compute it again")
+        return cls.of(data["name"], data.get("settings", {}), where)
+
+    def __str__(self) -> str:
+        shown = ", ".join(f"{key} {value}" for key, value in self.values.items())
+        return f"{self.name} ({shown})" if shown else self.name
+
+
+def _jsonable(value: Any) -> Any:
+    if isinstance(value, tuple | list):
+        return [_jsonable(item) for item in value]
+    if isinstance(value, Mapping):
+        return {key: _jsonable(item) for key, item in value.items()}
+    return value
