@@ -9,10 +9,15 @@ the Snakemake param and the configuration reference in the docs (``pipeline`` bu
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
-__all__ = ["Declared", "declared", "setting"]
+from vpr_smr.core.suggest import did_you_mean
+
+__all__ = ["Declared", "declared", "parse", "setting"]
+
+T = TypeVar("T")
 
 HELP = "help"
 CONSTRAINTS = ("minimum", "exclusive_minimum", "maximum", "choices", "min_items", "unique")
@@ -44,6 +49,70 @@ def declared(cls: type) -> tuple[Declared, ...]:
     for f in dataclasses.fields(cls):
         if HELP not in f.metadata:
             raise TypeError(f"{cls.__name__}.{f.name} is not declared with setting(default, help)")
-        out.append(Declared(f.name, str(f.type), f.default, f.metadata[HELP],
+        kind = f.type.__name__ if isinstance(f.type, type) else str(f.type)
+        out.append(Declared(f.name, kind, f.default, f.metadata[HELP],
                             {k: f.metadata[k] for k in CONSTRAINTS if k in f.metadata}))
     return tuple(out)
+
+
+def _number(value: Any, kind: type, where: str) -> Any:
+    if isinstance(value, bool) or not isinstance(value, int | float) or (kind is int and int(value) != value):
+        raise ValueError(f"{where}: expected {'an integer' if kind is int else 'a number'}, got {value!r}")
+    return kind(value)
+
+
+def _value(kind: str, value: Any, where: str) -> Any:
+    """``value`` as the declared type ``kind`` (the annotation's text), or ValueError naming ``where``."""
+    if kind in ("float", "int"):
+        return _number(value, float if kind == "float" else int, where)
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise ValueError(f"{where}: expected true or false, got {value!r}")
+        return value
+    if kind == "str":
+        if not isinstance(value, str):
+            raise ValueError(f"{where}: expected a name (text), got {value!r}")
+        return value
+    for item in ("float", "int"):
+        if kind == f"tuple[{item}, ...]":
+            if not isinstance(value, list | tuple):
+                raise ValueError(f"{where}: expected a list of {item}s, e.g. [1.0], got {value!r}")
+            return tuple(_value(item, v, f"{where}[{i}]") for i, v in enumerate(value))
+    raise TypeError(f"{where}: settings of type {kind} are not supported (float, int, str, bool, tuples of them)")
+
+
+def _check(item: Declared, value: Any, where: str) -> None:
+    c = item.constraints
+    values = value if isinstance(value, tuple) else (value,)
+    for v in values:
+        if "minimum" in c and v < c["minimum"]:
+            raise ValueError(f"{where}: {item.help}; must be >= {c['minimum']}, got {v}")
+        if "exclusive_minimum" in c and v <= c["exclusive_minimum"]:
+            raise ValueError(f"{where}: {item.help}; must be > {c['exclusive_minimum']}, got {v}")
+        if "maximum" in c and v > c["maximum"]:
+            raise ValueError(f"{where}: {item.help}; must be <= {c['maximum']}, got {v}")
+        if "choices" in c and v not in c["choices"]:
+            raise ValueError(f"{where}: {v!r} is not one of {', '.join(map(str, c['choices']))}")
+    if isinstance(value, tuple):
+        if len(value) < c.get("min_items", 0):
+            raise ValueError(f"{where}: {item.help}; give at least {c['min_items']}, got {list(value)}")
+        if c.get("unique") and len(set(value)) != len(value):
+            raise ValueError(f"{where}: {list(value)} repeats a value")
+
+
+def parse(cls: type[T], values: Mapping[str, Any], where: str) -> T:
+    """The ``cls`` record of JSON ``values`` (missing settings at their defaults); ValueError naming
+    ``where.setting`` for an unknown setting (with the closest known one), a wrong type or a broken constraint."""
+    items = declared(cls)
+    known = [item.name for item in items]
+    for key in values:
+        if key not in known:
+            raise ValueError(f"{where}.{key}: unexpected setting {key!r}{did_you_mean(str(key), known)}; "
+                             f"{where} allows: {', '.join(known) or 'none'}")
+    out = {}
+    for item in items:
+        if item.name in values:
+            value = _value(item.type, values[item.name], f"{where}.{item.name}")
+            _check(item, value, f"{where}.{item.name}")
+            out[item.name] = value
+    return cls(**out)

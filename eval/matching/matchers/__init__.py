@@ -56,9 +56,10 @@ def matcher_class(name: str) -> type[Matcher]:
     if not (isinstance(cls, type) and issubclass(cls, Matcher)):
         raise ValueError(f"the sequence matcher {name!r} ({cls!r}) is not a subclass of "
                          "vpr_smr.eval.matching.matchers.Matcher")
-    if cls.name != name:
-        raise ValueError(f"the sequence matcher registered as {name!r} calls itself {cls.name!r}")
-    return cls
+    matcher: type[Matcher] = cls
+    if matcher.name != name:
+        raise ValueError(f"the sequence matcher registered as {name!r} calls itself {matcher.name!r}")
+    return matcher
 
 
 @dataclass(frozen=True)

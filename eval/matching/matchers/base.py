@@ -19,6 +19,8 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from vpr_smr.core import settings
+
 __all__ = ["MatchBlock", "Matcher"]
 
 
@@ -50,10 +52,10 @@ class Matcher(ABC):
         self.settings = settings
 
     @classmethod
-    @abstractmethod
     def settings_of(cls, values: Mapping[str, Any], where: str) -> Any:
-        """The ``Settings`` record of JSON ``values`` (missing ones at their defaults); ValueError naming ``where``
-        and the setting."""
+        """The ``Settings`` record of JSON ``values`` (missing ones at their defaults, each checked against its
+        declaration); ValueError naming ``where`` and the setting."""
+        return settings.parse(cls.Settings, values, where)
 
     @property
     def attribute_velocities(self) -> tuple[float, ...]:
