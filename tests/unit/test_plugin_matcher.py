@@ -9,7 +9,7 @@ import sys
 
 import numpy as np
 import pytest
-from toy_plugin import PLUGIN_SITE, plugin_env
+from toy_plugin import PLUGIN_SITE, plugin_env, toy_rule
 
 from vpr_smr.eval.matching.matchers import MatcherSpec, available_matchers, matcher_class
 
@@ -21,23 +21,6 @@ def toy(monkeypatch):
     import toy_matcher
 
     return toy_matcher
-
-
-def naive(d: np.ndarray, decay: float, step: int) -> tuple[list[list[float]], list[int], list[float]]:
-    """The toy rule written out with loops: per query (every one), its scores, match and margin."""
-    n_refs, n_queries = d.shape
-    scores: list[list[float]] = []
-    for a in range(n_queries):
-        row = []
-        for r in range(n_refs):
-            value = float(d[r, a])
-            if a > 0:
-                value += decay * scores[a - 1][max(r - step, 0)]
-            row.append(value)
-        scores.append(row)
-    matches = [min(range(n_refs), key=lambda r, row=row: (row[r], r)) for row in scores]
-    margins = [sorted(row)[1] - sorted(row)[0] for row in scores]
-    return scores, matches, margins
 
 
 def run_blocks(spec: MatcherSpec, d: np.ndarray, cuts: list[int]):
@@ -115,7 +98,7 @@ def test_block_wise_equals_the_whole_split_and_the_naive_rule(toy, settings):
     d = np.random.default_rng(5).random((12, 17))
     d[3, 4] = d[5, 4] = 0.0  # a tie at query 4 (decay 0): the lowest reference wins
     spec = MatcherSpec.of("toy", settings)
-    scores, matches, margins = naive(d, spec.values["decay"], spec.values["step"])
+    scores, matches, margins = toy_rule(d, spec.values["decay"], spec.values["step"])
     whole = run_blocks(spec, d, [])
     np.testing.assert_array_equal(whole[0], np.arange(17))
     np.testing.assert_allclose(whole[1], scores, rtol=0, atol=1e-12)

@@ -14,10 +14,12 @@ import subprocess
 import sys
 from pathlib import Path
 
+import h5py
+import numpy as np
 import pytest
 import yaml
 from run_configs import FRAMES, RANGES
-from toy_plugin import plugin_env
+from toy_plugin import plugin_env, toy_rule
 
 from vpr_smr.core.io import read_provenance
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
@@ -81,6 +83,20 @@ def test_every_attributes_and_predictor_file_records_the_plugin(run):
     assert run / "predictors/nordland_sample/L4.h5" in predictors
     for path in attributes + predictors:
         assert read_provenance(path).get("matcher") == MATCHER, path
+
+
+def test_the_sequence_matches_are_the_plugins(run):
+    """Each split's sequence matches, as its attributes file keeps them, are the toy rule's on the split's distance
+    matrix, worked out here with loops (the filter starts at the split's first query)."""
+    for method in ("sad", "hog"):
+        for split in RANGES:
+            with h5py.File(run / f"distances/nordland_sample/{method}/{split}.h5") as f:
+                matrix = f["distance_matrix"][()]
+            _, matches, _ = toy_rule(matrix, MATCHER["settings"]["decay"], MATCHER["settings"]["step"])
+            with h5py.File(run / f"attributes/nordland_sample/{method}/L4/{split}.h5") as f:
+                queries, found = f["queries"][()], f["sequence_match"][()]
+            assert len(queries) >= matrix.shape[1] - 3, (method, split)  # at least the queries L = 4 evaluates
+            np.testing.assert_array_equal(found, np.asarray(matches)[queries], err_msg=f"{method} {split}")
 
 
 def test_the_report_names_the_plugin(run):
