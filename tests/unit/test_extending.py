@@ -1,0 +1,191 @@
+"""docs/extending.md's recipes, run as written: each section's Python blocks (named by their first line) and its
+``pyproject.toml`` lines, which register the plugins through a dist-info as ``pip install`` would. What each one
+computes is checked against values worked out by hand."""
+
+from __future__ import annotations
+
+import importlib
+import re
+import sys
+import textwrap
+import tomllib
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pytest
+from helpers import make_features
+
+from vpr_smr.datasets import DEFAULT_SPLITS, LOADERS, DatasetError, load_dataset, loader_options, required_options
+from vpr_smr.descriptors import available_backends, backend_class
+from vpr_smr.eval.matching.matchers import MatcherSpec, available_matchers, matcher_class
+from vpr_smr.eval.scoring import scorers
+
+DOC = Path(__file__).resolve().parents[2] / "docs" / "extending.md"
+BLOCK = re.compile(r"^```(\w+)\n(.*?)^```", re.S | re.M)
+
+
+def sections() -> dict[str, list[tuple[str, str]]]:
+    """Each ``## `` section's code blocks: (language, text)."""
+    parts = re.split(r"^## (.+)$", DOC.read_text(), flags=re.M)
+    return {title: BLOCK.findall(body) for title, body in zip(parts[1::2], parts[2::2], strict=True)}
+
+
+def python(section: str) -> dict[str, str]:
+    """The Python blocks of ``section`` by their first line (``# my_vpr/backend.py``), that line included."""
+    found = {}
+    for language, text in sections()[section]:
+        if language == "python":
+            found[text.splitlines()[0].removeprefix("# ")] = text
+    return found
+
+
+@pytest.fixture
+def my_vpr(tmp_path, monkeypatch):
+    """The recipes' package ``my_vpr`` installed under ``tmp_path``: its modules from the blocks named
+    ``my_vpr/...``, a dist-info with the entry points of every ``toml`` block, the folder on sys.path."""
+    package = tmp_path / "my_vpr"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    entry_points = []
+    for blocks in sections().values():
+        for language, text in blocks:
+            name = text.splitlines()[0].removeprefix("# ")
+            if language == "python" and name.startswith("my_vpr/"):
+                (tmp_path / name).write_text(text)
+            if language == "toml":
+                for key, points in tomllib.loads(text)["project"]["entry-points"].items():
+                    entry_points += [f"[{key}]", *(f"{n} = {target}" for n, target in points.items())]
+    info = tmp_path / "my_vpr-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: my-vpr\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("\n".join(entry_points) + "\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    yield tmp_path
+    for module in [m for m in sys.modules if m == "my_vpr" or m.startswith("my_vpr.")]:
+        del sys.modules[module]
+
+
+def test_the_recipes_are_the_four_named():
+    assert list(sections()) == ["A descriptor backend", "A dataset loader", "A sequence matcher",
+                                "A training-free scorer"]
+    assert "docs/extending.md" in (DOC.parents[1] / "README.md").read_text()
+
+
+def test_the_backend_recipe(my_vpr):
+    module = importlib.import_module("my_vpr.backend")
+    assert "cell_colour" in available_backends()
+    assert backend_class("cell_colour") is module.CellColour
+    assert backend_class("my_vpr.backend:CellColour") is module.CellColour
+    image = np.zeros((5, 4, 3), np.uint8)  # 5 rows: the last one drops out of a 2 x 2 grid
+    image[:, :2] = (10, 20, 30)
+    image[:, 2:] = (50, 60, 70)
+    image[2:4, :2] = (110, 120, 130)
+    image[4] = 255
+    descriptor = backend_class("cell_colour")({}).describe(image)
+    cells = [10, 20, 30, 50, 60, 70, 110, 120, 130, 50, 60, 70]  # top left, top right, bottom left, bottom right
+    np.testing.assert_allclose(descriptor, np.array(cells, np.float32) / 255, rtol=1e-6)
+    assert descriptor.dtype == np.float32
+    assert backend_class("cell_colour")({"grid": 1}).describe(image[:4]).tolist() == pytest.approx(
+        [(10 + 110 + 2 * 50) / 4 / 255, (20 + 120 + 2 * 60) / 4 / 255, (30 + 130 + 2 * 70) / 4 / 255])
+    with pytest.raises(ValueError, match="backend 'cell_colour' has no setting grids; its settings are grid"):
+        backend_class("cell_colour")({"grids": 3})
+
+
+def _frames(folder: Path, n: int) -> None:
+    folder.mkdir(parents=True)
+    for i in range(n):
+        cv2.imwrite(str(folder / f"f{i + 1}.png"), np.full((8, 8, 3), 20 * i, np.uint8))
+
+
+def test_the_dataset_loader_recipe(tmp_path, monkeypatch, capsys):
+    namespace: dict = {"__name__": "my_route"}
+    exec(python("A dataset loader")["datasets/my_route.py"], namespace)
+    monkeypatch.setitem(LOADERS, "my_route", namespace["my_route"])
+    monkeypatch.setitem(DEFAULT_SPLITS, "my_route", namespace["SPLITS"])
+    assert loader_options("my_route") == ["root"] == required_options("my_route")  # splits, tolerance: every loader's
+    root = tmp_path / "route"
+    _frames(root / "day", 12)
+    _frames(root / "night", 12)
+    pair = load_dataset("route", {"loader": "my_route", "root": str(root), "splits": {"a": [0, 8], "b": [8, 12]}})
+    assert pair.name == "route" and len(pair) == 12 and pair.tolerance == 2
+    # natural order: f2 before f10
+    assert [p.name for p in pair.query.images[:3]] == ["f1.png", "f2.png", "f3.png"]
+    assert pair.reference.images[9] == root / "day" / "f10.png"
+    assert pair.splits == {"a": (0, 8), "b": (8, 12)}
+    with pytest.raises(DatasetError, match=r"split 'train' = \[0, 500\) is outside the 12 frames"):  # its SPLITS
+        load_dataset("route", {"loader": "my_route", "root": str(root)})
+    with pytest.raises(DatasetError, match=r"root folder .*nowhere does not exist; set the dataset's root to"):
+        load_dataset("route", {"loader": "my_route", "root": str(tmp_path / "nowhere")})
+    with pytest.raises(DatasetError, match=r"datasets\.route\.tolerence: .*did you mean 'tolerance'"):
+        load_dataset("route", {"loader": "my_route", "root": str(root), "tolerence": 1})
+    (root / "night" / "f12.png").unlink()
+    with pytest.raises(DatasetError, match="has 12 frames but the query traverse .* has 11"):
+        load_dataset("route", {"loader": "my_route", "root": str(root)})
+    from vpr_smr.datasets import check
+
+    (root / "day" / "f12.png").unlink()
+    assert check.main({"loader": "my_route", "root": str(root), "splits": {"all": [0, 11]}}, "route", decode=False,
+                      workers=1) == 0
+    out = capsys.readouterr().out
+    assert "dataset 'route': 11 aligned frames, tolerance 2" in out and "paired by name order" in out
+    assert "10  f11.png  <->  f11.png" in out and "status: OK" in out
+
+
+def test_the_matcher_recipe(my_vpr):
+    module = importlib.import_module("my_vpr.matcher")
+    assert "diagonal_quantile" in available_matchers()
+    assert matcher_class("diagonal_quantile") is module.DiagonalQuantile
+    spec = MatcherSpec.of("diagonal_quantile", {"quantile": 0.25})
+    assert spec.provenance() == {"name": "diagonal_quantile", "settings": {"quantile": 0.25}}
+    with pytest.raises(ValueError, match=r"sequence_matching\.quantile: .*must be <= 1, got 1\.5"):
+        MatcherSpec.of("diagonal_quantile", {"quantile": 1.5})
+
+    d = np.array([[1.0, 9.0, 4.0, 0.0],
+                  [5.0, 2.0, 7.0, 3.0],
+                  [6.0, 8.0, 0.0, 1.0],
+                  [2.0, 4.0, 6.0, 5.0]])
+    matcher = MatcherSpec.of("diagonal_quantile").build(3)
+    matcher.check(d.shape)
+    assert matcher.evaluated(4) == (2, 4)
+    block, state = matcher.block(d.T, 0, matcher.initial_state())
+    # query 2: the diagonal ending at r = 2 reads D[0,0], D[1,1], D[2,2] = 1, 2, 0 (median 1); at r = 3 D[1,0],
+    # D[2,1], D[3,2] = 5, 8, 6 (6). Query 3: at r = 2 D[0,1], D[1,2], D[2,3] = 9, 7, 1 (7); at r = 3 2, 0, 5 (2)
+    inf = np.inf
+    np.testing.assert_array_equal(block.queries, [2, 3])
+    np.testing.assert_array_equal(block.scores, [[inf, inf, 1, 6], [inf, inf, 7, 2]])
+    np.testing.assert_array_equal(block.match, [2, 3])
+    assert block.native is None and matcher.native_scorer == "uniqueness" and state is None
+    lowest = MatcherSpec.of("diagonal_quantile", {"quantile": 0.0}).build(3).block(d.T, 0, None)[0]
+    np.testing.assert_array_equal(lowest.scores[:, 2:], [[0, 5], [1, 0]])  # the smallest along each diagonal
+    with pytest.raises(ValueError, match=r"D has shape \(2, 4\); diagonal_quantile needs at least L = 3"):
+        matcher.check((2, 4), "D")
+
+    # blocks that hold the columns their queries read (L - 1 columns before the first) give the whole split's
+    big = np.random.default_rng(3).random((15, 20))
+    whole = matcher.block(big.T, 0, None)[0]
+    parts = [matcher.block(big[:, lo:hi].T, lo, None)[0] for lo, hi in ((0, 7), (5, 13), (11, 20))]
+    np.testing.assert_array_equal(np.concatenate([p.queries for p in parts]), np.arange(2, 20))
+    np.testing.assert_array_equal(np.concatenate([p.scores for p in parts]), whole.scores)
+    np.testing.assert_array_equal(np.concatenate([p.match for p in parts]), whole.match)
+
+
+def test_the_scorer_recipe(monkeypatch):
+    blocks = python("A training-free scorer")
+    namespace = dict(vars(scorers))
+    exec(blocks["eval/scoring/scorers.py: the confidence"], namespace)
+    entry_text = blocks["eval/scoring/scorers.py: its entry in REGISTRY"].split("\n", 1)[1]  # below its name
+    (entry,) = eval(textwrap.dedent(entry_text).strip(), namespace)  # a tuple's item: "Scorer(...),"
+    assert (entry.name, entry.kind, entry.settings) == ("margin", "training-free", ())
+    at = scorers.names().index(scorers.RANDOM)
+    monkeypatch.setattr(scorers, "REGISTRY", (*scorers.REGISTRY[:at], entry, *scorers.REGISTRY[at:]))
+    assert scorers.training_free() == ("uniqueness", "single_uniqueness", "spread", "distance", "margin", "random")
+    assert scorers.colour("margin") == "tab:red"
+    assert len({s.colour for s in scorers.REGISTRY}) == len(scorers.REGISTRY)
+    candidates = np.array([[0.5, 0.75, 2.0], [1.0, 1.0, 3.0], [0.25, 2.0, np.inf]])
+    features = make_features([True, False, True], np.ones((3, 2), bool), sequence_candidates=candidates,
+                             sequence_distance=np.array([0.5, 1.0, 0.25]))
+    confidence = scorers.scorer("margin").confidence
+    assert confidence is not None
+    values = confidence(features, scorers.DEFAULT_SETTINGS, np.arange(10.0), 0)
+    np.testing.assert_array_equal(values, [0.25, 0.0, 1.75])
