@@ -667,8 +667,8 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
     _matcher_options(p, matcher)
     p.add_argument("--candidates", type=int, default=None, metavar="N",
                    help="the .h5 keeps the N smallest sequence and single-frame distances of each query, which the "
-                        "training-free scorers (method §12) need: at least max(2 floor(r_window / 2) + 2, spread_k) "
-                        "(default 12: that of the default settings; 0: none)")
+                        "training-free scorers (method §12) need: at least their settings' candidates (docs/"
+                        "configuration.md, baselines; default 12: that of the default settings; 0: none)")
     p.add_argument("--out", required=True, help=".csv (query,A1,A2,A3,A4,label) or .h5 (everything)")
     p.set_defaults(func=cmd_attributes)
 

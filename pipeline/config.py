@@ -162,7 +162,7 @@ class PredictorSection(PredictorSettings, Section):
 
 @dataclass(frozen=True)
 class Extraction:
-    """``extraction``: how fast descriptors are computed (a job's resource, not a param)."""
+    """How fast descriptors are computed: a job's resource, not a param (no result depends on it)."""
 
     batch_size: int | None = setting(
         None, "images per batch; null: about 600k input values a batch on the CPU, 32 images on a GPU", minimum=1)
@@ -173,7 +173,7 @@ class Extraction:
 
 @dataclass(frozen=True)
 class Experiments:
-    """``experiments``: which experiments beyond Table I and the predictor's own scores run (see ``experiments``)."""
+    """Which experiments beyond Table I and the predictor's own scores run."""
 
     trust_levels: bool = setting(True, "PR curves and AUC at every trust level")
     restoration: bool = setting(True, "match restoration (method §9)")
@@ -187,18 +187,11 @@ class Experiments:
                                          "positions); datasets whose ground truth is a file have none")
 
 
-# The sections of a configuration that are settings records (core.settings), with what each is for: their part of
-# config_schema.json, of docs/configuration.md and of ``Config`` follows from the record (pipeline.reference).
-RECORDS: dict[str, tuple[type, str]] = {
-    "baselines": (BaselineSettings, "method §12: the training-free scorers set beside the predictor (uniqueness, "
-                                    "single_uniqueness, spread, distance, random, oracle); params of the attributes "
-                                    "jobs (how many candidates each query keeps: max(2 floor(r_window / 2) + 2, "
-                                    "spread_k)) and of the baselines, metrics and queries jobs"),
-    "extraction": (Extraction, "how fast descriptors are computed: no job's result depends on it"),
-    "predictor": (PredictorSettings, "the SMR predictor's settings (SMRPredictor's arguments); validation fills "
-                                     "every one of them in"),
-    "experiments": (Experiments, "which experiments beyond Table I and the predictor's own scores run"),
-}
+# The sections of a configuration that are settings records (core.settings): their part of config_schema.json (the
+# record's docstring its description), of docs/configuration.md and of ``Config`` follows from the record
+# (pipeline.reference).
+RECORDS: dict[str, type] = {"baselines": BaselineSettings, "extraction": Extraction, "predictor": PredictorSettings,
+                            "experiments": Experiments}
 # ``sequence_matching``: {matcher: NAME, ...that matcher's settings}, validated by the matcher's own record
 MATCHER_KEY = "matcher"
 
@@ -280,7 +273,7 @@ class Config(Section):
                                           source=_text(d)) for name, d in conf["datasets"].items()}
         methods = {name: MethodSettings(name, str(m["backend"]), m.get("checkpoint"), m.get("distance"),
                                         source=_text(m)) for name, m in conf["methods"].items()}
-        sections: dict[str, Any] = {name: parse(record, conf[name], name) for name, (record, _) in RECORDS.items()}
+        sections: dict[str, Any] = {name: parse(record, conf[name], name) for name, record in RECORDS.items()}
         matching = {key: value for key, value in conf["sequence_matching"].items() if key != MATCHER_KEY}
         return cls(
             conf["run"], conf["output"], tuple(conf["seq_lens"]), tuple(conf["modes"]),
@@ -335,7 +328,7 @@ def _resolve_ground_truth_files(conf: dict[str, Any], source: str) -> None:
 def _sequence_matching(conf: dict[str, Any], source: str) -> None:
     """``sequence_matching`` checked by its matcher's settings record (a plugin matcher's too) and written back
     complete and canonical (``MatcherSpec``: every setting, defaults filled in), so that the jobs' params, the
-    report and the plan name one matcher; ``{velocities: [...]}`` alone is seqslam's, the default matcher."""
+    report and the plan name one matcher; without ``matcher``, the settings are the default matcher's."""
     given = conf["sequence_matching"]
     name = given[MATCHER_KEY]
     if name not in available_matchers():

@@ -1,5 +1,5 @@
-"""A settings record (``core.settings``) on the command line: its fields as options (``add_options``: ``r_window`` is
-``--r-window``, with the field's type, default and help), the options read back as the record (``read_options``),
+"""A settings record (``core.settings``) on the command line: its fields as options (``add_options``: ``max_iter``
+is ``--max-iter``, with the field's type, default and help), the options read back as the record (``read_options``),
 and a record as the options that give it (``flags``: the Snakemake rules' params). The sequence matcher is
 ``--matcher NAME`` plus the options of that matcher's own ``Settings`` (``add_matcher_options``, ``read_matcher``,
 ``matcher_flags``), one ``MatcherSpec``."""
@@ -19,12 +19,12 @@ __all__ = ["add_matcher_options", "add_options", "flags", "matcher_flags", "matc
 
 T = TypeVar("T")
 MATCHER = "--matcher"
-NULL = "none"  # the command line's word for a setting's null (``column_order: null``)
+NULL = "none"  # the command line's word for a setting's null (``null`` in a configuration)
 SCALARS: dict[str, Callable[[str], Any]] = {"float": float, "int": int, "str": str}
 
 
 def option(name: str) -> str:
-    """The option of the setting ``name``: ``r_window`` -> ``--r-window``."""
+    """The option of the setting ``name``: ``max_iter`` -> ``--max-iter``."""
     return "--" + name.replace("_", "-")
 
 

@@ -31,19 +31,24 @@ def _matching_schema() -> dict[str, Any]:
     (a plugin's too: the schema cannot list them)."""
     return {"type": "object", "default": {},
             "description": "method §§4, 11 and 14: the sequence matcher of every attributes, metrics and queries job: "
-                           f"{{{MATCHER_KEY}: NAME, ...its settings}}; without {MATCHER_KEY}, {DEFAULT_MATCHER} "
-                           f"(e.g. {{velocities: [1.0]}}); each matcher's settings are listed in docs/configuration.md",
+                           f"{{{MATCHER_KEY}: NAME, ...its settings}} (without {MATCHER_KEY}: {DEFAULT_MATCHER}'s "
+                           "settings); each matcher's settings are listed in docs/configuration.md",
             "properties": {MATCHER_KEY: {"type": "string", "default": DEFAULT_MATCHER,
                                          "description": "the matcher's name: a built-in one or one an installed "
                                                         f"package registers (entry point group {ENTRY_POINT_GROUP})"}}}
+
+
+def _described(record: type) -> str:
+    """A record's docstring as a description: one line, ``code`` as `code`."""
+    return " ".join((record.__doc__ or "").split()).replace("``", "`")
 
 
 def config_schema(committed: dict[str, Any]) -> dict[str, Any]:
     """``committed`` (``config_schema.json``'s JSON) with its record sections as the records give them."""
     schema: dict[str, Any] = json.loads(json.dumps(committed))
     properties = schema["properties"]
-    for name, (record, description) in RECORDS.items():
-        properties[name] = {**json_schema(record), "description": description}
+    for name, record in RECORDS.items():
+        properties[name] = {**json_schema(record), "description": _described(record)}
     properties["sequence_matching"] = _matching_schema()
     return schema
 

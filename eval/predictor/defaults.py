@@ -18,7 +18,8 @@ CODE_COLUMN_ORDER = (0, 1, 3, 2)  # A1..A4 -> the authors' input [A1, A2, A4, A3
 
 @dataclass(frozen=True)
 class PredictorSettings:
-    """The predictor's settings (the configuration's ``predictor``): ``SMRPredictor``'s arguments and defaults."""
+    """The SMR predictor's settings (``SMRPredictor``'s arguments and defaults); validation fills every one of them
+    in."""
 
     hidden_layer_sizes: tuple[int, ...] = setting(
         (128, 128, 128), "neurons of each hidden layer of the MLP", minimum=1)
