@@ -21,6 +21,7 @@ T = TypeVar("T")
 MATCHER = "--matcher"
 NULL = "none"  # the command line's word for a setting's null (``null`` in a configuration)
 SCALARS: dict[str, Callable[[str], Any]] = {"float": float, "int": int, "str": str}
+METAVARS = {"float": "X", "int": "N"}
 
 
 def option(name: str) -> str:
@@ -32,11 +33,16 @@ def _dest(group: str, name: str) -> str:
     return f"{group}:{name}"  # records side by side in one command keep their settings apart
 
 
+def _element(kind: str) -> str:
+    """The type of a setting's values: ``tuple[float, ...] | None`` -> ``float``."""
+    base = kind.removesuffix(OPTIONAL)
+    return base[len("tuple["):-len(", ...]")] if base.startswith("tuple[") else base
+
+
 def _converter(kind: str) -> Callable[[str], Any]:
     """A word of the command line as the JSON value of a setting (or an item of a list setting) of type ``kind``."""
     optional = kind.endswith(OPTIONAL)
-    base = kind.removesuffix(OPTIONAL)
-    element = base[len("tuple["):-len(", ...]")] if base.startswith("tuple[") else base
+    element = _element(kind)
     scalar = SCALARS.get(element, str)
 
     def convert(word: str) -> Any:
@@ -72,7 +78,7 @@ def add_options(parser: argparse.ArgumentParser, cls: type, group: str) -> None:
         choices = item.constraints.get("choices")
         parser.add_argument(option(item.name), type=_converter(item.type), choices=choices,
                             nargs="+" if kind.startswith("tuple[") else None,
-                            metavar=None if choices else item.name.upper(), **common)
+                            metavar=None if choices else METAVARS.get(_element(kind), "TEXT"), **common)
 
 
 def _given(args: argparse.Namespace, cls: type, group: str) -> dict[str, Any]:

@@ -19,7 +19,7 @@ from vpr_smr.eval.predictor.defaults import PredictorSettings
 from vpr_smr.eval.scoring.scorers import BaselineSettings
 from vpr_smr.pipeline.cli import build_parser
 from vpr_smr.pipeline.config import SCHEMA_PATH, ConfigError, Extraction, validate
-from vpr_smr.pipeline.options import flags, matcher_flags, read_matcher, read_options
+from vpr_smr.pipeline.options import add_options, flags, matcher_flags, matcher_of, read_matcher, read_options
 from vpr_smr.pipeline.reference import REFERENCE_PATH, config_schema, configuration_reference
 
 STAGES = ("attributes", "metrics", "queries", "baselines", "inspect")
@@ -199,3 +199,22 @@ def test_a_plugin_matchers_settings_are_checked_and_given_as_options(toy):
     with pytest.raises(SystemExit):  # seqslam's option is not toy's
         build_parser("toy").parse_args(["queries", "--distances", "D.npy", "--seq-len", "4", "--out", "q.csv",
                                         "--matcher", "toy", "--velocities", "1"])
+
+
+@pytest.mark.parametrize("record", [PredictorSettings(), PredictorSettings(smote=False, column_order=None),
+                                    PredictorSettings(hidden_layer_sizes=(7,), alpha=0.5, column_order=(3, 2, 1, 0)),
+                                    Extraction(), Extraction(2, 0), BaselineSettings(0, 1)])
+def test_any_record_goes_through_its_options_and_back(record):
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    add_options(parser, type(record), "r")
+    assert read_options(parser.parse_args(shlex.split(flags(record))), type(record), "r") == record
+    assert read_options(parser.parse_args([]), type(record), "r") == type(record)()  # none given: the defaults
+
+
+def test_the_matcher_is_read_before_the_options_it_brings(toy):
+    assert matcher_of(["queries", "--matcher", "toy", "--width", "2"]) == "toy"
+    assert matcher_of(["queries", "--matcher=toy"]) == "toy"
+    assert matcher_of(["queries", "--distances", "D.npy"]) == "seqslam"
+    assert matcher_of(["queries", "--matcher", "nope"]) == "seqslam"  # argparse then refuses the name
