@@ -218,3 +218,25 @@ def test_the_matcher_is_read_before_the_options_it_brings(toy):
     assert matcher_of(["queries", "--matcher=toy"]) == "toy"
     assert matcher_of(["queries", "--distances", "D.npy"]) == "seqslam"
     assert matcher_of(["queries", "--matcher", "nope"]) == "seqslam"  # argparse then refuses the name
+
+
+def test_a_setting_that_may_be_null():
+    from vpr_smr.core.settings import parse
+
+    assert parse(PredictorSettings, {"column_order": None}, "predictor").column_order is None
+    assert parse(PredictorSettings, {"column_order": [3, 2, 1, 0]}, "predictor").column_order == (3, 2, 1, 0)
+    with pytest.raises(ValueError, match=re.escape("predictor.column_order: the network's input columns as indices "
+                                                   "of (A1, A2, A3, A4); default: the authors' code's order (method "
+                                                   "§7); null keeps A1..A4; give at most 4, got [0, 1, 2, 3, 0]")):
+        parse(PredictorSettings, {"column_order": [0, 1, 2, 3, 0]}, "predictor")
+    with pytest.raises(ValueError, match=re.escape("predictor.column_order[1]: expected an integer, got 'b'")):
+        parse(PredictorSettings, {"column_order": [0, "b", 2, 3]}, "predictor")
+
+
+def test_a_record_of_an_unsupported_type_is_refused():
+    @dataclass(frozen=True)
+    class Odd:
+        where: dict[str, int] = setting(None, "a mapping")
+
+    with pytest.raises(TypeError, match=re.escape("Odd.where: settings of type dict[str, int] are not supported")):
+        json_schema(Odd)
