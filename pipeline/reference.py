@@ -68,7 +68,7 @@ def _type(node: dict[str, Any]) -> str:
     """A schema node's type in words: ``list of integers >= 1``, ``integer or null``."""
     if "enum" in node:
         return "one of " + ", ".join(f"`{json.dumps(value)}`" for value in node["enum"])
-    if "anyOf" in node or "oneOf" in node:
+    if ("anyOf" in node or "oneOf" in node) and "type" not in node:  # forms of one type: that type
         return " or ".join(_type(sub) for sub in node.get("anyOf", node.get("oneOf", [])))
     if "const" in node:
         return f"`{json.dumps(node['const'])}`"
@@ -137,15 +137,13 @@ def configuration_reference(schema: dict[str, Any]) -> str:
     for key, node in properties.items():
         if node.get("type") != "object":
             continue
-        lines += ["", f"## `{key}`", "", _sentence(node.get("description", "")), ""]
+        lines += ["", f"## `{key}`", ""] + ([_sentence(node["description"]), ""] if "description" in node else [])
         if key == "sequence_matching":
             lines += _table(node["properties"], [], f"{key}.")
             lines += _matchers(key)
         elif "additionalProperties" in node and isinstance(node["additionalProperties"], dict):
             entry = node["additionalProperties"]
-            lines += [f"One entry per name; each entry's keys (the {key[:-1]}'s own settings beside them: "
-                      "`vpr-smr dataset check --help`, `vpr-smr backends`):" if key in ("datasets", "methods")
-                      else "Each entry:", ""]
+            lines += ["Each entry's keys:", ""]
             lines += _table(entry.get("properties", {}), entry.get("required", []), f"{key}.NAME.")
         else:
             if key in COMMANDS:
