@@ -128,7 +128,8 @@ def read_matcher(args: argparse.Namespace) -> MatcherSpec:
     """The ``MatcherSpec`` of ``--matcher`` and its settings' options."""
     name = args.matcher
     if name != args.matcher_options:  # the options were built for another matcher (pipeline.cli reads --matcher first)
-        raise ValueError(f"{MATCHER} {name}: give {MATCHER} NAME as one option before the matcher's settings")
+        raise ValueError(f"{MATCHER} {name}: write the option out in full ({MATCHER} {name} or {MATCHER}={name}): "
+                         "the options of a matcher's settings come with the matcher named so")
     return MatcherSpec.of(name, _given(args, matcher_class(name).Settings, "matcher"), f"{MATCHER} {name}")
 
 
