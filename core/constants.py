@@ -30,13 +30,13 @@ MATCHERS = ("single", "sequence", "sequence_predictor")
 DEFAULT_TRUST_LEVELS = (0.0, 0.5, 0.7, 0.9, 1.0)
 
 # method §11: velocities (reference frames per query frame) searched by sequence matching; (1.0,) is method §4's fixed
-# slope-1 matcher, the paper's. pipeline/config_schema.json repeats it as `sequence_matching.velocities`' default.
+# slope-1 matcher, the paper's: the default of seqslam's settings (eval.matching.matchers.seqslam).
 DEFAULT_VELOCITIES = (1.0,)
 
-# method §12: the training-free scorers' settings; pipeline/config_schema.json repeats them as the `baselines`
-# defaults, and tests/unit/test_config.py checks that both agree. uniqueness looks for the smallest S outside the
-# window |r - r*| <= r_window / 2 around the sequence match (OpenSeqSLAM2's rWindow); spread takes the K best end
-# references.
+# method §12: the training-free scorers' settings, the defaults of their settings record (eval.scoring.scorers,
+# whose declarations pipeline/config_schema.json's `baselines` is generated from). uniqueness looks for the smallest
+# S outside the window |r - r*| <= r_window / 2 around the sequence match (OpenSeqSLAM2's rWindow); spread takes the
+# K best end references.
 DEFAULT_R_WINDOW = 10
 DEFAULT_SPREAD_K = 10
 

@@ -15,12 +15,13 @@ from typing import Any, TypeVar
 
 from vpr_smr.core.suggest import did_you_mean
 
-__all__ = ["Declared", "declared", "parse", "setting"]
+__all__ = ["Declared", "declared", "json_default", "json_schema", "parse", "read", "setting"]
 
 T = TypeVar("T")
 
 HELP = "help"
-CONSTRAINTS = ("minimum", "exclusive_minimum", "maximum", "choices", "min_items", "unique")
+OPTIONAL = " | None"  # the annotation's text of a setting that may be null
+CONSTRAINTS = ("minimum", "exclusive_minimum", "maximum", "choices", "min_items", "max_items", "unique")
 
 
 def setting(default: Any, help: str, **constraints: Any) -> Any:
@@ -63,6 +64,8 @@ def _number(value: Any, kind: type, where: str) -> Any:
 
 def _value(kind: str, value: Any, where: str) -> Any:
     """``value`` as the declared type ``kind`` (the annotation's text), or ValueError naming ``where``."""
+    if kind.endswith(OPTIONAL):
+        return None if value is None else _value(kind[:-len(OPTIONAL)], value, where)
     if kind in ("float", "int"):
         return _number(value, float if kind == "float" else int, where)
     if kind == "bool":
@@ -83,6 +86,8 @@ def _value(kind: str, value: Any, where: str) -> Any:
 
 def _check(item: Declared, value: Any, where: str) -> None:
     c = item.constraints
+    if value is None:
+        return
     values = value if isinstance(value, tuple) else (value,)
     for v in values:
         if "minimum" in c and v < c["minimum"]:
@@ -96,6 +101,8 @@ def _check(item: Declared, value: Any, where: str) -> None:
     if isinstance(value, tuple):
         if len(value) < c.get("min_items", 0):
             raise ValueError(f"{where}: {item.help}; give at least {c['min_items']}, got {list(value)}")
+        if len(value) > c.get("max_items", len(value)):
+            raise ValueError(f"{where}: {item.help}; give at most {c['max_items']}, got {list(value)}")
         if c.get("unique") and len(set(value)) != len(value):
             raise ValueError(f"{where}: {list(value)} repeats a value")
 
@@ -109,10 +116,48 @@ def parse(cls: type[T], values: Mapping[str, Any], where: str) -> T:
         if key not in known:
             raise ValueError(f"{where}.{key}: unexpected setting {key!r}{did_you_mean(str(key), known)}; "
                              f"{where} allows: {', '.join(known) or 'none'}")
-    out = {}
-    for item in items:
-        if item.name in values:
-            value = _value(item.type, values[item.name], f"{where}.{item.name}")
-            _check(item, value, f"{where}.{item.name}")
-            out[item.name] = value
+    out = {item.name: read(item, values[item.name], f"{where}.{item.name}") for item in items if item.name in values}
     return cls(**out)
+
+
+def read(item: Declared, value: Any, where: str) -> Any:
+    """The JSON ``value`` of the setting ``item`` as its type, checked against its constraints; ValueError naming
+    ``where`` (a configuration's ``section.setting``, or a command-line option)."""
+    out = _value(item.type, value, where)
+    _check(item, out, where)
+    return out
+
+
+def json_default(item: Declared) -> Any:
+    """The default of ``item`` as JSON data (a list for a tuple)."""
+    return list(item.default) if isinstance(item.default, tuple) else item.default
+
+
+JSON_TYPES = {"float": "number", "int": "integer", "str": "string", "bool": "boolean"}
+# constraints -> JSON schema keywords: those on the values (of a list's items), then those on the list
+ITEM_KEYWORDS = {"minimum": "minimum", "exclusive_minimum": "exclusiveMinimum", "maximum": "maximum",
+                 "choices": "enum"}
+LIST_KEYWORDS = {"min_items": "minItems", "max_items": "maxItems", "unique": "uniqueItems"}
+
+
+def json_schema(cls: type) -> dict[str, Any]:
+    """The JSON schema (draft 2020-12) of an object of ``cls``'s settings: each one's type, constraints, default
+    and description (its help); no other key allowed, every one optional (a missing one takes its default)."""
+    properties = {}
+    for item in declared(cls):
+        kind = item.type.removesuffix(OPTIONAL)
+        element = kind[len("tuple["):-len(", ...]")] if kind.startswith("tuple[") else kind
+        if element not in JSON_TYPES or kind not in (element, f"tuple[{element}, ...]"):
+            raise TypeError(f"{cls.__name__}.{item.name}: settings of type {item.type} are not supported")
+        node: dict[str, Any] = {"type": JSON_TYPES[element]}
+        node.update({ITEM_KEYWORDS[k]: list(v) if k == "choices" else v
+                     for k, v in item.constraints.items() if k in ITEM_KEYWORDS})
+        if kind != element:
+            node = {"type": "array", "items": node,
+                    **{LIST_KEYWORDS[k]: v for k, v in item.constraints.items() if k in LIST_KEYWORDS}}
+        if item.type.endswith(OPTIONAL):
+            node["type"] = [node["type"], "null"]
+            if "enum" in node:
+                node["enum"] = [*node["enum"], None]
+        properties[item.name] = {**node, "default": json_default(item), "description": item.help}
+    return {"type": "object", "additionalProperties": False, "default": {}, "properties": properties}

@@ -11,17 +11,12 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from vpr_smr.core.constants import (
-    DEFAULT_R_WINDOW,
-    DEFAULT_SPREAD_K,
-    DEFAULT_TOLERANCE,
-    DEFAULT_VELOCITIES,
-    METRICS,
-    MODES,
-)
+from vpr_smr.core.constants import DEFAULT_TOLERANCE, METRICS, MODES
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix, package_version
-from vpr_smr.pipeline.config import ConfigError, load_config, schema_default
+from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec
+from vpr_smr.pipeline.config import ConfigError, Extraction, load_config, schema_default
 from vpr_smr.pipeline.console import LOG_FORMAT
+from vpr_smr.pipeline.options import add_matcher_options, add_options, matcher_of, read_matcher, read_options
 
 log = logging.getLogger("vpr_smr")
 
@@ -67,7 +62,9 @@ def cmd_descriptors(args: argparse.Namespace) -> None:
     if args.frames_sha256 and pair.fingerprint() != args.frames_sha256:
         raise ConfigError(f"dataset {args.dataset!r}: its frames changed on disk since the workflow was planned "
                           "(the frame lists' SHA-256 differs); run the workflow again")
-    extract.main(pair, args.method, method, args.out, batch_size=args.batch_size, num_workers=args.num_workers)
+    extraction = read_options(args, Extraction, "extraction")
+    extract.main(pair, args.method, method, args.out, batch_size=extraction.batch_size,
+                 num_workers=extraction.num_workers)
 
 
 def cmd_distances(args: argparse.Namespace) -> None:
@@ -80,11 +77,11 @@ def cmd_distances(args: argparse.Namespace) -> None:
 def cmd_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.matching import attributes
 
-    attributes.main(args.distances, args.out, args.seq_len, args.tolerance, velocities=args.velocities,
-                    radius=args.radius, reference_positions=args.reference_positions,
-                    query_positions=args.query_positions, similarity=args.similarity, key=args.key,
-                    transpose=args.transpose, ground_truth=args.ground_truth,
-                    ground_truth_key=args.ground_truth_key,
+    attributes.main(args.distances, args.out, args.seq_len, args.tolerance,
+                    velocities=_velocities(read_matcher(args)), radius=args.radius,
+                    reference_positions=args.reference_positions, query_positions=args.query_positions,
+                    similarity=args.similarity, key=args.key, transpose=args.transpose,
+                    ground_truth=args.ground_truth, ground_truth_key=args.ground_truth_key,
                     n_candidates=attributes.DEFAULT_CANDIDATES if args.candidates is None else args.candidates)
 
 
@@ -184,7 +181,8 @@ def cmd_metrics(args: argparse.Namespace) -> None:
     print(vpr_metrics.format_metrics(result))
     found = vpr_metrics.format_baselines(result)
     if found:
-        print(f"\ntraining-free scorers (method §12; r_window {args.r_window}, spread_k {args.spread_k}):\n{found}")
+        shown = ", ".join(f"{key} {value}" for key, value in _baseline_settings(args).meta().items())
+        print(f"\ntraining-free scorers (method §12; {shown}):\n{found}")
 
 
 def cmd_queries(args: argparse.Namespace) -> None:
@@ -212,23 +210,28 @@ def cmd_baselines(args: argparse.Namespace) -> None:
 
 
 def _baseline_settings(args: argparse.Namespace) -> Any:
-    """The scorers' settings of ``_baseline_options`` (``baselines.BaselineSettings``), None with --no-baselines."""
-    from vpr_smr.eval.scoring.baselines import BaselineSettings
+    """The scorers' settings of ``_baseline_options`` (``scorers.BaselineSettings``), None with --no-baselines."""
+    from vpr_smr.eval.scoring.scorers import BaselineSettings
 
     if getattr(args, "no_baselines", False):
         return None
-    try:
-        return BaselineSettings(args.r_window, args.spread_k)
-    except ValueError as error:  # the settings' names as this command spells them
-        raise ValueError(f"--r-window {args.r_window}, --spread-k {args.spread_k}: {error}") from None
+    return read_options(args, BaselineSettings, "baselines")
+
+
+def _velocities(spec: MatcherSpec) -> tuple[float, ...]:
+    """What the stages take of the matcher ``--matcher`` and its settings give (``read_matcher``): seqslam's
+    velocities, until the stages take the ``MatcherSpec`` itself (``matcher=``)."""
+    if spec.name != "seqslam":
+        raise ValueError(f"--matcher {spec.name}: the stages run seqslam only (until they take a MatcherSpec)")
+    return tuple(float(v) for v in spec.values["velocities"])
 
 
 def _matcher(args: argparse.Namespace) -> Any:
-    """The matcher options of ``_ground_truth_options`` as ``vpr_metrics.MatcherSettings``."""
+    """The matcher options of ``_matcher_options`` as ``vpr_metrics.MatcherSettings``."""
     from vpr_smr.eval.scoring.vpr_metrics import MatcherSettings
 
-    return MatcherSettings(tuple(args.velocities), args.radius, args.reference_positions, args.query_positions,
-                           args.ground_truth, args.ground_truth_key)
+    return MatcherSettings(_velocities(read_matcher(args)), args.radius, args.reference_positions,
+                           args.query_positions, args.ground_truth, args.ground_truth_key)
 
 
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
@@ -283,7 +286,7 @@ def cmd_inspect(args: argparse.Namespace) -> None:
         args.frames_sha256, args.seq_len, args.split, args.tolerance, args.match_figure, args.matrix_figure,
         per_class=args.per_class, mistakes=args.mistakes, seed=args.seed,
         split_range=(args.frames[0], args.frames[1]) if args.frames else None, radius=args.radius,
-        velocities=tuple(args.velocities), reference_positions=args.reference_positions,
+        velocities=_velocities(read_matcher(args)), reference_positions=args.reference_positions,
         query_positions=args.query_positions, similarity=args.similarity, key=args.key, transpose=args.transpose,
         ground_truth=args.ground_truth, ground_truth_key=args.ground_truth_key)
     log.info("wrote %s", " and ".join(str(path) for path in written if path is not None))
@@ -456,14 +459,12 @@ def _allow_overlap(parser: argparse.ArgumentParser) -> None:
                         help="let a predictor score frames of its training split (a deliberate experiment)")
 
 
-def _matcher_options(parser: argparse.ArgumentParser) -> None:
-    """The sequence matcher, its ground truth (frames within a tolerance, positions within a radius, or a file) and
-    how a user's matrix is read."""
+def _matcher_options(parser: argparse.ArgumentParser, matcher: str) -> None:
+    """The sequence matcher (``--matcher`` and its settings), its ground truth (frames within a tolerance, positions
+    within a radius, or a file) and how a user's matrix is read."""
     parser.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE,
                         help="frame-aligned pairs: a match within this many frames is correct (default 2)")
-    parser.add_argument("--velocities", type=float, nargs="+", default=list(DEFAULT_VELOCITIES), metavar="V",
-                        help="reference frames per query frame searched by SeqSLAM (default 1.0: the "
-                             "paper's fixed matcher), e.g. --velocities 0.5 0.75 1 1.25 1.5 2")
+    add_matcher_options(parser, matcher)
     parser.add_argument("--reference-positions", metavar="PATH",
                         help="one position per reference frame (.npy, or CSV of numbers: x[,y]); with "
                              "--query-positions and --radius, the ground truth of a pair that is not frame-aligned")
@@ -489,26 +490,24 @@ def _matcher_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _baseline_options(parser: argparse.ArgumentParser, switch: bool = True) -> None:
-    """The training-free scorers' settings (method §12); ``switch``: also --no-baselines."""
-    parser.add_argument("--r-window", type=int, default=DEFAULT_R_WINDOW, metavar="FRAMES",
-                        help="uniqueness: the smallest sequence distance outside |r - r*| <= r_window / 2 of the "
-                             f"match, over the match's (OpenSeqSLAM2's rWindow; default {DEFAULT_R_WINDOW})")
-    parser.add_argument("--spread-k", type=int, default=DEFAULT_SPREAD_K, metavar="K",
-                        help="spread: the spread of the K best end references' positions (default "
-                             f"{DEFAULT_SPREAD_K})")
+    """The training-free scorers' settings (method §12: ``scorers.BaselineSettings``); ``switch``: also
+    --no-baselines."""
+    from vpr_smr.eval.scoring.scorers import BaselineSettings
+
+    add_options(parser, BaselineSettings, "baselines")
     if switch:
         parser.add_argument("--no-baselines", action="store_true",
                             help="leave out the training-free scorers (needed for --attributes files computed "
                                  "with --candidates 0)")
 
 
-def _matrix_options(parser: argparse.ArgumentParser, predictor_help: str) -> None:
+def _matrix_options(parser: argparse.ArgumentParser, predictor_help: str, matcher: str) -> None:
     """The options of the commands that read users' distance matrices (``metrics``, ``queries``)."""
     parser.add_argument("--distances", nargs="+", required=True, metavar="PATH or SPLIT=PATH",
                         help="references x queries matrices (.npy, .npz, .mat or our .h5): one file, or one "
                              "SPLIT=PATH per split")
     parser.add_argument("--seq-len", type=int, required=True)
-    _matcher_options(parser)
+    _matcher_options(parser, matcher)
     parser.add_argument("--predictor", help=predictor_help)
     parser.add_argument("--attributes", nargs="*", metavar="SPLIT=PATH",
                         help="the splits' attributes (.h5) computed from the same matrices (default: computed here)")
@@ -564,7 +563,9 @@ def _fill_help(parser: argparse.ArgumentParser, command: str = "") -> None:
                 action.help = SHARED_HELP[option]
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
+    """The ``vpr-smr`` command line; the stage commands' ``--matcher`` options are those of ``matcher``'s
+    settings (``main`` reads ``--matcher`` first)."""
     parser = argparse.ArgumentParser(prog="vpr-smr", description=DESCRIPTION, epilog=EPILOG,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}",
@@ -644,10 +645,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--dataset-settings", help="the dataset's settings as a JSON object (or @file)")
     p.add_argument("--method-settings", help="the method's settings as a JSON object (or @file)")
     p.add_argument("--frames-sha256", help="fail unless the dataset's frame lists have this fingerprint")
-    p.add_argument("--batch-size", type=int, help="images per batch (default: about 600k input values on a CPU, "
-                                                   "32 on a GPU)")
-    p.add_argument("--num-workers", type=int, help="image-decoding worker processes (default: one per 4 CPU "
-                                                    "cores, up to 4 with a GPU)")
+    add_options(p, Extraction, "extraction")
     p.add_argument("--threads", type=int, help="CPU threads of the network")
     p.set_defaults(func=cmd_descriptors)
 
@@ -666,11 +664,11 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("attributes", help="sequence matching, SMR attributes and labels of a distance matrix")
     p.add_argument("--distances", required=True, help="our .h5, or a references x queries .npy, .npz or .mat")
     p.add_argument("--seq-len", type=int, required=True)
-    _matcher_options(p)
+    _matcher_options(p, matcher)
     p.add_argument("--candidates", type=int, default=None, metavar="N",
                    help="the .h5 keeps the N smallest sequence and single-frame distances of each query, which the "
-                        "training-free scorers (method §12) need: at least max(2 floor(r_window / 2) + 2, spread_k) "
-                        "(default 12: that of the default settings; 0: none)")
+                        "training-free scorers (method §12) need: at least their settings' candidates (docs/"
+                        "configuration.md, baselines; default 12: that of the default settings; 0: none)")
     p.add_argument("--out", required=True, help=".csv (query,A1,A2,A3,A4,label) or .h5 (everything)")
     p.set_defaults(func=cmd_attributes)
 
@@ -708,7 +706,7 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog="e.g. vpr-smr metrics --distances D.npy --seq-len 4 --out metrics.json;  "
                               "vpr-smr metrics --distances val=val.h5 test=test.h5 --seq-len 4 --predictor L4.h5 "
                               "--queries queries.csv --out metrics.json")
-    _matrix_options(p, "the seed-0 predictor (.h5): adds the sequence_predictor matcher")
+    _matrix_options(p, "the seed-0 predictor (.h5): adds the sequence_predictor matcher", matcher)
     p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
     p.add_argument("--queries", help="also write one row per evaluated query to this .csv (as vpr-smr queries "
                                       "does); both files or neither are written")
@@ -726,7 +724,7 @@ def build_parser() -> argparse.ArgumentParser:
                                        "attributes, true class and the predictor's decision (CSV)",
                        epilog="e.g. vpr-smr queries --distances val=val.h5 test=test.h5 --seq-len 4 --predictor L4.h5 "
                               "--out queries.csv (the same table as vpr-smr metrics --queries)")
-    _matrix_options(p, "the seed-0 predictor (.h5): fills predicted_class, probability and kept")
+    _matrix_options(p, "the seed-0 predictor (.h5): fills predicted_class, probability and kept", matcher)
     _baseline_options(p)
     _required(p, "--out")
     _allow_overlap(p)
@@ -745,7 +743,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--attributes", nargs="+", required=True, metavar="SPLIT=PATH",
                    help="each split's attributes (.h5) with the scorers' candidates (vpr-smr attributes)")
     p.add_argument("--predictors", nargs="+", required=True, help="one per seed, seed 0 first: their budgets")
-    _matcher_options(p)
+    _matcher_options(p, matcher)
     _baseline_options(p, switch=False)
     p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
     _required(p, "--out")
@@ -826,7 +824,7 @@ def build_parser() -> argparse.ArgumentParser:
                                            "(default: the distances file's)")
     p.add_argument("--seq-len", type=int, required=True)
     p.add_argument("--split", help="the queries CSV's split to show (default: its only split)")
-    _matcher_options(p)  # as the queries CSV was made: the matcher, the ground truth, --similarity
+    _matcher_options(p, matcher)  # as the queries CSV was made: the matcher, the ground truth, --similarity
     p.add_argument("--frames", type=int, nargs=2, metavar=("LO", "HI"),
                    help="the split's frames lo..hi-1 (default: the distances file's split_range; a .npy's "
                         "queries count from 0)")
@@ -873,7 +871,7 @@ def main(argv: list[str] | None = None) -> int:
     # `run ... -- <snakemake arguments>`: split by hand, so that our own options may come in any order.
     extra = argv[argv.index("--") + 1 :] if "--" in argv else []
     argv = argv[: argv.index("--")] if "--" in argv else argv
-    args = build_parser().parse_args(argv)
+    args = build_parser(matcher_of(argv)).parse_args(argv)
     args.snakemake_args = extra
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO, format=LOG_FORMAT)
     # A stage stopped by SIGTERM unwinds like Ctrl-C, so that its temporary files are removed on the way out.

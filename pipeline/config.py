@@ -1,8 +1,10 @@
 """Run configurations: YAML validated against ``config_schema.json``, with the schema's defaults filled in, as a
-typed frozen record (``Config``) that the workflow, its rules and the plan read by attribute."""
+typed frozen record (``Config``) that the workflow, its rules and the plan read by attribute. The sections that are
+settings records (``RECORDS``) are the records themselves; ``pipeline.reference`` writes their part of the schema."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import re
 from collections.abc import Iterable, Mapping
@@ -13,8 +15,11 @@ from typing import Any
 
 import yaml
 
-from vpr_smr.core.constants import candidates_needed
+from vpr_smr.core.settings import declared, parse, setting
 from vpr_smr.core.suggest import did_you_mean
+from vpr_smr.eval.matching.matchers import MatcherSpec, available_matchers
+from vpr_smr.eval.predictor.defaults import PredictorSettings
+from vpr_smr.eval.scoring.scorers import BaselineSettings
 
 SCHEMA_PATH = Path(__file__).with_name("config_schema.json")
 
@@ -150,61 +155,45 @@ def _text(value: Any) -> str:
 
 
 @dataclass(frozen=True)
-class SequenceMatching(Section):
-    """``sequence_matching``: the sequence matcher of every attributes, metrics and queries job."""
-
-    velocities: tuple[float, ...]
-
-
-@dataclass(frozen=True)
-class BaselineScorers(Section):
-    """``baselines``: the training-free scorers' settings (method §12), params of the attributes, baselines, metrics
-    and queries jobs."""
-
-    r_window: int
-    spread_k: int
-
-    @property
-    def candidates(self) -> int:
-        """The candidates per query the attributes jobs keep for these settings (``core.constants.candidates_needed``:
-        ``max(2 floor(r_window / 2) + 2, spread_k)``), their param: a setting that leaves it unchanged does not
-        recompute the attributes."""
-        return candidates_needed(self.r_window, self.spread_k)
+class PredictorSection(PredictorSettings, Section):
+    """``predictor``: ``SMRPredictor``'s arguments, every one (validation fills in the record's defaults), and the
+    validated JSON the jobs' params take."""
 
 
 @dataclass(frozen=True)
-class Extraction(Section):
-    """``extraction``: how fast descriptors are computed (a job's resource, not a param); None: the default."""
+class Extraction:
+    """How fast descriptors are computed: a job's resource, not a param (no result depends on it)."""
 
-    batch_size: int | None
-    num_workers: int | None
-
-
-@dataclass(frozen=True)
-class PredictorSettings(Section):
-    """``predictor``: ``SMRPredictor``'s arguments, every one (validation fills in ``predictor.defaults``')."""
-
-    hidden_layer_sizes: tuple[int, ...]
-    alpha: float
-    learning_rate_init: float
-    max_iter: int
-    smote: bool
-    random_state: int
-    smote_random_state: int
-    column_order: tuple[int, ...] | None
+    batch_size: int | None = setting(
+        None, "images per batch; null: about 600k input values a batch on the CPU, 32 images on a GPU", minimum=1)
+    num_workers: int | None = setting(
+        None, "image-decoding worker processes; null: one per 4 CPU cores (at most 4) on the CPU, up to 4 with a GPU",
+        minimum=0)
 
 
 @dataclass(frozen=True)
-class Experiments(Section):
-    """``experiments``: which experiments beyond Table I and the predictor's own scores run (see ``experiments``)."""
+class Experiments:
+    """Which experiments beyond Table I and the predictor's own scores run."""
 
-    trust_levels: bool
-    restoration: bool
-    attribute_ablation: bool
-    leave_one_method_out: bool
-    seq_len_ablation: bool
-    speed: bool
-    protocol_sweep: bool
+    trust_levels: bool = setting(True, "PR curves and AUC at every trust level")
+    restoration: bool = setting(True, "match restoration (method §9)")
+    attribute_ablation: bool = setting(True, "Table II: a predictor per attribute")
+    leave_one_method_out: bool = setting(True, "a predictor without each method, tested on it")
+    seq_len_ablation: bool = setting(True, "table and figure over every L of seq_lens (needs two or more)")
+    speed: bool = setting(True, "simulated speed profiles (method §11) at table_seq_len: the fixed matcher against "
+                                "velocity search, see `speed`")
+    protocol_sweep: bool = setting(True, "method §13: recall@1 and Table I's reduction at table_seq_len over the "
+                                         "tolerances 0, 1, 2, 5 and 10 frames (radii 5, 10, 25 and 50 with "
+                                         "positions); datasets whose ground truth is a file have none")
+
+
+# The sections of a configuration that are settings records (core.settings): their part of config_schema.json (the
+# record's docstring its description), of docs/configuration.md and of ``Config`` follows from the record
+# (pipeline.reference).
+RECORDS: dict[str, type] = {"baselines": BaselineSettings, "extraction": Extraction, "predictor": PredictorSettings,
+                            "experiments": Experiments}
+# ``sequence_matching``: {matcher: NAME, ...that matcher's settings}, validated by the matcher's own record
+MATCHER_KEY = "matcher"
 
 
 @dataclass(frozen=True)
@@ -240,16 +229,16 @@ class MethodSettings(Section):
 
 @dataclass(frozen=True)
 class Config(Section):
-    """A validated run configuration (``validate``), with every default filled in: ``config_schema.json``'s, the
-    predictor's (``predictor.defaults``) and ``table_seq_len``'s. ``datasets`` and ``methods`` keep the
-    configuration's order (the methods': the pooled training order)."""
+    """A validated run configuration (``validate``), with every default filled in: ``config_schema.json``'s (those
+    of the settings records, ``RECORDS``, among them), the matcher's and ``table_seq_len``'s. ``datasets`` and
+    ``methods`` keep the configuration's order (the methods': the pooled training order)."""
 
     run: str
     output: str
     seq_lens: tuple[int, ...]
     modes: tuple[str, ...]
-    sequence_matching: SequenceMatching
-    baselines: BaselineScorers
+    sequence_matching: MatcherSpec
+    baselines: BaselineSettings
     train_split: str
     allow_split_overlap: bool
     eval_splits: tuple[str, ...]
@@ -257,7 +246,7 @@ class Config(Section):
     trust_levels: tuple[float, ...]
     seeds: int
     extraction: Extraction
-    predictor: PredictorSettings
+    predictor: PredictorSection
     datasets: Mapping[str, DatasetSettings]
     methods: Mapping[str, MethodSettings]
     table_seq_len: int
@@ -279,30 +268,20 @@ class Config(Section):
     @classmethod
     def from_json(cls, conf: dict[str, Any]) -> Config:
         """The record of a validated configuration (``validate``'s JSON, every default filled in)."""
-        predictor, extraction = conf["predictor"], conf["extraction"]
-        speed, chosen = conf["speed"], conf["experiments"]
+        speed = conf["speed"]
         datasets = {name: DatasetSettings(name, str(d["loader"]), d.get("root"), d.get("tolerance"), d.get("radius"),
                                           source=_text(d)) for name, d in conf["datasets"].items()}
         methods = {name: MethodSettings(name, str(m["backend"]), m.get("checkpoint"), m.get("distance"),
                                         source=_text(m)) for name, m in conf["methods"].items()}
-        column_order = predictor["column_order"]
+        sections: dict[str, Any] = {name: parse(record, conf[name], name) for name, record in RECORDS.items()}
+        matching = {key: value for key, value in conf["sequence_matching"].items() if key != MATCHER_KEY}
         return cls(
             conf["run"], conf["output"], tuple(conf["seq_lens"]), tuple(conf["modes"]),
-            SequenceMatching(tuple(conf["sequence_matching"]["velocities"]), source=_text(conf["sequence_matching"])),
-            BaselineScorers(int(conf["baselines"]["r_window"]), int(conf["baselines"]["spread_k"]),
-                            source=_text(conf["baselines"])),
+            MatcherSpec.of(conf["sequence_matching"][MATCHER_KEY], matching), sections["baselines"],
             conf["train_split"], conf["allow_split_overlap"], tuple(conf["eval_splits"]), conf["table_split"],
-            tuple(conf["trust_levels"]), conf["seeds"],
-            Extraction(extraction["batch_size"], extraction["num_workers"], source=_text(extraction)),
-            PredictorSettings(tuple(predictor["hidden_layer_sizes"]), predictor["alpha"],
-                              predictor["learning_rate_init"], predictor["max_iter"], predictor["smote"],
-                              predictor["random_state"], predictor["smote_random_state"],
-                              None if column_order is None else tuple(column_order), source=_text(predictor)),
-            MappingProxyType(datasets), MappingProxyType(methods), conf["table_seq_len"],
-            Experiments(**{key: bool(chosen[key]) for key in ("trust_levels", "restoration", "attribute_ablation",
-                                                              "leave_one_method_out", "seq_len_ablation", "speed",
-                                                              "protocol_sweep")},
-                        source=_text(chosen)),
+            tuple(conf["trust_levels"]), conf["seeds"], sections["extraction"],
+            PredictorSection(**dataclasses.asdict(sections["predictor"]), source=_text(conf["predictor"])),
+            MappingProxyType(datasets), MappingProxyType(methods), conf["table_seq_len"], sections["experiments"],
             SpeedSettings(tuple(speed["profiles"]), tuple(speed["velocities"]), source=_text(speed)),
             source=_text(conf))
 
@@ -326,7 +305,9 @@ def validated_json(conf: dict[str, Any], source: str = "configuration") -> dict[
         raise ConfigError(f"{source} is invalid:\n" + "\n".join(lines))
     conf = json.loads(json.dumps(conf))
     _fill_defaults(schema, conf)
-    _fill_predictor(conf)
+    # the predictor's settings in its record's order, as SMRPredictor lists its arguments (the report shows them)
+    conf["predictor"] = {item.name: conf["predictor"][item.name] for item in declared(PredictorSettings)}
+    _sequence_matching(conf, source)
     _check_together(conf, source)
     _resolve_ground_truth_files(conf, source)
     return conf
@@ -344,14 +325,22 @@ def _resolve_ground_truth_files(conf: dict[str, Any], source: str) -> None:
                 entry[form] = str(folder / entry[form])
 
 
-def _fill_predictor(conf: dict[str, Any]) -> None:
-    """``predictor`` completed with ``SMRPredictor``'s defaults under the user's values: the estimator owns them (the
-    schema lists the settings without defaults), and the run's configuration (the report, the jobs' params) shows
-    every setting the predictors are trained with."""
-    from vpr_smr.eval.predictor.defaults import DEFAULTS
-
-    defaults = json.loads(json.dumps(DEFAULTS))  # JSON values: tuples become lists
-    conf["predictor"] = {**defaults, **conf["predictor"]}
+def _sequence_matching(conf: dict[str, Any], source: str) -> None:
+    """``sequence_matching`` checked by its matcher's settings record (a plugin matcher's too) and written back
+    complete and canonical (``MatcherSpec``: every setting, defaults filled in), so that the jobs' params, the
+    report and the plan name one matcher; without ``matcher``, the settings are the default matcher's."""
+    given = conf["sequence_matching"]
+    name = given[MATCHER_KEY]
+    if name not in available_matchers():
+        raise ConfigError(f"{source} is invalid:\n  sequence_matching.{MATCHER_KEY}: unknown sequence matcher "
+                          f"{name!r}{did_you_mean(str(name), available_matchers())}; available: "
+                          f"{', '.join(available_matchers())}")
+    try:
+        spec = MatcherSpec.of(name, {key: value for key, value in given.items() if key != MATCHER_KEY},
+                              "sequence_matching")
+    except ValueError as error:
+        raise ConfigError(f"{source} is invalid:\n  {error}") from None
+    conf["sequence_matching"] = {MATCHER_KEY: spec.name, **spec.values}
 
 
 def _check_together(conf: dict[str, Any], source: str) -> None:
@@ -371,11 +360,9 @@ def _check_together(conf: dict[str, Any], source: str) -> None:
                           "cross-validation; rename that split")
     if len(set(conf["seq_lens"])) != len(conf["seq_lens"]):
         raise ConfigError(f"{source}: seq_lens {conf['seq_lens']} repeats a length")
-    # velocities are numbers of reference frames per query frame: 1 and 1.0 are one setting (the jobs' params and
-    # the report's configuration alike)
-    for section in ("sequence_matching", "speed"):
-        if "velocities" in conf.get(section, {}):
-            conf[section]["velocities"] = [float(v) for v in conf[section]["velocities"]]
+    # the speed experiment's velocities are numbers of reference frames per query frame: 1 and 1.0 are one setting
+    # (the jobs' params and the report's configuration alike; sequence_matching's are its matcher's record's)
+    conf["speed"]["velocities"] = [float(v) for v in conf["speed"]["velocities"]]
     if conf["table_seq_len"] is None:
         conf["table_seq_len"] = 4 if 4 in conf["seq_lens"] else conf["seq_lens"][0]
     elif conf["table_seq_len"] not in conf["seq_lens"]:

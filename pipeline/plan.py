@@ -206,7 +206,9 @@ def _velocity_problems(conf: Config, name: str, pair: Any, splits: list[str]) ->
     suffice."""
     from vpr_smr.eval.matching.matcher import SequenceMatcher
 
-    velocities = [float(v) for v in conf.sequence_matching.velocities]
+    if conf.sequence_matching.name != "seqslam":
+        return []  # another matcher's reach is its own (Matcher.lookback, checked by its stages)
+    velocities = [float(v) for v in conf.sequence_matching.values["velocities"]]
     problems = []
     for split in splits:
         lo, hi = pair.reference_range(split)

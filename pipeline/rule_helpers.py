@@ -39,8 +39,10 @@ def split_option(option: str, splits: Sequence[str], items: Sequence[str]) -> st
 
 
 def extraction_options(conf: Config) -> str:
-    options = {"--batch-size": conf.extraction.batch_size, "--num-workers": conf.extraction.num_workers}
-    return " ".join(f"{key} {value}" for key, value in options.items() if value is not None)
+    """The descriptors jobs' ``extraction`` options (those set; a job's resource, not a param)."""
+    from vpr_smr.pipeline.options import flags
+
+    return flags(conf.extraction)
 
 
 def other_attributes(out: str, methods: Sequence[str], wc: Any, split: str) -> list[str]:

@@ -4,23 +4,43 @@ validated configuration carries all of them, and the check before the first job 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
+
+from vpr_smr.core.settings import setting
 
 PAPER_PARAMS = {"alpha": 1e-4, "learning_rate_init": 1e-3}  # the authors' code (the paper's text says 1e-3 / 1e-4)
 CODE_COLUMN_ORDER = (0, 1, 3, 2)  # A1..A4 -> the authors' input [A1, A2, A4, A3] (min sum, min value, group, block)
 
-DEFAULTS: dict[str, Any] = {
-    "hidden_layer_sizes": (128, 128, 128),
-    "alpha": PAPER_PARAMS["alpha"],
-    "learning_rate_init": PAPER_PARAMS["learning_rate_init"],
-    "max_iter": 10000,
-    "smote": True,
-    "random_state": 0,
-    "smote_random_state": 42,
-    "column_order": CODE_COLUMN_ORDER,
-}
+
+@dataclass(frozen=True)
+class PredictorSettings:
+    """The SMR predictor's settings (``SMRPredictor``'s arguments and defaults); validation fills every one of them
+    in."""
+
+    hidden_layer_sizes: tuple[int, ...] = setting(
+        (128, 128, 128), "neurons of each hidden layer of the MLP", minimum=1)
+    alpha: float = setting(
+        PAPER_PARAMS["alpha"], "the MLP's L2 penalty; default: the authors' code's value (the paper's text gives 1e-3)",
+        minimum=0)
+    learning_rate_init: float = setting(
+        PAPER_PARAMS["learning_rate_init"], "the MLP's initial learning rate (adam); default: the authors' code's "
+        "value (the paper's text gives 1e-4)", exclusive_minimum=0)
+    max_iter: int = setting(
+        10000, "the most epochs of the MLP's training (early stopping usually ends it sooner)", minimum=1)
+    smote: bool = setting(True, "oversample the training samples with SMOTE (inside every cross-validation fold too)")
+    random_state: int = setting(0, "the MLP's seed for predictor seed 0; seed s adds s")
+    smote_random_state: int = setting(42, "SMOTE's seed for predictor seed 0; seed s adds s")
+    column_order: tuple[int, ...] | None = setting(
+        CODE_COLUMN_ORDER, "the network's input columns as indices of (A1, A2, A3, A4); default: the authors' code's "
+        "order (method §7); null keeps A1..A4", minimum=0, maximum=3, min_items=4, max_items=4, unique=True)
+
+
+# SMRPredictor's keyword defaults, by name
+DEFAULTS: dict[str, Any] = dataclasses.asdict(PredictorSettings())
 
 CV_FOLDS = 5  # method §7: 5-fold StratifiedKFold
 # MLPClassifier's default validation_fraction: early_stopping holds out ceil(10 %) of the (resampled) training

@@ -16,6 +16,7 @@ from typing import Literal
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, candidates_needed, half_window
+from vpr_smr.core.settings import setting
 from vpr_smr.eval.matching.attributes import QueryFeatures
 
 __all__ = [
@@ -32,11 +33,17 @@ Setting = Literal["r_window", "spread_k"]
 
 @dataclass(frozen=True)
 class BaselineSettings:
-    """The scorers' settings (the configuration's ``baselines``): ``r_window`` (uniqueness's window, reference
-    frames) and ``spread_k`` (the end references spread measures)."""
+    """Method §12: the training-free scorers set beside the predictor (uniqueness, single_uniqueness, spread,
+    distance, random, oracle); params of the attributes jobs (how many candidates each query keeps, ``candidates``:
+    max(2 floor(r_window / 2) + 2, spread_k)) and of the baselines, metrics and queries jobs."""
 
-    r_window: int = DEFAULT_R_WINDOW
-    spread_k: int = DEFAULT_SPREAD_K
+    r_window: int = setting(
+        DEFAULT_R_WINDOW, "uniqueness (SeqSLAM's, OpenSeqSLAM2's rWindow): the smallest sequence distance outside "
+        "|r - r*| <= r_window / 2 of the sequence match r*, over the match's; single_uniqueness the same on the "
+        "query's own distance column (reference frames)", minimum=0)
+    spread_k: int = setting(
+        DEFAULT_SPREAD_K, "spread: minus the standard deviation of the positions (frame indices, or the dataset's "
+        "positions) of the spread_k end references of smallest sequence distance", minimum=1)
 
     def __post_init__(self) -> None:
         candidates_needed(self.r_window, self.spread_k)  # a ValueError naming the bad setting

@@ -30,12 +30,12 @@ rule attributes:
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
         # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
         ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        velocities=VELOCITIES,
+        matcher=MATCHER,
         # the candidates the training-free scorers need (method §12): only a change of their number recomputes these
         candidates=conf.baselines.candidates,
     shell:
         "vpr-smr attributes --distances {input.distances:q} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
-        " {params.radius} {params.ground_truth} --velocities {params.velocities} --candidates {params.candidates}"
+        " {params.radius} {params.ground_truth} {params.matcher} --candidates {params.candidates}"
         " --out {output:q} > {log:q} 2>&1"
 
 
@@ -109,13 +109,13 @@ rule baselines:
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
         # method §13: a dataset's ground-truth file (its input above), cut to each split by the stage
         ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        velocities=VELOCITIES,
+        matcher=MATCHER,
         baselines=BASELINES,
         modes=" ".join(conf.modes),
     shell:
         "vpr-smr baselines --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
         " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
-        " --velocities {params.velocities} --distances {params.distances} --attributes {params.attributes}"
+        " {params.matcher} --distances {params.distances} --attributes {params.attributes}"
         " --predictors {input.predictors:q} {params.baselines} --modes {params.modes}"
         " --out {output:q} {params.overlap} > {log:q} 2>&1"
 
@@ -140,14 +140,14 @@ rule vpr_metrics:
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
         # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
         ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        velocities=VELOCITIES,
+        matcher=MATCHER,
         baselines=BASELINES,
         modes=" ".join(conf.modes),
         sweep=lambda wc: "--sweep" if "protocol_sweep" in EXPERIMENTS and wc.dataset in SWEEP_DATASETS else "",
     shell:
         "vpr-smr metrics --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
         " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
-        " --velocities {params.velocities} --distances {params.distances}"
+        " {params.matcher} --distances {params.distances}"
         " --attributes {params.attributes} --predictor {input.predictor:q} {params.baselines} --modes {params.modes}"
         " {params.sweep}"
         " --out {output:q} {params.overlap} > {log:q} 2>&1"
@@ -175,9 +175,9 @@ rule queries:
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
         # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
         ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        velocities=VELOCITIES,
+        matcher=MATCHER,
         baselines=BASELINES,
     shell:
         "vpr-smr queries --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
-        " --velocities {params.velocities} --distances {params.distances} --attributes {params.attributes} --predictor {input.predictor:q}"
+        " {params.matcher} --distances {params.distances} --attributes {params.attributes} --predictor {input.predictor:q}"
         " {params.baselines} --out {output:q} {params.overlap} > {log:q} 2>&1"

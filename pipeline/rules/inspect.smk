@@ -21,11 +21,11 @@ rule inspect:
         radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
         # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
         ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        velocities=VELOCITIES,
+        matcher=MATCHER,
         split=conf.table_split,
     shell:
         "vpr-smr inspect --queries {input.queries:q} --distances {input.distances:q}"
         " --dataset {wildcards.dataset:q} --dataset-settings {params.dataset:q}"
         " --frames-sha256 {params.frames_sha256} --seq-len {wildcards.seq_len} --split {params.split:q}"
-        " --frames {params.frames} --tolerance {params.tolerance} {params.radius} {params.ground_truth} --velocities {params.velocities}"
+        " --frames {params.frames} --tolerance {params.tolerance} {params.radius} {params.ground_truth} {params.matcher}"
         " --match-figure {output.matches:q} --matrix-figure {output.matrix:q} > {log:q} 2>&1"

@@ -33,7 +33,7 @@ def test_readme_shows_the_positions_example_and_it_is_valid():
     assert readme_block("own-positions-config") == example.read_text()
     conf = load_config(example)
     assert conf.datasets["my_drive"].radius == 25
-    assert conf.sequence_matching.velocities[4] == 1.0 and not conf.experiments.speed
+    assert conf.sequence_matching.values["velocities"][4] == 1.0 and not conf.experiments.speed
 
 
 # --- the folders loader with the four basic settings ---

@@ -205,11 +205,13 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
     pytest.param(lambda c: c["speed"].update(profiles=[0.5, 1.5, "varying"]), speed(["1.5x"]) | REPORT,
                  id="speed-profiles"),
     pytest.param(lambda c: c.update(experiments={"speed": False}), REPORT, id="speed-off"),
-    # the run's sequence matcher (method §11): every attributes job and what reads them; the default written out as 1
-    # is 1.0 to every job (only the report, which lists the configuration as written, redraws)
+    # the run's sequence matcher (method §11): every attributes job and what reads them; the default written out (as 1,
+    # or with its name) is the same matcher to every job and to the report, which lists the validated configuration
+    # (the matcher's settings complete and canonical): nothing reruns
     pytest.param(lambda c: c.update(sequence_matching={"velocities": [0.8, 1.0, 1.25]}),
                  attributes() | attribute_ablation() | without() | PREDICTOR_ON, id="velocities"),
-    pytest.param(lambda c: c.update(sequence_matching={"velocities": [1]}), REPORT, id="velocity-1-is-1.0"),
+    pytest.param(lambda c: c.update(sequence_matching={"velocities": [1]}), set(), id="velocity-1-is-1.0"),
+    pytest.param(lambda c: c.update(sequence_matching={"matcher": "seqslam"}), set(), id="matcher-named"),
     pytest.param(lambda c: c.update(extraction={"batch_size": 3}), set(), id="batch-size-reruns-nothing"),
     # the training-free scorers' settings (method §12): the jobs that score them; the attributes (and all below) only
     # when the candidates they keep change in number: spread_k 12 keeps max(2 * 5 + 2, 12) = 12 as before,

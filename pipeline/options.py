@@ -1,0 +1,150 @@
+"""A settings record (``core.settings``) on the command line: its fields as options (``add_options``: ``max_iter``
+is ``--max-iter``, with the field's type, default and help), the options read back as the record (``read_options``),
+and a record as the options that give it (``flags``: the Snakemake rules' params). The sequence matcher is
+``--matcher NAME`` plus the options of that matcher's own ``Settings`` (``add_matcher_options``, ``read_matcher``,
+``matcher_flags``), one ``MatcherSpec``."""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+from vpr_smr.core.settings import OPTIONAL, Declared, declared, parse, read
+from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec, available_matchers, matcher_class
+
+__all__ = ["add_matcher_options", "add_options", "flags", "matcher_flags", "matcher_of", "option", "read_matcher",
+           "read_options"]
+
+T = TypeVar("T")
+MATCHER = "--matcher"
+NULL = "none"  # the command line's word for a setting's null (``null`` in a configuration)
+SCALARS: dict[str, Callable[[str], Any]] = {"float": float, "int": int, "str": str}
+METAVARS = {"float": "X", "int": "N"}
+
+
+def option(name: str) -> str:
+    """The option of the setting ``name``: ``max_iter`` -> ``--max-iter``."""
+    return "--" + name.replace("_", "-")
+
+
+def _dest(group: str, name: str) -> str:
+    return f"{group}:{name}"  # records side by side in one command keep their settings apart
+
+
+def _element(kind: str) -> str:
+    """The type of a setting's values: ``tuple[float, ...] | None`` -> ``float``."""
+    base = kind.removesuffix(OPTIONAL)
+    return base[len("tuple["):-len(", ...]")] if base.startswith("tuple[") else base
+
+
+def _converter(kind: str) -> Callable[[str], Any]:
+    """A word of the command line as the JSON value of a setting (or an item of a list setting) of type ``kind``."""
+    optional = kind.endswith(OPTIONAL)
+    element = _element(kind)
+    scalar = SCALARS.get(element, str)
+
+    def convert(word: str) -> Any:
+        if optional and word == NULL:
+            return None
+        return scalar(word)
+
+    convert.__name__ = element  # argparse names the type in its message: "invalid int value: 'x'"
+    return convert
+
+
+def _shown(value: Any) -> str:
+    if value is None:
+        return NULL
+    if isinstance(value, bool):
+        return str(value).lower()
+    if isinstance(value, tuple | list):
+        return " ".join(map(_shown, value))
+    return str(value)
+
+
+def add_options(parser: argparse.ArgumentParser, cls: type, group: str) -> None:
+    """``cls``'s settings as options of ``parser`` (``group``: a name that keeps them apart from another record's);
+    an option not given keeps the setting's default (``read_options``)."""
+    for item in declared(cls):
+        kind = item.type.removesuffix(OPTIONAL)
+        extra = f"; {NULL}: null" if item.type.endswith(OPTIONAL) and item.default is not None else ""
+        text = f"{item.help} (default: {_shown(item.default)}{extra})".replace("%", "%%")
+        common: dict[str, Any] = {"dest": _dest(group, item.name), "default": argparse.SUPPRESS, "help": text}
+        if kind == "bool":
+            parser.add_argument(option(item.name), action=argparse.BooleanOptionalAction, **common)
+            continue
+        choices = item.constraints.get("choices")
+        parser.add_argument(option(item.name), type=_converter(item.type), choices=choices,
+                            nargs="+" if kind.startswith("tuple[") else None,
+                            metavar=None if choices else METAVARS.get(_element(kind), "TEXT"), **common)
+
+
+def _given(args: argparse.Namespace, cls: type, group: str) -> dict[str, Any]:
+    """The settings of ``cls`` given as options, each checked (a ValueError naming its option)."""
+    values: dict[str, Any] = {}
+    for item in declared(cls):
+        if hasattr(args, _dest(group, item.name)):
+            value = getattr(args, _dest(group, item.name))
+            values[item.name] = read(item, None if value == [None] else value, option(item.name))
+    return values
+
+
+def read_options(args: argparse.Namespace, cls: type[T], group: str) -> T:
+    """The ``cls`` record of the options ``add_options`` added (the ones not given at their defaults)."""
+    return parse(cls, _given(args, cls, group), "the options")
+
+
+def _words(item: Declared, value: Any) -> list[str]:
+    name = option(item.name)
+    if isinstance(value, bool):
+        return [name if value else "--no-" + name[2:]]
+    if value is None:
+        return [] if item.default is None else [name, NULL]
+    return [name, *map(str, value)] if isinstance(value, tuple | list) else [name, str(value)]
+
+
+def flags(record: Any) -> str:
+    """The options that give ``record`` (a settings record), every setting, quoted: a rule's param, used unquoted in
+    its shell command."""
+    return shlex.join(word for item in declared(type(record)) for word in _words(item, getattr(record, item.name)))
+
+
+# --- the sequence matcher: --matcher NAME and its settings ------------------------------------------------------
+
+
+def add_matcher_options(parser: argparse.ArgumentParser, name: str = DEFAULT_MATCHER) -> None:
+    """``--matcher`` and the options of ``name``'s settings (another matcher's options: give ``--matcher`` first on
+    the command line, ``pipeline.cli`` builds the parser for it)."""
+    parser.add_argument(MATCHER, default=name, choices=available_matchers(),
+                        help=f"the sequence matcher (default {DEFAULT_MATCHER}); its settings follow as options, "
+                             f"e.g. vpr-smr COMMAND {MATCHER} NAME --help")
+    add_options(parser, matcher_class(name).Settings, "matcher")
+    parser.set_defaults(matcher_options=name)
+
+
+def read_matcher(args: argparse.Namespace) -> MatcherSpec:
+    """The ``MatcherSpec`` of ``--matcher`` and its settings' options."""
+    name = args.matcher
+    if name != args.matcher_options:  # the options were built for another matcher (pipeline.cli reads --matcher first)
+        raise ValueError(f"{MATCHER} {name}: write the option out in full ({MATCHER} {name} or {MATCHER}={name}): "
+                         "the options of a matcher's settings come with the matcher named so")
+    return MatcherSpec.of(name, _given(args, matcher_class(name).Settings, "matcher"), f"{MATCHER} {name}")
+
+
+def matcher_flags(spec: MatcherSpec) -> str:
+    """``--matcher NAME`` and every setting of ``spec`` as its options: the rules' param."""
+    return shlex.join([MATCHER, spec.name]) + (f" {flags(spec.record())}" if spec.values else "")
+
+
+def matcher_of(argv: list[str]) -> str:
+    """The matcher ``argv`` names (``--matcher NAME`` or ``--matcher=NAME``), else the default: the parser is built
+    with that matcher's options. An unknown name gives the default's, and argparse refuses the name."""
+    name = DEFAULT_MATCHER
+    for i, word in enumerate(argv):
+        if word == MATCHER and i + 1 < len(argv):
+            name = argv[i + 1]
+        elif word.startswith(MATCHER + "="):
+            name = word.partition("=")[2]
+    return name if name in available_matchers() else DEFAULT_MATCHER

@@ -1,0 +1,187 @@
+"""What follows from the settings records (``core.settings``): the configuration schema's sections that are records
+(``config_schema``, written into ``config_schema.json``) and the configuration reference of the docs
+(``configuration_reference``, ``docs/configuration.md``). Both files are generated:
+``python -m vpr_smr.pipeline.reference --write`` writes them again after a record changed, and a test checks that the
+committed files are what the records give.
+
+The schema's other parts (the run's name, the splits, the datasets' and methods' entries, the speed experiment) are
+written in ``config_schema.json`` itself; the reference shows them from there.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+from vpr_smr.core.settings import json_schema
+from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, ENTRY_POINT_GROUP, MATCHERS, matcher_class
+from vpr_smr.pipeline.config import MATCHER_KEY, RECORDS, SCHEMA_PATH
+from vpr_smr.pipeline.options import option
+
+__all__ = ["REFERENCE_PATH", "config_schema", "configuration_reference", "main"]
+
+REFERENCE_PATH = Path(__file__).resolve().parents[1] / "docs" / "configuration.md"
+WRITE_COMMAND = "python -m vpr_smr.pipeline.reference --write"
+
+
+def _matching_schema() -> dict[str, Any]:
+    """``sequence_matching``: the matcher's name; its settings beside it are checked by the matcher's own record
+    (a plugin's too: the schema cannot list them)."""
+    return {"type": "object", "default": {},
+            "description": "method §§4, 11 and 14: the sequence matcher of every attributes, metrics and queries job: "
+                           f"{{{MATCHER_KEY}: NAME, ...its settings}} (without {MATCHER_KEY}: {DEFAULT_MATCHER}'s "
+                           "settings); each matcher's settings are listed in docs/configuration.md",
+            "properties": {MATCHER_KEY: {"type": "string", "default": DEFAULT_MATCHER,
+                                         "description": "the matcher's name: a built-in one or one an installed "
+                                                        f"package registers (entry point group {ENTRY_POINT_GROUP})"}}}
+
+
+def _described(record: type) -> str:
+    """A record's docstring as a description: one line, ``code`` as `code`."""
+    return " ".join((record.__doc__ or "").split()).replace("``", "`")
+
+
+def config_schema(committed: dict[str, Any]) -> dict[str, Any]:
+    """``committed`` (``config_schema.json``'s JSON) with its record sections as the records give them."""
+    schema: dict[str, Any] = json.loads(json.dumps(committed))
+    properties = schema["properties"]
+    for name, record in RECORDS.items():
+        properties[name] = {**json_schema(record), "description": _described(record)}
+    properties["sequence_matching"] = _matching_schema()
+    return schema
+
+
+def schema_text(schema: dict[str, Any]) -> str:
+    return json.dumps(schema, indent=2, ensure_ascii=False) + "\n"
+
+
+# --- the reference in the docs ----------------------------------------------------------------------------------
+
+TYPE_WORDS = {"integer": "integer", "number": "number", "string": "text", "boolean": "true/false",
+              "object": "mapping", "array": "list", "null": "null"}
+BOUNDS = (("minimum", ">= {}"), ("exclusiveMinimum", "> {}"), ("maximum", "<= {}"))
+
+
+def _type(node: dict[str, Any]) -> str:
+    """A schema node's type in words: ``list of integers >= 1``, ``integer or null``."""
+    if "enum" in node:
+        return "one of " + ", ".join(f"`{json.dumps(value)}`" for value in node["enum"])
+    if ("anyOf" in node or "oneOf" in node) and "type" not in node:  # forms of one type: that type
+        return " or ".join(_type(sub) for sub in node.get("anyOf", node.get("oneOf", [])))
+    if "const" in node:
+        return f"`{json.dumps(node['const'])}`"
+    kinds = node.get("type", "object")
+    kinds = kinds if isinstance(kinds, list) else [kinds]
+    words = []
+    for kind in kinds:
+        if kind == "array":
+            items = node.get("items", {})
+            if "minItems" in node and node["minItems"] == node.get("maxItems"):
+                count = [f"{node['minItems']}"]
+            else:
+                count = [text.format(node[key]) for key, text in (("minItems", "at least {}"),
+                                                                   ("maxItems", "at most {}")) if key in node]
+            count += ["distinct"] if node.get("uniqueItems") else []
+            what = f"list ({', '.join(count)})" if count else "list"
+            words.append(f"{what} of {_type(items)}" if items else what)
+        else:
+            bounds = [text.format(node[key]) for key, text in BOUNDS if key in node and kind != "null"]
+            words.append(" ".join([str(TYPE_WORDS.get(kind, kind)), *bounds]))
+    return " or ".join(words)
+
+
+# the record sections that are also options of stage commands (pipeline.cli adds them with pipeline.options)
+COMMANDS = {"baselines": "`vpr-smr metrics`, `queries` and `baselines`", "extraction": "`vpr-smr descriptors`"}
+
+
+def _sentence(text: str) -> str:
+    return (text[:1].upper() + text[1:]).rstrip(".") + "." if text else ""
+
+
+def _cell(text: str) -> str:
+    return text.replace("|", "\\|").replace("\n", " ")
+
+
+def _default(node: dict[str, Any]) -> str:
+    return f"`{json.dumps(node['default'])}`" if "default" in node else "required" if node.get("required") else ""
+
+
+def _table(properties: dict[str, Any], required: list[str], prefix: str = "",
+           options: bool = False) -> list[str]:
+    head = "| setting | type | default | option | description |" if options else \
+        "| setting | type | default | description |"
+    lines = [head, "|" + "---|" * (5 if options else 4)]
+    for key, node in properties.items():
+        default = _default(node) or ("required" if key in required else "")
+        cells = [f"`{prefix}{key}`", _type(node), default]
+        if options:
+            cells.append(f"`{option(key)}`")
+        cells.append(node.get("description", ""))
+        lines.append("| " + " | ".join(_cell(cell) for cell in cells) + " |")
+    return lines
+
+
+def configuration_reference(schema: dict[str, Any]) -> str:
+    """The configuration reference (Markdown) of the whole ``schema`` and of every built-in matcher's settings."""
+    properties = schema["properties"]
+    lines = ["# Configuration reference", "",
+             "Every setting of a run's configuration (a YAML file, `vpr-smr run my.yaml`), as "
+             "`pipeline/config_schema.json` checks it. Generated from the settings records and the schema by "
+             f"`{WRITE_COMMAND}`: do not edit it by hand. A section that is a settings record is also a set of "
+             "command-line options of the stage commands (`vpr-smr COMMAND --help`).", "",
+             "## Top level", ""]
+    lines += _table({key: node for key, node in properties.items() if node.get("type") != "object"},
+                    schema.get("required", []))
+    for key, node in properties.items():
+        if node.get("type") != "object":
+            continue
+        lines += ["", f"## `{key}`", ""] + ([_sentence(node["description"]), ""] if "description" in node else [])
+        if key == "sequence_matching":
+            lines += _table(node["properties"], [], f"{key}.")
+            lines += _matchers(key)
+        elif "additionalProperties" in node and isinstance(node["additionalProperties"], dict):
+            entry = node["additionalProperties"]
+            lines += ["Each entry's keys:", ""]
+            lines += _table(entry.get("properties", {}), entry.get("required", []), f"{key}.NAME.")
+        else:
+            if key in COMMANDS:
+                lines += [f"Also options of {COMMANDS[key]}.", ""]
+            lines += _table(node.get("properties", {}), node.get("required", []), f"{key}.",
+                            options=key in COMMANDS)
+    return "\n".join(lines) + "\n"
+
+
+def _matchers(key: str) -> list[str]:
+    """Each built-in matcher's settings, as ``sequence_matching`` and the command line give them."""
+    lines: list[str] = []
+    for name in sorted(MATCHERS):
+        cls = matcher_class(name)
+        lines += ["", f"### matcher `{name}`", "", f"{_sentence(cls.description)} On the command line of "
+                  f"`vpr-smr attributes`, `metrics`, `queries`, `baselines` and `inspect`: `--matcher {name}` and "
+                  "these options.", ""]
+        record = {"type": "object", "properties": json_schema(cls.Settings)["properties"]}
+        lines += _table(record["properties"], [], f"{key}.", options=True)
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description="write the files that follow from the settings records")
+    parser.add_argument("--write", action="store_true", help="write config_schema.json and docs/configuration.md")
+    args = parser.parse_args(argv)
+    schema = config_schema(json.loads(SCHEMA_PATH.read_text()))
+    texts = {SCHEMA_PATH: schema_text(schema), REFERENCE_PATH: configuration_reference(schema)}
+    stale = [path for path, text in texts.items() if not path.is_file() or path.read_text() != text]
+    if args.write:
+        for path in stale:
+            path.write_text(texts[path])
+            print(f"wrote {path}")
+        return 0
+    for path in stale:
+        print(f"{path} is not what the settings records give: run {WRITE_COMMAND}")
+    return 1 if stale else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
