@@ -950,71 +950,84 @@ def _read(paths: Sequence[Path | str], what: str, from_json: Callable[[dict[str,
     return out
 
 
-def main(
-    out_dir: Path | str,
-    evaluations: Sequence[Path | str] = (),
-    predictors: Sequence[Path | str] = (),
-    attribute_ablations: Sequence[Path | str] = (),
-    leave_one_out: Sequence[Path | str] = (),
-    *,
-    timings: Sequence[Path | str] = (),
-    metrics: Sequence[Path | str] = (),
-    match_figures: Sequence[Path | str] = (),
-    matrix_figures: Sequence[Path | str] = (),
-    speed: Sequence[Path | str] = (),
-    baselines: Sequence[Path | str] = (),
-    split: str | None = None,
-    eval_splits: Sequence[str] | None = None,
-    train_split: str | None = None,
-    table_seq_lens: Collection[int] | None = None,
-    seq_len_ablation: bool = False,
-    methods: Sequence[str] = (),
-    config: str | dict[str, Any] | None = None,
-    provenance: dict[str, Any] | None = None,
-    descriptor_paths: Sequence[Path | str] = (),
-    html: bool = True,
-    datasets: dict[str, dict[str, Any]] | None = None,
-) -> list[Path]:
-    """Write ``tables/``, ``figures/`` and ``report.html`` under the run folder ``out_dir``; return the files.
+@dataclass(frozen=True)
+class RunFiles:
+    """The stages' files a report reads, each list optional: the run's paths, resolved in one place (the
+    workflow's rule and ``vpr-smr report`` fill it).
 
-    Inputs are JSON files of the stages, each list optional: ``evaluations`` (``evaluate.main``, one per dataset,
-    method and L), ``predictors`` (``train.main`` reports), ``attribute_ablations`` (``ablation.attributes_main``),
-    ``leave_one_out`` (``scoring.held_out.main``), ``timings`` (the ``.timing.json`` files ``evaluate.main`` writes,
-    each matched to its evaluation by dataset, method and L; the timing table leaves out evaluations without one),
-    ``metrics`` (``scoring.vpr_metrics``' files: the standard VPR metrics of the table ``split``).
-    ``match_figures`` and ``matrix_figures``: the match inspector's PNGs (``core.paths.match_figure_path`` and
-    ``matrix_figure_path``), shown in the page, placed by their file names. ``speed``: the speed experiment's
-    files (``scoring.speed.main``, one per dataset and profile, in the configuration's order of profiles).
-    ``baselines``: the training-free baselines (``vpr-smr baselines``, one per dataset, method and L): their
-    tables, figures and findings, and the best of them in the sequence-length ablation.
+    ``evaluations`` (``evaluate.main``, one per dataset, method and L), ``predictors`` (``train.main`` reports),
+    ``attribute_ablations`` (``ablation.attributes_main``), ``leave_one_out`` (``scoring.held_out.main``),
+    ``timings`` (the ``.timing.json`` files ``evaluate.main`` writes, each matched to its evaluation by dataset,
+    method and L; the timing table leaves out evaluations without one), ``metrics`` (``scoring.vpr_metrics``'
+    files: the standard VPR metrics of the table split). ``match_figures`` and ``matrix_figures``: the match
+    inspector's PNGs (``core.paths.match_figure_path`` and ``matrix_figure_path``), shown in the page, placed by
+    their file names. ``speed``: the speed experiment's files (``scoring.speed.main``, one per dataset and profile,
+    in the configuration's order of profiles). ``baselines``: the training-free baselines (``vpr-smr baselines``,
+    one per dataset, method and L): their tables, figures and findings, and the best of them in the
+    sequence-length ablation. ``descriptors``: descriptor files whose provenance attributes the page lists.
+    """
+
+    evaluations: Sequence[Path | str] = ()
+    predictors: Sequence[Path | str] = ()
+    attribute_ablations: Sequence[Path | str] = ()
+    leave_one_out: Sequence[Path | str] = ()
+    timings: Sequence[Path | str] = ()
+    metrics: Sequence[Path | str] = ()
+    match_figures: Sequence[Path | str] = ()
+    matrix_figures: Sequence[Path | str] = ()
+    speed: Sequence[Path | str] = ()
+    baselines: Sequence[Path | str] = ()
+    descriptors: Sequence[Path | str] = ()
+
+
+@dataclass(frozen=True)
+class ReportOptions:
+    """How the report shows the run: the configuration's choices.
+
     ``split``, ``eval_splits``, ``train_split``: the configuration's table_split, eval_splits and train_split, which
     the tables show and name (``results.Splits.resolve``; default: the one split every evaluation holds, the
-    splits of the inputs with it last, ``train``).
-    ``table_seq_lens``: the sequence lengths of Table I and
-    of the per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
+    splits of the inputs with it last, ``train``). ``table_seq_lens``: the sequence lengths of Table I and of the
+    per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
     Datasets and methods keep the order the evaluations come in (the workflow gives them in the configuration's
-    order), or ``methods``' order when given.
-    ``config`` (YAML text or a dict) and ``provenance`` (e.g. package version, checkpoint and frame-list hashes)
-    go into the HTML page, with the provenance attributes of ``descriptor_paths``. ``datasets``: per dataset its
-    card (``pipeline.plan.dataset_cards``: traverses, frames, tolerance, splits, pairing, ``overlaps``, the frame
-    lists' SHA-256 and the images' source): the datasets table and the page's cards; overlaps flag every table.
+    order), or ``methods``' order when given. ``config`` (YAML text or a dict) and ``provenance`` (e.g. package
+    version, checkpoint and frame-list hashes) go into the HTML page. ``datasets``: per dataset its card
+    (``pipeline.plan.dataset_cards``: traverses, frames, tolerance, splits, pairing, ``overlaps``, the frame lists'
+    SHA-256 and the images' source): the datasets table and the page's cards; overlaps flag every table.
+    ``html``: also write ``report.html``.
     """
+
+    split: str | None = None
+    eval_splits: Sequence[str] | None = None
+    train_split: str | None = None
+    table_seq_lens: Collection[int] | None = None
+    seq_len_ablation: bool = False
+    methods: Sequence[str] = ()
+    config: str | dict[str, Any] | None = None
+    provenance: dict[str, Any] | None = None
+    html: bool = True
+    datasets: dict[str, dict[str, Any]] | None = None
+
+
+def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = None) -> list[Path]:
+    """Write ``tables/``, ``figures/`` and ``report.html`` under the run folder ``out_dir`` from the stages'
+    ``files``, shown as ``options`` say (default: ``ReportOptions()``); return the files written."""
     from vpr_smr.eval.report import html as html_report
 
-    out_dir = Path(out_dir)
-    read_evaluations = _read(evaluations, "evaluation", Evaluation.from_json, KEY_META)
-    read_metrics = _read(metrics, "VPR metrics", VPRMetrics.from_json, KEY_META, METRICS_HINT)
-    read_predictors = _read(predictors, "predictor report", PredictorReport.from_json, PREDICTOR_META)
-    read_lomo = _read(leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
-    read_speed = _read(speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
-    read_baselines = _read(baselines, "baselines", Baselines.from_json, KEY_META)
+    out_dir, options = Path(out_dir), options or ReportOptions()
+    split, datasets = options.split, options.datasets
+    read_evaluations = _read(files.evaluations, "evaluation", Evaluation.from_json, KEY_META)
+    read_metrics = _read(files.metrics, "VPR metrics", VPRMetrics.from_json, KEY_META, METRICS_HINT)
+    read_predictors = _read(files.predictors, "predictor report", PredictorReport.from_json, PREDICTOR_META)
+    read_lomo = _read(files.leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
+    read_speed = _read(files.speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
+    read_baselines = _read(files.baselines, "baselines", Baselines.from_json, KEY_META)
 
-    splits = Splits.resolve(split, eval_splits, train_split,
+    splits = Splits.resolve(split, options.eval_splits, options.train_split,
                             [*(list(e.splits) for e in read_evaluations), *(list(m.splits) for m in read_metrics),
                              *(list(b.splits) for b in read_baselines)],
                             [name for report in read_predictors for name in report.seeds[0].splits])
     split = splits.table or ""  # none only without evaluations and metrics, which alone show a split
-    base = evaluation_order(read_evaluations, methods)
+    base = evaluation_order(read_evaluations, options.methods)
     order = Order.of([*(e.meta for e in read_evaluations), *(m.meta for m in read_metrics),
                       *(b.meta for b in read_baselines),
                       *(h.meta for h in read_lomo), *(p.meta for p in read_predictors),
@@ -1024,20 +1037,20 @@ def main(
                         for matcher in r.matchers.values() for method in matcher.methods)],
                      base.modes, base.methods)
     inputs = Inputs(
-        read_evaluations, _read(timings, "timing", Timing.from_json, KEY_META), read_predictors,
-        _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
-        read_metrics,
-        dict(datasets or {}), split, None if table_seq_lens is None else {int(s) for s in table_seq_lens},
-        seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines)
+        read_evaluations, _read(files.timings, "timing", Timing.from_json, KEY_META), read_predictors,
+        _read(files.attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
+        read_metrics, dict(datasets or {}), split,
+        None if options.table_seq_lens is None else {int(s) for s in options.table_seq_lens},
+        options.seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines)
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]
-    if html:
+    if options.html:
         keys = [*(e.key for e in read_evaluations), *(m.key for m in read_metrics)]
-        inspected = inspector_figures({"matches": match_figures, "distance_matrix": matrix_figures}, keys,
-                                      [*order.datasets], split, order)
+        inspected = inspector_figures({"matches": files.match_figures, "distance_matrix": files.matrix_figures},
+                                      keys, [*order.datasets], split, order)
         written.append(html_report.main(
-            out_dir / registry.HTML, tables, [*figures, *inspected], order=order, split=split, config=config,
-            provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets, splits=splits,
+            out_dir / registry.HTML, tables, [*figures, *inspected], order=order, split=split, config=options.config,
+            provenance=options.provenance, descriptor_paths=files.descriptors, datasets=datasets, splits=splits,
             protocols=inputs.protocols))
     return written
