@@ -17,7 +17,7 @@ from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
-from vpr_smr.core.constants import MATCHERS, RECALL_AT
+from vpr_smr.core.constants import MATCHERS
 from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path
 from vpr_smr.core.records import FormatError
@@ -32,9 +32,20 @@ from vpr_smr.eval.report.results import (
     WrittenTable,
     ground_truth_text,
     provenance_text,
-    split_text,
     split_word,
     unique,
+)
+from vpr_smr.eval.report.rows import (
+    ConfusionRow,
+    DatasetRow,
+    HeldOutRow,
+    PredictorMethodRow,
+    RestorationRow,
+    SweepRow,
+    TimingRow,
+    TrustRow,
+    VPRMetricsRow,
+    cells,
 )
 from vpr_smr.eval.report.table1 import (
     UNDEFINED,
@@ -213,82 +224,44 @@ def _by_key(evaluations: Sequence[Evaluation], order: Order | None = None
 
 
 def predictor_method_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
-                          ) -> list[dict[str, Any]]:
-    rows = []
-    for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        for evaluation in items:
-            result = evaluation.splits[split]
-            rows.append({"dataset": dataset, "seq_len": seq_len, "method": evaluation.meta["method"],
-                         "split": split, "n_queries": result.n_queries, "f1_macro": result.f1_macro,
-                         **{f"class_{c}": result.class_counts[c] for c in range(4)},
-                         **{f"predicted_{c}": result.predicted_counts[c] for c in range(4)}})
-    return rows
+                          ) -> list[PredictorMethodRow]:
+    return [PredictorMethodRow.of(dataset, seq_len, evaluation.meta["method"], split, evaluation.splits[split])
+            for (dataset, seq_len), items in _by_key(evaluations, order).items() for evaluation in items]
 
 
 def confusion_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
-                   ) -> list[dict[str, Any]]:
+                   ) -> list[ConfusionRow]:
     """The seed-0 confusion matrix per dataset, L and method, and summed over the methods (method ``all``)."""
     rows = []
     for (dataset, seq_len), items in _by_key(evaluations, order).items():
         matrices = [(e.meta["method"], np.array(e.splits[split].confusion_matrix)) for e in items]
         matrices.append(("all", np.sum([m for _, m in matrices], axis=0)))
         for method, matrix in matrices:
-            for true_class, counts in enumerate(matrix):
-                rows.append({"dataset": dataset, "seq_len": seq_len, "method": method, "true_class": true_class,
-                             **{f"predicted_{c}": int(counts[c]) for c in range(4)}, "total": int(counts.sum())})
+            rows += [ConfusionRow.of(dataset, seq_len, method, true_class, counts)
+                     for true_class, counts in enumerate(matrix)]
     return rows
 
 
-def trust_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None) -> list[dict[str, Any]]:
-    rows = []
-    for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        for evaluation in items:
-            result = evaluation.splits[split]
-            for mode, numbers in result.modes.items():
-                for level, values in (numbers.trust_auc or {}).items():
-                    rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
-                                 "mode": mode, "trust": float(level), **bounds.flatten(values.to_json()),
-                                 "n_queries": result.n_queries})
-    return rows
+def trust_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None) -> list[TrustRow]:
+    return [TrustRow.of(evaluation.key, mode, float(level), values, result.n_queries)
+            for items in _by_key(evaluations, order).values() for evaluation in items
+            for result in (evaluation.splits[split],) for mode, numbers in result.modes.items()
+            for level, values in (numbers.trust_auc or {}).items()]
 
 
 def restoration_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
-                     ) -> list[dict[str, Any]]:
-    rows = []
-    for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        for evaluation in items:
-            result = evaluation.splits[split]
-            if result.restoration is None:
-                continue
-            for mode, numbers in result.restoration.modes.items():
-                rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
-                             "mode": mode, **result.restoration.counts(), **bounds.flatten(numbers.to_json()),
-                             "n_queries": result.n_queries})
-    return rows
+                     ) -> list[RestorationRow]:
+    return [RestorationRow.of(evaluation.key, mode, result.restoration, result.n_queries)
+            for items in _by_key(evaluations, order).values() for evaluation in items
+            for result in (evaluation.splits[split],) if result.restoration is not None
+            for mode in result.restoration.modes]
 
 
-def lomo_rows(results: Sequence[HeldOut], order: Order | None = None) -> list[dict[str, Any]]:
+def lomo_rows(results: Sequence[HeldOut], order: Order | None = None) -> list[HeldOutRow]:
     order = order or Order.of(result.meta for result in results)
-    rows = []
-    for result in results:
-        meta, pooled, without = result.meta, result.pooled, result.without
-        for mode in pooled.modes:
-            rows.append({
-                "dataset": meta["dataset"], "seq_len": meta["seq_len"], "held_out": meta["method"], "mode": mode,
-                "n_queries": result.n_queries, "f1_pooled": pooled.f1_macro, "f1_without": without.f1_macro,
-                "removed_pooled": pooled.removed, "removed_without": without.removed,
-                "aoc_vpr_sm": pooled.modes[mode].reduction.aoc_vpr_sm,
-                "aoc_pooled": pooled.modes[mode].reduction.aoc_vpr_sm_pred,
-                "aoc_without": without.modes[mode].reduction.aoc_vpr_sm_pred,
-                "reduction_pct_pooled": pooled.modes[mode].reduction.reduction_pct,
-                "reduction_pct_without": without.modes[mode].reduction.reduction_pct,
-                "outcome_pooled": pooled.modes[mode].reduction.outcome,
-                "outcome_without": without.modes[mode].reduction.outcome,
-                **bounds.flat("reduction_pct_pooled", pooled.modes[mode].reduction.reduction_pct_ci),
-                **bounds.flat("reduction_pct_without", without.modes[mode].reduction.reduction_pct_ci),
-            })
-    return sorted(rows, key=lambda r: (order.mode(r["mode"]), order.dataset(r["dataset"]), int(r["seq_len"]),
-                                       order.method(r["held_out"])))
+    rows = [HeldOutRow.of(result.key, mode, result) for result in results for mode in result.pooled.modes]
+    return sorted(rows, key=lambda r: (order.mode(r.mode), order.dataset(r.dataset), r.seq_len,
+                                       order.method(r.held_out)))
 
 
 def match_timings(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) -> dict[tuple[str, str, int], Timing]:
@@ -306,29 +279,16 @@ def match_timings(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) 
 
 
 def timing_rows(evaluations: Sequence[Evaluation], timings: Sequence[Timing], order: Order | None = None
-                ) -> list[dict[str, Any]]:
+                ) -> list[TimingRow]:
     """Per evaluation and split, its timing (matched by meta); evaluations whose timings are not given are left
     out."""
     matched = match_timings(evaluations, timings)
-    rows = []
-    for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        for evaluation in items:
-            timing = matched.get(evaluation.key)
-            if timing is None:
-                continue
-            for split in evaluation.splits:
-                numbers = timing.splits[split]
-                n = max(numbers.n_queries, 1)
-                attributes, predict = numbers.attributes_seconds, numbers.predict_seconds
-                rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
-                             "split": split, "n_queries": numbers.n_queries, "attributes_seconds": attributes,
-                             "predict_seconds": predict, "ms_per_query": 1e3 * (attributes + predict) / n,
-                             "ms_attributes_per_query": 1e3 * attributes / n,
-                             "ms_predict_per_query": 1e3 * predict / n})
-    return rows
+    return [TimingRow.of(dataset, evaluation.meta["method"], seq_len, split, timing.splits[split])
+            for (dataset, seq_len), items in _by_key(evaluations, order).items() for evaluation in items
+            if (timing := matched.get(evaluation.key)) is not None for split in evaluation.splits]
 
 
-def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[dict[str, Any]]:
+def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[VPRMetricsRow]:
     """The standard VPR metrics of the table ``split``: one row per dataset, method, L, mode and matcher (in the
     configuration's order, the matchers in ``core.constants.MATCHERS``' order)."""
     order = order or Order.of(record.meta for record in records)
@@ -345,13 +305,7 @@ def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | N
         modes = record.splits[split].modes
         for mode in sorted(modes, key=order.mode):
             matchers = sorted(modes[mode], key=lambda m: (MATCHERS.index(m) if m in MATCHERS else len(MATCHERS), m))
-            for matcher in matchers:
-                numbers = modes[mode][matcher]
-                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
-                             "matcher": matcher, "n_queries": numbers.n_queries,
-                             **{f"recall_at_{n}": numbers.recall_at.get(n) for n in RECALL_AT},
-                             "recall_at_100p": numbers.recall_at_100p, "pr_auc": numbers.pr_auc,
-                             "extended_precision": numbers.extended_precision})
+            rows += [VPRMetricsRow.of(record.key, split, mode, matcher, modes[mode][matcher]) for matcher in matchers]
     return rows
 
 
@@ -388,54 +342,28 @@ def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> li
                                        if r["matcher"] in matchers else len(matchers), r["matcher"]))
 
 
-def sweep_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[dict[str, Any]]:
+def sweep_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[SweepRow]:
     """The protocol sweep of the table ``split`` (``records.ProtocolSweep``, in the VPR metrics of a run with the
     sweep): one row per dataset, method, L, mode and tolerance or radius, in the configuration's order."""
     order = order or Order.of(record.meta for record in records)
     rows = []
     for record in records:
-        dataset, method, seq_len = record.key
         found = record.splits.get(split)
         if found is None or found.sweep is None:
             continue
         for mode, points in found.sweep.modes.items():
-            for point in points:
-                reduction = point.reduction
-                # recall_at_1_single_evaluated: over the same queries as the sequence recall, which
-                # recall_change_ci (sequence minus single, paired) is of
-                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
-                             "ground_truth": found.sweep.kind, "threshold": point.threshold,
-                             "recall_at_1_single": point.recall_at_1_single,
-                             "recall_at_1_sequence": point.recall_at_1_sequence,
-                             "recall_at_1_single_evaluated": point.recall_at_1_single_evaluated,
-                             **bounds.flat("recall_change", point.recall_change_ci),
-                             # the evaluated queries: the sequence matcher's recall@1 denominator
-                             "n_queries": found.modes[mode]["sequence"].n_queries
-                             if "sequence" in found.modes.get(mode, {}) else None,
-                             **({} if reduction is None else {
-                                 "max_recall": reduction.max_recall, "aoc_vpr_sm": reduction.aoc_vpr_sm,
-                                 "aoc_vpr_sm_pred": reduction.aoc_vpr_sm_pred,
-                                 "reduction_pct": reduction.reduction_pct, "outcome": reduction.outcome,
-                                 **bounds.flat("reduction_pct", reduction.reduction_pct_ci)})})
-    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), r["seq_len"], order.mode(r["mode"]),
-                                       order.method(r["method"]), r["threshold"]))
+            # the evaluated queries: the sequence matcher's recall@1 denominator
+            sequence = found.modes.get(mode, {}).get("sequence")
+            rows += [SweepRow.of(record.key, split, mode, found.sweep.kind, point,
+                                 None if sequence is None else sequence.n_queries) for point in points]
+    return sorted(rows, key=lambda r: (order.dataset(r.dataset), r.seq_len, order.mode(r.mode),
+                                       order.method(r.method), r.threshold))
 
 
-def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None) -> list[dict[str, Any]]:
+def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None) -> list[DatasetRow]:
     """One row per dataset card (``pipeline.plan.dataset_cards``), in the configuration's order."""
     order = order or Order(tuple(datasets))
-    return [{"dataset": name, "reference": info.get("reference", ""), "query": info.get("query", ""),
-             # a dataset with positions (method §11): reference / query frames; a frame-aligned one as it was
-             "n_frames": info.get("n_frames") if info.get("n_query_frames") is None
-             else f"{info.get('n_frames')} / {info['n_query_frames']}",
-             "splits": split_text(info.get("splits", {}), info.get("reference_splits")),
-             # the ground truth: frames within the tolerance as the number, else its text (positions, a file)
-             "tolerance": info.get("tolerance") if info.get("radius") is None and info.get("ground_truth") is None
-             else ground_truth_text(info),
-             "pairing": info.get("pairing", ""),
-             "overlaps": "; ".join(info.get("overlaps", [])), "frames_sha256": info.get("frames_sha256", ""),
-             "source": info.get("source", "")}
-            for name, info in sorted(datasets.items(), key=lambda item: order.dataset(item[0]))]
+    return [DatasetRow.of(name, datasets[name]) for name in sorted(datasets, key=order.dataset)]
 
 
 # --- writing ----------------------------------------------------------------------------------------------------
@@ -641,9 +569,11 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
     contents: dict[str, tuple[list[dict[str, Any]], dict[str, str]]] = {}
     evaluations, split, order = inputs.evaluations, inputs.split, inputs.order
 
-    def table(name: str, rows: list[dict[str, Any]], **special: str) -> None:
-        registry.table(name)  # only a declared table is written
-        contents[name] = (rows, special)
+    def table(name: str, rows: Sequence[Any], **special: str) -> None:
+        spec = registry.table(name)  # only a declared table is written, of its row record where it names one
+        if spec.row is not None and any(not isinstance(row, spec.row) for row in rows):
+            raise TypeError(f"table {name!r}: its rows are {spec.row.__name__} records")
+        contents[name] = ([cells(row) if spec.row is not None else row for row in rows], special)
 
     if evaluations:
         rows = table1_rows(evaluations, split, inputs.table_seq_lens, order)
@@ -743,7 +673,7 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
         figures += _baseline_figures(out_dir, inputs)
     if inputs.speed:
         figures += _speed_figures(out_dir, speed_rows(inputs.speed, order), order, split, inputs)
-    figures += _sweep_figures(out_dir, sweep_rows(inputs.metrics, split, order), order, split)
+    figures += _sweep_figures(out_dir, [cells(row) for row in sweep_rows(inputs.metrics, split, order)], order, split)
     return figures
 
 

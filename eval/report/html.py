@@ -46,6 +46,7 @@ from vpr_smr.eval.report.results import (
     split_text,
     unique,
 )
+from vpr_smr.eval.report.rows import Column as TableColumn
 from vpr_smr.eval.report.table1 import (
     ROW_NAMES,
     SEED_ROW_NAME,
@@ -111,7 +112,7 @@ def _is_text(column: str, rows: Sequence[dict[str, Any]]) -> bool:
     return isinstance(value, str)
 
 
-def data_table(table_id: str, columns: Sequence[registry.Column], rows: Sequence[dict[str, Any]], short: bool = True,
+def data_table(table_id: str, columns: Sequence[TableColumn], rows: Sequence[dict[str, Any]], short: bool = True,
                caption: str = "", note: str = "") -> TableView:
     """A sortable table of ``rows``' ``columns``: headed by their labels (``short``) or by their names (the CSV's
     headers)."""
@@ -121,7 +122,7 @@ def data_table(table_id: str, columns: Sequence[registry.Column], rows: Sequence
     return TableView(table_id, head, body, caption=caption, note=note)
 
 
-def row_cell(row: dict[str, Any], column: registry.Column) -> Cell:
+def row_cell(row: dict[str, Any], column: TableColumn) -> Cell:
     """``cell`` of a row's value; an undefined reduction says why, from the row's outcome of that reduction
     (``reduction_pct`` -> ``outcome``, ``reduction_pct_pooled`` -> ``outcome_pooled``)."""
     value = row.get(column.name)
@@ -209,7 +210,7 @@ def scorer_table(table_id: str, rows: Sequence[dict[str, Any]], value: str, capt
             elif scorer == "random" and row.get(f"{value}_mean") is not None:
                 cells.append(cell(row[f"{value}_mean"], value, fmt=".4f"))
             else:
-                cells.append(row_cell(row, registry.Column(value, fmt=".2f" if value == "reduction_pct" else ".4f")))
+                cells.append(row_cell(row, TableColumn(value, fmt=".2f" if value == "reduction_pct" else ".4f")))
         body.append((text_cell(scorer, header=True), *cells))
     if value == "average_precision" and rows:
         body.append((text_cell("wrong fraction", header=True),
@@ -339,7 +340,7 @@ class _Builder:
         keys = {"dataset": figure.dataset, "seq_len": figure.seq_len, "mode": figure.mode}
         return _where(rows, **{key: value for key, value in keys.items() if value is not None})
 
-    def columns(self, name: str, rows: Sequence[dict[str, Any]]) -> list[registry.Column]:
+    def columns(self, name: str, rows: Sequence[dict[str, Any]]) -> list[TableColumn]:
         """What the compact tables of the registered table ``name`` show of ``rows``: its ``page`` columns, an
         ``if_any`` one only where a row has a value in it."""
         return [c for c in registry.table(name).shown(self.splits) if not c.if_any or any(r.get(c.name) for r in rows)]
@@ -725,7 +726,7 @@ def build_page(
     named = [f"{name} {text}" for name, text in protocols.items() if text]
     sections = _Builder(tables, figures, order, split, run_dir, splits, protocols).sections()
     dataset_table = by_name.get("datasets")
-    descriptor_table = data_table("provenance-files", [registry.Column(key) for key in ("file", *DESCRIPTOR_KEYS)],
+    descriptor_table = data_table("provenance-files", [TableColumn(key) for key in ("file", *DESCRIPTOR_KEYS)],
                                   files, short=False) if files else None
     page_cards = cards(datasets, order)
     nav = [*([("findings", "Findings")] if found else []), *((s.id, s.title) for s in sections),

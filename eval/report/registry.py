@@ -4,62 +4,26 @@ The writer (``build``) looks each table and figure up here for its file names an
 expected_outputs`` lists the files from here, so that a table or figure cannot be written without being declared
 to the workflow, nor declared without being written. The order is the report's: tables, then figures.
 
-Each table declares its columns here, in its files' order, each with its header on the page and how the page
-writes its numbers, and what of it the page's compact tables show (``page``, ``pivot``, ``caption``): ``build``
-writes the CSV, Markdown and LaTeX files with these columns and ``html`` builds the page's tables from them.
+Each table names its row record (``rows``: its fields are the columns, in the files' order, each with its header
+on the page and how the page writes its numbers; the tables not yet typed declare their columns here), and what of
+it the page's compact tables show (``page``, ``pivot``, ``caption``): ``build`` writes the CSV, Markdown and LaTeX
+files with these columns and ``html`` builds the page's tables from them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from typing import Any
 
 from vpr_smr.core.constants import RECALL_AT
-from vpr_smr.eval.report.results import Splits, split_word
+from vpr_smr.eval.report import rows
+from vpr_smr.eval.report.results import Splits
+from vpr_smr.eval.report.rows import Column
 
 TABLES_DIR = "tables"
 FIGURES_DIR = "figures"
 HTML = "report.html"
-
-
-SPLIT_ROLES = ("evaluation", "validation", "last")  # ``results.Splits``' roles a column can be one per split of
-
-
-@dataclass(frozen=True)
-class Column:
-    """A table's column: ``name`` in its files (the headers of the CSV, Markdown and LaTeX tables) and in the page's
-    whole table; ``label`` its header in the page's compact tables (default: the name, underscores as spaces);
-    ``fmt`` how the page writes a float of it (a format spec; the CSV keeps every digit, Markdown and LaTeX 4
-    decimals).
-
-    A name with ``{evaluation}``, ``{validation}`` or ``{last}`` stands for one column per split of that role of
-    ``results.Splits`` (``expand``); its label says the split as ``{split}`` (the name) or ``{word}``
-    (``results.split_word``). ``if_any``: a compact table shows it only when a row has a value in it; ``note``:
-    a compact table says it in its note (first row's value, then label), not as a column.
-    """
-
-    name: str
-    label: str = ""
-    fmt: str = ".4f"
-    if_any: bool = False
-    note: bool = False
-
-    @property
-    def header(self) -> str:
-        return self.label or self.name.replace("_", " ")
-
-    def expand(self, splits: Splits | None = None) -> tuple[Column, ...]:
-        """The column, or one per split of its role in ``splits`` (none when the role has no split)."""
-        role = next((role for role in SPLIT_ROLES if f"{{{role}}}" in self.name), None)
-        if role is None:
-            return (self,)
-        if splits is None:
-            raise ValueError(f"column {self.name!r} is one per split: name the run's splits")
-        names: Sequence[str | None] = splits.evaluation if role == "evaluation" else (
-            [splits.validation] if role == "validation" else [splits.last])
-        return tuple(replace(self, name=self.name.format(**{role: name}),
-                             label=self.label.format(split=name, word=split_word(name)))
-                     for name in names if name is not None)
 
 
 @dataclass(frozen=True)
@@ -75,8 +39,9 @@ class Pivot:
 @dataclass(frozen=True)
 class Table:
     """A table of the report: its files (``name``, ``title``), when it is written (``experiments``), its
-    ``columns`` in the files' order, and what of it the page's compact tables show: ``page`` (the columns by
-    name, in their order) or ``pivot``, under ``caption`` (``{split}``: the table split, ``{seq_len}``: the L)."""
+    ``columns`` in the files' order (those of its ``row`` record, ``rows.columns``, where it names one), and what
+    of it the page's compact tables show: ``page`` (the columns by name, in their order) or ``pivot``, under
+    ``caption`` (``{split}``: the table split, ``{seq_len}``: the L)."""
 
     name: str  # the file stem under tables/
     title: str  # the heading of its Markdown and LaTeX files and of the HTML page
@@ -86,8 +51,11 @@ class Table:
     page: tuple[str, ...] = ()
     pivot: Pivot | None = None
     caption: str = ""
+    row: Any = None  # the row record (``rows``): its fields are the columns
 
     def __post_init__(self) -> None:
+        if self.row is not None:
+            object.__setattr__(self, "columns", rows.columns(self.row))
         shown = (*self.page, *((self.pivot.rows, *self.pivot.values) if self.pivot else ()))
         unknown = [name for name in shown if name not in {column.name for column in self.columns}]
         if unknown:
@@ -214,39 +182,27 @@ TABLES = (
           page=("method", "recall_at_1_single", "recall_at_1_sequence", "max_recall", "reduction_pct")),
     Table("predictor_methods", "Predictor alone: macro F1, class counts and predicted counts per method",
           ("table1",),
-          columns=(DATASET, SEQ_LEN, METHOD, SPLIT, N_QUERIES, F1_MACRO,
-                   *(Column(f"class_{c}", f"true {c}") for c in range(4)), *PREDICTED),
+          row=rows.PredictorMethodRow,
           page=("method", "n_queries", "f1_macro", "class_0", "class_1", "class_2", "class_3"),
           caption="Per method, {split} split, L = {seq_len}: macro F1 and the true classes' counts (the predicted "
                   "counts: the whole table below)"),
     Table("predictor_confusion", "Predictor alone: confusion matrix (rows true class, columns predicted)",
-          ("table1",), columns=(DATASET, SEQ_LEN, METHOD, Column("true_class"), *PREDICTED, Column("total"))),
+          ("table1",), row=rows.ConfusionRow),
     Table("trust_levels", "Trust-level ablation: PR AUC per trust level", ("table1", "trust"),
-          columns=(DATASET, METHOD, SEQ_LEN, MODE, Column("trust", "trust level", "g"), REMOVED, MAX_RECALL,
-                   Column("auc"), Column("aoc"), AUC_VPR_SM, AOC_VPR_SM, *with_ci(REDUCTION), OUTCOME, N_QUERIES),
+          row=rows.TrustRow,
           pivot=Pivot("trust", ("method",), ("reduction_pct",)),
           caption="AOC reduction (%) per trust level (columns: methods)"),
     Table("restoration", "Match restoration (second filter): removal against restoration", ("table1", "restoration"),
-          columns=(DATASET, METHOD, SEQ_LEN, MODE, REMOVED, Column("restored"), Column("restored_correct"),
-                   Column("restored_wrong"), Column("wrong_to_right"), Column("right_to_wrong"),
-                   Column("max_recall_removal"), Column("max_recall_restoration"), AUC_VPR_SM,
-                   Column("auc_removal", "PR AUC removal"), Column("auc_restoration", "PR AUC restoration"),
-                   Column("auc_difference", "PR AUC difference"), Column("aoc_removal"), Column("aoc_restoration"),
-                   Column("aoc_difference"), *with_ci(REDUCTION), N_QUERIES),
+          row=rows.RestorationRow,
           page=("method", "removed", "restored", "wrong_to_right", "right_to_wrong", "auc_difference")),
     Table("timing", "Inference time per query: attributes + prediction", ("table1",),
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, N_QUERIES, Column("attributes_seconds", fmt=MS),
-                   Column("predict_seconds", fmt=MS), Column("ms_per_query", fmt=MS),
-                   Column("ms_attributes_per_query", "attributes (ms)", MS),
-                   Column("ms_predict_per_query", "prediction (ms)", MS)),
+          row=rows.TimingRow,
           page=("method", "seq_len", "n_queries", "ms_per_query", "ms_attributes_per_query", "ms_predict_per_query")),
     Table("vpr_metrics", "Standard VPR metrics: recall@N, recall at 100 % precision, PR AUC and extended precision "
           "of single-frame matching, sequence matching and sequence matching with the predictor", ("metrics",),
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, Column("matcher"), N_QUERIES,
-                   *(Column(f"recall_at_{n}", f"R@{n}") for n in RECALL_AT), Column("recall_at_100p", "R@100P"),
-                   Column("pr_auc", "PR-AUC"), Column("extended_precision", "EP")),
-          page=("method", "matcher", "n_queries", *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p", "pr_auc",
-                "extended_precision")),
+          row=rows.VPRMetricsRow,
+          page=("method", "matcher", "n_queries", *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p",
+                "pr_auc", "extended_precision")),
     Table("baselines", "Training-free baselines: AOC at max recall of each scorer removing as many matches as the "
           "predictor (method §12), per dataset, method, L and mode", ("baselines",),
           # budget: what the seed-0 predictor removes; removed: what the scorer removed (the oracle at most every
@@ -300,33 +256,19 @@ TABLES = (
           page=tuple(column.name for column in (*TABLE2_F1, *TABLE2_COUNTS))),
     Table("leave_one_method_out", "Leave one method out: pooled predictor against one trained without the method",
           ("leave_one_method_out",),
-          columns=(DATASET, SEQ_LEN, Column("held_out"), MODE, N_QUERIES, Column("f1_pooled", "F1 pooled"),
-                   Column("f1_without", "F1 without"), Column("removed_pooled"), Column("removed_without"),
-                   AOC_VPR_SM, Column("aoc_pooled", "AOC pooled"), Column("aoc_without", "AOC without"),
-                   *with_ci(Column("reduction_pct_pooled", "reduction pooled (%)", REDUCTION.fmt)),
-                   *with_ci(Column("reduction_pct_without", "reduction without (%)", REDUCTION.fmt)),
-                   Column("outcome_pooled"),
-                   Column("outcome_without")),
+          row=rows.HeldOutRow,
           page=("held_out", "seq_len", "mode", "f1_pooled", "f1_without", "removed_pooled", "removed_without",
                 "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
     Table("protocol_sweep", "Protocol sweep: recall@1 and the AOC reduction of the predictor under other ground-truth "
           "tolerances (frames) or radii (positions), from the same matches and the same seed-0 predictor (method §13)",
           ("protocol_sweep",),
-          # ground_truth: the kind swept (frames or positions); threshold: its tolerance in frames or its radius
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, Column("ground_truth"),
-                   Column("threshold", "tolerance or radius", "g"), RECALL_SINGLE, RECALL_SEQUENCE,
-                   # single-frame recall@1 over the sequence recall's queries, and the paired interval of the change
-                   Column("recall_at_1_single_evaluated", "R@1 single, same queries"),
-                   *bound_columns("recall_change", "R@1 sequence minus single"), MAX_RECALL,
-                   AOC_VPR_SM, AOC_VPR_SM_PRED, *with_ci(REDUCTION), OUTCOME, N_QUERIES),
+          row=rows.SweepRow,
           pivot=Pivot("threshold", ("method",), ("reduction_pct",)),
           caption="AOC reduction (%) per tolerance or radius (rows) and method (columns); recall@1: the figure and "
                   "the whole table below"),
     Table("datasets", "Datasets: traverses, frames per split, tolerance, frame lists and where the images came from",
           ("datasets",),
-          columns=(DATASET, Column("reference"), Column("query"), Column("n_frames"), Column("splits"),
-                   Column("tolerance"), Column("pairing"), Column("overlaps"), Column("frames_sha256"),
-                   Column("source"))),
+          row=rows.DatasetRow),
 )
 
 FIGURES = (

@@ -28,6 +28,7 @@ from vpr_smr.eval.predictor.records import (
 )
 from vpr_smr.eval.report import build as report
 from vpr_smr.eval.report import registry
+from vpr_smr.eval.report.rows import cells
 from vpr_smr.eval.scoring.curves import Curve, compare_curves, reduction_pct
 from vpr_smr.eval.scoring.records import Evaluation
 from vpr_smr.pipeline.cli import main
@@ -214,7 +215,7 @@ def test_leave_one_out_rows_show_na():
     numbers = HeldOutScores("p.h5", 0.5, 3, {"paper": ModeRemoval(0.5, 0.5, nothing)})
     rows = report.lomo_rows([HeldOut({"dataset": "d", "method": "m", "seq_len": 4}, 57,
                                      HeldOutPredictors(numbers, numbers))])
-    text = report.markdown_table(registry.table("leave_one_method_out").names(), rows)
+    text = report.markdown_table(registry.table("leave_one_method_out").names(), map(cells, rows))
     assert text.splitlines()[-1] == ("| d | 4 | m | paper | 57 | 0.5000 | 0.5000 | 3 | 3 | 0.0000 | 0.0000 | 0.0000 "
                                      "| n/a | n/a | nothing_to_reduce | nothing_to_reduce |")
 

@@ -1,0 +1,448 @@
+"""A table's row as a typed record: the record's fields are the table's columns, in its files' order.
+
+A row record is a frozen dataclass whose fields are declared here: ``column`` (one column: its header on the page
+and how the page writes it), ``interval`` (a field ``<name>_ci``, a 95 % interval or None: the two columns
+``<name>_ci_low`` and ``<name>_ci_high``, as ``bounds`` reads them), ``each`` (a mapping written as one column
+per key: ``recall_at_{}`` per N, ``f1_{evaluation}`` per evaluation split) or ``extra`` (what the page or a
+figure reads beside the columns, never written). ``columns(RowType)`` lists the declared columns, which
+``registry.Table`` takes from its row record; ``cells(row)`` is the row as the writer and the page read it (a
+mapping by column name, the extras beside).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+
+from vpr_smr.core.constants import RECALL_AT
+from vpr_smr.eval.report.bounds import HIGH, LOW
+from vpr_smr.eval.report.results import ground_truth_text, split_text, split_word
+from vpr_smr.eval.scoring.records import (
+    EvaluationSplit,
+    HeldOut,
+    MatcherMetrics,
+    RestorationNumbers,
+    SplitTiming,
+    SweepPoint,
+    TrustNumbers,
+)
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.report.results import Splits
+    from vpr_smr.eval.scoring.intervals import Interval
+
+SPLIT_ROLES = ("evaluation", "validation", "last")  # ``results.Splits``' roles a column can be one per split of
+
+
+@dataclass(frozen=True)
+class Column:
+    """A table's column: ``name`` in its files (the headers of the CSV, Markdown and LaTeX tables) and in the page's
+    whole table; ``label`` its header in the page's compact tables (default: the name, underscores as spaces);
+    ``fmt`` how the page writes a float of it (a format spec; the CSV keeps every digit, Markdown and LaTeX 4
+    decimals).
+
+    A name with ``{evaluation}``, ``{validation}`` or ``{last}`` stands for one column per split of that role of
+    ``results.Splits`` (``expand``); its label says the split as ``{split}`` (the name) or ``{word}``
+    (``results.split_word``). ``if_any``: a compact table shows it only when a row has a value in it; ``note``:
+    a compact table says it in its note (first row's value, then label), not as a column.
+    """
+
+    name: str
+    label: str = ""
+    fmt: str = ".4f"
+    if_any: bool = False
+    note: bool = False
+
+    @property
+    def header(self) -> str:
+        return self.label or self.name.replace("_", " ")
+
+    def expand(self, splits: Splits | None = None) -> tuple[Column, ...]:
+        """The column, or one per split of its role in ``splits`` (none when the role has no split)."""
+        role = next((role for role in SPLIT_ROLES if f"{{{role}}}" in self.name), None)
+        if role is None:
+            return (self,)
+        if splits is None:
+            raise ValueError(f"column {self.name!r} is one per split: name the run's splits")
+        names: Sequence[str | None] = splits.evaluation if role == "evaluation" else (
+            [splits.validation] if role == "validation" else [splits.last])
+        return tuple(replace(self, name=self.name.format(**{role: name}),
+                             label=self.label.format(split=name, word=split_word(name)))
+                     for name in names if name is not None)
+
+
+class Row(Protocol):
+    """A row record: a dataclass whose fields are declared by this module."""
+
+    __dataclass_fields__: ClassVar[dict[str, dataclasses.Field[Any]]]
+
+
+_KIND = "vpr_smr.column"  # the field metadata key: what kind of column a field is, and its column's declaration
+
+# Columns of several tables: the same header and format wherever a row record has a field of that name
+SHARED = {column.name: column for column in (
+    Column("seq_len", "L"), Column("n_queries", "queries"), Column("aoc_vpr_sm", "AOC VPR+SM"),
+    Column("aoc_vpr_sm_pred", "AOC VPR+SM+Pred"), Column("reduction_pct", "AOC reduction (%)", ".2f"),
+    Column("recall_at_1_single", "R@1 single"), Column("recall_at_1_sequence", "R@1 sequence"),
+    Column("f1_macro", "macro F1"), Column("f1_cv", "F1 cross-validation"))}
+
+
+def _shared(name: str, label: str, fmt: str | None) -> Column:
+    """The column ``name`` with ``label`` and ``fmt`` where given, else the shared column's (``SHARED``)."""
+    found = SHARED.get(name, Column(name))
+    return replace(found, label=label or found.label, fmt=fmt or found.fmt)
+
+
+def column(label: str = "", fmt: str | None = None, *, if_any: bool = False, note: bool = False,
+           default: Any = dataclasses.MISSING) -> Any:
+    """A field that is one column, named as the field (``label``, ``fmt``, ``if_any``, ``note``: ``Column``'s;
+    ``label`` and ``fmt`` default to ``SHARED``'s column of that name, else to ``Column``'s defaults)."""
+    declared = ("one", label, fmt, if_any, note)
+    return dataclasses.field(default=default, metadata={_KIND: declared})
+
+
+def interval(label: str = "", fmt: str | None = None, *, default: Any = dataclasses.MISSING) -> Any:
+    """A field ``<name>_ci`` holding an ``Interval`` or None: the two columns ``<name>_ci_low`` and
+    ``<name>_ci_high`` (``bounds``), labelled ``<label>, low`` and ``<label>, high`` (``label`` and ``fmt``: the
+    number's; default: ``SHARED``'s column ``<name>``, else its name, underscores as spaces)."""
+    return dataclasses.field(default=default, metadata={_KIND: ("interval", label, fmt)})
+
+
+def each(keys: Sequence[Any], name: str, label: str = "", fmt: str = ".4f", *, note: bool = False,
+         default: Any = dataclasses.MISSING) -> Any:
+    """A field holding a mapping, one column per key: ``name`` and ``label`` with ``{}`` for the key (``keys``: the
+    columns' order), or with a split role (``{evaluation}``, ``{validation}``, ``{last}``: ``keys`` empty, one column
+    per split of that role, ``Column.expand``). A key the mapping lacks leaves its cell empty."""
+    factory: Any = dict if default is dataclasses.MISSING else dataclasses.MISSING
+    return dataclasses.field(default=default, default_factory=factory,
+                             metadata={_KIND: ("each", Column(name, label, fmt, note=note), tuple(keys))})
+
+
+def extra(default: Any = None) -> Any:
+    """A field the page or a figure reads beside the columns (e.g. every seed's outcome); never written."""
+    return dataclasses.field(default=default, metadata={_KIND: ("extra",)})
+
+
+def _declared(field: dataclasses.Field[Any]) -> tuple[Any, ...]:
+    found = field.metadata.get(_KIND)
+    if found is None:
+        raise TypeError(f"row field {field.name!r} is not declared by eval/report/rows.py (column, interval, each "
+                        "or extra)")
+    declared: tuple[Any, ...] = found
+    return declared
+
+
+def _columns(field: dataclasses.Field[Any]) -> tuple[Column, ...]:
+    kind, *rest = _declared(field)
+    if kind == "one":
+        label, fmt, if_any, note = rest
+        return (replace(_shared(field.name, label, fmt), if_any=if_any, note=note),)
+    if kind == "interval":
+        base = _base(field)
+        number = _shared(base, *rest)
+        return tuple(Column(f"{base}{end}", f"{number.header}, {word}", number.fmt)
+                     for end, word in ((LOW, "low"), (HIGH, "high")))
+    if kind == "each":
+        declared, keys = rest
+        if not keys:  # one per split of a role: ``Column.expand`` names them
+            return (declared,)
+        return tuple(replace(declared, name=declared.name.format(key), label=declared.label.format(key))
+                     for key in keys)
+    return ()
+
+
+def _base(field: dataclasses.Field[Any]) -> str:
+    """The number an interval field is of: ``reduction_pct_ci`` -> ``reduction_pct``."""
+    if not field.name.endswith("_ci"):
+        raise TypeError(f"interval field {field.name!r}: name it <number>_ci")
+    return field.name.removesuffix("_ci")
+
+
+def columns(row_type: type[Row]) -> tuple[Column, ...]:
+    """The columns of a row record, in its fields' order (a split role's column still one per role)."""
+    return tuple(found for field in dataclasses.fields(row_type) for found in _columns(field))
+
+
+def cells(row: Row) -> dict[str, Any]:
+    """The row as its table's files and the page read it: each column's value by name (an interval as its two
+    bounds, a mapping as one column per key it holds), the extras beside."""
+    out: dict[str, Any] = {}
+    for field in dataclasses.fields(row):
+        kind, *rest = _declared(field)
+        value = getattr(row, field.name)
+        if kind in ("one", "extra"):
+            out[field.name] = value
+        elif kind == "interval":
+            low, high = (None, None) if value is None else (value.low, value.high)
+            out.update({f"{_base(field)}{LOW}": low, f"{_base(field)}{HIGH}": high})
+        else:
+            declared, keys = rest
+            role = next((role for role in SPLIT_ROLES if f"{{{role}}}" in declared.name), None)
+            items: Mapping[Any, Any] = value
+            for key, one in items.items():
+                out[declared.name.format(**{role: key}) if role else declared.name.format(key)] = one
+    return out
+
+
+
+# --- the row records of the tables ``build`` computes -------------------------------------------------------------
+# Each is built from the stage's record by its ``of``: the columns are spelt here, once.
+
+CLASSES = range(4)  # the predictor's classes (method §6)
+
+
+@dataclass(frozen=True)
+class ConfusionRow:
+    """``predictor_confusion``: one true class of the seed-0 confusion matrix of a dataset, L and method (or
+    ``all``, summed over the methods)."""
+
+    dataset: str = column()
+    seq_len: int = column()
+    method: str = column()
+    true_class: int = column()
+    predicted: Mapping[int, int] = each(CLASSES, "predicted_{}", "predicted {}")
+    total: int = column(default=0)
+
+    @classmethod
+    def of(cls, dataset: str, seq_len: int, method: str, true_class: int, counts: Sequence[int]) -> ConfusionRow:
+        return cls(dataset, seq_len, method, true_class, {c: int(counts[c]) for c in CLASSES}, int(sum(counts)))
+
+
+@dataclass(frozen=True)
+class PredictorMethodRow:
+    """``predictor_methods``: the seed-0 predictor on one method's table split: macro F1, the true and the
+    predicted classes' counts."""
+
+    dataset: str = column()
+    seq_len: int = column()
+    method: str = column()
+    split: str = column()
+    n_queries: int = column()
+    f1_macro: float = column()
+    true: Mapping[int, int] = each(CLASSES, "class_{}", "true {}")
+    predicted: Mapping[int, int] = each(CLASSES, "predicted_{}", "predicted {}")
+
+    @classmethod
+    def of(cls, dataset: str, seq_len: int, method: str, split: str, result: EvaluationSplit) -> PredictorMethodRow:
+        return cls(dataset, seq_len, method, split, result.n_queries, result.f1_macro,
+                   {c: result.class_counts[c] for c in CLASSES}, {c: result.predicted_counts[c] for c in CLASSES})
+
+
+MS = ".3f"  # times on the page
+
+
+@dataclass(frozen=True)
+class TimingRow:
+    """``timing``: one evaluation's split: the seconds of the attributes and of the prediction, and per query."""
+
+    dataset: str = column()
+    method: str = column()
+    seq_len: int = column()
+    split: str = column()
+    n_queries: int = column()
+    attributes_seconds: float = column(fmt=MS)
+    predict_seconds: float = column(fmt=MS)
+    ms_per_query: float = column(fmt=MS)
+    ms_attributes_per_query: float = column("attributes (ms)", MS)
+    ms_predict_per_query: float = column("prediction (ms)", MS)
+
+    @classmethod
+    def of(cls, dataset: str, method: str, seq_len: int, split: str, numbers: SplitTiming) -> TimingRow:
+        n = max(numbers.n_queries, 1)
+        attributes, predict = numbers.attributes_seconds, numbers.predict_seconds
+        return cls(dataset, method, seq_len, split, numbers.n_queries, attributes, predict,
+                   1e3 * (attributes + predict) / n, 1e3 * attributes / n, 1e3 * predict / n)
+
+
+@dataclass(frozen=True)
+class VPRMetricsRow:
+    """``vpr_metrics``: the standard VPR metrics of one matcher (single frame, sequence, sequence + predictor)."""
+
+    dataset: str = column()
+    method: str = column()
+    seq_len: int = column()
+    split: str = column()
+    mode: str = column()
+    matcher: str = column()
+    n_queries: int = column()
+    recall_at: Mapping[int, float | None] = each(RECALL_AT, "recall_at_{}", "R@{}")
+    recall_at_100p: float = column("R@100P", default=0.0)
+    pr_auc: float = column("PR-AUC", default=0.0)
+    extended_precision: float = column("EP", default=0.0)
+
+    @classmethod
+    def of(cls, key: tuple[str, str, int], split: str, mode: str, matcher: str,
+           numbers: MatcherMetrics) -> VPRMetricsRow:
+        dataset, method, seq_len = key
+        return cls(dataset, method, seq_len, split, mode, matcher, numbers.n_queries,
+                   {n: numbers.recall_at.get(n) for n in RECALL_AT}, numbers.recall_at_100p, numbers.pr_auc,
+                   numbers.extended_precision)
+
+
+@dataclass(frozen=True)
+class HeldOutRow:
+    """``leave_one_method_out``: one held-out method in one mode under the pooled predictor and under one trained
+    without it."""
+
+    dataset: str = column()
+    seq_len: int = column()
+    held_out: str = column()
+    mode: str = column()
+    n_queries: int = column()
+    f1_pooled: float = column("F1 pooled")
+    f1_without: float = column("F1 without")
+    removed_pooled: int = column()
+    removed_without: int = column()
+    aoc_vpr_sm: float = column()
+    aoc_pooled: float = column("AOC pooled")
+    aoc_without: float = column("AOC without")
+    reduction_pct_pooled: float | None = column("reduction pooled (%)", ".2f")
+    reduction_pct_pooled_ci: Interval | None = interval("reduction pooled (%)", ".2f")
+    reduction_pct_without: float | None = column("reduction without (%)", ".2f")
+    reduction_pct_without_ci: Interval | None = interval("reduction without (%)", ".2f")
+    outcome_pooled: str = column(default="")
+    outcome_without: str = column(default="")
+
+    @classmethod
+    def of(cls, key: tuple[str, str, int], mode: str, result: HeldOut) -> HeldOutRow:
+        dataset, method, seq_len = key
+        pooled, without = result.pooled.modes[mode].reduction, result.without.modes[mode].reduction
+        return cls(dataset, seq_len, method, mode, result.n_queries, result.pooled.f1_macro,
+                   result.without.f1_macro, result.pooled.removed, result.without.removed, pooled.aoc_vpr_sm,
+                   pooled.aoc_vpr_sm_pred, without.aoc_vpr_sm_pred, pooled.reduction_pct, pooled.reduction_pct_ci,
+                   without.reduction_pct, without.reduction_pct_ci, pooled.outcome, without.outcome)
+
+
+@dataclass(frozen=True)
+class TrustRow:
+    """``trust_levels``: match removal at one trust level against the baseline (``records.TrustNumbers``)."""
+
+    dataset: str = column()
+    method: str = column()
+    seq_len: int = column()
+    mode: str = column()
+    trust: float = column("trust level", "g")
+    removed: int = column()
+    max_recall: float = column()
+    auc: float = column()
+    aoc: float = column()
+    auc_vpr_sm: float = column()
+    aoc_vpr_sm: float = column()
+    reduction_pct: float | None = column()
+    reduction_pct_ci: Interval | None = interval()
+    outcome: str = column(default="")
+    n_queries: int = column(default=0)
+
+    @classmethod
+    def of(cls, key: tuple[str, str, int], mode: str, trust: float, numbers: TrustNumbers,
+           n_queries: int) -> TrustRow:
+        dataset, method, seq_len = key
+        return cls(dataset, method, seq_len, mode, trust, numbers.removed, numbers.max_recall, numbers.auc,
+                   numbers.aoc, numbers.auc_vpr_sm, numbers.aoc_vpr_sm, numbers.reduction_pct,
+                   numbers.reduction_pct_ci, numbers.outcome, n_queries)
+
+
+@dataclass(frozen=True)
+class RestorationRow:
+    """``restoration``: one method's match restoration (the second filter) against removal alone, in one mode."""
+
+    dataset: str = column()
+    method: str = column()
+    seq_len: int = column()
+    mode: str = column()
+    removed: int = column()
+    restored: int = column()
+    restored_correct: int = column()
+    restored_wrong: int = column()
+    wrong_to_right: int = column()
+    right_to_wrong: int = column()
+    max_recall_removal: float = column()
+    max_recall_restoration: float = column()
+    auc_vpr_sm: float = column()
+    auc_removal: float = column("PR AUC removal")
+    auc_restoration: float = column("PR AUC restoration")
+    auc_difference: float = column("PR AUC difference")
+    aoc_removal: float = column()
+    aoc_restoration: float = column()
+    aoc_difference: float = column()
+    reduction_pct: float | None = column()
+    reduction_pct_ci: Interval | None = interval()
+    n_queries: int = column(default=0)
+
+    @classmethod
+    def of(cls, key: tuple[str, str, int], mode: str, restoration: RestorationNumbers,
+           n_queries: int) -> RestorationRow:
+        dataset, method, seq_len = key
+        r, numbers = restoration, restoration.modes[mode]
+        return cls(dataset, method, seq_len, mode, r.removed, r.restored, r.restored_correct, r.restored_wrong,
+                   r.wrong_to_right, r.right_to_wrong, numbers.max_recall_removal, numbers.max_recall_restoration,
+                   numbers.auc_vpr_sm, numbers.auc_removal, numbers.auc_restoration, numbers.auc_difference,
+                   numbers.aoc_removal, numbers.aoc_restoration, numbers.aoc_difference, numbers.reduction_pct,
+                   numbers.reduction_pct_ci, n_queries)
+
+
+@dataclass(frozen=True)
+class SweepRow:
+    """``protocol_sweep``: one tolerance or radius of one method and mode: recall@1 and, with a predictor, Table
+    I's numbers of its removal (none without)."""
+
+    dataset: str = column()
+    method: str = column()
+    seq_len: int = column()
+    split: str = column()
+    mode: str = column()
+    ground_truth: str = column()  # the kind swept: frames or positions
+    threshold: float = column("tolerance or radius", "g")  # its tolerance in frames or its radius
+    recall_at_1_single: float = column()
+    recall_at_1_sequence: float = column()
+    # single-frame recall@1 over the sequence recall's queries, and the paired interval of the change
+    recall_at_1_single_evaluated: float | None = column("R@1 single, same queries")
+    recall_change_ci: Interval | None = interval("R@1 sequence minus single")
+    max_recall: float | None = column(default=None)
+    aoc_vpr_sm: float | None = column(default=None)
+    aoc_vpr_sm_pred: float | None = column(default=None)
+    reduction_pct: float | None = column(default=None)
+    reduction_pct_ci: Interval | None = interval(default=None)
+    outcome: str | None = column(default=None)
+    n_queries: int | None = column(default=None)  # the evaluated queries: the sequence recall@1's denominator
+
+    @classmethod
+    def of(cls, key: tuple[str, str, int], split: str, mode: str, kind: str, point: SweepPoint,
+           n_queries: int | None) -> SweepRow:
+        dataset, method, seq_len = key
+        row = cls(dataset, method, seq_len, split, mode, kind, point.threshold, point.recall_at_1_single,
+                  point.recall_at_1_sequence, point.recall_at_1_single_evaluated, point.recall_change_ci,
+                  n_queries=n_queries)
+        r = point.reduction  # none without a predictor
+        return row if r is None else replace(
+            row, max_recall=r.max_recall, aoc_vpr_sm=r.aoc_vpr_sm, aoc_vpr_sm_pred=r.aoc_vpr_sm_pred,
+            reduction_pct=r.reduction_pct, reduction_pct_ci=r.reduction_pct_ci, outcome=r.outcome)
+
+
+@dataclass(frozen=True)
+class DatasetRow:
+    """``datasets``: one dataset's card (``pipeline.plan.dataset_cards``) as texts and counts."""
+
+    dataset: str = column()
+    reference: str = column()
+    query: str = column()
+    n_frames: Any = column()  # a count, or "reference / query" frames for a dataset with positions (method §11)
+    splits: str = column()
+    tolerance: Any = column()  # the frames within the tolerance, else the ground truth's text (positions, a file)
+    pairing: str = column()
+    overlaps: str = column()
+    frames_sha256: str = column()
+    source: str = column()
+
+    @classmethod
+    def of(cls, name: str, info: dict[str, Any]) -> DatasetRow:
+        return cls(name, info.get("reference", ""), info.get("query", ""),
+                   info.get("n_frames") if info.get("n_query_frames") is None
+                   else f"{info.get('n_frames')} / {info['n_query_frames']}",
+                   split_text(info.get("splits", {}), info.get("reference_splits")),
+                   info.get("tolerance") if info.get("radius") is None and info.get("ground_truth") is None
+                   else ground_truth_text(info),
+                   info.get("pairing", ""), "; ".join(info.get("overlaps", [])), info.get("frames_sha256", ""),
+                   info.get("source", ""))
