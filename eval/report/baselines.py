@@ -12,14 +12,15 @@ each with its interval over queries and the paired interval of its difference fr
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Collection, Iterable, Mapping, Sequence
+from dataclasses import dataclass, fields
 from typing import Any
 
 import numpy as np
 
 from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report.results import Order
+from vpr_smr.eval.report.rows import SeqLenRow, Table1Row
 from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.records import Baselines, SplitBaselines, Versus
@@ -137,7 +138,7 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
     return rows
 
 
-def best_scorer(rows: Iterable[dict[str, Any]], key: str = "reduction_pct") -> dict[str, Any] | None:
+def best_scorer(rows: Iterable[Mapping[str, Any]], key: str = "reduction_pct") -> Mapping[str, Any] | None:
     """The row of the training-free scorer with the largest seed-0 ``key`` among ``rows`` (one method's, one
     mode's: as the seed-0 predictor's), the first in the registry's order on a tie; None when none is defined."""
     candidates = [r for r in rows if r["scorer"] in scorers.training_free() and r.get(key) is not None]
@@ -146,37 +147,32 @@ def best_scorer(rows: Iterable[dict[str, Any]], key: str = "reduction_pct") -> d
     return max(candidates, key=lambda r: (r[key], -scorers.names().index(r["scorer"])))
 
 
-def _groups(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], list[dict[str, Any]]]:
+def _groups(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, int, str], list[Mapping[str, Any]]]:
     """``baseline_rows`` by (dataset, method, L, mode)."""
-    groups: dict[tuple[str, str, int, str], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, str, int, str], list[Mapping[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), []).append(row)
     return groups
 
 
-def best_by_row(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], dict[str, Any]]:
-    """Per (dataset, method, L, mode) of ``baseline_rows``, the best training-free scorer's row."""
-    return {key: best for key, group in _groups(rows).items() if (best := best_scorer(group)) is not None}
-
-
-def with_best(table_rows: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+def with_best(table_rows: Sequence[Table1Row], rows: Sequence[Mapping[str, Any]]) -> list[SeqLenRow]:
     """The sequence-length ablation's rows (Table I's) with the best training-free scorer of each (dataset,
-    method, L, mode) beside the predictor: ``best_scorer``, its ``best_scorer_reduction_pct``, and (not columns)
-    the outcome that says why it is undefined (``best_scorer_outcome``: where no training-free reduction is
-    defined, the outcome they share, e.g. nothing to reduce, and no scorer) and its PR AUC at the seed-0 budget
-    (``best_scorer_auc``, which the sequence-length figure marks)."""
+    method, L, mode) of ``baseline_rows``' ``rows`` beside the predictor: its name, reduction, PR AUC at the seed-0
+    budget (which the sequence-length figure marks) and outcome; where no training-free reduction is defined, the
+    outcome they share (e.g. nothing to reduce) says why, and no scorer is named."""
     groups = _groups(rows)
     out = []
     for row in table_rows:
-        group = groups.get((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), [])
+        group = groups.get((row.dataset, row.method, row.seq_len, row.mode), [])
+        numbers = {field.name: getattr(row, field.name) for field in fields(row)}
         found = best_scorer(group)
         if found is not None:
-            extra = {"best_scorer": found["scorer"], "best_scorer_reduction_pct": found["reduction_pct"],
-                     "best_scorer_outcome": found["outcome"], "best_scorer_auc": found.get("auc")}
-        else:
-            outcomes = {r["outcome"] for r in group if r["scorer"] in scorers.training_free()}
-            extra = {"best_scorer_outcome": outcomes.pop()} if len(outcomes) == 1 else {}
-        out.append({**row, **extra})
+            out.append(SeqLenRow(**numbers, best_scorer=found["scorer"],
+                                 best_scorer_reduction_pct=found["reduction_pct"], best_scorer_outcome=found["outcome"],
+                                 best_scorer_auc=found.get("auc")))
+            continue
+        outcomes = {r["outcome"] for r in group if r["scorer"] in scorers.training_free()}
+        out.append(SeqLenRow(**numbers, best_scorer_outcome=outcomes.pop() if len(outcomes) == 1 else None))
     return out
 
 

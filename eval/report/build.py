@@ -41,6 +41,7 @@ from vpr_smr.eval.report.rows import (
     HeldOutRow,
     PredictorMethodRow,
     RestorationRow,
+    SeqLenRow,
     SweepRow,
     TimingRow,
     TrustRow,
@@ -565,6 +566,12 @@ class Inputs:
     baselines: list[Baselines] = dataclasses.field(default_factory=list)
 
 
+def _seq_len_rows(inputs: Inputs) -> list[SeqLenRow]:
+    """The sequence-length ablation: Table I's rows of every L, with the best training-free scorer of each."""
+    best = baseline_rows(inputs.baselines, inputs.split, order=inputs.order) if inputs.baselines else []
+    return with_best(table1_rows(inputs.evaluations, inputs.split, order=inputs.order), best)
+
+
 def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[WrittenTable]:
     contents: dict[str, tuple[list[dict[str, Any]], dict[str, str]]] = {}
     evaluations, split, order = inputs.evaluations, inputs.split, inputs.order
@@ -576,8 +583,9 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
         contents[name] = ([cells(row) if spec.row is not None else row for row in rows], special)
 
     if evaluations:
-        rows = table1_rows(evaluations, split, inputs.table_seq_lens, order)
-        table("table1", rows, markdown=table1_markdown(rows, split), latex=table1_latex(rows, split))
+        table1 = table1_rows(evaluations, split, inputs.table_seq_lens, order)
+        shown = [cells(row) for row in table1]
+        table("table1", table1, markdown=table1_markdown(shown, split), latex=table1_latex(shown, split))
         table("predictor_methods", predictor_method_rows(evaluations, split, order))
         table("predictor_confusion", confusion_rows(evaluations, split, order))
         trust = trust_rows(evaluations, split, order)
@@ -587,11 +595,8 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
         if restoration:
             table("restoration", restoration)
         table("timing", timing_rows(evaluations, inputs.timings, order))
-        if inputs.seq_len_ablation:
-            rows = table1_rows(evaluations, split, order=order)
-            if inputs.baselines:  # the best training-free scorer of every L beside the predictor
-                rows = with_best(rows, baseline_rows(inputs.baselines, split, order=order))
-            table("ablation_seq_len", rows)
+        if inputs.seq_len_ablation:  # with the best training-free scorer of every L beside the predictor
+            table("ablation_seq_len", _seq_len_rows(inputs))
     if inputs.baselines:
         table("baselines", baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order))
         table("wrong_match_detection", detection_rows(inputs.baselines, split, inputs.table_seq_lens, order))
@@ -664,11 +669,8 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
         path = fig.confusion_figure(file("confusion", dataset=dataset, seq_len=seq_len), matrix,
                                     f"{dataset}, L={seq_len}: all methods ({split}{inputs.correct(dataset)})")
         keep("confusion", f"{dataset}, L={seq_len}", path, dataset, seq_len)
-    if inputs.seq_len_ablation and inputs.evaluations:
-        rows = table1_rows(inputs.evaluations, split, order=order)
-        if inputs.baselines:  # the best training-free scorer's PR AUC marked beside the predictor's bar
-            rows = with_best(rows, baseline_rows(inputs.baselines, split, order=order))
-        figures += _seq_len_figures(out_dir, rows, order, inputs)
+    if inputs.seq_len_ablation and inputs.evaluations:  # the best training-free scorer's PR AUC marked beside
+        figures += _seq_len_figures(out_dir, [cells(row) for row in _seq_len_rows(inputs)], order, inputs)
     if inputs.baselines:
         figures += _baseline_figures(out_dir, inputs)
     if inputs.speed:

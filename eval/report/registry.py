@@ -178,7 +178,7 @@ SCORER = Column("scorer")
 
 TABLES = (
     Table("table1", "Table I: area over the PR curve at max recall", ("table1",),
-          columns=(*TABLE1_NUMBERS, *QUERIES, SEEDS_DEFINED, *OUTCOMES),
+          row=rows.Table1Row,
           page=("method", "recall_at_1_single", "recall_at_1_sequence", "max_recall", "reduction_pct")),
     Table("predictor_methods", "Predictor alone: macro F1, class counts and predicted counts per method",
           ("table1",),
@@ -228,8 +228,7 @@ TABLES = (
                   "expected average precision"),
     Table("ablation_seq_len", "Sequence-length ablation: Table I columns per dataset, method and sequence length",
           ("table1", "seq_len"),
-          columns=(*TABLE1_NUMBERS, AUC_VPR_SM, Column("auc_vpr_sm_pred"), *QUERIES, SEEDS_DEFINED, *OUTCOMES,
-                   *BEST_SCORER),
+          row=rows.SeqLenRow,
           pivot=Pivot("seq_len", ("method",), ("reduction_pct",)),
           caption="AOC reduction (%) per sequence length (columns: methods)"),
     Table("speed", "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search "

@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from vpr_smr.core.constants import RECALL_AT
+from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.bounds import HIGH, LOW
 from vpr_smr.eval.report.results import ground_truth_text, split_text, split_word
 from vpr_smr.eval.scoring.records import (
@@ -446,3 +447,76 @@ class DatasetRow:
                    else ground_truth_text(info),
                    info.get("pairing", ""), "; ".join(info.get("overlaps", [])), info.get("frames_sha256", ""),
                    info.get("source", ""))
+
+
+@dataclass(frozen=True, kw_only=True)
+class Table1Row:
+    """``table1``: one dataset, method, L and mode of the table split: recall@1, the seed-0 predictor's AOCs and
+    reduction with their intervals, the reduction's spread over the seeds, the queries they are over, and what the
+    seed-0 predictor did (``curves.outcome``, the matches it removed, the baseline's own maximum recall and AOC, the
+    seeds the spread leaves out)."""
+
+    dataset: str = column()
+    method: str = column()
+    seq_len: int = column()
+    mode: str = column()
+    # recall@1 single by the mode's rule: paper mode over every query of the split (n_queries_single)
+    recall_at_1_single: float = column()
+    recall_at_1_sequence: float = column()
+    max_recall: float = column()
+    aoc_vpr_sm: float = column()
+    aoc_vpr_sm_ci: Interval | None = interval()
+    aoc_vpr_sm_pred: float = column()
+    aoc_vpr_sm_pred_ci: Interval | None = interval()
+    reduction_pct: float | None = column()  # None where the baseline's AOC is 0
+    reduction_pct_ci: Interval | None = interval()
+    # over the seeds whose reduction is defined (n_seeds_defined); the std None under two (``seed_summary``)
+    reduction_pct_mean: float | None = column(fmt=".2f")
+    reduction_pct_std: float | None = column(fmt=".2f")
+    reduction_pct_min: float | None = column(fmt=".2f")
+    reduction_pct_max: float | None = column(fmt=".2f")
+    n_seeds: int = column()
+    auc_vpr_sm: float = extra()  # the PR AUCs: the sequence-length table's columns and figure
+    auc_vpr_sm_pred: float = extra()
+    n_queries: int = column()  # the queries with a sequence match (Q - L + 1): every sequence number is over them
+    n_queries_single: int = column()  # those recall_at_1_single is over (paper mode: every query of the split)
+    n_seeds_defined: int = column()
+    outcome: str = column()
+    removed: int = column()
+    max_recall_vpr_sm: float = column()
+    aoc_vpr_sm_own: float = column()
+    seeds_left_out: str = column()
+    seed_outcomes: Mapping[int, str] = extra()  # every seed's outcome, by seed
+
+    @classmethod
+    def of(cls, key: tuple[str, str, int], mode: str, result: EvaluationSplit) -> Table1Row:
+        dataset, method, seq_len = key
+        numbers, summary = result.modes[mode], result.seed_summary[mode]
+        r = numbers.reduction
+        return cls(dataset=dataset, method=method, seq_len=seq_len, mode=mode,
+                   recall_at_1_single=numbers.recall_at_1_single, recall_at_1_sequence=numbers.recall_at_1_sequence,
+                   max_recall=r.max_recall, aoc_vpr_sm=r.aoc_vpr_sm, aoc_vpr_sm_ci=r.aoc_vpr_sm_ci,
+                   aoc_vpr_sm_pred=r.aoc_vpr_sm_pred, aoc_vpr_sm_pred_ci=r.aoc_vpr_sm_pred_ci,
+                   reduction_pct=r.reduction_pct, reduction_pct_ci=r.reduction_pct_ci,
+                   reduction_pct_mean=summary.reduction_pct_mean, reduction_pct_std=summary.reduction_pct_std,
+                   reduction_pct_min=summary.reduction_pct_min, reduction_pct_max=summary.reduction_pct_max,
+                   n_seeds=summary.n_seeds, auc_vpr_sm=r.auc_vpr_sm, auc_vpr_sm_pred=r.auc_vpr_sm_pred,
+                   n_queries=result.n_queries,
+                   n_queries_single=result.n_queries_split if mode == "paper" else result.n_queries,
+                   n_seeds_defined=summary.n_seeds_defined, outcome=r.outcome, removed=result.removed,
+                   max_recall_vpr_sm=r.max_recall_vpr_sm, aoc_vpr_sm_own=r.aoc_vpr_sm_own,
+                   seeds_left_out=words.seeds_left_out(summary.outcomes), seed_outcomes=summary.outcomes)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SeqLenRow(Table1Row):
+    """``ablation_seq_len``: Table I's row of every L, its PR AUCs, and the best training-free scorer of its
+    dataset, method, L and mode beside the predictor (method §12; ``baselines.with_best``)."""
+
+    auc_vpr_sm: float = column()
+    auc_vpr_sm_pred: float = column()
+    best_scorer: str | None = column("best training-free scorer", default=None)
+    best_scorer_reduction_pct: float | None = column("its AOC reduction (%)", ".2f", default=None)
+    # where no training-free reduction is defined, the outcome they share (e.g. nothing to reduce) and no scorer
+    best_scorer_outcome: str | None = extra()
+    best_scorer_auc: float | None = extra()  # its PR AUC at the seed-0 budget, which the figure marks

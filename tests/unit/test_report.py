@@ -1,6 +1,7 @@
 """Table I layout against the paper's own Table I (its Mean and Improved columns are derived values)."""
 
 import csv
+import dataclasses
 import json
 
 import numpy as np
@@ -431,9 +432,9 @@ def test_method_order_is_the_configurations(tmp_path):
     assert page.index("matches_d_zeta_L4.png") < page.index("matches_d_alpha_L4.png")
     # an explicit order wins over the evaluations'
     evaluations = [Evaluation.from_json(json.loads(p.read_text())) for p in sorted(tmp_path.glob("e_*_L4.json"))]
-    assert [r["method"] for r in table1_rows(evaluations)] == ["alpha", "zeta"]  # the order given (here sorted)
+    assert [r.method for r in table1_rows(evaluations)] == ["alpha", "zeta"]  # the order given (here sorted)
     order = evaluation_order(evaluations, methods=("zeta", "alpha"))
-    assert [r["method"] for r in table1_rows(evaluations, order=order)] == ["zeta", "alpha"]
+    assert [r.method for r in table1_rows(evaluations, order=order)] == ["zeta", "alpha"]
 
 
 def test_vpr_metrics_table_equals_the_records(tmp_path):
@@ -684,6 +685,7 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         detection_headline,
         detection_sentence,
     )
+    from vpr_smr.eval.report.rows import Table1Row
 
     # reductions at the seed-0 budget per method (a, b, c); random's mean over its seeds is 60, its seed 0 1, 2, 3
     numbers = {"uniqueness": (30.0, 10.0, 2.0), "single_uniqueness": (5.0, 40.0, -1.0), "spread": (-3.0, -2.0, -9.0),
@@ -732,8 +734,10 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
     # per row of the sequence-length ablation: the best training-free scorer of that method, by seed 0
     assert best_scorer([r for r in rows if r["method"] == "a"])["scorer"] == "uniqueness"
     assert best_scorer([r for r in rows if r["method"] == "b"])["scorer"] == "single_uniqueness"
-    (row,) = with_best([{"dataset": "d", "method": "c", "seq_len": 4, "mode": "paper"}], rows)
-    assert (row["best_scorer"], row["best_scorer_reduction_pct"]) == ("random", 3.0)
+    table_row = Table1Row(**{field.name: None for field in dataclasses.fields(Table1Row)}  # only its key matters
+                          | {"dataset": "d", "method": "c", "seq_len": 4, "mode": "paper"})
+    (row,) = with_best([table_row], rows)
+    assert (row.best_scorer, row.best_scorer_reduction_pct) == ("random", 3.0)
     # wrong-match detection (the issue's numbers): the highest seed-0 AP and the paired interval against the
     # predictor's; random's mean over seeds (0.9) is not what it is compared by
     aps = {"a": {"uniqueness": 0.787, "spread": 0.5, "random": 0.3, "predictor": 0.714},
