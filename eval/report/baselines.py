@@ -13,14 +13,14 @@ each with its interval over queries and the paired interval of its difference fr
 from __future__ import annotations
 
 from collections.abc import Collection, Iterable, Mapping, Sequence
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 
 from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report.results import Order
-from vpr_smr.eval.report.rows import SeqLenRow, Table1Row
+from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, SeqLenRow, Table1Row
 from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.records import Baselines, SplitBaselines, Versus
@@ -69,7 +69,7 @@ def headline(row: dict[str, Any]) -> float | None:
 
 
 def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection[int] | None = None,
-                  order: Order | None = None) -> list[dict[str, Any]]:
+                  order: Order | None = None) -> list[BaselineRow]:
     """The ``baselines`` table: one row per dataset, method, L, mode and scorer (in the registry's order) of the
     records' ``split`` (a record without a predictor has none), optionally only the sequence lengths given; by mode,
     L, dataset and method in the configuration's ``order``."""
@@ -89,25 +89,22 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
                 values = [budget.scorers[scorer].modes[mode].reduction_pct for budget in found.removal]
                 mean, std, defined = _spread(values)
                 low, high = _extremes(values)
-                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
-                             "scorer": scorer, "budget": first.budget, "removed": first.scorers[scorer].removed,
-                             "max_recall": numbers.max_recall, "aoc_vpr_sm": numbers.aoc_vpr_sm,
-                             "aoc": numbers.aoc_vpr_sm_pred, "auc": numbers.auc_vpr_sm_pred,
-                             "reduction_pct": numbers.reduction_pct,
-                             "outcome": numbers.outcome, "reduction_pct_mean": mean, "reduction_pct_std": std,
-                             "reduction_pct_min": low, "reduction_pct_max": high, "n_seeds": len(values),
-                             "n_seeds_defined": defined, "n_queries": found.n_queries,
-                             **bounds.flat("aoc_vpr_sm", numbers.aoc_vpr_sm_ci),
-                             **bounds.flat("aoc", numbers.aoc_vpr_sm_pred_ci),
-                             **bounds.flat("reduction_pct", numbers.reduction_pct_ci),
-                             **bounds.flat("reduction_pct_difference", versus[scorer].reduction_pct_difference_ci
-                                           .get(mode) if scorer in versus else None)})
-    return sorted(rows, key=lambda r: (order.mode(r["mode"]), r["seq_len"], order.dataset(r["dataset"]),
-                                       order.method(r["method"]), scorers.names().index(r["scorer"])))
+                rows.append(BaselineRow(
+                    dataset=dataset, method=method, seq_len=seq_len, split=split, mode=mode, scorer=scorer,
+                    budget=first.budget, removed=first.scorers[scorer].removed, max_recall=numbers.max_recall,
+                    aoc_vpr_sm=numbers.aoc_vpr_sm, aoc_vpr_sm_ci=numbers.aoc_vpr_sm_ci, aoc=numbers.aoc_vpr_sm_pred,
+                    aoc_ci=numbers.aoc_vpr_sm_pred_ci, reduction_pct=numbers.reduction_pct,
+                    reduction_pct_ci=numbers.reduction_pct_ci, outcome=numbers.outcome,
+                    reduction_pct_difference_ci=versus[scorer].reduction_pct_difference_ci.get(mode)
+                    if scorer in versus else None, reduction_pct_mean=mean, reduction_pct_std=std,
+                    reduction_pct_min=low, reduction_pct_max=high, n_seeds=len(values), n_seeds_defined=defined,
+                    n_queries=found.n_queries, auc=numbers.auc_vpr_sm_pred))
+    return sorted(rows, key=lambda r: (order.mode(r.mode), r.seq_len, order.dataset(r.dataset),
+                                       order.method(r.method), scorers.names().index(r.scorer)))
 
 
 def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collection[int] | None = None,
-                   order: Order | None = None) -> list[dict[str, Any]]:
+                   order: Order | None = None) -> list[DetectionRow]:
     """The ``wrong_match_detection`` table: one row per dataset, method, L and scorer of the records' ``split``:
     average precision and ROC AUC (``random`` and ``predictor``: the first seed's; ``random`` also their mean and
     sample standard deviation over its seeds), and the wrong matches they are over."""
@@ -121,19 +118,17 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
         versus = found.versus_predictor or {}
         for scorer in (name for name in scorers.names() if name in found.detection):
             numbers = found.detection[scorer]
-            row = {"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "scorer": scorer,
-                   "average_precision": numbers.average_precision, "roc_auc": numbers.roc_auc,
-                   "average_precision_mean": None, "average_precision_std": None, "roc_auc_mean": None,
-                   "roc_auc_std": None, "n_seeds": 1, "wrong_fraction": found.wrong_fraction,
-                   "n_wrong": found.n_wrong, "n_queries": found.n_queries,
-                   **bounds.flat("average_precision", numbers.average_precision_ci),
-                   **bounds.flat("average_precision_difference", versus[scorer].average_precision_difference_ci
-                                 if scorer in versus else None)}
-            if scorer == RANDOM:
+            row = DetectionRow(
+                dataset=dataset, method=method, seq_len=seq_len, split=split, scorer=scorer,
+                average_precision=numbers.average_precision, average_precision_ci=numbers.average_precision_ci,
+                average_precision_difference_ci=versus[scorer].average_precision_difference_ci
+                if scorer in versus else None, roc_auc=numbers.roc_auc, wrong_fraction=found.wrong_fraction,
+                n_wrong=found.n_wrong, n_queries=found.n_queries)
+            if scorer == RANDOM:  # the first seed's, and the mean and spread over every seed
                 ap = _spread([d.average_precision for d in found.random_detection])
                 auc = _spread([d.roc_auc for d in found.random_detection])
-                row.update(average_precision_mean=ap[0], average_precision_std=ap[1], roc_auc_mean=auc[0],
-                           roc_auc_std=auc[1], n_seeds=len(found.random_detection))
+                row = replace(row, average_precision_mean=ap[0], average_precision_std=ap[1], roc_auc_mean=auc[0],
+                              roc_auc_std=auc[1], n_seeds=len(found.random_detection))
             rows.append(row)
     return rows
 

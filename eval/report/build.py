@@ -569,7 +569,7 @@ class Inputs:
 def _seq_len_rows(inputs: Inputs) -> list[SeqLenRow]:
     """The sequence-length ablation: Table I's rows of every L, with the best training-free scorer of each."""
     best = baseline_rows(inputs.baselines, inputs.split, order=inputs.order) if inputs.baselines else []
-    return with_best(table1_rows(inputs.evaluations, inputs.split, order=inputs.order), best)
+    return with_best(table1_rows(inputs.evaluations, inputs.split, order=inputs.order), [cells(r) for r in best])
 
 
 def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[WrittenTable]:
@@ -701,7 +701,7 @@ def _baseline_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     (``detection``)."""
     split, order = inputs.split, inputs.order
     out = []
-    rows = baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order)
+    rows = [cells(row) for row in baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order)]
     spec = registry.figure("baselines")
     for comparison in comparisons(rows):
         shown = [r for r in rows if (r["dataset"], r["mode"], r["seq_len"]) ==

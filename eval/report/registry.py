@@ -205,24 +205,12 @@ TABLES = (
                 "pr_auc", "extended_precision")),
     Table("baselines", "Training-free baselines: AOC at max recall of each scorer removing as many matches as the "
           "predictor (method §12), per dataset, method, L and mode", ("baselines",),
-          # budget: what the seed-0 predictor removes; removed: what the scorer removed (the oracle at most every
-          # wrong match); aoc: the scorer's AOC at its own maximum recall; the seed columns: every seed's budget
-          # reduction_pct_difference: the scorer's reduction minus the seed-0 predictor's, paired over the same draws
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, SCORER, Column("budget"), REMOVED, MAX_RECALL,
-                   *with_ci(AOC_VPR_SM), *with_ci(Column("aoc", "AOC")), *with_ci(REDUCTION), OUTCOME,
-                   *bound_columns("reduction_pct_difference", "reduction minus the predictor's (%)", REDUCTION.fmt),
-                   *SEEDS, Column("n_seeds_defined"), N_QUERIES),
+          row=rows.BaselineRow,
           caption="AOC reduction (%) of each scorer (rows) per method (columns) at the seed-0 predictor's budget; "
                   "random: mean ± sample standard deviation over the seeds"),
     Table("wrong_match_detection", "Detecting wrong matches: average precision and ROC AUC of each scorer against "
           "the wrong sequence matches (method §12), per dataset, method and L", ("baselines",),
-          # average_precision_difference: the scorer's AP minus the seed-0 predictor's, paired over the same draws
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, SCORER, *with_ci(Column("average_precision", "AP")),
-                   *bound_columns("average_precision_difference", "AP minus the predictor's"),
-                   Column("roc_auc", "ROC AUC"), Column("average_precision_mean", "AP mean"),
-                   Column("average_precision_std", "AP std"), Column("roc_auc_mean", "ROC AUC mean"),
-                   Column("roc_auc_std", "ROC AUC std"), Column("n_seeds"),
-                   Column("wrong_fraction", "wrong matches (random's AP)"), Column("n_wrong"), N_QUERIES),
+          row=rows.DetectionRow,
           caption="Average precision of detecting the wrong sequence matches (rows: scorers, columns: methods); "
                   "random: mean over its seeds; the last row: the fraction of wrong matches, a random ranking's "
                   "expected average precision"),

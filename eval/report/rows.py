@@ -107,7 +107,8 @@ def column(label: str = "", fmt: str | None = None, *, if_any: bool = False, not
 def interval(label: str = "", fmt: str | None = None, *, default: Any = dataclasses.MISSING) -> Any:
     """A field ``<name>_ci`` holding an ``Interval`` or None: the two columns ``<name>_ci_low`` and
     ``<name>_ci_high`` (``bounds``), labelled ``<label>, low`` and ``<label>, high`` (``label`` and ``fmt``: the
-    number's; default: ``SHARED``'s column ``<name>``, else its name, underscores as spaces)."""
+    number's; default: those of the record's column ``<name>``, else ``SHARED``'s, else its name, underscores as
+    spaces)."""
     return dataclasses.field(default=default, metadata={_KIND: ("interval", label, fmt)})
 
 
@@ -135,14 +136,17 @@ def _declared(field: dataclasses.Field[Any]) -> tuple[Any, ...]:
     return declared
 
 
-def _columns(field: dataclasses.Field[Any]) -> tuple[Column, ...]:
+def _columns(field: dataclasses.Field[Any], numbers: Mapping[str, Column]) -> tuple[Column, ...]:
+    """A field's columns; ``numbers``: the record's one-column fields' columns, whose header and format an
+    interval of one of them takes when it declares none."""
     kind, *rest = _declared(field)
     if kind == "one":
         label, fmt, if_any, note = rest
         return (replace(_shared(field.name, label, fmt), if_any=if_any, note=note),)
     if kind == "interval":
-        base = _base(field)
-        number = _shared(base, *rest)
+        base, (label, fmt) = _base(field), rest
+        number = numbers.get(base) if not label and not fmt else None
+        number = number or _shared(base, label, fmt)
         return tuple(Column(f"{base}{end}", f"{number.header}, {word}", number.fmt)
                      for end, word in ((LOW, "low"), (HIGH, "high")))
     if kind == "each":
@@ -163,7 +167,10 @@ def _base(field: dataclasses.Field[Any]) -> str:
 
 def columns(row_type: type[Row]) -> tuple[Column, ...]:
     """The columns of a row record, in its fields' order (a split role's column still one per role)."""
-    return tuple(found for field in dataclasses.fields(row_type) for found in _columns(field))
+    fields = dataclasses.fields(row_type)
+    numbers = {field.name: column for field in fields if _declared(field)[0] == "one"
+               for column in _columns(field, {})}
+    return tuple(found for field in fields for found in _columns(field, numbers))
 
 
 def cells(row: Row) -> dict[str, Any]:
@@ -520,3 +527,63 @@ class SeqLenRow(Table1Row):
     # where no training-free reduction is defined, the outcome they share (e.g. nothing to reduce) and no scorer
     best_scorer_outcome: str | None = extra()
     best_scorer_auc: float | None = extra()  # its PR AUC at the seed-0 budget, which the figure marks
+
+
+@dataclass(frozen=True, kw_only=True)
+class BaselineRow:
+    """``baselines``: one training-free scorer (or the oracle, or the predictor) removing as many matches as the
+    seed-0 predictor (``budget``) on one dataset, method, L and mode (method §12): what it removed (the oracle at most
+    every wrong match), the baseline's AOC and its own at its maximum recall, its reduction, and the paired interval
+    of its reduction minus the seed-0 predictor's; the reduction's spread over every seed's budget."""
+
+    dataset: str = column()
+    method: str = column()
+    seq_len: int = column()
+    split: str = column()
+    mode: str = column()
+    scorer: str = column()
+    budget: int = column()
+    removed: int = column()
+    max_recall: float = column()
+    aoc_vpr_sm: float = column()
+    aoc_vpr_sm_ci: Interval | None = interval()
+    aoc: float = column("AOC")  # the scorer's AOC at its own maximum recall
+    aoc_ci: Interval | None = interval()
+    reduction_pct: float | None = column()
+    reduction_pct_ci: Interval | None = interval()
+    outcome: str = column()
+    reduction_pct_difference_ci: Interval | None = interval("reduction minus the predictor's (%)", ".2f")
+    reduction_pct_mean: float | None = column(fmt=".2f")
+    reduction_pct_std: float | None = column(fmt=".2f")
+    reduction_pct_min: float | None = column(fmt=".2f")
+    reduction_pct_max: float | None = column(fmt=".2f")
+    n_seeds: int = column()
+    n_seeds_defined: int = column()
+    n_queries: int = column()
+    auc: float = extra()  # its PR AUC at the budget, which the sequence-length figure marks
+
+
+@dataclass(frozen=True, kw_only=True)
+class DetectionRow:
+    """``wrong_match_detection``: how well one scorer detects the wrong sequence matches of one dataset, method and
+    L (method §12): average precision with its interval and the paired interval of its difference from the seed-0
+    predictor's, ROC AUC (``random`` and ``predictor``: the first seed's; ``random`` also their mean and sample
+    standard deviation over its seeds), and the wrong matches they are over."""
+
+    dataset: str = column()
+    method: str = column()
+    seq_len: int = column()
+    split: str = column()
+    scorer: str = column()
+    average_precision: float | None = column("AP")
+    average_precision_ci: Interval | None = interval()
+    average_precision_difference_ci: Interval | None = interval("AP minus the predictor's")
+    roc_auc: float | None = column("ROC AUC")
+    average_precision_mean: float | None = column("AP mean", default=None)
+    average_precision_std: float | None = column("AP std", default=None)
+    roc_auc_mean: float | None = column("ROC AUC mean", default=None)
+    roc_auc_std: float | None = column("ROC AUC std", default=None)
+    n_seeds: int = column(default=1)
+    wrong_fraction: float = column("wrong matches (random's AP)")
+    n_wrong: int = column()
+    n_queries: int = column()
