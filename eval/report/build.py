@@ -21,7 +21,7 @@ from vpr_smr.core.constants import MATCHERS
 from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path
 from vpr_smr.core.records import FormatError
-from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport
+from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import bounds, registry
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report.baselines import baseline_rows, comparisons, detection_rows, with_best
@@ -40,9 +40,12 @@ from vpr_smr.eval.report.rows import (
     DatasetRow,
     HeldOutRow,
     PredictorMethodRow,
+    PredictorRow,
     RestorationRow,
     SeqLenRow,
+    SpeedRow,
     SweepRow,
+    Table2Row,
     TimingRow,
     TrustRow,
     VPRMetricsRow,
@@ -67,7 +70,7 @@ from vpr_smr.eval.scoring.records import (
     VPRMetrics,
 )
 from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
-from vpr_smr.eval.scoring.speed import SpeedResult, SpeedScores
+from vpr_smr.eval.scoring.speed import SpeedResult
 
 # Every table's columns, in its files' order: registry.TABLES
 
@@ -76,22 +79,9 @@ ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
 # --- Table II ---------------------------------------------------------------------------------------------------
 
 
-def table2_cells(numbers: AttributeScores, splits: Splits) -> dict[str, Any]:
-    """One attribute set's Table II cells (``registry.TABLE2_F1`` and ``TABLE2_COUNTS``) by the splits' names: F1 and
-    samples of the validation split and of the last evaluation split, and the last one's mean over methods; a split
-    the record does not hold has no cells."""
-    cells: dict[str, Any] = {}
-    for name in unique(name for name in (splits.validation, splits.last) if name is not None):
-        if name in numbers.splits:
-            cells[f"f1_{name}"], cells[f"n_{name}"] = numbers.splits[name].f1, numbers.splits[name].n
-    if splits.last in numbers.splits:
-        cells[f"f1_{splits.last}_method_mean"] = numbers.splits[splits.last].f1_method_mean
-    return cells
-
-
 def table2_f1(splits: Splits) -> tuple[str, ...]:
-    """Table II's F1 columns (``registry.TABLE2_F1``) named by ``splits``."""
-    return tuple(column.name for column in registry.expand(registry.TABLE2_F1, splits))
+    """Table II's F1 columns (its page's columns but the samples, which its notes say) named by ``splits``."""
+    return tuple(column.name for column in registry.table("table2").shown(splits) if not column.note)
 
 
 def table2_splits(ablations: Sequence[AttributeAblation]) -> Splits:
@@ -103,22 +93,14 @@ def table2_splits(ablations: Sequence[AttributeAblation]) -> Splits:
 
 
 def table2_rows(ablations: Sequence[AttributeAblation], order: Order | None = None,
-                splits: Splits | None = None) -> list[dict[str, Any]]:
+                splits: Splits | None = None) -> list[Table2Row]:
     """Table II's rows, the columns of the validation and the last evaluation split named by ``splits`` (default:
     the records' own names, ``table2_splits``)."""
     order = order or Order.of(ablation.meta for ablation in ablations)
     splits = splits or table2_splits(ablations)
-    rows = []
-    for ablation in ablations:
-        meta = ablation.meta
-        for name in ATTRIBUTE_ORDER:
-            if name in ablation.attributes:
-                numbers = ablation.attributes[name]
-                rows.append({"dataset": meta["dataset"], "seq_len": meta["seq_len"], "attributes": name,
-                             "f1_cv": numbers.f1_cv, "n_train": ablation.n_train,
-                             **table2_cells(numbers, splits)})
-    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"]),
-                                       ATTRIBUTE_ORDER.index(r["attributes"])))
+    rows = [Table2Row.of(ablation, name, splits) for ablation in ablations for name in ATTRIBUTE_ORDER
+            if name in ablation.attributes]
+    return sorted(rows, key=lambda r: (order.dataset(r.dataset), int(r.seq_len), ATTRIBUTE_ORDER.index(r.attributes)))
 
 
 def _marks(name: str, yes: str, no: str) -> list[str]:
@@ -143,14 +125,14 @@ def _table2_headings(splits: Splits, long: bool) -> list[str]:
     """Table II's F1 headings: cross-validation, the validation and the last split by name, the method mean; the
     registry's labels (``long``, Markdown) or LaTeX's short ones."""
     if long:
-        return [column.header for column in registry.expand(registry.TABLE2_F1, splits)]
+        return [column.header for column in registry.table("table2").shown(splits) if not column.note]
     validation, table = splits.validation, tex_escape(str(splits.last))
     return ["F1 (CV)", *([f"F1 ({tex_escape(validation)})"] if validation is not None else []), f"F1 ({table})",
             f"F1 ({table}, method mean)"]
 
 
-def table2_markdown(rows: list[dict[str, Any]], splits: Splits | None = None) -> str:
-    splits = splits or Splits("test", ("val", "test"))
+def table2_markdown(table2: Sequence[Table2Row], splits: Splits | None = None) -> str:
+    splits, rows = splits or Splits("test", ("val", "test")), [cells(row) for row in table2]
     f1 = table2_f1(splits)
     out = ["# Table II: macro F1 of the predictor by attribute (A1 minimum sum rate, A2 minimum value rate, "
            "A3 block sum rate, A4 group sum rate)", ""]
@@ -163,14 +145,14 @@ def table2_markdown(rows: list[dict[str, Any]], splits: Splits | None = None) ->
         out += [f"## {dataset}, sequence length {seq_len}", ""] + ([note, ""] if note else []) + [
                 "| " + " | ".join(headings) + " |", "|" + "---|" * len(headings)]
         for row in group:
-            cells = _marks(row["attributes"], "✓", "×") + [_f1(row.get(k)) for k in f1]
-            out.append("| " + " | ".join(cells) + " |")
+            texts = _marks(row["attributes"], "✓", "×") + [_f1(row.get(k)) for k in f1]
+            out.append("| " + " | ".join(texts) + " |")
         out.append("")
     return "\n".join(out)
 
 
-def table2_latex(rows: list[dict[str, Any]], splits: Splits | None = None) -> str:
-    splits = splits or Splits("test", ("val", "test"))
+def table2_latex(table2: Sequence[Table2Row], splits: Splits | None = None) -> str:
+    splits, rows = splits or Splits("test", ("val", "test")), [cells(row) for row in table2]
     f1 = table2_f1(splits)
     out = []
     groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
@@ -181,8 +163,8 @@ def table2_latex(rows: list[dict[str, Any]], splits: Splits | None = None) -> st
         out += [f"% {dataset}, sequence length {seq_len}", r"\begin{tabular}{" + "|".join("c" * len(headings)) + "}",
                 " & ".join(headings) + r"\\", r"\hline"]
         for row in group:
-            cells = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row.get(k)) for k in f1]
-            out.append(" & ".join(cells) + r"\\")
+            texts = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row.get(k)) for k in f1]
+            out.append(" & ".join(texts) + r"\\")
         note = _sample_note(group, splits)
         if note:
             out.append(rf"\multicolumn{{{len(headings)}}}{{l}}{{\footnotesize {tex_escape(note)}}}\\")
@@ -194,22 +176,16 @@ def table2_latex(rows: list[dict[str, Any]], splits: Splits | None = None) -> st
 
 
 def predictor_rows(predictors: Sequence[PredictorReport], order: Order | None = None,
-                   splits: Splits | None = None) -> list[dict[str, Any]]:
+                   splits: Splits | None = None) -> list[PredictorRow]:
     """The pooled predictors' numbers (the registry's predictor columns) and warnings, judged on ``splits``'
     validation split (default: the reports' splits, in the order first seen, the first of them the validation
     split)."""
     order = order or Order.of(report.meta for report in predictors)
     seen = tuple(dict.fromkeys(name for report in predictors for name in report.seeds[0].splits))
     validation = splits.validation if splits is not None else next(iter(seen), None)
-    splits = splits or Splits(None, seen)
-    rows = []
-    for report in predictors:
-        numbers = {"n_train": report.n_train, **report.first_seed()}  # the predictor file's seed
-        counts = numbers["train_class_counts"]
-        rows.append({**{k: numbers.get(k) for k in registry.table("predictor").names(splits)}, **report.meta,
-                     **{f"train_class_{c}": counts[c] for c in range(4)},
-                     "warning": report.warning(validation) if validation is not None else ""})
-    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"])))
+    evaluation = splits.evaluation if splits is not None else seen
+    rows = [PredictorRow.of(report, evaluation, validation) for report in predictors]
+    return sorted(rows, key=lambda r: (order.dataset(r.dataset), int(r.seq_len)))
 
 
 def _by_key(evaluations: Sequence[Evaluation], order: Order | None = None
@@ -310,19 +286,12 @@ def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | N
     return rows
 
 
-def _speed_numbers(scores: SpeedScores) -> dict[str, Any]:
-    """A method's speed scores flat: recall@1, F1 and its reduction's numbers."""
-    return {"recall_at_1_single": scores.recall_at_1_single, "recall_at_1_sequence": scores.recall_at_1_sequence,
-            **scores.reduction.to_json(), "f1_macro": scores.f1_macro}
-
-
-def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> list[dict[str, Any]]:
+def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> list[SpeedRow]:
     """The speed experiment: one row per dataset, L, method, profile and matcher (fixed, then velocity search), the
     datasets and methods in the configuration's order and the profiles in the order given (the configuration's)."""
     order = order or Order.of(result.meta for result in results)
     profiles: dict[str, int] = {}
     seen: set[tuple[str, int, str]] = set()
-    columns = registry.table("speed").names()
     rows = []
     for result in results:
         dataset, seq_len, profile = str(result.meta["dataset"]), int(result.meta["seq_len"]), result.profile
@@ -330,17 +299,12 @@ def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> li
             raise ValueError(f"two speed files of {dataset}, L{seq_len}, profile {profile}")
         seen.add((dataset, seq_len, profile))
         profiles.setdefault(profile, len(profiles))
-        for matcher, numbers in result.matchers.items():
-            for method, scores in numbers.methods.items():
-                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "profile": profile,
-                             "speed": result.speed, "mean_speed": result.mean_speed, "matcher": matcher,
-                             "velocities": " ".join(f"{v:g}" for v in numbers.velocities),
-                             **{k: v for k, v in _speed_numbers(scores).items() if k in columns},
-                             "n_queries": scores.n_queries, "n_queries_single": scores.n_queries_single})
+        rows += [SpeedRow.of(result, matcher, numbers.velocities, method, scores)
+                 for matcher, numbers in result.matchers.items() for method, scores in numbers.methods.items()]
     matchers = list(SPEED_MATCHERS)
-    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), r["seq_len"], order.method(r["method"]),
-                                       profiles[r["profile"]], matchers.index(r["matcher"])
-                                       if r["matcher"] in matchers else len(matchers), r["matcher"]))
+    return sorted(rows, key=lambda r: (order.dataset(r.dataset), r.seq_len, order.method(r.method),
+                                       profiles[r.profile], matchers.index(r.matcher)
+                                       if r.matcher in matchers else len(matchers), r.matcher))
 
 
 def sweep_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[SweepRow]:
@@ -606,8 +570,9 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
         title = registry.PREDICTOR_TITLE.format(splits=", ".join(map(split_word, inputs.splits.evaluation)))
         table("predictor", predictor_rows(inputs.predictors, order, inputs.splits), title=title)
     if inputs.ablations:
-        rows = table2_rows(inputs.ablations, order, inputs.splits)
-        table("table2", rows, markdown=table2_markdown(rows, inputs.splits), latex=table2_latex(rows, inputs.splits))
+        table2 = table2_rows(inputs.ablations, order, inputs.splits)
+        table("table2", table2, markdown=table2_markdown(table2, inputs.splits),
+              latex=table2_latex(table2, inputs.splits))
     if inputs.lomo:
         table("leave_one_method_out", lomo_rows(inputs.lomo, order))
     if inputs.datasets:
@@ -674,7 +639,8 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     if inputs.baselines:
         figures += _baseline_figures(out_dir, inputs)
     if inputs.speed:
-        figures += _speed_figures(out_dir, speed_rows(inputs.speed, order), order, split, inputs)
+        figures += _speed_figures(out_dir, [cells(row) for row in speed_rows(inputs.speed, order)], order, split,
+                                  inputs)
     figures += _sweep_figures(out_dir, [cells(row) for row in sweep_rows(inputs.metrics, split, order)], order, split)
     return figures
 

@@ -5,9 +5,9 @@ expected_outputs`` lists the files from here, so that a table or figure cannot b
 to the workflow, nor declared without being written. The order is the report's: tables, then figures.
 
 Each table names its row record (``rows``: its fields are the columns, in the files' order, each with its header
-on the page and how the page writes its numbers; the tables not yet typed declare their columns here), and what of
-it the page's compact tables show (``page``, ``pivot``, ``caption``): ``build`` writes the CSV, Markdown and LaTeX
-files with these columns and ``html`` builds the page's tables from them.
+on the page and how the page writes its numbers), and what of it the page's compact tables show (``page``,
+``pivot``, ``caption``): ``build`` writes the CSV, Markdown and LaTeX files of the records' cells and ``html``
+builds the page's tables from them.
 """
 
 from __future__ import annotations
@@ -38,28 +38,30 @@ class Pivot:
 
 @dataclass(frozen=True)
 class Table:
-    """A table of the report: its files (``name``, ``title``), when it is written (``experiments``), its
-    ``columns`` in the files' order (those of its ``row`` record, ``rows.columns``, where it names one), and what
-    of it the page's compact tables show: ``page`` (the columns by name, in their order) or ``pivot``, under
-    ``caption`` (``{split}``: the table split, ``{seq_len}``: the L)."""
+    """A table of the report: its files (``name``, ``title``), when it is written (``experiments``), its ``row``
+    record (``rows``: its fields are the columns, in the files' order), and what of it the page's compact tables
+    show: ``page`` (the columns by name, in their order) or ``pivot``, under ``caption`` (``{split}``: the table
+    split, ``{seq_len}``: the L)."""
 
     name: str  # the file stem under tables/
     title: str  # the heading of its Markdown and LaTeX files and of the HTML page
     experiments: tuple[str, ...]  # written when every one of these is run (``expected_outputs``' names)
+    row: Any  # the row record (a dataclass declared with ``rows``)
     suffixes: tuple[str, ...] = (".csv", ".md", ".tex")  # the CSV first: the HTML page shows it
-    columns: tuple[Column, ...] = ()
     page: tuple[str, ...] = ()
     pivot: Pivot | None = None
     caption: str = ""
-    row: Any = None  # the row record (``rows``): its fields are the columns
 
     def __post_init__(self) -> None:
-        if self.row is not None:
-            object.__setattr__(self, "columns", rows.columns(self.row))
         shown = (*self.page, *((self.pivot.rows, *self.pivot.values) if self.pivot else ()))
         unknown = [name for name in shown if name not in {column.name for column in self.columns}]
         if unknown:
             raise ValueError(f"table {self.name!r} shows undeclared columns {unknown}")
+
+    @property
+    def columns(self) -> tuple[Column, ...]:
+        """Its row record's columns (``rows.columns``), a split role's still one."""
+        return rows.columns(self.row)
 
     def enabled(self, experiments: Collection[str]) -> bool:
         return all(name in experiments for name in self.experiments)
@@ -119,62 +121,11 @@ class Figure:
 # configuration's default ones (val, test)
 PREDICTOR_TITLE = "Predictor alone: macro F1 (cross-validation with SMOTE inside the folds, {splits})"
 
-# Columns of several tables (the same name, header and format in each)
-DATASET, METHOD, MODE, SPLIT = Column("dataset"), Column("method"), Column("mode"), Column("split")
-SEQ_LEN = Column("seq_len", "L")
-N_QUERIES = Column("n_queries", "queries")
-MAX_RECALL, REMOVED, OUTCOME = Column("max_recall"), Column("removed"), Column("outcome")
-AOC_VPR_SM, AUC_VPR_SM = Column("aoc_vpr_sm", "AOC VPR+SM"), Column("auc_vpr_sm")
-AOC_VPR_SM_PRED = Column("aoc_vpr_sm_pred", "AOC VPR+SM+Pred")
-REDUCTION = Column("reduction_pct", "AOC reduction (%)", ".2f")
-RECALL_SINGLE = Column("recall_at_1_single", "R@1 single")
-RECALL_SEQUENCE = Column("recall_at_1_sequence", "R@1 sequence")
-F1_MACRO, F1_CV = Column("f1_macro", "macro F1"), Column("f1_cv", "F1 cross-validation")
-PREDICTED = tuple(Column(f"predicted_{c}", f"predicted {c}") for c in range(4))
-
-
-def with_ci(column: Column) -> tuple[Column, Column, Column]:
-    """A number and the bounds of its 95 % bootstrap interval over queries (``bounds``: ``<name>_ci_low`` and
-    ``_ci_high``, empty without one): three CSV columns, one Markdown and LaTeX cell ``78.20 [70.10, 85.00]``."""
-    low, high = (Column(f"{column.name}_ci_{end}", f"{column.header}, {end}", column.fmt) for end in ("low", "high"))
-    return column, low, high
-
-
-def bound_columns(name: str, label: str, fmt: str = ".4f") -> tuple[Column, Column]:
-    """The bounds of the interval of a number no column holds (a paired difference): ``<name>_ci_low``, ``_high``."""
-    return Column(f"{name}_ci_low", f"{label}, low", fmt), Column(f"{name}_ci_high", f"{label}, high", fmt)
-
-
 # the column the report adds to every table's CSV in a run whose splits share frames (allow_split_overlap)
 SPLIT_OVERLAP = Column("split_overlap")
 # the column the report adds to every table's CSV whose datasets' ground truth is known: each row's dataset's, as
 # the Markdown and LaTeX files' "Correct matches:" line under the title says it ("within 2 frames", "gt.npy (a matrix)")
 CORRECT_MATCHES = Column("correct_matches")
-
-# Table I's and the sequence-length table's numbers (per dataset, method, L and mode), with the spread of the
-# reduction over the predictor seeds
-SEEDS = (*(Column(f"reduction_pct_{s}", fmt=REDUCTION.fmt) for s in ("mean", "std", "min", "max")), Column("n_seeds"))
-TABLE1_NUMBERS = (DATASET, METHOD, SEQ_LEN, MODE, RECALL_SINGLE, RECALL_SEQUENCE, MAX_RECALL, *with_ci(AOC_VPR_SM),
-                  *with_ci(AOC_VPR_SM_PRED), *with_ci(REDUCTION), *SEEDS)
-# n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
-# n_queries_single: those recall_at_1_single is over (paper mode: every query of the split)
-QUERIES = (N_QUERIES, Column("n_queries_single"))
-# n_seeds_defined: the seeds whose reduction is defined (the baseline's AOC not 0), which the seed columns are over
-SEEDS_DEFINED = Column("n_seeds_defined")
-# What the seed-0 predictor did (``curves.outcome``), the matches it removed, the baseline's own maximum recall and
-# AOC there (what the baseline is worth where the predictor leaves no recall), and the seeds the spread leaves out
-OUTCOMES = (OUTCOME, REMOVED, Column("max_recall_vpr_sm"), Column("aoc_vpr_sm_own"), Column("seeds_left_out"))
-# Table II's macro F1: cross-validation, the validation split, the last evaluation split and its mean over methods;
-# then the samples each is over, which the page says under its table
-TABLE2_F1 = (F1_CV, Column("f1_{validation}", "F1 {word}"), Column("f1_{last}", "F1 {word}"),
-             Column("f1_{last}_method_mean", "F1 {word}, mean over methods"))
-TABLE2_COUNTS = (Column("n_train", "training samples (cross-validation)", note=True),
-                 Column("n_{validation}", "{word}", note=True), Column("n_{last}", "{word} samples", note=True))
-MS = ".3f"  # times on the page
-# The sequence-length ablation's best training-free scorer beside the predictor (method §12; ``baselines.with_best``)
-BEST_SCORER = (Column("best_scorer", "best training-free scorer"),
-               Column("best_scorer_reduction_pct", "its AOC reduction (%)", REDUCTION.fmt))
-SCORER = Column("scorer")
 
 TABLES = (
     Table("table1", "Table I: area over the PR curve at max recall", ("table1",),
@@ -222,25 +173,19 @@ TABLES = (
     Table("speed", "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search "
           "on simulated queries driven at other speeds (method §11), per dataset, method, profile and matcher",
           ("speed",),
-          # speed: the constant profile's speed (empty for varying); mean_speed: the simulated table query's mean step
-          columns=(DATASET, METHOD, SEQ_LEN, Column("profile"), Column("speed"), Column("mean_speed"),
-                   Column("matcher"), Column("velocities"), RECALL_SINGLE, RECALL_SEQUENCE, MAX_RECALL, AOC_VPR_SM,
-                   AOC_VPR_SM_PRED, REDUCTION, OUTCOME, F1_MACRO, *QUERIES),
+          row=rows.SpeedRow,
           pivot=Pivot("profile", ("method", "matcher"), ("recall_at_1_sequence", "reduction_pct")),
           caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and method · matcher "
                   "(columns); single-frame recall@1 and the AOCs: the whole table below"),
     Table("predictor", PREDICTOR_TITLE.format(splits="validation, test"), ("predictor",),
-          # F1 and samples of each evaluation split, by its name; warning: the seeds whose predictor cannot be
-          # trusted on the validation split, and why (``PredictorReport.warning``)
-          columns=(DATASET, SEQ_LEN, Column("n_train", "train samples"),
-                   *(Column(f"train_class_{c}") for c in range(4)), F1_CV,
-                   Column("f1_{evaluation}", "F1 {word}"), Column("n_{evaluation}", "{split} samples"),
-                   Column("warning", if_any=True)),
+          row=rows.PredictorRow,
           page=("seq_len", "n_train", "f1_cv", "f1_{evaluation}", "n_{evaluation}", "warning"),
           caption="The pooled predictor (seed 0) per sequence length"),
     Table("table2", "Table II: macro F1 by attribute", ("attributes",),
-          columns=(DATASET, SEQ_LEN, Column("attributes"), *TABLE2_F1, *TABLE2_COUNTS),
-          page=tuple(column.name for column in (*TABLE2_F1, *TABLE2_COUNTS))),
+          row=rows.Table2Row,
+          # the F1 columns, then the samples they are over, which the page says in a note
+          page=("f1_cv", "f1_{validation}", "f1_{last}", "f1_{last}_method_mean", "n_train", "n_{validation}",
+                "n_{last}")),
     Table("leave_one_method_out", "Leave one method out: pooled predictor against one trained without the method",
           ("leave_one_method_out",),
           row=rows.HeldOutRow,

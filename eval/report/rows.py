@@ -17,9 +17,10 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from vpr_smr.core.constants import RECALL_AT
+from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.bounds import HIGH, LOW
-from vpr_smr.eval.report.results import ground_truth_text, split_text, split_word
+from vpr_smr.eval.report.results import Splits, ground_truth_text, split_text, split_word
 from vpr_smr.eval.scoring.records import (
     EvaluationSplit,
     HeldOut,
@@ -29,9 +30,9 @@ from vpr_smr.eval.scoring.records import (
     SweepPoint,
     TrustNumbers,
 )
+from vpr_smr.eval.scoring.speed import SpeedResult, SpeedScores
 
 if TYPE_CHECKING:
-    from vpr_smr.eval.report.results import Splits
     from vpr_smr.eval.scoring.intervals import Interval
 
 SPLIT_ROLES = ("evaluation", "validation", "last")  # ``results.Splits``' roles a column can be one per split of
@@ -587,3 +588,98 @@ class DetectionRow:
     wrong_fraction: float = column("wrong matches (random's AP)")
     n_wrong: int = column()
     n_queries: int = column()
+
+
+@dataclass(frozen=True, kw_only=True)
+class SpeedRow:
+    """``speed``: one method's simulated table split under one speed profile and one matcher (method §11): recall@1
+    and Table I's numbers of its own seed-0 predictor, paper mode."""
+
+    dataset: str = column()
+    method: str = column()
+    seq_len: int = column()
+    profile: str = column()
+    speed: float | None = column()  # the constant profile's speed (empty for varying)
+    mean_speed: float = column()  # the simulated table query's mean step
+    matcher: str = column()
+    velocities: str = column()
+    recall_at_1_single: float = column()
+    recall_at_1_sequence: float = column()
+    max_recall: float = column()
+    aoc_vpr_sm: float = column()
+    aoc_vpr_sm_pred: float = column()
+    reduction_pct: float | None = column()
+    outcome: str = column()
+    f1_macro: float = column()
+    n_queries: int = column()
+    n_queries_single: int = column()
+
+    @classmethod
+    def of(cls, result: SpeedResult, matcher: str, velocities: Sequence[float], method: str,
+           scores: SpeedScores) -> SpeedRow:
+        r = scores.reduction
+        return cls(dataset=str(result.meta["dataset"]), method=method, seq_len=int(result.meta["seq_len"]),
+                   profile=result.profile, speed=result.speed, mean_speed=result.mean_speed, matcher=matcher,
+                   velocities=" ".join(f"{v:g}" for v in velocities), recall_at_1_single=scores.recall_at_1_single,
+                   recall_at_1_sequence=scores.recall_at_1_sequence, max_recall=r.max_recall,
+                   aoc_vpr_sm=r.aoc_vpr_sm, aoc_vpr_sm_pred=r.aoc_vpr_sm_pred, reduction_pct=r.reduction_pct,
+                   outcome=r.outcome, f1_macro=scores.f1_macro, n_queries=scores.n_queries,
+                   n_queries_single=scores.n_queries_single)
+
+
+@dataclass(frozen=True, kw_only=True)
+class PredictorRow:
+    """``predictor``: the pooled predictor (its file's seed) of one dataset and L: its training samples and their
+    classes, cross-validated F1, F1 and samples of each evaluation split by its name, and the seeds whose predictor
+    cannot be trusted on the validation split, and why (``PredictorReport.warning``)."""
+
+    dataset: str = column()
+    seq_len: int = column()
+    n_train: int = column("train samples")
+    train_class: Mapping[int, int] = each(CLASSES, "train_class_{}")
+    f1_cv: float | None = column()
+    f1: Mapping[str, float | None] = each((), "f1_{evaluation}", "F1 {word}")
+    n: Mapping[str, int | None] = each((), "n_{evaluation}", "{split} samples")
+    warning: str = column(if_any=True)
+
+    @classmethod
+    def of(cls, report: PredictorReport, evaluation: Sequence[str], validation: str | None) -> PredictorRow:
+        first = report.seeds[0]
+        scores = {name: first.splits.get(name) for name in evaluation}
+        return cls(dataset=report.meta["dataset"], seq_len=report.meta["seq_len"], n_train=report.n_train,
+                   train_class={c: first.train_class_counts[c] for c in CLASSES}, f1_cv=first.f1_cv,
+                   f1={name: None if s is None else s.f1 for name, s in scores.items()},
+                   n={name: None if s is None else s.n for name, s in scores.items()},
+                   warning=report.warning(validation) if validation is not None else "")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Table2Row:
+    """``table2``: one attribute set's predictor (Table II): macro F1 by cross-validation, on the validation split
+    and on the last evaluation split (and its mean over methods), each split by its name; the samples each is over,
+    which the page says in a note."""
+
+    dataset: str = column()
+    seq_len: int = column()
+    attributes: str = column()
+    f1_cv: float | None = column()
+    f1_validation: Mapping[str, float] = each((), "f1_{validation}", "F1 {word}")
+    f1_last: Mapping[str, float] = each((), "f1_{last}", "F1 {word}")
+    f1_last_method_mean: Mapping[str, float] = each((), "f1_{last}_method_mean", "F1 {word}, mean over methods")
+    n_train: int = column("training samples (cross-validation)", note=True)
+    n_validation: Mapping[str, int] = each((), "n_{validation}", "{word}", note=True)
+    n_last: Mapping[str, int] = each((), "n_{last}", "{word} samples", note=True)
+
+    @classmethod
+    def of(cls, ablation: AttributeAblation, name: str, splits: Splits) -> Table2Row:
+        """Attribute set ``name``; the splits of ``splits``' roles that the record holds (a split it does not hold
+        has no cells)."""
+        numbers = ablation.attributes[name]
+        held = {role: {split: numbers.splits[split]} if split is not None and split in numbers.splits else {}
+                for role, split in (("validation", splits.validation), ("last", splits.last))}
+        return cls(dataset=ablation.meta["dataset"], seq_len=ablation.meta["seq_len"], attributes=name,
+                   f1_cv=numbers.f1_cv, f1_validation={k: v.f1 for k, v in held["validation"].items()},
+                   f1_last={k: v.f1 for k, v in held["last"].items()},
+                   f1_last_method_mean={k: v.f1_method_mean for k, v in held["last"].items()},
+                   n_train=ablation.n_train, n_validation={k: v.n for k, v in held["validation"].items()},
+                   n_last={k: v.n for k, v in held["last"].items()})

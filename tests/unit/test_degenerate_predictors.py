@@ -205,7 +205,7 @@ def test_training_warns_and_the_tables_say_so(tmp_path, caplog):
     assert scores.f1 <= 1 / present  # noise: at or below chance (1 / K), as the warning says
     assert any("this predictor cannot be trusted: seed 0: its val macro F1" in r.message for r in caplog.records)
     row = build.predictor_rows([report])[0]
-    assert row["warning"].startswith("seed 0: its val macro F1")
+    assert row.warning.startswith("seed 0: its val macro F1")
 
 
 def test_one_class_in_the_validation_split_is_no_reason_to_warn():
@@ -218,6 +218,7 @@ def test_the_findings_lead_with_the_predictors_warning(removed_all):
     from vpr_smr.eval.report import registry
     from vpr_smr.eval.report.html import predictor_warnings
     from vpr_smr.eval.report.results import Splits, WrittenTable
+    from vpr_smr.eval.report.rows import cells
 
     tmp_path, _ = removed_all
     one_class = SplitScores(0.3, 21, (12, 9, 0, 0), ((0, 12, 0, 0), (0, 9, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0)))
@@ -225,7 +226,7 @@ def test_the_findings_lead_with_the_predictors_warning(removed_all):
                              (SeedReport(0, {}, 0.4, 10, (30, 10, 10, 7), {"val": one_class}),))
     rows = build.predictor_rows([report])
     columns = registry.table("predictor").expanded(Splits("test", ("val", "test")))
-    table = WrittenTable("predictor", columns, tuple(rows), ())
+    table = WrittenTable("predictor", columns, tuple(map(cells, rows)), ())
     assert predictor_warnings(table, "corridor", 4) == [
         "Warning: the predictor of corridor at L = 4 cannot be trusted: seed 0: its val macro F1 0.30 is at or "
         "below chance (0.50: guessing each of the 2 classes present at its own frequency); it predicts class 1 for "

@@ -259,7 +259,7 @@ def test_table2_gives_its_sample_counts():
         name: AttributeScores(None, 0.5, {"val": AttributeSplit(0.5, 97, 0.5), "test": AttributeSplit(0.5, 107, 0.5)})
         for name in ("A1", "A2", "A3", "A4", "all")})
     rows = report.table2_rows([ablation])
-    assert {(r["n_train"], r["n_val"], r["n_test"]) for r in rows} == {(147, 97, 107)}
+    assert {(r.n_train, r.n_validation["val"], r.n_last["test"]) for r in rows} == {(147, 97, 107)}
     assert "F1 over train 147 samples, validation 97 samples, test 107 samples" in report.table2_markdown(rows)
 
 

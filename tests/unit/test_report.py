@@ -156,7 +156,7 @@ def test_table2_marks_the_attributes_used():
         name: AttributeScores(None, f1, {"val": AttributeSplit(f1, 50, f1), "test": AttributeSplit(f1, 60, f1)})
         for name, f1 in (("A1", 0.42), ("A2", 0.42), ("A3", 0.40), ("A4", 0.37), ("all", 0.54))})
     rows = table2_rows([ablation])
-    assert [r["attributes"] for r in rows] == ["A1", "A2", "A3", "A4", "all"]
+    assert [r.attributes for r in rows] == ["A1", "A2", "A3", "A4", "all"]
     text = table2_markdown(rows)
     # the paper's Table II rows
     assert "| × | × | ✓ | × | 0.40 | 0.40 | 0.40 | 0.40 |" in text
