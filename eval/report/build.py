@@ -195,14 +195,14 @@ def _by_key(evaluations: Sequence[Evaluation], order: Order | None = None
     order = order or evaluation_order(evaluations)
     out: dict[tuple[str, int], list[Evaluation]] = {}
     for evaluation in evaluations:
-        out.setdefault((evaluation.meta["dataset"], int(evaluation.meta["seq_len"])), []).append(evaluation)
-    return {key: sorted(out[key], key=lambda e: order.method(e.meta["method"]))
+        out.setdefault((evaluation.dataset, evaluation.seq_len), []).append(evaluation)
+    return {key: sorted(out[key], key=lambda e: order.method(e.method))
             for key in sorted(out, key=lambda k: (order.dataset(k[0]), k[1]))}
 
 
 def predictor_method_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
                           ) -> list[PredictorMethodRow]:
-    return [PredictorMethodRow.of(dataset, seq_len, evaluation.meta["method"], split, evaluation.splits[split])
+    return [PredictorMethodRow.of(dataset, seq_len, evaluation.method, split, evaluation.splits[split])
             for (dataset, seq_len), items in _by_key(evaluations, order).items() for evaluation in items]
 
 
@@ -211,7 +211,7 @@ def confusion_rows(evaluations: Sequence[Evaluation], split: str, order: Order |
     """The seed-0 confusion matrix per dataset, L and method, and summed over the methods (method ``all``)."""
     rows = []
     for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        matrices = [(e.meta["method"], np.array(e.splits[split].confusion_matrix)) for e in items]
+        matrices = [(e.method, np.array(e.splits[split].confusion_matrix)) for e in items]
         matrices.append(("all", np.sum([m for _, m in matrices], axis=0)))
         for method, matrix in matrices:
             rows += [ConfusionRow.of(dataset, seq_len, method, true_class, counts)
@@ -260,7 +260,7 @@ def timing_rows(evaluations: Sequence[Evaluation], timings: Sequence[Timing], or
     """Per evaluation and split, its timing (matched by meta); evaluations whose timings are not given are left
     out."""
     matched = match_timings(evaluations, timings)
-    return [TimingRow.of(dataset, evaluation.meta["method"], seq_len, split, timing.splits[split])
+    return [TimingRow.of(dataset, evaluation.method, seq_len, split, timing.splits[split])
             for (dataset, seq_len), items in _by_key(evaluations, order).items() for evaluation in items
             if (timing := matched.get(evaluation.key)) is not None for split in evaluation.splits]
 
@@ -482,14 +482,14 @@ def _figure_panels(items: list[Evaluation], split: str, mode: str, restoration: 
         result = evaluation.splits[split]
         numbers = result.modes[mode]
         if not restoration:
-            panels.append((evaluation.meta["method"], {**_flat_mode(numbers), "n_queries": result.n_queries,
+            panels.append((evaluation.method, {**_flat_mode(numbers), "n_queries": result.n_queries,
                                                        "removed": result.removed}))
             continue
         if result.restoration is None or numbers.curves is None:
             raise ValueError(f"{evaluation.key}: no restoration or no removal curves in split {split!r}")
         restored = replace(result.restoration.modes[mode], curve_vpr_sm=numbers.curves.curve_vpr_sm,
                            curve_removal=numbers.curves.curve_vpr_sm_pred)
-        panels.append((evaluation.meta["method"], restored.to_json()))
+        panels.append((evaluation.method, restored.to_json()))
     return panels
 
 
