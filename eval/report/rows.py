@@ -118,12 +118,11 @@ def each(keys: Sequence[Any], name: str, label: str = "", fmt: str = ".4f", *, n
     """A field holding a mapping, one column per key: ``name`` and ``label`` with ``{}`` for the key (``keys``: the
     columns' order), or with a split role (``{evaluation}``, ``{validation}``, ``{last}``: ``keys`` empty, one column
     per split of that role, ``Column.expand``). A key the mapping lacks leaves its cell empty."""
-    factory: Any = dict if default is dataclasses.MISSING else dataclasses.MISSING
-    return dataclasses.field(default=default, default_factory=factory,
-                             metadata={_KIND: ("each", Column(name, label, fmt, note=note), tuple(keys))})
+    return dataclasses.field(default=default, metadata={_KIND: ("each", Column(name, label, fmt, note=note),
+                                                                tuple(keys))})
 
 
-def extra(default: Any = None) -> Any:
+def extra(default: Any = dataclasses.MISSING) -> Any:
     """A field the page or a figure reads beside the columns (e.g. every seed's outcome); never written."""
     return dataclasses.field(default=default, metadata={_KIND: ("extra",)})
 
@@ -195,9 +194,9 @@ def cells(row: Row) -> dict[str, Any]:
     return out
 
 
-
 # --- the row records of the tables ``build`` computes -------------------------------------------------------------
-# Each is built from the stage's record by its ``of``: the columns are spelt here, once.
+# Each is built from the stage's record by its ``of`` (the baselines' by ``report.baselines``, which computes their
+# spread over the seeds): the columns are spelt here, once.
 
 CLASSES = range(4)  # the predictor's classes (method §6)
 
@@ -212,7 +211,7 @@ class ConfusionRow:
     method: str = column()
     true_class: int = column()
     predicted: Mapping[int, int] = each(CLASSES, "predicted_{}", "predicted {}")
-    total: int = column(default=0)
+    total: int = column()
 
     @classmethod
     def of(cls, dataset: str, seq_len: int, method: str, true_class: int, counts: Sequence[int]) -> ConfusionRow:
@@ -277,9 +276,9 @@ class VPRMetricsRow:
     matcher: str = column()
     n_queries: int = column()
     recall_at: Mapping[int, float | None] = each(RECALL_AT, "recall_at_{}", "R@{}")
-    recall_at_100p: float = column("R@100P", default=0.0)
-    pr_auc: float = column("PR-AUC", default=0.0)
-    extended_precision: float = column("EP", default=0.0)
+    recall_at_100p: float = column("R@100P")
+    pr_auc: float = column("PR-AUC")
+    extended_precision: float = column("EP")
 
     @classmethod
     def of(cls, key: tuple[str, str, int], split: str, mode: str, matcher: str,
@@ -311,8 +310,8 @@ class HeldOutRow:
     reduction_pct_pooled_ci: Interval | None = interval("reduction pooled (%)", ".2f")
     reduction_pct_without: float | None = column("reduction without (%)", ".2f")
     reduction_pct_without_ci: Interval | None = interval("reduction without (%)", ".2f")
-    outcome_pooled: str = column(default="")
-    outcome_without: str = column(default="")
+    outcome_pooled: str = column()
+    outcome_without: str = column()
 
     @classmethod
     def of(cls, key: tuple[str, str, int], mode: str, result: HeldOut) -> HeldOutRow:
@@ -341,8 +340,8 @@ class TrustRow:
     aoc_vpr_sm: float = column()
     reduction_pct: float | None = column()
     reduction_pct_ci: Interval | None = interval()
-    outcome: str = column(default="")
-    n_queries: int = column(default=0)
+    outcome: str = column()
+    n_queries: int = column()
 
     @classmethod
     def of(cls, key: tuple[str, str, int], mode: str, trust: float, numbers: TrustNumbers,
@@ -378,7 +377,7 @@ class RestorationRow:
     aoc_difference: float = column()
     reduction_pct: float | None = column()
     reduction_pct_ci: Interval | None = interval()
-    n_queries: int = column(default=0)
+    n_queries: int = column()
 
     @classmethod
     def of(cls, key: tuple[str, str, int], mode: str, restoration: RestorationNumbers,
@@ -526,8 +525,8 @@ class SeqLenRow(Table1Row):
     best_scorer: str | None = column("best training-free scorer", default=None)
     best_scorer_reduction_pct: float | None = column("its AOC reduction (%)", ".2f", default=None)
     # where no training-free reduction is defined, the outcome they share (e.g. nothing to reduce) and no scorer
-    best_scorer_outcome: str | None = extra()
-    best_scorer_auc: float | None = extra()  # its PR AUC at the seed-0 budget, which the figure marks
+    best_scorer_outcome: str | None = extra(None)
+    best_scorer_auc: float | None = extra(None)  # its PR AUC at the seed-0 budget, which the figure marks
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -584,7 +583,7 @@ class DetectionRow:
     average_precision_std: float | None = column("AP std", default=None)
     roc_auc_mean: float | None = column("ROC AUC mean", default=None)
     roc_auc_std: float | None = column("ROC AUC std", default=None)
-    n_seeds: int = column(default=1)
+    n_seeds: int = column(default=1)  # the seeds the numbers are of: the first seed's, random's all (below)
     wrong_fraction: float = column("wrong matches (random's AP)")
     n_wrong: int = column()
     n_queries: int = column()
