@@ -296,15 +296,17 @@ def cmd_report(args: argparse.Namespace) -> None:
     from vpr_smr.eval.report import build as report
 
     provenance = {"vpr_smr_version": package_version()}
-    written = report.main(args.out, args.evaluations, args.predictors, args.attribute_ablations or (),
-                          args.leave_one_out or (), timings=args.timings or (), metrics=args.metrics or (),
-                          match_figures=args.match_figures or (), matrix_figures=args.matrix_figures or (),
-                          speed=args.speed or (), baselines=args.baselines or (),
-                          split=args.split, eval_splits=args.eval_splits, train_split=args.train_split,
-                          table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
-                          config=_json_object(args.settings, "--settings") if args.settings else None,
-                          provenance=provenance, descriptor_paths=args.descriptors or (),
-                          datasets=_json_object(args.datasets, "--datasets") if args.datasets else None)
+    files = report.RunFiles(
+        args.evaluations, args.predictors, args.attribute_ablations or (), args.leave_one_out or (),
+        timings=args.timings or (), metrics=args.metrics or (), match_figures=args.match_figures or (),
+        matrix_figures=args.matrix_figures or (), speed=args.speed or (), baselines=args.baselines or (),
+        descriptors=args.descriptors or ())
+    options = report.ReportOptions(
+        split=args.split, eval_splits=args.eval_splits, train_split=args.train_split,
+        table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
+        config=_json_object(args.settings, "--settings") if args.settings else None, provenance=provenance,
+        datasets=_json_object(args.datasets, "--datasets") if args.datasets else None)
+    written = report.main(args.out, files, options)
     log.info("wrote %d tables, figures and report files under %s", len(written), args.out)
 
 

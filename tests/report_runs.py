@@ -91,11 +91,11 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
     """Every experiment's JSON for the ``methods`` (in that configuration order) on one dataset ``d``, the
     training-free baselines of every L (computed from the same features and predictors), the standard VPR metrics
     and match-inspector figures at L = 4, then report.main; returns (run folder, files). ``options`` go to
-    report.main."""
+    report.main's ReportOptions, but ``speed`` (the speed files) to its RunFiles."""
     from vpr_smr.core.paths import match_figure_path, matrix_figure_path, queries_path
     from vpr_smr.eval.matching.attributes import query_features
     from vpr_smr.eval.predictor.estimator import SMRPredictor
-    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.report.build import ReportOptions, RunFiles, main
     from vpr_smr.eval.scoring.baselines import DEFAULT_SETTINGS, Prediction, split_baselines
     from vpr_smr.eval.scoring.evaluate import evaluate_split
     from vpr_smr.eval.scoring.records import (
@@ -159,13 +159,14 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
         for i, method in enumerate(methods):
             match_figures.append(small_png(Path(match_figure_path(run, "d", method, 4)), 320, 160, 40 * i))
             matrix_figures.append(small_png(Path(matrix_figure_path(run, "d", method, 4)), 160, 160, 40 * i + 20))
-    written = main(run, evaluations, predictors, [ablation] if ablations else [], [lomo] if ablations else [],
-                   timings=timings, metrics=metric_files, match_figures=match_figures, matrix_figures=matrix_figures,
-                   baselines=baseline_files,
-                   table_seq_lens=[4], seq_len_ablation=len(seq_lens) > 1,
-                   config="run: demo\nseq_lens: [2, 4]\n",
-                   provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}},
-                   datasets={"d": DATASET_CARD}, **options)
+    speed = options.pop("speed", ())  # a file list: the rest are ReportOptions
+    files = RunFiles(evaluations, predictors, [ablation] if ablations else [], [lomo] if ablations else [],
+                     timings=timings, metrics=metric_files, match_figures=match_figures, matrix_figures=matrix_figures,
+                     baselines=baseline_files, speed=speed)
+    written = main(run, files, ReportOptions(
+        table_seq_lens=[4], seq_len_ablation=len(seq_lens) > 1, config="run: demo\nseq_lens: [2, 4]\n",
+        provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}},
+        datasets={"d": DATASET_CARD}, **options))
     return run, written
 
 

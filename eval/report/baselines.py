@@ -12,14 +12,15 @@ each with its interval over queries and the paired interval of its difference fr
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Collection, Iterable, Mapping, Sequence
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
 
 from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report.results import Order
+from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, SeqLenRow, Table1Row
 from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.records import Baselines, SplitBaselines, Versus
@@ -68,7 +69,7 @@ def headline(row: dict[str, Any]) -> float | None:
 
 
 def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection[int] | None = None,
-                  order: Order | None = None) -> list[dict[str, Any]]:
+                  order: Order | None = None) -> list[BaselineRow]:
     """The ``baselines`` table: one row per dataset, method, L, mode and scorer (in the registry's order) of the
     records' ``split`` (a record without a predictor has none), optionally only the sequence lengths given; by mode,
     L, dataset and method in the configuration's ``order``."""
@@ -88,25 +89,22 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
                 values = [budget.scorers[scorer].modes[mode].reduction_pct for budget in found.removal]
                 mean, std, defined = _spread(values)
                 low, high = _extremes(values)
-                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
-                             "scorer": scorer, "budget": first.budget, "removed": first.scorers[scorer].removed,
-                             "max_recall": numbers.max_recall, "aoc_vpr_sm": numbers.aoc_vpr_sm,
-                             "aoc": numbers.aoc_vpr_sm_pred, "auc": numbers.auc_vpr_sm_pred,
-                             "reduction_pct": numbers.reduction_pct,
-                             "outcome": numbers.outcome, "reduction_pct_mean": mean, "reduction_pct_std": std,
-                             "reduction_pct_min": low, "reduction_pct_max": high, "n_seeds": len(values),
-                             "n_seeds_defined": defined, "n_queries": found.n_queries,
-                             **bounds.flat("aoc_vpr_sm", numbers.aoc_vpr_sm_ci),
-                             **bounds.flat("aoc", numbers.aoc_vpr_sm_pred_ci),
-                             **bounds.flat("reduction_pct", numbers.reduction_pct_ci),
-                             **bounds.flat("reduction_pct_difference", versus[scorer].reduction_pct_difference_ci
-                                           .get(mode) if scorer in versus else None)})
-    return sorted(rows, key=lambda r: (order.mode(r["mode"]), r["seq_len"], order.dataset(r["dataset"]),
-                                       order.method(r["method"]), scorers.names().index(r["scorer"])))
+                rows.append(BaselineRow(
+                    dataset=dataset, method=method, seq_len=seq_len, split=split, mode=mode, scorer=scorer,
+                    budget=first.budget, removed=first.scorers[scorer].removed, max_recall=numbers.max_recall,
+                    aoc_vpr_sm=numbers.aoc_vpr_sm, aoc_vpr_sm_ci=numbers.aoc_vpr_sm_ci, aoc=numbers.aoc_vpr_sm_pred,
+                    aoc_ci=numbers.aoc_vpr_sm_pred_ci, reduction_pct=numbers.reduction_pct,
+                    reduction_pct_ci=numbers.reduction_pct_ci, outcome=numbers.outcome,
+                    reduction_pct_difference_ci=versus[scorer].reduction_pct_difference_ci.get(mode)
+                    if scorer in versus else None, reduction_pct_mean=mean, reduction_pct_std=std,
+                    reduction_pct_min=low, reduction_pct_max=high, n_seeds=len(values), n_seeds_defined=defined,
+                    n_queries=found.n_queries, auc=numbers.auc_vpr_sm_pred))
+    return sorted(rows, key=lambda r: (order.mode(r.mode), r.seq_len, order.dataset(r.dataset),
+                                       order.method(r.method), scorers.names().index(r.scorer)))
 
 
 def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collection[int] | None = None,
-                   order: Order | None = None) -> list[dict[str, Any]]:
+                   order: Order | None = None) -> list[DetectionRow]:
     """The ``wrong_match_detection`` table: one row per dataset, method, L and scorer of the records' ``split``:
     average precision and ROC AUC (``random`` and ``predictor``: the first seed's; ``random`` also their mean and
     sample standard deviation over its seeds), and the wrong matches they are over."""
@@ -120,24 +118,22 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
         versus = found.versus_predictor or {}
         for scorer in (name for name in scorers.names() if name in found.detection):
             numbers = found.detection[scorer]
-            row = {"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "scorer": scorer,
-                   "average_precision": numbers.average_precision, "roc_auc": numbers.roc_auc,
-                   "average_precision_mean": None, "average_precision_std": None, "roc_auc_mean": None,
-                   "roc_auc_std": None, "n_seeds": 1, "wrong_fraction": found.wrong_fraction,
-                   "n_wrong": found.n_wrong, "n_queries": found.n_queries,
-                   **bounds.flat("average_precision", numbers.average_precision_ci),
-                   **bounds.flat("average_precision_difference", versus[scorer].average_precision_difference_ci
-                                 if scorer in versus else None)}
-            if scorer == RANDOM:
+            row = DetectionRow(
+                dataset=dataset, method=method, seq_len=seq_len, split=split, scorer=scorer,
+                average_precision=numbers.average_precision, average_precision_ci=numbers.average_precision_ci,
+                average_precision_difference_ci=versus[scorer].average_precision_difference_ci
+                if scorer in versus else None, roc_auc=numbers.roc_auc, wrong_fraction=found.wrong_fraction,
+                n_wrong=found.n_wrong, n_queries=found.n_queries)
+            if scorer == RANDOM:  # the first seed's, and the mean and spread over every seed
                 ap = _spread([d.average_precision for d in found.random_detection])
                 auc = _spread([d.roc_auc for d in found.random_detection])
-                row.update(average_precision_mean=ap[0], average_precision_std=ap[1], roc_auc_mean=auc[0],
-                           roc_auc_std=auc[1], n_seeds=len(found.random_detection))
+                row = replace(row, average_precision_mean=ap[0], average_precision_std=ap[1], roc_auc_mean=auc[0],
+                              roc_auc_std=auc[1], n_seeds=len(found.random_detection))
             rows.append(row)
     return rows
 
 
-def best_scorer(rows: Iterable[dict[str, Any]], key: str = "reduction_pct") -> dict[str, Any] | None:
+def best_scorer(rows: Iterable[Mapping[str, Any]], key: str = "reduction_pct") -> Mapping[str, Any] | None:
     """The row of the training-free scorer with the largest seed-0 ``key`` among ``rows`` (one method's, one
     mode's: as the seed-0 predictor's), the first in the registry's order on a tie; None when none is defined."""
     candidates = [r for r in rows if r["scorer"] in scorers.training_free() and r.get(key) is not None]
@@ -146,37 +142,32 @@ def best_scorer(rows: Iterable[dict[str, Any]], key: str = "reduction_pct") -> d
     return max(candidates, key=lambda r: (r[key], -scorers.names().index(r["scorer"])))
 
 
-def _groups(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], list[dict[str, Any]]]:
+def _groups(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, int, str], list[Mapping[str, Any]]]:
     """``baseline_rows`` by (dataset, method, L, mode)."""
-    groups: dict[tuple[str, str, int, str], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, str, int, str], list[Mapping[str, Any]]] = {}
     for row in rows:
         groups.setdefault((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), []).append(row)
     return groups
 
 
-def best_by_row(rows: Sequence[dict[str, Any]]) -> dict[tuple[str, str, int, str], dict[str, Any]]:
-    """Per (dataset, method, L, mode) of ``baseline_rows``, the best training-free scorer's row."""
-    return {key: best for key, group in _groups(rows).items() if (best := best_scorer(group)) is not None}
-
-
-def with_best(table_rows: Sequence[dict[str, Any]], rows: Sequence[dict[str, Any]]) -> list[dict[str, Any]]:
+def with_best(table_rows: Sequence[Table1Row], rows: Sequence[Mapping[str, Any]]) -> list[SeqLenRow]:
     """The sequence-length ablation's rows (Table I's) with the best training-free scorer of each (dataset,
-    method, L, mode) beside the predictor: ``best_scorer``, its ``best_scorer_reduction_pct``, and (not columns)
-    the outcome that says why it is undefined (``best_scorer_outcome``: where no training-free reduction is
-    defined, the outcome they share, e.g. nothing to reduce, and no scorer) and its PR AUC at the seed-0 budget
-    (``best_scorer_auc``, which the sequence-length figure marks)."""
+    method, L, mode) of ``baseline_rows``' ``rows`` beside the predictor: its name, reduction, PR AUC at the seed-0
+    budget (which the sequence-length figure marks) and outcome; where no training-free reduction is defined, the
+    outcome they share (e.g. nothing to reduce) says why, and no scorer is named."""
     groups = _groups(rows)
     out = []
     for row in table_rows:
-        group = groups.get((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), [])
+        group = groups.get((row.dataset, row.method, row.seq_len, row.mode), [])
+        numbers = {field.name: getattr(row, field.name) for field in fields(row)}
         found = best_scorer(group)
         if found is not None:
-            extra = {"best_scorer": found["scorer"], "best_scorer_reduction_pct": found["reduction_pct"],
-                     "best_scorer_outcome": found["outcome"], "best_scorer_auc": found.get("auc")}
-        else:
-            outcomes = {r["outcome"] for r in group if r["scorer"] in scorers.training_free()}
-            extra = {"best_scorer_outcome": outcomes.pop()} if len(outcomes) == 1 else {}
-        out.append({**row, **extra})
+            out.append(SeqLenRow(**numbers, best_scorer=found["scorer"],
+                                 best_scorer_reduction_pct=found["reduction_pct"], best_scorer_outcome=found["outcome"],
+                                 best_scorer_auc=found.get("auc")))
+            continue
+        outcomes = {r["outcome"] for r in group if r["scorer"] in scorers.training_free()}
+        out.append(SeqLenRow(**numbers, best_scorer_outcome=outcomes.pop() if len(outcomes) == 1 else None))
     return out
 
 

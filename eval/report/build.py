@@ -17,11 +17,11 @@ from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
-from vpr_smr.core.constants import MATCHERS, RECALL_AT
+from vpr_smr.core.constants import MATCHERS
 from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path
 from vpr_smr.core.records import FormatError
-from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, PredictorReport
+from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import bounds, registry
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report.baselines import baseline_rows, comparisons, detection_rows, with_best
@@ -32,9 +32,24 @@ from vpr_smr.eval.report.results import (
     WrittenTable,
     ground_truth_text,
     provenance_text,
-    split_text,
     split_word,
     unique,
+)
+from vpr_smr.eval.report.rows import (
+    ConfusionRow,
+    DatasetRow,
+    HeldOutRow,
+    PredictorMethodRow,
+    PredictorRow,
+    RestorationRow,
+    SeqLenRow,
+    SpeedRow,
+    SweepRow,
+    Table2Row,
+    TimingRow,
+    TrustRow,
+    VPRMetricsRow,
+    cells,
 )
 from vpr_smr.eval.report.table1 import (
     UNDEFINED,
@@ -55,7 +70,7 @@ from vpr_smr.eval.scoring.records import (
     VPRMetrics,
 )
 from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
-from vpr_smr.eval.scoring.speed import SpeedResult, SpeedScores
+from vpr_smr.eval.scoring.speed import SpeedResult
 
 # Every table's columns, in its files' order: registry.TABLES
 
@@ -64,22 +79,9 @@ ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
 # --- Table II ---------------------------------------------------------------------------------------------------
 
 
-def table2_cells(numbers: AttributeScores, splits: Splits) -> dict[str, Any]:
-    """One attribute set's Table II cells (``registry.TABLE2_F1`` and ``TABLE2_COUNTS``) by the splits' names: F1 and
-    samples of the validation split and of the last evaluation split, and the last one's mean over methods; a split
-    the record does not hold has no cells."""
-    cells: dict[str, Any] = {}
-    for name in unique(name for name in (splits.validation, splits.last) if name is not None):
-        if name in numbers.splits:
-            cells[f"f1_{name}"], cells[f"n_{name}"] = numbers.splits[name].f1, numbers.splits[name].n
-    if splits.last in numbers.splits:
-        cells[f"f1_{splits.last}_method_mean"] = numbers.splits[splits.last].f1_method_mean
-    return cells
-
-
 def table2_f1(splits: Splits) -> tuple[str, ...]:
-    """Table II's F1 columns (``registry.TABLE2_F1``) named by ``splits``."""
-    return tuple(column.name for column in registry.expand(registry.TABLE2_F1, splits))
+    """Table II's F1 columns (its page's columns but the samples, which its notes say) named by ``splits``."""
+    return tuple(column.name for column in registry.table("table2").shown(splits) if not column.note)
 
 
 def table2_splits(ablations: Sequence[AttributeAblation]) -> Splits:
@@ -91,22 +93,14 @@ def table2_splits(ablations: Sequence[AttributeAblation]) -> Splits:
 
 
 def table2_rows(ablations: Sequence[AttributeAblation], order: Order | None = None,
-                splits: Splits | None = None) -> list[dict[str, Any]]:
+                splits: Splits | None = None) -> list[Table2Row]:
     """Table II's rows, the columns of the validation and the last evaluation split named by ``splits`` (default:
     the records' own names, ``table2_splits``)."""
     order = order or Order.of(ablation.meta for ablation in ablations)
     splits = splits or table2_splits(ablations)
-    rows = []
-    for ablation in ablations:
-        meta = ablation.meta
-        for name in ATTRIBUTE_ORDER:
-            if name in ablation.attributes:
-                numbers = ablation.attributes[name]
-                rows.append({"dataset": meta["dataset"], "seq_len": meta["seq_len"], "attributes": name,
-                             "f1_cv": numbers.f1_cv, "n_train": ablation.n_train,
-                             **table2_cells(numbers, splits)})
-    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"]),
-                                       ATTRIBUTE_ORDER.index(r["attributes"])))
+    rows = [Table2Row.of(ablation, name, splits) for ablation in ablations for name in ATTRIBUTE_ORDER
+            if name in ablation.attributes]
+    return sorted(rows, key=lambda r: (order.dataset(r.dataset), int(r.seq_len), ATTRIBUTE_ORDER.index(r.attributes)))
 
 
 def _marks(name: str, yes: str, no: str) -> list[str]:
@@ -131,14 +125,14 @@ def _table2_headings(splits: Splits, long: bool) -> list[str]:
     """Table II's F1 headings: cross-validation, the validation and the last split by name, the method mean; the
     registry's labels (``long``, Markdown) or LaTeX's short ones."""
     if long:
-        return [column.header for column in registry.expand(registry.TABLE2_F1, splits)]
+        return [column.header for column in registry.table("table2").shown(splits) if not column.note]
     validation, table = splits.validation, tex_escape(str(splits.last))
     return ["F1 (CV)", *([f"F1 ({tex_escape(validation)})"] if validation is not None else []), f"F1 ({table})",
             f"F1 ({table}, method mean)"]
 
 
-def table2_markdown(rows: list[dict[str, Any]], splits: Splits | None = None) -> str:
-    splits = splits or Splits("test", ("val", "test"))
+def table2_markdown(table2: Sequence[Table2Row], splits: Splits | None = None) -> str:
+    splits, rows = splits or Splits("test", ("val", "test")), [cells(row) for row in table2]
     f1 = table2_f1(splits)
     out = ["# Table II: macro F1 of the predictor by attribute (A1 minimum sum rate, A2 minimum value rate, "
            "A3 block sum rate, A4 group sum rate)", ""]
@@ -151,14 +145,14 @@ def table2_markdown(rows: list[dict[str, Any]], splits: Splits | None = None) ->
         out += [f"## {dataset}, sequence length {seq_len}", ""] + ([note, ""] if note else []) + [
                 "| " + " | ".join(headings) + " |", "|" + "---|" * len(headings)]
         for row in group:
-            cells = _marks(row["attributes"], "✓", "×") + [_f1(row.get(k)) for k in f1]
-            out.append("| " + " | ".join(cells) + " |")
+            texts = _marks(row["attributes"], "✓", "×") + [_f1(row.get(k)) for k in f1]
+            out.append("| " + " | ".join(texts) + " |")
         out.append("")
     return "\n".join(out)
 
 
-def table2_latex(rows: list[dict[str, Any]], splits: Splits | None = None) -> str:
-    splits = splits or Splits("test", ("val", "test"))
+def table2_latex(table2: Sequence[Table2Row], splits: Splits | None = None) -> str:
+    splits, rows = splits or Splits("test", ("val", "test")), [cells(row) for row in table2]
     f1 = table2_f1(splits)
     out = []
     groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
@@ -169,8 +163,8 @@ def table2_latex(rows: list[dict[str, Any]], splits: Splits | None = None) -> st
         out += [f"% {dataset}, sequence length {seq_len}", r"\begin{tabular}{" + "|".join("c" * len(headings)) + "}",
                 " & ".join(headings) + r"\\", r"\hline"]
         for row in group:
-            cells = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row.get(k)) for k in f1]
-            out.append(" & ".join(cells) + r"\\")
+            texts = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row.get(k)) for k in f1]
+            out.append(" & ".join(texts) + r"\\")
         note = _sample_note(group, splits)
         if note:
             out.append(rf"\multicolumn{{{len(headings)}}}{{l}}{{\footnotesize {tex_escape(note)}}}\\")
@@ -182,22 +176,16 @@ def table2_latex(rows: list[dict[str, Any]], splits: Splits | None = None) -> st
 
 
 def predictor_rows(predictors: Sequence[PredictorReport], order: Order | None = None,
-                   splits: Splits | None = None) -> list[dict[str, Any]]:
+                   splits: Splits | None = None) -> list[PredictorRow]:
     """The pooled predictors' numbers (the registry's predictor columns) and warnings, judged on ``splits``'
     validation split (default: the reports' splits, in the order first seen, the first of them the validation
     split)."""
     order = order or Order.of(report.meta for report in predictors)
     seen = tuple(dict.fromkeys(name for report in predictors for name in report.seeds[0].splits))
     validation = splits.validation if splits is not None else next(iter(seen), None)
-    splits = splits or Splits(None, seen)
-    rows = []
-    for report in predictors:
-        numbers = {"n_train": report.n_train, **report.first_seed()}  # the predictor file's seed
-        counts = numbers["train_class_counts"]
-        rows.append({**{k: numbers.get(k) for k in registry.table("predictor").names(splits)}, **report.meta,
-                     **{f"train_class_{c}": counts[c] for c in range(4)},
-                     "warning": report.warning(validation) if validation is not None else ""})
-    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), int(r["seq_len"])))
+    evaluation = splits.evaluation if splits is not None else seen
+    rows = [PredictorRow.of(report, evaluation, validation) for report in predictors]
+    return sorted(rows, key=lambda r: (order.dataset(r.dataset), int(r.seq_len)))
 
 
 def _by_key(evaluations: Sequence[Evaluation], order: Order | None = None
@@ -207,88 +195,50 @@ def _by_key(evaluations: Sequence[Evaluation], order: Order | None = None
     order = order or evaluation_order(evaluations)
     out: dict[tuple[str, int], list[Evaluation]] = {}
     for evaluation in evaluations:
-        out.setdefault((evaluation.meta["dataset"], int(evaluation.meta["seq_len"])), []).append(evaluation)
-    return {key: sorted(out[key], key=lambda e: order.method(e.meta["method"]))
+        out.setdefault((evaluation.dataset, evaluation.seq_len), []).append(evaluation)
+    return {key: sorted(out[key], key=lambda e: order.method(e.method))
             for key in sorted(out, key=lambda k: (order.dataset(k[0]), k[1]))}
 
 
 def predictor_method_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
-                          ) -> list[dict[str, Any]]:
-    rows = []
-    for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        for evaluation in items:
-            result = evaluation.splits[split]
-            rows.append({"dataset": dataset, "seq_len": seq_len, "method": evaluation.meta["method"],
-                         "split": split, "n_queries": result.n_queries, "f1_macro": result.f1_macro,
-                         **{f"class_{c}": result.class_counts[c] for c in range(4)},
-                         **{f"predicted_{c}": result.predicted_counts[c] for c in range(4)}})
-    return rows
+                          ) -> list[PredictorMethodRow]:
+    return [PredictorMethodRow.of(dataset, seq_len, evaluation.method, split, evaluation.splits[split])
+            for (dataset, seq_len), items in _by_key(evaluations, order).items() for evaluation in items]
 
 
 def confusion_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
-                   ) -> list[dict[str, Any]]:
+                   ) -> list[ConfusionRow]:
     """The seed-0 confusion matrix per dataset, L and method, and summed over the methods (method ``all``)."""
     rows = []
     for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        matrices = [(e.meta["method"], np.array(e.splits[split].confusion_matrix)) for e in items]
+        matrices = [(e.method, np.array(e.splits[split].confusion_matrix)) for e in items]
         matrices.append(("all", np.sum([m for _, m in matrices], axis=0)))
         for method, matrix in matrices:
-            for true_class, counts in enumerate(matrix):
-                rows.append({"dataset": dataset, "seq_len": seq_len, "method": method, "true_class": true_class,
-                             **{f"predicted_{c}": int(counts[c]) for c in range(4)}, "total": int(counts.sum())})
+            rows += [ConfusionRow.of(dataset, seq_len, method, true_class, counts)
+                     for true_class, counts in enumerate(matrix)]
     return rows
 
 
-def trust_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None) -> list[dict[str, Any]]:
-    rows = []
-    for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        for evaluation in items:
-            result = evaluation.splits[split]
-            for mode, numbers in result.modes.items():
-                for level, values in (numbers.trust_auc or {}).items():
-                    rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
-                                 "mode": mode, "trust": float(level), **bounds.flatten(values.to_json()),
-                                 "n_queries": result.n_queries})
-    return rows
+def trust_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None) -> list[TrustRow]:
+    return [TrustRow.of(evaluation.key, mode, float(level), values, result.n_queries)
+            for items in _by_key(evaluations, order).values() for evaluation in items
+            for result in (evaluation.splits[split],) for mode, numbers in result.modes.items()
+            for level, values in (numbers.trust_auc or {}).items()]
 
 
 def restoration_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
-                     ) -> list[dict[str, Any]]:
-    rows = []
-    for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        for evaluation in items:
-            result = evaluation.splits[split]
-            if result.restoration is None:
-                continue
-            for mode, numbers in result.restoration.modes.items():
-                rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
-                             "mode": mode, **result.restoration.counts(), **bounds.flatten(numbers.to_json()),
-                             "n_queries": result.n_queries})
-    return rows
+                     ) -> list[RestorationRow]:
+    return [RestorationRow.of(evaluation.key, mode, result.restoration, result.n_queries)
+            for items in _by_key(evaluations, order).values() for evaluation in items
+            for result in (evaluation.splits[split],) if result.restoration is not None
+            for mode in result.restoration.modes]
 
 
-def lomo_rows(results: Sequence[HeldOut], order: Order | None = None) -> list[dict[str, Any]]:
+def lomo_rows(results: Sequence[HeldOut], order: Order | None = None) -> list[HeldOutRow]:
     order = order or Order.of(result.meta for result in results)
-    rows = []
-    for result in results:
-        meta, pooled, without = result.meta, result.pooled, result.without
-        for mode in pooled.modes:
-            rows.append({
-                "dataset": meta["dataset"], "seq_len": meta["seq_len"], "held_out": meta["method"], "mode": mode,
-                "n_queries": result.n_queries, "f1_pooled": pooled.f1_macro, "f1_without": without.f1_macro,
-                "removed_pooled": pooled.removed, "removed_without": without.removed,
-                "aoc_vpr_sm": pooled.modes[mode].reduction.aoc_vpr_sm,
-                "aoc_pooled": pooled.modes[mode].reduction.aoc_vpr_sm_pred,
-                "aoc_without": without.modes[mode].reduction.aoc_vpr_sm_pred,
-                "reduction_pct_pooled": pooled.modes[mode].reduction.reduction_pct,
-                "reduction_pct_without": without.modes[mode].reduction.reduction_pct,
-                "outcome_pooled": pooled.modes[mode].reduction.outcome,
-                "outcome_without": without.modes[mode].reduction.outcome,
-                **bounds.flat("reduction_pct_pooled", pooled.modes[mode].reduction.reduction_pct_ci),
-                **bounds.flat("reduction_pct_without", without.modes[mode].reduction.reduction_pct_ci),
-            })
-    return sorted(rows, key=lambda r: (order.mode(r["mode"]), order.dataset(r["dataset"]), int(r["seq_len"]),
-                                       order.method(r["held_out"])))
+    rows = [HeldOutRow.of(result.key, mode, result) for result in results for mode in result.pooled.modes]
+    return sorted(rows, key=lambda r: (order.mode(r.mode), order.dataset(r.dataset), r.seq_len,
+                                       order.method(r.held_out)))
 
 
 def match_timings(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) -> dict[tuple[str, str, int], Timing]:
@@ -306,29 +256,16 @@ def match_timings(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) 
 
 
 def timing_rows(evaluations: Sequence[Evaluation], timings: Sequence[Timing], order: Order | None = None
-                ) -> list[dict[str, Any]]:
+                ) -> list[TimingRow]:
     """Per evaluation and split, its timing (matched by meta); evaluations whose timings are not given are left
     out."""
     matched = match_timings(evaluations, timings)
-    rows = []
-    for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        for evaluation in items:
-            timing = matched.get(evaluation.key)
-            if timing is None:
-                continue
-            for split in evaluation.splits:
-                numbers = timing.splits[split]
-                n = max(numbers.n_queries, 1)
-                attributes, predict = numbers.attributes_seconds, numbers.predict_seconds
-                rows.append({"dataset": dataset, "method": evaluation.meta["method"], "seq_len": seq_len,
-                             "split": split, "n_queries": numbers.n_queries, "attributes_seconds": attributes,
-                             "predict_seconds": predict, "ms_per_query": 1e3 * (attributes + predict) / n,
-                             "ms_attributes_per_query": 1e3 * attributes / n,
-                             "ms_predict_per_query": 1e3 * predict / n})
-    return rows
+    return [TimingRow.of(dataset, evaluation.method, seq_len, split, timing.splits[split])
+            for (dataset, seq_len), items in _by_key(evaluations, order).items() for evaluation in items
+            if (timing := matched.get(evaluation.key)) is not None for split in evaluation.splits]
 
 
-def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[dict[str, Any]]:
+def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[VPRMetricsRow]:
     """The standard VPR metrics of the table ``split``: one row per dataset, method, L, mode and matcher (in the
     configuration's order, the matchers in ``core.constants.MATCHERS``' order)."""
     order = order or Order.of(record.meta for record in records)
@@ -345,29 +282,16 @@ def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | N
         modes = record.splits[split].modes
         for mode in sorted(modes, key=order.mode):
             matchers = sorted(modes[mode], key=lambda m: (MATCHERS.index(m) if m in MATCHERS else len(MATCHERS), m))
-            for matcher in matchers:
-                numbers = modes[mode][matcher]
-                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
-                             "matcher": matcher, "n_queries": numbers.n_queries,
-                             **{f"recall_at_{n}": numbers.recall_at.get(n) for n in RECALL_AT},
-                             "recall_at_100p": numbers.recall_at_100p, "pr_auc": numbers.pr_auc,
-                             "extended_precision": numbers.extended_precision})
+            rows += [VPRMetricsRow.of(record.key, split, mode, matcher, modes[mode][matcher]) for matcher in matchers]
     return rows
 
 
-def _speed_numbers(scores: SpeedScores) -> dict[str, Any]:
-    """A method's speed scores flat: recall@1, F1 and its reduction's numbers."""
-    return {"recall_at_1_single": scores.recall_at_1_single, "recall_at_1_sequence": scores.recall_at_1_sequence,
-            **scores.reduction.to_json(), "f1_macro": scores.f1_macro}
-
-
-def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> list[dict[str, Any]]:
+def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> list[SpeedRow]:
     """The speed experiment: one row per dataset, L, method, profile and matcher (fixed, then velocity search), the
     datasets and methods in the configuration's order and the profiles in the order given (the configuration's)."""
     order = order or Order.of(result.meta for result in results)
     profiles: dict[str, int] = {}
     seen: set[tuple[str, int, str]] = set()
-    columns = registry.table("speed").names()
     rows = []
     for result in results:
         dataset, seq_len, profile = str(result.meta["dataset"]), int(result.meta["seq_len"]), result.profile
@@ -375,67 +299,36 @@ def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> li
             raise ValueError(f"two speed files of {dataset}, L{seq_len}, profile {profile}")
         seen.add((dataset, seq_len, profile))
         profiles.setdefault(profile, len(profiles))
-        for matcher, numbers in result.matchers.items():
-            for method, scores in numbers.methods.items():
-                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "profile": profile,
-                             "speed": result.speed, "mean_speed": result.mean_speed, "matcher": matcher,
-                             "velocities": " ".join(f"{v:g}" for v in numbers.velocities),
-                             **{k: v for k, v in _speed_numbers(scores).items() if k in columns},
-                             "n_queries": scores.n_queries, "n_queries_single": scores.n_queries_single})
+        rows += [SpeedRow.of(result, matcher, numbers.velocities, method, scores)
+                 for matcher, numbers in result.matchers.items() for method, scores in numbers.methods.items()]
     matchers = list(SPEED_MATCHERS)
-    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), r["seq_len"], order.method(r["method"]),
-                                       profiles[r["profile"]], matchers.index(r["matcher"])
-                                       if r["matcher"] in matchers else len(matchers), r["matcher"]))
+    return sorted(rows, key=lambda r: (order.dataset(r.dataset), r.seq_len, order.method(r.method),
+                                       profiles[r.profile], matchers.index(r.matcher)
+                                       if r.matcher in matchers else len(matchers), r.matcher))
 
 
-def sweep_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[dict[str, Any]]:
+def sweep_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[SweepRow]:
     """The protocol sweep of the table ``split`` (``records.ProtocolSweep``, in the VPR metrics of a run with the
     sweep): one row per dataset, method, L, mode and tolerance or radius, in the configuration's order."""
     order = order or Order.of(record.meta for record in records)
     rows = []
     for record in records:
-        dataset, method, seq_len = record.key
         found = record.splits.get(split)
         if found is None or found.sweep is None:
             continue
         for mode, points in found.sweep.modes.items():
-            for point in points:
-                reduction = point.reduction
-                # recall_at_1_single_evaluated: over the same queries as the sequence recall, which
-                # recall_change_ci (sequence minus single, paired) is of
-                rows.append({"dataset": dataset, "method": method, "seq_len": seq_len, "split": split, "mode": mode,
-                             "ground_truth": found.sweep.kind, "threshold": point.threshold,
-                             "recall_at_1_single": point.recall_at_1_single,
-                             "recall_at_1_sequence": point.recall_at_1_sequence,
-                             "recall_at_1_single_evaluated": point.recall_at_1_single_evaluated,
-                             **bounds.flat("recall_change", point.recall_change_ci),
-                             # the evaluated queries: the sequence matcher's recall@1 denominator
-                             "n_queries": found.modes[mode]["sequence"].n_queries
-                             if "sequence" in found.modes.get(mode, {}) else None,
-                             **({} if reduction is None else {
-                                 "max_recall": reduction.max_recall, "aoc_vpr_sm": reduction.aoc_vpr_sm,
-                                 "aoc_vpr_sm_pred": reduction.aoc_vpr_sm_pred,
-                                 "reduction_pct": reduction.reduction_pct, "outcome": reduction.outcome,
-                                 **bounds.flat("reduction_pct", reduction.reduction_pct_ci)})})
-    return sorted(rows, key=lambda r: (order.dataset(r["dataset"]), r["seq_len"], order.mode(r["mode"]),
-                                       order.method(r["method"]), r["threshold"]))
+            # the evaluated queries: the sequence matcher's recall@1 denominator
+            sequence = found.modes.get(mode, {}).get("sequence")
+            rows += [SweepRow.of(record.key, split, mode, found.sweep.kind, point,
+                                 None if sequence is None else sequence.n_queries) for point in points]
+    return sorted(rows, key=lambda r: (order.dataset(r.dataset), r.seq_len, order.mode(r.mode),
+                                       order.method(r.method), r.threshold))
 
 
-def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None) -> list[dict[str, Any]]:
+def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None) -> list[DatasetRow]:
     """One row per dataset card (``pipeline.plan.dataset_cards``), in the configuration's order."""
     order = order or Order(tuple(datasets))
-    return [{"dataset": name, "reference": info.get("reference", ""), "query": info.get("query", ""),
-             # a dataset with positions (method §11): reference / query frames; a frame-aligned one as it was
-             "n_frames": info.get("n_frames") if info.get("n_query_frames") is None
-             else f"{info.get('n_frames')} / {info['n_query_frames']}",
-             "splits": split_text(info.get("splits", {}), info.get("reference_splits")),
-             # the ground truth: frames within the tolerance as the number, else its text (positions, a file)
-             "tolerance": info.get("tolerance") if info.get("radius") is None and info.get("ground_truth") is None
-             else ground_truth_text(info),
-             "pairing": info.get("pairing", ""),
-             "overlaps": "; ".join(info.get("overlaps", [])), "frames_sha256": info.get("frames_sha256", ""),
-             "source": info.get("source", "")}
-            for name, info in sorted(datasets.items(), key=lambda item: order.dataset(item[0]))]
+    return [DatasetRow.of(name, datasets[name]) for name in sorted(datasets, key=order.dataset)]
 
 
 # --- writing ----------------------------------------------------------------------------------------------------
@@ -589,14 +482,14 @@ def _figure_panels(items: list[Evaluation], split: str, mode: str, restoration: 
         result = evaluation.splits[split]
         numbers = result.modes[mode]
         if not restoration:
-            panels.append((evaluation.meta["method"], {**_flat_mode(numbers), "n_queries": result.n_queries,
+            panels.append((evaluation.method, {**_flat_mode(numbers), "n_queries": result.n_queries,
                                                        "removed": result.removed}))
             continue
         if result.restoration is None or numbers.curves is None:
             raise ValueError(f"{evaluation.key}: no restoration or no removal curves in split {split!r}")
         restored = replace(result.restoration.modes[mode], curve_vpr_sm=numbers.curves.curve_vpr_sm,
                            curve_removal=numbers.curves.curve_vpr_sm_pred)
-        panels.append((evaluation.meta["method"], restored.to_json()))
+        panels.append((evaluation.method, restored.to_json()))
     return panels
 
 
@@ -637,17 +530,26 @@ class Inputs:
     baselines: list[Baselines] = dataclasses.field(default_factory=list)
 
 
+def _seq_len_rows(inputs: Inputs) -> list[SeqLenRow]:
+    """The sequence-length ablation: Table I's rows of every L, with the best training-free scorer of each."""
+    best = baseline_rows(inputs.baselines, inputs.split, order=inputs.order) if inputs.baselines else []
+    return with_best(table1_rows(inputs.evaluations, inputs.split, order=inputs.order), [cells(r) for r in best])
+
+
 def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[WrittenTable]:
     contents: dict[str, tuple[list[dict[str, Any]], dict[str, str]]] = {}
     evaluations, split, order = inputs.evaluations, inputs.split, inputs.order
 
-    def table(name: str, rows: list[dict[str, Any]], **special: str) -> None:
-        registry.table(name)  # only a declared table is written
-        contents[name] = (rows, special)
+    def table(name: str, rows: Sequence[Any], **special: str) -> None:
+        spec = registry.table(name)  # only a declared table is written, of its row record where it names one
+        if spec.row is not None and any(not isinstance(row, spec.row) for row in rows):
+            raise TypeError(f"table {name!r}: its rows are {spec.row.__name__} records")
+        contents[name] = ([cells(row) if spec.row is not None else row for row in rows], special)
 
     if evaluations:
-        rows = table1_rows(evaluations, split, inputs.table_seq_lens, order)
-        table("table1", rows, markdown=table1_markdown(rows, split), latex=table1_latex(rows, split))
+        table1 = table1_rows(evaluations, split, inputs.table_seq_lens, order)
+        shown = [cells(row) for row in table1]
+        table("table1", table1, markdown=table1_markdown(shown, split), latex=table1_latex(shown, split))
         table("predictor_methods", predictor_method_rows(evaluations, split, order))
         table("predictor_confusion", confusion_rows(evaluations, split, order))
         trust = trust_rows(evaluations, split, order)
@@ -657,11 +559,8 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
         if restoration:
             table("restoration", restoration)
         table("timing", timing_rows(evaluations, inputs.timings, order))
-        if inputs.seq_len_ablation:
-            rows = table1_rows(evaluations, split, order=order)
-            if inputs.baselines:  # the best training-free scorer of every L beside the predictor
-                rows = with_best(rows, baseline_rows(inputs.baselines, split, order=order))
-            table("ablation_seq_len", rows)
+        if inputs.seq_len_ablation:  # with the best training-free scorer of every L beside the predictor
+            table("ablation_seq_len", _seq_len_rows(inputs))
     if inputs.baselines:
         table("baselines", baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order))
         table("wrong_match_detection", detection_rows(inputs.baselines, split, inputs.table_seq_lens, order))
@@ -671,8 +570,9 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
         title = registry.PREDICTOR_TITLE.format(splits=", ".join(map(split_word, inputs.splits.evaluation)))
         table("predictor", predictor_rows(inputs.predictors, order, inputs.splits), title=title)
     if inputs.ablations:
-        rows = table2_rows(inputs.ablations, order, inputs.splits)
-        table("table2", rows, markdown=table2_markdown(rows, inputs.splits), latex=table2_latex(rows, inputs.splits))
+        table2 = table2_rows(inputs.ablations, order, inputs.splits)
+        table("table2", table2, markdown=table2_markdown(table2, inputs.splits),
+              latex=table2_latex(table2, inputs.splits))
     if inputs.lomo:
         table("leave_one_method_out", lomo_rows(inputs.lomo, order))
     if inputs.datasets:
@@ -734,16 +634,14 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
         path = fig.confusion_figure(file("confusion", dataset=dataset, seq_len=seq_len), matrix,
                                     f"{dataset}, L={seq_len}: all methods ({split}{inputs.correct(dataset)})")
         keep("confusion", f"{dataset}, L={seq_len}", path, dataset, seq_len)
-    if inputs.seq_len_ablation and inputs.evaluations:
-        rows = table1_rows(inputs.evaluations, split, order=order)
-        if inputs.baselines:  # the best training-free scorer's PR AUC marked beside the predictor's bar
-            rows = with_best(rows, baseline_rows(inputs.baselines, split, order=order))
-        figures += _seq_len_figures(out_dir, rows, order, inputs)
+    if inputs.seq_len_ablation and inputs.evaluations:  # the best training-free scorer's PR AUC marked beside
+        figures += _seq_len_figures(out_dir, [cells(row) for row in _seq_len_rows(inputs)], order, inputs)
     if inputs.baselines:
         figures += _baseline_figures(out_dir, inputs)
     if inputs.speed:
-        figures += _speed_figures(out_dir, speed_rows(inputs.speed, order), order, split, inputs)
-    figures += _sweep_figures(out_dir, sweep_rows(inputs.metrics, split, order), order, split)
+        figures += _speed_figures(out_dir, [cells(row) for row in speed_rows(inputs.speed, order)], order, split,
+                                  inputs)
+    figures += _sweep_figures(out_dir, [cells(row) for row in sweep_rows(inputs.metrics, split, order)], order, split)
     return figures
 
 
@@ -769,7 +667,7 @@ def _baseline_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     (``detection``)."""
     split, order = inputs.split, inputs.order
     out = []
-    rows = baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order)
+    rows = [cells(row) for row in baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order)]
     spec = registry.figure("baselines")
     for comparison in comparisons(rows):
         shown = [r for r in rows if (r["dataset"], r["mode"], r["seq_len"]) ==
@@ -950,71 +848,84 @@ def _read(paths: Sequence[Path | str], what: str, from_json: Callable[[dict[str,
     return out
 
 
-def main(
-    out_dir: Path | str,
-    evaluations: Sequence[Path | str] = (),
-    predictors: Sequence[Path | str] = (),
-    attribute_ablations: Sequence[Path | str] = (),
-    leave_one_out: Sequence[Path | str] = (),
-    *,
-    timings: Sequence[Path | str] = (),
-    metrics: Sequence[Path | str] = (),
-    match_figures: Sequence[Path | str] = (),
-    matrix_figures: Sequence[Path | str] = (),
-    speed: Sequence[Path | str] = (),
-    baselines: Sequence[Path | str] = (),
-    split: str | None = None,
-    eval_splits: Sequence[str] | None = None,
-    train_split: str | None = None,
-    table_seq_lens: Collection[int] | None = None,
-    seq_len_ablation: bool = False,
-    methods: Sequence[str] = (),
-    config: str | dict[str, Any] | None = None,
-    provenance: dict[str, Any] | None = None,
-    descriptor_paths: Sequence[Path | str] = (),
-    html: bool = True,
-    datasets: dict[str, dict[str, Any]] | None = None,
-) -> list[Path]:
-    """Write ``tables/``, ``figures/`` and ``report.html`` under the run folder ``out_dir``; return the files.
+@dataclass(frozen=True)
+class RunFiles:
+    """The stages' files a report reads, each list optional: the run's paths, resolved in one place (the
+    workflow's rule and ``vpr-smr report`` fill it).
 
-    Inputs are JSON files of the stages, each list optional: ``evaluations`` (``evaluate.main``, one per dataset,
-    method and L), ``predictors`` (``train.main`` reports), ``attribute_ablations`` (``ablation.attributes_main``),
-    ``leave_one_out`` (``scoring.held_out.main``), ``timings`` (the ``.timing.json`` files ``evaluate.main`` writes,
-    each matched to its evaluation by dataset, method and L; the timing table leaves out evaluations without one),
-    ``metrics`` (``scoring.vpr_metrics``' files: the standard VPR metrics of the table ``split``).
-    ``match_figures`` and ``matrix_figures``: the match inspector's PNGs (``core.paths.match_figure_path`` and
-    ``matrix_figure_path``), shown in the page, placed by their file names. ``speed``: the speed experiment's
-    files (``scoring.speed.main``, one per dataset and profile, in the configuration's order of profiles).
-    ``baselines``: the training-free baselines (``vpr-smr baselines``, one per dataset, method and L): their
-    tables, figures and findings, and the best of them in the sequence-length ablation.
+    ``evaluations`` (``evaluate.main``, one per dataset, method and L), ``predictors`` (``train.main`` reports),
+    ``attribute_ablations`` (``ablation.attributes_main``), ``leave_one_out`` (``scoring.held_out.main``),
+    ``timings`` (the ``.timing.json`` files ``evaluate.main`` writes, each matched to its evaluation by dataset,
+    method and L; the timing table leaves out evaluations without one), ``metrics`` (``scoring.vpr_metrics``'
+    files: the standard VPR metrics of the table split). ``match_figures`` and ``matrix_figures``: the match
+    inspector's PNGs (``core.paths.match_figure_path`` and ``matrix_figure_path``), shown in the page, placed by
+    their file names. ``speed``: the speed experiment's files (``scoring.speed.main``, one per dataset and profile,
+    in the configuration's order of profiles). ``baselines``: the training-free baselines (``vpr-smr baselines``,
+    one per dataset, method and L): their tables, figures and findings, and the best of them in the
+    sequence-length ablation. ``descriptors``: descriptor files whose provenance attributes the page lists.
+    """
+
+    evaluations: Sequence[Path | str] = ()
+    predictors: Sequence[Path | str] = ()
+    attribute_ablations: Sequence[Path | str] = ()
+    leave_one_out: Sequence[Path | str] = ()
+    timings: Sequence[Path | str] = ()
+    metrics: Sequence[Path | str] = ()
+    match_figures: Sequence[Path | str] = ()
+    matrix_figures: Sequence[Path | str] = ()
+    speed: Sequence[Path | str] = ()
+    baselines: Sequence[Path | str] = ()
+    descriptors: Sequence[Path | str] = ()
+
+
+@dataclass(frozen=True)
+class ReportOptions:
+    """How the report shows the run: the configuration's choices.
+
     ``split``, ``eval_splits``, ``train_split``: the configuration's table_split, eval_splits and train_split, which
     the tables show and name (``results.Splits.resolve``; default: the one split every evaluation holds, the
-    splits of the inputs with it last, ``train``).
-    ``table_seq_lens``: the sequence lengths of Table I and
-    of the per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
+    splits of the inputs with it last, ``train``). ``table_seq_lens``: the sequence lengths of Table I and of the
+    per-L figures (None: all); ``seq_len_ablation``: also the sequence-length table and figure over every L.
     Datasets and methods keep the order the evaluations come in (the workflow gives them in the configuration's
-    order), or ``methods``' order when given.
-    ``config`` (YAML text or a dict) and ``provenance`` (e.g. package version, checkpoint and frame-list hashes)
-    go into the HTML page, with the provenance attributes of ``descriptor_paths``. ``datasets``: per dataset its
-    card (``pipeline.plan.dataset_cards``: traverses, frames, tolerance, splits, pairing, ``overlaps``, the frame
-    lists' SHA-256 and the images' source): the datasets table and the page's cards; overlaps flag every table.
+    order), or ``methods``' order when given. ``config`` (YAML text or a dict) and ``provenance`` (e.g. package
+    version, checkpoint and frame-list hashes) go into the HTML page. ``datasets``: per dataset its card
+    (``pipeline.plan.dataset_cards``: traverses, frames, tolerance, splits, pairing, ``overlaps``, the frame lists'
+    SHA-256 and the images' source): the datasets table and the page's cards; overlaps flag every table.
+    ``html``: also write ``report.html``.
     """
+
+    split: str | None = None
+    eval_splits: Sequence[str] | None = None
+    train_split: str | None = None
+    table_seq_lens: Collection[int] | None = None
+    seq_len_ablation: bool = False
+    methods: Sequence[str] = ()
+    config: str | dict[str, Any] | None = None
+    provenance: dict[str, Any] | None = None
+    html: bool = True
+    datasets: dict[str, dict[str, Any]] | None = None
+
+
+def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = None) -> list[Path]:
+    """Write ``tables/``, ``figures/`` and ``report.html`` under the run folder ``out_dir`` from the stages'
+    ``files``, shown as ``options`` say (default: ``ReportOptions()``); return the files written."""
     from vpr_smr.eval.report import html as html_report
 
-    out_dir = Path(out_dir)
-    read_evaluations = _read(evaluations, "evaluation", Evaluation.from_json, KEY_META)
-    read_metrics = _read(metrics, "VPR metrics", VPRMetrics.from_json, KEY_META, METRICS_HINT)
-    read_predictors = _read(predictors, "predictor report", PredictorReport.from_json, PREDICTOR_META)
-    read_lomo = _read(leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
-    read_speed = _read(speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
-    read_baselines = _read(baselines, "baselines", Baselines.from_json, KEY_META)
+    out_dir, options = Path(out_dir), options or ReportOptions()
+    split, datasets = options.split, options.datasets
+    read_evaluations = _read(files.evaluations, "evaluation", Evaluation.from_json, KEY_META)
+    read_metrics = _read(files.metrics, "VPR metrics", VPRMetrics.from_json, KEY_META, METRICS_HINT)
+    read_predictors = _read(files.predictors, "predictor report", PredictorReport.from_json, PREDICTOR_META)
+    read_lomo = _read(files.leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
+    read_speed = _read(files.speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
+    read_baselines = _read(files.baselines, "baselines", Baselines.from_json, KEY_META)
 
-    splits = Splits.resolve(split, eval_splits, train_split,
+    splits = Splits.resolve(split, options.eval_splits, options.train_split,
                             [*(list(e.splits) for e in read_evaluations), *(list(m.splits) for m in read_metrics),
                              *(list(b.splits) for b in read_baselines)],
                             [name for report in read_predictors for name in report.seeds[0].splits])
     split = splits.table or ""  # none only without evaluations and metrics, which alone show a split
-    base = evaluation_order(read_evaluations, methods)
+    base = evaluation_order(read_evaluations, options.methods)
     order = Order.of([*(e.meta for e in read_evaluations), *(m.meta for m in read_metrics),
                       *(b.meta for b in read_baselines),
                       *(h.meta for h in read_lomo), *(p.meta for p in read_predictors),
@@ -1024,20 +935,20 @@ def main(
                         for matcher in r.matchers.values() for method in matcher.methods)],
                      base.modes, base.methods)
     inputs = Inputs(
-        read_evaluations, _read(timings, "timing", Timing.from_json, KEY_META), read_predictors,
-        _read(attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
-        read_metrics,
-        dict(datasets or {}), split, None if table_seq_lens is None else {int(s) for s in table_seq_lens},
-        seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines)
+        read_evaluations, _read(files.timings, "timing", Timing.from_json, KEY_META), read_predictors,
+        _read(files.attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
+        read_metrics, dict(datasets or {}), split,
+        None if options.table_seq_lens is None else {int(s) for s in options.table_seq_lens},
+        options.seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines)
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]
-    if html:
+    if options.html:
         keys = [*(e.key for e in read_evaluations), *(m.key for m in read_metrics)]
-        inspected = inspector_figures({"matches": match_figures, "distance_matrix": matrix_figures}, keys,
-                                      [*order.datasets], split, order)
+        inspected = inspector_figures({"matches": files.match_figures, "distance_matrix": files.matrix_figures},
+                                      keys, [*order.datasets], split, order)
         written.append(html_report.main(
-            out_dir / registry.HTML, tables, [*figures, *inspected], order=order, split=split, config=config,
-            provenance=provenance, descriptor_paths=descriptor_paths, datasets=datasets, splits=splits,
+            out_dir / registry.HTML, tables, [*figures, *inspected], order=order, split=split, config=options.config,
+            provenance=options.provenance, descriptor_paths=files.descriptors, datasets=datasets, splits=splits,
             protocols=inputs.protocols))
     return written

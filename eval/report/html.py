@@ -15,7 +15,8 @@ from __future__ import annotations
 import base64
 import json
 import re
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -46,6 +47,7 @@ from vpr_smr.eval.report.results import (
     split_text,
     unique,
 )
+from vpr_smr.eval.report.rows import Column as TableColumn
 from vpr_smr.eval.report.table1 import (
     ROW_NAMES,
     SEED_ROW_NAME,
@@ -111,7 +113,7 @@ def _is_text(column: str, rows: Sequence[dict[str, Any]]) -> bool:
     return isinstance(value, str)
 
 
-def data_table(table_id: str, columns: Sequence[registry.Column], rows: Sequence[dict[str, Any]], short: bool = True,
+def data_table(table_id: str, columns: Sequence[TableColumn], rows: Sequence[dict[str, Any]], short: bool = True,
                caption: str = "", note: str = "") -> TableView:
     """A sortable table of ``rows``' ``columns``: headed by their labels (``short``) or by their names (the CSV's
     headers)."""
@@ -121,7 +123,7 @@ def data_table(table_id: str, columns: Sequence[registry.Column], rows: Sequence
     return TableView(table_id, head, body, caption=caption, note=note)
 
 
-def row_cell(row: dict[str, Any], column: registry.Column) -> Cell:
+def row_cell(row: dict[str, Any], column: TableColumn) -> Cell:
     """``cell`` of a row's value; an undefined reduction says why, from the row's outcome of that reduction
     (``reduction_pct`` -> ``outcome``, ``reduction_pct_pooled`` -> ``outcome_pooled``)."""
     value = row.get(column.name)
@@ -209,7 +211,7 @@ def scorer_table(table_id: str, rows: Sequence[dict[str, Any]], value: str, capt
             elif scorer == "random" and row.get(f"{value}_mean") is not None:
                 cells.append(cell(row[f"{value}_mean"], value, fmt=".4f"))
             else:
-                cells.append(row_cell(row, registry.Column(value, fmt=".2f" if value == "reduction_pct" else ".4f")))
+                cells.append(row_cell(row, TableColumn(value, fmt=".2f" if value == "reduction_pct" else ".4f")))
         body.append((text_cell(scorer, header=True), *cells))
     if value == "average_precision" and rows:
         body.append((text_cell("wrong fraction", header=True),
@@ -339,7 +341,7 @@ class _Builder:
         keys = {"dataset": figure.dataset, "seq_len": figure.seq_len, "mode": figure.mode}
         return _where(rows, **{key: value for key, value in keys.items() if value is not None})
 
-    def columns(self, name: str, rows: Sequence[dict[str, Any]]) -> list[registry.Column]:
+    def columns(self, name: str, rows: Sequence[dict[str, Any]]) -> list[TableColumn]:
         """What the compact tables of the registered table ``name`` show of ``rows``: its ``page`` columns, an
         ``if_any`` one only where a row has a value in it."""
         return [c for c in registry.table(name).shown(self.splits) if not c.if_any or any(r.get(c.name) for r in rows)]
@@ -357,272 +359,302 @@ class _Builder:
         return sorted({(str(r["dataset"]), int(r["seq_len"])) for r in rows},
                       key=lambda key: (self.order.dataset(key[0]), key[1]))
 
-    def _title(self, figure: WrittenFigure) -> str:
+    def block_title(self, figure: WrittenFigure) -> str:
         parts = [figure.dataset] + ([f"L = {figure.seq_len}"] if figure.seq_len is not None else [])
         return ", ".join(parts) + (f", {figure.mode} mode" if figure.mode else "") + self.correct(figure.dataset)
 
+    def anchor(self, prefix: str, figure: WrittenFigure) -> str:
+        """The HTML id of a figure's table: ``prefix`` and what the figure is of (dataset, L, mode)."""
+        return anchor(prefix, *(part for part in (figure.dataset, figure.seq_len, figure.mode) if part is not None))
+
+    def section(self, spec: Declared) -> Section | None:
+        """The one builder of the experiments' sections: ``spec``'s blocks (its own, or one per written figure of
+        ``spec.figure``: the figure, its rows' tables, sentences and the figures aside), under its title and intro,
+        with its tables whole, folded; none when no table of it has a row and it has no block."""
+        rows = self.rows(spec.tables[0]) if spec.tables else ()
+        headlines = list(spec.headlines(self) if spec.headlines is not None else ())
+        if spec.blocks is not None:
+            blocks = list(spec.blocks(self))
+        else:
+            blocks = []
+            for f in self.named(spec.figure):
+                shown = self.of(f, rows)
+                aside = tuple(self.figure(a) for a in self.named(spec.aside)
+                              if (a.dataset, a.seq_len, a.mode) == (f.dataset, f.seq_len, f.mode))
+                text = tuple(spec.sentences(self, shown)) if spec.sentences is not None else ()
+                tables = spec.view(self, f, shown) if spec.view is not None else ()
+                blocks.append(Block(self.block_title(f), (self.figure(f),), tables, text, aside=aside))
+                if spec.headline is not None and shown:
+                    headlines.append(spec.headline(shown))
+        if not blocks and not any(self.rows(name) for name in spec.tables):
+            return None
+        intro = spec.intro(self) if callable(spec.intro) else (spec.intro,)
+        return Section(spec.id, spec.title, intro, tuple(blocks), self.folded(*spec.tables), tuple(headlines))
+
     def sections(self) -> list[Section]:
-        makers = (self.baselines, self.pr, self.trust, self.restoration, self.seq_len, self.speed, self.predictor,
-                  self.table2, self.lomo, self.timing, self.vpr_metrics, self.protocol_sweep, self.inspector)
-        return [s for s in (make() for make in makers) if s is not None]
+        return [s for s in (self.section(spec) for spec in SECTIONS) if s is not None]
 
-    def baselines(self) -> Section | None:
-        """Right after Table I: is the predictor better than a simple rule? The sentence of every dataset, mode and
-        L first, then per dataset, L and mode each scorer's reduction at the predictor's budget, and per dataset and
-        L the detection of wrong matches."""
-        rows, detection = self.rows("baselines"), self.rows("wrong_match_detection")
-        if not rows and not detection:
-            return None
-        found = comparisons(rows)
-        blocks = []
-        for f in self.named("baselines"):
-            table = scorer_table(anchor("baselines", f.dataset, f.seq_len, f.mode), self.of(f, rows),
-                                 "reduction_pct", registry.table("baselines").caption)
-            blocks.append(Block(self._title(f), (self.figure(f),), (table,)))
-        for f in self.named("detection"):
-            shown = self.of(f, detection)
-            table = scorer_table(anchor("detection", f.dataset, f.seq_len), shown, "average_precision",
-                                 registry.table("wrong_match_detection").caption)
-            blocks.append(Block(f"{self._title(f)}: detecting wrong matches", (self.figure(f),), (table,)))
-        budget = ("Each scorer gives every query a confidence that its sequence match is correct and removes as "
-                  "many matches as the predictor does (its budget: the seed-0 predictor's, and every seed's for the "
-                  "spread over seeds), those of lowest confidence; the oracle removes only wrong matches, those of "
-                  "smallest sequence distance first, at most all of them. Each removal is scored as Table I scores "
-                  "the predictor's: the AOC at its own maximum recall against VPR+SM's curve cut there.")
-        # each scorer as its registry entry describes it; the predictor is the page's subject, described above
-        described = "; ".join(f"{s.name}: {s.description}" for s in scorer_registry.REGISTRY if s.kind != "predictor")
-        scorers_text = (described + ". Detecting wrong matches is threshold-free: the average precision and ROC AUC "
-                        "of each confidence against the wrong matches (a random ranking's average precision is the "
-                        "fraction of wrong matches).")
-        by_key: dict[tuple[str, int], list[Any]] = {}
-        for one in detection_comparisons(detection):
-            by_key.setdefault((one.dataset, one.seq_len), []).append(one)
-        detected = tuple(detection_sentence(group, self.split) for group in by_key.values())
-        intro = tuple(baseline_sentence(c, self.split) for c in found) + detected + (budget, scorers_text)
-        headlines = (*(baseline_headline(c) for c in found), *(detection_headline(g) for g in by_key.values()))
-        return Section("baselines", "Is the predictor better than a simple rule?", intro, tuple(blocks),
-                       self.folded("baselines", "wrong_match_detection"), headlines)
 
-    def pr(self) -> Section | None:
-        rows = self.rows("table1")
-        blocks = []
-        for f in self.named("pr"):
-            table = self.compact("table1", anchor("pr", f.dataset, f.seq_len, f.mode), self.of(f, rows))
-            blocks.append(Block(self._title(f), (self.figure(f),), (table,)))
-        if not blocks and not rows:
-            return None
-        return Section("pr-curves", "Precision-recall curves", (
-            "Sequence matching without (VPR+SM) and with the predictor's match removal (VPR+SM+Pred, the seed-0 "
-            "predictor), one panel per method. The area over the curve (AOC) is measured up to VPR+SM+Pred's "
-            "maximum recall (dotted line); VPR+SM's curve is cut there. Table I above reports it.",),
-            tuple(blocks), self.folded("table1"))
+# --- the experiments' sections, declared ------------------------------------------------------------------------
 
-    def trust(self) -> Section | None:
-        rows = self.rows("trust_levels")
-        if not rows:
-            return None
-        blocks = []
-        for f in self.named("trust"):
-            table = pivot(anchor("trust", f.dataset, f.seq_len, f.mode), self.of(f, rows),
-                          registry.table("trust_levels"))
-            blocks.append(Block(self._title(f), (self.figure(f),), (table,)))
-        return Section("trust-levels", "Trust levels", (
-            "A match the predictor marks wrong is removed only when its confidence is at least the trust level; "
-            "the curves and the reductions show each level against VPR+SM.",), tuple(blocks),
-            self.folded("trust_levels"))
+Rows = Sequence[dict[str, Any]]
 
-    def restoration(self) -> Section | None:
-        rows = self.rows("restoration")
-        if not rows:
-            return None
-        blocks = []
-        for f in self.named("restoration"):
-            bars = [b for b in self.named("restoration_auc") if (b.dataset, b.seq_len, b.mode) ==
-                    (f.dataset, f.seq_len, f.mode)]
-            table = self.compact("restoration", anchor("restoration", f.dataset, f.seq_len, f.mode), self.of(f, rows))
-            blocks.append(Block(self._title(f), (self.figure(f),), (table,),
-                                aside=tuple(self.figure(bar) for bar in bars)))
-        return Section("restoration", "Match restoration", (
-            "The second filter: a removed match is replaced by the next candidate the predictor trusts. PR AUC of "
-            "restoration against removal alone, per method.",), tuple(blocks), self.folded("restoration"))
 
-    def seq_len(self) -> Section | None:
-        rows = self.rows("ablation_seq_len")
-        if not rows:
-            return None
-        blocks = []
-        for f in self.named("seq_len"):
-            shown = self.of(f, rows)
-            tables = [pivot(anchor("seq-len", f.dataset, f.mode), shown, registry.table("ablation_seq_len"))]
-            if any(r.get("best_scorer") for r in shown):
-                tables.append(best_scorer_table(anchor("seq-len-best", f.dataset, f.mode), shown))
-            blocks.append(Block(self._title(f), (self.figure(f),), tuple(tables)))
-        intro = ("PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
-                 "green where the predictor helps, red where it hurts; a cross marks the PR AUC of the best "
-                 "training-free scorer removing as many matches as the predictor (method §12): compare it with the "
-                 "bar's top, each over its own curve; the second table gives its name and AOC reduction beside the "
-                 "predictor's.")
-        return Section("sequence-length", "Sequence-length ablation", (intro,), tuple(blocks),
-                       self.folded("ablation_seq_len"))
+@dataclass(frozen=True)
+class Declared:
+    """A section of the page, below the findings: ``id`` (its anchor) and ``title``; ``tables``, the registered
+    tables it shows (the first one's rows are its blocks'; each folded whole at its foot); ``intro``, its sentences
+    under the title (a text, or made from the run); a block per written figure of the registered ``figure``, with
+    ``view`` (its tables of the figure's rows), ``sentences`` (said under it), ``headline`` (its one sentence on the
+    first screen) and the figures of ``aside`` of the same dataset, L and mode beside it; or ``blocks`` made
+    otherwise (per dataset, per dataset and L); ``headlines``: the section's own sentences on the first screen.
 
-    def speed(self) -> Section | None:
-        rows = self.rows("speed")
-        if not rows:
-            return None
-        blocks = []
-        for f in self.named("speed"):
-            shown = self.of(f, rows)
-            table = speed_table(anchor("speed", f.dataset, f.seq_len), shown)
-            blocks.append(Block(self._title(f), (self.figure(f),), (table,), tuple(speed_sentences(shown, self.split))))
-        velocities = unique(str(r["velocities"]).replace(" ", ", ") for r in rows if r["matcher"] == "velocity")
-        return Section("speed", "Speed profiles", (
-            "The table split's query re-driven at other speeds (method §11): a constant profile c advances c places "
-            "per query frame (the query driven c times as fast; 1x is the aligned pair), the varying one "
-            "1 + 0.5 sin(2 pi t / 200) places; the query's frames are the nearest to its positions, its distance "
-            "matrix the aligned one's columns, and a match is correct within the tolerance of its position. The "
-            "fixed matcher is the paper's (slope 1); velocity search tries the slopes "
-            f"{'; '.join(velocities)} reference frames per query frame. Each matcher has its own seed-0 predictor, "
-            "trained on its own features of the same profile's train split; the numbers are Table I's, paper mode.",),
-            tuple(blocks), self.folded("speed"))
+    Adding a section is one declaration in ``SECTIONS`` (in the page's order)."""
 
-    def predictor(self) -> Section | None:
-        methods, pooled = self.rows("predictor_methods"), self.rows("predictor")
-        if not methods and not pooled:
-            return None
-        blocks = []
-        confusion = self.named("confusion")
-        datasets = unique([*(f.dataset for f in confusion), *(str(r["dataset"]) for r in pooled)])
-        for dataset in sorted(datasets, key=self.order.dataset):
-            tables = []
-            for f in (c for c in confusion if c.dataset == dataset):
-                caption = registry.table("predictor_methods").caption.format(split=self.split, seq_len=f.seq_len)
-                tables.append(self.compact("predictor_methods", anchor("predictor", dataset, f.seq_len),
-                                           self.of(f, methods), caption))
-            shown = _where(pooled, dataset=dataset)
-            if shown:
-                columns = self.columns("predictor", shown)
-                caption = registry.table("predictor").caption
-                if any(column.if_any for column in columns):  # the warning column: a row has a warning
-                    validation = self.splits.validation
-                    caption += ("; warning: the seeds whose predictor cannot be trusted on the "
-                                f"{'validation' if validation in (None, 'val') else validation} split")
-                tables.append(data_table(anchor("predictor-pooled", dataset), columns, shown, caption=caption))
-            figures = tuple(self.figure(c) for c in confusion if c.dataset == dataset)
-            blocks.append(Block(dataset, figures, tuple(tables)))
-        return Section("predictor", "The predictor alone", (
-            "Classes (method §6): 0 correct before and after sequence matching, 1 correct before only, 2 correct after "
-            "only, 3 wrong both; the predictor keeps the matches of classes 0 and 2. Cross-validation uses SMOTE "
-            "inside the folds. The confusion matrix sums every method.",), tuple(blocks),
-            self.folded("predictor", "predictor_methods", "predictor_confusion"))
+    id: str
+    title: str
+    tables: tuple[str, ...]
+    intro: str | Callable[[_Builder], tuple[str, ...]]
+    figure: str = ""
+    view: Callable[[_Builder, WrittenFigure, Rows], tuple[TableView, ...]] | None = None
+    sentences: Callable[[_Builder, Rows], Sequence[str]] | None = None
+    headline: Callable[[Rows], str] | None = None
+    aside: str = ""
+    blocks: Callable[[_Builder], Sequence[Block]] | None = None
+    headlines: Callable[[_Builder], Sequence[str]] | None = None
 
-    def table2(self) -> Section | None:
-        rows = self.rows("table2")
-        if not rows:
-            return None
-        blocks = []
-        shown_columns = self.columns("table2", rows)
-        f1 = [column for column in shown_columns if not column.note]  # the rest: the samples, said in the note
-        for dataset, seq_len in self.keys(rows):
-            shown = _where(rows, dataset=dataset, seq_len=seq_len)
-            head = (*(Column(a, "text") for a in ATTRIBUTES), *(Column(c.header) for c in f1))
-            body = tuple((*(text_cell("✓" if r["attributes"] in (a, "all") else "×") for a in ATTRIBUTES),
-                          *(row_cell(r, c) for c in f1))
-                         for r in shown)
-            first = shown[0]
-            counts = [f"{first[c.name]} {c.header}" for c in shown_columns if c.note and first.get(c.name) is not None]
-            note = "Macro F1 over " + ", ".join(counts) + ", every method pooled." if counts else ""
-            table = TableView(anchor("table2", dataset, seq_len), head, body, note=note)
-            blocks.append(Block(f"{dataset}, L = {seq_len}", (), (table,)))
-        return Section("table-ii", "Table II: attribute ablation", (
-            "Macro F1 of a predictor trained on each attribute alone and on all four: A1 minimum sum rate, A2 "
-            "minimum value rate, A3 block sum rate, A4 group sum rate.",), tuple(blocks), self.folded("table2"))
+    def __post_init__(self) -> None:
+        for name in self.tables:
+            registry.table(name)  # only a declared table is shown
+        for name in (self.figure, self.aside):
+            if name and name not in INSPECTOR_FIGURES:
+                registry.figure(name)
 
-    def lomo(self) -> Section | None:
-        rows = self.rows("leave_one_method_out")
-        if not rows:
-            return None
-        blocks = []
-        for dataset in sorted(unique(str(r["dataset"]) for r in rows), key=self.order.dataset):
-            table = self.compact("leave_one_method_out", anchor("lomo", dataset), _where(rows, dataset=dataset))
-            blocks.append(Block(dataset, (), (table,)))
-        return Section("leave-one-method-out", "Leave one method out", (
-            f"Each method's {self.split} split under the pooled predictor and under one trained on every other "
-            "method: how well the predictor carries over to a method it has not seen.",), tuple(blocks),
-            self.folded("leave_one_method_out"))
 
-    def timing(self) -> Section | None:
-        rows = self.rows("timing")
-        if not rows:
-            return None
-        lens = self.table_lens()
-        blocks = []
-        for dataset in sorted(unique(str(r["dataset"]) for r in rows), key=self.order.dataset):
-            shown = [r for r in _where(rows, dataset=dataset, split=self.split)
-                     if not lens or int(r["seq_len"]) in lens]
-            if shown:
-                table = self.compact("timing", anchor("timing", dataset), shown)
-                blocks.append(Block(f"{dataset}, {self.split} split", (), (table,)))
-        return Section("timing", "Inference time", (
-            "Time per query of the attributes and of the prediction (this machine; every other number of the report "
-            "repeats exactly, this one does not).",), tuple(blocks), self.folded("timing"))
+INSPECTOR_FIGURES = ("matches", "distance_matrix")  # the match inspector's figures (``build.INSPECTOR``)
 
-    def vpr_metrics(self) -> Section | None:
-        rows = self.rows("vpr_metrics")
-        if not rows:
-            return None
-        modes = unique(str(r["mode"]) for r in rows)
-        mode = "paper" if "paper" in modes else modes[0]
-        blocks = []
-        for dataset, seq_len in self.keys(rows):
-            shown = [{**r, "matcher": MATCHER_TEXT.get(str(r["matcher"]), r["matcher"])}
-                     for r in _where(rows, dataset=dataset, seq_len=seq_len, mode=mode)]
-            table = self.compact("vpr_metrics", anchor("metrics", dataset, seq_len, mode), shown)
-            blocks.append(Block(f"{dataset}, L = {seq_len}, {self.split} split, {mode} mode{self.correct(dataset)}", (),
-                                (table,)))
-        return Section("vpr-metrics", "Standard VPR metrics", (
-            "Recall@N (a query counts when a correct reference is among its N best matches), recall at 100 % "
-            "precision (R@100P), the area under the PR curve (PR-AUC) and extended precision (EP), for single-frame "
-            "matching, sequence matching, and sequence matching with the predictor (a removed match counts as not "
-            f"retrieved). The whole table has every mode ({', '.join(modes)}).",), tuple(blocks),
-            self.folded("vpr_metrics"))
 
-    def protocol_sweep(self) -> Section | None:
-        rows = self.rows("protocol_sweep")
-        if not rows:
-            return None
-        blocks = []
-        headlines = []
-        for f in self.named("protocol_sweep"):
-            shown = self.of(f, rows)
-            table = pivot(anchor("protocol-sweep", f.dataset, f.seq_len, f.mode), shown,
-                          registry.table("protocol_sweep"))
-            blocks.append(Block(self._title(f), (self.figure(f),), (table,), tuple(sweep_sentences(shown))))
-            if shown:
-                headlines.append(sweep_headline(shown))
-        return Section("protocol-sweep", "Protocol sweep", (
-            "How the conclusions depend on the ground truth (method §13): the same sequence matches and the same "
-            "seed-0 predictor's decisions, scored as correct within other tolerances (frames) or radii (positions). "
-            "Nothing is matched or predicted again; only which matches count as correct changes.",),
-            tuple(blocks), self.folded("protocol_sweep"), tuple(headlines))
+def _baseline_blocks(b: _Builder) -> list[Block]:
+    """Per dataset, L and mode each scorer's reduction at the predictor's budget, and per dataset and L the
+    detection of wrong matches."""
+    rows, detection = b.rows("baselines"), b.rows("wrong_match_detection")
+    blocks = []
+    for f in b.named("baselines"):
+        table = scorer_table(anchor("baselines", f.dataset, f.seq_len, f.mode), b.of(f, rows), "reduction_pct",
+                             registry.table("baselines").caption)
+        blocks.append(Block(b.block_title(f), (b.figure(f),), (table,)))
+    for f in b.named("detection"):
+        table = scorer_table(anchor("detection", f.dataset, f.seq_len), b.of(f, detection), "average_precision",
+                             registry.table("wrong_match_detection").caption)
+        blocks.append(Block(f"{b.block_title(f)}: detecting wrong matches", (b.figure(f),), (table,)))
+    return blocks
 
-    def inspector(self) -> Section | None:
-        figures = [f for f in self.figures if f.name in ("matches", "distance_matrix")]
-        if not figures:
-            return None
-        blocks = []
-        for key in unique(f"{f.dataset}\0{f.method}\0{f.seq_len}" for f in figures):
-            dataset, method, seq_len = key.split("\0")
-            shown = [f for f in figures if (f.dataset, f.method, str(f.seq_len)) == (dataset, method, seq_len)]
-            queries = Path(queries_path(self.run_dir, dataset, method, seq_len))
-            found = "" if queries.is_file() else " (not in the run folder when this page was written)"
-            text = f"Every evaluated query, one row each: {_relative(queries, self.run_dir)}{found}."
-            views = [self.figure(f) for f in shown]  # the match figure first: the larger one, the matrix beside it
-            blocks.append(Block(f"{method} on {dataset}, L = {seq_len}", tuple(views[:1]), (), (text,),
-                                aside=tuple(views[1:])))
-        return Section("match-inspector", "Match inspector", (
-            f"Query by query, where sequence matching and the predictor go right or wrong on the {self.split} "
-            "split. The per-query CSV files (matches, distances, attributes, true class, prediction) are in the run "
-            "folder, named under each method.",), tuple(blocks))
+
+def _detection_groups(b: _Builder) -> list[list[Any]]:
+    by_key: dict[tuple[str, int], list[Any]] = {}
+    for one in detection_comparisons(b.rows("wrong_match_detection")):
+        by_key.setdefault((one.dataset, one.seq_len), []).append(one)
+    return list(by_key.values())
+
+
+BUDGET = ("Each scorer gives every query a confidence that its sequence match is correct and removes as many matches "
+          "as the predictor does (its budget: the seed-0 predictor's, and every seed's for the spread over seeds), "
+          "those of lowest confidence; the oracle removes only wrong matches, those of smallest sequence distance "
+          "first, at most all of them. Each removal is scored as Table I scores the predictor's: the AOC at its own "
+          "maximum recall against VPR+SM's curve cut there.")
+
+
+def _baseline_intro(b: _Builder) -> tuple[str, ...]:
+    """The sentence of every dataset, mode and L first, then how the scorers remove and what each is."""
+    # each scorer as its registry entry describes it; the predictor is the page's subject, described above
+    described = "; ".join(f"{s.name}: {s.description}" for s in scorer_registry.REGISTRY if s.kind != "predictor")
+    scorers_text = (described + ". Detecting wrong matches is threshold-free: the average precision and ROC AUC "
+                    "of each confidence against the wrong matches (a random ranking's average precision is the "
+                    "fraction of wrong matches).")
+    detected = tuple(detection_sentence(group, b.split) for group in _detection_groups(b))
+    return (*(baseline_sentence(c, b.split) for c in comparisons(b.rows("baselines"))), *detected, BUDGET,
+            scorers_text)
+
+
+def _baseline_headlines(b: _Builder) -> tuple[str, ...]:
+    return (*(baseline_headline(c) for c in comparisons(b.rows("baselines"))),
+            *(detection_headline(g) for g in _detection_groups(b)))
+
+
+def _seq_len_view(b: _Builder, f: WrittenFigure, shown: Rows) -> tuple[TableView, ...]:
+    tables = [pivot(b.anchor("seq-len", f), shown, registry.table("ablation_seq_len"))]
+    if any(r.get("best_scorer") for r in shown):
+        tables.append(best_scorer_table(b.anchor("seq-len-best", f), shown))
+    return tuple(tables)
+
+
+def _speed_intro(b: _Builder) -> tuple[str, ...]:
+    velocities = unique(str(r["velocities"]).replace(" ", ", ") for r in b.rows("speed") if r["matcher"] == "velocity")
+    return (
+        "The table split's query re-driven at other speeds (method §11): a constant profile c advances c places "
+        "per query frame (the query driven c times as fast; 1x is the aligned pair), the varying one "
+        "1 + 0.5 sin(2 pi t / 200) places; the query's frames are the nearest to its positions, its distance "
+        "matrix the aligned one's columns, and a match is correct within the tolerance of its position. The "
+        "fixed matcher is the paper's (slope 1); velocity search tries the slopes "
+        f"{'; '.join(velocities)} reference frames per query frame. Each matcher has its own seed-0 predictor, "
+        "trained on its own features of the same profile's train split; the numbers are Table I's, paper mode.",)
+
+
+def _predictor_blocks(b: _Builder) -> list[Block]:
+    """Per dataset: per L its methods' compact table, the pooled predictor's table, and the confusion figures."""
+    methods, pooled = b.rows("predictor_methods"), b.rows("predictor")
+    blocks = []
+    confusion = b.named("confusion")
+    datasets = unique([*(f.dataset for f in confusion), *(str(r["dataset"]) for r in pooled)])
+    for dataset in sorted(datasets, key=b.order.dataset):
+        tables = []
+        for f in (c for c in confusion if c.dataset == dataset):
+            caption = registry.table("predictor_methods").caption.format(split=b.split, seq_len=f.seq_len)
+            tables.append(b.compact("predictor_methods", anchor("predictor", dataset, f.seq_len), b.of(f, methods),
+                                    caption))
+        shown = _where(pooled, dataset=dataset)
+        if shown:
+            columns = b.columns("predictor", shown)
+            caption = registry.table("predictor").caption
+            if any(column.if_any for column in columns):  # the warning column: a row has a warning
+                validation = b.splits.validation
+                caption += ("; warning: the seeds whose predictor cannot be trusted on the "
+                            f"{'validation' if validation in (None, 'val') else validation} split")
+            tables.append(data_table(anchor("predictor-pooled", dataset), columns, shown, caption=caption))
+        figures = tuple(b.figure(c) for c in confusion if c.dataset == dataset)
+        blocks.append(Block(dataset, figures, tuple(tables)))
+    return blocks
+
+
+def _table2_blocks(b: _Builder) -> list[Block]:
+    """Per dataset and L: a row per attribute set, its attributes marked, the F1 columns; the samples in a note."""
+    rows = b.rows("table2")
+    blocks = []
+    shown_columns = b.columns("table2", rows)
+    f1 = [column for column in shown_columns if not column.note]  # the rest: the samples, said in the note
+    for dataset, seq_len in b.keys(rows):
+        shown = _where(rows, dataset=dataset, seq_len=seq_len)
+        head = (*(Column(a, "text") for a in ATTRIBUTES), *(Column(c.header) for c in f1))
+        body = tuple((*(text_cell("✓" if r["attributes"] in (a, "all") else "×") for a in ATTRIBUTES),
+                      *(row_cell(r, c) for c in f1))
+                     for r in shown)
+        first = shown[0]
+        counts = [f"{first[c.name]} {c.header}" for c in shown_columns if c.note and first.get(c.name) is not None]
+        note = "Macro F1 over " + ", ".join(counts) + ", every method pooled." if counts else ""
+        table = TableView(anchor("table2", dataset, seq_len), head, body, note=note)
+        blocks.append(Block(f"{dataset}, L = {seq_len}", (), (table,)))
+    return blocks
+
+
+def _lomo_blocks(b: _Builder) -> list[Block]:
+    rows = b.rows("leave_one_method_out")
+    return [Block(dataset, (), (b.compact("leave_one_method_out", anchor("lomo", dataset),
+                                          _where(rows, dataset=dataset)),))
+            for dataset in sorted(unique(str(r["dataset"]) for r in rows), key=b.order.dataset)]
+
+
+def _timing_blocks(b: _Builder) -> list[Block]:
+    """Per dataset, the table split's timings at Table I's sequence lengths."""
+    rows, lens = b.rows("timing"), b.table_lens()
+    blocks = []
+    for dataset in sorted(unique(str(r["dataset"]) for r in rows), key=b.order.dataset):
+        shown = [r for r in _where(rows, dataset=dataset, split=b.split) if not lens or int(r["seq_len"]) in lens]
+        if shown:
+            table = b.compact("timing", anchor("timing", dataset), shown)
+            blocks.append(Block(f"{dataset}, {b.split} split", (), (table,)))
+    return blocks
+
+
+def _metrics_mode(b: _Builder) -> tuple[str, tuple[str, ...]]:
+    """The mode the compact tables show (paper, if the run has it) and every mode of the table."""
+    modes = unique(str(r["mode"]) for r in b.rows("vpr_metrics"))
+    return ("paper" if "paper" in modes else modes[0]) if modes else "", modes
+
+
+def _metrics_blocks(b: _Builder) -> list[Block]:
+    rows, (mode, _) = b.rows("vpr_metrics"), _metrics_mode(b)
+    blocks = []
+    for dataset, seq_len in b.keys(rows):
+        shown = [{**r, "matcher": MATCHER_TEXT.get(str(r["matcher"]), r["matcher"])}
+                 for r in _where(rows, dataset=dataset, seq_len=seq_len, mode=mode)]
+        table = b.compact("vpr_metrics", anchor("metrics", dataset, seq_len, mode), shown)
+        blocks.append(Block(f"{dataset}, L = {seq_len}, {b.split} split, {mode} mode{b.correct(dataset)}", (),
+                            (table,)))
+    return blocks
+
+
+def _inspector_blocks(b: _Builder) -> list[Block]:
+    """Per dataset, method and L: the match figure, the distance matrix beside it, and where the per-query CSV is."""
+    figures = [f for f in b.figures if f.name in INSPECTOR_FIGURES]
+    blocks = []
+    for key in unique(f"{f.dataset}\0{f.method}\0{f.seq_len}" for f in figures):
+        dataset, method, seq_len = key.split("\0")
+        shown = [f for f in figures if (f.dataset, f.method, str(f.seq_len)) == (dataset, method, seq_len)]
+        queries = Path(queries_path(b.run_dir, dataset, method, seq_len))
+        found = "" if queries.is_file() else " (not in the run folder when this page was written)"
+        text = f"Every evaluated query, one row each: {_relative(queries, b.run_dir)}{found}."
+        views = [b.figure(f) for f in shown]  # the match figure first: the larger one, the matrix beside it
+        blocks.append(Block(f"{method} on {dataset}, L = {seq_len}", tuple(views[:1]), (), (text,),
+                            aside=tuple(views[1:])))
+    return blocks
+
+
+SECTIONS = (
+    # right after Table I: is the predictor better than a simple rule?
+    Declared("baselines", "Is the predictor better than a simple rule?", ("baselines", "wrong_match_detection"),
+             _baseline_intro, blocks=_baseline_blocks, headlines=_baseline_headlines),
+    Declared("pr-curves", "Precision-recall curves", ("table1",), (
+        "Sequence matching without (VPR+SM) and with the predictor's match removal (VPR+SM+Pred, the seed-0 "
+        "predictor), one panel per method. The area over the curve (AOC) is measured up to VPR+SM+Pred's "
+        "maximum recall (dotted line); VPR+SM's curve is cut there. Table I above reports it."), "pr",
+        view=lambda b, f, shown: (b.compact("table1", b.anchor("pr", f), shown),)),
+    Declared("trust-levels", "Trust levels", ("trust_levels",), (
+        "A match the predictor marks wrong is removed only when its confidence is at least the trust level; "
+        "the curves and the reductions show each level against VPR+SM."), "trust",
+        view=lambda b, f, shown: (pivot(b.anchor("trust", f), shown, registry.table("trust_levels")),)),
+    Declared("restoration", "Match restoration", ("restoration",), (
+        "The second filter: a removed match is replaced by the next candidate the predictor trusts. PR AUC of "
+        "restoration against removal alone, per method."), "restoration",
+        view=lambda b, f, shown: (b.compact("restoration", b.anchor("restoration", f), shown),),
+        aside="restoration_auc"),
+    Declared("sequence-length", "Sequence-length ablation", ("ablation_seq_len",), (
+        "PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
+        "green where the predictor helps, red where it hurts; a cross marks the PR AUC of the best "
+        "training-free scorer removing as many matches as the predictor (method §12): compare it with the "
+        "bar's top, each over its own curve; the second table gives its name and AOC reduction beside the "
+        "predictor's."), "seq_len", view=_seq_len_view),
+    Declared("speed", "Speed profiles", ("speed",), _speed_intro, "speed",
+             view=lambda b, f, shown: (speed_table(b.anchor("speed", f), shown),),
+             sentences=lambda b, shown: speed_sentences(shown, b.split)),
+    Declared("predictor", "The predictor alone", ("predictor", "predictor_methods", "predictor_confusion"), (
+        "Classes (method §6): 0 correct before and after sequence matching, 1 correct before only, 2 correct after "
+        "only, 3 wrong both; the predictor keeps the matches of classes 0 and 2. Cross-validation uses SMOTE "
+        "inside the folds. The confusion matrix sums every method."), blocks=_predictor_blocks),
+    Declared("table-ii", "Table II: attribute ablation", ("table2",), (
+        "Macro F1 of a predictor trained on each attribute alone and on all four: A1 minimum sum rate, A2 "
+        "minimum value rate, A3 block sum rate, A4 group sum rate."), blocks=_table2_blocks),
+    Declared("leave-one-method-out", "Leave one method out", ("leave_one_method_out",), lambda b: (
+        f"Each method's {b.split} split under the pooled predictor and under one trained on every other "
+        "method: how well the predictor carries over to a method it has not seen.",), blocks=_lomo_blocks),
+    Declared("timing", "Inference time", ("timing",), (
+        "Time per query of the attributes and of the prediction (this machine; every other number of the report "
+        "repeats exactly, this one does not)."), blocks=_timing_blocks),
+    Declared("vpr-metrics", "Standard VPR metrics", ("vpr_metrics",), lambda b: (
+        "Recall@N (a query counts when a correct reference is among its N best matches), recall at 100 % "
+        "precision (R@100P), the area under the PR curve (PR-AUC) and extended precision (EP), for single-frame "
+        "matching, sequence matching, and sequence matching with the predictor (a removed match counts as not "
+        f"retrieved). The whole table has every mode ({', '.join(_metrics_mode(b)[1])}).",), blocks=_metrics_blocks),
+    Declared("protocol-sweep", "Protocol sweep", ("protocol_sweep",), (
+        "How the conclusions depend on the ground truth (method §13): the same sequence matches and the same "
+        "seed-0 predictor's decisions, scored as correct within other tolerances (frames) or radii (positions). "
+        "Nothing is matched or predicted again; only which matches count as correct changes."), "protocol_sweep",
+        view=lambda b, f, shown: (pivot(b.anchor("protocol-sweep", f), shown, registry.table("protocol_sweep")),),
+        sentences=lambda b, shown: sweep_sentences(shown), headline=sweep_headline),
+    Declared("match-inspector", "Match inspector", (), lambda b: (
+        f"Query by query, where sequence matching and the predictor go right or wrong on the {b.split} "
+        "split. The per-query CSV files (matches, distances, attributes, true class, prediction) are in the run "
+        "folder, named under each method.",), blocks=_inspector_blocks),
+)
 
 
 # --- datasets, provenance ---------------------------------------------------------------------------------------
@@ -725,7 +757,7 @@ def build_page(
     named = [f"{name} {text}" for name, text in protocols.items() if text]
     sections = _Builder(tables, figures, order, split, run_dir, splits, protocols).sections()
     dataset_table = by_name.get("datasets")
-    descriptor_table = data_table("provenance-files", [registry.Column(key) for key in ("file", *DESCRIPTOR_KEYS)],
+    descriptor_table = data_table("provenance-files", [TableColumn(key) for key in ("file", *DESCRIPTOR_KEYS)],
                                   files, short=False) if files else None
     page_cards = cards(datasets, order)
     nav = [*([("findings", "Findings")] if found else []), *((s.id, s.title) for s in sections),

@@ -4,62 +4,26 @@ The writer (``build``) looks each table and figure up here for its file names an
 expected_outputs`` lists the files from here, so that a table or figure cannot be written without being declared
 to the workflow, nor declared without being written. The order is the report's: tables, then figures.
 
-Each table declares its columns here, in its files' order, each with its header on the page and how the page
-writes its numbers, and what of it the page's compact tables show (``page``, ``pivot``, ``caption``): ``build``
-writes the CSV, Markdown and LaTeX files with these columns and ``html`` builds the page's tables from them.
+Each table names its row record (``rows``: its fields are the columns, in the files' order, each with its header
+on the page and how the page writes its numbers), and what of it the page's compact tables show (``page``,
+``pivot``, ``caption``): ``build`` writes the CSV, Markdown and LaTeX files of the records' cells and ``html``
+builds the page's tables from them.
 """
 
 from __future__ import annotations
 
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
+from typing import Any
 
 from vpr_smr.core.constants import RECALL_AT
-from vpr_smr.eval.report.results import Splits, split_word
+from vpr_smr.eval.report import rows
+from vpr_smr.eval.report.results import Splits
+from vpr_smr.eval.report.rows import Column
 
 TABLES_DIR = "tables"
 FIGURES_DIR = "figures"
 HTML = "report.html"
-
-
-SPLIT_ROLES = ("evaluation", "validation", "last")  # ``results.Splits``' roles a column can be one per split of
-
-
-@dataclass(frozen=True)
-class Column:
-    """A table's column: ``name`` in its files (the headers of the CSV, Markdown and LaTeX tables) and in the page's
-    whole table; ``label`` its header in the page's compact tables (default: the name, underscores as spaces);
-    ``fmt`` how the page writes a float of it (a format spec; the CSV keeps every digit, Markdown and LaTeX 4
-    decimals).
-
-    A name with ``{evaluation}``, ``{validation}`` or ``{last}`` stands for one column per split of that role of
-    ``results.Splits`` (``expand``); its label says the split as ``{split}`` (the name) or ``{word}``
-    (``results.split_word``). ``if_any``: a compact table shows it only when a row has a value in it; ``note``:
-    a compact table says it in its note (first row's value, then label), not as a column.
-    """
-
-    name: str
-    label: str = ""
-    fmt: str = ".4f"
-    if_any: bool = False
-    note: bool = False
-
-    @property
-    def header(self) -> str:
-        return self.label or self.name.replace("_", " ")
-
-    def expand(self, splits: Splits | None = None) -> tuple[Column, ...]:
-        """The column, or one per split of its role in ``splits`` (none when the role has no split)."""
-        role = next((role for role in SPLIT_ROLES if f"{{{role}}}" in self.name), None)
-        if role is None:
-            return (self,)
-        if splits is None:
-            raise ValueError(f"column {self.name!r} is one per split: name the run's splits")
-        names: Sequence[str | None] = splits.evaluation if role == "evaluation" else (
-            [splits.validation] if role == "validation" else [splits.last])
-        return tuple(replace(self, name=self.name.format(**{role: name}),
-                             label=self.label.format(split=name, word=split_word(name)))
-                     for name in names if name is not None)
 
 
 @dataclass(frozen=True)
@@ -74,15 +38,16 @@ class Pivot:
 
 @dataclass(frozen=True)
 class Table:
-    """A table of the report: its files (``name``, ``title``), when it is written (``experiments``), its
-    ``columns`` in the files' order, and what of it the page's compact tables show: ``page`` (the columns by
-    name, in their order) or ``pivot``, under ``caption`` (``{split}``: the table split, ``{seq_len}``: the L)."""
+    """A table of the report: its files (``name``, ``title``), when it is written (``experiments``), its ``row``
+    record (``rows``: its fields are the columns, in the files' order), and what of it the page's compact tables
+    show: ``page`` (the columns by name, in their order) or ``pivot``, under ``caption`` (``{split}``: the table
+    split, ``{seq_len}``: the L)."""
 
     name: str  # the file stem under tables/
     title: str  # the heading of its Markdown and LaTeX files and of the HTML page
     experiments: tuple[str, ...]  # written when every one of these is run (``expected_outputs``' names)
+    row: Any  # the row record (a dataclass declared with ``rows``)
     suffixes: tuple[str, ...] = (".csv", ".md", ".tex")  # the CSV first: the HTML page shows it
-    columns: tuple[Column, ...] = ()
     page: tuple[str, ...] = ()
     pivot: Pivot | None = None
     caption: str = ""
@@ -92,6 +57,11 @@ class Table:
         unknown = [name for name in shown if name not in {column.name for column in self.columns}]
         if unknown:
             raise ValueError(f"table {self.name!r} shows undeclared columns {unknown}")
+
+    @property
+    def columns(self) -> tuple[Column, ...]:
+        """Its row record's columns (``rows.columns``), a split role's still one."""
+        return rows.columns(self.row)
 
     def enabled(self, experiments: Collection[str]) -> bool:
         return all(name in experiments for name in self.experiments)
@@ -151,182 +121,86 @@ class Figure:
 # configuration's default ones (val, test)
 PREDICTOR_TITLE = "Predictor alone: macro F1 (cross-validation with SMOTE inside the folds, {splits})"
 
-# Columns of several tables (the same name, header and format in each)
-DATASET, METHOD, MODE, SPLIT = Column("dataset"), Column("method"), Column("mode"), Column("split")
-SEQ_LEN = Column("seq_len", "L")
-N_QUERIES = Column("n_queries", "queries")
-MAX_RECALL, REMOVED, OUTCOME = Column("max_recall"), Column("removed"), Column("outcome")
-AOC_VPR_SM, AUC_VPR_SM = Column("aoc_vpr_sm", "AOC VPR+SM"), Column("auc_vpr_sm")
-AOC_VPR_SM_PRED = Column("aoc_vpr_sm_pred", "AOC VPR+SM+Pred")
-REDUCTION = Column("reduction_pct", "AOC reduction (%)", ".2f")
-RECALL_SINGLE = Column("recall_at_1_single", "R@1 single")
-RECALL_SEQUENCE = Column("recall_at_1_sequence", "R@1 sequence")
-F1_MACRO, F1_CV = Column("f1_macro", "macro F1"), Column("f1_cv", "F1 cross-validation")
-PREDICTED = tuple(Column(f"predicted_{c}", f"predicted {c}") for c in range(4))
-
-
-def with_ci(column: Column) -> tuple[Column, Column, Column]:
-    """A number and the bounds of its 95 % bootstrap interval over queries (``bounds``: ``<name>_ci_low`` and
-    ``_ci_high``, empty without one): three CSV columns, one Markdown and LaTeX cell ``78.20 [70.10, 85.00]``."""
-    low, high = (Column(f"{column.name}_ci_{end}", f"{column.header}, {end}", column.fmt) for end in ("low", "high"))
-    return column, low, high
-
-
-def bound_columns(name: str, label: str, fmt: str = ".4f") -> tuple[Column, Column]:
-    """The bounds of the interval of a number no column holds (a paired difference): ``<name>_ci_low``, ``_high``."""
-    return Column(f"{name}_ci_low", f"{label}, low", fmt), Column(f"{name}_ci_high", f"{label}, high", fmt)
-
-
 # the column the report adds to every table's CSV in a run whose splits share frames (allow_split_overlap)
 SPLIT_OVERLAP = Column("split_overlap")
 # the column the report adds to every table's CSV whose datasets' ground truth is known: each row's dataset's, as
 # the Markdown and LaTeX files' "Correct matches:" line under the title says it ("within 2 frames", "gt.npy (a matrix)")
 CORRECT_MATCHES = Column("correct_matches")
 
-# Table I's and the sequence-length table's numbers (per dataset, method, L and mode), with the spread of the
-# reduction over the predictor seeds
-SEEDS = (*(Column(f"reduction_pct_{s}", fmt=REDUCTION.fmt) for s in ("mean", "std", "min", "max")), Column("n_seeds"))
-TABLE1_NUMBERS = (DATASET, METHOD, SEQ_LEN, MODE, RECALL_SINGLE, RECALL_SEQUENCE, MAX_RECALL, *with_ci(AOC_VPR_SM),
-                  *with_ci(AOC_VPR_SM_PRED), *with_ci(REDUCTION), *SEEDS)
-# n_queries: the queries with a sequence match (Q - L + 1), which every sequence number is over;
-# n_queries_single: those recall_at_1_single is over (paper mode: every query of the split)
-QUERIES = (N_QUERIES, Column("n_queries_single"))
-# n_seeds_defined: the seeds whose reduction is defined (the baseline's AOC not 0), which the seed columns are over
-SEEDS_DEFINED = Column("n_seeds_defined")
-# What the seed-0 predictor did (``curves.outcome``), the matches it removed, the baseline's own maximum recall and
-# AOC there (what the baseline is worth where the predictor leaves no recall), and the seeds the spread leaves out
-OUTCOMES = (OUTCOME, REMOVED, Column("max_recall_vpr_sm"), Column("aoc_vpr_sm_own"), Column("seeds_left_out"))
-# Table II's macro F1: cross-validation, the validation split, the last evaluation split and its mean over methods;
-# then the samples each is over, which the page says under its table
-TABLE2_F1 = (F1_CV, Column("f1_{validation}", "F1 {word}"), Column("f1_{last}", "F1 {word}"),
-             Column("f1_{last}_method_mean", "F1 {word}, mean over methods"))
-TABLE2_COUNTS = (Column("n_train", "training samples (cross-validation)", note=True),
-                 Column("n_{validation}", "{word}", note=True), Column("n_{last}", "{word} samples", note=True))
-MS = ".3f"  # times on the page
-# The sequence-length ablation's best training-free scorer beside the predictor (method §12; ``baselines.with_best``)
-BEST_SCORER = (Column("best_scorer", "best training-free scorer"),
-               Column("best_scorer_reduction_pct", "its AOC reduction (%)", REDUCTION.fmt))
-SCORER = Column("scorer")
-
 TABLES = (
     Table("table1", "Table I: area over the PR curve at max recall", ("table1",),
-          columns=(*TABLE1_NUMBERS, *QUERIES, SEEDS_DEFINED, *OUTCOMES),
+          row=rows.Table1Row,
           page=("method", "recall_at_1_single", "recall_at_1_sequence", "max_recall", "reduction_pct")),
     Table("predictor_methods", "Predictor alone: macro F1, class counts and predicted counts per method",
           ("table1",),
-          columns=(DATASET, SEQ_LEN, METHOD, SPLIT, N_QUERIES, F1_MACRO,
-                   *(Column(f"class_{c}", f"true {c}") for c in range(4)), *PREDICTED),
+          row=rows.PredictorMethodRow,
           page=("method", "n_queries", "f1_macro", "class_0", "class_1", "class_2", "class_3"),
           caption="Per method, {split} split, L = {seq_len}: macro F1 and the true classes' counts (the predicted "
                   "counts: the whole table below)"),
     Table("predictor_confusion", "Predictor alone: confusion matrix (rows true class, columns predicted)",
-          ("table1",), columns=(DATASET, SEQ_LEN, METHOD, Column("true_class"), *PREDICTED, Column("total"))),
+          ("table1",), row=rows.ConfusionRow),
     Table("trust_levels", "Trust-level ablation: PR AUC per trust level", ("table1", "trust"),
-          columns=(DATASET, METHOD, SEQ_LEN, MODE, Column("trust", "trust level", "g"), REMOVED, MAX_RECALL,
-                   Column("auc"), Column("aoc"), AUC_VPR_SM, AOC_VPR_SM, *with_ci(REDUCTION), OUTCOME, N_QUERIES),
+          row=rows.TrustRow,
           pivot=Pivot("trust", ("method",), ("reduction_pct",)),
           caption="AOC reduction (%) per trust level (columns: methods)"),
     Table("restoration", "Match restoration (second filter): removal against restoration", ("table1", "restoration"),
-          columns=(DATASET, METHOD, SEQ_LEN, MODE, REMOVED, Column("restored"), Column("restored_correct"),
-                   Column("restored_wrong"), Column("wrong_to_right"), Column("right_to_wrong"),
-                   Column("max_recall_removal"), Column("max_recall_restoration"), AUC_VPR_SM,
-                   Column("auc_removal", "PR AUC removal"), Column("auc_restoration", "PR AUC restoration"),
-                   Column("auc_difference", "PR AUC difference"), Column("aoc_removal"), Column("aoc_restoration"),
-                   Column("aoc_difference"), *with_ci(REDUCTION), N_QUERIES),
+          row=rows.RestorationRow,
           page=("method", "removed", "restored", "wrong_to_right", "right_to_wrong", "auc_difference")),
     Table("timing", "Inference time per query: attributes + prediction", ("table1",),
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, N_QUERIES, Column("attributes_seconds", fmt=MS),
-                   Column("predict_seconds", fmt=MS), Column("ms_per_query", fmt=MS),
-                   Column("ms_attributes_per_query", "attributes (ms)", MS),
-                   Column("ms_predict_per_query", "prediction (ms)", MS)),
+          row=rows.TimingRow,
           page=("method", "seq_len", "n_queries", "ms_per_query", "ms_attributes_per_query", "ms_predict_per_query")),
     Table("vpr_metrics", "Standard VPR metrics: recall@N, recall at 100 % precision, PR AUC and extended precision "
           "of single-frame matching, sequence matching and sequence matching with the predictor", ("metrics",),
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, Column("matcher"), N_QUERIES,
-                   *(Column(f"recall_at_{n}", f"R@{n}") for n in RECALL_AT), Column("recall_at_100p", "R@100P"),
-                   Column("pr_auc", "PR-AUC"), Column("extended_precision", "EP")),
-          page=("method", "matcher", "n_queries", *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p", "pr_auc",
-                "extended_precision")),
+          row=rows.VPRMetricsRow,
+          page=("method", "matcher", "n_queries", *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p",
+                "pr_auc", "extended_precision")),
     Table("baselines", "Training-free baselines: AOC at max recall of each scorer removing as many matches as the "
           "predictor (method §12), per dataset, method, L and mode", ("baselines",),
-          # budget: what the seed-0 predictor removes; removed: what the scorer removed (the oracle at most every
-          # wrong match); aoc: the scorer's AOC at its own maximum recall; the seed columns: every seed's budget
-          # reduction_pct_difference: the scorer's reduction minus the seed-0 predictor's, paired over the same draws
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, SCORER, Column("budget"), REMOVED, MAX_RECALL,
-                   *with_ci(AOC_VPR_SM), *with_ci(Column("aoc", "AOC")), *with_ci(REDUCTION), OUTCOME,
-                   *bound_columns("reduction_pct_difference", "reduction minus the predictor's (%)", REDUCTION.fmt),
-                   *SEEDS, Column("n_seeds_defined"), N_QUERIES),
+          row=rows.BaselineRow,
           caption="AOC reduction (%) of each scorer (rows) per method (columns) at the seed-0 predictor's budget; "
                   "random: mean ± sample standard deviation over the seeds"),
     Table("wrong_match_detection", "Detecting wrong matches: average precision and ROC AUC of each scorer against "
           "the wrong sequence matches (method §12), per dataset, method and L", ("baselines",),
-          # average_precision_difference: the scorer's AP minus the seed-0 predictor's, paired over the same draws
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, SCORER, *with_ci(Column("average_precision", "AP")),
-                   *bound_columns("average_precision_difference", "AP minus the predictor's"),
-                   Column("roc_auc", "ROC AUC"), Column("average_precision_mean", "AP mean"),
-                   Column("average_precision_std", "AP std"), Column("roc_auc_mean", "ROC AUC mean"),
-                   Column("roc_auc_std", "ROC AUC std"), Column("n_seeds"),
-                   Column("wrong_fraction", "wrong matches (random's AP)"), Column("n_wrong"), N_QUERIES),
+          row=rows.DetectionRow,
           caption="Average precision of detecting the wrong sequence matches (rows: scorers, columns: methods); "
                   "random: mean over its seeds; the last row: the fraction of wrong matches, a random ranking's "
                   "expected average precision"),
     Table("ablation_seq_len", "Sequence-length ablation: Table I columns per dataset, method and sequence length",
           ("table1", "seq_len"),
-          columns=(*TABLE1_NUMBERS, AUC_VPR_SM, Column("auc_vpr_sm_pred"), *QUERIES, SEEDS_DEFINED, *OUTCOMES,
-                   *BEST_SCORER),
+          row=rows.SeqLenRow,
           pivot=Pivot("seq_len", ("method",), ("reduction_pct",)),
           caption="AOC reduction (%) per sequence length (columns: methods)"),
     Table("speed", "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search "
           "on simulated queries driven at other speeds (method §11), per dataset, method, profile and matcher",
           ("speed",),
-          # speed: the constant profile's speed (empty for varying); mean_speed: the simulated table query's mean step
-          columns=(DATASET, METHOD, SEQ_LEN, Column("profile"), Column("speed"), Column("mean_speed"),
-                   Column("matcher"), Column("velocities"), RECALL_SINGLE, RECALL_SEQUENCE, MAX_RECALL, AOC_VPR_SM,
-                   AOC_VPR_SM_PRED, REDUCTION, OUTCOME, F1_MACRO, *QUERIES),
+          row=rows.SpeedRow,
           pivot=Pivot("profile", ("method", "matcher"), ("recall_at_1_sequence", "reduction_pct")),
           caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and method · matcher "
                   "(columns); single-frame recall@1 and the AOCs: the whole table below"),
     Table("predictor", PREDICTOR_TITLE.format(splits="validation, test"), ("predictor",),
-          # F1 and samples of each evaluation split, by its name; warning: the seeds whose predictor cannot be
-          # trusted on the validation split, and why (``PredictorReport.warning``)
-          columns=(DATASET, SEQ_LEN, Column("n_train", "train samples"),
-                   *(Column(f"train_class_{c}") for c in range(4)), F1_CV,
-                   Column("f1_{evaluation}", "F1 {word}"), Column("n_{evaluation}", "{split} samples"),
-                   Column("warning", if_any=True)),
+          row=rows.PredictorRow,
           page=("seq_len", "n_train", "f1_cv", "f1_{evaluation}", "n_{evaluation}", "warning"),
           caption="The pooled predictor (seed 0) per sequence length"),
     Table("table2", "Table II: macro F1 by attribute", ("attributes",),
-          columns=(DATASET, SEQ_LEN, Column("attributes"), *TABLE2_F1, *TABLE2_COUNTS),
-          page=tuple(column.name for column in (*TABLE2_F1, *TABLE2_COUNTS))),
+          row=rows.Table2Row,
+          # the F1 columns, then the samples they are over, which the page says in a note
+          page=("f1_cv", "f1_{validation}", "f1_{last}", "f1_{last}_method_mean", "n_train", "n_{validation}",
+                "n_{last}")),
     Table("leave_one_method_out", "Leave one method out: pooled predictor against one trained without the method",
           ("leave_one_method_out",),
-          columns=(DATASET, SEQ_LEN, Column("held_out"), MODE, N_QUERIES, Column("f1_pooled", "F1 pooled"),
-                   Column("f1_without", "F1 without"), Column("removed_pooled"), Column("removed_without"),
-                   AOC_VPR_SM, Column("aoc_pooled", "AOC pooled"), Column("aoc_without", "AOC without"),
-                   *with_ci(Column("reduction_pct_pooled", "reduction pooled (%)", REDUCTION.fmt)),
-                   *with_ci(Column("reduction_pct_without", "reduction without (%)", REDUCTION.fmt)),
-                   Column("outcome_pooled"),
-                   Column("outcome_without")),
+          row=rows.HeldOutRow,
           page=("held_out", "seq_len", "mode", "f1_pooled", "f1_without", "removed_pooled", "removed_without",
                 "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
     Table("protocol_sweep", "Protocol sweep: recall@1 and the AOC reduction of the predictor under other ground-truth "
           "tolerances (frames) or radii (positions), from the same matches and the same seed-0 predictor (method §13)",
           ("protocol_sweep",),
-          # ground_truth: the kind swept (frames or positions); threshold: its tolerance in frames or its radius
-          columns=(DATASET, METHOD, SEQ_LEN, SPLIT, MODE, Column("ground_truth"),
-                   Column("threshold", "tolerance or radius", "g"), RECALL_SINGLE, RECALL_SEQUENCE,
-                   # single-frame recall@1 over the sequence recall's queries, and the paired interval of the change
-                   Column("recall_at_1_single_evaluated", "R@1 single, same queries"),
-                   *bound_columns("recall_change", "R@1 sequence minus single"), MAX_RECALL,
-                   AOC_VPR_SM, AOC_VPR_SM_PRED, *with_ci(REDUCTION), OUTCOME, N_QUERIES),
+          row=rows.SweepRow,
           pivot=Pivot("threshold", ("method",), ("reduction_pct",)),
           caption="AOC reduction (%) per tolerance or radius (rows) and method (columns); recall@1: the figure and "
                   "the whole table below"),
     Table("datasets", "Datasets: traverses, frames per split, tolerance, frame lists and where the images came from",
           ("datasets",),
-          columns=(DATASET, Column("reference"), Column("query"), Column("n_frames"), Column("splits"),
-                   Column("tolerance"), Column("pairing"), Column("overlaps"), Column("frames_sha256"),
-                   Column("source"))),
+          row=rows.DatasetRow),
 )
 
 FIGURES = (

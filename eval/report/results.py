@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING, Any
 from vpr_smr.core.constants import MODES
 from vpr_smr.eval.predictor.defaults import validation_split
 
-if TYPE_CHECKING:  # the registry imports this module
-    from vpr_smr.eval.report.registry import Column
+if TYPE_CHECKING:  # the rows module imports this module
+    from vpr_smr.eval.report.rows import Column
 
 
 def unique(values: Iterable[str]) -> tuple[str, ...]:

@@ -17,7 +17,8 @@ import numpy as np
 from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.results import Order, Splits
-from vpr_smr.eval.scoring.records import Evaluation, EvaluationSplit, Reduction
+from vpr_smr.eval.report.rows import Table1Row
+from vpr_smr.eval.scoring.records import Evaluation
 
 UNDEFINED = "n/a"  # a reduction whose baseline AOC is 0: JSON null, an empty CSV cell
 # The CSV's columns: registry.table("table1")
@@ -33,48 +34,21 @@ def is_reduction(column: str) -> bool:
     return "reduction_pct" in column
 
 
-def _mode_numbers(split_result: EvaluationSplit, mode: str) -> dict[str, Any]:
-    numbers = split_result.modes[mode]
-    n_queries = split_result.n_queries
-    summary = split_result.seed_summary[mode]
-    seeds = {key: value for key, value in summary.to_json().items() if key != "outcomes"}
-    # recall@1 single by the mode's rule: paper mode over every query of the split (n_queries_single)
-    reduction = numbers.reduction
-    # each interval as its two columns (``bounds``); the std of fewer than two seeds is None (``seed_summary``)
-    return {**reduction_numbers(reduction), "recall_at_1_single": numbers.recall_at_1_single,
-            "recall_at_1_sequence": numbers.recall_at_1_sequence, **seeds,
-            "seed_outcomes": summary.outcomes,
-            "seeds_left_out": words.seeds_left_out(summary.outcomes), "removed": split_result.removed,
-            "n_queries": n_queries, "n_queries_single": split_result.n_queries_split if mode == "paper" else n_queries}
-
-
-INTERVALS = ("aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")  # Reduction's numbers that carry an interval
-
-
-def reduction_numbers(reduction: Reduction) -> dict[str, Any]:
-    """A ``Reduction`` as a table row's columns: its numbers, and its intervals as ``bounds``' two columns each
-    (``bounds.flatten``, as every other record's row)."""
-    return bounds.flatten(reduction.to_json())
+INTERVALS = ("aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")  # the numbers of the three rows, with their intervals
 
 
 def table1_rows(evaluations: Sequence[Evaluation], split: str | None = None,
-                seq_lens: Collection[int] | None = None, order: Order | None = None) -> list[dict[str, Any]]:
+                seq_lens: Collection[int] | None = None, order: Order | None = None) -> list[Table1Row]:
     """One row per (dataset, method, L, mode) of the evaluations' ``split`` (the configuration's table_split;
     default: the one split every evaluation holds), optionally only the sequence lengths given; by mode, L, dataset
     and method, each in the configuration's ``order`` (default: the evaluations')."""
     order = order or evaluation_order(evaluations)
     if split is None:
         split = str(Splits.resolve(None, None, None, [list(e.splits) for e in evaluations]).table)
-    rows = []
-    for evaluation in evaluations:
-        meta, result = evaluation.meta, evaluation.splits[split]
-        if seq_lens is not None and int(meta["seq_len"]) not in seq_lens:
-            continue
-        for mode in result.modes:
-            rows.append({"dataset": meta["dataset"], "method": meta["method"], "seq_len": meta["seq_len"],
-                         "mode": mode, **_mode_numbers(result, mode)})
-    return sorted(rows, key=lambda r: (order.mode(r["mode"]), int(r["seq_len"]), order.dataset(r["dataset"]),
-                                       order.method(r["method"])))
+    rows = [Table1Row.of(evaluation.key, mode, evaluation.splits[split]) for evaluation in evaluations
+            if seq_lens is None or evaluation.seq_len in seq_lens for mode in evaluation.splits[split].modes]
+    return sorted(rows, key=lambda r: (order.mode(r.mode), r.seq_len, order.dataset(r.dataset),
+                                       order.method(r.method)))
 
 
 def evaluation_order(evaluations: Sequence[Evaluation], methods: Sequence[str] = ()) -> Order:

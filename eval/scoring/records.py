@@ -265,17 +265,36 @@ def meta_key(meta: Json) -> tuple[str, str, int]:
     return str(meta["dataset"]), str(meta["method"]), int(meta["seq_len"])
 
 
+class Keyed:
+    """A file of one dataset, method and L: what its ``meta`` says of them, typed (``meta_key``: a meta without them
+    raises naming what it has)."""
+
+    meta: Json
+
+    @property
+    def key(self) -> tuple[str, str, int]:
+        return meta_key(self.meta)
+
+    @property
+    def dataset(self) -> str:
+        return self.key[0]
+
+    @property
+    def method(self) -> str:
+        return self.key[1]
+
+    @property
+    def seq_len(self) -> int:
+        return self.key[2]
+
+
 @dataclass(frozen=True)
-class Evaluation(FileRecord):
+class Evaluation(Keyed, FileRecord):
     """One method on one dataset at one L (``evaluate.main``): the predictor files and every split."""
 
     meta: Json
     predictors: tuple[str, ...]
     splits: dict[str, EvaluationSplit]
-
-    @property
-    def key(self) -> tuple[str, str, int]:
-        return meta_key(self.meta)
 
 
 @dataclass(frozen=True)
@@ -294,15 +313,11 @@ class SplitTiming(Record):
 
 
 @dataclass(frozen=True)
-class Timing(FileRecord):
+class Timing(Keyed, FileRecord):
     """The timings of one evaluation, in their own file: they change from run to run, the evaluation must not."""
 
     meta: Json
     splits: dict[str, SplitTiming]
-
-    @property
-    def key(self) -> tuple[str, str, int]:
-        return meta_key(self.meta)
 
 
 # --- leave one method out ----------------------------------------------------------------------------------------
@@ -331,7 +346,7 @@ class HeldOutPredictors(Record):
 
 
 @dataclass(frozen=True)
-class HeldOut(FileRecord):
+class HeldOut(Keyed, FileRecord):
     """A method's test split under the pooled predictor and the one trained without it (``ablation held-out``)."""
 
     meta: Json
@@ -417,17 +432,13 @@ class SplitBaselines(Record):
 
 
 @dataclass(frozen=True)
-class Baselines(FileRecord):
+class Baselines(Keyed, FileRecord):
     """The training-free baselines of one method on one dataset at one L (``baselines.main``): ``meta`` holds the
     dataset, method, seq_len, the scorers' settings (``r_window``, ``spread_k``), the ground truth and the predictor
     files (one per seed, seed 0 first); one ``SplitBaselines`` per evaluated split."""
 
     meta: Json
     splits: dict[str, SplitBaselines]
-
-    @property
-    def key(self) -> tuple[str, str, int]:
-        return meta_key(self.meta)
 
 
 # --- the standard VPR metrics (eval.scoring.vpr_metrics) --------------------------------------------------------
@@ -489,7 +500,7 @@ class SplitMetrics(Record):
 
 
 @dataclass(frozen=True)
-class VPRMetrics(FileRecord):
+class VPRMetrics(Keyed, FileRecord):
     """The standard VPR metrics of one distance matrix per split (``vpr-smr metrics``; in a run, one method on one
     dataset at one L). ``meta``: dataset, method, seq_len, tolerance, the ground truth (``ground_truth``:
     ``GroundTruth.provenance``; absent in files written before it was recorded) and the predictor file (seed 0)
@@ -497,8 +508,4 @@ class VPRMetrics(FileRecord):
 
     meta: Json
     splits: dict[str, SplitMetrics]
-
-    @property
-    def key(self) -> tuple[str, str, int]:
-        return meta_key(self.meta)
 

@@ -110,7 +110,7 @@ def test_table1_names_a_predictor_that_removed_every_match(removed_all):
     aoc, recall = naive_standard_aoc(features.sequence_distance.tolist(), features.sequence_correct.tolist())
     seed = SeedReport(0, {}, 0.5, 10, (30, 10, 10, 7), {})
     write_json(tmp_path / "p.json", PredictorReport({"dataset": "corridor", "seq_len": 4}, 57, (seed,)).to_json())
-    build.main(tmp_path / "run", [tmp_path / "e.json"], [tmp_path / "p.json"])
+    build.main(tmp_path / "run", build.RunFiles([tmp_path / "e.json"], [tmp_path / "p.json"]))
     md = (tmp_path / "run" / "tables" / "table1.md").read_text()
     standard = md.split("## standard mode")[1]
     # cut at the predictor's maximum recall 0, VPR+SM's AOC is 0 on every draw of the queries too
@@ -205,7 +205,7 @@ def test_training_warns_and_the_tables_say_so(tmp_path, caplog):
     assert scores.f1 <= 1 / present  # noise: at or below chance (1 / K), as the warning says
     assert any("this predictor cannot be trusted: seed 0: its val macro F1" in r.message for r in caplog.records)
     row = build.predictor_rows([report])[0]
-    assert row["warning"].startswith("seed 0: its val macro F1")
+    assert row.warning.startswith("seed 0: its val macro F1")
 
 
 def test_one_class_in_the_validation_split_is_no_reason_to_warn():
@@ -218,6 +218,7 @@ def test_the_findings_lead_with_the_predictors_warning(removed_all):
     from vpr_smr.eval.report import registry
     from vpr_smr.eval.report.html import predictor_warnings
     from vpr_smr.eval.report.results import Splits, WrittenTable
+    from vpr_smr.eval.report.rows import cells
 
     tmp_path, _ = removed_all
     one_class = SplitScores(0.3, 21, (12, 9, 0, 0), ((0, 12, 0, 0), (0, 9, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0)))
@@ -225,14 +226,14 @@ def test_the_findings_lead_with_the_predictors_warning(removed_all):
                              (SeedReport(0, {}, 0.4, 10, (30, 10, 10, 7), {"val": one_class}),))
     rows = build.predictor_rows([report])
     columns = registry.table("predictor").expanded(Splits("test", ("val", "test")))
-    table = WrittenTable("predictor", columns, tuple(rows), ())
+    table = WrittenTable("predictor", columns, tuple(map(cells, rows)), ())
     assert predictor_warnings(table, "corridor", 4) == [
         "Warning: the predictor of corridor at L = 4 cannot be trusted: seed 0: its val macro F1 0.30 is at or "
         "below chance (0.50: guessing each of the 2 classes present at its own frequency); it predicts class 1 for "
         "all 21 val samples."]
     assert predictor_warnings(table, "corridor", 6) == []
     write_json(tmp_path / "p.json", report.to_json())
-    build.main(tmp_path / "run", [tmp_path / "e.json"], [tmp_path / "p.json"])
+    build.main(tmp_path / "run", build.RunFiles([tmp_path / "e.json"], [tmp_path / "p.json"]))
     findings = (tmp_path / "run" / "report.html").read_text().split('id="findings"')[1].split("</section>")[0]
     assert findings.count("Warning: the predictor of corridor at L = 4 cannot be trusted") == 2  # both modes
     assert "| corridor | 4 |" in (tmp_path / "run" / "tables" / "predictor.md").read_text()

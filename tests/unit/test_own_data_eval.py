@@ -28,6 +28,7 @@ from vpr_smr.eval.predictor.records import (
 )
 from vpr_smr.eval.report import build as report
 from vpr_smr.eval.report import registry
+from vpr_smr.eval.report.rows import cells
 from vpr_smr.eval.scoring.curves import Curve, compare_curves, reduction_pct
 from vpr_smr.eval.scoring.records import Evaluation
 from vpr_smr.pipeline.cli import main
@@ -164,7 +165,7 @@ def hand_run(tmp_path):
 def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
     tmp_path, evaluations, predictors = hand_run
     run = tmp_path / "run"
-    report.main(run, evaluations, [predictors])
+    report.main(run, report.RunFiles(evaluations, [predictors]))
     md = (run / "tables" / "table1.md").read_text()
     # AOCs: every method, (0.2 + 0 + 0.4) / 3; these hand-made files have no intervals: [n/a]
     assert "| d | VPR+SM | 0.2000 [n/a] | 0.0000 [n/a] | 0.4000 [n/a] | 0.2000 |  |" in md
@@ -214,7 +215,7 @@ def test_leave_one_out_rows_show_na():
     numbers = HeldOutScores("p.h5", 0.5, 3, {"paper": ModeRemoval(0.5, 0.5, nothing)})
     rows = report.lomo_rows([HeldOut({"dataset": "d", "method": "m", "seq_len": 4}, 57,
                                      HeldOutPredictors(numbers, numbers))])
-    text = report.markdown_table(registry.table("leave_one_method_out").names(), rows)
+    text = report.markdown_table(registry.table("leave_one_method_out").names(), map(cells, rows))
     assert text.splitlines()[-1] == ("| d | 4 | m | paper | 57 | 0.5000 | 0.5000 | 3 | 3 | 0.0000 | 0.0000 | 0.0000 "
                                      "| n/a | n/a | nothing_to_reduce | nothing_to_reduce |")
 
@@ -242,9 +243,9 @@ def test_query_counts_in_every_evaluation_table(tmp_path):
     # the existing columns keep their order, the counts come last
     assert list(rows("table1")[0])[:15] == list(registry.table("table1").names()[:15])
     assert list(rows("ablation_seq_len")[0])[21:] == ["auc_vpr_sm", "auc_vpr_sm_pred", "n_queries",
-                                                     "n_queries_single", "n_seeds_defined",
-                                                     *(column.name for column in registry.OUTCOMES),
-                                                     *(column.name for column in registry.BEST_SCORER),
+                                                     "n_queries_single", "n_seeds_defined", "outcome", "removed",
+                                                     "max_recall_vpr_sm", "aoc_vpr_sm_own", "seeds_left_out",
+                                                     "best_scorer", "best_scorer_reduction_pct",
                                                      registry.CORRECT_MATCHES.name]
     assert list(rows("restoration")[0])[-5:] == ["reduction_pct", "reduction_pct_ci_low", "reduction_pct_ci_high",
                                                  "n_queries", registry.CORRECT_MATCHES.name]
@@ -258,7 +259,7 @@ def test_table2_gives_its_sample_counts():
         name: AttributeScores(None, 0.5, {"val": AttributeSplit(0.5, 97, 0.5), "test": AttributeSplit(0.5, 107, 0.5)})
         for name in ("A1", "A2", "A3", "A4", "all")})
     rows = report.table2_rows([ablation])
-    assert {(r["n_train"], r["n_val"], r["n_test"]) for r in rows} == {(147, 97, 107)}
+    assert {(r.n_train, r.n_validation["val"], r.n_last["test"]) for r in rows} == {(147, 97, 107)}
     assert "F1 over train 147 samples, validation 97 samples, test 107 samples" in report.table2_markdown(rows)
 
 

@@ -111,7 +111,7 @@ def test_datasets_with_positions_are_left_out_of_the_speed_checks_and_their_card
     assert (card["n_frames"], card["n_query_frames"]) == (8, 5)
     (shown,) = cards({"street": card}, Order(("street",)))
     assert ("frames", "8 reference, 5 query", False) in shown.items
-    assert dataset_rows({"street": card})[0]["n_frames"] == "8 / 5"
+    assert dataset_rows({"street": card})[0].n_frames == "8 / 5"
 
 
 def test_a_frame_aligned_card_is_unchanged(tmp_path):
@@ -120,4 +120,4 @@ def test_a_frame_aligned_card_is_unchanged(tmp_path):
     assert "n_query_frames" not in card and card["n_frames"] == 100
     (shown,) = cards({"sample": card}, Order(("sample",)))
     assert ("frames", "100", False) in shown.items
-    assert dataset_rows({"sample": card})[0]["n_frames"] == 100
+    assert dataset_rows({"sample": card})[0].n_frames == 100

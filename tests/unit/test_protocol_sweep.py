@@ -120,8 +120,8 @@ def test_rows_from_metrics_in_the_configurations_order():
     records = [VPRMetrics({"dataset": "d", "method": m, "seq_len": 4}, {"test": SplitMetrics({}, sweep=swept)})
                for m in ("zeta", "alpha")]
     rows = sweep_rows(records, "test")
-    assert [(r["method"], r["threshold"]) for r in rows][:2] == [("zeta", 0.0), ("zeta", 1.0)]
-    assert len(rows) == 10 and all("reduction_pct" not in r for r in rows)
+    assert [(r.method, r.threshold) for r in rows][:2] == [("zeta", 0.0), ("zeta", 1.0)]
+    assert len(rows) == 10 and all(r.reduction_pct is None and r.outcome is None for r in rows)
 
 
 def test_a_sweep_where_no_interval_excludes_0_says_nothing_can_be_told():

@@ -1,6 +1,7 @@
 """Table I layout against the paper's own Table I (its Mean and Improved columns are derived values)."""
 
 import csv
+import dataclasses
 import json
 
 import numpy as np
@@ -155,7 +156,7 @@ def test_table2_marks_the_attributes_used():
         name: AttributeScores(None, f1, {"val": AttributeSplit(f1, 50, f1), "test": AttributeSplit(f1, 60, f1)})
         for name, f1 in (("A1", 0.42), ("A2", 0.42), ("A3", 0.40), ("A4", 0.37), ("all", 0.54))})
     rows = table2_rows([ablation])
-    assert [r["attributes"] for r in rows] == ["A1", "A2", "A3", "A4", "all"]
+    assert [r.attributes for r in rows] == ["A1", "A2", "A3", "A4", "all"]
     text = table2_markdown(rows)
     # the paper's Table II rows
     assert "| × | × | ✓ | × | 0.40 | 0.40 | 0.40 | 0.40 |" in text
@@ -196,7 +197,7 @@ def test_tables_and_figures_with_standard_mode_only(tmp_path):
     from vpr_smr.core.io import write_json
     from vpr_smr.eval.matching.attributes import query_features
     from vpr_smr.eval.predictor.estimator import SMRPredictor
-    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.report.build import ReportOptions, RunFiles, main
     from vpr_smr.eval.scoring.evaluate import evaluate_split
     from vpr_smr.eval.scoring.records import Evaluation
 
@@ -208,7 +209,7 @@ def test_tables_and_figures_with_standard_mode_only(tmp_path):
     evaluation = Evaluation({"dataset": "d", "method": "m", "seq_len": 4}, ("p.h5",), {"test": result})
     write_json(tmp_path / "e.json", evaluation.to_json())
     write_json(tmp_path / "p.json", predictor_report(4).to_json())
-    main(tmp_path / "out", [tmp_path / "e.json"], [tmp_path / "p.json"], html=False)
+    main(tmp_path / "out", RunFiles([tmp_path / "e.json"], [tmp_path / "p.json"]), ReportOptions(html=False))
     assert (tmp_path / "out" / "tables" / "table1.csv").read_text().splitlines()[1].startswith("d,m,4,standard,")
     assert sorted(p.name for p in (tmp_path / "out" / "figures").iterdir()) == [
         "confusion_d_L4.png", "pr_d_L4_standard.png", "trust_d_L4_standard.png"]
@@ -431,9 +432,9 @@ def test_method_order_is_the_configurations(tmp_path):
     assert page.index("matches_d_zeta_L4.png") < page.index("matches_d_alpha_L4.png")
     # an explicit order wins over the evaluations'
     evaluations = [Evaluation.from_json(json.loads(p.read_text())) for p in sorted(tmp_path.glob("e_*_L4.json"))]
-    assert [r["method"] for r in table1_rows(evaluations)] == ["alpha", "zeta"]  # the order given (here sorted)
+    assert [r.method for r in table1_rows(evaluations)] == ["alpha", "zeta"]  # the order given (here sorted)
     order = evaluation_order(evaluations, methods=("zeta", "alpha"))
-    assert [r["method"] for r in table1_rows(evaluations, order=order)] == ["zeta", "alpha"]
+    assert [r.method for r in table1_rows(evaluations, order=order)] == ["zeta", "alpha"]
 
 
 def test_vpr_metrics_table_equals_the_records(tmp_path):
@@ -490,7 +491,7 @@ def test_inspector_figures_are_placed_by_their_names(tmp_path):
 
 
 def test_a_wrong_file_given_to_the_report_is_named(tmp_path):
-    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.report.build import RunFiles, main
     from vpr_smr.eval.scoring import vpr_metrics
     from vpr_smr.eval.scoring.records import meta_key
 
@@ -500,7 +501,7 @@ def test_a_wrong_file_given_to_the_report_is_named(tmp_path):
     out = tmp_path / "run"
 
     def report(**inputs):
-        main(out, **{"evaluations": [evaluation], "predictors": [made / "p_L4.json"], **inputs})
+        main(out, RunFiles(**{"evaluations": [evaluation], "predictors": [made / "p_L4.json"], **inputs}))
 
     not_json = tmp_path / "notes.json"
     not_json.write_text("dataset: d\n")
@@ -550,7 +551,7 @@ def test_the_report_command_names_a_wrong_file(tmp_path, capsys):
 def test_datasets_and_splits_keep_the_configurations_order(tmp_path):
     import html
 
-    from vpr_smr.eval.report.build import main
+    from vpr_smr.eval.report.build import ReportOptions, RunFiles, main
 
     def card(overlap: str) -> dict:  # splits as configured: train, val, test (alphabetically test, train, val)
         return {**DATASET_CARD, "n_frames": 120, "splits": {"train": [0, 60], "val": [60, 90], "test": [80, 120]},
@@ -560,7 +561,7 @@ def test_datasets_and_splits_keep_the_configurations_order(tmp_path):
     cards = json.loads(json.dumps({"zeta": card("'val' and 'test' share [80, 90)"),
                                    "alpha": card("'val' and 'test' share frames [85, 90)")}))
     run = tmp_path / "run"
-    main(run, config={"run": "toy"}, datasets=cards)
+    main(run, RunFiles(), ReportOptions(config={"run": "toy"}, datasets=cards))
     rows = list(csv.DictReader(open(run / "tables" / "datasets.csv")))
     splits = "train [0, 60): 60 frames; val [60, 90): 30 frames; test [80, 120): 40 frames"
     assert [(r["dataset"], r["splits"]) for r in rows] == [("zeta", splits), ("alpha", splits)]
@@ -684,6 +685,7 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         detection_headline,
         detection_sentence,
     )
+    from vpr_smr.eval.report.rows import Table1Row
 
     # reductions at the seed-0 budget per method (a, b, c); random's mean over its seeds is 60, its seed 0 1, 2, 3
     numbers = {"uniqueness": (30.0, 10.0, 2.0), "single_uniqueness": (5.0, 40.0, -1.0), "spread": (-3.0, -2.0, -9.0),
@@ -732,8 +734,10 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
     # per row of the sequence-length ablation: the best training-free scorer of that method, by seed 0
     assert best_scorer([r for r in rows if r["method"] == "a"])["scorer"] == "uniqueness"
     assert best_scorer([r for r in rows if r["method"] == "b"])["scorer"] == "single_uniqueness"
-    (row,) = with_best([{"dataset": "d", "method": "c", "seq_len": 4, "mode": "paper"}], rows)
-    assert (row["best_scorer"], row["best_scorer_reduction_pct"]) == ("random", 3.0)
+    table_row = Table1Row(**{field.name: None for field in dataclasses.fields(Table1Row)}  # only its key matters
+                          | {"dataset": "d", "method": "c", "seq_len": 4, "mode": "paper"})
+    (row,) = with_best([table_row], rows)
+    assert (row.best_scorer, row.best_scorer_reduction_pct) == ("random", 3.0)
     # wrong-match detection (the issue's numbers): the highest seed-0 AP and the paired interval against the
     # predictor's; random's mean over seeds (0.9) is not what it is compared by
     aps = {"a": {"uniqueness": 0.787, "spread": 0.5, "random": 0.3, "predictor": 0.714},
