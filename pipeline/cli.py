@@ -80,7 +80,7 @@ def cmd_distances(args: argparse.Namespace) -> None:
 def cmd_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.matching import attributes
 
-    attributes.main(args.distances, args.out, args.seq_len, args.tolerance, velocities=args.velocities,
+    attributes.main(args.distances, args.out, args.seq_len, args.tolerance, matcher=_matcher_spec(args),
                     radius=args.radius, reference_positions=args.reference_positions,
                     query_positions=args.query_positions, similarity=args.similarity, key=args.key,
                     transpose=args.transpose, ground_truth=args.ground_truth,
@@ -223,11 +223,18 @@ def _baseline_settings(args: argparse.Namespace) -> Any:
         raise ValueError(f"--r-window {args.r_window}, --spread-k {args.spread_k}: {error}") from None
 
 
+def _matcher_spec(args: argparse.Namespace) -> Any:
+    """The sequence matcher of the options (``MatcherSpec``): ``seqslam`` with ``--velocities``."""
+    from vpr_smr.eval.matching.matchers import MatcherSpec
+
+    return MatcherSpec.of("seqslam", {"velocities": list(args.velocities)}, "sequence_matching")
+
+
 def _matcher(args: argparse.Namespace) -> Any:
     """The matcher options of ``_ground_truth_options`` as ``vpr_metrics.MatcherSettings``."""
     from vpr_smr.eval.scoring.vpr_metrics import MatcherSettings
 
-    return MatcherSettings(tuple(args.velocities), args.radius, args.reference_positions, args.query_positions,
+    return MatcherSettings(_matcher_spec(args), args.radius, args.reference_positions, args.query_positions,
                            args.ground_truth, args.ground_truth_key)
 
 
@@ -283,7 +290,7 @@ def cmd_inspect(args: argparse.Namespace) -> None:
         args.frames_sha256, args.seq_len, args.split, args.tolerance, args.match_figure, args.matrix_figure,
         per_class=args.per_class, mistakes=args.mistakes, seed=args.seed,
         split_range=(args.frames[0], args.frames[1]) if args.frames else None, radius=args.radius,
-        velocities=tuple(args.velocities), reference_positions=args.reference_positions,
+        matcher=_matcher_spec(args), reference_positions=args.reference_positions,
         query_positions=args.query_positions, similarity=args.similarity, key=args.key, transpose=args.transpose,
         ground_truth=args.ground_truth, ground_truth_key=args.ground_truth_key)
     log.info("wrote %s", " and ".join(str(path) for path in written if path is not None))

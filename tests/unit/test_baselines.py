@@ -7,7 +7,7 @@ and two dimensions, velocity search, a split with fewer end references than cand
 
 import numpy as np
 import pytest
-from helpers import make_features
+from helpers import make_features, seqslam
 from oracles import naive_oracle_removed, naive_removed, naive_scores, tied_matrix
 from sklearn.metrics import average_precision_score, roc_auc_score
 
@@ -63,7 +63,7 @@ def test_scorers_equal_the_literal_definition(name, kernel):
     settings = BaselineSettings(r_window, spread_k)
     previous, matcher.KERNEL = matcher.KERNEL, kernel
     try:
-        features = query_features(d, seq_len, 2, velocities=velocities, n_candidates=settings.candidates)
+        features = query_features(d, seq_len, 2, matcher=seqslam(*velocities), n_candidates=settings.candidates)
     finally:
         matcher.KERNEL = previous
     positions = np.arange(d.shape[0], dtype=np.float64)
@@ -88,7 +88,8 @@ def test_spread_with_positions(dimensions):
     query = reference[np.linspace(0, 44, 30).astype(int)]
     truth = GroundTruth.positions(reference, query, 4.0)
     settings = BaselineSettings(8, 7)
-    features = query_features(d, 3, velocities=(0.8, 1.0, 1.25), ground_truth=truth, n_candidates=settings.candidates)
+    features = query_features(d, 3, matcher=seqslam(0.8, 1.0, 1.25), ground_truth=truth,
+                              n_candidates=settings.candidates)
     positions = spread_positions(truth)
     assert positions is truth.reference_positions  # positions, not frame indices
     got = query_scores(features, settings, positions)["spread"]
