@@ -188,27 +188,27 @@ def cmd_metrics(args: argparse.Namespace) -> None:
 
 
 def cmd_queries(args: argparse.Namespace) -> None:
-    from vpr_smr.eval.scoring import vpr_metrics
+    from vpr_smr.eval.scoring import queries_stage
 
-    vpr_metrics.queries_main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
-                             predictor=args.predictor, attributes=_split_paths(args.attributes or []),
-                             allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
-                             similarity=args.similarity, key=args.key, transpose=args.transpose,
-                             baselines=_baseline_settings(args))
+    queries_stage.main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
+                       predictor=args.predictor, attributes=_split_paths(args.attributes or []),
+                       allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
+                       similarity=args.similarity, key=args.key, transpose=args.transpose,
+                       baselines=_baseline_settings(args))
 
 
 def cmd_baselines(args: argparse.Namespace) -> None:
-    from vpr_smr.eval.scoring import vpr_metrics
+    from vpr_smr.eval.scoring import baselines_stage
 
     attributes = _split_paths(args.attributes)
     _check_seq_len(args, attributes.values())
     settings = _baseline_settings(args)
     assert settings is not None  # the baselines command has no --no-baselines
-    vpr_metrics.baselines_main(_split_paths(args.distances, "--distances"), attributes, args.predictors,
-                               args.seq_len, args.tolerance, args.out, settings, tuple(args.modes),
-                               meta={"dataset": args.dataset, "method": args.method},
-                               allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
-                               similarity=args.similarity, key=args.key, transpose=args.transpose)
+    baselines_stage.main(_split_paths(args.distances, "--distances"), attributes, args.predictors,
+                         args.seq_len, args.tolerance, args.out, settings, tuple(args.modes),
+                         meta={"dataset": args.dataset, "method": args.method},
+                         allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
+                         similarity=args.similarity, key=args.key, transpose=args.transpose)
 
 
 def _baseline_settings(args: argparse.Namespace) -> Any:

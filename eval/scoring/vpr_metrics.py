@@ -1,8 +1,9 @@
-"""The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher, the
-per-query table of the same scoring (``vpr-smr queries``, or ``metrics --queries``; ``eval.scoring.queries``), and the
-training-free baselines of a run (``vpr-smr baselines``: method §12's scorers, ``eval.scoring.baselines``, at the
-budget of every predictor seed). ``metrics`` and ``queries`` compute the scorers too (their detection of wrong
-matches, with a predictor their removal at its budget; their confidences in the per-query table).
+"""The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher, and the
+scoring that the per-query table (``metrics --queries``; the ``queries`` stage, ``eval.scoring.queries_stage``)
+and the training-free baselines (the ``baselines`` stage, ``eval.scoring.baselines_stage``: method §12's scorers,
+at the budget of every predictor seed) share with it. ``metrics`` and ``queries`` compute the scorers too (their
+detection of wrong matches, with a predictor their removal at its budget; their confidences in the per-query
+table).
 
 One split's ``R x Q`` matrix ``D``: a match ``r`` of query ``q`` is correct iff ``|r - q| <= tolerance`` for a
 frame-aligned pair, iff its position is within the radius of the query's with positions (method §11), iff
@@ -59,7 +60,6 @@ from vpr_smr.core.io import (
     read_provenance,
     write_json,
 )
-from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import (
     Matching,
     QueryFeatures,
@@ -97,13 +97,13 @@ from vpr_smr.eval.scoring.baselines import (
 )
 from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, recall_at_full_precision
 from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
-from vpr_smr.eval.scoring.records import Baselines, MatcherMetrics, SplitMetrics, VPRMetrics
+from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
 from vpr_smr.eval.scoring.sweep import protocol_sweep, within
 
 __all__ = [
-    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "baselines_main", "extended_precision",
-    "format_baselines", "format_metrics", "main", "matcher_metrics", "precision_at_strictest", "queries_main",
-    "recall_at", "retrieval", "score_split",
+    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "check_inputs", "extended_precision",
+    "format_baselines", "format_metrics", "main", "matcher_metrics", "precision_at_strictest", "recall_at",
+    "retrieval", "score_all", "score_split",
 ]
 
 log = logging.getLogger("vpr_smr")
@@ -392,7 +392,7 @@ def _reference_first_frame(*paths: Path | str | None) -> int | None:
     return None
 
 
-def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], predictor: Path | None,
+def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], predictor: Path | None,
                   seq_len: int, tolerance: int, matcher: MatcherSettings,
                   file_truth: GroundTruth | None = None) -> None:
     if matcher.reference_positions is not None and len(distances) > 1:
@@ -440,7 +440,7 @@ class Scored:
     ground_truth: dict[str, Any]
 
 
-def _score_all(
+def score_all(
     distances: Mapping[str, Path | str] | Path | str,
     seq_len: int,
     tolerance: int,
@@ -472,7 +472,7 @@ def _score_all(
                          "--sweep, or score with --tolerance (or positions and --radius) instead")
     file_truth = (None if matcher.ground_truth is None
                   else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key))
-    _check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)
+    check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)
     model = None
     if predictor_file is not None:
         scored = [p for p in (*splits.values(), *attribute_paths.values()) if _ours(p)]
@@ -556,7 +556,7 @@ def main(
     """
     out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
     queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
-    scored = _score_all(distances, seq_len, tolerance, predictor, attributes, modes, allow_split_overlap, matcher,
+    scored = score_all(distances, seq_len, tolerance, predictor, attributes, modes, allow_split_overlap, matcher,
                         similarity, key, transpose, sweep, baselines)
     info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance),
             **matcher_provenance(matcher.spec, matcher.radius),
@@ -644,103 +644,3 @@ def format_baselines(result: VPRMetrics) -> str:
                                  numbers.outcome])
             parts.append(_aligned(rows, 2))
     return "\n\n".join(parts)
-
-
-def queries_main(
-    distances: Mapping[str, Path | str] | Path | str,
-    seq_len: int,
-    tolerance: int,
-    out: Path | str,
-    predictor: Path | str | None = None,
-    attributes: Mapping[str, Path | str] | None = None,
-    allow_split_overlap: bool = False,
-    matcher: MatcherSettings = MatcherSettings(),
-    similarity: bool = False,
-    key: str | None = None,
-    transpose: bool = False,
-    baselines: BaselineSettings | None = DEFAULT_SETTINGS,
-) -> Path:
-    """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS`` and ``SCORE_COLUMNS``) of every split
-    of ``distances`` in the given order, written to ``out`` (CSV), as ``main``'s ``queries`` (the same code; no
-    metric mode changes it). The inputs as ``main``'s."""
-    out = check_suffix(out, CSV_SUFFIXES, "the per-query table (CSV)")
-    scored = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher,
-                        similarity, key, transpose, baselines=baselines)
-    write_queries(out, [scored_split.queries for scored_split in scored.splits.values()])
-    log.info("wrote %d queries of %d splits to %s",
-             sum(len(r.queries.features.queries) for r in scored.splits.values()), len(scored.splits), out)
-    return out
-
-
-def baselines_main(
-    distances: Mapping[str, Path | str],
-    attributes: Mapping[str, Path | str],
-    predictors: Sequence[Path | str],
-    seq_len: int,
-    tolerance: int,
-    out: Path | str,
-    settings: BaselineSettings = DEFAULT_SETTINGS,
-    modes: Sequence[str] = MODES,
-    meta: Mapping[str, Any] | None = None,
-    allow_split_overlap: bool = False,
-    matcher: MatcherSettings = MatcherSettings(),
-    similarity: bool = False,
-    key: str | None = None,
-    transpose: bool = False,
-) -> Baselines:
-    """The ``baselines`` stage (method §12): per split, every scorer's detection of wrong matches and its removal
-    at the budget of each predictor seed (``predictors``: seed 0 first), written to ``out`` (JSON,
-    ``records.Baselines``).
-
-    ``attributes`` (split -> our features ``.h5``, holding the candidates ``settings`` need) give the matches and
-    their verdicts; ``distances`` (the same splits' matrices, read for their shape and the positions they hold) the
-    ground truth, as ``main`` builds it (``matcher``, ``tolerance``), whose reference positions ``spread`` measures.
-    ``meta`` (dataset, method) is written with ``seq_len``, the settings, the ground truth and the predictor files.
-    Every input is checked before any work."""
-    out = check_suffix(out, JSON_SUFFIXES, "the training-free baselines (JSON)")
-    distance_paths = {str(name): Path(path) for name, path in distances.items()}
-    attribute_paths = {str(name): Path(path) for name, path in attributes.items()}
-    if not attribute_paths or set(distance_paths) != set(attribute_paths):
-        raise ValueError(f"give every split's attributes and distances (--attributes names "
-                         f"{', '.join(attribute_paths) or 'none'}, --distances {', '.join(distance_paths) or 'none'})")
-    if not predictors:
-        raise ValueError("the baselines need the predictor files (one per seed, seed 0 first): their budgets")
-    unknown = [mode for mode in modes if mode not in MODES]
-    if unknown:
-        raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
-    file_truth = (None if matcher.ground_truth is None
-                  else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key))
-    _check_inputs(distance_paths, attribute_paths, None, seq_len, tolerance, matcher, file_truth)
-    models = []
-    for path in map(Path, predictors):
-        _check_inputs({}, {}, path, seq_len, tolerance, matcher)
-        check_disjoint(trained_on(path), frame_ranges(attribute_paths.values()), allow_split_overlap,
-                       f"predictor {path}")
-        models.append(SMRPredictor.load(path))
-        check_matching(models[-1], Matching.of(matcher.spec, matcher.kind),
-                       "the attributes " + ", ".join(map(str, attribute_paths.values())))
-    features = {split: read_features(path) for split, path in attribute_paths.items()}
-    for split, path in attribute_paths.items():
-        check_candidates(features[split], settings, str(path))
-    splits = {}
-    recorded: dict[str, Any] | None = None if file_truth is None else file_truth.provenance()
-    for split in attribute_paths:
-        path = distance_paths[split]
-        with open_distance_matrix(path, similarity, key, transpose) as matrix:
-            shape = tuple(int(n) for n in matrix.shape)
-            truth = split_ground_truth(path, shape, tolerance, matcher.radius, matcher.reference_positions,
-                                       matcher.query_positions, file_truth)
-        if len(features[split].queries) != shape[1] - seq_len + 1:
-            raise ValueError(f"{attribute_paths[split]} holds {len(features[split].queries)} queries, but {path} is "
-                             f"a {shape[0]} x {shape[1]} matrix ({shape[1] - seq_len + 1} queries at L = {seq_len}): "
-                             "give the attributes computed from it")
-        recorded = truth.provenance() if recorded is None else recorded
-        attributes_0 = features[split].attributes[:, 0, :]
-        predictions = [scorers.Prediction(seed, np.asarray(model.predict_proba(attributes_0)),
-                                          np.asarray(model.classes_)) for seed, model in enumerate(models)]
-        splits[split] = split_baselines(features[split], settings, spread_positions(truth), predictions, modes)
-    info = {**dict(meta or {}), "seq_len": int(seq_len), **settings.meta(), "ground_truth": recorded,
-            "predictors": [str(path) for path in predictors]}
-    result = Baselines(info, splits)
-    save(out, result)
-    return result

@@ -352,7 +352,7 @@ def test_the_baselines_command(split_files, predictor_file, tmp_path):
                 "--attributes", *(f"{s}={p}" for s, p in attributes.items()),
                 "--predictors", str(predictor_file), "--r-window", "30", "--out", str(tmp_path / "c.json")]) == 2
     with pytest.raises(ValueError, match=r"val_L3.h5 holds 12 candidates .* --candidates 32"):
-        from vpr_smr.eval.scoring.vpr_metrics import baselines_main
+        from vpr_smr.eval.scoring.baselines_stage import main as baselines_main
 
         baselines_main(distances, attributes, [predictor_file], 3, 2, tmp_path / "c.json", BaselineSettings(30, 10))
     with pytest.raises(ValueError, match="give every split's attributes and distances"):
