@@ -22,6 +22,7 @@ from vpr_smr.eval.matching.attributes import (
     query_features,
     write_features,
 )
+from vpr_smr.eval.matching.live import LiveMatcher
 from vpr_smr.eval.matching.matchers import MatcherSpec, available_matchers, matcher_class
 from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 from vpr_smr.eval.matching.matchers.seqslam import SeqSLAM
@@ -177,16 +178,17 @@ def test_seqslams_scores_are_the_trajectory_sums_with_inf_where_none_ends():
 
 @pytest.fixture
 def installed(monkeypatch):
-    """``centred_toy`` registered as an installed package's entry point would register it."""
-    point = SimpleNamespace(name="centred_toy", load=lambda: Centred)
-    monkeypatch.setattr(registry, "entry_points", lambda group: [point] if group == registry.ENTRY_POINT_GROUP else [])
+    """``centred_toy`` and ``smoothing_toy`` registered as an installed package's entry points would register them."""
+    points = [SimpleNamespace(name=cls.name, load=lambda cls=cls: cls) for cls in (Centred, Smoothing)]
+    monkeypatch.setattr(registry, "entry_points", lambda group: points if group == registry.ENTRY_POINT_GROUP else [])
 
 
 def test_an_unknown_matcher_is_refused_listing_the_available_ones(installed):
-    assert available_matchers() == ["centred_toy", "seqslam"]
+    assert available_matchers() == ["centred_toy", "seqslam", "smoothing_toy"]
     assert matcher_class("seqslam") is SeqSLAM and matcher_class("centred_toy") is Centred
-    with pytest.raises(ValueError, match=r"unknown sequence matcher 'seqslm'; available: centred_toy, seqslam \(a "
-                                         r"package adds one through the entry point group vpr_smr.matchers\)"):
+    with pytest.raises(ValueError, match=r"unknown sequence matcher 'seqslm'; available: centred_toy, seqslam, "
+                                         r"smoothing_toy \(a package adds one through the entry point group "
+                                         r"vpr_smr.matchers\)"):
         MatcherSpec.of("seqslm")
 
 
@@ -215,6 +217,21 @@ def test_a_predictor_of_another_matcher_is_refused_naming_both(installed):
         "ground truth from frame indices within a tolerance: give the predictor trained with this matcher (the same "
         "matcher and settings, and positions with a radius or not), or train one for it")
     check_matching(predictor, Matching.of(seqslam(1.0, 0.8)), "these matrices")  # its own: accepted
+
+
+def test_the_live_matcher_runs_a_causal_matcher_frame_by_frame_as_the_batch(installed):
+    d = np.random.default_rng(6).integers(0, 4, size=(10, 16)).astype(np.float64)
+    spec = MatcherSpec.of("smoothing_toy", {"weight": 0.5})
+    batch = query_features(d, 3, matcher=spec)
+    live = LiveMatcher(3, matcher=spec)
+    results = [live.step_distances(d[:, a]) for a in range(16)]
+    assert results[:2] == [None, None]
+    assert [r.sequence_match for r in results[2:]] == batch.sequence_match.tolist()
+    assert [r.sequence_distance for r in results[2:]] == batch.sequence_distance.tolist()  # the state carried
+    assert np.array_equal([r.attributes for r in results[2:]], batch.attributes)
+    with pytest.raises(ValueError, match=r"the matcher centred_toy \(weight 0.5\) reads 1 columns before and 1 after "
+                                         r"its query: a LiveMatcher needs a causal matcher"):
+        LiveMatcher(3, matcher=MatcherSpec.of("centred_toy"))
 
 
 # --- files of vpr-smr 0.9: no "matcher" record ------------------------------------------------------------------
