@@ -100,14 +100,17 @@ def split_features(matcher: Matcher, distance_matrix: Any, n_ranks: int, block_q
         parts["sequence_match"].append(match)
         parts["sequence_distance"].append(scores[rows, match])
         parts["sequence_max"].append(np.where(np.isfinite(scores), scores, -np.inf).max(axis=1))
-        values, references = smallest_scores(scores, n_candidates)
-        parts["sequence_candidates"].append(values)
-        parts["sequence_candidate_references"].append(references)
-    joined = {key: np.concatenate(value) for key, value in parts.items()}
-    keep = joined["queries"] >= matcher.seq_len - 1  # a query's attributes need its window of L columns
+        if n_candidates:
+            values, references = smallest_scores(scores, n_candidates)
+            parts["sequence_candidates"].append(values)
+            parts["sequence_candidate_references"].append(references)
+    joined = {key: np.concatenate(value) for key, value in parts.items() if value}
+    keep = joined.get("queries", np.zeros(0, dtype=np.int64)) >= matcher.seq_len - 1  # attributes need L columns
+    if not keep.any():
+        raise ValueError(f"the matcher {matcher.name!r} evaluates no query of this {n_ref} x {n_query} matrix that "
+                         f"has a window of L = {matcher.seq_len} columns (queries {matcher.seq_len - 1} on)")
     window = joined["queries"][keep] - (matcher.seq_len - 1)  # rows of the engine's arrays
     result = {key: value if key == "window_single_match" else value[window] for key, value in out.items()
               if key not in SEQUENCE_CANDIDATES}
-    result.update({key: value[keep] for key, value in joined.items()
-                   if n_candidates or key not in SEQUENCE_CANDIDATES})
+    result.update({key: value[keep] for key, value in joined.items()})
     return result

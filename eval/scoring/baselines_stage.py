@@ -54,8 +54,9 @@ def main(
 
     ``attributes`` (split -> our features ``.h5``, holding the candidates ``settings`` need) give the matches and
     their verdicts; ``distances`` (the same splits' matrices, read for their shape and the positions they hold) the
-    ground truth, as ``main`` builds it (``matcher``, ``tolerance``), whose reference positions ``spread`` measures.
-    ``meta`` (dataset, method) is written with ``seq_len``, the settings, the ground truth and the predictor files.
+    ground truth, as ``vpr_metrics.main`` builds it (``matcher``, ``tolerance``), whose reference positions
+    ``spread`` measures. ``meta`` (dataset, method) is written with ``seq_len``, the settings, the ground truth, the
+    matcher (``MatcherSpec.provenance``) and the predictor files.
     Every input is checked before any work."""
     out = check_suffix(out, JSON_SUFFIXES, "the training-free baselines (JSON)")
     matcher = matcher or MatcherSettings()
@@ -104,6 +105,7 @@ def main(
                                           np.asarray(model.classes_)) for seed, model in enumerate(models)]
         splits[split] = split_baselines(features[split], settings, spread_positions(truth), predictions, modes)
     info = {**dict(meta or {}), "seq_len": int(seq_len), **settings.meta(), "ground_truth": recorded,
+            "matcher": matcher.spec.provenance(),
             "predictors": [str(path) for path in predictors]}
     result = Baselines(info, splits)
     save(out, result)

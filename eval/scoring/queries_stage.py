@@ -32,12 +32,13 @@ def main(
     baselines: BaselineSettings | None = DEFAULT_SETTINGS,
 ) -> Path:
     """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS`` and ``SCORE_COLUMNS``) of every split
-    of ``distances`` in the given order, written to ``out`` (CSV), as ``main``'s ``queries`` (the same code; no
-    metric mode changes it). The inputs as ``main``'s."""
+    of ``distances`` in the given order, written to ``out`` (CSV), as ``vpr_metrics.main``'s ``queries`` (the same
+    code; no metric mode changes it). The inputs as ``vpr_metrics.main``'s (``matcher``: the sequence matcher and
+    the ground truth, default ``seqslam`` with velocities [1.0] and frames within ``tolerance``)."""
     out = check_suffix(out, CSV_SUFFIXES, "the per-query table (CSV)")
     matcher = matcher or MatcherSettings()
     scored = score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher,
-                        similarity, key, transpose, baselines=baselines)
+                       similarity, key, transpose, baselines=baselines)
     write_queries(out, [scored_split.queries for scored_split in scored.splits.values()])
     log.info("wrote %d queries of %d splits to %s",
              sum(len(r.queries.features.queries) for r in scored.splits.values()), len(scored.splits), out)

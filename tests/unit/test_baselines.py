@@ -337,6 +337,7 @@ def test_the_baselines_command(split_files, predictor_file, tmp_path):
     record = load(out, Baselines)
     assert record.meta == {"dataset": "d", "method": "m", "seq_len": 3, "r_window": 6, "spread_k": 5,
                            "ground_truth": {"kind": "frames", "tolerance": 2},
+                           "matcher": {"name": "seqslam", "settings": {"velocities": [1.0]}},
                            "predictors": [str(predictor_file)] * 2}
     predictor = SMRPredictor.load(predictor_file)
     for split, path in attributes.items():  # what the command wrote is split_baselines of the file's features

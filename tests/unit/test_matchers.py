@@ -155,6 +155,13 @@ def test_a_matcher_that_is_not_seqslam_gets_its_candidates_and_labels_from_the_s
         assert found.sequence_rank[n_row] == (ranks[0] if ranks else np.iinfo(np.int64).max)
 
 
+def test_a_matcher_that_evaluates_no_query_with_a_window_is_named():
+    # queries 1 .. 2 evaluated, none of them with a window of L = 4 columns: a degenerate split, said in words
+    with pytest.raises(ValueError, match=r"the matcher 'centred_toy' evaluates no query of this 6 x 4 matrix that has "
+                                         r"a window of L = 4 columns \(queries 3 on\)"):
+        query_features(np.ones((6, 4)), 4, matcher=Centred(4, ToySettings()))
+
+
 def test_seqslams_scores_are_the_trajectory_sums_with_inf_where_none_ends():
     rng = np.random.default_rng(4)
     d = rng.random((12, 8))
