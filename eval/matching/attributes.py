@@ -266,12 +266,17 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     return features
 
 
-def recorded_ground_truth(paths: Sequence[Path | str]) -> dict[str, Any]:
-    """``{"ground_truth": ...}``: the ground truth the first of several attributes files records
-    (``truth_provenance``), for the meta of what is computed from them; empty when it records none (a file written
-    before it did)."""
-    recorded = read_provenance(paths[0]).get("ground_truth") if paths else None
-    return {"ground_truth": recorded} if isinstance(recorded, dict) else {}
+def recorded_matching(paths: Sequence[Path | str]) -> dict[str, Any]:
+    """``{"ground_truth": ..., "matcher": ...}``: the ground truth (``truth_provenance``) and the matcher
+    (``recorded_matcher``: ``seqslam`` with its velocities for a file of 0.10 and before) the first of several
+    attributes files records, for the meta of what is computed from them; no ``ground_truth`` when it records none
+    (a file written before it did)."""
+    if not paths:
+        return {}
+    stored = read_provenance(paths[0])
+    recorded = stored.get("ground_truth")
+    truth = {"ground_truth": recorded} if isinstance(recorded, dict) else {}
+    return {**truth, "matcher": recorded_matcher(stored, str(paths[0])).provenance()}
 
 
 def truth_provenance(truth: GroundTruth, seq_len: int, without: np.ndarray | None = None) -> dict[str, Any]:
