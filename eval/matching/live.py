@@ -60,13 +60,13 @@ class LiveMatcher:
     def __init__(self, seq_len: int, references: np.ndarray | None = None, predictor: Any = None,
                  distance: str | None = None, n_ranks: int = 4, matcher: MatcherSpec | None = None) -> None:
         self.spec = matcher or MatcherSpec.of()
-        self.built = self.spec.build(seq_len)
-        if self.built.lookahead or self.built.lookback > seq_len - 1:
-            raise ValueError(f"the matcher {self.spec} reads {self.built.lookback} columns before and "
-                             f"{self.built.lookahead} after its query: a LiveMatcher needs a causal matcher whose "
+        self.matcher = self.spec.build(seq_len)
+        if self.matcher.lookahead or self.matcher.lookback > seq_len - 1:
+            raise ValueError(f"the matcher {self.spec} reads {self.matcher.lookback} columns before and "
+                             f"{self.matcher.lookahead} after its query: a LiveMatcher needs a causal matcher whose "
                              f"window lies within the last L = {seq_len} frames")
-        self.matcher = attribute_engine(self.built)
-        self._state = self.built.initial_state()
+        self.engine = attribute_engine(self.matcher)  # the attributes' trajectories
+        self._state = self.matcher.initial_state()
         if references is not None and distance is None:
             raise ValueError("LiveMatcher with references needs distance=, the metric of the descriptors' method "
                              "('mad' for sad, 'l2' for the learned backends, or the method's distance setting); "
@@ -152,24 +152,24 @@ class LiveMatcher:
             n_ref = len(column)
             if n_ref < self.seq_len:
                 raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}")
-            self.matcher.check_references(n_ref)
+            self.engine.check_references(n_ref)
             dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
             self._buffer = np.empty((self.seq_len, n_ref), dtype=dtype)
         if len(column) != self._buffer.shape[1]:
             raise ValueError(f"expected {self._buffer.shape[1]} distances (one per reference), got {len(column)}")
         self._buffer[self.frames % self.seq_len] = column
         self.frames += 1
-        lookback = self.built.lookback
+        lookback = self.matcher.lookback
         own = None  # a matcher other than seqslam: its match of this frame, its state carried from the last
-        if not self.built.scores_are_attribute_sums and self.frames > lookback:
+        if not self.matcher.scores_are_attribute_sums and self.frames > lookback:
             columns = self._buffer[np.arange(self.frames - lookback - 1, self.frames) % self.seq_len]
-            own, self._state = self.built.block(columns, self.frames - lookback - 1, self._state)
+            own, self._state = self.matcher.block(columns, self.frames - lookback - 1, self._state)
         if self.frames < self.seq_len:
             return None
         window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % self.seq_len]
-        n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.matcher.first_reference)
+        n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.engine.first_reference)
         first = self.frames - self.seq_len  # the window's first frame: errors name frames, not window rows
-        out = self.matcher.block_features(window, n_ranks, first)
+        out = self.engine.block_features(window, n_ranks, first)
         if own is not None:
             match = int(own.match[0])
             out["sequence_match"], out["sequence_distance"] = np.array([match]), own.scores[0, [match]]
