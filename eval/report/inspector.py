@@ -243,7 +243,7 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
 
     ``matrix`` is the split's distance matrix (references x queries, split-local: query frame ``f`` is ``f - lo``,
     reference frame ``f`` is ``f - reference_lo``, default ``lo``), read for the true reference's distances (``S``:
-    ``s_a`` of the run's ``matcher``, default ``seqslam`` with velocities [1.0]); the thumbnails are ``pair``'s
+    ``s_a`` of the run's ``matcher``, default ``MatcherSpec.of()``, the paper's); the thumbnails are ``pair``'s
     images.
     """
     reference_lo = lo if reference_lo is None else reference_lo
@@ -526,8 +526,8 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
     when it has one, method §11). ``tolerance``: frames of the ground-truth band; ``radius``: the ground truth's with
     positions (those the distances file holds, or ``reference_positions`` and ``query_positions`` of a user's
     matrix, as ``vpr-smr metrics`` takes them); ``ground_truth``: a ground-truth file instead (its variable
-    ``ground_truth_key``), outlined. ``matcher``: the run's sequence matcher (default ``seqslam``, velocities
-    [1.0]). ``similarity``, ``key``, ``transpose``: how a user's matrix is read, as ``vpr-smr queries`` read it
+    ``ground_truth_key``), outlined. ``matcher``: the run's sequence matcher (default ``MatcherSpec.of()``, the
+    paper's). ``similarity``, ``key``, ``transpose``: how a user's matrix is read, as ``vpr-smr queries`` read it
     (``io.open_distance_matrix``).
     The queries CSV must be this matrix's at ``seq_len``: its rows of ``split`` are exactly the queries
     ``lo + L - 1 .. hi - 1``, and each sampled row's single-frame match and distance are its column's minimum.

@@ -100,7 +100,7 @@ class SplitQueries:
     reference_first_frame: int | None = None  # the split's first reference frame when its ranges differ (method §11)
     # (N,) split-local, NO_REFERENCE for a query without a correct one; None: the query's own index (frame-aligned)
     true_reference: np.ndarray | None = None
-    matcher: MatcherSpec | None = None  # the sequence matcher (None: the default, seqslam with velocities [1.0])
+    matcher: MatcherSpec | None = None  # the sequence matcher (None: the default, MatcherSpec.of())
     scores: dict[str, np.ndarray] | None = None  # scorer -> (N,) c_a (method §12), None: not computed
 
 

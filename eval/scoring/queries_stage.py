@@ -34,7 +34,7 @@ def main(
     """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS`` and ``SCORE_COLUMNS``) of every split
     of ``distances`` in the given order, written to ``out`` (CSV), as ``vpr_metrics.main``'s ``queries`` (the same
     code; no metric mode changes it). The inputs as ``vpr_metrics.main``'s (``matcher``: the sequence matcher and
-    the ground truth, default ``seqslam`` with velocities [1.0] and frames within ``tolerance``)."""
+    the ground truth, default ``MatcherSpec.of()``, the paper's, and frames within ``tolerance``)."""
     out = check_suffix(out, CSV_SUFFIXES, "the per-query table (CSV)")
     matcher = matcher or MatcherSettings()
     scored = score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher,

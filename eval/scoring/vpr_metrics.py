@@ -116,7 +116,7 @@ DISTANCE_SUFFIXES = (*ARRAY_SUFFIXES, *HDF5_SUFFIXES)
 @dataclass(frozen=True)
 class MatcherSettings:
     """The sequence matcher of a metrics or queries stage and where its ground truth comes from (method §11):
-    ``spec``, the matcher (default ``seqslam`` with velocities [1.0]: method §4's fixed matcher); a ground-truth
+    ``spec``, the matcher (default ``MatcherSpec.of()``: method §4's fixed matcher); a ground-truth
     file (``ground_truth``, its
     variable ``ground_truth_key``: a boolean matrix or per-query lists, ``ground_truth_files.read_ground_truth``);
     else positions files (one matrix only) or the positions a distance file holds, within ``radius``; without
