@@ -13,7 +13,7 @@ from typing import Any
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, METRICS, MODES
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix, package_version
-from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec
+from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER
 from vpr_smr.pipeline.config import ConfigError, Extraction, load_config, schema_default
 from vpr_smr.pipeline.console import LOG_FORMAT
 from vpr_smr.pipeline.options import add_matcher_options, add_options, matcher_of, read_matcher, read_options
@@ -77,11 +77,11 @@ def cmd_distances(args: argparse.Namespace) -> None:
 def cmd_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.matching import attributes
 
-    attributes.main(args.distances, args.out, args.seq_len, args.tolerance,
-                    velocities=_velocities(read_matcher(args)), radius=args.radius,
-                    reference_positions=args.reference_positions, query_positions=args.query_positions,
-                    similarity=args.similarity, key=args.key, transpose=args.transpose,
-                    ground_truth=args.ground_truth, ground_truth_key=args.ground_truth_key,
+    attributes.main(args.distances, args.out, args.seq_len, args.tolerance, matcher=read_matcher(args),
+                    radius=args.radius, reference_positions=args.reference_positions,
+                    query_positions=args.query_positions, similarity=args.similarity, key=args.key,
+                    transpose=args.transpose, ground_truth=args.ground_truth,
+                    ground_truth_key=args.ground_truth_key,
                     n_candidates=attributes.DEFAULT_CANDIDATES if args.candidates is None else args.candidates)
 
 
@@ -186,27 +186,27 @@ def cmd_metrics(args: argparse.Namespace) -> None:
 
 
 def cmd_queries(args: argparse.Namespace) -> None:
-    from vpr_smr.eval.scoring import vpr_metrics
+    from vpr_smr.eval.scoring import queries_stage
 
-    vpr_metrics.queries_main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
-                             predictor=args.predictor, attributes=_split_paths(args.attributes or []),
-                             allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
-                             similarity=args.similarity, key=args.key, transpose=args.transpose,
-                             baselines=_baseline_settings(args))
+    queries_stage.main(_distance_paths(args.distances), args.seq_len, args.tolerance, args.out,
+                       predictor=args.predictor, attributes=_split_paths(args.attributes or []),
+                       allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
+                       similarity=args.similarity, key=args.key, transpose=args.transpose,
+                       baselines=_baseline_settings(args))
 
 
 def cmd_baselines(args: argparse.Namespace) -> None:
-    from vpr_smr.eval.scoring import vpr_metrics
+    from vpr_smr.eval.scoring import baselines_stage
 
     attributes = _split_paths(args.attributes)
     _check_seq_len(args, attributes.values())
     settings = _baseline_settings(args)
     assert settings is not None  # the baselines command has no --no-baselines
-    vpr_metrics.baselines_main(_split_paths(args.distances, "--distances"), attributes, args.predictors,
-                               args.seq_len, args.tolerance, args.out, settings, tuple(args.modes),
-                               meta={"dataset": args.dataset, "method": args.method},
-                               allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
-                               similarity=args.similarity, key=args.key, transpose=args.transpose)
+    baselines_stage.main(_split_paths(args.distances, "--distances"), attributes, args.predictors,
+                         args.seq_len, args.tolerance, args.out, settings, tuple(args.modes),
+                         meta={"dataset": args.dataset, "method": args.method},
+                         allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
+                         similarity=args.similarity, key=args.key, transpose=args.transpose)
 
 
 def _baseline_settings(args: argparse.Namespace) -> Any:
@@ -218,20 +218,12 @@ def _baseline_settings(args: argparse.Namespace) -> Any:
     return read_options(args, BaselineSettings, "baselines")
 
 
-def _velocities(spec: MatcherSpec) -> tuple[float, ...]:
-    """What the stages take of the matcher ``--matcher`` and its settings give (``read_matcher``): seqslam's
-    velocities, until the stages take the ``MatcherSpec`` itself (``matcher=``)."""
-    if spec.name != "seqslam":
-        raise ValueError(f"--matcher {spec.name}: the stages run seqslam only (until they take a MatcherSpec)")
-    return tuple(float(v) for v in spec.values["velocities"])
-
-
 def _matcher(args: argparse.Namespace) -> Any:
     """The matcher options of ``_matcher_options`` as ``vpr_metrics.MatcherSettings``."""
     from vpr_smr.eval.scoring.vpr_metrics import MatcherSettings
 
-    return MatcherSettings(_velocities(read_matcher(args)), args.radius, args.reference_positions,
-                           args.query_positions, args.ground_truth, args.ground_truth_key)
+    return MatcherSettings(read_matcher(args), args.radius, args.reference_positions, args.query_positions,
+                           args.ground_truth, args.ground_truth_key)
 
 
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
@@ -286,7 +278,7 @@ def cmd_inspect(args: argparse.Namespace) -> None:
         args.frames_sha256, args.seq_len, args.split, args.tolerance, args.match_figure, args.matrix_figure,
         per_class=args.per_class, mistakes=args.mistakes, seed=args.seed,
         split_range=(args.frames[0], args.frames[1]) if args.frames else None, radius=args.radius,
-        velocities=_velocities(read_matcher(args)), reference_positions=args.reference_positions,
+        matcher=read_matcher(args), reference_positions=args.reference_positions,
         query_positions=args.query_positions, similarity=args.similarity, key=args.key, transpose=args.transpose,
         ground_truth=args.ground_truth, ground_truth_key=args.ground_truth_key)
     log.info("wrote %s", " and ".join(str(path) for path in written if path is not None))

@@ -13,10 +13,19 @@ import numpy as np
 from vpr_smr.core.io import atomic_h5
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.matchers import MatcherSpec
 
 # The tests folder and the checkout, wherever a test module sits below tests/ (this file stays in tests/).
 TESTS = Path(__file__).resolve().parent
 REPO = TESTS.parent
+
+
+def seqslam(*velocities: float) -> MatcherSpec:
+    """The ``seqslam`` matcher searching ``velocities`` (none: its default, [1.0])."""
+    return MatcherSpec.of("seqslam", {"velocities": list(velocities)} if velocities else {})
+
+
+SEQSLAM_PROVENANCE = {"name": "seqslam", "settings": {"velocities": [1.0]}}  # the default matcher, as files record it
 
 
 def write_distance_matrix(path: Path | str, distance_matrix: np.ndarray, provenance: dict[str, Any]) -> None:

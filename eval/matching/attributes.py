@@ -1,18 +1,19 @@
 """The four SMR attributes of every query and its label (method §5 and §6, paper mode), and the ``attributes`` stage.
 
-``query_features`` runs the sequence matcher (``matcher.SequenceMatcher``: the fixed matcher or velocity search)
-over one split's distance matrix, read in blocks of query columns (any 2-D array-like that slices by columns:
-``np.ndarray``, ``np.memmap``, ``h5py.Dataset``), so no full-size float64 copy of it ever exists, and labels its
-matches with the split's ground truth. Every reported number is the float64 value of the definition, bit for bit,
-whatever the block size or the implementation the matcher picks.
+``query_features`` runs a sequence matcher (a ``MatcherSpec``, default ``seqslam`` with velocities [1.0]: the
+paper's fixed matcher) and the attributes (``features.split_features``: computed once, for any matcher) over one
+split's distance matrix, read in blocks of query columns (any 2-D array-like that slices by columns: ``np.ndarray``,
+``np.memmap``, ``h5py.Dataset``), so no full-size float64 copy of it ever exists, and labels its matches with the
+split's ground truth. Every reported number is the float64 value of the definition, bit for bit, whatever the block
+size or the implementation the matcher picks.
 """
 
 from __future__ import annotations
 
 import logging
 import time
-from collections.abc import Sequence
-from dataclasses import dataclass, fields
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -20,9 +21,10 @@ import h5py
 import numpy as np
 
 from vpr_smr.core import environment
-from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, candidates_needed
+from vpr_smr.core.constants import DEFAULT_TOLERANCE, candidates_needed
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
 from vpr_smr.core.records import Record
+from vpr_smr.eval.matching.features import split_features
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import (
@@ -32,11 +34,13 @@ from vpr_smr.eval.matching.io import (
     split_ground_truth,
     warn_if_similar,
 )
-from vpr_smr.eval.matching.matcher import SequenceMatcher, as_matrix, check_velocities, read_columns
+from vpr_smr.eval.matching.matcher import as_matrix, read_columns
+from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec
+from vpr_smr.eval.matching.matchers.base import Matcher
 
 __all__ = [
     "ATTRIBUTE_NAMES", "CANDIDATE_FIELDS", "DEFAULT_CANDIDATES", "QueryFeatures", "labels_from_correctness",
-    "query_features",
+    "query_features", "recorded_matcher",
 ]
 
 ATTRIBUTE_NAMES = ("A1", "A2", "A3", "A4")  # minimum sum, minimum value, block sum, group sum rates
@@ -50,25 +54,27 @@ CANDIDATE_FIELDS = ("sequence_candidates", "sequence_candidate_references", "sin
 
 @dataclass(frozen=True)
 class QueryFeatures:
-    """What the predictor and the evaluation need of one split, for queries ``a = L-1 .. Q-1``.
+    """What the predictor and the evaluation need of one split, for the queries its matcher evaluates with a window
+    of ``L`` columns (``seqslam``: ``a = L-1 .. Q-1``).
 
     ``attributes[n, k]`` holds ``[A1_k, A2_k, A3_k, A4_k]`` of query ``queries[n]``;
     ``rank_references[n, k]`` is the reference that the rank-``k`` diagonal (with velocity search, method §11: the
-    rank-``k`` best trajectory) matches to that query, i.e. where it ends.
+    rank-``k`` best trajectory) matches to that query, i.e. where it ends. The sequence match, its distance and
+    the sequence candidates are the matcher's (``r*_a``, ``s_a[r*_a]``, the smallest ``s_a``; ``seqslam``: ``S``).
     """
 
     queries: np.ndarray  # (N,) query index within the split
     attributes: np.ndarray  # (N, K, 4)
     rank_references: np.ndarray  # (N, K)
     single_match: np.ndarray  # (N,) argmin_r D[r, a]
-    sequence_match: np.ndarray  # (N,) the reference where the best sequence ends: argmin_i S[i, a-L+1] + L - 1
-    sequence_distance: np.ndarray  # (N,) min_i S[i, a-L+1] (method §11: min_r S[r, a])
+    sequence_match: np.ndarray  # (N,) the matcher's r*_a (seqslam: argmin_i S[i, a-L+1] + L - 1)
+    sequence_distance: np.ndarray  # (N,) s_a[r*_a] (seqslam: min_i S[i, a-L+1]; method §11: min_r S[r, a])
     labels: np.ndarray  # (N,) 0..3, method §6
     single_correct: np.ndarray  # (N,) bool
     sequence_correct: np.ndarray  # (N,) bool
     rank_correct: np.ndarray  # (N, K) bool
-    sequence_min: float  # S.min() of the whole split
-    sequence_max: float  # S.max() of the whole split
+    sequence_min: float  # S.min() of the whole split (the smallest s_a[r*_a])
+    sequence_max: float  # S.max() of the whole split (the largest finite s_a[r])
     all_single_correct: np.ndarray  # (Q,) bool: single-frame correctness of every query, the first L-1 included
     # The training-free scorers' candidates (method §12), None when not computed: the n smallest S[r, a] ascending
     # (equal values lowest r first; the first is the sequence match) and their end references, and the n smallest
@@ -99,7 +105,7 @@ def query_features(
     block_queries: int | None = None,
     screen_dtype: Any = np.float32,
     *,
-    velocities: Sequence[float] = DEFAULT_VELOCITIES,
+    matcher: MatcherSpec | Matcher | None = None,
     ground_truth: GroundTruth | None = None,
     n_candidates: int = 0,
 ) -> QueryFeatures:
@@ -108,19 +114,21 @@ def query_features(
     ``distance_matrix`` is any 2-D numeric array-like that supports column slicing (``np.ndarray``, a memory-mapped
     ``.npy``, an ``h5py.Dataset``); it is read ``block_queries`` columns at a time. ``screen_dtype`` only decides
     which candidates are recomputed in float64: the results are the same for float32 and float64.
-    ``velocities``: SeqSLAM's velocity search (method §11; ``(1.0,)``, the default, is the fixed matcher of §4).
+    ``matcher``: the sequence matcher (a ``MatcherSpec``, built at ``seq_len``, or a ``Matcher`` of that length;
+    default ``seqslam`` with velocities [1.0], the fixed matcher of method §4).
     ``ground_truth``: which matches are correct (default: frame-aligned within ``tolerance``, method §1).
     ``n_candidates``: also the training-free scorers' candidates (``core.constants.candidates_needed``; 0: none).
     """
-    matcher = SequenceMatcher(seq_len, check_velocities(velocities))
+    built = built_matcher(matcher, seq_len)
     matrix = as_matrix(distance_matrix)
-    matcher.check(tuple(matrix.shape))  # before the ground truth's check: the matrix's own errors first
+    built.check(tuple(matrix.shape))  # before the ground truth's check: the matrix's own errors first
     if ground_truth is None:
         ground_truth = GroundTruth.aligned(matrix.shape[0], matrix.shape[1], tolerance)
     ground_truth.check_shape(tuple(matrix.shape))
-    result = matcher.features(matrix, n_ranks, block_queries, screen_dtype, n_candidates)
-    n_query = matrix.shape[1]
-    queries = np.arange(seq_len - 1, n_query)
+    if n_candidates < 0:
+        raise ValueError(f"n_candidates must be >= 0, got {n_candidates}")
+    result = split_features(built, matrix, n_ranks, block_queries, screen_dtype, n_candidates)
+    queries = result["queries"]
     rank_refs = result["rank_references"]
     single = result["single_match"]
     seq_match = result["sequence_match"]
@@ -134,39 +142,50 @@ def query_features(
         sequence_min=float(result["sequence_distance"].min()),
         sequence_max=float(result["sequence_max"].max()),
         **verdicts(ground_truth, queries, single, seq_match, rank_refs,
-                   np.argmin(read_columns(matrix, 0, seq_len - 1), axis=1)),
+                   np.concatenate([np.argmin(read_columns(matrix, 0, seq_len - 1), axis=1),
+                                   result["window_single_match"]])),
         **{name: result[name] for name in CANDIDATE_FIELDS if name in result},
     )
 
 
+def built_matcher(matcher: MatcherSpec | Matcher | None, seq_len: int) -> Matcher:
+    """The matcher of a spec (built at ``seq_len``; None: the default spec), or a built one of that length."""
+    if isinstance(matcher, Matcher):
+        if matcher.seq_len != seq_len:
+            raise ValueError(f"the matcher {matcher.name!r} was built for sequence length {matcher.seq_len}, "
+                             f"not {seq_len}")
+        return matcher
+    return (matcher or MatcherSpec.of()).build(seq_len)
+
+
 def verdicts(truth: GroundTruth, queries: np.ndarray, single_match: np.ndarray, sequence_match: np.ndarray,
-             rank_references: np.ndarray, first_single: np.ndarray) -> dict[str, np.ndarray]:
+             rank_references: np.ndarray, all_single: np.ndarray) -> dict[str, np.ndarray]:
     """The fields of ``QueryFeatures`` that the ground truth decides: each match's correctness under ``truth`` and
-    the labels (method §6). ``first_single``: the single-frame matches of the first ``L - 1`` queries, which have no
-    sequence match; paper mode's single-frame recall@1 counts every query of the split (method §8)."""
+    the labels (method §6). ``all_single``: the single-frame matches of every query of the split, the first
+    ``L - 1`` (which have no sequence match) included; paper mode's single-frame recall@1 counts every query of the
+    split (method §8)."""
     single = truth.correct(single_match, queries)
     sequence = truth.correct(sequence_match, queries)
     return {"labels": labels_from_correctness(single, sequence), "single_correct": single,
             "sequence_correct": sequence, "rank_correct": truth.correct(rank_references, queries[:, None]),
-            "all_single_correct": np.concatenate([truth.correct(first_single, np.arange(len(first_single))),
-                                                  single])}
+            "all_single_correct": truth.correct(all_single, np.arange(len(all_single)))}
 
 
 def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:
     """Every field of ``features`` as a dataset of its name; the candidates only when computed."""
     with atomic_h5(path, provenance) as f:
-        for field in fields(QueryFeatures):
-            value = getattr(features, field.name)
+        for item in fields(QueryFeatures):
+            value = getattr(features, item.name)
             if value is not None:
-                f[field.name] = value
+                f[item.name] = value
 
 
 def read_features(path: Path | str) -> QueryFeatures:
     """The features ``write_features`` wrote; a file without the candidates (computed without them, or before
     they existed) reads with them None."""
     with h5py.File(path, "r") as f:
-        values = {field.name: f[field.name][()] for field in fields(QueryFeatures)
-                  if field.name in f or field.name not in CANDIDATE_FIELDS}
+        values = {item.name: f[item.name][()] for item in fields(QueryFeatures)
+                  if item.name in f or item.name not in CANDIDATE_FIELDS}
     values["sequence_min"] = float(values["sequence_min"])
     values["sequence_max"] = float(values["sequence_max"])
     return QueryFeatures(**values)
@@ -188,7 +207,7 @@ def write_csv(path: Path | str, features: QueryFeatures) -> None:
 
 
 def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
-         velocities: Sequence[float] = DEFAULT_VELOCITIES, radius: float | None = None,
+         matcher: MatcherSpec | None = None, radius: float | None = None,
          reference_positions: Path | str | None = None, query_positions: Path | str | None = None,
          similarity: bool = False, key: str | None = None, transpose: bool = False,
          ground_truth: Path | str | None = None, ground_truth_key: str | None = None,
@@ -199,8 +218,9 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     ``QueryFeatures`` as HDF5, with the distance file's provenance, ``seq_len``, ``tolerance``,
     ``attributes_seconds`` (the time of the computation, reading included), the ground truth (``ground_truth``:
     ``GroundTruth.provenance``) and its ``queries_without_correct`` (of every query of the matrix) and
-    ``evaluated_without_correct`` (of the queries with a sequence match), and ``velocities`` and ``radius`` when they
-    are not the frame-aligned defaults; another suffix is an error, before anything is read. ``key``,
+    ``evaluated_without_correct`` (of the queries with a sequence match), the matcher (``matcher``:
+    ``MatcherSpec.provenance``; default ``seqslam`` with velocities [1.0]) and ``radius`` with positions; another
+    suffix is an error, before anything is read. ``key``,
     ``transpose``, ``similarity``: how a user's matrix is read (``io.open_distance_matrix``). The ground truth:
     ``ground_truth`` (a file, ``ground_truth_files.read_ground_truth``, its variable ``ground_truth_key``), else
     ``io.split_ground_truth`` (positions within ``radius``, or frame indices within ``tolerance``). Errors name the
@@ -211,7 +231,8 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     out = check_suffix(out, OUT_SUFFIXES, "the attributes (.csv table or HDF5)")
     if n_candidates < 0:
         raise ValueError(f"--candidates is a number of candidates per query >= 0, got {n_candidates}")
-    velocities = check_velocities(velocities, "--velocities")
+    matcher = matcher or MatcherSpec.of()
+    built = matcher.build(seq_len)
     distances = Path(distances)
     start = time.perf_counter()
     truth_file = None if ground_truth is None else read_ground_truth(ground_truth, ground_truth_key)
@@ -220,7 +241,7 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
                                    query_positions, truth_file)
         warn_if_similar(distances, matrix, truth, similarity)
         try:
-            features = query_features(matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth,
+            features = query_features(matrix, seq_len, tolerance, matcher=built, ground_truth=truth,
                                       n_candidates=n_candidates if out.suffix.lower() not in CSV_SUFFIXES else 0)
         except ValueError as error:
             raise ValueError(f"{distances}: {error}") from None
@@ -234,7 +255,7 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     else:
         provenance = read_provenance(distances) if not is_user_matrix(distances) else {}
         provenance = {k: v for k, v in provenance.items() if k != "vpr_smr_version"}
-        provenance.update({**matcher_provenance(velocities, radius), **reading_provenance(similarity, key, transpose)})
+        provenance.update({**matcher_provenance(matcher, radius), **reading_provenance(similarity, key, transpose)})
         if n_candidates:  # recorded only when kept, so that a file without them reads as it always did
             provenance["n_candidates"] = int(n_candidates)
         # this stage's own numeric environment replaces the one its distances file recorded (information only)
@@ -245,12 +266,17 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     return features
 
 
-def recorded_ground_truth(paths: Sequence[Path | str]) -> dict[str, Any]:
-    """``{"ground_truth": ...}``: the ground truth the first of several attributes files records
-    (``truth_provenance``), for the meta of what is computed from them; empty when it records none (a file written
-    before it did)."""
-    recorded = read_provenance(paths[0]).get("ground_truth") if paths else None
-    return {"ground_truth": recorded} if isinstance(recorded, dict) else {}
+def recorded_matching(paths: Sequence[Path | str]) -> dict[str, Any]:
+    """``{"ground_truth": ..., "matcher": ...}``: the ground truth (``truth_provenance``) and the matcher
+    (``recorded_matcher``: ``seqslam`` with its velocities for a file of 0.10 and before) the first of several
+    attributes files records, for the meta of what is computed from them; no ``ground_truth`` when it records none
+    (a file written before it did)."""
+    if not paths:
+        return {}
+    stored = read_provenance(paths[0])
+    recorded = stored.get("ground_truth")
+    truth = {"ground_truth": recorded} if isinstance(recorded, dict) else {}
+    return {**truth, "matcher": recorded_matcher(stored, str(paths[0])).provenance()}
 
 
 def truth_provenance(truth: GroundTruth, seq_len: int, without: np.ndarray | None = None) -> dict[str, Any]:
@@ -263,33 +289,50 @@ def truth_provenance(truth: GroundTruth, seq_len: int, without: np.ndarray | Non
             "evaluated_without_correct": int(without[seq_len - 1 :].sum())}
 
 
-def matcher_provenance(velocities: Sequence[float], radius: float | None) -> dict[str, Any]:
-    """What an attributes file records of its matcher and ground truth beyond ``seq_len`` and ``tolerance``: only
-    what differs from the frame-aligned fixed matcher, so that the paper's files stay as they were."""
-    out: dict[str, Any] = {}
-    if tuple(velocities) != DEFAULT_VELOCITIES:
-        out["velocities"] = [float(v) for v in velocities]
+def matcher_provenance(matcher: MatcherSpec, radius: float | None) -> dict[str, Any]:
+    """What a file records of its matcher and ground truth beyond ``seq_len`` and ``tolerance``: the matcher
+    (``MatcherSpec.provenance``) and, with positions, the radius."""
+    out: dict[str, Any] = {"matcher": matcher.provenance()}
     if radius is not None:
         out["radius"] = float(radius)
     return out
 
 
+def recorded_matcher(provenance: Mapping[str, Any], where: str) -> MatcherSpec:
+    """The matcher a file's provenance records (``matcher_provenance``); a file of vpr-smr 0.9 or before (no
+    ``matcher``) was made by ``seqslam`` with its recorded ``velocities`` (the fixed matcher's [1.0] when it records
+    none). ValueError naming ``where`` for a record that is no matcher's."""
+    if "matcher" in provenance:
+        return MatcherSpec.from_provenance(provenance["matcher"], where)
+    old = provenance.get("velocities")
+    return MatcherSpec.of(DEFAULT_MATCHER, {} if old is None else {"velocities": list(old)}, where)
+
+
 @dataclass(frozen=True)
 class Matching(Record):
-    """What made the matches and labels of an attributes file, beyond ``L``: the velocities searched (sorted: the
-    same set in another order is the same matcher) and the kind of ground truth (``FRAMES``, ``POSITIONS`` or
-    ``MATRIX``). A predictor learns from such labels, so its file records the ``Matching`` it was trained with and
-    every stage that applies it compares (``applies_to``)."""
+    """What made the matches and labels of an attributes file, beyond ``L``: the sequence matcher (its name and
+    settings) and the kind of ground truth (``FRAMES``, ``POSITIONS`` or ``MATRIX``). A predictor learns from such
+    labels, so its file records the ``Matching`` it was trained with and every stage that applies it compares
+    (``applies_to``)."""
 
-    velocities: tuple[float, ...] = DEFAULT_VELOCITIES
+    matcher: MatcherSpec = field(default_factory=MatcherSpec.of)
     ground_truth: str = FRAMES
 
     @classmethod
-    def of(cls, velocities: Sequence[float], kind: str = FRAMES) -> Matching:
-        """A stage's matcher and the kind of its ground truth (``GroundTruth.kind``)."""
+    def of(cls, matcher: MatcherSpec | None = None, kind: str = FRAMES) -> Matching:
+        """A stage's matcher (None: the default) and the kind of its ground truth (``GroundTruth.kind``)."""
         if kind not in (FRAMES, POSITIONS, MATRIX):
             raise ValueError(f"unknown kind of ground truth {kind!r}; one of {FRAMES}, {POSITIONS}, {MATRIX}")
-        return cls(tuple(sorted(float(v) for v in velocities)), kind)
+        return cls(matcher or MatcherSpec.of(), kind)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"matcher": self.matcher.provenance(), "ground_truth": self.ground_truth}
+
+    @classmethod
+    def from_json(cls, data: Mapping[str, Any]) -> Matching:
+        """The record ``to_json`` wrote; one of vpr-smr 0.9 or before (``velocities``, no ``matcher``) is
+        ``seqslam``'s with those velocities (``recorded_matcher``)."""
+        return cls.of(recorded_matcher(data, "a predictor's recorded matching"), str(data.get("ground_truth", FRAMES)))
 
     @classmethod
     def stored(cls, path: Path | str) -> Matching:
@@ -301,31 +344,29 @@ class Matching(Record):
         kind = truth.get("kind") if isinstance(truth, dict) else None
         if kind is None:
             kind = FRAMES if stored.get("radius") is None else POSITIONS
-        return cls.of(stored.get("velocities", DEFAULT_VELOCITIES), str(kind))
+        return cls.of(recorded_matcher(stored, str(path)), str(kind))
 
     def applies_to(self, other: Matching) -> bool:
         """Whether a predictor trained on attributes of this matching may score where ``other`` is used: the same
-        velocities (its matches are that matcher's), and the same kind of ground truth or a matrix on either side.
-        Frames and positions tell a frame-aligned pair from one driven at other speeds, whose attributes differ;
-        a matrix (or lists) says which frames are correct, not how the traverses were driven, and the field's
-        matrices exist for both, so scoring with one is another protocol (an experiment, as another tolerance or
-        radius is), not a sign of the wrong predictor."""
-        return self.velocities == other.velocities and (
+        matcher and settings (its matches are that matcher's), and the same kind of ground truth or a matrix on
+        either side. Frames and positions tell a frame-aligned pair from one driven at other speeds, whose
+        attributes differ; a matrix (or lists) says which frames are correct, not how the traverses were driven,
+        and the field's matrices exist for both, so scoring with one is another protocol (an experiment, as another
+        tolerance or radius is), not a sign of the wrong predictor."""
+        return self.matcher == other.matcher and (
             self.ground_truth == other.ground_truth or MATRIX in (self.ground_truth, other.ground_truth))
 
     def __str__(self) -> str:
-        velocities = ("the fixed matcher (velocities [1.0])" if self.velocities == DEFAULT_VELOCITIES else
-                      f"velocity search over {list(self.velocities)}")
         truth = {FRAMES: "frame indices within a tolerance", POSITIONS: "positions within a radius",
                  MATRIX: "a matrix (or lists) of correct references"}[self.ground_truth]
-        return f"{velocities}, ground truth from {truth}"
+        return f"the matcher {self.matcher}, ground truth from {truth}"
 
 
 def common_matching(paths: Sequence[Path | str]) -> Matching:
     """The one ``Matching`` of several attributes files (a predictor's training files); ValueError naming two files
     that differ."""
     if not paths:
-        return Matching()
+        return Matching.of()
     first = Matching.stored(paths[0])
     for path in paths[1:]:
         other = Matching.stored(path)
@@ -350,21 +391,21 @@ def check_matching(predictor: Any, matching: Matching, where: str, ground_truth:
                          f"{matching}: train it again (vpr-smr train)")
     if ground_truth and not trained.applies_to(matching):
         raise ValueError(f"{predictor.path_} was trained on attributes of {trained}, but it is applied to {where}, "
-                         f"of {matching}: give the predictor trained with this matcher (the same velocities, and "
-                         "positions with a radius or not), or train one for it")
-    if trained.velocities != matching.velocities:
-        raise ValueError(f"{predictor.path_} was trained on attributes of {trained}, but it is applied to {where}, "
-                         f"searching velocities {list(matching.velocities)}: give it the velocities the predictor "
-                         f"was trained with ({list(trained.velocities)}), or train one for these")
+                         f"of {matching}: give the predictor trained with this matcher (the same matcher and "
+                         "settings, and positions with a radius or not), or train one for it")
+    if trained.matcher != matching.matcher:
+        raise ValueError(f"{predictor.path_} was trained on attributes of the matcher {trained.matcher}, but it is "
+                         f"applied to {where}, of the matcher {matching.matcher}: give it the matcher the predictor "
+                         f"was trained with ({trained.matcher}), or train one for this one")
 
 
-def check_matcher(paths: Sequence[Path | str], velocities: Sequence[float], radius: float | None,
+def check_matcher(paths: Sequence[Path | str], matcher: MatcherSpec, radius: float | None,
                   ground_truth: GroundTruth | None = None) -> None:
-    """Raise ValueError when an attributes file was computed with other velocities, another kind of ground truth,
-    another radius, or another ground-truth file (its SHA-256 and variable; ``ground_truth``: the stage's file) than
-    a stage is given: its labels and matches would not be this matcher's."""
+    """Raise ValueError when an attributes file was computed with another matcher (or other settings), another
+    kind of ground truth, another radius, or another ground-truth file (its SHA-256 and variable; ``ground_truth``:
+    the stage's file) than a stage is given: its labels and matches would not be this matcher's."""
     kind = ground_truth.kind if ground_truth is not None else (FRAMES if radius is None else POSITIONS)
-    expected = Matching.of(velocities, kind)
+    expected = Matching.of(matcher, kind)
     given_file = None if ground_truth is None else _file_identity(ground_truth.provenance())
     for path in paths:
         stored_provenance = read_provenance(path)
@@ -373,7 +414,7 @@ def check_matcher(paths: Sequence[Path | str], velocities: Sequence[float], radi
             given = "" if radius is None else f" within {float(radius):g}"
             held = "" if stored is None else f" within {float(stored):g}"
             raise ValueError(f"{path} holds attributes of {found}{held}, but this stage was given {expected}{given}: "
-                             "give the same --velocities, --radius and --ground-truth, or recompute them")
+                             "give the same matcher and settings, --radius and --ground-truth, or recompute them")
         stored_truth = stored_provenance.get("ground_truth")
         held_file = _file_identity(stored_truth) if isinstance(stored_truth, dict) else None
         if given_file is not None and held_file != given_file:

@@ -1,9 +1,11 @@
 """Sequence matching, SMR attributes and the predictor's decision one frame at a time, for a robot.
 
-``LiveMatcher`` keeps the last ``L`` columns of the distance matrix in a ring buffer and runs the batch sequence
-matcher (``matcher.SequenceMatcher.block_features``) on that window, so every frame costs ``O(R x L)`` (times the
-velocities) and its result is the batch computation's, bit for bit (paper-mode attributes, method §5's tie rule).
-Column normalisation needs only the column itself, so nothing else about the past is kept.
+``LiveMatcher`` keeps the last ``L`` columns of the distance matrix in a ring buffer and runs the batch attributes'
+trajectory engine (``features.attribute_engine``: ``SequenceMatcher.block_features``) on that window, so every frame
+costs ``O(R x L)`` (times the velocities) and its result is the batch computation's, bit for bit (paper-mode
+attributes, method §5's tie rule). Column normalisation needs only the column itself, so nothing else about the past
+is kept. A matcher other than ``seqslam`` gives its match per frame by its ``block`` (its state carried): it must be
+causal (no lookahead) with a window within the last ``L`` frames.
 
 The descriptors must be compared with the distance their method's batch matrices use (``mad`` for SAD, ``l2`` for
 the learned backends, or the method's ``distance`` setting): ``from_descriptors`` takes the reference descriptors
@@ -24,10 +26,11 @@ from typing import Any
 
 import numpy as np
 
-from vpr_smr.core.constants import DEFAULT_VELOCITIES, KEPT_CLASSES
+from vpr_smr.core.constants import KEPT_CLASSES
 from vpr_smr.eval.matching.attributes import Matching, check_matching
 from vpr_smr.eval.matching.distances import distance_columns, prepare_references
-from vpr_smr.eval.matching.matcher import SequenceMatcher, check_velocities
+from vpr_smr.eval.matching.features import attribute_engine
+from vpr_smr.eval.matching.matchers import MatcherSpec
 
 
 @dataclass(frozen=True)
@@ -36,8 +39,8 @@ class LiveResult:
 
     query: int  # index of the current frame (0 for the first frame fed)
     single_match: int  # argmin_r D[r, query]
-    sequence_match: int  # reference at which the best sequence ends
-    sequence_distance: float  # min_i S[i, query - L + 1] (method §11: min_r S[r, query])
+    sequence_match: int  # the matcher's r*_a (seqslam: the reference at which the best sequence ends)
+    sequence_distance: float  # s_a[r*_a] (seqslam: min_i S[i, query - L + 1]; method §11: min_r S[r, query])
     attributes: np.ndarray  # (K, 4): A1..A4 (the paper's names) of ranks 0..K-1
     rank_references: np.ndarray  # (K,): reference matched by the rank-k diagonal (trajectory), where it ends
     label: int | None = None  # predicted class 0..3 (method §6), with a predictor
@@ -50,22 +53,27 @@ class LiveMatcher:
     ``predictor``: any object with ``predict_proba(X)`` (``X`` of shape ``(n, 4)``, A1..A4 of rank 0, as
     ``eval.predictor.SMRPredictor``) and ``classes_``. ``distance`` is the metric of ``eval.distances`` that the
     descriptors' method uses; it is required with ``references`` (``from_descriptors`` reads it from the file).
-    ``velocities``: SeqSLAM's velocity search (method §11; default ``(1.0,)``, the paper's fixed matcher), as the
-    batch ``attributes`` stage takes them: each step equals the batch result of its query.
+    ``matcher``: the sequence matcher (default ``seqslam`` with velocities [1.0], the paper's fixed matcher), as the
+    batch ``attributes`` stage takes it: each step equals the batch result of its query.
     """
 
     def __init__(self, seq_len: int, references: np.ndarray | None = None, predictor: Any = None,
-                 distance: str | None = None, n_ranks: int = 4,
-                 velocities: tuple[float, ...] = DEFAULT_VELOCITIES) -> None:
-        self.matcher = SequenceMatcher(seq_len, check_velocities(velocities))
+                 distance: str | None = None, n_ranks: int = 4, matcher: MatcherSpec | None = None) -> None:
+        self.spec = matcher or MatcherSpec.of()
+        self.matcher = self.spec.build(seq_len)
+        if self.matcher.lookahead or self.matcher.lookback > seq_len - 1:
+            raise ValueError(f"the matcher {self.spec} reads {self.matcher.lookback} columns before and "
+                             f"{self.matcher.lookahead} after its query: a LiveMatcher needs a causal matcher whose "
+                             f"window lies within the last L = {seq_len} frames")
+        self.engine = attribute_engine(self.matcher)  # the attributes' trajectories
+        self._state = self.matcher.initial_state()
         if references is not None and distance is None:
             raise ValueError("LiveMatcher with references needs distance=, the metric of the descriptors' method "
                              "('mad' for sad, 'l2' for the learned backends, or the method's distance setting); "
                              "LiveMatcher.from_descriptors(path, seq_len) reads both from a descriptor file")
         self.seq_len = seq_len
-        self.velocities = check_velocities(velocities)
         self.distance = distance
-        self.predictor = predictor  # checked against the velocities (the property's setter)
+        self.predictor = predictor  # checked against the matcher (the property's setter)
         self.n_ranks = n_ranks
         self.references: np.ndarray | None = None
         if references is not None:
@@ -84,14 +92,13 @@ class LiveMatcher:
     @predictor.setter
     def predictor(self, predictor: Any) -> None:
         if predictor is not None:  # its attributes must be this matcher's (live frames have no ground truth)
-            check_matching(predictor, Matching.of(self.velocities), "a LiveMatcher (velocities=)",
-                           ground_truth=False)
+            check_matching(predictor, Matching.of(self.spec), "a LiveMatcher (matcher=)", ground_truth=False)
         self._predictor = predictor
 
     @classmethod
     def from_descriptors(cls, path: Path | str, seq_len: int, predictor: Any = None, distance: str | None = None,
                          n_ranks: int = 4, frames: tuple[int, int] | None = None,
-                         velocities: tuple[float, ...] = DEFAULT_VELOCITIES) -> LiveMatcher:
+                         matcher: MatcherSpec | None = None) -> LiveMatcher:
         """A matcher whose references are the ``reference`` descriptors of ``path`` (a ``vpr-smr descriptors``
         file), compared with its backend's distance (the file's ``distance`` attribute), or with ``distance`` when
         given: a run whose method sets ``distance`` computes its matrices with it, while its descriptor file (which
@@ -123,10 +130,10 @@ class LiveMatcher:
             if not 0 <= lo < hi <= n_frames:
                 raise ValueError(f"{path}: frames {lo}..{hi - 1} are outside its {n_frames} reference frames")
             references = f["reference"][lo:hi]
-        matcher = cls(seq_len, references=references, predictor=predictor, distance=distance or stored,
-                      n_ranks=n_ranks, velocities=velocities)
-        matcher.method, matcher.method_settings = method, settings
-        return matcher
+        live = cls(seq_len, references=references, predictor=predictor, distance=distance or stored,
+                   n_ranks=n_ranks, matcher=matcher)
+        live.method, live.method_settings = method, settings
+        return live
 
     def step(self, query_descriptor: np.ndarray) -> LiveResult | None:
         """Match one query descriptor against the references (the distance of ``eval.distances``)."""
@@ -145,19 +152,27 @@ class LiveMatcher:
             n_ref = len(column)
             if n_ref < self.seq_len:
                 raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}")
-            self.matcher.check_references(n_ref)
+            self.engine.check_references(n_ref)
             dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
             self._buffer = np.empty((self.seq_len, n_ref), dtype=dtype)
         if len(column) != self._buffer.shape[1]:
             raise ValueError(f"expected {self._buffer.shape[1]} distances (one per reference), got {len(column)}")
         self._buffer[self.frames % self.seq_len] = column
         self.frames += 1
+        lookback = self.matcher.lookback
+        own = None  # a matcher other than seqslam: its match of this frame, its state carried from the last
+        if not self.matcher.scores_are_attribute_sums and self.frames > lookback:
+            columns = self._buffer[np.arange(self.frames - lookback - 1, self.frames) % self.seq_len]
+            own, self._state = self.matcher.block(columns, self.frames - lookback - 1, self._state)
         if self.frames < self.seq_len:
             return None
         window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % self.seq_len]
-        n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.matcher.first_reference)
+        n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.engine.first_reference)
         first = self.frames - self.seq_len  # the window's first frame: errors name frames, not window rows
-        out = self.matcher.block_features(window, n_ranks, first)
+        out = self.engine.block_features(window, n_ranks, first)
+        if own is not None:
+            match = int(own.match[0])
+            out["sequence_match"], out["sequence_distance"] = np.array([match]), own.scores[0, [match]]
         attributes = out["attributes"][0]
         label = keep = None
         if self.predictor is not None:

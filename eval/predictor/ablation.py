@@ -22,7 +22,7 @@ import numpy as np
 
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
 from vpr_smr.core.records import save
-from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, common_matching, read_features, recorded_ground_truth
+from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, common_matching, read_features, recorded_matching
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, AttributeSplit, PredictorReport
@@ -114,7 +114,7 @@ def attributes_main(
     x_train, y_train = _stack(_features(train))
     # attribute_f1 trains on the labels in this order (no shuffle): check them as they are, before any training
     check_training_labels(y_train, describe(meta, len(train)), bool(dict(params or {}).get("smote", True)))
-    result = AttributeAblation({**recorded_ground_truth(list(train)), **(meta or {})}, dict(params or {}),
+    result = AttributeAblation({**recorded_matching(list(train)), **(meta or {})}, dict(params or {}),
                                int(len(y_train)),
                                attribute_f1((x_train, y_train), {name: _features(paths) for name, paths
                                                                  in (evaluate or {}).items()}, params))

@@ -271,6 +271,7 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
                       "n_features_in": int(self.n_features_in_)}
         if matching is not None:
             provenance[MATCHING] = matching.to_json()
+            provenance["matcher"] = matching.matcher.provenance()
         with atomic_h5(path, provenance) as f:
             f["mean"], f["scale"], f["classes"] = self.mean_, self.scale_, self.classes_
             for i, (w, b) in enumerate(zip(self.coefs_, self.intercepts_, strict=True)):

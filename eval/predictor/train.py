@@ -25,7 +25,7 @@ from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix
 from vpr_smr.core.paths import predictor_report_path, seed_predictor_path
 from vpr_smr.core.progress import write_progress
 from vpr_smr.core.records import save
-from vpr_smr.eval.matching.attributes import QueryFeatures, common_matching, read_features, recorded_ground_truth
+from vpr_smr.eval.matching.attributes import QueryFeatures, common_matching, read_features, recorded_matching
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
 from vpr_smr.eval.predictor.leakage import TRAINED_ON, check_disjoint, frame_ranges
 from vpr_smr.eval.predictor.records import PredictorReport, SeedReport, SplitScores
@@ -224,7 +224,7 @@ def main(
 
     paths = [out] + [Path(seed_predictor_path(out, seed)) for seed in seeds[1:]]
     # the numeric environment (BLAS kernel and threads) is information for the reader, never compared as a setting
-    report = PredictorReport({**recorded_ground_truth(list(train)), **(meta or {}), **environment.recorded()},
+    report = PredictorReport({**recorded_matching(list(train)), **(meta or {}), **environment.recorded()},
                              int(len(y_train)),
                              tuple(numbers for _, numbers in fitted),
                              tuple(str(p) for p in paths) if len(seeds) > 1 else None)

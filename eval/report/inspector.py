@@ -33,18 +33,19 @@ import cv2
 import h5py
 import numpy as np
 
-from vpr_smr.core.constants import DEFAULT_VELOCITIES
 from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
 from vpr_smr.datasets import TraversePair, load_frames
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
 from vpr_smr.eval.matching.ground_truth import POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, split_ground_truth
-from vpr_smr.eval.matching.matcher import SequenceMatcher
+from vpr_smr.eval.matching.matchers import MatcherSpec
+from vpr_smr.eval.matching.matchers.base import Matcher
 from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
-from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, velocities_text
+from vpr_smr.eval.scoring.queries import MATCHER_COLUMN, OLD_MATCHER_COLUMN, QUERY_COLUMNS, row_matcher
 
-# The columns of the queries CSV the inspector reads (by name; the attributes are not shown).
+# The columns of the queries CSV the inspector reads (by name; the attributes are not shown); a table of vpr-smr 0.9
+# names its matcher in OLD_MATCHER_COLUMN instead (queries.row_matcher).
 COLUMNS = tuple(c for c in QUERY_COLUMNS if c not in ATTRIBUTE_NAMES)
 CLASS_TEXT = {0: "correct before and after SM", 1: "correct before SM only", 2: "correct after SM only",
               3: "wrong before and after SM"}
@@ -74,7 +75,7 @@ class QueryRow:
     predicted_class: int | None
     probability: float | None
     kept: bool | None
-    velocities: str  # the sequence matcher's, as the CSV writes them (``queries.velocities_text``)
+    matcher: str  # the sequence matcher, as the CSV writes it (``str(MatcherSpec)``; ``queries.row_matcher``)
 
     @property
     def mistake(self) -> bool:
@@ -125,7 +126,7 @@ def _flag(value: str) -> bool:
     return bool(int(float(value)))
 
 
-def _row(record: dict[str, str]) -> QueryRow:
+def _row(record: dict[str, str], where: str) -> QueryRow:
     if int(record["label"]) not in CLASS_TEXT:
         raise ValueError(f"label {record['label']!r} is not a class 0..3 (method §6)")
     kept = _optional(record["kept"], float)
@@ -136,7 +137,7 @@ def _row(record: dict[str, str]) -> QueryRow:
         sequence_correct=_flag(record["sequence_correct"]), true_reference=_optional(record["true_reference"], int),
         label=int(record["label"]), predicted_class=_optional(record["predicted_class"], int),
         probability=_optional(record["probability"], float), kept=None if kept is None else bool(kept),
-        velocities=record["velocities"],
+        matcher=row_matcher(record, where),
     )
 
 
@@ -147,14 +148,16 @@ def read_queries(path: Path | str) -> list[QueryRow]:
         raise FileNotFoundError(f"queries CSV not found: {path}")
     with path.open(newline="") as f:
         reader = csv.DictReader(f)
-        missing = [c for c in COLUMNS if c not in (reader.fieldnames or ())]
+        names = reader.fieldnames or ()
+        old = OLD_MATCHER_COLUMN in names  # a table of vpr-smr 0.9
+        missing = [c for c in COLUMNS if c not in names and not (old and c == MATCHER_COLUMN)]
         if missing:
             raise ValueError(f"{path} lacks the columns {', '.join(missing)}: is it a queries CSV of the workflow "
                              "(`vpr-smr queries`)? Run the workflow again")
         rows = []
         for line, record in enumerate(reader, start=2):
             try:
-                rows.append(_row(record))
+                rows.append(_row(record, f"{path}, line {line}"))
             except (TypeError, ValueError) as error:
                 raise ValueError(f"{path}, line {line}: {error}") from None
     return rows
@@ -208,13 +211,15 @@ def _verdict(correct: bool) -> tuple[str, str]:
     return ("correct", UP) if correct else ("wrong", DOWN)
 
 
-def _sequence_sum(columns: np.ndarray, reference: int, seq_len: int,
-                  velocities: Sequence[float] = DEFAULT_VELOCITIES) -> float | None:
-    """``S[reference, query]`` from the window ``columns`` (split-local rows x the ``L`` columns ending at the
-    query), by the sequence matcher of the run's ``velocities``, or None when no trajectory ends there."""
-    found = SequenceMatcher(seq_len, tuple(velocities)).sequences(columns.T)
-    index = reference - found.first_reference
-    return float(found.sums[0, index]) if 0 <= index < found.sums.shape[1] else None
+def _sequence_score(window: np.ndarray, reference: int, matcher: Matcher) -> float | None:
+    """``s_a[reference]`` of the run's matcher from ``window`` (split-local rows x the columns the query's match
+    reads, ``matcher.lookback`` before it to ``matcher.lookahead`` after), or None when nothing of the matcher
+    reaches it, or when the matcher is a filter (its state holds the split's past, which one window does not)."""
+    if matcher.initial_state() is not None or not 0 <= reference < window.shape[0]:
+        return None
+    found, _ = matcher.block(window.T, 0, None)
+    score = float(found.scores[0, reference])
+    return score if np.isfinite(score) else None
 
 
 def _decision_lines(row: QueryRow) -> list[tuple[str, str]]:
@@ -233,14 +238,16 @@ def _decision_lines(row: QueryRow) -> list[tuple[str, str]]:
 
 def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled], matrix: Any, lo: int,
                  seq_len: int, title: str, reference_lo: int | None = None,
-                 velocities: Sequence[float] = DEFAULT_VELOCITIES) -> MatchRecord:
+                 matcher: MatcherSpec | None = None) -> MatchRecord:
     """The match figure of ``samples`` (see the module's docstring) to ``path`` (PNG, written as given).
 
     ``matrix`` is the split's distance matrix (references x queries, split-local: query frame ``f`` is ``f - lo``,
-    reference frame ``f`` is ``f - reference_lo``, default ``lo``), read for the true reference's distances (``S``
-    with the run's ``velocities``); the thumbnails are ``pair``'s images.
+    reference frame ``f`` is ``f - reference_lo``, default ``lo``), read for the true reference's distances (``S``:
+    ``s_a`` of the run's ``matcher``, default ``MatcherSpec.of()``, the paper's); the thumbnails are ``pair``'s
+    images.
     """
     reference_lo = lo if reference_lo is None else reference_lo
+    built = (matcher or MatcherSpec.of()).build(seq_len)
     if not samples:
         raise ValueError("no queries to show: the sample is empty")
     plt = _pyplot()
@@ -267,15 +274,15 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
     for i, sample in enumerate(samples):
         row = sample.row
         q = row.query - lo
-        columns = np.asarray(matrix[:, q - seq_len + 1 : q + 1], dtype=np.float64)
+        window = np.asarray(matrix[:, q - built.lookback : q + built.lookahead + 1], dtype=np.float64)
         single_word, single_colour = _verdict(row.single_correct)
         sequence_word, sequence_colour = _verdict(row.sequence_correct)
         if row.true_reference is None:
             true_text = "no correct reference"
         else:
             true_local = row.true_reference - reference_lo
-            true_d = float(columns[true_local, -1]) if 0 <= true_local < columns.shape[0] else None
-            true_s = _sequence_sum(columns, true_local, seq_len, velocities)
+            true_d = float(window[true_local, built.lookback]) if 0 <= true_local < window.shape[0] else None
+            true_s = _sequence_score(window, true_local, built)
             true_text = f"true r={row.true_reference}"
             true_text += "" if true_d is None else f"\nD={true_d:.4g}" + ("" if true_s is None else f" S={true_s:.4g}")
         query_frames = [row.query - seq_len + 1 + k for k in range(seq_len)]
@@ -488,22 +495,22 @@ def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, d
                              f"but it is {column[best]:.6g} in {distances}: {fix}")
 
 
-def _check_matcher(rows: Sequence[QueryRow], queries_csv: Path, velocities: Sequence[float]) -> None:
-    """The CSV's sequence matches were made by the matcher of ``velocities`` (its ``velocities`` column): the
-    sequence distances the figures show, and the true reference's, are then of one matcher."""
-    expected = velocities_text(velocities)
-    found = sorted({row.velocities for row in rows})
+def _check_matcher(rows: Sequence[QueryRow], queries_csv: Path, matcher: MatcherSpec) -> None:
+    """The CSV's sequence matches were made by ``matcher`` (its ``matcher`` column): the sequence distances the
+    figures show, and the true reference's, are then of one matcher."""
+    expected = str(matcher)
+    found = sorted({row.matcher for row in rows})
     if found != [expected]:
-        raise ValueError(f"{queries_csv} holds the sequence matches of velocities {' and '.join(found)}, but "
-                         f"--velocities is {expected}: give the velocities of the run that made it (--velocities), "
-                         "or the queries CSV of this matcher")
+        raise ValueError(f"{queries_csv} holds the sequence matches of the matcher {' and '.join(found)}, but this "
+                         f"stage was given the matcher {expected}: give the matcher of the run that made it (its "
+                         "name and settings), or the queries CSV of this matcher")
 
 
 def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | None,
          dataset_settings: dict[str, Any] | None, frames_sha256: str | None, seq_len: int, split: str | None,
          tolerance: int, match_figure: Path | str | None, matrix_figure: Path | str, per_class: int = 2,
          mistakes: int = 4, seed: int = 0, split_range: tuple[int, int] | None = None, radius: float | None = None,
-         velocities: Sequence[float] = DEFAULT_VELOCITIES, reference_positions: Path | str | None = None,
+         matcher: MatcherSpec | None = None, reference_positions: Path | str | None = None,
          query_positions: Path | str | None = None, similarity: bool = False, key: str | None = None,
          transpose: bool = False, ground_truth: Path | str | None = None,
          ground_truth_key: str | None = None) -> tuple[Path | None, Path]:
@@ -519,8 +526,9 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
     when it has one, method §11). ``tolerance``: frames of the ground-truth band; ``radius``: the ground truth's with
     positions (those the distances file holds, or ``reference_positions`` and ``query_positions`` of a user's
     matrix, as ``vpr-smr metrics`` takes them); ``ground_truth``: a ground-truth file instead (its variable
-    ``ground_truth_key``), outlined. ``velocities``: the run's sequence matcher. ``similarity``, ``key``,
-    ``transpose``: how a user's matrix is read, as ``vpr-smr queries`` read it (``io.open_distance_matrix``).
+    ``ground_truth_key``), outlined. ``matcher``: the run's sequence matcher (default ``MatcherSpec.of()``, the
+    paper's). ``similarity``, ``key``, ``transpose``: how a user's matrix is read, as ``vpr-smr queries`` read it
+    (``io.open_distance_matrix``).
     The queries CSV must be this matrix's at ``seq_len``: its rows of ``split`` are exactly the queries
     ``lo + L - 1 .. hi - 1``, and each sampled row's single-frame match and distance are its column's minimum.
     """
@@ -577,12 +585,13 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
         match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct ({rule}), "
                        "red = wrong; D = single-frame distance, S = sequence distance")
         _check_matches(samples, matrix, queries_csv, distances, lo, ref_lo)
-        _check_matcher(rows, queries_csv, velocities)
+        matcher = matcher or MatcherSpec.of()
+        _check_matcher(rows, queries_csv, matcher)
         with ExitStack() as stack:  # the files are renamed into place only when all are drawn
             matrix_tmp = stack.enter_context(atomic_path(matrix_figure))
             if match_figure is not None and pair is not None:
                 match_tmp = stack.enter_context(atomic_path(match_figure))
-                draw_matches(match_tmp, pair, samples, matrix, lo, seq_len, match_title, ref_lo, velocities)
+                draw_matches(match_tmp, pair, samples, matrix, lo, seq_len, match_title, ref_lo, matcher)
             draw_matrix(matrix_tmp, matrix, lo, rows, tolerance,
                         f"Distance matrix: {what}, sequence matches kept or removed by the predictor", ref_lo, truth)
     return match_figure, matrix_figure

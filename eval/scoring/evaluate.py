@@ -26,7 +26,7 @@ from vpr_smr.eval.matching.attributes import (
     check_matching,
     common_matching,
     read_features,
-    recorded_ground_truth,
+    recorded_matching,
 )
 from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
@@ -290,7 +290,7 @@ def main(
         # Timings change from run to run: they go in their own file, so that two runs give identical results.
         attributes_seconds = float(read_provenance(path).get("attributes_seconds", 0.0))
         timings[split] = SplitTiming.of(attributes_seconds, predict_seconds, splits[split].n_queries)
-    meta = {**recorded_ground_truth(list(features_paths.values())), **(meta or {}), **environment.recorded()}
+    meta = {**recorded_matching(list(features_paths.values())), **(meta or {}), **environment.recorded()}
     evaluation = Evaluation(meta, tuple(str(p) for p in predictor_paths), splits)
     timing = Timing(dict(evaluation.meta), timings)
     save(timing_path(out), timing)

@@ -9,7 +9,7 @@ from typing import Any
 from vpr_smr.core.constants import MODES
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
 from vpr_smr.core.records import save
-from vpr_smr.eval.matching.attributes import Matching, check_matching, read_features, recorded_ground_truth
+from vpr_smr.eval.matching.attributes import Matching, check_matching, read_features, recorded_matching
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
 from vpr_smr.eval.scoring.evaluate import removal
@@ -39,7 +39,7 @@ def main(
         scores[name] = HeldOutScores.of(str(path), removal(
             features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_, tuple(modes),
             curves=False, intervals=True))
-    result = HeldOut({**recorded_ground_truth([features]), **(meta or {})}, len(features_.queries),
+    result = HeldOut({**recorded_matching([features]), **(meta or {})}, len(features_.queries),
                      HeldOutPredictors(scores["pooled"], scores["without"]))
     save(out, result)
     return result

@@ -10,9 +10,9 @@ cell is empty for a query without any correct reference.
 sum rates), the order ``QueryFeatures.attributes`` stores them in; the predictor takes them in that order and feeds
 its network the code's order ``[A1, A2, A4, A3]`` itself (``SMRPredictor.column_order``). ``predicted_class``,
 ``probability`` (its class probability, the highest) and ``kept`` (1 when the predicted class is one of
-``core.constants.KEPT_CLASSES``) are the seed-0 predictor's, empty without a predictor. ``velocities``: the
-velocities the sequence matcher searched (``1`` for the fixed matcher), so that a reader of the table (the match
-inspector) knows which matcher made its sequence matches.
+``core.constants.KEPT_CLASSES``) are the seed-0 predictor's, empty without a predictor. ``matcher``: the sequence
+matcher that made the sequence matches, its name and settings (``str(MatcherSpec)``, e.g. ``seqslam (velocities
+[1.0])``), so that a reader of the table (the match inspector) knows which matcher made them.
 
 Then one column per scorer of method §12 (``SCORE_COLUMNS``: ``c_uniqueness`` .. ``c_predictor``), its confidence
 ``c_a`` that the sequence match is correct (higher: more likely; ``c_random`` of seed 0, ``c_predictor`` the seed-0
@@ -22,25 +22,38 @@ predictor's ``1 - P(class 1) - P(class 3)``); empty where not computed (``c_pred
 from __future__ import annotations
 
 import csv
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from vpr_smr.core.constants import DEFAULT_VELOCITIES
 from vpr_smr.core.io import atomic_path
-from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, QueryFeatures
+from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, QueryFeatures, recorded_matcher
 from vpr_smr.eval.matching.ground_truth import NO_REFERENCE
+from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.curves import keep_mask
 
+MATCHER_COLUMN = "matcher"
+OLD_MATCHER_COLUMN = "velocities"  # where a table of vpr-smr 0.9 named its matcher: seqslam's velocities
 QUERY_COLUMNS = (
     "split", "query", "single_match", "single_distance", "single_correct", "sequence_match", "sequence_distance",
     "sequence_correct", "true_reference", *ATTRIBUTE_NAMES, "label", "predicted_class", "probability", "kept",
-    "velocities",
+    MATCHER_COLUMN,
 )
+
+
+def row_matcher(record: Mapping[str, str], where: str) -> str:
+    """The ``matcher`` cell of a row read by column name; a row of vpr-smr 0.9 (no ``matcher`` column) names
+    ``seqslam`` by its ``velocities`` cell (space-separated numbers), read as such (``recorded_matcher``)."""
+    if MATCHER_COLUMN in record:
+        return record[MATCHER_COLUMN]
+    old = [float(v) for v in record[OLD_MATCHER_COLUMN].split()]
+    return str(recorded_matcher({OLD_MATCHER_COLUMN: old}, where))
+
+
 # the scorers' confidences (method §12), after QUERY_COLUMNS: a reader of the columns above (the match inspector)
 # reads a table written before these existed as it always did; one per entry of scorers.REGISTRY, read as it runs
 def score_columns() -> tuple[str, ...]:
@@ -87,13 +100,8 @@ class SplitQueries:
     reference_first_frame: int | None = None  # the split's first reference frame when its ranges differ (method §11)
     # (N,) split-local, NO_REFERENCE for a query without a correct one; None: the query's own index (frame-aligned)
     true_reference: np.ndarray | None = None
-    velocities: tuple[float, ...] = DEFAULT_VELOCITIES  # the sequence matcher's
+    matcher: MatcherSpec | None = None  # the sequence matcher (None: the default, MatcherSpec.of())
     scores: dict[str, np.ndarray] | None = None  # scorer -> (N,) c_a (method §12), None: not computed
-
-
-def velocities_text(velocities: Sequence[float]) -> str:
-    """The ``velocities`` cell: the sorted velocities, space-separated (``1`` for the fixed matcher)."""
-    return " ".join(f"{v:g}" for v in sorted(float(v) for v in velocities))
 
 
 def _number(value: Any) -> str:
@@ -108,7 +116,7 @@ def query_rows(table: SplitQueries) -> Iterator[list[str]]:
     true_reference = f.queries if table.true_reference is None else table.true_reference
     prediction = table.prediction
     kept = prediction.kept if prediction is not None else None
-    velocities = velocities_text(table.velocities)
+    matcher = str(table.matcher or MatcherSpec.of())
     scores = table.scores or {}
     by_scorer = [scores.get(name) for name in scorers.names()]
     for n, query in enumerate(f.queries):
@@ -122,7 +130,7 @@ def query_rows(table: SplitQueries) -> Iterator[list[str]]:
             str(int(f.sequence_correct[n])),
             "" if true_reference[n] == NO_REFERENCE else str(first_ref + int(true_reference[n])),
             *(_number(v) for v in f.attributes[n, 0, :]),
-            str(int(f.labels[n])), *predicted, velocities,
+            str(int(f.labels[n])), *predicted, matcher,
             *("" if values is None else _number(values[n]) for values in by_scorer),
         ]
 

@@ -8,11 +8,12 @@ descriptors), and a match ``r`` is correct iff ``|r - (p_t - lo)| <= tolerance``
 profile ``c`` is a query driven ``c`` times as fast (``0.5x`` .. ``2x``); ``varying`` speeds up and slows down,
 ``s(t) = 1 + 0.5 sin(2 pi t / 200)``.
 
-The stage (``main``) takes one dataset and one profile. For each matcher (``fixed``: velocities ``(1.0,)``, the
-paper's; ``velocity``: the experiment's velocity set) it computes the rank-0 features of every method's simulated
-train and table split, trains one predictor on the train features of every method pooled in the configuration's
-order (the pooled Table I recipe, seed 0) and scores each method's table split as Table I does (paper mode):
-recall@1 single and sequence, AOC without and with the predictor and the reduction.
+The stage (``main``) takes one dataset and one profile. For each matcher (``speed_matchers``: ``fixed``, ``seqslam``
+with velocities ``[1.0]``, the paper's; ``velocity``, ``seqslam`` with the experiment's velocity set) it computes the
+rank-0 features of every method's simulated train and table split, trains one predictor on the train features of
+every method pooled in the configuration's order (the pooled Table I recipe, seed 0) and scores each method's table
+split as Table I does (paper mode): recall@1 single and sequence, AOC without and with the predictor and the
+reduction.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from vpr_smr.core.records import FileRecord, Record, save
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, stored_positions
-from vpr_smr.eval.matching.matcher import check_velocities
+from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.predictor.leakage import FrameRange, check_disjoint, frame_ranges
 from vpr_smr.eval.scoring.records import Reduction
 
@@ -42,7 +43,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "MATCHERS", "MODE", "SEED", "VARYING", "SpeedMatcher", "SpeedProfile", "SpeedResult", "SpeedScores",
-    "profile_names", "simulate", "main",
+    "profile_names", "simulate", "main", "speed_matchers",
 ]
 
 # This module is imported by the workflow (profile_names) each time Snakemake reads the Snakefile: what needs
@@ -56,10 +57,17 @@ Json = dict[str, Any]
 VARYING = "varying"
 VARYING_AMPLITUDE = 0.5  # s(t) = 1 + 0.5 sin(2 pi t / 200): between 0.5x and 1.5x, mean 1 over whole periods
 VARYING_PERIOD = 200  # query frames per period
-MATCHERS = ("fixed", "velocity")  # the paper's slope-1 matcher, SeqSLAM's velocity search
+MATCHERS = ("fixed", "velocity")  # the paper's slope-1 matcher, SeqSLAM's velocity search (speed_matchers)
 MODE = "paper"  # Table I's numbers, paper mode (method §8)
 SEED = 0  # the predictor's seed: the authors' recipe (see main)
 PROFILE_HELP = "a constant speed such as 0.5x, 1x or 2x (places per query frame, > 0), or 'varying'"
+
+
+def speed_matchers(velocities: Sequence[float]) -> dict[str, MatcherSpec]:
+    """The experiment's matchers by their ``MATCHERS`` names: ``fixed``, ``seqslam`` with velocities ``[1.0]`` (the
+    paper's), and ``velocity``, ``seqslam`` searching ``velocities`` (ValueError naming ``speed.velocities``)."""
+    return {"fixed": MatcherSpec.of("seqslam", {"velocities": list(DEFAULT_VELOCITIES)}),
+            "velocity": MatcherSpec.of("seqslam", {"velocities": [float(v) for v in velocities]}, "speed")}
 
 
 # --- profiles and the simulated query -----------------------------------------------------------------------------
@@ -229,7 +237,7 @@ def _split_of(path: Path, shape: tuple[int, ...]) -> _Split:
 
 
 def _method_features(path: Path, profile: SpeedProfile, seq_len: int, tolerance: int,
-                     matchers: Mapping[str, tuple[float, ...]], seconds: dict[str, float]
+                     matchers: Mapping[str, MatcherSpec], seconds: dict[str, float]
                      ) -> tuple[_Split, np.ndarray, dict[str, QueryFeatures]]:
     """The features of one distance file's simulated split under each matcher (the time each took added to
     ``seconds``), with its split and the simulated positions."""
@@ -241,12 +249,11 @@ def _method_features(path: Path, profile: SpeedProfile, seq_len: int, tolerance:
                              f"{len(frames)} frames, fewer than the sequence length {seq_len}")
         simulated, truth = simulated_split(matrix, split.lo, frames, positions, tolerance)
     out = {}
-    for name, velocities in matchers.items():
+    for name, matcher in matchers.items():
         start = time.perf_counter()
         try:
             # rank 0 only: the predictor and Table I use it (ranks 1..3 serve restoration, not run here)
-            out[name] = query_features(simulated, seq_len, tolerance, n_ranks=1, velocities=velocities,
-                                       ground_truth=truth)
+            out[name] = query_features(simulated, seq_len, tolerance, n_ranks=1, matcher=matcher, ground_truth=truth)
         except ValueError as error:
             raise ValueError(f"{path}, {profile.name} query, {name} matcher: {error}") from None
         seconds[name] += time.perf_counter() - start
@@ -318,8 +325,8 @@ def main(
 
     ``train`` and ``test``: per method (the configuration's order, the pooled training order of method §7) its train
     and table split's distance file (square, frame-aligned; the file's ``split_range`` gives ``lo``).
-    ``velocities``: the velocity matcher's search set; the fixed matcher is ``(1.0,)``. ``params``: the
-    predictor's settings.
+    ``velocities``: the velocity matcher's search set (``speed_matchers``); the fixed matcher is ``(1.0,)``.
+    ``params``: the predictor's settings. The meta records both matchers (``MatcherSpec.provenance``).
 
     One predictor seed (0, the authors' recipe) per matcher, not the run's seeds: the experiment trains two
     predictors per profile and dataset, and the demo's time budget holds that; the spread over seeds is Table I's
@@ -327,7 +334,7 @@ def main(
     """
     out = check_suffix(out, JSON_SUFFIXES, "the speed experiment's result (JSON)")
     profile = profile if isinstance(profile, SpeedProfile) else SpeedProfile.parse(profile)
-    matchers = {"fixed": DEFAULT_VELOCITIES, "velocity": check_velocities(velocities, "--velocities")}
+    matchers = speed_matchers(velocities)
     methods = _check_methods(train, test)
     check_disjoint(_frame_ranges(train.values()), _frame_ranges(test.values()), allow_split_overlap,
                    "the speed experiment's predictor")
@@ -354,7 +361,7 @@ def main(
     train_split, table_split = splits["train"].pop(), splits["test"].pop()
 
     results = {}
-    for name, velocities_ in matchers.items():
+    for name, matcher in matchers.items():
         start = time.perf_counter()
         where = (f"dataset {dataset!r}, sequence length {seq_len}, {profile.name} query, {name} matcher: train "
                  f"split of {len(methods)} method(s) pooled")
@@ -363,13 +370,14 @@ def main(
         scores = {method: score(found, predictor)
                   for method, found in zip(methods, features[name]["test"], strict=True)}
         class_counts = tuple(np.bincount(labels, minlength=N_LABELS).tolist())
-        results[name] = SpeedMatcher(velocities_, int(len(labels)), class_counts, scores)
+        searched = tuple(float(v) for v in matcher.values["velocities"])
+        results[name] = SpeedMatcher(searched, int(len(labels)), class_counts, scores)
         seconds[name] += time.perf_counter() - start
-        log.info("%s matcher (velocities %s): %.1f s (attributes, training, scoring)", name, list(velocities_),
-                 seconds[name])
+        log.info("%s matcher (%s): %.1f s (attributes, training, scoring)", name, matcher, seconds[name])
     meta = {"dataset": dataset, "seq_len": int(seq_len), "profile": profile.name, "tolerance": int(tolerance),
             "mode": MODE, "seed": SEED, "train_split": [train_split.name, train_split.lo, train_split.hi],
-            "table_split": [table_split.name, table_split.lo, table_split.hi]}
+            "table_split": [table_split.name, table_split.lo, table_split.hi],
+            "matchers": {name: matcher.provenance() for name, matcher in matchers.items()}}
     mean_speed = float((table_positions[-1] - table_positions[0]) / max(len(table_positions) - 1, 1))
     result = SpeedResult(meta, profile.speed, mean_speed, n_queries["train"], n_queries["test"], results)
     save(out, result)  # the timings stay in the log: two runs give identical files

@@ -46,9 +46,8 @@ def sweep_thresholds(truth: GroundTruth) -> tuple[str, tuple[float, ...]]:
 def rescored(features: QueryFeatures, single_matches: np.ndarray, truth: GroundTruth) -> QueryFeatures:
     """``features`` with every correctness and label of ``truth`` (the matches are kept): ``single_matches`` is the
     single-frame match of every query of the split, the first ``L - 1`` too (paper mode's recall@1 counts them)."""
-    first = single_matches[: len(single_matches) - len(features.queries)]
     changes: dict[str, Any] = verdicts(truth, features.queries, features.single_match, features.sequence_match,
-                                       features.rank_references, first)
+                                       features.rank_references, single_matches)
     return replace(features, **changes)
 
 

@@ -1,8 +1,9 @@
-"""The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher, the
-per-query table of the same scoring (``vpr-smr queries``, or ``metrics --queries``; ``eval.scoring.queries``), and the
-training-free baselines of a run (``vpr-smr baselines``: method §12's scorers, ``eval.scoring.baselines``, at the
-budget of every predictor seed). ``metrics`` and ``queries`` compute the scorers too (their detection of wrong
-matches, with a predictor their removal at its budget; their confidences in the per-query table).
+"""The standard VPR metrics of a distance matrix per split (``vpr-smr metrics``), per mode and matcher, and the
+scoring that the per-query table (``metrics --queries``; the ``queries`` stage, ``eval.scoring.queries_stage``)
+and the training-free baselines (the ``baselines`` stage, ``eval.scoring.baselines_stage``: method §12's scorers,
+at the budget of every predictor seed) share with it. ``metrics`` and ``queries`` compute the scorers too (their
+detection of wrong matches, with a predictor their removal at its budget; their confidences in the per-query
+table).
 
 One split's ``R x Q`` matrix ``D``: a match ``r`` of query ``q`` is correct iff ``|r - q| <= tolerance`` for a
 frame-aligned pair, iff its position is within the radius of the query's with positions (method §11), iff
@@ -41,7 +42,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping, Sequence
 from contextlib import ExitStack
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -49,7 +50,7 @@ import h5py
 import numpy as np
 
 from vpr_smr.core.arrays import ARRAY_SUFFIXES
-from vpr_smr.core.constants import DEFAULT_VELOCITIES, MODES, RECALL_AT
+from vpr_smr.core.constants import MODES, RECALL_AT
 from vpr_smr.core.io import (
     CSV_SUFFIXES,
     HDF5_SUFFIXES,
@@ -59,10 +60,10 @@ from vpr_smr.core.io import (
     read_provenance,
     write_json,
 )
-from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import (
     Matching,
     QueryFeatures,
+    built_matcher,
     check_matcher,
     check_matching,
     check_seq_len,
@@ -71,6 +72,7 @@ from vpr_smr.eval.matching.attributes import (
     read_features,
 )
 from vpr_smr.eval.matching.checks import check_shape
+from vpr_smr.eval.matching.features import match_blocks
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import (
@@ -80,7 +82,9 @@ from vpr_smr.eval.matching.io import (
     split_ground_truth,
     warn_if_similar,
 )
-from vpr_smr.eval.matching.matcher import SequenceMatcher, as_matrix, check_velocities
+from vpr_smr.eval.matching.matcher import as_matrix, read_columns
+from vpr_smr.eval.matching.matchers import MatcherSpec
+from vpr_smr.eval.matching.matchers.base import Matcher
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_range, frame_ranges, trained_on
 from vpr_smr.eval.scoring import baselines as scorers
@@ -93,13 +97,13 @@ from vpr_smr.eval.scoring.baselines import (
 )
 from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, recall_at_full_precision
 from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
-from vpr_smr.eval.scoring.records import Baselines, MatcherMetrics, SplitMetrics, VPRMetrics
+from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
 from vpr_smr.eval.scoring.sweep import protocol_sweep, within
 
 __all__ = [
-    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "baselines_main", "extended_precision",
-    "format_baselines", "format_metrics", "main", "matcher_metrics", "precision_at_strictest", "queries_main",
-    "recall_at", "retrieval", "score_split",
+    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "check_inputs", "extended_precision",
+    "format_baselines", "format_metrics", "main", "matcher_metrics", "precision_at_strictest", "recall_at",
+    "retrieval", "score_all", "score_split",
 ]
 
 log = logging.getLogger("vpr_smr")
@@ -112,12 +116,13 @@ DISTANCE_SUFFIXES = (*ARRAY_SUFFIXES, *HDF5_SUFFIXES)
 @dataclass(frozen=True)
 class MatcherSettings:
     """The sequence matcher of a metrics or queries stage and where its ground truth comes from (method §11):
-    ``velocities`` searched (``(1.0,)``: method §4's fixed matcher); a ground-truth file (``ground_truth``, its
+    ``spec``, the matcher (default ``MatcherSpec.of()``: method §4's fixed matcher); a ground-truth
+    file (``ground_truth``, its
     variable ``ground_truth_key``: a boolean matrix or per-query lists, ``ground_truth_files.read_ground_truth``);
     else positions files (one matrix only) or the positions a distance file holds, within ``radius``; without
     positions, frame indices within the stage's tolerance."""
 
-    velocities: tuple[float, ...] = DEFAULT_VELOCITIES
+    spec: MatcherSpec = field(default_factory=MatcherSpec.of)
     radius: float | None = None
     reference_positions: Path | str | None = None
     query_positions: Path | str | None = None
@@ -135,23 +140,27 @@ class Retrieval:
     """What recall@N and the single-frame curve need of one split, from the matrix itself.
 
     ``single_rank[q]``: the stable rank of query ``q``'s best-ranked correct reference in ``D[:, q]`` (every query,
-    the first ``L-1`` too); ``sequence_rank[n]``: that of the best-ranked correct diagonal in ``S[:, n]`` (query
-    ``a = n + L - 1``); ``NOT_RETRIEVED`` when no candidate is correct.
+    the first ``L-1`` too); ``sequence_rank[n]``: that of the best-ranked correct reference in the matcher's scores
+    ``s_a`` of query ``a = queries[n]`` (``seqslam``: the best-ranked correct diagonal in ``S[:, n]``, query
+    ``a = n + L - 1``), a reference of score ``+inf`` never ranked; ``NOT_RETRIEVED`` when no candidate is correct.
     """
 
     single_rank: np.ndarray  # (Q,)
     single_match: np.ndarray  # (Q,) argmin_r D[r, q], first index on ties
     single_distance: np.ndarray  # (Q,) D[single_match, q]
-    sequence_rank: np.ndarray  # (Q-L+1,)
-    sequence_match: np.ndarray  # (Q-L+1,) argmin_i S[i, j] + L - 1
-    sequence_distance: np.ndarray  # (Q-L+1,) min_i S[i, j]
+    sequence_rank: np.ndarray  # (N,)
+    sequence_match: np.ndarray  # (N,) r*_a (seqslam: argmin_i S[i, j] + L - 1)
+    sequence_distance: np.ndarray  # (N,) s_a[r*_a] (seqslam: min_i S[i, j])
     distance_min: float  # D.min() of the split
     distance_max: float  # D.max() of the split
+    queries: np.ndarray  # (N,) the evaluated queries a >= L - 1 (seqslam: L-1 .. Q-1)
 
 
 def _best_correct_rank(values: np.ndarray, correct: np.ndarray) -> np.ndarray:
     """Per column of ``values`` (candidates x queries), the stable rank of its best-ranked correct candidate (the
-    lowest (value, row) among the rows ``correct`` marks); ``NOT_RETRIEVED`` where no candidate is correct."""
+    lowest (value, row) among the rows ``correct`` marks); ``NOT_RETRIEVED`` where no candidate is correct. A row of
+    value ``+inf`` (a reference no path of the matcher reaches) is no candidate."""
+    correct = correct & np.isfinite(values)
     n_rows, n_cols = values.shape
     best = np.argmin(np.where(correct, values, np.inf), axis=0)  # first row on ties: the best-ranked of them
     cols = np.arange(n_cols)
@@ -162,48 +171,51 @@ def _best_correct_rank(values: np.ndarray, correct: np.ndarray) -> np.ndarray:
 
 
 def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries: int | None = None,
-              velocities: tuple[float, ...] = DEFAULT_VELOCITIES, ground_truth: GroundTruth | None = None
+              matcher: MatcherSpec | Matcher | None = None, ground_truth: GroundTruth | None = None
               ) -> Retrieval:
     """Rankings of single-frame and sequence matching of one split's ``R x Q`` matrix (any 2-D array-like that
-    slices by columns: ``np.ndarray``, memmap, ``h5py.Dataset``), read by the sequence matcher's blocks of query
-    columns. ``velocities`` and ``ground_truth`` as ``query_features`` takes them (default: the fixed matcher and
-    frames within ``tolerance``)."""
+    slices by columns: ``np.ndarray``, memmap, ``h5py.Dataset``), read by the matcher's blocks of query columns
+    (``features.match_blocks``). ``matcher`` and ``ground_truth`` as ``query_features`` takes them (default: the
+    fixed matcher and frames within ``tolerance``)."""
     matrix = as_matrix(distance_matrix)
-    matcher = SequenceMatcher(seq_len, check_velocities(velocities))
-    matcher.check(tuple(matrix.shape))
+    built = built_matcher(matcher, seq_len)
+    built.check(tuple(matrix.shape))
     if tolerance < 0:
         raise ValueError(f"the tolerance is a number of frames >= 0, got {tolerance}")
     n_ref, n_query = (int(n) for n in matrix.shape)
     truth = GroundTruth.aligned(n_ref, n_query, tolerance) if ground_truth is None else ground_truth
     truth.check_shape((n_ref, n_query))
-    references = np.arange(n_ref)
-    r_min = matcher.first_reference
+    references = np.arange(n_ref)[:, None]
 
-    def block(start: int, columns: np.ndarray) -> dict[str, Any]:
-        # the first block also ranks the single frames of the first L-1 queries, which end no sequence
-        own_from = 0 if start == 0 else seq_len - 1
-        found = matcher.sequences(columns, start)  # checks the block for NaN and inf first
-        own = columns[own_from:].astype(np.float64, copy=False).T  # the block's own query columns
-        queries = np.arange(start + own_from, start + len(columns))
+    def single(start: int, own: np.ndarray) -> dict[str, Any]:
+        """The single-frame numbers of the query columns ``own`` (as rows), the first of them column ``start``."""
+        own = own.astype(np.float64, copy=False).T
+        queries = np.arange(start, start + own.shape[1])
         match = np.argmin(own, axis=0)
-        ends = np.arange(start + seq_len - 1, start + len(columns))
-        s = found.sums.T  # (end references, queries)
-        best = np.argmin(s, axis=0)
-        return {
-            "single_rank": _best_correct_rank(own, truth.correct(references[:, None], queries)),
-            "single_match": match,
-            "single_distance": own[match, np.arange(len(queries))],
-            "sequence_rank": _best_correct_rank(s, truth.correct(references[r_min:, None], ends)),
-            "sequence_match": best + r_min,
-            "sequence_distance": s[best, np.arange(len(ends))],
-            "range": (float(own.min()), float(own.max())),
-        }
+        return {"single_rank": _best_correct_rank(own, truth.correct(references, queries)), "single_match": match,
+                "single_distance": own[match, np.arange(len(queries))], "range": (float(own.min()), float(own.max()))}
 
-    parts = matcher.map_blocks(matrix, block, block_queries)
-    joined = {key: np.concatenate([p[key] for p in parts]) for key in parts[0] if key != "range"}
+    singles, sequences = [], []
+    seen = 0  # the query columns whose single-frame numbers are done: blocks of a window overlap
+    for found, lo, columns in match_blocks(built, matrix, block_queries):
+        if lo + len(columns) > seen:
+            singles.append(single(seen, columns[seen - lo :]))
+            seen = lo + len(columns)
+        s = found.scores.T  # (references, queries)
+        rows = np.arange(len(found.queries))
+        sequences.append({"queries": found.queries, "sequence_match": found.match,
+                          "sequence_rank": _best_correct_rank(s, truth.correct(references, found.queries)),
+                          "sequence_distance": s[found.match, rows]})
+    if seen < n_query:  # columns after the last evaluated query's window (none for a trailing window)
+        singles.append(single(seen, read_columns(matrix, seen, n_query)))
+    joined = {key: np.concatenate([p[key] for p in (*singles, *sequences) if key in p])
+              for key in ("single_rank", "single_match", "single_distance", "queries", "sequence_match",
+                          "sequence_rank", "sequence_distance")}
+    windowed = joined["queries"] >= seq_len - 1  # those with attributes (QueryFeatures' queries)
     return Retrieval(joined["single_rank"], joined["single_match"], joined["single_distance"],
-                     joined["sequence_rank"], joined["sequence_match"], joined["sequence_distance"],
-                     min(p["range"][0] for p in parts), max(p["range"][1] for p in parts))
+                     joined["sequence_rank"][windowed], joined["sequence_match"][windowed].astype(np.int64),
+                     joined["sequence_distance"][windowed], min(p["range"][0] for p in singles),
+                     max(p["range"][1] for p in singles), joined["queries"][windowed].astype(np.int64))
 
 
 def recall_at(ranks: np.ndarray, ns: Sequence[int] = RECALL_AT, retrieved: np.ndarray | None = None
@@ -246,8 +258,9 @@ def matcher_metrics(ranks: np.ndarray, mode: str, distances: np.ndarray, correct
 def _mode_metrics(mode: str, found: Retrieval, features: QueryFeatures, seq_len: int, ground_truth: GroundTruth,
                   prediction: Prediction | None) -> dict[str, MatcherMetrics]:
     n_query = len(found.single_rank)
-    single = slice(0, n_query) if mode == "paper" else slice(seq_len - 1, n_query)
-    single_correct = ground_truth.correct(found.single_match[single], np.arange(n_query)[single])
+    # paper mode: every query of the split (the authors' rule, method §8); standard: the evaluated ones
+    single = np.arange(n_query) if mode == "paper" else found.queries
+    single_correct = ground_truth.correct(found.single_match[single], single)
     single_keep = keep_mask(n=len(single_correct))
     n = len(features.queries)
     s_range = (features.sequence_min, features.sequence_max)
@@ -266,9 +279,8 @@ def _mode_metrics(mode: str, found: Retrieval, features: QueryFeatures, seq_len:
 
 def _check_agree(found: Retrieval, features: QueryFeatures, seq_len: int, where: str) -> None:
     """The features (read from an attributes file) belong to this matrix: same queries and matches."""
-    n_query = len(found.single_rank)
-    same = (np.array_equal(features.queries, np.arange(seq_len - 1, n_query))
-            and np.array_equal(features.single_match, found.single_match[seq_len - 1 :])
+    same = (np.array_equal(features.queries, found.queries)
+            and np.array_equal(features.single_match, found.single_match[found.queries])
             and np.array_equal(features.sequence_match, found.sequence_match)
             and np.allclose(features.sequence_distance, found.sequence_distance, rtol=1e-12, atol=0))
     if not same:
@@ -295,7 +307,7 @@ def score_split(
     split: str = ALL_SPLIT,
     first_frame: int = 0,
     block_queries: int | None = None,
-    velocities: tuple[float, ...] = DEFAULT_VELOCITIES,
+    matcher: MatcherSpec | None = None,
     reference_first_frame: int | None = None,
     ground_truth: GroundTruth | None = None,
     sweep: bool = False,
@@ -303,7 +315,7 @@ def score_split(
 ) -> ScoredSplit:
     """The metrics of one split's matrix per mode and matcher (``sequence_predictor`` only with ``predictor``: an
     object with ``predict_proba`` and ``classes_``, e.g. ``SMRPredictor``). ``features``: the split's attributes
-    (``query_features`` of the same matrix; computed when None). ``velocities`` and ``ground_truth`` as
+    (``query_features`` of the same matrix; computed when None). ``matcher`` and ``ground_truth`` as
     ``query_features`` takes them. ``sweep``: also recall@1 and the predictor's reduction over the tolerances or
     radii of ``sweep.protocol_sweep`` (a ground truth of frames or positions only). ``baselines``: also the
     training-free scorers of method §12 with these settings (their detection of wrong matches, and with
@@ -314,9 +326,11 @@ def score_split(
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
     shape = tuple(int(n) for n in distance_matrix.shape)
     truth = GroundTruth.aligned(shape[0], shape[1], tolerance) if ground_truth is None else ground_truth
-    found = retrieval(distance_matrix, seq_len, tolerance, block_queries, velocities, truth)
+    matcher = matcher or MatcherSpec.of()
+    built = matcher.build(seq_len)
+    found = retrieval(distance_matrix, seq_len, tolerance, block_queries, built, truth)
     if features is None:
-        features = query_features(distance_matrix, seq_len, tolerance, velocities=velocities, ground_truth=truth,
+        features = query_features(distance_matrix, seq_len, tolerance, matcher=built, ground_truth=truth,
                                   n_candidates=baselines.candidates if baselines is not None else 0)
     _check_agree(found, features, seq_len, f"split {split!r}")
     prediction = Prediction.of(predictor, features) if predictor is not None else None
@@ -332,11 +346,11 @@ def score_split(
         found_baselines = split_baselines(features, baselines, positions, scored, modes)
         scores = scorers.query_scores(features, baselines, positions, 0, scored[0] if scored else None)
     metrics = SplitMetrics({mode: _mode_metrics(mode, found, features, seq_len, truth, prediction)
-                            for mode in modes}, int(without.sum()), int(without[seq_len - 1 :].sum()), swept,
+                            for mode in modes}, int(without.sum()), int(without[features.queries].sum()), swept,
                            found_baselines)
     true_reference = None if truth.is_aligned_band() else truth.true_references(features.queries)
-    queries = SplitQueries(split, first_frame, features, found.single_distance[seq_len - 1 :], prediction,
-                           reference_first_frame, true_reference, velocities, scores)
+    queries = SplitQueries(split, first_frame, features, found.single_distance[features.queries], prediction,
+                           reference_first_frame, true_reference, matcher, scores)
     return ScoredSplit(metrics, queries)
 
 
@@ -378,10 +392,9 @@ def _reference_first_frame(*paths: Path | str | None) -> int | None:
     return None
 
 
-def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], predictor: Path | None,
+def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], predictor: Path | None,
                   seq_len: int, tolerance: int, matcher: MatcherSettings,
                   file_truth: GroundTruth | None = None) -> None:
-    check_velocities(matcher.velocities, "--velocities")
     if matcher.reference_positions is not None and len(distances) > 1:
         raise ValueError("--reference-positions and --query-positions give the positions of one matrix: give one "
                          "--distances file with them (the distance files of a dataset with positions hold their own)")
@@ -406,7 +419,7 @@ def _check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path],
             raise ValueError(f"{path} holds attributes at tolerance {int(stored)}, but --tolerance is {tolerance}: "
                              f"give --tolerance {int(stored)}, or attributes computed at {tolerance}")
     check_seq_len(list(attributes.values()), seq_len)
-    check_matcher(list(attributes.values()), matcher.velocities, matcher.radius, file_truth)
+    check_matcher(list(attributes.values()), matcher.spec, matcher.radius, file_truth)
     if predictor is not None:
         check_suffix(predictor, HDF5_SUFFIXES, "the predictor (HDF5)", "--predictor")
         if not predictor.is_file():
@@ -427,7 +440,7 @@ class Scored:
     ground_truth: dict[str, Any]
 
 
-def _score_all(
+def score_all(
     distances: Mapping[str, Path | str] | Path | str,
     seq_len: int,
     tolerance: int,
@@ -459,15 +472,14 @@ def _score_all(
                          "--sweep, or score with --tolerance (or positions and --radius) instead")
     file_truth = (None if matcher.ground_truth is None
                   else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key))
-    _check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)
+    check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)
     model = None
     if predictor_file is not None:
         scored = [p for p in (*splits.values(), *attribute_paths.values()) if _ours(p)]
         check_disjoint(trained_on(predictor_file), frame_ranges(scored), allow_split_overlap,
                        f"predictor {predictor_file}")
         model = SMRPredictor.load(predictor_file)
-        check_matching(model, Matching.of(matcher.velocities, matcher.kind),
-                       "these matrices (--velocities, --radius)")
+        check_matching(model, Matching.of(matcher.spec, matcher.kind), "these matrices (--matcher, --radius)")
     results: dict[str, ScoredSplit] = {}
     recorded: dict[str, Any] | None = None if file_truth is None else file_truth.provenance()
     for split, path in splits.items():
@@ -487,7 +499,7 @@ def _score_all(
             warn_if_similar(path, matrix, truth, similarity)
             try:
                 results[split] = score_split(matrix, seq_len, tolerance, model, tuple(modes), features, split,
-                                             _first_frame(attributes_file, path), velocities=matcher.velocities,
+                                             _first_frame(attributes_file, path), matcher=matcher.spec,
                                              ground_truth=truth,
                                              reference_first_frame=_reference_first_frame(attributes_file, path),
                                              sweep=sweep, baselines=baselines)
@@ -544,10 +556,10 @@ def main(
     """
     out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
     queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
-    scored = _score_all(distances, seq_len, tolerance, predictor, attributes, modes, allow_split_overlap, matcher,
+    scored = score_all(distances, seq_len, tolerance, predictor, attributes, modes, allow_split_overlap, matcher,
                         similarity, key, transpose, sweep, baselines)
     info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance),
-            **matcher_provenance(matcher.velocities, matcher.radius),
+            **matcher_provenance(matcher.spec, matcher.radius),
             **reading_provenance(similarity, key, transpose), "ground_truth": scored.ground_truth,
             **(baselines.meta() if baselines is not None else {})}
     if scored.predictor is not None:
@@ -632,103 +644,3 @@ def format_baselines(result: VPRMetrics) -> str:
                                  numbers.outcome])
             parts.append(_aligned(rows, 2))
     return "\n\n".join(parts)
-
-
-def queries_main(
-    distances: Mapping[str, Path | str] | Path | str,
-    seq_len: int,
-    tolerance: int,
-    out: Path | str,
-    predictor: Path | str | None = None,
-    attributes: Mapping[str, Path | str] | None = None,
-    allow_split_overlap: bool = False,
-    matcher: MatcherSettings = MatcherSettings(),
-    similarity: bool = False,
-    key: str | None = None,
-    transpose: bool = False,
-    baselines: BaselineSettings | None = DEFAULT_SETTINGS,
-) -> Path:
-    """The ``queries`` stage: the per-query table (``queries.QUERY_COLUMNS`` and ``SCORE_COLUMNS``) of every split
-    of ``distances`` in the given order, written to ``out`` (CSV), as ``main``'s ``queries`` (the same code; no
-    metric mode changes it). The inputs as ``main``'s."""
-    out = check_suffix(out, CSV_SUFFIXES, "the per-query table (CSV)")
-    scored = _score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher,
-                        similarity, key, transpose, baselines=baselines)
-    write_queries(out, [scored_split.queries for scored_split in scored.splits.values()])
-    log.info("wrote %d queries of %d splits to %s",
-             sum(len(r.queries.features.queries) for r in scored.splits.values()), len(scored.splits), out)
-    return out
-
-
-def baselines_main(
-    distances: Mapping[str, Path | str],
-    attributes: Mapping[str, Path | str],
-    predictors: Sequence[Path | str],
-    seq_len: int,
-    tolerance: int,
-    out: Path | str,
-    settings: BaselineSettings = DEFAULT_SETTINGS,
-    modes: Sequence[str] = MODES,
-    meta: Mapping[str, Any] | None = None,
-    allow_split_overlap: bool = False,
-    matcher: MatcherSettings = MatcherSettings(),
-    similarity: bool = False,
-    key: str | None = None,
-    transpose: bool = False,
-) -> Baselines:
-    """The ``baselines`` stage (method §12): per split, every scorer's detection of wrong matches and its removal
-    at the budget of each predictor seed (``predictors``: seed 0 first), written to ``out`` (JSON,
-    ``records.Baselines``).
-
-    ``attributes`` (split -> our features ``.h5``, holding the candidates ``settings`` need) give the matches and
-    their verdicts; ``distances`` (the same splits' matrices, read for their shape and the positions they hold) the
-    ground truth, as ``main`` builds it (``matcher``, ``tolerance``), whose reference positions ``spread`` measures.
-    ``meta`` (dataset, method) is written with ``seq_len``, the settings, the ground truth and the predictor files.
-    Every input is checked before any work."""
-    out = check_suffix(out, JSON_SUFFIXES, "the training-free baselines (JSON)")
-    distance_paths = {str(name): Path(path) for name, path in distances.items()}
-    attribute_paths = {str(name): Path(path) for name, path in attributes.items()}
-    if not attribute_paths or set(distance_paths) != set(attribute_paths):
-        raise ValueError(f"give every split's attributes and distances (--attributes names "
-                         f"{', '.join(attribute_paths) or 'none'}, --distances {', '.join(distance_paths) or 'none'})")
-    if not predictors:
-        raise ValueError("the baselines need the predictor files (one per seed, seed 0 first): their budgets")
-    unknown = [mode for mode in modes if mode not in MODES]
-    if unknown:
-        raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
-    file_truth = (None if matcher.ground_truth is None
-                  else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key))
-    _check_inputs(distance_paths, attribute_paths, None, seq_len, tolerance, matcher, file_truth)
-    models = []
-    for path in map(Path, predictors):
-        _check_inputs({}, {}, path, seq_len, tolerance, matcher)
-        check_disjoint(trained_on(path), frame_ranges(attribute_paths.values()), allow_split_overlap,
-                       f"predictor {path}")
-        models.append(SMRPredictor.load(path))
-        check_matching(models[-1], Matching.of(matcher.velocities, matcher.kind),
-                       "the attributes " + ", ".join(map(str, attribute_paths.values())))
-    features = {split: read_features(path) for split, path in attribute_paths.items()}
-    for split, path in attribute_paths.items():
-        check_candidates(features[split], settings, str(path))
-    splits = {}
-    recorded: dict[str, Any] | None = None if file_truth is None else file_truth.provenance()
-    for split in attribute_paths:
-        path = distance_paths[split]
-        with open_distance_matrix(path, similarity, key, transpose) as matrix:
-            shape = tuple(int(n) for n in matrix.shape)
-            truth = split_ground_truth(path, shape, tolerance, matcher.radius, matcher.reference_positions,
-                                       matcher.query_positions, file_truth)
-        if len(features[split].queries) != shape[1] - seq_len + 1:
-            raise ValueError(f"{attribute_paths[split]} holds {len(features[split].queries)} queries, but {path} is "
-                             f"a {shape[0]} x {shape[1]} matrix ({shape[1] - seq_len + 1} queries at L = {seq_len}): "
-                             "give the attributes computed from it")
-        recorded = truth.provenance() if recorded is None else recorded
-        attributes_0 = features[split].attributes[:, 0, :]
-        predictions = [scorers.Prediction(seed, np.asarray(model.predict_proba(attributes_0)),
-                                          np.asarray(model.classes_)) for seed, model in enumerate(models)]
-        splits[split] = split_baselines(features[split], settings, spread_positions(truth), predictions, modes)
-    info = {**dict(meta or {}), "seq_len": int(seq_len), **settings.meta(), "ground_truth": recorded,
-            "predictors": [str(path) for path in predictors]}
-    result = Baselines(info, splits)
-    save(out, result)
-    return result

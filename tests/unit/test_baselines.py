@@ -7,7 +7,7 @@ and two dimensions, velocity search, a split with fewer end references than cand
 
 import numpy as np
 import pytest
-from helpers import make_features
+from helpers import make_features, seqslam
 from oracles import naive_oracle_removed, naive_removed, naive_scores, tied_matrix
 from sklearn.metrics import average_precision_score, roc_auc_score
 
@@ -63,7 +63,7 @@ def test_scorers_equal_the_literal_definition(name, kernel):
     settings = BaselineSettings(r_window, spread_k)
     previous, matcher.KERNEL = matcher.KERNEL, kernel
     try:
-        features = query_features(d, seq_len, 2, velocities=velocities, n_candidates=settings.candidates)
+        features = query_features(d, seq_len, 2, matcher=seqslam(*velocities), n_candidates=settings.candidates)
     finally:
         matcher.KERNEL = previous
     positions = np.arange(d.shape[0], dtype=np.float64)
@@ -88,7 +88,8 @@ def test_spread_with_positions(dimensions):
     query = reference[np.linspace(0, 44, 30).astype(int)]
     truth = GroundTruth.positions(reference, query, 4.0)
     settings = BaselineSettings(8, 7)
-    features = query_features(d, 3, velocities=(0.8, 1.0, 1.25), ground_truth=truth, n_candidates=settings.candidates)
+    features = query_features(d, 3, matcher=seqslam(0.8, 1.0, 1.25), ground_truth=truth,
+                              n_candidates=settings.candidates)
     positions = spread_positions(truth)
     assert positions is truth.reference_positions  # positions, not frame indices
     got = query_scores(features, settings, positions)["spread"]
@@ -336,6 +337,7 @@ def test_the_baselines_command(split_files, predictor_file, tmp_path):
     record = load(out, Baselines)
     assert record.meta == {"dataset": "d", "method": "m", "seq_len": 3, "r_window": 6, "spread_k": 5,
                            "ground_truth": {"kind": "frames", "tolerance": 2},
+                           "matcher": {"name": "seqslam", "settings": {"velocities": [1.0]}},
                            "predictors": [str(predictor_file)] * 2}
     predictor = SMRPredictor.load(predictor_file)
     for split, path in attributes.items():  # what the command wrote is split_baselines of the file's features
@@ -351,7 +353,7 @@ def test_the_baselines_command(split_files, predictor_file, tmp_path):
                 "--attributes", *(f"{s}={p}" for s, p in attributes.items()),
                 "--predictors", str(predictor_file), "--r-window", "30", "--out", str(tmp_path / "c.json")]) == 2
     with pytest.raises(ValueError, match=r"val_L3.h5 holds 12 candidates .* --candidates 32"):
-        from vpr_smr.eval.scoring.vpr_metrics import baselines_main
+        from vpr_smr.eval.scoring.baselines_stage import main as baselines_main
 
         baselines_main(distances, attributes, [predictor_file], 3, 2, tmp_path / "c.json", BaselineSettings(30, 10))
     with pytest.raises(ValueError, match="give every split's attributes and distances"):

@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+from helpers import seqslam
 from oracles import stable_top
 
 from vpr_smr.core.constants import RECALL_AT
@@ -109,14 +110,14 @@ def test_recall_at_n_with_velocities_and_positions_matches_a_naive_loop(velociti
     assert np.array_equal(rows, np.arange(rows[0], 36))
     sequence = {n: np.mean([any(correct[rows[i], a + seq_len - 1] for i in stable_top(list(s[rows, a]), n))
                             for a in range(s.shape[1])]) for n in RECALL_AT}
-    modes = score_split(d, seq_len, 99, velocities=velocities, ground_truth=truth).metrics.modes
+    modes = score_split(d, seq_len, 99, matcher=seqslam(*velocities), ground_truth=truth).metrics.modes
     assert modes["paper"]["single"].recall_at == pytest.approx(single)
     assert modes["paper"]["sequence"].recall_at == pytest.approx(sequence)
-    found = retrieval(d, seq_len, 99, velocities=velocities, ground_truth=truth)
+    found = retrieval(d, seq_len, 99, matcher=seqslam(*velocities), ground_truth=truth)
     best = rows[np.argmin(s[rows], axis=0)]
     assert np.array_equal(found.sequence_match, best)
     assert np.array_equal(found.sequence_distance, s[best, np.arange(s.shape[1])])
-    features = query_features(d, seq_len, velocities=velocities, ground_truth=truth)
+    features = query_features(d, seq_len, matcher=seqslam(*velocities), ground_truth=truth)
     assert np.array_equal(features.sequence_match, best)
     assert np.array_equal(features.sequence_correct, correct[best, np.arange(seq_len - 1, 30)])
 
@@ -161,7 +162,7 @@ def test_attributes_and_metrics_commands_take_positions(tmp_path):
     assert cli(["metrics", "--distances", str(tmp_path / "D.npy"), "--seq-len", "3", *options,
                 "--attributes", f"all={tmp_path / 'A.h5'}", "--out", str(tmp_path / "m.json")]) == 0
     info = json.loads((tmp_path / "m.json").read_text())["meta"]
-    assert info["velocities"] == [0.5, 0.8, 1.0] and info["radius"] == 4.0
+    assert info["matcher"] == {"name": "seqslam", "settings": {"velocities": [0.5, 0.8, 1.0]}} and info["radius"] == 4.0
     # attributes of another matcher are refused, naming both
     assert cli(["metrics", "--distances", str(tmp_path / "D.npy"), "--seq-len", "3", *options[:-4],
                 "--attributes", f"all={tmp_path / 'A.h5'}", "--out", str(tmp_path / "m2.json")]) != 0
@@ -175,6 +176,7 @@ def test_attributes_of_the_same_velocities_in_another_order_are_accepted(tmp_pat
     np.save(tmp_path / "D.npy", rng.uniform(0, 1, size=(24, 24)).astype(np.float32))
     assert cli(["attributes", "--distances", str(tmp_path / "D.npy"), "--seq-len", "3", "--velocities", "1", "0.5",
                 "--out", str(tmp_path / "A.h5")]) == 0
-    check_matcher([tmp_path / "A.h5"], (0.5, 1.0), None)  # the same matcher
-    with pytest.raises(ValueError, match=r"over \[0.5, 1.0\].*given velocity search over \[0.5, 2.0\]"):
-        check_matcher([tmp_path / "A.h5"], (0.5, 2.0), None)
+    check_matcher([tmp_path / "A.h5"], seqslam(0.5, 1.0), None)  # the same matcher
+    with pytest.raises(ValueError, match=r"seqslam \(velocities \[0.5, 1.0\]\).*given the matcher seqslam "
+                                         r"\(velocities \[0.5, 2.0\]\)"):
+        check_matcher([tmp_path / "A.h5"], seqslam(2.0, 0.5), None)

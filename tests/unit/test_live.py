@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from helpers import seqslam
 
 from vpr_smr.eval.matching.attributes import query_features
 from vpr_smr.eval.matching.distances import distance_matrix
@@ -36,9 +37,9 @@ def stopped_train(n_ref=300, n_query=80, seed=0):
 def test_live_equals_batch_every_frame(seq_len, velocities):
     # method §11's velocity search too: each frame's result is the batch's for that query, bit for bit
     matrix = stopped_train()
-    batch = query_features(matrix, seq_len, velocities=velocities)
+    batch = query_features(matrix, seq_len, matcher=seqslam(*velocities))
     threshold = np.median(batch.attributes[:, 0, 0])
-    matcher = LiveMatcher(seq_len, predictor=ThresholdPredictor(threshold), velocities=velocities)
+    matcher = LiveMatcher(seq_len, predictor=ThresholdPredictor(threshold), matcher=seqslam(*velocities))
     labels = set()
     for a in range(matrix.shape[1]):
         result = matcher.step_distances(matrix[:, a])
@@ -87,9 +88,9 @@ def test_errors():
     with pytest.raises(ValueError, match="too few"):
         LiveMatcher(4).step_distances(np.ones(3))
     with pytest.raises(ValueError, match=r"too few for sequence length 4 at velocities \[3.0\]"):
-        LiveMatcher(4, velocities=(3.0,)).step_distances(np.ones(9))  # the trajectory spans 10 references
-    with pytest.raises(ValueError, match="each > 0"):
-        LiveMatcher(4, velocities=(0.0, 1.0))
+        LiveMatcher(4, matcher=seqslam(3.0)).step_distances(np.ones(9))  # the trajectory spans 10 references
+    with pytest.raises(ValueError, match="must be > 0, got 0.0"):
+        LiveMatcher(4, matcher=seqslam(0.0, 1.0))
     matcher = LiveMatcher(2)
     matcher.step_distances(np.ones(10))
     with pytest.raises(ValueError, match="non-finite"):

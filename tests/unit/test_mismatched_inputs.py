@@ -8,6 +8,7 @@ import warnings
 import h5py
 import numpy as np
 import pytest
+from helpers import seqslam
 from sample_matrix import sample_distances
 
 from vpr_smr.core.io import read_provenance
@@ -183,16 +184,20 @@ def _saved(path, matrix):
 
 def test_the_predictor_file_records_its_matcher(velocity_predictor):
     predictor = SMRPredictor.load(velocity_predictor / "p.h5")
-    assert predictor.matching_ == Matching((0.8, 1.0, 1.25), "frames")
+    assert predictor.matching_ == Matching(seqslam(0.8, 1.0, 1.25), "frames")
+    # the one record of the matcher every file holds
+    expected = {"name": "seqslam", "settings": {"velocities": [0.8, 1.0, 1.25]}}
+    assert read_provenance(velocity_predictor / "p.h5")["matcher"] == read_provenance(
+        velocity_predictor / "train.h5")["matcher"] == expected
 
 
 def test_metrics_refuse_a_predictor_of_another_matcher(velocity_predictor, capsys):
     tmp = velocity_predictor
     err = failure(capsys, ["metrics", "--distances", str(tmp / "test.npy"), "--seq-len", "3", "--predictor",
                            str(tmp / "p.h5"), "--out", str(tmp / "m.json")])
-    assert (f"{tmp / 'p.h5'} was trained on attributes of velocity search over [0.8, 1.0, 1.25], ground truth from "
-            "frame indices within a tolerance, but it is applied to these matrices (--velocities, --radius), of the "
-            "fixed matcher (velocities [1.0]), ground truth from frame indices within a tolerance") in err
+    assert (f"{tmp / 'p.h5'} was trained on attributes of the matcher seqslam (velocities [0.8, 1.0, 1.25]), ground "
+            "truth from frame indices within a tolerance, but it is applied to these matrices (--matcher, --radius), "
+            "of the matcher seqslam (velocities [1.0]), ground truth from frame indices within a tolerance") in err
     # the same velocities in another order are the same matcher
     assert main(["metrics", "--distances", str(tmp / "test.npy"), "--seq-len", "3", "--velocities", "1.25", "0.8",
                  "1", "--predictor", str(tmp / "p.h5"), "--out", str(tmp / "m.json")]) == 0
@@ -205,8 +210,8 @@ def test_evaluate_refuses_attributes_of_another_matcher(velocity_predictor, caps
     err = failure(capsys, ["evaluate", "--dataset", "d", "--method", "m", "--seq-len", "3", "--attributes",
                            f"test={tmp / 'fixed.h5'}", "--predictors", str(tmp / "p.h5"), "--out",
                            str(tmp / "e.json")])
-    assert "was trained on attributes of velocity search over [0.8, 1.0, 1.25]" in err
-    assert f"but it is applied to the attributes {tmp / 'fixed.h5'}, of the fixed matcher (velocities [1.0])" in err
+    assert "was trained on attributes of the matcher seqslam (velocities [0.8, 1.0, 1.25])" in err
+    assert f"but it is applied to the attributes {tmp / 'fixed.h5'}, of the matcher seqslam (velocities [1.0])" in err
 
 
 def test_training_refuses_attributes_of_two_matchers(velocity_predictor, capsys):
@@ -215,17 +220,18 @@ def test_training_refuses_attributes_of_two_matchers(velocity_predictor, capsys)
                  str(tmp / "fixed.h5")]) == 0
     err = failure(capsys, ["train", "--dataset", "d", "--seq-len", "3", "--train", str(tmp / "train.h5"),
                            str(tmp / "fixed.h5"), "--out", str(tmp / "q.h5")])
-    assert f"{tmp / 'train.h5'} holds attributes of velocity search over [0.8, 1.0, 1.25]" in err
-    assert f"but {tmp / 'fixed.h5'} of the fixed matcher" in err
+    assert f"{tmp / 'train.h5'} holds attributes of the matcher seqslam (velocities [0.8, 1.0, 1.25])" in err
+    assert f"but {tmp / 'fixed.h5'} of the matcher seqslam (velocities [1.0])" in err
 
 
 def test_the_live_matcher_refuses_a_predictor_of_other_velocities(velocity_predictor):
     predictor = SMRPredictor.load(velocity_predictor / "p.h5")
-    with pytest.raises(ValueError, match=r"applied to a LiveMatcher \(velocities=\), searching velocities \[1.0\]: "
-                                         r"give it the velocities the predictor was trained with "
-                                         r"\(\[0.8, 1.0, 1.25\]\)"):
+    with pytest.raises(ValueError, match=r"trained on attributes of the matcher seqslam \(velocities \[0.8, 1.0, "
+                                         r"1.25\]\), but it is applied to a LiveMatcher \(matcher=\), of the "
+                                         r"matcher seqslam \(velocities \[1.0\]\): give it the matcher the predictor "
+                                         r"was trained with"):
         LiveMatcher(3, predictor=predictor)
-    LiveMatcher(3, predictor=predictor, velocities=(0.8, 1.0, 1.25))  # its own velocities: accepted
+    LiveMatcher(3, predictor=predictor, matcher=seqslam(1.25, 0.8, 1.0))  # its own matcher (in any order): accepted
 
 
 def test_a_predictor_file_without_the_record_is_refused(tmp_path, capsys):
@@ -253,7 +259,8 @@ def test_the_inspector_refuses_a_queries_csv_of_another_matcher(tmp_path, capsys
     base = ["inspect", "--queries", str(tmp_path / "q.csv"), "--distances", str(tmp_path / "D.npy"), "--seq-len", "3",
             "--matrix-figure", str(figure)]
     err = failure(capsys, base)
-    assert "q.csv holds the sequence matches of velocities 1 2, but --velocities is 1" in err and not figure.exists()
+    assert ("q.csv holds the sequence matches of the matcher seqslam (velocities [1.0, 2.0]), but this stage was "
+            "given the matcher seqslam (velocities [1.0])") in err and not figure.exists()
     assert main([*base, "--velocities", "1", "2"]) == 0 and figure.is_file()
 
 
@@ -270,13 +277,14 @@ def test_queries_and_held_out_refuse_a_predictor_of_another_matcher(velocity_pre
     tmp = velocity_predictor
     err = failure(capsys, ["queries", "--distances", str(tmp / "test.npy"), "--seq-len", "3", "--predictor",
                            str(tmp / "p.h5"), "--out", str(tmp / "q.csv")])
-    assert "was trained on attributes of velocity search over [0.8, 1.0, 1.25]" in err and not (tmp / "q.csv").exists()
+    assert ("was trained on attributes of the matcher seqslam (velocities [0.8, 1.0, 1.25])" in err
+            and not (tmp / "q.csv").exists())
     assert main(["attributes", "--distances", str(tmp / "test.npy"), "--seq-len", "3", "--out",
                  str(tmp / "fixed.h5")]) == 0
     err = failure(capsys, ["ablation", "held-out", "--dataset", "d", "--method", "m", "--seq-len", "3", "--attributes",
                            str(tmp / "fixed.h5"), "--pooled", str(tmp / "p.h5"), "--without", str(tmp / "p.h5"),
                            "--allow-split-overlap", "--out", str(tmp / "h.json")])
-    assert f"but it is applied to {tmp / 'fixed.h5'}, of the fixed matcher (velocities [1.0])" in err
+    assert f"but it is applied to {tmp / 'fixed.h5'}, of the matcher seqslam (velocities [1.0])" in err
 
 
 def test_a_npy_array_under_another_name_is_told_to_be_renamed(tmp_path, capsys):

@@ -6,7 +6,7 @@ import csv
 
 import numpy as np
 import pytest
-from helpers import read_distance_matrix, write_distance_matrix
+from helpers import read_distance_matrix, seqslam, write_distance_matrix
 from worked_matrix import DECISION, SEQ_LEN, TOLERANCE, D, FixedPredictor
 
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH, KEPT_CLASSES
@@ -18,7 +18,7 @@ from vpr_smr.eval.scoring.vpr_metrics import main, score_split
 
 COLUMNS = ["split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
            "sequence_distance", "sequence_correct", "true_reference", "A1", "A2", "A3", "A4", "label",
-           "predicted_class", "probability", "kept", "velocities"]
+           "predicted_class", "probability", "kept", "matcher"]
 SCORES = ["c_uniqueness", "c_single_uniqueness", "c_spread", "c_distance", "c_random", "c_oracle", "c_predictor"]
 
 
@@ -69,7 +69,7 @@ def test_columns_and_values_by_hand(tmp_path):
     assert column["predicted_class"] == [str(c) for c in DECISION]
     assert [float(v) for v in column["probability"]] == pytest.approx([0.7] * 5)
     assert column["kept"] == ["0", "1", "1", "0", "1"]
-    assert column["velocities"] == ["1"] * 5  # the fixed matcher
+    assert column["matcher"] == ["seqslam (velocities [1.0])"] * 5  # the fixed matcher
 
 
 def test_scorer_columns_by_hand(tmp_path):
@@ -97,11 +97,12 @@ def test_scorer_columns_by_hand(tmp_path):
     assert column["c_predictor"] == pytest.approx([0.2, 0.8, 0.8, 0.2, 0.8])
 
 
-def test_the_velocities_column_names_the_matcher(tmp_path):
-    scored = score_split(D, SEQ_LEN, TOLERANCE, velocities=(2.0, 0.5, 1.0))
+def test_the_matcher_column_names_the_matcher_and_its_settings(tmp_path):
+    scored = score_split(D, SEQ_LEN, TOLERANCE, matcher=seqslam(2.0, 0.5, 1.0))
     write_queries(tmp_path / "q.csv", [scored.queries])
     _, rows = read(tmp_path / "q.csv")
-    assert {r["velocities"] for r in rows} == {"0.5 1 2"}  # sorted, as written in the configuration's units
+    # the velocities sorted: the same set in another order is the same matcher
+    assert {r["matcher"] for r in rows} == {"seqslam (velocities [0.5, 1.0, 2.0])"}
 
 
 def test_without_a_predictor_its_columns_are_empty(tmp_path):

@@ -8,6 +8,7 @@ import math
 import h5py
 import numpy as np
 import pytest
+from helpers import seqslam
 
 from vpr_smr.core.environment import NumericEnvironment, ThreadPool
 from vpr_smr.core.io import write_json
@@ -164,7 +165,7 @@ SAMPLES = {
     "AttributeSplit": ATTRIBUTE_SCORES.splits["check"],
     "AttributeAblation": ABLATION, "FrameRange": FRAMES, "FrameRange, aligned": FrameRange("d", "test", 40, 80),
     "SpeedScores": SPEED_SCORES, "SpeedMatcher": SPEED_MATCHER, "SpeedResult": SPEED,
-    "Matching": Matching((0.5, 1.0, 2.0), POSITIONS), "Matching, fixed": Matching(),
+    "Matching": Matching(seqslam(0.5, 1.0, 2.0), POSITIONS), "Matching, fixed": Matching(),
     "Detection": DETECTION, "Detection, undefined": NO_DETECTION, "ScorerRemoval": SCORER_REMOVAL,
     "BudgetRemoval": BUDGET, "SplitBaselines": SPLIT_BASELINES, "SplitBaselines, no predictor": NO_BUDGET,
     "Baselines": BASELINES, "SplitMetrics, sweep and baselines": WITH_BASELINES, "SweepPoint": SWEEP_POINT,

@@ -170,7 +170,9 @@ def test_profile_1x_gives_table_1s_numbers(dataset, tmp_path):
                                                      aoc_vpr_sm_pred_ci=None)
         assert mine.f1_macro == table1.f1_macro
     assert result.meta == {"dataset": "d", "seq_len": 4, "profile": "1x", "tolerance": 2, "mode": "paper", "seed": 0,
-                           "train_split": ["train", 0, 160], "table_split": ["test", 160, 400]}
+                           "train_split": ["train", 0, 160], "table_split": ["test", 160, 400],
+                           "matchers": {"fixed": {"name": "seqslam", "settings": {"velocities": [1.0]}},
+                                        "velocity": {"name": "seqslam", "settings": {"velocities": [0.5, 1.0, 2.0]}}}}
     assert result.speed == 1.0 and result.mean_speed == 1.0
     assert (result.n_train_queries, result.n_table_queries) == (160, 240)
 
@@ -202,9 +204,9 @@ def test_the_stage_refuses_mismatched_inputs(dataset, tmp_path):
 @pytest.mark.parametrize(("options", "message"), [
     (["--profile", "fast"], "vpr-smr speed: error: speed profile 'fast' is not a constant speed such as 0.5x"),
     (["--profile=-2x"], "speed profile '-2x': a speed must be a finite number > 0"),
-    (["--profile", "2x", "--velocities", "1", "0"], "--velocities: velocities are reference frames per query "
-                                                    "frame, each > 0; got 0.0"),
-    (["--profile", "2x", "--velocities", "1", "-0.5"], "each > 0; got -0.5"),
+    (["--profile", "2x", "--velocities", "1", "0"], "speed.velocities: velocities searched, in reference frames per "
+                                                    "query frame ([1.0]: the fixed matcher); must be > 0, got 0.0"),
+    (["--profile", "2x", "--velocities", "1", "-0.5"], "must be > 0, got -0.5"),
 ])
 def test_the_command_refuses_a_bad_profile_or_velocity(dataset, tmp_path, capsys, options, message):
     status = cli(["speed", "--dataset", "d", "--seq-len", "4", *options,

@@ -103,7 +103,9 @@ def test_report_per_seed_and_files(files, tmp_path):
     # the numeric environment (BLAS kernel and threads) is recorded beside the given meta
     given = {key: value for key, value in written["meta"].items() if key != "environment"}
     assert {pool["api"] for pool in written["meta"]["environment"]["thread_pools"]} >= {"blas"}
-    assert given == {"dataset": "d", "seq_len": 4} and first["params"]["column_order"] == [0, 1, 3, 2]
+    # the attributes files record no matcher (written as by vpr-smr 0.10): seqslam with velocities [1.0]
+    assert given == {"dataset": "d", "seq_len": 4, "matcher": {"name": "seqslam", "settings": {"velocities": [1.0]}}}
+    assert first["params"]["column_order"] == [0, 1, 3, 2]
     assert written["n_train"] == 84 and first["splits"]["val"]["n"] == 30 and first["splits"]["test"]["n"] == 24
     # class counts worked out from method_samples: n//2 zeros, n//6 ones and twos, the rest threes
     assert first["train_class_counts"] == [24 + 18, 8 + 6, 8 + 6, 8 + 6]

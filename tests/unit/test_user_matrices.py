@@ -210,7 +210,7 @@ def test_attributes_of_another_ground_truth_are_refused(real, tmp_path, capsys):
     assert (f"{h5} holds attributes labelled with the ground truth band.npy (SHA-256 "
             f"{file_sha256(folder / 'band.npy')[:12]}...), but this stage was given band.json") in err
     assert cli(metrics) == 2  # frames within the tolerance
-    assert "holds attributes of the fixed matcher (velocities [1.0]), ground truth from a matrix" in \
+    assert "holds attributes of the matcher seqslam (velocities [1.0]), ground truth from a matrix" in \
         capsys.readouterr().err
 
 

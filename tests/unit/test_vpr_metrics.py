@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from helpers import write_distance_matrix
+from helpers import SEQSLAM_PROVENANCE, write_distance_matrix
 from oracles import naive_recalls, sequence_matrix, stable_top
 from training_sets import PARAMS
 from worked_matrix import DECISION, SEQ_LEN, TOLERANCE, D, FixedPredictor
@@ -189,7 +189,7 @@ def test_cli_on_a_users_npy(user_matrix, tmp_path):
     assert cli(["metrics", "--distances", str(path), "--seq-len", "3", "--out", str(out)]) == 0
     data = json.loads(out.read_text())
     assert data["meta"] == {"seq_len": 3, "tolerance": 2, "ground_truth": {"kind": "frames", "tolerance": 2},
-                            "r_window": 10, "spread_k": 10}
+                            "r_window": 10, "spread_k": 10, "matcher": SEQSLAM_PROVENANCE}
     assert list(data["splits"]) == ["all"]
     # a square matrix within 2 frames: every query has a correct reference
     assert data["splits"]["all"]["queries_without_correct"] == data["splits"]["all"]["evaluated_without_correct"] == 0
@@ -211,7 +211,7 @@ def test_cli_with_a_predictor(user_matrix, matrix_predictor, tmp_path):
     data = json.loads(out.read_text())
     assert data["meta"] == {"dataset": "d", "method": "mine", "seq_len": 3, "tolerance": 2,
                             "ground_truth": {"kind": "frames", "tolerance": 2}, "predictor": str(predictor_file),
-                            "r_window": 10, "spread_k": 10}
+                            "r_window": 10, "spread_k": 10, "matcher": SEQSLAM_PROVENANCE}
     standard = data["splits"]["test"]["modes"]["standard"]
     assert list(data["splits"]["test"]["modes"]) == ["standard"]
     # recall@1 of the predictor matcher, worked out apart from the command: the predictor file's own decision on the

@@ -36,7 +36,8 @@ def test_workflow_rule(tmp_path):
     data = json.loads((run / "metrics/sample/sad/L3.json").read_text())
     assert data["meta"] == {"dataset": "sample", "method": "sad", "seq_len": 3, "tolerance": 2,
                             "ground_truth": {"kind": "frames", "tolerance": 2}, "r_window": 10, "spread_k": 10,
-                            "predictor": "results/r/predictors/sample/L3.h5"}
+                            "predictor": "results/r/predictors/sample/L3.h5",
+                            "matcher": {"name": "seqslam", "settings": {"velocities": [1.0]}}}
     assert set(data["splits"]) == {"val", "test"}  # the default eval_splits (write_json sorts the keys)
     rows = list(csv.DictReader(open(run / "queries/sample/sad/L3.csv")))
     for split, (lo, hi) in (("val", (50, 80)), ("test", (80, 120))):

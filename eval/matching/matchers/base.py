@@ -44,6 +44,9 @@ class Matcher(ABC):
     Settings: ClassVar[type]  # its settings record (core.settings)
     description: ClassVar[str]  # one sentence for `vpr-smr matchers`, the docs and the report
     native_scorer: ClassVar[str | None] = None  # the §12 scorer that is its native confidence, where it is one
+    # True where s_a[r] is the smallest sum of D along the ``attribute_velocities`` trajectories ending at r (SeqSLAM):
+    # the one pass that computes the attributes then gives the match and the candidates too (eval.matching.features)
+    scores_are_attribute_sums: ClassVar[bool] = False
 
     def __init__(self, seq_len: int, settings: Any) -> None:
         if seq_len < 2:
