@@ -199,31 +199,24 @@ def _training_problems(conf: Config, train: tuple[int, int]) -> list[str]:
                              smote=conf.predictor.smote, split=conf.train_split)
 
 
-def _velocity_problems(conf: Config, name: str, pair: Any, splits: list[str]) -> list[str]:
-    """Whether every split's reference range holds the velocity search's longest trajectory (method §11,
-    ``sequence_matching.velocities``): ``SequenceMatcher.references_needed`` at every ``L`` of ``seq_lens``.
-    Only what the sequence-length check does not already say: with a velocity of 1 or less, ``L`` references
-    suffice."""
-    from vpr_smr.eval.matching.matcher import SequenceMatcher
-
-    if conf.sequence_matching.name != "seqslam":
-        return []  # another matcher's reach is its own (Matcher.lookback, checked by its stages)
-    velocities = [float(v) for v in conf.sequence_matching.values["velocities"]]
+def _matcher_problems(conf: Config, name: str, pair: Any, splits: list[str]) -> list[str]:
+    """Whether the matcher (``sequence_matching``) can match every split at every ``L`` of ``seq_lens``: its own
+    ``Matcher.check`` on a split's references (SeqSLAM's velocity search needs its slowest trajectory's; method
+    §11). Only what the sequence-length check does not already say: splits of at least ``L`` references."""
+    spec = conf.sequence_matching
     problems = []
     for split in splits:
         lo, hi = pair.reference_range(split)
-        short = [(seq_len, SequenceMatcher(seq_len, tuple(velocities)).references_needed)
-                 for seq_len in sorted(conf.seq_lens)]
-        short = [(seq_len, need) for seq_len, need in short if need > max(seq_len, hi - lo)]
-        if not short:
-            continue
-        seq_len, need = short[-1]  # the longest sequence needs the most references
-        problems.append(f"datasets.{name}: split {split!r} reference range [{lo}, {hi}) has {hi - lo} frames, but "
-                        f"velocity search at sequence length {seq_len} with velocities {velocities} "
-                        f"(sequence_matching.velocities) needs at least {need} references (its slowest trajectory "
-                        f"spans {need} reference frames): lengthen the split (its reference range) to at least "
-                        f"{need} frames, or give smaller velocities (with a velocity of 1.0 or less, L references "
-                        "suffice)")
+        for seq_len in sorted(conf.seq_lens, reverse=True):  # the longest sequence needs the most references
+            if hi - lo < seq_len:
+                continue
+            try:
+                spec.build(seq_len).check((hi - lo, seq_len), f"split {split!r}")
+            except ValueError as error:
+                problems.append(f"datasets.{name}: split {split!r} reference range [{lo}, {hi}) cannot be matched "
+                                f"by the matcher {spec} (sequence_matching) at sequence length {seq_len}: {error}; "
+                                "lengthen the split (its reference range), or change sequence_matching")
+                break
     return problems
 
 
@@ -303,7 +296,7 @@ def _check_datasets(conf: Config, problems: list[str]) -> dict[str, DatasetPlan]
                     problems.append(f"datasets.{name}: split {split!r}{role} has {hi - lo} frames, fewer than the "
                                     f"sequence length {longest} (seq_lens): lengthen the split or shorten the "
                                     "sequences")
-        problems.extend(_velocity_problems(conf, name, pair, [s for s in needed if s in pair.splits]))
+        problems.extend(_matcher_problems(conf, name, pair, [s for s in needed if s in pair.splits]))
         train = pair.splits.get(conf.train_split)
         trainable = False
         if train is not None and train[1] - train[0] >= longest:
