@@ -950,5 +950,14 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
         written.append(html_report.main(
             out_dir / registry.HTML, tables, [*figures, *inspected], order=order, split=split, config=options.config,
             provenance=options.provenance, descriptor_paths=files.descriptors, datasets=datasets, splits=splits,
-            protocols=inputs.protocols))
+            protocols=inputs.protocols, matchers=_matchers(read_evaluations)))
     return written
+
+
+def _matchers(evaluations: Sequence[Evaluation]) -> list[str]:
+    """The sequence matchers (name and settings) the evaluations record, each once, in the order they come."""
+    from vpr_smr.eval.matching.attributes import recorded_matcher
+
+    found = [str(recorded_matcher(e.meta, f"the evaluation of {e.dataset}/{e.method}/L{e.seq_len}"))
+             for e in evaluations]
+    return list(dict.fromkeys(found))

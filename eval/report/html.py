@@ -734,10 +734,12 @@ def build_page(
     datasets: dict[str, dict[str, Any]] | None = None,
     splits: Splits | None = None,
     protocols: Mapping[str, str] | None = None,
+    matchers: Sequence[str] = (),
 ) -> Page:
     """The page's view model from the tables and figures of the run folder ``run_dir``: ``split`` is the table
     split, ``splits`` every split's name by role (default: ``split`` alone), ``protocols`` per dataset its ground
-    truth as the tables say it (``build.protocols``; default: from the dataset cards)."""
+    truth as the tables say it (``build.protocols``; default: from the dataset cards), ``matchers`` the sequence
+    matchers (name and settings) the evaluations record, which the subtitle names."""
     order = order or Order(tuple(datasets or {}))
     by_name = {t.name: t for t in tables}
     general, files = provenance_rows(provenance, descriptor_paths)
@@ -747,6 +749,7 @@ def build_page(
     subtitle = " · ".join([
         *([f"run {run}"] if run else []), f"vpr-smr {version}", *([f"{split} split"] if split else []),
         *([f"Table I at L = {', '.join(map(str, lens))}"] if lens else []),
+        *([f"sequence matcher {'; '.join(matchers)}"] if matchers else []),
         f"generated {datetime.now(UTC).strftime('%Y-%m-%d %H:%M UTC')}",
     ])
     found = findings(by_name.get("table1"), split, by_name.get("predictor"))
@@ -796,12 +799,13 @@ def main(
     datasets: dict[str, dict[str, Any]] | None = None,
     splits: Splits | None = None,
     protocols: Mapping[str, str] | None = None,
+    matchers: Sequence[str] = (),
 ) -> Path:
     """Write the page to ``out`` (temporary name, then rename; its folder is the run folder) and return its path."""
     out = Path(out)
     page = build_page(tables, figures, out.parent, order=order, split=split, config=config, provenance=provenance,
                       descriptor_paths=descriptor_paths, title=title, datasets=datasets, splits=splits,
-                      protocols=protocols)
+                      protocols=protocols, matchers=matchers)
     text = render(page)
     with atomic_path(out) as tmp:
         tmp.write_text(text, encoding="utf-8")
