@@ -339,6 +339,13 @@ def cmd_backends(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_matchers(args: argparse.Namespace) -> int:
+    from vpr_smr.pipeline.options import matcher_catalogue
+
+    print(matcher_catalogue())
+    return 0
+
+
 def cmd_convert_checkpoint(args: argparse.Namespace) -> int:
     from vpr_smr.descriptors.convert import CONVERTERS, no_conversion
 
@@ -618,6 +625,12 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
                                    "whether it needs a checkpoint, its distance, the input size of its official "
                                    "evaluation and its default settings.")
     p.set_defaults(func=cmd_backends)
+
+    p = sub.add_parser("matchers", help="list the sequence matchers: description, native confidence, settings",
+                       description="Every sequence matcher (built in, or registered by an installed package through "
+                                   "the entry point group vpr_smr.matchers) with its native confidence and each "
+                                   "setting's default and help.")
+    p.set_defaults(func=cmd_matchers)
 
     p = sub.add_parser("checkpoint", help="checkpoint tools")
     checkpoint_sub = p.add_subparsers(dest="checkpoint_command", required=True)

@@ -148,3 +148,26 @@ def matcher_of(argv: list[str]) -> str:
         elif word.startswith(MATCHER + "="):
             name = word.partition("=")[2]
     return name if name in available_matchers() else DEFAULT_MATCHER
+
+
+def matcher_catalogue() -> str:
+    """Every sequence matcher (built in, or registered by an installed package): its description, its native
+    confidence, and each setting as a configuration key and an option, with its default and help."""
+    import json
+
+    from vpr_smr.core.settings import declared
+    from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, available_matchers, matcher_class
+
+    lines = []
+    for name in available_matchers():
+        cls = matcher_class(name)
+        default = " (the default)" if name == DEFAULT_MATCHER else ""
+        lines.append(f"{name}{default}: {cls.description}")
+        if cls.native_scorer is not None:
+            lines.append(f"  native confidence: the training-free scorer {cls.native_scorer}")
+        for item in declared(cls.Settings):
+            shown = json.dumps(list(item.default) if isinstance(item.default, tuple) else item.default)
+            lines.append(f"  {item.name} ({option(item.name)}, default {shown}): {item.help}")
+    lines.append("In a configuration: sequence_matching: {matcher: NAME, SETTING: VALUE, ...}; on the command line: "
+                 "--matcher NAME --SETTING VALUE")
+    return "\n".join(lines)

@@ -114,3 +114,17 @@ def test_a_matrix_it_cannot_match_is_refused(toy):
     matcher = MatcherSpec.of("toy").build(3)
     with pytest.raises(ValueError, match=r"D of the test split has shape \(1, 5\); the toy matcher needs .* 2 "):
         matcher.check((1, 5), "D of the test split")
+
+
+def test_vpr_smr_matchers_lists_it_with_its_settings(toy, capsys):
+    from vpr_smr.pipeline.cli import main
+
+    assert main(["matchers"]) in (0, None)
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("seqslam (the default): SeqSLAM")
+    assert "  native confidence: the training-free scorer uniqueness" in out
+    assert "  velocities (--velocities, default [1.0]): velocities searched, in reference frames per query frame " \
+           "([1.0]: the fixed matcher)" in out
+    at = out.index("toy: a fading sum of distances along the diagonal (a test plugin)")
+    assert out[at + 1].startswith("  decay (--decay, default 0.5): ")
+    assert out[at + 2].startswith("  step (--step, default 1): ")
