@@ -118,3 +118,16 @@ def test_2d_positions_where_the_tree_names_another_nearest(monkeypatch):
     truth = GroundTruth.positions(references, queries, 1.6)
     assert truth.without_correct().tolist() == [False, False, False, True]
     assert truth.without_correct().tolist() == naive_without_correct(truth).tolist()
+
+
+def test_columns_of_a_matrix_and_of_2d_positions_equal_the_naive_cells():
+    rng = np.random.default_rng(3)
+    correct = rng.random((13, 9)) < 0.3
+    correct[:, 4] = False  # a query without any correct reference
+    matrix = GroundTruth.matrix(correct)
+    picked = np.array([8, 0, 4, 4])
+    assert np.array_equal(matrix.columns(picked), correct[:, picked])
+    assert np.array_equal(matrix.columns(slice(2, 6)), correct[:, 2:6])
+    assert matrix.without_correct().tolist() == (~correct.any(axis=0)).tolist()
+    positions = GroundTruth.positions(rng.normal(size=(13, 2)), rng.normal(size=(9, 2)), 0.8)
+    assert np.array_equal(positions.columns(picked), naive_columns(positions, picked))
