@@ -311,7 +311,7 @@ def _without_correct_nd(truth: PositionTruth) -> np.ndarray:
     is looked up in the tree and judged by ``correct``; where it is not correct but the tree's distance comes within
     ``ND_MARGIN`` of the radius (the tree rounds its distances its own way), every reference the tree finds within the
     radius and the margin is judged by ``correct``, so the result is ``correct``'s. Below ``ND_TREE_CELLS`` cells
-    (or where SciPy's import would cost more than the cells) every cell is judged."""
+    every cell is judged."""
     n_reference, n_query = truth.shape
     if n_reference * n_query < ND_TREE_CELLS:
         return GroundTruth.without_correct(truth)
