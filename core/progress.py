@@ -12,9 +12,10 @@ import re
 import sys
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Never, TextIO
+from typing import TYPE_CHECKING, Never, TextIO
 
-from tqdm import tqdm
+if TYPE_CHECKING:  # tqdm is imported where a bar is drawn: the stages that only read or write states skip its 40 ms
+    from tqdm import tqdm
 
 FORMAT = "{n}/{total} {unit} ({percentage:.0f} %) in {elapsed_s:.1f} s"  # tqdm's bar_format keys
 STATE = re.compile(
@@ -58,6 +59,8 @@ def progress_bar(total: int, unit: str, desc: str = "", file: TextIO | None = No
     Closing it writes its final state and a newline (``leave=True``): a redraw held back by ``min_interval_s``
     (least time between redraws, ``MIN_INTERVAL_S`` by default) would otherwise leave an old state as the last one.
     """
+    from tqdm import tqdm
+
     _check(unit, total)
     return tqdm(total=total, desc=desc, unit=unit, file=file, leave=True,
                 bar_format=("{desc}: " if desc else "") + FORMAT,

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import array
 from abc import ABC, abstractmethod
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,6 +36,11 @@ __all__ = [
 FRAMES, POSITIONS, MATRIX = "frames", "positions", "matrix"  # the kinds of ground truth
 GROUND_TRUTH_KINDS = (FRAMES, POSITIONS, MATRIX)
 BLOCK_VALUES = 1 << 22  # reference x query cells looked at a time by the whole-matrix passes (4 MB of booleans)
+# 2-D positions: from this many cells on, ``without_correct`` looks the references up in a k-d tree (SciPy's import
+# costs about what judging 1 << 25 cells does); the tree's distances count as within the radius up to these margins
+# (relative, and absolute for a radius 0), far above their rounding, and are then judged by ``correct`` itself
+ND_TREE_CELLS = 1 << 25
+ND_MARGIN, ND_MARGIN_ABSOLUTE = 1e-9, 1e-150
 NO_REFERENCE = -1  # ``true_references`` of a query without any correct reference
 # The most cells (references x queries) a ground-truth file may declare or imply when the matrix it scores is not known
 # where it is read (the commands' --ground-truth, read before any distance matrix): 2**33, 1 GiB as bits. Pittsburgh
@@ -116,13 +121,20 @@ class GroundTruth(ABC):
         """Boolean mask over every reference: the correct matches of query ``query``."""
         return self.correct(np.arange(self.shape[0]), np.full(self.shape[0], query))
 
+    def columns(self, queries: Any) -> np.ndarray:
+        """``(R, n)`` bool: ``correct`` of every reference (rows) and each of ``queries`` (a slice or an index
+        array; columns)."""
+        picked = np.arange(self.shape[1])[queries]
+        correct: np.ndarray = self.correct(np.arange(self.shape[0])[:, None], picked[None, :])
+        return correct
+
     def without_correct(self) -> np.ndarray:
-        """``(Q,)`` bool: the queries no reference is correct for (never correct, still counted)."""
+        """``(Q,)`` bool: the queries no reference is correct for (never correct, still counted). Every cell in
+        blocks: ``O(R Q)``; the kinds compute it from their own form faster, with the same result."""
         n_reference, n_query = self.shape
         out = np.empty(n_query, dtype=bool)
-        references = np.arange(n_reference)[:, None]
         for block in _query_blocks(n_reference, n_query):
-            out[block] = ~self.correct(references, np.arange(block.start, block.stop)[None, :]).any(axis=0)
+            out[block] = ~self.columns(block).any(axis=0)
         return out
 
     def is_aligned_band(self) -> bool:
@@ -202,6 +214,41 @@ class PositionTruth(GroundTruth):
         correct: np.ndarray = self.distance(reference, query) <= self.radius
         return correct
 
+    def bounds(self, queries: np.ndarray, references: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """1-D positions: for each of ``queries``, the range ``[lo, hi)`` of ``references`` (sorted positions; default
+        this ground truth's, which must then be sorted) that ``correct`` holds for, as ``correct`` computes it.
+        ``p_ref - p_qry`` rounds monotonically in ``p_ref``, so the correct references of a query are a run of sorted
+        ones; its ends are found by bisection on the same difference, ``O(Q log R)`` where ``correct`` takes
+        ``O(R Q)``."""
+        sorted_positions = self.reference_positions if references is None else references
+        query = self.query_positions[np.asarray(queries)]
+        lo = _first_true(len(sorted_positions), len(query), lambda i: sorted_positions[i] - query >= -self.radius)
+        hi = _first_true(len(sorted_positions), len(query), lambda i: sorted_positions[i] - query > self.radius)
+        return lo, hi
+
+    def has_sorted_references(self) -> bool:
+        """1-D reference positions in non-decreasing order (frames, a route's chainage): ``bounds`` applies."""
+        positions = self.reference_positions
+        return positions.ndim == 1 and bool(np.all(positions[1:] >= positions[:-1]))
+
+    def columns(self, queries: Any) -> np.ndarray:
+        if not self.has_sorted_references():
+            return super().columns(queries)
+        lo, hi = self.bounds(np.arange(self.shape[1])[queries])
+        references = np.arange(self.shape[0])[:, None]
+        columns: np.ndarray = (references >= lo) & (references < hi)
+        return columns
+
+    def without_correct(self) -> np.ndarray:
+        """1-D positions: a query has a correct reference iff its run of sorted references (``bounds``) is not
+        empty; 2-D: ``_without_correct_nd``."""
+        if self.reference_positions.ndim == 2:
+            return _without_correct_nd(self)
+        references = np.sort(self.reference_positions, kind="stable")
+        lo, hi = self.bounds(np.arange(self.shape[1]), references)
+        without: np.ndarray = lo == hi
+        return without
+
     def is_aligned_band(self) -> bool:
         """Whether this is ``aligned(R, Q, tolerance)`` (frame indices, an integer radius): method §1's band."""
         n_ref, n_query = self.shape
@@ -243,6 +290,43 @@ class PositionTruth(GroundTruth):
         references = np.arange(self.shape[0])
         return np.array([int(np.argmin(self.distance(references, np.full(len(references), a)))) for a in queries],
                         dtype=np.int64)
+
+
+def _first_true(n: int, count: int, true_at: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """For ``count`` predicates over ``0..n-1``, each false and then true along its index, the first index where each
+    holds (``n`` where none does): a vectorised bisection. ``true_at(i)`` tells predicate ``k`` at index ``i[k]``."""
+    lo, hi = np.zeros(count, dtype=np.int64), np.full(count, n, dtype=np.int64)
+    while True:
+        open_ = lo < hi
+        if not open_.any():
+            return lo
+        middle = (lo + hi) // 2
+        holds = true_at(np.minimum(middle, n - 1))  # a closed one's middle may be n; its answer is not used
+        hi = np.where(open_ & holds, middle, hi)
+        lo = np.where(open_ & ~holds, middle + 1, lo)
+
+
+def _without_correct_nd(truth: PositionTruth) -> np.ndarray:
+    """``without_correct`` of 2-D (or more) positions through a k-d tree (SciPy's): a query's nearest reference
+    is looked up in the tree and judged by ``correct``; where it is not correct but the tree's distance comes within
+    ``ND_MARGIN`` of the radius (the tree rounds its distances its own way), every reference the tree finds within the
+    radius and the margin is judged by ``correct``, so the result is ``correct``'s. Below ``ND_TREE_CELLS`` cells
+    every cell is judged."""
+    n_reference, n_query = truth.shape
+    if n_reference * n_query < ND_TREE_CELLS:
+        return GroundTruth.without_correct(truth)
+    from scipy.spatial import cKDTree  # 0.2-0.4 s of import, paid only here
+
+    tree = cKDTree(truth.reference_positions)
+    distance, nearest = tree.query(truth.query_positions, k=1)
+    queries = np.arange(n_query)
+    found = truth.correct(nearest, queries)
+    reach = truth.radius * (1 + ND_MARGIN) + ND_MARGIN_ABSOLUTE
+    for query in np.flatnonzero(~found & (distance <= reach)):
+        candidates = np.asarray(tree.query_ball_point(truth.query_positions[query], reach), dtype=np.int64)
+        found[query] = bool(truth.correct(candidates, np.full(len(candidates), query)).any())
+    without: np.ndarray = ~found
+    return without
 
 
 @dataclass(frozen=True)
@@ -399,7 +483,7 @@ class MatrixTruth(GroundTruth):
     def without_correct(self) -> np.ndarray:
         return np.asarray(~self.bits.any(axis=0))
 
-    def columns(self, queries: slice) -> np.ndarray:
+    def columns(self, queries: Any) -> np.ndarray:
         """``G[:, queries]`` as booleans (R x n)."""
         out: np.ndarray = np.unpackbits(self.bits[:, queries], axis=0, count=self.n_reference).astype(bool)
         return out

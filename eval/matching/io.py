@@ -323,18 +323,18 @@ def similarity_evidence(matrix: Any, truth: GroundTruth, block_queries: int = 25
     wrong ones', and for how many the column's largest and its smallest value is a correct reference (first index on
     ties). Read in blocks of ``block_queries`` columns."""
     n_ref, n_query = (int(n) for n in matrix.shape)
-    references = np.arange(n_ref)[:, None]
     sample = np.unique(np.linspace(0, n_query - 1, min(n_query, SIMILARITY_SAMPLE)).round().astype(np.int64))
     counted = larger = at_max = at_min = 0
     for start in range(0, len(sample), block_queries):
         queries = sample[start : start + block_queries]
         values = np.asarray(matrix[:, queries], dtype=np.float64)
-        correct = truth.correct(references, queries[None, :])
+        correct = truth.columns(queries)
         n_correct = correct.sum(axis=0)
         both = (n_correct > 0) & (n_correct < n_ref) & np.isfinite(values).all(axis=0)
         if not both.any():
             continue
-        values, correct, n_correct = values[:, both], correct[:, both], n_correct[both]
+        if not both.all():  # a copy of the block only where some of its queries do not count
+            values, correct, n_correct = values[:, both], correct[:, both], n_correct[both]
         mean_correct = np.where(correct, values, 0.0).sum(axis=0) / n_correct
         mean_wrong = np.where(correct, 0.0, values).sum(axis=0) / (n_ref - n_correct)
         columns = np.arange(values.shape[1])
