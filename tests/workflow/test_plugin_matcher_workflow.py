@@ -28,26 +28,7 @@ DEMO = Path(__file__).resolve().parents[2] / "configs" / "demo.yaml"
 MATCHER = {"name": "toy", "settings": {"decay": 0.25, "step": 1}}
 
 
-def seam_merged() -> bool:
-    """Whether the configuration knows ``sequence_matching.matcher``: False only where the schema refuses the key
-    (any other error counts as merged, so that the test runs and shows it)."""
-    from vpr_smr.pipeline.config import validated_json
-
-    conf = {"run": "r", "datasets": {"d": {"loader": "nordland_sample"}}, "methods": {"sad": {"backend": "sad"}},
-            "sequence_matching": {"matcher": "seqslam"}}
-    try:
-        validated_json(conf)
-    except ValueError as error:
-        return "sequence_matching.matcher: unexpected key 'matcher'" not in str(error)
-    return True
-
-
-pytestmark = [
-    pytest.mark.slow,
-    pytest.mark.xfail(not seam_merged(), strict=True,
-                      reason="needs issue 34's seam: sequence_matching.matcher in the configuration and --matcher "
-                             "through the stages (branches seam and settings)"),
-]
+pytestmark = pytest.mark.slow
 
 
 def plugin_config(out: Path) -> dict:
@@ -106,3 +87,4 @@ def test_the_report_names_the_plugin(run):
     assert copies == 1
     text = re.sub(r"data:[^\"')\s]+", "", text)  # the figures inlined as base64, where any word may turn up
     assert re.search(r"\btoy\b", text)
+    assert '<p class="subtitle">' in text and "sequence matcher toy (decay 0.25, step 1)" in text
