@@ -15,8 +15,7 @@ from __future__ import annotations
 import base64
 import json
 import re
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -48,6 +47,7 @@ from vpr_smr.eval.report.results import (
     unique,
 )
 from vpr_smr.eval.report.rows import Column as TableColumn
+from vpr_smr.eval.report.sections import INSPECTOR_FIGURES, Declared, Rows
 from vpr_smr.eval.report.table1 import (
     ROW_NAMES,
     SEED_ROW_NAME,
@@ -392,46 +392,12 @@ class _Builder:
         return Section(spec.id, spec.title, intro, tuple(blocks), self.folded(*spec.tables), tuple(headlines))
 
     def sections(self) -> list[Section]:
-        return [s for s in (self.section(spec) for spec in SECTIONS) if s is not None]
+        """The page's sections (``SECTIONS``), then those of the tables that declare their own, in the registry's
+        order."""
+        return [s for s in (self.section(spec) for spec in declared_sections()) if s is not None]
 
 
-# --- the experiments' sections, declared ------------------------------------------------------------------------
-
-Rows = Sequence[dict[str, Any]]
-
-
-@dataclass(frozen=True)
-class Declared:
-    """A section of the page, below the findings: ``id`` (its anchor) and ``title``; ``tables``, the registered
-    tables it shows (the first one's rows are its blocks'; each folded whole at its foot); ``intro``, its sentences
-    under the title (a text, or made from the run); a block per written figure of the registered ``figure``, with
-    ``view`` (its tables of the figure's rows), ``sentences`` (said under it), ``headline`` (its one sentence on the
-    first screen) and the figures of ``aside`` of the same dataset, L and mode beside it; or ``blocks`` made
-    otherwise (per dataset, per dataset and L); ``headlines``: the section's own sentences on the first screen.
-
-    Adding a section is one declaration in ``SECTIONS`` (in the page's order)."""
-
-    id: str
-    title: str
-    tables: tuple[str, ...]
-    intro: str | Callable[[_Builder], tuple[str, ...]]
-    figure: str = ""
-    view: Callable[[_Builder, WrittenFigure, Rows], tuple[TableView, ...]] | None = None
-    sentences: Callable[[_Builder, Rows], Sequence[str]] | None = None
-    headline: Callable[[Rows], str] | None = None
-    aside: str = ""
-    blocks: Callable[[_Builder], Sequence[Block]] | None = None
-    headlines: Callable[[_Builder], Sequence[str]] | None = None
-
-    def __post_init__(self) -> None:
-        for name in self.tables:
-            registry.table(name)  # only a declared table is shown
-        for name in (self.figure, self.aside):
-            if name and name not in INSPECTOR_FIGURES:
-                registry.figure(name)
-
-
-INSPECTOR_FIGURES = ("matches", "distance_matrix")  # the match inspector's figures (``build.INSPECTOR``)
+# --- the experiments' sections, declared (``sections.Declared``) ---------------------------------------------
 
 
 def _baseline_blocks(b: _Builder) -> list[Block]:
@@ -655,6 +621,21 @@ SECTIONS = (
         "split. The per-query CSV files (matches, distances, attributes, true class, prediction) are in the run "
         "folder, named under each method.",), blocks=_inspector_blocks),
 )
+
+
+
+
+def declared_sections() -> tuple[Declared, ...]:
+    """``SECTIONS``, then the ``section`` of each registered table that declares one; each checked (its tables and
+    figures registered) and its id once."""
+    found = (*SECTIONS, *(spec.section for spec in registry.TABLES if spec.section is not None))
+    for spec in found:
+        spec.check()
+    ids = [spec.id for spec in found]
+    twice = sorted({name for name in ids if ids.count(name) > 1})
+    if twice:
+        raise ValueError(f"sections declared twice: {', '.join(twice)}")
+    return found
 
 
 # --- datasets, provenance ---------------------------------------------------------------------------------------
