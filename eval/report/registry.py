@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.constants import RECALL_AT
-from vpr_smr.eval.report import rows
+from vpr_smr.eval.report import names, rows
 from vpr_smr.eval.report import tabulate as make
 from vpr_smr.eval.report.results import Splits, split_word
 from vpr_smr.eval.report.rows import Column
@@ -158,7 +158,7 @@ CORRECT_MATCHES = Column("correct_matches")
 CORE_TABLES = (
     Table("table1", "Table I: area over the PR curve at max recall", ("table1",),
           row=rows.Table1Row, make=make.make_table1, markdown=make.table1_md, latex=make.table1_tex,
-          page=("method", "recall_at_1_single", "recall_at_1_sequence", "max_recall", "reduction_pct")),
+          page=("method", names.RECALL_SINGLE, names.RECALL_SEQUENCE, "max_recall", names.REDUCTION)),
     Table("predictor_methods", "Predictor alone: macro F1, class counts and predicted counts per method",
           ("table1",),
           row=rows.PredictorMethodRow, make=make.make_predictor_methods,
@@ -169,7 +169,7 @@ CORE_TABLES = (
           ("table1",), row=rows.ConfusionRow, make=make.make_confusion),
     Table("trust_levels", "Trust-level ablation: PR AUC per trust level", ("table1", "trust"),
           row=rows.TrustRow, make=make.make_trust,
-          pivot=Pivot("trust", ("method",), ("reduction_pct",)),
+          pivot=Pivot("trust", ("method",), (names.REDUCTION,)),
           caption="AOC reduction (%) per trust level (columns: methods)"),
     Table("restoration", "Match restoration (second filter): removal against restoration", ("table1", "restoration"),
           row=rows.RestorationRow, make=make.make_restoration,
@@ -196,13 +196,13 @@ CORE_TABLES = (
     Table("ablation_seq_len", "Sequence-length ablation: Table I columns per dataset, method and sequence length",
           ("table1", "seq_len"),
           row=rows.SeqLenRow, make=make.make_seq_len,
-          pivot=Pivot("seq_len", ("method",), ("reduction_pct",)),
+          pivot=Pivot("seq_len", ("method",), (names.REDUCTION,)),
           caption="AOC reduction (%) per sequence length (columns: methods)"),
     Table("speed", "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search "
           "on simulated queries driven at other speeds (method §11), per dataset, method, profile and matcher",
           ("speed",),
           row=rows.SpeedRow, make=make.make_speed,
-          pivot=Pivot("profile", ("method", "matcher"), ("recall_at_1_sequence", "reduction_pct")),
+          pivot=Pivot("profile", ("method", "matcher"), (names.RECALL_SEQUENCE, names.REDUCTION)),
           caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and method · matcher "
                   "(columns); single-frame recall@1 and the AOCs: the whole table below"),
     Table("predictor", PREDICTOR_TITLE.format(splits="validation, test"), ("predictor",),
@@ -216,12 +216,12 @@ CORE_TABLES = (
           ("leave_one_method_out",),
           row=rows.HeldOutRow, make=make.make_lomo,
           page=("held_out", "seq_len", "mode", "f1_pooled", "f1_without", "removed_pooled", "removed_without",
-                "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
+                names.AOC_VPR_SM, "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
     Table("protocol_sweep", "Protocol sweep: recall@1 and the AOC reduction of the predictor under other ground-truth "
           "tolerances (frames) or radii (positions), from the same matches and the same seed-0 predictor (method §13)",
           ("protocol_sweep",),
           row=rows.SweepRow, make=make.make_sweep,
-          pivot=Pivot("threshold", ("method",), ("reduction_pct",)),
+          pivot=Pivot("threshold", ("method",), (names.REDUCTION,)),
           caption="AOC reduction (%) per tolerance or radius (rows) and method (columns); recall@1: the figure and "
                   "the whole table below"),
     Table("datasets", "Datasets: traverses, frames per split, tolerance, frame lists and where the images came from",
@@ -248,8 +248,8 @@ def declared(package: str = TABLES_PACKAGE) -> tuple[Table, ...]:
 
 def collected(*tables: Table) -> tuple[Table, ...]:
     """``tables``, each name once (a second table of a name would overwrite the first one's files)."""
-    names = [entry.name for entry in tables]
-    twice = sorted({name for name in names if names.count(name) > 1})
+    named = [entry.name for entry in tables]
+    twice = sorted({name for name in named if named.count(name) > 1})
     if twice:
         raise ValueError(f"tables declared twice: {', '.join(twice)} (eval/report/registry.py CORE_TABLES and the "
                          "modules of eval/report/tables/ name each table once)")

@@ -101,3 +101,13 @@ def test_every_registered_table_is_shown_by_a_declared_section():
     # the datasets table is folded under the dataset cards, not in an experiment's section
     assert sorted([*shown, "datasets"]) == sorted(spec.name for spec in registry.TABLES)
     assert len({section.id for section in SECTIONS}) == len(SECTIONS)
+
+
+def test_the_names_the_report_reads_are_the_row_records_fields():
+    from vpr_smr.eval.report import names
+
+    fields = {field.name for field in dataclasses.fields(rows.Table1Row)}
+    assert {names.REDUCTION, names.AOC_VPR_SM, names.AOC_VPR_SM_PRED, names.RECALL_SINGLE,
+            names.RECALL_SEQUENCE} <= fields
+    assert {"reduction_pct", "aoc_vpr_sm", "aoc_vpr_sm_pred", "recall_at_1_single", "recall_at_1_sequence"} == {
+        names.REDUCTION, names.AOC_VPR_SM, names.AOC_VPR_SM_PRED, names.RECALL_SINGLE, names.RECALL_SEQUENCE}
