@@ -224,9 +224,6 @@ CORE_TABLES = (
           pivot=Pivot("threshold", ("method",), (names.REDUCTION,)),
           caption="AOC reduction (%) per tolerance or radius (rows) and method (columns); recall@1: the figure and "
                   "the whole table below"),
-    Table("datasets", "Datasets: traverses, frames per split, tolerance, frame lists and where the images came from",
-          ("datasets",),
-          row=rows.DatasetRow, make=make.make_datasets, protocol=False),
 )
 
 TABLES_PACKAGE = "vpr_smr.eval.report.tables"  # each of its modules declares one table (its ``TABLE``)

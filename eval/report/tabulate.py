@@ -21,7 +21,6 @@ from vpr_smr.eval.report.results import Order, Splits, split_word, unique
 from vpr_smr.eval.report.rows import (
     Column,
     ConfusionRow,
-    DatasetRow,
     HeldOutRow,
     PredictorMethodRow,
     PredictorRow,
@@ -337,12 +336,6 @@ def sweep_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = 
                                        order.method(r.method), r.threshold))
 
 
-def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None) -> list[DatasetRow]:
-    """One row per dataset card (``pipeline.plan.dataset_cards``), in the configuration's order."""
-    order = order or Order(tuple(datasets))
-    return [DatasetRow.of(name, datasets[name]) for name in sorted(datasets, key=order.dataset)]
-
-
 
 
 # --- each table's make: its rows from the run's inputs, None when the run has not what it is of -------------------
@@ -430,10 +423,6 @@ def table2_tex(rows: Sequence[Row], inputs: Inputs) -> str:
 
 def make_lomo(inputs: Inputs) -> list[HeldOutRow] | None:
     return lomo_rows(inputs.lomo, inputs.order) if inputs.lomo else None
-
-
-def make_datasets(inputs: Inputs) -> list[DatasetRow] | None:
-    return dataset_rows(inputs.datasets, inputs.order) if inputs.datasets else None
 
 
 def make_speed(inputs: Inputs) -> list[SpeedRow] | None:
