@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from vpr_smr.eval.report import bounds
+from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report.results import Order
 from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, SeqLenRow, Table1Row
 from vpr_smr.eval.scoring import scorers
@@ -64,7 +64,7 @@ def _sorted(records: Iterable[Baselines], order: Order | None) -> list[Baselines
 def headline(row: dict[str, Any]) -> float | None:
     """The number a scorer's table cell shows: its reduction at the seed-0 predictor's budget; random's mean over the
     seeds (beside its spread). Comparisons take every scorer's seed-0 number instead (like with like)."""
-    value: float | None = row.get("reduction_pct_mean" if row["scorer"] == RANDOM else "reduction_pct")
+    value: float | None = row.get("reduction_pct_mean" if row["scorer"] == RANDOM else names.REDUCTION)
     return value
 
 
@@ -133,7 +133,7 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
     return rows
 
 
-def best_scorer(rows: Iterable[Mapping[str, Any]], key: str = "reduction_pct") -> Mapping[str, Any] | None:
+def best_scorer(rows: Iterable[Mapping[str, Any]], key: str = names.REDUCTION) -> Mapping[str, Any] | None:
     """The row of the training-free scorer with the largest seed-0 ``key`` among ``rows`` (one method's, one
     mode's: as the seed-0 predictor's), the first in the registry's order on a tie; None when none is defined."""
     candidates = [r for r in rows if r["scorer"] in scorers.training_free() and r.get(key) is not None]
@@ -163,7 +163,7 @@ def with_best(table_rows: Sequence[Table1Row], rows: Sequence[Mapping[str, Any]]
         found = best_scorer(group)
         if found is not None:
             out.append(SeqLenRow(**numbers, best_scorer=found["scorer"],
-                                 best_scorer_reduction_pct=found["reduction_pct"], best_scorer_outcome=found["outcome"],
+                                 best_scorer_reduction_pct=found[names.REDUCTION], best_scorer_outcome=found["outcome"],
                                  best_scorer_auc=found.get("auc")))
             continue
         outcomes = {r["outcome"] for r in group if r["scorer"] in scorers.training_free()}
@@ -220,7 +220,7 @@ def comparisons(rows: Sequence[dict[str, Any]]) -> list[Comparison]:
     for (dataset, mode, seq_len), group in groups.items():
         methods = tuple(dict.fromkeys(str(r["method"]) for r in group))
         by = {(str(r["method"]), str(r["scorer"])): r for r in group}
-        values = {name: tuple(by[(m, name)]["reduction_pct"] if (m, name) in by else None for m in methods)
+        values = {name: tuple(by[(m, name)][names.REDUCTION] if (m, name) in by else None for m in methods)
                   for name in scorers.names()}
         # like with like: the scorers are ranked by their means over the methods where every one of them is
         # defined (each over its own only where no method is); the ranking picks whom to compare, the paired

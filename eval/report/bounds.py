@@ -29,7 +29,7 @@ def is_bound(column: str) -> bool:
 
 
 def base(column: str) -> str:
-    """The number a bound column belongs to (``reduction_pct_ci_low`` -> ``reduction_pct``)."""
+    """The number a bound column belongs to (``<number>_ci_low`` -> ``<number>``)."""
     return column.removesuffix(LOW).removesuffix(HIGH)
 
 

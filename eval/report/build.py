@@ -7,7 +7,6 @@ lists, from the configuration alone, the files ``main`` writes, so that a workfl
 from __future__ import annotations
 
 import csv
-import dataclasses
 import json
 import re
 from collections.abc import Callable, Collection, Iterable, Mapping, Sequence
@@ -17,14 +16,13 @@ from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
-from vpr_smr.core.constants import MATCHERS
 from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path
 from vpr_smr.core.records import FormatError
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import bounds, registry
 from vpr_smr.eval.report import figures as fig
-from vpr_smr.eval.report.baselines import baseline_rows, comparisons, detection_rows, with_best
+from vpr_smr.eval.report.baselines import baseline_rows, comparisons
 from vpr_smr.eval.report.results import (
     Order,
     Splits,
@@ -32,34 +30,11 @@ from vpr_smr.eval.report.results import (
     WrittenTable,
     ground_truth_text,
     provenance_text,
-    split_word,
     unique,
 )
-from vpr_smr.eval.report.rows import (
-    ConfusionRow,
-    DatasetRow,
-    HeldOutRow,
-    PredictorMethodRow,
-    PredictorRow,
-    RestorationRow,
-    SeqLenRow,
-    SpeedRow,
-    SweepRow,
-    Table2Row,
-    TimingRow,
-    TrustRow,
-    VPRMetricsRow,
-    cells,
-)
-from vpr_smr.eval.report.table1 import (
-    UNDEFINED,
-    evaluation_order,
-    is_reduction,
-    table1_latex,
-    table1_markdown,
-    table1_rows,
-    tex_escape,
-)
+from vpr_smr.eval.report.rows import cells
+from vpr_smr.eval.report.table1 import UNDEFINED, evaluation_order, is_reduction, tex_escape
+from vpr_smr.eval.report.tabulate import Inputs, by_key, seq_len_rows, speed_rows, sweep_rows
 from vpr_smr.eval.scoring.records import (
     KEY_META,
     Baselines,
@@ -69,267 +44,9 @@ from vpr_smr.eval.scoring.records import (
     Timing,
     VPRMetrics,
 )
-from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
 from vpr_smr.eval.scoring.speed import SpeedResult
 
-# Every table's columns, in its files' order: registry.TABLES
-
-ATTRIBUTE_ORDER = ("A1", "A2", "A3", "A4", "all")
-
-# --- Table II ---------------------------------------------------------------------------------------------------
-
-
-def table2_f1(splits: Splits) -> tuple[str, ...]:
-    """Table II's F1 columns (its page's columns but the samples, which its notes say) named by ``splits``."""
-    return tuple(column.name for column in registry.table("table2").shown(splits) if not column.note)
-
-
-def table2_splits(ablations: Sequence[AttributeAblation]) -> Splits:
-    """The split names of Table II when none are given: the records' own, in the order first seen (the validation
-    split first, the last evaluation split last)."""
-    names = unique(name for ablation in ablations for numbers in ablation.attributes.values()
-                   for name in numbers.splits)
-    return Splits(names[-1] if names else None, names)
-
-
-def table2_rows(ablations: Sequence[AttributeAblation], order: Order | None = None,
-                splits: Splits | None = None) -> list[Table2Row]:
-    """Table II's rows, the columns of the validation and the last evaluation split named by ``splits`` (default:
-    the records' own names, ``table2_splits``)."""
-    order = order or Order.of(ablation.meta for ablation in ablations)
-    splits = splits or table2_splits(ablations)
-    rows = [Table2Row.of(ablation, name, splits) for ablation in ablations for name in ATTRIBUTE_ORDER
-            if name in ablation.attributes]
-    return sorted(rows, key=lambda r: (order.dataset(r.dataset), int(r.seq_len), ATTRIBUTE_ORDER.index(r.attributes)))
-
-
-def _marks(name: str, yes: str, no: str) -> list[str]:
-    return [yes if name in (attribute, "all") else no for attribute in ATTRIBUTE_ORDER[:4]]
-
-
-def _f1(value: Any) -> str:
-    return "" if value is None else f"{value:.2f}"
-
-
-def _sample_note(group: list[dict[str, Any]], splits: Splits) -> str:
-    """The samples Table II's F1 is over: the pooled train split (cross-validation), the validation and the last
-    evaluation split, each by its name."""
-    first = group[0]
-    named = [(splits.train, "n_train"), *((name, f"n_{name}") for name in unique(
-        name for name in (splits.validation, splits.last) if name is not None))]
-    parts = [f"{split_word(str(name))} {first[key]} samples" for name, key in named if first.get(key) is not None]
-    return "F1 over " + ", ".join(parts) + " (every method pooled)" if parts else ""
-
-
-def _table2_headings(splits: Splits, long: bool) -> list[str]:
-    """Table II's F1 headings: cross-validation, the validation and the last split by name, the method mean; the
-    registry's labels (``long``, Markdown) or LaTeX's short ones."""
-    if long:
-        return [column.header for column in registry.table("table2").shown(splits) if not column.note]
-    validation, table = splits.validation, tex_escape(str(splits.last))
-    return ["F1 (CV)", *([f"F1 ({tex_escape(validation)})"] if validation is not None else []), f"F1 ({table})",
-            f"F1 ({table}, method mean)"]
-
-
-def table2_markdown(table2: Sequence[Table2Row], splits: Splits | None = None) -> str:
-    splits, rows = splits or Splits("test", ("val", "test")), [cells(row) for row in table2]
-    f1 = table2_f1(splits)
-    out = ["# Table II: macro F1 of the predictor by attribute (A1 minimum sum rate, A2 minimum value rate, "
-           "A3 block sum rate, A4 group sum rate)", ""]
-    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
-    for row in rows:
-        groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
-    for (dataset, seq_len), group in groups.items():
-        note = _sample_note(group, splits)
-        headings = ["A1", "A2", "A3", "A4", *_table2_headings(splits, long=True)]
-        out += [f"## {dataset}, sequence length {seq_len}", ""] + ([note, ""] if note else []) + [
-                "| " + " | ".join(headings) + " |", "|" + "---|" * len(headings)]
-        for row in group:
-            texts = _marks(row["attributes"], "✓", "×") + [_f1(row.get(k)) for k in f1]
-            out.append("| " + " | ".join(texts) + " |")
-        out.append("")
-    return "\n".join(out)
-
-
-def table2_latex(table2: Sequence[Table2Row], splits: Splits | None = None) -> str:
-    splits, rows = splits or Splits("test", ("val", "test")), [cells(row) for row in table2]
-    f1 = table2_f1(splits)
-    out = []
-    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
-    for row in rows:
-        groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
-    for (dataset, seq_len), group in groups.items():
-        headings = ["A1", "A2", "A3", "A4", *_table2_headings(splits, long=False)]
-        out += [f"% {dataset}, sequence length {seq_len}", r"\begin{tabular}{" + "|".join("c" * len(headings)) + "}",
-                " & ".join(headings) + r"\\", r"\hline"]
-        for row in group:
-            texts = _marks(row["attributes"], r"$\checkmark$", r"$\times$") + [_f1(row.get(k)) for k in f1]
-            out.append(" & ".join(texts) + r"\\")
-        note = _sample_note(group, splits)
-        if note:
-            out.append(rf"\multicolumn{{{len(headings)}}}{{l}}{{\footnotesize {tex_escape(note)}}}\\")
-        out += [r"\end{tabular}", ""]
-    return "\n".join(out)
-
-
-# --- the other tables -----------------------------------------------------------------------------------------
-
-
-def predictor_rows(predictors: Sequence[PredictorReport], order: Order | None = None,
-                   splits: Splits | None = None) -> list[PredictorRow]:
-    """The pooled predictors' numbers (the registry's predictor columns) and warnings, judged on ``splits``'
-    validation split (default: the reports' splits, in the order first seen, the first of them the validation
-    split)."""
-    order = order or Order.of(report.meta for report in predictors)
-    seen = tuple(dict.fromkeys(name for report in predictors for name in report.seeds[0].splits))
-    validation = splits.validation if splits is not None else next(iter(seen), None)
-    evaluation = splits.evaluation if splits is not None else seen
-    rows = [PredictorRow.of(report, evaluation, validation) for report in predictors]
-    return sorted(rows, key=lambda r: (order.dataset(r.dataset), int(r.seq_len)))
-
-
-def _by_key(evaluations: Sequence[Evaluation], order: Order | None = None
-            ) -> dict[tuple[str, int], list[Evaluation]]:
-    """(dataset, L) -> evaluations, datasets and methods in the configuration's ``order`` (default: the
-    evaluations' own)."""
-    order = order or evaluation_order(evaluations)
-    out: dict[tuple[str, int], list[Evaluation]] = {}
-    for evaluation in evaluations:
-        out.setdefault((evaluation.dataset, evaluation.seq_len), []).append(evaluation)
-    return {key: sorted(out[key], key=lambda e: order.method(e.method))
-            for key in sorted(out, key=lambda k: (order.dataset(k[0]), k[1]))}
-
-
-def predictor_method_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
-                          ) -> list[PredictorMethodRow]:
-    return [PredictorMethodRow.of(dataset, seq_len, evaluation.method, split, evaluation.splits[split])
-            for (dataset, seq_len), items in _by_key(evaluations, order).items() for evaluation in items]
-
-
-def confusion_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
-                   ) -> list[ConfusionRow]:
-    """The seed-0 confusion matrix per dataset, L and method, and summed over the methods (method ``all``)."""
-    rows = []
-    for (dataset, seq_len), items in _by_key(evaluations, order).items():
-        matrices = [(e.method, np.array(e.splits[split].confusion_matrix)) for e in items]
-        matrices.append(("all", np.sum([m for _, m in matrices], axis=0)))
-        for method, matrix in matrices:
-            rows += [ConfusionRow.of(dataset, seq_len, method, true_class, counts)
-                     for true_class, counts in enumerate(matrix)]
-    return rows
-
-
-def trust_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None) -> list[TrustRow]:
-    return [TrustRow.of(evaluation.key, mode, float(level), values, result.n_queries)
-            for items in _by_key(evaluations, order).values() for evaluation in items
-            for result in (evaluation.splits[split],) for mode, numbers in result.modes.items()
-            for level, values in (numbers.trust_auc or {}).items()]
-
-
-def restoration_rows(evaluations: Sequence[Evaluation], split: str, order: Order | None = None
-                     ) -> list[RestorationRow]:
-    return [RestorationRow.of(evaluation.key, mode, result.restoration, result.n_queries)
-            for items in _by_key(evaluations, order).values() for evaluation in items
-            for result in (evaluation.splits[split],) if result.restoration is not None
-            for mode in result.restoration.modes]
-
-
-def lomo_rows(results: Sequence[HeldOut], order: Order | None = None) -> list[HeldOutRow]:
-    order = order or Order.of(result.meta for result in results)
-    rows = [HeldOutRow.of(result.key, mode, result) for result in results for mode in result.pooled.modes]
-    return sorted(rows, key=lambda r: (order.mode(r.mode), order.dataset(r.dataset), r.seq_len,
-                                       order.method(r.held_out)))
-
-
-def match_timings(evaluations: Sequence[Evaluation], timings: Sequence[Timing]) -> dict[tuple[str, str, int], Timing]:
-    """Each timing by the (dataset, method, L) of its meta, which must be one of the evaluations'."""
-    known = {evaluation.key for evaluation in evaluations}
-    out: dict[tuple[str, str, int], Timing] = {}
-    for timing in timings:
-        dataset, method, seq_len = timing.key
-        if timing.key not in known:
-            raise ValueError(f"timings of {dataset}, {method}, L{seq_len} match no evaluation given")
-        if timing.key in out:
-            raise ValueError(f"two timing files of {dataset}, {method}, L{seq_len}")
-        out[timing.key] = timing
-    return out
-
-
-def timing_rows(evaluations: Sequence[Evaluation], timings: Sequence[Timing], order: Order | None = None
-                ) -> list[TimingRow]:
-    """Per evaluation and split, its timing (matched by meta); evaluations whose timings are not given are left
-    out."""
-    matched = match_timings(evaluations, timings)
-    return [TimingRow.of(dataset, evaluation.method, seq_len, split, timing.splits[split])
-            for (dataset, seq_len), items in _by_key(evaluations, order).items() for evaluation in items
-            if (timing := matched.get(evaluation.key)) is not None for split in evaluation.splits]
-
-
-def vpr_metrics_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[VPRMetricsRow]:
-    """The standard VPR metrics of the table ``split``: one row per dataset, method, L, mode and matcher (in the
-    configuration's order, the matchers in ``core.constants.MATCHERS``' order)."""
-    order = order or Order.of(record.meta for record in records)
-    seen: set[tuple[str, str, int]] = set()
-    rows = []
-    for record in sorted(records, key=lambda r: (order.dataset(r.key[0]), order.method(r.key[1]), r.key[2])):
-        dataset, method, seq_len = record.key
-        if record.key in seen:
-            raise ValueError(f"two VPR metrics files of {dataset}, {method}, L{seq_len}")
-        seen.add(record.key)
-        if split not in record.splits:
-            raise ValueError(f"the VPR metrics of {dataset}, {method}, L{seq_len} have no split {split!r} (the "
-                             f"table split); they have {', '.join(record.splits) or 'none'}")
-        modes = record.splits[split].modes
-        for mode in sorted(modes, key=order.mode):
-            matchers = sorted(modes[mode], key=lambda m: (MATCHERS.index(m) if m in MATCHERS else len(MATCHERS), m))
-            rows += [VPRMetricsRow.of(record.key, split, mode, matcher, modes[mode][matcher]) for matcher in matchers]
-    return rows
-
-
-def speed_rows(results: Sequence[SpeedResult], order: Order | None = None) -> list[SpeedRow]:
-    """The speed experiment: one row per dataset, L, method, profile and matcher (fixed, then velocity search), the
-    datasets and methods in the configuration's order and the profiles in the order given (the configuration's)."""
-    order = order or Order.of(result.meta for result in results)
-    profiles: dict[str, int] = {}
-    seen: set[tuple[str, int, str]] = set()
-    rows = []
-    for result in results:
-        dataset, seq_len, profile = str(result.meta["dataset"]), int(result.meta["seq_len"]), result.profile
-        if (dataset, seq_len, profile) in seen:
-            raise ValueError(f"two speed files of {dataset}, L{seq_len}, profile {profile}")
-        seen.add((dataset, seq_len, profile))
-        profiles.setdefault(profile, len(profiles))
-        rows += [SpeedRow.of(result, matcher, numbers.velocities, method, scores)
-                 for matcher, numbers in result.matchers.items() for method, scores in numbers.methods.items()]
-    matchers = list(SPEED_MATCHERS)
-    return sorted(rows, key=lambda r: (order.dataset(r.dataset), r.seq_len, order.method(r.method),
-                                       profiles[r.profile], matchers.index(r.matcher)
-                                       if r.matcher in matchers else len(matchers), r.matcher))
-
-
-def sweep_rows(records: Sequence[VPRMetrics], split: str, order: Order | None = None) -> list[SweepRow]:
-    """The protocol sweep of the table ``split`` (``records.ProtocolSweep``, in the VPR metrics of a run with the
-    sweep): one row per dataset, method, L, mode and tolerance or radius, in the configuration's order."""
-    order = order or Order.of(record.meta for record in records)
-    rows = []
-    for record in records:
-        found = record.splits.get(split)
-        if found is None or found.sweep is None:
-            continue
-        for mode, points in found.sweep.modes.items():
-            # the evaluated queries: the sequence matcher's recall@1 denominator
-            sequence = found.modes.get(mode, {}).get("sequence")
-            rows += [SweepRow.of(record.key, split, mode, found.sweep.kind, point,
-                                 None if sequence is None else sequence.n_queries) for point in points]
-    return sorted(rows, key=lambda r: (order.dataset(r.dataset), r.seq_len, order.mode(r.mode),
-                                       order.method(r.method), r.threshold))
-
-
-def dataset_rows(datasets: dict[str, dict[str, Any]], order: Order | None = None) -> list[DatasetRow]:
-    """One row per dataset card (``pipeline.plan.dataset_cards``), in the configuration's order."""
-    order = order or Order(tuple(datasets))
-    return [DatasetRow.of(name, datasets[name]) for name in sorted(datasets, key=order.dataset)]
-
+# Every table's columns, in its files' order, and how its rows are made: registry.TABLES
 
 # --- writing ----------------------------------------------------------------------------------------------------
 
@@ -504,97 +221,25 @@ def protocols(datasets: Mapping[str, dict[str, Any]] | None, metrics: Sequence[V
     return out
 
 
-@dataclass(frozen=True)
-class Inputs:
-    """The run's result files, read, and how the report is to show them."""
-
-    evaluations: list[Evaluation]
-    timings: list[Timing]
-    predictors: list[PredictorReport]
-    ablations: list[AttributeAblation]
-    lomo: list[HeldOut]
-    metrics: list[VPRMetrics]
-    datasets: dict[str, dict[str, Any]]
-    split: str
-    table_seq_lens: Collection[int] | None
-    seq_len_ablation: bool
-    order: Order
-    speed: list[SpeedResult]
-    splits: Splits  # the configuration's split names by role (``split`` is their table split)
-    protocols: dict[str, str]  # per dataset its ground truth as the tables say it ("within 2 frames")
-
-    def correct(self, dataset: str) -> str:
-        """``; correct: within 2 frames``: what a figure's title adds of its dataset's ground truth (empty if none)."""
-        text = self.protocols.get(dataset)
-        return f"; correct: {text}" if text else ""
-    baselines: list[Baselines] = dataclasses.field(default_factory=list)
-
-
-def _seq_len_rows(inputs: Inputs) -> list[SeqLenRow]:
-    """The sequence-length ablation: Table I's rows of every L, with the best training-free scorer of each."""
-    best = baseline_rows(inputs.baselines, inputs.split, order=inputs.order) if inputs.baselines else []
-    return with_best(table1_rows(inputs.evaluations, inputs.split, order=inputs.order), [cells(r) for r in best])
-
-
 def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[WrittenTable]:
-    contents: dict[str, tuple[list[dict[str, Any]], dict[str, str]]] = {}
-    evaluations, split, order = inputs.evaluations, inputs.split, inputs.order
-
-    def table(name: str, rows: Sequence[Any], **special: str) -> None:
-        spec = registry.table(name)  # only a declared table is written, of its row record where it names one
-        if spec.row is not None and any(not isinstance(row, spec.row) for row in rows):
-            raise TypeError(f"table {name!r}: its rows are {spec.row.__name__} records")
-        contents[name] = ([cells(row) if spec.row is not None else row for row in rows], special)
-
-    if evaluations:
-        table1 = table1_rows(evaluations, split, inputs.table_seq_lens, order)
-        shown = [cells(row) for row in table1]
-        table("table1", table1, markdown=table1_markdown(shown, split), latex=table1_latex(shown, split))
-        table("predictor_methods", predictor_method_rows(evaluations, split, order))
-        table("predictor_confusion", confusion_rows(evaluations, split, order))
-        trust = trust_rows(evaluations, split, order)
-        if trust:
-            table("trust_levels", trust)
-        restoration = restoration_rows(evaluations, split, order)
-        if restoration:
-            table("restoration", restoration)
-        table("timing", timing_rows(evaluations, inputs.timings, order))
-        if inputs.seq_len_ablation:  # with the best training-free scorer of every L beside the predictor
-            table("ablation_seq_len", _seq_len_rows(inputs))
-    if inputs.baselines:
-        table("baselines", baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order))
-        table("wrong_match_detection", detection_rows(inputs.baselines, split, inputs.table_seq_lens, order))
-    if inputs.metrics:
-        table("vpr_metrics", vpr_metrics_rows(inputs.metrics, split, order))
-    if inputs.predictors:
-        title = registry.PREDICTOR_TITLE.format(splits=", ".join(map(split_word, inputs.splits.evaluation)))
-        table("predictor", predictor_rows(inputs.predictors, order, inputs.splits), title=title)
-    if inputs.ablations:
-        table2 = table2_rows(inputs.ablations, order, inputs.splits)
-        table("table2", table2, markdown=table2_markdown(table2, inputs.splits),
-              latex=table2_latex(table2, inputs.splits))
-    if inputs.lomo:
-        table("leave_one_method_out", lomo_rows(inputs.lomo, order))
-    if inputs.datasets:
-        table("datasets", dataset_rows(inputs.datasets, order))
-    if inputs.speed:
-        table("speed", speed_rows(inputs.speed, order))
-    sweep = sweep_rows(inputs.metrics, split, order)
-    if sweep:
-        table("protocol_sweep", sweep)
-
+    """Each registered table whose ``make`` gives rows for this run, written in the registry's order with its
+    columns, title and files."""
     written = []
-    for spec in registry.TABLES:  # in the registry's order, with its columns, titles and files
-        if spec.name in contents:
-            rows, special = contents[spec.name]
-            columns = spec.expanded(inputs.splits)  # a column per split where the registry says so
-            title = special.pop("title", spec.title)  # a title naming the run's splits, else the registry's
-            # the datasets table says each dataset's ground truth in a column of its own
-            protocols = {} if spec.name == "datasets" else inputs.protocols
-            files = _write_table(out_dir / registry.TABLES_DIR / spec.name, [c.name for c in columns], rows, title,
-                                 spec.suffixes, notes=notes, protocols=protocols, **special)
-            written.append(WrittenTable(spec.name, columns, tuple(rows), tuple(files),
-                                        None if title == spec.title else title))
+    for spec in registry.TABLES:
+        made = spec.make(inputs)
+        if made is None:  # the run has not what the table is of
+            continue
+        if any(not isinstance(row, spec.row) for row in made):
+            raise TypeError(f"table {spec.name!r}: its rows are {spec.row.__name__} records")
+        rows = [cells(row) for row in made]
+        columns = spec.expanded(inputs.splits)  # a column per split where the registry says so
+        title = spec.run_title(inputs) if spec.run_title is not None else spec.title
+        files = _write_table(out_dir / registry.TABLES_DIR / spec.name, [c.name for c in columns], rows, title,
+                             spec.suffixes, notes=notes, protocols=inputs.protocols if spec.protocol else {},
+                             markdown=spec.markdown(made, inputs) if spec.markdown is not None else None,
+                             latex=spec.latex(made, inputs) if spec.latex is not None else None)
+        written.append(WrittenTable(spec.name, columns, tuple(rows), tuple(files),
+                                    None if title == spec.title else title))
     return written
 
 
@@ -609,7 +254,7 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     def keep(name: str, caption: str, path: Path, dataset: str, seq_len: int, mode: str | None = None) -> None:
         figures.append(WrittenFigure(name, f"{registry.figure(name).title}: {caption}", path, dataset, seq_len, mode))
 
-    for (dataset, seq_len), items in _by_key(inputs.evaluations, order).items():
+    for (dataset, seq_len), items in by_key(inputs.evaluations, order).items():
         if inputs.table_seq_lens is not None and seq_len not in inputs.table_seq_lens:
             continue
         result0 = items[0].splits[split]
@@ -635,7 +280,7 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
                                     f"{dataset}, L={seq_len}: all methods ({split}{inputs.correct(dataset)})")
         keep("confusion", f"{dataset}, L={seq_len}", path, dataset, seq_len)
     if inputs.seq_len_ablation and inputs.evaluations:  # the best training-free scorer's PR AUC marked beside
-        figures += _seq_len_figures(out_dir, [cells(row) for row in _seq_len_rows(inputs)], order, inputs)
+        figures += _seq_len_figures(out_dir, [cells(row) for row in seq_len_rows(inputs)], order, inputs)
     if inputs.baselines:
         figures += _baseline_figures(out_dir, inputs)
     if inputs.speed:

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from vpr_smr.core.io import atomic_path
+from vpr_smr.eval.report import names
 from vpr_smr.eval.report.outcome_words import SHORT
 from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.curves import LOST_ALL, REMOVED_ALL
@@ -84,7 +85,7 @@ def pr_title(method: str, numbers: dict[str, Any]) -> str:
                 f"kept {n - removed} of {n} matches, none correct")
         return (f"{method}\n{what}: recall 0\nVPR+SM AOC {numbers['aoc_vpr_sm_own']:.3f} at R "
                 f"{numbers['max_recall_vpr_sm']:.2f}")
-    text = f"{method}\nAOC {numbers['aoc_vpr_sm']:.3f} -> {numbers['aoc_vpr_sm_pred']:.3f}"
+    text = f"{method}\nAOC {numbers[names.AOC_VPR_SM]:.3f} -> {numbers[names.AOC_VPR_SM_PRED]:.3f}"
     return f"{text} ({SHORT[outcome]})" if outcome in SHORT else text
 
 
@@ -199,9 +200,9 @@ def sweep_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
     for method in methods:
         mine = sorted((r for r in rows if r["method"] == method), key=lambda r: r["threshold"])
         x = [r["threshold"] for r in mine]
-        axes[0].plot(x, [r["recall_at_1_sequence"] for r in mine], "-", marker="o", ms=3, color=colours[method])
-        axes[0].plot(x, [r["recall_at_1_single"] for r in mine], ":", lw=0.9, color=colours[method])
-        reductions = [np.nan if r.get("reduction_pct") is None else r["reduction_pct"] for r in mine]
+        axes[0].plot(x, [r[names.RECALL_SEQUENCE] for r in mine], "-", marker="o", ms=3, color=colours[method])
+        axes[0].plot(x, [r[names.RECALL_SINGLE] for r in mine], ":", lw=0.9, color=colours[method])
+        reductions = [np.nan if r.get(names.REDUCTION) is None else r[names.REDUCTION] for r in mine]
         axes[1].plot(x, reductions, "-", marker="o", ms=3, color=colours[method])
     axes[0].set(xlabel=xlabel, ylabel="recall@1", ylim=(0, 1.02))
     axes[1].axhline(0, color="black", lw=0.6)
@@ -231,8 +232,8 @@ def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
     constant = [r for r in rows if r["speed"] is not None]
     speeds = sorted({float(r["speed"]) for r in constant})
     varying = [r for r in rows if r["speed"] is None]
-    for ax, key, ylabel in ((axes[0], "recall_at_1_sequence", "sequence recall@1"),
-                            (axes[1], "reduction_pct", "AOC reduction by the predictor (%)")):
+    for ax, key, ylabel in ((axes[0], names.RECALL_SEQUENCE, "sequence recall@1"),
+                            (axes[1], names.REDUCTION, "AOC reduction by the predictor (%)")):
         for method in methods:
             for matcher, style in styles.items():
                 line = sorted((float(r["speed"]), r[key]) for r in constant
@@ -244,8 +245,8 @@ def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
                 value = r[key]
                 ax.plot([r["mean_speed"]], [np.nan if value is None else value], "D", ms=6, color=colours[method],
                         mfc=colours[method] if r["matcher"] == "velocity" else "none")
-            if key == "recall_at_1_sequence":
-                single = sorted({(float(r["speed"]), r["recall_at_1_single"]) for r in constant
+            if key == names.RECALL_SEQUENCE:
+                single = sorted({(float(r["speed"]), r[names.RECALL_SINGLE]) for r in constant
                                  if r["method"] == method})
                 ax.plot([x for x, _ in single], [y for _, y in single], ":", lw=0.8, color=colours[method])
         if varying:  # name the markers once, above the highest
@@ -253,14 +254,14 @@ def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
             if values:
                 ax.annotate("varying", (varying[0]["mean_speed"], max(values)), textcoords="offset points",
                             xytext=(6, 6), ha="left", fontsize=7)
-        if key == "reduction_pct":
+        if key == names.REDUCTION:
             ax.axhline(0, color="black", lw=0.6)
         ax.set_xscale("log")
         if speeds:
             ax.set_xticks(speeds, [f"{s:g}x" for s in speeds])
             ax.minorticks_off()
         ax.set(xlabel="query speed / reference speed", ylabel=ylabel)
-        if key == "recall_at_1_sequence":
+        if key == names.RECALL_SEQUENCE:
             ax.set_ylim(0, 1.02)
     handles = [Line2D([], [], color=colours[m], lw=2, label=m) for m in methods]
     handles += [Line2D([], [], color="black", ls="--", label="fixed matcher"),
@@ -298,7 +299,7 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
         values, below, above = [], [], []
         for method in methods:
             row = by.get((method, scorer), {})
-            value = row.get("reduction_pct_mean" if scorer == "random" else "reduction_pct")
+            value = row.get("reduction_pct_mean" if scorer == "random" else names.REDUCTION)
             values.append(np.nan if value is None else float(value))
             low, high = _whisker(row, scorer, value)
             below.append(low)
@@ -310,7 +311,7 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
                edgecolor="black", lw=1.2 if scorer in (best, "predictor") else 0.3,
                yerr=np.array([below, above]), capsize=2)
     for m, method in enumerate(methods):
-        ceiling = by.get((method, "oracle"), {}).get("reduction_pct")
+        ceiling = by.get((method, "oracle"), {}).get(names.REDUCTION)
         if ceiling is not None:
             ax.hlines(ceiling, m - 0.42, m + 0.42, colors="black", linestyles="--", lw=1.0,
                       label="oracle (ceiling)" if m == 0 else None)

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from vpr_smr.eval.report import bounds
+from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import Comparison, DetectionComparison
 from vpr_smr.eval.report.table1 import UNDEFINED, Table1Block
@@ -109,16 +109,16 @@ def too_few(row: dict[str, Any], split: str) -> str:
     """The sentence of a method whose reduction's interval contains 0 (or that has none)."""
     n = _queries([row])
     on = f"On the {split} split's {n} queries" if n else f"On the {split} split"
-    interval = bounds.of(row, "reduction_pct")
+    interval = bounds.of(row, names.REDUCTION)
     if interval is None:
-        return (f"{on} {row['method']}'s reduction of {signed(float(row['reduction_pct']))} has no interval: "
+        return (f"{on} {row['method']}'s reduction of {signed(float(row[names.REDUCTION]))} has no interval: "
                 "nothing tells whether the predictor helps.")
     return (f"{on} the interval of {row['method']}'s reduction, {bounds.span(interval)}, contains 0: too few "
             "queries to tell whether the predictor helps.")
 
 
 def _with_span(row: dict[str, Any], text: str) -> str:
-    interval = bounds.of(row, "reduction_pct")
+    interval = bounds.of(row, names.REDUCTION)
     return text if interval is None else f"{text} (interval {bounds.span(interval)})"
 
 
@@ -133,8 +133,8 @@ def sentences(block: Table1Block, split: str) -> list[str]:
     plain = [r for r in rows if not words.is_degenerate(r)]
     degenerate = [r for r in rows if words.is_degenerate(r)]
     verdicts = {str(r["method"]): _verdict(r) for r in plain}
-    better = sorted((r for r in plain if verdicts[str(r["method"])] == "better"), key=lambda r: -r["reduction_pct"])
-    worse = sorted((r for r in plain if verdicts[str(r["method"])] == "worse"), key=lambda r: r["reduction_pct"])
+    better = sorted((r for r in plain if verdicts[str(r["method"])] == "better"), key=lambda r: -r[names.REDUCTION])
+    worse = sorted((r for r in plain if verdicts[str(r["method"])] == "worse"), key=lambda r: r[names.REDUCTION])
     same = [str(r["method"]) for r in plain if verdicts[str(r["method"])] == "same"]
     untold = [r for r in plain if verdicts[str(r["method"])] in ("untold", "no_interval")]
     out = []
@@ -145,7 +145,7 @@ def sentences(block: Table1Block, split: str) -> list[str]:
         return out + _seed_sentences(block)
     if len(rows) == 1 and plain:
         row = rows[0]
-        method, value = str(row["method"]), float(row["reduction_pct"])
+        method, value = str(row["method"]), float(row[names.REDUCTION])
         verdict = verdicts[method]
         if verdict == "better":
             out.append(_with_span(row, f"{where} the predictor reduced {method}'s {AOC} by {size(value)}") + ".")
@@ -161,11 +161,11 @@ def sentences(block: Table1Block, split: str) -> list[str]:
     else:
         if better:
             clauses = [f"reduced the {AOC} for {len(better)} of {methods(len(rows))}: "
-                       + ", ".join(_with_span(r, f"{r['method']} by {size(r['reduction_pct'])}") for r in better)]
+                       + ", ".join(_with_span(r, f"{r['method']} by {size(r[names.REDUCTION])}") for r in better)]
         else:
             clauses = [f"reduced the {AOC} for none of the {len(rows)} methods"]
         if worse:
-            clauses.append("it made " + listed([_with_span(r, f"{r['method']}'s {size(r['reduction_pct'])}")
+            clauses.append("it made " + listed([_with_span(r, f"{r['method']}'s {size(r[names.REDUCTION])}")
                                                 for r in worse]) + " worse")
         if same:
             clauses.append("it left " + listed([f"{m}'s" for m in same]) + " unchanged")
@@ -174,7 +174,7 @@ def sentences(block: Table1Block, split: str) -> list[str]:
         out.append(f"{where} the predictor " + "; ".join(clauses) + ".")
         out += [too_few(r, split) for r in untold]
         out += [f"For {r['method']}, {words.note(r)}." for r in degenerate]
-        defined = [float(r["reduction_pct"]) for r in rows if r["reduction_pct"] is not None]
+        defined = [float(r[names.REDUCTION]) for r in rows if r[names.REDUCTION] is not None]
         if len(defined) > 1:
             these = "these" if len(defined) < len(rows) else "the"
             out.append(f"The mean reduction over {these} {len(defined)} methods is {signed(float(np.mean(defined)))} "
@@ -193,11 +193,11 @@ def headline(block: Table1Block, split: str) -> str:
     for row in block.rows:
         method = str(row["method"])
         if words.is_degenerate(row):
-            parts.append(f"{method} {UNDEFINED if row.get('reduction_pct') is None else signed(row['reduction_pct'])}"
+            parts.append(f"{method} {UNDEFINED if row.get(names.REDUCTION) is None else signed(row[names.REDUCTION])}"
                          f", {words.SHORT[str(row['outcome'])]}")
             continue
-        interval = bounds.bracket(bounds.of(row, "reduction_pct"), ".1f")
-        parts.append(f"{method} {signed(float(row['reduction_pct']))} {interval}, {VERDICT[_verdict(row)]}")
+        interval = bounds.bracket(bounds.of(row, names.REDUCTION), ".1f")
+        parts.append(f"{method} {signed(float(row[names.REDUCTION]))} {interval}, {VERDICT[_verdict(row)]}")
     n = _queries(block.rows)
     queries = f"{n} {split} queries" if n else f"{split} split"
     return (f"{block.dataset} ({queries}, L = {block.seq_len}, {block.mode} mode): the seed-0 predictor's AOC "
@@ -247,10 +247,10 @@ def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
     if speeds:
         base = min(speeds, key=lambda s: (abs(np.log(s)), s))
         far = max(speeds, key=lambda s: (abs(np.log(s)), s))
-        fixed_base, _ = _mean(at(base, "fixed"), "recall_at_1_sequence")
-        fixed_far, _ = _mean(at(far, "fixed"), "recall_at_1_sequence")
-        velocity_base, _ = _mean(at(base, "velocity"), "recall_at_1_sequence")
-        velocity_far, _ = _mean(at(far, "velocity"), "recall_at_1_sequence")
+        fixed_base, _ = _mean(at(base, "fixed"), names.RECALL_SEQUENCE)
+        fixed_far, _ = _mean(at(far, "fixed"), names.RECALL_SEQUENCE)
+        velocity_base, _ = _mean(at(base, "velocity"), names.RECALL_SEQUENCE)
+        velocity_far, _ = _mean(at(far, "velocity"), names.RECALL_SEQUENCE)
         over = f"mean over {methods(n_methods)}"
         if (far != base and fixed_base is not None and fixed_far is not None and velocity_base is not None
                 and velocity_far is not None):
@@ -265,10 +265,10 @@ def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
                     f"{recall(fixed_far)} and velocity search's {recall(velocity_far)} ({over})")
         parts = []
         for matcher, name in (("fixed", "the fixed matcher"), ("velocity", "velocity search")):
-            mean, n = _mean(at(far, matcher), "reduction_pct")
+            mean, n = _mean(at(far, matcher), names.REDUCTION)
             if mean is not None:
                 undefined = [f"{r['method']}: {words.SHORT.get(str(r.get('outcome')), 'undefined')}"
-                             for r in at(far, matcher) if r.get("reduction_pct") is None]
+                             for r in at(far, matcher) if r.get(names.REDUCTION) is None]
                 why = f" ({'; '.join(undefined)})" if undefined else ""
                 note = "" if n == n_methods else f" over the {n} methods where it is defined{why}"
                 parts.append(f"{signed(mean)} with {name}{note}")
@@ -277,8 +277,8 @@ def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
         out.append(text + ".")
     varying = [r for r in rows if r["speed"] is None]
     if varying:
-        fixed, _ = _mean([r for r in varying if r["matcher"] == "fixed"], "recall_at_1_sequence")
-        velocity, _ = _mean([r for r in varying if r["matcher"] == "velocity"], "recall_at_1_sequence")
+        fixed, _ = _mean([r for r in varying if r["matcher"] == "fixed"], names.RECALL_SEQUENCE)
+        velocity, _ = _mean([r for r in varying if r["matcher"] == "velocity"], names.RECALL_SEQUENCE)
         if fixed is not None and velocity is not None:
             lead = "Under" if out else f"{where}, under"
             out.append(f"{lead} the varying speed (mean {varying[0]['mean_speed']:.2f}x) the sequence recall@1 is "
@@ -338,12 +338,12 @@ def sweep_headline(rows: Sequence[dict[str, Any]]) -> str:
 def _sweep_changes(rows: Sequence[dict[str, Any]]) -> list[str]:
     """The conclusions that change across the sweep, in words (a sign only where its interval excludes 0)."""
     kind = str(rows[0]["ground_truth"])
-    names = list(dict.fromkeys(str(r["method"]) for r in rows))
+    methods = list(dict.fromkeys(str(r["method"]) for r in rows))
     by_method = {name: sorted((r for r in rows if r["method"] == name), key=lambda r: r["threshold"])
-                 for name in names}
+                 for name in methods}
     changes = []
     # a sign counts only where the interval excludes 0 (``bounds``): elsewhere the queries are too few to tell it
-    flipped = _flip({name: [(r["threshold"], r.get("reduction_pct") if words.direction(r) else None) for r in mine]
+    flipped = _flip({name: [(r["threshold"], r.get(names.REDUCTION) if words.direction(r) else None) for r in mine]
                      for name, mine in by_method.items()})
     if flipped:
         name, t_up, up, t_down, down = flipped
@@ -364,7 +364,7 @@ def _gain(row: dict[str, Any]) -> float | None:
     single = row.get("recall_at_1_single_evaluated")
     if single is None or not (bounds.sign(row, "recall_change") or 0):
         return None
-    return float(row["recall_at_1_sequence"]) - float(single)
+    return float(row[names.RECALL_SEQUENCE]) - float(single)
 
 
 def _any_sign(rows: Sequence[dict[str, Any]]) -> bool:
@@ -379,7 +379,7 @@ def _untold(rows: Sequence[dict[str, Any]]) -> list[str]:
     parts = []
     for name in dict.fromkeys(str(r["method"]) for r in rows):
         mine = [r for r in rows if r["method"] == name]
-        reduction = [r for r in mine if r.get("reduction_pct") is not None and words.direction(r) in (0, None)
+        reduction = [r for r in mine if r.get(names.REDUCTION) is not None and words.direction(r) in (0, None)
                      and r.get("outcome") != UNCHANGED]
         change = [r for r in mine if _gain(r) is None]
         for what, found in (("its AOC reduction", reduction), ("sequence matching's change of recall@1", change)):

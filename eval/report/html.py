@@ -15,8 +15,7 @@ from __future__ import annotations
 import base64
 import json
 import re
-from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
@@ -24,8 +23,8 @@ from typing import Any
 from vpr_smr.core.citation import how_to_cite
 from vpr_smr.core.io import atomic_path, package_version, read_provenance
 from vpr_smr.core.paths import queries_path
+from vpr_smr.eval.report import names, registry
 from vpr_smr.eval.report import outcome_words as words
-from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.baselines import comparisons, detection_comparisons, headline
 from vpr_smr.eval.report.findings import (
     baseline_headline,
@@ -48,6 +47,7 @@ from vpr_smr.eval.report.results import (
     unique,
 )
 from vpr_smr.eval.report.rows import Column as TableColumn
+from vpr_smr.eval.report.sections import INSPECTOR_FIGURES, Declared, Rows
 from vpr_smr.eval.report.table1 import (
     ROW_NAMES,
     SEED_ROW_NAME,
@@ -125,9 +125,9 @@ def data_table(table_id: str, columns: Sequence[TableColumn], rows: Sequence[dic
 
 def row_cell(row: dict[str, Any], column: TableColumn) -> Cell:
     """``cell`` of a row's value; an undefined reduction says why, from the row's outcome of that reduction
-    (``reduction_pct`` -> ``outcome``, ``reduction_pct_pooled`` -> ``outcome_pooled``)."""
+    (``names.REDUCTION`` -> ``outcome``, its ``_pooled`` column -> ``outcome_pooled``)."""
     value = row.get(column.name)
-    outcome = row.get(column.name.replace("reduction_pct", "outcome")) if is_reduction(column.name) else None
+    outcome = row.get(column.name.replace(names.REDUCTION, "outcome")) if is_reduction(column.name) else None
     if value is None and outcome in words.SHORT:
         return Cell(f"{UNDEFINED}: {words.SHORT[outcome]}", kind="na")
     found = cell(value, column.name, fmt=column.fmt)
@@ -203,7 +203,7 @@ def scorer_table(table_id: str, rows: Sequence[dict[str, Any]], value: str, capt
         cells = []
         for method in methods:
             row = by.get((method, scorer), {})
-            if scorer == "random" and value == "reduction_pct" and row:
+            if scorer == "random" and value == names.REDUCTION and row:
                 mean, std = headline(row), row.get("reduction_pct_std")
                 text = UNDEFINED if mean is None else f"{mean:.2f}" + ("" if std is None else f" ± {std:.2f}")
                 # the seeds' spread, not an interval over queries: not coloured
@@ -211,7 +211,7 @@ def scorer_table(table_id: str, rows: Sequence[dict[str, Any]], value: str, capt
             elif scorer == "random" and row.get(f"{value}_mean") is not None:
                 cells.append(cell(row[f"{value}_mean"], value, fmt=".4f"))
             else:
-                cells.append(row_cell(row, TableColumn(value, fmt=".2f" if value == "reduction_pct" else ".4f")))
+                cells.append(row_cell(row, TableColumn(value, fmt=".2f" if value == names.REDUCTION else ".4f")))
         body.append((text_cell(scorer, header=True), *cells))
     if value == "average_precision" and rows:
         body.append((text_cell("wrong fraction", header=True),
@@ -235,7 +235,7 @@ def best_scorer_table(table_id: str, rows: Sequence[dict[str, Any]]) -> TableVie
             best = (f"{row['best_scorer']} {value:.2f}" if value is not None and row.get("best_scorer")
                     else f"{UNDEFINED}: {words.SHORT[row['best_scorer_outcome']]}"
                     if row.get("best_scorer_outcome") in words.SHORT else UNDEFINED)
-            predictor = row.get("reduction_pct")
+            predictor = row.get(names.REDUCTION)
             cells.append(text_cell(f"{best} · predictor {UNDEFINED if predictor is None else f'{predictor:.2f}'}"))
         body.append((cell(seq_len, "seq_len"), *cells))
     return TableView(table_id, head, tuple(body), caption="The best training-free scorer's AOC reduction (%) beside "
@@ -252,7 +252,7 @@ def table1_view(block: Table1Block, table_id: str) -> TableView:
     head = (Column("", "text"), *(Column(m) for m in block.methods), Column("Mean"), Column("Improved", "text"))
     rows: list[tuple[Cell, ...]] = []
     for i, name in enumerate(ROW_NAMES):
-        column = "reduction_pct" if i == 2 else "aoc"
+        column = names.REDUCTION if i == 2 else "aoc"
         # the numbers' cells (sorting value, colour), with Table I's words where a number would mislead
         texts = cells(block.rows, summary, i, ".2f" if i == 2 else ".4f")
         numbers = [cell(v, column) for v in summary[i]]
@@ -392,46 +392,12 @@ class _Builder:
         return Section(spec.id, spec.title, intro, tuple(blocks), self.folded(*spec.tables), tuple(headlines))
 
     def sections(self) -> list[Section]:
-        return [s for s in (self.section(spec) for spec in SECTIONS) if s is not None]
+        """The page's sections (``SECTIONS``), then those of the tables that declare their own, in the registry's
+        order."""
+        return [s for s in (self.section(spec) for spec in declared_sections()) if s is not None]
 
 
-# --- the experiments' sections, declared ------------------------------------------------------------------------
-
-Rows = Sequence[dict[str, Any]]
-
-
-@dataclass(frozen=True)
-class Declared:
-    """A section of the page, below the findings: ``id`` (its anchor) and ``title``; ``tables``, the registered
-    tables it shows (the first one's rows are its blocks'; each folded whole at its foot); ``intro``, its sentences
-    under the title (a text, or made from the run); a block per written figure of the registered ``figure``, with
-    ``view`` (its tables of the figure's rows), ``sentences`` (said under it), ``headline`` (its one sentence on the
-    first screen) and the figures of ``aside`` of the same dataset, L and mode beside it; or ``blocks`` made
-    otherwise (per dataset, per dataset and L); ``headlines``: the section's own sentences on the first screen.
-
-    Adding a section is one declaration in ``SECTIONS`` (in the page's order)."""
-
-    id: str
-    title: str
-    tables: tuple[str, ...]
-    intro: str | Callable[[_Builder], tuple[str, ...]]
-    figure: str = ""
-    view: Callable[[_Builder, WrittenFigure, Rows], tuple[TableView, ...]] | None = None
-    sentences: Callable[[_Builder, Rows], Sequence[str]] | None = None
-    headline: Callable[[Rows], str] | None = None
-    aside: str = ""
-    blocks: Callable[[_Builder], Sequence[Block]] | None = None
-    headlines: Callable[[_Builder], Sequence[str]] | None = None
-
-    def __post_init__(self) -> None:
-        for name in self.tables:
-            registry.table(name)  # only a declared table is shown
-        for name in (self.figure, self.aside):
-            if name and name not in INSPECTOR_FIGURES:
-                registry.figure(name)
-
-
-INSPECTOR_FIGURES = ("matches", "distance_matrix")  # the match inspector's figures (``build.INSPECTOR``)
+# --- the experiments' sections, declared (``sections.Declared``) ---------------------------------------------
 
 
 def _baseline_blocks(b: _Builder) -> list[Block]:
@@ -440,7 +406,7 @@ def _baseline_blocks(b: _Builder) -> list[Block]:
     rows, detection = b.rows("baselines"), b.rows("wrong_match_detection")
     blocks = []
     for f in b.named("baselines"):
-        table = scorer_table(anchor("baselines", f.dataset, f.seq_len, f.mode), b.of(f, rows), "reduction_pct",
+        table = scorer_table(anchor("baselines", f.dataset, f.seq_len, f.mode), b.of(f, rows), names.REDUCTION,
                              registry.table("baselines").caption)
         blocks.append(Block(b.block_title(f), (b.figure(f),), (table,)))
     for f in b.named("detection"):
@@ -655,6 +621,21 @@ SECTIONS = (
         "split. The per-query CSV files (matches, distances, attributes, true class, prediction) are in the run "
         "folder, named under each method.",), blocks=_inspector_blocks),
 )
+
+
+
+
+def declared_sections() -> tuple[Declared, ...]:
+    """``SECTIONS``, then the ``section`` of each registered table that declares one; each checked (its tables and
+    figures registered) and its id once."""
+    found = (*SECTIONS, *(spec.section for spec in registry.TABLES if spec.section is not None))
+    for spec in found:
+        spec.check()
+    ids = [spec.id for spec in found]
+    twice = sorted({name for name in ids if ids.count(name) > 1})
+    if twice:
+        raise ValueError(f"sections declared twice: {', '.join(twice)}")
+    return found
 
 
 # --- datasets, provenance ---------------------------------------------------------------------------------------

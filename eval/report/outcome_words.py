@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from vpr_smr.eval.report import bounds
+from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.scoring.curves import (
     HARMFUL,
     IMPROVED,
@@ -56,11 +56,11 @@ def improved(row: Mapping[str, Any]) -> bool:
     return row.get("outcome") == IMPROVED
 
 
-def direction(row: Mapping[str, Any], name: str = "reduction_pct") -> int | None:
+def direction(row: Mapping[str, Any], name: str = names.REDUCTION) -> int | None:
     """What the reduction ``name`` of ``row`` says: +1 (improved, its interval above 0), -1 (worse, below 0), 0 (no
     direction: the interval contains 0, or the outcome is neither improved nor worse, e.g. ``unchanged``), None (an
     improved or worse outcome without an interval: nothing to tell it by)."""
-    outcome = row.get(name.replace("reduction_pct", "outcome"))
+    outcome = row.get(name.replace(names.REDUCTION, "outcome"))
     if outcome not in (IMPROVED, WORSE):
         return 0
     sign = bounds.sign(row, name)
@@ -103,8 +103,9 @@ def note(row: Mapping[str, Any]) -> str:
                      f"{own_baseline(row)})")
         return text
     if outcome == WORSE_FROM_ZERO:
-        return (f"the predictor made the AOC worse, from 0 to {row['aoc_vpr_sm_pred']:.4f} up to its maximum recall "
-                f"{row['max_recall']:.4f}: worse, by a percentage that is undefined (the baseline's AOC being 0)")
+        return (f"the predictor made the AOC worse, from 0 to {row[names.AOC_VPR_SM_PRED]:.4f} up to its maximum "
+                f"recall {row['max_recall']:.4f}: worse, by a percentage that is undefined (the baseline's AOC "
+                "being 0)")
     return ""
 
 
@@ -112,7 +113,7 @@ def reduction_cell(row: Mapping[str, Any], number: str) -> str:
     """Table I's reduction cell: the number (``number``, formatted), or the outcome's word where it is undefined;
     a 0 of a predictor that removed nothing says so."""
     outcome = row.get("outcome")
-    if row.get("reduction_pct") is None:
+    if row.get(names.REDUCTION) is None:
         return f"n/a: {SHORT[str(outcome)]}" if outcome in SHORT else "n/a"
     return f"{number} ({SHORT[KEPT_ALL]})" if outcome == KEPT_ALL else number
 

@@ -5,21 +5,32 @@ expected_outputs`` lists the files from here, so that a table or figure cannot b
 to the workflow, nor declared without being written. The order is the report's: tables, then figures.
 
 Each table names its row record (``rows``: its fields are the columns, in the files' order, each with its header
-on the page and how the page writes its numbers), and what of it the page's compact tables show (``page``,
-``pivot``, ``caption``): ``build`` writes the CSV, Markdown and LaTeX files of the records' cells and ``html``
-builds the page's tables from them.
+on the page and how the page writes its numbers), how its rows are made from the run's inputs (``make``), and what
+of it the page's compact tables show (``page``, ``pivot``, ``caption``) and in which section (``section``, or one of
+``html.SECTIONS``): ``build`` writes the CSV, Markdown and LaTeX files of the records' cells and ``html`` builds the
+page's tables from them.
+
+A table is one declaration: the tables of ``TABLES`` below, then each module of the package
+``eval/report/tables/`` that declares a ``TABLE`` (a ``Table``), in the modules' names' order.
 """
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+import importlib
+import pkgutil
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.constants import RECALL_AT
-from vpr_smr.eval.report import rows
-from vpr_smr.eval.report.results import Splits
+from vpr_smr.eval.report import names, rows
+from vpr_smr.eval.report import tabulate as make
+from vpr_smr.eval.report.results import Splits, split_word
 from vpr_smr.eval.report.rows import Column
+from vpr_smr.eval.report.tabulate import Inputs
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.report.sections import Declared
 
 TABLES_DIR = "tables"
 FIGURES_DIR = "figures"
@@ -39,18 +50,31 @@ class Pivot:
 @dataclass(frozen=True)
 class Table:
     """A table of the report: its files (``name``, ``title``), when it is written (``experiments``), its ``row``
-    record (``rows``: its fields are the columns, in the files' order), and what of it the page's compact tables
-    show: ``page`` (the columns by name, in their order) or ``pivot``, under ``caption`` (``{split}``: the table
-    split, ``{seq_len}``: the L)."""
+    record (``rows``: its fields are the columns, in the files' order), how its rows are made (``make``: a function
+    of the run's ``tabulate.Inputs`` returning the row records, or None when the run has not what the table is of:
+    then no file), and what of it the page's compact tables show: ``page`` (the columns by name, in their order) or
+    ``pivot``, under ``caption`` (``{split}``: the table split, ``{seq_len}``: the L), in its own ``section`` (a
+    ``sections.Declared``, after ``html.SECTIONS``) where none of those shows it.
+
+    ``markdown`` and ``latex``: a layout of its own for those files (Table I's and Table II's, the paper's), from
+    the rows and the inputs; ``run_title``: a title naming the run's choices (its splits); ``protocol``: whether the
+    Markdown and LaTeX files say each dataset's ground truth under the title and the CSV in a column of its own
+    (``CORRECT_MATCHES``)."""
 
     name: str  # the file stem under tables/
     title: str  # the heading of its Markdown and LaTeX files and of the HTML page
     experiments: tuple[str, ...]  # written when every one of these is run (``expected_outputs``' names)
     row: Any  # the row record (a dataclass declared with ``rows``)
+    make: Callable[[Inputs], Sequence[Any] | None]
     suffixes: tuple[str, ...] = (".csv", ".md", ".tex")  # the CSV first: the HTML page shows it
     page: tuple[str, ...] = ()
     pivot: Pivot | None = None
     caption: str = ""
+    markdown: Callable[[Sequence[Any], Inputs], str] | None = None
+    latex: Callable[[Sequence[Any], Inputs], str] | None = None
+    run_title: Callable[[Inputs], str] | None = None
+    protocol: bool = True
+    section: Declared | None = None
 
     def __post_init__(self) -> None:
         shown = (*self.page, *((self.pivot.rows, *self.pivot.values) if self.pivot else ()))
@@ -121,87 +145,115 @@ class Figure:
 # configuration's default ones (val, test)
 PREDICTOR_TITLE = "Predictor alone: macro F1 (cross-validation with SMOTE inside the folds, {splits})"
 
+
+def _predictor_title(inputs: Inputs) -> str:
+    return PREDICTOR_TITLE.format(splits=", ".join(map(split_word, inputs.splits.evaluation)))
+
 # the column the report adds to every table's CSV in a run whose splits share frames (allow_split_overlap)
 SPLIT_OVERLAP = Column("split_overlap")
 # the column the report adds to every table's CSV whose datasets' ground truth is known: each row's dataset's, as
 # the Markdown and LaTeX files' "Correct matches:" line under the title says it ("within 2 frames", "gt.npy (a matrix)")
 CORRECT_MATCHES = Column("correct_matches")
 
-TABLES = (
+CORE_TABLES = (
     Table("table1", "Table I: area over the PR curve at max recall", ("table1",),
-          row=rows.Table1Row,
-          page=("method", "recall_at_1_single", "recall_at_1_sequence", "max_recall", "reduction_pct")),
+          row=rows.Table1Row, make=make.make_table1, markdown=make.table1_md, latex=make.table1_tex,
+          page=("method", names.RECALL_SINGLE, names.RECALL_SEQUENCE, "max_recall", names.REDUCTION)),
     Table("predictor_methods", "Predictor alone: macro F1, class counts and predicted counts per method",
           ("table1",),
-          row=rows.PredictorMethodRow,
+          row=rows.PredictorMethodRow, make=make.make_predictor_methods,
           page=("method", "n_queries", "f1_macro", "class_0", "class_1", "class_2", "class_3"),
           caption="Per method, {split} split, L = {seq_len}: macro F1 and the true classes' counts (the predicted "
                   "counts: the whole table below)"),
     Table("predictor_confusion", "Predictor alone: confusion matrix (rows true class, columns predicted)",
-          ("table1",), row=rows.ConfusionRow),
+          ("table1",), row=rows.ConfusionRow, make=make.make_confusion),
     Table("trust_levels", "Trust-level ablation: PR AUC per trust level", ("table1", "trust"),
-          row=rows.TrustRow,
-          pivot=Pivot("trust", ("method",), ("reduction_pct",)),
+          row=rows.TrustRow, make=make.make_trust,
+          pivot=Pivot("trust", ("method",), (names.REDUCTION,)),
           caption="AOC reduction (%) per trust level (columns: methods)"),
     Table("restoration", "Match restoration (second filter): removal against restoration", ("table1", "restoration"),
-          row=rows.RestorationRow,
+          row=rows.RestorationRow, make=make.make_restoration,
           page=("method", "removed", "restored", "wrong_to_right", "right_to_wrong", "auc_difference")),
     Table("timing", "Inference time per query: attributes + prediction", ("table1",),
-          row=rows.TimingRow,
+          row=rows.TimingRow, make=make.make_timing,
           page=("method", "seq_len", "n_queries", "ms_per_query", "ms_attributes_per_query", "ms_predict_per_query")),
     Table("vpr_metrics", "Standard VPR metrics: recall@N, recall at 100 % precision, PR AUC and extended precision "
           "of single-frame matching, sequence matching and sequence matching with the predictor", ("metrics",),
-          row=rows.VPRMetricsRow,
+          row=rows.VPRMetricsRow, make=make.make_vpr_metrics,
           page=("method", "matcher", "n_queries", *(f"recall_at_{n}" for n in RECALL_AT), "recall_at_100p",
                 "pr_auc", "extended_precision")),
     Table("baselines", "Training-free baselines: AOC at max recall of each scorer removing as many matches as the "
           "predictor (method §12), per dataset, method, L and mode", ("baselines",),
-          row=rows.BaselineRow,
+          row=rows.BaselineRow, make=make.make_baselines,
           caption="AOC reduction (%) of each scorer (rows) per method (columns) at the seed-0 predictor's budget; "
                   "random: mean ± sample standard deviation over the seeds"),
     Table("wrong_match_detection", "Detecting wrong matches: average precision and ROC AUC of each scorer against "
           "the wrong sequence matches (method §12), per dataset, method and L", ("baselines",),
-          row=rows.DetectionRow,
+          row=rows.DetectionRow, make=make.make_detection,
           caption="Average precision of detecting the wrong sequence matches (rows: scorers, columns: methods); "
                   "random: mean over its seeds; the last row: the fraction of wrong matches, a random ranking's "
                   "expected average precision"),
     Table("ablation_seq_len", "Sequence-length ablation: Table I columns per dataset, method and sequence length",
           ("table1", "seq_len"),
-          row=rows.SeqLenRow,
-          pivot=Pivot("seq_len", ("method",), ("reduction_pct",)),
+          row=rows.SeqLenRow, make=make.make_seq_len,
+          pivot=Pivot("seq_len", ("method",), (names.REDUCTION,)),
           caption="AOC reduction (%) per sequence length (columns: methods)"),
     Table("speed", "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search "
           "on simulated queries driven at other speeds (method §11), per dataset, method, profile and matcher",
           ("speed",),
-          row=rows.SpeedRow,
-          pivot=Pivot("profile", ("method", "matcher"), ("recall_at_1_sequence", "reduction_pct")),
+          row=rows.SpeedRow, make=make.make_speed,
+          pivot=Pivot("profile", ("method", "matcher"), (names.RECALL_SEQUENCE, names.REDUCTION)),
           caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and method · matcher "
                   "(columns); single-frame recall@1 and the AOCs: the whole table below"),
     Table("predictor", PREDICTOR_TITLE.format(splits="validation, test"), ("predictor",),
-          row=rows.PredictorRow,
+          row=rows.PredictorRow, make=make.make_predictor, run_title=_predictor_title,
           page=("seq_len", "n_train", "f1_cv", "f1_{evaluation}", "n_{evaluation}", "warning"),
           caption="The pooled predictor (seed 0) per sequence length"),
     Table("table2", "Table II: macro F1 by attribute", ("attributes",),
-          row=rows.Table2Row,
-          # the F1 columns, then the samples they are over, which the page says in a note
-          page=("f1_cv", "f1_{validation}", "f1_{last}", "f1_{last}_method_mean", "n_train", "n_{validation}",
-                "n_{last}")),
+          row=rows.Table2Row, make=make.make_table2, markdown=make.table2_md, latex=make.table2_tex,
+          page=make.TABLE2_PAGE),
     Table("leave_one_method_out", "Leave one method out: pooled predictor against one trained without the method",
           ("leave_one_method_out",),
-          row=rows.HeldOutRow,
+          row=rows.HeldOutRow, make=make.make_lomo,
           page=("held_out", "seq_len", "mode", "f1_pooled", "f1_without", "removed_pooled", "removed_without",
-                "aoc_vpr_sm", "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
+                names.AOC_VPR_SM, "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
     Table("protocol_sweep", "Protocol sweep: recall@1 and the AOC reduction of the predictor under other ground-truth "
           "tolerances (frames) or radii (positions), from the same matches and the same seed-0 predictor (method §13)",
           ("protocol_sweep",),
-          row=rows.SweepRow,
-          pivot=Pivot("threshold", ("method",), ("reduction_pct",)),
+          row=rows.SweepRow, make=make.make_sweep,
+          pivot=Pivot("threshold", ("method",), (names.REDUCTION,)),
           caption="AOC reduction (%) per tolerance or radius (rows) and method (columns); recall@1: the figure and "
                   "the whole table below"),
-    Table("datasets", "Datasets: traverses, frames per split, tolerance, frame lists and where the images came from",
-          ("datasets",),
-          row=rows.DatasetRow),
 )
+
+TABLES_PACKAGE = "vpr_smr.eval.report.tables"  # each of its modules declares one table (its ``TABLE``)
+
+
+def declared(package: str = TABLES_PACKAGE) -> tuple[Table, ...]:
+    """The tables the modules of ``package`` declare, each its ``TABLE``, in the modules' names' order."""
+    found = importlib.import_module(package)
+    out = []
+    for info in sorted(pkgutil.iter_modules(found.__path__), key=lambda info: info.name):
+        module = importlib.import_module(f"{package}.{info.name}")
+        entry = getattr(module, "TABLE", None)
+        if not isinstance(entry, Table):
+            raise TypeError(f"{module.__file__} declares no TABLE (a registry.Table): each module of {package} is "
+                            "one table of the report")
+        out.append(entry)
+    return tuple(out)
+
+
+def collected(*tables: Table) -> tuple[Table, ...]:
+    """``tables``, each name once (a second table of a name would overwrite the first one's files)."""
+    named = [entry.name for entry in tables]
+    twice = sorted({name for name in named if named.count(name) > 1})
+    if twice:
+        raise ValueError(f"tables declared twice: {', '.join(twice)} (eval/report/registry.py CORE_TABLES and the "
+                         "modules of eval/report/tables/ name each table once)")
+    return tables
+
+
+TABLES = collected(*CORE_TABLES, *declared())
 
 FIGURES = (
     Figure("pr", "PR curves", ("table1",), "pr_{dataset}_L{seq_len}_{mode}.png"),
@@ -223,7 +275,8 @@ def table(name: str) -> Table:
     for entry in TABLES:
         if entry.name == name:
             return entry
-    raise KeyError(f"table {name!r} is not in eval/report/registry.py TABLES")
+    raise KeyError(f"table {name!r} is not in eval/report/registry.py CORE_TABLES nor declared by a module of "
+                   "eval/report/tables/")
 
 
 def figure(name: str) -> Figure:

@@ -20,7 +20,7 @@ from vpr_smr.core.constants import RECALL_AT
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.bounds import HIGH, LOW
-from vpr_smr.eval.report.results import Splits, ground_truth_text, split_text, split_word
+from vpr_smr.eval.report.results import Splits, split_word
 from vpr_smr.eval.scoring.records import (
     EvaluationSplit,
     HeldOut,
@@ -427,33 +427,6 @@ class SweepRow:
         return row if r is None else replace(
             row, max_recall=r.max_recall, aoc_vpr_sm=r.aoc_vpr_sm, aoc_vpr_sm_pred=r.aoc_vpr_sm_pred,
             reduction_pct=r.reduction_pct, reduction_pct_ci=r.reduction_pct_ci, outcome=r.outcome)
-
-
-@dataclass(frozen=True)
-class DatasetRow:
-    """``datasets``: one dataset's card (``pipeline.plan.dataset_cards``) as texts and counts."""
-
-    dataset: str = column()
-    reference: str = column()
-    query: str = column()
-    n_frames: Any = column()  # a count, or "reference / query" frames for a dataset with positions (method §11)
-    splits: str = column()
-    tolerance: Any = column()  # the frames within the tolerance, else the ground truth's text (positions, a file)
-    pairing: str = column()
-    overlaps: str = column()
-    frames_sha256: str = column()
-    source: str = column()
-
-    @classmethod
-    def of(cls, name: str, info: dict[str, Any]) -> DatasetRow:
-        return cls(name, info.get("reference", ""), info.get("query", ""),
-                   info.get("n_frames") if info.get("n_query_frames") is None
-                   else f"{info.get('n_frames')} / {info['n_query_frames']}",
-                   split_text(info.get("splits", {}), info.get("reference_splits")),
-                   info.get("tolerance") if info.get("radius") is None and info.get("ground_truth") is None
-                   else ground_truth_text(info),
-                   info.get("pairing", ""), "; ".join(info.get("overlaps", [])), info.get("frames_sha256", ""),
-                   info.get("source", ""))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from vpr_smr.eval.report import bounds
+from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.results import Order, Splits
 from vpr_smr.eval.report.rows import Table1Row
@@ -31,10 +31,11 @@ UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined (why: beside it, and
 
 def is_reduction(column: str) -> bool:
     """A column of AOC reductions, undefined where the AOC reduced is 0."""
-    return "reduction_pct" in column
+    return names.REDUCTION in column
 
 
-INTERVALS = ("aoc_vpr_sm", "aoc_vpr_sm_pred", "reduction_pct")  # the numbers of the three rows, with their intervals
+# the numbers of the three rows, with their intervals
+INTERVALS = (names.AOC_VPR_SM, names.AOC_VPR_SM_PRED, names.REDUCTION)
 
 
 def table1_rows(evaluations: Sequence[Evaluation], split: str | None = None,
@@ -69,7 +70,7 @@ def _defined(values: Iterable[float | None]) -> list[float]:
     return [v for v in values if v is not None]
 
 
-def _reduction_mean(rows: Sequence[dict[str, Any]], key: str = "reduction_pct") -> tuple[float | None, str]:
+def _reduction_mean(rows: Sequence[dict[str, Any]], key: str = names.REDUCTION) -> tuple[float | None, str]:
     """The mean of the rows' defined ``key`` (the seed-0 reductions) and, when some are undefined, the methods it
     is over, named."""
     over = [r for r in rows if r.get(key) is not None]
@@ -92,7 +93,7 @@ def _improved_seed0(rows: Sequence[dict[str, Any]]) -> str:
     """Improved for the seed-0 reductions, and how many of those improved have an interval above 0 where some
     improved one has an interval that does not lie above 0 (``bounds``: only those are a direction)."""
     text = _improved(rows, words.improved)
-    signs = [bounds.sign(r, "reduction_pct") for r in rows if words.improved(r)]
+    signs = [bounds.sign(r, names.REDUCTION) for r in rows if words.improved(r)]
     if any(sign is not None for sign in signs) and any(sign != 1 for sign in signs):
         text += f" ({signs.count(1)} with the interval above 0)"
     return text
@@ -103,10 +104,10 @@ def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str,
     means are over (empty when all), and the methods improved. The reduction's mean is over the methods where it is
     defined; the AOCs' over those whose AOCs are taken at a recall above 0 (``outcome_words.at_recall_zero``: both
     are 0 there, which is no AOC to average)."""
-    reductions = [r["reduction_pct"] for r in rows]
+    reductions = [r[names.REDUCTION] for r in rows]
     mean, note = _reduction_mean(rows)
     counted = [not words.at_recall_zero(r) for r in rows]
-    values = [[r["aoc_vpr_sm"] for r in rows], [r["aoc_vpr_sm_pred"] for r in rows]]
+    values = [[r[names.AOC_VPR_SM] for r in rows], [r[names.AOC_VPR_SM_PRED] for r in rows]]
     means = [float(np.mean([v for v, c in zip(row, counted, strict=True) if c])) if any(counted) else None
              for row in values]
     return ([row + [m] for row, m in zip(values, means, strict=True)] + [reductions + [mean]], note,
@@ -178,7 +179,7 @@ def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
             f"mean over {len(full)} of {len(rows)} methods, those with all {n_seeds} seeds: {_names(full)}"]
         seed0, _ = _reduction_mean(rows)
         if seed0 is not None and seed0 * mean < 0:
-            over = [r for r in rows if r.get("reduction_pct") is not None]
+            over = [r for r in rows if r.get(names.REDUCTION) is not None]
             parts.append(f"opposite in sign to the seed-0 Mean {seed0:.2f}, which is seed 0's predictor alone over "
                          f"{_names(over)}, this one every seed's over {_names(full)}")
         note = f" ({'; '.join(parts)})" if parts else ""
@@ -263,7 +264,7 @@ def _tex_reduction(row: dict[str, Any] | None, value: float | None) -> str:
     if row is None:
         return f"{value:.2f}"
     colour = {1: "green", -1: "red"}.get(words.direction(row) or 0, "black")
-    text = rf"\textcolor{{{colour}}}{{{value:.2f}}} {bounds.bracket(bounds.of(row, 'reduction_pct'), '.2f')}"
+    text = rf"\textcolor{{{colour}}}{{{value:.2f}}} {bounds.bracket(bounds.of(row, names.REDUCTION), '.2f')}"
     return tex_escape(words.reduction_cell(row, "@@")).replace("@@", text)
 
 

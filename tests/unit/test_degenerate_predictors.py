@@ -14,7 +14,7 @@ from vpr_smr.core.io import write_json
 from vpr_smr.eval.matching.attributes import Matching, query_features, write_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.records import PredictorReport, SeedReport, SplitScores, chance_f1, seed_problems
-from vpr_smr.eval.report import build
+from vpr_smr.eval.report import build, tabulate
 from vpr_smr.eval.report.figures import pr_title
 from vpr_smr.eval.scoring import curves, evaluate
 
@@ -204,7 +204,7 @@ def test_training_warns_and_the_tables_say_so(tmp_path, caplog):
     present = len(np.unique(query_features_labels(paths["val"])))  # the classes the val split holds
     assert scores.f1 <= 1 / present  # noise: at or below chance (1 / K), as the warning says
     assert any("this predictor cannot be trusted: seed 0: its val macro F1" in r.message for r in caplog.records)
-    row = build.predictor_rows([report])[0]
+    row = tabulate.predictor_rows([report])[0]
     assert row.warning.startswith("seed 0: its val macro F1")
 
 
@@ -224,7 +224,7 @@ def test_the_findings_lead_with_the_predictors_warning(removed_all):
     one_class = SplitScores(0.3, 21, (12, 9, 0, 0), ((0, 12, 0, 0), (0, 9, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0)))
     report = PredictorReport({"dataset": "corridor", "seq_len": 4}, 57,
                              (SeedReport(0, {}, 0.4, 10, (30, 10, 10, 7), {"val": one_class}),))
-    rows = build.predictor_rows([report])
+    rows = tabulate.predictor_rows([report])
     columns = registry.table("predictor").expanded(Splits("test", ("val", "test")))
     table = WrittenTable("predictor", columns, tuple(map(cells, rows)), ())
     assert predictor_warnings(table, "corridor", 4) == [

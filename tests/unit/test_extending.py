@@ -4,6 +4,7 @@ computes is checked against values worked out by hand."""
 
 from __future__ import annotations
 
+import csv
 import importlib
 import re
 import sys
@@ -15,6 +16,7 @@ import cv2
 import numpy as np
 import pytest
 from helpers import make_features
+from report_runs import build_run
 
 from vpr_smr.datasets import DEFAULT_SPLITS, LOADERS, DatasetError, load_dataset, loader_options, required_options
 from vpr_smr.descriptors import available_backends, backend_class
@@ -66,9 +68,9 @@ def my_vpr(tmp_path, monkeypatch):
         del sys.modules[module]
 
 
-def test_the_recipes_are_the_four_named():
+def test_the_recipes_are_the_five_named():
     assert list(sections()) == ["A descriptor backend", "A dataset loader", "A sequence matcher",
-                                "A training-free scorer"]
+                                "A training-free scorer", "A table"]
     assert "docs/extending.md" in (DOC.parents[1] / "README.md").read_text()
 
 
@@ -189,3 +191,44 @@ def test_the_scorer_recipe(monkeypatch):
     assert confidence is not None
     values = confidence(features, scorers.DEFAULT_SETTINGS, np.arange(10.0), 0)
     np.testing.assert_array_equal(values, [0.25, 0.0, 1.75])
+
+
+@pytest.fixture
+def recall_gain(tmp_path, monkeypatch):
+    """The table recipe's module in a folder added to ``eval/report/tables``' path, collected as the registry
+    collects the package's own modules."""
+    from vpr_smr.eval.report import registry, tables
+
+    folder = tmp_path / "more_tables"
+    folder.mkdir()
+    (folder / "recall_gain.py").write_text(python("A table")["eval/report/tables/recall_gain.py"])
+    monkeypatch.setattr(tables, "__path__", [*tables.__path__, str(folder)])
+    monkeypatch.setattr(registry, "TABLES", registry.collected(*registry.CORE_TABLES, *registry.declared()))
+    yield registry
+    sys.modules.pop("vpr_smr.eval.report.tables.recall_gain", None)
+
+
+def test_the_table_recipe(recall_gain, tmp_path):
+    registry = recall_gain
+    assert registry.TABLES[-1].name == "recall_gain"
+    assert "tables/recall_gain.csv" in registry.expected_outputs(["d"], [4], ["paper"], {"metrics"})
+    assert "tables/recall_gain.csv" not in registry.expected_outputs(["d"], [4], ["paper"], {"table1"})
+    run, written = build_run(tmp_path, modes=("paper", "standard"), seq_lens=(4,), baselines=False, inspector=False)
+    assert {run / "tables" / f"recall_gain{suffix}" for suffix in (".csv", ".md", ".tex")} <= set(written)
+    with open(run / "tables" / "recall_gain.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    # report_runs.metrics_record: recall@1 = base + 0.05 (mode: paper 0, standard 1) + 0.1 (single 0, sequence 1),
+    # base 0.1 + 0.3 (sum of the name's code points mod 3): m1 (158) 0.7, m2 (159) 0.1
+    assert [(r["dataset"], r["method"], r["seq_len"], r["mode"], r["n_queries"]) for r in rows] == [
+        ("d", "m1", "4", "paper", "57"), ("d", "m1", "4", "standard", "57"), ("d", "m2", "4", "paper", "57"),
+        ("d", "m2", "4", "standard", "57")]  # 60 queries, the first L - 1 = 3 without a sequence
+    assert [float(r["gain_pct"]) for r in rows] == pytest.approx([100 * 0.1 / 0.7, 100 * 0.1 / 0.75, 100.0,
+                                                                 100 * 0.1 / 0.15])
+    assert all(r["correct_matches"] == "within 2 frames" for r in rows)
+    page = (run / "report.html").read_text()
+    section = page.split('<section id="recall-gain">')[1].split("</section>")[0]
+    # the whole table folded under the intro, headed by the CSV's names, its numbers as the column's format says
+    assert "<h2>Recall gained by sequence matching</h2>" in section and "the whole table, 4 rows" in section
+    assert "gain_<wbr>pct" in section and 'data-sort="100.0">100.0<' in section and ">14.3<" in section
+    markdown = (run / "tables" / "recall_gain.md").read_text().splitlines()
+    assert markdown[-1] == "| d | m2 | 4 | standard | 57 | 66.6667 |"  # 100 * (0.25 / 0.15 - 1), 4 decimals

@@ -27,7 +27,7 @@ from vpr_smr.eval.predictor.records import (
     SeedReport,
 )
 from vpr_smr.eval.report import build as report
-from vpr_smr.eval.report import registry
+from vpr_smr.eval.report import registry, tabulate
 from vpr_smr.eval.report.rows import cells
 from vpr_smr.eval.scoring.curves import Curve, compare_curves, reduction_pct
 from vpr_smr.eval.scoring.records import Evaluation
@@ -213,7 +213,7 @@ def test_leave_one_out_rows_show_na():
 
     nothing = Reduction(1.0, 1.0, 1.0, 0.0, 0.0, None, 1.0, 0.0, "nothing_to_reduce")
     numbers = HeldOutScores("p.h5", 0.5, 3, {"paper": ModeRemoval(0.5, 0.5, nothing)})
-    rows = report.lomo_rows([HeldOut({"dataset": "d", "method": "m", "seq_len": 4}, 57,
+    rows = tabulate.lomo_rows([HeldOut({"dataset": "d", "method": "m", "seq_len": 4}, 57,
                                      HeldOutPredictors(numbers, numbers))])
     text = report.markdown_table(registry.table("leave_one_method_out").names(), map(cells, rows))
     assert text.splitlines()[-1] == ("| d | 4 | m | paper | 57 | 0.5000 | 0.5000 | 3 | 3 | 0.0000 | 0.0000 | 0.0000 "
@@ -258,9 +258,9 @@ def test_table2_gives_its_sample_counts():
     ablation = AttributeAblation({"dataset": "d", "seq_len": 4}, {}, 147, {
         name: AttributeScores(None, 0.5, {"val": AttributeSplit(0.5, 97, 0.5), "test": AttributeSplit(0.5, 107, 0.5)})
         for name in ("A1", "A2", "A3", "A4", "all")})
-    rows = report.table2_rows([ablation])
+    rows = tabulate.table2_rows([ablation])
     assert {(r.n_train, r.n_validation["val"], r.n_last["test"]) for r in rows} == {(147, 97, 107)}
-    assert "F1 over train 147 samples, validation 97 samples, test 107 samples" in report.table2_markdown(rows)
+    assert "F1 over train 147 samples, validation 97 samples, test 107 samples" in tabulate.table2_markdown(rows)
 
 
 # --- 3. the report shows the configuration in its own order -----------------------------------------------------

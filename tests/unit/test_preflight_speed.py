@@ -10,9 +10,9 @@ import pytest
 from street_dataset import plan_config
 
 from vpr_smr.eval.matching.matcher import first_reference
-from vpr_smr.eval.report.build import dataset_rows
 from vpr_smr.eval.report.html import cards
 from vpr_smr.eval.report.results import Order
+from vpr_smr.eval.report.tables.datasets import dataset_rows
 from vpr_smr.eval.scoring.speed import SpeedProfile, simulate
 from vpr_smr.pipeline import plan as plan_module
 from vpr_smr.pipeline.config import ConfigError, validate

@@ -8,8 +8,8 @@ import pytest
 
 from vpr_smr.eval.matching.attributes import query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
-from vpr_smr.eval.report.build import sweep_rows
 from vpr_smr.eval.report.findings import sweep_headline, sweep_sentences
+from vpr_smr.eval.report.tabulate import sweep_rows
 from vpr_smr.eval.scoring.evaluate import compare_removal, recall_at_1
 from vpr_smr.eval.scoring.records import SplitMetrics, VPRMetrics
 from vpr_smr.eval.scoring.sweep import FRAME_TOLERANCES, RADII, protocol_sweep, sweep_thresholds

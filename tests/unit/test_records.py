@@ -12,7 +12,7 @@ from vpr_smr.eval.matching.attributes import Matching, query_features, write_fea
 from vpr_smr.eval.predictor import ablation, train
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
-from vpr_smr.eval.report.build import match_timings
+from vpr_smr.eval.report.tabulate import match_timings
 from vpr_smr.eval.scoring import evaluate, held_out
 from vpr_smr.eval.scoring.records import Evaluation, HeldOut, Timing
 

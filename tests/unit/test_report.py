@@ -9,8 +9,8 @@ import pytest
 from report_runs import DATASET_CARD, RUN_EXPERIMENTS, build_run, metrics_record, predictor_report, small_png
 
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, AttributeSplit
-from vpr_smr.eval.report.build import table1_latex, table1_markdown, table2_latex, table2_markdown, table2_rows
-from vpr_smr.eval.report.table1 import tex_escape
+from vpr_smr.eval.report.table1 import table1_latex, table1_markdown, tex_escape
+from vpr_smr.eval.report.tabulate import table2_latex, table2_markdown, table2_rows
 
 METHODS = ("AP-GeM", "CosPlace", "EigenPlaces", "MixVPR", "NetVLAD", "SAD", "SALAD")
 PAPER = {  # smr_paper.tex, Table I: VPR+SM, VPR+SM+Pred, Reduction (%) per method
@@ -414,8 +414,7 @@ def test_a_switched_off_experiment_leaves_no_section(tmp_path):
 
 
 def test_method_order_is_the_configurations(tmp_path):
-    from vpr_smr.eval.report.build import table1_rows
-    from vpr_smr.eval.report.table1 import evaluation_order
+    from vpr_smr.eval.report.table1 import evaluation_order, table1_rows
     from vpr_smr.eval.scoring.records import Evaluation
 
     run, _ = build_run(tmp_path, modes=("paper",), seq_lens=(4,), methods=("zeta", "alpha"))

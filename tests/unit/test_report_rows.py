@@ -95,9 +95,20 @@ def test_the_writer_writes_a_typed_rows_cells(tmp_path):
 
 
 def test_every_registered_table_is_shown_by_a_declared_section():
-    from vpr_smr.eval.report.html import SECTIONS
+    from vpr_smr.eval.report.html import declared_sections
 
-    shown = [name for section in SECTIONS for name in section.tables]
+    sections = declared_sections()  # the page's, then those the tables declare
+    shown = [name for section in sections for name in section.tables]
     # the datasets table is folded under the dataset cards, not in an experiment's section
     assert sorted([*shown, "datasets"]) == sorted(spec.name for spec in registry.TABLES)
-    assert len({section.id for section in SECTIONS}) == len(SECTIONS)
+    assert len({section.id for section in sections}) == len(sections)
+
+
+def test_the_names_the_report_reads_are_the_row_records_fields():
+    from vpr_smr.eval.report import names
+
+    fields = {field.name for field in dataclasses.fields(rows.Table1Row)}
+    assert {names.REDUCTION, names.AOC_VPR_SM, names.AOC_VPR_SM_PRED, names.RECALL_SINGLE,
+            names.RECALL_SEQUENCE} <= fields
+    assert {"reduction_pct", "aoc_vpr_sm", "aoc_vpr_sm_pred", "recall_at_1_single", "recall_at_1_sequence"} == {
+        names.REDUCTION, names.AOC_VPR_SM, names.AOC_VPR_SM_PRED, names.RECALL_SINGLE, names.RECALL_SEQUENCE}
