@@ -34,6 +34,17 @@ def _json_object(text: str, option: str) -> dict[str, Any]:
     return value
 
 
+def _predictor_params(args: argparse.Namespace) -> dict[str, Any]:
+    """``--predictor``'s JSON object, each setting checked against its declaration (``PredictorSettings``) before
+    any file is read; what is not given keeps its default."""
+    from vpr_smr.core.settings import parse
+    from vpr_smr.eval.predictor.defaults import PredictorSettings
+
+    params = _json_object(args.predictor, "--predictor") if args.predictor else {}
+    parse(PredictorSettings, params, "--predictor")
+    return params
+
+
 def _stage_settings(args: argparse.Namespace) -> tuple[dict[str, Any], dict[str, Any]]:
     """The dataset's and the method's settings: given as JSON (the workflow) or taken from ``--config``."""
     if args.config:
@@ -131,9 +142,9 @@ def _evaluation_splits(args: argparse.Namespace) -> dict[str, list[str]]:
 def cmd_train(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import train
 
+    params = _predictor_params(args)  # its settings checked before any file is read
     evaluate = _evaluation_splits(args)
     _check_seq_len(args, args.train, *evaluate.values())
-    params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     report = train.main(args.train, args.out, params, evaluate=evaluate,
                         meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)),
                         allow_split_overlap=args.allow_split_overlap, validation=args.validation)
@@ -229,9 +240,9 @@ def _matcher(args: argparse.Namespace) -> Any:
 def cmd_ablation_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
 
+    params = _predictor_params(args)  # its settings checked before any file is read
     evaluate = _evaluation_splits(args)
     _check_seq_len(args, args.train, *evaluate.values())
-    params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     ablation.attributes_main(args.train, args.out, params, evaluate=evaluate,
                              meta={"dataset": args.dataset, "seq_len": args.seq_len},
                              allow_split_overlap=args.allow_split_overlap)
@@ -240,11 +251,11 @@ def cmd_ablation_attributes(args: argparse.Namespace) -> None:
 def cmd_ablation_without(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
 
+    params = _predictor_params(args)  # its settings checked before any file is read
     train = _split_paths(args.train, "--train", "METHOD")
     evaluate = {name: _split_paths(items, f"--evaluate {name}", "METHOD")
                 for name, items in _evaluation_splits(args).items()}
     _check_seq_len(args, train.values(), *(files.values() for files in evaluate.values()))
-    params = _json_object(args.predictor, "--predictor") if args.predictor else {}
     meta = {"dataset": args.dataset, "seq_len": args.seq_len}
     ablation.train_without(train, args.method, args.out, params, evaluate=evaluate, meta=meta,
                            allow_split_overlap=args.allow_split_overlap, validation=args.validation)
@@ -262,7 +273,7 @@ def cmd_ablation_held_out(args: argparse.Namespace) -> None:
 def cmd_speed(args: argparse.Namespace) -> None:
     from vpr_smr.eval.scoring import speed
 
-    params = _json_object(args.predictor, "--predictor") if args.predictor else {}
+    params = _predictor_params(args)  # its settings checked before any file is read
     speed.main(args.dataset, args.seq_len, args.profile, _split_paths(args.train, "--train", "METHOD"),
                _split_paths(args.test, "--table", "METHOD"), args.out, args.velocities, args.tolerance, params,
                allow_split_overlap=args.allow_split_overlap)

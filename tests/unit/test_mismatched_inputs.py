@@ -323,3 +323,14 @@ def test_a_cluster_profile_refuses_an_interpreter_whose_path_holds_a_space():
         check_cluster_interpreter(profile_path("slurm"), "/tmp/fresh clone/.venv/bin/python")
     check_cluster_interpreter(profile_path("slurm"), "/tmp/clone/.venv/bin/python")  # no space: fine
     check_cluster_interpreter(profile_path("local"), "/tmp/fresh clone/.venv/bin/python")  # local jobs: fine
+
+
+def test_train_checks_its_predictor_settings_before_reading_a_file(tmp_path, capsys):
+    # the training file does not exist: the misspelt setting is what is said, with the setting it means
+    err = failure(capsys, ["train", "--dataset", "d", "--seq-len", "3", "--predictor", '{"max_iters": 20}',
+                           "--train", str(tmp_path / "missing.h5"), "--out", str(tmp_path / "p.h5")])
+    assert "--predictor.max_iters: unexpected setting 'max_iters' (did you mean 'max_iter'?)" in err
+    err = failure(capsys, ["train", "--dataset", "d", "--seq-len", "3", "--predictor", '{"alpha": -1}',
+                           "--train", str(tmp_path / "missing.h5"), "--out", str(tmp_path / "p.h5")])
+    assert "--predictor.alpha: the MLP's L2 penalty" in err and "must be >= 0, got -1.0" in err
+    assert not (tmp_path / "p.h5").exists()
