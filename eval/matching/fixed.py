@@ -22,6 +22,7 @@ in its own layout.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from types import ModuleType
 from typing import Any
@@ -39,16 +40,19 @@ class Workspace:
     """The numpy path's large scratch arrays, reused from one block of queries to the next (``SequenceMatcher.features``
     keeps one per matrix). A fresh array of a few MB is mapped anew by the allocator and costs a page fault per 4 KB
     on its first write: up to a fifth of this path's time on a 3000 x 3000 matrix, varying with the process's heap.
-    Scratch only: no result is a view of one of these arrays."""
+    Scratch only: no result is a view of one of these arrays. Each thread gets its own arrays (blocks run on
+    several threads at once)."""
 
     def __init__(self) -> None:
-        self._arrays: dict[str, np.ndarray] = {}
+        self._local = threading.local()
 
     def empty(self, name: str, shape: tuple[int, int], dtype: np.dtype) -> np.ndarray:
-        """An uninitialised ``shape`` array of ``dtype``: the one named ``name`` again when it has that shape."""
-        array = self._arrays.get(name)
+        """An uninitialised ``shape`` array of ``dtype``: this thread's one named ``name`` again when it has that
+        shape."""
+        arrays: dict[str, np.ndarray] = self._local.__dict__.setdefault("arrays", {})
+        array = arrays.get(name)
         if array is None or array.shape != shape or array.dtype != dtype:
-            array = self._arrays[name] = np.empty(shape, dtype=dtype)
+            array = arrays[name] = np.empty(shape, dtype=dtype)
         return array
 
     def padded(self, name: str, n_rows: int, n_values: int, dtype: np.dtype) -> np.ndarray:
@@ -101,6 +105,15 @@ def _error_bound(dtype: np.dtype, n_cols: int, seq_len: int, magnitude: float) -
     at most ``magnitude`` (both ends, Higham's gamma_n), of the screened inputs, and of the float64 reference sum."""
     unit = float(np.finfo(dtype).eps) / 2
     return magnitude * (unit * (2.2 * n_cols * n_cols + 6 * seq_len + 4) + 1.2e-16 * seq_len * seq_len)
+
+
+def _value_bound(dtype: np.dtype, magnitude: float) -> float:
+    """Bound on ``|screened - exact|`` of one normalised value ``D[r, a] / max``: the screened quotient is rounded
+    at most three times (the divisor, the quotient in float64, the result in ``dtype``; an underflow to a subnormal
+    costs less than one more ``dtype`` unit at these magnitudes), the float64 reference once. No running sum is
+    involved, so the prefix sums' ``n_cols**2`` term of ``_error_bound`` would only widen the scan."""
+    unit = float(np.finfo(dtype).eps) / 2
+    return magnitude * (4 * unit + 2.5e-16)
 
 
 
@@ -172,16 +185,18 @@ def numpy_block_features(
     row_past_sorted, _ = select(row_past, n_ref, k, margin, lambda j, r: row_sum(j, r, seq_len - 1))
     del row_past
 
-    current_sorted, _ = select(x[seq_len - 1 :], n_ref, k, margin, lambda j, r: value(j + seq_len - 1, r, True))
+    current_sorted, _ = select(x[seq_len - 1 :], n_ref, k, 2 * _value_bound(screen, magnitude),
+                               lambda j, r: value(j + seq_len - 1, r, True))
     del x
-    single_match = np.argmin(raw[seq_len - 1 :], axis=1)  # first index on ties, as np.argmin of the column
     if n_single > 0:  # the raw values are exact: selected with no margin, as velocity's _smallest does
         current_raw = work.padded("current_raw", n_queries, n_ref, raw.dtype)
         current_raw[:, :n_ref] = raw[seq_len - 1 :]
         single_values, single_index = select(current_raw, n_ref, n_single, 0.0,
                                              lambda j, r: value(j + seq_len - 1, r, False))
+        single_match = single_index[:, 0]  # the smallest value, lowest index first: np.argmin's, without its pass
     else:
         single_values, single_index = np.empty((n_queries, 0)), np.empty((n_queries, 0), dtype=np.int64)
+        single_match = np.argmin(raw[seq_len - 1 :], axis=1)  # first index on ties, as np.argmin of the column
 
     # S on the raw distances: its argmin is the sequence match, its extremes the split's threshold range.
     prefix = _diagonal_prefix(raw.astype(screen, copy=False), n_queries, work)
