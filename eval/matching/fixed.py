@@ -185,18 +185,32 @@ def numpy_block_features(
     row_past_sorted, _ = select(row_past, n_ref, k, margin, lambda j, r: row_sum(j, r, seq_len - 1))
     del row_past
 
-    current_sorted, _ = select(x[seq_len - 1 :], n_ref, k, 2 * _value_bound(screen, magnitude),
-                               lambda j, r: value(j + seq_len - 1, r, True))
-    del x
-    if n_single > 0:  # the raw values are exact: selected with no margin, as velocity's _smallest does
+    # The current column's smallest raw values, exact (no margin, as velocity's _smallest selects them): the single
+    # candidates, the single match (the smallest, lowest index first: np.argmin's) and, where every maximum is
+    # positive, the K smallest normalised values too (division by a positive number keeps the order, and each is
+    # the same float64 expression as ``value``), so one selection serves all three; an underflow to 0, which could
+    # swap the signs of equal zeros, and negative maxima select the normalised values themselves.
+    current_max = col_max[seq_len - 1 :]
+    positive = bool((current_max > 0).all())
+    n_raw = max(n_single, k) if positive else n_single
+    current_sorted: np.ndarray | None = None
+    if n_raw > 0:
         current_raw = work.padded("current_raw", n_queries, n_ref, raw.dtype)
         current_raw[:, :n_ref] = raw[seq_len - 1 :]
-        single_values, single_index = select(current_raw, n_ref, n_single, 0.0,
-                                             lambda j, r: value(j + seq_len - 1, r, False))
-        single_match = single_index[:, 0]  # the smallest value, lowest index first: np.argmin's, without its pass
+        raw_values, raw_index = select(current_raw, n_ref, n_raw, 0.0, lambda j, r: value(j + seq_len - 1, r, False))
+        single_match = raw_index[:, 0]
+        if positive:
+            current_sorted = raw_values[:, :k] / current_max[:, None]
+            if np.any((current_sorted == 0) & (raw_values[:, :k] != 0)):
+                current_sorted = None
     else:
-        single_values, single_index = np.empty((n_queries, 0)), np.empty((n_queries, 0), dtype=np.int64)
         single_match = np.argmin(raw[seq_len - 1 :], axis=1)  # first index on ties, as np.argmin of the column
+        raw_values, raw_index = np.empty((n_queries, 0)), np.empty((n_queries, 0), dtype=np.int64)
+    if current_sorted is None:
+        current_sorted, _ = select(x[seq_len - 1 :], n_ref, k, 2 * _value_bound(screen, magnitude),
+                                   lambda j, r: value(j + seq_len - 1, r, True))
+    del x
+    single_values, single_index = raw_values[:, :n_single], raw_index[:, :n_single]
 
     # S on the raw distances: its argmin is the sequence match, its extremes the split's threshold range.
     prefix = _diagonal_prefix(raw.astype(screen, copy=False), n_queries, work)

@@ -84,3 +84,37 @@ def test_thread_count_defaults_to_the_usable_cores(monkeypatch):
     assert thread_count() == len(os.sched_getaffinity(0))
     monkeypatch.setenv(THREADS_VARIABLE, " 3 ")
     assert thread_count() == 3
+
+
+# --- A2's smallest current values, read from the selection of the raw ones ---------------------------------------
+
+
+def bits(values):
+    return np.ascontiguousarray(values, dtype=np.float64).view(np.int64)  # tells -0.0 from 0.0
+
+
+def negative_column():
+    matrix = np.random.default_rng(4).random((60, 30)) - 0.7
+    matrix[:, 10] = -np.random.default_rng(5).random(60) - 0.1  # a negative maximum reverses the order
+    return matrix
+
+
+def underflow_column():
+    matrix = np.random.default_rng(6).random((40, 12)) + 1.0
+    matrix[0, 8] = 1e300  # the column's maximum
+    matrix[5, 8] = 0.0  # 0 / 1e300 = 0.0
+    matrix[20, 8] = -1e-300  # -1e-300 / 1e300 underflows to -0.0: equal to row 5's 0.0, lower raw value
+    return matrix
+
+
+@pytest.mark.parametrize("candidates", [0, 12])
+@pytest.mark.parametrize("name, matrix", [("negative maximum", negative_column()),
+                                          ("underflow to -0.0", underflow_column())])
+def test_current_values_equal_the_definition_bit_for_bit(numpy_path, name, matrix, candidates):
+    expected, _ = naive_attributes(matrix, 3, 4)  # the sorted current values of D / max: a stable sort, as §5
+    for threads in (1, 2):
+        numpy_path.setenv(THREADS_VARIABLE, str(threads))
+        found = SequenceMatcher(3).features(matrix, 4, block_queries=5, n_candidates=candidates)
+        # A2 = the k-th smallest current value over the rank-k diagonal's last value, one division each
+        np.testing.assert_array_equal(bits(found["attributes"][..., 1]), bits(expected[..., 1]), err_msg=name)
+        np.testing.assert_array_equal(found["single_match"], matrix.argmin(axis=0)[2:])
