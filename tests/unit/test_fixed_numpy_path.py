@@ -118,3 +118,25 @@ def test_current_values_equal_the_definition_bit_for_bit(numpy_path, name, matri
         # A2 = the k-th smallest current value over the rank-k diagonal's last value, one division each
         np.testing.assert_array_equal(bits(found["attributes"][..., 1]), bits(expected[..., 1]), err_msg=name)
         np.testing.assert_array_equal(found["single_match"], matrix.argmin(axis=0)[2:])
+
+
+# --- the two screenings: direct sums (short windows) and running sums (long ones) --------------------------------
+
+
+@pytest.mark.parametrize("seq_len", [2, 3, 7])
+def test_direct_and_running_sums_give_the_definition(numpy_path, seq_len):
+    matrix = tied_matrix(n_ref=200, n_query=60)
+    expected, expected_refs = naive_attributes(matrix.astype(np.float64), seq_len, 4)
+    found = {}
+    for direct_max in (0, 100):  # every length on running sums, then on direct sums
+        numpy_path.setattr(fixed, "DIRECT_MAX_LEN", direct_max)
+        for screen in (np.float32, np.float64):
+            out = SequenceMatcher(seq_len).features(matrix, 4, block_queries=16, screen_dtype=screen,
+                                                    n_candidates=12)
+            np.testing.assert_allclose(out["attributes"], expected, rtol=1e-12)
+            np.testing.assert_array_equal(out["rank_references"], expected_refs)
+            found[direct_max, screen] = out
+    first = found[0, np.float32]
+    for out in found.values():
+        for key in first:
+            np.testing.assert_array_equal(out[key], first[key], err_msg=key)
