@@ -195,8 +195,8 @@ def numpy_block_features(
     if direct:
         past = _direct_sums(x, seq_len - 1, n_queries, n_diag, 1, work.padded("past", n_queries, n_diag, screen))
         full = work.padded("window", n_queries, n_diag, screen)
-        last = seq_len - 1
-        np.add(past[:, :n_diag], x[last : last + n_queries, last : last + n_diag], out=full[:, :n_diag])
+        end = seq_len - 1  # the window's last term
+        np.add(past[:, :n_diag], x[end : end + n_queries, end : end + n_diag], out=full[:, :n_diag])
     else:
         prefix = _diagonal_prefix(x[:, :n_ref], n_queries, work)
         full = _window_sums(prefix, seq_len, n_queries, n_diag, work)
