@@ -318,10 +318,14 @@ def _mean_full(diagonal_sum: Callable[..., np.ndarray], j: np.ndarray, lo: np.nd
     """Mean of ``full_m`` over the diagonals ``m = lo .. hi`` (inclusive) of block column ``j``: the block and
     group sums of method §5 (a sum over ``L`` entries of the entry-wise mean of those diagonals)."""
     width = int((hi - lo).max()) + 1
+    offset = np.arange(width)
+    inside = lo[:, None] + offset <= hi[:, None]
+    # every full_m at once (one exact sum per (j, m), as one at a time), then added in the order m = lo .. hi
+    full = diagonal_sum(np.repeat(j, width), np.minimum(lo[:, None] + offset, hi[:, None]).ravel(), seq_len,
+                        True).reshape(len(j), width)
     total = np.zeros(len(j))
     for t in range(width):
-        inside = lo + t <= hi
-        total += np.where(inside, diagonal_sum(j, np.minimum(lo + t, hi), seq_len, True), 0.0)
+        total += np.where(inside[:, t], full[:, t], 0.0)
     mean: np.ndarray = total / (hi - lo + 1)
     return mean
 
