@@ -48,8 +48,10 @@ __all__ = [
 ]
 
 BLOCK_VALUES = 1 << 20  # about 1 M values per block of query columns (4 MB of float32): measured fastest
-# The fixed matcher's numpy path, whose direct sums keep several block-sized arrays: about 0.5 M values per block
-# (2026-11-27, 9000 x 9000, one thread: 0.44 s against 0.49-0.51 s at 1 M and 0.50-0.51 s at 0.25 M).
+# The fixed matcher's numpy path on one thread, whose direct sums keep several block-sized arrays: about 0.5 M values
+# per block (2026-11-27, 9000 x 9000 at L 4, 12 candidates: 0.42 s against 0.48 s at 1 M and 0.45-0.48 s at 0.35 M).
+# On several threads, each block's few hundred small numpy calls hold the GIL: BLOCK_VALUES pays there (0.32-0.37 s
+# on 2 threads against 0.37-0.38 s at 0.5 M and 0.36-0.44 s at 2 M).
 FIXED_BLOCK_VALUES = 1 << 19
 TRANSPOSE_ROWS = 256
 KERNEL: str | None = None  # "numba" or "numpy" forces a path; None: VPR_SMR_KERNEL, else where the kernels pay
@@ -269,7 +271,7 @@ class SequenceMatcher:
     @staticmethod
     def block_queries(n_ref: int, values: int = BLOCK_VALUES) -> int:
         """Query columns per block: about ``values`` values per block (``BLOCK_VALUES``; ``FIXED_BLOCK_VALUES`` on
-        the fixed matcher's numpy path), at least 16 columns."""
+        the fixed matcher's numpy path on one thread), at least 16 columns."""
         return max(16, values // max(n_ref, 1))
 
     def map_blocks(self, matrix: Any, function: Callable[[int, np.ndarray], T],
@@ -396,7 +398,8 @@ class SequenceMatcher:
         # operations); the compiled kernels thread inside, the velocity search's numpy twin stays on one.
         fixed_numpy = self.is_fixed and fixed_kernels(n_ref * n_query) is None
         threads = thread_count() if fixed_numpy else 1
-        step = block_queries or self.block_queries(n_ref, FIXED_BLOCK_VALUES if fixed_numpy else BLOCK_VALUES)
+        step = block_queries or self.block_queries(n_ref, FIXED_BLOCK_VALUES if threads == 1 and fixed_numpy
+                                                   else BLOCK_VALUES)
         parts = self.map_blocks(matrix, lambda start, columns: self.block_features(
             columns, n_ranks, start, total_queries=n_out, screen_dtype=screen_dtype, workspace=workspace,
             n_candidates=n_candidates), step, threads)
