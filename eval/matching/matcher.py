@@ -398,7 +398,9 @@ class SequenceMatcher:
         # operations); the compiled kernels thread inside, the velocity search's numpy twin stays on one.
         fixed_numpy = self.is_fixed and fixed_kernels(n_ref * n_query) is None
         threads = thread_count() if fixed_numpy else 1
-        step = block_queries or self.block_queries(n_ref, FIXED_BLOCK_VALUES if threads == 1 and fixed_numpy
+        # BLOCK_VALUES where the threads get two blocks each or more, else the one-thread size
+        large = threads > 1 and n_ref * n_out >= 2 * threads * BLOCK_VALUES
+        step = block_queries or self.block_queries(n_ref, FIXED_BLOCK_VALUES if fixed_numpy and not large
                                                    else BLOCK_VALUES)
         parts = self.map_blocks(matrix, lambda start, columns: self.block_features(
             columns, n_ranks, start, total_queries=n_out, screen_dtype=screen_dtype, workspace=workspace,
