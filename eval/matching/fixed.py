@@ -35,10 +35,11 @@ from numpy.lib.stride_tricks import as_strided
 from vpr_smr.eval.matching.checks import NonFiniteError, check_finite
 from vpr_smr.eval.matching.formulas import attribute_rates, block_range, group_range, padded, select
 
-# Sequence lengths up to this are screened by direct sums, longer ones by running sums. On 9000 x 9000 float32 with
-# 12 candidates, one thread, CPU seconds running sums / direct (2026-11-27): L 2 0.85 / 0.46, 4 0.69 / 0.50,
-# 10 0.72 / 0.67, 12 0.76 / 0.75, 16 0.82 / 0.86, 24 1.00 / 1.16 (direct sums' error bounds are far tighter, so
-# their selections recompute fewer candidates).
+# Sequence lengths up to this are screened by direct sums, longer ones by running sums. 9000 x 9000 float32, 12
+# candidates (2026-11-27), seconds running sums / direct: on 2 threads (blocks of 1 M values) L 2 0.51 / 0.28, 4
+# 0.43 / 0.30, 10 0.49 / 0.40, 12 0.50 / 0.42; on one thread (0.5 M values, whose running sums' bound is 4 times
+# tighter) L 4 0.51 / 0.44, 8 0.56 / 0.54, 10 0.56 / 0.60, 12 0.59 / 0.66. Direct sums' error bounds are far
+# tighter, so their selections recompute fewer candidates; past about 12 terms their L passes cost more.
 DIRECT_MAX_LEN = 12
 KERNEL_CHUNK_VALUES = 16 << 20  # values per read of a lazy (HDF5) matrix on the compiled path: 64 MB of float32
 

@@ -123,7 +123,7 @@ def test_current_values_equal_the_definition_bit_for_bit(numpy_path, name, matri
 # --- the two screenings: direct sums (short windows) and running sums (long ones) --------------------------------
 
 
-@pytest.mark.parametrize("seq_len", [2, 3, 7])
+@pytest.mark.parametrize("seq_len", [2, 3, 7, 9, 12])
 def test_direct_and_running_sums_give_the_definition(numpy_path, seq_len):
     matrix = tied_matrix(n_ref=200, n_query=60)
     expected, expected_refs = naive_attributes(matrix.astype(np.float64), seq_len, 4)
