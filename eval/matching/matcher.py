@@ -53,6 +53,9 @@ BLOCK_VALUES = 1 << 20  # about 1 M values per block of query columns (4 MB of f
 # On several threads, each block's few hundred small numpy calls hold the GIL: BLOCK_VALUES pays there (0.32-0.37 s
 # on 2 threads against 0.37-0.38 s at 0.5 M and 0.36-0.44 s at 2 M).
 FIXED_BLOCK_VALUES = 1 << 19
+# At most this many threads on the fixed matcher's numpy path: each keeps its own scratch arrays (about 25 MB), and
+# two already share the caches' bandwidth (measured on 2 cores only; more cores are untested here).
+FIXED_MAX_THREADS = 4
 TRANSPOSE_ROWS = 256
 KERNEL: str | None = None  # "numba" or "numpy" forces a path; None: VPR_SMR_KERNEL, else where the kernels pay
 # The fixed matcher's compiled kernel costs about 0.65 s per process before its first result (numba's import and
@@ -397,7 +400,7 @@ class SequenceMatcher:
         # The fixed matcher's numpy path runs its blocks on threads (numpy releases the GIL in its large
         # operations); the compiled kernels thread inside, the velocity search's numpy twin stays on one.
         fixed_numpy = self.is_fixed and fixed_kernels(n_ref * n_query) is None
-        threads = thread_count() if fixed_numpy else 1
+        threads = min(thread_count(), FIXED_MAX_THREADS) if fixed_numpy else 1
         # BLOCK_VALUES where the threads get two blocks each or more, else the one-thread size
         large = threads > 1 and n_ref * n_out >= 2 * threads * BLOCK_VALUES
         step = block_queries or self.block_queries(n_ref, FIXED_BLOCK_VALUES if fixed_numpy and not large

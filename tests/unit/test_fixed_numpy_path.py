@@ -140,3 +140,9 @@ def test_direct_and_running_sums_give_the_definition(numpy_path, seq_len):
     for out in found.values():
         for key in first:
             np.testing.assert_array_equal(out[key], first[key], err_msg=key)
+
+
+def test_the_numpy_path_uses_at_most_its_thread_limit(numpy_path):
+    numpy_path.setattr(matcher, "FIXED_MAX_THREADS", 2)
+    _, ran_on = run(numpy_path, 8, tied_matrix(n_ref=200, n_query=120), 3, block_queries=8)  # 15 blocks
+    assert 1 <= len(ran_on) <= 2
