@@ -50,8 +50,8 @@ __all__ = [
 BLOCK_VALUES = 1 << 20  # about 1 M values per block of query columns (4 MB of float32): measured fastest
 # The fixed matcher's numpy path on one thread, whose direct sums keep several block-sized arrays: about 0.5 M values
 # per block (2026-11-27, 9000 x 9000 at L 4, 12 candidates: 0.42 s against 0.48 s at 1 M and 0.45-0.48 s at 0.35 M).
-# On several threads, each block's few hundred small numpy calls hold the GIL: BLOCK_VALUES pays there (0.32-0.37 s
-# on 2 threads against 0.37-0.38 s at 0.5 M and 0.36-0.44 s at 2 M).
+# On several threads BLOCK_VALUES pays (0.32-0.37 s on 2 threads against 0.37-0.38 s at 0.5 M and 0.36-0.44 s at
+# 2 M): half as many blocks, so half the small numpy calls and GIL hand-offs per value.
 FIXED_BLOCK_VALUES = 1 << 19
 # At most this many threads on the fixed matcher's numpy path: each keeps its own scratch arrays (about 25 MB), and
 # two already share the caches' bandwidth (measured on 2 cores only; more cores are untested here).
