@@ -1,12 +1,14 @@
 """The fixed matcher's fast path (velocity 1 only): the same numbers as the velocity search's, in O(1) per diagonal.
 
 Inside ``matcher.SequenceMatcher`` only: with ``velocities=(1.0,)`` every trajectory is a diagonal, so one block of
-query columns can be screened by running sums along its diagonals instead of summing ``L`` terms per reference.
+query columns is screened by whole-block additions along its diagonals, vectorised over every reference.
 
-1. *Screening.* Running sums along the diagonals (a prefix sum over the block's columns, in diagonal coordinates)
-   give every diagonal sum ``full_d``, ``past_d``, the row sums and ``S`` as a difference of two prefix sums, in
-   float32. Partial selection finds a bound on each query's ``K``-th smallest screened value: the ``K``-th smallest
-   of the minima of strided groups of 32 values (one reduction, then ``np.partition`` of a 32 times shorter row).
+1. *Screening.* Every diagonal sum ``full_d``, ``past_d``, the row sums and ``S`` of the block, in float32: for
+   ``L <= DIRECT_MAX_LEN`` term by term (``L - 1`` additions of shifted blocks), for longer windows as a difference
+   of two running sums along the diagonals (a prefix sum over the block's columns, in diagonal coordinates), whose
+   rounding error grows with the block's width. Partial selection finds a bound on each query's ``K``-th smallest
+   screened value: the ``K``-th smallest of the minima of strided groups of 32 values (one reduction, then
+   ``np.partition`` of a 32 times shorter row).
 2. *Exact recomputation.* Every candidate within a rigorous bound of the float32 rounding error of that ``K``-th
    value is recomputed in float64 exactly as the definition does it (``0 + x_0 + x_1 + ...`` in this order), and the
    ``K`` best are taken by a stable sort on (value, diagonal): the tie rule of method §5, equal ``full_d`` lowest
@@ -22,6 +24,7 @@ in its own layout.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from types import ModuleType
 from typing import Any
@@ -32,6 +35,12 @@ from numpy.lib.stride_tricks import as_strided
 from vpr_smr.eval.matching.checks import NonFiniteError, check_finite
 from vpr_smr.eval.matching.formulas import attribute_rates, block_range, group_range, padded, select
 
+# Sequence lengths up to this are screened by direct sums, longer ones by running sums. 9000 x 9000 float32, 12
+# candidates (2026-11-27), seconds running sums / direct: on 2 threads (blocks of 1 M values) L 2 0.51 / 0.28, 4
+# 0.43 / 0.30, 10 0.49 / 0.40, 12 0.50 / 0.42; on one thread (0.5 M values, whose running sums' bound is 4 times
+# tighter) L 4 0.51 / 0.44, 8 0.56 / 0.54, 10 0.56 / 0.60, 12 0.59 / 0.66. Direct sums' error bounds are far
+# tighter, so their selections recompute fewer candidates; past about 12 terms their L passes cost more.
+DIRECT_MAX_LEN = 12
 KERNEL_CHUNK_VALUES = 16 << 20  # values per read of a lazy (HDF5) matrix on the compiled path: 64 MB of float32
 
 
@@ -39,16 +48,19 @@ class Workspace:
     """The numpy path's large scratch arrays, reused from one block of queries to the next (``SequenceMatcher.features``
     keeps one per matrix). A fresh array of a few MB is mapped anew by the allocator and costs a page fault per 4 KB
     on its first write: up to a fifth of this path's time on a 3000 x 3000 matrix, varying with the process's heap.
-    Scratch only: no result is a view of one of these arrays."""
+    Scratch only: no result is a view of one of these arrays. Each thread gets its own arrays (blocks run on
+    several threads at once)."""
 
     def __init__(self) -> None:
-        self._arrays: dict[str, np.ndarray] = {}
+        self._local = threading.local()
 
     def empty(self, name: str, shape: tuple[int, int], dtype: np.dtype) -> np.ndarray:
-        """An uninitialised ``shape`` array of ``dtype``: the one named ``name`` again when it has that shape."""
-        array = self._arrays.get(name)
+        """An uninitialised ``shape`` array of ``dtype``: this thread's one named ``name`` again when it has that
+        shape."""
+        arrays: dict[str, np.ndarray] = self._local.__dict__.setdefault("arrays", {})
+        array = arrays.get(name)
         if array is None or array.shape != shape or array.dtype != dtype:
-            array = self._arrays[name] = np.empty(shape, dtype=dtype)
+            array = arrays[name] = np.empty(shape, dtype=dtype)
         return array
 
     def padded(self, name: str, n_rows: int, n_values: int, dtype: np.dtype) -> np.ndarray:
@@ -86,13 +98,29 @@ def _diagonal_prefix(x: np.ndarray, n_queries: int, workspace: Workspace) -> np.
     return out
 
 
-def _window_sums(prefix: np.ndarray, n_terms: int, n_queries: int, n_diag: int, workspace: Workspace) -> np.ndarray:
+def _window_sums(prefix: np.ndarray, n_terms: int, n_queries: int, n_diag: int, workspace: Workspace,
+                 name: str = "window") -> np.ndarray:
     """``out[j, d]`` = screened sum of the first ``n_terms`` entries of diagonal ``d`` from block column ``j``,
-    padded for ``formulas.select`` (one array of ``workspace``: each use ends before the next begins)."""
+    padded for ``formulas.select`` (the array ``name`` of ``workspace``: each use ends before the next begins)."""
     shape = (n_queries, n_diag)
-    out = workspace.padded("window", n_queries, n_diag, prefix.dtype)
+    out = workspace.padded(name, n_queries, n_diag, prefix.dtype)
     np.subtract(_diagonal_view(prefix, n_terms, n_queries - 1, shape), _diagonal_view(prefix, 0, n_queries - 1, shape),
                 out=out[:, :n_diag])
+    return out
+
+
+def _direct_sums(x: np.ndarray, n_terms: int, n_queries: int, n_values: int, step: int,
+                 out: np.ndarray) -> np.ndarray:
+    """``out[j, v] = x[j, v] + x[j + 1, v + step] + ...`` (``n_terms`` terms; ``step`` 1: along a diagonal, 0: along a
+    row) for ``j < n_queries``, ``v < n_values``, in ``out``'s first columns: one whole-block addition per term."""
+    window = out[:, :n_values]
+    if n_terms == 1:
+        window[...] = x[:n_queries, :n_values]
+        return out
+    dtype = out.dtype  # the additions in ``out``'s precision, whatever ``x``'s
+    np.add(x[:n_queries, :n_values], x[1 : 1 + n_queries, step : step + n_values], out=window, dtype=dtype)
+    for c in range(2, n_terms):
+        np.add(window, x[c : c + n_queries, c * step : c * step + n_values], out=window, dtype=dtype)
     return out
 
 
@@ -101,6 +129,15 @@ def _error_bound(dtype: np.dtype, n_cols: int, seq_len: int, magnitude: float) -
     at most ``magnitude`` (both ends, Higham's gamma_n), of the screened inputs, and of the float64 reference sum."""
     unit = float(np.finfo(dtype).eps) / 2
     return magnitude * (unit * (2.2 * n_cols * n_cols + 6 * seq_len + 4) + 1.2e-16 * seq_len * seq_len)
+
+
+def _value_bound(dtype: np.dtype, magnitude: float) -> float:
+    """Bound on ``|screened - exact|`` of one normalised value ``D[r, a] / max``: the screened quotient is rounded
+    at most three times (the divisor, the quotient in float64, the result in ``dtype``; an underflow to a subnormal
+    costs less than one more ``dtype`` unit at these magnitudes), the float64 reference once. No running sum is
+    involved, so the prefix sums' ``n_cols**2`` term of ``_error_bound`` would only widen the scan."""
+    unit = float(np.finfo(dtype).eps) / 2
+    return magnitude * (4 * unit + 2.5e-16)
 
 
 
@@ -146,47 +183,79 @@ def numpy_block_features(
     screen = np.dtype(screen_dtype)
     if screen.itemsize < 8 and not (1e-30 < magnitude_raw < 1e30 and magnitude < 1e30):
         screen = np.dtype(np.float64)  # float32 would under- or overflow
-    margin = 2 * _error_bound(screen, n_cols, seq_len, magnitude)
-    margin_raw = 2 * _error_bound(screen, n_cols, seq_len, magnitude_raw)
+    # Short windows are summed term by term (L - 1 whole-block additions per kind of sum, each sum over L values);
+    # longer ones by running sums over the block's columns (two passes whatever L, each over n_cols values).
+    direct = seq_len <= DIRECT_MAX_LEN
+    span = seq_len if direct else n_cols  # values the screened sums run over: their rounding error grows with it
+    margin = 2 * _error_bound(screen, span, seq_len, magnitude)
+    margin_raw = 2 * _error_bound(screen, span, seq_len, magnitude_raw)
     x = work.padded("x", n_cols, n_ref, screen)  # the normalised block, padded for the current column's values
     np.divide(raw, col_max.astype(screen)[:, None], out=x[:, :n_ref])
 
     # Diagonal sums of the normalised window: full_d (L terms) ranks the diagonals, past_d (L-1 terms) gives A1.
-    prefix = _diagonal_prefix(x[:, :n_ref], n_queries, work)
-    full = _window_sums(prefix, seq_len, n_queries, n_diag, work)
+    if direct:
+        past = _direct_sums(x, seq_len - 1, n_queries, n_diag, 1, work.padded("past", n_queries, n_diag, screen))
+        full = work.padded("window", n_queries, n_diag, screen)
+        end = seq_len - 1  # the window's last term
+        np.add(past[:, :n_diag], x[end : end + n_queries, end : end + n_diag], out=full[:, :n_diag])
+    else:
+        prefix = _diagonal_prefix(x[:, :n_ref], n_queries, work)
+        full = _window_sums(prefix, seq_len, n_queries, n_diag, work)
+        past = _window_sums(prefix, seq_len - 1, n_queries, n_diag, work, "past")
+        del prefix
     _, rank_diagonals = select(full, n_diag, k, margin, lambda j, d: diagonal_sum(j, d, seq_len, True))
-    del full
-    past = _window_sums(prefix, seq_len - 1, n_queries, n_diag, work)
-    del prefix
     past_sorted, _ = select(past, n_diag, k, margin, lambda j, d: diagonal_sum(j, d, seq_len - 1, True))
-    del past
+    del full, past
 
-    # Row sums over the L-1 past columns of the window: a prefix sum over the block's columns.
-    row_prefix = work.empty("rows", (n_cols + 1, n_ref), screen)
-    row_prefix[0] = 0
-    for q in range(n_cols):
-        np.add(row_prefix[q], x[q, :n_ref], out=row_prefix[q + 1])
+    # Row sums over the L-1 past columns of the window.
     row_past = work.padded("row_past", n_queries, n_ref, screen)
-    np.subtract(row_prefix[seq_len - 1 : seq_len - 1 + n_queries], row_prefix[:n_queries], out=row_past[:, :n_ref])
-    del row_prefix
+    if direct:
+        _direct_sums(x, seq_len - 1, n_queries, n_ref, 0, row_past)
+    else:  # a prefix sum over the block's columns
+        row_prefix = work.empty("rows", (n_cols + 1, n_ref), screen)
+        row_prefix[0] = 0
+        for q in range(n_cols):
+            np.add(row_prefix[q], x[q, :n_ref], out=row_prefix[q + 1])
+        np.subtract(row_prefix[seq_len - 1 : seq_len - 1 + n_queries], row_prefix[:n_queries],
+                    out=row_past[:, :n_ref])
+        del row_prefix
     row_past_sorted, _ = select(row_past, n_ref, k, margin, lambda j, r: row_sum(j, r, seq_len - 1))
     del row_past
 
-    current_sorted, _ = select(x[seq_len - 1 :], n_ref, k, margin, lambda j, r: value(j + seq_len - 1, r, True))
-    del x
-    single_match = np.argmin(raw[seq_len - 1 :], axis=1)  # first index on ties, as np.argmin of the column
-    if n_single > 0:  # the raw values are exact: selected with no margin, as velocity's _smallest does
+    # The current column's smallest raw values, exact (no margin, as velocity's _smallest selects them): the single
+    # candidates, the single match (the smallest, lowest index first: np.argmin's) and, where every maximum is
+    # positive, the K smallest normalised values too (division by a positive number keeps the order, and each is
+    # the same float64 expression as ``value``), so one selection serves all three; an underflow to 0, which could
+    # swap the signs of equal zeros, and negative maxima select the normalised values themselves.
+    current_max = col_max[seq_len - 1 :]
+    positive = bool((current_max > 0).all())
+    n_raw = max(n_single, k) if positive else n_single
+    current_sorted: np.ndarray | None = None
+    if n_raw > 0:
         current_raw = work.padded("current_raw", n_queries, n_ref, raw.dtype)
         current_raw[:, :n_ref] = raw[seq_len - 1 :]
-        single_values, single_index = select(current_raw, n_ref, n_single, 0.0,
-                                             lambda j, r: value(j + seq_len - 1, r, False))
+        raw_values, raw_index = select(current_raw, n_ref, n_raw, 0.0, lambda j, r: value(j + seq_len - 1, r, False))
+        single_match = raw_index[:, 0]
+        if positive:
+            current_sorted = raw_values[:, :k] / current_max[:, None]
+            if np.any((current_sorted == 0) & (raw_values[:, :k] != 0)):
+                current_sorted = None
     else:
-        single_values, single_index = np.empty((n_queries, 0)), np.empty((n_queries, 0), dtype=np.int64)
+        single_match = np.argmin(raw[seq_len - 1 :], axis=1)  # first index on ties, as np.argmin of the column
+        raw_values, raw_index = np.empty((n_queries, 0)), np.empty((n_queries, 0), dtype=np.int64)
+    if current_sorted is None:
+        current_sorted, _ = select(x[seq_len - 1 :], n_ref, k, 2 * _value_bound(screen, magnitude),
+                                   lambda j, r: value(j + seq_len - 1, r, True))
+    del x
+    single_values, single_index = raw_values[:, :n_single], raw_index[:, :n_single]
 
     # S on the raw distances: its argmin is the sequence match, its extremes the split's threshold range.
-    prefix = _diagonal_prefix(raw.astype(screen, copy=False), n_queries, work)
-    s_approx = _window_sums(prefix, seq_len, n_queries, n_diag, work)
-    del prefix
+    if direct:
+        s_approx = _direct_sums(raw, seq_len, n_queries, n_diag, 1, work.padded("window", n_queries, n_diag, screen))
+    else:
+        prefix = _diagonal_prefix(raw.astype(screen, copy=False), n_queries, work)
+        s_approx = _window_sums(prefix, seq_len, n_queries, n_diag, work)
+        del prefix
     # the smallest S: the sequence match and distance, then the scorers' candidates (the first of them is the match)
     s_min, s_arg = select(s_approx, n_diag, max(1, n_sequence), margin_raw,
                           lambda j, d: diagonal_sum(j, d, seq_len, False))
@@ -250,10 +319,14 @@ def _mean_full(diagonal_sum: Callable[..., np.ndarray], j: np.ndarray, lo: np.nd
     """Mean of ``full_m`` over the diagonals ``m = lo .. hi`` (inclusive) of block column ``j``: the block and
     group sums of method §5 (a sum over ``L`` entries of the entry-wise mean of those diagonals)."""
     width = int((hi - lo).max()) + 1
+    offset = np.arange(width)
+    inside = lo[:, None] + offset <= hi[:, None]
+    # every full_m at once (one exact sum per (j, m), as one at a time), then added in the order m = lo .. hi
+    full = diagonal_sum(np.repeat(j, width), np.minimum(lo[:, None] + offset, hi[:, None]).ravel(), seq_len,
+                        True).reshape(len(j), width)
     total = np.zeros(len(j))
     for t in range(width):
-        inside = lo + t <= hi
-        total += np.where(inside, diagonal_sum(j, np.minimum(lo + t, hi), seq_len, True), 0.0)
+        total += np.where(inside[:, t], full[:, t], 0.0)
     mean: np.ndarray = total / (hi - lo + 1)
     return mean
 

@@ -20,7 +20,6 @@ The kernels release the GIL: ``column_blocks`` runs blocks of query columns on a
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
@@ -29,6 +28,7 @@ from numba import njit, types
 from numba.core.typing.templates import Signature
 
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH  # plain globals: numba freezes them at compile time
+from vpr_smr.eval.matching.matcher import thread_count
 
 GROUP = 32  # diagonals (rows) per screening group
 # The scorers' n smallest S keep a minimum per FINE diagonals besides the one per GROUP: the bound and the first test
@@ -380,14 +380,6 @@ def compiled(name: str, dtype: np.dtype) -> Any:
         function, signature = {"block": (_block, _block_signature)}[name]
         _COMPILED[key] = njit(signature(nb_type), cache=True, nogil=True)(function)
     return _COMPILED[key]
-
-
-def thread_count() -> int:
-    """Threads for the kernels: the cores this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not on Linux
-        return max(1, os.cpu_count() or 1)
 
 
 # the candidates of the training-free scorers (method §12): the n smallest S and D[r, a] and their indices

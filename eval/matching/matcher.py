@@ -31,6 +31,7 @@ import math
 import os
 import sys
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Any, TypeVar
@@ -42,11 +43,19 @@ from vpr_smr.eval.matching import fixed, velocity
 from vpr_smr.eval.matching.checks import NonFiniteError, check_finite, check_shape
 
 __all__ = [
-    "KERNEL", "SequenceMatcher", "Sequences", "as_matrix", "block_dtype", "check_velocities", "first_reference",
-    "offsets", "read_columns", "search_order",
+    "KERNEL", "THREADS_VARIABLE", "SequenceMatcher", "Sequences", "as_matrix", "block_dtype", "check_velocities",
+    "first_reference", "offsets", "read_columns", "search_order", "thread_count",
 ]
 
 BLOCK_VALUES = 1 << 20  # about 1 M values per block of query columns (4 MB of float32): measured fastest
+# The fixed matcher's numpy path on one thread, whose direct sums keep several block-sized arrays: about 0.5 M values
+# per block (2026-11-27, 9000 x 9000 at L 4, 12 candidates: 0.42 s against 0.48 s at 1 M and 0.45-0.48 s at 0.35 M).
+# On several threads BLOCK_VALUES pays (0.32-0.37 s on 2 threads against 0.37-0.38 s at 0.5 M and 0.36-0.44 s at
+# 2 M): half as many blocks, so half the small numpy calls and GIL hand-offs per value.
+FIXED_BLOCK_VALUES = 1 << 19
+# At most this many threads on the fixed matcher's numpy path: each keeps its own scratch arrays (about 25 MB), and
+# two already share the caches' bandwidth (measured on 2 cores only; more cores are untested here).
+FIXED_MAX_THREADS = 4
 TRANSPOSE_ROWS = 256
 KERNEL: str | None = None  # "numba" or "numpy" forces a path; None: VPR_SMR_KERNEL, else where the kernels pay
 # The fixed matcher's compiled kernel costs about 0.65 s per process before its first result (numba's import and
@@ -60,6 +69,7 @@ KERNEL_MIN_VALUES = 100_000_000
 # from LOADED_MIN_WORK units per call on (below, threads do not pay).
 KERNEL_MIN_WORK = 300_000_000
 LOADED_MIN_WORK = 1_000_000
+THREADS_VARIABLE = "VPR_SMR_THREADS"  # threads of the compiled kernels and of the numpy path's blocks
 
 T = TypeVar("T")
 
@@ -127,8 +137,10 @@ def read_columns(matrix: Any, start: int, stop: int) -> np.ndarray:
     """
     n_ref = matrix.shape[0]
     dtype = block_dtype(np.dtype(matrix.dtype))
-    source = matrix if isinstance(matrix, np.ndarray) else np.asarray(matrix[:, start:stop])
-    offset = start if source is matrix else 0
+    in_memory = isinstance(matrix, np.ndarray)
+    # a memmap as a plain view: slicing a memmap builds a memmap object per slab (about 13 µs each)
+    source = np.asarray(matrix) if in_memory else np.asarray(matrix[:, start:stop])
+    offset = start if in_memory else 0
     out = np.empty((stop - start, n_ref), dtype=dtype)
     for row in range(0, n_ref, TRANSPOSE_ROWS):
         out[:, row : row + TRANSPOSE_ROWS] = source[row : row + TRANSPOSE_ROWS, offset : offset + stop - start].T
@@ -144,6 +156,22 @@ def _float_block(columns: np.ndarray) -> np.ndarray:
 
 
 # --- which implementation ---------------------------------------------------------------------------------------
+
+
+def thread_count() -> int:
+    """Threads for the compiled kernels and the fixed matcher's numpy blocks: ``VPR_SMR_THREADS`` when set, else
+    the cores this process may use. The results are the same on any number (each block or query is computed
+    alone and put in its place)."""
+    value = os.environ.get(THREADS_VARIABLE, "").strip()
+    if value:
+        if not value.isdigit() or int(value) < 1:
+            raise ValueError(f"{THREADS_VARIABLE}={value!r}: expected a whole number of threads, at least 1 (or "
+                             "unset it: the cores this process may use)")
+        return int(value)
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not on Linux
+        return max(1, os.cpu_count() or 1)
 
 
 def _choice() -> str:
@@ -244,27 +272,38 @@ class SequenceMatcher:
         self.check_references(int(shape[0]))
 
     @staticmethod
-    def block_queries(n_ref: int) -> int:
-        """Query columns per block: about ``BLOCK_VALUES`` values per block, at least 16 columns."""
-        return max(16, BLOCK_VALUES // max(n_ref, 1))
+    def block_queries(n_ref: int, values: int = BLOCK_VALUES) -> int:
+        """Query columns per block: about ``values`` values per block (``BLOCK_VALUES``; ``FIXED_BLOCK_VALUES`` on
+        the fixed matcher's numpy path on one thread), at least 16 columns."""
+        return max(16, values // max(n_ref, 1))
 
     def map_blocks(self, matrix: Any, function: Callable[[int, np.ndarray], T],
-                   block_queries: int | None = None) -> list[T]:
+                   block_queries: int | None = None, threads: int = 1) -> list[T]:
         """``function(c, columns)`` for every block of query columns: ``columns`` (``read_columns``) holds columns
         ``c .. c + w + L - 2``, whose sequences end at queries ``c + L - 1 .. c + w + L - 2``; ``w`` is
-        ``block_queries`` (default ``block_queries(R)``), less in the last block. A NaN or infinity a block reports
-        is counted over the whole matrix."""
+        ``block_queries`` (default ``block_queries(R)``), less in the last block. The results in the blocks' order,
+        computed on up to ``threads`` threads (``function`` must then be safe to run on several at once). A NaN or
+        infinity a block reports is counted over the whole matrix (the first such block in order, as on one
+        thread)."""
         n_ref, n_query = (int(n) for n in matrix.shape)
         n_out = n_query - self.seq_len + 1
         step = block_queries or self.block_queries(n_ref)
-        out = []
+        starts = range(0, n_out, step)
+
+        def run(start: int) -> T:
+            stop = min(n_out, start + step)
+            return function(start, read_columns(matrix, start, stop + self.seq_len - 1))
+
         try:
-            for start in range(0, n_out, step):
-                stop = min(n_out, start + step)
-                out.append(function(start, read_columns(matrix, start, stop + self.seq_len - 1)))
+            if threads <= 1 or len(starts) < 2:
+                return [run(start) for start in starts]
+            pool = ThreadPoolExecutor(min(threads, len(starts)))
+            try:
+                return list(pool.map(run, starts))  # in order: the first failing block's error is raised
+            finally:
+                pool.shutdown(cancel_futures=True)
         except NonFiniteError as error:
             raise error.counted_in(matrix) from None
-        return out
 
     def _table(self) -> tuple[tuple[float, ...], np.ndarray]:
         """The velocities in the tie rule's order and their offsets ``(|V|, L)``."""
@@ -357,10 +396,18 @@ class SequenceMatcher:
                                                  *self.candidate_counts(n_ref, n_candidates))
             if out is not None:
                 return _as_references(out, self.first_reference, n_candidates)
-        workspace = fixed.Workspace()
+        workspace = fixed.Workspace()  # one set of scratch arrays per thread
+        # The fixed matcher's numpy path runs its blocks on threads (numpy releases the GIL in its large
+        # operations); the compiled kernels thread inside, the velocity search's numpy twin stays on one.
+        fixed_numpy = self.is_fixed and fixed_kernels(n_ref * n_query) is None
+        threads = min(thread_count(), FIXED_MAX_THREADS) if fixed_numpy else 1
+        # BLOCK_VALUES where the threads get two blocks each or more, else the one-thread size
+        large = threads > 1 and n_ref * n_out >= 2 * threads * BLOCK_VALUES
+        step = block_queries or self.block_queries(n_ref, FIXED_BLOCK_VALUES if fixed_numpy and not large
+                                                   else BLOCK_VALUES)
         parts = self.map_blocks(matrix, lambda start, columns: self.block_features(
             columns, n_ranks, start, total_queries=n_out, screen_dtype=screen_dtype, workspace=workspace,
-            n_candidates=n_candidates), block_queries)
+            n_candidates=n_candidates), step, threads)
         return {key: np.concatenate([p[key] for p in parts]) for key in parts[0]}
 
 

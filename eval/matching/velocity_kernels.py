@@ -13,7 +13,6 @@ The kernel releases the GIL: ``block_features`` runs parts of the block's querie
 
 from __future__ import annotations
 
-import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -21,6 +20,7 @@ from numba import njit
 
 # the fixed matcher's kernel's sorted top-K insertion and attribute formulas: one copy of each
 from vpr_smr.eval.matching.kernels import _bounds, _insert, _rates, empty_outputs
+from vpr_smr.eval.matching.matcher import thread_count
 
 TILE = 256  # end references per tile: the tile's sums (2 KB each) stay in the L1 cache
 GROUP = 64  # values per group of the K-smallest scan
@@ -195,14 +195,6 @@ def _queries(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int
             _rates(attributes[j, k], past_sorted[k], row_sorted[k], current_sorted[k],
                    current[i + r_min],  # traj[L-1] = Dn[r, a]: o_{L-1} = 0
                    past[i], _mean_full(full, block_lo, block_hi), _mean_full(full, group_lo, group_hi))
-
-
-def thread_count() -> int:
-    """Threads for the kernel: the cores this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not on Linux
-        return max(1, os.cpu_count() or 1)
 
 
 def block_features(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min: int, n_ranks: int,
