@@ -17,7 +17,7 @@ import yaml
 
 from vpr_smr.core.settings import declared, parse, setting
 from vpr_smr.core.suggest import did_you_mean
-from vpr_smr.eval.matching.matchers import MatcherSpec, available_matchers
+from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class
 from vpr_smr.eval.predictor.defaults import PredictorSettings
 from vpr_smr.eval.scoring.scorers import BaselineSettings
 
@@ -331,10 +331,10 @@ def _sequence_matching(conf: dict[str, Any], source: str) -> None:
     report and the plan name one matcher; without ``matcher``, the settings are the default matcher's."""
     given = conf["sequence_matching"]
     name = given[MATCHER_KEY]
-    if name not in available_matchers():
-        raise ConfigError(f"{source} is invalid:\n  sequence_matching.{MATCHER_KEY}: unknown sequence matcher "
-                          f"{name!r}{did_you_mean(str(name), available_matchers())}; available: "
-                          f"{', '.join(available_matchers())}")
+    try:
+        matcher_class(name)  # an unknown name: the message lists the available matchers
+    except ValueError as error:
+        raise ConfigError(f"{source} is invalid:\n  sequence_matching.{MATCHER_KEY}: {error}") from None
     try:
         spec = MatcherSpec.of(name, {key: value for key, value in given.items() if key != MATCHER_KEY},
                               "sequence_matching")

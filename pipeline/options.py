@@ -12,7 +12,7 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 from vpr_smr.core.settings import OPTIONAL, Declared, declared, parse, read
-from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec, available_matchers, matcher_class
+from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MATCHERS, MatcherSpec, available_matchers, matcher_class
 
 __all__ = ["add_matcher_options", "add_options", "flags", "matcher_flags", "matcher_of", "option", "read_matcher",
            "read_options"]
@@ -117,9 +117,11 @@ def flags(record: Any) -> str:
 def add_matcher_options(parser: argparse.ArgumentParser, name: str = DEFAULT_MATCHER) -> None:
     """``--matcher`` and the options of ``name``'s settings (another matcher's options: give ``--matcher`` first on
     the command line, ``pipeline.cli`` builds the parser for it)."""
-    parser.add_argument(MATCHER, default=name, choices=available_matchers(),
-                        help=f"the sequence matcher (default {DEFAULT_MATCHER}); its settings follow as options, "
-                             f"e.g. vpr-smr COMMAND {MATCHER} NAME --help")
+    # no argparse choices: listing the installed matchers reads every package's entry points (about 6 ms per
+    # command that has the option, whenever a parser is built); read_matcher names an unknown one with the list
+    parser.add_argument(MATCHER, default=name, metavar="NAME",
+                        help=f"the sequence matcher (default {DEFAULT_MATCHER}; `vpr-smr matchers` lists them); its "
+                             f"settings follow as options, e.g. vpr-smr COMMAND {MATCHER} NAME --help")
     add_options(parser, matcher_class(name).Settings, "matcher")
     parser.set_defaults(matcher_options=name)
 
@@ -127,10 +129,11 @@ def add_matcher_options(parser: argparse.ArgumentParser, name: str = DEFAULT_MAT
 def read_matcher(args: argparse.Namespace) -> MatcherSpec:
     """The ``MatcherSpec`` of ``--matcher`` and its settings' options."""
     name = args.matcher
+    settings = matcher_class(name).Settings  # an unknown name: ValueError listing the available matchers
     if name != args.matcher_options:  # the options were built for another matcher (pipeline.cli reads --matcher first)
         raise ValueError(f"{MATCHER} {name}: write the option out in full ({MATCHER} {name} or {MATCHER}={name}): "
                          "the options of a matcher's settings come with the matcher named so")
-    return MatcherSpec.of(name, _given(args, matcher_class(name).Settings, "matcher"), f"{MATCHER} {name}")
+    return MatcherSpec.of(name, _given(args, settings, "matcher"), f"{MATCHER} {name}")
 
 
 def matcher_flags(spec: MatcherSpec) -> str:
@@ -147,7 +150,7 @@ def matcher_of(argv: list[str]) -> str:
             name = argv[i + 1]
         elif word.startswith(MATCHER + "="):
             name = word.partition("=")[2]
-    return name if name in available_matchers() else DEFAULT_MATCHER
+    return name if name in MATCHERS or name in available_matchers() else DEFAULT_MATCHER
 
 
 def matcher_catalogue() -> str:

@@ -128,3 +128,14 @@ def test_vpr_smr_matchers_lists_it_with_its_settings(toy, capsys):
     at = out.index("toy: a fading sum of distances along the diagonal (a test plugin)")
     assert out[at + 1].startswith("  decay (--decay, default 0.5): ")
     assert out[at + 2].startswith("  step (--step, default 1): ")
+
+
+def test_an_unknown_matcher_on_the_command_line_is_named_with_the_available_ones(tmp_path, capsys):
+    from vpr_smr.pipeline.cli import main
+
+    np.save(tmp_path / "d.npy", np.ones((5, 5)))
+    assert main(["attributes", "--distances", str(tmp_path / "d.npy"), "--seq-len", "3", "--matcher", "seqslm",
+                 "--out", str(tmp_path / "a.h5")]) != 0
+    err = capsys.readouterr().err
+    assert "unknown sequence matcher 'seqslm' (did you mean 'seqslam'?); available: seqslam" in err
+    assert not (tmp_path / "a.h5").exists()

@@ -17,6 +17,8 @@ from dataclasses import dataclass
 from importlib.metadata import entry_points
 from typing import TYPE_CHECKING, Any
 
+from vpr_smr.core.suggest import did_you_mean
+
 if TYPE_CHECKING:
     from vpr_smr.eval.matching.matchers.base import Matcher
 
@@ -51,7 +53,8 @@ def matcher_class(name: str) -> type[Matcher]:
                 cls = ep.load()
                 break
     if cls is None:
-        raise ValueError(f"unknown sequence matcher {name!r}; available: {', '.join(available_matchers())} "
+        known = available_matchers()
+        raise ValueError(f"unknown sequence matcher {name!r}{did_you_mean(name, known)}; available: {', '.join(known)} "
                          f"(a package adds one through the entry point group {ENTRY_POINT_GROUP})")
     if not (isinstance(cls, type) and issubclass(cls, Matcher)):
         raise ValueError(f"the sequence matcher {name!r} ({cls!r}) is not a subclass of "
