@@ -94,10 +94,17 @@ def report_outputs(conf: Config, experiments: set[str], speed_datasets: list[str
 
 
 def report_settings(settings: Mapping[str, Any]) -> str:
-    """The configuration's settings (``Config.to_json``) minus what changes speed only (``extraction``) as JSON text
-    in the configuration's own order (not sorted like ``plan.canonical``: the methods' order is the pooled training
-    order, part of the predictor's recipe): shown in the report, a param of it."""
-    return json.dumps({key: value for key, value in settings.items() if key != "extraction"}, separators=(",", ":"))
+    """The configuration's settings (``Config.to_json``) minus what changes speed only (``extraction``) as JSON text:
+    its sections in the schema's order, so that writing out a section at its defaults (``sequence_matching:
+    {matcher: seqslam}``) changes nothing, and within them the configuration's own order (not sorted like
+    ``plan.canonical``: the methods' order is the pooled training order, part of the predictor's recipe): shown in
+    the report, a param of it."""
+    from vpr_smr.pipeline.config import SCHEMA_PATH
+
+    order = list(json.loads(SCHEMA_PATH.read_text())["properties"])
+    keys = sorted((key for key in settings if key != "extraction"),
+                  key=lambda key: order.index(key) if key in order else len(order))
+    return json.dumps({key: settings[key] for key in keys}, separators=(",", ":"))
 
 
 def report_datasets(plan: Plan) -> str:
