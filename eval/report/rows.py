@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 
 from vpr_smr.core.constants import RECALL_AT
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
+from vpr_smr.eval.report import names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.bounds import HIGH, LOW
 from vpr_smr.eval.report.results import Splits, split_word
@@ -85,9 +86,9 @@ _KIND = "vpr_smr.column"  # the field metadata key: what kind of column a field 
 
 # Columns of several tables: the same header and format wherever a row record has a field of that name
 SHARED = {column.name: column for column in (
-    Column("seq_len", "L"), Column("n_queries", "queries"), Column("aoc_vpr_sm", "AOC VPR+SM"),
-    Column("aoc_vpr_sm_pred", "AOC VPR+SM+Pred"), Column("reduction_pct", "AOC reduction (%)", ".2f"),
-    Column("recall_at_1_single", "R@1 single"), Column("recall_at_1_sequence", "R@1 sequence"),
+    Column("seq_len", "L"), Column("n_queries", "queries"), Column(names.AOC_VPR_SM, "AOC VPR+SM"),
+    Column(names.AOC_VPR_SM_PRED, "AOC VPR+SM+Pred"), Column(names.REDUCTION, "AOC reduction (%)", ".2f"),
+    Column(names.RECALL_SINGLE, "R@1 single"), Column(names.RECALL_SEQUENCE, "R@1 sequence"),
     Column("f1_macro", "macro F1"), Column("f1_cv", "F1 cross-validation"))}
 
 

@@ -64,15 +64,14 @@ def rank_probabilities(predictor: Any, features: QueryFeatures, ranks: int | Non
     return np.stack([predictor.predict_proba(features.attributes[:, k, :]) for k in range(n_ranks)], axis=1)
 
 
-def recall_at_1(features: QueryFeatures, mode: str) -> dict[str, float]:
-    """Recall@1 before and after sequence matching, by the mode's rule (method §8).
+def recall_at_1(features: QueryFeatures, mode: str) -> tuple[float, float]:
+    """Recall@1 before and after sequence matching (single-frame, sequence), by the mode's rule (method §8).
 
     Paper mode divides single-frame recall by every query of the split (the first ``L-1`` included, as the
     authors do); standard mode by the evaluated queries (those with a sequence match).
     """
     single = features.all_single_correct if mode == "paper" else features.single_correct
-    return {"recall_at_1_single": float(np.mean(single)),
-            "recall_at_1_sequence": float(features.sequence_correct.mean())}
+    return float(np.mean(single)), float(features.sequence_correct.mean())
 
 
 def compare_removal(features: QueryFeatures, mode: str, keep: np.ndarray, intervals: bool = False
@@ -142,8 +141,7 @@ def _mode_removal(
             level_comparison.aoc_predictor, level_comparison.auc_baseline, level_comparison.aoc_baseline,
             level_comparison.reduction_pct, outcome(n, removed, level_comparison),
             percentile_interval(draws[1 + index].reduction_pct) if draws is not None else None)
-    single = recall_at_1(features, mode)
-    return ModeRemoval(single["recall_at_1_single"], single["recall_at_1_sequence"], reduction, removal_curves,
+    return ModeRemoval(*recall_at_1(features, mode), reduction, removal_curves,
                        trust_numbers if trust_levels else None, trust if trust_levels and curves else None)
 
 

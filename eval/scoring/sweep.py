@@ -66,9 +66,7 @@ def protocol_sweep(features: QueryFeatures, single_matches: np.ndarray, truth: G
         sequence = np.asarray(scored.sequence_correct, dtype=np.float64)
         change = difference(partial(weighted_mean, sequence), partial(weighted_mean, single), len(single))
         for mode in modes:
-            recall = recall_at_1(scored, mode)
             reduction = compare_removal(scored, mode, kept, intervals=True)[2] if kept is not None else None
-            points[mode].append(SweepPoint(float(threshold), recall["recall_at_1_single"],
-                                           recall["recall_at_1_sequence"], reduction,
+            points[mode].append(SweepPoint(float(threshold), *recall_at_1(scored, mode), reduction,
                                            float(single.mean()) if len(single) else None, change))
     return ProtocolSweep(kind, {mode: tuple(found) for mode, found in points.items()})
