@@ -541,3 +541,15 @@ def test_training_problems_from_split_lengths():
     assert training_problems(16, 4, smote=False) and training_problems(17, 4, smote=False) == []
     assert sklearn_trains(np.array([0] * 11 + [1] * 3), smote=False)
     assert not sklearn_trains(np.array([0] * 10 + [1] * 3), smote=False)
+
+
+def test_a_negative_value_beside_a_nan_is_still_counted(tmp_path):
+    """The scan's first pass of minima: a block whose minimum is NaN is read again for its negative values."""
+    from vpr_smr.eval.matching.io import check_non_negative
+
+    matrix = np.ones((20, 20))
+    matrix[3, 4], matrix[3, 5], matrix[17, 1] = np.nan, -2.0, -0.5
+    with pytest.raises(ValueError, match=r"D\.npy: 2 negative values in the distance matrix \(minimum -2\)"):
+        check_non_negative(tmp_path / "D.npy", matrix)
+    matrix[3, 5] = matrix[17, 1] = 0.0
+    check_non_negative(tmp_path / "D.npy", matrix)  # NaN alone passes here: the attributes stage names it
