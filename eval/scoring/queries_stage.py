@@ -40,6 +40,8 @@ def main(
     scored = score_all(distances, seq_len, tolerance, predictor, attributes, (), allow_split_overlap, matcher,
                        similarity, key, transpose, baselines=baselines)
     write_queries(out, [scored_split.queries for scored_split in scored.splits.values()])
-    log.info("wrote %d queries of %d splits to %s",
-             sum(len(r.queries.features.queries) for r in scored.splits.values()), len(scored.splits), out)
+    n_splits = len(scored.splits)
+    log.info("wrote %d queries of %d split%s to %s", sum(len(r.queries.features.queries)
+                                                       for r in scored.splits.values()),
+             n_splits, "" if n_splits == 1 else "s", out)
     return out
