@@ -7,6 +7,7 @@ and a record as the options that give it (``flags``: the Snakemake rules' params
 from __future__ import annotations
 
 import argparse
+import json
 import shlex
 from collections.abc import Callable
 from typing import Any, TypeVar
@@ -156,11 +157,6 @@ def matcher_of(argv: list[str]) -> str:
 def matcher_catalogue() -> str:
     """Every sequence matcher (built in, or registered by an installed package): its description, its native
     confidence, and each setting as a configuration key and an option, with its default and help."""
-    import json
-
-    from vpr_smr.core.settings import declared
-    from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, available_matchers, matcher_class
-
     lines = []
     for name in available_matchers():
         cls = matcher_class(name)
