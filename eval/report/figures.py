@@ -368,27 +368,25 @@ def detection_figure(path: Path, panels: Sequence[tuple[str, Any]], title: str) 
 def matchers_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], matchers: Sequence[str],
                     title: str) -> Path:
     """The experiment matchers of one dataset, L and mode (``tables.matchers``' rows): one panel per method, per
-    matcher the seed-0 predictor's AOC reduction (solid, its 95 % interval as a whisker) and the native
-    confidence's at the same budget beside it (hatched). An undefined reduction is left out (no bar)."""
+    matcher the seed-0 predictor's AOC reduction (its 95 % interval as a whisker) and the native confidence's at the
+    same budget beside it (hatched). An undefined reduction is a bar of height 0 (nothing drawn)."""
     fig, axes = _panels(len(methods))
     width = 0.38
     x = np.arange(len(matchers))
+    series = ((-width / 2, names.REDUCTION, "predictor (seed 0)", "tab:blue", ""),
+              (width / 2, "native_reduction_pct", "native confidence, same budget", "tab:orange", "//"))
     for ax, method in zip(axes, methods, strict=True):
         by = {r["matcher"]: r for r in rows if r["method"] == method}
-        for offset, key, label, hatch in ((-width / 2, names.REDUCTION, "predictor", ""),
-                                          (width / 2, "native_reduction_pct", "native confidence", "//")):
-            # an undefined reduction: a bar of height 0 (nothing drawn)
+        for offset, key, label, colour, hatch in series:
             values = np.array([by.get(m, {}).get(key) or 0.0 for m in matchers], dtype=float)
-            ax.bar(x + offset, values, width, color=[UP if v >= 0 else DOWN for v in values], hatch=hatch,
-                   edgecolor="black", lw=0.4, label=label)
-            if key == names.REDUCTION:
-                low = [by.get(m, {}).get(f"{key}_ci_low") for m in matchers]
-                high = [by.get(m, {}).get(f"{key}_ci_high") for m in matchers]
-                for i, (lo, hi) in enumerate(zip(low, high, strict=True)):
-                    if lo is not None and hi is not None:
-                        ax.plot([x[i] + offset] * 2, [lo, hi], color="black", lw=0.8)
+            ax.bar(x + offset, values, width, color=colour, hatch=hatch, edgecolor="black", lw=0.4, label=label)
+        for i, matcher in enumerate(matchers):
+            low, high = (by.get(matcher, {}).get(f"{names.REDUCTION}_ci_{side}") for side in ("low", "high"))
+            if low is not None and high is not None:
+                ax.plot([x[i] - width / 2] * 2, [low, high], color="black", lw=0.8)
         ax.axhline(0, color="black", lw=0.6)
         ax.set_xticks(x, list(matchers), rotation=30, ha="right")
-        ax.set(title=method, ylabel="AOC reduction (%)")
+        ax.set(title=method)
     _finish(fig, axes, title)
+    axes[0].set_ylabel("AOC reduction (%)")
     return save(fig, path)
