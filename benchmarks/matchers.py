@@ -69,7 +69,8 @@ def main() -> None:
           f"= {2 * matrix_mb + 300:.0f} MB")
     for name, (seconds, rss) in best.items():
         print(f"{name:14} {seconds:8.2f} s  peak {rss / 2**20:7.0f} MB  "
-              f"ratio time / {BASELINE}: {seconds / base_s:5.2f}x  peak - 2 x matrix: {rss / 2**20 - 2 * matrix_mb:6.0f} MB")
+              f"ratio time / {BASELINE}: {seconds / base_s:5.2f}x  "
+              f"peak - 2 x matrix: {rss / 2**20 - 2 * matrix_mb:6.0f} MB")
 
 
 if __name__ == "__main__":
