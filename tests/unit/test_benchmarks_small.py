@@ -14,6 +14,7 @@ BENCHMARKS = REPO / "benchmarks"
     ("live.py", ("ratio live per frame / batch per query:",)),
     ("nordland_scale.py", ("ratio peak / 8 GB:",)),
     ("candidates.py", ("400 x 400, numpy in process, per query", "vpr-smr attributes (default path)")),
+    ("matchers.py", ("seqslam ", "ratio time / seqslam:")),
 ])
 def test_benchmark_runs_small(script, ratio_lines):
     done = subprocess.run([sys.executable, str(BENCHMARKS / script), "--small"], capture_output=True, text=True,
