@@ -3,6 +3,7 @@ evaluates, the validation warning, the table's rows and the section's sentence, 
 hand."""
 
 import hashlib
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -116,3 +117,50 @@ def test_the_rows_follow_the_record_and_the_sentence_counts_the_intervals(tmp_pa
         "Warning: bayes_filter on hog has a validation recall@1 of 0.200, under 0.5 of the fixed matcher's (0.600): "
         "its settings may not fit the traverses (a filter's transition window must fit their speed ratio).")
     assert len(sentences) == 2
+
+
+# --- the comparison on small matrices -----------------------------------------------------------------------------
+
+
+def test_each_matcher_is_scored_on_the_shared_queries_with_its_own_predictors():
+    from sklearn.metrics import average_precision_score
+
+    from vpr_smr.eval.matching.attributes import query_features
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+    from vpr_smr.eval.scoring.matcher_comparison import compare
+    from vpr_smr.eval.scoring.scorers import DEFAULT_SETTINGS
+
+    rng = np.random.default_rng(3)
+    matrix = rng.random((40, 40)) + 0.6 * (1 - np.eye(40))  # a noisy diagonal: some matches right, some wrong
+    seq_len, tolerance = 3, 1
+    whole = query_features(matrix, seq_len, tolerance, n_candidates=DEFAULT_SETTINGS.candidates)
+    assert whole.queries.tolist() == list(range(2, 40))
+    # a second matcher that evaluates queries 5..39 only (as a centred window leaves some out): the same matches
+    later = restricted(whole, np.arange(5, 40))
+    table = {"a": {"m": whole}, "b": {"m": later}}
+    fitted = [SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=s).fit(
+        whole.attributes[:, 0], whole.labels) for s in (0, 1)]
+    # validation: matcher b matches nothing right there, the fixed matcher 3 of 4 of the shared queries
+    wrong = replace(later, sequence_correct=np.zeros(35, bool))
+    fixed = replace(whole, sequence_correct=np.arange(38) % 4 != 0)  # wrong at queries 2, 6, 10, ..., 38
+    n, n_val, scores, fixed_recall, warnings = compare(
+        table, {"a": fitted, "b": fitted}, {"m": np.arange(40.0)}, DEFAULT_SETTINGS, ("paper",),
+        {"a": {"m": whole}, "b": {"m": wrong}}, {"m": fixed})
+    assert n == 35 and n_val == 35  # queries 5..39
+    assert scores["a"]["m"].n_evaluated == 38 and scores["b"]["m"].n_evaluated == 35
+    # recall@1 after sequence matching, by hand: the match within 1 frame of the query, over queries 5..39
+    by_hand = np.mean([abs(int(r) - int(q)) <= tolerance for q, r in zip(whole.queries, whole.sequence_match,
+                                                                           strict=True) if q >= 5])
+    for tag in ("a", "b"):
+        assert scores[tag]["m"].modes["paper"].recall_at_1_sequence == pytest.approx(by_hand, abs=1e-15)
+    # the seed-0 predictor's detection of the wrong matches, as scikit-learn ranks it, on the same queries
+    rows = whole.queries >= 5
+    probabilities = fitted[0].predict_proba(whole.attributes[rows, 0])
+    classes = list(fitted[0].classes_)
+    confidence = 1 - sum(probabilities[:, classes.index(c)] for c in (1, 3) if c in classes)
+    expected = average_precision_score(~whole.sequence_correct[rows], -confidence)
+    assert scores["a"]["m"].detection_predictor.average_precision == pytest.approx(expected, rel=1e-12)
+    # the fixed matcher on queries 5..39: wrong at 6, 10, ..., 38 (9 queries), right at the other 26
+    assert fixed_recall == {"m": pytest.approx(26 / 35, abs=1e-15)}
+    assert scores["b"]["m"].validation_recall_at_1 == 0.0
+    assert [w.split(":")[0] for w in warnings] == ["b on m"]
