@@ -35,7 +35,7 @@ import numpy as np
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
 from vpr_smr.core.records import FileRecord, Record, save
 from vpr_smr.eval.matching.attributes import QueryFeatures
-from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec
+from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec, matcher_class
 from vpr_smr.eval.scoring.records import Detection, Interval, Reduction, SeedSummary
 
 if TYPE_CHECKING:
@@ -81,6 +81,10 @@ def experiment_matchers(entries: Sequence[Mapping[str, Any]] | None, where: str 
     for i, entry in enumerate(entries):
         if not isinstance(entry, Mapping) or not isinstance(entry.get("matcher"), str):
             raise ValueError(f"{where}[{i}]: {entry!r} is not of the form {{matcher: NAME, ...its settings}}")
+        try:
+            matcher_class(entry["matcher"])
+        except ValueError as error:
+            raise ValueError(f"{where}[{i}].matcher: {error}") from None
         settings = {key: value for key, value in entry.items() if key != "matcher"}
         specs.append(MatcherSpec.of(entry["matcher"], settings, f"{where}[{i}]"))
     if not specs:

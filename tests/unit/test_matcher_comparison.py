@@ -46,7 +46,7 @@ def test_bad_lists_of_matchers_are_refused_naming_the_setting():
         experiment_matchers([{"matcher": "seqslam"}, {"matcher": "seqslam", "velocities": [1.0]}])
     with pytest.raises(ValueError, match=r"matchers\[1\]: .* is not of the form \{matcher: NAME"):
         experiment_matchers([{"matcher": "seqslam"}, {"velocities": [1.0]}])
-    with pytest.raises(ValueError, match=r"unknown sequence matcher 'seqslum'"):
+    with pytest.raises(ValueError, match=r"matchers\[0\].matcher: unknown sequence matcher 'seqslum'"):
         experiment_matchers([{"matcher": "seqslum"}])
 
 
