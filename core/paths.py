@@ -125,10 +125,10 @@ def matcher_predictor_paths(run: Path | str, dataset: str, tag: str, seq_len: in
     return [first] + [seed_predictor_path(first, seed) for seed in range(1, seeds)]
 
 
-def matchers_path(run: Path | str, dataset: str, seq_len: int | str) -> str:
-    """The experiment ``matchers`` of one dataset (``eval.scoring.matcher_comparison``), e.g.
-    ``matchers/nordland/L4.json``."""
-    return f"{run}/matchers/{dataset}/L{seq_len}.json"
+def matchers_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
+    """The experiment ``matchers`` of one dataset and method (``eval.scoring.matcher_comparison``), e.g.
+    ``matchers/nordland/sad/L4.json``."""
+    return f"{run}/matchers/{dataset}/{method}/L{seq_len}.json"
 
 
 def log_path(run: Path | str, output: Path | str) -> str:

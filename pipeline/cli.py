@@ -283,7 +283,7 @@ def cmd_compare_matchers(args: argparse.Namespace) -> None:
     from vpr_smr.eval.scoring import matcher_comparison
 
     matcher_comparison.main(
-        args.dataset, args.seq_len, _json_object(args.inputs, "--inputs"),
+        args.dataset, args.method, args.seq_len, _json_object(args.inputs, "--inputs"),
         _split_paths(args.distances, "--distances", "METHOD"), args.split, args.tolerance, args.out,
         _baseline_settings(args), tuple(args.modes), args.validation, args.radius, args.ground_truth,
         args.ground_truth_key, allow_split_overlap=args.allow_split_overlap)
@@ -841,9 +841,10 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
 
     p = sub.add_parser("compare-matchers", help="the experiment matchers (method §14): each matcher with its own "
                                                 "predictor, on the queries every matcher evaluates",
-                       epilog="e.g. vpr-smr compare-matchers --dataset d --seq-len 4 --inputs @inputs.json "
-                              "--distances sad=test.h5 --split test --validation val --out matchers/d/L4.json")
-    _required(p, "--dataset", "--out")
+                       epilog="e.g. vpr-smr compare-matchers --dataset d --method sad --seq-len 4 --inputs "
+                              "@inputs.json --distances sad=test.h5 --split test --validation val "
+                              "--out matchers/d/sad/L4.json")
+    _required(p, "--dataset", "--method", "--out")
     p.add_argument("--seq-len", type=int, required=True)
     p.add_argument("--inputs", required=True,
                    help="the compared matchers' files as a JSON object (or @file): {\"matchers\": [{\"matcher\": "
@@ -903,7 +904,7 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
     p.add_argument("--speed", nargs="*", help="the speed experiment's files (vpr-smr speed), one per dataset and "
                                               "profile, in the configuration's order")
     p.add_argument("--matchers", nargs="*", help="the experiment matchers' files (vpr-smr compare-matchers), one per "
-                                                 "dataset")
+                                                 "dataset and method")
     p.add_argument("--descriptors", nargs="*", help="descriptor files whose provenance the report shows")
     p.add_argument("--split", help="the split the tables show: the configuration's table_split (default: the one "
                                    "split every evaluation holds)")

@@ -175,9 +175,9 @@ def experiment_predictors(out: str, conf: Config, tag: str, dataset: str, seq_le
     return matcher_predictor_paths(out, dataset, tag, seq_len, conf.seeds)
 
 
-def experiment_inputs(out: str, conf: Config, dataset: str, seq_len: int | str) -> dict[str, Any]:
-    """The experiment's ``--inputs`` (``matcher_comparison.read_inputs``): per compared matcher its table and
-    validation split's attributes of every method and its predictors, and the fixed matcher's validation
+def experiment_inputs(out: str, conf: Config, dataset: str, method: str, seq_len: int | str) -> dict[str, Any]:
+    """The experiment's ``--inputs`` of one method (``matcher_comparison.read_inputs``): per compared matcher its
+    table and validation split's attributes of ``method`` and its predictors, and the fixed matcher's validation
     attributes (None without a validation split)."""
     from vpr_smr.eval.predictor.defaults import validation_split
     from vpr_smr.eval.scoring.matcher_comparison import fixed_matcher, matcher_tag
@@ -187,8 +187,8 @@ def experiment_inputs(out: str, conf: Config, dataset: str, seq_len: int | str) 
     specs = compared_matchers(conf)
 
     def files(tag: str, among: list[str]) -> dict[str, dict[str, str]]:
-        return {split: {method: experiment_attributes(out, conf, tag, dataset, method, seq_len, split)
-                        for method in conf.methods} for split in among}
+        return {split: {method: experiment_attributes(out, conf, tag, dataset, method, seq_len, split)}
+                for split in among}
 
     compared = [{"matcher": specs[matcher_tag(spec)].provenance(), "attributes": files(matcher_tag(spec), splits),
                  "predictors": experiment_predictors(out, conf, matcher_tag(spec), dataset, seq_len)}

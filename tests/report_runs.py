@@ -233,22 +233,25 @@ def matcher_scores(pct: float, low: float, high: float, native: float, native_hi
                          Interval(-0.3, -0.1), validation)
 
 
-def matchers_record(methods=("sad", "hog"), modes=("paper",)) -> MatcherComparison:
-    """A hand-made file of the experiment matchers, dataset d, L = 4, two methods, two matchers: seqslam reduces
-    the AOC on both (its interval above 0) and beats its native confidence on the first method only; bayes_filter's
+def matchers_records(methods=("sad", "hog"), modes=("paper",)) -> list[MatcherComparison]:
+    """Hand-made files of the experiment matchers, dataset d, L = 4, one per method, two matchers: seqslam reduces
+    the AOC on both methods (its interval above 0) and beats its native confidence on the first only; bayes_filter's
     interval holds 0 on the first and lies below 0 on the second, where its validation recall@1 (0.2) is under half
     the fixed matcher's (0.6)."""
     first, second = methods
-    scores = {"seqslam": {first: matcher_scores(20.0, 5.0, 30.0, 10.0, -1.0, 0.6, modes),
-                          second: matcher_scores(10.0, 2.0, 15.0, 12.0, 4.0, 0.5, modes)},
-              "bayes_filter": {first: matcher_scores(3.0, -2.0, 8.0, 1.0, None, 0.7, modes),
-                               second: matcher_scores(-6.0, -9.0, -1.0, 2.0, 3.0, 0.2, modes)}}
-    meta = {"dataset": "d", "seq_len": 4, "modes": list(modes)}
-    return MatcherComparison(meta, 25, 20, scores, {first: 0.6, second: 0.6}, ())
+    scores = {first: {"seqslam": matcher_scores(20.0, 5.0, 30.0, 10.0, -1.0, 0.6, modes),
+                      "bayes_filter": matcher_scores(3.0, -2.0, 8.0, 1.0, None, 0.7, modes)},
+              second: {"seqslam": matcher_scores(10.0, 2.0, 15.0, 12.0, 4.0, 0.5, modes),
+                       "bayes_filter": matcher_scores(-6.0, -9.0, -1.0, 2.0, 3.0, 0.2, modes)}}
+    return [MatcherComparison({"dataset": "d", "method": method, "seq_len": 4, "modes": list(modes)}, 25, 20,
+                              {tag: {method: found} for tag, found in scores[method].items()}, {method: 0.6}, ())
+            for method in methods]
 
 
 def matchers_files(folder: Path) -> list[Path]:
-    """The experiment matchers' file of ``matchers_record`` for methods m1 and m2, both modes."""
-    path = folder / "matchers_d_L4.json"
-    write_json(path, matchers_record(("m1", "m2"), ("paper", "standard")).to_json())
-    return [path]
+    """The experiment matchers' files of ``matchers_records`` for methods m1 and m2, both modes."""
+    paths = []
+    for record in matchers_records(("m1", "m2"), ("paper", "standard")):
+        paths.append(folder / f"matchers_d_{record.meta['method']}_L4.json")
+        write_json(paths[-1], record.to_json())
+    return paths

@@ -592,7 +592,7 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
     read_lomo = _read(files.leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
     read_speed = _read(files.speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
     read_baselines = _read(files.baselines, "baselines", Baselines.from_json, KEY_META)
-    read_matchers = _read(files.matchers, "matchers experiment", MatcherComparison.from_json, ("dataset", "seq_len"))
+    read_matchers = _read(files.matchers, "matchers experiment", MatcherComparison.from_json, KEY_META)
 
     splits = Splits.resolve(split, options.eval_splits, options.train_split,
                             [*(list(e.splits) for e in read_evaluations), *(list(m.splits) for m in read_metrics),

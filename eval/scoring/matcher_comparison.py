@@ -176,7 +176,8 @@ class MatcherScores(Record):
 
 @dataclass(frozen=True)
 class MatcherComparison(FileRecord):
-    """The experiment ``matchers`` of one dataset at one ``L`` (``main``). ``meta``: dataset, seq_len, the table
+    """The experiment ``matchers`` of one dataset and method at one ``L`` (``main``). ``meta``: dataset, method,
+    seq_len, the table
     and validation splits, modes, seeds, the compared matchers by tag (``MatcherSpec.provenance``) and the fixed
     matcher. ``n_queries``: the shared queries of the table split (every number is over them);
     ``n_queries_validation``: those of the validation split (None without one). ``matchers``: per tag, per method
@@ -326,6 +327,7 @@ def read_inputs(data: Mapping[str, Any]) -> tuple[list[MatcherInputs], MatcherIn
 
 def main(
     dataset: str,
+    method: str,
     seq_len: int,
     inputs: Mapping[str, Any],
     distances: Mapping[str, Path | str],
@@ -340,13 +342,14 @@ def main(
     ground_truth_key: str | None = None,
     allow_split_overlap: bool = False,
 ) -> MatcherComparison:
-    """The experiment ``matchers`` of one dataset at ``seq_len``, written to ``out`` (JSON, ``MatcherComparison``).
+    """The experiment ``matchers`` of one dataset and ``method`` at ``seq_len``, written to ``out`` (JSON,
+    ``MatcherComparison``).
 
     ``inputs``: the compared matchers' files (``read_inputs``), each with the table split's (and the validation
-    split's) attributes of every method (the configuration's order) and its predictors; ``fixed``: the fixed
-    matcher's validation attributes (the warning's reference; None leaves the warning out). ``distances``: each
-    method's table split distance file (the ground truth's reference positions, as ``vpr-smr baselines`` reads
-    them: ``tolerance``, ``radius``, ``ground_truth``). Every input is checked before any scoring."""
+    split's) attributes of ``method`` and its predictors; ``fixed``: the fixed matcher's validation attributes (the
+    warning's reference; None leaves the warning out). ``distances``: ``{method: the table split's distance
+    file}`` (the ground truth's reference positions, as ``vpr-smr baselines`` reads them: ``tolerance``,
+    ``radius``, ``ground_truth``). Every input is checked before any scoring."""
     from vpr_smr.eval.matching.attributes import Matching, check_matching, common_matching, read_features
     from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
     from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
@@ -360,6 +363,9 @@ def main(
     compared, fixed = read_inputs(inputs)
     tags = [matcher_tag(entry.spec) for entry in compared]
     methods = list(distances)
+    if methods != [method]:
+        raise ValueError(f"give the table split's distances of the method {method!r} alone (--distances "
+                         f"{method}=PATH), not of {', '.join(methods) or 'none'}")
     splits = [table_split] + ([validation_split] if validation_split and fixed is not None else [])
     for entry, tag in zip(compared, tags, strict=True):
         for split in splits:
@@ -401,7 +407,8 @@ def main(
     n_queries, n_validation, scores, fixed_recall, warnings = compare(
         features[table_split], predictors, positions, settings, modes,
         features.get(validation_split or "") if fixed_features is not None else None, fixed_features)
-    meta = {"dataset": dataset, "seq_len": int(seq_len), "split": table_split, "validation_split": validation_split,
+    meta = {"dataset": dataset, "method": method, "seq_len": int(seq_len), "split": table_split,
+            "validation_split": validation_split,
             "modes": list(modes), "seeds": len(compared[0].predictors), **settings.meta(),
             "matchers": {tag: entry.spec.provenance() for tag, entry in zip(tags, compared, strict=True)},
             "fixed": fixed_matcher().provenance(), "far_below": FAR_BELOW}

@@ -1,6 +1,6 @@
 # The experiment `matchers` (method §14): each compared matcher with its own attributes and its own predictor (the
-# authors' recipe, every seed) at Table I's sequence length, then one job per dataset scoring them all on the
-# queries every matcher evaluates. The run's own matcher (sequence_matching) reuses the run's files; every other
+# authors' recipe, every seed) at Table I's sequence length, then one job per dataset and method scoring them all on
+# the queries every matcher evaluates (per method: the jobs of a dataset's methods run side by side). The run's own matcher (sequence_matching) reuses the run's files; every other
 # one gets its attributes and predictors under matchers/<dataset>/<tag>/ from the same stages as the run's.
 
 
@@ -32,19 +32,20 @@ use rule train as matcher_train with:
 
 rule matchers:
     input:
-        files=lambda wc: experiment_files(experiment_inputs(OUT, conf, wc.dataset, wc.seq_len)),
-        # each method's table split: the ground truth's reference positions (the scorer spread)
-        distances=lambda wc: [distances_path(OUT, wc.dataset, method, conf.table_split) for method in METHODS],
+        files=lambda wc: experiment_files(experiment_inputs(OUT, conf, wc.dataset, wc.method, wc.seq_len)),
+        # the table split: the ground truth's reference positions (the scorer spread)
+        distances=distances_path(OUT, "{dataset}", "{method}", conf.table_split),
         truth=lambda wc: ground_truth_input(PLAN, wc.dataset),
     output:
-        matchers_path(OUT, "{dataset}", "{seq_len}"),
+        matchers_path(OUT, "{dataset}", "{method}", "{seq_len}"),
     log:
-        log_path(OUT, matchers_path(OUT, "{dataset}", "{seq_len}")),
+        log_path(OUT, matchers_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     params:
         overlap=ALLOW_OVERLAP,
-        inputs=lambda wc: json.dumps(experiment_inputs(OUT, conf, wc.dataset, wc.seq_len), separators=(",", ":")),
-        # METHOD=PATH items, each quoted already: the shell command uses them unquoted
-        distances=lambda wc, input: name_pairs(METHODS, input.distances),
+        inputs=lambda wc: json.dumps(experiment_inputs(OUT, conf, wc.dataset, wc.method, wc.seq_len),
+                                     separators=(",", ":")),
+        # METHOD=PATH, quoted already: the shell command uses it unquoted
+        distances=lambda wc, input: name_pairs([wc.method], [input.distances]),
         split=conf.table_split,
         validation=VALIDATION_OPTION,
         tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
@@ -54,7 +55,8 @@ rule matchers:
         modes=" ".join(conf.modes),
         layout=RESULTS_LAYOUT,  # its file's layout: a run of an earlier one computes it again
     shell:
-        "vpr-smr compare-matchers --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
+        "vpr-smr compare-matchers --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
+        " --seq-len {wildcards.seq_len}"
         " --inputs {params.inputs:q} --distances {params.distances} --split {params.split:q} {params.validation}"
         " --tolerance {params.tolerance} {params.radius} {params.ground_truth} {params.baselines}"
         " --modes {params.modes} --out {output:q} {params.overlap} > {log:q} 2>&1"

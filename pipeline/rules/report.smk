@@ -90,8 +90,8 @@ rule report:
         matrix_figures=expand(matrix_figure_path(OUT, "{dataset}", "{method}", TABLE_L),
                               dataset=DATASETS, method=METHODS),
         # the experiment matchers (method §14), at the table's L
-        matchers=expand(matchers_path(OUT, "{dataset}", TABLE_L), dataset=DATASETS) if "matchers" in EXPERIMENTS
-        else [],
+        matchers=expand(matchers_path(OUT, "{dataset}", "{method}", TABLE_L), dataset=DATASETS, method=METHODS)
+        if "matchers" in EXPERIMENTS else [],
         # read for their provenance (checkpoint and frame-list hashes) only
         descriptors=expand(descriptors_path(OUT, "{dataset}", "{method}"), dataset=DATASETS, method=METHODS),
     output:

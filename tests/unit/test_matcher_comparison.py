@@ -8,7 +8,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 from helpers import make_features
-from report_runs import matchers_record
+from report_runs import matchers_records
 
 from vpr_smr.core.records import load, save
 from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec
@@ -92,10 +92,10 @@ def test_the_validation_warning_fires_strictly_under_half_the_fixed_matchers_rec
 
 
 def test_the_rows_follow_the_record_and_the_sentence_counts_the_intervals(tmp_path):
-    result = matchers_record()
-    save(tmp_path / "L4.json", result)
-    assert load(tmp_path / "L4.json", MatcherComparison) == result  # the record's codec, both ways
-    rows = [cells(row) for row in matcher_rows([result])]
+    results = matchers_records()
+    save(tmp_path / "L4.json", results[0])
+    assert load(tmp_path / "L4.json", MatcherComparison) == results[0]  # the record's codec, both ways
+    rows = [cells(row) for row in matcher_rows(results)]
     assert [(r["method"], r["matcher"]) for r in rows] == [
         ("sad", "seqslam"), ("sad", "bayes_filter"), ("hog", "seqslam"), ("hog", "bayes_filter")]
     first = rows[0]

@@ -32,7 +32,7 @@ def test_each_output_kind_has_its_file_name():
             == "results/demo run/matchers/nordland/bayes_filter/attributes/sad/L4/val.h5")
     assert (paths.matcher_predictor_path(RUN, "nordland", "monotone-0123abcd", 4)
             == "results/demo run/matchers/nordland/monotone-0123abcd/predictors/L4.h5")
-    assert paths.matchers_path(RUN, "nordland", 4) == "results/demo run/matchers/nordland/L4.json"
+    assert paths.matchers_path(RUN, "nordland", "sad", 4) == "results/demo run/matchers/nordland/sad/L4.json"
     assert paths.speed_path(RUN, "nordland", 4, "0.5x") == "results/demo run/speed/nordland/L4/0.5x.json"
     assert paths.report_log_path(RUN) == "results/demo run/logs/report.log"
 

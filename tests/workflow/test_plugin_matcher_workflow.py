@@ -100,13 +100,13 @@ def test_the_matchers_experiment_compares_the_plugin_with_seqslam(run):
     seeds); both are scored on the test split's queries 3..69 (each evaluates every query with a window of 4)."""
     toy = matcher_tag(MatcherSpec.of(MATCHER["name"], MATCHER["settings"]))
     assert toy.startswith("toy-")  # decay 0.25 is not its default
-    result = load(run / "matchers/nordland_sample/L4.json", MatcherComparison)
-    assert list(result.matchers) == [toy, "seqslam"]
-    assert result.n_queries == 70 - 3 and result.n_queries_validation == 70 - 3
     assert not (run / "matchers/nordland_sample" / toy).exists()
     own = run / "matchers/nordland_sample/seqslam"
     assert sorted(p.name for p in (own / "predictors").glob("*.h5")) == ["L4.h5", "L4.seed1.h5"]
     for method in ("sad", "hog"):
+        result = load(run / f"matchers/nordland_sample/{method}/L4.json", MatcherComparison)
+        assert list(result.matchers) == [toy, "seqslam"]
+        assert result.n_queries == 70 - 3 and result.n_queries_validation == 70 - 3
         for split in RANGES:
             path = own / f"attributes/{method}/L4/{split}.h5"
             assert read_provenance(path)["matcher"] == {"name": "seqslam", "settings": {"velocities": [1.0]}}

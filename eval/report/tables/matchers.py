@@ -82,19 +82,20 @@ class MatchersRow:
 
 
 def matcher_rows(results: Sequence[MatcherComparison], order: Order | None = None) -> list[MatchersRow]:
-    """One row per dataset, mode, method and matcher: datasets and methods in the configuration's order (``order``),
-    the matchers in the experiment's, the modes as the files list them."""
-    def dataset_key(result: MatcherComparison) -> tuple[tuple[int, str], int]:
-        name = str(result.meta["dataset"])
-        return (order.dataset(name) if order else (0, name), int(result.meta["seq_len"]))
-
+    """One row per dataset, L, mode, method and matcher: datasets and methods in the configuration's order
+    (``order``; else as the files come), the matchers in the experiment's, the modes as the files list them."""
+    groups: dict[tuple[str, int], list[tuple[str, MatcherComparison]]] = {}
+    for result in results:
+        key = (str(result.meta["dataset"]), int(result.meta["seq_len"]))
+        groups.setdefault(key, []).extend((method, result) for method in next(iter(result.matchers.values())))
+    keys = sorted(groups, key=lambda key: (order.dataset(key[0]), key[1])) if order else list(groups)
     rows = []
-    for result in sorted(results, key=dataset_key):
-        methods = list(next(iter(result.matchers.values())))
+    for key in keys:
+        found = groups[key]
         if order is not None:
-            methods = sorted(methods, key=order.method)
-        for mode in result.meta["modes"]:
-            for method in methods:
+            found = sorted(found, key=lambda item: order.method(item[0]))
+        for mode in found[0][1].meta["modes"]:
+            for method, result in found:
                 for tag, by_method in result.matchers.items():
                     rows.append(MatchersRow.of(result, tag, method, mode, by_method[method]))
     return rows
