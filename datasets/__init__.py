@@ -24,6 +24,7 @@ from vpr_smr.datasets.nordland_sample import SPLITS as NORDLAND_SAMPLE_SPLITS
 from vpr_smr.datasets.nordland_sample import nordland_sample
 from vpr_smr.datasets.robotcar import SPLITS as ROBOTCAR_SPLITS
 from vpr_smr.datasets.robotcar import robotcar
+from vpr_smr.datasets.settings import SPLIT_SETTINGS, DatasetEntry
 from vpr_smr.datasets.sfu_mountain import SPLITS as SFU_MOUNTAIN_SPLITS
 from vpr_smr.datasets.sfu_mountain import sfu_mountain
 
@@ -43,15 +44,11 @@ DEFAULT_SPLITS: dict[str, dict[str, tuple[int, int]]] = {
 }
 
 __all__ = [
-    "LOADERS", "SPLIT_SETTINGS", "DatasetError", "Traverse", "TraversePair", "frames_settings", "load_dataset",
-    "load_frames", "loader_options", "read_image", "required_options", "unknown_option",
+    "LOADERS", "SPLIT_SETTINGS", "DatasetEntry", "DatasetError", "Traverse", "TraversePair", "frames_settings",
+    "load_dataset", "load_frames", "loader_options", "read_image", "required_options", "unknown_option",
 ]
 
 
-# Settings that only reach the distances and attributes jobs: the descriptors of a dataset depend on the others.
-# `radius` (method §11) is the ground truth of pairs with positions, as `tolerance` is of frame-aligned ones.
-# `ground_truth` (method §13) gives the correct references from a file instead.
-SPLIT_SETTINGS = ("splits", "tolerance", "radius", "ground_truth")
 # Loader arguments that are not settings: the workflow fills them in.
 _INTERNAL = ("name", "check_files")
 

@@ -4,8 +4,9 @@
 ``python -m vpr_smr.pipeline.reference --write`` writes them again after a record changed, and a test checks that the
 committed files are what the records give.
 
-The schema's other parts (the run's name, the splits, the datasets' and methods' entries, the speed experiment) are
-written in ``config_schema.json`` itself; the reference shows them from there.
+A dataset entry's keys are ``datasets.settings.DatasetEntry``'s. The schema's other parts (the run's name, the
+splits, the methods' entries, the speed experiment) are written in ``config_schema.json`` itself; the reference shows
+them from there.
 """
 
 from __future__ import annotations
@@ -16,11 +17,12 @@ from pathlib import Path
 from typing import Any
 
 from vpr_smr.core.settings import json_schema
+from vpr_smr.datasets.settings import DatasetEntry
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, ENTRY_POINT_GROUP, MATCHERS, matcher_class
 from vpr_smr.pipeline.config import MATCHER_KEY, RECORDS, SCHEMA_PATH
 from vpr_smr.pipeline.options import option
 
-__all__ = ["REFERENCE_PATH", "config_schema", "configuration_reference", "main"]
+__all__ = ["REFERENCE_PATH", "config_schema", "configuration_reference", "dataset_entry_schema", "main"]
 
 REFERENCE_PATH = Path(__file__).resolve().parents[1] / "docs" / "configuration.md"
 WRITE_COMMAND = "python -m vpr_smr.pipeline.reference --write"
@@ -43,6 +45,13 @@ def _described(record: type) -> str:
     return " ".join((record.__doc__ or "").split()).replace("``", "`")
 
 
+def dataset_entry_schema() -> dict[str, Any]:
+    """A ``datasets`` entry: ``DatasetEntry``'s settings, with the loader's own keys beside them (the loader checks
+    those: ``datasets.unknown_option``) and no default (an entry is never filled in)."""
+    return {key: value for key, value in json_schema(DatasetEntry).items()
+            if key not in ("additionalProperties", "default")}
+
+
 def config_schema(committed: dict[str, Any]) -> dict[str, Any]:
     """``committed`` (``config_schema.json``'s JSON) with its record sections as the records give them."""
     schema: dict[str, Any] = json.loads(json.dumps(committed))
@@ -50,6 +59,7 @@ def config_schema(committed: dict[str, Any]) -> dict[str, Any]:
     for name, record in RECORDS.items():
         properties[name] = {**json_schema(record), "description": _described(record)}
     properties["sequence_matching"] = _matching_schema()
+    properties["datasets"]["additionalProperties"] = dataset_entry_schema()
     return schema
 
 

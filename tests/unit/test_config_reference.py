@@ -240,3 +240,70 @@ def test_a_record_of_an_unsupported_type_is_refused():
 
     with pytest.raises(TypeError, match=re.escape("Odd.where: settings of type dict[str, int] are not supported")):
         json_schema(Odd)
+
+
+def test_a_dataset_entrys_schema_by_hand():
+    # what config_schema.json said of a dataset entry when it was written by hand (0.11)
+    entry = json.loads(SCHEMA_PATH.read_text())["properties"]["datasets"]["additionalProperties"]
+    assert entry["required"] == ["loader"] and "additionalProperties" not in entry  # the loader's own keys beside
+    shapes = {key: {k: v for k, v in node.items() if k != "description"} for key, node in entry["properties"].items()}
+    assert list(shapes) == ["loader", "root", "tolerance", "radius", "ground_truth", "reference_positions",
+                            "query_positions", "positions", "every", "frames", "splits"]
+    assert not [key for key, node in shapes.items() if "default" in node]  # an entry is never filled in
+    assert shapes["tolerance"] == {"type": "integer", "minimum": 0}
+    assert shapes["radius"] == {"type": "number", "exclusiveMinimum": 0}
+    assert shapes["root"] == {"type": ["string", "null"]}
+    assert shapes["positions"] == {"type": "string", "enum": ["file_names", "ins"]}
+    assert shapes["every"] == {"type": "integer", "minimum": 1}
+    assert shapes["frames"] == {"type": "array", "items": {"type": "integer", "minimum": 0}, "minItems": 2,
+                                "maxItems": 2}
+    assert shapes["ground_truth"]["properties"]["key"] == {"type": "string", "minLength": 1}
+    forms = shapes["splits"]["additionalProperties"]["oneOf"]
+    assert forms[1]["required"] == ["reference", "query"] and forms[0]["maxItems"] == 2
+    assert entry["properties"]["tolerance"]["description"] == "frames; default: the loader's (2, method §1)"
+    assert "default 25 for robotcar's positions: ins" in entry["properties"]["radius"]["description"]
+    text = REFERENCE_PATH.read_text()
+    assert "| `datasets.NAME.loader` | text | required | the dataset's loader" in text
+    assert "| `datasets.NAME.frames` | list (2) of integer >= 0 |  | [lo, hi]: keep frames" in text
+
+
+def test_a_dataset_entry_reaches_the_jobs_as_given():
+    # the descriptors job's params hash the entry: a default filled in would rerun every dataset's descriptors
+    entry = {"loader": "folders", "reference": "r", "query": "q", "splits": {"s": [0, 3]}}
+    conf = validate({**MINIMAL, "datasets": {"d": entry}, "train_split": "s", "eval_splits": ["t"],
+                     "table_split": "t"})
+    assert conf.to_json()["datasets"] == {"d": entry} and conf.datasets["d"].to_json() == entry
+
+
+@pytest.mark.parametrize(("entry", "message"), [
+    ({"loader": "folders", "tolerance": -1}, "datasets.d.tolerance: -1 is less than the minimum of 0"),
+    ({"loader": "folders", "frames": [0, 1, 2]}, "datasets.d.frames: [0, 1, 2] is too long"),
+    ({"loader": "folders", "splits": {"s": {"reference": [0, 2]}}}, "datasets.d.splits.s: {'reference': [0, 2]} is "
+     "not valid under any of the given schemas (a split is [lo, hi] (frames lo .. hi-1 of both traverses) or, for "
+     "frames with positions, {reference: [lo, hi], query: [lo, hi]})"),
+    ({"loader": "folders", "ground_truth": {"matrix": "m.npy", "lits": "l.csv"}},
+     "datasets.d.ground_truth.lits: unexpected key 'lits' (did you mean 'lists'?)"),
+    ({"root": "x"}, "datasets.d: 'loader' is a required property"),
+])
+def test_a_bad_dataset_entry_names_its_setting(entry, message):
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        validate({**MINIMAL, "datasets": {"d": entry}}, "c.yaml")
+
+
+def test_a_dataset_entry_as_its_record():
+    from vpr_smr.core.settings import UNSET, parse
+    from vpr_smr.datasets import SPLIT_SETTINGS, DatasetEntry
+
+    assert set(SPLIT_SETTINGS) <= {f for f in DatasetEntry.__dataclass_fields__}
+    record = parse(DatasetEntry, {"loader": "robotcar", "positions": "ins", "every": 3,
+                                  "ground_truth": {"lists": "gt.csv"}}, "datasets.d")
+    assert (record.loader, record.every, record.ground_truth, record.tolerance) == ("robotcar", 3, {"lists": "gt.csv"},
+                                                                                    UNSET)
+    with pytest.raises(ValueError, match=re.escape("datasets.d.loader: the dataset's loader (vpr-smr dataset check "
+                                                   "--help names them); it has no default: give it")):
+        parse(DatasetEntry, {"root": "x"}, "datasets.d")
+    with pytest.raises(ValueError, match=r"^datasets\.d\.ground_truth: method §13: .*; \{'matrix': 'm', 'lists': 'l'\} "
+                                         r"is not valid under any of the given schemas$"):
+        parse(DatasetEntry, {"loader": "folders", "ground_truth": {"matrix": "m", "lists": "l"}}, "datasets.d")
+    with pytest.raises(ValueError, match=re.escape("datasets.d.splits.s[1]: the splits by name")):
+        parse(DatasetEntry, {"loader": "folders", "splits": {"s": [0, "b"]}}, "datasets.d")
