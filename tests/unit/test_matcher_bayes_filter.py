@@ -165,3 +165,13 @@ def test_no_underflow_where_the_published_product_would():
     assert np.array_equal(a[2], b[2])
     np.testing.assert_allclose(a[1], b[1], rtol=1e-9)
     np.testing.assert_allclose(a[3], b[3], rtol=1e-9)
+
+
+def test_a_peak_on_the_last_reference_with_an_empty_neighbourhood():
+    # the neighbourhood leaves the last reference out; query 1 puts all the belief there (the other references are
+    # 1e5 further than the first column's spread: their belief is exactly 0), so the neighbourhood {0, 1} holds no
+    # mass: the match is the peak and the native confidence 0 (the published code divides by zero there)
+    D = np.array([[0.0, 1e5], [1.0, 1e5], [2.0, 0.0]])
+    queries, scores, match, native = run_whole(build((0, 2)), D)
+    assert match.tolist()[1] == 2 and native[1] == 0.0
+    assert scores[1].tolist() == [np.inf, np.inf, 0.0]

@@ -9,8 +9,12 @@ Underflow: the observation step is computed in log space, ``log b' - lambda D[:,
 ``exp``, which is the same belief (the shift cancels in the normalisation) but cannot underflow to all zeros where
 the published code's ``b' exp(-lambda D)`` would (large distances against a narrow spread of the first column), nor
 when the likelihood rules out every place the belief holds. Places whose belief underflows to 0 get ``s_a = +inf``.
-The one belief that cannot be continued is a prior ``b'`` with no mass at all: a window that moves every frame (all
-offsets > 0, or all < 0) carries the whole belief past the map's end; that is an error naming the query column.
+The one belief that cannot be continued is a prior ``b'`` with no mass at all: a window whose every step moves
+the belief (all steps > 0, or all < 0) can carry it off the map; that is an error naming the query column.
+
+The neighbourhood of the match is the published code's, ``max(p - 2w, 0) .. min(p + 2w, R - 1) - 1``: it never
+holds the last reference, so a belief whose peak is the last reference and whose mass there is all (its
+neighbourhood underflowed to 0) has no weighted mean; its match is then the peak and its native confidence 0.
 """
 
 from __future__ import annotations
