@@ -135,3 +135,12 @@ def test_a_split_shorter_than_the_sequence_is_refused_with_the_fix():
     matcher.check((20, 8), "test.h5")
     with pytest.raises(ValueError, match="must be 2-D"):
         matcher.check((20,), "test.h5")
+
+
+def test_nan_and_inf_are_refused_counted_over_the_whole_matrix():
+    d = np.random.default_rng(0).random((10, 12))
+    d[4, 7], d[2, 9] = np.nan, np.inf  # the NaN lies in a later block than the first query's; the inf later still
+    matcher = MatcherSpec.of("monotone").build(3)
+    with pytest.raises(ValueError, match=r"distance matrix has 2 non-finite values \(1 NaN, 1 inf\); the first is "
+                                         r"NaN at row 4 \(reference\), column 7 \(query\)"):
+        list(match_blocks(matcher, d, block_queries=2))
