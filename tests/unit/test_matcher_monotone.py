@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from vpr_smr.eval.matching.features import match_blocks, split_features
-from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class
+from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class, monotone
 from vpr_smr.eval.matching.matchers.monotone import Monotone, MonotoneSettings
 
 
@@ -86,7 +86,9 @@ def test_a_hand_worked_case():
 
 
 @pytest.mark.parametrize("block_queries", [1, 3, None])
-def test_block_wise_equals_the_whole_split(block_queries):
+@pytest.mark.parametrize("chunk_values", [monotone.CHUNK_VALUES, 100])  # 100: a block in passes of 2 queries
+def test_block_wise_equals_the_whole_split(block_queries, chunk_values, monkeypatch):
+    monkeypatch.setattr(monotone, "CHUNK_VALUES", chunk_values)
     rng = np.random.default_rng(7)
     d = rng.random((40, 37))
     expected = naive_scores(d, 5, 2, 0.1)
