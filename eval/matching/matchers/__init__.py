@@ -31,6 +31,7 @@ DEFAULT_MATCHER = "seqslam"
 MATCHERS: dict[str, str] = {
     "seqslam": "seqslam:SeqSLAM",
     "bayes_filter": "bayes_filter:BayesFilter",
+    "monotone": "monotone:Monotone",
 }
 
 

@@ -1,4 +1,4 @@
-"""``bayes_filter``: the topological Bayes filter over places of ProbFiltersVPR (method §14.5).
+"""``bayes_filter``: the topological Bayes filter over places of ProbFiltersVPR (method §14.7).
 
 A belief ``b`` over the references, set by the split's first query and carried from query to query (and from block
 to block of query columns: the recursion is the same whatever the blocks, so block-wise results equal the whole
