@@ -1,4 +1,4 @@
-"""``bayes_filter`` (method §14.5): against a naive per-query, per-reference filter written here from the method's
+"""``bayes_filter`` (method §14.7): against a naive per-query, per-reference filter written here from the method's
 text, a case worked out by hand, block-wise results equal to the whole split's through the shared features code,
 and the messages of bad settings and matrices."""
 
