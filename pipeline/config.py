@@ -20,6 +20,7 @@ from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class
 from vpr_smr.eval.predictor.defaults import PredictorSettings
 from vpr_smr.eval.scoring.scorers import BaselineSettings
+from vpr_smr.eval.scoring.speed import SpeedExperiment
 
 SCHEMA_PATH = Path(__file__).with_name("config_schema.json")
 
@@ -191,7 +192,7 @@ class Experiments:
 # record's docstring its description), of docs/configuration.md and of ``Config`` follows from the record
 # (pipeline.reference).
 RECORDS: dict[str, type] = {"baselines": BaselineSettings, "extraction": Extraction, "predictor": PredictorSettings,
-                            "experiments": Experiments}
+                            "experiments": Experiments, "speed": SpeedExperiment}
 # ``sequence_matching``: {matcher: NAME, ...that matcher's settings}, validated by the matcher's own record
 MATCHER_KEY = "matcher"
 
