@@ -30,6 +30,7 @@ DEFAULT_MATCHER = "seqslam"
 # name -> "module:Class" within this package, imported on first use
 MATCHERS: dict[str, str] = {
     "seqslam": "seqslam:SeqSLAM",
+    "openseqslam": "openseqslam:OpenSeqSLAM",
 }
 
 
