@@ -88,7 +88,8 @@ def assert_naive(d, seq_len, **values):
     return queries, match, native
 
 
-SETTINGS = [{}, {"enhance_window": 4, "v_min": 0.5, "v_max": 1.5, "ratio_window": 4}, {"v_min": 1.0, "v_max": 1.0}]
+SETTINGS = [{}, {"enhance_window": 4, "v_min": 0.5, "v_max": 1.5, "ratio_window": 4}, {"v_min": 1.0, "v_max": 1.0},
+            {"enhance_window": 80}]  # the last: every window is the whole column
 
 
 @pytest.mark.parametrize("alignment", ["centred", "trailing"])
@@ -96,7 +97,7 @@ SETTINGS = [{}, {"enhance_window": 4, "v_min": 0.5, "v_max": 1.5, "ratio_window"
 @pytest.mark.parametrize("values", SETTINGS)
 def test_equal_to_the_naive_implementation_on_random_matrices(alignment, seq_len, values):
     rng = np.random.default_rng(seq_len)
-    d = rng.random((31, 17))
+    d = rng.random((31, 29))  # more evaluated queries than a tile of TILE_QUERIES
     assert_naive(d, seq_len, alignment=alignment, **values)
 
 

@@ -35,6 +35,7 @@ from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 __all__ = ["OpenSeqSLAM", "OpenSeqSLAMSettings"]
 
 ALIGNMENTS = ("centred", "trailing")
+TILE_QUERIES = 8  # evaluated queries summed together (measured: 8 to 32 about twice as fast as a whole block)
 
 
 @dataclass(frozen=True)
@@ -136,10 +137,16 @@ class OpenSeqSLAM(Matcher):
             total += padded[:, j : j + n_ref]
         mean = total / count
         squares = np.zeros((n_cols, n_ref))
+        deviation = np.empty((n_cols, n_ref))
         for j in range(2 * half + 1):
-            inside = (rows - half + j >= 0) & (rows - half + j < n_ref)
-            deviation = padded[:, j : j + n_ref] - mean
-            squares += np.where(inside, deviation * deviation, 0.0)
+            np.subtract(padded[:, j : j + n_ref], mean, out=deviation)
+            deviation *= deviation
+            # the row r - half + j lies outside the split for the first half - j and the last j - half rows
+            if j < half:
+                deviation[:, : half - j] = 0.0
+            elif j > half:
+                deviation[:, max(0, n_ref - (j - half)) :] = 0.0
+            squares += deviation
         std = np.sqrt(squares / (count - 1))
         # a window of equal distances, exactly: no change between neighbouring rows within it (integer counts)
         changes = np.zeros((n_cols, n_ref), dtype=np.int64)
@@ -176,12 +183,16 @@ class OpenSeqSLAM(Matcher):
         padded = np.full((n_cols, n_ref + reach), np.inf)  # a visit past the last reference costs +inf
         padded[:, :n_ref] = self.enhanced(values) - float(state)
         best = np.full((n_eval, n_ref), np.inf)  # score_a[s], every start s
-        for moved in self.moves:
-            total = padded[0:n_eval, 0:n_ref].copy()
-            for k in range(1, self.ds + 1):
-                shift = int(moved[k])
-                total += padded[k : k + n_eval, shift : shift + n_ref]
-            np.minimum(best, total, out=best)
+        total = np.empty((min(TILE_QUERIES, n_eval), n_ref))
+        for i in range(0, n_eval, TILE_QUERIES):  # a few queries at a time: their running sums stay in the cache
+            stop = min(n_eval, i + TILE_QUERIES)
+            running = total[: stop - i]
+            for moved in self.moves:
+                np.copyto(running, padded[i:stop, :n_ref])
+                for k in range(1, self.ds + 1):
+                    shift = int(moved[k])
+                    running += padded[i + k : stop + k, shift : shift + n_ref]
+                np.minimum(best[i:stop], running, out=best[i:stop])
         scores = np.full((n_eval, n_ref), np.inf)
         scores[:, self.offset :] = best[:, : n_ref - self.offset]  # a start whose match is no reference is dropped
         queries = np.arange(first_column + self.lookback, first_column + self.lookback + n_eval)
