@@ -38,14 +38,15 @@ def attribute_engine(matcher: Matcher) -> SequenceMatcher:
 def match_blocks(matcher: Matcher, matrix: Any, block_queries: int | None = None
                  ) -> Iterator[tuple[MatchBlock, int, np.ndarray]]:
     """``matcher.block`` over its evaluated queries of a whole ``R x Q`` matrix, in order, the state carried from
-    block to block: each ``MatchBlock`` with the first column and the columns (``read_columns``) it read. Blocks of
-    ``block_queries`` evaluated queries (default ``SequenceMatcher.block_queries(R)``); a NaN or infinity a block
-    reports is counted over the whole matrix."""
+    block to block, starting from ``matcher.prepare(matrix)``: each ``MatchBlock`` with the first column and the
+    columns (``read_columns``) it read. Blocks of ``block_queries`` evaluated queries (default
+    ``SequenceMatcher.block_queries(R)``); a NaN or infinity a block (or ``prepare``) reports is counted over the
+    whole matrix."""
     n_ref, n_query = (int(n) for n in matrix.shape)
     first, stop = matcher.evaluated(n_query)
     step = block_queries or SequenceMatcher.block_queries(n_ref)
-    state = matcher.initial_state()
     try:
+        state = matcher.prepare(matrix)  # inside: a NaN or infinity its pass meets is counted as a block's is
         for start in range(first, stop, step):
             end = min(stop, start + step)
             lo = start - matcher.lookback

@@ -32,6 +32,7 @@ MATCHERS: dict[str, str] = {
     "seqslam": "seqslam:SeqSLAM",
     "bayes_filter": "bayes_filter:BayesFilter",
     "monotone": "monotone:Monotone",
+    "openseqslam": "openseqslam:OpenSeqSLAM",
 }
 
 
