@@ -64,3 +64,20 @@ def test_the_attributes_stage_leaves_unneeded_modules_out(tmp_path):
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     assert out.stdout.strip() == ""
     assert (tmp_path / "a.h5").is_file()
+
+
+@pytest.mark.parametrize("module", ["vpr_smr.pipeline", "vpr_smr.pipeline.cli"])
+def test_the_program_exits_with_the_stages_status(tmp_path, module):
+    """`python -m` runs the program's entry point (`cli.run`, which freezes the collector before the exit): a stage's
+    error is status 2 with its message, and a stage that succeeds writes its file and exits 0."""
+    missing = tmp_path / "missing.npy"
+    failed = subprocess.run([sys.executable, "-m", module, "attributes", "--distances", str(missing), "--seq-len", "4",
+                             "--out", str(tmp_path / "a.h5")], capture_output=True, text=True, timeout=120)
+    assert failed.returncode == 2
+    assert f"distance matrix not found: {missing}" in failed.stderr
+    matrix = tmp_path / "D.npy"
+    np.save(matrix, np.random.default_rng(0).random((30, 30), dtype=np.float32))
+    done = subprocess.run([sys.executable, "-m", module, "attributes", "--distances", str(matrix), "--seq-len", "4",
+                           "--out", str(tmp_path / "a.h5")], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "a.h5").is_file()
