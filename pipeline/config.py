@@ -13,8 +13,6 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-import yaml
-
 from vpr_smr.core.settings import declared, parse, setting
 from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class
@@ -393,6 +391,8 @@ def experiments(conf: Config) -> set[str]:
 
 def read_config(path: Path | str) -> dict[str, Any]:
     """The YAML mapping of ``path``, unvalidated."""
+    import yaml  # here: the stages that take no configuration (e.g. ``vpr-smr attributes``) skip its import
+
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"configuration file not found: {path}")
@@ -407,6 +407,8 @@ def read_config(path: Path | str) -> dict[str, Any]:
 
 def parse_overrides(items: list[str] | None) -> dict[str, Any]:
     """``["predictor.max_iter=50", "seq_lens=[2, 4]"]`` -> nested dict; values parsed as YAML, as in the file."""
+    import yaml
+
     overrides: dict[str, Any] = {}
     for item in items or []:
         key, sep, value = item.partition("=")
