@@ -10,6 +10,7 @@ import os
 import secrets
 from collections.abc import Iterator
 from contextlib import contextmanager
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -34,6 +35,7 @@ def check_suffix(path: Path | str, allowed: tuple[str, ...], what: str, option: 
     return path
 
 
+@cache  # each lookup scans sys.path for the distribution; a stage asks for it twice (--version, the output file)
 def package_version() -> str:
     from importlib.metadata import PackageNotFoundError, version
 

@@ -1,5 +1,3 @@
-import sys
+from vpr_smr.pipeline.cli import run
 
-from vpr_smr.pipeline.cli import main
-
-sys.exit(main())
+run()

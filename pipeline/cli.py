@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import gc
 import json
 import logging
 import signal
@@ -949,9 +950,19 @@ def main(argv: list[str] | None = None) -> int:
     return int(status or 0)
 
 
+def run() -> None:
+    """The ``vpr-smr`` program: ``main`` on this process's arguments, then the process ends with its status."""
+    status = main()
+    # Nothing is collected after this: the interpreter's exit then skips the collections that free every module's
+    # cycles one by one (about half of the 40-90 ms a 9000 x 9000 `vpr-smr attributes` took to exit); exit
+    # handlers run as before.
+    gc.freeze()
+    sys.exit(status)
+
+
 def _interrupt(signum: int, _frame: Any) -> None:
     raise KeyboardInterrupt
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run()

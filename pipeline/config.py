@@ -13,14 +13,13 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-import yaml
-
 from vpr_smr.core.settings import declared, parse, setting
 from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class
 from vpr_smr.eval.predictor.defaults import PredictorSettings
 from vpr_smr.eval.scoring.matcher_comparison import experiment_matchers
 from vpr_smr.eval.scoring.scorers import BaselineSettings
+from vpr_smr.eval.scoring.speed import SpeedExperiment
 
 SCHEMA_PATH = Path(__file__).with_name("config_schema.json")
 
@@ -195,7 +194,7 @@ class Experiments:
 # record's docstring its description), of docs/configuration.md and of ``Config`` follows from the record
 # (pipeline.reference).
 RECORDS: dict[str, type] = {"baselines": BaselineSettings, "extraction": Extraction, "predictor": PredictorSettings,
-                            "experiments": Experiments}
+                            "experiments": Experiments, "speed": SpeedExperiment}
 # ``sequence_matching``: {matcher: NAME, ...that matcher's settings}, validated by the matcher's own record
 MATCHER_KEY = "matcher"
 
@@ -411,6 +410,8 @@ def experiments(conf: Config) -> set[str]:
 
 def read_config(path: Path | str) -> dict[str, Any]:
     """The YAML mapping of ``path``, unvalidated."""
+    import yaml  # here: the stages that take no configuration (e.g. ``vpr-smr attributes``) skip its import
+
     path = Path(path)
     if not path.is_file():
         raise ConfigError(f"configuration file not found: {path}")
@@ -425,6 +426,8 @@ def read_config(path: Path | str) -> dict[str, Any]:
 
 def parse_overrides(items: list[str] | None) -> dict[str, Any]:
     """``["predictor.max_iter=50", "seq_lens=[2, 4]"]`` -> nested dict; values parsed as YAML, as in the file."""
+    import yaml
+
     overrides: dict[str, Any] = {}
     for item in items or []:
         key, sep, value = item.partition("=")

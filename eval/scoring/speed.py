@@ -31,6 +31,7 @@ import numpy as np
 from vpr_smr.core.constants import DEFAULT_VELOCITIES, N_LABELS
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance
 from vpr_smr.core.records import FileRecord, Record, save
+from vpr_smr.core.settings import setting
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, stored_positions
@@ -42,8 +43,8 @@ if TYPE_CHECKING:
     from vpr_smr.eval.predictor.estimator import SMRPredictor
 
 __all__ = [
-    "MATCHERS", "MODE", "SEED", "VARYING", "SpeedMatcher", "SpeedProfile", "SpeedResult", "SpeedScores",
-    "profile_names", "simulate", "main", "speed_matchers",
+    "MATCHERS", "MODE", "SEED", "VARYING", "SpeedExperiment", "SpeedMatcher", "SpeedProfile", "SpeedResult",
+    "SpeedScores", "profile_names", "simulate", "main", "speed_matchers",
 ]
 
 # This module is imported by the workflow (profile_names) each time Snakemake reads the Snakefile: what needs
@@ -61,6 +62,26 @@ MATCHERS = ("fixed", "velocity")  # the paper's slope-1 matcher, SeqSLAM's veloc
 MODE = "paper"  # Table I's numbers, paper mode (method §8)
 SEED = 0  # the predictor's seed: the authors' recipe (see main)
 PROFILE_HELP = "a constant speed such as 0.5x, 1x or 2x (places per query frame, > 0), or 'varying'"
+
+@dataclass(frozen=True)
+class SpeedExperiment:
+    """The speed experiment (method §11, eval/scoring/speed.py): each dataset's train and table splits re-driven at
+    other speeds, scored with the fixed matcher and with velocity search, a seed-0 predictor per matcher."""
+
+    profiles: tuple[float | str, ...] = setting(
+        (0.5, 0.75, 1.0, 1.25, 1.5, 2.0, VARYING),
+        f"query speeds: a constant c (places per query frame: the query driven c times as fast; 1.0 is the aligned "
+        f"pair, the reference point) or \"{VARYING}\" (1 + {VARYING_AMPLITUDE:g} sin(2 pi t / {VARYING_PERIOD}), "
+        f"between {1 - VARYING_AMPLITUDE:g}x and {1 + VARYING_AMPLITUDE:g}x)",
+        schema={"type": "array", "items": {"anyOf": [{"type": "number", "exclusiveMinimum": 0}, {"const": VARYING}]},
+                "minItems": 1, "uniqueItems": True})
+    velocities: tuple[float, ...] = setting(
+        (0.5, 0.595, 0.707, 0.841, 1.0, 1.189, 1.414, 1.682, 2.0),
+        "the velocity matcher's search set (reference frames per query frame; the fixed matcher is [1.0]): 2**(k/4) "
+        "for k = -4..4, rounded to 3 decimals. Log-spaced, so it covers the profiles' range 0.5x-2x evenly in ratio, "
+        "and it holds 0.5, 1, 2 but not 0.75, 1.25 or 1.5, nor the varying profile's speeds: most profiles are "
+        "matched by a nearby slope, not an exact one, as a real robot's speed would be",
+        exclusive_minimum=0, min_items=1, unique=True)
 
 
 def speed_matchers(velocities: Sequence[float]) -> dict[str, MatcherSpec]:

@@ -1,6 +1,8 @@
 """`vpr-smr attributes` on a user's own distance matrix (.npy -> .csv)."""
 
 import csv
+import subprocess
+import sys
 
 import numpy as np
 import pytest
@@ -48,3 +50,34 @@ def test_missing_file(tmp_path, capsys):
     assert main(["attributes", "--distances", str(tmp_path / "nope.npy"), "--seq-len", "4",
                  "--out", str(tmp_path / "a.csv")]) == 2
     assert "distance matrix not found" in capsys.readouterr().err
+
+
+def test_the_attributes_stage_leaves_unneeded_modules_out(tmp_path):
+    """`vpr-smr attributes` takes no configuration file and asks np.unique nothing: PyYAML and numpy.ma (which
+    np.unique imports on first use) cost its fresh process 10-30 ms of imports (issue 34)."""
+    matrix = tmp_path / "D.npy"
+    np.save(matrix, np.random.default_rng(0).random((40, 40), dtype=np.float32))
+    code = ("import sys\nfrom vpr_smr.pipeline import cli\n"
+            f"cli.main(['attributes', '--distances', {str(matrix)!r}, '--seq-len', '4', '--out', "
+            f"{str(tmp_path / 'a.h5')!r}])\n"
+            "print(' '.join(m for m in ('yaml', 'numpy.ma') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert out.stdout.strip() == ""
+    assert (tmp_path / "a.h5").is_file()
+
+
+@pytest.mark.parametrize("module", ["vpr_smr.pipeline", "vpr_smr.pipeline.cli"])
+def test_the_program_exits_with_the_stages_status(tmp_path, module):
+    """`python -m` runs the program's entry point (`cli.run`, which freezes the collector before the exit): a stage's
+    error is status 2 with its message, and a stage that succeeds writes its file and exits 0."""
+    missing = tmp_path / "missing.npy"
+    failed = subprocess.run([sys.executable, "-m", module, "attributes", "--distances", str(missing), "--seq-len", "4",
+                             "--out", str(tmp_path / "a.h5")], capture_output=True, text=True, timeout=120)
+    assert failed.returncode == 2
+    assert f"distance matrix not found: {missing}" in failed.stderr
+    matrix = tmp_path / "D.npy"
+    np.save(matrix, np.random.default_rng(0).random((30, 30), dtype=np.float32))
+    done = subprocess.run([sys.executable, "-m", module, "attributes", "--distances", str(matrix), "--seq-len", "4",
+                           "--out", str(tmp_path / "a.h5")], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "a.h5").is_file()

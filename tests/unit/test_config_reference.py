@@ -13,7 +13,7 @@ import pytest
 from helpers import REPO
 
 from vpr_smr.core.settings import json_schema, setting
-from vpr_smr.eval.matching.matchers import MatcherSpec
+from vpr_smr.eval.matching.matchers import MatcherSpec, available_matchers
 from vpr_smr.eval.matching.matchers.base import Matcher
 from vpr_smr.eval.predictor.defaults import PredictorSettings
 from vpr_smr.eval.scoring.scorers import BaselineSettings
@@ -139,7 +139,7 @@ def test_sequence_matching_is_the_matchers_spec():
 
 @pytest.mark.parametrize(("matching", "message"), [
     ({"matcher": "seqslan"}, "sequence_matching.matcher: unknown sequence matcher 'seqslan' (did you mean "
-                             "'seqslam'?); available: seqslam"),
+                             "'seqslam'?); available: " + ", ".join(available_matchers())),
     ({"velocites": [1]}, "sequence_matching.velocites: unexpected setting 'velocites' (did you mean "
                          "'velocities'?); sequence_matching allows: velocities"),
     ({"velocities": [1, 0]}, "sequence_matching.velocities: velocities searched, in reference frames per query "

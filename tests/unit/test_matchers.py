@@ -4,6 +4,7 @@ loops), files of vpr-smr 0.9 (no ``matcher`` record) read as ``seqslam`` with th
 refused naming both matchers."""
 
 import json
+import re
 from dataclasses import dataclass
 from types import SimpleNamespace
 
@@ -22,7 +23,9 @@ from vpr_smr.eval.matching.attributes import (
     query_features,
     write_features,
 )
+from vpr_smr.eval.matching.features import match_blocks
 from vpr_smr.eval.matching.live import LiveMatcher
+from vpr_smr.eval.matching.matcher import read_columns
 from vpr_smr.eval.matching.matchers import MatcherSpec, available_matchers, matcher_class
 from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 from vpr_smr.eval.matching.matchers.seqslam import SeqSLAM
@@ -155,6 +158,48 @@ def test_a_matcher_that_is_not_seqslam_gets_its_candidates_and_labels_from_the_s
         assert found.sequence_rank[n_row] == (ranks[0] if ranks else np.iinfo(np.int64).max)
 
 
+class Offset(Matcher):
+    """s_a[r] = D[r, a] - max(D) over the whole split: a matcher whose numbers depend on the whole split, which its
+    ``prepare`` reads before the first block (the hook openseqslam's global minimum needs)."""
+
+    name = "offset_toy"
+    Settings = ToySettings
+    description = "the column minus the split's largest value (a test's matcher)"
+
+    @property
+    def lookback(self):
+        return 0
+
+    def check(self, shape, name="distance matrix"):
+        pass
+
+    def prepare(self, matrix):
+        return float(np.max(read_columns(matrix, 0, matrix.shape[1])))
+
+    def block(self, columns, first_column, state):
+        scores = columns.astype(np.float64) - state
+        return MatchBlock(first_column + np.arange(len(columns)), scores, np.argmin(scores, axis=1)), state
+
+
+@pytest.mark.parametrize("block_queries", [1, 3, None])
+@pytest.mark.parametrize("in_file", [False, True])
+def test_match_blocks_starts_from_the_matchers_prepare_over_the_whole_split(tmp_path, block_queries, in_file):
+    d = np.arange(24, dtype=np.float64).reshape(4, 6) % 7  # largest value 6, not in the first column
+    expected = [[d[r, a] - 6.0 for r in range(4)] for a in range(6)]
+    with h5py.File(tmp_path / "d.h5", "w") as out:
+        out["d"] = d
+    with h5py.File(tmp_path / "d.h5", "r") as source:
+        matrix = source["d"] if in_file else d
+        blocks = [found for found, _, _ in match_blocks(Offset(2, ToySettings()), matrix, block_queries)]
+        assert np.concatenate([b.scores for b in blocks]).tolist() == expected
+        assert np.concatenate([b.queries for b in blocks]).tolist() == list(range(6))
+
+
+def test_prepare_defaults_to_the_initial_state():
+    assert Centred(3, ToySettings()).prepare(np.ones((3, 3))) is None
+    assert Smoothing(3, ToySettings()).prepare(np.ones((3, 3))).shape == (0,)
+
+
 def test_a_matcher_that_evaluates_no_query_with_a_window_is_named():
     # queries 1 .. 2 evaluated, none of them with a window of L = 4 columns: a degenerate split, said in words
     with pytest.raises(ValueError, match=r"the matcher 'centred_toy' evaluates no query of this 6 x 4 matrix that has "
@@ -191,11 +236,12 @@ def installed(monkeypatch):
 
 
 def test_an_unknown_matcher_is_refused_listing_the_available_ones(installed):
-    assert available_matchers() == ["centred_toy", "seqslam", "smoothing_toy"]
+    known = sorted({*registry.MATCHERS, "centred_toy", "smoothing_toy"})  # the built-in ones and the two installed
+    assert available_matchers() == known
     assert matcher_class("seqslam") is SeqSLAM and matcher_class("centred_toy") is Centred
     with pytest.raises(ValueError, match=r"unknown sequence matcher 'seqslm' \(did you mean 'seqslam'\?\); "
-                                         r"available: centred_toy, seqslam, "
-                                         r"smoothing_toy \(a package adds one through the entry point group "
+                                         r"available: " + re.escape(", ".join(known)) +
+                                         r" \(a package adds one through the entry point group "
                                          r"vpr_smr.matchers\)"):
         MatcherSpec.of("seqslm")
 

@@ -30,6 +30,9 @@ DEFAULT_MATCHER = "seqslam"
 # name -> "module:Class" within this package, imported on first use
 MATCHERS: dict[str, str] = {
     "seqslam": "seqslam:SeqSLAM",
+    "bayes_filter": "bayes_filter:BayesFilter",
+    "monotone": "monotone:Monotone",
+    "openseqslam": "openseqslam:OpenSeqSLAM",
 }
 
 

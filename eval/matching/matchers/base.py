@@ -88,6 +88,13 @@ class Matcher(ABC):
         """The state a filter carries from block to block (None: the matcher keeps none)."""
         return None
 
+    def prepare(self, matrix: Any) -> Any:
+        """The state before the first block, from a pass over the whole split ``matrix`` (``R x Q``, an array or an
+        h5py dataset: read it in blocks with ``eval.matching.matcher.read_columns``), for a matcher whose numbers
+        depend on the whole split (openseqslam: the smallest contrast-enhanced value of the split); default
+        ``self.initial_state()``."""
+        return self.initial_state()
+
     @abstractmethod
     def block(self, columns: np.ndarray, first_column: int, state: Any) -> tuple[MatchBlock, Any]:
         """The matches of the evaluated queries whose columns ``columns`` (``(n, R)``: the split's columns
