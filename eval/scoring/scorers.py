@@ -20,12 +20,15 @@ from vpr_smr.core.settings import setting
 from vpr_smr.eval.matching.attributes import QueryFeatures
 
 __all__ = [
-    "DEFAULT_SETTINGS", "KINDS", "ORACLE", "PREDICTOR", "RANDOM", "REGISTRY", "BaselineSettings", "Confidence",
-    "Scorer", "colour", "names", "predictor_confidence", "random_scores", "scorer", "spread", "training_free",
-    "uniqueness",
+    "DEFAULT_SETTINGS", "KINDS", "NATIVE", "NO_NATIVE", "ORACLE", "PREDICTOR", "RANDOM", "REGISTRY",
+    "BaselineSettings", "Confidence", "Scorer", "colour", "names", "predictor_confidence", "random_scores", "scorer",
+    "spread", "training_free", "uniqueness",
 ]
 
-RANDOM, ORACLE, PREDICTOR = "random", "oracle", "predictor"
+RANDOM, ORACLE, PREDICTOR, NATIVE = "random", "oracle", "predictor", "native"
+# the one sentence for features that hold neither the matcher's native confidence nor the name of its scorer
+NO_NATIVE = ("the attributes hold no native confidence of their matcher (sequence_native: a file written before it "
+             "was stored, by a matcher that names no native_scorer)")
 Kind = Literal["training-free", "oracle", "predictor"]
 KINDS: tuple[Kind, ...] = ("training-free", "oracle", "predictor")
 Setting = Literal["r_window", "spread_k"]
@@ -169,6 +172,22 @@ def _distance(features: QueryFeatures, settings: BaselineSettings, positions: np
     return -np.asarray(features.sequence_distance, dtype=np.float64)
 
 
+def _native(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int) -> np.ndarray:
+    """The matcher's native confidence (method §14): its own numbers where the features hold them, else the §12
+    scorer it names (seqslam's ``uniqueness``: the same numbers as that scorer's)."""
+    if features.sequence_native is not None:
+        return np.asarray(features.sequence_native, dtype=np.float64)
+    named = features.native_scorer
+    if named is None:
+        raise ValueError(NO_NATIVE)
+    found = scorer(named)
+    if found.kind != "training-free" or found.name in (NATIVE, RANDOM) or found.confidence is None:
+        allowed = ", ".join(n for n in training_free() if n not in (NATIVE, RANDOM))
+        raise ValueError(f"the matcher's native_scorer {named!r} is no deterministic training-free scorer of "
+                         f"method §12: name one of {allowed}")
+    return found.confidence(features, settings, positions, seed)
+
+
 def _random(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int) -> np.ndarray:
     return random_scores(len(features.queries), seed)
 
@@ -191,6 +210,9 @@ REGISTRY: tuple[Scorer, ...] = (
     Scorer("distance", "training-free", "tab:gray",
            "minus the sequence distance (a threshold on it, which is what VPR+SM's curve already sweeps: about 0 by "
            "construction)", (), _distance),
+    Scorer(NATIVE, "training-free", "tab:purple",
+           "the matcher's own confidence, the rule its authors accept a match by (seqslam: the uniqueness above)",
+           ("r_window",), _native),
     Scorer(RANDOM, "training-free", "tab:pink", "a random order", (), _random),
     Scorer(ORACLE, "oracle", "black", "the ground truth", (), _oracle),
     Scorer(PREDICTOR, "predictor", "tab:orange", "one minus the predictor's probabilities of classes 1 and 3", (),

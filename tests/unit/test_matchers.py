@@ -44,6 +44,7 @@ class Centred(Matcher):
     name = "centred_toy"
     Settings = ToySettings
     description = "a centred window of three columns (a test's matcher)"
+    native_scorer = "uniqueness"  # its native confidence is a scorer of method §12: its blocks give none
 
     @property
     def lookback(self):
@@ -72,6 +73,7 @@ class Smoothing(Matcher):
     name = "smoothing_toy"
     Settings = ToySettings
     description = "exponential smoothing of the columns (a test's matcher)"
+    native_scorer = "uniqueness"
 
     @property
     def lookback(self):
