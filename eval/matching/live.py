@@ -73,7 +73,8 @@ class LiveMatcher:
                  distance: str | None = None, n_ranks: int = 4, matcher: MatcherSpec | Matcher | None = None,
                  r_window: int = DEFAULT_R_WINDOW) -> None:
         self.matcher = built_matcher(matcher, seq_len)
-        self.spec = matcher if isinstance(matcher, MatcherSpec) else None  # a built one's: when a predictor asks
+        # a built matcher's spec is made when a loaded predictor is compared with it (an unregistered one has none)
+        self.spec = matcher if isinstance(matcher, MatcherSpec) else MatcherSpec.of() if matcher is None else None
         check_live(self.matcher)
         self.n_native = 0 if self.matcher.native_scorer is None else candidates_needed(r_window, 1)
         self.window = half_window(r_window)

@@ -159,3 +159,14 @@ def test_a_matcher_that_needs_the_whole_split_or_another_scorer_is_refused():
         LiveMatcher(L, matcher=Spread(L, LongSettings()))
     with pytest.raises(ValueError, match=r"the matcher 'long' was built for sequence length 4, not 3"):
         LiveMatcher(L, matcher=Long(4, LongSettings()))
+
+
+def test_a_built_matcher_is_compared_with_a_loaded_predictors(predictor_file):
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+
+    predictor = SMRPredictor.load(predictor_file)  # trained with seqslam, velocities [1.0]
+    LiveMatcher(L, matcher=MatcherSpec.of().build(L), predictor=predictor)  # the same matcher: accepted
+    with pytest.raises(ValueError, match=r"was trained on attributes of the matcher seqslam \(velocities \[1.0\]\), "
+                                         r"but it is applied to a LiveMatcher \(matcher=\), of the matcher seqslam "
+                                         r"\(velocities \[0.5, 1.0\]\)"):
+        LiveMatcher(L, matcher=MatcherSpec.of("seqslam", {"velocities": [0.5, 1.0]}).build(L), predictor=predictor)
