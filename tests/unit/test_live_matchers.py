@@ -170,3 +170,30 @@ def test_a_built_matcher_is_compared_with_a_loaded_predictors(predictor_file):
                                          r"but it is applied to a LiveMatcher \(matcher=\), of the matcher seqslam "
                                          r"\(velocities \[0.5, 1.0\]\)"):
         LiveMatcher(L, matcher=MatcherSpec.of("seqslam", {"velocities": [0.5, 1.0]}).build(L), predictor=predictor)
+
+
+@pytest.mark.parametrize(("name", "settings"), [
+    ("bayes_filter", {}), ("bayes_filter", {"window_lo": -1, "window_hi": 3}), ("monotone", {}),
+    ("monotone", {"max_step": 3, "step_penalty": 0.0}), ("seqslam", {"velocities": [0.8, 1.0, 1.25]}),
+])
+def test_the_built_in_matchers_live_equal_their_batch_frame_by_frame(name, settings):
+    # a band of small distances along the diagonal, so that the filter's belief follows it for the whole run
+    rng = np.random.default_rng(11)
+    d = rng.random((40, 30)) + 2.0 * (np.abs(np.arange(40)[:, None] - np.arange(30)[None, :]) > 2)
+    spec = MatcherSpec.of(name, settings)
+    batch = query_features(d, L, matcher=spec, n_candidates=BaselineSettings().candidates)
+    results = live_run(spec, d)
+    live = [r for r in results if r is not None]
+    assert [r.query for r in live] == batch.queries.tolist()
+    assert [r.sequence_match for r in live] == batch.sequence_match.tolist()
+    assert [r.sequence_distance for r in live] == batch.sequence_distance.tolist()
+    native = batch.sequence_native if batch.sequence_native is not None else query_scores(
+        batch, BaselineSettings(), np.arange(40.0))["native"]
+    assert [r.native for r in live] == native.tolist()
+    assert np.array_equal([r.attributes for r in live], batch.attributes)
+
+
+def test_openseqslam_is_refused_live_in_either_alignment():
+    for alignment in ("centred", "trailing"):
+        with pytest.raises(ValueError, match="openseqslam"):
+            LiveMatcher(4, matcher=MatcherSpec.of("openseqslam", {"alignment": alignment}))
