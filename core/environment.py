@@ -1,4 +1,5 @@
-"""The numeric environment a result was computed in: CPU, BLAS and thread counts, OpenCV's and NumPy's versions.
+"""The numeric environment a result was computed in: CPU, BLAS and thread counts, OpenCV's (where the process
+loaded it) and NumPy's versions.
 
 Information, not a setting: every stage records it under ``ENVIRONMENT_KEY`` (an HDF5 attribute of the descriptor
 files, an entry of the predictor's and the evaluation's ``meta``), and nothing compares it to decide whether an
@@ -14,6 +15,7 @@ import hashlib
 import json
 import os
 import platform
+import sys
 from collections.abc import MutableMapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -51,8 +53,10 @@ class NumericEnvironment(Record):
     simd: tuple[str, ...]
     cpu_flags_sha256: str
     thread_pools: tuple[ThreadPool, ...]
-    opencv: str
-    opencv_optimised: bool
+    # None: the process never loaded OpenCV, so none of its numbers went through it (importing it only to record it
+    # cost a stage such as `vpr-smr attributes` 20-40 ms, and listed its BLAS among pools the stage never used)
+    opencv: str | None
+    opencv_optimised: bool | None
     numpy: str
     python: str
 
@@ -90,8 +94,9 @@ def _thread_pools() -> tuple[ThreadPool, ...]:
 
 def current() -> NumericEnvironment:
     """This process's numeric environment now (the libraries loaded so far: call it when the work is done)."""
-    import cv2
     import numpy as np
+
+    cv2 = sys.modules.get("cv2")
 
     model, flags = _cpu()
     present = set(flags)
@@ -102,8 +107,8 @@ def current() -> NumericEnvironment:
         simd=tuple(flag for flag in SIMD_FLAGS if flag in present),
         cpu_flags_sha256=hashlib.sha256(" ".join(sorted(present)).encode()).hexdigest()[:16],
         thread_pools=_thread_pools(),
-        opencv=str(cv2.__version__),
-        opencv_optimised=bool(cv2.useOptimized()),
+        opencv=None if cv2 is None else str(cv2.__version__),
+        opencv_optimised=None if cv2 is None else bool(cv2.useOptimized()),
         numpy=np.__version__,
         python=platform.python_version(),
     )

@@ -162,8 +162,8 @@ def matcher_catalogue() -> str:
         cls = matcher_class(name)
         default = " (the default)" if name == DEFAULT_MATCHER else ""
         lines.append(f"{name}{default}: {cls.description}")
-        if cls.native_scorer is not None:
-            lines.append(f"  native confidence: the training-free scorer {cls.native_scorer}")
+        lines.append(f"  native confidence: the training-free scorer {cls.native_scorer}" if cls.native_scorer
+                     else "  native confidence: its own, per query (the training-free scorer native)")
         for item in declared(cls.Settings):
             shown = json.dumps(list(item.default) if isinstance(item.default, tuple) else item.default)
             lines.append(f"  {item.name} ({option(item.name)}, default {shown}): {item.help}")

@@ -201,21 +201,25 @@ def _training_problems(conf: Config, train: tuple[int, int]) -> list[str]:
 
 def _matcher_problems(conf: Config, name: str, pair: Any, splits: list[str]) -> list[str]:
     """Whether the matcher (``sequence_matching``) can match every split at every ``L`` of ``seq_lens``: its own
-    ``Matcher.check`` on a split's references (SeqSLAM's velocity search needs its slowest trajectory's; method
-    §11). Only what the sequence-length check does not already say: splits of at least ``L`` references."""
+    ``Matcher.check`` on the split's shape, references x queries (SeqSLAM's velocity search needs its slowest
+    trajectory's references, method §11; a centred window more queries than ``L``). Only what the sequence-length
+    check does not already say: splits of at least ``L`` references and queries. The matcher's settings were
+    checked with the configuration (``Matcher.settings_of``)."""
     spec = conf.sequence_matching
     problems = []
     for split in splits:
-        lo, hi = pair.reference_range(split)
-        for seq_len in sorted(conf.seq_lens, reverse=True):  # the longest sequence needs the most references
-            if hi - lo < seq_len:
+        (r_lo, r_hi), (q_lo, q_hi) = pair.reference_range(split), pair.splits[split]
+        shape = (r_hi - r_lo, q_hi - q_lo)
+        for seq_len in sorted(conf.seq_lens, reverse=True):  # the longest sequence needs the most frames
+            if min(shape) < seq_len:
                 continue
             try:
-                spec.build(seq_len).check((hi - lo, seq_len), f"split {split!r}")
+                spec.build(seq_len).check(shape, f"split {split!r}")
             except ValueError as error:
-                problems.append(f"datasets.{name}: split {split!r} reference range [{lo}, {hi}) cannot be matched "
-                                f"by the matcher {spec} (sequence_matching) at sequence length {seq_len}: {error}; "
-                                "lengthen the split (its reference range), or change sequence_matching")
+                problems.append(f"datasets.{name}: split {split!r} (references [{r_lo}, {r_hi}), queries [{q_lo}, "
+                                f"{q_hi})) cannot be matched by the matcher {spec} (sequence_matching) at sequence "
+                                f"length {seq_len}: {error}; lengthen the split (its reference or query range), or "
+                                "change sequence_matching")
                 break
     return problems
 

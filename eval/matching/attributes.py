@@ -35,12 +35,12 @@ from vpr_smr.eval.matching.io import (
     warn_if_similar,
 )
 from vpr_smr.eval.matching.matcher import as_matrix, read_columns
-from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec
+from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec, matcher_class
 from vpr_smr.eval.matching.matchers.base import Matcher
 
 __all__ = [
-    "ATTRIBUTE_NAMES", "CANDIDATE_FIELDS", "DEFAULT_CANDIDATES", "QueryFeatures", "labels_from_correctness",
-    "query_features", "recorded_matcher",
+    "ATTRIBUTE_NAMES", "CANDIDATE_FIELDS", "DEFAULT_CANDIDATES", "OPTIONAL_FIELDS", "QueryFeatures",
+    "labels_from_correctness", "query_features", "recorded_matcher",
 ]
 
 ATTRIBUTE_NAMES = ("A1", "A2", "A3", "A4")  # minimum sum, minimum value, block sum, group sum rates
@@ -50,6 +50,9 @@ DEFAULT_CANDIDATES = candidates_needed()  # 12: r_window 10, K 10
 # QueryFeatures' candidate arrays: written when computed, absent from files computed without them
 CANDIDATE_FIELDS = ("sequence_candidates", "sequence_candidate_references", "single_candidates",
                     "single_candidate_references")
+# every array a file may lack: the candidates, and the native confidence (absent where the matcher names a scorer)
+OPTIONAL_FIELDS = (*CANDIDATE_FIELDS, "sequence_native")
+NATIVE_SCORER = "native_scorer"  # QueryFeatures' one field that no file stores (the recorded matcher's)
 
 
 @dataclass(frozen=True)
@@ -83,6 +86,12 @@ class QueryFeatures:
     sequence_candidate_references: np.ndarray | None = None  # (N, n) int64
     single_candidates: np.ndarray | None = None  # (N, n) float64
     single_candidate_references: np.ndarray | None = None  # (N, n) int64
+    # The matcher's native confidence (method §14, higher = more confident): its own numbers where it computes them
+    # (``sequence_native``, stored in the file), else ``native_scorer``, the §12 scorer it names (``uniqueness``
+    # for seqslam), computed with the other scorers. The name is the matcher's, never stored: a file gives it from
+    # the matcher it records; features built without a matcher are the default matcher's.
+    sequence_native: np.ndarray | None = None  # (N,) float64
+    native_scorer: str | None = field(default_factory=lambda: matcher_class(DEFAULT_MATCHER).native_scorer)
 
     @property
     def n_candidates(self) -> int:
@@ -144,7 +153,8 @@ def query_features(
         **verdicts(ground_truth, queries, single, seq_match, rank_refs,
                    np.concatenate([np.argmin(read_columns(matrix, 0, seq_len - 1), axis=1),
                                    result["window_single_match"]])),
-        **{name: result[name] for name in CANDIDATE_FIELDS if name in result},
+        **{name: result[name] for name in OPTIONAL_FIELDS if name in result},
+        native_scorer=built.native_scorer,
     )
 
 
@@ -172,23 +182,29 @@ def verdicts(truth: GroundTruth, queries: np.ndarray, single_match: np.ndarray, 
 
 
 def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:
-    """Every field of ``features`` as a dataset of its name; the candidates only when computed."""
+    """Every array of ``features`` as a dataset of its name; the candidates and the native confidence only when
+    computed (``native_scorer`` is the recorded matcher's, ``provenance["matcher"]``)."""
     with atomic_h5(path, provenance) as f:
         for item in fields(QueryFeatures):
             value = getattr(features, item.name)
-            if value is not None:
+            if value is not None and item.name != NATIVE_SCORER:
                 f[item.name] = value
 
 
 def read_features(path: Path | str) -> QueryFeatures:
     """The features ``write_features`` wrote; a file without the candidates (computed without them, or before
-    they existed) reads with them None."""
+    they existed) reads with them None, one without ``sequence_native`` (a matcher that names its native scorer,
+    or a file written before it was stored) with it None. ``native_scorer``: that of the matcher the file records
+    (``recorded_matcher``)."""
     with h5py.File(path, "r") as f:
         values = {item.name: f[item.name][()] for item in fields(QueryFeatures)
-                  if item.name in f or item.name not in CANDIDATE_FIELDS}
+                  if item.name != NATIVE_SCORER and (item.name in f or item.name not in OPTIONAL_FIELDS)}
     values["sequence_min"] = float(values["sequence_min"])
     values["sequence_max"] = float(values["sequence_max"])
-    return QueryFeatures(**values)
+    if "sequence_native" in values:  # the matcher's own numbers: it names no scorer
+        return QueryFeatures(**values, native_scorer=None)
+    spec = recorded_matcher(read_provenance(path), str(path))
+    return QueryFeatures(**values, native_scorer=matcher_class(spec.name).native_scorer)
 
 
 # --- the `attributes` stage: sequence matching, attributes and labels of one distance matrix, to .csv or .h5

@@ -8,7 +8,10 @@ once, by the trajectory engine (``matcher.SequenceMatcher``), never by a matcher
   its match, ``S`` range and candidates from the same pass (its fast paths: no second pass over the matrix);
 - any other matcher's scores come from its ``block`` (``match_blocks``: its evaluated queries block by block, its
   state carried in order), its match is its own, and its candidates are the ``n`` smallest ``s_a[r]`` ascending
-  (equal values lowest ``r`` first; ``+inf`` and reference ``-1`` where fewer than ``n`` are finite).
+  (equal values lowest ``r`` first; ``+inf`` and reference ``-1`` where fewer than ``n`` are finite);
+- a matcher whose native confidence is its own (``Matcher.native_scorer`` None) gives it per block
+  (``MatchBlock.native``), kept as ``sequence_native``; the others' is a scorer of method §12, computed where the
+  scorers are.
 
 Queries: those the matcher evaluates that have a window of ``L`` columns (``a >= L - 1``).
 """
@@ -24,7 +27,7 @@ from vpr_smr.eval.matching.checks import NonFiniteError
 from vpr_smr.eval.matching.matcher import SequenceMatcher, as_matrix, block_dtype, read_columns
 from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 
-__all__ = ["attribute_engine", "match_blocks", "smallest_scores", "split_features"]
+__all__ = ["attribute_engine", "block_native", "match_blocks", "smallest_scores", "split_features"]
 
 # the candidates of a split's features (QueryFeatures' names), as the engine and this module give them
 SEQUENCE_CANDIDATES = ("sequence_candidates", "sequence_candidate_references")
@@ -85,13 +88,27 @@ def smallest_scores(scores: np.ndarray, count: int) -> tuple[np.ndarray, np.ndar
     return values, references
 
 
+def block_native(matcher: Matcher, found: MatchBlock) -> np.ndarray:
+    """The native confidence (float64, one per query) of a block of a matcher whose ``native_scorer`` is None;
+    ValueError naming the matcher when the block gives none or another shape."""
+    shape = (len(found.queries),)
+    if found.native is None or np.shape(found.native) != shape:
+        given = "none" if found.native is None else f"shape {np.shape(found.native)}"
+        raise ValueError(f"the matcher {matcher.name!r} names no scorer of method §12 as its native confidence "
+                         f"(native_scorer None), so each block must give it (MatchBlock.native of shape {shape}, one "
+                         f"per query), but a block gave {given}: give the native confidence in block(), or name "
+                         "its native_scorer")
+    return np.asarray(found.native, dtype=np.float64)
+
+
 def split_features(matcher: Matcher, distance_matrix: Any, n_ranks: int, block_queries: int | None = None,
                    screen_dtype: Any = np.float32, n_candidates: int = 0) -> dict[str, np.ndarray]:
     """The attributes of the ``n_ranks`` best trajectories (``attributes``, ``rank_references``), the single
     match, the matcher's match (``sequence_match``, its score ``sequence_distance`` and the largest finite score
     ``sequence_max``) and, with ``n_candidates``, the candidates (``SequenceMatcher.block_features``' names) of
     every query of ``queries`` (those ``matcher`` evaluates, ``a >= L - 1``), of a whole ``R x Q`` matrix;
-    ``window_single_match``: the single match of every query ``a >= L - 1``, evaluated or not.
+    ``window_single_match``: the single match of every query ``a >= L - 1``, evaluated or not;
+    ``sequence_native``: the matcher's native confidence (float64) where its ``native_scorer`` is None.
     ``block_queries``, ``screen_dtype``: as ``SequenceMatcher.features`` (they change no number)."""
     matrix = as_matrix(distance_matrix)
     engine = attribute_engine(matcher)
@@ -102,11 +119,16 @@ def split_features(matcher: Matcher, distance_matrix: Any, n_ranks: int, block_q
     out = engine.features(matrix, n_ranks, block_queries, screen_dtype, n_candidates)
     out.pop("sequence_velocity", None)
     out["window_single_match"] = out["single_match"]  # every query a >= L - 1, the evaluated ones or not
+    own_native = matcher.native_scorer is None
     if matcher.scores_are_attribute_sums:  # s_a is S: the match and candidates are the engine's, bit for bit
+        if own_native:  # the engine's pass calls no block, so no native confidence could come from one
+            raise ValueError(f"the matcher {matcher.name!r} takes its scores from the attributes' pass "
+                             "(scores_are_attribute_sums), so its native confidence must be a scorer of method §12: "
+                             "set its native_scorer")
         out["queries"] = np.arange(matcher.seq_len - 1, n_query)
         return out
     parts: dict[str, list[np.ndarray]] = {key: [] for key in (
-        "queries", "sequence_match", "sequence_distance", "sequence_max", *SEQUENCE_CANDIDATES)}
+        "queries", "sequence_match", "sequence_distance", "sequence_max", "sequence_native", *SEQUENCE_CANDIDATES)}
     for found, _, _ in match_blocks(matcher, matrix, block_queries):
         scores = np.asarray(found.scores, dtype=np.float64)
         if scores.shape != (len(found.queries), n_ref):
@@ -118,6 +140,8 @@ def split_features(matcher: Matcher, distance_matrix: Any, n_ranks: int, block_q
         parts["sequence_match"].append(match)
         parts["sequence_distance"].append(scores[rows, match])
         parts["sequence_max"].append(np.where(np.isfinite(scores), scores, -np.inf).max(axis=1))
+        if own_native:
+            parts["sequence_native"].append(block_native(matcher, found))
         if n_candidates:
             values, references = smallest_scores(scores, n_candidates)
             parts["sequence_candidates"].append(values)

@@ -4,8 +4,12 @@
 trajectory engine (``features.attribute_engine``: ``SequenceMatcher.block_features``) on that window, so every frame
 costs ``O(R x L)`` (times the velocities) and its result is the batch computation's, bit for bit (paper-mode
 attributes, method §5's tie rule). Column normalisation needs only the column itself, so nothing else about the past
-is kept. A matcher other than ``seqslam`` gives its match per frame by its ``block`` (its state carried): it must be
-causal (no lookahead) with a window within the last ``L`` frames.
+is kept. Any matcher of the seam (a ``MatcherSpec`` or a built ``Matcher``) gives its match and its native
+confidence per frame by its ``block``, one frame at a time, its state (a filter's belief) carried from frame to
+frame, so frame by frame equals the batch: it must be causal (no lookahead: a centred window sees frames to come)
+and need no pass over the whole split before its first frame (``Matcher.prepare``); the buffer keeps the columns
+its window reads. The native confidence is the matcher's own (``MatchBlock.native``) or the §12 scorer it names,
+which live must be ``uniqueness`` (``confidence.uniqueness`` with ``r_window``, as the batch scorers compute it).
 
 The descriptors must be compared with the distance their method's batch matrices use (``mad`` for SAD, ``l2`` for
 the learned backends, or the method's ``distance`` setting): ``from_descriptors`` takes the reference descriptors
@@ -20,17 +24,22 @@ and that distance from a descriptor file of the pipeline, so the live matches ar
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from vpr_smr.core.constants import KEPT_CLASSES
-from vpr_smr.eval.matching.attributes import Matching, check_matching
+from vpr_smr.core.constants import DEFAULT_R_WINDOW, KEPT_CLASSES, candidates_needed, half_window
+from vpr_smr.eval.matching.attributes import Matching, built_matcher, check_matching
+from vpr_smr.eval.matching.confidence import uniqueness
 from vpr_smr.eval.matching.distances import distance_columns, prepare_references
-from vpr_smr.eval.matching.features import attribute_engine
+from vpr_smr.eval.matching.features import attribute_engine, block_native, smallest_scores
 from vpr_smr.eval.matching.matchers import MatcherSpec
+from vpr_smr.eval.matching.matchers.base import Matcher
+
+LIVE_NATIVE_SCORER = "uniqueness"  # the one §12 scorer a frame's own scores give (the others need more than them)
 
 
 @dataclass(frozen=True)
@@ -45,6 +54,7 @@ class LiveResult:
     rank_references: np.ndarray  # (K,): reference matched by the rank-k diagonal (trajectory), where it ends
     label: int | None = None  # predicted class 0..3 (method §6), with a predictor
     keep: bool | None = None  # the predictor keeps the sequence match (label 0 or 2)
+    native: float | None = None  # the matcher's native confidence (method §14; higher = more confident)
 
 
 class LiveMatcher:
@@ -54,17 +64,20 @@ class LiveMatcher:
     ``eval.predictor.SMRPredictor``) and ``classes_``. ``distance`` is the metric of ``eval.distances`` that the
     descriptors' method uses; it is required with ``references`` (``from_descriptors`` reads it from the file).
     ``matcher``: the sequence matcher (default ``seqslam`` with velocities [1.0], the paper's fixed matcher), as the
-    batch ``attributes`` stage takes it: each step equals the batch result of its query.
+    batch ``attributes`` stage takes it (a ``MatcherSpec``, or a ``Matcher`` built for ``seq_len``): each step equals
+    the batch result of its query. ``r_window``: uniqueness's window, for a matcher whose native confidence it is
+    (method §12's ``baselines.r_window``).
     """
 
     def __init__(self, seq_len: int, references: np.ndarray | None = None, predictor: Any = None,
-                 distance: str | None = None, n_ranks: int = 4, matcher: MatcherSpec | None = None) -> None:
-        self.spec = matcher or MatcherSpec.of()
-        self.matcher = self.spec.build(seq_len)
-        if self.matcher.lookahead or self.matcher.lookback > seq_len - 1:
-            raise ValueError(f"the matcher {self.spec} reads {self.matcher.lookback} columns before and "
-                             f"{self.matcher.lookahead} after its query: a LiveMatcher needs a causal matcher whose "
-                             f"window lies within the last L = {seq_len} frames")
+                 distance: str | None = None, n_ranks: int = 4, matcher: MatcherSpec | Matcher | None = None,
+                 r_window: int = DEFAULT_R_WINDOW) -> None:
+        self.matcher = built_matcher(matcher, seq_len)
+        # a built matcher's spec is made when a loaded predictor is compared with it (an unregistered one has none)
+        self.spec = matcher if isinstance(matcher, MatcherSpec) else MatcherSpec.of() if matcher is None else None
+        check_live(self.matcher)
+        self.n_native = 0 if self.matcher.native_scorer is None else candidates_needed(r_window, 1)
+        self.window = half_window(r_window)
         self.engine = attribute_engine(self.matcher)  # the attributes' trajectories
         self._state = self.matcher.initial_state()
         if references is not None and distance is None:
@@ -91,7 +104,11 @@ class LiveMatcher:
 
     @predictor.setter
     def predictor(self, predictor: Any) -> None:
-        if predictor is not None:  # its attributes must be this matcher's (live frames have no ground truth)
+        if predictor is not None and hasattr(predictor, "path_"):  # its attributes must be this matcher's (live
+            # frames have no ground truth); a predictor fitted in this process records no matcher to compare
+            if self.spec is None:
+                self.spec = MatcherSpec.of(self.matcher.name, dataclasses.asdict(self.matcher.settings),
+                                           "LiveMatcher(matcher=)")
             check_matching(predictor, Matching.of(self.spec), "a LiveMatcher (matcher=)", ground_truth=False)
         self._predictor = predictor
 
@@ -148,31 +165,42 @@ class LiveMatcher:
         column = np.asarray(column)
         if column.ndim != 1:
             raise ValueError(f"a distance column must be 1-D (one value per reference), got shape {column.shape}")
+        lookback = self.matcher.lookback
+        kept = max(self.seq_len, lookback + 1)  # the attributes' window and the matcher's
         if self._buffer is None:
             n_ref = len(column)
             if n_ref < self.seq_len:
                 raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}")
             self.engine.check_references(n_ref)
             dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
-            self._buffer = np.empty((self.seq_len, n_ref), dtype=dtype)
+            self._buffer = np.empty((kept, n_ref), dtype=dtype)
         if len(column) != self._buffer.shape[1]:
             raise ValueError(f"expected {self._buffer.shape[1]} distances (one per reference), got {len(column)}")
-        self._buffer[self.frames % self.seq_len] = column
+        self._buffer[self.frames % kept] = column
         self.frames += 1
-        lookback = self.matcher.lookback
         own = None  # a matcher other than seqslam: its match of this frame, its state carried from the last
         if not self.matcher.scores_are_attribute_sums and self.frames > lookback:
-            columns = self._buffer[np.arange(self.frames - lookback - 1, self.frames) % self.seq_len]
+            columns = self._buffer[np.arange(self.frames - lookback - 1, self.frames) % kept]
             own, self._state = self.matcher.block(columns, self.frames - lookback - 1, self._state)
-        if self.frames < self.seq_len:
+        if self.frames < self.seq_len or self.frames <= lookback:  # no window of L columns, or no match yet
             return None
-        window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % self.seq_len]
+        window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % kept]
         n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.engine.first_reference)
         first = self.frames - self.seq_len  # the window's first frame: errors name frames, not window rows
-        out = self.engine.block_features(window, n_ranks, first)
+        out = self.engine.block_features(window, n_ranks, first, n_candidates=0 if own is not None else self.n_native)
+        native = None
         if own is not None:
             match = int(own.match[0])
-            out["sequence_match"], out["sequence_distance"] = np.array([match]), own.scores[0, [match]]
+            scores = np.asarray(own.scores, dtype=np.float64)[:1]
+            out["sequence_match"], out["sequence_distance"] = np.array([match]), scores[0, [match]]
+            if self.matcher.native_scorer is None:
+                native = float(block_native(self.matcher, own)[0])
+            else:
+                out["sequence_candidates"], out["sequence_candidate_references"] = smallest_scores(scores,
+                                                                                                 self.n_native)
+        if native is None:  # the scorer it names, on the frame's candidates (the batch scorers' numbers)
+            native = float(uniqueness(out["sequence_candidates"], out["sequence_candidate_references"],
+                                      self.window)[0])
         attributes = out["attributes"][0]
         label = keep = None
         if self.predictor is not None:
@@ -188,7 +216,31 @@ class LiveMatcher:
             rank_references=out["rank_references"][0],
             label=label,
             keep=keep,
+            native=native,
         )
+
+
+def check_live(matcher: Matcher) -> None:
+    """ValueError naming the matcher and the fix when it cannot run one frame at a time as its batch does: it reads
+    columns after its query (a centred window: the setting ``alignment: trailing`` where it has one), it prepares
+    its state from a pass over the whole split (``Matcher.prepare``), or its native confidence is a §12 scorer
+    other than ``uniqueness``, which a frame's scores do not give."""
+    record = matcher.settings
+    settings = dataclasses.asdict(record) if dataclasses.is_dataclass(record) and not isinstance(record, type) else {}
+    if matcher.lookahead > 0:
+        fix = ("give it the setting alignment: trailing (its window ends at the query)" if "alignment" in settings
+               else "give it settings whose window ends at the query, or match the recorded traverse in batch")
+        raise ValueError(f"the matcher {matcher.name!r} reads {matcher.lookahead} columns after its query (a "
+                         f"centred window): a LiveMatcher has no frame to come; {fix}")
+    base = getattr(Matcher, "prepare", None)
+    if getattr(type(matcher), "prepare", base) is not base:
+        raise ValueError(f"the matcher {matcher.name!r} prepares its state from a pass over the whole split before "
+                         "its first block (its prepare): a LiveMatcher has no frame to come; match the recorded "
+                         "traverse in batch (vpr-smr attributes)")
+    if matcher.native_scorer not in (None, LIVE_NATIVE_SCORER):
+        raise ValueError(f"the matcher {matcher.name!r} names the scorer {matcher.native_scorer!r} as its native "
+                         f"confidence, which a frame's own scores do not give: a LiveMatcher gives its own "
+                         f"(MatchBlock.native) or {LIVE_NATIVE_SCORER}'s")
 
 
 def _text(value: Any) -> str:

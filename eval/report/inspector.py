@@ -6,6 +6,9 @@ Two PNG figures of one method, dataset, sequence length ``L`` and split (the wor
   predictor's most confident mistakes), one row each: the ``L`` query frames of the sequence, the single-frame
   match, the sequence match and the true reference as thumbnails, framed green (correct) or red (wrong) and
   captioned with their distances, and what the predictor decided (kept or removed, right or wrong);
+  A matcher other than ``seqslam`` gets one more panel per row, its own scores ``s_a`` around the match (the strip
+  ``STRIP_HALF`` references either side, from one pass of the matcher over the split: a filter's belief included),
+  where SeqSLAM's sequence distance ``S`` would be read off its path;
 - the distance-matrix figure: the split's ``D`` (references x queries, block means when large), the ground truth
   (the band ``|r - q| <= tolerance``, or the outline of the correct matches of positions or a ground-truth matrix)
   and every sequence match, kept or removed by the predictor.
@@ -36,6 +39,7 @@ import numpy as np
 from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
 from vpr_smr.datasets import TraversePair, load_frames
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
+from vpr_smr.eval.matching.features import match_blocks
 from vpr_smr.eval.matching.ground_truth import POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, split_ground_truth
@@ -55,6 +59,7 @@ MATRIX_DPI = 110
 MAX_DISPLAY = 800  # the distance matrix is shown as block means of at most this many rows and columns
 READ_VALUES = 1 << 24  # values of the distance matrix read at a time (64 MB of float32)
 NEUTRAL = "0.55"  # frame of a query thumbnail (neither correct nor wrong)
+STRIP_HALF = 10  # references either side of the match in a matcher's score strip
 
 
 @dataclass(frozen=True)
@@ -104,6 +109,9 @@ class MatchRecord:
     queries: tuple[int, ...]
     frames: tuple[tuple[int | None, ...], ...]  # None: a query without a correct reference has no true one
     reasons: tuple[str, ...]
+    # a matcher other than seqslam: per row, the first reference frame of its score strip and s_a there (+inf
+    # where nothing of the matcher reaches a reference); None for seqslam, whose S the captions give
+    strips: tuple[tuple[int, tuple[float, ...]], ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -211,15 +219,36 @@ def _verdict(correct: bool) -> tuple[str, str]:
     return ("correct", UP) if correct else ("wrong", DOWN)
 
 
-def _sequence_score(window: np.ndarray, reference: int, matcher: Matcher) -> float | None:
-    """``s_a[reference]`` of the run's matcher from ``window`` (split-local rows x the columns the query's match
-    reads, ``matcher.lookback`` before it to ``matcher.lookahead`` after), or None when nothing of the matcher
-    reaches it, or when the matcher is a filter (its state holds the split's past, which one window does not)."""
-    if matcher.initial_state() is not None or not 0 <= reference < window.shape[0]:
+def matcher_scores(matcher: Matcher, matrix: Any, queries: Sequence[int]) -> dict[int, np.ndarray]:
+    """``s_a`` (float64, one per reference) of the split-local ``queries`` the matcher evaluates, from one pass of
+    the matcher over the whole split (``features.match_blocks``: its state carried, as the queries CSV's matches
+    were made)."""
+    wanted, out = set(queries), {}
+    for found, _, _ in match_blocks(matcher, matrix):
+        for n, query in enumerate(np.asarray(found.queries).tolist()):
+            if query in wanted:
+                out[int(query)] = np.asarray(found.scores[n], dtype=np.float64)
+    return out
+
+
+def _true_score(window: np.ndarray, reference: int, matcher: Matcher, scores: np.ndarray | None) -> float | None:
+    """``s_a[reference]`` of the run's matcher: from its pass over the split (``scores``, ``matcher_scores``), or
+    for seqslam from ``window`` (split-local rows x the columns its match reads); None when nothing of the matcher
+    reaches it."""
+    if not 0 <= reference < window.shape[0]:
         return None
-    found, _ = matcher.block(window.T, 0, None)
-    score = float(found.scores[0, reference])
+    if scores is None:
+        found, _ = matcher.block(window.T, 0, matcher.initial_state())
+        scores = found.scores[0]
+    score = float(scores[reference])
     return score if np.isfinite(score) else None
+
+
+def score_strip(scores: np.ndarray, match: int, half: int = STRIP_HALF) -> tuple[int, np.ndarray]:
+    """The strip of ``scores`` around ``match``: references ``max(0, match - half) .. match + half`` (those that
+    exist), as (its first reference, its values)."""
+    first = max(0, match - half)
+    return first, scores[first : match + half + 1]
 
 
 def _decision_lines(row: QueryRow) -> list[tuple[str, str]]:
@@ -250,6 +279,10 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
     built = (matcher or MatcherSpec.of()).build(seq_len)
     if not samples:
         raise ValueError("no queries to show: the sample is empty")
+    # a matcher other than seqslam: its own scores, from one pass over the split (a filter's state included)
+    own = (None if built.scores_are_attribute_sums
+           else matcher_scores(built, matrix, [s.row.query - lo for s in samples]))
+    symbol = "S" if own is None else "s"
     plt = _pyplot()
     cache: dict[tuple[str, int], np.ndarray] = {}
 
@@ -265,9 +298,12 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
     thumb_w = min(2.4, max(0.7, thumb_h * aspect))
     n_thumbs = seq_len + 3
     text_w = 3.3
-    fig_w, fig_h = n_thumbs * (thumb_w + 0.08) + text_w, len(samples) * (thumb_h + 0.62) + 0.9
+    strip_w = [] if own is None else [2.6]
+    fig_w, fig_h = n_thumbs * (thumb_w + 0.08) + sum(strip_w) + text_w, len(samples) * (thumb_h + 0.62) + 0.9
     fig = plt.figure(figsize=(fig_w, fig_h), layout="constrained")
-    grid = fig.add_gridspec(len(samples), n_thumbs + 1, width_ratios=[thumb_w] * n_thumbs + [text_w])
+    grid = fig.add_gridspec(len(samples), n_thumbs + len(strip_w) + 1,
+                            width_ratios=[thumb_w] * n_thumbs + strip_w + [text_w])
+    strips: list[tuple[int, tuple[float, ...]]] = []
     headers = [f"query t-{seq_len - 1 - k}" for k in range(seq_len - 1)] + ["query t", "single-frame match",
                                                                            "sequence match", "true reference"]
     frames = []
@@ -282,9 +318,10 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
         else:
             true_local = row.true_reference - reference_lo
             true_d = float(window[true_local, built.lookback]) if 0 <= true_local < window.shape[0] else None
-            true_s = _sequence_score(window, true_local, built)
+            true_s = _true_score(window, true_local, built, None if own is None else own.get(q))
             true_text = f"true r={row.true_reference}"
-            true_text += "" if true_d is None else f"\nD={true_d:.4g}" + ("" if true_s is None else f" S={true_s:.4g}")
+            true_text += "" if true_d is None else (f"\nD={true_d:.4g}"
+                                                    + ("" if true_s is None else f" {symbol}={true_s:.4g}"))
         query_frames = [row.query - seq_len + 1 + k for k in range(seq_len)]
         shown: list[tuple[str, int | None, str, str, float]] = [
             ("query", f, f"q {f}", NEUTRAL if k < seq_len - 1 else "black", 1.0 if k < seq_len - 1 else 2.0)
@@ -292,7 +329,7 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
         shown += [
             ("reference", row.single_match, f"single r={row.single_match}\nD={row.single_distance:.4g} "
              f"{single_word}", single_colour, 3.5),
-            ("reference", row.sequence_match, f"sequence r={row.sequence_match}\nS={row.sequence_distance:.4g} "
+            ("reference", row.sequence_match, f"sequence r={row.sequence_match}\n{symbol}={row.sequence_distance:.4g} "
              f"{sequence_word}", sequence_colour, 3.5),
             ("reference", row.true_reference, true_text, NEUTRAL, 1.5),
         ]
@@ -308,7 +345,20 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
             if i == 0:
                 ax.set_title(headers[j], fontsize=8)
         frames.append(tuple(frame for _, frame, *_ in shown))
-        text = fig.add_subplot(grid[i, n_thumbs])
+        if own is not None and q in own:
+            first_r, values = score_strip(own[q], row.sequence_match - reference_lo)
+            strips.append((first_r + reference_lo, tuple(values.tolist())))
+            ax = fig.add_subplot(grid[i, n_thumbs])
+            x = reference_lo + first_r + np.arange(len(values))
+            ax.plot(x, np.where(np.isfinite(values), values, np.nan), color="black", lw=0.9, marker=".", ms=3)
+            ax.axvline(row.sequence_match, color=sequence_colour, lw=1.2)
+            if row.true_reference is not None and x[0] <= row.true_reference <= x[-1]:
+                ax.axvline(row.true_reference, color="tab:cyan", lw=1.0, ls="--")
+            ax.tick_params(labelsize=6)
+            ax.set_xlabel("reference frame", fontsize=7, labelpad=2)
+            if i == 0:
+                ax.set_title(f"{built.name}'s scores s (match: line, true: dashed)", fontsize=8)
+        text = fig.add_subplot(grid[i, n_thumbs + len(strip_w)])
         text.axis("off")
         lines = [*_decision_lines(row), (f"chosen: {sample.reason}", "0.35")]
         for k, (line, colour) in enumerate(lines):
@@ -317,7 +367,8 @@ def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled
     fig.suptitle(textwrap.fill(title, width=max(40, int(fig_w * 11))), fontsize=9)
     fig.savefig(path, dpi=MATCH_DPI, format="png", bbox_inches="tight")
     plt.close(fig)
-    return MatchRecord(tuple(s.row.query for s in samples), tuple(frames), tuple(s.reason for s in samples))
+    return MatchRecord(tuple(s.row.query for s in samples), tuple(frames), tuple(s.reason for s in samples),
+                       None if own is None else tuple(strips))
 
 
 def block_means(matrix: Any, block: int) -> np.ndarray:
@@ -454,23 +505,27 @@ def _split_of(rows: Sequence[QueryRow], queries_csv: Path, split: str | None) ->
     return split
 
 
-def _check_rows(rows: Sequence[QueryRow], queries_csv: Path, split: str, seq_len: int, lo: int, hi: int) -> None:
-    """The CSV's rows of ``split`` are the evaluated queries of frames ``lo .. hi-1`` at ``seq_len``: exactly
-    ``lo + L - 1 .. hi - 1``, each once (a CSV made at another L, or for another split, is refused)."""
+def _check_rows(rows: Sequence[QueryRow], queries_csv: Path, split: str, seq_len: int, lo: int, hi: int,
+                matcher: MatcherSpec | None = None) -> None:
+    """The CSV's rows of ``split`` are the evaluated queries of frames ``lo .. hi-1`` at ``seq_len``: those the
+    ``matcher`` (default ``MatcherSpec.of()``) evaluates with a window of ``L`` columns (seqslam: exactly
+    ``lo + L - 1 .. hi - 1``), each once (a CSV made at another L, or for another split, is refused)."""
     if not rows:
         raise ValueError(f"{queries_csv} has no queries of split {split!r}")
+    spec = matcher or MatcherSpec.of()
+    first, stop = spec.build(seq_len).evaluated(hi - lo)
     queries = sorted(r.query for r in rows)
-    expected = list(range(lo + seq_len - 1, hi))
+    expected = list(range(lo + max(first, seq_len - 1), lo + stop))
     if queries != expected:
-        first, last = queries[0], queries[-1]
-        found = (f"queries {first}..{last}" if queries == list(range(first, last + 1))
-                 else f"{len(queries)} queries {first}..{last}, not one per frame")
+        first_q, last_q = queries[0], queries[-1]
+        found = (f"queries {first_q}..{last_q}" if queries == list(range(first_q, last_q + 1))
+                 else f"{len(queries)} queries {first_q}..{last_q}, not one per frame")
         want = f"{expected[0]}..{expected[-1]}" if expected else "none"
         raise ValueError(f"{queries_csv}: split {split!r} has {found}, but at L = {seq_len} the distance matrix of "
-                         f"frames {lo}..{hi - 1} has the evaluated queries {want} (the first {seq_len - 1} have no "
-                         "sequence match): was the CSV made at another sequence length or for another split? Make "
-                         f"it again from this distance matrix at --seq-len {seq_len} (vpr-smr queries), or run the "
-                         "workflow again")
+                         f"frames {lo}..{hi - 1} has the evaluated queries {want} (those the matcher {spec} matches "
+                         f"with a window of L columns): was the CSV made at another sequence length or for another "
+                         f"split? Make it again from this distance matrix at --seq-len {seq_len} (vpr-smr queries), "
+                         "or run the workflow again")
 
 
 def _check_matches(samples: Sequence[Sampled], matrix: Any, queries_csv: Path, distances: Path, lo: int,
@@ -569,7 +624,8 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
         if pair is not None and not (0 <= lo < hi <= len(pair.query) and 0 <= ref_lo < ref_hi <= len(pair.reference)):
             raise ValueError(f"split {split!r} = frames {lo}..{hi - 1} is outside dataset {name!r}'s "
                              f"{len(pair.query)} frames: run the workflow again")
-        _check_rows(rows, queries_csv, split, seq_len, lo, hi)
+        matcher = matcher or MatcherSpec.of()
+        _check_rows(rows, queries_csv, split, seq_len, lo, hi, matcher)
         samples = sample_queries(rows, split, per_class, mistakes, seed)
         method = _text(provenance.get("method"))
         what = f"{name}{'' if method is None else f', {method}'}, L = {seq_len}, split {split!r}"
@@ -583,9 +639,10 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
                                    query_positions, truth_file)
         rule = f"|r - q| <= {tolerance}" if truth.is_aligned_band() else truth.describe()
         match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct ({rule}), "
-                       "red = wrong; D = single-frame distance, S = sequence distance")
+                       "red = wrong; D = single-frame distance, "
+                       + ("S = sequence distance" if matcher.build(seq_len).scores_are_attribute_sums
+                          else f"s = the matcher {matcher.name}'s score"))
         _check_matches(samples, matrix, queries_csv, distances, lo, ref_lo)
-        matcher = matcher or MatcherSpec.of()
         _check_matcher(rows, queries_csv, matcher)
         with ExitStack() as stack:  # the files are renamed into place only when all are drawn
             matrix_tmp = stack.enter_context(atomic_path(matrix_figure))

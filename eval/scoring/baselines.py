@@ -12,6 +12,8 @@ truth's verdicts and the settings (``BaselineSettings``), so no distance matrix 
 - ``single_uniqueness``: the same on the query's own column ``D[:, a]`` around the single-frame match;
 - ``spread``: minus the population standard deviation of the positions of the ``K`` best end references (frame
   indices, or with positions the root of the summed per-axis variances);
+- ``native``: the matcher's own confidence (method §14), its numbers (``QueryFeatures.sequence_native``) or the scorer
+  above it names (``uniqueness`` for seqslam);
 - ``distance``: ``-m_a``; ``random``: ``numpy.random.default_rng(seed).permutation(N)``; ``oracle``: 1 for a correct
   sequence match, 0 for a wrong one; ``predictor``: ``1 - P(class 1) - P(class 3)``.
 
@@ -98,7 +100,11 @@ def spread_positions(truth: GroundTruth) -> np.ndarray:
 
 def check_candidates(features: QueryFeatures, settings: BaselineSettings, where: str, other_fix: str = "") -> None:
     """ValueError naming ``where`` (the attributes file) when it keeps fewer candidates per query than the
-    scorers' settings need (``other_fix``: another way out the stage offers, said after the first)."""
+    scorers' settings need, or no native confidence of its matcher (neither its numbers nor the scorer it names)
+    (``other_fix``: another way out the stage offers, said after the first)."""
+    if features.sequence_native is None and features.native_scorer is None:
+        raise ValueError(f"{where}: {scorers.NO_NATIVE}: compute the attributes again with vpr-smr attributes"
+                         + (f", {other_fix}" if other_fix else ""))
     held, needed = features.n_candidates, settings.candidates
     if held < needed:
         what = "no candidates" if held == 0 else f"{held} candidates per query"

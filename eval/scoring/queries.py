@@ -16,7 +16,8 @@ matcher that made the sequence matches, its name and settings (``str(MatcherSpec
 
 Then one column per scorer of method §12 (``SCORE_COLUMNS``: ``c_uniqueness`` .. ``c_predictor``), its confidence
 ``c_a`` that the sequence match is correct (higher: more likely; ``c_random`` of seed 0, ``c_predictor`` the seed-0
-predictor's ``1 - P(class 1) - P(class 3)``); empty where not computed (``c_predictor`` without a predictor).
+predictor's ``1 - P(class 1) - P(class 3)``, ``c_native`` the matcher's own confidence, method §14); empty where not
+computed (``c_predictor`` without a predictor).
 """
 
 from __future__ import annotations

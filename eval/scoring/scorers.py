@@ -18,14 +18,18 @@ import numpy as np
 from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, candidates_needed, half_window
 from vpr_smr.core.settings import setting
 from vpr_smr.eval.matching.attributes import QueryFeatures
+from vpr_smr.eval.matching.confidence import uniqueness
 
 __all__ = [
-    "DEFAULT_SETTINGS", "KINDS", "ORACLE", "PREDICTOR", "RANDOM", "REGISTRY", "BaselineSettings", "Confidence",
-    "Scorer", "colour", "names", "predictor_confidence", "random_scores", "scorer", "spread", "training_free",
-    "uniqueness",
+    "DEFAULT_SETTINGS", "KINDS", "NATIVE", "NO_NATIVE", "ORACLE", "PREDICTOR", "RANDOM", "REGISTRY",
+    "BaselineSettings", "Confidence", "Scorer", "colour", "names", "predictor_confidence", "random_scores", "scorer",
+    "spread", "training_free", "uniqueness",
 ]
 
-RANDOM, ORACLE, PREDICTOR = "random", "oracle", "predictor"
+RANDOM, ORACLE, PREDICTOR, NATIVE = "random", "oracle", "predictor", "native"
+# the one sentence for features that hold neither the matcher's native confidence nor the name of its scorer
+NO_NATIVE = ("the attributes hold no native confidence of their matcher (sequence_native: a file written before it "
+             "was stored, by a matcher that names no native_scorer)")
 Kind = Literal["training-free", "oracle", "predictor"]
 KINDS: tuple[Kind, ...] = ("training-free", "oracle", "predictor")
 Setting = Literal["r_window", "spread_k"]
@@ -93,25 +97,6 @@ class Scorer:
 # --- the computations ------------------------------------------------------------------------------------------
 
 
-def uniqueness(values: np.ndarray, references: np.ndarray, window: int) -> np.ndarray:
-    """SeqSLAM's windowed uniqueness per row: the smallest value whose reference lies more than ``window`` from the
-    first candidate's (the best), divided by the best value. ``values``/``references``: each row's smallest values
-    ascending with their references (``-1``: none), as the matcher keeps them; they must reach past the window
-    (``2 window + 2`` candidates, or every reference). 1 where no reference lies outside the window or both values
-    are 0, ``+inf`` where only the best is 0. A best value at or below 0 counts as 0 (a negative one is float
-    rounding of 0: distances of identical descriptors)."""
-    values, references = np.asarray(values, dtype=np.float64), np.asarray(references)
-    best, match = values[:, 0], references[:, 0]
-    outside = (references >= 0) & (np.abs(references - match[:, None]) > window)
-    found = outside.any(axis=1)
-    second = values[np.arange(len(values)), np.argmax(outside, axis=1)]
-    zero = best <= 0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        ratio = second / best
-    out: np.ndarray = np.where(~found, 1.0, np.where(zero, np.where(second <= 0, 1.0, np.inf), ratio))
-    return out
-
-
 def spread(references: np.ndarray, positions: np.ndarray, count: int) -> np.ndarray:
     """Per row, the population standard deviation of the positions of its first ``count`` references (as many as
     it has, when fewer): ``positions`` ``(R,)`` gives it directly, ``(R, d)`` as the root of the summed per-axis
@@ -169,6 +154,22 @@ def _distance(features: QueryFeatures, settings: BaselineSettings, positions: np
     return -np.asarray(features.sequence_distance, dtype=np.float64)
 
 
+def _native(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int) -> np.ndarray:
+    """The matcher's native confidence (method §14): its own numbers where the features hold them, else the §12
+    scorer it names (seqslam's ``uniqueness``: the same numbers as that scorer's)."""
+    if features.sequence_native is not None:
+        return np.asarray(features.sequence_native, dtype=np.float64)
+    named = features.native_scorer
+    if named is None:
+        raise ValueError(NO_NATIVE)
+    found = scorer(named)
+    if found.kind != "training-free" or found.name in (NATIVE, RANDOM) or found.confidence is None:
+        allowed = ", ".join(n for n in training_free() if n not in (NATIVE, RANDOM))
+        raise ValueError(f"the matcher's native_scorer {named!r} is no deterministic training-free scorer of "
+                         f"method §12: name one of {allowed}")
+    return found.confidence(features, settings, positions, seed)
+
+
 def _random(features: QueryFeatures, settings: BaselineSettings, positions: np.ndarray, seed: int) -> np.ndarray:
     return random_scores(len(features.queries), seed)
 
@@ -191,6 +192,9 @@ REGISTRY: tuple[Scorer, ...] = (
     Scorer("distance", "training-free", "tab:gray",
            "minus the sequence distance (a threshold on it, which is what VPR+SM's curve already sweeps: about 0 by "
            "construction)", (), _distance),
+    Scorer(NATIVE, "training-free", "tab:purple",
+           "the matcher's own confidence, the rule its authors accept a match by (seqslam: the uniqueness above)",
+           ("r_window",), _native),
     Scorer(RANDOM, "training-free", "tab:pink", "a random order", (), _random),
     Scorer(ORACLE, "oracle", "black", "the ground truth", (), _oracle),
     Scorer(PREDICTOR, "predictor", "tab:orange", "one minus the predictor's probabilities of classes 1 and 3", (),

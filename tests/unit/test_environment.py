@@ -62,3 +62,15 @@ def test_descriptor_files_record_the_environment_which_never_makes_them_stale(pa
     stamp = out.stat().st_mtime_ns
     extract.main(pair, "sad", {"backend": "sad"}, out, batch_size=4, num_workers=0)
     assert out.stat().st_mtime_ns == stamp
+
+
+def test_a_process_that_never_loaded_opencv_records_none_and_does_not_load_it():
+    import subprocess
+    import sys
+
+    code = ("import sys, json; from vpr_smr.core import environment; data = environment.current().to_json(); "
+            "print(json.dumps([data['opencv'], data['opencv_optimised'], 'cv2' in sys.modules]))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, check=True)
+    assert json.loads(done.stdout) == [None, None, False]
+    assert NumericEnvironment.from_json({**environment.current().to_json(), "opencv": None,
+                                         "opencv_optimised": None}).opencv is None

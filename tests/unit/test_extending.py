@@ -181,7 +181,8 @@ def test_the_scorer_recipe(monkeypatch):
     assert (entry.name, entry.kind, entry.settings) == ("margin", "training-free", ())
     at = scorers.names().index(scorers.RANDOM)
     monkeypatch.setattr(scorers, "REGISTRY", (*scorers.REGISTRY[:at], entry, *scorers.REGISTRY[at:]))
-    assert scorers.training_free() == ("uniqueness", "single_uniqueness", "spread", "distance", "margin", "random")
+    assert scorers.training_free() == ("uniqueness", "single_uniqueness", "spread", "distance", "native", "margin",
+                                       "random")
     assert scorers.colour("margin") == "tab:red"
     assert len({s.colour for s in scorers.REGISTRY}) == len(scorers.REGISTRY)
     candidates = np.array([[0.5, 0.75, 2.0], [1.0, 1.0, 3.0], [0.25, 2.0, np.inf]])

@@ -47,6 +47,7 @@ class Centred(Matcher):
     name = "centred_toy"
     Settings = ToySettings
     description = "a centred window of three columns (a test's matcher)"
+    native_scorer = "uniqueness"  # its native confidence is a scorer of method §12: its blocks give none
 
     @property
     def lookback(self):
@@ -75,6 +76,7 @@ class Smoothing(Matcher):
     name = "smoothing_toy"
     Settings = ToySettings
     description = "exponential smoothing of the columns (a test's matcher)"
+    native_scorer = "uniqueness"
 
     @property
     def lookback(self):
@@ -283,8 +285,8 @@ def test_the_live_matcher_runs_a_causal_matcher_frame_by_frame_as_the_batch(inst
     assert [r.sequence_match for r in results[2:]] == batch.sequence_match.tolist()
     assert [r.sequence_distance for r in results[2:]] == batch.sequence_distance.tolist()  # the state carried
     assert np.array_equal([r.attributes for r in results[2:]], batch.attributes)
-    with pytest.raises(ValueError, match=r"the matcher centred_toy \(weight 0.5\) reads 1 columns before and 1 after "
-                                         r"its query: a LiveMatcher needs a causal matcher"):
+    with pytest.raises(ValueError, match=r"the matcher 'centred_toy' reads 1 columns after its query \(a centred "
+                                         r"window\): a LiveMatcher has no frame to come"):
         LiveMatcher(3, matcher=MatcherSpec.of("centred_toy"))
 
 

@@ -126,8 +126,9 @@ def test_vpr_smr_matchers_lists_it_with_its_settings(toy, capsys):
     assert "  velocities (--velocities, default [1.0]): velocities searched, in reference frames per query frame " \
            "([1.0]: the fixed matcher)" in out
     at = out.index("toy: a fading sum of distances along the diagonal (a test plugin)")
-    assert out[at + 1].startswith("  decay (--decay, default 0.5): ")
-    assert out[at + 2].startswith("  step (--step, default 1): ")
+    assert out[at + 1] == "  native confidence: its own, per query (the training-free scorer native)"
+    assert out[at + 2].startswith("  decay (--decay, default 0.5): ")
+    assert out[at + 3].startswith("  step (--step, default 1): ")
 
 
 def test_an_unknown_matcher_on_the_command_line_is_named_with_the_available_ones(tmp_path, capsys):

@@ -49,10 +49,10 @@ def test_velocity_search_needs_the_slowest_trajectorys_references(tmp_path):
     with pytest.raises(ConfigError) as error:
         preflight(conf)
     message = str(error.value)
-    assert ("datasets.sample: split 'val' reference range [40, 48) cannot be matched by the matcher seqslam "
-            "(velocities [2.0]) (sequence_matching) at sequence length 5: 8 references are too few for sequence "
-            "length 5 at velocities [2.0]: the slowest trajectory spans 9 references; lengthen the split (its "
-            "reference range), or change sequence_matching") in message
+    assert ("datasets.sample: split 'val' (references [40, 48), queries [40, 48)) cannot be matched by the matcher "
+            "seqslam (velocities [2.0]) (sequence_matching) at sequence length 5: 8 references are too few for "
+            "sequence length 5 at velocities [2.0]: the slowest trajectory spans 9 references; lengthen the split "
+            "(its reference or query range), or change sequence_matching") in message
     assert "'train'" not in message and "'test'" not in message  # 40 frames each: enough
     # a velocity of 1 or less among them: L references suffice, as without velocity search
     assert problems_of(config(tmp_path, {"train": [0, 40], "val": [40, 48], "test": [60, 100]}, seq_lens=[3, 5],

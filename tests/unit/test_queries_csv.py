@@ -19,7 +19,8 @@ from vpr_smr.eval.scoring.vpr_metrics import main, score_split
 COLUMNS = ["split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
            "sequence_distance", "sequence_correct", "true_reference", "A1", "A2", "A3", "A4", "label",
            "predicted_class", "probability", "kept", "matcher"]
-SCORES = ["c_uniqueness", "c_single_uniqueness", "c_spread", "c_distance", "c_random", "c_oracle", "c_predictor"]
+SCORES = ["c_uniqueness", "c_single_uniqueness", "c_spread", "c_distance", "c_native", "c_random", "c_oracle",
+          "c_predictor"]
 
 
 def read(path):
@@ -91,6 +92,7 @@ def test_scorer_columns_by_hand(tmp_path):
     assert column["c_spread"] == pytest.approx([-np.std([1, 2, 3]), -np.std([2, 3, 1]), -np.std([3, 4, 5]),
                                                 -np.std([5, 4, 1]), -np.std([1, 5, 2])])
     assert column["c_distance"] == [-4, -4, -5, -6, -2.5]
+    assert column["c_native"] == pytest.approx([2.5, 2.5, 1.4, 10 / 6, 1.2])  # seqslam's own: its uniqueness
     assert column["c_random"] == np.random.default_rng(0).permutation(5).tolist()
     assert column["c_oracle"] == [1, 1, 1, 0, 0]
     # 1 - P(class 1) - P(class 3): the decided class has 0.7, the others 0.1 (DECISION 1, 0, 2, 3, 0)

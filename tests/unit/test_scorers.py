@@ -25,9 +25,9 @@ from vpr_smr.eval.scoring.queries import SplitQueries, write_queries
 
 
 def test_every_scorer_declares_its_colour_description_and_settings():
-    assert scorers.names() == SCORERS == ("uniqueness", "single_uniqueness", "spread", "distance", "random",
-                                          "oracle", "predictor")
-    assert TRAINING_FREE == ("uniqueness", "single_uniqueness", "spread", "distance", "random")  # by kind
+    assert scorers.names() == SCORERS == ("uniqueness", "single_uniqueness", "spread", "distance", "native",
+                                          "random", "oracle", "predictor")
+    assert TRAINING_FREE == ("uniqueness", "single_uniqueness", "spread", "distance", "native", "random")  # by kind
     fields = set(BaselineSettings().meta())
     for one in scorers.REGISTRY:
         assert is_color_like(one.colour) and one.description.strip(), one.name
@@ -64,8 +64,8 @@ def test_one_more_entry_reaches_everything(monkeypatch, tmp_path):
     prediction = Prediction(0, rng.dirichlet(np.ones(4), len(features.queries)), np.arange(4))
 
     scores = query_scores(features, settings, positions, 0, prediction)
-    assert list(scores) == ["uniqueness", "single_uniqueness", "spread", "distance", "single_distance", "random",
-                            "oracle", "predictor"]
+    assert list(scores) == ["uniqueness", "single_uniqueness", "spread", "distance", "single_distance", "native",
+                            "random", "oracle", "predictor"]
     np.testing.assert_array_equal(scores["single_distance"], -d.min(axis=0)[features.queries])  # -D[single, a]
 
     found = split_baselines(features, settings, positions, [prediction])
@@ -93,7 +93,9 @@ def test_one_more_entry_reaches_everything(monkeypatch, tmp_path):
     figures.baselines_figure(tmp_path / "b.png", rows, comparison, "corridor")
     (ax,) = drawn["fig"].axes
     labels = [text.get_text() for text in ax.get_legend().get_texts()]
-    assert "single_distance" in labels
+    assert "single_distance" in labels and "native" in labels  # the matcher's own confidence, a bar of its own
+    native_bars = [c for c in ax.containers if c.get_label() == "native"]
+    assert native_bars and all(patch.get_facecolor() == to_rgba("tab:purple") for patch in native_bars[0])
     bars = [c for c in ax.containers if c.get_label() == "single_distance"]
     assert bars and all(patch.get_facecolor() == to_rgba("tab:red") for patch in bars[0])
     figures._pyplot().close(drawn["fig"])

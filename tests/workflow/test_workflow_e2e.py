@@ -169,7 +169,7 @@ def test_the_baselines_agree_with_table1_and_the_per_query_table(run):
     rows = table(out, "baselines")
     assert {(r["method"], r["mode"], r["scorer"]) for r in rows} == {
         (m, mode, s) for m in METHODS for mode in ("paper", "standard")
-        for s in ("uniqueness", "single_uniqueness", "spread", "distance", "random", "oracle", "predictor")}
+        for s in ("uniqueness", "single_uniqueness", "spread", "distance", "native", "random", "oracle", "predictor")}
     for r in rows:
         paper = table1[r["method"], r["mode"]]
         # every scorer removes as many matches as the seed-0 predictor (the oracle at most every wrong one)
@@ -189,12 +189,13 @@ def test_the_baselines_agree_with_table1_and_the_per_query_table(run):
     # the sequence-length ablation names the best training-free scorer at every L beside the predictor, none where
     # no training-free reduction is defined (a perfect VPR+SM: nothing to reduce)
     for r in table(out, "ablation_seq_len"):
-        scorers = ("uniqueness", "single_uniqueness", "spread", "distance", "random")
+        scorers = ("uniqueness", "single_uniqueness", "spread", "distance", "native", "random")
         assert r["best_scorer"] in scorers or (r["best_scorer"] == r["best_scorer_reduction_pct"] == ""
                                                and r["outcome"] == "nothing_to_reduce"), r
     queries = list(csv.DictReader(open(out / "queries" / "sample" / "hog" / "L4.csv")))
     assert all(r["c_oracle"] == ("1.0" if r["sequence_correct"] == "1" else "0.0") for r in queries)
     assert all(float(r["c_distance"]) == -float(r["sequence_distance"]) for r in queries)
+    assert all(r["c_native"] == r["c_uniqueness"] for r in queries)  # seqslam's native confidence: its uniqueness
     html = (out / "report.html").read_text()
     assert "the predictor beats the best training-free scorer (" in html
 

@@ -35,6 +35,7 @@ from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 __all__ = ["OpenSeqSLAM", "OpenSeqSLAMSettings"]
 
 ALIGNMENTS = ("centred", "trailing")
+ENHANCE_COLUMNS = 8  # query columns enhanced together (measured at R = 27592: 1-16 alike, 38 a third slower)
 TILE_QUERIES = 8  # evaluated queries summed together (measured: 8 to 32 about twice as fast as a whole block)
 
 
@@ -121,7 +122,14 @@ class OpenSeqSLAM(Matcher):
     def enhanced(self, columns: np.ndarray) -> np.ndarray:
         """The local contrast enhancement (before the split's minimum is subtracted) of ``columns`` (``(n, R)``:
         query columns as rows), float64; ``+inf`` where the window's distances are all equal (``0 / 0``: duplicate
-        reference frames), so that no trajectory visits it."""
+        reference frames), so that no trajectory visits it. ``ENHANCE_COLUMNS`` columns at a time: the window's
+        ``2 (E + 1)`` passes then stay in the cache (at R = 27592 a quarter less time than a block of 38 at once)."""
+        if len(columns) > ENHANCE_COLUMNS:
+            return np.concatenate([self._enhanced(columns[i : i + ENHANCE_COLUMNS])
+                                   for i in range(0, len(columns), ENHANCE_COLUMNS)])
+        return self._enhanced(columns)
+
+    def _enhanced(self, columns: np.ndarray) -> np.ndarray:
         values = np.asarray(columns, dtype=np.float64)
         n_cols, n_ref = values.shape
         half = self.half_enhance
