@@ -37,13 +37,14 @@ from vpr_smr.core.records import FileRecord, Record, save
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec, matcher_class
 from vpr_smr.eval.scoring.records import Detection, Interval, Reduction, SeedSummary
+from vpr_smr.eval.scoring.scorers import NATIVE  # the scorer that is each matcher's own confidence
 
 if TYPE_CHECKING:
     from vpr_smr.eval.predictor.estimator import SMRPredictor
     from vpr_smr.eval.scoring.scorers import BaselineSettings
 
 __all__ = [
-    "FAR_BELOW", "NATIVE", "MatcherComparison", "MatcherMode", "MatcherScores", "compare", "experiment_matchers",
+    "FAR_BELOW", "MatcherComparison", "MatcherMode", "MatcherScores", "compare", "experiment_matchers",
     "far_below", "fixed_matcher", "main", "matcher_tag", "restricted", "shared_queries", "validation_warning",
 ]
 
@@ -51,7 +52,6 @@ log = logging.getLogger(__name__)
 
 Json = dict[str, Any]
 
-NATIVE = "native"  # the training-free scorer that is each matcher's own confidence (method §12, §14)
 # A matcher whose validation recall@1 is below this share of the fixed matcher's gets a warning: its settings (a
 # filter's transition window, a velocity range) likely do not fit the traverses' speed ratio.
 FAR_BELOW = 0.5
