@@ -243,7 +243,8 @@ def matchers_records(methods=("sad", "hog"), modes=("paper",)) -> list[MatcherCo
                       "bayes_filter": matcher_scores(3.0, -2.0, 8.0, 1.0, None, 0.7, modes)},
               second: {"seqslam": matcher_scores(10.0, 2.0, 15.0, 12.0, 4.0, 0.5, modes),
                        "bayes_filter": matcher_scores(-6.0, -9.0, -1.0, 2.0, 3.0, 0.2, modes)}}
-    return [MatcherComparison({"dataset": "d", "method": method, "seq_len": 4, "modes": list(modes)}, 25, 20,
+    return [MatcherComparison({"dataset": "d", "method": method, "seq_len": 4, "modes": list(modes)},
+                              ("seqslam", "bayes_filter"), 25, 20,
                               {tag: {method: found} for tag, found in scores[method].items()}, {method: 0.6}, ())
             for method in methods]
 

@@ -182,9 +182,11 @@ class MatcherComparison(FileRecord):
     matcher. ``n_queries``: the shared queries of the table split (every number is over them);
     ``n_queries_validation``: those of the validation split (None without one). ``matchers``: per tag, per method
     (the configuration's order) its scores. ``fixed_validation_recall_at_1``: per method, the fixed matcher's
-    sequence recall@1 on the validation split's shared queries; ``warnings``: ``validation_warning``'s texts."""
+    sequence recall@1 on the validation split's shared queries; ``warnings``: ``validation_warning``'s texts;
+    ``tags``: the matchers in the configuration's order (the file's objects are written with sorted keys)."""
 
     meta: Json
+    tags: tuple[str, ...]
     n_queries: int
     n_queries_validation: int | None
     matchers: dict[str, dict[str, MatcherScores]]
@@ -412,7 +414,7 @@ def main(
             "modes": list(modes), "seeds": len(compared[0].predictors), **settings.meta(),
             "matchers": {tag: entry.spec.provenance() for tag, entry in zip(tags, compared, strict=True)},
             "fixed": fixed_matcher().provenance(), "far_below": FAR_BELOW}
-    result = MatcherComparison(meta, n_queries, n_validation, scores, fixed_recall, warnings)
+    result = MatcherComparison(meta, tuple(tags), n_queries, n_validation, scores, fixed_recall, warnings)
     save(out, result)
     log.info("%d matchers, %d methods, %d shared queries", len(tags), len(methods), n_queries)
     return result

@@ -25,8 +25,7 @@ from toy_plugin import plugin_env, toy_rule
 from vpr_smr.core.io import read_provenance
 from vpr_smr.core.records import load
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
-from vpr_smr.eval.matching.matchers import MatcherSpec
-from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison, matcher_tag
+from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
 
 DEMO = Path(__file__).resolve().parents[2] / "configs" / "demo.yaml"
 MATCHER = {"name": "toy", "settings": {"decay": 0.25, "step": 1}}
@@ -98,14 +97,15 @@ def test_the_report_names_the_plugin(run):
 def test_the_matchers_experiment_compares_the_plugin_with_seqslam(run):
     """The plugin (the run's matcher) reuses the run's files; seqslam gets its own attributes and predictors (two
     seeds); both are scored on the test split's queries 3..69 (each evaluates every query with a window of 4)."""
-    toy = matcher_tag(MatcherSpec.of(MATCHER["name"], MATCHER["settings"]))
-    assert toy.startswith("toy-")  # decay 0.25 is not its default
+    first = load(run / "matchers/nordland_sample/sad/L4.json", MatcherComparison)
+    toy = first.tags[0]  # the configuration's order
+    assert toy.startswith("toy-") and first.meta["matchers"][toy] == MATCHER  # decay 0.25 is not its default
     assert not (run / "matchers/nordland_sample" / toy).exists()
     own = run / "matchers/nordland_sample/seqslam"
     assert sorted(p.name for p in (own / "predictors").glob("*.h5")) == ["L4.h5", "L4.seed1.h5"]
     for method in ("sad", "hog"):
         result = load(run / f"matchers/nordland_sample/{method}/L4.json", MatcherComparison)
-        assert list(result.matchers) == [toy, "seqslam"]
+        assert result.tags == (toy, "seqslam") and set(result.matchers) == {toy, "seqslam"}
         assert result.n_queries == 70 - 3 and result.n_queries_validation == 70 - 3
         for split in RANGES:
             path = own / f"attributes/{method}/L4/{split}.h5"

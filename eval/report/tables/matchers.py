@@ -96,8 +96,8 @@ def matcher_rows(results: Sequence[MatcherComparison], order: Order | None = Non
             found = sorted(found, key=lambda item: order.method(item[0]))
         for mode in found[0][1].meta["modes"]:
             for method, result in found:
-                for tag, by_method in result.matchers.items():
-                    rows.append(MatchersRow.of(result, tag, method, mode, by_method[method]))
+                for tag in result.tags:
+                    rows.append(MatchersRow.of(result, tag, method, mode, result.matchers[tag][method]))
     return rows
 
 
