@@ -23,7 +23,7 @@ __all__ = ["FAR_BELOW", "TABLE", "MatchersRow", "comparison_sentence", "make_mat
            "matcher_sentences"]
 
 PAGE = ("method", "matcher", "n_evaluated", names.RECALL_SEQUENCE, names.AOC_VPR_SM, names.AOC_VPR_SM_PRED,
-        names.REDUCTION, "reduction_pct_mean", "reduction_pct_std", "best_scorer", "native_reduction_pct",
+        names.REDUCTION, "outcome", "reduction_pct_mean", "reduction_pct_std", "best_scorer", "native_reduction_pct",
         "ap_predictor", "ap_native", "warning")
 
 
@@ -45,6 +45,8 @@ class MatchersRow:
     aoc_vpr_sm_pred: float = column()
     reduction_pct: float | None = column()  # the seed-0 predictor's; None where VPR+SM's AOC is 0
     reduction_pct_ci: Interval | None = interval()
+    # what the seed-0 removal did, in a word (``curves.outcome``): a degenerate one named, e.g. an AOC near 0
+    outcome: str = column()
     reduction_pct_mean: float | None = column("mean over seeds (%)", ".2f")
     reduction_pct_std: float | None = column("std over seeds", ".2f")
     n_seeds: int = column()
@@ -72,7 +74,8 @@ class MatchersRow:
             str(result.meta["dataset"]), int(result.meta["seq_len"]), mode, method, tag, result.n_queries,
             scores.n_evaluated, numbers.recall_at_1_single, numbers.recall_at_1_sequence,
             numbers.reduction.aoc_vpr_sm, numbers.reduction.aoc_vpr_sm_pred, numbers.reduction.reduction_pct,
-            numbers.reduction.reduction_pct_ci, numbers.seeds.reduction_pct_mean, numbers.seeds.reduction_pct_std,
+            numbers.reduction.reduction_pct_ci, numbers.reduction.outcome, numbers.seeds.reduction_pct_mean,
+            numbers.seeds.reduction_pct_std,
             numbers.seeds.n_seeds, scores.removed, numbers.best_scorer,
             None if numbers.best_scorer_reduction is None else numbers.best_scorer_reduction.reduction_pct,
             numbers.native_reduction.reduction_pct, numbers.native_minus_predictor_ci,
