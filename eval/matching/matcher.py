@@ -194,13 +194,14 @@ def _import_kernels(name: str, choice: str) -> ModuleType | None:
     return module
 
 
-def fixed_kernels(n_values: int) -> ModuleType | None:
-    """The fixed matcher's compiled kernels (``kernels``) for a matrix of ``n_values`` values, or None for its
-    numpy path: compiled when forced, or from ``KERNEL_MIN_VALUES`` values on when numba imports."""
+def fixed_kernels(n_values: int, name: str = "kernels") -> ModuleType | None:
+    """The compiled kernels ``eval.matching.<name>`` (the fixed matcher's ``kernels``, or a matcher's twin such as
+    ``openseqslam_kernels``) for a matrix of ``n_values`` values, or None for the numpy path: compiled when forced,
+    or from ``KERNEL_MIN_VALUES`` values on when numba imports."""
     choice = _choice()
     if choice == "numpy" or (choice == "auto" and n_values < KERNEL_MIN_VALUES):
         return None
-    return _import_kernels("kernels", choice)
+    return _import_kernels(name, choice)
 
 
 def velocity_kernels(work: int, total_work: int) -> ModuleType | None:

@@ -12,6 +12,7 @@ import h5py
 import numpy as np
 import pytest
 
+from vpr_smr.eval.matching import matcher as matcher_module
 from vpr_smr.eval.matching.features import match_blocks, split_features
 from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class
 from vpr_smr.eval.matching.matchers.openseqslam import OpenSeqSLAM, OpenSeqSLAMSettings
@@ -241,3 +242,34 @@ def test_a_block_without_the_splits_minimum_is_refused():
     matcher = MatcherSpec.of("openseqslam").build(4)
     with pytest.raises(ValueError, match=r"start from prepare\(matrix\) over the whole split"):
         matcher.block(np.ones((5, 20)), 0, None)
+
+
+@pytest.mark.parametrize("enhance_window", [2, 4, 10, 30])
+def test_the_compiled_enhancement_equals_the_numpy_path_bit_for_bit(enhance_window):
+    pytest.importorskip("numba")
+    from vpr_smr.eval.matching import openseqslam_kernels
+
+    matcher = OpenSeqSLAM(4, OpenSeqSLAMSettings(enhance_window=enhance_window))
+    rng = np.random.default_rng(enhance_window)
+    for n_ref in (3, 7, 40, 511, 512, 513, 1100):  # shorter than the window, around the kernel's tile of 512 rows
+        values = rng.random((5, n_ref))
+        values[:, 2:9] = 0.25  # windows of equal distances (+inf)
+        values[1] = 0.5  # a column of equal distances throughout
+        out = np.empty_like(values)
+        openseqslam_kernels.enhance(values, enhance_window // 2, out)
+        assert np.array_equal(out, matcher.enhanced(values))  # matcher.kernels is None: the numpy path
+
+
+@pytest.mark.parametrize("alignment", ["centred", "trailing"])
+def test_the_compiled_path_gives_the_numpy_paths_features(monkeypatch, alignment):
+    pytest.importorskip("numba")
+    d = np.random.default_rng(5).random((60, 30)).astype(np.float32)
+    features = {}
+    for kind in ("numpy", "numba"):
+        monkeypatch.setattr(matcher_module, "KERNEL", kind)
+        built = MatcherSpec.of("openseqslam", {"alignment": alignment}).build(4)
+        features[kind] = split_features(built, d, 3, 7, n_candidates=5)
+        assert (built.kernels is not None) == (kind == "numba")
+    assert features["numpy"].keys() == features["numba"].keys()
+    for key, value in features["numpy"].items():
+        assert np.array_equal(features["numba"][key], value), key

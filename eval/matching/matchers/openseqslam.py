@@ -9,7 +9,9 @@ reference costs ``+inf``. (3) The match is the best start plus ``ds / 2`` (centr
 confidence is minus the ratio of its score to the best score outside a window of ``ratio_window`` references around it.
 
 Every number of a column depends on that column alone (and on the split's minimum), so a block's numbers equal the
-whole split's bit for bit. Where the published code is loose: ``floor(k m / ds)`` in integers (pySeqSLAM's float
+whole split's bit for bit. The enhancement has a compiled twin (``eval.matching.openseqslam_kernels``, the same bits),
+which ``prepare`` chooses for a split as the fixed matcher's kernels are chosen (``matcher.fixed_kernels``).
+Where the published code is loose: ``floor(k m / ds)`` in integers (pySeqSLAM's float
 product ends some trajectories a row short, first at ``ds = 26`` with the default velocities); the velocity bounds
 ``floor(v ds)`` of the decimal as written (``0.7 x 90 = 63``, where the float product gives 62); a window of equal
 distances (``0 / 0``) is left out (``+inf``), as the MATLAB original's ``min`` skips NaN, where pySeqSLAM's NumPy
@@ -23,13 +25,14 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from fractions import Fraction
+from types import ModuleType
 from typing import Any, ClassVar
 
 import numpy as np
 
 from vpr_smr.core.settings import parse, setting
 from vpr_smr.eval.matching.checks import check_finite
-from vpr_smr.eval.matching.matcher import SequenceMatcher, read_columns
+from vpr_smr.eval.matching.matcher import SequenceMatcher, fixed_kernels, read_columns
 from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 
 __all__ = ["OpenSeqSLAM", "OpenSeqSLAMSettings"]
@@ -78,6 +81,8 @@ class OpenSeqSLAM(Matcher):
         # moves[i, k]: the rows a trajectory of velocity m / ds has moved after k query columns, floor(k m / ds)
         self.moves = np.array([[k * m // self.ds for k in range(self.ds + 1)] for m in range(m_lo, m_hi + 1)],
                               dtype=np.int64)
+        # the enhancement's compiled twin (eval.matching.openseqslam_kernels), chosen by prepare for the split's size
+        self.kernels: ModuleType | None = None
 
     @classmethod
     def settings_of(cls, values: Mapping[str, Any], where: str) -> OpenSeqSLAMSettings:
@@ -131,6 +136,10 @@ class OpenSeqSLAM(Matcher):
 
     def _enhanced(self, columns: np.ndarray) -> np.ndarray:
         values = np.asarray(columns, dtype=np.float64)
+        if self.kernels is not None:
+            compiled = np.empty(values.shape)
+            self.kernels.enhance(np.ascontiguousarray(values), self.half_enhance, compiled)
+            return compiled
         n_cols, n_ref = values.shape
         half = self.half_enhance
         rows = np.arange(n_ref)
@@ -167,6 +176,7 @@ class OpenSeqSLAM(Matcher):
     def prepare(self, matrix: Any) -> float:
         """The smallest contrast-enhanced value of the whole split ``matrix`` (read in blocks of columns)."""
         n_ref, n_query = (int(n) for n in matrix.shape)
+        self.kernels = fixed_kernels(n_ref * n_query, "openseqslam_kernels")  # the split's size chooses the path
         step = SequenceMatcher.block_queries(n_ref)
         smallest = np.inf
         for lo in range(0, n_query, step):
