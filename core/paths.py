@@ -105,6 +105,32 @@ def speed_path(run: Path | str, dataset: str, seq_len: int | str, profile: str) 
     return f"{run}/speed/{dataset}/L{seq_len}/{profile}.json"
 
 
+def matcher_attributes_path(run: Path | str, dataset: str, tag: str, method: str, seq_len: int | str,
+                            split: str) -> str:
+    """The attributes of one split under a matcher of the experiment ``matchers`` other than the run's own
+    (``tag``: ``eval.scoring.matcher_comparison.matcher_tag``), e.g.
+    ``matchers/nordland/bayes_filter/attributes/sad/L4/test.h5``."""
+    return f"{run}/matchers/{dataset}/{tag}/attributes/{method}/L{seq_len}/{split}.h5"
+
+
+def matcher_predictor_path(run: Path | str, dataset: str, tag: str, seq_len: int | str) -> str:
+    """The seed-0 predictor of a matcher of the experiment ``matchers`` other than the run's own, trained on its
+    attributes (the other seeds beside it, ``seed_predictor_path``)."""
+    return f"{run}/matchers/{dataset}/{tag}/predictors/L{seq_len}.h5"
+
+
+def matcher_predictor_paths(run: Path | str, dataset: str, tag: str, seq_len: int | str, seeds: int) -> list[str]:
+    """The predictors of such a matcher, seeds ``0..seeds-1``, seed 0 first."""
+    first = matcher_predictor_path(run, dataset, tag, seq_len)
+    return [first] + [seed_predictor_path(first, seed) for seed in range(1, seeds)]
+
+
+def matchers_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
+    """The experiment ``matchers`` of one dataset and method (``eval.scoring.matcher_comparison``), e.g.
+    ``matchers/nordland/sad/L4.json``."""
+    return f"{run}/matchers/{dataset}/{method}/L{seq_len}.json"
+
+
 def log_path(run: Path | str, output: Path | str) -> str:
     """The log of the job writing ``output`` (a path under ``run``): ``logs/`` plus its place in the run, ``.log``."""
     prefix = f"{run}/"

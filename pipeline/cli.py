@@ -280,6 +280,16 @@ def cmd_speed(args: argparse.Namespace) -> None:
                allow_split_overlap=args.allow_split_overlap)
 
 
+def cmd_compare_matchers(args: argparse.Namespace) -> None:
+    from vpr_smr.eval.scoring import matcher_comparison
+
+    matcher_comparison.main(
+        args.dataset, args.method, args.seq_len, _json_object(args.inputs, "--inputs"),
+        _split_paths(args.distances, "--distances", "METHOD"), args.split, args.tolerance, args.out,
+        _baseline_settings(args), tuple(args.modes), args.validation, args.radius, args.ground_truth,
+        args.ground_truth_key, allow_split_overlap=args.allow_split_overlap)
+
+
 def cmd_inspect(args: argparse.Namespace) -> None:
     from vpr_smr.eval.report import inspector
 
@@ -304,7 +314,7 @@ def cmd_report(args: argparse.Namespace) -> None:
         args.evaluations, args.predictors, args.attribute_ablations or (), args.leave_one_out or (),
         timings=args.timings or (), metrics=args.metrics or (), match_figures=args.match_figures or (),
         matrix_figures=args.matrix_figures or (), speed=args.speed or (), baselines=args.baselines or (),
-        descriptors=args.descriptors or ())
+        descriptors=args.descriptors or (), matchers=args.matchers or ())
     options = report.ReportOptions(
         split=args.split, eval_splits=args.eval_splits, train_split=args.train_split,
         table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
@@ -452,6 +462,7 @@ OUT_FILES = {
     "ablation held-out": ("the leave-one-method-out evaluation (JSON)", JSON_SUFFIXES),
     "baselines": ("the training-free baselines (JSON)", JSON_SUFFIXES),
     "speed": ("the speed experiment's result (JSON)", JSON_SUFFIXES),
+    "compare-matchers": ("the matchers experiment's result (JSON)", JSON_SUFFIXES),
 }
 
 
@@ -829,6 +840,32 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
     _allow_overlap(p)
     p.set_defaults(func=cmd_speed)
 
+    p = sub.add_parser("compare-matchers", help="the experiment matchers (method §14): each matcher with its own "
+                                                "predictor, on the queries every matcher evaluates",
+                       epilog="e.g. vpr-smr compare-matchers --dataset d --method sad --seq-len 4 --inputs "
+                              "@inputs.json --distances sad=test.h5 --split test --validation val "
+                              "--out matchers/d/sad/L4.json")
+    _required(p, "--dataset", "--method", "--out")
+    p.add_argument("--seq-len", type=int, required=True)
+    p.add_argument("--inputs", required=True,
+                   help="the compared matchers' files as a JSON object (or @file): {\"matchers\": [{\"matcher\": "
+                        "{\"name\": ..., \"settings\": {...}}, \"attributes\": {SPLIT: {METHOD: PATH}}, "
+                        "\"predictors\": [seed 0 first]}, ...], \"fixed\": the fixed matcher's validation attributes "
+                        "or null}")
+    p.add_argument("--distances", nargs="+", required=True, metavar="METHOD=PATH",
+                   help="each method's table split distances (.h5): the ground truth's reference positions")
+    p.add_argument("--split", required=True, help="the table split (a split of --inputs' attributes)")
+    p.add_argument("--validation", help="the validation split: the warning of a matcher far below the fixed one")
+    p.add_argument("--tolerance", type=int, default=DEFAULT_TOLERANCE,
+                   help="a match within this many frames is correct (the attributes' own tolerance)")
+    p.add_argument("--radius", type=float, help="with positions: the attributes' radius")
+    p.add_argument("--ground-truth", metavar="FILE", help="the dataset's ground-truth file, as vpr-smr baselines")
+    p.add_argument("--ground-truth-key", metavar="NAME", help="the variable of a --ground-truth .npz or .mat")
+    _baseline_options(p, switch=False)
+    p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
+    _allow_overlap(p)
+    p.set_defaults(func=cmd_compare_matchers)
+
     p = sub.add_parser("inspect", help="the match inspector: sampled queries with their matches, and the distance "
                                        "matrix with the kept and removed sequence matches (two PNGs)",
                        epilog="e.g. a user's matrix, the distance-matrix figure only (it needs no images): vpr-smr "
@@ -867,6 +904,8 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
     p.add_argument("--matrix-figures", nargs="*", help="the match inspector's distance-matrix figures")
     p.add_argument("--speed", nargs="*", help="the speed experiment's files (vpr-smr speed), one per dataset and "
                                               "profile, in the configuration's order")
+    p.add_argument("--matchers", nargs="*", help="the experiment matchers' files (vpr-smr compare-matchers), one per "
+                                                 "dataset and method")
     p.add_argument("--descriptors", nargs="*", help="descriptor files whose provenance the report shows")
     p.add_argument("--split", help="the split the tables show: the configuration's table_split (default: the one "
                                    "split every evaluation holds)")

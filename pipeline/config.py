@@ -17,6 +17,7 @@ from vpr_smr.core.settings import declared, parse, setting
 from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class
 from vpr_smr.eval.predictor.defaults import PredictorSettings
+from vpr_smr.eval.scoring.matcher_comparison import experiment_matchers
 from vpr_smr.eval.scoring.scorers import BaselineSettings
 from vpr_smr.eval.scoring.speed import SpeedExperiment
 
@@ -184,6 +185,9 @@ class Experiments:
     protocol_sweep: bool = setting(True, "method §13: recall@1 and Table I's reduction at table_seq_len over the "
                                          "tolerances 0, 1, 2, 5 and 10 frames (radii 5, 10, 25 and 50 with "
                                          "positions); datasets whose ground truth is a file have none")
+    matchers: bool = setting(True, "method §14: each matcher of `matchers` with its own predictor at table_seq_len: "
+                                   "Table I's numbers, the best training-free scorer and the matcher's own "
+                                   "confidence, on the queries every matcher evaluates")
 
 
 # The sections of a configuration that are settings records (core.settings): their part of config_schema.json (the
@@ -251,6 +255,7 @@ class Config(Section):
     table_seq_len: int
     experiments: Experiments
     speed: SpeedSettings
+    matchers: tuple[MatcherSpec, ...]  # the experiment ``matchers``' compared matchers (its default: every built-in)
 
     @property
     def run_dir(self) -> Path:
@@ -282,6 +287,7 @@ class Config(Section):
             PredictorSection(**dataclasses.asdict(sections["predictor"]), source=_text(conf["predictor"])),
             MappingProxyType(datasets), MappingProxyType(methods), conf["table_seq_len"], sections["experiments"],
             SpeedSettings(tuple(speed["profiles"]), tuple(speed["velocities"]), source=_text(speed)),
+            tuple(experiment_matchers(conf["matchers"])),
             source=_text(conf))
 
 
@@ -307,6 +313,7 @@ def validated_json(conf: dict[str, Any], source: str = "configuration") -> dict[
     # the predictor's settings in its record's order, as SMRPredictor lists its arguments (the report shows them)
     conf["predictor"] = {item.name: conf["predictor"][item.name] for item in declared(PredictorSettings)}
     _sequence_matching(conf, source)
+    _compared_matchers(conf, source)
     _check_together(conf, source)
     _resolve_ground_truth_files(conf, source)
     return conf
@@ -340,6 +347,16 @@ def _sequence_matching(conf: dict[str, Any], source: str) -> None:
     except ValueError as error:
         raise ConfigError(f"{source} is invalid:\n  {error}") from None
     conf["sequence_matching"] = {MATCHER_KEY: spec.name, **spec.values}
+
+
+def _compared_matchers(conf: dict[str, Any], source: str) -> None:
+    """``matchers`` (the experiment ``matchers``, method §14) checked by each matcher's settings record and written
+    back complete and canonical, as ``sequence_matching`` is (``null``: every built-in matcher at its defaults)."""
+    try:
+        specs = experiment_matchers(conf["matchers"])
+    except ValueError as error:
+        raise ConfigError(f"{source} is invalid:\n  {error}") from None
+    conf["matchers"] = [{MATCHER_KEY: spec.name, **spec.values} for spec in specs]
 
 
 def _check_together(conf: dict[str, Any], source: str) -> None:
@@ -386,6 +403,8 @@ def experiments(conf: Config) -> set[str]:
         names.add("speed")
     if chosen.protocol_sweep:
         names.add("protocol_sweep")
+    if chosen.matchers:
+        names.add("matchers")
     return names
 
 

@@ -200,27 +200,34 @@ def _training_problems(conf: Config, train: tuple[int, int]) -> list[str]:
 
 
 def _matcher_problems(conf: Config, name: str, pair: Any, splits: list[str]) -> list[str]:
-    """Whether the matcher (``sequence_matching``) can match every split at every ``L`` of ``seq_lens``: its own
-    ``Matcher.check`` on the split's shape, references x queries (SeqSLAM's velocity search needs its slowest
-    trajectory's references, method §11; a centred window more queries than ``L``). Only what the sequence-length
-    check does not already say: splits of at least ``L`` references and queries. The matcher's settings were
-    checked with the configuration (``Matcher.settings_of``)."""
-    spec = conf.sequence_matching
+    """Whether the matcher (``sequence_matching``) can match every split at every ``L`` of ``seq_lens``, and each
+    matcher the experiment ``matchers`` compares every split at ``table_seq_len``: its own ``Matcher.check`` on the
+    split's shape, references x queries (SeqSLAM's velocity search needs its slowest trajectory's references,
+    method §11; a centred window more queries than ``L``). Only what the sequence-length check does not already
+    say: splits of at least ``L`` references and queries. The matchers' settings were checked with the
+    configuration (``Matcher.settings_of``)."""
+    checks = [(conf.sequence_matching, conf.seq_lens, "sequence_matching")]
+    if "matchers" in experiments(conf):
+        checks += [(spec, (conf.table_seq_len,), "matchers") for spec in conf.matchers
+                   if spec != conf.sequence_matching]
     problems = []
-    for split in splits:
-        (r_lo, r_hi), (q_lo, q_hi) = pair.reference_range(split), pair.splits[split]
-        shape = (r_hi - r_lo, q_hi - q_lo)
-        for seq_len in sorted(conf.seq_lens, reverse=True):  # the longest sequence needs the most frames
-            if min(shape) < seq_len:
-                continue
-            try:
-                spec.build(seq_len).check(shape, f"split {split!r}")
-            except ValueError as error:
-                problems.append(f"datasets.{name}: split {split!r} (references [{r_lo}, {r_hi}), queries [{q_lo}, "
-                                f"{q_hi})) cannot be matched by the matcher {spec} (sequence_matching) at sequence "
-                                f"length {seq_len}: {error}; lengthen the split (its reference or query range), or "
-                                "change sequence_matching")
-                break
+    for spec, seq_lens, setting in checks:
+        for split in splits:
+            (r_lo, r_hi), (q_lo, q_hi) = pair.reference_range(split), pair.splits[split]
+            shape = (r_hi - r_lo, q_hi - q_lo)
+            for seq_len in sorted(seq_lens, reverse=True):  # the longest sequence needs the most frames
+                if min(shape) < seq_len:
+                    continue
+                try:
+                    spec.build(seq_len).check(shape, f"split {split!r}")
+                except ValueError as error:
+                    problems.append(f"datasets.{name}: split {split!r} (references [{r_lo}, {r_hi}), queries "
+                                    f"[{q_lo}, {q_hi})) cannot be matched by the matcher {spec} ({setting}) at "
+                                    f"sequence length {seq_len}: {error}; lengthen the split (its reference or query "
+                                    f"range), or change {setting}"
+                                    + (" (or switch the experiment off: experiments.matchers: false)"
+                                       if setting == "matchers" else ""))
+                    break
     return problems
 
 

@@ -8,9 +8,15 @@ import shlex
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from vpr_smr.core.paths import attributes_path
+from vpr_smr.core.paths import (
+    attributes_path,
+    matcher_attributes_path,
+    matcher_predictor_paths,
+    predictor_paths,
+)
 
 if TYPE_CHECKING:
+    from vpr_smr.eval.matching.matchers import MatcherSpec
     from vpr_smr.pipeline.config import Config
     from vpr_smr.pipeline.plan import Plan
 
@@ -131,3 +137,70 @@ def ground_truth_option(plan: Plan, dataset: str) -> str:
         return ""
     key = ["--ground-truth-key", given.key] if given.key is not None else []
     return shlex.join(["--ground-truth", given.path, *key])
+
+
+# --- the experiment ``matchers`` (method §14) ------------------------------------------------------------------
+
+
+def compared_matchers(conf: Config) -> dict[str, MatcherSpec]:
+    """The experiment ``matchers``' matchers by tag (``matcher_comparison.matcher_tag``), the configuration's order,
+    and the fixed matcher (the validation warning's reference) after them when it is not one of them."""
+    from vpr_smr.eval.scoring.matcher_comparison import fixed_matcher, matcher_tag
+
+    specs = {matcher_tag(spec): spec for spec in conf.matchers}
+    fixed = fixed_matcher()
+    if fixed not in specs.values():
+        specs[matcher_tag(fixed)] = fixed
+    return specs
+
+
+def own_matcher_tags(conf: Config) -> list[str]:
+    """The tags of the compared matchers (and the fixed one) other than the run's own (``sequence_matching``),
+    whose attributes and predictors the experiment computes under ``matchers/``: the ``tag`` wildcard's values."""
+    return [tag for tag, spec in compared_matchers(conf).items() if spec != conf.sequence_matching]
+
+
+def experiment_attributes(out: str, conf: Config, tag: str, dataset: str, method: str, seq_len: int | str,
+                          split: str) -> str:
+    """A compared matcher's attributes of one split: the run's own files for the run's matcher, else its own."""
+    if compared_matchers(conf)[tag] == conf.sequence_matching:
+        return attributes_path(out, dataset, method, seq_len, split)
+    return matcher_attributes_path(out, dataset, tag, method, seq_len, split)
+
+
+def experiment_predictors(out: str, conf: Config, tag: str, dataset: str, seq_len: int | str) -> list[str]:
+    """A compared matcher's predictors, seed 0 first: the run's own for the run's matcher, else its own."""
+    if compared_matchers(conf)[tag] == conf.sequence_matching:
+        return predictor_paths(out, dataset, seq_len, conf.seeds)
+    return matcher_predictor_paths(out, dataset, tag, seq_len, conf.seeds)
+
+
+def experiment_inputs(out: str, conf: Config, dataset: str, method: str, seq_len: int | str) -> dict[str, Any]:
+    """The experiment's ``--inputs`` of one method (``matcher_comparison.read_inputs``): per compared matcher its
+    table and validation split's attributes of ``method`` and its predictors, and the fixed matcher's validation
+    attributes (None without a validation split)."""
+    from vpr_smr.eval.predictor.defaults import validation_split
+    from vpr_smr.eval.scoring.matcher_comparison import fixed_matcher, matcher_tag
+
+    validation = validation_split(conf.eval_splits)
+    splits = [conf.table_split] + ([validation] if validation else [])
+    specs = compared_matchers(conf)
+
+    def files(tag: str, among: list[str]) -> dict[str, dict[str, str]]:
+        return {split: {method: experiment_attributes(out, conf, tag, dataset, method, seq_len, split)}
+                for split in among}
+
+    compared = [{"matcher": specs[matcher_tag(spec)].provenance(), "attributes": files(matcher_tag(spec), splits),
+                 "predictors": experiment_predictors(out, conf, matcher_tag(spec), dataset, seq_len)}
+                for spec in conf.matchers]
+    fixed = matcher_tag(fixed_matcher())
+    return {"matchers": compared, "fixed": None if validation is None else {
+        "matcher": specs[fixed].provenance(), "attributes": files(fixed, [validation])}}
+
+
+def experiment_files(inputs: Mapping[str, Any]) -> list[str]:
+    """Every file of ``experiment_inputs``, each once: the experiment job's input."""
+    entries = [*inputs["matchers"], *([inputs["fixed"]] if inputs["fixed"] else [])]
+    found = [path for entry in entries for paths in entry["attributes"].values() for path in paths.values()]
+    found += [path for entry in inputs["matchers"] for path in entry["predictors"]]
+    return list(dict.fromkeys(found))

@@ -18,7 +18,8 @@ from vpr_smr.eval.predictor.records import (
     SplitScores,
 )
 from vpr_smr.eval.scoring import speed
-from vpr_smr.eval.scoring.records import Reduction
+from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison, MatcherMode, MatcherScores
+from vpr_smr.eval.scoring.records import Detection, Interval, Reduction, SeedSummary
 from vpr_smr.eval.scoring.speed import SpeedProfile
 
 
@@ -91,7 +92,7 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
     """Every experiment's JSON for the ``methods`` (in that configuration order) on one dataset ``d``, the
     training-free baselines of every L (computed from the same features and predictors), the standard VPR metrics
     and match-inspector figures at L = 4, then report.main; returns (run folder, files). ``options`` go to
-    report.main's ReportOptions, but ``speed`` (the speed files) to its RunFiles."""
+    report.main's ReportOptions, but ``speed`` and ``matchers`` (those experiments' files) to its RunFiles."""
     from vpr_smr.core.paths import match_figure_path, matrix_figure_path, queries_path
     from vpr_smr.eval.matching.attributes import query_features
     from vpr_smr.eval.predictor.estimator import SMRPredictor
@@ -159,10 +160,11 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
         for i, method in enumerate(methods):
             match_figures.append(small_png(Path(match_figure_path(run, "d", method, 4)), 320, 160, 40 * i))
             matrix_figures.append(small_png(Path(matrix_figure_path(run, "d", method, 4)), 160, 160, 40 * i + 20))
-    speed = options.pop("speed", ())  # a file list: the rest are ReportOptions
+    speed = options.pop("speed", ())  # file lists: the rest are ReportOptions
+    matchers = options.pop("matchers", ())
     files = RunFiles(evaluations, predictors, [ablation] if ablations else [], [lomo] if ablations else [],
                      timings=timings, metrics=metric_files, match_figures=match_figures, matrix_figures=matrix_figures,
-                     baselines=baseline_files, speed=speed)
+                     baselines=baseline_files, speed=speed, matchers=matchers)
     written = main(run, files, ReportOptions(
         table_seq_lens=[4], seq_len_ablation=len(seq_lens) > 1, config="run: demo\nseq_lens: [2, 4]\n",
         provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}},
@@ -207,3 +209,50 @@ def speed_files(folder: Path) -> list[Path]:
         files.append(folder / f"speed_{profile}.json")
         write_json(files[-1], speed_record(profile, numbers))
     return files
+
+
+# --- the experiment matchers' file ---
+
+
+def matcher_reduction(pct: float | None, low: float | None = None, high: float | None = None) -> Reduction:
+    """Table I's numbers of a removal whose reduction is ``pct`` (its interval ``[low, high]`` where given)."""
+    return Reduction(0.8, 0.6, 0.7, 0.2, 0.2 * (1 - (pct or 0) / 100), pct, 0.8, 0.2, "improved",
+                     None if low is None else Interval(low, high))
+
+
+def matcher_scores(pct: float, low: float, high: float, native: float, native_high: float | None,
+                   validation: float, modes=("paper",)) -> MatcherScores:
+    """One matcher on one method by hand: the predictor's reduction ``pct`` in ``[low, high]``, the native
+    confidence's ``native`` (the paired interval of native - predictor ending at ``native_high``), the best
+    training-free scorer ``distance`` at half the predictor's, and the validation recall@1."""
+    seeds = SeedSummary(5, 5, pct - 1.0, 2.0, pct - 3.0, pct + 1.0, {s: "improved" for s in range(5)})
+    mode = MatcherMode(0.4, 0.7, matcher_reduction(pct, low, high), seeds, "distance", matcher_reduction(pct / 2),
+                       matcher_reduction(native),
+                       None if native_high is None else Interval(native_high - 5.0, native_high))
+    return MatcherScores(30, 9, 4, dict.fromkeys(modes, mode), Detection(0.6, 0.8), Detection(0.4, 0.7),
+                         Interval(-0.3, -0.1), validation)
+
+
+def matchers_records(methods=("sad", "hog"), modes=("paper",)) -> list[MatcherComparison]:
+    """Hand-made files of the experiment matchers, dataset d, L = 4, one per method, two matchers: seqslam reduces
+    the AOC on both methods (its interval above 0) and beats its native confidence on the first only; bayes_filter's
+    interval holds 0 on the first and lies below 0 on the second, where its validation recall@1 (0.2) is under half
+    the fixed matcher's (0.6)."""
+    first, second = methods
+    scores = {first: {"seqslam": matcher_scores(20.0, 5.0, 30.0, 10.0, -1.0, 0.6, modes),
+                      "bayes_filter": matcher_scores(3.0, -2.0, 8.0, 1.0, None, 0.7, modes)},
+              second: {"seqslam": matcher_scores(10.0, 2.0, 15.0, 12.0, 4.0, 0.5, modes),
+                       "bayes_filter": matcher_scores(-6.0, -9.0, -1.0, 2.0, 3.0, 0.2, modes)}}
+    return [MatcherComparison({"dataset": "d", "method": method, "seq_len": 4, "modes": list(modes)},
+                              ("seqslam", "bayes_filter"), 25, 20,
+                              {tag: {method: found} for tag, found in scores[method].items()}, {method: 0.6}, ())
+            for method in methods]
+
+
+def matchers_files(folder: Path) -> list[Path]:
+    """The experiment matchers' files of ``matchers_records`` for methods m1 and m2, both modes."""
+    paths = []
+    for record in matchers_records(("m1", "m2"), ("paper", "standard")):
+        paths.append(folder / f"matchers_d_{record.meta['method']}_L4.json")
+        write_json(paths[-1], record.to_json())
+    return paths

@@ -35,6 +35,7 @@ from vpr_smr.eval.report.results import (
 from vpr_smr.eval.report.rows import cells
 from vpr_smr.eval.report.table1 import UNDEFINED, evaluation_order, is_reduction, tex_escape
 from vpr_smr.eval.report.tabulate import Inputs, by_key, seq_len_rows, speed_rows, sweep_rows
+from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
 from vpr_smr.eval.scoring.records import (
     KEY_META,
     Baselines,
@@ -283,6 +284,8 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
         figures += _seq_len_figures(out_dir, [cells(row) for row in seq_len_rows(inputs)], order, inputs)
     if inputs.baselines:
         figures += _baseline_figures(out_dir, inputs)
+    if inputs.matchers:
+        figures += _matchers_figures(out_dir, inputs)
     if inputs.speed:
         figures += _speed_figures(out_dir, [cells(row) for row in speed_rows(inputs.speed, order)], order, split,
                                   inputs)
@@ -337,6 +340,29 @@ def _baseline_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
         path = fig.detection_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len),
                                     [(r.key[1], r.splits[split]) for r in records], title)
         out.append(WrittenFigure("detection", f"{spec.title}: {dataset}, L={seq_len}", path, dataset, seq_len))
+    return out
+
+
+def _matchers_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
+    """One figure per dataset, L and mode of the experiment matchers: each matcher's reduction per method, the native
+    confidence's beside it."""
+    from vpr_smr.eval.report.tables.matchers import matcher_rows
+
+    rows = [cells(row) for row in matcher_rows(inputs.matchers, inputs.order)]
+    groups: dict[tuple[str, int, str], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["dataset"], row["seq_len"], row["mode"]), []).append(row)
+    spec = registry.figure("matchers")
+    out = []
+    for (dataset, seq_len, mode), group in groups.items():
+        title = (f"{dataset}, L={seq_len}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC reduction of "
+                 f"each matcher's predictor and, hatched, of its native confidence at the same budget, on the "
+                 f"{group[0]['n_queries']} queries every matcher evaluates")
+        path = fig.matchers_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len, mode=mode), group,
+                                   list(dict.fromkeys(r["method"] for r in group)),
+                                   list(dict.fromkeys(r["matcher"] for r in group)), title)
+        out.append(WrittenFigure("matchers", f"{spec.title}: {dataset}, L={seq_len}, {mode} mode", path, dataset,
+                                 seq_len, mode))
     return out
 
 
@@ -508,6 +534,7 @@ class RunFiles:
     in the configuration's order of profiles). ``baselines``: the training-free baselines (``vpr-smr baselines``,
     one per dataset, method and L): their tables, figures and findings, and the best of them in the
     sequence-length ablation. ``descriptors``: descriptor files whose provenance attributes the page lists.
+    ``matchers``: the experiment matchers' files (``scoring.matcher_comparison.main``, one per dataset).
     """
 
     evaluations: Sequence[Path | str] = ()
@@ -521,6 +548,7 @@ class RunFiles:
     speed: Sequence[Path | str] = ()
     baselines: Sequence[Path | str] = ()
     descriptors: Sequence[Path | str] = ()
+    matchers: Sequence[Path | str] = ()
 
 
 @dataclass(frozen=True)
@@ -564,6 +592,7 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
     read_lomo = _read(files.leave_one_out, "leave-one-method-out", HeldOut.from_json, KEY_META)
     read_speed = _read(files.speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
     read_baselines = _read(files.baselines, "baselines", Baselines.from_json, KEY_META)
+    read_matchers = _read(files.matchers, "matchers experiment", MatcherComparison.from_json, KEY_META)
 
     splits = Splits.resolve(split, options.eval_splits, options.train_split,
                             [*(list(e.splits) for e in read_evaluations), *(list(m.splits) for m in read_metrics),
@@ -584,7 +613,8 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
         _read(files.attribute_ablations, "attribute ablation", AttributeAblation.from_json, PREDICTOR_META), read_lomo,
         read_metrics, dict(datasets or {}), split,
         None if options.table_seq_lens is None else {int(s) for s in options.table_seq_lens},
-        options.seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines)
+        options.seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines,
+        read_matchers)
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]

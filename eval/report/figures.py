@@ -363,3 +363,37 @@ def detection_figure(path: Path, panels: Sequence[tuple[str, Any]], title: str) 
                xlabel="recall of wrong matches", ylim=(0, 1.02), xlim=(0, 1))
     _finish(fig, axes, title, legend_size=7)
     return save(fig, path)
+
+
+def matchers_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], matchers: Sequence[str],
+                    title: str) -> Path:
+    """The experiment matchers of one dataset, L and mode (``tables.matchers``' rows): one panel per method, per
+    matcher the seed-0 predictor's AOC reduction (its 95 % interval as a whisker) and the native confidence's at the
+    same budget beside it (hatched). An undefined reduction is a bar of height 0 (nothing drawn). A reduction is at
+    most 100 %, but below 0 it has no bound (a baseline AOC near 0): bars and whiskers are cut at -100 %, a cut bar
+    labelled with its value."""
+    floor = -100.0
+    fig, axes = _panels(len(methods))
+    width = 0.38
+    x = np.arange(len(matchers))
+    series = ((-width / 2, names.REDUCTION, "predictor (seed 0)", "tab:blue", ""),
+              (width / 2, "native_reduction_pct", "native confidence, same budget", "tab:orange", "//"))
+    for ax, method in zip(axes, methods, strict=True):
+        by = {r["matcher"]: r for r in rows if r["method"] == method}
+        for offset, key, label, colour, hatch in series:
+            values = np.array([by.get(m, {}).get(key) or 0.0 for m in matchers], dtype=float)
+            ax.bar(x + offset, np.maximum(values, floor), width, color=colour, hatch=hatch, edgecolor="black", lw=0.4,
+                   label=label)
+            for cut in np.flatnonzero(values < floor):
+                ax.annotate(f"{values[cut]:.0f}", (x[cut] + offset, floor), xytext=(0, 2), textcoords="offset points",
+                            ha="center", va="bottom", fontsize=7, rotation=90)
+        for i, matcher in enumerate(matchers):
+            low, high = (by.get(matcher, {}).get(f"{names.REDUCTION}_ci_{side}") for side in ("low", "high"))
+            if low is not None and high is not None:
+                ax.plot([x[i] - width / 2] * 2, [max(low, floor), max(high, floor)], color="black", lw=0.8)
+        ax.axhline(0, color="black", lw=0.6)
+        ax.set_xticks(x, list(matchers), rotation=30, ha="right")
+        ax.set(title=method)
+    _finish(fig, axes, title)
+    axes[0].set_ylabel("AOC reduction (%)")
+    return save(fig, path)

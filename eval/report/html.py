@@ -59,6 +59,7 @@ from vpr_smr.eval.report.table1 import (
     notes,
     table1_blocks,
 )
+from vpr_smr.eval.report.tables import matchers as matcher_table
 from vpr_smr.eval.report.view import (
     Block,
     Card,
@@ -569,6 +570,18 @@ SECTIONS = (
     # right after Table I: is the predictor better than a simple rule?
     Declared("baselines", "Is the predictor better than a simple rule?", ("baselines", "wrong_match_detection"),
              _baseline_intro, blocks=_baseline_blocks, headlines=_baseline_headlines),
+    # right after the baselines: the same question for each sequence matcher (method §14)
+    Declared("matchers", "Does SMR help each sequence matcher?", ("matchers",), (
+        "Each matcher (method §14) with its own labels and its own predictor (the authors' recipe, every seed), "
+        "scored as Table I on the queries every matcher evaluates. Bars: the seed-0 predictor's AOC reduction "
+        "(its 95 % interval as a whisker) and, hatched, the matcher's native confidence removing as many matches. "
+        "The table also gives the best training-free scorer at that budget and the average precision of detecting "
+        "the wrong matches. A matcher whose recall@1 on the validation split is under "
+        f"{matcher_table.FAR_BELOW:g} of the fixed matcher's is flagged: its settings (a filter's transition "
+        "window) likely do not fit the traverses' speed ratio."), "matchers",
+        view=lambda b, f, shown: (b.compact("matchers", b.anchor("matchers", f), shown,
+                                            registry.table("matchers").caption),),
+        sentences=lambda b, shown: matcher_table.matcher_sentences(shown), headline=matcher_table.comparison_sentence),
     Declared("pr-curves", "Precision-recall curves", ("table1",), (
         "Sequence matching without (VPR+SM) and with the predictor's match removal (VPR+SM+Pred, the seed-0 "
         "predictor), one panel per method. The area over the curve (AOC) is measured up to VPR+SM+Pred's "

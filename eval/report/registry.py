@@ -265,6 +265,7 @@ FIGURES = (
     Figure("seq_len", "Sequence-length ablation", ("table1", "seq_len"), "seq_len_{dataset}_{mode}.png"),
     Figure("baselines", "Training-free baselines", ("baselines",), "baselines_{dataset}_L{seq_len}_{mode}.png"),
     Figure("detection", "Detecting wrong matches", ("baselines",), "detection_{dataset}_L{seq_len}.png"),
+    Figure("matchers", "Matchers", ("matchers",), "matchers_{dataset}_L{seq_len}_{mode}.png"),
     Figure("speed", "Speed profiles", ("speed",), "speed_{dataset}_L{seq_len}.png"),
     Figure("protocol_sweep", "Protocol sweep", ("protocol_sweep",), "protocol_sweep_{dataset}_L{seq_len}_{mode}.png"),
 )

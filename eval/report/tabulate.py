@@ -38,6 +38,7 @@ from vpr_smr.eval.report.rows import (
     columns,
 )
 from vpr_smr.eval.report.table1 import evaluation_order, table1_latex, table1_markdown, table1_rows, tex_escape
+from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
 from vpr_smr.eval.scoring.records import Baselines, Evaluation, HeldOut, Timing, VPRMetrics
 from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
 from vpr_smr.eval.scoring.speed import SpeedResult
@@ -62,6 +63,7 @@ class Inputs:
     splits: Splits  # the configuration's split names by role (``split`` is their table split)
     protocols: dict[str, str]  # per dataset its ground truth as the tables say it ("within 2 frames")
     baselines: list[Baselines] = dataclasses.field(default_factory=list)
+    matchers: list[MatcherComparison] = dataclasses.field(default_factory=list)  # the experiment matchers (§14)
 
     def correct(self, dataset: str) -> str:
         """``; correct: within 2 frames``: what a figure's title adds of its dataset's ground truth (empty if none)."""

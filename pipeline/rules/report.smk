@@ -89,6 +89,9 @@ rule report:
                              dataset=DATASETS, method=METHODS),
         matrix_figures=expand(matrix_figure_path(OUT, "{dataset}", "{method}", TABLE_L),
                               dataset=DATASETS, method=METHODS),
+        # the experiment matchers (method §14), at the table's L
+        matchers=expand(matchers_path(OUT, "{dataset}", "{method}", TABLE_L), dataset=DATASETS, method=METHODS)
+        if "matchers" in EXPERIMENTS else [],
         # read for their provenance (checkpoint and frame-list hashes) only
         descriptors=expand(descriptors_path(OUT, "{dataset}", "{method}"), dataset=DATASETS, method=METHODS),
     output:
@@ -110,7 +113,7 @@ rule report:
         " --predictors {input.predictors:q} --attribute-ablations {input.attribute_ablations:q}"
         " --leave-one-out {input.leave_one_out:q} --metrics {input.metrics:q}"
         " --match-figures {input.match_figures:q} --matrix-figures {input.matrix_figures:q} --speed {input.speed:q}"
-        " --descriptors {input.descriptors:q} --split {params.split:q} --eval-splits {params.eval_splits}"
+        " --matchers {input.matchers:q} --descriptors {input.descriptors:q} --split {params.split:q} --eval-splits {params.eval_splits}"
         " --train-split {params.train_split:q} --table-seq-lens {params.table_seq_len}"
         " {params.seq_len_ablation} --settings {params.settings:q} --datasets {params.datasets:q}"
         " --out {OUT:q} > {log:q} 2>&1"

@@ -23,7 +23,7 @@ def test_demo_config_is_valid_and_gets_defaults():
     assert conf.eval_splits == ("val", "test") and conf.output == "results"
     assert conf.table_seq_len == 4 and conf.seeds == 5
     assert experiments(conf) == {"table1", "predictor", "baselines", "trust", "restoration", "attributes",
-                                 "leave_one_method_out", "seq_len", "speed", "protocol_sweep"}
+                                 "leave_one_method_out", "seq_len", "speed", "protocol_sweep", "matchers"}
     assert (conf.baselines.r_window, conf.baselines.spread_k, conf.baselines.candidates) == (10, 10, 12)
     preflight(conf)
 
@@ -66,8 +66,31 @@ def test_experiments_follow_the_settings(tmp_path):
     """)
     # one method: no leave-one-method-out; one L: no sequence-length ablation; restoration switched off
     assert experiments(load_config(path)) == {"table1", "predictor", "baselines", "trust", "attributes", "speed",
-                                              "protocol_sweep"}
+                                              "protocol_sweep", "matchers"}
+    assert "matchers" not in experiments(load_config(path, {"experiments": {"matchers": False}}))
     assert "trust" not in experiments(load_config(path, {"trust_levels": []}))
+
+
+def test_the_compared_matchers_default_to_every_built_in_one_and_bad_ones_are_refused(tmp_path):
+    from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec
+
+    path = write(tmp_path, """
+        run: x
+        datasets: {d: {loader: nordland_sample}}
+        methods: {m: {backend: sad}}
+    """)
+    conf = load_config(path)
+    assert conf.matchers == tuple(MatcherSpec.of(name) for name in MATCHERS)
+    assert conf.to_json()["matchers"] == [{"matcher": name, **MatcherSpec.of(name).values} for name in MATCHERS]
+    given = load_config(path, {"matchers": [{"matcher": "seqslam", "velocities": [2, 1]}]})
+    assert given.matchers == (MatcherSpec.of("seqslam", {"velocities": [1.0, 2.0]}),)
+    for matchers, message in (([], "matchers: [] should be non-empty"),
+                              ([{"velocities": [1.0]}], "'matcher' is a required property"),
+                              ([{"matcher": "seqslam"}, {"matcher": "seqslam", "velocities": [1]}],
+                               "matchers lists the matcher seqslam twice with the same settings: give each once"),
+                              ([{"matcher": "seqslam", "velocity": [1]}], "matchers[0]")):
+        with pytest.raises(ConfigError, match=re.escape(message)):
+            load_config(path, {"matchers": matchers})
 
 
 def test_schema_errors_name_the_setting(tmp_path):

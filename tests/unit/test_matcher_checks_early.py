@@ -103,7 +103,7 @@ def _config(tmp_path, matching, splits=None) -> dict:
             "datasets": {"sample": {"loader": "nordland_sample", "frames": [1000, 1100],
                                     "splits": splits or {"train": [0, 40], "val": [40, 46], "test": [60, 100]}}},
             "methods": {"sad": {"backend": "sad"}}, "sequence_matching": matching,
-            "experiments": {"speed": False}}
+            "experiments": {"speed": False, "matchers": False}}
 
 
 def test_the_plan_checks_each_split_by_its_own_queries(centred, tmp_path):
@@ -119,3 +119,21 @@ def test_the_plan_checks_each_split_by_its_own_queries(centred, tmp_path):
     assert not (tmp_path / "out").exists()  # nothing ran
     plan = preflight(validate(_config(tmp_path, {"matcher": "centred", "extra": 1})))  # 6 queries suffice
     assert plan.datasets["sample"].splits["val"] == (40, 46)
+
+
+def test_the_plan_checks_the_compared_matchers_at_the_tables_sequence_length(centred, tmp_path):
+    # the run's matcher is seqslam (6 queries are enough at L = 3 and 5); the experiment matchers compares centred at
+    # table_seq_len 5, which needs 5 + 2 = 7 queries of val [40, 46): refused before any job, naming the setting
+    conf = {**_config(tmp_path, {"matcher": "seqslam"}), "table_seq_len": 5, "experiments": {"speed": False},
+            "matchers": [{"matcher": "seqslam"}, {"matcher": "centred"}]}
+    with pytest.raises(ConfigError) as error:
+        preflight(validate(conf))
+    message = str(error.value)
+    assert ("datasets.sample: split 'val' (references [40, 46), queries [40, 46)) cannot be matched by the matcher "
+            "centred (extra 2) (matchers) at sequence length 5: split 'val' has 6 queries; this matcher needs 7; "
+            "lengthen the split (its reference or query range), or change matchers (or switch the experiment off: "
+            "experiments.matchers: false)") in message
+    assert "sequence_matching" not in message
+    # at table_seq_len 3 it needs 5: the plan passes; switched off, the experiment checks nothing
+    preflight(validate({**conf, "table_seq_len": 3}))
+    preflight(validate({**conf, "experiments": {"speed": False, "matchers": False}}))

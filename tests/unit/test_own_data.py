@@ -173,9 +173,10 @@ def test_run_check_refuses_the_basic_settings_only_where_they_are_wrong(tmp_path
     conf = basic(tmp_path, 40)
     conf["splits"] = {"train": [0, 20], "val": [20, 30], "test": [30, 40]}
     monkeypatch.chdir(tmp_path)
-    # the speed experiment off: its 2x query of a 20-frame train split leaves too few samples (test_preflight_speed)
+    # the speed experiment off: its 2x query of a 20-frame train split leaves too few samples (test_preflight_speed);
+    # the matchers experiment too: openseqslam's ratio window needs 14 references of a split, val has 10
     plan = preflight(validate({"run": "r", "datasets": {"corridor": conf}, "methods": {"sad": {"backend": "sad"}},
-                               "experiments": {"speed": False}}))
+                               "experiments": {"speed": False, "matchers": False}}))
     settings = plan.datasets["corridor"].frames_settings
     assert "splits" not in settings and "tolerance" not in settings
     assert load_frames("corridor", settings).fingerprint() == plan.datasets["corridor"].frames_sha256
@@ -193,7 +194,9 @@ def test_a_train_split_too_short_for_the_predictor_is_refused_before_the_first_j
     conf = basic(tmp_path, 40)
     conf["splits"] = {"train": [0, 10], "val": [10, 20], "test": [20, 40]}
     run = {"run": "r", "datasets": {"corridor": conf}, "methods": {"sad": {"backend": "sad"}},
-           "experiments": {"speed": False}}  # its simulated profiles shorten the train split (test_preflight_speed.py)
+           # the speed experiment's simulated profiles shorten the train split (test_preflight_speed.py); the matchers
+           # experiment's openseqslam needs 14 references of a split
+           "experiments": {"speed": False, "matchers": False}}
     monkeypatch.chdir(tmp_path)
     with pytest.raises(ConfigError) as error:
         preflight(validate(run))

@@ -13,7 +13,7 @@ from vpr_smr.eval.report.registry import expected_outputs
 RUN = "results/demo run"  # a space, as a user's output folder may hold
 
 ALL_EXPERIMENTS = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out",
-                   "speed", "protocol_sweep"}
+                   "speed", "protocol_sweep", "matchers"}
 
 
 def test_each_output_kind_has_its_file_name():
@@ -28,6 +28,11 @@ def test_each_output_kind_has_its_file_name():
     assert (paths.attribute_ablation_path(RUN, "nordland", 4)
             == "results/demo run/ablation/attributes/nordland/L4.json")
     assert paths.held_out_path(RUN, "nordland", 4, "sad") == "results/demo run/ablation/without/nordland/L4/sad.json"
+    assert (paths.matcher_attributes_path(RUN, "nordland", "bayes_filter", "sad", 4, "val")
+            == "results/demo run/matchers/nordland/bayes_filter/attributes/sad/L4/val.h5")
+    assert (paths.matcher_predictor_path(RUN, "nordland", "monotone-0123abcd", 4)
+            == "results/demo run/matchers/nordland/monotone-0123abcd/predictors/L4.h5")
+    assert paths.matchers_path(RUN, "nordland", "sad", 4) == "results/demo run/matchers/nordland/sad/L4.json"
     assert paths.speed_path(RUN, "nordland", 4, "0.5x") == "results/demo run/speed/nordland/L4/0.5x.json"
     assert paths.report_log_path(RUN) == "results/demo run/logs/report.log"
 
@@ -93,11 +98,12 @@ def test_a_report_run_writes_exactly_the_registry(full_report_run):
     written = sorted(str(p.relative_to(run)) for p in written)
     tables = ("table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
               "vpr_metrics", "baselines", "wrong_match_detection", "ablation_seq_len", "speed", "predictor", "table2",
-              "leave_one_method_out", "protocol_sweep", "datasets")
+              "leave_one_method_out", "protocol_sweep", "datasets", "matchers")
     by_hand = (
         [f"tables/{name}.{ext}" for name in tables for ext in ("csv", "md", "tex")]
         + [f"figures/{kind}_d_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc", "baselines",
-                                                            "protocol_sweep") for mode in ("paper", "standard")]
+                                                            "protocol_sweep", "matchers")
+           for mode in ("paper", "standard")]
         + ["figures/confusion_d_L4.png", "figures/seq_len_d_paper.png", "figures/seq_len_d_standard.png",
            "figures/speed_d_L4.png", "figures/detection_d_L4.png", "report.html"]
     )

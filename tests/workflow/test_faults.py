@@ -30,6 +30,7 @@ CONFIG = {
                             "splits": {"train": [0, 50], "val": [50, 80], "test": [80, 120]}}},
     "methods": {"sad": {"backend": "sad"}, "hog": {"backend": "hog"}},
     "predictor": {"max_iter": 200},
+    "experiments": {"matchers": False},  # test_plugin_matcher_workflow.py runs it
 }
 # Outputs that hold timings (measured anew by every run) are not compared byte for byte; the evaluations keep
 # theirs in a separate `.timing.json`.

@@ -30,7 +30,7 @@ def run(folder: Path, entry: dict) -> Path:
                                 "splits": {"train": [0, 100], "val": [100, 170], "test": [170, 240]}, **entry}},
         "methods": {"sad": {"backend": "sad"}, "hog": {"backend": "hog"}},
         "predictor": {"max_iter": 200},
-        "experiments": {"speed": False, "leave_one_method_out": False, "trust_levels": False},
+        "experiments": {"speed": False, "leave_one_method_out": False, "trust_levels": False, "matchers": False},
     }
     (folder / "config.yaml").write_text(yaml.safe_dump(config, sort_keys=False))
     np.save(folder / "gt.npy", band(240, 240, 2))

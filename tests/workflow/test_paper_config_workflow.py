@@ -18,6 +18,8 @@ from benchmark_trees import (
 )
 from paper_run import METHODS, OFFICIAL_KEYS, PAPER, shaped_checkpoint
 
+from vpr_smr.eval.matching.matchers import MATCHERS
+
 
 def test_dry_run_plans_every_job(tmp_path):
     conf = yaml.safe_load(PAPER.read_text())
@@ -42,6 +44,9 @@ def test_dry_run_plans_every_job(tmp_path):
     conf["output"] = str(tmp_path / "results")
     # the speed experiment's profiles but 2x, which would leave 4 queries of these 8-frame train splits (refused)
     conf["speed"] = {"profiles": [0.5, 0.75, 1.0, 1.25, 1.5, "varying"]}
+    # the matchers experiment's built-in matchers but openseqslam, whose ratio window needs 14 references of a split
+    # (the plan refuses these 8-frame splits for it)
+    conf["matchers"] = [{"matcher": name} for name in MATCHERS if name != "openseqslam"]
     config = tmp_path / "paper.yaml"
     config.write_text(yaml.safe_dump(conf, sort_keys=False))  # the splits as written: train, val, test
     result = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", str(config), "-n", "-v", "--",
@@ -50,11 +55,16 @@ def test_dry_run_plans_every_job(tmp_path):
     counts = dict(re.findall(r"^(\w+)\s+(\d+)$", result.stdout, flags=re.MULTILINE))
     # 3 datasets x 7 methods x 3 splits; Table II per dataset; a predictor without each method, tested on it; the
     # standard VPR metrics, the per-query CSV and the match inspector of each method at the table's L; the speed
-    # experiment per dataset and profile (6 profiles)
+    # experiment per dataset and profile (6 profiles); the matchers experiment per dataset and method, and each built-in
+    # matcher
+    # but the run's (seqslam) with its own attributes of every method and split and its own predictor per dataset
+    others = len(conf["matchers"]) - 1
     assert counts == {"all": "1", "descriptors": "21", "distances": "63", "attributes": "63", "train": "3",
                       "evaluate": "21", "attribute_ablation": "3", "predictor_without": "21", "held_out": "21",
                       "vpr_metrics": "21", "queries": "21", "inspect": "21", "speed": "18", "report": "1",
-                      "baselines": "21", "total": "320"}
+                      "baselines": "21", "matchers": "21",
+                      **({"matcher_attributes": str(63 * others), "matcher_train": str(3 * others)} if others else {}),
+                      "total": str(341 + 66 * others)}
     for dataset in ("nordland", "robotcar", "sfu_mountain"):
         for method in METHODS:
             assert f"descriptors/{dataset}/{method}.h5" in result.stdout

@@ -1,7 +1,8 @@
 """A matcher that is only a plugin runs the whole demo workflow: the test package ``toy`` (tests/plugins), seen
 through PYTHONPATH alone, named in the demo's configuration as ``sequence_matching: {matcher: toy, ...}``. Every
 job, the report included, runs with no edit to vpr_smr; every attributes and predictor file records the matcher
-and its settings, and the report names it.
+and its settings, and the report names it. The experiment matchers compares it with seqslam, which gets attributes
+and predictors of its own while the plugin's are the run's.
 
 Needs issue 34's seam (``sequence_matching.matcher`` in the configuration, ``--matcher`` through the stages): where
 the configuration still refuses the key ``matcher``, the test is an expected failure saying so (strict: once the
@@ -22,7 +23,9 @@ from run_configs import FRAMES, RANGES
 from toy_plugin import plugin_env, toy_rule
 
 from vpr_smr.core.io import read_provenance
+from vpr_smr.core.records import load
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
+from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
 
 DEMO = Path(__file__).resolve().parents[2] / "configs" / "demo.yaml"
 MATCHER = {"name": "toy", "settings": {"decay": 0.25, "step": 1}}
@@ -33,14 +36,15 @@ pytestmark = pytest.mark.slow
 
 def plugin_config(out: Path) -> dict:
     """configs/demo.yaml on 240 frames of the sample with L 3 and 4, two seeds, SAD and HOG (not the network), one
-    speed profile, and the toy matcher: every experiment of the demo stays on."""
+    speed profile, and the toy matcher, compared with seqslam: every experiment of the demo stays on."""
     conf = yaml.safe_load(DEMO.read_text())
     sample = conf["datasets"]["nordland_sample"]
     sample.update(root=str(DEFAULT_ROOT), frames=list(FRAMES), splits=RANGES)
     conf.update(run="plugin", output=str(out), seq_lens=[3, 4], table_seq_len=4, seeds=2,
                 methods={name: conf["methods"][name] for name in ("sad", "hog")},
                 predictor={"max_iter": 200}, speed={"profiles": [2.0]},
-                sequence_matching={"matcher": MATCHER["name"], **MATCHER["settings"]})
+                sequence_matching={"matcher": MATCHER["name"], **MATCHER["settings"]},
+                matchers=[{"matcher": MATCHER["name"], **MATCHER["settings"]}, {"matcher": "seqslam"}])
     return conf
 
 
@@ -88,3 +92,30 @@ def test_the_report_names_the_plugin(run):
     text = re.sub(r"data:[^\"')\s]+", "", text)  # the figures inlined as base64, where any word may turn up
     assert re.search(r"\btoy\b", text)
     assert '<p class="subtitle">' in text and "sequence matcher toy (decay 0.25, step 1)" in text
+
+
+def test_the_matchers_experiment_compares_the_plugin_with_seqslam(run):
+    """The plugin (the run's matcher) reuses the run's files; seqslam gets its own attributes and predictors (two
+    seeds); both are scored on the test split's queries 3..69 (each evaluates every query with a window of 4)."""
+    first = load(run / "matchers/nordland_sample/sad/L4.json", MatcherComparison)
+    toy = first.tags[0]  # the configuration's order
+    assert toy.startswith("toy-") and first.meta["matchers"][toy] == MATCHER  # decay 0.25 is not its default
+    assert not (run / "matchers/nordland_sample" / toy).exists()
+    own = run / "matchers/nordland_sample/seqslam"
+    assert sorted(p.name for p in (own / "predictors").glob("*.h5")) == ["L4.h5", "L4.seed1.h5"]
+    for method in ("sad", "hog"):
+        result = load(run / f"matchers/nordland_sample/{method}/L4.json", MatcherComparison)
+        assert result.tags == (toy, "seqslam") and set(result.matchers) == {toy, "seqslam"}
+        assert result.n_queries == 70 - 3 and result.n_queries_validation == 70 - 3
+        for split in RANGES:
+            path = own / f"attributes/{method}/L4/{split}.h5"
+            assert read_provenance(path)["matcher"] == {"name": "seqslam", "settings": {"velocities": [1.0]}}
+        # sequence recall@1, read back from each matcher's own test attributes (every query there is shared)
+        for tag, path in ((toy, run / f"attributes/nordland_sample/{method}/L4/test.h5"),
+                          ("seqslam", own / f"attributes/{method}/L4/test.h5")):
+            with h5py.File(path) as f:
+                recall = float(np.mean(f["sequence_correct"][()]))
+            assert result.matchers[tag][method].modes["paper"].recall_at_1_sequence == recall, (tag, method)
+    page = (run / "report.html").read_text()
+    assert '<section id="matchers">' in page and "SMR reduces the AOC for " in page
+    assert (run / "figures/matchers_nordland_sample_L4_paper.png").is_file()

@@ -61,6 +61,7 @@ def config(dataset: dict) -> dict:
 
     if "speed" in json.loads(SCHEMA_PATH.read_text())["properties"]["experiments"]["properties"]:
         conf["experiments"] = {"speed": False}  # simulated speeds re-drive frame-aligned pairs: not this one
+    conf.setdefault("experiments", {})["matchers"] = False  # tests/workflow/test_plugin_matcher_workflow.py runs it
     return conf
 
 

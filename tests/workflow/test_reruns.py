@@ -38,6 +38,7 @@ BASE = {
     "methods": {"sad": {"backend": "sad"}, "tiny": {"backend": "tinynet:TinyNet", "checkpoint": "tiny.pt"}},
     "predictor": {"max_iter": 60},
     "speed": {"profiles": [0.5, "varying"]},  # two profiles: 2x would leave too few train queries of 50 frames
+    "experiments": {"matchers": False},  # test_plugin_matcher_workflow.py runs it
 }
 METHODS = ("sad", "tiny")
 PROFILES = ("0.5x", "varying")
@@ -196,15 +197,15 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
     pytest.param(lambda c: c.update(modes=["paper"]), evaluate() | baselines() | held_out() | metrics() | REPORT,
                  id="modes"),
     pytest.param(lambda c: c.update(trust_levels=[0.0, 0.6]), evaluate() | REPORT, id="trust-levels"),
-    pytest.param(lambda c: c.update(experiments={"restoration": False}), evaluate() | REPORT, id="restoration-off"),
-    pytest.param(lambda c: c.update(experiments={"attribute_ablation": False}), REPORT, id="table2-off"),
+    pytest.param(lambda c: c["experiments"].update(restoration=False), evaluate() | REPORT, id="restoration-off"),
+    pytest.param(lambda c: c["experiments"].update(attribute_ablation=False), REPORT, id="table2-off"),
     # the inspector draws the table split; the metrics and the per-query CSV cover every evaluated split
     pytest.param(lambda c: c.update(table_split="val"), held_out() | inspect() | speed() | REPORT, id="table-split"),
     # the speed experiment's own settings: its jobs (a new profile: that one's) and the report
     pytest.param(lambda c: c["speed"].update(velocities=[1.0, 2.0]), speed() | REPORT, id="speed-velocities"),
     pytest.param(lambda c: c["speed"].update(profiles=[0.5, 1.5, "varying"]), speed(["1.5x"]) | REPORT,
                  id="speed-profiles"),
-    pytest.param(lambda c: c.update(experiments={"speed": False}), REPORT, id="speed-off"),
+    pytest.param(lambda c: c["experiments"].update(speed=False), REPORT, id="speed-off"),
     # the run's sequence matcher (method §11): every attributes job and what reads them; the default written out (as 1,
     # or with its name) is the same matcher to every job and to the report, which lists the validated configuration
     # (the matcher's settings complete and canonical): nothing reruns

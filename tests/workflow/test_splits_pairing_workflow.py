@@ -19,7 +19,8 @@ def test_allowed_overlap_is_stated_next_to_every_number(tmp_path):
             "allow_split_overlap": True, "trust_levels": [0.0, 0.5], "predictor": {"max_iter": 200},
             "datasets": {"sample": {"loader": "nordland_sample", "root": str(DEFAULT_ROOT), "frames": [1000, 1200],
                                     "splits": {"train": [0, 100], "val": [100, 140], "test": [60, 200]}}},
-            "methods": {"sad": {"backend": "sad"}, "hog": {"backend": "hog"}}}
+            "methods": {"sad": {"backend": "sad"}, "hog": {"backend": "hog"}},
+            "experiments": {"matchers": False}}  # test_plugin_matcher_workflow.py runs it
     path = tmp_path / "c.yaml"
     path.write_text(yaml.safe_dump(conf))
     run = subprocess.run([sys.executable, "-m", "vpr_smr.pipeline", "run", str(path)], cwd=tmp_path,

@@ -26,6 +26,7 @@ def test_workflow_rule(tmp_path):
                                 "splits": {"train": [0, 50], "val": [50, 80], "test": [80, 120]}}},
         "methods": {"sad": {"backend": "sad"}},
         "predictor": {"max_iter": 60},
+        "experiments": {"matchers": False},  # test_plugin_matcher_workflow.py runs it
     }
     (tmp_path / "c.yaml").write_text(yaml.safe_dump(conf))
     targets = ["results/r/metrics/sample/sad/L3.json", "results/r/queries/sample/sad/L3.csv"]

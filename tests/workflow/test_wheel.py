@@ -27,6 +27,7 @@ CONFIG = {
                             "splits": {"train": [0, 40], "val": [40, 60], "test": [60, 80]}}},
     "methods": {"sad": {"backend": "sad"}},
     "predictor": {"max_iter": 40},
+    "experiments": {"matchers": False},  # test_plugin_matcher_workflow.py runs it
 }
 
 

@@ -37,6 +37,7 @@ methods:
   effnet: {{backend: efficientnet_lite0_gem, checkpoint: package, image_size: [64, 128]}}
 predictor: {{max_iter: 300}}
 speed: {{profiles: [1.0, 2.0, varying]}}  # three of the default seven: the aligned pair, the fastest, the varying
+experiments: {{matchers: false}}  # tests/workflow/test_plugin_matcher_workflow.py runs the matchers experiment
 """
 
 
