@@ -17,7 +17,6 @@ from vpr_smr.core.settings import declared, parse, setting
 from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class
 from vpr_smr.eval.predictor.defaults import PredictorSettings
-from vpr_smr.eval.scoring.matcher_comparison import experiment_matchers
 from vpr_smr.eval.scoring.scorers import BaselineSettings
 from vpr_smr.eval.scoring.speed import SpeedExperiment
 
@@ -287,7 +286,7 @@ class Config(Section):
             PredictorSection(**dataclasses.asdict(sections["predictor"]), source=_text(conf["predictor"])),
             MappingProxyType(datasets), MappingProxyType(methods), conf["table_seq_len"], sections["experiments"],
             SpeedSettings(tuple(speed["profiles"]), tuple(speed["velocities"]), source=_text(speed)),
-            tuple(experiment_matchers(conf["matchers"])),
+            tuple(_experiment_matchers(conf["matchers"])),
             source=_text(conf))
 
 
@@ -349,11 +348,19 @@ def _sequence_matching(conf: dict[str, Any], source: str) -> None:
     conf["sequence_matching"] = {MATCHER_KEY: spec.name, **spec.values}
 
 
+def _experiment_matchers(values: Any) -> list[MatcherSpec]:
+    # imported here: every stage command imports this module, and the experiment's module (with the scoring
+    # records it needs) cost `vpr-smr attributes` 37 ms
+    from vpr_smr.eval.scoring.matcher_comparison import experiment_matchers
+
+    return experiment_matchers(values)
+
+
 def _compared_matchers(conf: dict[str, Any], source: str) -> None:
     """``matchers`` (the experiment ``matchers``, method §14) checked by each matcher's settings record and written
     back complete and canonical, as ``sequence_matching`` is (``null``: every built-in matcher at its defaults)."""
     try:
-        specs = experiment_matchers(conf["matchers"])
+        specs = _experiment_matchers(conf["matchers"])
     except ValueError as error:
         raise ConfigError(f"{source} is invalid:\n  {error}") from None
     conf["matchers"] = [{MATCHER_KEY: spec.name, **spec.values} for spec in specs]

@@ -53,14 +53,16 @@ def test_missing_file(tmp_path, capsys):
 
 
 def test_the_attributes_stage_leaves_unneeded_modules_out(tmp_path):
-    """`vpr-smr attributes` takes no configuration file and asks np.unique nothing: PyYAML and numpy.ma (which
-    np.unique imports on first use) cost its fresh process 10-30 ms of imports (issue 34)."""
+    """`vpr-smr attributes` takes no configuration file, asks np.unique nothing and compares no matchers: PyYAML,
+    numpy.ma (which np.unique imports on first use) and the matchers experiment's module cost its fresh process
+    10-40 ms of imports each (issue 34)."""
     matrix = tmp_path / "D.npy"
     np.save(matrix, np.random.default_rng(0).random((40, 40), dtype=np.float32))
     code = ("import sys\nfrom vpr_smr.pipeline import cli\n"
             f"cli.main(['attributes', '--distances', {str(matrix)!r}, '--seq-len', '4', '--out', "
             f"{str(tmp_path / 'a.h5')!r}])\n"
-            "print(' '.join(m for m in ('yaml', 'numpy.ma') if m in sys.modules))")
+            "print(' '.join(m for m in ('yaml', 'numpy.ma', 'vpr_smr.eval.scoring.matcher_comparison', 'cv2') "
+            "if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     assert out.stdout.strip() == ""
     assert (tmp_path / "a.h5").is_file()
