@@ -33,6 +33,7 @@ from vpr_smr.eval.predictor.records import (
     SeedReport,
     SplitScores,
 )
+from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison, MatcherMode, MatcherScores
 from vpr_smr.eval.scoring.records import (
     Baselines,
     BudgetRemoval,
@@ -148,6 +149,20 @@ ENVIRONMENT = NumericEnvironment("x86_64", "AMD EPYC 7B13", 2, ("avx", "avx2", "
                                  (POOL, ThreadPool("openmp", "libgomp", "", 1, "")), "4.10.0", False, "2.1.3",
                                  "3.11.7")
 
+NO_OPENCV = dataclasses.replace(ENVIRONMENT, opencv=None, opencv_optimised=None)  # a stage that never loaded it
+
+MATCHER_MODE = MatcherMode(0.25, 0.5, REDUCTION_CI, SUMMARY, "uniqueness", REDUCTION, REDUCTION, SPREAD)
+BARE_MATCHER_MODE = MatcherMode(0.0, NAN, UNDEFINED, NO_SUMMARY, None, None, UNDEFINED, None)
+MATCHER_SCORES = MatcherScores(60, 12, 7, {"paper": MATCHER_MODE, "standard": BARE_MATCHER_MODE}, DETECTION,
+                               NO_DETECTION, Interval(0.0625, 0.25), 0.75)
+COMPARISON = MatcherComparison({**META, "matchers": {"seqslam": {"name": "seqslam", "settings": {}}}},
+                               ("seqslam", "bayes_filter"), 57, None,
+                               {"seqslam": {"m": MATCHER_SCORES},
+                                "bayes_filter": {"m": dataclasses.replace(MATCHER_SCORES,
+                                                                          native_minus_predictor_ap_ci=None,
+                                                                          validation_recall_at_1=None)}},
+                               None, ("bayes_filter on m: validation recall@1 0.050 is under 0.5 of ...",))
+
 RECIPE = Recipe("train", {"settings": '{"max_iter": 10000}', "layout": "5"}, {"data/lists/a.txt": "ab" * 32})
 RECIPES = Recipes({"predictors/d/L4.h5": RECIPE, "tables/table1.csv": Recipe("report", {}, {})})
 
@@ -170,6 +185,9 @@ SAMPLES = {
     "BudgetRemoval": BUDGET, "SplitBaselines": SPLIT_BASELINES, "SplitBaselines, no predictor": NO_BUDGET,
     "Baselines": BASELINES, "SplitMetrics, sweep and baselines": WITH_BASELINES, "SweepPoint": SWEEP_POINT,
     "ProtocolSweep": SWEEP, "Interval": SPREAD, "Versus": VERSUS, "ScorerRemoval, intervals": SCORER_REMOVAL_CI,
+    "NumericEnvironment, no OpenCV": NO_OPENCV, "MatcherMode": MATCHER_MODE,
+    "MatcherMode, undefined": BARE_MATCHER_MODE,
+    "MatcherScores": MATCHER_SCORES, "MatcherComparison": COMPARISON,
 }
 
 
