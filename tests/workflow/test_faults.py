@@ -102,9 +102,13 @@ def test_sigterm_stops_the_whole_workflow(tmp_path):
     process.send_signal(signal.SIGTERM)  # to `vpr-smr run` only, not to its group
     process.wait(timeout=60)
     assert process.returncode != 0
-    time.sleep(1)
-    alive = subprocess.run(["pgrep", "-s", str(process.pid)], capture_output=True, text=True).stdout.split()
-    assert alive == [], f"processes of the stopped run still alive: {alive}"
+    # the jobs' processes end on the signal they were passed; on a loaded machine one may take a few seconds
+    for _ in range(30):
+        time.sleep(0.5)
+        alive = subprocess.run(["pgrep", "-s", str(process.pid)], capture_output=True, text=True).stdout.split()
+        if not alive:
+            break
+    assert alive == [], f"processes of the stopped run still alive 15 s after it stopped: {alive}"
     assert not list((tmp_path / "results").rglob("*.tmp"))
 
 
