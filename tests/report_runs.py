@@ -216,7 +216,8 @@ def speed_files(folder: Path) -> list[Path]:
 
 def matcher_reduction(pct: float | None, low: float | None = None, high: float | None = None) -> Reduction:
     """Table I's numbers of a removal whose reduction is ``pct`` (its interval ``[low, high]`` where given)."""
-    return Reduction(0.8, 0.6, 0.7, 0.2, 0.2 * (1 - (pct or 0) / 100), pct, 0.8, 0.2, "improved",
+    outcome = "improved" if pct is None or pct > 0 else "worse"  # as curves.outcome names it by the sign
+    return Reduction(0.8, 0.6, 0.7, 0.2, 0.2 * (1 - (pct or 0) / 100), pct, 0.8, 0.2, outcome,
                      None if low is None else Interval(low, high))
 
 

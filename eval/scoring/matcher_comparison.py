@@ -234,7 +234,7 @@ def score_matcher(features: QueryFeatures, predictors: Sequence[SMRPredictor], p
 
 
 def _sequence_recall(features: QueryFeatures) -> float:
-    return float(np.mean(features.sequence_correct)) if len(features.queries) else 0.0
+    return float(np.mean(features.sequence_correct))
 
 
 def compare(
@@ -274,6 +274,8 @@ def compare(
         for method in methods:
             val_shared = shared_queries([*(validation[tag][method] for tag in tags), fixed_validation[method]])
             n_validation = len(val_shared)
+            if not n_validation:  # no recall to compare (not a recall of 0): no number, no warning
+                continue
             fixed[method] = _sequence_recall(restricted(fixed_validation[method], val_shared))
             for tag in tags:
                 recalls[tag][method] = _sequence_recall(restricted(validation[tag][method], val_shared))
@@ -287,7 +289,7 @@ def compare(
                                    modes, len(found.queries))
             recall = recalls[tag].get(method)
             scores[tag][method] = replace(scored, validation_recall_at_1=recall)
-            warning = validation_warning(tag, method, recall, None if fixed is None else fixed[method])
+            warning = validation_warning(tag, method, recall, None if fixed is None else fixed.get(method))
             if warning is not None:
                 log.warning(warning)
                 warnings.append(warning)

@@ -164,3 +164,28 @@ def test_each_matcher_is_scored_on_the_shared_queries_with_its_own_predictors():
     assert fixed_recall == {"m": pytest.approx(26 / 35, abs=1e-15)}
     assert scores["b"]["m"].validation_recall_at_1 == 0.0
     assert [w.split(":")[0] for w in warnings] == ["b on m"]
+    # validation splits that share no query: no recall at all (not a recall of 0), so no warning
+    early = restricted(whole, np.arange(2, 5))  # queries 2..4, none of which b evaluates
+    _, n_val, scores, fixed_recall, warnings = compare(
+        table, {"a": fitted, "b": fitted}, {"m": np.arange(40.0)}, DEFAULT_SETTINGS, ("paper",),
+        {"a": {"m": early}, "b": {"m": wrong}}, {"m": fixed})
+    assert n_val == 0 and fixed_recall == {} and warnings == ()
+    assert scores["a"]["m"].validation_recall_at_1 is None and scores["b"]["m"].validation_recall_at_1 is None
+
+
+def test_a_degenerate_removal_counts_neither_way_whatever_its_interval():
+    # a removal that kept no correct match has no direction, even with an interval above 0; a pair whose interval
+    # holds 0 or is missing counts neither way; beats: the paired interval wholly below 0 only
+    base = {"dataset": "d", "seq_len": 4, "mode": "paper", "n_queries": 30, "native_minus_predictor_ci_low": None,
+            "native_minus_predictor_ci_high": None}
+    rows = [{**base, "outcome": "kept_none_correct", "reduction_pct_ci_low": 5.0, "reduction_pct_ci_high": 9.0},
+            {**base, "outcome": "improved", "reduction_pct_ci_low": -5.0, "reduction_pct_ci_high": 9.0},
+            {**base, "outcome": "improved", "reduction_pct_ci_low": None, "reduction_pct_ci_high": None,
+             "native_minus_predictor_ci_low": -3.0, "native_minus_predictor_ci_high": 2.0},
+            {**base, "outcome": "worse", "reduction_pct_ci_low": 1.0, "reduction_pct_ci_high": 2.0,
+             "native_minus_predictor_ci_low": -3.0, "native_minus_predictor_ci_high": -2.0}]
+    assert comparison_sentence(rows) == (
+        "On d (L = 4, paper mode, the 30 queries every matcher evaluates), SMR reduces the AOC for 0 of 4 "
+        "matcher-method pairs (the seed-0 predictor's reduction, its 95 % interval above 0); it beats the matcher's "
+        "own confidence for 1 (the native confidence removing as many matches does worse, the paired interval of the "
+        "difference below 0).")

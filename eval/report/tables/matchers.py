@@ -9,7 +9,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from vpr_smr.eval.report import names
+from vpr_smr.eval.report import bounds, names
+from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.registry import Table
 from vpr_smr.eval.report.rows import column, interval
 from vpr_smr.eval.report.tabulate import Inputs
@@ -108,22 +109,18 @@ def make_matchers(inputs: Inputs) -> list[MatchersRow] | None:
     return matcher_rows(inputs.matchers, inputs.order) if inputs.matchers else None
 
 
-def _bound(row: dict[str, Any], name: str, side: str) -> float | None:
-    value = row.get(f"{name}_ci_{side}")
-    return None if value is None or value == "" else float(value)
-
-
 def comparison_sentence(rows: Sequence[dict[str, Any]]) -> str:
     """The experiment's one sentence of one dataset, L and mode (its rows' cells): for how many matcher-method
     pairs SMR reduces the AOC (the seed-0 reduction's 95 % interval above 0), and for how many it beats the
     matcher's own confidence (the paired interval of the native confidence's reduction minus the predictor's, at
-    the same budget, below 0). A pair whose interval is undefined or holds 0 is counted in neither."""
+    the same budget, below 0). A pair whose interval is undefined or holds 0, or whose removal is degenerate (every
+    match removed, no correct one kept: ``outcome_words.direction``), is counted in neither."""
     if not rows:
         return ""
     first = rows[0]
-    reduced = sum(1 for r in rows if (low := _bound(r, names.REDUCTION, "low")) is not None and low > 0)
-    beats = sum(1 for r in rows if (high := _bound(r, "native_minus_predictor", "high")) is not None and high < 0)
-    hurts = sum(1 for r in rows if (high := _bound(r, names.REDUCTION, "high")) is not None and high < 0)
+    directions = [words.direction(r) for r in rows]
+    reduced, hurts = directions.count(1), directions.count(-1)
+    beats = sum(1 for r in rows if bounds.sign(r, "native_minus_predictor") == -1)
     harm = f"; it raises it for {hurts} (the interval below 0)" if hurts else ""
     return (f"On {first['dataset']} (L = {first['seq_len']}, {first['mode']} mode, the {first['n_queries']} queries "
             f"every matcher evaluates), SMR reduces the AOC for {reduced} of {len(rows)} matcher-method pairs (the "
