@@ -26,6 +26,7 @@ import numpy as np
 from vpr_smr.eval.matching.checks import NonFiniteError
 from vpr_smr.eval.matching.matcher import SequenceMatcher, as_matrix, block_dtype, read_columns
 from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
+from vpr_smr.eval.matching.velocity import smallest
 
 __all__ = ["attribute_engine", "block_native", "match_blocks", "smallest_scores", "split_features"]
 
@@ -62,26 +63,16 @@ def match_blocks(matcher: Matcher, matrix: Any, block_queries: int | None = None
 
 def smallest_scores(scores: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` smallest ``scores[n, r]`` of each row, ascending (equal values lowest ``r`` first), and their
-    references; ``+inf`` and ``-1`` where a row has fewer than ``count`` finite values.
-
-    A full sort of every row costs O(R log R) per query (at R = 27592, 13x a matcher's own block); the ``count``
-    smallest are found by a partition instead: every value below the row's ``count``-th smallest, then the lowest
-    references among those equal to it, then only those ``count`` sorted (stable: equal values keep ``r``'s order).
-    """
-    n_rows, n_ref = scores.shape
-    kept = min(count, n_ref)
-    if kept == 0 or np.isnan(scores).any():  # NaN has no place in the order: the sort's (NaN last) is kept
+    references; ``+inf`` and ``-1`` where a row has fewer than ``count`` finite values. The velocity search's
+    selection (``velocity.smallest``: a partition of the groups' minima, not a full sort of every row, which cost
+    13x a matcher's own block at R = 27592); a row with NaN, which has no place in that order, is sorted (NaN
+    last)."""
+    kept = min(count, scores.shape[1])
+    if np.isnan(scores).any():
         order = np.argsort(scores, axis=1, kind="stable")[:, :kept]
+        values = np.take_along_axis(scores, order, axis=1)
     else:
-        threshold = np.partition(scores, kept - 1, axis=1)[:, kept - 1 : kept]
-        below = scores < threshold
-        equal = scores == threshold
-        wanted = kept - below.sum(axis=1, keepdims=True)  # >= 1: the threshold itself is among the kept
-        chosen = below | (equal & (np.cumsum(equal, axis=1) <= wanted))
-        picked = np.nonzero(chosen)[1].reshape(n_rows, kept)  # each row's references, ascending
-        values = np.take_along_axis(scores, picked, axis=1)
-        order = np.take_along_axis(picked, np.argsort(values, axis=1, kind="stable"), axis=1)
-    values = np.take_along_axis(scores, order, axis=1)
+        values, order = smallest(scores, kept)
     width = max(count - values.shape[1], 0)
     values = np.pad(values, ((0, 0), (0, width)), constant_values=np.inf)
     references = np.where(np.isfinite(values), np.pad(order, ((0, 0), (0, width))), -1).astype(np.int64)

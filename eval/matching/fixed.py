@@ -222,7 +222,7 @@ def numpy_block_features(
     row_past_sorted, _ = select(row_past, n_ref, k, margin, lambda j, r: row_sum(j, r, seq_len - 1))
     del row_past
 
-    # The current column's smallest raw values, exact (no margin, as velocity's _smallest selects them): the single
+    # The current column's smallest raw values, exact (no margin, as velocity.smallest selects them): the single
     # candidates, the single match (the smallest, lowest index first: np.argmin's) and, where every maximum is
     # positive, the K smallest normalised values too (division by a positive number keeps the order, and each is
     # the same float64 expression as ``value``), so one selection serves all three; an underflow to 0, which could

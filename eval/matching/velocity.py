@@ -18,7 +18,7 @@ import numpy as np
 from vpr_smr.eval.matching.checks import check_finite
 from vpr_smr.eval.matching.formulas import attribute_rates, block_range, group_range, padded, select
 
-__all__ = ["block_features", "column_max", "sequence_sums"]
+__all__ = ["block_features", "column_max", "sequence_sums", "smallest"]
 
 # --- one block of query columns: the attributes along the best trajectories -------------------------------------
 
@@ -74,14 +74,14 @@ def _numpy_chunk(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min:
     rows = np.arange(w)
 
     sequence_index = np.argmin(s, axis=1)  # first index on ties
-    _, rank_index = _smallest(full, n_ranks)
-    past_sorted = _smallest(past, n_ranks)[0]
+    _, rank_index = smallest(full, n_ranks)
+    past_sorted = smallest(past, n_ranks)[0]
     row_past = np.zeros((w, n_ref))
     for k in range(seq_len - 1):
         row_past += x[k : k + w]
-    row_past_sorted = _smallest(row_past, n_ranks)[0]
+    row_past_sorted = smallest(row_past, n_ranks)[0]
     current = x[seq_len - 1 :]
-    current_sorted = _smallest(current, n_ranks)[0]
+    current_sorted = smallest(current, n_ranks)[0]
 
     past_ranked = np.take_along_axis(past, rank_index, axis=1)
     last = np.take_along_axis(current, rank_index + r_min, axis=1)  # traj[L-1] = Dn[r, a]: o_{L-1} = 0
@@ -90,8 +90,8 @@ def _numpy_chunk(raw: np.ndarray, col_max: np.ndarray, table: np.ndarray, r_min:
     group_mean = _mean(full, *group_range(rank_index, n_index))
     attributes = attribute_rates(past_sorted, row_past_sorted, current_sorted, last, past_ranked, block_mean,
                                  group_mean)
-    sequence_values, sequence_candidates = _smallest(s, n_sequence)
-    single_values, single_index = _smallest(y[seq_len - 1 :], n_single)
+    sequence_values, sequence_candidates = smallest(s, n_sequence)
+    single_values, single_index = smallest(y[seq_len - 1 :], n_single)
     return {
         "attributes": attributes,
         "rank_diagonals": rank_index.astype(np.int64),
@@ -157,7 +157,7 @@ def _best_trajectories(y: np.ndarray, x: np.ndarray | None, table: np.ndarray,
     return s, full, past, best
 
 
-def _smallest(values: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
+def smallest(values: np.ndarray, count: int) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` smallest values of each row (ascending, float64) and their column indices, equal values lowest
     index first (a stable sort's order): ``formulas.select`` on exact values (no screening margin); none for a
     ``count`` of 0."""

@@ -106,8 +106,7 @@ class BayesFilter(Matcher):
         raw = np.asarray(columns)
         if raw.ndim != 2:
             raise ValueError(f"expected a block of query columns (columns x references), got shape {raw.shape}")
-        if not np.all(np.isfinite(raw)):
-            check_finite(raw, first_column=first_column, queries_first=True)
+        check_finite(raw, first_column=first_column, queries_first=True)
         block = raw.astype(np.float64, copy=False)
         n_queries, n_ref = block.shape
         scores = np.empty((n_queries, n_ref))

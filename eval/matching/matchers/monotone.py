@@ -19,13 +19,10 @@ import numpy as np
 from vpr_smr.core.settings import setting
 from vpr_smr.eval.matching.checks import check_shape
 from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
-from vpr_smr.eval.matching.velocity import column_max
+from vpr_smr.eval.matching.velocity import CHUNK_VALUES, column_max  # CHUNK_VALUES: queries per pass
 
 __all__ = ["Monotone", "MonotoneSettings", "viterbi_scores"]
 
-# Queries per numpy pass: about this many values per (queries x references) array, so that the three arrays of a
-# pass stay in the cache (as velocity.CHUNK_VALUES)
-CHUNK_VALUES = 1 << 15
 
 
 @dataclass(frozen=True)
