@@ -136,10 +136,9 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
 def best_scorer(rows: Iterable[Mapping[str, Any]], key: str = names.REDUCTION) -> Mapping[str, Any] | None:
     """The row of the training-free scorer with the largest seed-0 ``key`` among ``rows`` (one method's, one
     mode's: as the seed-0 predictor's), the first in the registry's order on a tie; None when none is defined."""
-    candidates = [r for r in rows if r["scorer"] in scorers.training_free() and r.get(key) is not None]
-    if not candidates:
-        return None
-    return max(candidates, key=lambda r: (r[key], -scorers.names().index(r["scorer"])))
+    by_scorer = {r["scorer"]: r for r in rows}
+    best = scorers.best_training_free({name: row.get(key) for name, row in by_scorer.items()})
+    return None if best is None else by_scorer[best]
 
 
 def _groups(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, int, str], list[Mapping[str, Any]]]:

@@ -218,11 +218,9 @@ def score_matcher(features: QueryFeatures, predictors: Sequence[SMRPredictor], p
                          f"they hold {', '.join(found.detection)}")
     assert found.removal is not None and found.versus_predictor is not None  # predictions were given
     budget = found.removal[0].scorers
-    free = [name for name in scorers.training_free() if name in budget]
     out = {}
     for mode in modes:
-        defined = [name for name in free if budget[name].modes[mode].reduction_pct is not None]
-        best = max(defined, key=lambda name: budget[name].modes[mode].reduction_pct or 0.0, default=None)
+        best = scorers.best_training_free({name: removal.modes[mode].reduction_pct for name, removal in budget.items()})
         numbers = split.modes[mode]
         out[mode] = MatcherMode(
             numbers.recall_at_1_single, numbers.recall_at_1_sequence, numbers.reduction, split.seed_summary[mode],

@@ -9,7 +9,7 @@ and description) reads ``REGISTRY`` when it runs, so a new scorer is one more en
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Literal
 
@@ -210,6 +210,13 @@ def names() -> tuple[str, ...]:
 def training_free() -> tuple[str, ...]:
     """The names of the training-free scorers (kind ``training-free``), in the registry's order."""
     return tuple(s.name for s in REGISTRY if s.kind == "training-free")
+
+
+def best_training_free(values: Mapping[str, float | None]) -> str | None:
+    """The training-free scorer with the largest defined value among ``values`` (scorer name -> e.g. its reduction
+    at the predictor's budget), the first in the registry's order on a tie; None when none is defined."""
+    defined = [name for name in training_free() if values.get(name) is not None]
+    return max(defined, key=lambda name: float(values[name] or 0.0), default=None)
 
 
 def scorer(name: str) -> Scorer:

@@ -99,3 +99,13 @@ def test_one_more_entry_reaches_everything(monkeypatch, tmp_path):
     bars = [c for c in ax.containers if c.get_label() == "single_distance"]
     assert bars and all(patch.get_facecolor() == to_rgba("tab:red") for patch in bars[0])
     figures._pyplot().close(drawn["fig"])
+
+
+def test_the_best_training_free_scorer_by_hand():
+    from vpr_smr.eval.scoring.scorers import best_training_free
+
+    # oracle and predictor are not training-free; spread and native tie at 7: spread comes first in the registry
+    values = {"oracle": 100.0, "predictor": 50.0, "uniqueness": 3.0, "native": 7.0, "spread": 7.0, "random": None}
+    assert best_training_free(values) == "spread"
+    assert best_training_free({"distance": -2.0, "uniqueness": None}) == "distance"  # a negative one is the best
+    assert best_training_free({"oracle": 1.0, "uniqueness": None}) is None
