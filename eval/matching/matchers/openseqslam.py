@@ -100,7 +100,7 @@ class OpenSeqSLAM(Matcher):
 
     @property
     def lookback(self) -> int:
-        return self.ds // 2 if self.centred else self.ds
+        return self.offset  # the window's first column is the query's minus the match's offset from its start
 
     @property
     def lookahead(self) -> int:
