@@ -225,18 +225,18 @@ def check_live(matcher: Matcher) -> None:
     columns after its query (a centred window: the setting ``alignment: trailing`` where it has one), it prepares
     its state from a pass over the whole split (``Matcher.prepare``), or its native confidence is a §12 scorer
     other than ``uniqueness``, which a frame's scores do not give."""
-    record = matcher.settings
-    settings = dataclasses.asdict(record) if dataclasses.is_dataclass(record) and not isinstance(record, type) else {}
-    if matcher.lookahead > 0:
-        fix = ("give it the setting alignment: trailing (its window ends at the query)" if "alignment" in settings
-               else "give it settings whose window ends at the query, or match the recorded traverse in batch")
-        raise ValueError(f"the matcher {matcher.name!r} reads {matcher.lookahead} columns after its query (a "
-                         f"centred window): a LiveMatcher has no frame to come; {fix}")
-    base = getattr(Matcher, "prepare", None)
-    if getattr(type(matcher), "prepare", base) is not base:
+    # first: a matcher that needs the whole split (openseqslam, either alignment) is told so, not sent to a
+    # setting that would not help
+    if type(matcher).prepare is not Matcher.prepare:
         raise ValueError(f"the matcher {matcher.name!r} prepares its state from a pass over the whole split before "
                          "its first block (its prepare): a LiveMatcher has no frame to come; match the recorded "
                          "traverse in batch (vpr-smr attributes)")
+    if matcher.lookahead > 0:
+        fix = ("give it the setting alignment: trailing (its window ends at the query)"
+               if hasattr(matcher.settings, "alignment")
+               else "give it settings whose window ends at the query, or match the recorded traverse in batch")
+        raise ValueError(f"the matcher {matcher.name!r} reads {matcher.lookahead} columns after its query (a "
+                         f"centred window): a LiveMatcher has no frame to come; {fix}")
     if matcher.native_scorer not in (None, LIVE_NATIVE_SCORER):
         raise ValueError(f"the matcher {matcher.name!r} names the scorer {matcher.native_scorer!r} as its native "
                          f"confidence, which a frame's own scores do not give: a LiveMatcher gives its own "
