@@ -131,6 +131,13 @@ def matchers_path(run: Path | str, dataset: str, method: str, seq_len: int | str
     return f"{run}/matchers/{dataset}/{method}/L{seq_len}.json"
 
 
+def adaptive_path(run: Path | str, dataset: str, tag: str, method: str) -> str:
+    """The experiment ``adaptive_seq_len`` of one dataset, matcher (its tag, as the experiment ``matchers`` names
+    it) and method (``eval.scoring.adaptive``), every length of the run, e.g. ``adaptive/nordland/seqslam/sad.json``;
+    its live timings beside it (``timing_path``)."""
+    return f"{run}/adaptive/{dataset}/{tag}/{method}.json"
+
+
 def log_path(run: Path | str, output: Path | str) -> str:
     """The log of the job writing ``output`` (a path under ``run``): ``logs/`` plus its place in the run, ``.log``."""
     prefix = f"{run}/"

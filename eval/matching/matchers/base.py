@@ -67,6 +67,13 @@ class Matcher(ABC):
         return (1.0,)
 
     @property
+    def score_frames(self) -> int:
+        """How many frames a score ``s_a[r]`` sums (``L`` for a sum along the sequence): ``s_a[r] / score_frames``
+        is its per-frame value, which compares the matches of two sequence lengths (the adaptive sequence length,
+        method §15); 1 for a score that is no sum over the sequence (a filter's belief)."""
+        return self.seq_len
+
+    @property
     @abstractmethod
     def lookback(self) -> int:
         """Columns before an evaluated query that its match reads (``L - 1`` for a trailing window)."""

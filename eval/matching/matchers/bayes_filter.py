@@ -84,6 +84,10 @@ class BayesFilter(Matcher):
         return record
 
     @property
+    def score_frames(self) -> int:
+        return 1  # a belief's -log, no sum along a sequence
+
+    @property
     def lookback(self) -> int:
         return 0
 

@@ -99,6 +99,10 @@ class OpenSeqSLAM(Matcher):
         return record
 
     @property
+    def score_frames(self) -> int:
+        return self.ds + 1  # a trajectory visits the columns start .. start + ds
+
+    @property
     def lookback(self) -> int:
         return self.offset  # the window's first column is the query's minus the match's offset from its start
 
