@@ -187,6 +187,9 @@ class Experiments:
     matchers: bool = setting(True, "method §14: each matcher of `matchers` with its own predictor at table_seq_len: "
                                    "Table I's numbers, the best training-free scorer and the matcher's own "
                                    "confidence, on the queries every matcher evaluates")
+    adaptive_seq_len: bool = setting(True, "method §15: the sequence length chosen per query by each length's "
+                                           "predictor (or uniqueness) against every fixed length, for every "
+                                           "matcher of the run (needs two or more seq_lens)")
 
 
 # The sections of a configuration that are settings records (core.settings): their part of config_schema.json (the
@@ -412,6 +415,8 @@ def experiments(conf: Config) -> set[str]:
         names.add("protocol_sweep")
     if chosen.matchers:
         names.add("matchers")
+    if chosen.adaptive_seq_len and len(conf.seq_lens) > 1:
+        names.add("adaptive_seq_len")
     return names
 
 
