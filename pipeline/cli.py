@@ -290,6 +290,20 @@ def cmd_compare_matchers(args: argparse.Namespace) -> None:
         args.ground_truth_key, allow_split_overlap=args.allow_split_overlap)
 
 
+def cmd_adaptive(args: argparse.Namespace) -> None:
+    from vpr_smr.eval.scoring import adaptive
+
+    attributes: dict[str, list[str]] = {}
+    for item in args.attributes:
+        split, path = next(iter(_split_paths([item]).items()))
+        attributes.setdefault(split, []).append(path)
+    result = adaptive.main(
+        args.dataset, args.method, attributes, args.predictors, args.split, args.out, args.validation,
+        args.distances, args.seeds, _baseline_settings(args), tuple(args.modes), args.matcher_tag,
+        allow_split_overlap=args.allow_split_overlap)
+    print(adaptive.text_table(result, adaptive.read_timing(args.out)))
+
+
 def cmd_inspect(args: argparse.Namespace) -> None:
     from vpr_smr.eval.report import inspector
 
@@ -463,6 +477,7 @@ OUT_FILES = {
     "baselines": ("the training-free baselines (JSON)", JSON_SUFFIXES),
     "speed": ("the speed experiment's result (JSON)", JSON_SUFFIXES),
     "compare-matchers": ("the matchers experiment's result (JSON)", JSON_SUFFIXES),
+    "adaptive": ("the adaptive sequence length's result (JSON; its timing goes beside it)", JSON_SUFFIXES),
 }
 
 
@@ -865,6 +880,32 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
     p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
     _allow_overlap(p)
     p.set_defaults(func=cmd_compare_matchers)
+
+    p = sub.add_parser("adaptive", help="the sequence length chosen per query (method §15): each rule against every "
+                                        "fixed length with and without its predictor; prints the table",
+                       epilog="e.g. vpr-smr adaptive --attributes test=L2/test.h5 test=L4/test.h5 val=L2/val.h5 "
+                              "val=L4/val.h5 --predictors L2.h5 L4.h5 --split test --validation val --distances "
+                              "test.h5 --out adaptive.json")
+    p.add_argument("--attributes", nargs="+", required=True, metavar="SPLIT=PATH",
+                   help="the attributes files (vpr-smr attributes) of every sequence length, each given as SPLIT=PATH: "
+                        "the table split's, and the validation split's for adaptive_uniqueness; each file records "
+                        "its length")
+    p.add_argument("--predictors", nargs="+", required=True, metavar="PATH",
+                   help="one predictor per length, its seed-0 file (vpr-smr train); the other seeds' files beside it "
+                        "(L4.seed1.h5, ...) are read too")
+    p.add_argument("--seeds", type=int, help="the seeds to read per length (default: every seed file found)")
+    p.add_argument("--split", required=True, help="the split to score (the table split)")
+    p.add_argument("--validation", help="the validation split: adaptive_uniqueness's threshold is chosen there")
+    p.add_argument("--distances", metavar="PATH",
+                   help="the table split's distance file: the live matcher's time per query (none without it)")
+    p.add_argument("--dataset", default="dataset", help="the dataset's name in the result")
+    p.add_argument("--method", default="method", help="the method's name in the result")
+    p.add_argument("--matcher-tag", help="the matcher's name in the result (default: its registry name)")
+    _required(p, "--out")
+    _baseline_options(p, switch=False)
+    p.add_argument("--modes", nargs="+", default=schema_default("modes"), choices=MODES)
+    _allow_overlap(p)
+    p.set_defaults(func=cmd_adaptive)
 
     p = sub.add_parser("inspect", help="the match inspector: sampled queries with their matches, and the distance "
                                        "matrix with the kept and removed sequence matches (two PNGs)",

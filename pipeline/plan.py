@@ -199,17 +199,28 @@ def _training_problems(conf: Config, train: tuple[int, int]) -> list[str]:
                              smote=conf.predictor.smote, split=conf.train_split)
 
 
+def _experiment_off(conf: Config, seq_len: int) -> str:
+    """The other way out for a compared matcher that cannot match a split at ``seq_len``: the experiment that runs
+    it there off."""
+    if seq_len == conf.table_seq_len:
+        return " (or switch the experiment off: experiments.matchers: false)"
+    return (" (or switch the experiment off: experiments.adaptive_seq_len: false, which runs the compared matchers at "
+            "every length of seq_lens)")
+
+
 def _matcher_problems(conf: Config, name: str, pair: Any, splits: list[str]) -> list[str]:
     """Whether the matcher (``sequence_matching``) can match every split at every ``L`` of ``seq_lens``, and each
-    matcher the experiment ``matchers`` compares every split at ``table_seq_len``: its own ``Matcher.check`` on the
+    matcher the experiment ``matchers`` compares every split at ``table_seq_len`` (at every ``L`` with the
+    experiment ``adaptive_seq_len``, which runs them all there): its own ``Matcher.check`` on the
     split's shape, references x queries (SeqSLAM's velocity search needs its slowest trajectory's references,
     method §11; a centred window more queries than ``L``). Only what the sequence-length check does not already
     say: splits of at least ``L`` references and queries. The matchers' settings were checked with the
     configuration (``Matcher.settings_of``)."""
     checks = [(conf.sequence_matching, conf.seq_lens, "sequence_matching")]
-    if "matchers" in experiments(conf):
-        checks += [(spec, (conf.table_seq_len,), "matchers") for spec in conf.matchers
-                   if spec != conf.sequence_matching]
+    chosen = experiments(conf)
+    if "matchers" in chosen:
+        lengths = conf.seq_lens if "adaptive_seq_len" in chosen else (conf.table_seq_len,)
+        checks += [(spec, lengths, "matchers") for spec in conf.matchers if spec != conf.sequence_matching]
     problems = []
     for spec, seq_lens, setting in checks:
         for split in splits:
@@ -225,8 +236,7 @@ def _matcher_problems(conf: Config, name: str, pair: Any, splits: list[str]) -> 
                                     f"[{q_lo}, {q_hi})) cannot be matched by the matcher {spec} ({setting}) at "
                                     f"sequence length {seq_len}: {error}; lengthen the split (its reference or query "
                                     f"range), or change {setting}"
-                                    + (" (or switch the experiment off: experiments.matchers: false)"
-                                       if setting == "matchers" else ""))
+                                    + (_experiment_off(conf, seq_len) if setting == "matchers" else ""))
                     break
     return problems
 

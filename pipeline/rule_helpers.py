@@ -175,6 +175,35 @@ def experiment_predictors(out: str, conf: Config, tag: str, dataset: str, seq_le
     return matcher_predictor_paths(out, dataset, tag, seq_len, conf.seeds)
 
 
+def adaptive_matchers(conf: Config, chosen: set[str]) -> dict[str, MatcherSpec]:
+    """The experiment ``adaptive_seq_len``'s matchers by tag: the run's own (``sequence_matching``), then, with the
+    experiment ``matchers`` on (``chosen``: ``config.experiments``), each matcher it compares, in its order."""
+    from vpr_smr.eval.scoring.matcher_comparison import matcher_tag
+
+    specs = {matcher_tag(conf.sequence_matching): conf.sequence_matching}
+    if "matchers" in chosen:
+        for spec in conf.matchers:
+            specs.setdefault(matcher_tag(spec), spec)
+    return specs
+
+
+def adaptive_files(out: str, conf: Config, spec: MatcherSpec, tag: str, dataset: str, method: str, split: str
+                   ) -> list[str]:
+    """One matcher's attributes of ``method`` on ``split`` at every ``L`` of ``seq_lens``: the run's own files for
+    the run's matcher, else the experiment ``matchers``' (``matcher_attributes_path``)."""
+    if spec == conf.sequence_matching:
+        return [attributes_path(out, dataset, method, seq_len, split) for seq_len in conf.seq_lens]
+    return [matcher_attributes_path(out, dataset, tag, method, seq_len, split) for seq_len in conf.seq_lens]
+
+
+def adaptive_predictors(out: str, conf: Config, spec: MatcherSpec, tag: str, dataset: str) -> list[str]:
+    """One matcher's predictors at every ``L`` of ``seq_lens``, each length's seeds together, seed 0 first."""
+    if spec == conf.sequence_matching:
+        return [path for seq_len in conf.seq_lens for path in predictor_paths(out, dataset, seq_len, conf.seeds)]
+    return [path for seq_len in conf.seq_lens
+            for path in matcher_predictor_paths(out, dataset, tag, seq_len, conf.seeds)]
+
+
 def experiment_inputs(out: str, conf: Config, dataset: str, method: str, seq_len: int | str) -> dict[str, Any]:
     """The experiment's ``--inputs`` of one method (``matcher_comparison.read_inputs``): per compared matcher its
     table and validation split's attributes of ``method`` and its predictors, and the fixed matcher's validation

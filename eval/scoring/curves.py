@@ -168,12 +168,14 @@ UNDEFINED = (NO_CORRECT_MATCH, *LOST_ALL, NOTHING_TO_REDUCE, WORSE_FROM_ZERO)  #
 HARMFUL = (*LOST_ALL, WORSE_FROM_ZERO)
 
 
-def outcome(n_queries: int, removed: int, comparison: Comparison) -> str:
+def outcome(n_queries: int, removed: int, comparison: Comparison, same_matches: bool = True) -> str:
     """What removing ``removed`` of ``n_queries`` matches did, by the first that applies: no match correct to
     begin with; every match removed; none correct kept (maximum recall 0); both AOCs 0 (nothing to reduce); the
     baseline's AOC 0 and the predictor's not (worse, the percentage undefined); nothing removed (a reduction of 0);
     else improved or worse by the sign of the reduction, unchanged when its magnitude is below ``UNCHANGED_PCT``.
-    The reduction is undefined (None) exactly for the outcomes of ``UNDEFINED``."""
+    The reduction is undefined (None) exactly for the outcomes of ``UNDEFINED``. ``same_matches`` False: the
+    compared curve's matches are not the baseline's (another sequence length's, method §15), so keeping every one of
+    them still changes the curve: never ``KEPT_ALL``."""
     if comparison.max_recall_baseline <= 0:
         return NO_CORRECT_MATCH
     if n_queries > 0 and removed >= n_queries:
@@ -182,7 +184,7 @@ def outcome(n_queries: int, removed: int, comparison: Comparison) -> str:
         return KEPT_NONE_CORRECT
     if comparison.reduction_pct is None:
         return WORSE_FROM_ZERO if comparison.aoc_predictor > AOC_ZERO else NOTHING_TO_REDUCE
-    if removed == 0:
+    if removed == 0 and same_matches:
         return KEPT_ALL
     if abs(comparison.reduction_pct) < UNCHANGED_PCT:
         return UNCHANGED

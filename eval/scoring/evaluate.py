@@ -31,6 +31,7 @@ from vpr_smr.eval.matching.attributes import (
 from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
 from vpr_smr.eval.scoring.curves import (
+    Comparison,
     Curve,
     compare_curves,
     curve,
@@ -84,14 +85,19 @@ def compare_removal(features: QueryFeatures, mode: str, keep: np.ndarray, interv
     s_range = (features.sequence_min, features.sequence_max)
     baseline = curve(mode, distances, correct, keep_mask(n=n), *s_range)
     kept = curve(mode, distances, correct, keep, *s_range)
-    comparison = compare_curves(baseline, kept)
-    reduction = Reduction(comparison.max_recall, comparison.auc_baseline, comparison.auc_predictor,
-                          comparison.aoc_baseline, comparison.aoc_predictor, comparison.reduction_pct,
-                          comparison.max_recall_baseline, comparison.aoc_baseline_own,
-                          outcome(n, int((~keep).sum()), comparison))
+    reduction = reduction_of(compare_curves(baseline, kept), n, int((~keep).sum()))
     if intervals:
         reduction = with_intervals(reduction, removal_draws(features, mode, [keep])[0])
     return baseline, kept, reduction
+
+
+def reduction_of(comparison: Comparison, n_queries: int, removed: int, same_matches: bool = True) -> Reduction:
+    """Table I's numbers of one comparison of curves (``curves.compare_curves``), with the removal's ``outcome``
+    (``same_matches``: as ``curves.outcome`` takes it)."""
+    return Reduction(comparison.max_recall, comparison.auc_baseline, comparison.auc_predictor,
+                     comparison.aoc_baseline, comparison.aoc_predictor, comparison.reduction_pct,
+                     comparison.max_recall_baseline, comparison.aoc_baseline_own,
+                     outcome(n_queries, removed, comparison, same_matches))
 
 
 def removal_draws(features: QueryFeatures, mode: str, keeps: Sequence[np.ndarray]) -> list[WeightedComparison]:
@@ -169,9 +175,14 @@ def seed_summary(seeds: Sequence[SeedNumbers]) -> dict[str, SeedSummary]:
     """Per mode: mean, sample standard deviation (ddof 1; None under two seeds), min and max of ``reduction_pct`` over
     the ``n_seeds_defined`` of the ``n_seeds`` seeds where it is defined (all None when it is nowhere), and every
     seed's outcome, which says why a seed is left out."""
+    return summarise_seeds({s.seed: s.modes for s in seeds})
+
+
+def summarise_seeds(seeds: Mapping[int, Mapping[str, Reduction]]) -> dict[str, SeedSummary]:
+    """``seed_summary`` of every seed's reductions per mode (seed -> mode -> its numbers), in the mapping's order."""
     out = {}
-    for mode in seeds[0].modes:
-        reductions = [s.modes[mode].reduction_pct for s in seeds]
+    for mode in next(iter(seeds.values())):
+        reductions = [numbers[mode].reduction_pct for numbers in seeds.values()]
         values = np.array([v for v in reductions if v is not None], dtype=np.float64)
         defined = len(values) > 0
         out[mode] = SeedSummary(
@@ -181,7 +192,7 @@ def seed_summary(seeds: Sequence[SeedNumbers]) -> dict[str, SeedSummary]:
             reduction_pct_std=float(values.std(ddof=1)) if len(values) > 1 else None,
             reduction_pct_min=float(values.min()) if defined else None,
             reduction_pct_max=float(values.max()) if defined else None,
-            outcomes={s.seed: s.modes[mode].outcome for s in seeds},
+            outcomes={seed: numbers[mode].outcome for seed, numbers in seeds.items()},
         )
     return out
 

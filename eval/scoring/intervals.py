@@ -236,6 +236,41 @@ def comparison_draws(mode: str, distances: np.ndarray, correct: np.ndarray, keep
     return [joined[index] for index in which]
 
 
+@dataclass(frozen=True)
+class Scored:
+    """One removal's matches, as a curve takes them (``curves.curve``): per query its distance, correctness and
+    whether it is kept, and the paper grid's range."""
+
+    distances: np.ndarray
+    correct: np.ndarray
+    keep: np.ndarray
+    sequence_min: float
+    sequence_max: float
+
+
+def paired_draws(mode: str, baseline: Scored, rows: Sequence[Scored]) -> list[WeightedComparison]:
+    """``curves.compare_curves(baseline, row)`` of each of ``rows`` on every draw of the queries (all NaN without
+    queries): unlike ``comparison_draws``, each row has its own matches (e.g. the matches of another sequence length
+    per query), the queries the same, so that the differences between rows are paired."""
+    n = len(baseline.distances)
+    if n == 0:
+        nothing = np.full(RESAMPLES, np.nan)
+        return [WeightedComparison(nothing, nothing, nothing) for _ in rows]
+
+    def weighted(scored: Scored, weights: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return weighted_curve(mode, scored.distances, scored.correct, scored.keep, weights, scored.sequence_min,
+                              scored.sequence_max)
+
+    blocks: list[list[WeightedComparison]] = [[] for _ in rows]
+    for weights in query_weights(n):
+        base = weighted(baseline, weights)
+        for found, row in zip(blocks, rows, strict=True):
+            found.append(_compared(base, weighted(row, weights)))
+    return [WeightedComparison(*(np.concatenate([getattr(block, name) for block in found])
+                                 for name in ("aoc_baseline", "aoc_predictor", "reduction_pct")))
+            for found in blocks]
+
+
 def weighted_restoration_reduction(mode: str, distances: np.ndarray, removal: tuple[np.ndarray, np.ndarray],
                                    restoration: tuple[np.ndarray, np.ndarray], weights: np.ndarray,
                                    sequence_min: float, sequence_max: float) -> np.ndarray:
