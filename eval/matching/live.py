@@ -33,11 +33,12 @@ import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_R_WINDOW, KEPT_CLASSES, candidates_needed, half_window
 from vpr_smr.eval.matching.attributes import Matching, built_matcher, check_matching
+from vpr_smr.eval.matching.checks import check_finite
 from vpr_smr.eval.matching.confidence import uniqueness
 from vpr_smr.eval.matching.distances import distance_columns, prepare_references
 from vpr_smr.eval.matching.features import attribute_engine, block_native, smallest_scores
 from vpr_smr.eval.matching.matchers import MatcherSpec
-from vpr_smr.eval.matching.matchers.base import Matcher
+from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 
 LIVE_NATIVE_SCORER = "uniqueness"  # the one §12 scorer a frame's own scores give (the others need more than them)
 
@@ -92,7 +93,8 @@ class LiveMatcher:
         if references is not None:
             assert distance is not None  # refused above
             self.references = prepare_references(references, distance)
-        self._buffer: np.ndarray | None = None  # (L, R) ring of the last L columns
+        self._buffer: np.ndarray | None = None  # (frames_needed, R) ring of the last columns
+        self._own: MatchBlock | None = None  # the last pushed frame's block, for a matcher with its own
         self.frames = 0
         # set by from_descriptors: the file's method and its settings (to build the same backend for new frames)
         self.method: str | None = None
@@ -161,29 +163,52 @@ class LiveMatcher:
         return self.step_distances(distance_columns(self.references, query, self.distance)[:, 0])
 
     def step_distances(self, column: np.ndarray) -> LiveResult | None:
-        """Feed one column of D (the current query's distance to every reference, length R)."""
+        """Feed one column of D (the current query's distance to every reference, length R): ``push`` then
+        ``current``."""
+        self.push(column)
+        return self.current()
+
+    @property
+    def frames_needed(self) -> int:
+        """Frames fed before the first result: the attributes' window of ``L`` columns and the matcher's."""
+        return max(self.seq_len, self.matcher.lookback + 1)
+
+    def check_column(self, column: np.ndarray) -> np.ndarray:
+        """``column`` as an array, or ValueError when ``push`` could not take it (nothing is written)."""
         column = np.asarray(column)
         if column.ndim != 1:
             raise ValueError(f"a distance column must be 1-D (one value per reference), got shape {column.shape}")
-        lookback = self.matcher.lookback
-        kept = max(self.seq_len, lookback + 1)  # the attributes' window and the matcher's
         if self._buffer is None:
-            n_ref = len(column)
-            if n_ref < self.seq_len:
-                raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}")
-            self.engine.check_references(n_ref)
-            dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
-            self._buffer = np.empty((kept, n_ref), dtype=dtype)
-        if len(column) != self._buffer.shape[1]:
+            if len(column) < self.seq_len:
+                raise ValueError(f"{len(column)} references are too few for sequence length {self.seq_len}")
+            self.engine.check_references(len(column))
+        elif len(column) != self._buffer.shape[1]:
             raise ValueError(f"expected {self._buffer.shape[1]} distances (one per reference), got {len(column)}")
+        check_finite(column[:, None], "distance column", first_column=self.frames)  # refused before it is kept
+        return column
+
+    def push(self, column: np.ndarray) -> None:
+        """Take one column of D into the window; a matcher with its own block (a filter) matches the frame now,
+        since its state must advance every frame whether or not ``current`` is asked."""
+        column = self.check_column(column)
+        lookback, kept = self.matcher.lookback, self.frames_needed  # kept: the attributes' window and the matcher's
+        if self._buffer is None:
+            dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
+            self._buffer = np.empty((kept, len(column)), dtype=dtype)
         self._buffer[self.frames % kept] = column
         self.frames += 1
-        own = None  # a matcher other than seqslam: its match of this frame, its state carried from the last
+        self._own = None  # a matcher other than seqslam: its match of this frame, its state carried from the last
         if not self.matcher.scores_are_attribute_sums and self.frames > lookback:
             columns = self._buffer[np.arange(self.frames - lookback - 1, self.frames) % kept]
-            own, self._state = self.matcher.block(columns, self.frames - lookback - 1, self._state)
-        if self.frames < self.seq_len or self.frames <= lookback:  # no window of L columns, or no match yet
+            self._own, self._state = self.matcher.block(columns, self.frames - lookback - 1, self._state)
+
+    def current(self) -> LiveResult | None:
+        """The last pushed frame's matches, attributes, native confidence and prediction; None until
+        ``frames_needed`` frames were pushed (no window of L columns, or no match yet). It only reads what ``push``
+        kept, so asking twice gives the same result."""
+        if self._buffer is None or self.frames < self.frames_needed:
             return None
+        kept, own = self.frames_needed, self._own
         window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % kept]
         n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.engine.first_reference)
         first = self.frames - self.seq_len  # the window's first frame: errors name frames, not window rows
