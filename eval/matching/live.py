@@ -20,6 +20,17 @@ and that distance from a descriptor file of the pipeline, so the live matches ar
         result = matcher.step(descriptor)      # None for the first L - 1 frames
         if result is not None and result.keep:
             use(result.sequence_match)
+
+``AdaptiveLiveMatcher`` chooses the sequence length per frame (method §15): every length's window takes every frame,
+then the lengths are asked shortest first and the first whose predictor keeps the match is chosen; the longer ones
+cost nothing that frame. The choice is ``adaptive.first_accepted``'s, the batch experiment's rule.
+
+    predictors = [SMRPredictor.load(f"L{length}.h5") for length in (2, 4, 8)]
+    matcher = AdaptiveLiveMatcher.from_descriptors("descriptors.h5", lengths=(2, 4, 8), predictors=predictors)
+    for descriptor in camera_descriptors:
+        result = matcher.step(descriptor)      # None for the first 8 - 1 frames
+        if result is not None and result.seq_len is not None:   # None: no length's predictor kept the match
+            use(result.result.sequence_match)  # matched over result.seq_len frames; result.computed: lengths asked
 """
 
 from __future__ import annotations
