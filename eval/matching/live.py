@@ -20,6 +20,17 @@ and that distance from a descriptor file of the pipeline, so the live matches ar
         result = matcher.step(descriptor)      # None for the first L - 1 frames
         if result is not None and result.keep:
             use(result.sequence_match)
+
+``AdaptiveLiveMatcher`` chooses the sequence length per frame (method §15): every length's window takes every frame,
+then the lengths are asked shortest first and the first whose predictor keeps the match is chosen; the longer ones
+cost nothing that frame. The choice is ``adaptive.first_accepted``'s, the batch experiment's rule.
+
+    predictors = [SMRPredictor.load(f"L{length}.h5") for length in (2, 4, 8)]
+    matcher = AdaptiveLiveMatcher.from_descriptors("descriptors.h5", lengths=(2, 4, 8), predictors=predictors)
+    for descriptor in camera_descriptors:
+        result = matcher.step(descriptor)      # None for the first 8 - 1 frames
+        if result is not None and result.seq_len is not None:   # None: no length's predictor kept the match
+            use(result.result.sequence_match)  # matched over result.seq_len frames; result.computed: lengths asked
 """
 
 from __future__ import annotations
@@ -32,12 +43,14 @@ from typing import Any
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_R_WINDOW, KEPT_CLASSES, candidates_needed, half_window
+from vpr_smr.eval.matching.adaptive import NONE, first_accepted
 from vpr_smr.eval.matching.attributes import Matching, built_matcher, check_matching
+from vpr_smr.eval.matching.checks import check_finite
 from vpr_smr.eval.matching.confidence import uniqueness
 from vpr_smr.eval.matching.distances import distance_columns, prepare_references
 from vpr_smr.eval.matching.features import attribute_engine, block_native, smallest_scores
 from vpr_smr.eval.matching.matchers import MatcherSpec
-from vpr_smr.eval.matching.matchers.base import Matcher
+from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 
 LIVE_NATIVE_SCORER = "uniqueness"  # the one §12 scorer a frame's own scores give (the others need more than them)
 
@@ -80,19 +93,13 @@ class LiveMatcher:
         self.window = half_window(r_window)
         self.engine = attribute_engine(self.matcher)  # the attributes' trajectories
         self._state = self.matcher.initial_state()
-        if references is not None and distance is None:
-            raise ValueError("LiveMatcher with references needs distance=, the metric of the descriptors' method "
-                             "('mad' for sad, 'l2' for the learned backends, or the method's distance setting); "
-                             "LiveMatcher.from_descriptors(path, seq_len) reads both from a descriptor file")
+        self.references = _prepared_references(references, distance, "LiveMatcher", "path, seq_len")
         self.seq_len = seq_len
         self.distance = distance
         self.predictor = predictor  # checked against the matcher (the property's setter)
         self.n_ranks = n_ranks
-        self.references: np.ndarray | None = None
-        if references is not None:
-            assert distance is not None  # refused above
-            self.references = prepare_references(references, distance)
-        self._buffer: np.ndarray | None = None  # (L, R) ring of the last L columns
+        self._buffer: np.ndarray | None = None  # (frames_needed, R) ring of the last columns
+        self._own: MatchBlock | None = None  # the last pushed frame's block, for a matcher with its own
         self.frames = 0
         # set by from_descriptors: the file's method and its settings (to build the same backend for new frames)
         self.method: str | None = None
@@ -126,27 +133,7 @@ class LiveMatcher:
         file's (``descriptors.extract.build_backend(matcher.method, matcher.method_settings)`` describes new frames
         alike).
         """
-        import json
-
-        import h5py
-
-        path = Path(path)
-        if not path.is_file():
-            raise FileNotFoundError(f"descriptor file not found: {path} (compute it with vpr-smr descriptors)")
-        if not h5py.is_hdf5(path):
-            raise ValueError(f"{path} is not HDF5: give a descriptor file written by vpr-smr descriptors")
-        with h5py.File(path, "r") as f:
-            if "reference" not in f or "distance" not in f.attrs:
-                raise ValueError(f"{path} lacks the 'reference' descriptors or the 'distance' attribute: give a "
-                                 "descriptor file written by vpr-smr descriptors (or compute it again)")
-            stored = _text(f.attrs["distance"])
-            method = _text(f.attrs.get("method", "?"))
-            settings = json.loads(_text(f.attrs["method_conf"])) if "method_conf" in f.attrs else None
-            n_frames = len(f["reference"])
-            lo, hi = (0, n_frames) if frames is None else (int(frames[0]), int(frames[1]))
-            if not 0 <= lo < hi <= n_frames:
-                raise ValueError(f"{path}: frames {lo}..{hi - 1} are outside its {n_frames} reference frames")
-            references = f["reference"][lo:hi]
+        references, stored, method, settings = _read_references(path, frames)
         live = cls(seq_len, references=references, predictor=predictor, distance=distance or stored,
                    n_ranks=n_ranks, matcher=matcher)
         live.method, live.method_settings = method, settings
@@ -157,33 +144,55 @@ class LiveMatcher:
         if self.references is None:
             raise ValueError("LiveMatcher.step needs references=...; or feed distances with step_distances(column)")
         assert self.distance is not None  # given whenever references are (__init__ refuses them without it)
-        query = np.asarray(query_descriptor, dtype=np.float32).reshape(1, -1)
-        return self.step_distances(distance_columns(self.references, query, self.distance)[:, 0])
+        return self.step_distances(_query_column(self.references, query_descriptor, self.distance))
 
     def step_distances(self, column: np.ndarray) -> LiveResult | None:
-        """Feed one column of D (the current query's distance to every reference, length R)."""
+        """Feed one column of D (the current query's distance to every reference, length R): ``push`` then
+        ``current``."""
+        self.push(column)
+        return self.current()
+
+    @property
+    def frames_needed(self) -> int:
+        """Frames fed before the first result: the attributes' window of ``L`` columns and the matcher's."""
+        return max(self.seq_len, self.matcher.lookback + 1)
+
+    def check_column(self, column: np.ndarray) -> np.ndarray:
+        """``column`` as an array, or ValueError when ``push`` could not take it (nothing is written)."""
         column = np.asarray(column)
         if column.ndim != 1:
             raise ValueError(f"a distance column must be 1-D (one value per reference), got shape {column.shape}")
-        lookback = self.matcher.lookback
-        kept = max(self.seq_len, lookback + 1)  # the attributes' window and the matcher's
         if self._buffer is None:
-            n_ref = len(column)
-            if n_ref < self.seq_len:
-                raise ValueError(f"{n_ref} references are too few for sequence length {self.seq_len}")
-            self.engine.check_references(n_ref)
-            dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
-            self._buffer = np.empty((kept, n_ref), dtype=dtype)
-        if len(column) != self._buffer.shape[1]:
+            if len(column) < self.seq_len:
+                raise ValueError(f"{len(column)} references are too few for sequence length {self.seq_len}")
+            self.engine.check_references(len(column))
+        elif len(column) != self._buffer.shape[1]:
             raise ValueError(f"expected {self._buffer.shape[1]} distances (one per reference), got {len(column)}")
+        check_finite(column[:, None], "distance column", first_column=self.frames)  # refused before it is kept
+        return column
+
+    def push(self, column: np.ndarray) -> None:
+        """Take one column of D into the window; a matcher with its own block (a filter) matches the frame now,
+        since its state must advance every frame whether or not ``current`` is asked."""
+        column = self.check_column(column)
+        lookback, kept = self.matcher.lookback, self.frames_needed  # kept: the attributes' window and the matcher's
+        if self._buffer is None:
+            dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
+            self._buffer = np.empty((kept, len(column)), dtype=dtype)
         self._buffer[self.frames % kept] = column
         self.frames += 1
-        own = None  # a matcher other than seqslam: its match of this frame, its state carried from the last
+        self._own = None  # a matcher other than seqslam: its match of this frame, its state carried from the last
         if not self.matcher.scores_are_attribute_sums and self.frames > lookback:
             columns = self._buffer[np.arange(self.frames - lookback - 1, self.frames) % kept]
-            own, self._state = self.matcher.block(columns, self.frames - lookback - 1, self._state)
-        if self.frames < self.seq_len or self.frames <= lookback:  # no window of L columns, or no match yet
+            self._own, self._state = self.matcher.block(columns, self.frames - lookback - 1, self._state)
+
+    def current(self) -> LiveResult | None:
+        """The last pushed frame's matches, attributes, native confidence and prediction; None until
+        ``frames_needed`` frames were pushed (no window of L columns, or no match yet). It only reads what ``push``
+        kept, so asking twice gives the same result."""
+        if self._buffer is None or self.frames < self.frames_needed:
             return None
+        kept, own = self.frames_needed, self._own
         window = self._buffer[np.arange(self.frames - self.seq_len, self.frames) % kept]
         n_ranks = min(self.n_ranks, self._buffer.shape[1] - self.engine.first_reference)
         first = self.frames - self.seq_len  # the window's first frame: errors name frames, not window rows
@@ -220,6 +229,118 @@ class LiveMatcher:
         )
 
 
+@dataclass(frozen=True)
+class AdaptiveLiveResult:
+    """The current query's match at the length chosen for it (method §15's rule ``adaptive``)."""
+
+    query: int  # index of the current frame (0 for the first frame fed)
+    seq_len: int | None  # the shortest length whose predictor keeps its match; None when no length's does
+    result: LiveResult  # the chosen length's result; the longest length's when none kept the match
+    computed: tuple[int, ...]  # the lengths whose attributes and prediction were computed, shortest first: up to
+    # the chosen one, or every length when none kept
+
+
+class AdaptiveLiveMatcher:
+    """Feed one frame at a time, matched at several sequence lengths: per frame the shortest length whose predictor
+    keeps its match (``step(query_descriptor)``, needs ``references``, or ``step_distances(column)``).
+
+    ``lengths``: two or more sequence lengths, strictly increasing; ``predictors[i]``: the predictor of
+    ``lengths[i]`` (as ``LiveMatcher`` takes one, checked against the matcher alike). Every length's window takes
+    every frame (a filter's state advances every frame), but the attributes and the prediction are computed
+    shortest first and stop at the first length that keeps the match: the live cost the rule saves. The choice is
+    ``adaptive.first_accepted``'s, the batch experiment's rule. ``matcher``: a ``MatcherSpec`` (built once per
+    length), default ``seqslam``; the other arguments as ``LiveMatcher``'s.
+    """
+
+    def __init__(self, lengths: tuple[int, ...] | list[int], predictors: tuple[Any, ...] | list[Any],
+                 references: np.ndarray | None = None, distance: str | None = None, n_ranks: int = 4,
+                 matcher: MatcherSpec | None = None, r_window: int = DEFAULT_R_WINDOW) -> None:
+        self.lengths = tuple(int(length) for length in lengths)
+        predictors = tuple(predictors)
+        if len(self.lengths) < 2 or any(b <= a for a, b in zip(self.lengths, self.lengths[1:], strict=False)):
+            raise ValueError(f"lengths={list(self.lengths)}: an AdaptiveLiveMatcher chooses among two or more "
+                             "sequence lengths given in strictly increasing order (e.g. lengths=[2, 4, 8]); for "
+                             "one length use LiveMatcher")
+        if len(predictors) != len(self.lengths):
+            raise ValueError(f"predictors= has {len(predictors)} predictor(s) for lengths={list(self.lengths)}: "
+                             "give one per length, predictors[i] the one trained at lengths[i]")
+        missing = [length for length, p in zip(self.lengths, predictors, strict=True) if p is None]
+        if missing:
+            raise ValueError(f"predictors= has None for the length(s) {missing}: the length is chosen by each "
+                             "length's predictor; give the one trained at each length")
+        if isinstance(matcher, Matcher):
+            raise ValueError(f"matcher= is the matcher {matcher.name!r} built for sequence length {matcher.seq_len}: "
+                             "give its MatcherSpec, which an AdaptiveLiveMatcher builds at each length")
+        self.distance = distance
+        self.references = _prepared_references(references, distance, "AdaptiveLiveMatcher",
+                                               "path, lengths, predictors")
+        # one LiveMatcher per length (check_live's refusals are theirs); they take columns, not descriptors
+        self.matchers = tuple(LiveMatcher(length, predictor=predictor, n_ranks=n_ranks, matcher=matcher,
+                                          r_window=r_window)
+                              for length, predictor in zip(self.lengths, predictors, strict=True))
+        self.frames_needed = max(live.frames_needed for live in self.matchers)  # before every length has a result
+        self.frames = 0
+        # set by from_descriptors, as LiveMatcher's
+        self.method: str | None = None
+        self.method_settings: dict[str, Any] | None = None
+
+    @classmethod
+    def from_descriptors(cls, path: Path | str, lengths: tuple[int, ...] | list[int],
+                         predictors: tuple[Any, ...] | list[Any], distance: str | None = None, n_ranks: int = 4,
+                         frames: tuple[int, int] | None = None,
+                         matcher: MatcherSpec | None = None) -> AdaptiveLiveMatcher:
+        """References, distance, ``frames`` and ``method`` from a descriptor file, as ``LiveMatcher``'s."""
+        references, stored, method, settings = _read_references(path, frames)
+        live = cls(lengths, predictors, references=references, distance=distance or stored, n_ranks=n_ranks,
+                   matcher=matcher)
+        live.method, live.method_settings = method, settings
+        return live
+
+    def step(self, query_descriptor: np.ndarray) -> AdaptiveLiveResult | None:
+        """Match one query descriptor against the references (the distance of ``eval.distances``)."""
+        if self.references is None:
+            raise ValueError("AdaptiveLiveMatcher.step needs references=...; or feed distances with "
+                             "step_distances(column)")
+        assert self.distance is not None  # given whenever references are (__init__ refuses them without it)
+        return self.step_distances(_query_column(self.references, query_descriptor, self.distance))
+
+    def step_distances(self, column: np.ndarray) -> AdaptiveLiveResult | None:
+        """Feed one column of D; None until every length has a result (the first ``frames_needed - 1`` frames)."""
+        for live in self.matchers:  # every length takes the column or none does
+            column = live.check_column(column)
+        for live in self.matchers:
+            live.push(column)
+        self.frames += 1
+        if self.frames < self.frames_needed:
+            return None
+        accepted = np.zeros((len(self.lengths), 1), dtype=bool)  # lengths not computed stay False: after a kept one
+        results: list[LiveResult] = []
+        for i, live in enumerate(self.matchers):
+            result = live.current()
+            assert result is not None and result.keep is not None  # every length is ready; each has a predictor
+            results.append(result)
+            accepted[i, 0] = result.keep
+            if result.keep:
+                break
+        row = int(first_accepted(accepted)[0])
+        return AdaptiveLiveResult(query=results[-1].query, seq_len=None if row == NONE else self.lengths[row],
+                                  result=results[-1] if row == NONE else results[row],
+                                  computed=self.lengths[: len(results)])
+
+
+def _prepared_references(references: np.ndarray | None, distance: str | None, who: str, arguments: str
+                         ) -> np.ndarray | None:
+    """The references prepared for ``distance``; ValueError naming ``who`` when they come without it."""
+    if references is None:
+        return None
+    if distance is None:
+        raise ValueError(f"{who} with references needs distance=, the metric of the descriptors' method "
+                         "('mad' for sad, 'l2' for the learned backends, or the method's distance setting); "
+                         f"{who}.from_descriptors({arguments}) reads both from a descriptor file")
+    prepared: np.ndarray = prepare_references(references, distance)
+    return prepared
+
+
 def check_live(matcher: Matcher) -> None:
     """ValueError naming the matcher and the fix when it cannot run one frame at a time as its batch does: it reads
     columns after its query (a centred window: the setting ``alignment: trailing`` where it has one), it prepares
@@ -245,3 +366,38 @@ def check_live(matcher: Matcher) -> None:
 
 def _text(value: Any) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
+
+
+def _query_column(references: np.ndarray, query_descriptor: np.ndarray, distance: str) -> np.ndarray:
+    """The query's distance to every (prepared) reference, as the batch matrices compute it."""
+    query = np.asarray(query_descriptor, dtype=np.float32).reshape(1, -1)
+    column: np.ndarray = distance_columns(references, query, distance)[:, 0]
+    return column
+
+
+def _read_references(path: Path | str, frames: tuple[int, int] | None
+                     ) -> tuple[np.ndarray, str, str, dict[str, Any] | None]:
+    """The ``reference`` descriptors of a descriptor file (frames ``lo .. hi-1``), its distance, method and the
+    method's settings."""
+    import json
+
+    import h5py
+
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"descriptor file not found: {path} (compute it with vpr-smr descriptors)")
+    if not h5py.is_hdf5(path):
+        raise ValueError(f"{path} is not HDF5: give a descriptor file written by vpr-smr descriptors")
+    with h5py.File(path, "r") as f:
+        if "reference" not in f or "distance" not in f.attrs:
+            raise ValueError(f"{path} lacks the 'reference' descriptors or the 'distance' attribute: give a "
+                             "descriptor file written by vpr-smr descriptors (or compute it again)")
+        stored = _text(f.attrs["distance"])
+        method = _text(f.attrs.get("method", "?"))
+        settings = json.loads(_text(f.attrs["method_conf"])) if "method_conf" in f.attrs else None
+        n_frames = len(f["reference"])
+        lo, hi = (0, n_frames) if frames is None else (int(frames[0]), int(frames[1]))
+        if not 0 <= lo < hi <= n_frames:
+            raise ValueError(f"{path}: frames {lo}..{hi - 1} are outside its {n_frames} reference frames")
+        references = f["reference"][lo:hi]
+    return references, stored, method, settings
