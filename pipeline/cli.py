@@ -301,7 +301,7 @@ def cmd_adaptive(args: argparse.Namespace) -> None:
         args.dataset, args.method, attributes, args.predictors, args.split, args.out, args.validation,
         args.distances, args.seeds, _baseline_settings(args), tuple(args.modes), args.matcher_tag,
         allow_split_overlap=args.allow_split_overlap)
-    print(adaptive.text_table(result, adaptive.read_timing(args.out)))
+    print(result)
 
 
 def cmd_inspect(args: argparse.Namespace) -> None:
