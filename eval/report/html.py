@@ -615,8 +615,10 @@ SECTIONS = (
         "a row's AOC (lower is better, its 95 % interval as a whisker) against the mean sequence length it used (a "
         "query no length accepts counts the longest, which the live matcher computed); circles joined: the fixed "
         "lengths without their predictor, squares joined: with it, the other markers: the rules; the ring: the "
-        "best fixed row. A rule left of the ring used fewer frames on average; whether its AOC differs from the "
-        "ring's is what the paired intervals in the sentence say, not the distance between the points. The live "
+        "best fixed row (the smallest AOC among the fixed rows that keep a correct match). A rule left of the ring "
+        "used fewer frames on average; whether its AOC differs from the ring's is what the paired intervals in the "
+        "sentence say, not the distance between the points; the sentence takes for each matcher and method the "
+        "best rule, the smallest AOC among the rules that keep a correct match. The live "
         "time per query (this machine's; it does not repeat exactly) is the adaptive live matcher's, computing "
         "the lengths shortest first and stopping at the first kept, beside the longest length's with its "
         "predictor."), "adaptive_seq_len",

@@ -33,8 +33,8 @@ if TYPE_CHECKING:
 __all__ = ["TABLE", "AdaptiveSeqLenRow", "adaptive_rows", "adaptive_sentence", "histogram", "live_ms",
            "make_adaptive", "tag_of"]
 
-PAGE = ("method", "name", "mean_length", "lengths", "removed", "max_recall", names.AOC, names.REDUCTION, "outcome",
-        "minus_best_fixed_ci_low", "minus_best_fixed_ci_high", "ms_per_query", "live_note")
+PAGE = ("matcher", "method", "name", "mean_length", "lengths", "removed", "max_recall", names.AOC, names.REDUCTION,
+        "outcome", "minus_best_fixed_ci_low", "minus_best_fixed_ci_high", "ms_per_query", "live_note")
 
 
 def tag_of(result: AdaptiveResult) -> str:
