@@ -84,13 +84,14 @@ def test_the_sentence_counts_the_pairs_by_the_best_rules_interval():
         # the degenerate rule (every match removed, AOC 0) is not the best: adaptive_fallback is; holds 0, 3.5 < 4
         *_pair("m6", adaptive=(0.0, 2.0, "removed_all", (-0.08, -0.08)),
                adaptive_fallback=(0.08, 3.5, "improved", (-0.01, 0.01))),
+        *_pair("m8", adaptive=(0.08, 4.0, "improved", (-0.01, 0.01))),  # holds 0, mean 4.0 not shorter than L4
         *_pair("m7", "bayes_filter", adaptive=(0.0, 2.0, "removed_all", None),
                adaptive_fallback=(0.0, 4.0, "kept_none_correct", None)),
     ]
     assert adaptive_sentence(rows) == (
-        "On d (paper mode, the 57 queries every length evaluates, 7 method-matcher pairs), the best rule's AOC is "
+        "On d (paper mode, the 57 queries every length evaluates, 8 method-matcher pairs), the best rule's AOC is "
         "below the best fixed row's for 1 (the paired 95 % interval of the difference below 0), cannot be told apart "
-        "from it for 3 (the interval holds 0; for 2 of them with a mean length used shorter than the best fixed row's "
+        "from it for 4 (the interval holds 0; for 2 of them with a mean length used shorter than the best fixed row's "
         "length) and is above it for 1; too few queries to tell for m5 · seqslam; no rule or no fixed row keeps a "
         "correct match for m7 · bayes_filter.")
     assert adaptive_sentence([]) == ""

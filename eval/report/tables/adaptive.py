@@ -50,7 +50,8 @@ def histogram(lengths: dict[int, int]) -> str:
 
 
 def live_ms(result: AdaptiveResult, row: AdaptiveRow, timing: AdaptiveTiming | None) -> float | None:
-    """The live time per query (ms) of a row, from the timing file beside the result: ``adaptive`` and
+    """The live time per query (ms) of a row, from the timing file beside the result, over its timed queries
+    (``AdaptiveTiming.n_queries``, those with a match): ``adaptive`` and
     ``adaptive_fallback`` the adaptive live matcher's (lengths shortest first, up to the first kept), the longest
     length's ``L{m}+pred`` row a live matcher of that length alone; None for the other rows, without a timing, when
     the live matcher refused the matcher, or without a timed query."""
