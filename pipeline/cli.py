@@ -328,7 +328,7 @@ def cmd_report(args: argparse.Namespace) -> None:
         args.evaluations, args.predictors, args.attribute_ablations or (), args.leave_one_out or (),
         timings=args.timings or (), metrics=args.metrics or (), match_figures=args.match_figures or (),
         matrix_figures=args.matrix_figures or (), speed=args.speed or (), baselines=args.baselines or (),
-        descriptors=args.descriptors or (), matchers=args.matchers or ())
+        descriptors=args.descriptors or (), matchers=args.matchers or (), adaptive=args.adaptive or ())
     options = report.ReportOptions(
         split=args.split, eval_splits=args.eval_splits, train_split=args.train_split,
         table_seq_lens=args.table_seq_lens, seq_len_ablation=args.seq_len_ablation,
@@ -947,6 +947,9 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
                                               "profile, in the configuration's order")
     p.add_argument("--matchers", nargs="*", help="the experiment matchers' files (vpr-smr compare-matchers), one per "
                                                  "dataset and method")
+    p.add_argument("--adaptive", nargs="*", help="the experiment adaptive_seq_len's files (vpr-smr adaptive), one per "
+                                                 "dataset, matcher and method; each one's .timing.json beside it gives "
+                                                 "the live time per query")
     p.add_argument("--descriptors", nargs="*", help="descriptor files whose provenance the report shows")
     p.add_argument("--split", help="the split the tables show: the configuration's table_split (default: the one "
                                    "split every evaluation holds)")

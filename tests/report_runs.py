@@ -18,6 +18,7 @@ from vpr_smr.eval.predictor.records import (
     SplitScores,
 )
 from vpr_smr.eval.scoring import speed
+from vpr_smr.eval.scoring.adaptive_records import AdaptiveMode, AdaptiveResult, AdaptiveRow, AdaptiveTiming
 from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison, MatcherMode, MatcherScores
 from vpr_smr.eval.scoring.records import Detection, Interval, Reduction, SeedSummary
 from vpr_smr.eval.scoring.speed import SpeedProfile
@@ -92,7 +93,8 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
     """Every experiment's JSON for the ``methods`` (in that configuration order) on one dataset ``d``, the
     training-free baselines of every L (computed from the same features and predictors), the standard VPR metrics
     and match-inspector figures at L = 4, then report.main; returns (run folder, files). ``options`` go to
-    report.main's ReportOptions, but ``speed`` and ``matchers`` (those experiments' files) to its RunFiles."""
+    report.main's ReportOptions, but ``speed``, ``matchers`` and ``adaptive`` (those experiments' files) to its
+    RunFiles."""
     from vpr_smr.core.paths import match_figure_path, matrix_figure_path, queries_path
     from vpr_smr.eval.matching.attributes import query_features
     from vpr_smr.eval.predictor.estimator import SMRPredictor
@@ -162,9 +164,10 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
             matrix_figures.append(small_png(Path(matrix_figure_path(run, "d", method, 4)), 160, 160, 40 * i + 20))
     speed = options.pop("speed", ())  # file lists: the rest are ReportOptions
     matchers = options.pop("matchers", ())
+    adaptive = options.pop("adaptive", ())
     files = RunFiles(evaluations, predictors, [ablation] if ablations else [], [lomo] if ablations else [],
                      timings=timings, metrics=metric_files, match_figures=match_figures, matrix_figures=matrix_figures,
-                     baselines=baseline_files, speed=speed, matchers=matchers)
+                     baselines=baseline_files, speed=speed, matchers=matchers, adaptive=adaptive)
     written = main(run, files, ReportOptions(
         table_seq_lens=[4], seq_len_ablation=len(seq_lens) > 1, config="run: demo\nseq_lens: [2, 4]\n",
         provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}},
@@ -256,4 +259,61 @@ def matchers_files(folder: Path) -> list[Path]:
     for record in matchers_records(("m1", "m2"), ("paper", "standard")):
         paths.append(folder / f"matchers_d_{record.meta['method']}_L4.json")
         write_json(paths[-1], record.to_json())
+    return paths
+
+
+# --- the experiment adaptive_seq_len's files ---
+
+# (AOC at own maximum recall, mean length used, outcome) of the fixed rows of ``adaptive_result``: L4+pred is best
+FIXED_ROWS = {"L2": (0.20, 2.0, "kept_all"), "L4": (0.16, 4.0, "kept_all"), "L2+pred": (0.12, 2.0, "improved"),
+              "L4+pred": (0.08, 4.0, "improved")}
+
+
+def adaptive_mode(aoc: float, outcome: str = "improved", minus: tuple[float, float] | None = None,
+                  seeds: bool = True) -> AdaptiveMode:
+    """One row's numbers in one mode by hand: its AOC ``aoc`` at maximum recall 0.9 (interval +- 0.02), its
+    reduction against the longest length's 0.16, and ``minus``: a rule's interval of its AOC minus the best fixed
+    row's."""
+    pct = 100 * (0.16 - aoc) / 0.16
+    reduction = Reduction(0.9, 0.7, 0.8, 0.16, aoc, pct, 0.9, 0.16, outcome, Interval(pct - 5.0, pct + 5.0))
+    spread = SeedSummary(3, 3, pct - 1.0, 2.0, pct - 3.0, pct + 1.0, dict.fromkeys(range(3), outcome))
+    return AdaptiveMode(reduction, Interval(aoc - 0.02, aoc + 0.02), spread if seeds else None,
+                        None if minus is None else Interval(*minus))
+
+
+def adaptive_result(method: str, tag: str = "seqslam", modes=("paper",),
+                    rules: dict[str, tuple[float, float, str, tuple[float, float] | None]] | None = None,
+                    dataset: str = "d") -> AdaptiveResult:
+    """The experiment adaptive_seq_len of one dataset, matcher and method by hand, lengths 2 and 4, 57 queries:
+    the fixed rows of ``FIXED_ROWS`` (L4+pred the best), then each rule of ``rules`` (name -> AOC, mean length,
+    outcome, interval of AOC minus the best fixed row's); default: adaptive below the best fixed row (AOC 0.05,
+    mean 2.5), adaptive_fallback indistinguishable from it (0.07, mean 3.0), adaptive_uniqueness above it (0.30)."""
+    rules = rules or {"adaptive": (0.05, 2.5, "improved", (-0.05, -0.01)),
+                      "adaptive_fallback": (0.07, 3.0, "improved", (-0.03, 0.01)),
+                      "adaptive_uniqueness": (0.30, 3.5, "worse", (0.1, 0.3))}
+    rows = [AdaptiveRow(name, "fixed+predictor" if name.endswith("+pred") else "fixed", int(name[1]),
+                        0 if not name.endswith("+pred") else 9, mean, {int(name[1]): 57}, (mean, mean),
+                        {mode: adaptive_mode(aoc, outcome, seeds=name.endswith("+pred")) for mode in modes})
+            for name, (aoc, mean, outcome) in FIXED_ROWS.items()]
+    rows += [AdaptiveRow(name, "rule", None, 12, mean, {2: 30, 4: 15, -1: 12}, (mean, mean + 0.1),
+                         {mode: adaptive_mode(aoc, outcome, minus) for mode in modes},
+                         0.25 if name == "adaptive_uniqueness" else None)
+             for name, (aoc, mean, outcome, minus) in rules.items()]
+    meta = {"dataset": dataset, "method": method, "tag": tag, "modes": list(modes), "seeds": 3}
+    return AdaptiveResult(meta, (2, 4), 57, 40, tuple(rows), dict.fromkeys(modes, "L4+pred"), ())
+
+
+def adaptive_files(folder: Path, methods=("m1", "m2"), modes=("paper", "standard"), timed: bool = True) -> list[Path]:
+    """The experiment adaptive_seq_len's files of ``adaptive_result`` for ``methods``, matcher seqslam, each with
+    its live timing beside it (``timed``): 0.57 s adaptive and 1.14 s for the longest length, over 57 queries."""
+    from vpr_smr.core.paths import timing_path
+
+    paths = []
+    for method in methods:
+        paths.append(folder / "adaptive" / "d" / "seqslam" / f"{method}.json")
+        paths[-1].parent.mkdir(parents=True, exist_ok=True)
+        write_json(paths[-1], adaptive_result(method, modes=modes).to_json())
+        if timed:
+            meta = {"dataset": "d", "method": method, "tag": "seqslam"}
+            write_json(Path(timing_path(paths[-1])), AdaptiveTiming(meta, 60, 57, 0.57, 1.14).to_json())
     return paths

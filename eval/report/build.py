@@ -17,7 +17,7 @@ from typing import Any, Protocol, TypeVar
 import numpy as np
 
 from vpr_smr.core.io import atomic_path
-from vpr_smr.core.paths import match_figure_path, matrix_figure_path
+from vpr_smr.core.paths import match_figure_path, matrix_figure_path, timing_path
 from vpr_smr.core.records import FormatError
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import bounds, registry
@@ -35,6 +35,7 @@ from vpr_smr.eval.report.results import (
 from vpr_smr.eval.report.rows import cells
 from vpr_smr.eval.report.table1 import UNDEFINED, evaluation_order, is_reduction, tex_escape
 from vpr_smr.eval.report.tabulate import Inputs, by_key, seq_len_rows, speed_rows, sweep_rows
+from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult, AdaptiveTiming
 from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
 from vpr_smr.eval.scoring.records import (
     KEY_META,
@@ -286,6 +287,8 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
         figures += _baseline_figures(out_dir, inputs)
     if inputs.matchers:
         figures += _matchers_figures(out_dir, inputs)
+    if inputs.adaptive:
+        figures += _adaptive_figures(out_dir, inputs)
     if inputs.speed:
         figures += _speed_figures(out_dir, [cells(row) for row in speed_rows(inputs.speed, order)], order, split,
                                   inputs)
@@ -363,6 +366,29 @@ def _matchers_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
                                    list(dict.fromkeys(r["matcher"] for r in group)), title)
         out.append(WrittenFigure("matchers", f"{spec.title}: {dataset}, L={seq_len}, {mode} mode", path, dataset,
                                  seq_len, mode))
+    return out
+
+
+def _adaptive_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
+    """One figure per dataset and mode of the experiment adaptive_seq_len: a panel per matcher and method, the AOC
+    at maximum recall against the mean length used of every fixed length, with and without its predictor, and of
+    every rule."""
+    from vpr_smr.eval.report.tables.adaptive import adaptive_rows
+
+    rows = [cells(row) for row in adaptive_rows(inputs.adaptive, inputs.order)]
+    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    for row in rows:
+        groups.setdefault((row["dataset"], row["mode"]), []).append(row)
+    spec = registry.figure("adaptive_seq_len")
+    out = []
+    for (dataset, mode), group in groups.items():
+        title = (f"{dataset}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC at maximum recall against "
+                 f"the mean sequence length used, on the {group[0]['n_queries']} queries every length evaluates")
+        path = fig.adaptive_figure(out_dir / spec.file(dataset=dataset, mode=mode), group,
+                                   list(dict.fromkeys(r["method"] for r in group)),
+                                   list(dict.fromkeys(r["matcher"] for r in group)), title)
+        out.append(WrittenFigure("adaptive_seq_len", f"{spec.title}: {dataset}, {mode} mode", path, dataset,
+                                 mode=mode))
     return out
 
 
@@ -466,6 +492,7 @@ Record = TypeVar("Record", bound=_Record)
 
 # What each kind of input needs in its meta (the tables' keys), and how a user's file gets it.
 PREDICTOR_META = ("dataset", "seq_len")
+ADAPTIVE_META = ("dataset", "method", "tag")  # the experiment adaptive_seq_len's keys: one file per each
 METRICS_HINT = "rerun vpr-smr metrics with --dataset and --method (the run's names), as the workflow does"
 
 
@@ -535,6 +562,8 @@ class RunFiles:
     one per dataset, method and L): their tables, figures and findings, and the best of them in the
     sequence-length ablation. ``descriptors``: descriptor files whose provenance attributes the page lists.
     ``matchers``: the experiment matchers' files (``scoring.matcher_comparison.main``, one per dataset).
+    ``adaptive``: the experiment adaptive_seq_len's files (``scoring.adaptive.main``, one per dataset, matcher and
+    method), each with its live timing (``core.paths.timing_path``) read where that file is beside it.
     """
 
     evaluations: Sequence[Path | str] = ()
@@ -549,6 +578,7 @@ class RunFiles:
     baselines: Sequence[Path | str] = ()
     descriptors: Sequence[Path | str] = ()
     matchers: Sequence[Path | str] = ()
+    adaptive: Sequence[Path | str] = ()
 
 
 @dataclass(frozen=True)
@@ -593,6 +623,7 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
     read_speed = _read(files.speed, "speed experiment", SpeedResult.from_json, ("dataset", "seq_len", "profile"))
     read_baselines = _read(files.baselines, "baselines", Baselines.from_json, KEY_META)
     read_matchers = _read(files.matchers, "matchers experiment", MatcherComparison.from_json, KEY_META)
+    read_adaptive = read_adaptive_files(files.adaptive)
 
     splits = Splits.resolve(split, options.eval_splits, options.train_split,
                             [*(list(e.splits) for e in read_evaluations), *(list(m.splits) for m in read_metrics),
@@ -606,7 +637,8 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
                       *({"dataset": name} for name in datasets or {}),
                       # a speed file lists its methods in the configuration's order, under each matcher
                       *({"dataset": r.meta["dataset"], "method": method} for r in read_speed
-                        for matcher in r.matchers.values() for method in matcher.methods)],
+                        for matcher in r.matchers.values() for method in matcher.methods),
+                      *(result.meta for result, _ in read_adaptive)],
                      base.modes, base.methods)
     inputs = Inputs(
         read_evaluations, _read(files.timings, "timing", Timing.from_json, KEY_META), read_predictors,
@@ -614,7 +646,7 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
         read_metrics, dict(datasets or {}), split,
         None if options.table_seq_lens is None else {int(s) for s in options.table_seq_lens},
         options.seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines,
-        read_matchers)
+        read_matchers, read_adaptive)
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]
@@ -627,6 +659,35 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
             provenance=options.provenance, descriptor_paths=files.descriptors, datasets=datasets, splits=splits,
             protocols=inputs.protocols, matchers=_matchers(read_evaluations)))
     return written
+
+
+def read_adaptive_files(paths: Sequence[Path | str]) -> list[tuple[AdaptiveResult, AdaptiveTiming | None]]:
+    """The experiment adaptive_seq_len's files, each with the live timing file beside it (None where there is none:
+    its table leaves the live time empty); a second file of the same dataset, matcher and method, or a timing file
+    of another one, raises naming the files."""
+    results = _read(paths, "adaptive sequence length", AdaptiveResult.from_json, ADAPTIVE_META)
+    out: list[tuple[AdaptiveResult, AdaptiveTiming | None]] = []
+    seen: dict[tuple[str, ...], Path] = {}
+    for path, result in zip(map(Path, paths), results, strict=True):
+        key = tuple(str(result.meta[name]) for name in ADAPTIVE_META)
+        if key in seen:
+            raise ValueError(f"{path} and {seen[key]}: two adaptive sequence length files of the same "
+                             f"{', '.join(f'{n} {v!r}' for n, v in zip(ADAPTIVE_META, key, strict=True))}: give "
+                             "one file each")
+        seen[key] = path
+        beside = Path(timing_path(path))
+        if not beside.is_file():
+            out.append((result, None))
+            continue
+        timing = _read([beside], "adaptive live timing", AdaptiveTiming.from_json)[0]
+        other = [name for name in ADAPTIVE_META if name in timing.meta and str(timing.meta[name]) != str(
+            result.meta[name])]
+        if other:
+            raise ValueError(f"{beside}: the live timing of another {', '.join(other)} than {path} beside it "
+                             f"({', '.join(f'{n} {timing.meta[n]!r}, not {result.meta[n]!r}' for n in other)}): "
+                             "rerun vpr-smr adaptive to write both files again")
+        out.append((result, timing))
+    return out
 
 
 def _matchers(evaluations: Sequence[Evaluation]) -> list[str]:

@@ -9,6 +9,8 @@ Names (``<d>`` dataset, ``<L>`` sequence length, ``<mode>`` paper or standard):
 - ``restoration_<d>_L<L>_<mode>.png``: PR curves of VPR+SM, removal and restoration, one panel per method.
 - ``restoration_auc_<d>_L<L>_<mode>.png``: PR AUC of restoration minus removal per method (the paper's bars).
 - ``speed_<d>_L<L>.png``: the speed experiment: sequence recall@1 and the AOC reduction against the query's speed.
+- ``adaptive_<d>_<mode>.png``: the adaptive sequence length: AOC against the mean length used, a panel per matcher
+  and method.
 """
 
 from __future__ import annotations
@@ -22,8 +24,9 @@ import numpy as np
 
 from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.report import names
-from vpr_smr.eval.report.outcome_words import SHORT
+from vpr_smr.eval.report.outcome_words import SHORT, at_recall_zero
 from vpr_smr.eval.scoring import scorers
+from vpr_smr.eval.scoring.adaptive_records import FIXED, FIXED_PREDICTOR, RULE, RULES
 from vpr_smr.eval.scoring.curves import LOST_ALL, REMOVED_ALL
 
 UP, DOWN = "tab:green", "tab:red"
@@ -396,4 +399,57 @@ def matchers_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequenc
         ax.set(title=method)
     _finish(fig, axes, title)
     axes[0].set_ylabel("AOC reduction (%)")
+    return save(fig, path)
+
+
+RULE_STYLE = dict(zip(RULES, (("^", "tab:red"), ("v", "tab:purple"), ("D", "tab:green")), strict=True))
+
+
+def adaptive_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], matchers: Sequence[str],
+                    title: str) -> Path:
+    """The experiment adaptive_seq_len of one dataset and mode (``tables.adaptive``' rows): a panel per matcher
+    (rows of panels) and method (columns), the seed-0 AOC at each row's own maximum recall (y, its 95 % interval as
+    a whisker) against the mean sequence length used (x): the fixed lengths without their predictor (circles,
+    joined), with it (squares, joined), each rule its own marker; the best fixed row ringed. A row that keeps no
+    correct match has no AOC to compare: it is left out of its panel, which names it."""
+    plt = _pyplot()
+    fig, grid = plt.subplots(len(matchers), len(methods), figsize=(3.4 * len(methods), 3.2 * len(matchers) + 0.5),
+                             squeeze=False)
+    series = ((FIXED, "o", "-", "tab:blue", "fixed length"),
+              (FIXED_PREDICTOR, "s", "--", "tab:orange", "fixed length + its predictor"))
+    for i, matcher in enumerate(matchers):
+        for j, method in enumerate(methods):
+            ax = grid[i][j]
+            found = [r for r in rows if r["matcher"] == matcher and r["method"] == method]
+            shown = [r for r in found if not at_recall_zero(r)]
+            for kind, marker, style, colour, label in series:
+                line = sorted((r for r in shown if r["kind"] == kind), key=lambda r: float(r["mean_length"]))
+                ax.plot([r["mean_length"] for r in line], [r[names.AOC] for r in line], marker=marker, ls=style,
+                        color=colour, label=label)
+                for r in line:
+                    ax.annotate(f"L{r['seq_len']}", (r["mean_length"], r[names.AOC]), xytext=(3, 3),
+                                textcoords="offset points", fontsize=7, color=colour)
+            for r in (r for r in shown if r["kind"] == RULE):
+                marker, colour = RULE_STYLE.get(r["name"], ("*", "black"))
+                ax.plot([r["mean_length"]], [r[names.AOC]], marker=marker, ls="", ms=8, color=colour, label=r["name"])
+            for r in shown:
+                low, high = r.get(f"{names.AOC}_ci_low"), r.get(f"{names.AOC}_ci_high")
+                if low is not None and high is not None:
+                    ax.plot([r["mean_length"]] * 2, [low, high], color="grey", lw=0.7)
+            best = [r for r in shown if r["name"] == r["best_fixed"]]
+            ax.plot([r["mean_length"] for r in best], [r[names.AOC] for r in best], marker="o", ms=15, ls="",
+                    mfc="none", mec="black", label="best fixed row")
+            left = [str(r["name"]) for r in found if r not in shown]
+            note = f"\nno correct match kept: {', '.join(left)}" if left else ""
+            ax.margins(x=0.15)  # room for the lengths' labels at the ends
+            ax.set(title=wrapped(f"{method} · {matcher}{note}", 3.2, 9), xlabel="mean sequence length used")
+            ax.title.set_fontsize(9)
+        grid[i][0].set_ylabel("AOC at max recall")
+    labels: dict[str, Any] = {}
+    for ax in grid.flat:  # each label once, whichever panel has it
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            labels.setdefault(label, handle)
+    fig.legend(list(labels.values()), list(labels), loc="lower center", ncol=min(len(labels), 6), fontsize=8)
+    fig.suptitle(wrapped(title, fig.get_figwidth()))
+    fig.tight_layout(rect=(0, 0.4 / fig.get_figheight(), 1, 1))  # the legend's line below the panels
     return save(fig, path)

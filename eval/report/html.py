@@ -59,6 +59,7 @@ from vpr_smr.eval.report.table1 import (
     notes,
     table1_blocks,
 )
+from vpr_smr.eval.report.tables import adaptive as adaptive_table
 from vpr_smr.eval.report.tables import matchers as matcher_table
 from vpr_smr.eval.report.view import (
     Block,
@@ -602,6 +603,28 @@ SECTIONS = (
         "training-free scorer removing as many matches as the predictor (method §12): compare it with the "
         "bar's top, each over its own curve; the second table gives its name and AOC reduction beside the "
         "predictor's."), "seq_len", view=_seq_len_view),
+    # right after the sequence-length ablation: choosing the length per query instead (method §15)
+    Declared("adaptive-seq-len", "Choosing the sequence length per query", ("adaptive_seq_len",), (
+        "The paper's future work (method §15): with the run's lengths and each length's predictor, adaptive takes "
+        "per query the shortest length whose predictor keeps its match and removes the match when none does; "
+        "adaptive_fallback keeps the longest length's match then; adaptive_uniqueness (training-free) takes the "
+        "shortest length whose uniqueness reaches a threshold, chosen on the validation split to remove as many "
+        "matches there as adaptive. Every row is scored as Table I on the queries every length evaluates (seed 0; "
+        "the spread over the seeds in the whole table), its AOC at its own maximum recall and its reduction against "
+        "the longest length without predictor. How to read the figure: a panel per matcher and method; a point is "
+        "a row's AOC (lower is better, its 95 % interval as a whisker) against the mean sequence length it used (a "
+        "query no length accepts counts the longest, which the live matcher computed); circles joined: the fixed "
+        "lengths without their predictor, squares joined: with it, the other markers: the rules; the ring: the "
+        "best fixed row (the smallest AOC among the fixed rows that keep a correct match). A rule left of the ring "
+        "used fewer frames on average; whether its AOC differs from the ring's is what the paired intervals in the "
+        "sentence say, not the distance between the points; the sentence takes for each matcher and method the "
+        "best rule, the smallest AOC among the rules that keep a correct match. The live "
+        "time per query (this machine's; it does not repeat exactly) is the adaptive live matcher's, computing "
+        "the lengths shortest first and stopping at the first kept, beside the longest length's with its "
+        "predictor."), "adaptive_seq_len",
+        view=lambda b, f, shown: (b.compact("adaptive_seq_len", b.anchor("adaptive-seq-len", f), shown,
+                                            registry.table("adaptive_seq_len").caption),),
+        sentences=lambda b, shown: adaptive_table.adaptive_sentences(shown), headline=adaptive_table.adaptive_sentence),
     Declared("speed", "Speed profiles", ("speed",), _speed_intro, "speed",
              view=lambda b, f, shown: (speed_table(b.anchor("speed", f), shown),),
              sentences=lambda b, shown: speed_sentences(shown, b.split)),

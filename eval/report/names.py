@@ -4,5 +4,6 @@ once; the row records of ``rows`` declare the columns themselves, as fields of t
 REDUCTION = "reduction_pct"  # the AOC reduction (%) of a removal against VPR+SM
 AOC_VPR_SM = "aoc_vpr_sm"  # the area over VPR+SM's PR curve
 AOC_VPR_SM_PRED = "aoc_vpr_sm_pred"  # the area over VPR+SM+Pred's
+AOC = "aoc"  # a row's own AOC at its own maximum recall (the experiment adaptive_seq_len's rows)
 RECALL_SINGLE = "recall_at_1_single"  # single-frame recall@1
 RECALL_SEQUENCE = "recall_at_1_sequence"  # sequence recall@1

@@ -263,6 +263,8 @@ FIGURES = (
            "restoration_auc_{dataset}_L{seq_len}_{mode}.png"),
     Figure("confusion", "Confusion matrix", ("table1",), "confusion_{dataset}_L{seq_len}.png"),
     Figure("seq_len", "Sequence-length ablation", ("table1", "seq_len"), "seq_len_{dataset}_{mode}.png"),
+    # every matcher and method of the run in one figure (a panel each): the report's outputs need no matcher tags
+    Figure("adaptive_seq_len", "Adaptive sequence length", ("adaptive_seq_len",), "adaptive_{dataset}_{mode}.png"),
     Figure("baselines", "Training-free baselines", ("baselines",), "baselines_{dataset}_L{seq_len}_{mode}.png"),
     Figure("detection", "Detecting wrong matches", ("baselines",), "detection_{dataset}_L{seq_len}.png"),
     Figure("matchers", "Matchers", ("matchers",), "matchers_{dataset}_L{seq_len}_{mode}.png"),
@@ -307,7 +309,8 @@ def expected_outputs(
     given), ``"baselines"`` (the training-free baselines given), ``"speed"`` (the speed experiment, at
     ``table_seq_lens``, for ``speed_datasets``: default every dataset; those with positions have none),
     ``"protocol_sweep"`` (the protocol sweep, for ``sweep_datasets``: default every dataset; those whose ground truth
-    is a file have none); each table and figure of ``registry`` is listed when all of its experiments are.
+    is a file have none), ``"adaptive_seq_len"`` (the experiment's files given); each table and figure of
+    ``registry`` is listed when all of its experiments are.
     """
     only = {"speed": speed_datasets, "protocol_sweep": sweep_datasets}  # figures of some datasets only
     out = [path for spec in TABLES if spec.enabled(experiments) for path in spec.files()]

@@ -38,6 +38,7 @@ from vpr_smr.eval.report.rows import (
     columns,
 )
 from vpr_smr.eval.report.table1 import evaluation_order, table1_latex, table1_markdown, table1_rows, tex_escape
+from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult, AdaptiveTiming
 from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
 from vpr_smr.eval.scoring.records import Baselines, Evaluation, HeldOut, Timing, VPRMetrics
 from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
@@ -64,6 +65,8 @@ class Inputs:
     protocols: dict[str, str]  # per dataset its ground truth as the tables say it ("within 2 frames")
     baselines: list[Baselines] = dataclasses.field(default_factory=list)
     matchers: list[MatcherComparison] = dataclasses.field(default_factory=list)  # the experiment matchers (§14)
+    # the experiment adaptive_seq_len (§15): each result with the live timing file beside it (None without one)
+    adaptive: list[tuple[AdaptiveResult, AdaptiveTiming | None]] = dataclasses.field(default_factory=list)
 
     def correct(self, dataset: str) -> str:
         """``; correct: within 2 frames``: what a figure's title adds of its dataset's ground truth (empty if none)."""

@@ -92,6 +92,9 @@ rule report:
         # the experiment matchers (method §14), at the table's L
         matchers=expand(matchers_path(OUT, "{dataset}", "{method}", TABLE_L), dataset=DATASETS, method=METHODS)
         if "matchers" in EXPERIMENTS else [],
+        # the experiment adaptive_seq_len (method §15): every length, each matcher's tag; the live timings beside
+        adaptive=expand(adaptive_path(OUT, "{dataset}", "{tag}", "{method}"), dataset=DATASETS, tag=ADAPTIVE_TAGS,
+                        method=METHODS) if "adaptive_seq_len" in EXPERIMENTS else [],
         # read for their provenance (checkpoint and frame-list hashes) only
         descriptors=expand(descriptors_path(OUT, "{dataset}", "{method}"), dataset=DATASETS, method=METHODS),
     output:
@@ -113,7 +116,7 @@ rule report:
         " --predictors {input.predictors:q} --attribute-ablations {input.attribute_ablations:q}"
         " --leave-one-out {input.leave_one_out:q} --metrics {input.metrics:q}"
         " --match-figures {input.match_figures:q} --matrix-figures {input.matrix_figures:q} --speed {input.speed:q}"
-        " --matchers {input.matchers:q} --descriptors {input.descriptors:q} --split {params.split:q} --eval-splits {params.eval_splits}"
+        " --matchers {input.matchers:q} --adaptive {input.adaptive:q} --descriptors {input.descriptors:q} --split {params.split:q} --eval-splits {params.eval_splits}"
         " --train-split {params.train_split:q} --table-seq-lens {params.table_seq_len}"
         " {params.seq_len_ablation} --settings {params.settings:q} --datasets {params.datasets:q}"
         " --out {OUT:q} > {log:q} 2>&1"

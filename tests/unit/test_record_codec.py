@@ -33,6 +33,7 @@ from vpr_smr.eval.predictor.records import (
     SeedReport,
     SplitScores,
 )
+from vpr_smr.eval.scoring.adaptive_records import AdaptiveMode, AdaptiveResult, AdaptiveRow, AdaptiveTiming
 from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison, MatcherMode, MatcherScores
 from vpr_smr.eval.scoring.records import (
     Baselines,
@@ -163,6 +164,18 @@ COMPARISON = MatcherComparison({**META, "matchers": {"seqslam": {"name": "seqsla
                                                                           validation_recall_at_1=None)}},
                                None, ("bayes_filter on m: validation recall@1 0.050 is under 0.5 of ...",))
 
+# the experiment adaptive_seq_len (method §15): a fixed row and a rule (its histogram's key -1: none accepted)
+ADAPTIVE_MODE = AdaptiveMode(REDUCTION_CI, Interval(0.0625, 0.25), SUMMARY, Interval(-0.125, 0.0625))
+FIXED_ROW = AdaptiveRow("L4+pred", "fixed+predictor", 4, 7, 4.0, {4: 57}, (4.0, 4.0),
+                        {"paper": dataclasses.replace(ADAPTIVE_MODE, minus_best_fixed_ci=None),
+                         "standard": AdaptiveMode(UNDEFINED, None, None)})
+RULE_ROW = AdaptiveRow("adaptive_uniqueness", "rule", None, 12, 2.75, {2: 30, 4: 15, -1: 12}, (2.75, 3.0),
+                       {"paper": ADAPTIVE_MODE}, 0.375)
+ADAPTIVE = AdaptiveResult({**META, "tag": "seqslam"}, (2, 4), 57, None, (FIXED_ROW, RULE_ROW),
+                          {"paper": "L4+pred"}, ("no validation split: no adaptive_uniqueness",))
+ADAPTIVE_TIMING = AdaptiveTiming({**META, "tag": "seqslam"}, 60, 57, 0.5, 1.25)
+REFUSED_TIMING = AdaptiveTiming(META, 60, 0, None, None, "openseqslam: its window is centred")
+
 RECIPE = Recipe("train", {"settings": '{"max_iter": 10000}', "layout": "5"}, {"data/lists/a.txt": "ab" * 32})
 RECIPES = Recipes({"predictors/d/L4.h5": RECIPE, "tables/table1.csv": Recipe("report", {}, {})})
 
@@ -188,6 +201,8 @@ SAMPLES = {
     "NumericEnvironment, no OpenCV": NO_OPENCV, "MatcherMode": MATCHER_MODE,
     "MatcherMode, undefined": BARE_MATCHER_MODE,
     "MatcherScores": MATCHER_SCORES, "MatcherComparison": COMPARISON,
+    "AdaptiveMode": ADAPTIVE_MODE, "AdaptiveRow": FIXED_ROW, "AdaptiveRow, rule": RULE_ROW, "AdaptiveResult": ADAPTIVE,
+    "AdaptiveTiming": ADAPTIVE_TIMING, "AdaptiveTiming, refused": REFUSED_TIMING,
 }
 
 
