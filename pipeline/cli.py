@@ -301,7 +301,22 @@ def cmd_adaptive(args: argparse.Namespace) -> None:
         args.dataset, args.method, attributes, args.predictors, args.split, args.out, args.validation,
         args.distances, args.seeds, _baseline_settings(args), tuple(args.modes), args.matcher_tag,
         allow_split_overlap=args.allow_split_overlap)
-    print(result)
+    print(adaptive_text(result, adaptive.read_timing(args.out)))
+
+
+def adaptive_text(result: Any, timing: Any) -> str:
+    """The report's table ``adaptive_seq_len`` of one result, its page columns, per mode, as Markdown."""
+    from vpr_smr.eval.report.build import markdown_table
+    from vpr_smr.eval.report.rows import cells
+    from vpr_smr.eval.report.tables.adaptive import TABLE, adaptive_rows, adaptive_sentence
+
+    rows = [cells(row) for row in adaptive_rows([(result, timing)])]
+    out = []
+    for mode in dict.fromkeys(row["mode"] for row in rows):
+        shown = [row for row in rows if row["mode"] == mode]
+        out += [markdown_table(TABLE.page, shown, f"{mode} mode, {result.n_queries} queries every length evaluates"),
+                adaptive_sentence(shown), ""]
+    return "\n".join([*out, *(f"Note: {note}" for note in result.notes)]).rstrip()
 
 
 def cmd_inspect(args: argparse.Namespace) -> None:

@@ -417,7 +417,7 @@ def main(
     tag = matcher_tag or spec.name
     notes = () if validation_split else (
         "no validation split: adaptive_uniqueness (its threshold is chosen there) is left out",)
-    meta = {"dataset": dataset, "method": method, "matcher": tag, "matcher_settings": spec.provenance(),
+    meta = {"dataset": dataset, "method": method, "tag": tag, "matcher": spec.provenance(),
             "split": table_split, "validation_split": validation_split, "modes": list(modes),
             "seeds": len(models[lengths[0]]), **settings.meta(),
             "ground_truth": matching.ground_truth}

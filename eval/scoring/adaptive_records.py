@@ -67,8 +67,9 @@ class AdaptiveRow(Record):
 @dataclass(frozen=True)
 class AdaptiveResult(FileRecord):
     """The experiment ``adaptive_seq_len`` of one dataset, method and matcher (``eval.scoring.adaptive.main``).
-    ``meta``: dataset, method, matcher (tag and provenance), the table and validation splits, modes, seeds, the
-    baselines' ``r_window``. ``lengths``: ``L_1 < .. < L_m``. ``n_queries``: the table split's queries every
+    ``meta``: dataset, method, ``tag`` (the matcher's name in tables and files, ``matcher_comparison.matcher_tag``)
+    and ``matcher`` (its provenance), the table and validation splits, modes, seeds, the baselines' settings and the
+    ground truth. ``lengths``: ``L_1 < .. < L_m``. ``n_queries``: the table split's queries every
     length evaluates (every number is over them); ``n_queries_validation``: the validation split's (None without
     one). ``rows``: the fixed lengths without predictor, then with it (shortest first), then the rules (``RULES``'s
     order; ``adaptive_uniqueness`` only with a validation split). ``best_fixed``: per mode, the fixed row of the
