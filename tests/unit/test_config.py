@@ -23,7 +23,8 @@ def test_demo_config_is_valid_and_gets_defaults():
     assert conf.eval_splits == ("val", "test") and conf.output == "results"
     assert conf.table_seq_len == 4 and conf.seeds == 5
     assert experiments(conf) == {"table1", "predictor", "baselines", "trust", "restoration", "attributes",
-                                 "leave_one_method_out", "seq_len", "speed", "protocol_sweep", "matchers"}
+                                 "leave_one_method_out", "seq_len", "speed", "protocol_sweep", "matchers",
+                                 "adaptive_seq_len"}
     assert (conf.baselines.r_window, conf.baselines.spread_k, conf.baselines.candidates) == (10, 10, 12)
     preflight(conf)
 

@@ -134,6 +134,13 @@ def test_the_plan_checks_the_compared_matchers_at_the_tables_sequence_length(cen
             "lengthen the split (its reference or query range), or change matchers (or switch the experiment off: "
             "experiments.matchers: false)") in message
     assert "sequence_matching" not in message
-    # at table_seq_len 3 it needs 5: the plan passes; switched off, the experiment checks nothing
-    preflight(validate({**conf, "table_seq_len": 3}))
+    # at table_seq_len 3 it needs 5, but the experiment adaptive_seq_len runs it at L = 5 too: refused, naming that
+    # experiment as the other way out; without it the plan passes; switched off, the experiment checks nothing
+    with pytest.raises(ConfigError) as error:
+        preflight(validate({**conf, "table_seq_len": 3}))
+    assert ("at sequence length 5: split 'val' has 6 queries; this matcher needs 7; lengthen the split (its "
+            "reference or query range), or change matchers (or switch the experiment off: "
+            "experiments.adaptive_seq_len: false, which runs the compared matchers at every length of seq_lens)"
+            ) in str(error.value)
+    preflight(validate({**conf, "table_seq_len": 3, "experiments": {"speed": False, "adaptive_seq_len": False}}))
     preflight(validate({**conf, "experiments": {"speed": False, "matchers": False}}))

@@ -72,7 +72,7 @@ def run(tmp_path_factory):
 
 TABLES = ["table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
           "ablation_seq_len", "vpr_metrics", "predictor", "table2", "leave_one_method_out", "datasets", "speed",
-          "baselines", "wrong_match_detection", "protocol_sweep"]
+          "baselines", "wrong_match_detection", "protocol_sweep", "adaptive_seq_len"]
 METHODS = ("sad", "hog", "effnet")
 
 
@@ -91,9 +91,10 @@ def test_every_table_and_figure(run):
     inspector = [f"{kind}_sample_{method}_L4.png" for kind in ("matches", "distance_matrix") for method in METHODS]
     assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
         [*per_mode, "confusion_sample_L4.png", "seq_len_sample_paper.png", "seq_len_sample_standard.png",
-         "speed_sample_L4.png", "detection_sample_L4.png", *inspector])
+         "speed_sample_L4.png", "detection_sample_L4.png", "adaptive_sample_paper.png",
+         "adaptive_sample_standard.png", *inspector])
     html = (out / "report.html").read_text()  # the report's figures and the match inspector's, each once
-    assert html.count("<img") == 17 + len(inspector) and "http://" not in html and "https://" not in html
+    assert html.count("<img") == 19 + len(inspector) and "http://" not in html and "https://" not in html
 
 
 def test_table1_has_the_seed_spread(run):
@@ -162,6 +163,33 @@ def test_tables_agree_with_each_other(run):
                                   "aoc_vpr_sm_pred", "reduction_pct", "n_queries", "n_queries_single")}
         # 2x: the test split's 110 frames driven twice as fast are 55 queries, 52 with a sequence match
         assert speed[method, "2x", "velocity"]["n_queries"] == "52"
+
+
+def test_the_adaptive_sequence_length_agrees_with_table1(run):
+    """L_m = 4 is Table I's L: on the same queries (a >= 3), the adaptive experiment's longest fixed length is Table
+    I's VPR+SM, and with its predictor Table I's VPR+SM+Pred (standard mode: a score per frame ranks as the sum)."""
+    out, _ = run
+    table1 = {(r["method"], r["mode"]): r for r in table(out, "table1")}
+    rows = {(r["method"], r["mode"], r["name"]): r for r in table(out, "adaptive_seq_len")}
+    names = ("L3", "L4", "L3+pred", "L4+pred", "adaptive", "adaptive_fallback", "adaptive_uniqueness")
+    assert set(rows) == {(m, mode, n) for m in METHODS for mode in ("paper", "standard") for n in names}
+    for method in METHODS:
+        first = table1[method, "standard"]
+        longest, predicted = rows[method, "standard", "L4"], rows[method, "standard", "L4+pred"]
+        assert longest["n_queries"] == first["n_queries"] == "107" and longest["matcher"] == "seqslam"
+        assert float(longest["max_recall"]) == pytest.approx(float(first["recall_at_1_sequence"]), abs=1e-12)
+        assert float(predicted["aoc"]) == pytest.approx(float(first["aoc_vpr_sm_pred"]), abs=1e-12)
+        assert predicted["removed"] == first["removed"]
+        if first["reduction_pct"]:
+            assert float(predicted["reduction_pct"]) == pytest.approx(float(first["reduction_pct"]), rel=1e-9)
+        adaptive = rows[method, "standard", "adaptive"]
+        assert 3 <= float(adaptive["mean_length"]) <= 4
+        counts = dict(item.split(": ") for item in adaptive["lengths"].split(", "))
+        assert sum(map(int, counts.values())) == 107 and int(counts.get("none", 0)) == int(adaptive["removed"])
+    timing = json.loads((out / "adaptive" / "sample" / "seqslam" / "hog.timing.json").read_text())
+    assert timing["n_queries"] == 107 and timing["seconds_adaptive"] > 0 and timing["seconds_longest"] > 0
+    html = (out / "report.html").read_text()
+    assert "Choosing the sequence length per query" in html and "method-matcher pair" in html
 
 
 def test_the_baselines_agree_with_table1_and_the_per_query_table(run):
