@@ -234,8 +234,7 @@ def compute(lengths: Sequence[Length], validation: Sequence[Length] | None, mode
             if row.kind == RULE and mode in best:
                 other = draws[mode][[r.name for r in rows].index(best[mode])]
                 versus = percentile_interval(found.aoc_predictor - other.aoc_predictor)
-            modes_out[mode] = AdaptiveMode(reduction, reduction.aoc_vpr_sm_pred_ci,
-                                           None if spread is None else spread[mode], versus)
+            modes_out[mode] = AdaptiveMode(reduction, None if spread is None else spread[mode], versus)
         out.append(AdaptiveRow(row.name, row.kind, row.seq_len, int((~first.keep).sum()),
                                float(np.mean(used[0])) if n else float("nan"), histogram,
                                tuple(float(np.mean(u)) if n else float("nan") for u in used), modes_out,

@@ -32,13 +32,12 @@ class AdaptiveMode(Record):
     """One row in one mode, seed 0 (the authors' recipe). ``reduction``: Table I's numbers with VPR+SM the longest
     fixed length without predictor, cut to this row's maximum recall: ``reduction.max_recall`` and
     ``reduction.aoc_vpr_sm_pred`` are the row's own maximum recall and AOC there, ``reduction.reduction_pct`` the
-    reduction against the longest length (with its bootstrap interval over queries). ``aoc_ci``: the interval of
-    the row's AOC. ``minus_best_fixed_ci``: for a rule, the paired interval of its AOC minus the best fixed row's
+    reduction against the longest length, with the bootstrap intervals over queries (``aoc_vpr_sm_pred_ci``: the
+    row's AOC's). ``minus_best_fixed_ci``: for a rule, the paired interval of its AOC minus the best fixed row's
     (``AdaptiveResult.best_fixed``), each at its own maximum recall (None for a fixed row, or too few defined
     draws). ``seeds``: the reduction's spread over every seed (None for a row without predictor)."""
 
     reduction: Reduction
-    aoc_ci: Interval | None
     seeds: SeedSummary | None
     minus_best_fixed_ci: Interval | None = None
 

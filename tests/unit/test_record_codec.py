@@ -165,10 +165,10 @@ COMPARISON = MatcherComparison({**META, "matchers": {"seqslam": {"name": "seqsla
                                None, ("bayes_filter on m: validation recall@1 0.050 is under 0.5 of ...",))
 
 # the experiment adaptive_seq_len (method §15): a fixed row and a rule (its histogram's key -1: none accepted)
-ADAPTIVE_MODE = AdaptiveMode(REDUCTION_CI, Interval(0.0625, 0.25), SUMMARY, Interval(-0.125, 0.0625))
+ADAPTIVE_MODE = AdaptiveMode(REDUCTION_CI, SUMMARY, Interval(-0.125, 0.0625))
 FIXED_ROW = AdaptiveRow("L4+pred", "fixed+predictor", 4, 7, 4.0, {4: 57}, (4.0, 4.0),
                         {"paper": dataclasses.replace(ADAPTIVE_MODE, minus_best_fixed_ci=None),
-                         "standard": AdaptiveMode(UNDEFINED, None, None)})
+                         "standard": AdaptiveMode(UNDEFINED, None)})
 RULE_ROW = AdaptiveRow("adaptive_uniqueness", "rule", None, 12, 2.75, {2: 30, 4: 15, -1: 12}, (2.75, 3.0),
                        {"paper": ADAPTIVE_MODE}, 0.375)
 ADAPTIVE = AdaptiveResult({**META, "tag": "seqslam"}, (2, 4), 57, None, (FIXED_ROW, RULE_ROW),

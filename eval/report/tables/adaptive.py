@@ -107,7 +107,7 @@ class AdaptiveSeqLenRow:
         return cls(
             str(result.meta["dataset"]), tag_of(result), mode, str(result.meta["method"]), row.name, row.kind,
             row.seq_len, result.n_queries, row.mean_length, histogram(row.lengths), row.removed,
-            reduction.max_recall, reduction.aoc_vpr_sm_pred, numbers.aoc_ci, reduction.reduction_pct,
+            reduction.max_recall, reduction.aoc_vpr_sm_pred, reduction.aoc_vpr_sm_pred_ci, reduction.reduction_pct,
             reduction.reduction_pct_ci, reduction.outcome, None if seeds is None else seeds.reduction_pct_mean,
             None if seeds is None else seeds.reduction_pct_std, result.best_fixed.get(mode, ""),
             numbers.minus_best_fixed_ci, row.threshold, live_ms(result, row, timing),
