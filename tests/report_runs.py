@@ -278,7 +278,7 @@ def adaptive_mode(aoc: float, outcome: str = "improved", minus: tuple[float, flo
     reduction = Reduction(0.9, 0.7, 0.8, 0.16, aoc, pct, 0.9, 0.16, outcome, Interval(pct - 5.0, pct + 5.0),
                           aoc_vpr_sm_pred_ci=Interval(aoc - 0.02, aoc + 0.02))
     spread = SeedSummary(3, 3, pct - 1.0, 2.0, pct - 3.0, pct + 1.0, dict.fromkeys(range(3), outcome))
-    return AdaptiveMode(reduction, spread if seeds else None,
+    return AdaptiveMode(reduction, spread if seeds else None, None if minus is None else sum(minus) / 2,
                         None if minus is None else Interval(*minus))
 
 

@@ -22,8 +22,9 @@ and that distance from a descriptor file of the pipeline, so the live matches ar
             use(result.sequence_match)
 
 ``AdaptiveLiveMatcher`` chooses the sequence length per frame (method §15): every length's window takes every frame,
-then the lengths are asked shortest first and the first whose predictor keeps the match is chosen; the longer ones
-cost nothing that frame. The choice is ``adaptive.first_accepted``'s, the batch experiment's rule.
+then the lengths are asked shortest first and the first whose predictor keeps the match is chosen; the longer ones'
+attributes and predictions are not computed that frame (a filter's matching is: its belief advances every frame at
+every length). The choice is ``adaptive.first_accepted``'s, the batch experiment's rule.
 
     predictors = [SMRPredictor.load(f"L{length}.h5") for length in (2, 4, 8)]
     matcher = AdaptiveLiveMatcher.from_descriptors("descriptors.h5", lengths=(2, 4, 8), predictors=predictors)

@@ -373,7 +373,7 @@ def _adaptive_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     """One figure per dataset and mode of the experiment adaptive_seq_len: a panel per matcher and method, the AOC
     at maximum recall against the mean length used of every fixed length, with and without its predictor, and of
     every rule."""
-    from vpr_smr.eval.report.tables.adaptive import adaptive_rows
+    from vpr_smr.eval.report.tables.adaptive import adaptive_rows, query_counts
 
     rows = [cells(row) for row in adaptive_rows(inputs.adaptive, inputs.order)]
     groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
@@ -383,7 +383,7 @@ def _adaptive_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     out = []
     for (dataset, mode), group in groups.items():
         title = (f"{dataset}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC at maximum recall against "
-                 f"the mean sequence length used, on the {group[0]['n_queries']} queries every length evaluates")
+                 f"the mean sequence length used, on {query_counts(group)} every length evaluates")
         path = fig.adaptive_figure(out_dir / spec.file(dataset=dataset, mode=mode), group,
                                    list(dict.fromkeys(r["method"] for r in group)),
                                    list(dict.fromkeys(r["matcher"] for r in group)), title)

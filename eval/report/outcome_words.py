@@ -13,6 +13,7 @@ from typing import Any
 
 from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.scoring.curves import (
+    AT_RECALL_ZERO,
     HARMFUL,
     IMPROVED,
     KEPT_ALL,
@@ -44,7 +45,7 @@ def is_degenerate(row: Mapping[str, Any]) -> bool:
 
 def at_recall_zero(row: Mapping[str, Any]) -> bool:
     """Both AOCs are taken at recall 0 (no correct match left, or none to begin with): 0 there says nothing."""
-    return row.get("outcome") in (*LOST_ALL, NO_CORRECT_MATCH)
+    return row.get("outcome") in AT_RECALL_ZERO
 
 
 def lowered_recall(row: Mapping[str, Any]) -> bool:

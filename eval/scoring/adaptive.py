@@ -38,6 +38,7 @@ from vpr_smr.eval.scoring.adaptive_records import (
     ADAPTIVE,
     ADAPTIVE_FALLBACK,
     ADAPTIVE_UNIQUENESS,
+    COMPARED_MODE,
     FIXED,
     FIXED_PREDICTOR,
     RULE,
@@ -47,7 +48,7 @@ from vpr_smr.eval.scoring.adaptive_records import (
     AdaptiveTiming,
     fixed_name,
 )
-from vpr_smr.eval.scoring.curves import KEPT_NONE_CORRECT, NO_CORRECT_MATCH, REMOVED_ALL
+from vpr_smr.eval.scoring.curves import AT_RECALL_ZERO
 from vpr_smr.eval.scoring.records import Reduction
 
 if TYPE_CHECKING:
@@ -58,8 +59,6 @@ __all__ = ["Length", "choose", "compute", "main", "uniqueness_threshold"]
 log = logging.getLogger(__name__)
 
 UNIQUENESS = "uniqueness"  # the §12 scorer adaptive_uniqueness reads
-# outcomes whose AOC says nothing of a ranking (no correct match kept): never the best fixed row
-NOT_BEST = (NO_CORRECT_MATCH, REMOVED_ALL, KEPT_NONE_CORRECT)
 
 
 @dataclass(frozen=True)
@@ -91,8 +90,10 @@ class Length:
             keeps.append(keep_mask(np.asarray(predictor.classes_)[np.argmax(probabilities, axis=1)]))
         confidence = scorer(UNIQUENESS).confidence
         assert confidence is not None  # a training-free scorer
-        # NaN (an infinite best score over an infinite second) never reaches a threshold
-        found = np.nan_to_num(confidence(cut, settings, np.zeros(0), 0), nan=-np.inf, posinf=np.inf)
+        # NaN (an infinite best score over an infinite second) never reaches a threshold; +inf (a best score of 0)
+        # the largest float, so that the threshold +inf (every query to go) removes it too
+        found = np.nan_to_num(confidence(cut, settings, np.zeros(0), 0), nan=-np.inf, posinf=np.finfo(float).max,
+                              neginf=-np.inf)
         return cls(seq_len, cut.sequence_distance / score_frames, np.asarray(cut.sequence_correct, dtype=bool),
                    features.sequence_min / score_frames, features.sequence_max / score_frames, tuple(keeps), found)
 
@@ -187,13 +188,33 @@ def _rows(lengths: Sequence[Length], validation: Sequence[Length] | None, n_seed
     return rows
 
 
+def best_fixed(rows: Sequence[tuple[str, str, int | None, Reduction]]) -> str | None:
+    """The best fixed row of ``rows`` (name, kind, length, seed-0 numbers, in the table's order): the smallest AOC at
+    its own maximum recall among the fixed rows that keep a correct match; on a tie the larger maximum recall, then
+    the earlier row (the shorter length, without predictor first). None when no fixed row keeps a correct match."""
+    found = [(numbers.aoc_vpr_sm_pred, -numbers.max_recall, i) for i, (_, kind, _, numbers) in enumerate(rows)
+             if kind != RULE and numbers.outcome not in AT_RECALL_ZERO]
+    return rows[min(found)[2]][0] if found else None
+
+
+def _common_recall(mode: str, first: Any, second: Any) -> float:
+    """``first``'s AOC minus ``second``'s at the smaller of their maximum recalls (as
+    ``intervals.common_recall_difference`` on every draw)."""
+    from vpr_smr.eval.scoring.curves import area, curve, cut_curve
+
+    found = [curve(mode, s.distances, s.correct, s.keep, s.sequence_min, s.sequence_max) for s in (first, second)]
+    common = min(float(c.recall[-1]) for c in found)
+    aoc = [max(0.0, common - area(cut_curve(c, common))) for c in found]
+    return aoc[0] - aoc[1]
+
+
 def compute(lengths: Sequence[Length], validation: Sequence[Length] | None, modes: Sequence[str]
             ) -> tuple[list[AdaptiveRow], dict[str, str]]:
     """Every row of the experiment on the shared queries (``lengths``: the table split's, shortest first;
-    ``validation``: the validation split's, None leaves ``adaptive_uniqueness`` out) and, per mode, the best fixed
-    row's name."""
+    ``validation``: the validation split's, None leaves ``adaptive_uniqueness`` out) and the best fixed row's name
+    (``best_fixed``) in ``COMPARED_MODE``, against which each rule's AOC is compared at the recall both reach."""
     from vpr_smr.eval.scoring.evaluate import summarise_seeds
-    from vpr_smr.eval.scoring.intervals import paired_draws, percentile_interval
+    from vpr_smr.eval.scoring.intervals import common_recall_difference, paired_draws, percentile_interval
 
     n_seeds = len(lengths[0].keeps)
     table = tuple(length.seq_len for length in lengths)
@@ -209,12 +230,11 @@ def compute(lengths: Sequence[Length], validation: Sequence[Length] | None, mode
         draws[mode] = paired_draws(mode, baseline, [_scored(lengths, row.removals[0], row.kind != RULE)
                                                     for row in rows])
     best: dict[str, str] = {}
-    for mode in modes:
-        candidates = [(numbers[mode][i][0].aoc_vpr_sm_pred, row.seq_len or 0, row.kind == FIXED_PREDICTOR, i)
-                      for i, row in enumerate(rows) if row.kind != RULE
-                      and numbers[mode][i][0].outcome not in NOT_BEST]
-        if candidates:
-            best[mode] = rows[min(candidates)[3]].name
+    if COMPARED_MODE in modes:
+        found = best_fixed([(row.name, row.kind, row.seq_len, numbers[COMPARED_MODE][i][0])
+                            for i, row in enumerate(rows)])
+        if found is not None:
+            best[COMPARED_MODE] = found
     out = []
     for i, row in enumerate(rows):
         first = row.removals[0]
@@ -230,11 +250,13 @@ def compute(lengths: Sequence[Length], validation: Sequence[Length] | None, mode
             reduction = replace(numbers[mode][i][0], reduction_pct_ci=percentile_interval(found.reduction_pct),
                                 aoc_vpr_sm_ci=percentile_interval(found.aoc_baseline),
                                 aoc_vpr_sm_pred_ci=percentile_interval(found.aoc_predictor))
-            versus = None
+            versus = versus_ci = None
             if row.kind == RULE and mode in best:
-                other = draws[mode][[r.name for r in rows].index(best[mode])]
-                versus = percentile_interval(found.aoc_predictor - other.aoc_predictor)
-            modes_out[mode] = AdaptiveMode(reduction, None if spread is None else spread[mode], versus)
+                other = rows[[r.name for r in rows].index(best[mode])]
+                pair = [_scored(lengths, r.removals[0], r.kind != RULE) for r in (row, other)]
+                versus = _common_recall(mode, *pair)
+                versus_ci = percentile_interval(common_recall_difference(mode, *pair))
+            modes_out[mode] = AdaptiveMode(reduction, None if spread is None else spread[mode], versus, versus_ci)
         out.append(AdaptiveRow(row.name, row.kind, row.seq_len, int((~first.keep).sum()),
                                float(np.mean(used[0])) if n else float("nan"), histogram,
                                tuple(float(np.mean(u)) if n else float("nan") for u in used), modes_out,
@@ -265,13 +287,21 @@ def predictor_length(path: Path | str) -> int:
 
 def seed_files(first: Path | str, seeds: int | None) -> list[str]:
     """The predictor files of seeds ``0 .. seeds - 1`` beside the seed-0 file ``first`` (``core.paths``'s names);
-    ``seeds`` None: every seed file found there, counting up from seed 1 until one is missing."""
+    ``seeds`` None: the seeds its training wrote (its report's ``seeds``), not whatever files lie beside it.
+    ValueError naming a missing file and the fix."""
     from vpr_smr.core.paths import seed_predictor_path
 
-    files = [str(first)]
-    while (seeds is None and Path(seed_predictor_path(first, len(files))).is_file()) or (
-            seeds is not None and len(files) < seeds):
-        files.append(seed_predictor_path(first, len(files)))
+    if seeds is None:
+        report = _recorded(first, "report")
+        trained = report.get("seeds") if isinstance(report, Mapping) else None
+        seeds = len(trained) if isinstance(trained, list | Mapping) and trained else 1
+    if seeds < 1:
+        raise ValueError(f"--seeds {seeds}: give one or more seeds (seed 0 is the authors' recipe)")
+    files = [str(first)] + [seed_predictor_path(first, seed) for seed in range(1, seeds)]
+    for path in files[1:]:
+        if not Path(path).is_file():
+            raise FileNotFoundError(f"{path} not found: {first} needs its seeds 0..{seeds - 1}; train them with "
+                                    f"vpr-smr train --seeds {seeds}, or give fewer (--seeds)")
     return files
 
 
@@ -307,6 +337,12 @@ def live_timing(matrix: Any, lengths: Sequence[int], predictors: Sequence[Any], 
         log.info("no live timing: %s", error)
         return AdaptiveTiming(dict(meta), n_query, 0, None, None, str(error))
     columns = read_columns(matrix, 0, n_query)
+    # a first pass over a few frames, untimed: the first calls' costs (imports, caches) are neither matcher's
+    warm = columns[: 2 * lengths[-1]]
+    for matcher_ in (AdaptiveLiveMatcher(tuple(lengths), list(predictors), matcher=matcher),
+                     LiveMatcher(lengths[-1], predictor=predictors[-1], matcher=matcher)):
+        for column in warm:
+            matcher_.step_distances(column)
     chosen: dict[int, int] = {}
     start = time.perf_counter()
     for column in columns:
@@ -318,10 +354,13 @@ def live_timing(matrix: Any, lengths: Sequence[int], predictors: Sequence[Any], 
     for column in columns:
         longest.step_distances(column)
     seconds_longest = time.perf_counter() - start
+    def named(row: int | None) -> str:
+        return "no frame" if row is None else "none" if row == NONE else f"L = {lengths[row]}"
+
     for query, batch in zip(queries.tolist(), batch_chosen.tolist(), strict=True):
         if chosen.get(query) != batch:
-            raise RuntimeError(f"the live matcher chose {chosen.get(query)} at query {query}, the batch rule {batch} "
-                               "(rows of the lengths, -1 none): please report this")
+            raise RuntimeError(f"{meta.get('tag')} on {meta.get('method')}: at query {query} the live matcher chose "
+                               f"{named(chosen.get(query))}, the batch rule {named(batch)}: please report this")
     return AdaptiveTiming(dict(meta), n_query, len(chosen), seconds_adaptive, seconds_longest)
 
 

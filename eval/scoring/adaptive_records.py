@@ -10,7 +10,8 @@ from vpr_smr.core.records import FileRecord, Record
 from vpr_smr.eval.scoring.records import Interval, Reduction, SeedSummary
 
 __all__ = [
-    "ADAPTIVE", "ADAPTIVE_FALLBACK", "ADAPTIVE_UNIQUENESS", "FIXED", "FIXED_PREDICTOR", "KINDS", "RULE", "RULES",
+    "ADAPTIVE", "ADAPTIVE_FALLBACK", "ADAPTIVE_UNIQUENESS", "COMPARED_MODE", "FIXED", "FIXED_PREDICTOR", "KINDS",
+    "RULE", "RULES",
     "AdaptiveMode", "AdaptiveResult", "AdaptiveRow", "AdaptiveTiming", "fixed_name",
 ]
 
@@ -19,6 +20,9 @@ Json = dict[str, Any]
 ADAPTIVE, ADAPTIVE_FALLBACK, ADAPTIVE_UNIQUENESS = "adaptive", "adaptive_fallback", "adaptive_uniqueness"
 RULES = (ADAPTIVE, ADAPTIVE_FALLBACK, ADAPTIVE_UNIQUENESS)  # the table's and the figure's order
 FIXED, FIXED_PREDICTOR, RULE = "fixed", "fixed+predictor", "rule"
+# The mode whose numbers compare rows: standard mode's recall divides by the queries, which every row shares; paper
+# mode's by each row's own correct matches, which differ from row to row (another length's matches)
+COMPARED_MODE = "standard"
 KINDS = (FIXED, FIXED_PREDICTOR, RULE)
 
 
@@ -33,12 +37,14 @@ class AdaptiveMode(Record):
     fixed length without predictor, cut to this row's maximum recall: ``reduction.max_recall`` and
     ``reduction.aoc_vpr_sm_pred`` are the row's own maximum recall and AOC there, ``reduction.reduction_pct`` the
     reduction against the longest length, with the bootstrap intervals over queries (``aoc_vpr_sm_pred_ci``: the
-    row's AOC's). ``minus_best_fixed_ci``: for a rule, the paired interval of its AOC minus the best fixed row's
-    (``AdaptiveResult.best_fixed``), each at its own maximum recall (None for a fixed row, or too few defined
-    draws). ``seeds``: the reduction's spread over every seed (None for a row without predictor)."""
+    row's AOC's). ``seeds``: the reduction's spread over every seed (None for a row without predictor). For a rule in
+    the mode that compares rows (``AdaptiveResult.best_fixed``'s, standard), ``minus_best_fixed``: its AOC minus the
+    best fixed row's, both taken at the smaller of their two maximum recalls, and ``minus_best_fixed_ci`` its paired
+    bootstrap interval (None for a fixed row, in paper mode, or with too few defined draws)."""
 
     reduction: Reduction
     seeds: SeedSummary | None
+    minus_best_fixed: float | None = None
     minus_best_fixed_ci: Interval | None = None
 
 
@@ -71,9 +77,11 @@ class AdaptiveResult(FileRecord):
     ground truth. ``lengths``: ``L_1 < .. < L_m``. ``n_queries``: the table split's queries every
     length evaluates (every number is over them); ``n_queries_validation``: the validation split's (None without
     one). ``rows``: the fixed lengths without predictor, then with it (shortest first), then the rules (``RULES``'s
-    order; ``adaptive_uniqueness`` only with a validation split). ``best_fixed``: per mode, the fixed row of the
-    smallest seed-0 AOC at its own maximum recall among those that keep a correct match (ties: the shorter, then
-    without predictor). ``notes``: what the result leaves out, in words (e.g. no validation split)."""
+    order; ``adaptive_uniqueness`` only with a validation split). ``best_fixed``: in standard mode only (its recall
+    divides by the queries, the same for every row; paper mode's by each row's own correct matches), the fixed row
+    of the smallest seed-0 AOC at its own maximum recall among those that keep a correct match (ties: the larger
+    maximum recall, then the earlier row; ``eval.scoring.adaptive.best_fixed``).
+    ``notes``: what the result leaves out, in words (e.g. no validation split)."""
 
     meta: Json
     lengths: tuple[int, ...]

@@ -163,6 +163,8 @@ IMPROVED, WORSE, UNCHANGED = "improved", "worse", "unchanged"
 # A removal that lost every correct match: the reduction cannot show it (both AOCs are 0 at recall 0)
 LOST_ALL = (REMOVED_ALL, KEPT_NONE_CORRECT)
 UNDEFINED = (NO_CORRECT_MATCH, *LOST_ALL, NOTHING_TO_REDUCE, WORSE_FROM_ZERO)  # reduction_pct None
+# Both AOCs are taken at recall 0 (no correct match left, or none to begin with): an AOC of 0 there says nothing
+AT_RECALL_ZERO = (*LOST_ALL, NO_CORRECT_MATCH)
 # Outcomes that count against a predictor wherever methods or seeds are counted as improved: the reduction is
 # undefined there, but the predictor did harm
 HARMFUL = (*LOST_ALL, WORSE_FROM_ZERO)

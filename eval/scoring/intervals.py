@@ -271,6 +271,22 @@ def paired_draws(mode: str, baseline: Scored, rows: Sequence[Scored]) -> list[We
             for found in blocks]
 
 
+def common_recall_difference(mode: str, first: Scored, second: Scored) -> np.ndarray:
+    """Per draw, ``first``'s AOC minus ``second``'s, both taken at the smaller of their two maximum recalls (each
+    curve cut there, ``curves.cut_curve``): a row that removes more matches reaches a smaller recall, where an AOC is
+    smaller whatever the ranking, so two rows are compared on the recall both reach. NaN without queries."""
+    n = len(first.distances)
+    if n == 0:
+        return np.full(RESAMPLES, np.nan)
+    out = []
+    for weights in query_weights(n):
+        curves = [weighted_curve(mode, s.distances, s.correct, s.keep, weights, s.sequence_min, s.sequence_max)
+                  for s in (first, second)]
+        common = np.minimum(curves[0][0][:, -1], curves[1][0][:, -1])
+        out.append(_aoc(curves[0], common) - _aoc(curves[1], common))
+    return np.concatenate(out)
+
+
 def weighted_restoration_reduction(mode: str, distances: np.ndarray, removal: tuple[np.ndarray, np.ndarray],
                                    restoration: tuple[np.ndarray, np.ndarray], weights: np.ndarray,
                                    sequence_min: float, sequence_max: float) -> np.ndarray:

@@ -88,9 +88,47 @@ def test_every_row_by_hand_in_standard_mode():
     # L4+pred keeps 0.15 and 0.25, both right: AOC 0, the smallest of the fixed rows
     assert by_name["L4+pred"].modes["standard"].reduction.aoc_vpr_sm_pred == pytest.approx(0.0, abs=1e-12)
     assert best == {"standard": "L4+pred"}
-    assert adaptive.modes["standard"].minus_best_fixed_ci is None or (
-        adaptive.modes["standard"].minus_best_fixed_ci.high >= adaptive.modes["standard"].minus_best_fixed_ci.low)
+    # both at recall .5, the smaller of the two maximum recalls (here equal): .2916667 - 0
+    assert adaptive.modes["standard"].minus_best_fixed == pytest.approx(0.2916666667, abs=1e-9)
+    # uniqueness keeps q1 (L4, right), q2 and q3 (L2, right): precision 1 up to recall .75, AOC 0 at .5 too
+    assert uniq.modes["standard"].minus_best_fixed == pytest.approx(0.0, abs=1e-12)
     assert by_name["L2"].modes["standard"].minus_best_fixed_ci is None  # fixed rows compare with nothing
+
+
+def test_rows_are_compared_in_standard_mode_only():
+    # paper mode's recall divides by each row's own correct matches: no best fixed row, no difference there
+    rows, best = compute(TABLE, VALIDATION, ["paper", "standard"])
+    assert best == {"standard": "L4+pred"}
+    adaptive = next(row for row in rows if row.name == ADAPTIVE)
+    assert adaptive.modes["paper"].minus_best_fixed is None and adaptive.modes["paper"].minus_best_fixed_ci is None
+    assert compute(TABLE, VALIDATION, ["paper"])[1] == {}
+
+
+def test_a_rule_equal_to_the_best_fixed_row_differs_by_exactly_zero_on_every_draw():
+    # L2's predictor keeps nothing, L4's everything: adaptive takes L4's match everywhere, which is the row L4 (the
+    # best fixed row: L4+pred ties with it, same AOC and recall, and comes later); paired draws give 0 on each
+    table = [_length(2, [0.3, 0.1, 0.2, 0.4, 0.5, 0.6], [0, 0, 1, 0, 1, 0], [0] * 6, [1.0] * 6),
+             _length(4, [0.1, 0.2, 0.3, 0.4, 0.5, 0.6], [1, 1, 0, 1, 0, 1], [1] * 6, [1.0] * 6)]
+    rows, best = compute(table, None, ["standard"])
+    assert best == {"standard": "L4"}
+    adaptive = next(row for row in rows if row.name == ADAPTIVE).modes["standard"]
+    assert adaptive.minus_best_fixed == 0.0
+    assert (adaptive.minus_best_fixed_ci.low, adaptive.minus_best_fixed_ci.high) == (0.0, 0.0)
+
+
+def test_the_best_fixed_row_breaks_ties_by_the_larger_recall():
+    from vpr_smr.eval.scoring.adaptive import best_fixed
+    from vpr_smr.eval.scoring.records import Reduction
+
+    def numbers(aoc, recall, outcome="improved"):
+        return Reduction(recall, 0.0, 0.0, 0.0, aoc, None, 1.0, 0.0, outcome)
+
+    rows = [("L2", "fixed", 2, numbers(0.1, 0.9)), ("L2+pred", "fixed+predictor", 2, numbers(0.0, 0.3)),
+            ("L4+pred", "fixed+predictor", 4, numbers(0.0, 0.6)), ("L8+pred", "fixed+predictor", 8,
+                                                                   numbers(0.0, 0.0, "removed_all")),
+            ("adaptive", "rule", None, numbers(0.0, 0.9))]
+    assert best_fixed(rows) == "L4+pred"  # AOC 0 at recall .6 before AOC 0 at .3; removing all is no candidate
+    assert best_fixed(rows[3:]) is None
 
 
 def test_without_validation_adaptive_uniqueness_is_left_out():
@@ -147,8 +185,9 @@ def test_the_rules_equal_a_naive_loop_on_a_real_matrix():
         kept.append(choice is not None)
         used.append(n)
     distances, correct, kept = np.array(distances), np.array(correct), np.array(kept)
-    adaptive = found[ADAPTIVE]
+    adaptive, fallback = found[ADAPTIVE], found[ADAPTIVE_FALLBACK]
     assert adaptive.removed == int((~kept).sum()) and adaptive.mean_length == pytest.approx(np.mean(used))
+    assert fallback.removed == 0 and fallback.mean_length == adaptive.mean_length
     assert 0 < adaptive.removed < len(queries)  # the case exercises both: a kept and a removed query
     assert {n: used.count(n) for n in lengths} != {2: len(queries)}  # and more than one length
     longest = features[6]
@@ -163,6 +202,8 @@ def test_the_rules_equal_a_naive_loop_on_a_real_matrix():
         assert numbers.aoc_vpr_sm_pred == pytest.approx(expected.aoc_predictor, abs=1e-12)
         assert numbers.aoc_vpr_sm == pytest.approx(expected.aoc_baseline, abs=1e-12)
         assert numbers.max_recall == expected.max_recall
+        every = compare_curves(base, curve(mode, distances, correct, np.ones(len(queries), bool), low, high))
+        assert fallback.modes[mode].reduction.aoc_vpr_sm_pred == pytest.approx(every.aoc_predictor, abs=1e-12)
     # uniqueness: the §12 scorer on each length's candidates (L4 evaluates queries 3.., the shared ones are 5..)
     expected_u = uniqueness(features[4].sequence_candidates[2:], features[4].sequence_candidate_references[2:],
                             DEFAULT_SETTINGS.half_window)

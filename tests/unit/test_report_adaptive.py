@@ -89,16 +89,26 @@ def test_the_sentence_counts_the_pairs_by_the_best_rules_interval():
                adaptive_fallback=(0.0, 4.0, "kept_none_correct", None)),
     ]
     assert adaptive_sentence(rows) == (
-        "On d (paper mode, the 57 queries every length evaluates, 8 method-matcher pairs), the best rule's AOC is "
-        "below the best fixed row's for 1 (the paired 95 % interval of the difference below 0), cannot be told apart "
-        "from it for 4 (the interval holds 0; for 2 of them with a mean length used shorter than the best fixed row's "
-        "length) and is above it for 1; too few queries to tell for m5 · seqslam; no rule or no fixed row keeps a "
-        "correct match for m7 · bayes_filter.")
+        "On d (paper mode, the 57 queries every length evaluates, 8 method-matcher pairs), the best rule's AOC, at "
+        "the recall both reach, is below the best fixed row's for 1 (the paired 95 % interval of the difference "
+        "below 0; 1 of them with a shorter mean length used than the best fixed row's length), cannot be told apart "
+        "from it for 4 (the interval holds 0; 2 of them with a shorter mean length) and is above it for 1; too few "
+        "queries to tell for m5 · seqslam; no rule or no fixed row keeps a correct match for m7 · bayes_filter.")
     assert adaptive_sentence([]) == ""
     one = _pair("m1", adaptive=(0.05, 2.5, "improved", (-0.05, -0.01)))
     assert adaptive_sentence(one).startswith("On d (paper mode, the 57 queries every length evaluates, 1 "
-                                             "method-matcher pair), the best rule's AOC is below the best fixed "
-                                             "row's for 1 ")
+                                             "method-matcher pair), the best rule's AOC, at the recall both reach, "
+                                             "is below the best fixed row's for 1 ")
+    # without a best fixed row in paper mode (the experiment compares rows in standard mode only): said in words
+    unpaired = [{**r, "best_fixed": ""} for r in one]
+    assert adaptive_sentence(unpaired) == (
+        "On d (paper mode), the rows are not compared: a row's recall divides by its own correct matches, which "
+        "differ from row to row; the standard mode's sentence compares them.")
+    # queries counted per matcher where they differ (a centred window evaluates fewer)
+    mixed = [*one, *({**r, "matcher": "openseqslam", "n_queries": 55}
+                     for r in _pair("m1", "openseqslam", adaptive=(0.05, 2.5, "improved", (-0.05, -0.01))))]
+    assert "the 57 (seqslam) to 55 (openseqslam) queries every length evaluates, 2 method-matcher pairs" in (
+        adaptive_sentence(mixed))
 
 
 def test_the_figure_is_written_with_a_row_that_keeps_no_correct_match(tmp_path):
@@ -132,8 +142,8 @@ def test_the_report_command_reads_the_files_and_their_timings(tmp_path):
     assert (run / "figures" / "adaptive_d_paper.png").is_file()
     page = html.unescape(re.sub(r"\s+", " ", (run / "report.html").read_text()))
     assert '<section id="adaptive-seq-len">' in page and "Choosing the sequence length per query" in page
-    assert ("On d (paper mode, the 57 queries every length evaluates, 3 method-matcher pairs), the best rule's AOC "
-            "is below the best fixed row's for 3 ") in page
+    assert ("On d (paper mode, the 57 queries every length evaluates, 3 method-matcher pairs), the best rule's AOC, "
+            "at the recall both reach, is below the best fixed row's for 3 ") in page
 
 
 def test_a_second_file_of_the_same_key_or_a_timing_of_another_method_is_refused(tmp_path):

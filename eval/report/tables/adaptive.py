@@ -18,6 +18,7 @@ from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.eval.scoring.adaptive_records import (
     ADAPTIVE,
     ADAPTIVE_FALLBACK,
+    COMPARED_MODE,
     RULE,
     RULES,
     AdaptiveResult,
@@ -91,8 +92,10 @@ class AdaptiveSeqLenRow:
     reduction_pct_mean: float | None = column("mean over seeds (%)", ".2f")
     reduction_pct_std: float | None = column("std over seeds", ".2f")
     best_fixed: str = column("best fixed row")  # of this mode (``AdaptiveResult.best_fixed``); empty without one
-    # a rule's AOC minus the best fixed row's, paired over the same draws (None for a fixed row, or too few draws)
-    minus_best_fixed_ci: Interval | None = interval("AOC - best fixed AOC", ".4f")
+    # a rule's AOC minus the best fixed row's, both at the smaller of their maximum recalls, and its interval paired
+    # over the same draws (standard mode only; None for a fixed row, or too few draws)
+    minus_best_fixed: float | None = column("AOC - best fixed AOC at the recall both reach", ".4f")
+    minus_best_fixed_ci: Interval | None = interval("AOC - best fixed AOC at the recall both reach", ".4f")
     threshold: float | None = column("uniqueness threshold")  # ``adaptive_uniqueness``'s tau
     ms_per_query: float | None = column("live ms per query", ".3f")
     live_note: str = column("live", if_any=True)  # why there is no live time (the matcher refused)
@@ -110,7 +113,7 @@ class AdaptiveSeqLenRow:
             reduction.max_recall, reduction.aoc_vpr_sm_pred, reduction.aoc_vpr_sm_pred_ci, reduction.reduction_pct,
             reduction.reduction_pct_ci, reduction.outcome, None if seeds is None else seeds.reduction_pct_mean,
             None if seeds is None else seeds.reduction_pct_std, result.best_fixed.get(mode, ""),
-            numbers.minus_best_fixed_ci, row.threshold, live_ms(result, row, timing),
+            numbers.minus_best_fixed, numbers.minus_best_fixed_ci, row.threshold, live_ms(result, row, timing),
             f"refused: {refused}" if refused and timed else "")
 
 
@@ -156,19 +159,35 @@ def _count(n: int, what: str = "pair") -> str:
     return f"{n} {what}" + ("" if n == 1 else "s")
 
 
+def query_counts(rows: Sequence[dict[str, Any]]) -> str:
+    """The queries every length evaluates, as a sentence names them: ``the 2567 queries``, or per matcher when they
+    differ (a centred window evaluates fewer): ``the 2567 (seqslam) to 2563 (openseqslam) queries``."""
+    counts = {str(r["matcher"]): int(r["n_queries"]) for r in rows}
+    if len(set(counts.values())) == 1:
+        return f"the {next(iter(counts.values()))} queries"
+    high, low = max(counts, key=counts.__getitem__), min(counts, key=counts.__getitem__)
+    return f"the {counts[high]} ({high}) to {counts[low]} ({low}) queries"
+
+
 def adaptive_sentence(rows: Sequence[dict[str, Any]]) -> str:
     """The experiment's one sentence of one dataset and mode (its rows' cells): over the method-matcher pairs, for
     how many the best rule (the smallest AOC among the rules that keep a correct match) has an AOC below the best
     fixed row's (the paired 95 % interval of the difference below 0), for how many the interval holds 0 (and for how
     many of those its mean length is shorter than the best fixed row's length), for how many it lies above 0; the
     pairs without an interval named (too few queries to tell), and those without a rule or a fixed row that keeps a
-    correct match. Nothing beyond the intervals."""
+    correct match. Nothing beyond the intervals. The rows are compared in standard mode only (``best_fixed``): in
+    paper mode each row's recall divides by its own correct matches, and the sentence says so."""
     if not rows:
         return ""
+    first = rows[0]
+    if not any(r["best_fixed"] for r in rows) and first["mode"] != COMPARED_MODE:
+        return (f"On {first['dataset']} ({first['mode']} mode), the rows are not compared: a row's recall divides by "
+                f"its own correct matches, which differ from row to row; the {COMPARED_MODE} mode's sentence "
+                "compares them.")
     pairs: dict[tuple[str, str], list[dict[str, Any]]] = {}
     for row in rows:
         pairs.setdefault((str(row["method"]), str(row["matcher"])), []).append(row)
-    better, same, shorter, worse = 0, 0, 0, 0
+    better, same, shorter, shorter_better, worse = 0, 0, 0, 0, 0
     untold, unscored = [], []
     for (method, matcher), found in pairs.items():
         best = _best_rule(found)
@@ -177,21 +196,23 @@ def adaptive_sentence(rows: Sequence[dict[str, Any]]) -> str:
             unscored.append(f"{method} · {matcher}")
             continue
         sign = bounds.sign(best, "minus_best_fixed")
+        is_shorter = float(best["mean_length"]) < float(fixed["seq_len"])
         if sign is None:
             untold.append(f"{method} · {matcher}")
         elif sign < 0:
             better += 1
+            shorter_better += is_shorter
         elif sign > 0:
             worse += 1
         else:
             same += 1
-            shorter += float(best["mean_length"]) < float(fixed["seq_len"])
-    first = rows[0]
-    text = (f"On {first['dataset']} ({first['mode']} mode, the {first['n_queries']} queries every length evaluates, "
-            f"{_count(len(pairs), 'method-matcher pair')}), the best rule's AOC is below the best fixed row's for "
-            f"{better} (the paired {bounds.LEVEL} interval of the difference below 0), cannot be told apart from it "
-            f"for {same} (the interval holds 0; for {shorter} of them with a mean length used shorter than the best "
-            f"fixed row's length) and is above it for {worse}")
+            shorter += is_shorter
+    text = (f"On {first['dataset']} ({first['mode']} mode, {query_counts(rows)} every length evaluates, "
+            f"{_count(len(pairs), 'method-matcher pair')}), the best rule's AOC, at the recall both reach, is below "
+            f"the best fixed row's for {better} (the paired {bounds.LEVEL} interval of the difference below 0; "
+            f"{shorter_better} of them with a shorter mean length used than the best fixed row's length), cannot be "
+            f"told apart from it for {same} (the interval holds 0; {shorter} of them with a shorter mean length) and "
+            f"is above it for {worse}")
     if untold:
         text += f"; too few queries to tell for {', '.join(untold)}"
     if unscored:
