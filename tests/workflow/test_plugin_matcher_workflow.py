@@ -96,13 +96,15 @@ def test_the_report_names_the_plugin(run):
 
 def test_the_matchers_experiment_compares_the_plugin_with_seqslam(run):
     """The plugin (the run's matcher) reuses the run's files; seqslam gets its own attributes and predictors (two
-    seeds); both are scored on the test split's queries 3..69 (each evaluates every query with a window of 4)."""
+    seeds, at both lengths: the experiment adaptive_seq_len runs it at L = 3 too); both are scored on the test
+    split's queries 3..69 (each evaluates every query with a window of 4)."""
     first = load(run / "matchers/nordland_sample/sad/L4.json", MatcherComparison)
     toy = first.tags[0]  # the configuration's order
     assert toy.startswith("toy-") and first.meta["matchers"][toy] == MATCHER  # decay 0.25 is not its default
     assert not (run / "matchers/nordland_sample" / toy).exists()
     own = run / "matchers/nordland_sample/seqslam"
-    assert sorted(p.name for p in (own / "predictors").glob("*.h5")) == ["L4.h5", "L4.seed1.h5"]
+    assert sorted(p.name for p in (own / "predictors").glob("*.h5")) == ["L3.h5", "L3.seed1.h5", "L4.h5",
+                                                                          "L4.seed1.h5"]
     for method in ("sad", "hog"):
         result = load(run / f"matchers/nordland_sample/{method}/L4.json", MatcherComparison)
         assert result.tags == (toy, "seqslam") and set(result.matchers) == {toy, "seqslam"}
@@ -119,3 +121,18 @@ def test_the_matchers_experiment_compares_the_plugin_with_seqslam(run):
     page = (run / "report.html").read_text()
     assert '<section id="matchers">' in page and "SMR reduces the AOC for " in page
     assert (run / "figures/matchers_nordland_sample_L4_paper.png").is_file()
+
+
+def test_the_adaptive_sequence_length_runs_the_plugin_too(run):
+    """With L 3 and 4 the experiment adaptive_seq_len runs for the run's matcher (the plugin, its files) and for each
+    compared matcher (seqslam), each on the test split's queries 3..69, the live matcher on the plugin's frames too."""
+    from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult, AdaptiveTiming
+
+    toy = load(run / "matchers/nordland_sample/sad/L4.json", MatcherComparison).tags[0]
+    for tag in (toy, "seqslam"):
+        for method in ("sad", "hog"):
+            result = load(run / f"adaptive/nordland_sample/{tag}/{method}.json", AdaptiveResult)
+            assert result.meta["tag"] == tag and result.lengths == (3, 4) and result.n_queries == 70 - 3
+            timing = load(run / f"adaptive/nordland_sample/{tag}/{method}.timing.json", AdaptiveTiming)
+            assert timing.refused is None and timing.n_queries == 70 - 3
+    assert load(run / f"adaptive/nordland_sample/{toy}/sad.json", AdaptiveResult).meta["matcher"] == MATCHER

@@ -122,6 +122,11 @@ def speed(profiles=PROFILES, seq_len=3):
     return {("speed", f"speed/sample/L{seq_len}/{p}.json") for p in profiles}
 
 
+def adaptive(methods=METHODS):
+    """The experiment adaptive_seq_len of each method (two or more seq_lens; the run's matcher, seqslam)."""
+    return {("adaptive", f"adaptive/sample/seqslam/{m}.json") for m in methods}
+
+
 REPORT = {("report", "tables/table1.csv")}
 
 
@@ -185,11 +190,12 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
     pytest.param(lambda c: c["methods"]["sad"].update(distance="l2"),
                  distances(["sad"]) | attributes(["sad"]) | attribute_ablation()
                  | without(other("sad")) | PREDICTOR_ON | speed(), id="distance"),
-    # Table I moves to L = 4 (table_seq_len: 4 when listed), with its ablations; L = 3 stays as it is
+    # Table I moves to L = 4 (table_seq_len: 4 when listed), with its ablations; L = 3 stays as it is; with two
+    # lengths the experiment adaptive_seq_len runs
     pytest.param(lambda c: c.update(seq_lens=[3, 4]),
                  attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | baselines(seq_len=4) | attribute_ablation(4)
                  | without(seq_len=4) | held_out(seq_len=4) | metrics(seq_len=4) | queries(seq_len=4)
-                 | inspect(seq_len=4) | speed(seq_len=4) | REPORT, id="seq-lens"),
+                 | inspect(seq_len=4) | speed(seq_len=4) | adaptive() | REPORT, id="seq-lens"),
     pytest.param(lambda c: c["predictor"].update(max_iter=61),
                  attribute_ablation() | without() | PREDICTOR_ON | speed(), id="predictor"),
     pytest.param(lambda c: c.update(seeds=3), PREDICTOR_ON, id="seeds"),
