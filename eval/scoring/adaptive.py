@@ -46,6 +46,7 @@ from vpr_smr.eval.scoring.adaptive_records import (
     AdaptiveResult,
     AdaptiveRow,
     AdaptiveTiming,
+    best_key,
     fixed_name,
 )
 from vpr_smr.eval.scoring.curves import AT_RECALL_ZERO
@@ -189,10 +190,11 @@ def _rows(lengths: Sequence[Length], validation: Sequence[Length] | None, n_seed
 
 
 def best_fixed(rows: Sequence[tuple[str, str, int | None, Reduction]]) -> str | None:
-    """The best fixed row of ``rows`` (name, kind, length, seed-0 numbers, in the table's order): the smallest AOC at
-    its own maximum recall among the fixed rows that keep a correct match; on a tie the larger maximum recall, then
-    the earlier row (the shorter length, without predictor first). None when no fixed row keeps a correct match."""
-    found = [(numbers.aoc_vpr_sm_pred, -numbers.max_recall, i) for i, (_, kind, _, numbers) in enumerate(rows)
+    """The best fixed row of ``rows`` (name, kind, length, seed-0 numbers, in the table's order): among the fixed
+    rows that keep a correct match, the one that loses the least precision over its recall (``best_key``: AOC over
+    maximum recall, then the larger maximum recall, then the earlier row). None when no fixed row keeps a correct
+    match."""
+    found = [best_key(numbers.aoc_vpr_sm_pred, numbers.max_recall, i) for i, (_, kind, _, numbers) in enumerate(rows)
              if kind != RULE and numbers.outcome not in AT_RECALL_ZERO]
     return rows[min(found)[2]][0] if found else None
 

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -12,7 +13,7 @@ from vpr_smr.eval.scoring.records import Interval, Reduction, SeedSummary
 __all__ = [
     "ADAPTIVE", "ADAPTIVE_FALLBACK", "ADAPTIVE_UNIQUENESS", "COMPARED_MODE", "FIXED", "FIXED_PREDICTOR", "KINDS",
     "RULE", "RULES",
-    "AdaptiveMode", "AdaptiveResult", "AdaptiveRow", "AdaptiveTiming", "fixed_name",
+    "AdaptiveMode", "AdaptiveResult", "AdaptiveRow", "AdaptiveTiming", "best_key", "fixed_name", "precision_lost",
 ]
 
 Json = dict[str, Any]
@@ -24,6 +25,19 @@ FIXED, FIXED_PREDICTOR, RULE = "fixed", "fixed+predictor", "rule"
 # mode's by each row's own correct matches, which differ from row to row (another length's matches)
 COMPARED_MODE = "standard"
 KINDS = (FIXED, FIXED_PREDICTOR, RULE)
+
+
+def precision_lost(aoc: float, max_recall: float) -> float:
+    """A row's AOC over its maximum recall: one minus its mean precision over recall 0 .. R_max, what ranks rows that
+    reach different maximum recalls (an AOC is at most R_max, so the AOC alone is smaller the more matches a row
+    removes); +inf at recall 0."""
+    return aoc / max_recall if max_recall > 0 else math.inf
+
+
+def best_key(aoc: float, max_recall: float, index: int) -> tuple[float, float, int]:
+    """How the best of several rows is chosen (the best fixed row, the best rule): the smallest ``precision_lost``,
+    then the larger maximum recall, then the first (``index``: its place in the table's order)."""
+    return precision_lost(aoc, max_recall), -max_recall, index
 
 
 def fixed_name(seq_len: int, predictor: bool) -> str:
@@ -79,8 +93,8 @@ class AdaptiveResult(FileRecord):
     one). ``rows``: the fixed lengths without predictor, then with it (shortest first), then the rules (``RULES``'s
     order; ``adaptive_uniqueness`` only with a validation split). ``best_fixed``: in standard mode only (its recall
     divides by the queries, the same for every row; paper mode's by each row's own correct matches), the fixed row
-    of the smallest seed-0 AOC at its own maximum recall among those that keep a correct match (ties: the larger
-    maximum recall, then the earlier row; ``eval.scoring.adaptive.best_fixed``).
+    that loses the least precision over its recall (``best_key``: seed 0, among those that keep a correct match;
+    ``eval.scoring.adaptive.best_fixed``).
     ``notes``: what the result leaves out, in words (e.g. no validation split)."""
 
     meta: Json

@@ -129,6 +129,10 @@ def test_the_best_fixed_row_breaks_ties_by_the_larger_recall():
             ("adaptive", "rule", None, numbers(0.0, 0.9))]
     assert best_fixed(rows) == "L4+pred"  # AOC 0 at recall .6 before AOC 0 at .3; removing all is no candidate
     assert best_fixed(rows[3:]) is None
+    # the AOC alone would take a row that keeps almost nothing: AOC .02 at recall .02 is precision 0 throughout
+    # (.02 / .02 = 1 of the precision lost), AOC .05 at recall .8 loses .0625 of it
+    assert best_fixed([("L2+pred", "fixed+predictor", 2, numbers(0.02, 0.02)),
+                       ("L8+pred", "fixed+predictor", 8, numbers(0.05, 0.8))]) == "L8+pred"
 
 
 def test_without_validation_adaptive_uniqueness_is_left_out():

@@ -24,6 +24,7 @@ from vpr_smr.eval.scoring.adaptive_records import (
     AdaptiveResult,
     AdaptiveRow,
     AdaptiveTiming,
+    best_key,
     fixed_name,
 )
 from vpr_smr.eval.scoring.records import Interval
@@ -148,10 +149,11 @@ def make_adaptive(inputs: Inputs) -> list[AdaptiveSeqLenRow] | None:
 
 
 def _best_rule(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
-    """The rule of smallest AOC among those that keep a correct match (a tie: ``RULES``' order); None if none
-    does."""
+    """The best rule among those that keep a correct match, by the best fixed row's measure (``best_key``: the least
+    precision lost over its recall; a tie: the larger recall, then ``RULES``' order); None if none keeps one."""
     kept = [r for r in rows if r["kind"] == RULE and not words.at_recall_zero(r)]
-    return min(kept, key=lambda r: (float(r[names.AOC]), RULES.index(r["name"]) if r["name"] in RULES else len(RULES)),
+    return min(kept, key=lambda r: best_key(float(r[names.AOC]), float(r["max_recall"]),
+                                            RULES.index(r["name"]) if r["name"] in RULES else len(RULES)),
                default=None)
 
 
@@ -171,7 +173,7 @@ def query_counts(rows: Sequence[dict[str, Any]]) -> str:
 
 def adaptive_sentence(rows: Sequence[dict[str, Any]]) -> str:
     """The experiment's one sentence of one dataset and mode (its rows' cells): over the method-matcher pairs, for
-    how many the best rule (the smallest AOC among the rules that keep a correct match) has an AOC below the best
+    how many the best rule (``_best_rule``: by the best fixed row's measure) has an AOC below the best
     fixed row's (the paired 95 % interval of the difference below 0), for how many the interval holds 0 (and for how
     many of those its mean length is shorter than the best fixed row's length), for how many it lies above 0; the
     pairs without an interval named (too few queries to tell), and those without a rule or a fixed row that keeps a
