@@ -155,3 +155,17 @@ def bootstrap_indices(n: int, draws: int) -> np.ndarray:
     runs = -(-n // block)
     starts = np.random.default_rng(0).integers(0, n, (1000, runs))[:draws]
     return np.array([[(s + j) % n for s in row for j in range(block)][:n] for row in starts])
+
+
+def session_alive(pid: int, seconds: float = 15.0) -> list[str]:
+    """The processes still in the session of ``pid`` (a stopped run's), waiting up to ``seconds`` for them to end:
+    the jobs' processes end on the signal they were passed, and on a loaded machine one may take a few seconds."""
+    import subprocess
+    import time
+
+    deadline = time.monotonic() + seconds
+    while True:
+        time.sleep(0.5)
+        alive = subprocess.run(["pgrep", "-s", str(pid)], capture_output=True, text=True).stdout.split()
+        if not alive or time.monotonic() > deadline:
+            return alive

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pytest
 import yaml
+from helpers import session_alive
 
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 
@@ -102,12 +103,7 @@ def test_sigterm_stops_the_whole_workflow(tmp_path):
     process.send_signal(signal.SIGTERM)  # to `vpr-smr run` only, not to its group
     process.wait(timeout=60)
     assert process.returncode != 0
-    # the jobs' processes end on the signal they were passed; on a loaded machine one may take a few seconds
-    for _ in range(30):
-        time.sleep(0.5)
-        alive = subprocess.run(["pgrep", "-s", str(process.pid)], capture_output=True, text=True).stdout.split()
-        if not alive:
-            break
+    alive = session_alive(process.pid)
     assert alive == [], f"processes of the stopped run still alive 15 s after it stopped: {alive}"
     assert not list((tmp_path / "results").rglob("*.tmp"))
 

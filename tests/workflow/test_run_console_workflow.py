@@ -13,6 +13,7 @@ import time
 
 import pytest
 import yaml
+from helpers import session_alive
 
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 
@@ -164,11 +165,6 @@ def test_ctrl_c_stops_the_run_in_one_line(tmp_path, sample):
     assert status != 0
     assert len(err.splitlines()) <= 2 and "Traceback" not in out + err, err
     assert err.startswith("vpr-smr run: interrupted"), err
-    # the jobs' processes end on the signal; on a loaded machine one may take a few seconds
-    for _ in range(30):
-        time.sleep(0.5)
-        alive = subprocess.run(["pgrep", "-s", str(process.pid)], capture_output=True, text=True).stdout.split()
-        if not alive:
-            break
+    alive = session_alive(process.pid)
     assert alive == [], f"processes of the stopped run still alive 15 s after it stopped: {alive}"
     assert not list(output.rglob("*.tmp"))
