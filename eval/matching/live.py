@@ -112,6 +112,11 @@ class LiveMatcher:
 
     @predictor.setter
     def predictor(self, predictor: Any) -> None:
+        trained = getattr(predictor, "seq_len_", None)  # a loaded predictor's length (SMRPredictor.load)
+        if trained is not None and trained != self.seq_len:
+            raise ValueError(f"{getattr(predictor, 'path_', 'the predictor')} was trained at sequence length "
+                             f"{trained}, but this LiveMatcher matches {self.seq_len} frames: give the predictor "
+                             f"trained at L = {self.seq_len}")
         if predictor is not None and hasattr(predictor, "path_"):  # its attributes must be this matcher's (live
             # frames have no ground truth); a predictor fitted in this process records no matcher to compare
             if self.spec is None:

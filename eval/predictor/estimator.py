@@ -304,6 +304,10 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
             stored = f.attrs.get(MATCHING)
             # None: a file from before predictors recorded their matching (check_matching refuses to guess)
             predictor.matching_ = None if stored is None else Matching.from_json(json.loads(stored))
+            # the sequence length it was trained at (its report's meta; None: a file that records none)
+            report = json.loads(f.attrs["report"]) if "report" in f.attrs else {}
+            length = report.get("meta", {}).get("seq_len") if isinstance(report, dict) else None
+            predictor.seq_len_ = None if length is None else int(length)
             predictor.path_ = str(path)
         return predictor
 

@@ -277,13 +277,13 @@ def _recorded(path: Path | str, key: str) -> Any:
     return read_provenance(path).get(key)
 
 
-def predictor_length(path: Path | str) -> int:
-    """The sequence length a predictor file was trained at (its report's ``meta.seq_len``); ValueError naming the
-    file when it records none."""
-    report = _recorded(path, "report")
-    length = report.get("meta", {}).get("seq_len") if isinstance(report, Mapping) else None
+def predictor_length(predictor: Any) -> int:
+    """The sequence length a loaded predictor was trained at (``SMRPredictor.load``'s ``seq_len_``); ValueError
+    naming its file when it records none."""
+    length = getattr(predictor, "seq_len_", None)
     if length is None:
-        raise ValueError(f"{path} records no sequence length: give a predictor file written by vpr-smr train")
+        raise ValueError(f"{getattr(predictor, 'path_', 'the predictor')} records no sequence length: give a "
+                         "predictor file written by vpr-smr train")
     return int(length)
 
 
@@ -413,12 +413,18 @@ def main(
             raise ValueError(f"the {split} attributes are of the lengths {list(files[split])}, the {table_split} "
                              f"ones of {lengths}: give both splits' files of every length")
     by_length: dict[int, list[str]] = {}
+    models: dict[int, list[SMRPredictor]] = {}
     for first in predictors:
-        length = predictor_length(first)
+        loaded = [SMRPredictor.load(path) for path in seed_files(first, seeds)]
+        length = predictor_length(loaded[0])
         if length in by_length:
             raise ValueError(f"two predictors of L = {length}: {by_length[length][0]} and {first}; give one seed-0 "
                              "file per length")
-        by_length[length] = seed_files(first, seeds)
+        for model in loaded[1:]:
+            if predictor_length(model) != length:
+                raise ValueError(f"{model.path_} was trained at L = {predictor_length(model)}, its seed 0 {first} at "
+                                 f"L = {length}: train the seeds together (vpr-smr train --seeds N)")
+        by_length[length], models[length] = [str(model.path_) for model in loaded], loaded
     if sorted(by_length) != lengths:
         raise ValueError(f"the predictors are of the lengths {sorted(by_length)}, the attributes of {lengths}: give "
                          "one predictor (its seed-0 file) per length")
@@ -428,13 +434,10 @@ def main(
                          "length's seed files (vpr-smr train --seeds N)")
     paths = [path for split in splits for path in files[split].values()]
     matching = common_matching(paths)
-    models: dict[int, list[SMRPredictor]] = {}
     for length in lengths:
-        models[length] = []
-        for path in by_length[length]:
+        for path, model in zip(by_length[length], models[length], strict=True):
             check_disjoint(trained_on(path), frame_ranges(paths), allow_split_overlap, f"predictor {path}")
-            models[length].append(SMRPredictor.load(path))
-            check_matching(models[length][-1], matching, "the attributes " + ", ".join(paths))
+            check_matching(model, matching, "the attributes " + ", ".join(paths))
     features: dict[str, dict[int, QueryFeatures]] = {}
     for split in splits:
         features[split] = {}

@@ -172,6 +172,20 @@ def test_a_built_matcher_is_compared_with_a_loaded_predictors(predictor_file):
         LiveMatcher(L, matcher=MatcherSpec.of("seqslam", {"velocities": [0.5, 1.0]}).build(L), predictor=predictor)
 
 
+def test_a_loaded_predictor_of_another_length_is_refused(predictor_file):
+    from vpr_smr.eval.matching.live import AdaptiveLiveMatcher
+    from vpr_smr.eval.predictor.estimator import SMRPredictor
+
+    predictor = SMRPredictor.load(predictor_file)  # trained at L = 3 (its report says so)
+    assert predictor.seq_len_ == 3
+    LiveMatcher(3, predictor=predictor)
+    with pytest.raises(ValueError, match=r"L3.h5 was trained at sequence length 3, but this LiveMatcher matches 4 "
+                                         r"frames: give the predictor trained at L = 4"):
+        LiveMatcher(4, predictor=predictor)
+    with pytest.raises(ValueError, match=r"trained at sequence length 3, but this LiveMatcher matches 4 frames"):
+        AdaptiveLiveMatcher((3, 4), [predictor, predictor])  # the same file given for both lengths
+
+
 @pytest.mark.parametrize(("name", "settings"), [
     ("bayes_filter", {}), ("bayes_filter", {"window_lo": -1, "window_hi": 3}), ("monotone", {}),
     ("monotone", {"max_step": 3, "step_penalty": 0.0}), ("seqslam", {"velocities": [0.8, 1.0, 1.25]}),
