@@ -180,7 +180,10 @@ class LiveMatcher:
     def push(self, column: np.ndarray) -> None:
         """Take one column of D into the window; a matcher with its own block (a filter) matches the frame now,
         since its state must advance every frame whether or not ``current`` is asked."""
-        column = self.check_column(column)
+        self._take(self.check_column(column))
+
+    def _take(self, column: np.ndarray) -> None:
+        """``push`` of a column ``check_column`` passed."""
         lookback, kept = self.matcher.lookback, self.frames_needed  # kept: the attributes' window and the matcher's
         if self._buffer is None:
             dtype = column.dtype if column.dtype in (np.float32, np.float64) else np.float64
@@ -315,7 +318,7 @@ class AdaptiveLiveMatcher:
         for live in self.matchers:  # every length takes the column or none does
             column = live.check_column(column)
         for live in self.matchers:
-            live.push(column)
+            live._take(column)  # checked above
         self.frames += 1
         if self.frames < self.frames_needed:
             return None

@@ -150,16 +150,21 @@ def _scored(lengths: Sequence[Length], removal: _Removal, own_range: bool) -> An
     return Scored(distances, correct, removal.keep, low, high)
 
 
-def _reduction(mode: str, baseline: Any, scored: Any) -> Reduction:
-    from vpr_smr.eval.scoring.curves import compare_curves, curve
-    from vpr_smr.eval.scoring.evaluate import reduction_of
+def _curve(mode: str, scored: Any) -> Any:
+    """``curves.curve`` of one row's matches (``_scored``)."""
+    from vpr_smr.eval.scoring.curves import curve
 
-    def of(s: Any) -> Any:
-        return curve(mode, s.distances, s.correct, s.keep, s.sequence_min, s.sequence_max)
+    return curve(mode, scored.distances, scored.correct, scored.keep, scored.sequence_min, scored.sequence_max)
+
+
+def _reduction(mode: str, baseline: Any, scored: Any) -> Reduction:
+    from vpr_smr.eval.scoring.curves import compare_curves
+    from vpr_smr.eval.scoring.evaluate import reduction_of
 
     same = bool(np.array_equal(scored.distances, baseline.distances) and np.array_equal(scored.correct,
                                                                                          baseline.correct))
-    return reduction_of(compare_curves(of(baseline), of(scored)), len(scored.keep), int((~scored.keep).sum()), same)
+    return reduction_of(compare_curves(_curve(mode, baseline), _curve(mode, scored)), len(scored.keep),
+                        int((~scored.keep).sum()), same)
 
 
 @dataclass(frozen=True)
@@ -202,9 +207,9 @@ def best_fixed(rows: Sequence[tuple[str, str, int | None, Reduction]]) -> str | 
 def _common_recall(mode: str, first: Any, second: Any) -> float:
     """``first``'s AOC minus ``second``'s at the smaller of their maximum recalls (as
     ``intervals.common_recall_difference`` on every draw)."""
-    from vpr_smr.eval.scoring.curves import area, curve, cut_curve
+    from vpr_smr.eval.scoring.curves import area, cut_curve
 
-    found = [curve(mode, s.distances, s.correct, s.keep, s.sequence_min, s.sequence_max) for s in (first, second)]
+    found = [_curve(mode, s) for s in (first, second)]
     common = min(float(c.recall[-1]) for c in found)
     aoc = [max(0.0, common - area(cut_curve(c, common))) for c in found]
     return aoc[0] - aoc[1]
@@ -224,13 +229,14 @@ def compute(lengths: Sequence[Length], validation: Sequence[Length] | None, mode
     longest = len(lengths) - 1
     n = len(lengths[0].distances)
     baseline = _scored(lengths, _Removal(np.full(n, longest), np.ones(n, dtype=bool)), own_range=True)
+    # every row's matches of every seed, once: the modes score the same matches
+    scored = [[_scored(lengths, removal, row.kind != RULE) for removal in row.removals] for row in rows]
     numbers: dict[str, list[dict[int, Reduction]]] = {}
     draws: dict[str, list[Any]] = {}
     for mode in modes:
-        numbers[mode] = [{seed: _reduction(mode, baseline, _scored(lengths, removal, row.kind != RULE))
-                          for seed, removal in enumerate(row.removals)} for row in rows]
-        draws[mode] = paired_draws(mode, baseline, [_scored(lengths, row.removals[0], row.kind != RULE)
-                                                    for row in rows])
+        numbers[mode] = [{seed: _reduction(mode, baseline, found) for seed, found in enumerate(seeds)}
+                         for seeds in scored]
+        draws[mode] = paired_draws(mode, baseline, [seeds[0] for seeds in scored])
     best: dict[str, str] = {}
     if COMPARED_MODE in modes:
         found = best_fixed([(row.name, row.kind, row.seq_len, numbers[COMPARED_MODE][i][0])
@@ -254,8 +260,7 @@ def compute(lengths: Sequence[Length], validation: Sequence[Length] | None, mode
                                 aoc_vpr_sm_pred_ci=percentile_interval(found.aoc_predictor))
             versus = versus_ci = None
             if row.kind == RULE and mode in best:
-                other = rows[[r.name for r in rows].index(best[mode])]
-                pair = [_scored(lengths, r.removals[0], r.kind != RULE) for r in (row, other)]
+                pair = (scored[i][0], scored[[r.name for r in rows].index(best[mode])][0])
                 versus = _common_recall(mode, *pair)
                 versus_ci = percentile_interval(common_recall_difference(mode, *pair))
             modes_out[mode] = AdaptiveMode(reduction, None if spread is None else spread[mode], versus, versus_ci)
@@ -331,7 +336,7 @@ def live_timing(matrix: Any, lengths: Sequence[int], predictors: Sequence[Any], 
     from vpr_smr.eval.matching.live import AdaptiveLiveMatcher, LiveMatcher
     from vpr_smr.eval.matching.matcher import read_columns
 
-    n_ref, n_query = (int(n) for n in matrix.shape)
+    n_query = int(matrix.shape[1])
     try:
         adaptive = AdaptiveLiveMatcher(tuple(lengths), list(predictors), matcher=matcher)
         longest = LiveMatcher(lengths[-1], predictor=predictors[-1], matcher=matcher)
