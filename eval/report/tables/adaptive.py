@@ -35,8 +35,10 @@ if TYPE_CHECKING:
 __all__ = ["TABLE", "AdaptiveSeqLenRow", "adaptive_rows", "adaptive_sentence", "histogram", "live_ms",
            "make_adaptive", "tag_of"]
 
+# each number a word or a sentence reads is shown with its interval: the reduction's outcome is its point's sign
 PAGE = ("matcher", "method", "name", "mean_length", "lengths", "removed", "max_recall", names.AOC, names.REDUCTION,
-        "outcome", "minus_best_fixed_ci_low", "minus_best_fixed_ci_high", "ms_per_query", "live_note")
+        "reduction_pct_ci_low", "reduction_pct_ci_high", "outcome", "minus_best_fixed", "minus_best_fixed_ci_low",
+        "minus_best_fixed_ci_high", "ms_per_query", "live_note")
 
 
 def tag_of(result: AdaptiveResult) -> str:
