@@ -37,6 +37,10 @@ class ToyMatcher(Matcher):
     description = "a fading sum of distances along the diagonal (a test plugin)"
 
     @property
+    def score_frames(self) -> int:
+        return 1  # a fading sum over every frame so far, whatever L: no sum of L frames to divide
+
+    @property
     def lookback(self) -> int:
         return 0  # a filter: its memory is its state, not a window of columns
 
