@@ -6,7 +6,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
 
-.PHONY: demo test test-fast lint bench install clean-results
+.PHONY: demo test test-fast lint docs bench install clean-results
 
 # The grep drops pip's notes about unused local index folders of this machine's pip configuration;
 # pip's own exit status still decides (pipefail).
@@ -32,6 +32,12 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports --no-cache
 	MYPY=$(BIN)/mypy .ci/typecheck
+
+# The documentation site, offline, every warning an error (nitpicky: every reference must resolve); open the path it
+# prints. CI builds it too.
+docs: $(STAMP)
+	$(BIN)/sphinx-build --quiet --fail-on-warning --keep-going --nitpicky --builder html docs docs/_build/html
+	@echo "docs: docs/_build/html/index.html"
 
 # Full-size speed and memory measurements (minutes; see benchmarks/README.md). CI runs them small, in the tests.
 bench: $(STAMP)

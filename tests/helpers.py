@@ -137,14 +137,27 @@ def write_route(folder: Path, n: int, start: int = 1000, name: str = "img{}.jpg"
     return reference, query
 
 
-def readme_block(marker: str) -> str:
-    """The fenced block that follows ``<!-- marker ... -->`` in the README."""
+DOC_PAGES = (REPO / "README.md", *sorted((REPO / "docs").glob("*.md")))
+
+
+def doc_block(marker: str) -> str:
+    """The fenced block that follows ``<!-- marker ... -->`` in the README or a page of docs/ (each marker names one
+    block of them all; tests/unit/test_docs_blocks.py checks that every block has one and a test that reads it)."""
     import re
 
-    text = (REPO / "README.md").read_text()
-    match = re.search(rf"<!-- {marker}[^>]*-->\n```[a-z]*\n(.*?)```", text, re.S)
-    assert match, f"README.md has no block after <!-- {marker} -->"
-    return match.group(1)
+    pattern = re.compile(rf"<!-- {re.escape(marker)}(?:[:\s][^>]*)?-->\n```[a-z]*\n(.*?)```", re.S)
+    found = [match.group(1) for page in DOC_PAGES for match in pattern.finditer(page.read_text())]
+    assert len(found) == 1, f"{len(found)} blocks after <!-- {marker} --> in README.md and docs/ (one expected)"
+    return found[0]
+
+
+def doc_page_blocks(page: str) -> list[tuple[str, str]]:
+    """Every fenced block of ``docs/<page>`` in order, as (language, text), MyST directives (```{toctree}) left out:
+    for a test that runs a whole page (the Python walkthrough, the extending recipes)."""
+    import re
+
+    text = (REPO / "docs" / page).read_text()
+    return re.findall(r"^```([a-z]*)\n(.*?)^```", text, re.S | re.M)
 
 
 def bootstrap_indices(n: int, draws: int) -> np.ndarray:

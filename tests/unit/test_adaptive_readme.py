@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from helpers import readme_block
+from helpers import doc_block
 from sample_matrix import sample_distances
 
 from vpr_smr.core.constants import KEPT_CLASSES
@@ -23,7 +23,7 @@ def test_readme_commands_run_as_written_and_choose_as_a_naive_loop(tmp_path: Pat
     for split, (first, count) in {"train": (600, 120), "val": (720, 80), "test": (800, 80)}.items():
         np.save(tmp_path / f"{split}.npy", sample_distances(first, count))
     env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ['PATH']}"}
-    done = subprocess.run(["bash", "-e", "-c", readme_block("adaptive-commands")], cwd=tmp_path, env=env,
+    done = subprocess.run(["bash", "-e", "-c", doc_block("adaptive-commands")], cwd=tmp_path, env=env,
                           capture_output=True, text=True)
     assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
     for name in ("L2+pred", "L4+pred", "adaptive", "adaptive_fallback", "adaptive_uniqueness"):

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 import scipy.io
 from field_files import band, lists_of, write_vpr_bench
-from helpers import readme_block
+from helpers import doc_block
 from sample_matrix import sample_distances
 
 VPR_SMR = str(Path(sys.executable).with_name("vpr-smr"))
@@ -49,7 +49,7 @@ def splits(path: Path) -> dict[str, object]:
 
 
 def test_readme_commands_run_as_written_and_give_the_band_numbers(folder):
-    commands = [shlex.split(line) for line in readme_block("field-matrix-commands").splitlines() if line.strip()]
+    commands = [shlex.split(line) for line in doc_block("field-matrix-commands").splitlines() if line.strip()]
     assert [c[:2] for c in commands] == [["vpr-smr", "metrics"], ["vpr-smr", "metrics"], ["vpr-smr", "attributes"],
                                          ["vpr-smr", "metrics"]]
     for command in commands:

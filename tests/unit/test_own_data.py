@@ -9,7 +9,7 @@ from pathlib import Path
 
 import cv2
 import pytest
-from helpers import REPO, readme_block, write_route
+from helpers import REPO, doc_block, write_route
 
 from vpr_smr.datasets import DatasetError, frames_settings, load_dataset, load_frames, read_image
 from vpr_smr.datasets import check as check_module
@@ -24,13 +24,13 @@ EXAMPLE = REPO / "configs" / "own_folders.yaml"
 
 
 def test_readme_shows_the_shipped_example_configuration():
-    assert readme_block("own-data-config") == EXAMPLE.read_text()
+    assert doc_block("own-data-config") == EXAMPLE.read_text()
 
 
 def test_readme_shows_the_positions_example_and_it_is_valid():
     # the non-aligned example (method §11): shown as shipped, valid, velocity search on, the speed experiment off
     example = REPO / "configs" / "own_positions.yaml"
-    assert readme_block("own-positions-config") == example.read_text()
+    assert doc_block("own-positions-config") == example.read_text()
     conf = load_config(example)
     assert conf.datasets["my_drive"].radius == 25
     assert conf.sequence_matching.values["velocities"][4] == 1.0 and not conf.experiments.speed

@@ -10,7 +10,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from helpers import REPO, readme_block, write_route
+from helpers import REPO, doc_block, write_route
 
 from vpr_smr.datasets import load_frames, read_image
 
@@ -21,7 +21,7 @@ EXAMPLE = REPO / "configs" / "own_folders.yaml"
 def test_readme_example_runs_as_written_on_real_images(tmp_path):
     """The README's commands, run as written from the folder that holds my_route/, with the shipped file."""
     write_route(tmp_path / "my_route", 300)
-    commands = [shlex.split(line) for line in readme_block("own-data-commands").splitlines() if line.strip()]
+    commands = [shlex.split(line) for line in doc_block("own-data-commands").splitlines() if line.strip()]
     assert [c[:3] for c in commands] == [["vpr-smr", "dataset", "check"],
                                          ["vpr-smr", "run", "configs/own_folders.yaml"]]
     (tmp_path / "configs").mkdir()
