@@ -2,15 +2,15 @@
 warning an error. The pages are Markdown files beside this one; the CLI and configuration references are generated
 from the code (``python -m vpr_smr.pipeline.reference --write``), the Python API's from its docstrings (autodoc)."""
 
+import importlib.metadata
 import sys
-from importlib.metadata import version
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).parent / "_ext"))
 
 project = "vpr-smr"
 author = "The vpr-smr developers"
-release = version("vpr-smr")
+release = importlib.metadata.version("vpr-smr")
 copyright = "the vpr-smr developers (code MIT; Nordland frames CC BY 3.0 NRK)"
 
 extensions = ["myst_parser", "sphinx.ext.autodoc", "sphinx.ext.napoleon", "mathml"]
@@ -20,6 +20,8 @@ exclude_patterns = ["_build"]
 # and on GitHub.
 myst_enable_extensions = ["dollarmath"]
 myst_heading_anchors = 4
+# Text as written: `--option` in prose stays two hyphens (Sphinx would make it a dash), quotes stay straight.
+smartquotes = False
 
 # Every reference must resolve (nitpicky), and the maths is MathML written at build time (_ext/mathml.py): the
 # pages load nothing from outside (no MathJax from a CDN, no web fonts: Furo uses the system's).

@@ -1,8 +1,9 @@
-"""What follows from the settings records (``core.settings``): the configuration schema's sections that are records
-(``config_schema``, written into ``config_schema.json``) and the configuration reference of the docs
-(``configuration_reference``, ``docs/configuration.md``). Both files are generated:
-``python -m vpr_smr.pipeline.reference --write`` writes them again after a record changed, and a test checks that the
-committed files are what the records give.
+"""What follows from the settings records (``core.settings``) and the command line: the configuration schema's
+sections that are records (``config_schema``, written into ``config_schema.json``), the configuration reference of the
+docs (``configuration_reference``, ``docs/configuration.md``) and the command-line reference (``cli_reference``,
+``docs/cli.md``, from ``pipeline.cli``'s argument parser). The three files are generated:
+``python -m vpr_smr.pipeline.reference --write`` writes them again after a record or an option changed, and a test
+checks that the committed files are what the code gives.
 
 A dataset entry's keys are ``datasets.settings.DatasetEntry``'s. The schema's other parts (the run's name, the
 splits, the methods' entries, the speed experiment) are written in ``config_schema.json`` itself; the reference shows
@@ -19,12 +20,15 @@ from typing import Any
 from vpr_smr.core.settings import json_schema
 from vpr_smr.datasets.settings import DatasetEntry
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, ENTRY_POINT_GROUP, MATCHERS, matcher_class
+from vpr_smr.pipeline.cli import build_parser
 from vpr_smr.pipeline.config import MATCHER_KEY, RECORDS, SCHEMA_PATH
 from vpr_smr.pipeline.options import option
 
-__all__ = ["REFERENCE_PATH", "config_schema", "configuration_reference", "dataset_entry_schema", "main"]
+__all__ = ["CLI_REFERENCE_PATH", "REFERENCE_PATH", "cli_reference", "commands", "config_schema",
+           "configuration_reference", "dataset_entry_schema", "main"]
 
 REFERENCE_PATH = Path(__file__).resolve().parents[1] / "docs" / "configuration.md"
+CLI_REFERENCE_PATH = REFERENCE_PATH.with_name("cli.md")
 WRITE_COMMAND = "python -m vpr_smr.pipeline.reference --write"
 
 
@@ -110,8 +114,15 @@ def _sentence(text: str) -> str:
     return (text[:1].upper() + text[1:]).rstrip(".") + "." if text else ""
 
 
+# Markdown that a help text or description must not trigger: a table's bar, raw HTML (``<output>``), emphasis
+# (``r*``) and the docs' maths (``$``).
+ESCAPES = str.maketrans({"|": "\\|", "<": "&lt;", "*": "\\*", "$": "\\$", "\n": " "})
+
+
 def _cell(text: str) -> str:
-    return text.replace("|", "\\|").replace("\n", " ")
+    """``text`` in a table cell: code spans (between backticks) as they are, the rest escaped."""
+    parts = text.split("`")
+    return "`".join(part.replace("|", "\\|") if i % 2 else part.translate(ESCAPES) for i, part in enumerate(parts))
 
 
 def _default(node: dict[str, Any]) -> str:
@@ -176,12 +187,116 @@ def _matchers(key: str) -> list[str]:
     return lines
 
 
+# --- the command-line reference ----------------------------------------------------------------------------------
+
+def commands(parser: argparse.ArgumentParser, name: str = "") -> dict[str, argparse.ArgumentParser]:
+    """Every command of ``parser`` by its words (``""`` for ``vpr-smr`` itself, ``"dataset check"``), in the order
+    ``--help`` lists them."""
+    found = {name: parser}
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for word, subparser in action.choices.items():
+                found.update(commands(subparser, f"{name} {word}".strip()))
+    return found
+
+
+def _helps(parser: argparse.ArgumentParser) -> dict[str, str]:
+    """Each subcommand's one-line help, by its word (argparse keeps it on the choices action, not the subparser)."""
+    return {choice.dest: choice.help or "" for action in parser._actions
+            if isinstance(action, argparse._SubParsersAction) for choice in action._choices_actions}
+
+
+def _description(parser: argparse.ArgumentParser, text: str) -> list[str]:
+    """A command's description as Markdown. A raw one (its line breaks kept by the parser, as the top level's) keeps
+    its lines: each command line as code, each numbered step as a list item."""
+    if parser.formatter_class is not argparse.RawDescriptionHelpFormatter:
+        return [_sentence(" ".join(text.split())).translate(ESCAPES)]
+    paragraphs = text.strip().split("\n\n")
+    lines = [" ".join(paragraphs[0].split()).translate(ESCAPES)]
+    for line in "\n".join(paragraphs[1:]).splitlines():
+        stripped = line.strip()
+        if stripped.startswith("vpr-smr "):
+            lines.append(f"   - `{stripped}`")
+        elif stripped[:1].isdigit():
+            lines.append(stripped.translate(ESCAPES))
+        elif stripped:
+            lines += ["", stripped.translate(ESCAPES), ""]
+    return lines
+
+
+def _argument(action: argparse.Action) -> str:
+    if action.nargs == 0:
+        return ""
+    shown = action.metavar if isinstance(action.metavar, str) else \
+        "{" + ",".join(map(str, action.choices)) + "}" if action.choices else action.dest.upper()
+    return {"?": f"[{shown}]", "*": f"[{shown} ...]", "+": f"{shown} [...]"}.get(str(action.nargs), shown)
+
+
+def _options(parser: argparse.ArgumentParser, skip: set[str] | frozenset[str] = frozenset()) -> list[argparse.Action]:
+    return [action for action in parser._actions
+            if not isinstance(action, argparse._SubParsersAction | argparse._HelpAction)
+            and action.help != argparse.SUPPRESS and not set(action.option_strings) & skip]
+
+
+def _option_rows(actions: list[argparse.Action]) -> list[str]:
+    lines = ["| option | argument | default | description |", "|---|---|---|---|"]
+    for action in actions:
+        names = ", ".join(action.option_strings) or action.dest
+        required = action.required or not action.option_strings and action.nargs not in ("?", "*")
+        default = "required" if required else "" if action.default in (None, False, argparse.SUPPRESS) \
+            else json.dumps(action.default)
+        cells = [f"`{names}`", f"`{_argument(action)}`" if _argument(action) else "",
+                 f"`{default}`" if default and default != "required" else default, _cell(action.help or "")]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def cli_reference() -> str:
+    """The command-line reference (Markdown): every command of ``vpr-smr`` with its options, as the argument parser
+    gives them, and each matcher's options of the commands that take ``--matcher``."""
+    default = build_parser()
+    found = commands(default)
+    lines = ["# Command-line reference", "",
+             "Every command and option of `vpr-smr`, as its argument parser defines them (`vpr-smr COMMAND --help` "
+             f"prints the same). Generated from the parser by `{WRITE_COMMAND}`: do not edit it by hand. The "
+             "options of the stage commands that are settings of a run's configuration are listed with their "
+             "settings in the [configuration reference](configuration.md).", ""]
+    for words, parser in found.items():
+        parent = found[words.rpartition(" ")[0]] if words else None
+        text = parser.description or (_helps(parent).get(words.rpartition(" ")[2], "") if parent else "")
+        lines += [f"## vpr-smr {words}".rstrip(), ""] + _description(parser, text) + [""]
+        if _helps(parser):
+            lines += ["| command | what it does |", "|---|---|"]
+            lines += [f"| `vpr-smr {words} {word}`".replace("  ", " ") + f" | {_cell(help_)} |"
+                      for word, help_ in _helps(parser).items()] + [""]
+        if _options(parser):
+            lines += _option_rows(_options(parser)) + [""]
+        if parser.epilog and words:
+            lines += [_sentence(_cell(" ".join(parser.epilog.split()))), ""]
+    lines += ["## The matchers' options", "",
+              "The commands that take `--matcher NAME` (" + ", ".join(
+                  f"`vpr-smr {words}`" for words, parser in found.items()
+                  if any("--matcher" in action.option_strings for action in parser._actions)) +
+              f") take that matcher's settings as options; those of `{DEFAULT_MATCHER}` are listed above.", ""]
+    for name in sorted(MATCHERS):
+        if name == DEFAULT_MATCHER:
+            continue
+        matcher_parser = commands(build_parser(name))["attributes"]
+        shown = {option for action in _options(found["attributes"]) for option in action.option_strings}
+        lines += [f"### `--matcher {name}`", ""]
+        lines += _option_rows(_options(matcher_parser, skip=shown)) + [""]
+    return "\n".join(lines).rstrip() + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="write the files that follow from the settings records")
-    parser.add_argument("--write", action="store_true", help="write config_schema.json and docs/configuration.md")
+    parser = argparse.ArgumentParser(description="write the files that follow from the settings records and the "
+                                                 "command line")
+    parser.add_argument("--write", action="store_true",
+                        help="write config_schema.json, docs/configuration.md and docs/cli.md")
     args = parser.parse_args(argv)
     schema = config_schema(json.loads(SCHEMA_PATH.read_text()))
-    texts = {SCHEMA_PATH: schema_text(schema), REFERENCE_PATH: configuration_reference(schema)}
+    texts = {SCHEMA_PATH: schema_text(schema), REFERENCE_PATH: configuration_reference(schema),
+             CLI_REFERENCE_PATH: cli_reference()}
     stale = [path for path, text in texts.items() if not path.is_file() or path.read_text() != text]
     if args.write:
         for path in stale:

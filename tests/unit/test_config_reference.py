@@ -58,7 +58,7 @@ def test_the_reference_names_every_setting_and_option():
     text = REFERENCE_PATH.read_text()
     for row in ("| `baselines.r_window` | integer >= 0 | `10` | `--r-window` |",
                 "| `baselines.spread_k` | integer >= 1 | `10` | `--spread-k` |",
-                "| `predictor.column_order` | list (4, distinct) of integer >= 0 <= 3 or null | `[0, 1, 3, 2]` |",
+                "| `predictor.column_order` | list (4, distinct) of integer >= 0 &lt;= 3 or null | `[0, 1, 3, 2]` |",
                 "| `sequence_matching.matcher` | text | `\"seqslam\"` |",
                 "| `sequence_matching.velocities` | list (at least 1, distinct) of number > 0 | `[1.0]` | "
                 "`--velocities` |",
