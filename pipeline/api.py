@@ -39,9 +39,10 @@ from vpr_smr.eval.scoring.records import EvaluationSplit, SplitBaselines, SplitM
 from vpr_smr.eval.scoring.scorers import DEFAULT_SETTINGS, BaselineSettings
 from vpr_smr.eval.scoring.vpr_metrics import score_split
 
+# in the order of a session (and of the reference page)
 __all__ = [
-    "attributes", "baselines", "evaluate", "match", "metrics", "plain", "predict", "read_distances",
-    "read_ground_truth", "sample_distances", "scores", "train",
+    "sample_distances", "read_distances", "read_ground_truth", "metrics", "match", "attributes", "train", "predict",
+    "evaluate", "scores", "baselines", "plain",
 ]
 
 Truth = GroundTruth | np.ndarray | None  # what a ``ground_truth`` argument takes
@@ -193,7 +194,7 @@ def metrics(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERANCE,
         modes: the metric modes, ``paper`` and/or ``standard``.
 
     Returns:
-        The split's metrics: ``result.modes[mode][matcher]`` is a record with ``recall_at`` (N to recall@N),
+        The split's metrics, ``result.modes[mode][matcher]`` a record with ``recall_at`` (N to recall@N),
         ``recall_at_100p``, ``pr_auc`` and ``extended_precision``; :func:`plain` gives them as plain data.
 
     Raises:
@@ -217,7 +218,7 @@ def match(distances: Any, seq_len: int, *, matcher: str | MatcherSpec = DEFAULT_
         settings: the matcher's settings (missing ones at their defaults).
 
     Returns:
-        The matcher's record: ``queries`` (the evaluated query indices), ``scores`` (one row per query: the score
+        The matcher's record of ``queries`` (the evaluated query indices), ``scores`` (one row per query, the score
         ``s_a[r]`` of every reference, lower is better), ``match`` (the matched reference) and ``native`` (the
         matcher's own confidence, None where it names a training-free scorer instead); NumPy arrays.
 
@@ -252,7 +253,7 @@ def attributes(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERAN
             training-free scorers (:func:`scores`, :func:`baselines`); 0 keeps none.
 
     Returns:
-        The features of the evaluated queries: ``queries``, ``attributes`` (``N x K x 4``: A1..A4 of each rank;
+        The features of the evaluated queries, ``queries``, ``attributes`` (``N x K x 4``, A1..A4 of each rank;
         rank 0 is the match's), ``labels`` (0: correct before and after sequence matching, 1: before only, 2: after
         only, 3: neither), ``single_match``, ``sequence_match``, ``sequence_distance`` and their correctness; NumPy
         arrays (``dataclasses.asdict`` gives them by name).
@@ -285,7 +286,7 @@ def train(features: QueryFeatures | Sequence[QueryFeatures], *, seed: int = 0,
         settings: the predictor's settings (``configuration.md``, ``predictor``; missing ones at their defaults).
 
     Returns:
-        The trained predictor (scikit-learn style: ``predict_proba``, ``classes_``).
+        The trained predictor (scikit-learn style, with ``predict_proba`` and ``classes_``).
 
     Raises:
         ValueError: an unknown or invalid setting, a negative seed, or labels it cannot be trained on (too few of a
@@ -313,7 +314,7 @@ def predict(predictor: SMRPredictor, features: QueryFeatures) -> Prediction:
         features: the split's features (:func:`attributes`), of another split than its training one.
 
     Returns:
-        Its decision per evaluated query: ``predicted`` (the class), ``probability`` (that class's), and the
+        Its decision per evaluated query, ``predicted`` (the class), ``probability`` (that class's), and the
         property ``kept`` (True where the match is kept: class 0 or 2); NumPy arrays.
     """
     return Prediction.of(predictor, features)
@@ -332,7 +333,7 @@ def evaluate(features: QueryFeatures, predictors: SMRPredictor | Sequence[SMRPre
         restoration: also restore removed matches from the next ranks (method §10).
 
     Returns:
-        The split's numbers: ``modes[mode].reduction`` holds the AOC of VPR+SM and of VPR+SM+Pred
+        The split's numbers, ``modes[mode].reduction`` holding the AOC of VPR+SM and of VPR+SM+Pred
         (``aoc_vpr_sm``, ``aoc_vpr_sm_pred``), their reduction in percent and its outcome; ``modes[mode].curves``
         the precision-recall curves; ``f1_macro``, ``removed``, ``seed_summary`` over the seeds.
 
@@ -398,7 +399,7 @@ def baselines(features: QueryFeatures, *, predictors: Sequence[SMRPredictor] = (
         modes: the metric modes of the removal.
 
     Returns:
-        The split's record: ``detection[name]`` (average precision and ROC AUC of finding the wrong matches), and
+        The split's record, ``detection[name]`` (average precision and ROC AUC of finding the wrong matches), and
         with predictors ``removal`` (per seed: per scorer its AOC reduction at the seed's budget).
 
     Raises:
