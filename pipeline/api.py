@@ -108,7 +108,7 @@ def read_distances(path: Path | str, *, similarity: bool = False, key: str | Non
         ValueError: the file is of another format, holds no such variable (or several and no ``key``), holds no 2-D
             numeric matrix or negative distances; the message names the file and the fix.
     """
-    with open_distance_matrix(path, similarity, key, transpose) as matrix:
+    with open_distance_matrix(path, similarity, key, transpose, key_option="key") as matrix:
         return np.array(matrix[:, :])
 
 
