@@ -37,3 +37,6 @@ autodoc_member_order = "bysource"
 autodoc_default_options = {"members": True}
 napoleon_google_docstring = True
 napoleon_numpy_docstring = False
+
+# The Python API's signatures name NumPy's, the standard library's and pathlib's types, which no page here documents.
+nitpick_ignore_regex = [("py:class", r"(numpy|collections\.abc|pathlib)\..*")]

@@ -70,13 +70,14 @@ class SimilarityAsDistance:
 
 @contextmanager
 def open_distance_matrix(path: Path | str, similarity: bool = False, key: str | None = None,
-                         transpose: bool = False) -> Iterator[Any]:
+                         transpose: bool = False, key_option: str = "--key") -> Iterator[Any]:
     """The references x queries matrix of ``path``, lazily where the format allows: a read-only memory map of a
     ``.npy``, the array ``key`` of an ``.npz``, the variable ``key`` of a MATLAB ``.mat`` (v5 in memory; v7.3 read by
     column blocks as MATLAB shows it), or the ``distance_matrix`` dataset of our HDF5 file (read by column blocks, see
     ``eval.matching.matcher.read_columns``). ``key``: default, the file's only 2-D numeric array. ``transpose``: the
     user's file is queries x references. ``similarity``: the file holds similarities (larger = more similar), read as
-    distances ``max(M) - M`` (``SimilarityAsDistance``).
+    distances ``max(M) - M`` (``SimilarityAsDistance``). ``key_option``: how errors name ``key`` (the Python API's
+    argument ``key``, the CLI's ``--key``).
 
     Raises ``FileNotFoundError``/``ValueError`` naming the file, what it holds and the fix when it is missing, of
     another format, has no such variable (or several and no ``key``), has no ``distance_matrix`` dataset, or does
@@ -86,7 +87,7 @@ def open_distance_matrix(path: Path | str, similarity: bool = False, key: str | 
     if not path.is_file():
         raise FileNotFoundError(f"distance matrix not found: {path}")
     if is_user_matrix(path):
-        with open_array(path, key, transpose, USER_MATRIX) as array:
+        with open_array(path, key, transpose, USER_MATRIX, key_option) as array:
             _check_matrix(path, array)
             matrix: Any = SimilarityAsDistance(array) if similarity else array
             check_non_negative(path, matrix)

@@ -1,0 +1,431 @@
+"""The Python API for notebooks: ``from vpr_smr.pipeline import api as smr``.
+
+A thin, typed facade over the functions the command-line stages call: every metric, matcher, attribute, predictor
+and scorer here is the one the CLI runs (``vpr-smr metrics``, ``attributes``, ``train``, ``evaluate``,
+``baselines``), on arrays in memory instead of files. Each function returns the tool's own records (frozen
+dataclasses); :func:`plain` turns any of them into plain Python data (lists, dicts, numbers), and the arrays of
+:class:`~vpr_smr.eval.matching.attributes.QueryFeatures` are NumPy arrays already.
+
+``__all__`` is the stable surface: its names and keyword arguments change only with a new minor version, said in
+the CHANGELOG.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_TRUST_LEVELS, MODES
+from vpr_smr.core.records import encode
+from vpr_smr.core.settings import parse
+from vpr_smr.eval.matching.attributes import DEFAULT_CANDIDATES, QueryFeatures, query_features
+from vpr_smr.eval.matching.features import match_blocks
+from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.matching.ground_truth_files import read_ground_truth as read_truth_file
+from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.matcher import as_matrix
+from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec
+from vpr_smr.eval.matching.matchers.base import MatchBlock
+from vpr_smr.eval.predictor.defaults import PredictorSettings
+from vpr_smr.eval.predictor.estimator import SMRPredictor
+from vpr_smr.eval.predictor.train import check_trainable, predictor_params, rank0, train_seed
+from vpr_smr.eval.scoring import baselines as scoring
+from vpr_smr.eval.scoring.evaluate import evaluate_split
+from vpr_smr.eval.scoring.queries import Prediction
+from vpr_smr.eval.scoring.records import EvaluationSplit, SplitBaselines, SplitMetrics
+from vpr_smr.eval.scoring.scorers import DEFAULT_SETTINGS, BaselineSettings
+from vpr_smr.eval.scoring.vpr_metrics import score_split
+
+# in the order of a session (and of the reference page)
+__all__ = [
+    "sample_distances", "read_distances", "read_ground_truth", "metrics", "match", "attributes", "train", "predict",
+    "evaluate", "scores", "baselines", "plain",
+]
+
+Truth = GroundTruth | np.ndarray | None  # what a ``ground_truth`` argument takes
+
+
+# --- reading matrices and ground truths -------------------------------------------------------------------------
+
+
+def sample_distances(split: str = "val", backend: str = "sad", *, frames: int | None = None) -> np.ndarray:
+    """The distance matrix of a split of the shipped Nordland sample, computed here from its images.
+
+    Summer is the reference traverse, winter the query one, paired frame by frame (a frame-aligned ground truth).
+    The descriptors and distances are those of ``vpr-smr descriptors`` and ``vpr-smr distances``.
+
+    Args:
+        split: the sample's split: ``train``, ``val`` or ``test``.
+        backend: a descriptor backend without weights (``sad`` or ``hog``).
+        frames: only the split's first ``frames`` frames (None: all of them).
+
+    Returns:
+        The ``references x queries`` distance matrix (float64; smaller is more similar).
+
+    Raises:
+        ValueError: an unknown split or backend, a backend that needs a checkpoint, or ``frames`` below 1.
+    """
+    from vpr_smr.datasets import Traverse
+    from vpr_smr.datasets.nordland_sample import nordland_sample
+    from vpr_smr.descriptors import backend_class
+    from vpr_smr.descriptors.extract import build_backend, compute_descriptors
+    from vpr_smr.eval.matching.distances import distance_matrix
+
+    if backend_class(backend).needs_checkpoint:
+        raise ValueError(f"backend: {backend!r} needs a checkpoint; sample_distances computes the backends without "
+                         "weights (sad, hog); score another method's matrix with read_distances")
+    pair = nordland_sample()
+    lo, hi = pair.split_range(split)
+    if frames is not None:
+        if frames < 1:
+            raise ValueError(f"frames: a number of frames >= 1, got {frames}")
+        hi = min(hi, lo + frames)
+    built, _ = build_backend(backend, {"backend": backend})
+    reference, query = (compute_descriptors(Traverse(t.name, t.images[lo:hi]), built)
+                        for t in (pair.reference, pair.query))
+    return np.asarray(distance_matrix(reference, query, built.distance), dtype=np.float64)
+
+
+def read_distances(path: Path | str, *, similarity: bool = False, key: str | None = None,
+                   transpose: bool = False) -> np.ndarray:
+    """A distance matrix from a file, read as ``vpr-smr metrics --distances`` reads it, into memory.
+
+    Args:
+        path: a ``.npy``, ``.npz``, MATLAB ``.mat`` (v5 or v7.3) or a distance file (``.h5``) of vpr-smr.
+        similarity: the file holds similarities (larger is more similar): read as the distances ``max(M) - M``.
+        key: the array of an ``.npz`` or the variable of a ``.mat`` holding the matrix (default: its only 2-D
+            numeric one).
+        transpose: the file is ``queries x references``.
+
+    Returns:
+        The ``references x queries`` distance matrix.
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: the file is of another format, holds no such variable (or several and no ``key``), holds no 2-D
+            numeric matrix or negative distances; the message names the file and the fix.
+    """
+    with open_distance_matrix(path, similarity, key, transpose, key_option="key") as matrix:
+        return np.array(matrix[:, :])
+
+
+def read_ground_truth(path: Path | str, *, key: str | None = None,
+                      shape: tuple[int, int] | None = None) -> GroundTruth:
+    """A ground truth from a file, read as ``--ground-truth`` reads it.
+
+    Args:
+        path: a boolean ``references x queries`` matrix (``.npy``, ``.npz``, ``.mat``, e.g. VPR_Tutorial's
+            ``GThard`` or ``GTsoft``), or per-query lists of correct references (JSON, CSV ``query,reference``,
+            VPR-Bench's ``ground_truth_new.npy``).
+        key: the variable of an ``.npz`` or ``.mat`` holding several (e.g. ``GThard``).
+        shape: ``(references, queries)`` of the matrix it scores: checked here, and per-query lists are sized to it.
+
+    Returns:
+        The ground truth, for the ``ground_truth`` argument of the other functions.
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: a file of another format, without such a variable, or of another shape; the message names the
+            file and the fix.
+    """
+    return read_truth_file(path, key, shape, key_option="key")
+
+
+def _spec(matcher: str | MatcherSpec, settings: Mapping[str, Any] | None) -> MatcherSpec:
+    """The matcher by name with its settings (the ``sequence_matching`` registry: built in, or a plugin's)."""
+    if isinstance(matcher, MatcherSpec):
+        if settings:
+            raise ValueError("settings: give the settings in the MatcherSpec, or the matcher by name with settings")
+        return matcher
+    return MatcherSpec.of(matcher, settings, "settings")
+
+
+def _truth(shape: tuple[int, int], ground_truth: Truth, tolerance: int) -> GroundTruth:
+    """The ground truth of a ``shape`` matrix: the one given (a boolean matrix as it is), else frames within
+    ``tolerance``; errors name the argument and the fix."""
+    if ground_truth is None:
+        if shape[0] != shape[1]:
+            raise ValueError(f"ground_truth: the matrix is {shape[0]} x {shape[1]} (references x queries): a "
+                             "frame-aligned ground truth (a match r of query q is correct when |r - q| <= tolerance) "
+                             "needs as many references as queries; give ground_truth (read_ground_truth(path), or a "
+                             "boolean references x queries array)")
+        if tolerance < 0:
+            raise ValueError(f"tolerance: a number of frames >= 0, got {tolerance}")
+        return GroundTruth.aligned(shape[0], shape[1], tolerance)
+    truth = ground_truth if isinstance(ground_truth, GroundTruth) else GroundTruth.matrix(ground_truth)
+    try:
+        truth.check_shape(shape)
+    except ValueError as error:
+        raise ValueError(f"ground_truth: {error}") from None
+    return truth
+
+
+def _matrix(distances: Any) -> Any:
+    """A 2-D distance matrix as the stages read it (``as_matrix``), the error naming the argument."""
+    try:
+        return as_matrix(distances)
+    except (ValueError, TypeError) as error:
+        raise ValueError(f"distances: {error}") from None
+
+
+# --- metrics, matching, attributes ------------------------------------------------------------------------------
+
+
+def metrics(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERANCE, ground_truth: Truth = None,
+            matcher: str | MatcherSpec = DEFAULT_MATCHER, settings: Mapping[str, Any] | None = None,
+            predictor: SMRPredictor | None = None, modes: Sequence[str] = MODES) -> SplitMetrics:
+    """The standard VPR metrics of one matrix, as ``vpr-smr metrics`` computes them.
+
+    Recall@N (N = 1, 5, 10, 20), recall at 100 % precision, the area under the PR curve and extended precision of
+    single-frame matching (``single``), sequence matching (``sequence``) and, with a predictor, sequence matching
+    with its matches removed (``sequence_predictor``), per metric mode.
+
+    Args:
+        distances: the ``references x queries`` distance matrix (an array, e.g. from :func:`read_distances`).
+        seq_len: the sequence length L of sequence matching.
+        tolerance: without ``ground_truth``, a match within this many frames is correct.
+        ground_truth: a ground truth (:func:`read_ground_truth`) or a boolean ``references x queries`` array.
+        matcher: the sequence matcher's name (``vpr-smr matchers`` lists them) or its spec.
+        settings: the matcher's settings (missing ones at their defaults).
+        predictor: a trained predictor (:func:`train`): adds ``sequence_predictor``.
+        modes: the metric modes, ``paper`` and/or ``standard``.
+
+    Returns:
+        The split's metrics, ``result.modes[mode][matcher]`` a record with ``recall_at`` (N to recall@N),
+        ``recall_at_100p``, ``pr_auc`` and ``extended_precision``; :func:`plain` gives them as plain data.
+
+    Raises:
+        ValueError: a matrix too short for ``seq_len``, a ground truth of another shape, an unknown matcher,
+            setting or mode; the message names it and the fix.
+    """
+    matrix = _matrix(distances)
+    truth = _truth(tuple(matrix.shape), ground_truth, tolerance)
+    return score_split(matrix, seq_len, tolerance, predictor, tuple(modes), matcher=_spec(matcher, settings),
+                       ground_truth=truth).metrics
+
+
+def match(distances: Any, seq_len: int, *, matcher: str | MatcherSpec = DEFAULT_MATCHER,
+          settings: Mapping[str, Any] | None = None) -> MatchBlock:
+    """Sequence matching of every query the matcher evaluates.
+
+    Args:
+        distances: the ``references x queries`` distance matrix.
+        seq_len: the sequence length L.
+        matcher: the sequence matcher's name (built in or a plugin's; ``vpr-smr matchers`` lists them) or its spec.
+        settings: the matcher's settings (missing ones at their defaults).
+
+    Returns:
+        The matcher's record of ``queries`` (the evaluated query indices), ``scores`` (one row per query, the score
+        ``s_a[r]`` of every reference, lower is better), ``match`` (the matched reference) and ``native`` (the
+        matcher's own confidence, None where it names a training-free scorer instead); NumPy arrays.
+
+    Raises:
+        ValueError: an unknown matcher or setting (the message lists the available ones), or a matrix too short
+            for ``seq_len``.
+    """
+    matrix = _matrix(distances)
+    built = _spec(matcher, settings).build(seq_len)
+    built.check(tuple(matrix.shape))
+    blocks = [found for found, _, _ in match_blocks(built, matrix)]
+    natives = [found.native for found in blocks if found.native is not None]
+    return MatchBlock(
+        np.concatenate([found.queries for found in blocks]), np.concatenate([found.scores for found in blocks]),
+        np.concatenate([found.match for found in blocks]),
+        np.concatenate(natives) if len(natives) == len(blocks) else None)
+
+
+def attributes(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERANCE, ground_truth: Truth = None,
+               matcher: str | MatcherSpec = DEFAULT_MATCHER, settings: Mapping[str, Any] | None = None,
+               candidates: int = DEFAULT_CANDIDATES) -> QueryFeatures:
+    """Sequence matching, the SMR attributes A1..A4 and the labels of one matrix, as ``vpr-smr attributes``.
+
+    Args:
+        distances: the ``references x queries`` distance matrix.
+        seq_len: the sequence length L.
+        tolerance: without ``ground_truth``, a match within this many frames is correct.
+        ground_truth: a ground truth (:func:`read_ground_truth`) or a boolean ``references x queries`` array.
+        matcher: the sequence matcher's name or its spec.
+        settings: the matcher's settings (missing ones at their defaults).
+        candidates: how many of the smallest sequence and single-frame distances of each query to keep for the
+            training-free scorers (:func:`scores`, :func:`baselines`); 0 keeps none.
+
+    Returns:
+        The features of the evaluated queries, ``queries``, ``attributes`` (``N x K x 4``, A1..A4 of each rank;
+        rank 0 is the match's), ``labels`` (0: correct before and after sequence matching, 1: before only, 2: after
+        only, 3: neither), ``single_match``, ``sequence_match``, ``sequence_distance`` and their correctness; NumPy
+        arrays (``dataclasses.asdict`` gives them by name).
+
+    Raises:
+        ValueError: a matrix too short for ``seq_len``, a ground truth of another shape, an unknown matcher or
+            setting, ``candidates`` below 0.
+    """
+    matrix = _matrix(distances)
+    truth = _truth(tuple(matrix.shape), ground_truth, tolerance)
+    if candidates < 0:
+        raise ValueError(f"candidates: a number of candidates per query >= 0, got {candidates}")
+    return query_features(matrix, seq_len, tolerance, matcher=_spec(matcher, settings), ground_truth=truth,
+                          n_candidates=candidates)
+
+
+# --- the predictor ----------------------------------------------------------------------------------------------
+
+
+def train(features: QueryFeatures | Sequence[QueryFeatures], *, seed: int = 0,
+          settings: Mapping[str, Any] | None = None) -> SMRPredictor:
+    """Train the SMR predictor on the rank-0 attributes and labels of one or more splits, as ``vpr-smr train``.
+
+    Several features (e.g. one per method) are pooled in the given order. Seed 0 is the authors' recipe; seed
+    ``s`` shifts the shuffle, SMOTE and network seeds by ``s``.
+
+    Args:
+        features: the training split's features (:func:`attributes`), or several to pool.
+        seed: the training seed (>= 0).
+        settings: the predictor's settings (``configuration.md``, ``predictor``; missing ones at their defaults).
+
+    Returns:
+        The trained predictor (scikit-learn style, with ``predict_proba`` and ``classes_``).
+
+    Raises:
+        ValueError: an unknown or invalid setting, a negative seed, or labels it cannot be trained on (too few of a
+            class); the message says why and the fix.
+    """
+    pooled = [features] if isinstance(features, QueryFeatures) else list(features)
+    if not pooled:
+        raise ValueError("features: give the training split's features (smr.attributes), or several to pool")
+    if seed < 0:
+        raise ValueError(f"seed: a training seed >= 0, got {seed}")
+    values = dict(settings or {})
+    parse(PredictorSettings, values, "settings")
+    params = predictor_params(values)
+    x, y = rank0(pooled)
+    check_trainable(y, params, [seed], "features")
+    predictor, _ = train_seed(x, y, params, seed, cross_validate=False)
+    return predictor
+
+
+def predict(predictor: SMRPredictor, features: QueryFeatures) -> Prediction:
+    """Apply a predictor to a split's features: which sequence matches it keeps.
+
+    Args:
+        predictor: a trained predictor (:func:`train`).
+        features: the split's features (:func:`attributes`), of another split than its training one.
+
+    Returns:
+        Its decision per evaluated query, ``predicted`` (the class), ``probability`` (that class's), and the
+        property ``kept`` (True where the match is kept: class 0 or 2); NumPy arrays.
+    """
+    return Prediction.of(predictor, features)
+
+
+def evaluate(features: QueryFeatures, predictors: SMRPredictor | Sequence[SMRPredictor], *,
+             modes: Sequence[str] = MODES, trust_levels: Sequence[float] = DEFAULT_TRUST_LEVELS,
+             restoration: bool = False) -> EvaluationSplit:
+    """Match removal by the predictor against sequence matching alone, as ``vpr-smr evaluate`` scores a split.
+
+    Args:
+        features: the evaluated split's features (:func:`attributes`).
+        predictors: one predictor per seed, in seed order, seed 0 first (:func:`train`).
+        modes: the metric modes, ``paper`` and/or ``standard``.
+        trust_levels: the trust levels of the trust-level ablation (empty: none).
+        restoration: also restore removed matches from the next ranks (method §10).
+
+    Returns:
+        The split's numbers, ``modes[mode].reduction`` holding the AOC of VPR+SM and of VPR+SM+Pred
+        (``aoc_vpr_sm``, ``aoc_vpr_sm_pred``), their reduction in percent and its outcome; ``modes[mode].curves``
+        the precision-recall curves; ``f1_macro``, ``removed``, ``seed_summary`` over the seeds.
+
+    Raises:
+        ValueError: an unknown mode.
+    """
+    unknown = [mode for mode in modes if mode not in MODES]
+    if unknown:
+        raise ValueError(f"modes: unknown metric modes {unknown}; choose from {', '.join(MODES)}")
+    split, _ = evaluate_split(features, predictors, tuple(modes), tuple(trust_levels), restoration)
+    return split
+
+
+# --- the training-free scorers (method §12) ---------------------------------------------------------------------
+
+
+def _scorer_inputs(features: QueryFeatures, settings: Mapping[str, Any] | None, ground_truth: GroundTruth | None
+                   ) -> tuple[BaselineSettings, np.ndarray]:
+    """The scorers' settings and the reference positions ``spread`` measures."""
+    chosen = DEFAULT_SETTINGS if settings is None else parse(BaselineSettings, settings, "settings")
+    scoring.check_candidates(features, chosen, "features", "or smr.attributes(..., candidates=N)")
+    if ground_truth is not None:
+        return chosen, scoring.spread_positions(ground_truth)
+    # frame indices (scoring.spread_positions of a frame ground truth): position r of reference r, read only at the
+    # candidates' references, so the range up to the largest of them gives every value arange(R) would
+    assert features.sequence_candidate_references is not None  # check_candidates
+    return chosen, np.arange(int(features.sequence_candidate_references.max()) + 1, dtype=np.float64)
+
+
+def scores(features: QueryFeatures, *, settings: Mapping[str, Any] | None = None,
+           ground_truth: GroundTruth | None = None, seed: int = 0) -> dict[str, np.ndarray]:
+    """Every scorer's confidence that each sequence match is correct (higher: more likely), as ``vpr-smr queries``
+    writes them (its ``c_<name>`` columns).
+
+    Args:
+        features: the split's features (:func:`attributes`, with its default ``candidates``).
+        settings: the scorers' settings ``r_window`` and ``spread_k`` (missing ones at their defaults).
+        ground_truth: the ground truth of a dataset with positions (``spread`` measures them); None: frame indices.
+        seed: the seed of the ``random`` scorer.
+
+    Returns:
+        Scorer name (``uniqueness``, ``single_uniqueness``, ``spread``, ``distance``, ``native``, ``random``,
+        ``oracle``) to its confidence per evaluated query (a NumPy array).
+
+    Raises:
+        ValueError: features without enough candidates for the settings, or an invalid setting.
+    """
+    chosen, positions = _scorer_inputs(features, settings, ground_truth)
+    return scoring.query_scores(features, chosen, positions, seed)
+
+
+def baselines(features: QueryFeatures, *, predictors: Sequence[SMRPredictor] = (),
+              settings: Mapping[str, Any] | None = None, ground_truth: GroundTruth | None = None,
+              modes: Sequence[str] = MODES) -> SplitBaselines:
+    """The training-free scorers against the predictor, as ``vpr-smr baselines``: how well each detects the wrong
+    matches, and with predictors each one's removal of as many matches as each predictor seed removes.
+
+    Args:
+        features: the evaluated split's features (:func:`attributes`, with its default ``candidates``).
+        predictors: one predictor per seed, seed 0 first (:func:`train`); none: detection only.
+        settings: the scorers' settings ``r_window`` and ``spread_k`` (missing ones at their defaults).
+        ground_truth: the ground truth of a dataset with positions (``spread`` measures them); None: frame indices.
+        modes: the metric modes of the removal.
+
+    Returns:
+        The split's record, ``detection[name]`` (average precision and ROC AUC of finding the wrong matches), and
+        with predictors ``removal`` (per seed: per scorer its AOC reduction at the seed's budget).
+
+    Raises:
+        ValueError: features without enough candidates for the settings, an invalid setting or an unknown mode.
+    """
+    unknown = [mode for mode in modes if mode not in MODES]
+    if unknown:
+        raise ValueError(f"modes: unknown metric modes {unknown}; choose from {', '.join(MODES)}")
+    chosen, positions = _scorer_inputs(features, settings, ground_truth)
+    rank0_attributes = features.attributes[:, 0, :]
+    found = [scoring.Prediction(seed, predictor.predict_proba(rank0_attributes), predictor.classes_)
+             for seed, predictor in enumerate(predictors)]
+    return scoring.split_baselines(features, chosen, positions, found, tuple(modes))
+
+
+# --- plain data -------------------------------------------------------------------------------------------------
+
+
+def plain(record: Any) -> Any:
+    """Any record of this module as plain data, through the records' one codec (what their JSON files hold).
+
+    Args:
+        record: a record (e.g. :func:`metrics`' or :func:`evaluate`'s), or a mapping or sequence of them.
+
+    Returns:
+        The same data as dicts (one entry per field; fields that are None left out), lists and Python numbers;
+        NumPy arrays become lists.
+    """
+    return encode(record)
