@@ -128,3 +128,14 @@ def test_the_backends_listing_shows_sads_lines():
     assert printed[0] == header
     at = printed.index(sad[0])
     assert printed[at : at + len(sad)] == sad
+
+
+def test_the_readme_is_short_and_reaches_the_two_questions_in_one_click():
+    readme = (REPO / "README.md").read_text()
+    assert len(readme.splitlines()) <= 250
+    # a MATLAB .mat similarity matrix with a GThard ground truth, and adding a matcher: a link each, to a heading
+    for page, heading in (("other-tools.md", "### A MATLAB .mat matrix with a GThard ground truth"),
+                          ("extending.md", "## A sequence matcher")):
+        anchor = re.sub(r"[^\w\- ]", "", heading.lstrip("#").strip().lower()).replace(" ", "-")
+        assert f"](docs/{page}#{anchor})" in readme
+        assert heading in (REPO / "docs" / page).read_text().splitlines()
