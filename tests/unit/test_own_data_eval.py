@@ -4,7 +4,6 @@ README's live example executed as written, and train splits too small for the pr
 
 import csv
 import json
-import re
 import shutil
 import warnings
 from pathlib import Path
@@ -12,7 +11,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from helpers import REPO, write_distance_matrix
+from helpers import doc_block, write_distance_matrix
 
 from vpr_smr.core.io import write_json
 from vpr_smr.core.records import FORMAT, load
@@ -33,8 +32,6 @@ from vpr_smr.eval.scoring.curves import Curve, compare_curves, reduction_pct
 from vpr_smr.eval.scoring.records import Evaluation
 from vpr_smr.pipeline.cli import main
 
-LIVE_EXAMPLE = REPO / "README.md"
-MARKER = "<!-- live-example -->"
 TINY = {"hidden_layer_sizes": [8], "max_iter": 30}
 
 
@@ -400,10 +397,7 @@ def test_from_descriptors_takes_the_files_distance(sad_descriptors):
 
 
 def live_example() -> str:
-    text = LIVE_EXAMPLE.read_text()
-    found = re.search(re.escape(MARKER) + r"\s*```python\n(.*?)```", text, re.DOTALL)
-    assert found, f"{LIVE_EXAMPLE} has no ```python block after {MARKER}"
-    return found.group(1)
+    return doc_block("live-example")
 
 
 def test_live_example_runs_as_written(sad_descriptors, tmp_path, monkeypatch, capsys):
@@ -423,7 +417,7 @@ def test_live_example_runs_as_written(sad_descriptors, tmp_path, monkeypatch, ca
     for image in pair.query.images:
         shutil.copy(image, tmp_path / "camera" / image.name)
     monkeypatch.chdir(tmp_path)
-    exec(compile(live_example(), str(LIVE_EXAMPLE), "exec"), {"__name__": "live_example"})
+    exec(compile(live_example(), "docs/speed.md (live-example)", "exec"), {"__name__": "live_example"})
     printed = capsys.readouterr().out.splitlines()
     # what the batch computation says: the kept queries (predicted class 0 or 2) and their sequence matches
     kept = np.isin(predictor.predict(batch.attributes[:, 0]), (0, 2))
