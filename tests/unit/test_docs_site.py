@@ -148,7 +148,8 @@ def sections(page: Path) -> dict[str, str]:
     """Each heading's section of ``page`` (levels 1-4; up to the next heading of the same or a higher level), by
     the heading's anchor, fenced blocks included."""
     text = page.read_text()
-    text_without_fences = re.sub(r"^```.*?^```", lambda m: "\n" * m.group(0).count("\n"), text, flags=re.S | re.M)
+    # fenced blocks blanked out, keeping every position (a "# comment" in a block is no heading)
+    text_without_fences = re.sub(r"^```.*?^```", lambda m: re.sub(r"[^\n]", " ", m.group(0)), text, flags=re.S | re.M)
     headings = [(m.start(), len(m.group(1)), m.group(2))
                 for m in re.finditer(r"^(#{1,4}) (.+)$", text_without_fences, re.M)]
     found = {}
