@@ -6,8 +6,9 @@ and scorer here is the one the CLI runs (``vpr-smr metrics``, ``attributes``, ``
 dataclasses); :func:`plain` turns any of them into plain Python data (lists, dicts, numbers), and the arrays of
 :class:`~vpr_smr.eval.matching.attributes.QueryFeatures` are NumPy arrays already.
 
-``__all__`` is the stable surface: its names and keyword arguments change only with a new minor version, said in
-the CHANGELOG.
+``__all__`` is the stable surface: its names, their parameters and the fields of the records they return follow the
+version policy at the top of the CHANGELOG (a name is renamed or removed only after a minor release in which the old
+one still works and warns).
 """
 
 from __future__ import annotations
@@ -21,9 +22,9 @@ import numpy as np
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_TRUST_LEVELS, MODES
 from vpr_smr.core.records import encode
 from vpr_smr.core.settings import parse
-from vpr_smr.eval.matching.attributes import DEFAULT_CANDIDATES, QueryFeatures, query_features
+from vpr_smr.eval.matching.attributes import DEFAULT_CANDIDATES, Matching, QueryFeatures, check_matching, query_features
 from vpr_smr.eval.matching.features import match_blocks
-from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth as read_truth_file
 from vpr_smr.eval.matching.io import open_distance_matrix
 from vpr_smr.eval.matching.matcher import as_matrix
@@ -42,7 +43,7 @@ from vpr_smr.eval.scoring.vpr_metrics import score_split
 # in the order of a session (and of the reference page)
 __all__ = [
     "sample_distances", "read_distances", "read_ground_truth", "metrics", "match", "attributes", "train", "predict",
-    "evaluate", "scores", "baselines", "plain",
+    "save_predictor", "load_predictor", "evaluate", "scores", "baselines", "plain",
 ]
 
 Truth = GroundTruth | np.ndarray | None  # what a ``ground_truth`` argument takes
@@ -190,7 +191,8 @@ def metrics(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERANCE,
         ground_truth: a ground truth (:func:`read_ground_truth`) or a boolean ``references x queries`` array.
         matcher: the sequence matcher's name (``vpr-smr matchers`` lists them) or its spec.
         settings: the matcher's settings (missing ones at their defaults).
-        predictor: a trained predictor (:func:`train`): adds ``sequence_predictor``.
+        predictor: a trained predictor (:func:`train`, :func:`load_predictor`): adds ``sequence_predictor``; one
+            loaded from a file of another matcher is refused.
         modes: the metric modes, ``paper`` and/or ``standard``.
 
     Returns:
@@ -203,8 +205,10 @@ def metrics(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERANCE,
     """
     matrix = _matrix(distances)
     truth = _truth(tuple(matrix.shape), ground_truth, tolerance)
-    return score_split(matrix, seq_len, tolerance, predictor, tuple(modes), matcher=_spec(matcher, settings),
-                       ground_truth=truth).metrics
+    spec = _spec(matcher, settings)
+    if predictor is not None:  # a loaded one of another matcher is refused, as the CLI refuses it
+        check_matching(predictor, Matching.of(spec, truth.kind), "metrics' matches")
+    return score_split(matrix, seq_len, tolerance, predictor, tuple(modes), matcher=spec, ground_truth=truth).metrics
 
 
 def match(distances: Any, seq_len: int, *, matcher: str | MatcherSpec = DEFAULT_MATCHER,
@@ -320,6 +324,47 @@ def predict(predictor: SMRPredictor, features: QueryFeatures) -> Prediction:
     return Prediction.of(predictor, features)
 
 
+def save_predictor(predictor: SMRPredictor, path: Path | str, *, matcher: str | MatcherSpec = DEFAULT_MATCHER,
+                   settings: Mapping[str, Any] | None = None, ground_truth: Truth = None) -> None:
+    """Write a trained predictor to an HDF5 file that the command line and the live API read (``vpr-smr metrics
+    --predictor``, ``LiveMatcher``), recording what its training attributes were made with.
+
+    A predictor's classes describe one matcher's matches, so the file records the matcher and the kind of ground
+    truth of the attributes it was trained on (give the ``matcher``, ``settings`` and ``ground_truth`` that
+    :func:`attributes` was given); the stages that apply it refuse it with another matcher. The file is written
+    under a temporary name and renamed, so an interrupted write leaves no file.
+
+    Args:
+        predictor: a trained predictor (:func:`train`).
+        path: the file to write (``.h5``).
+        matcher: the sequence matcher of its training attributes, by name or spec.
+        settings: that matcher's settings (missing ones at their defaults).
+        ground_truth: the ground truth its training attributes were labelled with (None: frames within a
+            tolerance; a boolean array: a matrix; a :class:`GroundTruth`: its kind).
+
+    Raises:
+        ValueError: an unknown matcher or setting, or a predictor that is not trained.
+    """
+    kind = FRAMES if ground_truth is None else ground_truth.kind if isinstance(ground_truth, GroundTruth) else MATRIX
+    predictor.save(path, Matching.of(_spec(matcher, settings), kind))
+
+
+def load_predictor(path: Path | str) -> SMRPredictor:
+    """A predictor from a file :func:`save_predictor` or ``vpr-smr train`` wrote.
+
+    Args:
+        path: the predictor file (``.h5``).
+
+    Returns:
+        The predictor, recording the matcher it was trained with (``matching_``; the functions that apply it with
+        another matcher refuse it) and, for a file of ``vpr-smr train``, its sequence length (``seq_len_``).
+
+    Raises:
+        FileNotFoundError: no such file.
+    """
+    return SMRPredictor.load(path)
+
+
 def evaluate(features: QueryFeatures, predictors: SMRPredictor | Sequence[SMRPredictor], *,
              modes: Sequence[str] = MODES, trust_levels: Sequence[float] = DEFAULT_TRUST_LEVELS,
              restoration: bool = False) -> EvaluationSplit:
@@ -330,7 +375,7 @@ def evaluate(features: QueryFeatures, predictors: SMRPredictor | Sequence[SMRPre
         predictors: one predictor per seed, in seed order, seed 0 first (:func:`train`).
         modes: the metric modes, ``paper`` and/or ``standard``.
         trust_levels: the trust levels of the trust-level ablation (empty: none).
-        restoration: also restore removed matches from the next ranks (method §10).
+        restoration: also restore removed matches from the next ranks (method §9).
 
     Returns:
         The split's numbers, ``modes[mode].reduction`` holding the AOC of VPR+SM and of VPR+SM+Pred

@@ -174,6 +174,34 @@ def test_predict_keeps_the_classes_0_and_2(sample):
     assert np.array_equal(decision.kept, np.isin(predicted, (0, 2)))
 
 
+def test_a_saved_predictor_loads_and_the_cli_applies_it(tmp_path, sample):
+    """save_predictor then load_predictor gives the same probabilities; vpr-smr metrics --predictor reads the file
+    and removes what the in-memory predictor removes."""
+    predictor = smr.train(sample["train"], settings=SMALL)
+    smr.save_predictor(predictor, tmp_path / "p.h5")
+    loaded = smr.load_predictor(tmp_path / "p.h5")
+    x = sample["val"].attributes[:, 0, :]
+    np.testing.assert_array_equal(loaded.predict_proba(x), predictor.predict_proba(x))
+    assert [p.name for p in tmp_path.iterdir()] == ["p.h5"]  # written under a temporary name, then renamed
+    np.save(tmp_path / "d.npy", sample["val_distances"])
+    assert cli(["metrics", "--distances", str(tmp_path / "d.npy"), "--seq-len", "4", "--no-baselines",
+                "--predictor", str(tmp_path / "p.h5"), "--out", str(tmp_path / "m.json")]) in (0, None)
+    written = json.loads((tmp_path / "m.json").read_text())["splits"]["all"]["modes"]["standard"]
+    found = smr.plain(smr.metrics(sample["val_distances"], 4, predictor=predictor))["modes"]["standard"]
+    assert written["sequence_predictor"] == found["sequence_predictor"]
+    removed = int(np.sum(~smr.predict(predictor, sample["val"]).kept))
+    assert 0 < removed < len(x)  # the comparison above is of a removal, not of nothing removed
+
+
+def test_a_saved_predictor_of_another_matcher_is_refused(tmp_path, sample):
+    predictor = smr.train(sample["train"], settings=SMALL)
+    smr.save_predictor(predictor, tmp_path / "p.h5", matcher="seqslam")
+    loaded = smr.load_predictor(tmp_path / "p.h5")
+    with pytest.raises(ValueError, match="trained on attributes of .*monotone"):
+        smr.metrics(sample["val_distances"], 4, matcher="monotone", predictor=loaded)
+    smr.metrics(sample["val_distances"], 4, matcher="seqslam", predictor=loaded)  # its own matcher: accepted
+
+
 class Oracle:
     """A predictor that knows the labels: it puts each query in its true class (attribute A1 holds it)."""
 
@@ -289,6 +317,7 @@ def test_every_public_name_exists_and_is_documented():
         item = getattr(smr, name)
         assert callable(item) and item.__module__ == smr.__name__
         doc = inspect.getdoc(item) or ""
-        assert "Args:" in doc and "Returns:" in doc, name
+        returns_nothing = inspect.signature(item).return_annotation in (None, "None")
+        assert "Args:" in doc and ("Returns:" in doc or returns_nothing), name
         for parameter in inspect.signature(item).parameters:
             assert f"{parameter}:" in doc, f"{name}: {parameter} is not documented"
