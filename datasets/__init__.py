@@ -45,7 +45,8 @@ DEFAULT_SPLITS: dict[str, dict[str, tuple[int, int]]] = {
 
 __all__ = [
     "LOADERS", "SPLIT_SETTINGS", "DatasetEntry", "DatasetError", "Traverse", "TraversePair", "frames_settings",
-    "load_dataset", "load_frames", "loader_options", "read_image", "required_options", "unknown_option",
+    "load_dataset", "load_frames", "loader_option_help", "loader_options", "read_image", "required_options",
+    "unknown_option",
 ]
 
 
@@ -62,6 +63,21 @@ def loader_options(loader_name: str) -> list[str]:
     """The settings a loader takes in the configuration (besides ``loader``, ``frames`` and the split settings)."""
     parameters = inspect.signature(LOADERS[loader_name]).parameters
     return [p for p in parameters if p not in _INTERNAL and p not in SPLIT_SETTINGS]
+
+
+def loader_option_help(loader_name: str) -> dict[str, str]:
+    """What each of a loader's settings means: the ``Args:`` section of its docstring (Google style), one line per
+    setting; the configuration reference shows them."""
+    doc = inspect.getdoc(LOADERS[loader_name]) or ""
+    section = doc.partition("\nArgs:\n")[2].split("\n\n")[0]
+    found: dict[str, str] = {}
+    for line in section.splitlines():
+        name, colon, text = line.strip().partition(": ")
+        if not line.startswith(" " * 8) and colon:  # a setting's first line; its continuation is indented further
+            found[name] = text
+        elif found:
+            found[next(reversed(found))] += " " + line.strip()
+    return {name: found[name] for name in loader_options(loader_name) if name in found}
 
 
 def required_options(loader_name: str) -> list[str]:

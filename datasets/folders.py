@@ -154,6 +154,15 @@ def folder_pair(
     then hold different numbers of frames, each in natural name order (or its list's order), and a match is
     correct within ``radius``. ``check_files=False`` leaves files named by the lists but missing, and images
     without a position, to ``dataset check``.
+
+    Args:
+        reference: the reference traverse's image folder (relative: from the configuration's folder).
+        query: the query traverse's image folder.
+        reference_list: a text file naming the reference images in order, one per line (null: every image of the
+            folder, in natural name order).
+        query_list: the same for the query images.
+        pairing: how frame i of both folders is paired without lists: by_name (their names must say they are one
+            place) or by_order (the i-th image of each, whatever the names).
     """
     _check_choices(name, pairing, positions, reference_list, query_list, reference_positions, query_positions)
     if positions is None and not reference_positions:

@@ -43,6 +43,12 @@ def nordland(
     Only the file name of each list line is used (the lists say ``./nordland/summer/...``); it is looked up in
     ``<root>/<reference>`` and ``<root>/<query>``, so other seasons (spring, fall) work with the same lists.
     ``check_files=False`` skips the missing-file check (``dataset check`` reports them instead).
+
+    Args:
+        reference_list: the file naming the reference frames in order (default: Patch-NetVLAD's list, shipped).
+        query_list: the file naming the query frames in order (default: Patch-NetVLAD's list, shipped).
+        reference: the reference season's folder under root.
+        query: the query season's folder under root.
     """
     fix = _fix(reference, query)
     root = require_root("nordland", root, fix)

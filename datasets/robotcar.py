@@ -146,6 +146,13 @@ def robotcar(
 
     ``reference_list`` and ``query_list`` default to VPRSNN's place-aligned lists (``data/lists``).
     ``check_files=False`` skips the missing-file check (``dataset check`` reports them instead).
+
+    Args:
+        reference_list: the timestamps of the reference images in order (null: VPRSNN's place-aligned list,
+            shipped); not with positions: ins.
+        query_list: the same for the query images.
+        reference_run: the reference run's folder under root (default: Rain, 2015-10-29-12-18-17).
+        query_run: the query run's folder under root (default: Dusk, 2014-11-21-16-07-03).
     """
     fix = (
         "set datasets.robotcar.root (or --root) to the folder that holds the run folders "

@@ -53,6 +53,10 @@ def sfu_mountain(
     """Dry (reference) against dusk (query), in list order.
 
     ``check_files=False`` skips the missing-file check (``dataset check`` reports them instead).
+
+    Args:
+        reference_list: the file naming the reference (dry) frames in order (default: VPRSNN's list, shipped).
+        query_list: the file naming the query (dusk) frames in order (default: VPRSNN's list, shipped).
     """
     root = require_root("sfu_mountain", root, FIX)
     ref_images = list_paths(root, reference_list, "reference_list")

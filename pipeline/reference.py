@@ -13,11 +13,13 @@ them from there.
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 from pathlib import Path
 from typing import Any
 
 from vpr_smr.core.settings import json_schema
+from vpr_smr.datasets import LOADERS, loader_option_help, loader_options
 from vpr_smr.datasets.settings import DatasetEntry
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, ENTRY_POINT_GROUP, MATCHERS, matcher_class
 from vpr_smr.pipeline.cli import build_parser
@@ -29,6 +31,7 @@ __all__ = ["CLI_REFERENCE_PATH", "REFERENCE_PATH", "cli_reference", "commands", 
 
 REFERENCE_PATH = Path(__file__).resolve().parents[1] / "docs" / "configuration.md"
 CLI_REFERENCE_PATH = REFERENCE_PATH.with_name("cli.md")
+DATA_ROOT = Path(__file__).resolve().parents[1] / "data"  # the shipped data (vpr_smr.data): its files by checkout path
 WRITE_COMMAND = "python -m vpr_smr.pipeline.reference --write"
 
 
@@ -166,12 +169,53 @@ def configuration_reference(schema: dict[str, Any]) -> str:
             entry = node["additionalProperties"]
             lines += ["Each entry's keys:", ""]
             lines += _table(entry.get("properties", {}), entry.get("required", []), f"{key}.NAME.")
+            if key == "datasets":
+                lines += _loaders(key, set(entry.get("properties", {})))
         else:
             if key in COMMANDS:
                 lines += [f"Also options of {COMMANDS[key]}.", ""]
             lines += _table(node.get("properties", {}), node.get("required", []), f"{key}.",
                             options=key in COMMANDS)
     return "\n".join(lines) + "\n"
+
+
+def _python_type(annotation: str) -> str:
+    """A loader parameter's annotation in the reference's words: ``Path | str | None`` is ``path or null``."""
+    words = {"Path": "path", "str": "text", "int": "integer", "float": "number", "bool": "true/false", "None": "null"}
+    kinds = [words.get(part.strip(), part.strip()) for part in annotation.split("|")]
+    return " or ".join(dict.fromkeys("path" if kind == "text" and "path" in kinds else kind for kind in kinds))
+
+
+def _shown_default(value: Any) -> str:
+    """A default as the reference shows it: a shipped file by its path in a checkout (``data/lists/...``)."""
+    if value is inspect.Parameter.empty:
+        return "required"
+    if isinstance(value, Path):
+        return f"`{value.relative_to(DATA_ROOT.parent).as_posix()}`" if value.is_relative_to(DATA_ROOT) else \
+            f"`{value}`"
+    return f"`{json.dumps(value)}`"
+
+
+def _loaders(key: str, entry_keys: set[str]) -> list[str]:
+    """Each built-in loader's own settings (those not among the entry's keys above): type and default from its
+    signature, meaning from its docstring."""
+    lines: list[str] = []
+    for name in sorted(LOADERS):
+        parameters = inspect.signature(LOADERS[name]).parameters
+        helps = loader_option_help(name)
+        own = [setting for setting in loader_options(name) if setting not in entry_keys]
+        lines += ["", f"### loader `{name}`", ""]
+        if not own:
+            lines += [f"No settings of its own: `{key}.NAME.loader: {name}` and the entry's keys above."]
+            continue
+        lines += [f"With `{key}.NAME.loader: {name}`, besides the entry's keys above:", "",
+                  "| setting | type | default | description |", "|---|---|---|---|"]
+        for setting in own:
+            parameter = parameters[setting]
+            cells = [f"`{key}.NAME.{setting}`", _python_type(str(parameter.annotation)),
+                     _shown_default(parameter.default), helps.get(setting, "").rstrip(".")]
+            lines.append("| " + " | ".join(_cell(cell) for cell in cells) + " |")
+    return lines
 
 
 def _matchers(key: str) -> list[str]:

@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 import re
 import shlex
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from types import SimpleNamespace
 
 import pytest
@@ -307,3 +307,25 @@ def test_a_dataset_entry_as_its_record():
         parse(DatasetEntry, {"loader": "folders", "ground_truth": {"matrix": "m", "lists": "l"}}, "datasets.d")
     with pytest.raises(ValueError, match=re.escape("datasets.d.splits.s[1]: the splits by name")):
         parse(DatasetEntry, {"loader": "folders", "splits": {"s": [0, "b"]}}, "datasets.d")
+
+
+def test_every_loader_setting_is_in_the_reference_with_a_meaning():
+    """Each built-in loader's parameters (its signature, less what the workflow fills in and the entry's own keys)
+    each have a row with a description, and a shipped default list shows as its checkout path."""
+    import inspect
+
+    from vpr_smr.datasets import LOADERS
+    from vpr_smr.datasets.settings import DatasetEntry
+
+    text = REFERENCE_PATH.read_text()
+    entry = {f.name for f in fields(DatasetEntry)}
+    for name, loader in LOADERS.items():
+        own = [p for p in inspect.signature(loader).parameters
+               if p not in ("name", "check_files", "splits", "tolerance", "radius") and p not in entry]
+        section = text.split(f"### loader `{name}`")[1].split("\n### ")[0]
+        for option in own:
+            row = next((line for line in section.splitlines() if line.startswith(f"| `datasets.NAME.{option}` |")),
+                       None)
+            assert row is not None, f"loader {name}: {option} is not in docs/configuration.md"
+            assert row.rstrip(" |").split(" | ")[-1].strip(), f"loader {name}: {option} has no description"
+    assert "| `data/lists/from_Patch-NetVLAD/nordland_imageNames_index.txt` |" in text
