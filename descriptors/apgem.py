@@ -116,6 +116,19 @@ class APGeM(TorchBackend):
         "whitenv": None,  # number of components kept; null: all
         "whitenm": 1.0,
     }
+    settings_help: ClassVar[dict[str, str]] = {
+        "max_size": "integer or null: the longest image side in pixels; a larger image is shrunk to it, keeping its "
+                    "aspect ratio; null: full size, as the official evaluation",
+        "whiten": "text, auto or null: the name of a whitening stored in the converted checkpoint; auto: "
+                  f"{OFFICIAL_WHITENING} (the official evaluation's) when the file holds it, else none; null: no "
+                  "whitening",
+        "whitenp": "the power of the explained variance that divides each whitened component (official test_dir.py: "
+                   "0.25; 0.5 is scikit-learn's PCA whitening); used when the whitening was fitted with whiten=True",
+        "whitenv": "integer or null: the number of whitening components kept, i.e. the whitened descriptor's size; "
+                   "null: all",
+        "whitenm": "a factor of the divisor of each whitened component (whitenm x variance ^ whitenp); used when the "
+                   "whitening was fitted with whiten=True",
+    }
     input_summary: ClassVar[str] = "full size (max_size caps the longest side)"
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:

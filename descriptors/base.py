@@ -42,6 +42,24 @@ COMMON_SETTINGS = ("checkpoint", "device", "half", "distance", "preprocessing")
 # (backends where both agree ignore the setting).
 PREPROCESSING = ("official", "vpr-methods-evaluation")
 
+# What each of COMMON_SETTINGS means, with its type and default (what ``Backend.__init__`` and the extraction do),
+# for the configuration reference: one line each, like ``Backend.settings_help``.
+COMMON_SETTINGS_HELP: dict[str, str] = {
+    "checkpoint": "text or null: the path of the backend's weights file (a relative path is read from the working "
+                  "folder), needed by the learned backends; null (the default) for the weight-free ones; "
+                  "efficientnet_lite0_gem also takes `package`",
+    "device": "text or null: the torch device the network runs on (cpu, cuda, cuda:1); null (the default): cuda "
+              "when PyTorch sees a GPU, else cpu",
+    "half": "true/false: run the network in float16 (default false); only on a CUDA device, ignored on the CPU and "
+            "by the weight-free backends",
+    "distance": f"one of {', '.join(METRICS)} or null: how descriptors are compared (l2: squared Euclidean of the "
+                "L2-normalised descriptors, cosine: 1 - cos, mad: mean absolute difference); null (the default): "
+                "the backend's own metric, as `vpr-smr backends` lists it",
+    "preprocessing": f"one of {', '.join(PREPROCESSING)} or null: the input transform; official (the default, also "
+                     "for null): each method's own evaluation code; vpr-methods-evaluation: the resizing of "
+                     "gmberton/VPR-methods-evaluation, where it differs",
+}
+
 
 class CheckpointError(ValueError):
     """A checkpoint is missing or does not fit the backend; the message names the file and the setting."""
@@ -52,6 +70,9 @@ class Backend:
 
     name: ClassVar[str] = ""
     default_conf: ClassVar[dict[str, Any]] = {}
+    # One line per key of ``default_conf``: what the setting means, its unit or choices, and what null or auto
+    # does (with the accepted types where the default does not show them), for the configuration reference.
+    settings_help: ClassVar[dict[str, str]] = {}
     # "l2": squared Euclidean on L2-normalised descriptors; "cosine": 1 - cos; "mad": mean absolute difference
     # (SAD). The class sets the method's own metric; the setting ``distance`` overrides it per method.
     distance: str = "l2"

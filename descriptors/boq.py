@@ -282,6 +282,16 @@ class BoQ(TorchBackend):
         "output_dim": None,  # None: from the checkpoint (proj_c and fc shapes); 16384 / 12288 for the releases
         "image_size": "auto",  # 384 x 384 (resnet50) or 322 x 322 (dinov2), or [H, W]
     }
+    settings_help: ClassVar[dict[str, str]] = {
+        "backbone": f"{', '.join(BACKBONES)} or null: the variant; null: read from the checkpoint's keys "
+                    f"({', '.join(f'{prefix}* for {kind}' for kind, prefix in BACKBONE_PREFIXES.items())}), which "
+                    "must match when set",
+        "output_dim": "integer or null: the descriptor size ({}); null: read from the checkpoint, which must match "
+                      "when set".format(", ".join(f"{dim} for {kind}" for kind, (_, dim) in RELEASED.items())),
+        "image_size": "auto or [H, W] in pixels: auto: {}, under either preset; [H, W] overrides it (multiples of "
+                      "{} for dinov2)".format(" or ".join("{} x {} for {}".format(*size, kind)
+                                                          for kind, size in OFFICIAL_SIZE.items()), PATCH_SIZE),
+    }
     input_summary: ClassVar[str] = ", ".join("{}x{} ({})".format(*size, backbone)
                                              for backbone, size in OFFICIAL_SIZE.items())
 

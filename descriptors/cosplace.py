@@ -118,6 +118,15 @@ class CosPlace(TorchBackend):
         "ResNet101": [32, 64, 128, 256, 512, 1024, 2048],
         "ResNet152": [32, 64, 128, 256, 512, 1024, 2048],
     }
+    settings_help: ClassVar[dict[str, str]] = {
+        "backbone": f"the checkpoint's trunk, one of {', '.join(released)}; a file with another one is refused",
+        "fc_output_dim": "integer or null: the descriptor size (the output of the Linear layer aggregation.3); null: "
+                         "read from the checkpoint, which must match when set",
+        "resize": "null, integer or [H, W] in pixels: null: full size, as the official evaluation; integer: the "
+                  "shorter side, keeping the aspect ratio (CosPlace's --resize_test_imgs --image_size); [H, W]: "
+                  "that size",
+        "interpolation": f"the PIL filter of resize, one of {', '.join(PIL_FILTERS)}",
+    }
     file_suffix: ClassVar[str] = "cosplace"
     release_url: ClassVar[str] = "https://github.com/gmberton/CosPlace/releases/download/v1.0/"
 
@@ -196,6 +205,12 @@ class EigenPlaces(CosPlace):
         "ResNet18": [256, 512],
         "ResNet50": [128, 256, 512, 1024, 2048],
         "ResNet101": [128, 256, 512, 1024, 2048],
+    }
+    settings_help: ClassVar[dict[str, str]] = {
+        **CosPlace.settings_help,
+        "backbone": f"the checkpoint's trunk, one of {', '.join(released)}; a file with another one is refused",
+        "resize": "null, integer or [H, W] in pixels: null: full size, as the official evaluation (which has no "
+                  "other); integer: the shorter side, keeping the aspect ratio; [H, W]: that size",
     }
     file_suffix: ClassVar[str] = "eigenplaces"
     release_url: ClassVar[str] = "https://github.com/gmberton/EigenPlaces/releases/download/v1.0/"

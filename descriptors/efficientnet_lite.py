@@ -178,6 +178,12 @@ class EfficientNetLite0GeM(TorchBackend):
     name: ClassVar[str] = "efficientnet_lite0_gem"
     # image_size is (H, W); the demo's 64x32 images are upsampled to it.
     default_conf: ClassVar[dict[str, Any]] = {"image_size": [112, 224], "gem_p": 3.0}
+    settings_help: ClassVar[dict[str, str]] = {
+        "image_size": "[H, W] in pixels: the size images are resized to (torchvision bilinear, antialias); smaller "
+                      "images are upsampled",
+        "gem_p": "the fixed power p of GeM pooling, (mean of x ^ p) ^ (1 / p) over the head's feature map; positive "
+                 "(1: average pooling; larger values approach max pooling)",
+    }
     input_summary: ClassVar[str] = "{}x{} (H x W, image_size)".format(*default_conf["image_size"])
     needs_checkpoint: ClassVar[bool] = True
     dim: ClassVar[int] = HEAD_CHANNELS

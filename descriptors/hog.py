@@ -17,6 +17,15 @@ class HOG(Backend):
 
     name: ClassVar[str] = "hog"
     default_conf: ClassVar[dict[str, Any]] = {"width": 128, "height": 64, "cell": 8, "block": 16, "bins": 9}
+    settings_help: ClassVar[dict[str, str]] = {
+        "width": "pixels: the width the grey image is resized to (OpenCV's area interpolation); a multiple of cell",
+        "height": "pixels: the height the grey image is resized to; a multiple of cell",
+        "cell": "pixels: the side of a cell, the area of one orientation histogram; also the block stride",
+        "block": "pixels: the side of a block, whose cells' histograms are normalised together; a multiple of cell, "
+                 "at most the smaller image side",
+        "bins": "the number of orientation bins per cell histogram, over unsigned gradients (0 to 180 degrees); "
+                "at least 2",
+    }
     input_summary: ClassVar[str] = f"any; grey, resized to {default_conf['width']}x{default_conf['height']} (W x H)"
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:

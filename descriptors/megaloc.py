@@ -148,6 +148,27 @@ class MegaLoc(TorchBackend):
         "depth": 12,
         "num_heads": 12,
     }
+    settings_help: ClassVar[dict[str, str]] = {
+        "image_size": "auto or [H, W] in pixels: auto: {} x {} (official), or under preprocessing "
+                      "vpr-methods-evaluation the full image with each side resized to the nearest multiple of 14; "
+                      "[H, W]: that size under either preset (the network rounds sides that are not multiples of 14)"
+                      .format(*OFFICIAL_SIZE),
+        "feat_dim": "the descriptor size, the output of the final linear map (aggregator.linear); must match the "
+                    "checkpoint",
+        "num_clusters": "the number of clusters the patch tokens are assigned to (plus a dustbin); must match the "
+                        "checkpoint",
+        "cluster_dim": "the size of each cluster's aggregated feature (token_dim + num_clusters x cluster_dim values "
+                       "enter the linear map); must match the checkpoint",
+        "token_dim": "the size of the global token made from the class token; must match the checkpoint",
+        "mlp_dim": "the hidden size of the aggregation's token, cluster-feature and score layers; must match the "
+                   "checkpoint",
+        "embed_dim": "the DINOv2 ViT's width (768: ViT-B/14); change only for a checkpoint trained with another "
+                     "DINOv2 size",
+        "depth": "the number of ViT blocks (12: ViT-B/14); change only for a checkpoint trained with another DINOv2 "
+                 "size",
+        "num_heads": "the number of attention heads per ViT block (12: ViT-B/14); change only for a checkpoint "
+                     "trained with another DINOv2 size",
+    }
     input_summary: ClassVar[str] = "{}x{} (H x W)".format(*OFFICIAL_SIZE)
     patch_size: ClassVar[int] = 14
     # Set by ``adapt_state_dict``: whether the file read last had megaloc.torch's keys (for messages).

@@ -138,6 +138,18 @@ class MixVPR(TorchBackend):
         "out_channels": None,  # None: from the checkpoint's aggregator.channel_proj.weight (1024 for 4096-d)
         "out_rows": None,  # None: from the checkpoint's aggregator.row_proj.weight (4 for 4096-d)
     }
+    settings_help: ClassVar[dict[str, str]] = {
+        "image_size": "[H, W] in pixels: the input size; it sizes the aggregator, so it must be the checkpoint's "
+                      "training size (320 x 320 for the released models)",
+        "interpolation": f"the resize filter, one of {', '.join(PIL_FILTERS)}: bilinear as the official validation, "
+                         "bicubic as the README's demo.py",
+        "out_channels": "integer or null: the channel projection's output size ({}); null: read from the "
+                        "checkpoint's aggregator.channel_proj.weight, which must match when set".format(
+                            ", ".join(f"{c} for {d}-d" for d, (c, _) in RELEASED.items())),
+        "out_rows": "integer or null: the row projection's output size ({}); null: read from the checkpoint's "
+                    "aggregator.row_proj.weight, which must match when set".format(
+                        ", ".join(f"{r} for {d}-d" for d, (_, r) in RELEASED.items())),
+    }
     input_summary: ClassVar[str] = "{}x{} (H x W, image_size)".format(*default_conf["image_size"])
     source: ClassVar[str] = "https://github.com/amaralibey/MixVPR (README, Google Drive links)"
 

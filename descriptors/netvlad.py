@@ -115,6 +115,15 @@ class NetVLAD(TorchBackend):
         "num_clusters": 64,
         "num_pcs": 4096,  # 0: no WPCA (Nanne's files)
     }
+    settings_help: ClassVar[dict[str, str]] = {
+        "image_size": "auto, null or [H, W] in pixels: the size images are resized to (PIL bilinear); auto: "
+                      "{} x {} for a Patch-NetVLAD file (with WPCA), full size for Nanne's and under preprocessing "
+                      "vpr-methods-evaluation; null: full size".format(*PATCH_NETVLAD_SIZE),
+        "num_clusters": "the number of NetVLAD clusters K (512 K values before WPCA); sizes the model before "
+                        "loading only: the checkpoint's pool.centroids sets it",
+        "num_pcs": "the WPCA output size, 0 for no WPCA; sizes the model before loading only: the checkpoint's "
+                   "WPCA.0.bias sets it (0 for a file without WPCA)",
+    }
     input_summary: ClassVar[str] = ("{}x{} (H x W) with a Patch-NetVLAD file, full size with Nanne's"
                                  .format(*PATCH_NETVLAD_SIZE))
     # Nanne's main.py wraps encoder and pool separately in nn.DataParallel: "encoder.module.0.weight".

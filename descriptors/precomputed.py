@@ -23,6 +23,14 @@ QUERIES_FILE = "queries_descriptors.npy"
 class Precomputed(Backend):
     name: ClassVar[str] = "precomputed"
     default_conf: ClassVar[dict[str, Any]] = {"folder": None, "database": None, "queries": None}
+    settings_help: ClassVar[dict[str, str]] = {
+        "folder": f"text or null: the folder holding {DATABASE_FILE} and {QUERIES_FILE} (VPR-methods-evaluation's "
+                  "--save_descriptors); null: database and queries name the files",
+        "database": "text or null: the .npy file of the reference descriptors, one row per frame in frame order; "
+                    f"null: {DATABASE_FILE} in folder",
+        "queries": "text or null: the .npy file of the query descriptors, one row per frame in frame order; "
+                   f"null: {QUERIES_FILE} in folder",
+    }
     input_summary: ClassVar[str] = "no images: descriptors read from files"
 
     def paths(self) -> tuple[Path, Path]:

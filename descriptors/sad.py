@@ -35,6 +35,12 @@ class SAD(Backend):
 
     name: ClassVar[str] = "sad"
     default_conf: ClassVar[dict[str, Any]] = {"width": 64, "height": 32, "patch": 8}
+    settings_help: ClassVar[dict[str, str]] = {
+        "width": "pixels: the width the grey image is resized to (OpenCV's area interpolation); a multiple of patch",
+        "height": "pixels: the height the grey image is resized to; a multiple of patch",
+        "patch": "pixels: the side of the square blocks that patch normalisation brings each to zero mean and unit "
+                 "standard deviation (a constant block becomes 0)",
+    }
     input_summary: ClassVar[str] = f"any; grey, resized to {default_conf['width']}x{default_conf['height']} (W x H)"
     distance = "mad"
 

@@ -147,6 +147,23 @@ class SALAD(TorchBackend):
         "depth": 12,
         "num_heads": 12,
     }
+    settings_help: ClassVar[dict[str, str]] = {
+        "image_size": "auto or [H, W] in pixels, multiples of 14: auto: {} x {} (PIL bilinear) as the official "
+                      "eval.py, or under preprocessing vpr-methods-evaluation the full image with each side resized "
+                      "to the nearest multiple of 14; [H, W]: that size (PIL bilinear) under either preset"
+                      .format(*OFFICIAL_SIZE),
+        "num_clusters": "the number of clusters the patch tokens are assigned to (plus a dustbin); must match the "
+                        "checkpoint",
+        "cluster_dim": "the size of each cluster's aggregated feature (descriptor: token_dim + num_clusters x "
+                       "cluster_dim values); must match the checkpoint",
+        "token_dim": "the size of the global token made from the class token; must match the checkpoint",
+        "embed_dim": "the DINOv2 ViT's width (768: ViT-B/14); change only for a checkpoint trained with another "
+                     "DINOv2 size",
+        "depth": "the number of ViT blocks (12: ViT-B/14); change only for a checkpoint trained with another DINOv2 "
+                 "size",
+        "num_heads": "the number of attention heads per ViT block (12: ViT-B/14); change only for a checkpoint "
+                     "trained with another DINOv2 size",
+    }
     input_summary: ClassVar[str] = "{}x{} (H x W)".format(*OFFICIAL_SIZE)
     patch_size: ClassVar[int] = 14
 

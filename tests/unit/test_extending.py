@@ -79,6 +79,7 @@ def test_the_backend_recipe(my_vpr):
     assert "cell_colour" in available_backends()
     assert backend_class("cell_colour") is module.CellColour
     assert backend_class("my_vpr.backend:CellColour") is module.CellColour
+    assert set(module.CellColour.settings_help) == set(module.CellColour.default_conf)
     image = np.zeros((5, 4, 3), np.uint8)  # 5 rows: the last one drops out of a 2 x 2 grid
     image[:, :2] = (10, 20, 30)
     image[:, 2:] = (50, 60, 70)
