@@ -340,7 +340,7 @@ def save_predictor(predictor: SMRPredictor, path: Path | str, *, matcher: str | 
         matcher: the sequence matcher of its training attributes, by name or spec.
         settings: that matcher's settings (missing ones at their defaults).
         ground_truth: the ground truth its training attributes were labelled with (None: frames within a
-            tolerance; a boolean array: a matrix; a :class:`GroundTruth`: its kind).
+            tolerance; a boolean array: a matrix; a :class:`~vpr_smr.eval.matching.ground_truth.GroundTruth`: its kind).
 
     Raises:
         ValueError: an unknown matcher or setting, or a predictor that is not trained.

@@ -21,6 +21,8 @@ from typing import Any
 from vpr_smr.core.settings import json_schema
 from vpr_smr.datasets import LOADERS, loader_option_help, loader_options
 from vpr_smr.datasets.settings import DatasetEntry
+from vpr_smr.descriptors import BACKENDS, backend_class
+from vpr_smr.descriptors.base import COMMON_SETTINGS_HELP
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, ENTRY_POINT_GROUP, MATCHERS, matcher_class
 from vpr_smr.pipeline.cli import build_parser
 from vpr_smr.pipeline.config import MATCHER_KEY, RECORDS, SCHEMA_PATH
@@ -171,6 +173,8 @@ def configuration_reference(schema: dict[str, Any]) -> str:
             lines += _table(entry.get("properties", {}), entry.get("required", []), f"{key}.NAME.")
             if key == "datasets":
                 lines += _loaders(key, set(entry.get("properties", {})))
+            if key == "methods":
+                lines += _backends(key, set(entry.get("properties", {})))
         else:
             if key in COMMANDS:
                 lines += [f"Also options of {COMMANDS[key]}.", ""]
@@ -214,6 +218,39 @@ def _loaders(key: str, entry_keys: set[str]) -> list[str]:
             parameter = parameters[setting]
             cells = [f"`{key}.NAME.{setting}`", _python_type(str(parameter.annotation)),
                      _shown_default(parameter.default), helps.get(setting, "").rstrip(".")]
+            lines.append("| " + " | ".join(_cell(cell) for cell in cells) + " |")
+    return lines
+
+
+def _typed(default: Any, text: str) -> tuple[str, str]:
+    """A backend setting's type and meaning. The type follows from the default; a default of null or auto says
+    nothing of it, so such a setting's help starts with its type (``integer or null: ...``)."""
+    if default is None or default == "auto":
+        kind, _, meaning = text.partition(": ")
+        return kind, meaning
+    kinds = {bool: "boolean", int: "integer", float: "number", str: "string", list: "array", dict: "object"}
+    return _type({"type": kinds[type(default)]}), text
+
+
+def _backends(key: str, entry_keys: set[str]) -> list[str]:
+    """The settings every backend takes (absent or null: each one's default, as its description says), then each
+    built-in backend's own: default from its ``default_conf``, meaning from its ``settings_help``."""
+    head = ["| setting | type | default | description |", "|---|---|---|---|"]
+    lines = ["", "### Every backend", "", f"Besides `backend` and `checkpoint`, every entry of `{key}` takes:", "",
+             *head]
+    lines += ["| " + " | ".join(_cell(cell) for cell in (f"`{key}.NAME.{name}`", *_typed(None, text)[:1], "`null`",
+                                                          _typed(None, text)[1])) + " |"
+              for name, text in COMMON_SETTINGS_HELP.items() if name not in entry_keys]
+    for name in sorted(BACKENDS):
+        cls = backend_class(name)
+        lines += ["", f"### backend `{name}`", ""]
+        if not cls.default_conf:
+            lines += [f"No settings of its own: `{key}.NAME.backend: {name}` and those of every backend."]
+            continue
+        lines += [f"With `{key}.NAME.backend: {name}`, besides those of every backend:", "", *head]
+        for setting, default in cls.default_conf.items():
+            kind, meaning = _typed(default, cls.settings_help.get(setting, ""))
+            cells = (f"`{key}.NAME.{setting}`", kind, f"`{json.dumps(default)}`", meaning)
             lines.append("| " + " | ".join(_cell(cell) for cell in cells) + " |")
     return lines
 

@@ -329,3 +329,24 @@ def test_every_loader_setting_is_in_the_reference_with_a_meaning():
             assert row is not None, f"loader {name}: {option} is not in docs/configuration.md"
             assert row.rstrip(" |").split(" | ")[-1].strip(), f"loader {name}: {option} has no description"
     assert "| `data/lists/from_Patch-NetVLAD/nordland_imageNames_index.txt` |" in text
+
+
+def test_every_backend_setting_is_in_the_reference_with_a_type_and_a_meaning():
+    """Each built-in backend's default_conf key, and each setting every backend takes, has a row whose type and
+    description are filled (a default of null or auto takes its type from its help's first words)."""
+    from vpr_smr.descriptors import BACKENDS, backend_class
+    from vpr_smr.descriptors.base import COMMON_SETTINGS
+
+    text = REFERENCE_PATH.read_text()
+    common = text.split("### Every backend")[1].split("\n### ")[0]
+    for setting in COMMON_SETTINGS:
+        if setting != "checkpoint":  # the entry's own table has it
+            row = next(line for line in common.splitlines() if line.startswith(f"| `methods.NAME.{setting}` |"))
+            assert all(cell.strip() for cell in row.strip("| ").split(" | ")), row
+    for name in BACKENDS:
+        section = text.split(f"### backend `{name}`")[1].split("\n### ")[0].split("\n## ")[0]
+        for setting in backend_class(name).default_conf:
+            row = next((line for line in section.splitlines() if line.startswith(f"| `methods.NAME.{setting}` |")),
+                       None)
+            assert row is not None, f"backend {name}: {setting} is not in docs/configuration.md"
+            assert all(cell.strip() for cell in row.strip("| ").split(" | ")), row
