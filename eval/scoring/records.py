@@ -446,7 +446,7 @@ class Baselines(Keyed, FileRecord):
 
 @dataclass(frozen=True)
 class MatcherMetrics(Record):
-    """The standard VPR metrics of one matcher in one mode (definitions: README "Standard VPR metrics").
+    """The standard VPR metrics of one matcher in one mode, as method §8.6 defines them (docs/method.md).
 
     ``n_queries`` is recall@N's denominator; ``recall_at`` maps N (``core.constants.RECALL_AT``) to recall@N.
     ``recall_at_100p``, ``pr_auc`` and ``extended_precision`` come from the mode's PR curve (method §8).

@@ -37,9 +37,9 @@ Setting = Literal["r_window", "spread_k"]
 
 @dataclass(frozen=True)
 class BaselineSettings:
-    """Method §12: the training-free scorers set beside the predictor (uniqueness, single_uniqueness, spread,
-    distance, random, oracle); params of the attributes jobs (how many candidates each query keeps, ``candidates``:
-    max(2 floor(r_window / 2) + 2, spread_k)) and of the baselines, metrics and queries jobs."""
+    """Method §12: the scorers set beside the predictor (the training-free uniqueness, single_uniqueness, spread,
+    distance, native and random, and the oracle); params of the attributes jobs (how many candidates each query
+    keeps, ``candidates``: max(2 floor(r_window / 2) + 2, spread_k)) and of the baselines, metrics and queries jobs."""
 
     r_window: int = setting(
         DEFAULT_R_WINDOW, "uniqueness (SeqSLAM's, OpenSeqSLAM2's rWindow): the smallest sequence distance outside "

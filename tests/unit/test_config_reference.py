@@ -339,14 +339,14 @@ def test_every_backend_setting_is_in_the_reference_with_a_type_and_a_meaning():
 
     text = REFERENCE_PATH.read_text()
     common = text.split("### Every backend")[1].split("\n### ")[0]
-    for setting in COMMON_SETTINGS:
-        if setting != "checkpoint":  # the entry's own table has it
-            row = next(line for line in common.splitlines() if line.startswith(f"| `methods.NAME.{setting}` |"))
+    for key in COMMON_SETTINGS:
+        if key != "checkpoint":  # the entry's own table has it
+            row = next(line for line in common.splitlines() if line.startswith(f"| `methods.NAME.{key}` |"))
             assert all(cell.strip() for cell in row.strip("| ").split(" | ")), row
     for name in BACKENDS:
         section = text.split(f"### backend `{name}`")[1].split("\n### ")[0].split("\n## ")[0]
-        for setting in backend_class(name).default_conf:
-            row = next((line for line in section.splitlines() if line.startswith(f"| `methods.NAME.{setting}` |")),
+        for key in backend_class(name).default_conf:
+            row = next((line for line in section.splitlines() if line.startswith(f"| `methods.NAME.{key}` |")),
                        None)
-            assert row is not None, f"backend {name}: {setting} is not in docs/configuration.md"
+            assert row is not None, f"backend {name}: {key} is not in docs/configuration.md"
             assert all(cell.strip() for cell in row.strip("| ").split(" | ")), row
