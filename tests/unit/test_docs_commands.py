@@ -60,7 +60,10 @@ def test_the_two_commands_are_the_makefiles_demo_and_test():
     assert lines == [["make", "demo"], ["make", "test"]]
     # make -n prints each target's recipe without running it: the demo runs the demo configuration, test the suite
     for target, recipe in (("demo", "/vpr-smr run configs/demo.yaml"), ("test", "/python -m pytest -q tests")):
-        done = subprocess.run(["make", "-n", target], cwd=REPO, capture_output=True, text=True)
+        # as a user types it: not inside the make of `make test` (whose MAKEFLAGS and MAKELEVEL a sub-make inherits)
+        env = {key: value for key, value in os.environ.items() if key not in ("MAKEFLAGS", "MAKELEVEL", "MFLAGS")}
+        done = subprocess.run(["make", "--no-print-directory", "-n", target], cwd=REPO, capture_output=True,
+                              text=True, env=env)
         assert done.returncode == 0, done.stderr
         assert done.stdout.splitlines()[-1].endswith(recipe)
 
