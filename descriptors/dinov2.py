@@ -21,6 +21,15 @@ from torch import nn
 LAYER_NORM_EPS = 1e-6
 INTERPOLATE_OFFSET = 0.1
 
+# The ViT-size settings of the backends on DINOv2 (salad, megaloc): their meaning in the configuration reference.
+VIT_SETTINGS_HELP = {
+    "embed_dim": "the DINOv2 ViT's width (768: ViT-B/14); change only for a checkpoint trained with another DINOv2 "
+                 "size",
+    "depth": "the number of ViT blocks (12: ViT-B/14); change only for a checkpoint trained with another DINOv2 size",
+    "num_heads": "the number of attention heads per ViT block (12: ViT-B/14); change only for a checkpoint trained "
+                 "with another DINOv2 size",
+}
+
 
 def interpolate_pos_embed(pos_embed: torch.Tensor, grid_h: int, grid_w: int,
                           offset: float = INTERPOLATE_OFFSET, antialias: bool = False) -> torch.Tensor:

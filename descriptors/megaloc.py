@@ -62,7 +62,7 @@ from vpr_smr.descriptors.base import (
     resize_tensor,
     to_tensor,
 )
-from vpr_smr.descriptors.dinov2 import DinoVisionTransformer
+from vpr_smr.descriptors.dinov2 import VIT_SETTINGS_HELP, DinoVisionTransformer
 from vpr_smr.descriptors.salad import SALADAggregator, harness_size
 
 log = logging.getLogger(__name__)
@@ -162,12 +162,7 @@ class MegaLoc(TorchBackend):
         "token_dim": "the size of the global token made from the class token; must match the checkpoint",
         "mlp_dim": "the hidden size of the aggregation's token, cluster-feature and score layers; must match the "
                    "checkpoint",
-        "embed_dim": "the DINOv2 ViT's width (768: ViT-B/14); change only for a checkpoint trained with another "
-                     "DINOv2 size",
-        "depth": "the number of ViT blocks (12: ViT-B/14); change only for a checkpoint trained with another DINOv2 "
-                 "size",
-        "num_heads": "the number of attention heads per ViT block (12: ViT-B/14); change only for a checkpoint "
-                     "trained with another DINOv2 size",
+        **VIT_SETTINGS_HELP,
     }
     input_summary: ClassVar[str] = "{}x{} (H x W)".format(*OFFICIAL_SIZE)
     patch_size: ClassVar[int] = 14

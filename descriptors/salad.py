@@ -24,7 +24,7 @@ from torch import nn
 from torch.nn import functional as F
 
 from vpr_smr.descriptors.base import TorchBackend, resize_tensor, to_tensor
-from vpr_smr.descriptors.dinov2 import DinoVisionTransformer
+from vpr_smr.descriptors.dinov2 import VIT_SETTINGS_HELP, DinoVisionTransformer
 from vpr_smr.descriptors.layers import pil_resize
 
 EXPECTED_FILE = "dino_salad.ckpt"
@@ -157,12 +157,7 @@ class SALAD(TorchBackend):
         "cluster_dim": "the size of each cluster's aggregated feature (descriptor: token_dim + num_clusters x "
                        "cluster_dim values); must match the checkpoint",
         "token_dim": "the size of the global token made from the class token; must match the checkpoint",
-        "embed_dim": "the DINOv2 ViT's width (768: ViT-B/14); change only for a checkpoint trained with another "
-                     "DINOv2 size",
-        "depth": "the number of ViT blocks (12: ViT-B/14); change only for a checkpoint trained with another DINOv2 "
-                 "size",
-        "num_heads": "the number of attention heads per ViT block (12: ViT-B/14); change only for a checkpoint "
-                     "trained with another DINOv2 size",
+        **VIT_SETTINGS_HELP,
     }
     input_summary: ClassVar[str] = "{}x{} (H x W)".format(*OFFICIAL_SIZE)
     patch_size: ClassVar[int] = 14
