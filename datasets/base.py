@@ -17,6 +17,8 @@ from vpr_smr.core.constants import DEFAULT_TOLERANCE
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".ppm", ".tif", ".tiff")
 MAX_LISTED = 5  # an error lists this many files, then a count
+# The data shipped with vpr-smr (the package vpr_smr.data: the Nordland sample and the published frame lists).
+SHIPPED_DATA = Path(__file__).resolve().parents[1] / "data"
 
 
 class DatasetError(ValueError):

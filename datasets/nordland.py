@@ -10,10 +10,10 @@ from __future__ import annotations
 from pathlib import Path
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
-from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair, resolved
+from vpr_smr.datasets.base import SHIPPED_DATA, DatasetError, Traverse, TraversePair, resolved
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
-LISTS = Path(__file__).resolve().parents[1] / "data" / "lists"
+LISTS = SHIPPED_DATA / "lists"
 REFERENCE_LIST = LISTS / "from_Patch-NetVLAD" / "nordland_imageNames_index.txt"
 QUERY_LIST = LISTS / "from_Patch-NetVLAD" / "nordland_imageNames_query.txt"
 SPLITS = {"train": (0, 500), "val": (500, 1000), "test": (1000, 10000)}

@@ -10,10 +10,10 @@ from dataclasses import replace
 from pathlib import Path
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
-from vpr_smr.datasets.base import TraversePair, resolved
+from vpr_smr.datasets.base import SHIPPED_DATA, TraversePair, resolved
 from vpr_smr.datasets.folders import folder_pair
 
-DEFAULT_ROOT = Path(__file__).resolve().parents[1] / "data" / "nordland_sample"
+DEFAULT_ROOT = SHIPPED_DATA / "nordland_sample"
 SPLITS = {"train": (0, 500), "val": (500, 1000), "test": (1000, 3576)}
 SHIPPED = ("the Nordland 64x32 sample vendored with vpr-smr (data/nordland_sample): every 10th frame of NRK's "
            "Nordlandsbanen summer and winter footage, CC BY 3.0 (NRK / Nordland dataset); its origin and licence: "

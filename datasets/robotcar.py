@@ -25,6 +25,7 @@ import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
 from vpr_smr.datasets.base import (
+    SHIPPED_DATA,
     DatasetError,
     Traverse,
     TraversePair,
@@ -36,7 +37,7 @@ from vpr_smr.datasets.base import (
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 from vpr_smr.datasets.positions import METRES
 
-LISTS = Path(__file__).resolve().parents[1] / "data" / "lists" / "from_VPRSNN"
+LISTS = SHIPPED_DATA / "lists" / "from_VPRSNN"
 REFERENCE_LIST = LISTS / "ORC_Rain_timestamps.csv"
 QUERY_LIST = LISTS / "ORC_Dusk_timestamps.csv"
 REFERENCE_RUN = "2015-10-29-12-18-17"  # Rain

@@ -11,10 +11,10 @@ from __future__ import annotations
 from pathlib import Path, PurePosixPath
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
-from vpr_smr.datasets.base import DatasetError, Traverse, TraversePair, resolved
+from vpr_smr.datasets.base import SHIPPED_DATA, DatasetError, Traverse, TraversePair, resolved
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
-LISTS = Path(__file__).resolve().parents[1] / "data" / "lists" / "from_VPRSNN"
+LISTS = SHIPPED_DATA / "lists" / "from_VPRSNN"
 REFERENCE_LIST = LISTS / "SFU-Mountain_imageNames_dry.txt"
 QUERY_LIST = LISTS / "SFU-Mountain_imageNames_dusk.txt"
 LIST_PREFIX = "SFU-Mountain"  # the lists' top folder; root stands for it

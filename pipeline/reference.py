@@ -20,6 +20,7 @@ from typing import Any
 
 from vpr_smr.core.settings import json_schema
 from vpr_smr.datasets import LOADERS, loader_option_help, loader_options
+from vpr_smr.datasets.base import SHIPPED_DATA
 from vpr_smr.datasets.settings import DatasetEntry
 from vpr_smr.descriptors import BACKENDS, backend_class
 from vpr_smr.descriptors.base import COMMON_SETTINGS_HELP
@@ -33,7 +34,6 @@ __all__ = ["CLI_REFERENCE_PATH", "REFERENCE_PATH", "cli_reference", "commands", 
 
 REFERENCE_PATH = Path(__file__).resolve().parents[1] / "docs" / "configuration.md"
 CLI_REFERENCE_PATH = REFERENCE_PATH.with_name("cli.md")
-DATA_ROOT = Path(__file__).resolve().parents[1] / "data"  # the shipped data (vpr_smr.data): its files by checkout path
 WRITE_COMMAND = "python -m vpr_smr.pipeline.reference --write"
 
 
@@ -130,22 +130,29 @@ def _cell(text: str) -> str:
     return "`".join(part.replace("|", "\\|") if i % 2 else part.translate(ESCAPES) for i, part in enumerate(parts))
 
 
+def _head(*columns: str) -> list[str]:
+    return ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+
+
+def _row(cells: Any) -> str:
+    """A table row of ``cells``, each escaped (``_cell``)."""
+    return "| " + " | ".join(_cell(cell) for cell in cells) + " |"
+
+
 def _default(node: dict[str, Any]) -> str:
     return f"`{json.dumps(node['default'])}`" if "default" in node else "required" if node.get("required") else ""
 
 
 def _table(properties: dict[str, Any], required: list[str], prefix: str = "",
            options: bool = False) -> list[str]:
-    head = "| setting | type | default | option | description |" if options else \
-        "| setting | type | default | description |"
-    lines = [head, "|" + "---|" * (5 if options else 4)]
+    lines = _head("setting", "type", "default", *(["option"] if options else []), "description")
     for key, node in properties.items():
         default = _default(node) or ("required" if key in required else "")
         cells = [f"`{prefix}{key}`", _type(node), default]
         if options:
             cells.append(f"`{option(key)}`")
         cells.append(node.get("description", ""))
-        lines.append("| " + " | ".join(_cell(cell) for cell in cells) + " |")
+        lines.append(_row(cells))
     return lines
 
 
@@ -183,11 +190,18 @@ def configuration_reference(schema: dict[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+# Python's type names as the schema's (whose words TYPE_WORDS gives)
+SCHEMA_TYPES = {"bool": "boolean", "int": "integer", "float": "number", "str": "string", "list": "array",
+                "dict": "object", "None": "null", "NoneType": "null"}
+
+
 def _python_type(annotation: str) -> str:
-    """A loader parameter's annotation in the reference's words: ``Path | str | None`` is ``path or null``."""
-    words = {"Path": "path", "str": "text", "int": "integer", "float": "number", "bool": "true/false", "None": "null"}
-    kinds = [words.get(part.strip(), part.strip()) for part in annotation.split("|")]
-    return " or ".join(dict.fromkeys("path" if kind == "text" and "path" in kinds else kind for kind in kinds))
+    """A loader parameter's annotation in the reference's words: ``Path | str | None`` is ``path or null`` (a path
+    may be given as text)."""
+    parts = [part.strip() for part in annotation.split("|")]
+    kinds = ["path" if part == "Path" else _type({"type": SCHEMA_TYPES[part]}) for part in parts
+             if not (part == "str" and "Path" in parts)]
+    return " or ".join(kinds)
 
 
 def _shown_default(value: Any) -> str:
@@ -195,7 +209,7 @@ def _shown_default(value: Any) -> str:
     if value is inspect.Parameter.empty:
         return "required"
     if isinstance(value, Path):
-        return f"`{value.relative_to(DATA_ROOT.parent).as_posix()}`" if value.is_relative_to(DATA_ROOT) else \
+        return f"`{value.relative_to(SHIPPED_DATA.parent).as_posix()}`" if value.is_relative_to(SHIPPED_DATA) else \
             f"`{value}`"
     return f"`{json.dumps(value)}`"
 
@@ -213,12 +227,10 @@ def _loaders(key: str, entry_keys: set[str]) -> list[str]:
             lines += [f"No settings of its own: `{key}.NAME.loader: {name}` and the entry's keys above."]
             continue
         lines += [f"With `{key}.NAME.loader: {name}`, besides the entry's keys above:", "",
-                  "| setting | type | default | description |", "|---|---|---|---|"]
-        for setting in own:
-            parameter = parameters[setting]
-            cells = [f"`{key}.NAME.{setting}`", _python_type(str(parameter.annotation)),
-                     _shown_default(parameter.default), helps.get(setting, "").rstrip(".")]
-            lines.append("| " + " | ".join(_cell(cell) for cell in cells) + " |")
+                  *_head("setting", "type", "default", "description")]
+        lines += [_row((f"`{key}.NAME.{setting}`", _python_type(str(parameters[setting].annotation)),
+                        _shown_default(parameters[setting].default), helps.get(setting, "").rstrip(".")))
+                  for setting in own]
     return lines
 
 
@@ -228,19 +240,19 @@ def _typed(default: Any, text: str) -> tuple[str, str]:
     if default is None or default == "auto":
         kind, _, meaning = text.partition(": ")
         return kind, meaning
-    kinds = {bool: "boolean", int: "integer", float: "number", str: "string", list: "array", dict: "object"}
-    return _type({"type": kinds[type(default)]}), text
+    return _type({"type": SCHEMA_TYPES[type(default).__name__]}), text
 
 
 def _backends(key: str, entry_keys: set[str]) -> list[str]:
     """The settings every backend takes (absent or null: each one's default, as its description says), then each
     built-in backend's own: default from its ``default_conf``, meaning from its ``settings_help``."""
-    head = ["| setting | type | default | description |", "|---|---|---|---|"]
+    head = _head("setting", "type", "default", "description")
     lines = ["", "### Every backend", "", f"Besides `backend` and `checkpoint`, every entry of `{key}` takes:", "",
              *head]
-    lines += ["| " + " | ".join(_cell(cell) for cell in (f"`{key}.NAME.{name}`", *_typed(None, text)[:1], "`null`",
-                                                          _typed(None, text)[1])) + " |"
-              for name, text in COMMON_SETTINGS_HELP.items() if name not in entry_keys]
+    for name, text in COMMON_SETTINGS_HELP.items():
+        if name not in entry_keys:
+            kind, meaning = _typed(None, text)
+            lines.append(_row((f"`{key}.NAME.{name}`", kind, "`null`", meaning)))
     for name in sorted(BACKENDS):
         cls = backend_class(name)
         lines += ["", f"### backend `{name}`", ""]
@@ -250,8 +262,7 @@ def _backends(key: str, entry_keys: set[str]) -> list[str]:
         lines += [f"With `{key}.NAME.backend: {name}`, besides those of every backend:", "", *head]
         for setting, default in cls.default_conf.items():
             kind, meaning = _typed(default, cls.settings_help.get(setting, ""))
-            cells = (f"`{key}.NAME.{setting}`", kind, f"`{json.dumps(default)}`", meaning)
-            lines.append("| " + " | ".join(_cell(cell) for cell in cells) + " |")
+            lines.append(_row((f"`{key}.NAME.{setting}`", kind, f"`{json.dumps(default)}`", meaning)))
     return lines
 
 
@@ -320,15 +331,15 @@ def _options(parser: argparse.ArgumentParser, skip: set[str] | frozenset[str] = 
 
 
 def _option_rows(actions: list[argparse.Action]) -> list[str]:
-    lines = ["| option | argument | default | description |", "|---|---|---|---|"]
+    lines = _head("option", "argument", "default", "description")
     for action in actions:
         names = ", ".join(action.option_strings) or action.dest
         required = action.required or not action.option_strings and action.nargs not in ("?", "*")
         default = "required" if required else "" if action.default in (None, False, argparse.SUPPRESS) \
             else json.dumps(action.default)
-        cells = [f"`{names}`", f"`{_argument(action)}`" if _argument(action) else "",
-                 f"`{default}`" if default and default != "required" else default, _cell(action.help or "")]
-        lines.append("| " + " | ".join(cells) + " |")
+        argument = _argument(action)
+        lines.append(_row((f"`{names}`", f"`{argument}`" if argument else "",
+                           f"`{default}`" if default and default != "required" else default, action.help or "")))
     return lines
 
 
@@ -346,10 +357,11 @@ def cli_reference() -> str:
         parent = found[words.rpartition(" ")[0]] if words else None
         text = parser.description or (_helps(parent).get(words.rpartition(" ")[2], "") if parent else "")
         lines += [f"## vpr-smr {words}".rstrip(), ""] + _description(parser, text) + [""]
-        if _helps(parser):
-            lines += ["| command | what it does |", "|---|---|"]
-            lines += [f"| `vpr-smr {words} {word}`".replace("  ", " ") + f" | {_cell(help_)} |"
-                      for word, help_ in _helps(parser).items()] + [""]
+        subcommands = _helps(parser)
+        if subcommands:
+            lines += _head("command", "what it does")
+            lines += [_row((f"`{f'vpr-smr {words} {word}'.replace('  ', ' ')}`", help_))
+                      for word, help_ in subcommands.items()] + [""]
         if _options(parser):
             lines += _option_rows(_options(parser)) + [""]
         if parser.epilog and words:
@@ -359,11 +371,11 @@ def cli_reference() -> str:
                   f"`vpr-smr {words}`" for words, parser in found.items()
                   if any("--matcher" in action.option_strings for action in parser._actions)) +
               f") take that matcher's settings as options; those of `{DEFAULT_MATCHER}` are listed above.", ""]
+    shown = {option for action in _options(found["attributes"]) for option in action.option_strings}
     for name in sorted(MATCHERS):
         if name == DEFAULT_MATCHER:
             continue
         matcher_parser = commands(build_parser(name))["attributes"]
-        shown = {option for action in _options(found["attributes"]) for option in action.option_strings}
         lines += [f"### `--matcher {name}`", ""]
         lines += _option_rows(_options(matcher_parser, skip=shown)) + [""]
     return "\n".join(lines).rstrip() + "\n"
