@@ -138,6 +138,9 @@ def write_route(folder: Path, n: int, start: int = 1000, name: str = "img{}.jpg"
 
 
 DOC_PAGES = (REPO / "README.md", *sorted((REPO / "docs").glob("*.md")))
+# A block's marker, the line above its fence: ``<!-- NAME -->`` or ``<!-- NAME: a note -->`` (format: the name's
+# pattern); doc_block and tests/unit/test_docs_blocks.py read it.
+DOC_MARKER = r"<!-- ({name})(?:[:\s][^>]*)?-->\n"
 
 
 def doc_block(marker: str) -> str:
@@ -145,8 +148,8 @@ def doc_block(marker: str) -> str:
     block of them all; tests/unit/test_docs_blocks.py checks that every block has one and a test that reads it)."""
     import re
 
-    pattern = re.compile(rf"<!-- {re.escape(marker)}(?:[:\s][^>]*)?-->\n```[a-z]*\n(.*?)```", re.S)
-    found = [match.group(1) for page in DOC_PAGES for match in pattern.finditer(page.read_text())]
+    pattern = re.compile(DOC_MARKER.format(name=re.escape(marker)) + r"```[a-z]*\n(.*?)```", re.S)
+    found = [match.group(2) for page in DOC_PAGES for match in pattern.finditer(page.read_text())]
     assert len(found) == 1, f"{len(found)} blocks after <!-- {marker} --> in README.md and docs/ (one expected)"
     return found[0]
 

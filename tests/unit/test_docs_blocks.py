@@ -7,12 +7,12 @@ from __future__ import annotations
 
 import re
 
-from helpers import DOC_PAGES, REPO
+from helpers import DOC_MARKER, DOC_PAGES, REPO
 
 # Pages whose every block one test runs, in order (helpers.doc_page_blocks): the page -> that test.
 WHOLE_PAGES = {"extending.md": "tests/unit/test_extending.py", "python-api.md": "tests/unit/test_python_api_page.py"}
 FENCE = re.compile(r"^(`{3,})([^`\n]*)\n(.*?)^\1[ \t]*$", re.S | re.M)
-MARKER = re.compile(r"<!-- ([a-z0-9][a-z0-9-]*)(?:[:\s][^>]*)?-->\n$")
+MARKER = re.compile(DOC_MARKER.format(name="[a-z0-9][a-z0-9-]*") + "$")
 
 
 def blocks() -> list[tuple[str, str, str | None]]:
