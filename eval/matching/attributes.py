@@ -24,6 +24,7 @@ from vpr_smr.core import environment
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, candidates_needed
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
 from vpr_smr.core.records import Record
+from vpr_smr.eval.matching.checks import check_size, stage_check
 from vpr_smr.eval.matching.features import split_features
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
@@ -248,11 +249,12 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     if n_candidates < 0:
         raise ValueError(f"--candidates is a number of candidates per query >= 0, got {n_candidates}")
     matcher = matcher or MatcherSpec.of()
-    built = matcher.build(seq_len)
     distances = Path(distances)
     start = time.perf_counter()
     truth_file = None if ground_truth is None else read_ground_truth(ground_truth, ground_truth_key)
     with open_distance_matrix(distances, similarity, key, transpose) as matrix:
+        check_size(stage_check(matcher.build, tuple(matrix.shape), str(distances)), seq_len)
+        built = matcher.build(seq_len)
         truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
                                    query_positions, truth_file)
         warn_if_similar(distances, matrix, truth, similarity)

@@ -5,15 +5,19 @@ Matrices are references x queries; a sequence of length ``L`` needs ``L`` refere
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+# The shortest sequence: one of a single frame is single-frame matching, not sequence matching.
+SHORTEST_SEQ_LEN = 2
+
 
 def check_shape(shape: tuple[int, ...], seq_len: int, name: str = "distance matrix") -> None:
     """Raise ValueError with a clear message when a matrix of ``shape`` cannot be sequence-matched."""
-    if seq_len < 2:
-        raise ValueError(f"sequence length must be at least 2, got {seq_len}")
+    if seq_len < SHORTEST_SEQ_LEN:
+        raise ValueError(f"sequence length must be at least {SHORTEST_SEQ_LEN}, got {seq_len}")
     if len(shape) != 2:
         raise ValueError(f"{name} must be 2-D (references x queries), got shape {tuple(shape)}")
     n_ref, n_query = shape
@@ -22,6 +26,57 @@ def check_shape(shape: tuple[int, ...], seq_len: int, name: str = "distance matr
             f"{name} of shape {n_ref}x{n_query} is too small for sequence length {seq_len}: "
             f"it needs at least {seq_len} references and {seq_len} queries"
         )
+
+
+def _fits(check: Callable[[int], object], seq_len: int) -> bool:
+    try:
+        check(seq_len)
+    except ValueError:
+        return False
+    return True
+
+
+def check_size(check: Callable[[int], object], seq_len: int, option: str = "--seq-len") -> None:
+    """Raise ValueError when a matrix cannot be matched at ``seq_len``, with advice that can be followed:
+    ``check(L)`` raises ValueError naming the matrix when it does not fit length ``L`` (the stage's own checks at
+    ``L``). The advice is the longest length that fits, found by bisection (a matrix that fits ``L`` fits every
+    shorter length), or, where none does, that no length fits (``check``'s message at the shortest length, which
+    says what the matrix lacks): never a length below the shortest."""
+    if seq_len < SHORTEST_SEQ_LEN:
+        small = _too_small(check, option)
+        raise ValueError(f"{option} must be at least {SHORTEST_SEQ_LEN} (a sequence of one frame is single-frame "
+                         f"matching), got {seq_len}" + (f"; besides, {small}" if small else ""))
+    try:
+        check(seq_len)
+    except ValueError as error:
+        small = _too_small(check, option)
+        if small:
+            raise ValueError(small) from None
+        lo, hi = SHORTEST_SEQ_LEN, seq_len - 1  # lo fits; seq_len does not, nor (by the rule above) any longer
+        while lo < hi:
+            mid = (lo + hi + 1) // 2
+            lo, hi = (mid, hi) if _fits(check, mid) else (lo, mid - 1)
+        raise ValueError(f"{error}; give a {option} of at most {lo}, or a larger matrix") from None
+
+
+def stage_check(build: Callable[[int], Any], shape: tuple[int, ...], name: str) -> Callable[[int], None]:
+    """``check_size``'s ``check`` for a stage that matches a matrix of ``shape`` with the matcher ``build(L)``
+    returns and describes the sequences (attributes, recall): ``L`` references and queries, and what the matcher
+    needs at ``L``."""
+    def check(seq_len: int) -> None:
+        check_shape(shape, seq_len, name)
+        build(seq_len).check(shape, name)
+    return check
+
+
+def _too_small(check: Callable[[int], object], option: str) -> str:
+    """Why no sequence length fits (empty where the shortest does)."""
+    try:
+        check(SHORTEST_SEQ_LEN)
+    except ValueError as error:
+        return (f"{error}; {SHORTEST_SEQ_LEN} is the shortest sequence length, so no {option} fits: give a larger "
+                "matrix")
+    return ""
 
 
 class NonFiniteError(ValueError):

@@ -71,7 +71,7 @@ from vpr_smr.eval.matching.attributes import (
     query_features,
     read_features,
 )
-from vpr_smr.eval.matching.checks import check_shape
+from vpr_smr.eval.matching.checks import check_size, stage_check
 from vpr_smr.eval.matching.features import match_blocks
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
@@ -485,10 +485,7 @@ def score_all(
     for split, path in splits.items():
         attributes_file = attribute_paths.get(split)
         with open_distance_matrix(path, similarity, key, transpose) as matrix:
-            try:
-                check_shape(tuple(matrix.shape), seq_len)
-            except ValueError as error:
-                raise ValueError(f"{path}: {error}; give a --seq-len of at most {min(matrix.shape)}") from None
+            check_size(stage_check(matcher.spec.build, tuple(matrix.shape), str(path)), seq_len)
             features = read_features(attributes_file) if attributes_file is not None else None
             if features is not None and baselines is not None:
                 check_candidates(features, baselines, str(attributes_file),

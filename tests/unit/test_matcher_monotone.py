@@ -131,8 +131,7 @@ def test_bad_settings_are_refused_naming_the_setting(values, message):
 def test_a_split_shorter_than_the_sequence_is_refused_with_the_fix():
     matcher = MatcherSpec.of("monotone").build(8)
     with pytest.raises(ValueError, match=r"test\.h5 of shape 20x7 is too short for the matcher monotone at sequence "
-                                         r"length 8: it needs at least 1 reference and 8 query columns; give a "
-                                         r"sequence length of at most 7 \(--seq-len\) or a longer split"):
+                                         r"length 8: it needs at least 1 reference and 8 query columns$"):
         matcher.check((20, 7), "test.h5")
     matcher.check((20, 8), "test.h5")
     with pytest.raises(ValueError, match="must be 2-D"):

@@ -104,7 +104,7 @@ class BayesFilter(Matcher):
         if n_ref < 2 or n_query < 2:
             raise ValueError(f"{name} of shape {n_ref}x{n_query} is too small for the matcher bayes_filter: it "
                              "needs at least 2 references and 2 queries (the first query calibrates the filter, "
-                             "the next ones follow it); give a longer split")
+                             "the next ones follow it)")
 
     def block(self, columns: np.ndarray, first_column: int, state: Any) -> tuple[MatchBlock, Any]:
         raw = np.asarray(columns)

@@ -73,8 +73,7 @@ class Monotone(Matcher):
         n_ref, n_query = (int(n) for n in shape)
         if n_ref < 1 or n_query < self.seq_len:
             raise ValueError(f"{name} of shape {n_ref}x{n_query} is too short for the matcher monotone at sequence "
-                             f"length {self.seq_len}: it needs at least 1 reference and {self.seq_len} query columns; "
-                             f"give a sequence length of at most {n_query} (--seq-len) or a longer split")
+                             f"length {self.seq_len}: it needs at least 1 reference and {self.seq_len} query columns")
 
     def block(self, columns: np.ndarray, first_column: int, state: Any) -> tuple[MatchBlock, Any]:
         n_cols, n_ref = columns.shape

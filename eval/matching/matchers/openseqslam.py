@@ -117,8 +117,7 @@ class OpenSeqSLAM(Matcher):
         what = f"openseqslam at L = {self.seq_len} (ds = {self.ds})"
         if n_query < self.ds + 1:
             raise ValueError(f"{name} has {n_query} query columns; {what} reads {self.ds + 1} consecutive ones per "
-                             f"query, so it needs at least {self.ds + 1}: use a longer split or a shorter sequence "
-                             "length")
+                             f"query, so it needs at least {self.ds + 1}")
         # starts whose slowest trajectory stays within the references and whose match is a reference: more of them
         # than the ratio's window holds, so that every match has a second best outside it
         needed = max(int(self.moves[0, -1]), self.offset) + 2 * self.half_window + 1
@@ -126,7 +125,7 @@ class OpenSeqSLAM(Matcher):
             raise ValueError(f"{name} has {n_ref} references; {what} with v_min {self.settings.v_min}, alignment "
                              f"{self.settings.alignment} and ratio_window {self.settings.ratio_window} needs at least "
                              f"{needed}, so that a second best lies outside the ratio's window: lower "
-                             "openseqslam.ratio_window, use a shorter sequence length or a longer split")
+                             "openseqslam.ratio_window or give more references")
 
     def enhanced(self, columns: np.ndarray) -> np.ndarray:
         """The local contrast enhancement (before the split's minimum is subtracted) of ``columns`` (``(n, R)``:
