@@ -24,7 +24,7 @@ from vpr_smr.core import environment
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, candidates_needed
 from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
 from vpr_smr.core.records import Record
-from vpr_smr.eval.matching.checks import check_size, stage_check
+from vpr_smr.eval.matching.checks import check_size, stage_check, warn_if_tied
 from vpr_smr.eval.matching.features import split_features
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
@@ -258,6 +258,7 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
         truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
                                    query_positions, truth_file)
         warn_if_similar(distances, matrix, truth, similarity)
+        warn_if_tied(str(distances), matrix)
         try:
             features = query_features(matrix, seq_len, tolerance, matcher=built, ground_truth=truth,
                                       n_candidates=n_candidates if out.suffix.lower() not in CSV_SUFFIXES else 0)

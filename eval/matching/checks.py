@@ -5,10 +5,13 @@ Matrices are references x queries; a sequence of length ``L`` needs ``L`` refere
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from typing import Any
 
 import numpy as np
+
+log = logging.getLogger("vpr_smr")
 
 # The shortest sequence: one of a single frame is single-frame matching, not sequence matching.
 SHORTEST_SEQ_LEN = 2
@@ -133,3 +136,49 @@ def check_finite(values: np.ndarray, name: str = "distance matrix", *, first_col
     scope = f" in query columns {first_column}..{first_column + n_columns - 1}"
     raise NonFiniteError(name, row, first_column + column, float(by_column[column, row]), n_nan,
                          int(np.count_nonzero(bad)) - n_nan, scope)
+
+
+# Query columns a tie check reads, evenly spaced (every one of a smaller matrix): a constant or all-tied matrix shows
+# in any of them, and reading all of a 9000 x 9000 matrix would cost as much as its matching.
+TIE_SAMPLE = 256
+
+
+def tied_columns(matrix: Any, block_queries: int = 64) -> tuple[int, int]:
+    """Of the query columns read (every one, or ``TIE_SAMPLE`` evenly spaced ones of a larger matrix): how many
+    hold one value in every reference row (every ranking of that query a tie), and how many were read."""
+    n_query = int(matrix.shape[1])
+    # sorted and without repeats, as np.unique gives them (which imports numpy.ma on first use: 5-15 ms)
+    sample = np.array(sorted(set(np.linspace(0, n_query - 1, min(n_query, TIE_SAMPLE)).round()
+                                 .astype(np.int64).tolist())), dtype=np.int64)
+    tied = 0
+    for start in range(0, len(sample), block_queries):
+        values = np.asarray(matrix[:, sample[start : start + block_queries]], dtype=np.float64)
+        if values.shape[0]:
+            tied += int(np.count_nonzero(np.isfinite(values).all(axis=0) & (values.min(axis=0) == values.max(axis=0))))
+    return tied, len(sample)
+
+
+def tie_warning(name: str, matrix: Any) -> str | None:
+    """A warning naming ``name`` when query columns of ``matrix`` hold one value throughout (a constant matrix, or
+    all-tied columns): their rankings are ties, so recall there is decided by how ties are broken, not by the
+    matrix; None where no column read is tied (or the matrix has one reference: nothing to rank)."""
+    if int(matrix.shape[0]) < 2 or int(matrix.shape[1]) == 0:
+        return None
+    tied, read = tied_columns(matrix)
+    if tied == 0:
+        return None
+    n_query = int(matrix.shape[1])
+    columns = f"its {read} query columns" if read == n_query else f"{read} of its {n_query} query columns read"
+    if tied == read:
+        return (f"{name}: every one of {columns} holds a single value (a constant or all-tied matrix): every ranking "
+                "is a tie, so recall and the matches are decided by how ties are broken, not by the matrix; check "
+                "how the matrix was computed")
+    return (f"{name}: {tied} of {columns} hold a single value: those queries' single-frame rankings are ties, "
+            "decided by how ties are broken, not by the matrix")
+
+
+def warn_if_tied(name: str, matrix: Any) -> None:
+    """Log ``tie_warning`` of a matrix a stage scores."""
+    warning = tie_warning(name, matrix)
+    if warning:
+        log.warning(warning)

@@ -71,7 +71,7 @@ from vpr_smr.eval.matching.attributes import (
     query_features,
     read_features,
 )
-from vpr_smr.eval.matching.checks import check_size, stage_check
+from vpr_smr.eval.matching.checks import check_size, stage_check, warn_if_tied
 from vpr_smr.eval.matching.features import match_blocks
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
@@ -494,6 +494,7 @@ def score_all(
                                        matcher.reference_positions, matcher.query_positions, file_truth)
             recorded = truth.provenance() if recorded is None else recorded
             warn_if_similar(path, matrix, truth, similarity)
+            warn_if_tied(str(path), matrix)
             try:
                 results[split] = score_split(matrix, seq_len, tolerance, model, tuple(modes), features, split,
                                              _first_frame(attributes_file, path), matcher=matcher.spec,

@@ -1,5 +1,6 @@
 """Small user-facing promises, each on matrices no other test uses: the advice on a matrix too small for the
-sequence length asked can be followed (a length it names works; none is named below the shortest)."""
+sequence length asked can be followed (a length it names works; none is named below the shortest); a constant or
+all-tied matrix is named as such."""
 
 import re
 
@@ -7,7 +8,7 @@ import numpy as np
 import pytest
 
 from vpr_smr.eval.matching import attributes
-from vpr_smr.eval.matching.checks import check_size
+from vpr_smr.eval.matching.checks import check_size, tie_warning
 from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec
 from vpr_smr.eval.scoring import vpr_metrics
 from vpr_smr.eval.scoring.vpr_metrics import MatcherSettings
@@ -68,3 +69,39 @@ def test_every_matchers_advice_on_a_small_matrix_can_be_followed(tmp_path, match
                 run(path, 2)
         else:
             run(path, int(advised.group(1)))  # the advice works
+
+
+def _tie_warnings(caplog):
+    return [r.getMessage() for r in caplog.records if r.levelname == "WARNING" and "single value" in r.getMessage()]
+
+
+@pytest.mark.parametrize("stage", ["attributes", "metrics"])
+@pytest.mark.parametrize("values", [
+    np.full((12, 12), 5.0),  # constant
+    np.zeros((12, 12)),  # constant at 0
+    np.tile(np.arange(12.0) * 3, (12, 1)),  # each column one value, another per column: all tied
+])
+def test_a_constant_or_all_tied_matrix_is_named_as_such(tmp_path, caplog, stage, values):
+    path = tmp_path / "flat.npy"
+    np.save(path, values)
+    _stages(tmp_path, "seqslam")[stage](path, 3)
+    warnings = _tie_warnings(caplog)
+    assert len(warnings) == 1 and warnings[0].startswith(str(path)), warnings
+    assert "every one of its 12 query columns holds a single value" in warnings[0]
+    assert "every ranking is a tie" in warnings[0] and "not by the matrix" in warnings[0]
+
+
+def test_tied_columns_are_counted_and_a_matrix_without_ties_passes_silently(tmp_path, caplog):
+    rng = np.random.default_rng(44)
+    values = rng.random((15, 15)) + 3 * np.abs(np.subtract.outer(np.arange(15), np.arange(15)))
+    np.save(tmp_path / "plain.npy", values)
+    values[:, [2, 9, 11]] = 7.25  # three queries whose every reference is equally far
+    values[4, 5] = np.nan  # a NaN column is no tie (and is refused later, naming the value)
+    np.save(tmp_path / "three.npy", values[:, :-1])
+    _stages(tmp_path, "seqslam")["metrics"](tmp_path / "plain.npy", 3)
+    assert _tie_warnings(caplog) == []
+    assert tie_warning("three.npy", values[:, :-1]) == (
+        "three.npy: 3 of its 14 query columns hold a single value: those queries' single-frame rankings are ties, "
+        "decided by how ties are broken, not by the matrix")
+    wide = np.tile(rng.random((1, 1000)), (6, 1))  # a sample of 256 of 1000 columns, every one tied
+    assert tie_warning("wide", wide).startswith("wide: every one of 256 of its 1000 query columns read holds")
