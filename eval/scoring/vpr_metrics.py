@@ -16,8 +16,10 @@ last:
 
 - single recall@N: queries whose N nearest references (``D[:, q]`` ascending) hold a correct one / all Q queries
   of the split in paper mode (the authors' rule, method §8), the evaluated queries in standard mode.
-- sequence recall@N: evaluated queries ``a`` whose N best diagonals (``S[i, j] = sum_k D[i+k, j+k]``,
-  ``j = a-L+1``, ascending) hold one matching a correct reference ``i + L - 1`` / the evaluated queries.
+- sequence recall@N: evaluated queries ``a`` whose first N candidates hold a correct reference / the evaluated
+  queries. The candidates (method §14): the matcher's match ``r*_a`` first, then the other references by the
+  matcher's score ``s_a`` ascending (``seqslam``: the diagonals ``S[i, j] = sum_k D[i+k, j+k]``, ``j = a-L+1``, as
+  end references ``i + L - 1``, whose lowest is the match; a filter's match need not be its lowest score).
 - sequence_predictor recall@N: as sequence, a query whose match the seed-0 predictor removes (rank-0 predicted
   class not in KEPT_CLASSES, trust level 0) counting as not retrieved / the evaluated queries.
 - recall_at_100p: the highest recall of a point of precision 1 on the mode's PR curve / the curve's recall
@@ -86,7 +88,15 @@ from vpr_smr.eval.matching.matcher import as_matrix, read_columns
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.matchers.base import Matcher
 from vpr_smr.eval.predictor.estimator import SMRPredictor
-from vpr_smr.eval.predictor.leakage import check_disjoint, frame_range, frame_ranges, trained_on
+from vpr_smr.eval.predictor.leakage import (
+    check_disjoint,
+    check_length,
+    check_matrices,
+    frame_range,
+    frame_ranges,
+    matrix_overlaps,
+    trained_on,
+)
 from vpr_smr.eval.scoring import baselines as scorers
 from vpr_smr.eval.scoring.baselines import (
     DEFAULT_SETTINGS,
@@ -95,9 +105,9 @@ from vpr_smr.eval.scoring.baselines import (
     split_baselines,
     spread_positions,
 )
-from vpr_smr.eval.scoring.curves import Curve, area, curve, keep_mask, recall_at_full_precision
+from vpr_smr.eval.scoring.curves import Curve, area, curve, earned, keep_mask, recall_at_full_precision
 from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
-from vpr_smr.eval.scoring.records import MatcherMetrics, SplitMetrics, VPRMetrics
+from vpr_smr.eval.scoring.records import Interval, MatcherMetrics, SplitMetrics, VPRMetrics
 from vpr_smr.eval.scoring.sweep import protocol_sweep, within
 
 __all__ = [
@@ -140,9 +150,10 @@ class Retrieval:
     """What recall@N and the single-frame curve need of one split, from the matrix itself.
 
     ``single_rank[q]``: the stable rank of query ``q``'s best-ranked correct reference in ``D[:, q]`` (every query,
-    the first ``L-1`` too); ``sequence_rank[n]``: that of the best-ranked correct reference in the matcher's scores
-    ``s_a`` of query ``a = queries[n]`` (``seqslam``: the best-ranked correct diagonal in ``S[:, n]``, query
-    ``a = n + L - 1``), a reference of score ``+inf`` never ranked; ``NOT_RETRIEVED`` when no candidate is correct.
+    the first ``L-1`` too); ``sequence_rank[n]``: that of the best-ranked correct reference of query
+    ``a = queries[n]``, the matcher's match ranked first and the others by its scores ``s_a`` (``seqslam``: the
+    best-ranked correct diagonal in ``S[:, n]``, query ``a = n + L - 1``), a reference of score ``+inf`` other than
+    the match never ranked; ``NOT_RETRIEVED`` when no candidate is correct.
     """
 
     single_rank: np.ndarray  # (Q,)
@@ -156,11 +167,19 @@ class Retrieval:
     queries: np.ndarray  # (N,) the evaluated queries a >= L - 1 (seqslam: L-1 .. Q-1)
 
 
-def _best_correct_rank(values: np.ndarray, correct: np.ndarray) -> np.ndarray:
+def _best_correct_rank(values: np.ndarray, correct: np.ndarray, first: np.ndarray | None = None) -> np.ndarray:
     """Per column of ``values`` (candidates x queries), the stable rank of its best-ranked correct candidate (the
     lowest (value, row) among the rows ``correct`` marks); ``NOT_RETRIEVED`` where no candidate is correct. A row of
-    value ``+inf`` (a reference no path of the matcher reaches) is no candidate."""
-    correct = correct & np.isfinite(values)
+    value ``+inf`` (a reference no path of the matcher reaches) is no candidate. ``first``: per column, the
+    matcher's match, ranked first whatever its value (method §14: a filter's match need not be its lowest score),
+    the other rows after it by value."""
+    reached = correct & np.isfinite(values)
+    if first is not None:
+        cols = np.arange(values.shape[1])
+        reached[first, cols] = correct[first, cols]  # the match is the matcher's answer, whatever its score
+        values = values.copy()
+        values[first, cols] = -np.inf  # below every score: rank 0, every other row one further down
+    correct = reached
     n_rows, n_cols = values.shape
     best = np.argmin(np.where(correct, values, np.inf), axis=0)  # first row on ties: the best-ranked of them
     cols = np.arange(n_cols)
@@ -168,6 +187,7 @@ def _best_correct_rank(values: np.ndarray, correct: np.ndarray) -> np.ndarray:
     rank = (np.count_nonzero(values < value, axis=0)
             + np.count_nonzero((values == value) & (np.arange(n_rows)[:, None] < best), axis=0))
     return np.where(correct.any(axis=0), rank, NOT_RETRIEVED).astype(np.int64)
+
 
 
 def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries: int | None = None,
@@ -204,7 +224,8 @@ def retrieval(distance_matrix: Any, seq_len: int, tolerance: int, block_queries:
         s = found.scores.T  # (references, queries)
         rows = np.arange(len(found.queries))
         sequences.append({"queries": found.queries, "sequence_match": found.match,
-                          "sequence_rank": _best_correct_rank(s, truth.correct(references, found.queries)),
+                          "sequence_rank": _best_correct_rank(s, truth.correct(references, found.queries),
+                                                              found.match),
                           "sequence_distance": s[found.match, rows]})
     if seen < n_query:  # columns after the last evaluated query's window (none for a trailing window)
         singles.append(single(seen, read_columns(matrix, seen, n_query)))
@@ -357,14 +378,6 @@ def score_split(
 # --- the `metrics` stage ----------------------------------------------------------------------------------------
 
 
-def _predictor_seq_len(path: Path | str) -> int | None:
-    """The sequence length a predictor file was trained at, as its training report records it (None if not)."""
-    report = read_provenance(path).get("report")
-    meta = report.get("meta") if isinstance(report, dict) else None
-    value = meta.get("seq_len") if isinstance(meta, dict) else None
-    return None if value is None else int(value)
-
-
 def _ours(path: Path | str) -> bool:
     """An HDF5 file of vpr-smr (a MATLAB v7.3 ``.mat`` is HDF5 too, and a user's)."""
     return not is_user_matrix(path) and h5py.is_hdf5(path)
@@ -424,10 +437,21 @@ def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], 
         check_suffix(predictor, HDF5_SUFFIXES, "the predictor (HDF5)", "--predictor")
         if not predictor.is_file():
             raise FileNotFoundError(f"predictor file not found: {predictor} (train it first: vpr-smr train)")
-        trained = _predictor_seq_len(predictor)
-        if trained is not None and trained != seq_len:
-            raise ValueError(f"{predictor} was trained at sequence length {trained}, but --seq-len is {seq_len}: "
-                             f"give the predictor of L = {seq_len}, or --seq-len {trained}")
+        check_length(SMRPredictor.load(predictor), seq_len, f"--seq-len {seq_len}", "--seq-len")
+
+
+def _check_matrices(model: SMRPredictor, splits: Mapping[str, Path], allow_split_overlap: bool, similarity: bool,
+                    key: str | None, transpose: bool) -> None:
+    """Refuse to score a matrix that shares entries with one the predictor was trained on (``check_matrices``:
+    every patch of each matrix looked up among its training matrices' fingerprints), unless allowed."""
+    if not model.training_.matrices:
+        return
+    found = []
+    for path in splits.values():
+        with open_distance_matrix(path, similarity, key, transpose) as matrix:
+            found += matrix_overlaps(model.training_, str(path), matrix=matrix, predictor=f"predictor {model.path_}")
+    for overlap in check_matrices(found, allow_split_overlap):
+        log.warning("%s (allowed: --allow-split-overlap)", overlap)
 
 
 @dataclass(frozen=True)
@@ -480,6 +504,7 @@ def score_all(
                        f"predictor {predictor_file}")
         model = SMRPredictor.load(predictor_file)
         check_matching(model, Matching.of(matcher.spec, matcher.kind), "these matrices (--matcher, --radius)")
+        _check_matrices(model, splits, allow_split_overlap, similarity, key, transpose)
     results: dict[str, ScoredSplit] = {}
     recorded: dict[str, Any] | None = None if file_truth is None else file_truth.provenance()
     for split, path in splits.items():
@@ -614,10 +639,16 @@ def _fraction(value: float | None) -> str:
     return "n/a" if value is None else f"{value:.4f}"
 
 
+def _bracket(interval: Interval | None) -> str:
+    """A reduction's interval as the console prints it beside the number: ``[-7.47, 91.65]``, ``[n/a]``."""
+    return "[n/a]" if interval is None else f"[{interval.low:.2f}, {interval.high:.2f}]"
+
+
 def format_baselines(result: VPRMetrics) -> str:
     """The training-free scorers of every split (method §12) as plain text: each scorer's average precision and ROC
     AUC of detecting wrong matches (with the fraction of wrong matches, a random ranking's average precision), and
-    with a predictor each scorer's AOC reduction at its budget per mode; empty when none were computed."""
+    with a predictor each scorer's AOC reduction at its budget per mode, its interval, and its outcome (a direction
+    only where the interval earns it, ``curves.earned``); empty when none were computed."""
     parts = []
     for split, scored in result.splits.items():
         found = scored.baselines
@@ -631,7 +662,8 @@ def format_baselines(result: VPRMetrics) -> str:
         parts.append(_aligned(rows, 1))
         for budget in found.removal or ():
             parts.append(f"{split}: removal at the seed-{budget.seed} predictor's budget of {budget.budget} matches")
-            rows = [["mode", "scorer", "removed", "max recall", "AOC VPR+SM", "AOC", "reduction %", "outcome"]]
+            rows = [["mode", "scorer", "removed", "max recall", "AOC VPR+SM", "AOC", "reduction %",
+                     "interval", "outcome"]]
             modes = list(dict.fromkeys(mode for removal in budget.scorers.values() for mode in removal.modes))
             for mode in modes:  # one mode's scorers together, as a reader compares them
                 for name, removal in budget.scorers.items():
@@ -639,6 +671,7 @@ def format_baselines(result: VPRMetrics) -> str:
                     rows.append([mode, name, str(removal.removed), f"{numbers.max_recall:.4f}",
                                  f"{numbers.aoc_vpr_sm:.4f}", f"{numbers.aoc_vpr_sm_pred:.4f}",
                                  "n/a" if numbers.reduction_pct is None else f"{numbers.reduction_pct:.2f}",
-                                 numbers.outcome])
+                                 _bracket(numbers.reduction_pct_ci),
+                                 earned(numbers.outcome, numbers.reduction_pct_ci)])
             parts.append(_aligned(rows, 2))
     return "\n\n".join(parts)

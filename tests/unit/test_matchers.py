@@ -151,12 +151,14 @@ def test_a_matcher_that_is_not_seqslam_gets_its_candidates_and_labels_from_the_s
     rows = np.searchsorted(fixed.queries, features.queries)
     assert np.array_equal(features.attributes, fixed.attributes[rows])
     assert np.array_equal(features.rank_references, fixed.rank_references[rows])
-    # recall@N ranks the matcher's scores: the best-ranked correct finite score's stable rank
+    # recall@N ranks the matcher's match first, then the other references by finite score, stably (method §14):
+    # Smoothing's match is the single-frame one, not its lowest score
     found = retrieval(d, seq_len, tolerance, block_queries, matcher)
     assert found.queries.tolist() == queries
     for n_row, a in enumerate(queries):
-        order = sorted((v, r) for r, v in enumerate(scores[a]) if np.isfinite(v))
-        ranks = [i for i, (_, r) in enumerate(order) if abs(r - a) <= tolerance]
+        order = [match[a], *(r for _, r in sorted((v, r) for r, v in enumerate(scores[a])
+                                                   if np.isfinite(v) and r != match[a]))]
+        ranks = [i for i, r in enumerate(order) if abs(r - a) <= tolerance]
         assert found.sequence_rank[n_row] == (ranks[0] if ranks else np.iinfo(np.int64).max)
 
 
