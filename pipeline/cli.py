@@ -22,6 +22,11 @@ from vpr_smr.pipeline.options import add_matcher_options, add_options, matcher_o
 log = logging.getLogger("vpr_smr")
 
 
+def _wrote(what: str, out: Path | str, headline: str = "") -> None:
+    """The one-line summary of a command that wrote a file: what, where, and its headline number."""
+    log.info("wrote %s to %s%s", what, out, f": {headline}" if headline else "")
+
+
 def _json_object(text: str, option: str) -> dict[str, Any]:
     """A JSON object given on the command line, or ``@file`` holding one."""
     if text.startswith("@"):
@@ -75,26 +80,31 @@ def cmd_descriptors(args: argparse.Namespace) -> None:
         raise ConfigError(f"dataset {args.dataset!r}: its frames changed on disk since the workflow was planned "
                           "(the frame lists' SHA-256 differs); run the workflow again")
     extraction = read_options(args, Extraction, "extraction")
-    extract.main(pair, args.method, method, args.out, batch_size=extraction.batch_size,
-                 num_workers=extraction.num_workers)
+    out = extract.main(pair, args.method, method, args.out, batch_size=extraction.batch_size,
+                       num_workers=extraction.num_workers)
+    _wrote(f"the {args.method} descriptors of {args.dataset}", out)
 
 
 def cmd_distances(args: argparse.Namespace) -> None:
     from vpr_smr.eval.matching import distances
 
-    distances.main(args.descriptors, args.out, args.split, tuple(args.frames), metric=args.metric,
-                   reference_range=tuple(args.reference_frames) if args.reference_frames else None)
+    out = distances.main(args.descriptors, args.out, args.split, tuple(args.frames), metric=args.metric,
+                         reference_range=tuple(args.reference_frames) if args.reference_frames else None)
+    _wrote(f"the {args.split} split's distance matrix", out)
 
 
 def cmd_attributes(args: argparse.Namespace) -> None:
     from vpr_smr.eval.matching import attributes
 
-    attributes.main(args.distances, args.out, args.seq_len, args.tolerance, matcher=read_matcher(args),
-                    radius=args.radius, reference_positions=args.reference_positions,
-                    query_positions=args.query_positions, similarity=args.similarity, key=args.key,
-                    transpose=args.transpose, ground_truth=args.ground_truth,
-                    ground_truth_key=args.ground_truth_key,
-                    n_candidates=attributes.DEFAULT_CANDIDATES if args.candidates is None else args.candidates)
+    found = attributes.main(args.distances, args.out, args.seq_len, args.tolerance, matcher=read_matcher(args),
+                            radius=args.radius, reference_positions=args.reference_positions,
+                            query_positions=args.query_positions, similarity=args.similarity, key=args.key,
+                            transpose=args.transpose, ground_truth=args.ground_truth,
+                            ground_truth_key=args.ground_truth_key,
+                            n_candidates=attributes.DEFAULT_CANDIDATES if args.candidates is None else args.candidates)
+    n_queries, n_correct = len(found.queries), int(found.sequence_correct.sum())
+    _wrote(f"the attributes of {n_queries} queries", args.out,
+           f"{n_correct} sequence matches correct ({n_correct / max(n_queries, 1):.4f})")
 
 
 def _check_seq_len(args: argparse.Namespace, *groups: Iterable[str] | None) -> None:
@@ -150,7 +160,7 @@ def cmd_train(args: argparse.Namespace) -> None:
                         meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)),
                         allow_split_overlap=args.allow_split_overlap, validation=args.validation)
     first = report.seeds[0]  # the predictor file's seed
-    log.info("predictor macro F1: %s%s", train.cv_text(first), train.split_f1s(first))
+    _wrote("the predictor", args.out, f"macro F1 {train.cv_text(first)}{train.split_f1s(first)}")
 
 
 def _split_paths(items: list[str], option: str = "--attributes", name: str = "SPLIT") -> dict[str, str]:
@@ -167,10 +177,13 @@ def cmd_evaluate(args: argparse.Namespace) -> None:
 
     attributes = _split_paths(args.attributes)
     _check_seq_len(args, attributes.values())
-    evaluate.main(attributes, args.predictors, args.out, tuple(args.modes),
-                  tuple(args.trust_levels), meta={"dataset": args.dataset, "method": args.method,
-                                                  "seq_len": args.seq_len}, restoration=args.restoration,
-                  allow_split_overlap=args.allow_split_overlap)
+    evaluation, _ = evaluate.main(attributes, args.predictors, args.out, tuple(args.modes),
+                                  tuple(args.trust_levels), meta={"dataset": args.dataset, "method": args.method,
+                                                                  "seq_len": args.seq_len},
+                                  restoration=args.restoration, allow_split_overlap=args.allow_split_overlap)
+    _wrote(f"the evaluation of {args.method}", args.out, "; ".join(
+        f"{name}: the seed-{split.seed} predictor removes {split.removed} of {split.n_queries} matches, macro F1 "
+        f"{split.f1_macro:.3f}" for name, split in evaluation.splits.items()))
 
 
 def _distance_paths(items: list[str]) -> dict[str, str]:
@@ -195,6 +208,10 @@ def cmd_metrics(args: argparse.Namespace) -> None:
     if found:
         shown = ", ".join(f"{key} {value}" for key, value in _baseline_settings(args).meta().items())
         print(f"\ntraining-free scorers (method §12; {shown}):\n{found}")
+    mode = args.modes[0] if args.modes else None
+    _wrote("the metrics", args.out, "; ".join(
+        f"{name}: sequence recall@1 {split.modes[mode]['sequence'].recall_at[1]:.4f} ({mode} mode)"
+        for name, split in result.splits.items() if mode in split.modes))
 
 
 def cmd_queries(args: argparse.Namespace) -> None:
@@ -214,11 +231,16 @@ def cmd_baselines(args: argparse.Namespace) -> None:
     _check_seq_len(args, attributes.values())
     settings = _baseline_settings(args)
     assert settings is not None  # the baselines command has no --no-baselines
-    baselines_stage.main(_split_paths(args.distances, "--distances"), attributes, args.predictors,
-                         args.seq_len, args.tolerance, args.out, settings, tuple(args.modes),
-                         meta={"dataset": args.dataset, "method": args.method},
-                         allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
-                         similarity=args.similarity, key=args.key, transpose=args.transpose)
+    found = baselines_stage.main(_split_paths(args.distances, "--distances"), attributes, args.predictors,
+                                 args.seq_len, args.tolerance, args.out, settings, tuple(args.modes),
+                                 meta={"dataset": args.dataset, "method": args.method},
+                                 allow_split_overlap=args.allow_split_overlap, matcher=_matcher(args),
+                                 similarity=args.similarity, key=args.key, transpose=args.transpose)
+    _wrote(f"the training-free scorers of {args.method}", args.out, "; ".join(
+        f"{name}: {split.n_wrong} wrong sequence matches of {split.n_queries}, average precision "
+        + ", ".join(f"{scorer} {detection.average_precision:.4f}" for scorer, detection in split.detection.items()
+                    if detection.average_precision is not None)
+        for name, split in found.splits.items()))
 
 
 def _baseline_settings(args: argparse.Namespace) -> Any:
@@ -247,10 +269,12 @@ def cmd_ablation_attributes(args: argparse.Namespace) -> None:
     ablation.attributes_main(args.train, args.out, params, evaluate=evaluate,
                              meta={"dataset": args.dataset, "seq_len": args.seq_len},
                              allow_split_overlap=args.allow_split_overlap)
+    _wrote("the attribute ablation (Table II)", args.out)
 
 
 def cmd_ablation_without(args: argparse.Namespace) -> None:
     from vpr_smr.eval.predictor import ablation
+    from vpr_smr.eval.predictor.train import cv_text, split_f1s
 
     params = _predictor_params(args)  # its settings checked before any file is read
     train = _split_paths(args.train, "--train", "METHOD")
@@ -258,8 +282,10 @@ def cmd_ablation_without(args: argparse.Namespace) -> None:
                 for name, items in _evaluation_splits(args).items()}
     _check_seq_len(args, train.values(), *(files.values() for files in evaluate.values()))
     meta = {"dataset": args.dataset, "seq_len": args.seq_len}
-    ablation.train_without(train, args.method, args.out, params, evaluate=evaluate, meta=meta,
-                           allow_split_overlap=args.allow_split_overlap, validation=args.validation)
+    report = ablation.train_without(train, args.method, args.out, params, evaluate=evaluate, meta=meta,
+                                    allow_split_overlap=args.allow_split_overlap, validation=args.validation)
+    _wrote(f"the predictor without {args.method}", args.out,
+           f"macro F1 {cv_text(report.seeds[0])}{split_f1s(report.seeds[0])}")
 
 
 def cmd_ablation_held_out(args: argparse.Namespace) -> None:
@@ -269,6 +295,7 @@ def cmd_ablation_held_out(args: argparse.Namespace) -> None:
     held_out.main(args.attributes, args.pooled, args.without, args.out, tuple(args.modes),
                   meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len},
                   allow_split_overlap=args.allow_split_overlap)
+    _wrote(f"{args.method}'s test split under the pooled and the without predictor", args.out)
 
 
 def cmd_speed(args: argparse.Namespace) -> None:
@@ -278,6 +305,7 @@ def cmd_speed(args: argparse.Namespace) -> None:
     speed.main(args.dataset, args.seq_len, args.profile, _split_paths(args.train, "--train", "METHOD"),
                _split_paths(args.test, "--table", "METHOD"), args.out, args.velocities, args.tolerance, params,
                allow_split_overlap=args.allow_split_overlap)
+    _wrote(f"the speed profile {args.profile}", args.out)
 
 
 def cmd_compare_matchers(args: argparse.Namespace) -> None:
@@ -288,6 +316,7 @@ def cmd_compare_matchers(args: argparse.Namespace) -> None:
         _split_paths(args.distances, "--distances", "METHOD"), args.split, args.tolerance, args.out,
         _baseline_settings(args), tuple(args.modes), args.validation, args.radius, args.ground_truth,
         args.ground_truth_key, allow_split_overlap=args.allow_split_overlap)
+    _wrote(f"the matchers compared on {args.method}", args.out)
 
 
 def cmd_adaptive(args: argparse.Namespace) -> None:
@@ -302,6 +331,7 @@ def cmd_adaptive(args: argparse.Namespace) -> None:
         args.distances, args.seeds, _baseline_settings(args), tuple(args.modes), args.matcher_tag,
         allow_split_overlap=args.allow_split_overlap)
     print(adaptive_text(result, adaptive.read_timing(args.out)))
+    _wrote(f"the adaptive sequence length of {args.method}", args.out, "its table above")
 
 
 def adaptive_text(result: Any, timing: Any) -> str:

@@ -1,6 +1,6 @@
 """Small user-facing promises, each on matrices no other test uses: the advice on a matrix too small for the
 sequence length asked can be followed (a length it names works; none is named below the shortest); a constant or
-all-tied matrix is named as such."""
+all-tied matrix is named as such; every command that writes a file says so in one line with its headline."""
 
 import re
 
@@ -105,3 +105,64 @@ def test_tied_columns_are_counted_and_a_matrix_without_ties_passes_silently(tmp_
         "decided by how ties are broken, not by the matrix")
     wide = np.tile(rng.random((1, 1000)), (6, 1))  # a sample of 256 of 1000 columns, every one tied
     assert tie_warning("wide", wide).startswith("wide: every one of 256 of its 1000 query columns read holds")
+
+
+def _wrote_lines(caplog, out):
+    return [r.getMessage() for r in caplog.records if r.getMessage().startswith("wrote ") and str(out) in
+            r.getMessage()]
+
+
+def _naive_sequence_correct(d, seq_len, tolerance):
+    """Per query a >= L-1: whether the lowest diagonal sum's end reference is within ``tolerance`` of a (first on
+    ties), summed in Python."""
+    n_ref, n_query = d.shape
+    correct = 0
+    for a in range(seq_len - 1, n_query):
+        sums = [sum(float(d[r - k, a - k]) for k in range(seq_len)) for r in range(seq_len - 1, n_ref)]
+        best = seq_len - 1 + sums.index(min(sums))
+        correct += abs(best - a) <= tolerance
+    return correct, n_query - seq_len + 1
+
+
+def test_every_stage_that_writes_a_file_says_what_where_and_its_headline(tmp_path, caplog, predictor_file):
+    from helpers import write_distance_matrix
+
+    from vpr_smr.core.records import load
+    from vpr_smr.eval.scoring.records import VPRMetrics
+    from vpr_smr.pipeline.cli import main as cli
+
+    rng = np.random.default_rng(808)
+    d = rng.random((26, 26)) + 0.5 * np.abs(np.subtract.outer(np.arange(26), np.arange(26))) % 3
+    matrix = tmp_path / "test.h5"
+    write_distance_matrix(matrix, d, {"dataset": "d", "method": "m", "split": "test", "split_range": [60, 86]})
+    attributes_file = tmp_path / "test_L3.h5"
+    caplog.set_level("INFO", logger="vpr_smr")
+    assert cli(["attributes", "--distances", str(matrix), "--seq-len", "3", "--tolerance", "1",
+                "--out", str(attributes_file)]) == 0
+    correct, n = _naive_sequence_correct(d, 3, 1)
+    assert _wrote_lines(caplog, attributes_file) == [
+        f"wrote the attributes of {n} queries to {attributes_file}: {correct} sequence matches correct "
+        f"({correct / n:.4f})"]
+
+    metrics = tmp_path / "m.json"
+    assert cli(["metrics", "--distances", str(matrix), "--seq-len", "3", "--tolerance", "1", "--no-baselines",
+                "--modes", "standard", "--out", str(metrics)]) == 0
+    written = load(metrics, VPRMetrics).splits["all"].modes["standard"]["sequence"].recall_at[1]
+    assert _wrote_lines(caplog, metrics) == [
+        f"wrote the metrics to {metrics}: all: sequence recall@1 {written:.4f} (standard mode)"]
+
+    evaluation = tmp_path / "e.json"
+    assert cli(["evaluate", "--dataset", "d", "--method", "m", "--seq-len", "3", "--attributes",
+                f"test={attributes_file}", "--predictors", str(predictor_file), "--out", str(evaluation)]) == 0
+    [line] = _wrote_lines(caplog, evaluation)
+    assert re.fullmatch(rf"wrote the evaluation of m to {re.escape(str(evaluation))}: test: the seed-0 predictor "
+                        rf"removes \d+ of {n} matches, macro F1 \d\.\d{{3}}", line), line
+
+    baselines = tmp_path / "b.json"
+    assert cli(["baselines", "--dataset", "d", "--method", "m", "--seq-len", "3", "--tolerance", "1",
+                "--distances", f"test={matrix}", "--attributes", f"test={attributes_file}",
+                "--predictors", str(predictor_file), "--r-window", "4", "--spread-k", "3",
+                "--out", str(baselines)]) == 0
+    [line] = _wrote_lines(caplog, baselines)
+    assert line.startswith(f"wrote the training-free scorers of m to {baselines}: test: {n - correct} wrong sequence "
+                           f"matches of {n}, average precision uniqueness "), line
