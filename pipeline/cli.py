@@ -160,7 +160,7 @@ def cmd_train(args: argparse.Namespace) -> None:
                         meta={"dataset": args.dataset, "seq_len": args.seq_len}, seeds=tuple(range(args.seeds)),
                         allow_split_overlap=args.allow_split_overlap, validation=args.validation)
     first = report.seeds[0]  # the predictor file's seed
-    _wrote("the predictor", args.out, f"macro F1 {train.cv_text(first)}{train.split_f1s(first)}")
+    _wrote("the predictor", args.out, f"macro F1: {train.cv_text(first)}{train.split_f1s(first)}")
 
 
 def _split_paths(items: list[str], option: str = "--attributes", name: str = "SPLIT") -> dict[str, str]:
@@ -285,7 +285,7 @@ def cmd_ablation_without(args: argparse.Namespace) -> None:
     report = ablation.train_without(train, args.method, args.out, params, evaluate=evaluate, meta=meta,
                                     allow_split_overlap=args.allow_split_overlap, validation=args.validation)
     _wrote(f"the predictor without {args.method}", args.out,
-           f"macro F1 {cv_text(report.seeds[0])}{split_f1s(report.seeds[0])}")
+           f"macro F1: {cv_text(report.seeds[0])}{split_f1s(report.seeds[0])}")
 
 
 def cmd_ablation_held_out(args: argparse.Namespace) -> None:

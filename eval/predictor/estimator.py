@@ -14,6 +14,7 @@ Callers always pass the attributes in the paper's names order A1, A2, A3, A4 (``
 from __future__ import annotations
 
 import json
+import logging
 import warnings
 from collections.abc import Iterable, Sequence
 from pathlib import Path
@@ -22,6 +23,7 @@ from typing import Any
 import h5py
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
+from sklearn.exceptions import ConvergenceWarning, UndefinedMetricWarning
 from sklearn.metrics import f1_score
 from sklearn.model_selection import StratifiedKFold, cross_validate
 from sklearn.neural_network import MLPClassifier
@@ -38,6 +40,8 @@ from vpr_smr.eval.predictor.defaults import (
     MIN_VALIDATION,
     VALIDATION_FRACTION,
 )
+
+log = logging.getLogger(__name__)
 
 MATCHING = "matching"  # a predictor file's attribute: the ``Matching`` of the attributes it was trained on
 # scikit-learn's MLP catches KeyboardInterrupt in its training loop, warns this, and returns the half-trained network
@@ -317,10 +321,12 @@ def macro_f1(labels: np.ndarray, predicted: np.ndarray) -> float:
 
 
 def cross_validated_f1(
-    predictor: SMRPredictor, features: np.ndarray, labels: np.ndarray, n_splits: int = 5, random_state: int = 0
+    predictor: SMRPredictor, features: np.ndarray, labels: np.ndarray, n_splits: int = 5, random_state: int = 0,
+    where: str = "the pooled train split",
 ) -> float:
     """Mean macro F1 of stratified k-fold ``cross_validate`` (``min(n_splits, largest class)`` folds) of a clone of
-    ``predictor``; SMOTE sits in the predictor's pipeline, so it resamples each training fold only."""
+    ``predictor``; SMOTE sits in the predictor's pipeline, so it resamples each training fold only. scikit-learn's
+    warnings on the way are logged as one line in our words, naming ``where`` (``fold_warning``)."""
     labels = np.asarray(labels)
     problems = label_problems(labels, predictor.smote, n_splits, random_state)
     if problems:
@@ -328,5 +334,36 @@ def cross_validated_f1(
                                 f"{TRAINING_FIX}")
     n_splits = min(n_splits, int(np.unique(labels, return_counts=True)[1].max()))
     folds = StratifiedKFold(n_splits=n_splits, shuffle=True, random_state=random_state)
-    scores = cross_validate(predictor, features, labels, cv=folds, scoring="f1_macro", error_score="raise")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        scores = cross_validate(predictor, features, labels, cv=folds, scoring="f1_macro", error_score="raise")
+    note = fold_warning([w.message for w in caught], labels, n_splits, where)
+    if note:
+        log.warning(note)
     return float(np.mean(scores["test_score"]))
+
+
+def fold_warning(messages: Sequence[Warning | str], labels: np.ndarray, n_splits: int, where: str) -> str | None:
+    """scikit-learn's warnings of a cross-validation as one line: ``where``, the class counts, and what each kind
+    of warning means for the cross-validated F1 (others quoted as scikit-learn words them); None without any."""
+    said: dict[str, str] = {}
+    for message in messages:
+        text = str(message)
+        if "least populated class" in text:
+            values, counts = np.unique(labels, return_counts=True)
+            label, smallest = values[np.argmin(counts)], int(counts.min())
+            said["folds"] = (f"class {label} has {smallest} samples for {n_splits} folds, so {n_splits - smallest} "
+                             "of the folds test without it: the cross-validated F1 averages folds that score "
+                             "different classes, and says less of that class than of the others")
+        elif isinstance(message, UndefinedMetricWarning):
+            said["undefined"] = ("in some fold a class was never predicted or never present, and its F1 there "
+                                 "counts as 0, which lowers the cross-validated F1")
+        elif isinstance(message, ConvergenceWarning):
+            said["converged"] = ("the network stopped at its max_iter before converging in some fold: the "
+                                 "cross-validated F1 is that of an unfinished fit (raise max_iter in the predictor's "
+                                 "settings)")
+        else:
+            said.setdefault(text, f"scikit-learn warned: {text}")
+    if not said:
+        return None
+    return f"{where}, cross-validated on class counts {count_text(labels)}: {'; '.join(said.values())}"

@@ -120,15 +120,17 @@ def train_seed(
     seed: int,
     evaluation: dict[str, tuple[np.ndarray, np.ndarray]] | None = None,
     cross_validate: bool = True,
+    where: str = "the pooled train split",
 ) -> tuple[SMRPredictor, SeedReport]:
     """Shuffle the pooled train set with ``seed``, fit a predictor with ``seeded_params`` (``seeded_training``),
     cross-validate it when ``cross_validate`` (``f1_cv`` None otherwise), and score it on each ``evaluation`` split
-    (name -> (X, y)). Returns the fitted predictor and its numbers."""
+    (name -> (X, y)). Returns the fitted predictor and its numbers. ``where``: who is trained, for the line that
+    puts scikit-learn's warnings of the cross-validation in words (``estimator.fold_warning``)."""
     predictor, x, y = seeded_training(x_train, y_train, params, seed)
     # the settings as JSON holds them (lists, not tuples), so that a report read back equals the one written
     settings = json.loads(json.dumps(predictor.get_params()))
     # the folds fit clones of the unfitted predictor: the fit below is the same with or without them
-    f1_cv = cross_validated_f1(predictor, x, y) if cross_validate else None
+    f1_cv = cross_validated_f1(predictor, x, y, where=where) if cross_validate else None
     predictor.fit(x, y)
     splits = {}
     for name, (x_eval, y_eval) in (evaluation or {}).items():
@@ -218,7 +220,7 @@ def main(
         write_progress(0, len(seeds), "seeds", 0.0)
     for seed in seeds:
         fitted.append(train_seed(x_train, y_train, params, seed, evaluation,
-                                 cross_validate=cross_validate and not fitted))
+                                 cross_validate=cross_validate and not fitted, where=describe(meta, len(train))))
         if several:
             write_progress(len(fitted), len(seeds), "seeds", time.monotonic() - started)
 

@@ -166,3 +166,42 @@ def test_every_stage_that_writes_a_file_says_what_where_and_its_headline(tmp_pat
     [line] = _wrote_lines(caplog, baselines)
     assert line.startswith(f"wrote the training-free scorers of m to {baselines}: test: {n - correct} wrong sequence "
                            f"matches of {n}, average precision uniqueness "), line
+
+
+def test_scikit_learns_fold_warning_is_said_in_our_words_naming_the_dataset(tmp_path, caplog):
+    import warnings
+
+    from training_sets import write_samples
+
+    from vpr_smr.eval.predictor import train
+
+    rng = np.random.default_rng(2044)
+    y = np.array([0] * 27 + [1] * 9 + [2] * 7 + [3] * 3)  # class 3: 3 samples for 5 folds
+    x = rng.normal(size=(len(y), 4)) + y[:, None] * np.array([0.9, -0.4, 0.5, 1.2])
+    write_samples(tmp_path / "few.h5", x, y)
+    caplog.set_level("INFO")
+    with warnings.catch_warnings(record=True) as escaped:
+        warnings.simplefilter("always")
+        train.main([tmp_path / "few.h5"], tmp_path / "p.h5", {"hidden_layer_sizes": [6], "max_iter": 30},
+                   meta={"dataset": "tiny_route", "seq_len": 3})
+    assert [str(w.message) for w in escaped if "sklearn" in w.filename] == []
+    [line] = [r.getMessage() for r in caplog.records if "cross-validated on class counts" in r.getMessage()]
+    assert line.startswith("dataset 'tiny_route', sequence length 3, train split of 1 method(s) pooled, "
+                           "cross-validated on class counts 0: 27, 1: 9, 2: 7, 3: 3: class 3 has 3 samples for 5 "
+                           "folds, so 2 of the folds test without it: the cross-validated F1 ")
+
+
+def test_each_kind_of_fold_warning_gets_its_meaning():
+    from sklearn.exceptions import ConvergenceWarning, UndefinedMetricWarning
+
+    from vpr_smr.eval.predictor.estimator import fold_warning
+
+    labels = np.array([0, 0, 0, 0, 1, 1, 1, 2, 2, 2])
+    assert fold_warning([], labels, 4, "here") is None
+    line = fold_warning([UserWarning("The least populated class in y has only 3 members, which is less than "
+                                     "n_splits=4."), UndefinedMetricWarning("F-score is ill-defined"),
+                         ConvergenceWarning("Stochastic Optimizer: Maximum iterations (5) reached"),
+                         ConvergenceWarning("again")], labels, 4, "here")
+    assert line.startswith("here, cross-validated on class counts 0: 4, 1: 3, 2: 3, 3: 0: class 1 has 3 samples for "
+                           "4 folds, so 1 of the folds test without it")
+    assert "its F1 there counts as 0" in line and line.count("before converging") == 1  # one phrase per kind
