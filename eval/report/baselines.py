@@ -22,6 +22,7 @@ from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report.results import Order
 from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, SeqLenRow, Table1Row
 from vpr_smr.eval.scoring import scorers
+from vpr_smr.eval.scoring.curves import earned
 from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.records import Baselines, SplitBaselines, Versus
 from vpr_smr.eval.scoring.scorers import ORACLE, PREDICTOR, RANDOM
@@ -94,7 +95,8 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
                     budget=first.budget, removed=first.scorers[scorer].removed, max_recall=numbers.max_recall,
                     aoc_vpr_sm=numbers.aoc_vpr_sm, aoc_vpr_sm_ci=numbers.aoc_vpr_sm_ci, aoc=numbers.aoc_vpr_sm_pred,
                     aoc_ci=numbers.aoc_vpr_sm_pred_ci, reduction_pct=numbers.reduction_pct,
-                    reduction_pct_ci=numbers.reduction_pct_ci, outcome=numbers.outcome,
+                    reduction_pct_ci=numbers.reduction_pct_ci,
+                    outcome=earned(numbers.outcome, numbers.reduction_pct_ci),
                     reduction_pct_difference_ci=versus[scorer].reduction_pct_difference_ci.get(mode)
                     if scorer in versus else None, reduction_pct_mean=mean, reduction_pct_std=std,
                     reduction_pct_min=low, reduction_pct_max=high, n_seeds=len(values), n_seeds_defined=defined,

@@ -83,3 +83,12 @@ def span(interval: Interval, unit: str = " %", fmt: str = "") -> str:
     """An interval as a sentence says it: ``-40.0 % to 35.0 %`` (``fmt``: a format spec instead of ``number``)."""
     low, high = (f"{v:{fmt}}" if fmt else number(v) for v in (interval.low, interval.high))
     return f"{low}{unit} to {high}{unit}"
+
+
+def holds_zero(interval: Interval, of: str = "", queries: str = "", fmt: str = "") -> str:
+    """An interval that holds 0, stated as the fact it is, never with a cause: ``the 95 % interval of sad's
+    reduction [-3.3, 0.3] holds 0 (2573 queries)`` (``of``: what it is of; ``queries``: how many it is over, e.g.
+    ``28`` or ``28-31``; ``fmt``: a format spec of the bounds instead of ``number``)."""
+    low, high = (f"{v:{fmt}}" if fmt else number(v) for v in (interval.low, interval.high))
+    over = f" ({queries} queries)" if queries else ""
+    return f"the {LEVEL} interval{f' of {of}' if of else ''} [{low}, {high}] holds 0{over}"

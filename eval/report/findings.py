@@ -91,13 +91,16 @@ def _why_undefined(rows: Sequence[dict[str, Any]]) -> str:
 
 def _verdict(row: dict[str, Any]) -> str:
     """What a method's seed-0 reduction says, by its interval (``outcome_words.direction``): ``better``,
-    ``worse``, ``same`` (unchanged), ``untold`` (the interval contains 0) or ``no_interval``."""
+    ``worse``, ``same`` (unchanged), ``untold`` (the interval holds 0, or points against the estimate) or
+    ``no_interval``."""
     found = words.direction(row)
     if found is None:
         return "no_interval"
     if found:
         return "better" if found > 0 else "worse"
-    return "same" if row.get("outcome") == UNCHANGED else "untold"
+    if row.get("outcome") == UNCHANGED:
+        return "same"
+    return "untold" if bounds.sign(row, names.REDUCTION) == 0 else "against"
 
 
 def _queries(rows: Sequence[dict[str, Any]]) -> str:
@@ -105,16 +108,20 @@ def _queries(rows: Sequence[dict[str, Any]]) -> str:
     return _span_of([r.get("n_queries") for r in rows])
 
 
-def too_few(row: dict[str, Any], split: str) -> str:
-    """The sentence of a method whose reduction's interval contains 0 (or that has none)."""
+def no_direction(row: dict[str, Any], split: str) -> str:
+    """The sentence of a method whose reduction's interval earns no direction: the fact (it holds 0, with the
+    queries it is over; there is none; it lies against the estimate's sign), never a guess at why."""
     n = _queries([row])
-    on = f"On the {split} split's {n} queries" if n else f"On the {split} split"
     interval = bounds.of(row, names.REDUCTION)
+    of = f"{row['method']}'s reduction"
     if interval is None:
-        return (f"{on} {row['method']}'s reduction of {signed(float(row[names.REDUCTION]))} has no interval: "
-                "nothing tells whether the predictor helps.")
-    return (f"{on} the interval of {row['method']}'s reduction, {bounds.span(interval)}, contains 0: too few "
-            "queries to tell whether the predictor helps.")
+        on = f"On the {split} split's {n} queries" if n else f"On the {split} split"
+        return f"{on} {of} of {signed(float(row[names.REDUCTION]))} has no interval, so it names no direction."
+    if interval.sign() == 0:
+        return f"On the {split} split, {bounds.holds_zero(interval, of, n)}, so it names no direction."
+    return (f"On the {split} split, the {bounds.LEVEL} interval of {of} {bounds.bracket(interval, '.1f')} lies on "
+            f"the other side of 0 from its estimate {signed(float(row[names.REDUCTION]))}"
+            f"{f' ({n} queries)' if n else ''}, so it names no direction.")
 
 
 def _with_span(row: dict[str, Any], text: str) -> str:
@@ -125,7 +132,7 @@ def _with_span(row: dict[str, Any], text: str) -> str:
 def sentences(block: Table1Block, split: str) -> list[str]:
     """What the predictor did to the area over the PR curve of each method of one dataset, mode and L. A direction
     (reduced, made worse) is stated only where the reduction's 95 % interval over queries excludes 0; a method whose
-    interval contains 0, or that has none, gets a sentence saying that its queries are too few to tell. A method
+    interval holds 0, or that has none, gets a sentence stating that fact with its queries (``no_direction``). A method
     whose predictor was degenerate (removed every match, kept no correct one, made a perfect baseline worse, kept
     every match) gets its own sentence saying what happened (``outcome_words``) and counts as not improved."""
     rows = block.rows
@@ -136,7 +143,7 @@ def sentences(block: Table1Block, split: str) -> list[str]:
     better = sorted((r for r in plain if verdicts[str(r["method"])] == "better"), key=lambda r: -r[names.REDUCTION])
     worse = sorted((r for r in plain if verdicts[str(r["method"])] == "worse"), key=lambda r: r[names.REDUCTION])
     same = [str(r["method"]) for r in plain if verdicts[str(r["method"])] == "same"]
-    untold = [r for r in plain if verdicts[str(r["method"])] in ("untold", "no_interval")]
+    untold = [r for r in plain if verdicts[str(r["method"])] in ("untold", "against", "no_interval")]
     out = []
     if degenerate and all(r.get("outcome") == NOTHING_TO_REDUCE and not words.lowered_recall(r) for r in rows):
         whose = f"{rows[0]['method']}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
@@ -155,7 +162,7 @@ def sentences(block: Table1Block, split: str) -> list[str]:
         elif verdict == "same":
             out.append(f"{where} the predictor left {method}'s {AOC} unchanged.")
         else:
-            out += [f"{where} {method}'s reduction is {signed(value)}.", too_few(row, split)]
+            out += [f"{where} {method}'s reduction is {signed(value)}.", no_direction(row, split)]
     elif len(rows) == 1:
         out.append(f"{where}, for {rows[0]['method']}, {words.note(rows[0])}.")
     else:
@@ -170,9 +177,9 @@ def sentences(block: Table1Block, split: str) -> list[str]:
         if same:
             clauses.append("it left " + listed([f"{m}'s" for m in same]) + " unchanged")
         if untold:
-            clauses.append("too few queries to tell for " + listed([str(r["method"]) for r in untold]))
+            clauses.append("no direction for " + listed([str(r["method"]) for r in untold]) + " (below)")
         out.append(f"{where} the predictor " + "; ".join(clauses) + ".")
-        out += [too_few(r, split) for r in untold]
+        out += [no_direction(r, split) for r in untold]
         out += [f"For {r['method']}, {words.note(r)}." for r in degenerate]
         defined = [float(r[names.REDUCTION]) for r in rows if r[names.REDUCTION] is not None]
         if len(defined) > 1:
@@ -182,8 +189,8 @@ def sentences(block: Table1Block, split: str) -> list[str]:
     return out + _seed_sentences(block)
 
 
-VERDICT = {"better": "it helps", "worse": "it hurts", "same": "unchanged", "untold": "too few queries to tell",
-           "no_interval": "no interval to tell by"}
+VERDICT = {"better": "it helps", "worse": "it hurts", "same": "unchanged", "untold": "no direction (interval holds 0)",
+           "against": "no direction (interval against its sign)", "no_interval": "no direction (no interval)"}
 
 
 def headline(block: Table1Block, split: str) -> str:
@@ -317,9 +324,9 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
         return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}.", *untold]
     if not _any_sign(rows):
         n = _queries(rows)
-        return [f"{where}, {f'its {n} queries are' if n else 'the queries are'} too few to tell the sign of the "
-                "predictor's AOC reduction or of sequence matching's change of recall@1 at any tolerance: whether "
-                "a conclusion depends on the ground truth cannot be told."]
+        return [f"{where}, every {bounds.LEVEL} interval of the predictor's AOC reduction and of sequence matching's "
+                f"change of recall@1 holds 0 or is missing{f' ({n} queries)' if n else ''}: no sign is named at any "
+                "tolerance, so whether a conclusion depends on the ground truth is not told."]
     return [f"{where}, no conclusion depends on the ground truth: the predictor's AOC reduction keeps its sign for "
             f"every method, so does sequence matching's gain over single frames (each where its interval excludes "
             "0).", *untold]
@@ -330,7 +337,7 @@ def sweep_headline(rows: Sequence[dict[str, Any]]) -> str:
     depends on the ground truth (``sweep_sentences`` has which)."""
     first = rows[0]
     said = ("a conclusion depends on" if _sweep_changes(rows) else "no conclusion depends on" if _any_sign(rows)
-            else "too few queries to tell whether a conclusion depends on")
+            else "every interval holds 0 or is missing, so nothing tells whether a conclusion depends on")
     return (f"{first['dataset']} (L = {first['seq_len']}, {first['mode']} mode), scored again under other "
             f"{'tolerances' if first['ground_truth'] == 'frames' else 'radii'}: {said} the ground truth.")
 
@@ -342,7 +349,7 @@ def _sweep_changes(rows: Sequence[dict[str, Any]]) -> list[str]:
     by_method = {name: sorted((r for r in rows if r["method"] == name), key=lambda r: r["threshold"])
                  for name in methods}
     changes = []
-    # a sign counts only where the interval excludes 0 (``bounds``): elsewhere the queries are too few to tell it
+    # a sign counts only where the interval earns it (``outcome_words.direction``): elsewhere no sign is named
     flipped = _flip({name: [(r["threshold"], r.get(names.REDUCTION) if words.direction(r) else None) for r in mine]
                      for name, mine in by_method.items()})
     if flipped:
@@ -373,8 +380,8 @@ def _any_sign(rows: Sequence[dict[str, Any]]) -> bool:
 
 
 def _untold(rows: Sequence[dict[str, Any]]) -> list[str]:
-    """A sentence naming the thresholds (per method) where the sweep's intervals contain 0 or are missing: there
-    the queries are too few to tell the sign of the reduction or of sequence matching's change."""
+    """A sentence naming the thresholds (per method) where the sweep's intervals hold 0 or are missing: there no
+    sign of the reduction or of sequence matching's change is named."""
     kind = str(rows[0]["ground_truth"])
     parts = []
     for name in dict.fromkeys(str(r["method"]) for r in rows):
@@ -389,8 +396,8 @@ def _untold(rows: Sequence[dict[str, Any]]) -> list[str]:
     if not parts:
         return []
     n = _queries(rows)
-    over = f"its {n} queries are" if n else "its queries are"
-    return [f"Where an interval contains 0 (or there is none) {over} too few to tell the sign: {'; '.join(parts)}."]
+    over = f" ({n} queries)" if n else ""
+    return [f"No sign is named where the {bounds.LEVEL} interval holds 0 or is missing{over}: {'; '.join(parts)}."]
 # --- the training-free baselines (method §12) -------------------------------------------------------------------
 
 
@@ -436,8 +443,8 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
                      "matches removed)")
         if untold:
             queries = _span_of(comparison.n_queries)
-            text += (f"; for {listed(untold)} the interval of the difference contains 0: "
-                     f"{queries + ' queries are ' if queries else 'the queries are '}too few to tell")
+            text += (f"; for {listed(untold)} the {bounds.LEVEL} interval of the difference holds 0"
+                     f"{f' ({queries} queries)' if queries else ''}, so no direction is named")
         if none:
             text += f"; no interval of the difference for {listed(none)}"
         if comparison.undefined:
@@ -454,9 +461,15 @@ def baseline_sentence(comparison: Comparison, split: str) -> str:
 
 
 def _by_verdict(verdicts: Sequence[tuple[str, str]], order: Sequence[str]) -> str:
-    """``better for a and b; too few queries to tell for c``: the methods grouped by verdict, in ``order``."""
+    """``better for a [-5.0, -1.0] and b [...]; interval holds 0 for c [-3.0, 2.0]``: the methods (each with its
+    interval, ``_paired_name``) grouped by verdict, in ``order``."""
     groups = {verdict: [method for method, said in verdicts if said == verdict] for verdict in order}
     return "; ".join(f"{verdict} for {listed(names)}" for verdict, names in groups.items() if names)
+
+
+def _paired_name(method: str, difference: Interval | None, fmt: str) -> str:
+    """A method as a headline names it beside a paired verdict: with the interval of the difference."""
+    return method if difference is None else f"{method} {bounds.bracket(difference, fmt)}"
 
 
 def _paired(difference: Interval | None) -> str:
@@ -468,11 +481,12 @@ def _paired(difference: Interval | None) -> str:
         return "equal"
     sign = difference.sign()
     if sign == 0:
-        return "too few queries to tell"
+        return HOLDS_ZERO
     return "better" if sign < 0 else "worse"
 
 
-VERDICTS = ("better", "worse", "equal", "too few queries to tell", "no interval")
+HOLDS_ZERO = "interval holds 0"
+VERDICTS = ("better", "worse", "equal", HOLDS_ZERO, "no interval")
 
 
 def baseline_headline(comparison: Comparison) -> str:
@@ -482,9 +496,10 @@ def baseline_headline(comparison: Comparison) -> str:
     if comparison.best is None:
         return f"{where}: no training-free scorer has a defined AOC reduction."
     differences = comparison.differences or tuple(None for _ in comparison.methods)
-    verdicts = [(method, _paired(difference))
+    verdicts = [(_paired_name(method, difference, ".1f"), _paired(difference))
                 for method, difference in zip(comparison.methods, differences, strict=True)]
-    return (f"{where}, the predictor against the best training-free scorer ({comparison.best}) at its budget: "
+    return (f"{where}, the predictor against the best training-free scorer ({comparison.best}) at its budget "
+            f"(the {bounds.LEVEL} interval of its reduction minus the predictor's, in points): "
             f"{_by_verdict(verdicts, VERDICTS)}.")
 
 
@@ -492,15 +507,16 @@ def detection_headline(found: Sequence[DetectionComparison]) -> str:
     """The first screen's one sentence of wrong-match detection on one dataset and L: per method whether the
     predictor's average precision is better than the best training-free scorer's, by the paired interval."""
     first = found[0]
-    verdicts = [(one.method, "no wrong match" if one.best is None or one.average_precision is None
-                 else _paired(one.difference)) for one in found]
+    verdicts = [(one.method, "no wrong match") if one.best is None or one.average_precision is None
+                else (_paired_name(one.method, one.difference, ".3f"), _paired(one.difference)) for one in found]
     return (f"{first.dataset} (L = {first.seq_len}), detecting wrong matches, the predictor against the best "
-            f"training-free scorer: {_by_verdict(verdicts, (*VERDICTS, 'no wrong match'))}.")
+            f"training-free scorer (the {bounds.LEVEL} interval of its average precision minus the predictor's): "
+            f"{_by_verdict(verdicts, (*VERDICTS, 'no wrong match'))}.")
 
 
 def _identical(difference: Interval | None) -> bool:
-    """A paired difference that is 0 on every draw: the two numbers are the same, which is no direction and no lack
-    of queries either."""
+    """A paired difference that is 0 on every draw: the two numbers are the same, which is no direction, and says so
+    rather than that its interval holds 0."""
     return difference is not None and difference.low == 0 == difference.high
 
 
@@ -526,14 +542,14 @@ def detection_sentence(found: Sequence[DetectionComparison], split: str) -> str:
         if _identical(difference):
             text += ", the same on every draw of the queries (the same ranking of the wrong matches)"
         elif difference is None:
-            text += ", without an interval of the difference: nothing tells which detects better"
+            text += ", without an interval of the difference, so no direction is named"
         elif difference.sign() > 0:
             text += f", and beats the predictor (difference {_difference(difference, ap=True)})"
         elif difference.sign() < 0:
             text += f", and the predictor beats it (difference {_difference(difference, ap=True)})"
         else:
-            text += (f"; the difference's {_difference(difference, ap=True)} contains 0: {one.n_queries} queries are "
-                     "too few to tell which detects better")
+            held = bounds.holds_zero(difference, "the difference", str(one.n_queries), ".3f")
+            text += f"; {held}, so no direction is named"
         parts.append(text)
     return (f"Detecting wrong matches on {first.dataset} ({split} split, L = {first.seq_len}), average precision "
             "among the training-free scorers (seed 0): " + "; ".join(parts) + ".")

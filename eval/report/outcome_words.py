@@ -2,8 +2,14 @@
 predictor named, never shown as a success), for Table I's cells and notes, the findings, the PR figure and the
 seed spread.
 
-The functions read a Table I row (``table1.table1_rows``): ``outcome``, ``removed``, ``n_queries``, the AOCs and
-maximum recalls of ``Reduction``.
+The one rule for a direction word is ``curves.earned`` (in the scoring layer, so that the console's tables apply
+it too): ``curves.outcome`` names improved or worse by the sign of a point estimate; a table, console or sentence
+names that direction only where the estimate's interval over queries excludes 0 on the same side. Every row record
+takes its ``outcome`` through ``earned``, so every writer of a row (CSV, Markdown, LaTeX, the page, the console)
+shows the same word, and ``direction`` reads a row by the same rule.
+
+The other functions read a Table I row (``table1.table1_rows``): ``outcome``, ``removed``, ``n_queries``, the AOCs
+and maximum recalls of ``Reduction``.
 """
 
 from __future__ import annotations
@@ -14,17 +20,18 @@ from typing import Any
 from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.scoring.curves import (
     AT_RECALL_ZERO,
-    HARMFUL,
     IMPROVED,
     KEPT_ALL,
     KEPT_NONE_CORRECT,
     LOST_ALL,
     NO_CORRECT_MATCH,
+    NO_INTERVAL,
     NOTHING_TO_REDUCE,
     REMOVED_ALL,
     UNDEFINED,
     WORSE,
     WORSE_FROM_ZERO,
+    earned,
 )
 
 # A seed's outcome where the spread leaves it out (its reduction undefined), or a table cell's short word for it
@@ -54,28 +61,17 @@ def lowered_recall(row: Mapping[str, Any]) -> bool:
 
 
 def improved(row: Mapping[str, Any]) -> bool:
-    return row.get("outcome") == IMPROVED
+    """The reduction improved by the one rule (``direction``): its interval lies above 0."""
+    return direction(row) == 1
 
 
 def direction(row: Mapping[str, Any], name: str = names.REDUCTION) -> int | None:
-    """What the reduction ``name`` of ``row`` says: +1 (improved, its interval above 0), -1 (worse, below 0), 0 (no
-    direction: the interval contains 0, or the outcome is neither improved nor worse, e.g. ``unchanged``), None (an
-    improved or worse outcome without an interval: nothing to tell it by)."""
-    outcome = row.get(name.replace(names.REDUCTION, "outcome"))
-    if outcome not in (IMPROVED, WORSE):
-        return 0
-    sign = bounds.sign(row, name)
-    if sign is None:
-        return None
-    return sign if sign == (1 if outcome == IMPROVED else -1) else 0
-
-
-def improved_on_average(row: Mapping[str, Any]) -> bool:
-    """Over the seeds: the mean of the defined reductions is above 0 and no seed did harm that the mean cannot show
-    (removed every match, kept no correct one, worse than a perfect baseline)."""
-    mean = row.get("reduction_pct_mean")
-    outcomes = row.get("seed_outcomes") or {}
-    return mean is not None and mean > 0 and not any(o in HARMFUL for o in outcomes.values())
+    """What the reduction ``name`` of ``row`` says by ``earned``: +1 (improved, its interval above 0), -1 (worse,
+    below 0), 0 (no direction: the interval holds 0 or points against the estimate, or the outcome is neither
+    improved nor worse, e.g. ``unchanged``), None (an improved or worse estimate without an interval: nothing to
+    tell it by)."""
+    said = earned(str(row.get(name.replace(names.REDUCTION, "outcome"))), bounds.of(row, name))
+    return None if said == NO_INTERVAL else {IMPROVED: 1, WORSE: -1}.get(said, 0)
 
 
 def own_baseline(row: Mapping[str, Any]) -> str:

@@ -22,6 +22,7 @@ from vpr_smr.eval.report import names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.bounds import HIGH, LOW
 from vpr_smr.eval.report.results import Splits, split_word
+from vpr_smr.eval.scoring.curves import earned
 from vpr_smr.eval.scoring.records import (
     EvaluationSplit,
     HeldOut,
@@ -321,7 +322,9 @@ class HeldOutRow:
         return cls(dataset, seq_len, method, mode, result.n_queries, result.pooled.f1_macro,
                    result.without.f1_macro, result.pooled.removed, result.without.removed, pooled.aoc_vpr_sm,
                    pooled.aoc_vpr_sm_pred, without.aoc_vpr_sm_pred, pooled.reduction_pct, pooled.reduction_pct_ci,
-                   without.reduction_pct, without.reduction_pct_ci, pooled.outcome, without.outcome)
+                   without.reduction_pct, without.reduction_pct_ci,
+                   earned(pooled.outcome, pooled.reduction_pct_ci),
+                   earned(without.outcome, without.reduction_pct_ci))
 
 
 @dataclass(frozen=True)
@@ -350,7 +353,7 @@ class TrustRow:
         dataset, method, seq_len = key
         return cls(dataset, method, seq_len, mode, trust, numbers.removed, numbers.max_recall, numbers.auc,
                    numbers.aoc, numbers.auc_vpr_sm, numbers.aoc_vpr_sm, numbers.reduction_pct,
-                   numbers.reduction_pct_ci, numbers.outcome, n_queries)
+                   numbers.reduction_pct_ci, earned(numbers.outcome, numbers.reduction_pct_ci), n_queries)
 
 
 @dataclass(frozen=True)
@@ -427,7 +430,8 @@ class SweepRow:
         r = point.reduction  # none without a predictor
         return row if r is None else replace(
             row, max_recall=r.max_recall, aoc_vpr_sm=r.aoc_vpr_sm, aoc_vpr_sm_pred=r.aoc_vpr_sm_pred,
-            reduction_pct=r.reduction_pct, reduction_pct_ci=r.reduction_pct_ci, outcome=r.outcome)
+            reduction_pct=r.reduction_pct, reduction_pct_ci=r.reduction_pct_ci,
+            outcome=earned(r.outcome, r.reduction_pct_ci))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -484,7 +488,8 @@ class Table1Row:
                    n_seeds=summary.n_seeds, auc_vpr_sm=r.auc_vpr_sm, auc_vpr_sm_pred=r.auc_vpr_sm_pred,
                    n_queries=result.n_queries,
                    n_queries_single=result.n_queries_split if mode == "paper" else result.n_queries,
-                   n_seeds_defined=summary.n_seeds_defined, outcome=r.outcome, removed=result.removed,
+                   n_seeds_defined=summary.n_seeds_defined, outcome=earned(r.outcome, r.reduction_pct_ci),
+                   removed=result.removed,
                    max_recall_vpr_sm=r.max_recall_vpr_sm, aoc_vpr_sm_own=r.aoc_vpr_sm_own,
                    seeds_left_out=words.seeds_left_out(summary.outcomes), seed_outcomes=summary.outcomes)
 
@@ -582,6 +587,7 @@ class SpeedRow:
     aoc_vpr_sm: float = column()
     aoc_vpr_sm_pred: float = column()
     reduction_pct: float | None = column()
+    reduction_pct_ci: Interval | None = interval()  # none computed by the speed experiment: its outcome says so
     outcome: str = column()
     f1_macro: float = column()
     n_queries: int = column()
@@ -596,8 +602,8 @@ class SpeedRow:
                    velocities=" ".join(f"{v:g}" for v in velocities), recall_at_1_single=scores.recall_at_1_single,
                    recall_at_1_sequence=scores.recall_at_1_sequence, max_recall=r.max_recall,
                    aoc_vpr_sm=r.aoc_vpr_sm, aoc_vpr_sm_pred=r.aoc_vpr_sm_pred, reduction_pct=r.reduction_pct,
-                   outcome=r.outcome, f1_macro=scores.f1_macro, n_queries=scores.n_queries,
-                   n_queries_single=scores.n_queries_single)
+                   reduction_pct_ci=r.reduction_pct_ci, outcome=earned(r.outcome, r.reduction_pct_ci),
+                   f1_macro=scores.f1_macro, n_queries=scores.n_queries, n_queries_single=scores.n_queries_single)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -8,7 +8,7 @@ and L.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Collection, Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -27,6 +27,9 @@ SEED_ROW_NAME = "Reduction over seeds (%)"
 PLUS_MINUS = " ± "  # mean ± std over the seeds ($\pm$ in LaTeX)
 UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined (why: beside it, and below); Mean leaves it out, "
                   "Improved counts it as not improved.")
+# Improved is a direction: a count of the intervals that earn it; the seeds' spread has no interval to earn one
+IMPROVED_NOTE = f"Improved: the methods whose seed-0 reduction has its {bounds.LEVEL} interval above 0."
+NO_INTERVAL = "no interval"
 
 
 def is_reduction(column: str) -> bool:
@@ -84,19 +87,13 @@ def _names(rows: Iterable[dict[str, Any]]) -> str:
     return ", ".join(str(r["method"]) for r in rows)
 
 
-def _improved(rows: Sequence[dict[str, Any]], improved: Callable[[dict[str, Any]], bool]) -> str:
-    """How many of all the methods improve: a method whose reduction is undefined counts as not improved."""
-    return f"{sum(improved(r) for r in rows)} / {len(rows)}"
-
-
-def _improved_seed0(rows: Sequence[dict[str, Any]]) -> str:
-    """Improved for the seed-0 reductions, and how many of those improved have an interval above 0 where some
-    improved one has an interval that does not lie above 0 (``bounds``: only those are a direction)."""
-    text = _improved(rows, words.improved)
-    signs = [bounds.sign(r, names.REDUCTION) for r in rows if words.improved(r)]
-    if any(sign is not None for sign in signs) and any(sign != 1 for sign in signs):
-        text += f" ({signs.count(1)} with the interval above 0)"
-    return text
+def _improved(rows: Sequence[dict[str, Any]]) -> str:
+    """How many of all the methods improve: a method whose seed-0 reduction's interval lies above 0
+    (``outcome_words.improved``); one whose reduction is undefined, or whose interval holds 0, counts as not
+    improved, and those with an estimate but no interval are counted beside (``k / n (m without an interval)``)."""
+    directions = [words.direction(r) for r in rows]
+    missing = directions.count(None)
+    return f"{directions.count(1)} / {len(rows)}" + (f" ({missing} without an interval)" if missing else "")
 
 
 def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str, str]:
@@ -111,7 +108,7 @@ def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str,
     means = [float(np.mean([v for v, c in zip(row, counted, strict=True) if c])) if any(counted) else None
              for row in values]
     return ([row + [m] for row, m in zip(values, means, strict=True)] + [reductions + [mean]], note,
-            _improved_seed0(rows))
+            _improved(rows))
 
 
 def cells(rows: Sequence[dict[str, Any]], summary: list[list[float | None]], row: int, fmt: str) -> list[str]:
@@ -152,8 +149,8 @@ def _every_seed(row: dict[str, Any]) -> bool:
 
 def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
     """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the std ``n/a`` over fewer than two
-    seeds, the seeds counted, and those left out named with the reason, where only some are), their Mean, and how
-    many methods improve on average (a method one of whose seeds did harm the mean cannot show does not).
+    seeds, the seeds counted, and those left out named with the reason, where only some are), their Mean, and in
+    the Improved column ``no interval (n seeds)``: the spread over seeds has no interval, so it names no direction.
 
     The Mean averages like with like: the means of all the seeds, over the methods whose every seed is defined
     (named where some are left out); where it and the seed-0 Mean above differ in sign, it says why."""
@@ -183,7 +180,7 @@ def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
             parts.append(f"opposite in sign to the seed-0 Mean {seed0:.2f}, which is seed 0's predictor alone over "
                          f"{_names(over)}, this one every seed's over {_names(full)}")
         note = f" ({'; '.join(parts)})" if parts else ""
-    return texts + [_number(mean, ".2f") + note], f"{_improved(rows, words.improved_on_average)} ({n_seeds} seeds)"
+    return texts + [_number(mean, ".2f") + note], f"{NO_INTERVAL} ({n_seeds} seeds)"
 
 
 def _number(value: float | None, fmt: str) -> str:
@@ -219,7 +216,7 @@ def table1_markdown(rows: list[dict[str, Any]], split: str | None = None) -> str
     named = f" ({split} split)" if split else ""
     out = [f"# Table I: area over the precision-recall curve at max recall{named}", "",
            "Rows VPR+SM, VPR+SM+Pred, Reduction: the seed-0 predictor (the authors' recipe); "
-           "Reduction over seeds: mean ± sample standard deviation over the predictor seeds.", ""]
+           "Reduction over seeds: mean ± sample standard deviation over the predictor seeds. " + IMPROVED_NOTE, ""]
     undefined = False
     for (mode, seq_len), datasets in _groups(rows).items():
         methods = [r["method"] for r in next(iter(datasets.values()))]
@@ -308,6 +305,7 @@ def table1_latex(rows: list[dict[str, Any]], split: str | None = None) -> str:
             out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {tex_escape(line)}}}\\")
         if undefined:
             out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {tex_escape(UNDEFINED_NOTE)}}}\\")
+        out.append(rf"\multicolumn{{{n_columns}}}{{l}}{{\footnotesize {tex_escape(IMPROVED_NOTE)}}}\\")
         out += [r"\end{tabular}", ""]
     return "\n".join(out)
 

@@ -8,10 +8,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from vpr_smr.core.constants import KEPT_CLASSES, MODES
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.scoring.records import Interval
 
 PAPER_THRESHOLDS = 1999
 # An AOC this small is 0: the trapezoid sum of a curve whose precision is 1 everywhere leaves about 1e-16
@@ -191,6 +195,26 @@ def outcome(n_queries: int, removed: int, comparison: Comparison, same_matches: 
     if abs(comparison.reduction_pct) < UNCHANGED_PCT:
         return UNCHANGED
     return IMPROVED if comparison.reduction_pct > 0 else WORSE
+
+
+# What a table or the console says in place of improved or worse where the interval does not earn it (``earned``)
+HOLDS_ZERO = "interval_holds_0"  # the interval holds 0
+NO_INTERVAL = "no_interval"  # none: too few draws define it, or none is computed (the speed experiment, other seeds)
+AGAINST_SIGN = "interval_against_sign"  # it excludes 0, on the other side from the estimate
+
+
+def earned(outcome: str, interval: Interval | None) -> str:
+    """The one rule for a direction word: ``outcome`` (``outcome``'s, by the sign of a point estimate) as a table,
+    the console or a sentence may say it beside ``interval``, the estimate's interval over queries: improved or
+    worse only where the interval excludes 0 on the estimate's side, else ``HOLDS_ZERO``, ``NO_INTERVAL`` or
+    ``AGAINST_SIGN``; any other outcome (a degenerate one, unchanged, or one this function gave) as it is."""
+    wanted = {IMPROVED: 1, WORSE: -1}.get(outcome)
+    if wanted is None:
+        return outcome
+    if interval is None:
+        return NO_INTERVAL
+    found = interval.sign()
+    return HOLDS_ZERO if found == 0 else outcome if found == wanted else AGAINST_SIGN
 
 
 def recall_at_full_precision(curve_: Curve) -> float:

@@ -117,8 +117,8 @@ def test_table1_names_a_predictor_that_removed_every_match(removed_all):
     assert f"| corridor | VPR+SM | 0.0000 [0.0000, 0.0000] (own: {aoc:.4f}) |" in standard
     assert "|  | VPR+SM+Pred | removed every match |" in standard
     assert "|  | Reduction (%) | n/a: removed every match | n/a | 0 / 1 |" in standard
-    # both seeds removed everything: the spread says which and why, and no method counts as improved on average
-    assert "| n/a: seeds 0, 3: removed every match | n/a | 0 / 1 (2 seeds) |" in standard
+    # both seeds removed everything: the spread says which and why; it has no interval, so it names no direction
+    assert "| n/a: seeds 0, 3: removed every match | n/a | no interval (2 seeds) |" in standard
     assert (f"sad: the predictor removed all {n} matches: recall 0; VPR+SM's own AOC is {aoc:.4f} at its own "
             f"maximum recall {recall:.4f}.") in standard
     rows = {r["mode"]: r for r in csv.DictReader(open(tmp_path / "run" / "tables" / "table1.csv"))}
@@ -274,5 +274,6 @@ def test_the_aoc_means_leave_out_a_method_whose_aocs_are_at_recall_zero():
     assert ("| d | VPR+SM | 0.2000 [n/a] | 0.0000 [n/a] (own: 0.3000) | 0.2000 (mean over 1 of 2 methods: a) |  |"
             in text)
     assert "|  | VPR+SM+Pred | 0.1000 [n/a] | removed every match | 0.1000 (mean over 1 of 2 methods: a) |  |" in text
+    # a's 50.00 has no interval: Improved names no direction for it
     assert ("|  | Reduction (%) | 50.00 [n/a] | n/a: removed every match | 50.00 (mean over 1 of 2 methods: a) | "
-            "1 / 2 |") in text
+            "0 / 2 (1 without an interval) |") in text

@@ -110,8 +110,8 @@ def test_the_rows_follow_the_record_and_the_sentence_counts_the_intervals(tmp_pa
     assert comparison_sentence(rows) == (
         "On d (L = 4, paper mode, the 25 queries every matcher evaluates), SMR reduces the AOC for 2 of 4 "
         "matcher-method pairs (the seed-0 predictor's reduction, its 95 % interval above 0); it raises it for 1 "
-        "(the interval below 0); it beats the matcher's own confidence for 1 (the native confidence removing as "
-        "many matches does worse, the paired interval of the difference below 0).")
+        "(the interval below 0); it beats the matcher's own confidence for 1 (the paired 95 % interval of the "
+        "native confidence's reduction minus the predictor's, removing as many matches, below 0).")
     sentences = matcher_sentences(rows)
     assert sentences[1] == (
         "Warning: bayes_filter on hog has a validation recall@1 of 0.200, under 0.5 of the fixed matcher's (0.600): "
@@ -187,5 +187,5 @@ def test_a_degenerate_removal_counts_neither_way_whatever_its_interval():
     assert comparison_sentence(rows) == (
         "On d (L = 4, paper mode, the 30 queries every matcher evaluates), SMR reduces the AOC for 0 of 4 "
         "matcher-method pairs (the seed-0 predictor's reduction, its 95 % interval above 0); it beats the matcher's "
-        "own confidence for 1 (the native confidence removing as many matches does worse, the paired interval of the "
-        "difference below 0).")
+        "own confidence for 1 (the paired 95 % interval of the native confidence's reduction minus the predictor's, "
+        "removing as many matches, below 0).")

@@ -76,8 +76,8 @@ def test_the_sentence_names_a_sign_change_and_never_a_swap_without_an_interval()
     rows[2].update(reduction_pct_ci_low=-9.0, reduction_pct_ci_high=1.0)
     first, untold = sweep_sentences(rows)
     assert "changes sign" not in first
-    assert untold == ("Where an interval contains 0 (or there is none) its 28 queries are too few to tell the sign: "
-                      "a, its AOC reduction at 10 frames.")
+    assert untold == ("No sign is named where the 95 % interval holds 0 or is missing (28 queries): a, its AOC "
+                      "reduction at 10 frames.")
 
 
 def test_sequence_matching_is_compared_over_the_same_queries():
@@ -94,13 +94,13 @@ def test_sequence_matching_is_compared_over_the_same_queries():
     first, untold = sweep_sentences(rows)
     assert ("sequence matching changes hog's recall@1 over the same queries by +15.5 points within 0 frames but "
             "-15.0 within 10 frames") in first
-    assert untold == ("Where an interval contains 0 (or there is none) its 28 queries are too few to tell the sign: "
-                      "hog, sequence matching's change of recall@1 at 2 frames.")
+    assert untold == ("No sign is named where the 95 % interval holds 0 or is missing (28 queries): hog, sequence "
+                      "matching's change of recall@1 at 2 frames.")
     # without intervals: no direction at all, so nothing is said to keep its sign either
     bare = [{k: v for k, v in row.items() if not k.startswith("recall_change")} for row in rows]
     (first,) = sweep_sentences(bare)
     assert "no conclusion depends" not in first and first.endswith(
-        "whether a conclusion depends on the ground truth cannot be told.")
+        "whether a conclusion depends on the ground truth is not told.")
 
 
 def test_the_sentence_says_when_nothing_changes():
@@ -108,8 +108,8 @@ def test_the_sentence_says_when_nothing_changes():
     sentence, untold = sweep_sentences(rows)
     assert "no conclusion depends on the ground truth" in sentence
     # a's 1.0 [0.0, 2.0] and b's change of recall 0.1 - 0.1 = 0 [-0.05, 0.05] at 0 frames contain 0
-    assert untold == ("Where an interval contains 0 (or there is none) its 28 queries are too few to tell the sign: "
-                      "a, its AOC reduction at 0 frames; b, sequence matching's change of recall@1 at 0 frames.")
+    assert untold == ("No sign is named where the 95 % interval holds 0 or is missing (28 queries): a, its AOC "
+                      "reduction at 0 frames; b, sequence matching's change of recall@1 at 0 frames.")
 
 
 def test_rows_from_metrics_in_the_configurations_order():
@@ -128,8 +128,10 @@ def test_a_sweep_where_no_interval_excludes_0_says_nothing_can_be_told():
     for row in rows:
         row.update(reduction_pct_ci_low=-5.0, reduction_pct_ci_high=5.0)
     assert sweep_sentences(rows) == [
-        "With matches counted correct within 0 to 10 frames (d, test split, L = 4, paper mode), its 28 queries are "
-        "too few to tell the sign of the predictor's AOC reduction or of sequence matching's change of recall@1 at "
-        "any tolerance: whether a conclusion depends on the ground truth cannot be told."]
-    assert sweep_headline(rows) == ("d (L = 4, paper mode), scored again under other tolerances: too few queries to "
-                                    "tell whether a conclusion depends on the ground truth.")
+        "With matches counted correct within 0 to 10 frames (d, test split, L = 4, paper mode), every 95 % interval "
+        "of the predictor's AOC reduction and of sequence matching's change of recall@1 holds 0 or is missing (28 "
+        "queries): no sign is named at any tolerance, so whether a conclusion depends on the ground truth is not "
+        "told."]
+    assert sweep_headline(rows) == ("d (L = 4, paper mode), scored again under other tolerances: every interval "
+                                    "holds 0 or is missing, so nothing tells whether a conclusion depends on the "
+                                    "ground truth.")

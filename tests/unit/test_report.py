@@ -46,12 +46,14 @@ def test_markdown_means_and_improved_match_the_paper(rows):
     assert ("| Nordland | VPR+SM | 0.6522 [n/a] | 0.0220 [n/a] | 0.0155 [n/a] | 0.0061 [n/a] | 0.2478 [n/a] | "
             "0.2164 [n/a] | 0.0017 [n/a] | 0.1660 |  |") in text
     assert "|  | VPR+SM+Pred | 0.4862 [n/a] |" in text and "| 0.0011 [n/a] | 0.1069 |  |" in text
-    assert "| 37.55 [n/a] | 37.79 | 7 / 7 |" in text
+    # Improved is a direction: none is named without an interval (the paper's 7 / 7 are 7 estimates above 0)
+    assert "| 37.55 [n/a] | 37.79 | 0 / 7 (7 without an interval) |" in text
     assert "| Oxford RobotCar | VPR+SM |" in text and "| 0.0769 [n/a] | 0.0827 |  |" in text
     assert "| 0.0561 [n/a] | 0.0679 |  |" in text
     # The paper prints 18.97, the mean of its unrounded reductions; of the rounded ones here it is
     # 132.83 / 7 = 18.976 -> 18.98.
-    assert "|  | Reduction (%) | -14.22 [n/a] | -4.45 [n/a] |" in text and "| 26.95 [n/a] | 18.98 | 5 / 7 |" in text
+    assert "|  | Reduction (%) | -14.22 [n/a] | -4.45 [n/a] |" in text
+    assert "| 26.95 [n/a] | 18.98 | 0 / 7 (7 without an interval) |" in text
     assert "## paper mode, sequence length 4" in text
 
 
@@ -101,9 +103,10 @@ def test_seed_row_shows_mean_and_sample_std(rows):
         row.update(reduction_pct_mean=1.0, reduction_pct_std=0.0, n_seeds=3)
     text = table1_markdown(rows)
     # AP-GeM 10, 20, 30: mean 20, std 10; CosPlace 1, 1, 1: 1 ± 0; EigenPlaces -5, 5, 0: 0 ± 5;
-    # the mean of the seven means (20 + 1 + 0 + 0 + 4 + 2 + 3) / 7 = 4.29; improved on average: 5 of 7
+    # the mean of the seven means (20 + 1 + 0 + 0 + 4 + 2 + 3) / 7 = 4.29; the spread over seeds has no interval,
+    # so Improved names no direction there
     assert ("|  | Reduction over seeds (%) | 20.00 ± 10.00 | 1.00 ± 0.00 | 0.00 ± 5.00 | 0.00 ± 0.00 | "
-            "4.00 ± 2.00 | 2.00 ± 1.00 | 3.00 ± 0.00 | 4.29 | 5 / 7 (3 seeds) |") in text
+            "4.00 ± 2.00 | 2.00 ± 1.00 | 3.00 ± 0.00 | 4.29 | no interval (3 seeds) |") in text
     assert r"20.00 $\pm$ 10.00" in table1_latex(rows)
 
 
@@ -120,13 +123,15 @@ def test_a_seed_row_of_one_defined_seed_says_n_a_and_its_mean_is_like_with_like(
            "reduction_pct_ci_low": -40.0, "reduction_pct_ci_high": 35.0, "reduction_pct_mean": 4.0,
            "reduction_pct_std": 1.5, "n_seeds": 5, "n_seeds_defined": 5, "n_queries": 28}
     text = table1_markdown([hog, sad])
-    # seed 0: the Mean over sad alone (3.20), named; sad improved but its interval contains 0
+    # seed 0: the Mean over sad alone (3.20), named; sad's estimate is above 0 but its interval holds 0: not
+    # improved
     assert ("|  | Reduction (%) | n/a: nothing to reduce | 3.20 [-40.00, 35.00] | 3.20 (mean over 1 of 2 methods: "
-            "sad) | 1 / 2 (0 with the interval above 0) |") in text
+            "sad) | 0 / 2 |") in text
     # over the seeds: hog's std of one value is n/a (never 0.00); the Mean is sad's alone (4.00, not the
     # (-88.19 + 4.00) / 2 = -42.10 of one seed's number and a mean of five), and says so
     assert ("|  | Reduction over seeds (%) | -88.19 ± n/a (1 of 5 seeds; seeds 0, 1, 2, 3: nothing to reduce) | "
-            "4.00 ± 1.50 | 4.00 (mean over 1 of 2 methods, those with all 5 seeds: sad) | 1 / 2 (5 seeds) |") in text
+            "4.00 ± 1.50 | 4.00 (mean over 1 of 2 methods, those with all 5 seeds: sad) | no interval (5 seeds) |"
+            ) in text
     assert "0.00 (" not in text and "± 0.00" not in text
     # two Means of opposite sign say why
     sad_worse = {**sad, "reduction_pct_mean": -2.0}
@@ -251,18 +256,20 @@ def test_table1_in_the_page_has_the_papers_layout_and_numbers(rows, tmp_path):
     page = html.main(tmp_path / "report.html", [table], [], split="test").read_text()
     nordland = _table_texts(page, "table1-nordland-paper-4")
     assert nordland[0] == ["", *METHODS, "Mean", "Improved"]  # methods as columns, in the rows' order
-    # the paper's numbers; its Mean column 0.1660, 0.1069, 37.79 and 7 of 7 improved
-    # (the paper's numbers have no interval: [n/a] beside each method's)
+    # the paper's numbers; its Mean column 0.1660, 0.1069, 37.79 (the paper's numbers have no interval: [n/a]
+    # beside each method's, so Improved names no direction for any: the paper's 7 of 7 are estimates above 0)
     assert nordland[1] == ["VPR+SM", *(f"{v} [n/a]" for v in ("0.6522", "0.0220", "0.0155", "0.0061", "0.2478",
                                                                "0.2164", "0.0017")), "0.1660", ""]
     assert nordland[2] == ["VPR+SM+Pred", *(f"{v} [n/a]" for v in ("0.4862", "0.0136", "0.0106", "0.0042", "0.1274",
                                                                     "0.1050", "0.0011")), "0.1069", ""]
     assert nordland[3] == ["Reduction (%)", *(f"{v} [n/a]" for v in ("25.46", "38.17", "31.31", "31.96", "48.61",
-                                                                      "51.46", "37.55")), "37.79", "7 / 7"]
+                                                                      "51.46", "37.55")), "37.79",
+                          "0 / 7 (7 without an interval)"]
     robotcar = _table_texts(page, "table1-oxford-robotcar-paper-4")
     assert robotcar[1][-2:] == ["0.0827", ""] and robotcar[2][-2:] == ["0.0679", ""]
     assert robotcar[3] == ["Reduction (%)", *(f"{v} [n/a]" for v in ("-14.22", "-4.45", "21.31", "29.34", "39.83",
-                                                                      "34.07", "26.95")), "18.98", "5 / 7"]
+                                                                      "34.07", "26.95")), "18.98",
+                          "0 / 7 (7 without an interval)"]
     # the page leads with Table I, then the rest; no sorting on the paper's layout
     assert page.index('id="findings"') < page.index('id="pr-curves"') < page.index('id="provenance"')
     assert 'class="paper table1"' in page
@@ -308,9 +315,9 @@ def test_the_findings_in_words():
     assert sentences(block, "test") == [
         "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced the area over "
         "the PR curve for 1 of 4 methods: HOG by 76.7 % (interval 70.1 % to 85.0 %); it made SAD's 0.8 % "
-        "(interval -1.5 % to -0.2 %) worse; too few queries to tell for EfficientNet-Lite0.",
-        "On the test split's 31 queries the interval of EfficientNet-Lite0's reduction, -3.0 % to 25.0 %, contains "
-        "0: too few queries to tell whether the predictor helps.",
+        "(interval -1.5 % to -0.2 %) worse; no direction for EfficientNet-Lite0 (below).",
+        "On the test split, the 95 % interval of EfficientNet-Lite0's reduction [-3.0, 25.0] holds 0 (31 queries), "
+        "so it names no direction.",
         "For Perfect, baseline AOC 0 up to the predictor's maximum recall 0.9000: nothing to reduce, the reduction "
         "is undefined.",
         "The mean reduction over these 3 methods is 29.2 % (Table I's Mean, seed 0).",
@@ -322,13 +329,13 @@ def test_the_findings_in_words():
     assert headline(block, "test") == (
         "nordland_sample (31 test queries, L = 4, paper mode): the seed-0 predictor's AOC reduction with its 95 % "
         "interval is SAD -0.8 % [-1.5, -0.2], it hurts; HOG 76.7 % [70.1, 85.0], it helps; EfficientNet-Lite0 "
-        "11.6 % [-3.0, 25.0], too few queries to tell; Perfect n/a, nothing to reduce.")
+        "11.6 % [-3.0, 25.0], no direction (interval holds 0); Perfect n/a, nothing to reduce.")
     # the issue's 28-query split: an interval containing 0 gives no direction, whatever the sign of the number
     sad = finding_block([("sad", 3.2)], intervals=[(-40.0, 35.0)], n_queries=28, dataset="corridor")
     assert sentences(sad, "test") == [
         "On corridor (test split, L = 4, paper mode, seed-0 predictor) sad's reduction is 3.2 %.",
-        "On the test split's 28 queries the interval of sad's reduction, -40.0 % to 35.0 %, contains 0: too few "
-        "queries to tell whether the predictor helps."]
+        "On the test split, the 95 % interval of sad's reduction [-40.0, 35.0] holds 0 (28 queries), so it names no "
+        "direction."]
     # the same number with an interval excluding 0: the direction
     assert sentences(finding_block([("sad", 3.2)], intervals=[(0.5, 6.0)], n_queries=28, dataset="corridor"),
                      "test") == ["On corridor (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced "
@@ -336,8 +343,7 @@ def test_the_findings_in_words():
     # a file without intervals: no direction, the "no interval" wording
     assert sentences(finding_block([("sad", -2.04)], n_queries=28), "test") == [
         "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) sad's reduction is -2.0 %.",
-        "On the test split's 28 queries sad's reduction of -2.0 % has no interval: nothing tells whether the "
-        "predictor helps."]
+        "On the test split's 28 queries sad's reduction of -2.0 % has no interval, so it names no direction."]
     # one method, one seed; its interval below 0
     one = finding_block([("hog", -5.0)], [(5.0, None, 1, 1)], mode="standard", seq_len=2, dataset="d",
                         intervals=[(-9.0, -1.0)])
@@ -710,9 +716,9 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         "On d (test split, L = 4, paper mode), at the seed-0 predictor's budget the predictor beats the best "
         "training-free scorer (single_uniqueness, mean seed-0 reduction 14.7 %) for 1 of 3 methods: a (interval "
         "-60.0 points to -30.0 points); single_uniqueness beats the predictor for b (interval 5.0 points to 35.0 "
-        "points); for c (interval -10.0 points to 4.0 points) the interval of the difference contains 0: 28 "
-        "queries are too few to tell; oracle removal at the same budget would reduce the AOC by 92.5 % (mean over "
-        "the 2 methods where it is defined).")
+        "points); for c (interval -10.0 points to 4.0 points) the 95 % interval of the difference holds 0 (28 "
+        "queries), so no direction is named; oracle removal at the same budget would reduce the AOC by 92.5 % "
+        "(mean over the 2 methods where it is defined).")
     # a scorer defined for one method only is ranked on the methods every scorer has: spread's 20 on b alone is
     # not set against single_uniqueness's 14.67 over three methods (on b, single_uniqueness has 40)
     partial = [{**r, "reduction_pct": {"b": 20.0}.get(r["method"])} if r["scorer"] == "spread" else r for r in rows]
@@ -720,14 +726,15 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
     # the first screen's sentence: the methods by what the paired interval says
     assert baseline_headline(found) == (
         "d (L = 4, paper mode), the predictor against the best training-free scorer (single_uniqueness) at its "
-        "budget: better for a; worse for b; too few queries to tell for c.")
+        "budget (the 95 % interval of its reduction minus the predictor's, in points): better for a [-60.0, -30.0]; "
+        "worse for b [5.0, 35.0]; interval holds 0 for c [-10.0, 4.0].")
     # a difference that is 0 on every draw (the scorer removed the predictor's very matches): equal, which is
-    # neither a direction nor too few queries
+    # neither a direction nor an interval that holds 0
     same = [{**r, "reduction_pct_difference_ci_low": 0.0, "reduction_pct_difference_ci_high": 0.0}
             if r["method"] == "c" and r["scorer"] == "single_uniqueness" else r for r in rows]
     (tied,) = comparisons(same)
     assert "; for c the two reductions are equal on every draw of the queries (the same matches removed);" in (
-        baseline_sentence(tied, "test")) and "too few" not in baseline_sentence(tied, "test")
+        baseline_sentence(tied, "test")) and "holds 0" not in baseline_sentence(tied, "test")
     # a file without the paired intervals: no direction for any method
     (bare,) = comparisons([{k: v for k, v in r.items() if "difference" not in k} for r in rows])
     assert bare.beaten == 0 and "for 0 of 3 methods; no interval of the difference for a, b and c;" in (
@@ -754,12 +761,13 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         "Detecting wrong matches on d (test split, L = 4), average precision among the training-free scorers "
         "(seed 0): for a uniqueness has the highest, 0.787 against the predictor's 0.714, and beats the predictor "
         "(difference interval 0.020 to 0.130); for b uniqueness has the highest, 0.570 against the predictor's "
-        "0.490; the difference's interval -0.050 to 0.200 contains 0: 28 queries are too few to tell which detects "
-        "better.")
+        "0.490; the 95 % interval of the difference [-0.050, 0.200] holds 0 (28 queries), so no direction is "
+        "named.")
     # uniqueness's AP minus the predictor's is above 0 for a (the predictor worse), contains 0 for b
     assert detection_headline(detection_comparisons(detection)) == (
-        "d (L = 4), detecting wrong matches, the predictor against the best training-free scorer: worse for a; too "
-        "few queries to tell for b.")
+        "d (L = 4), detecting wrong matches, the predictor against the best training-free scorer (the 95 % interval "
+        "of its average precision minus the predictor's): worse for a [0.020, 0.130]; interval holds 0 for b "
+        "[-0.050, 0.200].")
     # the predictor ranks b's wrong matches as uniqueness does: the same AP, and 0 on every draw
     tied_ap = [{**r, "average_precision_difference_ci_low": 0.0, "average_precision_difference_ci_high": 0.0}
                if r["method"] == "b" and r["scorer"] == "uniqueness" else

@@ -80,7 +80,7 @@ def test_the_sentence_counts_the_pairs_by_the_best_rules_interval():
         *_pair("m2", adaptive=(0.07, 3.0, "improved", (-0.02, 0.01))),  # holds 0, mean 3.0 shorter than L4
         *_pair("m3", best_fixed="L2+pred", adaptive=(0.09, 3.0, "improved", (-0.01, 0.02))),  # holds 0, not < L2
         *_pair("m4", adaptive=(0.12, 3.0, "improved", (0.01, 0.06))),  # above: worse
-        *_pair("m5", adaptive=(0.06, 2.2, "improved", None)),  # too few queries
+        *_pair("m5", adaptive=(0.06, 2.2, "improved", None)),  # no interval
         # the degenerate rule (every match removed, AOC 0) is not the best: adaptive_fallback is; holds 0, 3.5 < 4
         *_pair("m6", adaptive=(0.0, 2.0, "removed_all", (-0.08, -0.08)),
                adaptive_fallback=(0.08, 3.5, "improved", (-0.01, 0.01))),
@@ -92,8 +92,9 @@ def test_the_sentence_counts_the_pairs_by_the_best_rules_interval():
         "On d (paper mode, the 57 queries every length evaluates, 8 method-matcher pairs), the best rule's AOC, at "
         "the recall both reach, is below the best fixed row's for 1 (the paired 95 % interval of the difference "
         "below 0; 1 of them with a shorter mean length used than the best fixed row's length), cannot be told apart "
-        "from it for 4 (the interval holds 0; 2 of them with a shorter mean length) and is above it for 1; too few "
-        "queries to tell for m5 · seqslam; no rule or no fixed row keeps a correct match for m7 · bayes_filter.")
+        "from it for 4 (the interval holds 0; 2 of them with a shorter mean length) and is above it for 1; no "
+        "interval of the difference for m5 · seqslam; no rule or no fixed row keeps a correct match for m7 · "
+        "bayes_filter.")
     assert adaptive_sentence([]) == ""
     one = _pair("m1", adaptive=(0.05, 2.5, "improved", (-0.05, -0.01)))
     assert adaptive_sentence(one).startswith("On d (paper mode, the 57 queries every length evaluates, 1 "

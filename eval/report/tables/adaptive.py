@@ -27,6 +27,7 @@ from vpr_smr.eval.scoring.adaptive_records import (
     best_key,
     fixed_name,
 )
+from vpr_smr.eval.scoring.curves import earned
 from vpr_smr.eval.scoring.records import Interval
 
 if TYPE_CHECKING:
@@ -35,7 +36,8 @@ if TYPE_CHECKING:
 __all__ = ["TABLE", "AdaptiveSeqLenRow", "adaptive_rows", "adaptive_sentence", "histogram", "live_ms",
            "make_adaptive", "tag_of"]
 
-# each number a word or a sentence reads is shown with its interval: the reduction's outcome is its point's sign
+# each number a word or a sentence reads is shown with its interval: the reduction's outcome names a direction only
+# where that interval excludes 0 (``curves.earned``)
 PAGE = ("matcher", "method", "name", "mean_length", "lengths", "removed", "max_recall", names.AOC, names.REDUCTION,
         "reduction_pct_ci_low", "reduction_pct_ci_high", "outcome", "minus_best_fixed", "minus_best_fixed_ci_low",
         "minus_best_fixed_ci_high", "ms_per_query", "live_note")
@@ -91,7 +93,7 @@ class AdaptiveSeqLenRow:
     aoc_ci: Interval | None = interval()
     reduction_pct: float | None = column("AOC reduction vs longest (%)")  # None where the longest's AOC is 0
     reduction_pct_ci: Interval | None = interval()
-    outcome: str = column()  # ``curves.outcome``: a degenerate one named
+    outcome: str = column()  # ``curves.outcome`` by ``curves.earned``: a degenerate one named
     reduction_pct_mean: float | None = column("mean over seeds (%)", ".2f")
     reduction_pct_std: float | None = column("std over seeds", ".2f")
     best_fixed: str = column("best fixed row")  # of this mode (``AdaptiveResult.best_fixed``); empty without one
@@ -114,7 +116,8 @@ class AdaptiveSeqLenRow:
             str(result.meta["dataset"]), tag_of(result), mode, str(result.meta["method"]), row.name, row.kind,
             row.seq_len, result.n_queries, row.mean_length, histogram(row.lengths), row.removed,
             reduction.max_recall, reduction.aoc_vpr_sm_pred, reduction.aoc_vpr_sm_pred_ci, reduction.reduction_pct,
-            reduction.reduction_pct_ci, reduction.outcome, None if seeds is None else seeds.reduction_pct_mean,
+            reduction.reduction_pct_ci, earned(reduction.outcome, reduction.reduction_pct_ci),
+            None if seeds is None else seeds.reduction_pct_mean,
             None if seeds is None else seeds.reduction_pct_std, result.best_fixed.get(mode, ""),
             numbers.minus_best_fixed, numbers.minus_best_fixed_ci, row.threshold, live_ms(result, row, timing),
             f"refused: {refused}" if refused and timed else "")
@@ -178,7 +181,7 @@ def adaptive_sentence(rows: Sequence[dict[str, Any]]) -> str:
     how many the best rule (``_best_rule``: by the best fixed row's measure) has an AOC below the best
     fixed row's (the paired 95 % interval of the difference below 0), for how many the interval holds 0 (and for how
     many of those its mean length is shorter than the best fixed row's length), for how many it lies above 0; the
-    pairs without an interval named (too few queries to tell), and those without a rule or a fixed row that keeps a
+    pairs without an interval named (no interval), and those without a rule or a fixed row that keeps a
     correct match. Nothing beyond the intervals. The rows are compared in standard mode only (``best_fixed``): in
     paper mode each row's recall divides by its own correct matches, and the sentence says so."""
     if not rows:
@@ -218,7 +221,7 @@ def adaptive_sentence(rows: Sequence[dict[str, Any]]) -> str:
             f"told apart from it for {same} (the interval holds 0; {shorter} of them with a shorter mean length) and "
             f"is above it for {worse}")
     if untold:
-        text += f"; too few queries to tell for {', '.join(untold)}"
+        text += f"; no interval of the difference for {', '.join(untold)}"
     if unscored:
         text += f"; no rule or no fixed row keeps a correct match for {', '.join(unscored)}"
     return text + "."

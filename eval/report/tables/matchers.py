@@ -14,6 +14,7 @@ from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.registry import Table
 from vpr_smr.eval.report.rows import column, interval
 from vpr_smr.eval.report.tabulate import Inputs
+from vpr_smr.eval.scoring.curves import earned
 from vpr_smr.eval.scoring.matcher_comparison import FAR_BELOW, MatcherComparison, MatcherScores, validation_warning
 from vpr_smr.eval.scoring.records import Interval
 
@@ -46,7 +47,8 @@ class MatchersRow:
     aoc_vpr_sm_pred: float = column()
     reduction_pct: float | None = column()  # the seed-0 predictor's; None where VPR+SM's AOC is 0
     reduction_pct_ci: Interval | None = interval()
-    # what the seed-0 removal did, in a word (``curves.outcome``): a degenerate one named, e.g. an AOC near 0
+    # what the seed-0 removal did, in a word (``curves.outcome``): a degenerate one named, e.g. an AOC near 0; a
+    # direction only where the interval earns it (``curves.earned``)
     outcome: str = column()
     reduction_pct_mean: float | None = column("mean over seeds (%)", ".2f")
     reduction_pct_std: float | None = column("std over seeds", ".2f")
@@ -75,9 +77,10 @@ class MatchersRow:
             str(result.meta["dataset"]), int(result.meta["seq_len"]), mode, method, tag, result.n_queries,
             scores.n_evaluated, numbers.recall_at_1_single, numbers.recall_at_1_sequence,
             numbers.reduction.aoc_vpr_sm, numbers.reduction.aoc_vpr_sm_pred, numbers.reduction.reduction_pct,
-            numbers.reduction.reduction_pct_ci, numbers.reduction.outcome, numbers.seeds.reduction_pct_mean,
-            numbers.seeds.reduction_pct_std,
-            numbers.seeds.n_seeds, scores.removed, numbers.best_scorer,
+            numbers.reduction.reduction_pct_ci,
+            earned(numbers.reduction.outcome, numbers.reduction.reduction_pct_ci),
+            numbers.seeds.reduction_pct_mean, numbers.seeds.reduction_pct_std, numbers.seeds.n_seeds,
+            scores.removed, numbers.best_scorer,
             None if numbers.best_scorer_reduction is None else numbers.best_scorer_reduction.reduction_pct,
             numbers.native_reduction.reduction_pct, numbers.native_minus_predictor_ci,
             scores.detection_predictor.average_precision, scores.detection_native.average_precision,
@@ -125,8 +128,8 @@ def comparison_sentence(rows: Sequence[dict[str, Any]]) -> str:
     return (f"On {first['dataset']} (L = {first['seq_len']}, {first['mode']} mode, the {first['n_queries']} queries "
             f"every matcher evaluates), SMR reduces the AOC for {reduced} of {len(rows)} matcher-method pairs (the "
             f"seed-0 predictor's reduction, its 95 % interval above 0){harm}; it beats the matcher's own "
-            f"confidence for {beats} (the native confidence removing as many matches does worse, the paired "
-            "interval of the difference below 0).")
+            f"confidence for {beats} (the paired 95 % interval of the native confidence's reduction minus the "
+            "predictor's, removing as many matches, below 0).")
 
 
 TABLE = Table("matchers", "Matchers: the Table I numbers of each sequence matcher with its own predictor, the best "
