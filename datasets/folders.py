@@ -156,7 +156,7 @@ def folder_pair(
     without a position, to ``dataset check``.
 
     Args:
-        reference: the reference traverse's image folder (relative: from the configuration's folder).
+        reference: the reference traverse's image folder (relative: from the working folder, where vpr-smr runs).
         query: the query traverse's image folder.
         reference_list: a text file naming the reference images in order, one per line (null: every image of the
             folder, in natural name order).

@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import inspect
 import json
+import re
 from pathlib import Path
 from typing import Any
 
@@ -239,7 +240,8 @@ def _typed(default: Any, text: str) -> tuple[str, str]:
     nothing of it, so such a setting's help starts with its type (``integer or null: ...``)."""
     if default is None or default == "auto":
         kind, _, meaning = text.partition(": ")
-        return kind, meaning
+        # a null default is a value the setting takes: its type says so, whatever the help's words
+        return (kind if default is not None or re.search(r"\bnull\b", kind) else f"{kind} or null"), meaning
     return _type({"type": SCHEMA_TYPES[type(default).__name__]}), text
 
 
@@ -335,7 +337,10 @@ def _option_rows(actions: list[argparse.Action]) -> list[str]:
     for action in actions:
         names = ", ".join(action.option_strings) or action.dest
         required = action.required or not action.option_strings and action.nargs not in ("?", "*")
-        default = "required" if required else "" if action.default in (None, False, argparse.SUPPRESS) \
+        # a flag (no argument) is off unless given, whatever value its destination then holds (--no-restoration
+        # leaves restoration true): it has no default to show
+        flag = action.nargs == 0
+        default = "required" if required else "" if flag or action.default in (None, False, argparse.SUPPRESS) \
             else json.dumps(action.default)
         argument = _argument(action)
         lines.append(_row((f"`{names}`", f"`{argument}`" if argument else "",
