@@ -192,3 +192,61 @@ def test_a_new_user_reaches_each_task_in_one_click_from_the_readme(task, words):
              and all(word in sections(REPO / urlsplit(target).path).get(urlsplit(target).fragment, "")
                      for word in words)]
     assert found, f"no README link leads to a section that shows how to {task} (with {words})"
+
+
+class ProseText(HTMLParser):
+    """A page's text outside code (``code``, ``pre``, ``kbd``, ``samp``) and scripts and styles: what a reader sees
+    as prose and maths, each piece with the tag it sits in."""
+
+    SKIPPED = {"code", "pre", "kbd", "samp", "script", "style"}
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.pieces: list[tuple[str, str]] = []
+        self._open: list[str] = []
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        if tag not in {"br", "img", "hr", "meta", "link", "input", "mspace", "mprescripts", "none"}:
+            self._open.append(tag)
+
+    def handle_startendtag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        pass
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag in self._open:
+            while self._open.pop() != tag:
+                pass
+
+    def handle_data(self, data: str) -> None:
+        if not self.SKIPPED & set(self._open):
+            self.pieces.append((self._open[-1] if self._open else "", data))
+
+
+# A TeX command (a backslash and letters, or an escaped _ { } $ % & #) left in a built page: a formula the MathML
+# converter did not understand, or one that Markdown broke.
+TEX_COMMAND = re.compile(r"\\(?:[A-Za-z]+|[_{}$%&#])")
+
+
+def test_the_pages_show_no_tex_command_outside_code(site):
+    """Every formula is drawn: no page holds a TeX command (``\\arg``, ``\\_``, a display broken by its list item)
+    in its prose or maths, only inside code."""
+    left = {}
+    for path in sorted(site.rglob("*.html")):
+        if "_static" in path.parts or "_sources" in path.parts:
+            continue
+        text = ProseText()
+        text.feed(path.read_text(encoding="utf-8"))
+        found = [f"{tag}: {data.strip()[:80]}" for tag, data in text.pieces if TEX_COMMAND.search(data)]
+        if found:
+            left[path.relative_to(site).as_posix()] = found
+    assert left == {}
+
+
+def test_the_tex_check_sees_a_formula_the_converter_leaves_raw():
+    """The check above would see the issue's case: latex2mathml writes ``\\arg`` as it is."""
+    from latex2mathml.converter import convert
+
+    text = ProseText()
+    formula, step = convert(r"\arg\min_r D[r, a]"), convert(r"\text{max\_step}")
+    text.feed(f"<p>the match {formula}, {step} and <code>\\not_this</code></p>")
+    assert [data for _, data in text.pieces if TEX_COMMAND.search(data)] == ["\\arg", "max\\_step"]
