@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import base64
 import json
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from datetime import UTC, datetime
 from pathlib import Path
@@ -61,6 +60,7 @@ from vpr_smr.eval.report.table1 import (
 )
 from vpr_smr.eval.report.tables import adaptive as adaptive_table
 from vpr_smr.eval.report.tables import matchers as matcher_table
+from vpr_smr.eval.report.verdicts import verdicts
 from vpr_smr.eval.report.view import (
     Block,
     Card,
@@ -72,6 +72,7 @@ from vpr_smr.eval.report.view import (
     Page,
     Section,
     TableView,
+    anchor,
     cell,
     text_cell,
 )
@@ -93,11 +94,6 @@ ATTRIBUTES = ("A1", "A2", "A3", "A4")
 
 def image_uri(path: Path | str) -> str:
     return "data:image/png;base64," + base64.b64encode(Path(path).read_bytes()).decode("ascii")
-
-
-def anchor(*parts: Any) -> str:
-    """An HTML id from ``parts``: lower case, letters, digits and dashes."""
-    return re.sub(r"[^a-z0-9]+", "-", "-".join(str(p) for p in parts).lower()).strip("-")
 
 
 def _relative(path: Path, run_dir: Path) -> str:
@@ -386,8 +382,9 @@ class _Builder:
                 text = tuple(spec.sentences(self, shown)) if spec.sentences is not None else ()
                 tables = spec.view(self, f, shown) if spec.view is not None else ()
                 blocks.append(Block(self.block_title(f), (self.figure(f),), tables, text, aside=aside))
-                if spec.headline is not None and shown:
-                    headlines.append(spec.headline(shown))
+                said = spec.headline(shown) if spec.headline is not None and shown else ""
+                if said:  # a question the rows do not answer has no line on the first screen
+                    headlines.append(said)
         if not blocks and not any(self.rows(name) for name in spec.tables):
             return None
         intro = spec.intro(self) if callable(spec.intro) else (spec.intro,)
@@ -567,6 +564,11 @@ def _inspector_blocks(b: _Builder) -> list[Block]:
     return blocks
 
 
+def _adaptive_headline(rows: Rows) -> str:
+    """The first screen's line of the length rules in one mode, where the mode compares them (``best_fixed``)."""
+    return adaptive_table.adaptive_sentence(rows) if any(r["best_fixed"] for r in rows) else ""
+
+
 SECTIONS = (
     # right after Table I: is the predictor better than a simple rule?
     Declared("baselines", "Is the predictor better than a simple rule?", ("baselines", "wrong_match_detection"),
@@ -628,7 +630,7 @@ SECTIONS = (
         "predictor."), "adaptive_seq_len",
         view=lambda b, f, shown: (b.compact("adaptive_seq_len", b.anchor("adaptive-seq-len", f), shown,
                                             registry.table("adaptive_seq_len").caption),),
-        sentences=lambda b, shown: adaptive_table.adaptive_sentences(shown), headline=adaptive_table.adaptive_sentence),
+        sentences=lambda b, shown: adaptive_table.adaptive_sentences(shown), headline=_adaptive_headline),
     Declared("speed", "Speed profiles", ("speed",), _speed_intro, "speed",
              view=lambda b, f, shown: (speed_table(b.anchor("speed", f), shown),),
              sentences=lambda b, shown: speed_sentences(shown, b.split)),
@@ -784,11 +786,12 @@ def build_page(
     descriptor_table = data_table("provenance-files", [TableColumn(key) for key in ("file", *DESCRIPTOR_KEYS)],
                                   files, short=False) if files else None
     page_cards = cards(datasets, order)
-    nav = [*([("findings", "Findings")] if found else []), *((s.id, s.title) for s in sections),
+    answers = verdicts({t.name: t.rows for t in tables}, order, split, protocols)
+    nav = [*([("findings", "Findings")] if found or answers else []), *((s.id, s.title) for s in sections),
            *([("datasets", "Datasets")] if page_cards or dataset_table else []),
            ("provenance", "Provenance"), ("configuration", "Configuration")]
     return Page(
-        title=title, subtitle=subtitle, warnings=overlap_warnings(datasets, order), findings=found,
+        title=title, subtitle=subtitle, warnings=overlap_warnings(datasets, order), findings=found, verdicts=answers,
         findings_files=table1_files, sections=tuple(sections), cards=page_cards,
         datasets_table=folded(dataset_table, run_dir) if dataset_table else None, cite=how_to_cite(version),
         provenance=_provenance_table(general), descriptor_files=descriptor_table, configuration=_config_text(config),

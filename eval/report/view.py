@@ -7,6 +7,7 @@ Every text here is plain text; the template escapes it (Jinja2 autoescaping). A 
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,6 +24,7 @@ class Cell:
     sort: str = ""  # the number behind ``text`` (``data-sort``), empty for text
     kind: str = "num"
     header: bool = False  # the row's header cell (<th scope="row">)
+    detail: str = ""  # a second, smaller line: a verdict's interval under its word and number
 
 
 @dataclass(frozen=True)
@@ -43,6 +45,7 @@ class TableView:
     note: str = ""
     sortable: bool = True
     css: str = ""  # an extra class of the <table>: ``paper`` (Table I's layout), ``cards``
+    groups: tuple[tuple[str, int], ...] = ()  # a header row above the columns': (label, columns it spans)
 
 
 @dataclass(frozen=True)
@@ -96,6 +99,24 @@ class Finding:
 
 
 @dataclass(frozen=True)
+class VerdictBlock:
+    """One dataset's answers in one mode (``verdicts``): its title, the queries its numbers are over (said once)
+    and its verdict tables."""
+
+    title: str
+    queries: str
+    tables: tuple[TableView, ...]
+
+
+@dataclass(frozen=True)
+class VerdictMode:
+    """The verdict tables of one mode; the first mode of the page is shown, the others folded."""
+
+    mode: str
+    blocks: tuple[VerdictBlock, ...]
+
+
+@dataclass(frozen=True)
 class Card:
     """A dataset's card: (label, value, whether the value is a hash or path) items."""
 
@@ -118,6 +139,7 @@ class Page:
     descriptor_files: TableView | None
     configuration: str
     nav: tuple[tuple[str, str], ...] = field(default=())  # (anchor, title) of every section on the page
+    verdicts: tuple[VerdictMode, ...] = ()  # the first screen: each question's answer per dataset and method
     ground_truth: str = ""  # the first screen's line: each dataset's ground truth ("Correct matches: ...")
     across_machines: str = ""  # which numbers another machine may change, in the provenance section
 
@@ -142,6 +164,11 @@ def cell(value: Any, column: str = "", header: bool = False, fmt: str = ".4f") -
     text = str(value)
     code = "sha256" in column or column == "file" or (len(text) > 40 and " " not in text)
     return Cell(text, kind="code" if code else "text", header=header)
+
+
+def anchor(*parts: Any) -> str:
+    """An HTML id from ``parts``: lower case, letters, digits and dashes."""
+    return re.sub(r"[^a-z0-9]+", "-", "-".join(str(p) for p in parts).lower()).strip("-")
 
 
 def text_cell(text: str, header: bool = False) -> Cell:
