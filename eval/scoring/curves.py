@@ -194,13 +194,20 @@ def outcome(n_queries: int, removed: int, comparison: Comparison, same_matches: 
         return KEPT_ALL
     if abs(comparison.reduction_pct) < UNCHANGED_PCT:
         return UNCHANGED
-    return IMPROVED if comparison.reduction_pct > 0 else WORSE
+    return by_sign(comparison.reduction_pct)
+
+
+def by_sign(reduction_pct: float) -> str:
+    """The direction a reduction's estimate points: improved above 0, else worse (what ``earned`` then judges)."""
+    return IMPROVED if reduction_pct > 0 else WORSE
 
 
 # What a table or the console says in place of improved or worse where the interval does not earn it (``earned``)
 HOLDS_ZERO = "interval_holds_0"  # the interval holds 0
 NO_INTERVAL = "no_interval"  # none: too few draws define it, or none is computed (the speed experiment, other seeds)
 AGAINST_SIGN = "interval_against_sign"  # it excludes 0, on the other side from the estimate
+# The outcomes of an estimate with a direction: improved or worse by its sign, and what ``earned`` says of them
+DIRECTED = (IMPROVED, WORSE, HOLDS_ZERO, NO_INTERVAL, AGAINST_SIGN)
 
 
 def earned(outcome: str, interval: Interval | None) -> str:

@@ -16,8 +16,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vpr_smr.core.records import FileRecord, Record
+from vpr_smr.eval.scoring.curves import DIRECTED, by_sign, earned
 
-if TYPE_CHECKING:  # curves imports scikit-learn, which the speed experiment's records (and the workflow) do without
+if TYPE_CHECKING:
     from vpr_smr.eval.scoring.curves import Curve
 
 Json = dict[str, Any]
@@ -63,7 +64,9 @@ class Reduction(Record):
 
     ``max_recall`` is the predictor's, where both AOCs are taken; ``max_recall_vpr_sm`` and ``aoc_vpr_sm_own`` are
     the baseline's own maximum recall and AOC there, which stand in for it when the predictor leaves no recall to
-    compare at. ``outcome`` is ``curves.outcome``'s: what the removal did, in a word a table can show. The
+    compare at. ``outcome`` is ``curves.outcome``'s: what the removal did, in a word a table can show, a direction
+    (improved, worse) only where ``reduction_pct_ci`` earns it (``curves.earned``: else ``interval_holds_0``,
+    ``no_interval``, ``interval_against_sign``), however the record is made or read. The
     ``_ci`` fields are the bootstrap intervals over queries (method §8.7) of ``reduction_pct``, ``aoc_vpr_sm`` and
     ``aoc_vpr_sm_pred``, for the numbers a table shows (the first seed's, a scorer's at its budget, held out, the
     sweep's); absent elsewhere, and None where too few draws define the number.
@@ -81,6 +84,9 @@ class Reduction(Record):
     reduction_pct_ci: Interval | None = None
     aoc_vpr_sm_ci: Interval | None = None
     aoc_vpr_sm_pred_ci: Interval | None = None
+
+    def __post_init__(self) -> None:
+        _earn(self)
 
 
 @dataclass(frozen=True)
@@ -107,6 +113,17 @@ class TrustNumbers(Record):
     reduction_pct: float | None
     outcome: str
     reduction_pct_ci: Interval | None = None
+
+    def __post_init__(self) -> None:
+        _earn(self)
+
+
+def _earn(record: Reduction | TrustNumbers) -> None:
+    """A record's outcome by the one rule for direction words (``curves.earned``), judged afresh from the estimate's
+    sign whenever the record is made: a seed's removal is made without its interval, which is added later
+    (``dataclasses.replace``)."""
+    if record.outcome in DIRECTED and record.reduction_pct is not None:
+        object.__setattr__(record, "outcome", earned(by_sign(record.reduction_pct), record.reduction_pct_ci))
 
 
 @dataclass(frozen=True)

@@ -166,12 +166,13 @@ def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
     md = (run / "tables" / "table1.md").read_text()
     # AOCs: every method, (0.2 + 0 + 0.4) / 3; these hand-made files have no intervals: [n/a]
     assert "| d | VPR+SM | 0.2000 [n/a] | 0.0000 [n/a] | 0.4000 [n/a] | 0.2000 |  |" in md
-    # (10 + 30) / 2 = 20; two methods improve, m2 (nothing to reduce) does not: 2 of the 3
+    # (10 + 30) / 2 = 20; m1 and m3 are above 0 by their estimates but have no interval, so none is counted
+    # improved (m2, nothing to reduce, is not either): 0 of the 3, 2 without an interval
     assert ("|  | Reduction (%) | 10.00 [n/a] | n/a: nothing to reduce | 30.00 [n/a] | 20.00 (mean over 2 of 3 "
-            "methods: m1, m3) | 2 / 3 |") in md
+            "methods: m1, m3) | 0 / 3 (2 without an interval) |") in md
     # seed means 12 ± 2 and 28 ± 8, their mean 20; m2's three seeds are left out, and why
     assert ("|  | Reduction over seeds (%) | 12.00 ± 2.00 | n/a: seeds 0, 1, 2: nothing to reduce | 28.00 ± 8.00 "
-            "| 20.00 (mean over 2 of 3 methods, those with all 3 seeds: m1, m3) | 2 / 3 (3 seeds) |") in md
+            "| 20.00 (mean over 2 of 3 methods, those with all 3 seeds: m1, m3) | no interval (3 seeds) |") in md
     assert ("m2: baseline AOC 0 up to the predictor's maximum recall 1.0000: nothing to reduce, the reduction is "
             "undefined.") in md
     assert "n/a: the reduction is undefined (why: beside it, and below)" in md
@@ -179,7 +180,7 @@ def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
     tex = (run / "tables" / "table1.tex").read_text()
     assert r"& n/a: nothing to reduce &" in tex
     # a Mean has no interval: not coloured
-    assert r"& 20.00 (mean over 2 of 3 methods: m1, m3) & 2 / 3\\" in tex
+    assert r"& 20.00 (mean over 2 of 3 methods: m1, m3) & 0 / 3 (2 without an interval)\\" in tex
     rows = list(csv.DictReader(open(run / "tables" / "table1.csv")))
     assert [r["reduction_pct"] for r in rows] == ["10.0", "", "30.0"]  # undefined: an empty CSV cell
     assert [r["reduction_pct_mean"] for r in rows] == ["12.0", "", "28.0"]
