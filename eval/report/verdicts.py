@@ -249,7 +249,8 @@ def matcher_table(table_id: str, mode: str, matchers: Rows, adaptive: Rows, orde
     methods = _methods(order, [*mine, *ruled])
     keys = [(m, t) for m in methods for t in tags]
     by_matcher = {(str(r["method"]), str(r["matcher"])): r for r in mine}
-    by_rule = {(str(r["method"]), str(r["matcher"]), str(r["name"])): r for r in ruled}
+    by_rule: dict[tuple[str, ...], Mapping[str, Any]] = {
+        (str(r["method"]), str(r["matcher"]), str(r["name"])): r for r in ruled}
     rules = [name for name in unique([*RULES, *(str(r["name"]) for r in ruled)])
              if any(key[2] == name for key in by_rule)]
 
@@ -297,8 +298,8 @@ def verdicts(tables: Mapping[str, Rows], order: Order, split: str, protocols: Ma
     first, where the run has it) and dataset (in ``order``); none where no table answers a question."""
     answering = ("table1", "baselines", "wrong_match_detection", "matchers", "adaptive_seq_len")
     rows = {name: tuple(tables.get(name, ())) for name in answering}
-    modes = unique(str(r["mode"]) for name in answering for r in rows[name] if "mode" in r)
-    modes = sorted(modes, key=lambda m: (m != SHOWN_MODE, order.mode(m)))
+    modes = sorted(unique(str(r["mode"]) for name in answering for r in rows[name] if "mode" in r),
+                   key=lambda m: (m != SHOWN_MODE, order.mode(m)))
     datasets = sorted(unique(str(r["dataset"]) for name in answering for r in rows[name]), key=order.dataset)
     out = []
     for mode in modes:

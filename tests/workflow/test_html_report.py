@@ -1,7 +1,7 @@
 """report.html in a real browser: Debian's headless ``chromium`` (installed with apt-get when missing; the test fails
 with the reason when it cannot be installed, it is never skipped), driven by Playwright for Python, offline.
 
-At 1400 x 900: the first screen shows Table I with the methods as column headers; nothing is wider than the page
+At 1400 x 900: the first screen shows the verdict table with the methods as rows; nothing is wider than the page
 (the tables' own scroll containers fit it); a click on a column header sorts the rows; every image decodes; the page
 works alone in a fresh folder, and a screenshot of its first screen is a PNG. At 1000, 1400 and 1920 px, with the
 demo's method names (one as long as efficientnet_lite0_gem): no table or figure is cut at the right edge.
@@ -116,17 +116,25 @@ def test_report_in_a_headless_browser(tmp_path):
             page.route(re.compile(r"^(?!file:|data:).*"), lambda route: route.abort())  # offline, whatever it asks
             page.goto((alone / "report.html").as_uri(), wait_until="load")
 
-            # the first screen: Table I, the methods as its column headers, in the configuration's order
-            table1 = page.locator("table.table1").first
-            assert [h.strip() for h in table1.locator("thead th").all_inner_texts()] == [
-                "", "m2", "m1", "Mean", "Improved"]
-            box = table1.bounding_box()
+            # the first screen: the verdict table, standard mode, the methods as its rows in the configuration's
+            # order, a column per question the run asked (no matcher or length rule here), whole on the screen
+            verdicts = page.locator("table.verdicts").first
+            assert verdicts.get_attribute("id") == "verdicts-d-standard"
+            assert [h.strip() for h in verdicts.locator("thead th").all_inner_texts()] == [
+                "method", "reduces the AOC?", "beats the best training-free rule?", "detects wrong matches better?"]
+            assert [h.strip() for h in verdicts.locator("tbody th").all_inner_texts()] == ["m2", "m1"]
+            box = verdicts.bounding_box()
             assert box is not None and box["y"] < HEIGHT and box["y"] + box["height"] <= HEIGHT, box
-            # above it, one sentence per finding and the ground truth used
+            assert page.locator("#findings .verdict-block h3").first.inner_text().startswith(
+                "d · 57 test queries; correct within 2 frames")
+            # the paper mode folded below it, then one sentence per finding, then Table I
+            assert page.locator("#findings details.verdict-mode summary").inner_text() == "The same in paper mode"
             assert page.locator("#findings ul.headlines li").first.inner_text().startswith("d (")
             assert "L = 4, paper mode): the seed-0 predictor's AOC reduction with its 95 % interval is" in (
                 page.locator("#findings ul.headlines li").first.inner_text())
-            assert page.locator("#findings p.ground-truth").inner_text().startswith("Correct matches: d ")
+            table1 = page.locator("table.table1").first
+            assert [h.strip() for h in table1.locator("thead th").all_inner_texts()] == [
+                "", "m2", "m1", "Mean", "Improved"]
             shot = tmp_path / "first_screen.png"
             page.screenshot(path=str(shot))
             assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and shot.stat().st_size > 10_000
