@@ -14,6 +14,7 @@ one still works and warns).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -22,7 +23,14 @@ import numpy as np
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_TRUST_LEVELS, MODES
 from vpr_smr.core.records import encode
 from vpr_smr.core.settings import parse
-from vpr_smr.eval.matching.attributes import DEFAULT_CANDIDATES, Matching, QueryFeatures, check_matching, query_features
+from vpr_smr.eval.matching.attributes import (
+    DEFAULT_CANDIDATES,
+    Matching,
+    QueryFeatures,
+    check_length,
+    check_matching,
+    query_features,
+)
 from vpr_smr.eval.matching.features import match_blocks
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth as read_truth_file
@@ -32,6 +40,7 @@ from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec
 from vpr_smr.eval.matching.matchers.base import MatchBlock
 from vpr_smr.eval.predictor.defaults import PredictorSettings
 from vpr_smr.eval.predictor.estimator import SMRPredictor
+from vpr_smr.eval.predictor.leakage import Training, check_matrices, check_scored, matrix_overlaps
 from vpr_smr.eval.predictor.train import check_trainable, predictor_params, rank0, train_seed
 from vpr_smr.eval.scoring import baselines as scoring
 from vpr_smr.eval.scoring.evaluate import evaluate_split
@@ -177,7 +186,8 @@ def _matrix(distances: Any) -> Any:
 
 def metrics(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERANCE, ground_truth: Truth = None,
             matcher: str | MatcherSpec = DEFAULT_MATCHER, settings: Mapping[str, Any] | None = None,
-            predictor: SMRPredictor | None = None, modes: Sequence[str] = MODES) -> SplitMetrics:
+            predictor: SMRPredictor | None = None, modes: Sequence[str] = MODES,
+            allow_split_overlap: bool = False) -> SplitMetrics:
     """The standard VPR metrics of one matrix, as ``vpr-smr metrics`` computes them.
 
     Recall@N (N = 1, 5, 10, 20), recall at 100 % precision, the area under the PR curve and extended precision of
@@ -192,8 +202,11 @@ def metrics(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERANCE,
         matcher: the sequence matcher's name (``vpr-smr matchers`` lists them) or its spec.
         settings: the matcher's settings (missing ones at their defaults).
         predictor: a trained predictor (:func:`train`, :func:`load_predictor`): adds ``sequence_predictor``; one
-            loaded from a file of another matcher is refused.
+            of another matcher or sequence length is refused, and so is one trained on this matrix or a block
+            overlapping it.
         modes: the metric modes, ``paper`` and/or ``standard``.
+        allow_split_overlap: score a predictor on a matrix that shares entries with its training matrices (a
+            deliberate experiment; its scores are then measured on its own training data).
 
     Returns:
         The split's metrics, ``result.modes[mode][matcher]`` a record with ``recall_at`` (N to recall@N),
@@ -201,13 +214,19 @@ def metrics(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERANCE,
 
     Raises:
         ValueError: a matrix too short for ``seq_len``, a ground truth of another shape, an unknown matcher,
-            setting or mode; the message names it and the fix.
+            setting or mode, a predictor of another matcher or length; the message names it and the fix.
+        SplitLeakError: (a ValueError) a predictor trained on this matrix or an overlapping block, unless
+            ``allow_split_overlap``.
     """
     matrix = _matrix(distances)
     truth = _truth(tuple(matrix.shape), ground_truth, tolerance)
     spec = _spec(matcher, settings)
-    if predictor is not None:  # a loaded one of another matcher is refused, as the CLI refuses it
+    if predictor is not None:  # one of another matcher, length or of this matrix is refused, as the CLI refuses it
         check_matching(predictor, Matching.of(spec, truth.kind), "metrics' matches")
+        check_length(predictor, seq_len, f"seq_len={seq_len}", "seq_len=")
+        training = getattr(predictor, "training_", None)
+        if training is not None:
+            check_matrices(matrix_overlaps(training, "distances", matrix=matrix), allow_split_overlap)
     return score_split(matrix, seq_len, tolerance, predictor, tuple(modes), matcher=spec, ground_truth=truth).metrics
 
 
@@ -260,7 +279,8 @@ def attributes(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERAN
         The features of the evaluated queries, ``queries``, ``attributes`` (``N x K x 4``, A1..A4 of each rank;
         rank 0 is the match's), ``labels`` (0: correct before and after sequence matching, 1: before only, 2: after
         only, 3: neither), ``single_match``, ``sequence_match``, ``sequence_distance`` and their correctness; NumPy
-        arrays (``dataclasses.asdict`` gives them by name).
+        arrays (``dataclasses.asdict`` gives them by name). Also ``seq_len`` and ``matrix`` (the matrix's SHA-256
+        and content fingerprint), which a predictor trained on them records.
 
     Raises:
         ValueError: a matrix too short for ``seq_len``, a ground truth of another shape, an unknown matcher or
@@ -271,7 +291,7 @@ def attributes(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERAN
     if candidates < 0:
         raise ValueError(f"candidates: a number of candidates per query >= 0, got {candidates}")
     return query_features(matrix, seq_len, tolerance, matcher=_spec(matcher, settings), ground_truth=truth,
-                          n_candidates=candidates)
+                          n_candidates=candidates, fingerprint=True)
 
 
 # --- the predictor ----------------------------------------------------------------------------------------------
@@ -290,11 +310,12 @@ def train(features: QueryFeatures | Sequence[QueryFeatures], *, seed: int = 0,
         settings: the predictor's settings (``configuration.md``, ``predictor``; missing ones at their defaults).
 
     Returns:
-        The trained predictor (scikit-learn style, with ``predict_proba`` and ``classes_``).
+        The trained predictor (scikit-learn style, with ``predict_proba`` and ``classes_``), recording the sequence
+        length and the matrices of its features (``training_``), which :func:`save_predictor` writes.
 
     Raises:
-        ValueError: an unknown or invalid setting, a negative seed, or labels it cannot be trained on (too few of a
-            class); the message says why and the fix.
+        ValueError: an unknown or invalid setting, a negative seed, features of several sequence lengths, or labels
+            it cannot be trained on (too few of a class); the message says why and the fix.
     """
     pooled = [features] if isinstance(features, QueryFeatures) else list(features)
     if not pooled:
@@ -304,35 +325,47 @@ def train(features: QueryFeatures | Sequence[QueryFeatures], *, seed: int = 0,
     values = dict(settings or {})
     parse(PredictorSettings, values, "settings")
     params = predictor_params(values)
+    training = Training.of(pooled)
     x, y = rank0(pooled)
     check_trainable(y, params, [seed], "features")
     predictor, _ = train_seed(x, y, params, seed, cross_validate=False)
+    predictor.training_, predictor.seq_len_ = training, training.seq_len
     return predictor
 
 
-def predict(predictor: SMRPredictor, features: QueryFeatures) -> Prediction:
+def predict(predictor: SMRPredictor, features: QueryFeatures, *, allow_split_overlap: bool = False) -> Prediction:
     """Apply a predictor to a split's features: which sequence matches it keeps.
 
     Args:
         predictor: a trained predictor (:func:`train`).
         features: the split's features (:func:`attributes`), of another split than its training one.
+        allow_split_overlap: apply it to features of a matrix that shares entries with its training matrices (a
+            deliberate experiment).
 
     Returns:
         Its decision per evaluated query, ``predicted`` (the class), ``probability`` (that class's), and the
         property ``kept`` (True where the match is kept: class 0 or 2); NumPy arrays.
+
+    Raises:
+        ValueError: features of another sequence length than the predictor's, or (``SplitLeakError``) of a matrix
+            it was trained on or a block overlapping one, unless ``allow_split_overlap``.
     """
+    check_scored(predictor, {"features": features}, allow_split_overlap, fix="features of seq_len=")
     return Prediction.of(predictor, features)
 
 
 def save_predictor(predictor: SMRPredictor, path: Path | str, *, matcher: str | MatcherSpec = DEFAULT_MATCHER,
-                   settings: Mapping[str, Any] | None = None, ground_truth: Truth = None) -> None:
+                   settings: Mapping[str, Any] | None = None, ground_truth: Truth = None,
+                   seq_len: int | None = None, methods: Sequence[str] = ()) -> None:
     """Write a trained predictor to an HDF5 file that the command line and the live API read (``vpr-smr metrics
     --predictor``, ``LiveMatcher``), recording what its training attributes were made with.
 
-    A predictor's classes describe one matcher's matches, so the file records the matcher and the kind of ground
-    truth of the attributes it was trained on (give the ``matcher``, ``settings`` and ``ground_truth`` that
-    :func:`attributes` was given); the stages that apply it refuse it with another matcher. The file is written
-    under a temporary name and renamed, so an interrupted write leaves no file.
+    A predictor's classes describe one matcher's matches of one length, so the file records the matcher and the
+    kind of ground truth of the attributes it was trained on (give the ``matcher``, ``settings`` and
+    ``ground_truth`` that :func:`attributes` was given), their sequence length and the SHA-256 and fingerprint of
+    their matrices (from :func:`train`); the stages that apply it refuse it with another matcher or length, and on
+    a matrix it was trained on or a block overlapping one. The file is written under a temporary name and renamed,
+    so an interrupted write leaves no file.
 
     Args:
         predictor: a trained predictor (:func:`train`).
@@ -341,12 +374,26 @@ def save_predictor(predictor: SMRPredictor, path: Path | str, *, matcher: str | 
         settings: that matcher's settings (missing ones at their defaults).
         ground_truth: the ground truth its training attributes were labelled with (None: frames within a
             tolerance; a boolean array: a matrix; a :class:`~vpr_smr.eval.matching.ground_truth.GroundTruth`: its kind).
+        seq_len: the sequence length of its training attributes: needed only for a predictor that does not know it
+            (not trained by :func:`train`, or loaded from a file that records none); refused when it differs.
+        methods: the names of the methods (descriptors) of its training attributes, recorded for the reader.
 
     Raises:
-        ValueError: an unknown matcher or setting, or a predictor that is not trained.
+        ValueError: an unknown matcher or setting, a predictor that is not trained, or a length unknown or other
+            than the predictor's.
     """
     kind = FRAMES if ground_truth is None else ground_truth.kind if isinstance(ground_truth, GroundTruth) else MATRIX
-    predictor.save(path, Matching.of(_spec(matcher, settings), kind))
+    training = getattr(predictor, "training_", None) or Training()
+    if seq_len is not None and training.seq_len is not None and seq_len != training.seq_len:
+        raise ValueError(f"seq_len: the predictor was trained on features of L = {training.seq_len}, not {seq_len}: "
+                         "leave seq_len out, or give the length of its training attributes")
+    length = training.seq_len if training.seq_len is not None else seq_len
+    if length is None:
+        raise ValueError("seq_len: the predictor does not record the sequence length of its training attributes "
+                         "(it was not trained by smr.train): give save_predictor(..., seq_len=L), the seq_len its "
+                         "attributes were computed with")
+    training = replace(training, seq_len=int(length), methods=tuple(methods) or training.methods)
+    predictor.save(path, Matching.of(_spec(matcher, settings), kind), training)
 
 
 def load_predictor(path: Path | str) -> SMRPredictor:
@@ -356,8 +403,9 @@ def load_predictor(path: Path | str) -> SMRPredictor:
         path: the predictor file (``.h5``).
 
     Returns:
-        The predictor, recording the matcher it was trained with (``matching_``; the functions that apply it with
-        another matcher refuse it) and, for a file of ``vpr-smr train``, its sequence length (``seq_len_``).
+        The predictor, recording the matcher it was trained with (``matching_``) and what it was trained on
+        (``training_``: its sequence length, also ``seq_len_``, methods, frames and matrices); the functions that
+        apply it with another matcher or length, or to its training matrices, refuse it.
 
     Raises:
         FileNotFoundError: no such file.
@@ -367,7 +415,7 @@ def load_predictor(path: Path | str) -> SMRPredictor:
 
 def evaluate(features: QueryFeatures, predictors: SMRPredictor | Sequence[SMRPredictor], *,
              modes: Sequence[str] = MODES, trust_levels: Sequence[float] = DEFAULT_TRUST_LEVELS,
-             restoration: bool = False) -> EvaluationSplit:
+             restoration: bool = False, allow_split_overlap: bool = False) -> EvaluationSplit:
     """Match removal by the predictor against sequence matching alone, as ``vpr-smr evaluate`` scores a split.
 
     Args:
@@ -376,6 +424,8 @@ def evaluate(features: QueryFeatures, predictors: SMRPredictor | Sequence[SMRPre
         modes: the metric modes, ``paper`` and/or ``standard``.
         trust_levels: the trust levels of the trust-level ablation (empty: none).
         restoration: also restore removed matches from the next ranks (method §9).
+        allow_split_overlap: score predictors on features of a matrix that shares entries with their training
+            matrices (a deliberate experiment).
 
     Returns:
         The split's numbers, ``modes[mode].reduction`` holding the AOC of VPR+SM and of VPR+SM+Pred
@@ -383,11 +433,14 @@ def evaluate(features: QueryFeatures, predictors: SMRPredictor | Sequence[SMRPre
         the precision-recall curves; ``f1_macro``, ``removed``, ``seed_summary`` over the seeds.
 
     Raises:
-        ValueError: an unknown mode.
+        ValueError: an unknown mode, a predictor of another sequence length than the features', or
+            (``SplitLeakError``) one trained on their matrix or a block overlapping it, unless ``allow_split_overlap``.
     """
     unknown = [mode for mode in modes if mode not in MODES]
     if unknown:
         raise ValueError(f"modes: unknown metric modes {unknown}; choose from {', '.join(MODES)}")
+    for predictor in [predictors] if isinstance(predictors, SMRPredictor) else predictors:
+        check_scored(predictor, {"features": features}, allow_split_overlap, fix="features of seq_len=")
     split, _ = evaluate_split(features, predictors, tuple(modes), tuple(trust_levels), restoration)
     return split
 
@@ -432,7 +485,7 @@ def scores(features: QueryFeatures, *, settings: Mapping[str, Any] | None = None
 
 def baselines(features: QueryFeatures, *, predictors: Sequence[SMRPredictor] = (),
               settings: Mapping[str, Any] | None = None, ground_truth: GroundTruth | None = None,
-              modes: Sequence[str] = MODES) -> SplitBaselines:
+              modes: Sequence[str] = MODES, allow_split_overlap: bool = False) -> SplitBaselines:
     """The training-free scorers against the predictor, as ``vpr-smr baselines``: how well each detects the wrong
     matches, and with predictors each one's removal of as many matches as each predictor seed removes.
 
@@ -442,17 +495,23 @@ def baselines(features: QueryFeatures, *, predictors: Sequence[SMRPredictor] = (
         settings: the scorers' settings ``r_window`` and ``spread_k`` (missing ones at their defaults).
         ground_truth: the ground truth of a dataset with positions (``spread`` measures them); None: frame indices.
         modes: the metric modes of the removal.
+        allow_split_overlap: score predictors on features of a matrix that shares entries with their training
+            matrices (a deliberate experiment).
 
     Returns:
         The split's record, ``detection[name]`` (average precision and ROC AUC of finding the wrong matches), and
         with predictors ``removal`` (per seed: per scorer its AOC reduction at the seed's budget).
 
     Raises:
-        ValueError: features without enough candidates for the settings, an invalid setting or an unknown mode.
+        ValueError: features without enough candidates for the settings, an invalid setting or an unknown mode, a
+            predictor of another sequence length, or (``SplitLeakError``) one trained on their matrix or a block
+            overlapping it, unless ``allow_split_overlap``.
     """
     unknown = [mode for mode in modes if mode not in MODES]
     if unknown:
         raise ValueError(f"modes: unknown metric modes {unknown}; choose from {', '.join(MODES)}")
+    for predictor in predictors:
+        check_scored(predictor, {"features": features}, allow_split_overlap, fix="features of seq_len=")
     chosen, positions = _scorer_inputs(features, settings, ground_truth)
     rank0_attributes = features.attributes[:, 0, :]
     found = [scoring.Prediction(seed, predictor.predict_proba(rank0_attributes), predictor.classes_)

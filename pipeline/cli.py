@@ -540,7 +540,8 @@ def _required(parser: argparse.ArgumentParser, *options: str) -> None:
 
 def _allow_overlap(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--allow-split-overlap", action="store_true",
-                        help="let a predictor score frames of its training split (a deliberate experiment)")
+                        help="let a predictor score frames or matrices it was trained on, or blocks overlapping "
+                        "them (a deliberate experiment)")
 
 
 def _matcher_options(parser: argparse.ArgumentParser, matcher: str) -> None:

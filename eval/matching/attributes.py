@@ -26,6 +26,7 @@ from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path,
 from vpr_smr.core.records import Record
 from vpr_smr.eval.matching.checks import check_size, stage_check, warn_if_tied
 from vpr_smr.eval.matching.features import split_features
+from vpr_smr.eval.matching.fingerprint import MatrixPrint, matrix_print
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import (
@@ -54,6 +55,8 @@ CANDIDATE_FIELDS = ("sequence_candidates", "sequence_candidate_references", "sin
 # every array a file may lack: the candidates, and the native confidence (absent where the matcher names a scorer)
 OPTIONAL_FIELDS = (*CANDIDATE_FIELDS, "sequence_native")
 NATIVE_SCORER = "native_scorer"  # QueryFeatures' one field that no file stores (the recorded matcher's)
+MATRIX_PRINT = "distances_print"  # the attribute of a features file holding its matrix's ``MatrixPrint``
+NOT_DATASETS = (NATIVE_SCORER, "seq_len", "matrix")  # QueryFeatures' fields that are no dataset of its file
 
 
 @dataclass(frozen=True)
@@ -93,6 +96,10 @@ class QueryFeatures:
     # the matcher it records; features built without a matcher are the default matcher's.
     sequence_native: np.ndarray | None = None  # (N,) float64
     native_scorer: str | None = field(default_factory=lambda: matcher_class(DEFAULT_MATCHER).native_scorer)
+    # What they were computed from, for a predictor trained on them (``leakage.Training``): the sequence length and
+    # the matrix's identity (``fingerprint.matrix_print``; None unless asked for: a pass over the matrix)
+    seq_len: int | None = None
+    matrix: MatrixPrint | None = None
 
     @property
     def n_candidates(self) -> int:
@@ -118,6 +125,7 @@ def query_features(
     matcher: MatcherSpec | Matcher | None = None,
     ground_truth: GroundTruth | None = None,
     n_candidates: int = 0,
+    fingerprint: bool = False,
 ) -> QueryFeatures:
     """Sequence matching, attributes and labels of one split's ``R x Q`` distance matrix.
 
@@ -128,6 +136,8 @@ def query_features(
     default ``seqslam`` with velocities [1.0], the fixed matcher of method §4).
     ``ground_truth``: which matches are correct (default: frame-aligned within ``tolerance``, method §1).
     ``n_candidates``: also the training-free scorers' candidates (``core.constants.candidates_needed``; 0: none).
+    ``fingerprint``: also the matrix's identity (``fingerprint.matrix_print``), which a predictor trained on these
+    features records.
     """
     built = built_matcher(matcher, seq_len)
     matrix = as_matrix(distance_matrix)
@@ -156,6 +166,8 @@ def query_features(
                                    result["window_single_match"]])),
         **{name: result[name] for name in OPTIONAL_FIELDS if name in result},
         native_scorer=built.native_scorer,
+        seq_len=seq_len,
+        matrix=matrix_print(matrix) if fingerprint else None,
     )
 
 
@@ -184,11 +196,13 @@ def verdicts(truth: GroundTruth, queries: np.ndarray, single_match: np.ndarray, 
 
 def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:
     """Every array of ``features`` as a dataset of its name; the candidates and the native confidence only when
-    computed (``native_scorer`` is the recorded matcher's, ``provenance["matcher"]``)."""
-    with atomic_h5(path, provenance) as f:
+    computed (``native_scorer`` is the recorded matcher's, ``provenance["matcher"]``); the length and the matrix's
+    identity as attributes."""
+    own = {"seq_len": features.seq_len, MATRIX_PRINT: None if features.matrix is None else features.matrix.to_json()}
+    with atomic_h5(path, {**provenance, **{k: v for k, v in own.items() if v is not None}}) as f:
         for item in fields(QueryFeatures):
             value = getattr(features, item.name)
-            if value is not None and item.name != NATIVE_SCORER:
+            if value is not None and item.name not in NOT_DATASETS:
                 f[item.name] = value
 
 
@@ -196,15 +210,20 @@ def read_features(path: Path | str) -> QueryFeatures:
     """The features ``write_features`` wrote; a file without the candidates (computed without them, or before
     they existed) reads with them None, one without ``sequence_native`` (a matcher that names its native scorer,
     or a file written before it was stored) with it None. ``native_scorer``: that of the matcher the file records
-    (``recorded_matcher``)."""
+    (``recorded_matcher``); ``seq_len`` and ``matrix`` those the file records (None where it records none)."""
     with h5py.File(path, "r") as f:
-        values = {item.name: f[item.name][()] for item in fields(QueryFeatures)
-                  if item.name != NATIVE_SCORER and (item.name in f or item.name not in OPTIONAL_FIELDS)}
+        values: dict[str, Any] = {
+            item.name: f[item.name][()] for item in fields(QueryFeatures)
+            if item.name not in NOT_DATASETS and (item.name in f or item.name not in OPTIONAL_FIELDS)}
     values["sequence_min"] = float(values["sequence_min"])
     values["sequence_max"] = float(values["sequence_max"])
+    provenance = read_provenance(path)
+    values["seq_len"] = None if provenance.get("seq_len") is None else int(provenance["seq_len"])
+    stored = provenance.get(MATRIX_PRINT)
+    values["matrix"] = None if stored is None else MatrixPrint.from_json(stored)
     if "sequence_native" in values:  # the matcher's own numbers: it names no scorer
         return QueryFeatures(**values, native_scorer=None)
-    spec = recorded_matcher(read_provenance(path), str(path))
+    spec = recorded_matcher(provenance, str(path))
     return QueryFeatures(**values, native_scorer=matcher_class(spec.name).native_scorer)
 
 
@@ -260,8 +279,9 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
         warn_if_similar(distances, matrix, truth, similarity)
         warn_if_tied(str(distances), matrix)
         try:
+            hdf5 = out.suffix.lower() not in CSV_SUFFIXES
             features = query_features(matrix, seq_len, tolerance, matcher=built, ground_truth=truth,
-                                      n_candidates=n_candidates if out.suffix.lower() not in CSV_SUFFIXES else 0)
+                                      n_candidates=n_candidates if hdf5 else 0, fingerprint=hdf5)
         except ValueError as error:
             raise ValueError(f"{distances}: {error}") from None
     seconds = time.perf_counter() - start
@@ -416,6 +436,25 @@ def check_matching(predictor: Any, matching: Matching, where: str, ground_truth:
         raise ValueError(f"{predictor.path_} was trained on attributes of the matcher {trained.matcher}, but it is "
                          f"applied to {where}, of the matcher {matching.matcher}: give it the matcher the predictor "
                          f"was trained with ({trained.matcher}), or train one for this one")
+
+
+def check_length(predictor: Any, seq_len: int, where: str, fix: str) -> None:
+    """Raise ValueError when a predictor was trained at another sequence length (``seq_len_``: a loaded file's, or
+    the Python API's ``train``'s) than ``seq_len``, at which ``where`` applies it; ``fix``: how to give its length
+    instead. A file that records none (saved by the Python API of 0.14 or before) is applied with a warning that
+    says so, naming the fix (its classes describe matches of one length); a predictor fitted by hand passes."""
+    trained = getattr(predictor, "seq_len_", None)
+    name = getattr(predictor, "path_", "the predictor")
+    if trained is None:
+        if hasattr(predictor, "path_"):
+            log.warning("%s records no sequence length (saved by the Python API of vpr-smr 0.14 or before), so it "
+                        "cannot be checked against L = %d (%s): if it was trained at another length its decisions "
+                        "mean nothing; save it again with save_predictor(..., seq_len=L), L the length of its "
+                        "training attributes, or train it again", name, seq_len, where)
+        return
+    if int(trained) != seq_len:
+        raise ValueError(f"{name} was trained at sequence length {trained}, but it is applied at L = {seq_len} "
+                         f"({where}): give the predictor trained at L = {seq_len}, or {fix} {trained}")
 
 
 def check_matcher(paths: Sequence[Path | str], matcher: MatcherSpec, radius: float | None,

@@ -45,7 +45,7 @@ import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_R_WINDOW, KEPT_CLASSES, candidates_needed, half_window
 from vpr_smr.eval.matching.adaptive import NONE, first_accepted
-from vpr_smr.eval.matching.attributes import Matching, built_matcher, check_matching
+from vpr_smr.eval.matching.attributes import Matching, built_matcher, check_length, check_matching
 from vpr_smr.eval.matching.checks import check_finite
 from vpr_smr.eval.matching.confidence import uniqueness
 from vpr_smr.eval.matching.distances import distance_columns, prepare_references
@@ -112,11 +112,9 @@ class LiveMatcher:
 
     @predictor.setter
     def predictor(self, predictor: Any) -> None:
-        trained = getattr(predictor, "seq_len_", None)  # a loaded predictor's length (SMRPredictor.load)
-        if trained is not None and trained != self.seq_len:
-            raise ValueError(f"{getattr(predictor, 'path_', 'the predictor')} was trained at sequence length "
-                             f"{trained}, but this LiveMatcher matches {self.seq_len} frames: give the predictor "
-                             f"trained at L = {self.seq_len}")
+        if predictor is not None:  # a loaded one's length (SMRPredictor.load), or the Python API's train's
+            check_length(predictor, self.seq_len, f"this LiveMatcher matches {self.seq_len} frames",
+                         "a LiveMatcher of L =")
         if predictor is not None and hasattr(predictor, "path_"):  # its attributes must be this matcher's (live
             # frames have no ground truth); a predictor fitted in this process records no matcher to compare
             if self.spec is None:

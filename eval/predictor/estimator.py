@@ -40,6 +40,7 @@ from vpr_smr.eval.predictor.defaults import (
     MIN_VALIDATION,
     VALIDATION_FRACTION,
 )
+from vpr_smr.eval.predictor.leakage import Training, read_training, training_attrs
 
 log = logging.getLogger(__name__)
 
@@ -262,10 +263,13 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
         predicted: np.ndarray = self.classes_[np.argmax(self.predict_proba(features), axis=1)]
         return predicted
 
-    def save(self, path: Path | str, matching: Matching | None = None, **attrs: Any) -> None:
+    def save(self, path: Path | str, matching: Matching | None = None, training: Training | None = None,
+             **attrs: Any) -> None:
         """Write the parameters and fitted arrays to HDF5 (temporary name, then rename); ``matching``: the
         sequence matcher and ground truth of the attributes it was trained on (``check_matching``; without it
-        the stages that apply a predictor refuse the file); ``attrs`` as attributes."""
+        the stages that apply a predictor refuse the file); ``training``: its length, methods, frames and matrices
+        (``leakage.Training``; default its ``training_``, which the Python API's ``train`` records; without a
+        length the stages that apply it refuse the file); ``attrs`` as attributes."""
         from vpr_smr.core.io import atomic_h5
 
         check_is_fitted(self, "coefs_")
@@ -273,6 +277,9 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
             raise ValueError(f"cannot save {path}: the predictor's classes must be integers, got {self.classes_}")
         provenance = {**attrs, "params": self.get_params(), "n_iter": self.n_iter_,
                       "n_features_in": int(self.n_features_in_)}
+        training = training if training is not None else getattr(self, "training_", None)
+        if training is not None:
+            provenance.update(training_attrs(training))
         if matching is not None:
             provenance[MATCHING] = matching.to_json()
             provenance["matcher"] = matching.matcher.provenance()
@@ -308,10 +315,9 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
             stored = f.attrs.get(MATCHING)
             # None: a file from before predictors recorded their matching (check_matching refuses to guess)
             predictor.matching_ = None if stored is None else Matching.from_json(json.loads(stored))
-            # the sequence length it was trained at (its report's meta; None: a file that records none)
-            report = json.loads(f.attrs["report"]) if "report" in f.attrs else {}
-            length = report.get("meta", {}).get("seq_len") if isinstance(report, dict) else None
-            predictor.seq_len_ = None if length is None else int(length)
+            # its length, methods, frames and matrices (leakage.check_length, check_disjoint, check_matrices)
+            predictor.training_ = read_training(f.attrs, str(path))
+            predictor.seq_len_ = predictor.training_.seq_len
             predictor.path_ = str(path)
         return predictor
 

@@ -1,20 +1,45 @@
-"""A predictor never scores the frames it was trained on: the frame ranges of the files it learnt from (kept in
-its own file) against those of every file it scores, read from the files' provenance.
+"""What a predictor was trained on, and the checks that it never scores its own training data.
 
-The workflow cannot produce such a pair unless the configuration allows overlapping splits; the stages check
+``Training`` is a predictor file's record of its training data: the sequence length, the methods, the frame ranges
+of the files it learnt from (a dataset's splits) and the identity of each training matrix
+(``fingerprint.MatrixPrint``: its SHA-256 and content fingerprint, which catches a user's matrix or a block cut
+from it). ``training_attrs`` writes it and ``read_training`` reads it, the one place of its keys. A stage that
+applies a predictor checks the length (``attributes.check_length``), the frames (``check_disjoint``) and the matrices
+(``check_matrices``) of what it scores.
+
+The workflow cannot produce an overlapping pair unless the configuration allows overlapping splits; the stages check
 anyway, so that a hand-run stage or a file from another run cannot leak either.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+import json
+import logging
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from vpr_smr.core.io import read_provenance
 from vpr_smr.core.records import FORMAT, Record, decode
+from vpr_smr.eval.matching.attributes import QueryFeatures, check_length
+from vpr_smr.eval.matching.fingerprint import MatrixPrint, found_anchors
 
-TRAINED_ON = "trained_on_frames"  # the predictor file's attribute: the frame ranges it was trained on
+log = logging.getLogger("vpr_smr")
+
+# the predictor file's attributes: the frame ranges, sequence length, methods and matrices it was trained on
+TRAINED_ON = "trained_on_frames"
+SEQ_LEN = "seq_len"
+METHODS = "methods"
+MATRICES = "trained_on_matrices"
+# shared anchors that mean shared entries: one alone may be two equal patches by chance (a matrix of few distinct
+# values, e.g. clipped distances), while a shared region of a entries shares about a / modulus
+MIN_SHARED = 3
+OVERLAP_FIX = ("score it on data it was not trained on (blocks cut from one matrix must not overlap), or allow it "
+               "for a deliberate experiment (allow_split_overlap: true, --allow-split-overlap, or the Python API's "
+               "allow_split_overlap=True)")
 
 
 class SplitLeakError(ValueError):
@@ -64,6 +89,116 @@ class FrameRange(Record):
                 f"[{self.reference[0]}, {self.reference[1]}))")
 
 
+@dataclass(frozen=True)
+class Training(Record):
+    """What a predictor was trained on: its sequence length (None: a file that records none, written before
+    0.15.0 by the Python API), the methods (a dataset's, or the attributes files' names), the frame ranges and the
+    training matrices."""
+
+    seq_len: int | None = None
+    methods: tuple[str, ...] = ()
+    frames: tuple[FrameRange, ...] = ()
+    matrices: tuple[MatrixPrint, ...] = ()
+
+    @classmethod
+    def of(cls, features: Sequence[QueryFeatures], methods: Sequence[str] = (),
+           frames: Sequence[FrameRange] = ()) -> Training:
+        """The training record of features pooled in memory or read from files: their one sequence length
+        (ValueError naming both when two differ) and their matrices' prints (those recorded)."""
+        lengths = sorted({f.seq_len for f in features if f.seq_len is not None})
+        if len(lengths) > 1:
+            raise ValueError(f"the training features are of the sequence lengths {lengths}: a predictor learns the "
+                             "matches of one length; give features computed at one seq_len")
+        prints = tuple(dict.fromkeys(f.matrix for f in features if f.matrix is not None))
+        return cls(lengths[0] if lengths else None, tuple(methods), tuple(frames), prints)
+
+
+def training_attrs(training: Training) -> dict[str, Any]:
+    """A predictor file's attributes of ``training`` (``read_training`` reads them back)."""
+    out: dict[str, Any] = {TRAINED_ON: [r.to_json() for r in training.frames], METHODS: list(training.methods),
+                           MATRICES: [m.to_json() for m in training.matrices]}
+    if training.seq_len is not None:
+        out[SEQ_LEN] = int(training.seq_len)
+    return out
+
+
+def read_training(attrs: Mapping[str, Any], where: str) -> Training:
+    """The ``Training`` of a predictor file's attributes (HDF5 ``attrs``: JSON text or numbers); a file from before
+    it recorded its length gives the length its training report's meta holds (``vpr-smr train``), else None."""
+    def value(key: str, default: Any) -> Any:
+        found = attrs.get(key)
+        if found is None:
+            return default
+        return json.loads(found) if isinstance(found, str | bytes) else found
+
+    def records(key: str, kind: Any) -> tuple[Any, ...]:
+        try:
+            return tuple(decode(list[kind], value(key, []), key))
+        except (KeyError, TypeError, ValueError) as error:
+            raise ValueError(f"{where}: its {key} are not in results format {FORMAT} ({error}): the predictor was "
+                             "trained by another vpr-smr; train it again with this version") from None
+
+    length = value(SEQ_LEN, None)
+    if length is None:
+        report = value("report", {})
+        meta = report.get("meta") if isinstance(report, dict) else None
+        length = meta.get("seq_len") if isinstance(meta, dict) else None
+    return Training(None if length is None else int(length), tuple(str(m) for m in value(METHODS, [])),
+                    records(TRAINED_ON, FrameRange), records(MATRICES, MatrixPrint))
+
+
+def matrix_overlaps(training: Training, name: str, scored: MatrixPrint | None = None, matrix: Any = None,
+                    predictor: str = "the predictor") -> list[str]:
+    """How the matrix ``name`` shares entries with a training matrix of ``training`` (empty: none): the same
+    matrix, or shared fingerprint anchors (overlapping blocks). ``matrix``: the scored values, every patch looked up
+    (``found_anchors``); else ``scored``, its print (the same SHA-256, or anchors at the coarser of the two rates)."""
+    found = []
+    for trained in training.matrices:
+        anchors = np.asarray(trained.anchors, np.uint64)
+        if matrix is not None:
+            shared = len(found_anchors(matrix, anchors))
+            same = shared == len(anchors) > 0 and tuple(matrix.shape) in (trained.shape, trained.shape[::-1])
+        elif scored is not None:
+            shared, same = trained.shared(scored), scored.sha256 == trained.sha256
+        else:
+            continue
+        if same:
+            found.append(f"{predictor} was trained on {trained}, and {name} is that matrix")
+        elif shared >= MIN_SHARED:
+            found.append(f"{predictor} was trained on {trained}, which shares entries with {name} ({shared} of the "
+                         f"{len(anchors)} fingerprint anchors of its training matrix): overlapping blocks")
+    return found
+
+
+def check_scored(predictor: Any, features: Mapping[str, QueryFeatures | None], allow_overlap: bool,
+                 seq_len: int | None = None, fix: str = "give attributes computed at L =") -> list[str]:
+    """Every check of a loaded or API-trained predictor (``training_``) against what a stage scores: the length
+    (``seq_len``, else each features' own; ``check_length``) and the matrices (``check_matrices``) of ``features``
+    (a name, e.g. its file, to the features, None where only ``seq_len`` is known). Returns the overlaps allowed."""
+    training: Training | None = getattr(predictor, "training_", None)
+    name = str(getattr(predictor, "path_", "the predictor"))
+    found: list[str] = []
+    for where, scored in features.items():
+        length = seq_len if seq_len is not None else None if scored is None else scored.seq_len
+        if length is not None:
+            check_length(predictor, length, where, fix)
+        if training is not None and scored is not None:
+            found += matrix_overlaps(training, where, scored.matrix, predictor=name)
+    return check_matrices(found, allow_overlap)
+
+
+def check_matrices(found: Sequence[str], allow_overlap: bool) -> list[str]:
+    """Raise ``SplitLeakError`` with the first of ``found`` (``matrix_overlaps``) unless ``allow_overlap``, else
+    log each as a warning; return them."""
+    if found and not allow_overlap:
+        raise SplitLeakError(f"{found[0]}: its scores there would be measured on its own training data. Fix: "
+                             f"{OVERLAP_FIX}")
+    for overlap in found:
+        log.warning("%s: its scores there are measured on its own training data (allowed: allow_split_overlap)",
+                    overlap)
+    return list(found)
+
+
 def frame_range(features: Path | str) -> FrameRange | None:
     """The split a features file covers, from its provenance (``split_range``: its queries, or its frames of both
     traverses; ``reference_range``: its references, when the distances stage was given them apart); None for a
@@ -85,11 +220,9 @@ def frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:
 def trained_on(predictor: Path | str) -> list[FrameRange]:
     """The frame ranges a predictor file was trained on (none recorded: an empty list); a file of another results
     format (an earlier layout of its ranges) raises a ValueError saying to train it again."""
-    try:
-        return decode(list[FrameRange], read_provenance(predictor).get(TRAINED_ON, []), TRAINED_ON)
-    except (KeyError, TypeError, ValueError) as error:
-        raise ValueError(f"{predictor}: its {TRAINED_ON} are not in results format {FORMAT} ({error}): the predictor "
-                         "was trained by another vpr-smr; train it again with this version") from None
+    attrs = {key: json.dumps(value) if isinstance(value, dict | list) else value
+             for key, value in read_provenance(predictor).items()}
+    return list(read_training(attrs, str(predictor)).frames)
 
 
 def check_disjoint(trained: Sequence[FrameRange], scored: Sequence[FrameRange], allow_overlap: bool,

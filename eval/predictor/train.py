@@ -12,6 +12,7 @@ import json
 import logging
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -21,13 +22,20 @@ from sklearn.utils import shuffle
 
 from vpr_smr.core import environment
 from vpr_smr.core.constants import LABELS
-from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix
+from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix, read_provenance
 from vpr_smr.core.paths import predictor_report_path, seed_predictor_path
 from vpr_smr.core.progress import write_progress
 from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import QueryFeatures, common_matching, read_features, recorded_matching
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
-from vpr_smr.eval.predictor.leakage import TRAINED_ON, check_disjoint, frame_ranges
+from vpr_smr.eval.predictor.leakage import (
+    FrameRange,
+    Training,
+    check_disjoint,
+    check_matrices,
+    frame_ranges,
+    matrix_overlaps,
+)
 from vpr_smr.eval.predictor.records import PredictorReport, SeedReport, SplitScores
 
 log = logging.getLogger(__name__)
@@ -35,16 +43,33 @@ log = logging.getLogger(__name__)
 SEEDED = ("random_state", "smote_random_state")  # the predictor's seeds that a training seed shifts
 
 
-def pooled(paths: Sequence[Path | str]) -> tuple[np.ndarray, np.ndarray]:
-    """Rank-0 attributes (A1..A4 columns) and labels of several feature files, stacked in the given order."""
+def read_all(paths: Sequence[Path | str]) -> list[QueryFeatures]:
+    """The features of several files, in the given order; errors name a missing file."""
     if not paths:
         raise ValueError("no features files given to pool (the train split or an evaluation split)")
-    parts = []
     for path in paths:
         if not Path(path).is_file():
             raise FileNotFoundError(f"features file not found: {path} (run vpr-smr attributes)")
-        parts.append(read_features(path))
-    return rank0(parts)
+    return [read_features(path) for path in paths]
+
+
+def pooled(paths: Sequence[Path | str]) -> tuple[np.ndarray, np.ndarray]:
+    """Rank-0 attributes (A1..A4 columns) and labels of several feature files, stacked in the given order."""
+    return rank0(read_all(paths))
+
+
+def training_record(paths: Sequence[Path | str], features: Sequence[QueryFeatures], meta: Mapping[str, Any],
+                    frames: Sequence[FrameRange]) -> Training:
+    """What a predictor trained on the features files ``paths`` records (``leakage.Training``): their length (or,
+    for files that record none, ``meta``'s), each file's method (its provenance's, else its name), their frame
+    ranges and matrices."""
+    methods = [str(read_provenance(path).get("method", Path(path).name)) for path in paths]
+    training = Training.of(features, list(dict.fromkeys(methods)), frames)
+    given = meta.get("seq_len")
+    if given is not None and training.seq_len is not None and int(given) != training.seq_len:
+        raise ValueError(f"the training attributes {', '.join(map(str, paths))} are of L = {training.seq_len}, but "
+                         f"the predictor is trained for L = {given}: give the attributes of L = {given}")
+    return training if training.seq_len is not None or given is None else replace(training, seq_len=int(given))
 
 
 def rank0(features: Sequence[QueryFeatures]) -> tuple[np.ndarray, np.ndarray]:
@@ -193,8 +218,8 @@ def main(
     ``seed_models`` (when several seeds): ``records.PredictorReport``, which is returned. The first predictor file
     holds it as its ``report``, the others a report of their own seed alone. Nothing is written until every seed has
     finished, so an interrupted training leaves no file. The evaluation splits may not share frames with ``train``
-    (``allow_split_overlap``: a deliberate experiment); each predictor file records the frame ranges it was trained
-    on, which every later stage checks.
+    (``allow_split_overlap``: a deliberate experiment); each predictor file records its sequence length, methods,
+    the frame ranges and the matrices it was trained on (``training_record``), which every later stage checks.
     """
     out = check_suffix(out, HDF5_SUFFIXES, "the predictor (HDF5; its report goes beside it as .json)")
     seeds = _seeds(seeds)
@@ -207,9 +232,15 @@ def main(
     # the labels it learns and is scored on must come from one matcher and one kind of ground truth, which its
     # files record for every stage that applies it
     matching = common_matching([*train, *scored])
-    x_train, y_train = pooled(train)
+    train_features = read_all(train)
+    training = training_record(train, train_features, meta or {}, trained)
+    x_train, y_train = rank0(train_features)
     check_trainable(y_train, params, seeds, describe(meta, len(train)))
-    evaluation = {name: pooled(paths) for name, paths in evaluate.items()}
+    scored_features = {name: read_all(paths) for name, paths in evaluate.items()}
+    check_matrices([found for name, paths in evaluate.items()
+                    for path, features in zip(paths, scored_features[name], strict=True)
+                    for found in matrix_overlaps(training, str(path), features.matrix)], allow_split_overlap)
+    evaluation = {name: rank0(features) for name, features in scored_features.items()}
     log.info("training on %d samples, class counts %s, seeds %s", len(y_train),
              np.bincount(y_train, minlength=len(LABELS)), seeds)
     # several seeds take about a minute each: a progress line per seed, which `vpr-smr run` shows for the job
@@ -236,6 +267,6 @@ def main(
     for i, ((predictor, numbers), path) in enumerate(zip(fitted, paths, strict=True)):
         # the first predictor keeps the whole report, the others a report of their own seed alone
         own = report if i == 0 else PredictorReport(report.meta, report.n_train, (numbers,))
-        predictor.save(path, matching, report=own.to_json(), **{TRAINED_ON: [r.to_json() for r in trained]})
+        predictor.save(path, matching, training, report=own.to_json())
     save(predictor_report_path(out), report)
     return report

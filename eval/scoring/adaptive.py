@@ -397,7 +397,7 @@ def main(
     from vpr_smr.eval.matching.attributes import check_matching, common_matching, read_features
     from vpr_smr.eval.matching.io import open_distance_matrix
     from vpr_smr.eval.predictor.estimator import SMRPredictor
-    from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
+    from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
     from vpr_smr.eval.scoring.baselines import check_candidates
     from vpr_smr.eval.scoring.matcher_comparison import shared_queries
     from vpr_smr.eval.scoring.scorers import DEFAULT_SETTINGS
@@ -449,6 +449,8 @@ def main(
         for length, path in files[split].items():
             features[split][length] = read_features(path)
             check_candidates(features[split][length], settings, path)
+            for model in models[length]:  # no matrix that shares entries with its training ones
+                check_scored(model, {path: features[split][length]}, allow_split_overlap)
     frames = {length: matching.matcher.build(length).score_frames for length in lengths}
 
     def cut(split: str) -> tuple[np.ndarray, list[Length]]:

@@ -17,7 +17,7 @@ from vpr_smr.eval.matching.attributes import Matching, check_matching, read_feat
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
 from vpr_smr.eval.predictor.estimator import SMRPredictor
-from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
+from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
 from vpr_smr.eval.scoring.baselines import (
     DEFAULT_SETTINGS,
     BaselineSettings,
@@ -83,6 +83,9 @@ def main(
         check_matching(models[-1], Matching.of(matcher.spec, matcher.kind),
                        "the attributes " + ", ".join(map(str, attribute_paths.values())))
     features = {split: read_features(path) for split, path in attribute_paths.items()}
+    for model in models:  # neither the attributes' matrices may share entries with its training ones
+        check_scored(model, {str(attribute_paths[split]): found for split, found in features.items()},
+                     allow_split_overlap, seq_len, "--seq-len")
     for split, path in attribute_paths.items():
         check_candidates(features[split], settings, str(path))
     splits = {}

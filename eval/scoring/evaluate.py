@@ -29,7 +29,7 @@ from vpr_smr.eval.matching.attributes import (
     recorded_matching,
 )
 from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
-from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
+from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
 from vpr_smr.eval.scoring.curves import (
     Comparison,
     Curve,
@@ -288,12 +288,16 @@ def main(
                        f"predictor {path}")
         predictors.append(SMRPredictor.load(path))
         check_matching(predictors[-1], matching, "the attributes " + ", ".join(map(str, features_paths.values())))
-    splits: dict[str, EvaluationSplit] = {}
-    timings: dict[str, SplitTiming] = {}
     for split, path in features_paths.items():
         if not Path(path).is_file():
             raise FileNotFoundError(f"features of split {split!r} not found: {path} (run vpr-smr attributes)")
-        features = read_features(path)
+    read = {split: read_features(path) for split, path in features_paths.items()}
+    for model in predictors:  # its length, and no matrix that shares entries with its training ones
+        check_scored(model, {str(features_paths[split]): found for split, found in read.items()}, allow_split_overlap)
+    splits: dict[str, EvaluationSplit] = {}
+    timings: dict[str, SplitTiming] = {}
+    for split, path in features_paths.items():
+        features = read[split]
         splits[split], predict_seconds = evaluate_split(features, predictors, tuple(modes), tuple(trust_levels),
                                                         restoration, seeds)
         # Timings change from run to run: they go in their own file, so that two runs give identical results.

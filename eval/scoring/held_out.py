@@ -11,7 +11,7 @@ from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
 from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import Matching, check_matching, read_features, recorded_matching
 from vpr_smr.eval.predictor.estimator import SMRPredictor
-from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
+from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
 from vpr_smr.eval.scoring.evaluate import removal
 from vpr_smr.eval.scoring.records import HeldOut, HeldOutPredictors, HeldOutScores
 
@@ -36,6 +36,7 @@ def main(
         check_disjoint(trained_on(path), frame_ranges([features]), allow_split_overlap, f"predictor {path}")
         predictor = SMRPredictor.load(path)
         check_matching(predictor, Matching.stored(features), str(features))
+        check_scored(predictor, {str(features): features_}, allow_split_overlap)
         scores[name] = HeldOutScores.of(str(path), removal(
             features_, predictor.predict_proba(features_.attributes[:, 0, :]), predictor.classes_, tuple(modes),
             curves=False, intervals=True))

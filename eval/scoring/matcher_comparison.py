@@ -356,7 +356,7 @@ def main(
     from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
     from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
     from vpr_smr.eval.predictor.estimator import SMRPredictor
-    from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges, trained_on
+    from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
     from vpr_smr.eval.scoring.baselines import check_candidates, spread_positions
     from vpr_smr.eval.scoring.scorers import DEFAULT_SETTINGS
 
@@ -393,6 +393,9 @@ def main(
                            f"the {tag} attributes " + ", ".join(paths))
         for split in splits:
             features[split][tag] = {method: read_features(path) for method, path in entry.attributes[split].items()}
+            for model in predictors[tag]:  # its length, and no matrix that shares entries with its training ones
+                check_scored(model, {path: features[split][tag][method]
+                                     for method, path in entry.attributes[split].items()}, allow_split_overlap)
             for method, path in entry.attributes[split].items():
                 if split == table_split:
                     check_candidates(features[split][tag][method], settings, path)

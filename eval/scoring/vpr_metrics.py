@@ -450,8 +450,7 @@ def _check_matrices(model: SMRPredictor, splits: Mapping[str, Path], allow_split
     for path in splits.values():
         with open_distance_matrix(path, similarity, key, transpose) as matrix:
             found += matrix_overlaps(model.training_, str(path), matrix=matrix, predictor=f"predictor {model.path_}")
-    for overlap in check_matrices(found, allow_split_overlap):
-        log.warning("%s (allowed: --allow-split-overlap)", overlap)
+    check_matrices(found, allow_split_overlap)
 
 
 @dataclass(frozen=True)

@@ -114,7 +114,7 @@ def test_the_attributes_file_keeps_the_candidates_and_every_array_it_held(tmp_pa
     old, new = read_features(tmp_path / "none.h5"), read_features(tmp_path / "kept.h5")
     assert old.n_candidates == 0 and all(getattr(old, name) is None for name in CANDIDATE_FIELDS)
     assert new.n_candidates == 12
-    expected = query_features(d, 3, n_candidates=12)
+    expected = query_features(d, 3, n_candidates=12, fingerprint=True)
     for field in fields(QueryFeatures):
         assert np.array_equal(getattr(new, field.name), getattr(expected, field.name)), field.name
     with pytest.raises(ValueError, match="--candidates is a number of candidates per query >= 0"):

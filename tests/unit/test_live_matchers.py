@@ -179,10 +179,11 @@ def test_a_loaded_predictor_of_another_length_is_refused(predictor_file):
     predictor = SMRPredictor.load(predictor_file)  # trained at L = 3 (its report says so)
     assert predictor.seq_len_ == 3
     LiveMatcher(3, predictor=predictor)
-    with pytest.raises(ValueError, match=r"L3.h5 was trained at sequence length 3, but this LiveMatcher matches 4 "
-                                         r"frames: give the predictor trained at L = 4"):
+    with pytest.raises(ValueError, match=r"L3.h5 was trained at sequence length 3, but it is applied at L = 4 \(this "
+                                         r"LiveMatcher matches 4 frames\): give the predictor trained at L = 4"):
         LiveMatcher(4, predictor=predictor)
-    with pytest.raises(ValueError, match=r"trained at sequence length 3, but this LiveMatcher matches 4 frames"):
+    with pytest.raises(ValueError, match=r"trained at sequence length 3, but it is applied at L = 4 \(this LiveMatcher "
+                                         r"matches 4 frames\)"):
         AdaptiveLiveMatcher((3, 4), [predictor, predictor])  # the same file given for both lengths
 
 

@@ -24,7 +24,8 @@ from vpr_smr.core.records import (
     save,
 )
 from vpr_smr.eval.matching.attributes import POSITIONS, Matching
-from vpr_smr.eval.predictor.leakage import TRAINED_ON, FrameRange, trained_on
+from vpr_smr.eval.matching.fingerprint import MatrixPrint
+from vpr_smr.eval.predictor.leakage import TRAINED_ON, FrameRange, Training, trained_on
 from vpr_smr.eval.predictor.records import (
     AttributeAblation,
     AttributeScores,
@@ -192,6 +193,9 @@ SAMPLES = {
     "PredictorReport": PREDICTOR, "PredictorReport, one seed": ONE_SEED, "AttributeScores": ATTRIBUTE_SCORES,
     "AttributeSplit": ATTRIBUTE_SCORES.splits["check"],
     "AttributeAblation": ABLATION, "FrameRange": FRAMES, "FrameRange, aligned": FrameRange("d", "test", 40, 80),
+    "MatrixPrint": MatrixPrint("ab" * 32, (5, 7), 2, (3, 2**64 - 1)),
+    "Training": Training(4, ("sad",), (FRAMES,), (MatrixPrint("cd" * 32, (9, 9), 1, ()),)),
+    "Training, unknown length": Training(),
     "SpeedScores": SPEED_SCORES, "SpeedMatcher": SPEED_MATCHER, "SpeedResult": SPEED,
     "Matching": Matching(seqslam(0.5, 1.0, 2.0), POSITIONS), "Matching, fixed": Matching(),
     "Detection": DETECTION, "Detection, undefined": NO_DETECTION, "ScorerRemoval": SCORER_REMOVAL,
