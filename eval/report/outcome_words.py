@@ -4,9 +4,10 @@ seed spread.
 
 The one rule for a direction word is ``curves.earned`` (in the scoring layer, so that the console's tables apply
 it too): ``curves.outcome`` names improved or worse by the sign of a point estimate; a table, console or sentence
-names that direction only where the estimate's interval over queries excludes 0 on the same side. Every row record
-takes its ``outcome`` through ``earned``, so every writer of a row (CSV, Markdown, LaTeX, the page, the console)
-shows the same word, and ``direction`` reads a row by the same rule.
+names that direction only where the estimate's interval over queries excludes 0 on the same side. The records
+(``records.Reduction``, ``TrustNumbers``: the JSON files) and every row record take their ``outcome`` through
+``earned``, so every writer (CSV, Markdown, LaTeX, the page, the console) shows the same word, and ``direction``
+reads a row, or a hand-made dict of one, by the same rule.
 
 The other functions read a Table I row (``table1.table1_rows``): ``outcome``, ``removed``, ``n_queries``, the AOCs
 and maximum recalls of ``Reduction``.
