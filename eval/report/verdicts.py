@@ -171,8 +171,7 @@ class Question:
 
 
 def _table(table_id: str, keys: Sequence[tuple[str, ...]], labels: Sequence[str],
-           label: Callable[[tuple[str, ...]], tuple[str, ...]], questions: Sequence[Question], caption: str
-           ) -> TableView | None:
+           label: Callable[[tuple[str, ...]], tuple[str, ...]], questions: Sequence[Question]) -> TableView | None:
     """A row per key, headed by its ``labels`` (a label the row above has already said left blank), a column per
     question that some row answers (a question no row answers is absent); a cell a row lacks is empty."""
     found = [(q, [q.cell(key) for key in keys]) for q in questions]
@@ -195,7 +194,7 @@ def _table(table_id: str, keys: Sequence[tuple[str, ...]], labels: Sequence[str]
             groups[-1] = (q.group, groups[-1][1] + 1)
         else:
             groups.append((q.group, 1))
-    return TableView(table_id, head, tuple(body), caption=caption, sortable=False, css="verdicts",
+    return TableView(table_id, head, tuple(body), sortable=False, css="verdicts",
                      groups=tuple(groups) if any(label for label, _ in groups) else ())
 
 
@@ -236,7 +235,7 @@ def predictor_table(table_id: str, mode: str, table1: Rows, baselines: Rows, det
         Question("detects wrong matches better?", "the predictor's average precision of detecting the wrong "
                  "matches minus the best training-free scorer's, its paired 95 % interval",
                  lambda k: detection_cell(by_detection[k]) if k in by_detection else None),
-    ), "The predictor, per method")
+    ))
 
 
 def matcher_table(table_id: str, mode: str, matchers: Rows, adaptive: Rows, order: Order) -> TableView | None:
@@ -270,7 +269,7 @@ def matcher_table(table_id: str, mode: str, matchers: Rows, adaptive: Rows, orde
                  "wrong matches minus the native confidence's, its paired 95 % interval",
                  lambda k: native_detection_cell(by_matcher[k]) if k in by_matcher else None, MATCHER_GROUP),
         *(rule(name) for name in rules),
-    ), "Per sequence matcher" + (" and length rule" if rules else ""))
+    ))
 
 
 def _queries(dataset: str, mode: str, split: str, tables: Mapping[str, Rows]) -> str:
@@ -284,11 +283,11 @@ def _queries(dataset: str, mode: str, split: str, tables: Mapping[str, Rows]) ->
         parts.append(f"{n} {split} queries")
     shared = _span([r.get("n_queries") for r in _where(tables.get("matchers", ()), dataset=dataset, mode=mode)])
     if shared and shared != n:
-        parts.append(f"per matcher the {shared} every matcher evaluates")
+        parts.append(f"{shared} that every matcher evaluates")
     lengths = _span([r.get("n_queries") for r in _where(tables.get("adaptive_seq_len", ()), dataset=dataset,
                                                           mode=mode)])
     if lengths and lengths not in (n, shared):
-        parts.append(f"per length rule the {lengths} every length evaluates")
+        parts.append(f"{lengths} that every length evaluates")
     return "; ".join(parts)
 
 

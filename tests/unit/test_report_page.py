@@ -98,7 +98,7 @@ def test_the_first_screen_answers_each_question_in_a_verdict_table(tmp_path):
     assert rows["hog"] == ["up|reduces 40.0 %|[20.0, 55.0]"]
     assert not any(word in rows["sad"][0] for word in DIRECTION_WORDS)
     # the only mode shown, said once; no other mode to fold
-    assert "<strong>paper mode</strong>" in first and "The same in" not in first
+    assert "<strong>Paper mode</strong>" in first and "The same in" not in first
     # the sentence of Table I follows the table, under its own heading
     assert first.index("verdicts-corridor-paper") < first.index('<h3 class="in-sentences">In sentences</h3>')
     assert len(re.findall(r"<li>corridor \(28 test queries, L = 4, paper mode\)", first)) == 1
@@ -180,8 +180,7 @@ def test_the_verdicts_per_matcher_and_length_rule_follow_their_intervals():
     standard = found[0].blocks[0]
     assert standard.title == "corridor"
     # the queries once: the table split's are unknown here (no Table I), the matchers' shared ones and the rules'
-    assert standard.queries == ("per matcher the 25 every matcher evaluates; per length rule the 24 every length "
-                                "evaluates")
+    assert standard.queries == "25 that every matcher evaluates; 24 that every length evaluates"
     (table,) = standard.tables
     assert [c.label for c in table.columns] == [
         "method", "matcher", "reduces the AOC?", "beats its own confidence?", "detects wrong matches better?",
