@@ -66,6 +66,7 @@ from vpr_smr.eval.matching.attributes import (
     Matching,
     QueryFeatures,
     built_matcher,
+    check_length,
     check_matcher,
     check_matching,
     check_seq_len,
@@ -90,7 +91,6 @@ from vpr_smr.eval.matching.matchers.base import Matcher
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import (
     check_disjoint,
-    check_length,
     check_matrices,
     frame_range,
     frame_ranges,
