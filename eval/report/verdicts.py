@@ -1,5 +1,5 @@
 """The report's first screen: per dataset and method, the answer to each question the run asked, in a word earned
-by its 95 % interval over queries, with the number and the interval beside it.
+by its 95 % interval over queries, with the number beside it and the interval under it.
 
 The questions are those of the run's tables: does the predictor reduce the AOC (Table I), does it beat the best
 training-free rule (``baselines``), does it detect wrong matches better (``wrong_match_detection``); per sequence
@@ -33,6 +33,7 @@ Rows = Sequence[Mapping[str, Any]]
 SHOWN_MODE = COMPARED_MODE
 HOLDS_0 = "holds 0"  # the word of a number whose interval contains 0: no direction
 NO_INTERVAL = "no interval"
+NO_DIRECTION = "no direction"  # an interval off 0 on the other side of the reduction's outcome
 
 
 @dataclass(frozen=True)
@@ -57,7 +58,7 @@ RULES_GROUP = "each length rule's AOC minus the best fixed length's"
 
 def _cell(word: str, number: str, interval: Interval | None, kind: str, fmt: str) -> Cell:
     """``reduces 40.0 %`` over ``[20.0, 55.0]``, ``holds 0: 3.2 %`` over ``[-40.0, 35.0]``."""
-    joint = ": " if word in (HOLDS_0, NO_INTERVAL) else " "
+    joint = ": " if word in (HOLDS_0, NO_INTERVAL, NO_DIRECTION) else " "
     return Cell(f"{word}{joint}{number}", kind=kind, detail="" if interval is None else bounds.bracket(interval, fmt))
 
 
@@ -85,8 +86,11 @@ def reduction_cell(row: Mapping[str, Any]) -> Cell:
         return _na(words.SHORT.get(str(row.get("outcome")), "no reduction"))
     if row.get("outcome") == UNCHANGED:
         return Cell(f"unchanged: {float(value):.1f} %", kind="hold")
-    sign = words.direction(row)
-    return _by_sign(sign, REDUCES, f"{float(value):.1f} %", bounds.of(row, names.REDUCTION), ".1f")
+    sign, interval = words.direction(row), bounds.of(row, names.REDUCTION)
+    number = f"{float(value):.1f} %"
+    if sign == 0 and interval is not None and interval.sign():  # the interval and the outcome disagree
+        return _cell(NO_DIRECTION, number, interval, "hold", ".1f")
+    return _by_sign(sign, REDUCES, number, interval, ".1f")
 
 
 def flipped(interval: Interval | None) -> Interval | None:

@@ -225,3 +225,6 @@ def test_a_verdict_names_a_degenerate_removal_and_an_equal_comparison():
     same = paired_cell(4.0, 4.0, Interval(0.0, 0.0), BEATS, ".1f")
     assert (same.text, same.kind) == ("equal on every draw", "hold")
     assert paired_cell(None, 4.0, Interval(-1.0, 1.0), BEATS, ".1f").kind == "na"
+    # an interval wholly below 0 beside an outcome of improved: no word of direction, and not "holds 0" either
+    odd = {"reduction_pct": 2.0, "outcome": "improved", "reduction_pct_ci_low": -5.0, "reduction_pct_ci_high": -1.0}
+    assert (reduction_cell(odd).text, reduction_cell(odd).detail) == ("no direction: 2.0 %", "[-5.0, -1.0]")
