@@ -218,6 +218,46 @@ class View(Protocol):
     def close(self, status: int) -> None: ...
 
 
+# Snakemake's reason for a job whose input file is newer than its outputs; it compares the contents only of inputs
+# under its checksum size (--max-checksum-file-size, 1 MB by default), whose checksums it recorded
+NEWER_INPUT = "Updated input files: "
+FOLLOWS = ("Input files updated by another job", "Forced execution")  # said by the other jobs' lines, or ours
+
+
+def why_jobs_run(lines: list[str]) -> list[str]:
+    """Why each job of a dry run's output (Snakemake's job blocks: ``rule NAME:`` then ``    reason: ...``) runs,
+    for the plan's reader: a count of the jobs whose outputs are missing, a line per job whose input is newer than
+    its outputs (file times, e.g. a copy that did not keep them) or with another reason of Snakemake's, naming its
+    first output; the target rule ``all``, the jobs that only read such jobs' outputs and those vpr-smr forces
+    (named before the run) are left out. Empty without a job block."""
+    jobs: list[tuple[str, str, str]] = []  # rule, first output, reason
+    rule = output = ""
+    for line in lines:
+        found = JOB_INFO.fullmatch(line.strip()) if not line.startswith(" ") else None
+        if found:
+            rule, output = found.group(1), ""
+            continue
+        field = FIELD.fullmatch(line)
+        if rule and field and field.group(1) == "output":
+            output = field.group(2).split(", ")[0]
+        elif rule and field and field.group(1) == "reason":
+            jobs.append((rule, output, field.group(2)))
+            rule = ""
+    shown = [(rule, output, reason) for rule, output, reason in jobs
+             if rule != "all" and not reason.startswith(FOLLOWS)]
+    missing = [job for job in shown if job[2].startswith("Missing output files")]
+    out = [f"  {len(missing)} job{'s' if len(missing) != 1 else ''}: outputs not there yet"] if missing else []
+    for rule, output, reason in shown:
+        if reason.startswith(NEWER_INPUT):
+            newer = reason[len(NEWER_INPUT):]
+            out.append(f"  {output} ({rule}): its input {newer} is newer than its outputs; Snakemake compares the "
+                       "contents only of inputs under 1 MB, so after a copy that did not keep file times (cp -r; cp -a "
+                       "keeps them) it reruns")
+        elif not reason.startswith("Missing output files"):
+            out.append(f"  {output} ({rule}): {reason}")
+    return ["", "Why they run:", *out] if out else []
+
+
 class DryRunView:
     """A dry run: Snakemake's table of jobs per rule; the end of its output when it fails."""
 
@@ -241,6 +281,7 @@ class DryRunView:
             start = self.lines.index("Job stats:")
             end = next((i for i, line in enumerate(self.lines[start:], start) if TOTAL.fullmatch(line)), start)
             print(*self.lines[start : end + 1], sep="\n", file=self.out)
+            print(*why_jobs_run(self.lines), sep="\n", file=self.out)
             print("This was a dry run; `vpr-smr run -n --verbose` lists every job and why it runs.", file=self.out)
         elif any(line.startswith(NOTHING_TO_DO) for line in self.lines):
             print(next(line for line in self.lines if line.startswith(NOTHING_TO_DO)), file=self.out)

@@ -205,3 +205,77 @@ def test_each_kind_of_fold_warning_gets_its_meaning():
     assert line.startswith("here, cross-validated on class counts 0: 4, 1: 3, 2: 3, 3: 0: class 1 has 3 samples for "
                            "4 folds, so 1 of the folds test without it")
     assert "its F1 there counts as 0" in line and line.count("before converging") == 1  # one phrase per kind
+
+
+# Snakemake 9's dry run of a copy made with `cp -r` (file times not kept; trimmed): a descriptors file over Snakemake's
+# 1 MB checksum size came out newer than the report's outputs
+COPIED_DRY_RUN = """\
+Building DAG of jobs...
+Job stats:
+job       count
+------  -------
+report        1
+all           1
+total         2
+
+[Mon Dec  7 16:44:01 2026]
+rule report:
+    input: results/r/evaluation/sample/sad/L3.json, results/r/descriptors/sample/hog.h5
+    output: results/r/tables/table1.csv, results/r/tables/table1.md
+    log: results/r/logs/report.log
+    jobid: 1
+    reason: Updated input files: results/r/descriptors/sample/hog.h5
+    resources: tmpdir=/tmp
+[Mon Dec  7 16:44:01 2026]
+localrule evaluate:
+    input: results/r/attributes/sample/sad/L3/val.h5
+    output: results/r/evaluation/sample/sad/L3.json, results/r/evaluation/sample/sad/L3.timing.json
+    jobid: 2
+    reason: Params have changed since last execution: ...
+[Mon Dec  7 16:44:01 2026]
+rule train:
+    output: results/r/predictors/sample/L3.h5
+    jobid: 3
+    reason: Forced execution
+[Mon Dec  7 16:44:01 2026]
+rule all:
+    input: results/r/tables/table1.csv, results/r/tables/table1.md
+    jobid: 0
+    reason: Input files updated by another job: results/r/tables/table1.csv
+    resources: tmpdir=/tmp
+Job stats:
+job       count
+------  -------
+report        1
+all           1
+total         2
+"""
+
+
+def test_a_dry_run_names_why_each_job_runs():
+    import io
+
+    from vpr_smr.pipeline.console import DryRunView
+
+    out, err = io.StringIO(), io.StringIO()
+    view = DryRunView(out, err)
+    for line in COPIED_DRY_RUN.splitlines(keepends=True):
+        view.feed(line)
+    view.close(0)
+    shown = out.getvalue().splitlines()
+    why = shown[shown.index("Why they run:") + 1 : -1]
+    assert why == [
+        "  results/r/tables/table1.csv (report): its input results/r/descriptors/sample/hog.h5 is newer than its "
+        "outputs; Snakemake compares the contents only of inputs under 1 MB, so after a copy that did not keep file "
+        "times (cp -r; cp -a keeps them) it reruns",
+        "  results/r/evaluation/sample/sad/L3.json (evaluate): Params have changed since last execution: ..."]
+    assert shown[-1].startswith("This was a dry run") and err.getvalue() == ""
+
+
+def test_a_first_dry_run_counts_the_jobs_whose_outputs_are_not_there():
+    from vpr_smr.pipeline.console import why_jobs_run
+
+    lines = [*"rule a:\n    output: x\n    reason: Missing output files: x\nrule b:\n    output: y\n    reason: "
+             "Missing output files: y\nrule all:\n    reason: Input files updated by another job: x, y".splitlines()]
+    assert why_jobs_run(lines) == ["", "Why they run:", "  2 jobs: outputs not there yet"]
+    assert why_jobs_run(["Nothing to be done (all requested files are present and up to date)."]) == []
