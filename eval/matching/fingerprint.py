@@ -44,10 +44,26 @@ class MatrixPrint(Record):
 
     def shared(self, other: MatrixPrint) -> int:
         """How many anchors both hold (each counted once): > 0 when the matrices share entries."""
-        return len(np.intersect1d(np.asarray(self.anchors, np.uint64), np.asarray(other.anchors, np.uint64)))
+        return len(_among(np.asarray(self.anchors, np.uint64), np.asarray(other.anchors, np.uint64)))
 
     def __str__(self) -> str:
         return f"a {self.shape[0]} x {self.shape[1]} matrix (SHA-256 {self.sha256[:12]}...)"
+
+
+def _distinct(values: np.ndarray) -> np.ndarray:
+    """The distinct values, sorted (``np.unique`` without its first use's import of ``numpy.ma``, which the
+    attributes stage spares its process)."""
+    ordered = np.sort(values)
+    kept: np.ndarray = ordered[np.concatenate(([True], ordered[1:] != ordered[:-1]))] if ordered.size else ordered
+    return kept
+
+
+def _among(values: np.ndarray, anchors: np.ndarray) -> np.ndarray:
+    """The distinct ``values`` that are among ``anchors`` (sorted, distinct)."""
+    if not anchors.size:
+        return anchors
+    at = np.minimum(np.searchsorted(anchors, values), anchors.size - 1)
+    return _distinct(values[anchors[at] == values])
 
 
 def _mix(bits: np.ndarray) -> np.ndarray:
@@ -112,7 +128,7 @@ def matrix_print(matrix: Any, max_anchors: int = MAX_ANCHORS) -> MatrixPrint:
         digest.update(block[:hi - lo].tobytes())  # a row per column: the values column by column
         hashes = patch_hashes(block)
         kept.append(hashes[hashes % np.uint64(modulus) == 0])
-    anchors = np.unique(np.concatenate(kept)) if kept else np.zeros(0, np.uint64)
+    anchors = _distinct(np.concatenate(kept)) if kept else np.zeros(0, np.uint64)
     return MatrixPrint(digest.hexdigest(), (n_rows, n_cols), modulus, tuple(int(a) for a in anchors))
 
 
@@ -123,9 +139,5 @@ def found_anchors(matrix: Any, anchors: np.ndarray) -> np.ndarray:
     anchors = np.asarray(anchors, np.uint64)
     if not anchors.size:
         return anchors
-    found = []
-    for _, _, block in _column_blocks(matrix):
-        hashes = patch_hashes(block)
-        at = np.minimum(np.searchsorted(anchors, hashes), anchors.size - 1)
-        found.append(hashes[anchors[at] == hashes])
-    return np.unique(np.concatenate(found))
+    found = [_among(patch_hashes(block), anchors) for _, _, block in _column_blocks(matrix)]
+    return _distinct(np.concatenate(found)) if found else anchors[:0]
