@@ -4,10 +4,19 @@ optionally transposed. Nothing is unpickled: an array of Python objects is refus
 
 MATLAB stores a v7.3 matrix column-major, so h5py shows MATLAB's ``R x Q`` variable as ``Q x R``: it is read back
 as MATLAB shows it (``Transposed``, lazily: a block of MATLAB columns is a block of contiguous rows on disk).
+
+Every array is bounded before anything of its size is allocated: its shape and type are read from the file's headers
+(a ``.npy`` header, each ``.npz`` member's ``.npy`` header, ``scipy.io.whosmat``, an HDF5 dataset's shape), and a
+file declaring more than ``MAX_MATRIX_VALUES`` values, more data than it holds, or an array that would inflate in
+memory to more than ``INFLATE_RATIO`` times its compressed bytes (beyond ``INFLATE_FREE``), is refused naming the
+file, what it declares and the limit. What is read stays proportional to the file: a ``.npy`` and an uncompressed
+``.npz`` member are memory-mapped, a v7.3 variable is read lazily.
 """
 
 from __future__ import annotations
 
+import math
+import struct
 import zipfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -19,8 +28,10 @@ import h5py
 import numpy as np
 
 from vpr_smr.core.files import NEVER_PICKLE, ZIP, file_kind, load_npy, mat_version, read_head, what_it_is
+from vpr_smr.core.io import open_h5
 
-__all__ = ["ARRAY_SUFFIXES", "Transposed", "Variable", "open_array", "variables"]
+__all__ = ["ARRAY_SUFFIXES", "INFLATE_FREE", "INFLATE_RATIO", "MAX_MATRIX_VALUES", "Transposed", "Variable",
+           "check_size", "open_array", "variables"]
 
 ARRAY_SUFFIXES = (".npy", ".npz", ".mat")  # the files ``open_array`` reads, by suffix (any case)
 # MATLAB classes of numbers and booleans (``logical`` is stored as uint8)
@@ -28,6 +39,21 @@ MATLAB_NUMERIC = frozenset({"double", "single", "logical", "int8", "uint8", "int
                             "int64", "uint64"})
 # what v7.3 files hold beside the user's variables
 MATLAB_INTERNAL = frozenset({"#refs#", "#subsystem#"})
+MAT73 = "a MATLAB v7.3 .mat file (HDF5)"  # what open_h5 says such a file should be
+# The bytes of one value of each MATLAB class (a v5 variable is read into memory as these)
+MATLAB_BYTES = {"double": 8, "single": 4, "logical": 1, "int8": 1, "uint8": 1, "int16": 2, "uint16": 2, "int32": 4,
+                "uint32": 4, "int64": 8, "uint64": 8}
+# The most values an array read from a file may declare: 2**32, 16 GiB of float32, five times the largest matrix of
+# the benchmarks vpr-smr runs (Nordland's 27592 x 27592 frames, 0.76e9). Memory does not need it (what is read is
+# bounded by the file's bytes, below); it refuses at once a header, or a v7.3 dataset of unwritten chunks, that
+# declares a matrix no sequence matching could score in a day.
+MAX_MATRIX_VALUES = 1 << 32
+# What a compressed array (an .npz member of numpy.savez_compressed, a compressed MATLAB v5 variable) may take in
+# memory once inflated: INFLATE_RATIO times its compressed bytes, or INFLATE_FREE whatever its ratio. Distances
+# compress 1.1-3 to 1 (float noise in the low bits); a constant or all-zero matrix 1000 to 1, which is how a 3 MB file
+# asks for 3.2 GB. INFLATE_FREE keeps the peak of a command under 400 MB.
+INFLATE_RATIO = 32
+INFLATE_FREE = 128 << 20
 
 
 @dataclass(frozen=True)
@@ -41,7 +67,52 @@ class Variable:
     numeric: bool
 
     def __str__(self) -> str:
-        return f"{self.name} ({' x '.join(map(str, self.shape)) or 'scalar'} {self.type})"
+        return f"{self.name} ({_dims(self.shape) or 'scalar'} {self.type})"
+
+    @property
+    def values(self) -> int:
+        return math.prod(self.shape)
+
+    @property
+    def nbytes(self) -> int:
+        """Its bytes in memory (MATLAB's classes by ``MATLAB_BYTES``, else its NumPy dtype; 8 per value if neither)."""
+        try:
+            itemsize = MATLAB_BYTES.get(self.type) or np.dtype(self.type).itemsize
+        except TypeError:
+            itemsize = 8
+        return self.values * itemsize
+
+
+def _dims(shape: Sequence[int]) -> str:
+    return " x ".join(map(str, shape))
+
+
+def _declares(path: Path, variable: Variable) -> str:
+    """``path: its array 'D' declares 20000 x 20000 float64 (400000000 values, 3200000000 bytes)``."""
+    name = f" {variable.name!r}" if variable.name else ""
+    return (f"{path}: its array{name} declares {_dims(variable.shape) or 'a scalar'} {variable.type} "
+            f"({variable.values} values, {variable.nbytes} bytes)")
+
+
+def check_size(path: Path, variable: Variable, *, compressed_bytes: int | None = None, stored_bytes: int | None = None
+               ) -> None:
+    """Refuse, before anything is allocated, an array declaring more than ``MAX_MATRIX_VALUES`` values, more bytes
+    than the file holds for it (``stored_bytes``: the data an uncompressed file holds after its header), or, read from
+    ``compressed_bytes``, more than those bytes may inflate to (``INFLATE_RATIO``, ``INFLATE_FREE``)."""
+    if variable.values > MAX_MATRIX_VALUES:
+        raise ValueError(f"{_declares(path, variable)}, more than the {MAX_MATRIX_VALUES} values vpr-smr reads from "
+                         "a matrix file: give the matrix of the frames to score (a block of it, e.g. a split); "
+                         "nothing of it was read")
+    if stored_bytes is not None and stored_bytes < variable.nbytes:
+        raise ValueError(f"{_declares(path, variable)}, but the file holds {stored_bytes} bytes of it: the file is "
+                         "truncated or damaged (a copy or download that stopped?); write it again")
+    most = max(INFLATE_FREE, INFLATE_RATIO * (compressed_bytes or 0))
+    if compressed_bytes is not None and variable.nbytes > most:
+        raise ValueError(f"{_declares(path, variable)} from {compressed_bytes} compressed bytes, more than they "
+                         f"may inflate to in memory ({most} bytes: {INFLATE_RATIO} times as many, at least "
+                         f"{INFLATE_FREE}): save it uncompressed (numpy.save, or numpy.savez rather than "
+                         "savez_compressed: read from disk as needed), or check what it holds (a constant matrix?); "
+                         "nothing of it was read")
 
 
 class Transposed:
@@ -70,24 +141,59 @@ def _text(value: Any) -> str:
     return value.decode() if isinstance(value, bytes) else str(value)
 
 
-def _npz_variables(path: Path) -> list[Variable]:
-    """The arrays of an ``.npz`` from their ``.npy`` headers alone (nothing is loaded or unpickled)."""
+@dataclass(frozen=True)
+class _NpzMember:
+    """An ``.npz`` member as its zip directory and ``.npy`` header declare it, nothing of its data read."""
+
+    variable: Variable
+    fortran_order: bool
+    compressed: bool
+    compress_size: int  # its bytes in the archive
+    data_bytes: int  # its bytes after the .npy header, uncompressed, as the zip directory declares them
+    data_offset: int | None  # where its data starts in the archive's file, for an uncompressed member
+
+
+def _local_data_start(path: Path, info: zipfile.ZipInfo) -> int:
+    """Where the member ``info``'s bytes start in the file: after its local header (30 bytes, its name and extra
+    field, whose lengths the local header gives and may differ from the central directory's)."""
+    with open(path, "rb") as handle:
+        handle.seek(info.header_offset)
+        local = handle.read(30)
+    if len(local) < 30 or local[:4] != b"PK\x03\x04":
+        raise zipfile.BadZipFile(f"no local header for {info.filename!r} at byte {info.header_offset}")
+    name_length, extra_length = struct.unpack("<HH", local[26:30])
+    return info.header_offset + 30 + name_length + extra_length
+
+
+def _npz_members(path: Path) -> list[_NpzMember]:
+    """The arrays of an ``.npz`` from its zip directory and their ``.npy`` headers alone (nothing is loaded or
+    unpickled)."""
     found = []
     try:
         with zipfile.ZipFile(path) as archive:
-            for member in archive.namelist():
-                if not member.endswith(".npy"):
+            for info in archive.infolist():
+                if not info.filename.endswith(".npy"):
                     continue
-                with archive.open(member) as handle:
+                with archive.open(info) as handle:
                     version = np.lib.format.read_magic(handle)
-                    shape, _, dtype = (np.lib.format.read_array_header_1_0(handle) if version == (1, 0) else
-                                       np.lib.format.read_array_header_2_0(handle))
-                found.append(Variable(member[:-4], tuple(int(n) for n in shape), str(dtype),
-                                      np.dtype(dtype).kind in "biuf"))
-    except (zipfile.BadZipFile, ValueError, OSError) as error:
+                    shape, fortran_order, dtype = (np.lib.format.read_array_header_1_0(handle) if version == (1, 0)
+                                                   else np.lib.format.read_array_header_2_0(handle))
+                    header_bytes = handle.tell()
+                dtype = np.dtype(dtype)
+                variable = Variable(info.filename[:-4], tuple(int(n) for n in shape), str(dtype),
+                                    dtype.kind in "biuf")
+                compressed = info.compress_type != zipfile.ZIP_STORED
+                offset = None if compressed else _local_data_start(path, info) + header_bytes
+                found.append(_NpzMember(variable, bool(fortran_order), compressed, info.compress_size,
+                                        info.file_size - header_bytes, offset))
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as error:
         raise ValueError(f"{path} is not a readable NumPy .npz archive ({error}): write it again "
                          "(numpy.savez(path, name=matrix))") from None
     return found
+
+
+def _npz_variables(path: Path) -> list[Variable]:
+    return [member.variable for member in _npz_members(path)]
 
 
 def _mat5_variables(path: Path) -> list[Variable]:
@@ -127,7 +233,7 @@ def variables(path: Path | str) -> list[Variable]:
         version = _mat_version(path)
         if version == "5":
             return _mat5_variables(path)
-        with _open_h5(path) as handle:
+        with open_h5(path, MAT73) as handle:
             return _mat73_variables(handle)
     if suffix == ".npy":
         array = load_npy(path, "an array", mmap=True)
@@ -168,31 +274,67 @@ def _mat_version(path: Path) -> str:
     return version
 
 
-@contextmanager
-def _open_h5(path: Path) -> Iterator[h5py.File]:
-    try:
-        handle = h5py.File(path, "r")
-    except OSError as error:
-        raise ValueError(f"{path} is a MATLAB v7.3 file (HDF5) that cannot be opened ({error}): it is damaged or "
-                         "truncated; save or copy it again") from None
-    with handle:
-        yield handle
-
-
-def _npz_array(path: Path, variable: Variable, what: str) -> np.ndarray:
+def _npz_array(path: Path, variable: Variable, what: str, known_values: int = 0) -> np.ndarray:
+    """The member ``variable`` of an ``.npz``: memory-mapped from the archive when it is stored uncompressed, else
+    inflated in memory; bounded first (``check_size``) by what its zip directory says it holds, and, compressed, by
+    what its compressed bytes may inflate to unless it holds at most ``known_values`` values."""
     if np.dtype(variable.type).hasobject:
         raise ValueError(f"{path}: its array {variable.name!r} holds Python objects (stored as a pickle), "
                          f"{NEVER_PICKLE}, not {what}: save the numbers with numpy.savez(path, name=matrix)")
-    with np.load(path, allow_pickle=False) as archive:
-        array: np.ndarray = archive[variable.name]
+    member = next(m for m in _npz_members(path) if m.variable == variable)
+    check_size(path, variable, stored_bytes=member.data_bytes,
+               compressed_bytes=member.compress_size if member.compressed and variable.values > known_values else None)
+    if member.data_offset is not None:
+        if path.stat().st_size < member.data_offset + variable.nbytes:
+            check_size(path, variable, stored_bytes=max(path.stat().st_size - member.data_offset, 0))
+        if variable.values == 0:
+            return np.empty(variable.shape, dtype=variable.type)
+        return np.memmap(path, dtype=variable.type, mode="r", offset=member.data_offset, shape=variable.shape,
+                         order="F" if member.fortran_order else "C")
+    try:
+        with np.load(path, allow_pickle=False) as archive:
+            array: np.ndarray = archive[variable.name]
+    except (zipfile.BadZipFile, ValueError, OSError, EOFError) as error:
+        raise ValueError(f"{path}: its array {variable.name!r} cannot be read ({error}): the file is damaged or "
+                         "truncated; write it again (numpy.savez(path, name=matrix))") from None
     return array
 
 
-def _mat5_array(path: Path, variable: Variable, what: str) -> np.ndarray:
+MAT5_COMPRESSED = 15  # miCOMPRESSED: a zlib-compressed element of a MATLAB v5 file (miMATRIX is 14)
+
+
+def _mat5_compressed(path: Path) -> bool:
+    """Whether a MATLAB v5 file holds compressed elements, from the tags of its top-level elements alone (8 bytes
+    each: type and byte count, in the byte order its header's ``IM``/``MI`` gives)."""
+    size = path.stat().st_size
+    with open(path, "rb") as handle:
+        head = handle.read(128)
+        order = "<" if head[126:128] == b"IM" else ">"
+        at = 128
+        while at + 8 <= size:
+            handle.seek(at)
+            kind, length = struct.unpack(f"{order}II", handle.read(8))
+            if kind == MAT5_COMPRESSED:
+                return True
+            at += 8 + length + (-length % 8)  # an element is padded to 8 bytes (a compressed one is not)
+    return False
+
+
+def _mat5_array(path: Path, variable: Variable, what: str, known_values: int = 0) -> np.ndarray:
     import scipy.io
     import scipy.sparse
 
-    value = scipy.io.loadmat(str(path), variable_names=[variable.name])[variable.name]
+    if variable.type in MATLAB_BYTES and variable.values > known_values:
+        size = path.stat().st_size
+        if _mat5_compressed(path):
+            check_size(path, variable, compressed_bytes=size)
+        else:
+            check_size(path, variable, stored_bytes=size)
+    try:
+        value = scipy.io.loadmat(str(path), variable_names=[variable.name])[variable.name]
+    except (ValueError, OSError, TypeError, EOFError, MemoryError) as error:  # scipy's words: "could not read bytes"
+        raise ValueError(f"{_declares(path, variable)}, but it cannot be read ({type(error).__name__}: {error}): the "
+                         "file is truncated or damaged (a copy or download that stopped?); save it again") from None
     if scipy.sparse.issparse(value):
         raise ValueError(f"{path}: variable {variable.name!r} is a sparse matrix, not {what} as vpr-smr reads it: "
                          f"save it full (in MATLAB: {variable.name} = full({variable.name}))")
@@ -204,12 +346,15 @@ def _mat5_array(path: Path, variable: Variable, what: str) -> np.ndarray:
 
 @contextmanager
 def open_array(path: Path | str, key: str | None = None, transpose: bool = False, what: str = "a 2-D array",
-               key_option: str = "--key") -> Iterator[Any]:
+               key_option: str = "--key", known_values: int = 0) -> Iterator[Any]:
     """The array of ``path`` as its program shows it (transposed with ``transpose``): a read-only memory map of a
-    ``.npy``, the array ``key`` of an ``.npz`` (in memory), the variable ``key`` of a MATLAB v5 ``.mat`` (in
-    memory, through SciPy) or of a v7.3 one (lazily, through h5py); without ``key``, the file's only 2-D numeric
-    array. ``what`` says what the file should hold and ``key_option`` how to choose (for errors, which name the file,
-    what it holds and the fix). The array is not checked beyond being numeric where the format says so."""
+    ``.npy`` or of an uncompressed ``.npz`` member, the array ``key`` of a compressed ``.npz`` (in memory), the
+    variable ``key`` of a MATLAB v5 ``.mat`` (in memory, through SciPy) or of a v7.3 one (lazily, through h5py);
+    without ``key``, the file's only 2-D numeric array. ``what`` says what the file should hold and ``key_option``
+    how to choose (for errors, which name the file, what it holds and the fix). Bounded before it is read
+    (``check_size``); ``known_values``: the values the caller knows the array holds (the cells of the matrix a ground
+    truth scores), which a compressed array may inflate to whatever its ratio. The array is not checked beyond being
+    numeric where the format says so."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{what} not found: {path}")
@@ -217,7 +362,8 @@ def open_array(path: Path | str, key: str | None = None, transpose: bool = False
     if suffix == ".npy":
         if key is not None:
             raise ValueError(f"{key_option} {key}: {path} is a .npy, which holds one array; leave {key_option} out")
-        array = load_npy(path, what, mmap=True)
+        array = load_npy(path, what, mmap=True)  # memory-mapped, its data checked to be in the file
+        check_size(path, Variable("", tuple(array.shape), str(array.dtype), True))
         yield array.T if transpose else array
         return
     head = read_head(path)
@@ -226,7 +372,7 @@ def open_array(path: Path | str, key: str | None = None, transpose: bool = False
             raise ValueError(f"{path} is {what_it_is(head)}, not a NumPy .npz archive: save "
                              "it with numpy.savez(path, name=matrix)")
         variable = choose(path, _npz_variables(path), key, what, key_option)
-        array = _npz_array(path, variable, what)
+        array = _npz_array(path, variable, what, known_values)
         yield array.T if transpose else array
         return
     if suffix != ".mat":
@@ -234,11 +380,12 @@ def open_array(path: Path | str, key: str | None = None, transpose: bool = False
                          f"{suffix or 'a file without a suffix'}")
     if _mat_version(path) == "5":
         variable = choose(path, _mat5_variables(path), key, what, key_option)
-        array = _mat5_array(path, variable, what)
+        array = _mat5_array(path, variable, what, known_values)
         yield array.T if transpose else array
         return
-    with _open_h5(path) as handle:
+    with open_h5(path, MAT73) as handle:
         variable = choose(path, _mat73_variables(handle), key, what, key_option)
+        check_size(path, variable)  # read lazily, in blocks: its values alone are bounded
         if not variable.numeric or len(variable.shape) != 2 or 0 in variable.shape:
             shown = ("empty" if 0 in variable.shape else variable.type if not variable.numeric
                      else f"of shape {' x '.join(map(str, variable.shape))}")

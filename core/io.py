@@ -17,6 +17,8 @@ from typing import Any
 import h5py
 import numpy as np
 
+from vpr_smr.core.files import read_head, what_it_is
+
 # What each kind of output file may be called (``check_suffix``)
 HDF5_SUFFIXES = (".h5", ".hdf5")
 JSON_SUFFIXES = (".json",)
@@ -84,8 +86,28 @@ def _jsonable(value: Any) -> Any:
     raise TypeError(f"not JSON serialisable: {type(value)}")
 
 
+@contextmanager
+def open_h5(path: Path | str, what: str, **options: Any) -> Iterator[h5py.File]:
+    """The HDF5 file ``path`` open for reading (``options`` go to ``h5py.File``). A file that is missing, not HDF5
+    or damaged raises FileNotFoundError or ValueError naming it, what it is and ``what`` it should be (e.g. "a
+    predictor written by vpr-smr train"), instead of h5py's "file signature not found" or "truncated file: eof =".
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{what} not found: {path}")
+    if not h5py.is_hdf5(path):  # its signature, at 0 or after a user block (MATLAB v7.3 puts one of 512 bytes)
+        raise ValueError(f"{path} is {what_it_is(read_head(path))}, not an HDF5 file: expected {what}")
+    try:
+        handle = h5py.File(path, "r", **options)
+    except OSError as error:  # h5py's reason, e.g. "truncated file: eof = 20000, sblock->base_addr = 0, ..."
+        raise ValueError(f"{path} is a damaged or truncated HDF5 file ({error}; a copy or download that stopped?): "
+                         f"expected {what}; write or copy it again") from None
+    with handle:
+        yield handle
+
+
 def read_provenance(path: Path | str) -> dict[str, Any]:
-    with h5py.File(path, "r") as f:
+    with open_h5(path, "an HDF5 file written by vpr-smr") as f:
         return {key: _maybe_json(value) for key, value in f.attrs.items()}
 
 

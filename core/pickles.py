@@ -68,6 +68,7 @@ ALLOWED: dict[tuple[str, str], Any] = {
 BUILT_PER_BYTE = 8
 BUILT_SLACK = 1 << 20
 REFERENCE_BYTES = 8  # an element of a list, tuple or object array
+BY_FILE_SIZE = f"its file can hold ({BUILT_PER_BYTE} bytes per byte of the file, plus {BUILT_SLACK})"
 
 
 class RefusedPickle(ValueError):
@@ -83,13 +84,13 @@ class PickleTooLarge(ValueError):
 class _Budget:
     """The bytes a pickle's arrays, lists and tuples may still take, charged before each is built."""
 
-    def __init__(self, limit: int) -> None:
+    def __init__(self, limit: int, why: str = BY_FILE_SIZE) -> None:
         self.limit = self.left = limit
+        self.why = why
 
     def charge(self, what: str, n_bytes: int) -> None:
         if n_bytes > self.left:
-            raise PickleTooLarge(f"would build {what} of {n_bytes} bytes, beyond the {self.limit} bytes its file can "
-                                 f"hold ({BUILT_PER_BYTE} bytes per byte of the file, plus {BUILT_SLACK})")
+            raise PickleTooLarge(f"would build {what} of {n_bytes} bytes, beyond the {self.limit} bytes {self.why}")
         self.left -= n_bytes
 
     def array(self, shape: Any, dtype: Any) -> None:
@@ -145,9 +146,9 @@ class ArraysOnlyUnpickler(pickle.Unpickler):
     """A ``pickle.Unpickler`` that builds NumPy arrays, dtypes and scalars, lists, tuples and numbers only, and
     arrays, lists and tuples of ``limit`` bytes in all at most (``PickleTooLarge``, before allocating)."""
 
-    def __init__(self, file: Any, *, limit: int, encoding: str = "ASCII") -> None:
+    def __init__(self, file: Any, *, limit: int, encoding: str = "ASCII", why: str = BY_FILE_SIZE) -> None:
         super().__init__(file, encoding=encoding)
-        self._bounded = _bounded_callables(_Budget(limit))
+        self._bounded = _bounded_callables(_Budget(limit, why))
 
     def find_class(self, module: str, name: str) -> Any:
         try:
@@ -157,21 +158,24 @@ class ArraysOnlyUnpickler(pickle.Unpickler):
         return self._bounded.get(found, found)
 
 
-def load_object_npy(path: Path | str, what: str) -> np.ndarray:
+def load_object_npy(path: Path | str, what: str, limit: tuple[int, str] | None = None) -> np.ndarray:
     """The array of objects in the ``.npy`` file ``path``, unpickled by ``ArraysOnlyUnpickler`` with
-    ``BUILT_PER_BYTE`` bytes per byte of the file; ``what`` says what the file should hold (for errors). Raises
+    ``BUILT_PER_BYTE`` bytes per byte of the file, or ``limit`` (bytes, and why, for errors: what the caller knows the
+    file can hold) where that is less; ``what`` says what the file should hold (for errors). Raises
     ``RefusedPickle`` (the name refused) when the pickle names anything else, ``PickleTooLarge`` when it asks for
     more, and ValueError naming ``path`` when it is not an array of objects or its pickle is damaged."""
     path = Path(path)
     header = npy_header(path, what)
     if not header.dtype.hasobject:
         raise ValueError(f"{path} holds an array of {header.dtype}, not {what} (an array of Python objects)")
-    limit = BUILT_PER_BYTE * path.stat().st_size + BUILT_SLACK
+    most, why = BUILT_PER_BYTE * path.stat().st_size + BUILT_SLACK, BY_FILE_SIZE
+    if limit is not None and limit[0] < most:
+        most, why = limit
     with open(path, "rb") as handle:
         handle.seek(header.data_start)
         try:
             # latin1: Python 2's pickles (VPR-Bench wrote its files with Python 2) hold NumPy's raw bytes as str
-            array = ArraysOnlyUnpickler(handle, limit=limit, encoding="latin1").load()
+            array = ArraysOnlyUnpickler(handle, limit=most, encoding="latin1", why=why).load()
         except (RefusedPickle, PickleTooLarge):
             raise
         except (pickle.UnpicklingError, EOFError, TypeError, ValueError, AttributeError, IndexError) as error:

@@ -17,12 +17,19 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 
 from vpr_smr.core import environment
 from vpr_smr.core.constants import DEFAULT_TOLERANCE, candidates_needed
-from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, atomic_h5, atomic_path, check_suffix, read_provenance
+from vpr_smr.core.io import (
+    CSV_SUFFIXES,
+    HDF5_SUFFIXES,
+    atomic_h5,
+    atomic_path,
+    check_suffix,
+    open_h5,
+    read_provenance,
+)
 from vpr_smr.core.records import Record
 from vpr_smr.eval.matching.checks import check_size, stage_check, warn_if_tied
 from vpr_smr.eval.matching.features import split_features
@@ -33,6 +40,7 @@ from vpr_smr.eval.matching.io import (
     is_user_matrix,
     open_distance_matrix,
     reading_provenance,
+    scored_shape,
     split_ground_truth,
     warn_if_similar,
 )
@@ -211,7 +219,7 @@ def read_features(path: Path | str) -> QueryFeatures:
     they existed) reads with them None, one without ``sequence_native`` (a matcher that names its native scorer,
     or a file written before it was stored) with it None. ``native_scorer``: that of the matcher the file records
     (``recorded_matcher``); ``seq_len`` and ``matrix`` those the file records (None where it records none)."""
-    with h5py.File(path, "r") as f:
+    with open_h5(path, "attributes written by vpr-smr attributes (.h5)") as f:
         values: dict[str, Any] = {
             item.name: f[item.name][()] for item in fields(QueryFeatures)
             if item.name not in NOT_DATASETS and (item.name in f or item.name not in OPTIONAL_FIELDS)}
@@ -270,7 +278,8 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     matcher = matcher or MatcherSpec.of()
     distances = Path(distances)
     start = time.perf_counter()
-    truth_file = None if ground_truth is None else read_ground_truth(ground_truth, ground_truth_key)
+    truth_file = None if ground_truth is None else read_ground_truth(
+        ground_truth, ground_truth_key, within=scored_shape([distances], key, transpose))
     with open_distance_matrix(distances, similarity, key, transpose) as matrix:
         check_size(stage_check(matcher.build, tuple(matrix.shape), str(distances)), seq_len)
         built = matcher.build(seq_len)

@@ -5,12 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 
 from vpr_smr.core import environment
 from vpr_smr.core.constants import METRICS
-from vpr_smr.core.io import HDF5_SUFFIXES, atomic_h5, check_suffix
+from vpr_smr.core.io import HDF5_SUFFIXES, atomic_h5, check_suffix, open_h5
 
 # Chunks of the stored matrix: whole chunk columns are what the attributes stage reads (blocks of about 2^20 / R
 # query columns, all references). 4096 x 64 float32 is 1 MB, inside HDF5's advised range; a 27592-reference column
@@ -147,7 +146,7 @@ def main(descriptors: Path | str, out: Path | str, split: str, split_range: tupl
     descriptors = Path(descriptors)
     lo, hi = (int(v) for v in split_range)
     ref_lo, ref_hi = (int(v) for v in (reference_range or (lo, hi)))
-    with h5py.File(descriptors, "r") as f:
+    with open_h5(descriptors, "a descriptor file written by vpr-smr descriptors") as f:
         _check_descriptors(f, descriptors, split, {"reference": (ref_lo, ref_hi), "query": (lo, hi)})
         if (ref_lo, ref_hi) != (lo, hi) and not all(k in f for k in POSITIONS):
             # without positions the later stages score frame indices within a tolerance, which presumes the same

@@ -11,9 +11,10 @@ Lists name the correct pairs only, not how many frames there are: their matrix i
 pair, and a query they do not name has no correct reference. Every error names the file and the fix.
 
 Every reader is bounded (method §13.2) by the matrix the file scores, when the caller knows it (the workflow's check
-before its first job), else by ``MAX_TRUTH_CELLS``: a matrix's declared shape is checked before its data is read,
-lists index by index as they are read (a ``range`` by its length and ends, never expanded), VPR-Bench's rows and
-bytes before its pickle is read, and the pickle's arrays and lists by ``core.pickles``' budget as it is read.
+before its first job; a command's matrices, from their headers: ``io.scored_shape``), else by ``MAX_TRUTH_CELLS``:
+a matrix's declared shape is checked before its data is read, lists index by index as they are read (a ``range`` by
+its length and ends, never expanded), VPR-Bench's rows and bytes before its pickle is read, and the pickle's arrays
+and lists by ``core.pickles``' budget (of that matrix's lists, or of the file's size) as it is read.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ import numpy as np
 from vpr_smr.core.arrays import Variable, choose, open_array, variables
 from vpr_smr.core.files import EMPTY, NPY, TEXT, file_kind, mat_version, npy_header, read_head, what_it_is
 from vpr_smr.core.io import CSV_SUFFIXES, JSON_SUFFIXES
-from vpr_smr.core.pickles import PickleTooLarge, RefusedPickle, load_object_npy
+from vpr_smr.core.pickles import BUILT_SLACK, REFERENCE_BYTES, PickleTooLarge, RefusedPickle, load_object_npy
 from vpr_smr.eval.matching.ground_truth import MAX_TRUTH_CELLS, GroundTruth, MatrixTruth, TruthSource
 
 __all__ = ["GROUND_TRUTH_SUFFIXES", "file_sha256", "read_ground_truth"]
@@ -83,7 +84,7 @@ class _Bounds:
     where it is not known, within ``MAX_TRUTH_CELLS`` cells. Each query's references are checked as they are read,
     before anything of their size is built; ``top`` is the largest query and reference named."""
 
-    def __init__(self, path: Path, shape: tuple[int, int] | None) -> None:
+    def __init__(self, path: Path, shape: tuple[int, int] | None) -> None:  # shape: the largest matrix it scores
         self.path, self.shape = path, shape
         self.top = [-1, -1]  # the largest reference, query
         self.pairs = self.listed = 0
@@ -270,8 +271,13 @@ def _vpr_bench_lists(path: Path, bounds: _Bounds) -> Callable[[], Iterator[Liste
                              f"it scores can take ({most} bytes: {PICKLE_BYTES_PER_QUERY} per query and "
                              f"{PICKLE_BYTES_PER_REFERENCE} per reference, every reference correct for every query): "
                              "give the ground truth of the matrix's frames")
+    # the lists of an R x Q matrix hold at most Q rows of R references (and a query index) each
+    limit = None if bounds.shape is None else (
+        REFERENCE_BYTES * bounds.shape[1] * (bounds.shape[0] + 4) + BUILT_SLACK,
+        f"per-query lists of the {bounds.shape[0]} x {bounds.shape[1]} matrix it scores can take ({REFERENCE_BYTES} "
+        f"per reference of every query, plus {BUILT_SLACK})")
     try:
-        rows = load_object_npy(path, "VPR-Bench's ground truth (rows of [query, [references]])")
+        rows = load_object_npy(path, "VPR-Bench's ground truth (rows of [query, [references]])", limit=limit)
     except RefusedPickle as refused:
         raise ValueError(f"its pickle names {refused.args[0]}, which vpr-smr refuses to build: a ground truth holds "
                          "NumPy arrays, lists, tuples and numbers only, and nothing of this file was run; "
@@ -336,12 +342,13 @@ def _check_declared(path: Path, key: str | None, shape: tuple[int, int] | None, 
 
 
 def read_ground_truth(path: Path | str, key: str | None = None, shape: tuple[int, int] | None = None,
-                      key_option: str = "--ground-truth-key") -> GroundTruth:
+                      key_option: str = "--ground-truth-key", within: tuple[int, int] | None = None) -> GroundTruth:
     """The ground truth in ``path`` (see the module's docstring), its provenance the file's name, SHA-256, form and
     ``key``. ``key``: the variable of an ``.npz`` or ``.mat`` (default: its only 2-D numeric array). ``shape``
     (references, queries): the matrix it must score, checked here (a matrix's own shape must be it; lists are
     sized to it and every index must lie in it); None: a matrix keeps its shape, lists get the smallest that holds
-    them and may be sliced past it, each within ``MAX_TRUTH_CELLS`` cells. A matrix declaring more cells, or lists
+    them and may be sliced past it, each within ``within`` (the largest matrix it may score, when known without
+    sizing it to it: ``io.scored_shape``) or ``MAX_TRUTH_CELLS`` cells. A matrix declaring more cells, or lists
     naming an index beyond it, are refused before anything of that size is built (method §13.2). Raises
     FileNotFoundError or ValueError naming the file, what was found, the limit and the fix; never runs anything a
     file holds."""
@@ -358,12 +365,14 @@ def read_ground_truth(path: Path | str, key: str | None = None, shape: tuple[int
         suffix == ".npy" and file_kind(head) == NPY and npy_header(path, MATRIX_WHAT).dtype.hasobject)
     if lists and key is not None:
         raise ValueError(f"{key_option} {key}: {path} holds per-query lists, not variables; leave {key_option} out")
+    bound = shape or within
     sha256 = file_sha256(path)
     if not lists:
         form = {".npy": "npy matrix", ".npz": "npz matrix"}.get(suffix) or (
             "mat v7.3 matrix" if mat_version(head) == "7.3" else "mat v5 matrix")
-        _check_declared(path, key, shape, key_option)
-        with open_array(path, key, what=MATRIX_WHAT, key_option=key_option) as matrix:
+        _check_declared(path, key, bound, key_option)
+        known = 0 if bound is None else bound[0] * bound[1]  # a compressed matrix may inflate to the matrix it scores
+        with open_array(path, key, what=MATRIX_WHAT, key_option=key_option, known_values=known) as matrix:
             try:
                 truth = GroundTruth.matrix(matrix, TruthSource(str(path), sha256, form, key))
             except ValueError as error:
@@ -374,7 +383,7 @@ def read_ground_truth(path: Path | str, key: str | None = None, shape: tuple[int
             except ValueError as error:
                 raise ValueError(f"{path}: {error}") from None
         return truth
-    bounds = _Bounds(path, shape)
+    bounds = _Bounds(path, bound)
     try:
         rows, form = _lists(path, head, bounds)
     except _Named:

@@ -4,7 +4,7 @@ the ground truth that scores it."""
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -12,9 +12,9 @@ from typing import Any
 import h5py
 import numpy as np
 
-from vpr_smr.core.arrays import ARRAY_SUFFIXES, open_array
+from vpr_smr.core.arrays import ARRAY_SUFFIXES, choose, open_array, variables
 from vpr_smr.core.files import KINDS, MAT, NPY, ZIP, file_kind, read_head, what_it_is
-from vpr_smr.core.io import read_provenance
+from vpr_smr.core.io import open_h5, read_provenance
 from vpr_smr.eval.matching.ground_truth import GroundTruth, MatrixTruth, read_positions
 
 log = logging.getLogger("vpr_smr")
@@ -27,6 +27,7 @@ NEGATIVE_ROUNDING = 1e-5  # negatives down to this fraction of the largest |dist
 SCAN_VALUES = 1 << 24  # values per block of the scan for negative distances (64 MB of float32)
 
 USER_MATRIX = "a references x queries matrix"  # what a user's matrix file should hold, as errors say it
+OUR_DISTANCES = "a distance file written by vpr-smr distances (or a user's .npy, .npz or .mat matrix)"
 
 
 def is_user_matrix(path: Path | str) -> bool:
@@ -109,12 +110,7 @@ def open_distance_matrix(path: Path | str, similarity: bool = False, key: str | 
         option = "--key" if key is not None else "--transpose"
         raise ValueError(f"{option}: {path} is a distance file of vpr-smr (its dataset distance_matrix, references x "
                          f"queries): leave {option} out")
-    try:
-        handle = h5py.File(path, "r", rdcc_nbytes=CHUNK_CACHE_BYTES, rdcc_nslots=CHUNK_CACHE_SLOTS)
-    except OSError as error:  # h5py's reason, e.g. "truncated file: eof = 1000, ... stored_eof = 4096"
-        raise ValueError(f"{path} is an HDF5 file that cannot be opened ({error}): it is damaged or truncated (a "
-                         "copy or download that stopped?); compute or copy it again") from None
-    with handle as f:
+    with open_h5(path, OUR_DISTANCES, rdcc_nbytes=CHUNK_CACHE_BYTES, rdcc_nslots=CHUNK_CACHE_SLOTS) as f:
         if "distance_matrix" not in f:
             found = ", ".join(f) or "nothing"
             raise ValueError(f"{path} has no 'distance_matrix' dataset (it holds {found}): give a distance file of "
@@ -125,6 +121,32 @@ def open_distance_matrix(path: Path | str, similarity: bool = False, key: str | 
             raise ValueError(f"{path} is a distance file of vpr-smr (smaller = more similar): leave --similarity out")
         check_non_negative(path, matrix)
         yield matrix
+
+
+def scored_shape(paths: Iterable[Path | str], key: str | None = None, transpose: bool = False
+                 ) -> tuple[int, int] | None:
+    """The largest references and queries of the matrices in ``paths``, from their headers alone (a ``.npy`` or
+    ``.npz`` header, ``scipy.io.whosmat``, an HDF5 dataset's shape), nothing read: what a ground-truth file scoring
+    them may name (``ground_truth_files.read_ground_truth``'s ``within``). None when one of them does not say: a
+    distance file of a dataset's split (whose ground truth may be the whole dataset's), a file that cannot be read
+    (``open_distance_matrix`` says why), a matrix that is not 2-D."""
+    largest = (0, 0)
+    for path in map(Path, paths):
+        try:
+            if is_user_matrix(path):
+                shape = choose(path, variables(path), key, USER_MATRIX, "--key").shape
+            else:
+                if split_ranges(path) is not None:
+                    return None
+                with open_h5(path, OUR_DISTANCES) as f:
+                    shape = tuple(f["distance_matrix"].shape) if "distance_matrix" in f else ()
+        except (OSError, ValueError):
+            return None
+        if len(shape) != 2:
+            return None
+        rows, cols = (shape[1], shape[0]) if transpose else (shape[0], shape[1])
+        largest = (max(largest[0], int(rows)), max(largest[1], int(cols)))
+    return largest if largest != (0, 0) else None
 
 
 def _check_matrix(path: Path, matrix: Any) -> None:
@@ -204,7 +226,7 @@ def stored_positions(path: Path | str) -> tuple[np.ndarray, np.ndarray] | None:
     path = Path(path)
     if is_user_matrix(path) or not h5py.is_hdf5(path):
         return None
-    with h5py.File(path, "r") as f:
+    with open_h5(path, OUR_DISTANCES) as f:
         if "reference_positions" not in f and "query_positions" not in f:
             return None
         if "reference_positions" not in f or "query_positions" not in f:

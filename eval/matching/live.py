@@ -388,14 +388,12 @@ def _read_references(path: Path | str, frames: tuple[int, int] | None
     method's settings."""
     import json
 
-    import h5py
+    from vpr_smr.core.io import open_h5
 
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"descriptor file not found: {path} (compute it with vpr-smr descriptors)")
-    if not h5py.is_hdf5(path):
-        raise ValueError(f"{path} is not HDF5: give a descriptor file written by vpr-smr descriptors")
-    with h5py.File(path, "r") as f:
+    with open_h5(path, "a descriptor file written by vpr-smr descriptors") as f:
         if "reference" not in f or "distance" not in f.attrs:
             raise ValueError(f"{path} lacks the 'reference' descriptors or the 'distance' attribute: give a "
                              "descriptor file written by vpr-smr descriptors (or compute it again)")

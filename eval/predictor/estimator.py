@@ -20,7 +20,6 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-import h5py
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.exceptions import ConvergenceWarning, UndefinedMetricWarning
@@ -32,6 +31,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from vpr_smr.core.constants import N_LABELS
+from vpr_smr.core.io import open_h5
 from vpr_smr.eval.matching.attributes import Matching
 from vpr_smr.eval.predictor.defaults import (
     CV_FOLDS,
@@ -295,7 +295,7 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
         path = Path(path)
         if not path.is_file():
             raise FileNotFoundError(f"predictor file not found: {path} (train it first: vpr-smr train)")
-        with h5py.File(path, "r") as f:
+        with open_h5(path, "a predictor written by vpr-smr train") as f:
             params = json.loads(f.attrs["params"])
             unknown = set(params) - set(cls._get_param_names())
             if unknown:

@@ -42,7 +42,7 @@ from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
 from vpr_smr.eval.matching.features import match_blocks
 from vpr_smr.eval.matching.ground_truth import POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
-from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, split_ground_truth
+from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, scored_shape, split_ground_truth
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.matchers.base import Matcher
 from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
@@ -610,7 +610,8 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
             raise ValueError(f"dataset {name!r}: its frames changed on disk since the run computed its "
                              f"descriptors (the frame lists' SHA-256 is {pair.fingerprint()[:12]}..., the run's "
                              f"{expected[:12]}...); run the workflow again")
-    truth_file = None if ground_truth is None else read_ground_truth(ground_truth, ground_truth_key)
+    truth_file = None if ground_truth is None else read_ground_truth(
+        ground_truth, ground_truth_key, within=scored_shape([distances], key, transpose))
     all_rows = read_queries(queries_csv)
     split = _split_of(all_rows, queries_csv, split)
     rows = [r for r in all_rows if r.split == split]

@@ -15,7 +15,7 @@ from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
 from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import Matching, check_matching, read_features
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
-from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
+from vpr_smr.eval.matching.io import open_distance_matrix, scored_shape, split_ground_truth
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
 from vpr_smr.eval.scoring.baselines import (
@@ -72,7 +72,8 @@ def main(
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
     file_truth = (None if matcher.ground_truth is None
-                  else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key))
+                  else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key,
+                                         within=scored_shape(distance_paths.values(), key, transpose)))
     check_inputs(distance_paths, attribute_paths, None, seq_len, tolerance, matcher, file_truth)
     models = []
     for path in map(Path, predictors):

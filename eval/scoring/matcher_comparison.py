@@ -354,7 +354,7 @@ def main(
     ``radius``, ``ground_truth``). Every input is checked before any scoring."""
     from vpr_smr.eval.matching.attributes import Matching, check_matching, common_matching, read_features
     from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
-    from vpr_smr.eval.matching.io import open_distance_matrix, split_ground_truth
+    from vpr_smr.eval.matching.io import open_distance_matrix, scored_shape, split_ground_truth
     from vpr_smr.eval.predictor.estimator import SMRPredictor
     from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
     from vpr_smr.eval.scoring.baselines import check_candidates, spread_positions
@@ -402,7 +402,8 @@ def main(
     fixed_features = None
     if fixed is not None and validation_split:
         fixed_features = {method: read_features(path) for method, path in fixed.attributes[validation_split].items()}
-    file_truth = None if ground_truth is None else read_ground_truth(ground_truth, ground_truth_key)
+    file_truth = None if ground_truth is None else read_ground_truth(ground_truth, ground_truth_key,
+                                                                      within=scored_shape(distances.values()))
     positions = {}
     for method, distance_path in distances.items():
         with open_distance_matrix(distance_path) as matrix:

@@ -82,6 +82,7 @@ from vpr_smr.eval.matching.io import (
     is_user_matrix,
     open_distance_matrix,
     reading_provenance,
+    scored_shape,
     split_ground_truth,
     warn_if_similar,
 )
@@ -494,7 +495,8 @@ def score_all(
                          f"{matcher.ground_truth} says which references are correct, with nothing to vary: leave out "
                          "--sweep, or score with --tolerance (or positions and --radius) instead")
     file_truth = (None if matcher.ground_truth is None
-                  else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key))
+                  else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key,
+                                         within=scored_shape(splits.values(), key, transpose)))
     check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)
     model = None
     if predictor_file is not None:

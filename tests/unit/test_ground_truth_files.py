@@ -150,8 +150,8 @@ def test_shapes_and_indices_are_checked_against_the_matrix(tmp_path, capsys):
     assert cli(["metrics", "--distances", str(tmp_path / "D.npy"), "--seq-len", "2", "--ground-truth", str(path),
                 "--out", str(tmp_path / "m.json")]) == 2
     err = capsys.readouterr().err
-    assert "D.npy is 4 x 4 (references x queries), but the ground truth gt.json (per-query lists) names references "\
-           "up to 9 and queries up to 1" in err
+    # bounded by the matrix's header before the lists are built: the first index past it is named
+    assert "gt.json names reference 9 (the pair query 1, reference 9), but the matrix has 4 references (0..3)" in err
     # and a matrix of another shape
     assert cli(["metrics", "--distances", str(tmp_path / "D.npy"), "--seq-len", "2", "--ground-truth",
                 str(tmp_path / "wide.npy"), "--out", str(tmp_path / "m.json")]) == 2

@@ -251,7 +251,8 @@ def test_which_predictor_applies_to_which_ground_truth():
      "must end in .npy, .npz, .mat, .h5 or .hdf5"),
     (lambda p: (np.save(p / "M.npy", np.ones((4, 4))), np.save(p / "G.npy", np.eye(4, 5, dtype=bool))),
      ("--distances", "M.npy", "--ground-truth", "G.npy"),
-     "M.npy: distance matrix of shape 4x4 but the ground truth G.npy .a matrix. is 4x5 .references x queries.: give "
+     # bounded by M.npy's header before G.npy is read
+     r"G.npy: its matrix is 4 x 5 \(20 cells, as the file declares it\), more than the 4 x 4 matrix it scores: give "
      "the ground truth of the matrix's frames"),
     (lambda p: (np.save(p / "M.npy", np.ones((4, 4))), np.save(p / "G.npy", np.eye(4, dtype=bool))),
      ("--distances", "M.npy", "--ground-truth", "G.npy", "--radius", "2"),
