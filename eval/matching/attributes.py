@@ -33,7 +33,7 @@ from vpr_smr.core.io import (
 from vpr_smr.core.records import Record
 from vpr_smr.eval.matching.checks import check_size, stage_check, warn_if_tied
 from vpr_smr.eval.matching.features import split_features
-from vpr_smr.eval.matching.fingerprint import MatrixPrint, matrix_print
+from vpr_smr.eval.matching.fingerprint import MatrixPrint, matrix_print, read_print, write_print
 from vpr_smr.eval.matching.ground_truth import FRAMES, MATRIX, POSITIONS, GroundTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import (
@@ -63,7 +63,7 @@ CANDIDATE_FIELDS = ("sequence_candidates", "sequence_candidate_references", "sin
 # every array a file may lack: the candidates, and the native confidence (absent where the matcher names a scorer)
 OPTIONAL_FIELDS = (*CANDIDATE_FIELDS, "sequence_native")
 NATIVE_SCORER = "native_scorer"  # QueryFeatures' one field that no file stores (the recorded matcher's)
-MATRIX_PRINT = "distances_print"  # the attribute of a features file holding its matrix's ``MatrixPrint``
+MATRIX_PRINT = "distances_print"  # the dataset of a features file holding its matrix's ``MatrixPrint``
 NOT_DATASETS = (NATIVE_SCORER, "seq_len", "matrix")  # QueryFeatures' fields that are no dataset of its file
 
 
@@ -204,14 +204,16 @@ def verdicts(truth: GroundTruth, queries: np.ndarray, single_match: np.ndarray, 
 
 def write_features(path: Path | str, features: QueryFeatures, provenance: dict[str, Any]) -> None:
     """Every array of ``features`` as a dataset of its name; the candidates and the native confidence only when
-    computed (``native_scorer`` is the recorded matcher's, ``provenance["matcher"]``); the length and the matrix's
-    identity as attributes."""
-    own = {"seq_len": features.seq_len, MATRIX_PRINT: None if features.matrix is None else features.matrix.to_json()}
-    with atomic_h5(path, {**provenance, **{k: v for k, v in own.items() if v is not None}}) as f:
+    computed (``native_scorer`` is the recorded matcher's, ``provenance["matcher"]``); the length as an attribute
+    and the matrix's identity as the dataset ``MATRIX_PRINT`` (``fingerprint.write_print``)."""
+    own = {} if features.seq_len is None else {"seq_len": features.seq_len}
+    with atomic_h5(path, {**provenance, **own}) as f:
         for item in fields(QueryFeatures):
             value = getattr(features, item.name)
             if value is not None and item.name not in NOT_DATASETS:
                 f[item.name] = value
+        if features.matrix is not None:
+            write_print(f, MATRIX_PRINT, features.matrix)
 
 
 def read_features(path: Path | str) -> QueryFeatures:
@@ -223,12 +225,11 @@ def read_features(path: Path | str) -> QueryFeatures:
         values: dict[str, Any] = {
             item.name: f[item.name][()] for item in fields(QueryFeatures)
             if item.name not in NOT_DATASETS and (item.name in f or item.name not in OPTIONAL_FIELDS)}
+        values["matrix"] = read_print(f[MATRIX_PRINT]) if MATRIX_PRINT in f else None
     values["sequence_min"] = float(values["sequence_min"])
     values["sequence_max"] = float(values["sequence_max"])
     provenance = read_provenance(path)
     values["seq_len"] = None if provenance.get("seq_len") is None else int(provenance["seq_len"])
-    stored = provenance.get(MATRIX_PRINT)
-    values["matrix"] = None if stored is None else MatrixPrint.from_json(stored)
     if "sequence_native" in values:  # the matcher's own numbers: it names no scorer
         return QueryFeatures(**values, native_scorer=None)
     spec = recorded_matcher(provenance, str(path))

@@ -6,7 +6,8 @@ equally wherever they sit) and keeps the hashes that are 0 modulo ``modulus``: a
 position, so a block cut from the matrix keeps exactly the anchors of the patches it holds. A patch hash is the same
 for the patch and its transpose (a matrix read with ``--transpose``), and constant patches are skipped (an all-zero
 corner of one matrix says nothing about another's). ``modulus`` is the smallest power of two that keeps about
-``MAX_ANCHORS`` anchors, so a file records a few kilobytes whatever the matrix's size; two matrices sharing a
+``MAX_ANCHORS`` anchors, so a file records at most about 130 kB whatever the matrix's size (a dataset: an HDF5
+attribute of HDF5 1.x holds at most 64 kB); two matrices sharing a
 region of ``a`` entries share about ``a / modulus`` anchors, and disjoint regions share none (but by a 64-bit hash
 collision). A similarity matrix is fingerprinted as stored (``max(M) - M`` of a block differs from the whole's).
 """
@@ -23,7 +24,7 @@ from vpr_smr.core.records import Record
 from vpr_smr.eval.matching.matcher import as_matrix, read_columns
 
 PATCH = 4  # rows and columns of a hashed patch
-MAX_ANCHORS = 4096  # anchors a matrix keeps, about: its modulus grows with its size
+MAX_ANCHORS = 16384  # anchors a matrix keeps, about: its modulus grows with its size
 BLOCK_VALUES = 1 << 22  # values per block read (32 MB of float64)
 # splitmix64's finaliser (hashes each value's bits) and odd weights of a patch's rows and columns (the format's)
 _M1, _M2 = np.uint64(0xBF58476D1CE4E5B9), np.uint64(0x94D049BB133111EB)
@@ -64,6 +65,18 @@ def _among(values: np.ndarray, anchors: np.ndarray) -> np.ndarray:
         return anchors
     at = np.minimum(np.searchsorted(anchors, values), anchors.size - 1)
     return _distinct(values[anchors[at] == values])
+
+
+def write_print(group: Any, name: str, found: MatrixPrint) -> None:
+    """``found`` as the dataset ``name`` of an HDF5 group: its anchors, the rest as the dataset's attributes."""
+    data = group.create_dataset(name, data=np.asarray(found.anchors, np.uint64))
+    data.attrs["sha256"], data.attrs["shape"], data.attrs["modulus"] = found.sha256, list(found.shape), found.modulus
+
+
+def read_print(data: Any) -> MatrixPrint:
+    """The ``MatrixPrint`` that ``write_print`` wrote as the HDF5 dataset ``data``."""
+    return MatrixPrint(str(data.attrs["sha256"]), (int(data.attrs["shape"][0]), int(data.attrs["shape"][1])),
+                       int(data.attrs["modulus"]), tuple(int(a) for a in data[()]))
 
 
 def _mix(bits: np.ndarray) -> np.ndarray:

@@ -40,7 +40,7 @@ from vpr_smr.eval.predictor.defaults import (
     MIN_VALIDATION,
     VALIDATION_FRACTION,
 )
-from vpr_smr.eval.predictor.leakage import Training, read_training, training_attrs
+from vpr_smr.eval.predictor.leakage import Training, read_training, write_training
 
 log = logging.getLogger(__name__)
 
@@ -277,13 +277,13 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
             raise ValueError(f"cannot save {path}: the predictor's classes must be integers, got {self.classes_}")
         provenance = {**attrs, "params": self.get_params(), "n_iter": self.n_iter_,
                       "n_features_in": int(self.n_features_in_)}
-        training = training if training is not None else getattr(self, "training_", None)
-        if training is not None:
-            provenance.update(training_attrs(training))
         if matching is not None:
             provenance[MATCHING] = matching.to_json()
             provenance["matcher"] = matching.matcher.provenance()
+        training = training if training is not None else getattr(self, "training_", None)
         with atomic_h5(path, provenance) as f:
+            if training is not None:
+                write_training(f, training)
             f["mean"], f["scale"], f["classes"] = self.mean_, self.scale_, self.classes_
             for i, (w, b) in enumerate(zip(self.coefs_, self.intercepts_, strict=True)):
                 f[f"layers/{i}/weights"], f[f"layers/{i}/bias"] = w, b
@@ -316,7 +316,7 @@ class SMRPredictor(ClassifierMixin, BaseEstimator):  # type: ignore[misc]
             # None: a file from before predictors recorded their matching (check_matching refuses to guess)
             predictor.matching_ = None if stored is None else Matching.from_json(json.loads(stored))
             # its length, methods, frames and matrices (leakage.check_length, check_disjoint, check_matrices)
-            predictor.training_ = read_training(f.attrs, str(path))
+            predictor.training_ = read_training(f, str(path))
             predictor.seq_len_ = predictor.training_.seq_len
             predictor.path_ = str(path)
         return predictor

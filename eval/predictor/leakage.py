@@ -3,7 +3,7 @@
 ``Training`` is a predictor file's record of its training data: the sequence length, the methods, the frame ranges
 of the files it learnt from (a dataset's splits) and the identity of each training matrix
 (``fingerprint.MatrixPrint``: its SHA-256 and content fingerprint, which catches a user's matrix or a block cut
-from it). ``training_attrs`` writes it and ``read_training`` reads it, the one place of its keys. A stage that
+from it). ``write_training`` writes it and ``read_training`` reads it, the one place of its keys. A stage that
 applies a predictor checks the length (``attributes.check_length``), the frames (``check_disjoint``) and the matrices
 (``check_matrices``) of what it scores.
 
@@ -20,16 +20,17 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+import h5py
 import numpy as np
 
 from vpr_smr.core.io import read_provenance
 from vpr_smr.core.records import FORMAT, Record, decode
 from vpr_smr.eval.matching.attributes import QueryFeatures, check_length
-from vpr_smr.eval.matching.fingerprint import MatrixPrint, found_anchors
+from vpr_smr.eval.matching.fingerprint import MatrixPrint, found_anchors, read_print, write_print
 
 log = logging.getLogger("vpr_smr")
 
-# the predictor file's attributes: the frame ranges, sequence length, methods and matrices it was trained on
+# the predictor file's attributes (and group, of the matrices): the frames, length, methods and matrices it learnt
 TRAINED_ON = "trained_on_frames"
 SEQ_LEN = "seq_len"
 METHODS = "methods"
@@ -113,20 +114,23 @@ class Training(Record):
         return cls(lengths[0] if lengths else None, tuple(methods), tuple(frames), prints)
 
 
-def training_attrs(training: Training) -> dict[str, Any]:
-    """A predictor file's attributes of ``training`` (``read_training`` reads them back)."""
-    out: dict[str, Any] = {TRAINED_ON: [r.to_json() for r in training.frames], METHODS: list(training.methods),
-                           MATRICES: [m.to_json() for m in training.matrices]}
+def write_training(f: Any, training: Training) -> None:
+    """``training`` into an open predictor file (``read_training`` reads it back): the length, methods and frames
+    as attributes, each matrix's print as a dataset of the group ``MATRICES`` (``fingerprint.write_print``)."""
+    f.attrs[TRAINED_ON] = json.dumps([r.to_json() for r in training.frames], sort_keys=True)
+    f.attrs[METHODS] = json.dumps(list(training.methods))
     if training.seq_len is not None:
-        out[SEQ_LEN] = int(training.seq_len)
-    return out
+        f.attrs[SEQ_LEN] = int(training.seq_len)
+    group = f.create_group(MATRICES)
+    for i, found in enumerate(training.matrices):
+        write_print(group, str(i), found)
 
 
-def read_training(attrs: Mapping[str, Any], where: str) -> Training:
-    """The ``Training`` of a predictor file's attributes (HDF5 ``attrs``: JSON text or numbers); a file from before
-    it recorded its length gives the length its training report's meta holds (``vpr-smr train``), else None."""
+def read_training(f: Any, where: str) -> Training:
+    """The ``Training`` of an open predictor file; a file from before it recorded its length gives the length its
+    training report's meta holds (``vpr-smr train``), else None; one without matrices none."""
     def value(key: str, default: Any) -> Any:
-        found = attrs.get(key)
+        found = f.attrs.get(key)
         if found is None:
             return default
         return json.loads(found) if isinstance(found, str | bytes) else found
@@ -143,8 +147,10 @@ def read_training(attrs: Mapping[str, Any], where: str) -> Training:
         report = value("report", {})
         meta = report.get("meta") if isinstance(report, dict) else None
         length = meta.get("seq_len") if isinstance(meta, dict) else None
+    group = f.get(MATRICES)
+    matrices = () if group is None else tuple(read_print(group[str(i)]) for i in range(len(group)))
     return Training(None if length is None else int(length), tuple(str(m) for m in value(METHODS, [])),
-                    records(TRAINED_ON, FrameRange), records(MATRICES, MatrixPrint))
+                    records(TRAINED_ON, FrameRange), matrices)
 
 
 def matrix_overlaps(training: Training, name: str, scored: MatrixPrint | None = None, matrix: Any = None,
@@ -220,9 +226,8 @@ def frame_ranges(paths: Iterable[Path | str]) -> list[FrameRange]:
 def trained_on(predictor: Path | str) -> list[FrameRange]:
     """The frame ranges a predictor file was trained on (none recorded: an empty list); a file of another results
     format (an earlier layout of its ranges) raises a ValueError saying to train it again."""
-    attrs = {key: json.dumps(value) if isinstance(value, dict | list) else value
-             for key, value in read_provenance(predictor).items()}
-    return list(read_training(attrs, str(predictor)).frames)
+    with h5py.File(predictor, "r") as f:
+        return list(read_training(f, str(predictor)).frames)
 
 
 def check_disjoint(trained: Sequence[FrameRange], scored: Sequence[FrameRange], allow_overlap: bool,
