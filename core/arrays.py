@@ -162,7 +162,7 @@ def _local_data_start(path: Path, info: zipfile.ZipInfo) -> int:
     if len(local) < 30 or local[:4] != b"PK\x03\x04":
         raise zipfile.BadZipFile(f"no local header for {info.filename!r} at byte {info.header_offset}")
     name_length, extra_length = struct.unpack("<HH", local[26:30])
-    return info.header_offset + 30 + name_length + extra_length
+    return int(info.header_offset) + 30 + int(name_length) + int(extra_length)
 
 
 def _npz_members(path: Path) -> list[_NpzMember]:
