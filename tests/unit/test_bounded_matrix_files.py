@@ -239,3 +239,32 @@ def test_the_bad_input_page_states_the_readers_limits_as_the_code_has_them():
     assert arrays.MAX_MATRIX_VALUES == 2**32 and f"more than 2^32 ({2**32}) values" in page
     assert f"more than {arrays.INFLATE_RATIO} times its compressed bytes" in page
     assert f"(and more than {arrays.INFLATE_FREE >> 20} MiB)" in page
+
+
+def test_a_compressed_mat_v5_variable_inflating_past_its_ratio_is_refused_before_loadmat(tmp_path, monkeypatch):
+    scipy.io.savemat(tmp_path / "zeros.mat", {"D": np.zeros((500, 500))}, do_compression=True)
+    size = (tmp_path / "zeros.mat").stat().st_size
+    monkeypatch.setattr(arrays, "INFLATE_FREE", 1 << 16)
+    assert 500 * 500 * 8 > max(1 << 16, 32 * size)
+
+    def never(*args, **kwargs):
+        raise AssertionError("loadmat was called")
+
+    monkeypatch.setattr(scipy.io, "loadmat", never)
+    with pytest.raises(ValueError, match=rf"zeros.mat: its array 'D' declares 500 x 500 double \(250000 values, "
+                                         rf"2000000 bytes\) from {size} compressed bytes, more than they may inflate"):
+        with open_distance_matrix(tmp_path / "zeros.mat"):
+            pass
+
+
+def test_a_compressed_ground_truth_may_inflate_to_the_matrix_it_scores(tmp_path, monkeypatch):
+    from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
+
+    truth = np.abs(np.subtract.outer(np.arange(300), np.arange(300))) <= 2  # a band: 90 kB from about 1 kB
+    np.savez_compressed(tmp_path / "G.npz", G=truth)
+    monkeypatch.setattr(arrays, "INFLATE_FREE", 1 << 10)
+    read = read_ground_truth(tmp_path / "G.npz", within=(300, 300))
+    assert all(np.array_equal(read.correct_references(q), truth[:, q]) for q in (0, 1, 150, 299))
+    with pytest.raises(ValueError, match=r"G.npz: its array 'G' declares 300 x 300 bool \(90000 values, 90000 bytes\) "
+                                         "from .* compressed bytes, more than they may inflate to"):
+        read_ground_truth(tmp_path / "G.npz")
