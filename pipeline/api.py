@@ -215,8 +215,8 @@ def metrics(distances: Any, seq_len: int, *, tolerance: int = DEFAULT_TOLERANCE,
     Raises:
         ValueError: a matrix too short for ``seq_len``, a ground truth of another shape, an unknown matcher,
             setting or mode, a predictor of another matcher or length; the message names it and the fix.
-        SplitLeakError: (a ValueError) a predictor trained on this matrix or an overlapping block, unless
-            ``allow_split_overlap``.
+        vpr_smr.eval.predictor.leakage.SplitLeakError: (a ValueError) a predictor trained on this matrix or an
+            overlapping block, unless ``allow_split_overlap``.
     """
     matrix = _matrix(distances)
     truth = _truth(tuple(matrix.shape), ground_truth, tolerance)
