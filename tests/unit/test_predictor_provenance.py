@@ -228,3 +228,8 @@ def test_cli_training_records_the_matrices_and_evaluate_refuses_them(tmp_path, c
     assert f"shares entries with {tmp_path / 'over.h5'}" in capsys.readouterr().err
     assert not (tmp_path / "ev.json").exists()
     assert cli([*options, "--allow-split-overlap"]) == 0
+
+
+def test_train_refuses_features_of_two_lengths():
+    with pytest.raises(ValueError, match=r"sequence lengths \[4, 6\]: a predictor learns the matches of one length"):
+        smr.train([smr.attributes(TRAIN, 6), smr.attributes(DISJOINT, 4)], settings=SMALL)
