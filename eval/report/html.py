@@ -601,8 +601,9 @@ SECTIONS = (
         aside="restoration_auc"),
     Declared("sequence-length", "Sequence-length ablation", ("ablation_seq_len",), (
         "PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
-        "green where the predictor helps, red where it hurts; a cross marks the PR AUC of the best "
-        "training-free scorer removing as many matches as the predictor (method §12): compare it with the "
+        "green where the top is higher, red where lower (the estimates: the table gives their intervals); a cross "
+        "marks the PR AUC of the best training-free scorer removing as many matches as the predictor (method §12): "
+        "compare it with the "
         "bar's top, each over its own curve; the second table gives its name and AOC reduction beside the "
         "predictor's."), "seq_len", view=_seq_len_view),
     # right after the sequence-length ablation: choosing the length per query instead (method §15)
