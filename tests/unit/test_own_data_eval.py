@@ -202,8 +202,10 @@ def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
     # the paper's layout: m2's Reduction and Reduction over seeds, each with its reason
     assert undefined("table1-d-paper-4", reason) == 1
     assert html.count('<td class="na">n/a: seeds 0, 1, 2: nothing to reduce</td>') == 1
-    # Table I's whole table, the paper layout, the PR section's table, the whole trust table (no trust figure here)
-    assert html.count('<td class="na">n/a</td>') == 4 + 6 + 6 and html.count(reason) == 1 + 1 + 1 + 1
+    # Table I's whole table, the paper layout, the PR section's table, the whole trust table (no trust figure here);
+    # the reason also in the first screen's verdict table
+    assert undefined("verdicts-d-paper", reason) == 1
+    assert html.count('<td class="na">n/a</td>') == 4 + 6 + 6 and html.count(reason) == 1 + 1 + 1 + 1 + 1
 
 
 def test_leave_one_out_rows_show_na():
