@@ -270,7 +270,8 @@ def test_a_truncated_hdf5_distance_file_is_named(tmp_path, capsys):
     (tmp_path / "test.h5").write_bytes((tmp_path / "test.h5").read_bytes()[:5000])  # of 22 KB
     err = failure(capsys, ["metrics", "--distances", str(tmp_path / "test.h5"), "--seq-len", "3", "--out",
                            str(tmp_path / "m.json")])
-    assert "test.h5 is a damaged or truncated HDF5 file (" in err and "expected a distance file written by vpr-smr" in err
+    assert "test.h5 is a damaged or truncated HDF5 file (" in err
+    assert "expected a distance file written by vpr-smr" in err
 
 
 def test_queries_and_held_out_refuse_a_predictor_of_another_matcher(velocity_predictor, capsys):
