@@ -65,4 +65,6 @@ def candidates_needed(r_window: int = DEFAULT_R_WINDOW, spread_k: int = DEFAULT_
 # own object, the first seed's numbers once. 4: Table II's numbers keyed by the splits' names; only the first
 # predictor seed is cross-validated (the others' f1_cv is null). 5: bootstrap intervals over queries beside the
 # numbers the tables show, the scorers against the predictor paired, a standard deviation of one seed null.
-RESULTS_LAYOUT = 5
+# 6: an outcome names a direction only where its interval earns it, sequence recall@N ranks the matcher's match
+# first, predictor files record their sequence length, methods and training matrices (0.15.0).
+RESULTS_LAYOUT = 6
