@@ -17,7 +17,7 @@ from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import Comparison, DetectionComparison
 from vpr_smr.eval.report.table1 import UNDEFINED, Table1Block
-from vpr_smr.eval.scoring.curves import NOTHING_TO_REDUCE, UNCHANGED
+from vpr_smr.eval.scoring.curves import AGAINST_SIGN, HOLDS_ZERO, NO_INTERVAL, NOTHING_TO_REDUCE, UNCHANGED
 from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.sweep import within
 
@@ -91,16 +91,16 @@ def _why_undefined(rows: Sequence[dict[str, Any]]) -> str:
 
 def _verdict(row: dict[str, Any]) -> str:
     """What a method's seed-0 reduction says, by its interval (``outcome_words.direction``): ``better``,
-    ``worse``, ``same`` (unchanged), ``untold`` (the interval holds 0, or points against the estimate) or
-    ``no_interval``."""
+    ``worse``, ``same`` (unchanged), or ``earned``'s code for no direction: ``HOLDS_ZERO``, ``AGAINST_SIGN``
+    (the interval points against the estimate) or ``NO_INTERVAL``."""
     found = words.direction(row)
     if found is None:
-        return "no_interval"
+        return NO_INTERVAL
     if found:
         return "better" if found > 0 else "worse"
     if row.get("outcome") == UNCHANGED:
         return "same"
-    return "untold" if bounds.sign(row, names.REDUCTION) == 0 else "against"
+    return HOLDS_ZERO if bounds.sign(row, names.REDUCTION) == 0 else AGAINST_SIGN
 
 
 def _queries(rows: Sequence[dict[str, Any]]) -> str:
@@ -143,7 +143,7 @@ def sentences(block: Table1Block, split: str) -> list[str]:
     better = sorted((r for r in plain if verdicts[str(r["method"])] == "better"), key=lambda r: -r[names.REDUCTION])
     worse = sorted((r for r in plain if verdicts[str(r["method"])] == "worse"), key=lambda r: r[names.REDUCTION])
     same = [str(r["method"]) for r in plain if verdicts[str(r["method"])] == "same"]
-    untold = [r for r in plain if verdicts[str(r["method"])] in ("untold", "against", "no_interval")]
+    untold = [r for r in plain if verdicts[str(r["method"])] in words.UNEARNED]
     out = []
     if degenerate and all(r.get("outcome") == NOTHING_TO_REDUCE and not words.lowered_recall(r) for r in rows):
         whose = f"{rows[0]['method']}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
@@ -189,8 +189,10 @@ def sentences(block: Table1Block, split: str) -> list[str]:
     return out + _seed_sentences(block)
 
 
-VERDICT = {"better": "it helps", "worse": "it hurts", "same": "unchanged", "untold": "no direction (interval holds 0)",
-           "against": "no direction (interval against its sign)", "no_interval": "no direction (no interval)"}
+VERDICT = {"better": "it helps", "worse": "it hurts", "same": "unchanged",
+           HOLDS_ZERO: f"no direction (interval {words.UNEARNED[HOLDS_ZERO]})",
+           AGAINST_SIGN: "no direction (interval against its sign)",
+           NO_INTERVAL: f"no direction ({words.UNEARNED[NO_INTERVAL]})"}
 
 
 def headline(block: Table1Block, split: str) -> str:
@@ -404,7 +406,7 @@ def _untold(rows: Sequence[dict[str, Any]]) -> list[str]:
 def _difference(interval: Interval | None, ap: bool = False) -> str:
     """The interval of a paired difference: of reductions in points (per cent), of average precisions in AP."""
     if interval is None:
-        return "no interval"
+        return words.UNEARNED[NO_INTERVAL]
     return f"interval {bounds.span(interval, unit='', fmt='.3f') if ap else bounds.span(interval, unit=' points')}"
 
 
@@ -476,17 +478,16 @@ def _paired(difference: Interval | None) -> str:
     """A paired difference (a scorer's number minus the predictor's, higher better for both) in words, from the
     predictor's side: better where the difference lies below 0."""
     if difference is None:
-        return "no interval"
+        return words.UNEARNED[NO_INTERVAL]
     if _identical(difference):
         return "equal"
     sign = difference.sign()
     if sign == 0:
-        return HOLDS_ZERO
+        return words.UNEARNED[HOLDS_ZERO]
     return "better" if sign < 0 else "worse"
 
 
-HOLDS_ZERO = "interval holds 0"
-VERDICTS = ("better", "worse", "equal", HOLDS_ZERO, "no interval")
+VERDICTS = ("better", "worse", "equal", words.UNEARNED[HOLDS_ZERO], words.UNEARNED[NO_INTERVAL])
 
 
 def baseline_headline(comparison: Comparison) -> str:

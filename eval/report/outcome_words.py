@@ -7,7 +7,8 @@ it too): ``curves.outcome`` names improved or worse by the sign of a point estim
 names that direction only where the estimate's interval over queries excludes 0 on the same side. The records
 (``records.Reduction``, ``TrustNumbers``: the JSON files) and every row record take their ``outcome`` through
 ``earned``, so every writer (CSV, Markdown, LaTeX, the page, the console) shows the same word, and ``direction``
-reads a row, or a hand-made dict of one, by the same rule.
+reads a row, or a hand-made dict of one, by the same rule. ``UNEARNED`` is the one place that says ``earned``'s codes
+in place of a direction (the files keep the codes) in the page's and the tables' words.
 
 The other functions read a Table I row (``table1.table1_rows``): ``outcome``, ``removed``, ``n_queries``, the AOCs
 and maximum recalls of ``Reduction``.
@@ -20,7 +21,9 @@ from typing import Any
 
 from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.scoring.curves import (
+    AGAINST_SIGN,
     AT_RECALL_ZERO,
+    HOLDS_ZERO,
     IMPROVED,
     KEPT_ALL,
     KEPT_NONE_CORRECT,
@@ -44,6 +47,12 @@ SHORT = {
     NOTHING_TO_REDUCE: "nothing to reduce",
     WORSE_FROM_ZERO: "worse than a perfect baseline",
 }
+# What a page or table says where ``earned`` names no direction (the files hold the codes)
+UNEARNED = {
+    HOLDS_ZERO: "holds 0",
+    NO_INTERVAL: "no interval",
+    AGAINST_SIGN: "no direction",  # the interval excludes 0 on the other side from the estimate
+}
 
 
 def is_degenerate(row: Mapping[str, Any]) -> bool:
@@ -59,11 +68,6 @@ def at_recall_zero(row: Mapping[str, Any]) -> bool:
 def lowered_recall(row: Mapping[str, Any]) -> bool:
     """The predictor's maximum recall is below the baseline's own: the AOCs are taken on part of the curve."""
     return "max_recall_vpr_sm" in row and row["max_recall"] < row["max_recall_vpr_sm"]
-
-
-def improved(row: Mapping[str, Any]) -> bool:
-    """The reduction improved by the one rule (``direction``): its interval lies above 0."""
-    return direction(row) == 1
 
 
 def direction(row: Mapping[str, Any], name: str = names.REDUCTION) -> int | None:

@@ -18,6 +18,7 @@ from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.results import Order, Splits
 from vpr_smr.eval.report.rows import Table1Row
+from vpr_smr.eval.scoring.curves import NO_INTERVAL
 from vpr_smr.eval.scoring.records import Evaluation
 
 UNDEFINED = "n/a"  # a reduction whose baseline AOC is 0: JSON null, an empty CSV cell
@@ -29,7 +30,6 @@ UNDEFINED_NOTE = (f"{UNDEFINED}: the reduction is undefined (why: beside it, and
                   "Improved counts it as not improved.")
 # Improved is a direction: a count of the intervals that earn it; the seeds' spread has no interval to earn one
 IMPROVED_NOTE = f"Improved: the methods whose seed-0 reduction has its {bounds.LEVEL} interval above 0."
-NO_INTERVAL = "no interval"
 
 
 def is_reduction(column: str) -> bool:
@@ -89,7 +89,7 @@ def _names(rows: Iterable[dict[str, Any]]) -> str:
 
 def _improved(rows: Sequence[dict[str, Any]]) -> str:
     """How many of all the methods improve: a method whose seed-0 reduction's interval lies above 0
-    (``outcome_words.improved``); one whose reduction is undefined, or whose interval holds 0, counts as not
+    (``outcome_words.direction``); one whose reduction is undefined, or whose interval holds 0, counts as not
     improved, and those with an estimate but no interval are counted beside (``k / n (m without an interval)``)."""
     directions = [words.direction(r) for r in rows]
     missing = directions.count(None)
@@ -180,7 +180,7 @@ def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
             parts.append(f"opposite in sign to the seed-0 Mean {seed0:.2f}, which is seed 0's predictor alone over "
                          f"{_names(over)}, this one every seed's over {_names(full)}")
         note = f" ({'; '.join(parts)})" if parts else ""
-    return texts + [_number(mean, ".2f") + note], f"{NO_INTERVAL} ({n_seeds} seeds)"
+    return texts + [_number(mean, ".2f") + note], f"{words.UNEARNED[NO_INTERVAL]} ({n_seeds} seeds)"
 
 
 def _number(value: float | None, fmt: str) -> str:

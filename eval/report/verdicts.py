@@ -24,16 +24,13 @@ from vpr_smr.eval.report.baselines import Comparison, DetectionComparison, compa
 from vpr_smr.eval.report.results import Order, unique
 from vpr_smr.eval.report.view import Cell, Column, TableView, VerdictBlock, VerdictMode, anchor, text_cell
 from vpr_smr.eval.scoring.adaptive_records import COMPARED_MODE, RULE, RULES
-from vpr_smr.eval.scoring.curves import UNCHANGED
+from vpr_smr.eval.scoring.curves import AGAINST_SIGN, HOLDS_ZERO, NO_INTERVAL, UNCHANGED
 from vpr_smr.eval.scoring.records import Interval
 
 Rows = Sequence[Mapping[str, Any]]
 # The mode shown first: every row's recall over the same denominator (the split's queries), so rows compare; the
 # other modes are folded below it
 SHOWN_MODE = COMPARED_MODE
-HOLDS_0 = "holds 0"  # the word of a number whose interval contains 0: no direction
-NO_INTERVAL = "no interval"
-NO_DIRECTION = "no direction"  # an interval off 0 on the other side of the reduction's outcome
 
 
 @dataclass(frozen=True)
@@ -58,7 +55,7 @@ RULES_GROUP = "each length rule's AOC minus the best fixed length's"
 
 def _cell(word: str, number: str, interval: Interval | None, kind: str, fmt: str) -> Cell:
     """``reduces 40.0 %`` over ``[20.0, 55.0]``, ``holds 0: 3.2 %`` over ``[-40.0, 35.0]``."""
-    joint = ": " if word in (HOLDS_0, NO_INTERVAL, NO_DIRECTION) else " "
+    joint = ": " if word in words.UNEARNED.values() else " "
     return Cell(f"{word}{joint}{number}", kind=kind, detail="" if interval is None else bounds.bracket(interval, fmt))
 
 
@@ -71,9 +68,9 @@ def _by_sign(sign: int | None, said: Words, number: str, interval: Interval | No
     """The cell of a number whose direction is ``sign`` (+1, -1, 0: the interval holds 0, None: no interval);
     ``against`` names what a direction word compares with (``beats uniqueness``)."""
     if sign is None:
-        return _cell(NO_INTERVAL, number, None, "hold", fmt)
+        return _cell(words.UNEARNED[NO_INTERVAL], number, None, "hold", fmt)
     if sign == 0:
-        return _cell(HOLDS_0, number, interval, "hold", fmt)
+        return _cell(words.UNEARNED[HOLDS_ZERO], number, interval, "hold", fmt)
     word = (said.up if sign > 0 else said.down) + (f" {against}" if against else "")
     return _cell(word, number, interval, "up" if sign > 0 else "down", fmt)
 
@@ -89,7 +86,7 @@ def reduction_cell(row: Mapping[str, Any]) -> Cell:
     sign, interval = words.direction(row), bounds.of(row, names.REDUCTION)
     number = f"{float(value):.1f} %"
     if sign == 0 and interval is not None and interval.sign():  # the interval and the outcome disagree
-        return _cell(NO_DIRECTION, number, interval, "hold", ".1f")
+        return _cell(words.UNEARNED[AGAINST_SIGN], number, interval, "hold", ".1f")
     return _by_sign(sign, REDUCES, number, interval, ".1f")
 
 

@@ -727,7 +727,7 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
     assert baseline_headline(found) == (
         "d (L = 4, paper mode), the predictor against the best training-free scorer (single_uniqueness) at its "
         "budget (the 95 % interval of its reduction minus the predictor's, in points): better for a [-60.0, -30.0]; "
-        "worse for b [5.0, 35.0]; interval holds 0 for c [-10.0, 4.0].")
+        "worse for b [5.0, 35.0]; holds 0 for c [-10.0, 4.0].")
     # a difference that is 0 on every draw (the scorer removed the predictor's very matches): equal, which is
     # neither a direction nor an interval that holds 0
     same = [{**r, "reduction_pct_difference_ci_low": 0.0, "reduction_pct_difference_ci_high": 0.0}
@@ -766,7 +766,7 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
     # uniqueness's AP minus the predictor's is above 0 for a (the predictor worse), contains 0 for b
     assert detection_headline(detection_comparisons(detection)) == (
         "d (L = 4), detecting wrong matches, the predictor against the best training-free scorer (the 95 % interval "
-        "of its average precision minus the predictor's): worse for a [0.020, 0.130]; interval holds 0 for b "
+        "of its average precision minus the predictor's): worse for a [0.020, 0.130]; holds 0 for b "
         "[-0.050, 0.200].")
     # the predictor ranks b's wrong matches as uniqueness does: the same AP, and 0 on every draw
     tied_ap = [{**r, "average_precision_difference_ci_low": 0.0, "average_precision_difference_ci_high": 0.0}
