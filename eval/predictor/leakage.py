@@ -154,26 +154,48 @@ def read_training(f: Any, where: str) -> Training:
 
 
 def matrix_overlaps(training: Training, name: str, scored: MatrixPrint | None = None, matrix: Any = None,
-                    predictor: str = "the predictor") -> list[str]:
+                    predictor: str = "the predictor", ranged: bool = False) -> list[str]:
     """How the matrix ``name`` shares entries with a training matrix of ``training`` (empty: none): the same
     matrix, or shared fingerprint anchors (overlapping blocks). ``matrix``: the scored values, every patch looked up
-    (``found_anchors``); else ``scored``, its print (the same SHA-256, or anchors at the coarser of the two rates)."""
+    (``found_anchors``); else ``scored``, its print (the same SHA-256, or anchors at the coarser of the two rates).
+    Where no print can tell (the predictor records no matrix, or ``name`` has none) logs one warning naming
+    ``name``, unless the frame ranges tell instead (``ranged``: ``name`` records its split, ``has_frames``, and the
+    predictor its own: ``check_disjoint``)."""
+    if not training.matrices or (matrix is None and scored is None):
+        if not (ranged and training.frames):
+            _warn_unchecked(name, predictor, bool(training.matrices))
+        return []
     found = []
     for trained in training.matrices:
         anchors = np.asarray(trained.anchors, np.uint64)
         if matrix is not None:
             shared = len(found_anchors(matrix, anchors))
             same = shared == len(anchors) > 0 and tuple(matrix.shape) in (trained.shape, trained.shape[::-1])
-        elif scored is not None:
-            shared, same = trained.shared(scored), scored.sha256 == trained.sha256
         else:
-            continue
+            assert scored is not None  # the early return above
+            shared, same = trained.shared(scored), scored.sha256 == trained.sha256
         if same:
             found.append(f"{predictor} was trained on {trained}, and {name} is that matrix")
         elif shared >= MIN_SHARED:
             found.append(f"{predictor} was trained on {trained}, which shares entries with {name} ({shared} of the "
                          f"{len(anchors)} fingerprint anchors of its training matrix): overlapping blocks")
     return found
+
+
+def _warn_unchecked(name: str, predictor: str, trained_prints: bool) -> None:
+    """The warning of a matrix whose overlap with the predictor's training matrices nothing can check."""
+    if trained_prints:
+        why, fix = "it records no print of its matrix", "compute its attributes again with this version"
+    else:
+        why, fix = f"{predictor} records no print of them", "train the predictor again with this version"
+    log.warning("%s: whether it shares entries with the matrices %s was trained on cannot be checked (%s, and no "
+                "split frame ranges tell); fix: %s", name, predictor, why, fix)
+
+
+def has_frames(path: Path | str) -> bool:
+    """Whether ``path`` is a file of vpr-smr that records the frames of its split (``frame_range``), which
+    ``check_disjoint`` compares with a predictor's; a name that is no file (``"features"``) records none."""
+    return Path(path).is_file() and h5py.is_hdf5(path) and frame_range(path) is not None
 
 
 def check_scored(predictor: Any, features: Mapping[str, QueryFeatures | None], allow_overlap: bool,
@@ -189,7 +211,7 @@ def check_scored(predictor: Any, features: Mapping[str, QueryFeatures | None], a
         if length is not None:
             check_length(predictor, length, where, fix)
         if training is not None and scored is not None:
-            found += matrix_overlaps(training, where, scored.matrix, predictor=name)
+            found += matrix_overlaps(training, where, scored.matrix, predictor=name, ranged=has_frames(where))
     return check_matrices(found, allow_overlap)
 
 

@@ -95,8 +95,8 @@ from vpr_smr.eval.predictor.leakage import (
     check_matrices,
     frame_range,
     frame_ranges,
+    has_frames,
     matrix_overlaps,
-    trained_on,
 )
 from vpr_smr.eval.scoring import baselines as scorers
 from vpr_smr.eval.scoring.baselines import (
@@ -408,7 +408,8 @@ def _reference_first_frame(*paths: Path | str | None) -> int | None:
 
 def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], predictor: Path | None,
                   seq_len: int, tolerance: int, matcher: MatcherSettings,
-                  file_truth: GroundTruth | None = None) -> None:
+                  file_truth: GroundTruth | None = None) -> SMRPredictor | None:
+    """Check every input file before any work; return the predictor, loaded (None without one)."""
     if matcher.reference_positions is not None and len(distances) > 1:
         raise ValueError("--reference-positions and --query-positions give the positions of one matrix: give one "
                          "--distances file with them (the distance files of a dataset with positions hold their own)")
@@ -434,23 +435,29 @@ def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], 
                              f"give --tolerance {int(stored)}, or attributes computed at {tolerance}")
     check_seq_len(list(attributes.values()), seq_len)
     check_matcher(list(attributes.values()), matcher.spec, matcher.radius, file_truth)
-    if predictor is not None:
-        check_suffix(predictor, HDF5_SUFFIXES, "the predictor (HDF5)", "--predictor")
-        if not predictor.is_file():
-            raise FileNotFoundError(f"predictor file not found: {predictor} (train it first: vpr-smr train)")
-        check_length(SMRPredictor.load(predictor), seq_len, f"--seq-len {seq_len}", "--seq-len")
+    if predictor is None:
+        return None
+    check_suffix(predictor, HDF5_SUFFIXES, "the predictor (HDF5)", "--predictor")
+    if not predictor.is_file():
+        raise FileNotFoundError(f"predictor file not found: {predictor} (train it first: vpr-smr train)")
+    model = SMRPredictor.load(predictor)
+    check_length(model, seq_len, f"--seq-len {seq_len}", "--seq-len")
+    return model
 
 
 def _check_matrices(model: SMRPredictor, splits: Mapping[str, Path], allow_split_overlap: bool, similarity: bool,
                     key: str | None, transpose: bool) -> None:
     """Refuse to score a matrix that shares entries with one the predictor was trained on (``check_matrices``:
-    every patch of each matrix looked up among its training matrices' fingerprints), unless allowed."""
-    if not model.training_.matrices:
-        return
+    every patch of each matrix looked up among its training matrices' fingerprints), unless allowed; a warning
+    where the predictor records none and the frame ranges cannot tell either (``matrix_overlaps``)."""
     found = []
+    name = f"predictor {model.path_}"
     for path in splits.values():
+        if not model.training_.matrices:  # nothing to look the patches up in: the matrix need not be read
+            matrix_overlaps(model.training_, str(path), predictor=name, ranged=_ours(path) and has_frames(path))
+            continue
         with open_distance_matrix(path, similarity, key, transpose) as matrix:
-            found += matrix_overlaps(model.training_, str(path), matrix=matrix, predictor=f"predictor {model.path_}")
+            found += matrix_overlaps(model.training_, str(path), matrix=matrix, predictor=name)
     check_matrices(found, allow_split_overlap)
 
 
@@ -497,13 +504,11 @@ def score_all(
     file_truth = (None if matcher.ground_truth is None
                   else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key,
                                          within=scored_shape(splits.values(), key, transpose)))
-    check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)
-    model = None
-    if predictor_file is not None:
+    model = check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)
+    if model is not None:
         scored = [p for p in (*splits.values(), *attribute_paths.values()) if _ours(p)]
-        check_disjoint(trained_on(predictor_file), frame_ranges(scored), allow_split_overlap,
+        check_disjoint(model.training_.frames, frame_ranges(scored), allow_split_overlap,
                        f"predictor {predictor_file}")
-        model = SMRPredictor.load(predictor_file)
         check_matching(model, Matching.of(matcher.spec, matcher.kind), "these matrices (--matcher, --radius)")
         _check_matrices(model, splits, allow_split_overlap, similarity, key, transpose)
     results: dict[str, ScoredSplit] = {}

@@ -5,6 +5,7 @@ The matrices are a place-recognition-like matrix of this file's own seed (a band
 diagonal under strong noise), cut into blocks; no other test uses them."""
 
 import hashlib
+import json
 import logging
 import struct
 
@@ -13,10 +14,11 @@ import numpy as np
 import pytest
 
 from vpr_smr.eval.matching import fingerprint
+from vpr_smr.eval.matching.attributes import MATRIX_PRINT
 from vpr_smr.eval.matching.fingerprint import PATCH, matrix_print, patch_hashes
 from vpr_smr.eval.matching.live import LiveMatcher
 from vpr_smr.eval.predictor.estimator import SMRPredictor
-from vpr_smr.eval.predictor.leakage import SplitLeakError
+from vpr_smr.eval.predictor.leakage import MATRICES, TRAINED_ON, FrameRange, SplitLeakError
 from vpr_smr.pipeline import api as smr
 from vpr_smr.pipeline.cli import main as cli
 
@@ -233,3 +235,70 @@ def test_cli_training_records_the_matrices_and_evaluate_refuses_them(tmp_path, c
 def test_train_refuses_features_of_two_lengths():
     with pytest.raises(ValueError, match=r"sequence lengths \[4, 6\]: a predictor learns the matches of one length"):
         smr.train([smr.attributes(TRAIN, 6), smr.attributes(DISJOINT, 4)], settings=SMALL)
+
+
+# --- where no print and no frame range can tell, a warning says so ------------------------------------------------
+
+UNCHECKED = "cannot be checked"
+
+
+def _copy(source, target, drop=(), attrs=None):
+    """``source`` copied to ``target`` without the datasets or groups ``drop``, with the attributes ``attrs``."""
+    target.write_bytes(source.read_bytes())
+    with h5py.File(target, "r+") as f:
+        for name in drop:
+            del f[name]
+        f.attrs.update(attrs or {})
+    return target
+
+
+@pytest.fixture(scope="module")
+def unprinted(api_predictor):
+    """p6.h5 as 0.14 wrote it (no training matrices), the same with the frames of split 'train' of a dataset 'd'
+    (frames 0-119, as the workflow records them), and DISJOINT's attributes, with the frames 120-239 of 'd'."""
+    folder, _ = api_predictor
+    old = _copy(folder / "p6.h5", folder / "old.h5", drop=[MATRICES])
+    framed = _copy(old, folder / "framed.h5",
+                   attrs={TRAINED_ON: json.dumps([FrameRange("d", "train", 0, 120).to_json()])})
+    assert cli(["attributes", "--distances", str(folder / "disjoint.npy"), "--seq-len", "6", "--out",
+                str(folder / "disjoint.h5")]) == 0
+    test = _copy(folder / "disjoint.h5", folder / "test.h5",
+                 attrs={"dataset": "d", "split": "test", "split_range": json.dumps([120, 240])})
+    return folder, old, framed, test
+
+
+def _warnings(caplog, options):
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="vpr_smr"):
+        assert cli(options) == 0
+    return [r.getMessage() for r in caplog.records if UNCHECKED in r.getMessage()]
+
+
+def test_a_predictor_without_prints_scored_on_a_users_matrix_warns_once(unprinted, caplog):
+    folder, old, _, _ = unprinted
+    matrix = folder / "disjoint.npy"
+    (said,) = _warnings(caplog, ["metrics", "--distances", str(matrix), "--seq-len", "6", "--predictor", str(old),
+                                 "--out", str(folder / "old.json")])
+    assert said.startswith(f"{matrix}: whether it shares entries with the matrices predictor {old} was trained on")
+    assert f"predictor {old} records no print of them" in said
+    assert said.endswith("fix: train the predictor again with this version")
+
+
+def test_attributes_without_a_print_warn_and_say_to_compute_them_again(unprinted, caplog):
+    folder, _, _, _ = unprinted
+    bare = _copy(folder / "disjoint.h5", folder / "bare.h5", drop=[MATRIX_PRINT])  # 0.14's attributes
+    (said,) = _warnings(caplog, ["evaluate", "--dataset", "noise", "--method", "m", "--seq-len", "6", "--attributes",
+                                 f"test={bare}", "--predictors", str(folder / "p6.h5"), "--out",
+                                 str(folder / "bare.json")])
+    assert said.startswith(f"{bare}: ") and "it records no print of its matrix" in said
+    assert said.endswith("fix: compute its attributes again with this version")
+
+
+def test_frame_ranges_on_both_sides_check_it_without_a_word(unprinted, caplog):
+    folder, old, framed, test = unprinted
+    options = ["evaluate", "--dataset", "d", "--method", "m", "--seq-len", "6", "--attributes", f"test={test}",
+               "--out", str(folder / "ev.json"), "--predictors"]
+    assert _warnings(caplog, [*options, str(framed)]) == []  # the workflow's files: the frames tell
+    # the frames of one side alone tell nothing: the predictor without frames warns on the same file
+    (said,) = _warnings(caplog, [*options, str(old)])
+    assert said.startswith(f"{test}: ")
