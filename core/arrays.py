@@ -31,7 +31,7 @@ from vpr_smr.core.files import NEVER_PICKLE, ZIP, file_kind, load_npy, mat_versi
 from vpr_smr.core.io import open_h5
 
 __all__ = ["ARRAY_SUFFIXES", "INFLATE_FREE", "INFLATE_RATIO", "MAX_MATRIX_VALUES", "Transposed", "Variable",
-           "check_size", "open_array", "variables"]
+           "check_declared_size", "open_array", "variables"]
 
 ARRAY_SUFFIXES = (".npy", ".npz", ".mat")  # the files ``open_array`` reads, by suffix (any case)
 # MATLAB classes of numbers and booleans (``logical`` is stored as uint8)
@@ -94,8 +94,8 @@ def _declares(path: Path, variable: Variable) -> str:
             f"({variable.values} values, {variable.nbytes} bytes)")
 
 
-def check_size(path: Path, variable: Variable, *, compressed_bytes: int | None = None, stored_bytes: int | None = None
-               ) -> None:
+def check_declared_size(path: Path, variable: Variable, *, compressed_bytes: int | None = None,
+                        stored_bytes: int | None = None) -> None:
     """Refuse, before anything is allocated, an array declaring more than ``MAX_MATRIX_VALUES`` values, more bytes
     than the file holds for it (``stored_bytes``: the data an uncompressed file holds after its header), or, read from
     ``compressed_bytes``, more than those bytes may inflate to (``INFLATE_RATIO``, ``INFLATE_FREE``)."""
@@ -110,9 +110,16 @@ def check_size(path: Path, variable: Variable, *, compressed_bytes: int | None =
     if compressed_bytes is not None and variable.nbytes > most:
         raise ValueError(f"{_declares(path, variable)} from {compressed_bytes} compressed bytes, more than they "
                          f"may inflate to in memory ({most} bytes: {INFLATE_RATIO} times as many, at least "
-                         f"{INFLATE_FREE}): save it uncompressed (numpy.save, or numpy.savez rather than "
-                         "savez_compressed: read from disk as needed), or check what it holds (a constant matrix?); "
+                         f"{INFLATE_FREE}): {_uncompressed(path)}, or check what it holds (a constant matrix?); "
                          "nothing of it was read")
+
+
+def _uncompressed(path: Path) -> str:
+    """How to save the array of ``path`` uncompressed, in its own program's words: read from disk as needed."""
+    if path.suffix.lower() == ".mat":
+        return ("save it uncompressed from MATLAB (save(path, name, '-v7.3'), read from disk as needed, or "
+                "save(path, name, '-v7', '-nocompression'))")
+    return "save it uncompressed (numpy.save, or numpy.savez rather than savez_compressed: read from disk as needed)"
 
 
 class Transposed:
@@ -276,17 +283,18 @@ def _mat_version(path: Path) -> str:
 
 def _npz_array(path: Path, variable: Variable, what: str, known_values: int = 0) -> np.ndarray:
     """The member ``variable`` of an ``.npz``: memory-mapped from the archive when it is stored uncompressed, else
-    inflated in memory; bounded first (``check_size``) by what its zip directory says it holds, and, compressed, by
-    what its compressed bytes may inflate to unless it holds at most ``known_values`` values."""
+    inflated in memory; bounded first (``check_declared_size``) by what its zip directory says it holds, and,
+    compressed, by what its compressed bytes may inflate to unless it holds at most ``known_values`` values."""
     if np.dtype(variable.type).hasobject:
         raise ValueError(f"{path}: its array {variable.name!r} holds Python objects (stored as a pickle), "
                          f"{NEVER_PICKLE}, not {what}: save the numbers with numpy.savez(path, name=matrix)")
     member = next(m for m in _npz_members(path) if m.variable == variable)
-    check_size(path, variable, stored_bytes=member.data_bytes,
-               compressed_bytes=member.compress_size if member.compressed and variable.values > known_values else None)
+    inflates = member.compressed and variable.values > known_values
+    check_declared_size(path, variable, stored_bytes=member.data_bytes,
+                        compressed_bytes=member.compress_size if inflates else None)
     if member.data_offset is not None:
         if path.stat().st_size < member.data_offset + variable.nbytes:
-            check_size(path, variable, stored_bytes=max(path.stat().st_size - member.data_offset, 0))
+            check_declared_size(path, variable, stored_bytes=max(path.stat().st_size - member.data_offset, 0))
         if variable.values == 0:
             return np.empty(variable.shape, dtype=variable.type)
         return np.memmap(path, dtype=variable.type, mode="r", offset=member.data_offset, shape=variable.shape,
@@ -324,12 +332,15 @@ def _mat5_array(path: Path, variable: Variable, what: str, known_values: int = 0
     import scipy.io
     import scipy.sparse
 
-    if variable.type in MATLAB_BYTES and variable.values > known_values:
+    if variable.type in MATLAB_BYTES:
         size = path.stat().st_size
         if _mat5_compressed(path):
-            check_size(path, variable, compressed_bytes=size)
+            check_declared_size(path, variable, compressed_bytes=size if variable.values > known_values else None)
         else:
-            check_size(path, variable, stored_bytes=size)
+            # MATLAB may store a class's values in a smaller type (a double 0/1 ground truth as uint8): an array
+            # the caller knows must hold a byte per value
+            least = variable.nbytes if variable.values > known_values else variable.values
+            check_declared_size(path, variable, stored_bytes=size if size < least else None)
     try:
         value = scipy.io.loadmat(str(path), variable_names=[variable.name])[variable.name]
     except (ValueError, OSError, TypeError, EOFError, MemoryError) as error:  # scipy's words: "could not read bytes"
@@ -352,9 +363,9 @@ def open_array(path: Path | str, key: str | None = None, transpose: bool = False
     variable ``key`` of a MATLAB v5 ``.mat`` (in memory, through SciPy) or of a v7.3 one (lazily, through h5py);
     without ``key``, the file's only 2-D numeric array. ``what`` says what the file should hold and ``key_option``
     how to choose (for errors, which name the file, what it holds and the fix). Bounded before it is read
-    (``check_size``); ``known_values``: the values the caller knows the array holds (the cells of the matrix a ground
-    truth scores), which a compressed array may inflate to whatever its ratio. The array is not checked beyond being
-    numeric where the format says so."""
+    (``check_declared_size``); ``known_values``: the values the caller knows the array may hold (the cells of the
+    matrix a ground truth scores, or a ground truth's cap), which a compressed array may inflate to whatever its ratio.
+    The array is not checked beyond being numeric where the format says so."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"{what} not found: {path}")
@@ -363,7 +374,7 @@ def open_array(path: Path | str, key: str | None = None, transpose: bool = False
         if key is not None:
             raise ValueError(f"{key_option} {key}: {path} is a .npy, which holds one array; leave {key_option} out")
         array = load_npy(path, what, mmap=True)  # memory-mapped, its data checked to be in the file
-        check_size(path, Variable("", tuple(array.shape), str(array.dtype), True))
+        check_declared_size(path, Variable("", tuple(array.shape), str(array.dtype), True))
         yield array.T if transpose else array
         return
     head = read_head(path)
@@ -385,7 +396,7 @@ def open_array(path: Path | str, key: str | None = None, transpose: bool = False
         return
     with open_h5(path, MAT73) as handle:
         variable = choose(path, _mat73_variables(handle), key, what, key_option)
-        check_size(path, variable)  # read lazily, in blocks: its values alone are bounded
+        check_declared_size(path, variable)  # read lazily, in blocks: its values alone are bounded
         if not variable.numeric or len(variable.shape) != 2 or 0 in variable.shape:
             shown = ("empty" if 0 in variable.shape else variable.type if not variable.numeric
                      else f"of shape {' x '.join(map(str, variable.shape))}")

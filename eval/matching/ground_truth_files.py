@@ -12,9 +12,10 @@ pair, and a query they do not name has no correct reference. Every error names t
 
 Every reader is bounded (method §13.2) by the matrix the file scores, when the caller knows it (the workflow's check
 before its first job; a command's matrices, from their headers: ``io.scored_shape``), else by ``MAX_TRUTH_CELLS``:
-a matrix's declared shape is checked before its data is read, lists index by index as they are read (a ``range`` by
-its length and ends, never expanded), VPR-Bench's rows and bytes before its pickle is read, and the pickle's arrays
-and lists by ``core.pickles``' budget (of that matrix's lists, or of the file's size) as it is read.
+a matrix's declared shape is checked before its data is read (a compressed one may inflate to that many cells),
+lists index by index as they are read (a ``range`` by its length and ends, never expanded), VPR-Bench's rows and
+bytes before its pickle is read, and the pickle's arrays and lists by ``core.pickles``' budget (of that matrix's
+lists, or of the file's size) as it is read.
 """
 
 from __future__ import annotations
@@ -349,7 +350,8 @@ def read_ground_truth(path: Path | str, key: str | None = None, shape: tuple[int
     sized to it and every index must lie in it); None: a matrix keeps its shape, lists get the smallest that holds
     them and may be sliced past it, each within ``within`` (the largest matrix it may score, when known without
     sizing it to it: ``io.scored_shape``) or ``MAX_TRUTH_CELLS`` cells. A matrix declaring more cells, or lists
-    naming an index beyond it, are refused before anything of that size is built (method §13.2). Raises
+    naming an index beyond it, are refused before anything of that size is built (method §13.2); a compressed matrix
+    within it is inflated whatever its ratio. Raises
     FileNotFoundError or ValueError naming the file, what was found, the limit and the fix; never runs anything a
     file holds."""
     path = Path(path)
@@ -371,7 +373,9 @@ def read_ground_truth(path: Path | str, key: str | None = None, shape: tuple[int
         form = {".npy": "npy matrix", ".npz": "npz matrix"}.get(suffix) or (
             "mat v7.3 matrix" if mat_version(head) == "7.3" else "mat v5 matrix")
         _check_declared(path, key, bound, key_option)
-        known = 0 if bound is None else bound[0] * bound[1]  # a compressed matrix may inflate to the matrix it scores
+        # a compressed matrix may inflate to the matrix it scores, or, not known, to what a dataset's ground truth
+        # may be (a boolean matrix: Nordland's compressed GThard inflates 300-fold, past open_array's ratio)
+        known = MAX_TRUTH_CELLS if bound is None else bound[0] * bound[1]
         with open_array(path, key, what=MATRIX_WHAT, key_option=key_option, known_values=known) as matrix:
             try:
                 truth = GroundTruth.matrix(matrix, TruthSource(str(path), sha256, form, key))

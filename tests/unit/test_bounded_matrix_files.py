@@ -1,10 +1,12 @@
 """Matrix files bounded before anything of their size is allocated (issue 44, item 5): ``.npz`` members, MATLAB v5
 and v7.3 variables and ``.npy`` headers against ``MAX_MATRIX_VALUES``, the bytes the file holds and what compressed
-bytes may inflate to; a ground truth against the scored matrix's header; truncated or foreign ``.h5`` files named
+bytes may inflate to; a ground truth against the scored matrix's header, else against MAX_TRUTH_CELLS whatever its
+compression ratio; truncated or foreign ``.h5`` files named
 with what they should be. Each refusal names the file, what it declares and the limit; legitimate files still read
 with exactly their values."""
 
 import io
+import json
 import struct
 import subprocess
 import sys
@@ -15,14 +17,18 @@ import h5py
 import numpy as np
 import pytest
 import scipy.io
-from field_files import write_mat73
+from field_files import band, write_mat73
+from helpers import write_distance_matrix
 
 import vpr_smr.core.arrays as arrays
 from vpr_smr.core.io import open_h5
 from vpr_smr.core.pickles import PickleTooLarge, load_object_npy
 from vpr_smr.eval.matching.attributes import read_features
+from vpr_smr.eval.matching.ground_truth import MAX_TRUTH_CELLS
+from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import open_distance_matrix, scored_shape
 from vpr_smr.eval.predictor.estimator import SMRPredictor
+from vpr_smr.pipeline.cli import main as cli
 
 
 def npy_bytes(shape, dtype="<f8", data=b""):
@@ -239,6 +245,7 @@ def test_the_bad_input_page_states_the_readers_limits_as_the_code_has_them():
     assert arrays.MAX_MATRIX_VALUES == 2**32 and f"more than 2^32 ({2**32}) values" in page
     assert f"more than {arrays.INFLATE_RATIO} times its compressed bytes" in page
     assert f"(and more than {arrays.INFLATE_FREE >> 20} MiB)" in page
+    assert MAX_TRUTH_CELLS == 2**33 and f"by 2^33 ({2**33}) cells" in page
 
 
 def test_a_compressed_mat_v5_variable_inflating_past_its_ratio_is_refused_before_loadmat(tmp_path, monkeypatch):
@@ -258,13 +265,108 @@ def test_a_compressed_mat_v5_variable_inflating_past_its_ratio_is_refused_before
 
 
 def test_a_compressed_ground_truth_may_inflate_to_the_matrix_it_scores(tmp_path, monkeypatch):
-    from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
-
     truth = np.abs(np.subtract.outer(np.arange(300), np.arange(300))) <= 2  # a band: 90 kB from about 1 kB
     np.savez_compressed(tmp_path / "G.npz", G=truth)
     monkeypatch.setattr(arrays, "INFLATE_FREE", 1 << 10)
-    read = read_ground_truth(tmp_path / "G.npz", within=(300, 300))
-    assert all(np.array_equal(read.correct_references(q), truth[:, q]) for q in (0, 1, 150, 299))
-    with pytest.raises(ValueError, match=r"G.npz: its array 'G' declares 300 x 300 bool \(90000 values, 90000 bytes\) "
-                                         "from .* compressed bytes, more than they may inflate to"):
-        read_ground_truth(tmp_path / "G.npz")
+    assert 300 * 300 > max(1 << 10, 32 * (tmp_path / "G.npz").stat().st_size)
+    for within in ((300, 300), None):  # None: bounded by MAX_TRUTH_CELLS, not by its compression ratio
+        read = read_ground_truth(tmp_path / "G.npz", within=within)
+        assert all(np.array_equal(read.correct_references(q), truth[:, q]) for q in (0, 1, 150, 299))
+
+
+# A compressed ground-truth matrix of a whole dataset, beside a distance file of one of its splits (whose header does
+# not say the dataset's extent), is read up to MAX_TRUTH_CELLS cells whatever its compression ratio, as MATLAB's
+# default save and numpy.savez_compressed write it; bombs are still refused unread, and the refusal of a compressed
+# array says how to save it uncompressed in its own program's words.
+
+FRAMES, LO, HI, L = 240, 90, 170, 3  # the dataset's frames, the split's, the sequence length
+SMALL_FREE = 1 << 10  # INFLATE_FREE in these tests: the ground truths inflate past it
+
+
+def inflates_past_the_cap(path):
+    """Whether the compressed file's ground truth (FRAMES x FRAMES bools) is more than it may inflate to when
+    nothing else is known."""
+    return FRAMES * FRAMES > max(SMALL_FREE, arrays.INFLATE_RATIO * path.stat().st_size)
+
+
+@pytest.fixture
+def split_and_truths(tmp_path, monkeypatch):
+    """A split's distance file (frames LO..HI-1 of FRAMES) and the dataset's band |r - q| <= 2 as a compressed
+    .npz, a compressed MATLAB v5 .mat (MATLAB's default save) and a plain .npy."""
+    monkeypatch.setattr(arrays, "INFLATE_FREE", SMALL_FREE)
+    d = np.random.default_rng(44).random((FRAMES, FRAMES)).astype(np.float32)
+    write_distance_matrix(tmp_path / "test.h5", d[LO:HI, LO:HI],
+                          {"dataset": "own", "split": "test", "split_range": [LO, HI], "method": "sad"})
+    truth = band(FRAMES, FRAMES, 2)
+    np.savez_compressed(tmp_path / "G.npz", GThard=truth)
+    scipy.io.savemat(tmp_path / "G.mat", {"GThard": truth}, do_compression=True)
+    for name in ("G.npz", "G.mat"):
+        assert inflates_past_the_cap(tmp_path / name)
+    return tmp_path, truth
+
+
+def test_a_split_s_compressed_dataset_ground_truth_is_read_by_metrics_and_attributes(split_and_truths):
+    folder, _ = split_and_truths
+    assert scored_shape([folder / "test.h5"]) is None  # the split's header does not bound its dataset's frames
+    distances = ["--distances", str(folder / "test.h5"), "--seq-len", str(L)]
+    # the band |r - q| <= 2 is the frame-aligned ground truth of tolerance 2, an independent way to the same numbers
+    assert cli(["metrics", *distances, "--tolerance", "2", "--out", str(folder / "tolerance.json")]) == 0
+    assert cli(["attributes", *distances, "--tolerance", "2", "--out", str(folder / "tolerance.h5")]) == 0
+    expected = json.loads((folder / "tolerance.json").read_text())["splits"]
+    features = read_features(folder / "tolerance.h5")
+    assert features.sequence_correct.any() and not features.sequence_correct.all()
+    for name in ("G.npz", "G.mat"):
+        given = ["--ground-truth", str(folder / name)]
+        assert cli(["metrics", *distances, *given, "--out", str(folder / f"{name}.json")]) == 0
+        assert json.loads((folder / f"{name}.json").read_text())["splits"] == expected
+        assert cli(["attributes", *distances, *given, "--out", str(folder / f"{name}.h5")]) == 0
+        read = read_features(folder / f"{name}.h5")
+        for field in ("labels", "single_correct", "sequence_correct", "rank_correct"):
+            np.testing.assert_array_equal(getattr(read, field), getattr(features, field), err_msg=field)
+
+
+def test_the_api_reads_a_compressed_ground_truth_without_its_shape(split_and_truths):
+    folder, truth = split_and_truths
+    for name in ("G.npz", "G.mat"):
+        read = read_ground_truth(folder / name)
+        assert read.shape == (FRAMES, FRAMES)
+        for q in (0, 1, 120, FRAMES - 1):
+            assert np.flatnonzero(read.correct_references(q)).tolist() == [r for r in range(q - 2, q + 3)
+                                                                           if 0 <= r < FRAMES]
+
+
+def test_ground_truth_bombs_are_still_refused_unread_without_the_shape(tmp_path, monkeypatch):
+    # 200000 x 200000 cells declared in a 1 kB member: past MAX_TRUTH_CELLS, refused from its header
+    with zipfile.ZipFile(tmp_path / "bomb.npz", "w", zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("G.npy", npy_bytes((200000, 200000), dtype="|b1", data=b"\0" * 1000))
+    assert 200000 * 200000 > MAX_TRUTH_CELLS
+    with pytest.raises(ValueError, match=r"bomb.npz: its matrix 'G' is 200000 x 200000 \(40000000000 cells, as the "
+                                         rf"file declares it\), more than the {MAX_TRUTH_CELLS} cells"):
+        read_ground_truth(tmp_path / "bomb.npz")
+
+    def never(*args, **kwargs):
+        raise AssertionError("loadmat was called")
+
+    # a 256-byte MATLAB v5 file declaring 20000 x 20000 doubles: within the cells, but not in the file
+    path = mat5_declaring(tmp_path / "short.mat", 20000, True)
+    monkeypatch.setattr(scipy.io, "loadmat", never)
+    with pytest.raises(ValueError, match=r"short.mat: its array 'D' declares 20000 x 20000 double \(400000000 values, "
+                                         r"3200000000 bytes\), but the file holds 256 bytes of it"):
+        read_ground_truth(path)
+
+
+def test_a_compressed_refusal_says_how_its_own_program_saves_uncompressed(tmp_path, monkeypatch):
+    monkeypatch.setattr(arrays, "INFLATE_FREE", SMALL_FREE)
+    scipy.io.savemat(tmp_path / "D.mat", {"D": np.zeros((100, 100))}, do_compression=True)
+    np.savez_compressed(tmp_path / "D.npz", D=np.zeros((100, 100)))
+    with pytest.raises(ValueError, match=r"D.mat: .* more than they may inflate to .*: save it uncompressed from "
+                                         r"MATLAB \(save\(path, name, '-v7.3'\), read from disk as needed, or "
+                                         r"save\(path, name, '-v7', '-nocompression'\)\)") as refused:
+        with open_distance_matrix(tmp_path / "D.mat"):
+            pass
+    assert "numpy" not in str(refused.value)
+    with pytest.raises(ValueError, match=r"D.npz: .* more than they may inflate to .*: save it uncompressed "
+                                         r"\(numpy.save, or numpy.savez rather than savez_compressed") as refused:
+        with open_distance_matrix(tmp_path / "D.npz"):
+            pass
+    assert "MATLAB" not in str(refused.value)
