@@ -27,6 +27,19 @@ def _wrote(what: str, out: Path | str, headline: str = "") -> None:
     log.info("wrote %s to %s%s", what, out, f": {headline}" if headline else "")
 
 
+def _reduction(reduction: Any) -> str:
+    """A ``records.Reduction`` as a summary line says it: ``40.00 % [20.00, 55.00] improved``, the word earned by
+    its interval (``curves.earned``); an undefined one with its reason."""
+    from vpr_smr.eval.report import outcome_words as words
+    from vpr_smr.eval.report.bounds import bracket
+    from vpr_smr.eval.scoring.curves import earned
+
+    word = words.said(earned(reduction.outcome, reduction.reduction_pct_ci))
+    if reduction.reduction_pct is None:
+        return f"n/a ({word})"
+    return f"{reduction.reduction_pct:.2f} % {bracket(reduction.reduction_pct_ci, '.2f')} {word}"
+
+
 def _json_object(text: str, option: str) -> dict[str, Any]:
     """A JSON object given on the command line, or ``@file`` holding one."""
     if text.startswith("@"):
@@ -266,10 +279,20 @@ def cmd_ablation_attributes(args: argparse.Namespace) -> None:
     params = _predictor_params(args)  # its settings checked before any file is read
     evaluate = _evaluation_splits(args)
     _check_seq_len(args, args.train, *evaluate.values())
-    ablation.attributes_main(args.train, args.out, params, evaluate=evaluate,
-                             meta={"dataset": args.dataset, "seq_len": args.seq_len},
-                             allow_split_overlap=args.allow_split_overlap)
-    _wrote("the attribute ablation (Table II)", args.out)
+    table = ablation.attributes_main(args.train, args.out, params, evaluate=evaluate,
+                                     meta={"dataset": args.dataset, "seq_len": args.seq_len},
+                                     allow_split_overlap=args.allow_split_overlap)
+    _wrote("the attribute ablation (Table II)", args.out, ablation_headline(table))
+
+
+def ablation_headline(table: Any) -> str:
+    """Table II's headline (``records.AttributeAblation``): the macro F1 of the predictor on all four attributes,
+    cross-validated and on each evaluation split."""
+    from vpr_smr.eval.predictor.ablation import ALL_ATTRIBUTES
+
+    every = table.attributes[ALL_ATTRIBUTES]
+    return "; ".join([f"macro F1 with all four attributes: cross-validated {every.f1_cv:.3f}",
+                      *(f"{name} {split.f1:.3f}" for name, split in every.splits.items())])
 
 
 def cmd_ablation_without(args: argparse.Namespace) -> None:
@@ -292,31 +315,63 @@ def cmd_ablation_held_out(args: argparse.Namespace) -> None:
     from vpr_smr.eval.scoring import held_out
 
     _check_seq_len(args, [args.attributes])
-    held_out.main(args.attributes, args.pooled, args.without, args.out, tuple(args.modes),
-                  meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len},
-                  allow_split_overlap=args.allow_split_overlap)
-    _wrote(f"{args.method}'s test split under the pooled and the without predictor", args.out)
+    result = held_out.main(args.attributes, args.pooled, args.without, args.out, tuple(args.modes),
+                           meta={"dataset": args.dataset, "method": args.method, "seq_len": args.seq_len},
+                           allow_split_overlap=args.allow_split_overlap)
+    _wrote(f"{args.method}'s test split under the pooled and the without predictor", args.out,
+           held_out_headline(result, args.method))
+
+
+def held_out_headline(result: Any, method: str) -> str:
+    """The held-out headline (``records.HeldOut``): per mode the AOC reduction of the predictor trained without
+    ``method``, then the pooled one's, each with its interval and earned word (``_reduction``)."""
+    return "; ".join(f"{mode} mode: AOC reduction without {method} {_reduction(without.reduction)}, pooled "
+                     f"{_reduction(result.pooled.modes[mode].reduction)}"
+                     for mode, without in result.without.modes.items())
 
 
 def cmd_speed(args: argparse.Namespace) -> None:
     from vpr_smr.eval.scoring import speed
 
     params = _predictor_params(args)  # its settings checked before any file is read
-    speed.main(args.dataset, args.seq_len, args.profile, _split_paths(args.train, "--train", "METHOD"),
-               _split_paths(args.test, "--table", "METHOD"), args.out, args.velocities, args.tolerance, params,
-               allow_split_overlap=args.allow_split_overlap)
-    _wrote(f"the speed profile {args.profile}", args.out)
+    result = speed.main(args.dataset, args.seq_len, args.profile, _split_paths(args.train, "--train", "METHOD"),
+                        _split_paths(args.test, "--table", "METHOD"), args.out, args.velocities, args.tolerance,
+                        params, allow_split_overlap=args.allow_split_overlap)
+    _wrote(f"the speed profile {args.profile}", args.out, speed_headline(result))
+
+
+def speed_headline(result: Any) -> str:
+    """The speed headline (``speed.SpeedResult``): the range of sequence recall@1 over its matchers and methods."""
+    recalls = [scores.recall_at_1_sequence for matcher in result.matchers.values()
+               for scores in matcher.methods.values()]
+    n_methods = len(recalls) // len(result.matchers)
+    return (f"sequence recall@1 {min(recalls):.4f} to {max(recalls):.4f} over {len(result.matchers)} matchers x "
+            f"{n_methods} methods ({result.meta['mode']} mode, seed 0)")
 
 
 def cmd_compare_matchers(args: argparse.Namespace) -> None:
     from vpr_smr.eval.scoring import matcher_comparison
 
-    matcher_comparison.main(
+    result = matcher_comparison.main(
         args.dataset, args.method, args.seq_len, _json_object(args.inputs, "--inputs"),
         _split_paths(args.distances, "--distances", "METHOD"), args.split, args.tolerance, args.out,
         _baseline_settings(args), tuple(args.modes), args.validation, args.radius, args.ground_truth,
         args.ground_truth_key, allow_split_overlap=args.allow_split_overlap)
-    _wrote(f"the matchers compared on {args.method}", args.out)
+    _wrote(f"the matchers compared on {args.method}", args.out, matchers_headline(result, args.modes))
+
+
+def matchers_headline(result: Any, modes: Iterable[str]) -> str:
+    """The compare-matchers headline (``MatcherComparison``): per mode, how many matcher-method pairs the seed-0
+    predictor reduces the AOC for by ``curves.earned`` (its interval above 0)."""
+    from vpr_smr.eval.scoring.curves import IMPROVED, earned
+
+    counts = []
+    for mode in modes:
+        reductions = [scores.modes[mode].reduction for methods in result.matchers.values()
+                      for scores in methods.values() if mode in scores.modes]
+        reduced = sum(earned(r.outcome, r.reduction_pct_ci) == IMPROVED for r in reductions)
+        counts.append(f"{reduced} of {len(reductions)} matcher-method pairs ({mode} mode)")
+    return "the seed-0 predictor reduces the AOC, its interval above 0, for " + ", ".join(counts)
 
 
 def cmd_adaptive(args: argparse.Namespace) -> None:
@@ -331,7 +386,29 @@ def cmd_adaptive(args: argparse.Namespace) -> None:
         args.distances, args.seeds, _baseline_settings(args), tuple(args.modes), args.matcher_tag,
         allow_split_overlap=args.allow_split_overlap)
     print(adaptive_text(result, adaptive.read_timing(args.out)))
-    _wrote(f"the adaptive sequence length of {args.method}", args.out, "its table above")
+    _wrote(f"the adaptive sequence length of {args.method}", args.out, lowest_rule(result))
+
+
+def lowest_rule(result: Any) -> str:
+    """The length rule of the lowest AOC (seed 0) in the mode that compares rows (else the first), with its
+    interval and its difference from the best fixed length's; no direction word (the table above has them)."""
+    from vpr_smr.eval.report.bounds import bracket
+    from vpr_smr.eval.scoring.adaptive_records import COMPARED_MODE, RULE
+
+    rules = [row for row in result.rows if row.kind == RULE]
+    if not rules:
+        return "no length rule"
+    modes = list(rules[0].modes)
+    mode = COMPARED_MODE if COMPARED_MODE in modes else modes[0]
+    best = min(rules, key=lambda row: row.modes[mode].reduction.aoc_vpr_sm_pred)
+    numbers = best.modes[mode]
+    text = (f"lowest AOC of the length rules ({mode} mode, seed 0): {best.name} "
+            f"{numbers.reduction.aoc_vpr_sm_pred:.4f} {bracket(numbers.reduction.aoc_vpr_sm_pred_ci, '.4f')}")
+    fixed = result.best_fixed.get(mode)
+    if fixed is not None and numbers.minus_best_fixed is not None:
+        text += (f", minus the best fixed length's ({fixed}) {numbers.minus_best_fixed:+.4f} "
+                 f"{bracket(numbers.minus_best_fixed_ci, '.4f')}")
+    return text
 
 
 def adaptive_text(result: Any, timing: Any) -> str:

@@ -55,6 +55,12 @@ UNEARNED = {
 }
 
 
+def said(outcome: str) -> str:
+    """An outcome (``earned``'s, or a degenerate one) in the words a page or the console says: ``improved``,
+    ``holds 0``, ``removed every match``; any other (``unchanged``) as it is."""
+    return UNEARNED.get(outcome) or SHORT.get(outcome) or outcome
+
+
 def is_degenerate(row: Mapping[str, Any]) -> bool:
     """The reduction alone would mislead: it is undefined, or 0 because the predictor changed nothing."""
     return str(row.get("outcome")) in SHORT
