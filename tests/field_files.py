@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import h5py
 import numpy as np
@@ -46,6 +47,16 @@ def write_vpr_bench(path: Path, lists: dict[int, list[int]]) -> Path:
     for i, (query, references) in enumerate(sorted(lists.items())):
         rows[i, 0], rows[i, 1] = query, list(references)
     np.save(path, rows, allow_pickle=True)  # writing the field's file; vpr-smr never loads one this way
+    return path
+
+
+def save_rows(path: Path, rows: list[Any]) -> Path:
+    """VPR-Bench's form as rows of any content: a 1-D object array of ``[query, references]`` rows (``np.save``
+    pickles it), e.g. a ``range`` of references, to test what the bounded reader refuses."""
+    array = np.empty(len(rows), dtype=object)
+    for i, row in enumerate(rows):
+        array[i] = row
+    np.save(path, array, allow_pickle=True)  # writing the field's file; vpr-smr never loads one this way
     return path
 
 

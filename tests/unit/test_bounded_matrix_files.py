@@ -17,7 +17,7 @@ import h5py
 import numpy as np
 import pytest
 import scipy.io
-from field_files import band, write_mat73
+from field_files import band, save_rows, write_mat73
 from helpers import write_distance_matrix
 
 import vpr_smr.core.arrays as arrays
@@ -162,14 +162,6 @@ def test_a_v73_variable_and_a_npy_past_the_cap_are_refused_unread(tmp_path, monk
                                          "than the 15 values"):
         with open_distance_matrix(tmp_path / "D.npy"):
             pass
-
-
-def save_rows(path, rows):
-    array = np.empty(len(rows), dtype=object)
-    for i, row in enumerate(rows):
-        array[i] = row
-    np.save(path, array, allow_pickle=True)  # writing the field's file; vpr-smr never loads one this way
-    return path
 
 
 def test_vpr_bench_s_long_range_beside_a_known_matrix_is_refused_by_it_in_little_memory(tmp_path):

@@ -12,7 +12,7 @@ import h5py
 import numpy as np
 import pytest
 import scipy.io
-from field_files import write_json_lists
+from field_files import save_rows, write_json_lists
 
 import vpr_smr.eval.matching.ground_truth_files as ground_truth_files
 from vpr_smr.core.pickles import ArraysOnlyUnpickler, PickleTooLarge
@@ -20,15 +20,6 @@ from vpr_smr.eval.matching.ground_truth import MatrixTruth
 from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 
 _reconstruct = np.empty(0).__reduce__()[0]
-
-
-def save_rows(path, rows):
-    """VPR-Bench's form: a 1-D object array of [query, references] rows (np.save pickles it)."""
-    array = np.empty(len(rows), dtype=object)
-    for i, row in enumerate(rows):
-        array[i] = row
-    np.save(path, array, allow_pickle=True)  # writing the field's file; vpr-smr never loads one this way
-    return path
 
 
 def test_a_range_of_a_trillion_references_is_refused_at_once_in_little_memory(tmp_path):
