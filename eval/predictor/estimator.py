@@ -373,3 +373,19 @@ def fold_warning(messages: Sequence[Warning | str], labels: np.ndarray, n_splits
     if not said:
         return None
     return f"{where}, cross-validated on class counts {count_text(labels)}: {'; '.join(said.values())}"
+
+
+def fit_warning(messages: Sequence[Warning | str], where: str) -> str | None:
+    """scikit-learn's warnings of a final fit and its scoring on the evaluation splits as one line: ``where`` and
+    what each kind means for the predictor and its F1 (others quoted as scikit-learn words them); None without any."""
+    said: dict[str, str] = {}
+    for message in messages:
+        if isinstance(message, ConvergenceWarning):
+            said["converged"] = ("the network stopped at its max_iter before converging: the predictor is an "
+                                 "unfinished fit (raise max_iter in the predictor's settings)")
+        elif isinstance(message, UndefinedMetricWarning):
+            said["undefined"] = ("on an evaluation split a class was never predicted or never present, and its F1 "
+                                 "there counts as 0, which lowers that split's macro F1")
+        else:
+            said.setdefault(str(message), f"scikit-learn warned: {message}")
+    return f"{where}: {'; '.join(said.values())}" if said else None

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import time
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from pathlib import Path
@@ -27,7 +28,13 @@ from vpr_smr.core.paths import predictor_report_path, seed_predictor_path
 from vpr_smr.core.progress import write_progress
 from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import QueryFeatures, common_matching, read_features, recorded_matching
-from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
+from vpr_smr.eval.predictor.estimator import (
+    SMRPredictor,
+    check_training_labels,
+    cross_validated_f1,
+    fit_warning,
+    macro_f1,
+)
 from vpr_smr.eval.predictor.leakage import (
     FrameRange,
     Training,
@@ -156,14 +163,19 @@ def train_seed(
     settings = json.loads(json.dumps(predictor.get_params()))
     # the folds fit clones of the unfitted predictor: the fit below is the same with or without them
     f1_cv = cross_validated_f1(predictor, x, y, where=where) if cross_validate else None
-    predictor.fit(x, y)
     splits = {}
-    for name, (x_eval, y_eval) in (evaluation or {}).items():
-        predicted = predictor.predict(x_eval)
-        splits[name] = SplitScores(
-            macro_f1(y_eval, predicted), int(len(y_eval)),
-            tuple(np.bincount(y_eval, minlength=len(LABELS)).tolist()),
-            tuple(map(tuple, confusion_matrix(y_eval, predicted, labels=list(LABELS)).tolist())))
+    with warnings.catch_warnings(record=True) as caught:  # scikit-learn's, put in our words below
+        warnings.simplefilter("always")
+        predictor.fit(x, y)
+        for name, (x_eval, y_eval) in (evaluation or {}).items():
+            predicted = predictor.predict(x_eval)
+            splits[name] = SplitScores(
+                macro_f1(y_eval, predicted), int(len(y_eval)),
+                tuple(np.bincount(y_eval, minlength=len(LABELS)).tolist()),
+                tuple(map(tuple, confusion_matrix(y_eval, predicted, labels=list(LABELS)).tolist())))
+    note = fit_warning([w.message for w in caught], f"{where}, seed {seed}")
+    if note:
+        log.warning(note)
     numbers = SeedReport(seed, settings, f1_cv, predictor.n_iter_,
                          tuple(np.bincount(y, minlength=len(LABELS)).tolist()), splits)
     log.info("seed %d: %s%s, %d iterations", seed, cv_text(numbers), split_f1s(numbers), numbers.n_iter)

@@ -279,3 +279,24 @@ def test_a_first_dry_run_counts_the_jobs_whose_outputs_are_not_there():
              "Missing output files: y\nrule all:\n    reason: Input files updated by another job: x, y".splitlines()]
     assert why_jobs_run(lines) == ["", "Why they run:", "  2 jobs: outputs not there yet"]
     assert why_jobs_run(["Nothing to be done (all requested files are present and up to date)."]) == []
+
+
+def test_the_final_fits_warnings_are_said_in_our_words_and_none_escapes(caplog):
+    """The fit after the cross-validation, and its scoring on an evaluation split, warn through one line of ours."""
+    import warnings
+
+    from vpr_smr.eval.predictor.train import train_seed
+
+    rng = np.random.default_rng(44)
+    x = rng.random((60, 4))
+    y = np.repeat([0, 1, 2, 3], 15)
+    # an evaluation split of one class (macro_f1 scores absent classes 0 without a warning of scikit-learn's)
+    evaluation = {"val": (rng.random((8, 4)), np.zeros(8, dtype=np.int64))}
+    with warnings.catch_warnings(record=True) as escaped, caplog.at_level("WARNING", logger="vpr_smr"):
+        warnings.simplefilter("always")
+        train_seed(x, y, {"hidden_layer_sizes": [3], "max_iter": 2}, 0, evaluation, cross_validate=False,
+                   where="dataset 'q', L 3")
+    lines = [r.getMessage() for r in caplog.records if "seed 0" in r.getMessage()]
+    assert len(lines) == 1
+    assert lines[0].startswith("dataset 'q', L 3, seed 0: the network stopped at its max_iter before converging")
+    assert not [w for w in escaped if "sklearn" in w.filename or "imblearn" in w.filename]
