@@ -29,7 +29,7 @@ folder = sys.argv[1]
 start = time.perf_counter()
 distances.main(folder + "/descriptors.h5", folder + "/D.h5", "test", (0, int(sys.argv[2])))
 middle = time.perf_counter()
-result = attributes.main(folder + "/D.h5", folder + "/attributes.h5", int(sys.argv[3]), 2)
+result = attributes.main(attributes.AttributesJob(folder + "/D.h5", int(sys.argv[3]), out=folder + "/attributes.h5"))
 end = time.perf_counter()
 print(f"distances {middle - start:.1f} s, attributes {end - middle:.1f} s, labels {result.labels[:5]}...")
 """

@@ -18,6 +18,8 @@ from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER
 from vpr_smr.pipeline.config import ConfigError, Extraction, load_config, schema_default
 from vpr_smr.pipeline.console import LOG_FORMAT
 from vpr_smr.pipeline.options import add_matcher_options, add_options, matcher_of, read_matcher, read_options
+from vpr_smr.pipeline.stage import JOB, install
+from vpr_smr.pipeline.stages import STAGES
 
 log = logging.getLogger("vpr_smr")
 
@@ -104,20 +106,6 @@ def cmd_distances(args: argparse.Namespace) -> None:
     out = distances.main(args.descriptors, args.out, args.split, tuple(args.frames), metric=args.metric,
                          reference_range=tuple(args.reference_frames) if args.reference_frames else None)
     _wrote(f"the {args.split} split's distance matrix", out)
-
-
-def cmd_attributes(args: argparse.Namespace) -> None:
-    from vpr_smr.eval.matching import attributes
-
-    found = attributes.main(args.distances, args.out, args.seq_len, args.tolerance, matcher=read_matcher(args),
-                            radius=args.radius, reference_positions=args.reference_positions,
-                            query_positions=args.query_positions, similarity=args.similarity, key=args.key,
-                            transpose=args.transpose, ground_truth=args.ground_truth,
-                            ground_truth_key=args.ground_truth_key,
-                            n_candidates=attributes.DEFAULT_CANDIDATES if args.candidates is None else args.candidates)
-    n_queries, n_correct = len(found.queries), int(found.sequence_correct.sum())
-    _wrote(f"the attributes of {n_queries} queries", args.out,
-           f"{n_correct} sequence matches correct ({n_correct / max(n_queries, 1):.4f})")
 
 
 def _check_seq_len(args: argparse.Namespace, *groups: Iterable[str] | None) -> None:
@@ -604,6 +592,8 @@ OUT_FILES = {
 
 
 def _check_out(args: argparse.Namespace) -> None:
+    if hasattr(args, "stage"):  # a declared stage: its work checks its output's suffix first
+        return
     command = " ".join(filter(None, (args.command, getattr(args, "ablation_command", None))))
     if command in OUT_FILES:
         what, allowed = OUT_FILES[command]
@@ -725,9 +715,9 @@ def _fill_help(parser: argparse.ArgumentParser, command: str = "") -> None:
                 action.help = SHARED_HELP[option]
 
 
-def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
+def build_parser(matcher: str = DEFAULT_MATCHER, job: bool = False) -> argparse.ArgumentParser:
     """The ``vpr-smr`` command line; the stage commands' ``--matcher`` options are those of ``matcher``'s
-    settings (``main`` reads ``--matcher`` first)."""
+    settings (``main`` reads ``--matcher`` first); ``job``: the command line gives a stage's ``--job``."""
     parser = argparse.ArgumentParser(prog="vpr-smr", description=DESCRIPTION, epilog=EPILOG,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}",
@@ -828,17 +818,6 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
                         "positions)")
     p.add_argument("--metric", choices=METRICS, help="the distance (default: the descriptor file's, its backend's)")
     p.set_defaults(func=cmd_distances)
-
-    p = sub.add_parser("attributes", help="sequence matching, SMR attributes and labels of a distance matrix")
-    p.add_argument("--distances", required=True, help="our .h5, or a references x queries .npy, .npz or .mat")
-    p.add_argument("--seq-len", type=int, required=True)
-    _matcher_options(p, matcher)
-    p.add_argument("--candidates", type=int, default=None, metavar="N",
-                   help="the .h5 keeps the N smallest sequence and single-frame distances of each query, which the "
-                        "training-free scorers (method §12) need: at least their settings' candidates (docs/"
-                        "configuration.md, baselines; default 12: that of the default settings; 0: none)")
-    p.add_argument("--out", required=True, help=".csv (query,A1,A2,A3,A4,label) or .h5 (everything)")
-    p.set_defaults(func=cmd_attributes)
 
     p = sub.add_parser("train", help="train the predictor on the pooled train attributes of every method")
     _required(p, "--dataset")
@@ -1087,6 +1066,8 @@ def build_parser(matcher: str = DEFAULT_MATCHER) -> argparse.ArgumentParser:
     p.add_argument("--datasets", help="per dataset: traverses, frames, tolerance, splits, pairing, overlaps (JSON)")
     p.add_argument("--out", required=True, help="the run folder: tables/, figures/ and report.html go inside")
     p.set_defaults(func=cmd_report)
+    for stage in STAGES:  # the declared stages (``pipeline.stages``), each replacing its command of above
+        install(sub, stage, matcher, job)
     _fill_help(parser)
     return parser
 
@@ -1096,7 +1077,8 @@ def main(argv: list[str] | None = None) -> int:
     # `run ... -- <snakemake arguments>`: split by hand, so that our own options may come in any order.
     extra = argv[argv.index("--") + 1 :] if "--" in argv else []
     argv = argv[: argv.index("--")] if "--" in argv else argv
-    args = build_parser(matcher_of(argv)).parse_args(argv)
+    args = build_parser(matcher_of(argv), JOB in argv or any(word.startswith(JOB + "=") for word in argv)
+                        ).parse_args(argv)
     args.snakemake_args = extra
     logging.basicConfig(level=logging.DEBUG if args.verbose else logging.INFO, format=LOG_FORMAT)
     # A stage stopped by SIGTERM unwinds like Ctrl-C, so that its temporary files are removed on the way out.

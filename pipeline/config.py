@@ -15,7 +15,7 @@ from typing import Any
 
 from vpr_smr.core.settings import declared, parse, setting
 from vpr_smr.core.suggest import did_you_mean
-from vpr_smr.eval.matching.matchers import MatcherSpec, matcher_class
+from vpr_smr.eval.matching.matchers import NAME_KEY, MatcherSpec, matcher_class
 from vpr_smr.eval.predictor.defaults import PredictorSettings
 from vpr_smr.eval.scoring.scorers import BaselineSettings
 from vpr_smr.eval.scoring.speed import SpeedExperiment
@@ -198,7 +198,7 @@ class Experiments:
 RECORDS: dict[str, type] = {"baselines": BaselineSettings, "extraction": Extraction, "predictor": PredictorSettings,
                             "experiments": Experiments, "speed": SpeedExperiment}
 # ``sequence_matching``: {matcher: NAME, ...that matcher's settings}, validated by the matcher's own record
-MATCHER_KEY = "matcher"
+MATCHER_KEY = NAME_KEY  # the matcher's name among its settings
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ import shlex
 from collections.abc import Callable
 from typing import Any, TypeVar
 
-from vpr_smr.core.settings import OPTIONAL, Declared, declared, parse, read
+from vpr_smr.core.settings import OPTIONAL, REQUIRED, Declared, Marker, declared, parse, read
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MATCHERS, MatcherSpec, available_matchers, matcher_class
 
 __all__ = ["add_matcher_options", "add_options", "flags", "matcher_flags", "matcher_of", "option", "read_matcher",
@@ -65,29 +65,75 @@ def _shown(value: Any) -> str:
     return str(value)
 
 
-def add_options(parser: argparse.ArgumentParser, cls: type, group: str) -> None:
+MAPPING = "dict[str, str]"  # NAME=VALUE items of one option
+LISTS = "dict[str, tuple[str, ...]]"  # an option repeated per name: --evaluate val a.h5 b.h5 --evaluate test ...
+
+
+def add_options(parser: argparse.ArgumentParser, cls: type, group: str, matcher: str = DEFAULT_MATCHER,
+                required: bool = True) -> None:
     """``cls``'s settings as options of ``parser`` (``group``: a name that keeps them apart from another record's);
-    an option not given keeps the setting's default (``read_options``)."""
+    an option not given keeps the setting's default (``read_options``). A group's settings (``settings.group``) are
+    options of ``parser`` too; a ``MatcherSpec`` setting is ``--matcher`` and ``matcher``'s settings. ``required``:
+    a ``REQUIRED`` setting's option must be given (not where another option gives them all, ``--job``)."""
     for item in declared(cls):
+        if item.group is not None:
+            add_options(parser, item.group, f"{group}.{item.name}", matcher, required)
+            continue
+        if item.value_class is MatcherSpec:
+            add_matcher_options(parser, matcher)
+            continue
         kind = item.type.removesuffix(OPTIONAL)
         extra = f"; {NULL}: null" if item.type.endswith(OPTIONAL) and item.default is not None else ""
-        text = f"{item.help} (default: {_shown(item.default)}{extra})".replace("%", "%%")
-        common: dict[str, Any] = {"dest": _dest(group, item.name), "default": argparse.SUPPRESS, "help": text}
+        default = "" if isinstance(item.default, Marker) else f" (default: {_shown(item.default)}{extra})"
+        text = f"{item.help}{default}".replace("%", "%%")
+        common: dict[str, Any] = {"dest": _dest(group, item.name), "default": argparse.SUPPRESS, "help": text,
+                                  "required": required and item.default is REQUIRED}
         if kind == "bool":
             parser.add_argument(option(item.name), action=argparse.BooleanOptionalAction, **common)
             continue
         choices = item.constraints.get("choices")
+        metavar = item.metavar or (None if choices else METAVARS.get(_element(kind), "TEXT"))
+        if kind == LISTS:
+            parser.add_argument(option(item.name), nargs="+", action="append", metavar=metavar, **common)
+            continue
+        many = kind.startswith("tuple[") or kind == MAPPING
         parser.add_argument(option(item.name), type=_converter(item.type), choices=choices,
-                            nargs="+" if kind.startswith("tuple[") else None,
-                            metavar=None if choices else METAVARS.get(_element(kind), "TEXT"), **common)
+                            nargs="+" if many else None, metavar=metavar, **common)
+
+
+def _mapping(item: Declared, value: Any) -> Any:
+    """A mapping setting's words as JSON: NAME=VALUE items, or a repeated option's NAME ITEM... lists."""
+    kind = item.type.removesuffix(OPTIONAL)
+    name = option(item.name)
+    if kind == MAPPING:
+        pairs = [word.split("=", 1) for word in value]
+        bad = [word for word, pair in zip(value, pairs, strict=True) if len(pair) != 2]
+        if bad:
+            raise ValueError(f"{name} takes NAME=VALUE items, e.g. val=a.h5, got {', '.join(bad)}")
+        return dict(pairs)
+    if kind == LISTS:
+        out: dict[str, list[str]] = {}
+        for first, *rest in value:
+            if not rest:
+                raise ValueError(f"{name} {first}: give the name, then its items")
+            if first in out:
+                raise ValueError(f"{name} {first}: the name is given twice; give all its items after one {name}")
+            out[first] = rest
+        return out
+    return value
 
 
 def _given(args: argparse.Namespace, cls: type, group: str) -> dict[str, Any]:
-    """The settings of ``cls`` given as options, each checked (a ValueError naming its option)."""
+    """The settings of ``cls`` given as options, each checked (a ValueError naming its option); a group's as an
+    object of its own, a matcher's as its ``MatcherSpec``."""
     values: dict[str, Any] = {}
     for item in declared(cls):
-        if hasattr(args, _dest(group, item.name)):
-            value = getattr(args, _dest(group, item.name))
+        if item.group is not None:
+            values[item.name] = _given(args, item.group, f"{group}.{item.name}")
+        elif item.value_class is MatcherSpec:
+            values[item.name] = read_matcher(args)
+        elif hasattr(args, _dest(group, item.name)):
+            value = _mapping(item, getattr(args, _dest(group, item.name)))
             values[item.name] = read(item, None if value == [None] else value, option(item.name))
     return values
 

@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from vpr_smr.datasets.base import GroundTruthFile, relative_note
+from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.pipeline.config import Config, ConfigError, experiments
 
 
@@ -44,6 +45,15 @@ class DatasetPlan:
     # method §13: the ground truth from a file (None: `tolerance` or `radius`), and how it reads ("gt.npy (a matrix)")
     ground_truth: GroundTruthFile | None = None
     ground_truth_text: str = ""
+
+    @property
+    def truth(self) -> TruthSource:
+        """The dataset's ground truth as the stages' option group (frame tolerance, radius or file; the positions
+        travel in its distance files)."""
+        given = self.ground_truth
+        return TruthSource(tolerance=self.tolerance, radius=self.radius,
+                           ground_truth=None if given is None else given.path,
+                           ground_truth_key=None if given is None else given.key)
 
     @property
     def has_tolerance(self) -> bool:

@@ -31,6 +31,8 @@ from vpr_smr.core.io import (
     read_provenance,
 )
 from vpr_smr.core.records import Record
+from vpr_smr.core.settings import REQUIRED, group, setting
+from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.checks import check_size, stage_check, warn_if_tied
 from vpr_smr.eval.matching.features import split_features
 from vpr_smr.eval.matching.fingerprint import MatrixPrint, matrix_print, read_print, write_print
@@ -47,6 +49,7 @@ from vpr_smr.eval.matching.io import (
 from vpr_smr.eval.matching.matcher import as_matrix, read_columns
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MatcherSpec, matcher_class
 from vpr_smr.eval.matching.matchers.base import Matcher
+from vpr_smr.eval.matching.sources import MatrixFormat, TruthSource
 
 __all__ = [
     "ATTRIBUTE_NAMES", "CANDIDATE_FIELDS", "DEFAULT_CANDIDATES", "OPTIONAL_FIELDS", "QueryFeatures",
@@ -251,13 +254,23 @@ def write_csv(path: Path | str, features: QueryFeatures) -> None:
         np.savetxt(tmp, table, delimiter=",", header=header, comments="", fmt=["%d", *["%.9g"] * 4, "%d"])
 
 
-def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
-         matcher: MatcherSpec | None = None, radius: float | None = None,
-         reference_positions: Path | str | None = None, query_positions: Path | str | None = None,
-         similarity: bool = False, key: str | None = None, transpose: bool = False,
-         ground_truth: Path | str | None = None, ground_truth_key: str | None = None,
-         n_candidates: int = DEFAULT_CANDIDATES) -> QueryFeatures:
-    """Features of the matrix in ``distances`` (``.npy``, ``.npz``, ``.mat`` or our ``.h5``) written to ``out``.
+@dataclass(frozen=True)
+class AttributesJob:
+    """The ``attributes`` stage's job: the four attributes of every query of one distance matrix."""
+
+    distances: str = setting(REQUIRED, "the distance matrix: our .h5, or a references x queries .npy, .npz or .mat",
+                             metavar="PATH")
+    seq_len: int = sources.seq_len()
+    truth: TruthSource = group(TruthSource, "the ground truth")
+    matcher: MatcherSpec = setting(MatcherSpec.of(), "the sequence matcher and its settings")
+    matrix: MatrixFormat = group(MatrixFormat, "how a user's matrix file is read")
+    candidates: int = setting(DEFAULT_CANDIDATES, "the smallest S and D values per query kept for the training-free "
+                                                  "scorers (method §12); 0 keeps none", minimum=0)
+    out: str = setting(REQUIRED, "the output file: the attributes (.csv table or HDF5)", metavar="PATH")
+
+
+def main(job: AttributesJob) -> QueryFeatures:
+    """Features of the matrix in ``job.distances`` (``.npy``, ``.npz``, ``.mat`` or our ``.h5``) written to ``out``.
 
     ``out`` ending in ``.csv`` gets the rank-0 table (``write_csv``); ``.h5``/``.hdf5`` every field of
     ``QueryFeatures`` as HDF5, with the distance file's provenance, ``seq_len``, ``tolerance``,
@@ -273,19 +286,19 @@ def main(distances: Path | str, out: Path | str, seq_len: int, tolerance: int,
     smallest ``S`` and ``D`` values per query the HDF5 file keeps for the training-free scorers (method §12;
     ``core.constants.candidates_needed``), recorded as ``n_candidates``; 0 keeps none.
     """
-    out = check_suffix(out, OUT_SUFFIXES, "the attributes (.csv table or HDF5)")
-    if n_candidates < 0:
-        raise ValueError(f"--candidates is a number of candidates per query >= 0, got {n_candidates}")
-    matcher = matcher or MatcherSpec.of()
-    distances = Path(distances)
+    distances, seq_len, truth_source, matrix_format = Path(job.distances), job.seq_len, job.truth, job.matrix
+    tolerance, radius = truth_source.tolerance, truth_source.radius
+    similarity, key, transpose = matrix_format.similarity, matrix_format.key, matrix_format.transpose
+    matcher, n_candidates = job.matcher, job.candidates
+    out = check_suffix(job.out, OUT_SUFFIXES, "the attributes (.csv table or HDF5)")
     start = time.perf_counter()
-    truth_file = None if ground_truth is None else read_ground_truth(
-        ground_truth, ground_truth_key, within=scored_shape([distances], key, transpose))
+    truth_file = None if truth_source.ground_truth is None else read_ground_truth(
+        truth_source.ground_truth, truth_source.ground_truth_key, within=scored_shape([distances], key, transpose))
     with open_distance_matrix(distances, similarity, key, transpose) as matrix:
         check_size(stage_check(matcher.build, tuple(matrix.shape), str(distances)), seq_len)
         built = matcher.build(seq_len)
-        truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
-                                   query_positions, truth_file)
+        truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius,
+                                   truth_source.reference_positions, truth_source.query_positions, truth_file)
         warn_if_similar(distances, matrix, truth, similarity)
         warn_if_tied(str(distances), matrix)
         try:

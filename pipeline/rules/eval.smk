@@ -25,18 +25,13 @@ rule attributes:
     log:
         log_path(OUT, attributes_path(OUT, "{dataset}", "{method}", "{seq_len}", "{split}")),
     params:
-        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
-        # method §11: datasets with positions; their distance files hold the positions, this is the ground truth
-        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
-        # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
-        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        matcher=MATCHER,
-        # the candidates the training-free scorers need (method §12): only a change of their number recomputes these
-        candidates=conf.baselines.candidates,
+        # the stage's job record (method §§5, 11, 13): the matcher, the dataset's ground truth, and the candidates the
+        # training-free scorers need (method §12: only a change of their number recomputes these)
+        job=lambda wc, input, output: job_text(AttributesJob(
+            input.distances, int(wc.seq_len), PLAN.datasets[wc.dataset].truth, conf.sequence_matching,
+            candidates=conf.baselines.candidates, out=output[0])),
     shell:
-        "vpr-smr attributes --distances {input.distances:q} --seq-len {wildcards.seq_len} --tolerance {params.tolerance}"
-        " {params.radius} {params.ground_truth} {params.matcher} --candidates {params.candidates}"
-        " --out {output:q} > {log:q} 2>&1"
+        shell_command(ATTRIBUTES)
 
 
 rule train:

@@ -10,6 +10,7 @@ import pytest
 from vpr_smr.eval.matching import attributes
 from vpr_smr.eval.matching.checks import check_size, tie_warning
 from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec
+from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.scoring import vpr_metrics
 from vpr_smr.eval.scoring.vpr_metrics import MatcherSettings
 
@@ -43,7 +44,8 @@ def _stages(tmp_path, matcher):
     """The stages that match a matrix at a length: attributes, and metrics (queries shares its reading)."""
     spec = MatcherSpec.of(matcher)
     return {
-        "attributes": lambda path, seq_len: attributes.main(path, tmp_path / "a.csv", seq_len, 0, matcher=spec),
+        "attributes": lambda path, seq_len: attributes.main(attributes.AttributesJob(
+            str(path), seq_len, TruthSource(tolerance=0), spec, out=str(tmp_path / "a.csv"))),
         "metrics": lambda path, seq_len: vpr_metrics.main({"s": path}, seq_len, 0, tmp_path / "m.json",
                                                           matcher=MatcherSettings(spec), baselines=None),
     }

@@ -68,6 +68,9 @@ def matcher_class(name: str) -> type[Matcher]:
     return matcher
 
 
+NAME_KEY = "matcher"  # the key of the matcher's name among its settings (a configuration's sequence_matching too)
+
+
 @dataclass(frozen=True)
 class MatcherSpec:
     """A matcher by name and settings: ``settings`` is the canonical JSON text of the matcher's settings record
@@ -111,6 +114,19 @@ class MatcherSpec:
             raise ValueError(f"{where}: its matcher record {data!r} is not of the form "
                              "{\"name\": ..., \"settings\": {...}}: compute it again")
         return cls.of(data["name"], data.get("settings", {}), where)
+
+    @classmethod
+    def from_setting(cls, data: Any, where: str) -> MatcherSpec:
+        """The spec of a stage's ``matcher`` setting: ``{"matcher": NAME, SETTING: VALUE, ...}``, as a
+        configuration's ``sequence_matching`` writes it (``core.settings``' value classes)."""
+        if not (isinstance(data, Mapping) and isinstance(data.get(NAME_KEY, DEFAULT_MATCHER), str)):
+            raise ValueError(f"{where}: expected {{\"{NAME_KEY}\": NAME, SETTING: VALUE, ...}}, got {data!r}")
+        name = data.get(NAME_KEY, DEFAULT_MATCHER)
+        return cls.of(name, {key: value for key, value in data.items() if key != NAME_KEY}, where)
+
+    def to_setting(self) -> dict[str, Any]:
+        """The setting ``from_setting`` reads: the matcher's name under ``matcher``, then every setting."""
+        return {NAME_KEY: self.name, **self.values}
 
     def __str__(self) -> str:
         shown = ", ".join(f"{key} {value}" for key, value in self.values.items())
