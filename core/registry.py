@@ -1,0 +1,118 @@
+"""Plugins by name: one registry mechanism for every kind (sequence matchers, descriptor backends, dataset loaders,
+scorers, tables, experiments).
+
+A ``Registry`` holds the built-in items of one kind, in the order they are declared, and finds the ones installed
+packages add through an entry point group (``name = "package.module:attr"`` under ``[<group>]`` of a package's
+``entry_points``). A built-in item is given itself (``add``, ``register``) or as ``"module:attr"`` imported on first
+use (``add_lazy``), so that a heavy module (PyTorch) costs nothing until its item is asked for.
+
+Iterating a registry gives its built-in names (what the package itself ships: the reference pages, the default list
+of a comparison); ``names()`` and ``in`` include the installed plugins too.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Iterator
+from importlib.metadata import entry_points
+from typing import Any, Generic, TypeVar
+
+from vpr_smr.core.suggest import did_you_mean
+
+__all__ = ["Registry"]
+
+T = TypeVar("T")
+
+
+class Registry(Generic[T]):
+    """The items of one ``kind`` by name: built in, then those of the entry point ``group`` (None: built-ins only).
+
+    ``check(name, item)`` validates a plugin's item (and a lazily imported built-in one) when it is loaded and
+    returns it typed; a ValueError it raises reaches the caller. ``package`` is what ``add_lazy``'s relative module
+    names are relative to.
+    """
+
+    def __init__(self, kind: str, group: str | None = None, check: Callable[[str, Any], T] | None = None,
+                 package: str | None = None) -> None:
+        self.kind = kind
+        self.group = group
+        self._check = check
+        self._package = package
+        self._items: dict[str, T] = {}
+        self._lazy: dict[str, str] = {}  # name -> "module:attr", until first asked for
+        self._order: list[str] = []
+
+    def add(self, name: str, item: T) -> T:
+        """Register ``item`` as ``name``; a name already taken is a ValueError."""
+        self._claim(name)
+        self._items[name] = item
+        return item
+
+    def register(self, name: str) -> Callable[[T], T]:
+        """``add`` as a decorator: ``@REGISTRY.register("name")`` above a class or function."""
+        return lambda item: self.add(name, item)
+
+    def add_lazy(self, name: str, target: str) -> None:
+        """Register ``name`` as the attribute ``target`` (``"module:attr"``, relative to ``package`` when it starts
+        with a dot) imported on first ``get``."""
+        self._claim(name)
+        self._lazy[name] = target
+
+    def get(self, name: str) -> T:
+        """The item of ``name``: built in, or the installed entry point of that name; ValueError naming the kind,
+        the closest name, the available ones and the entry point group."""
+        if name in self._items:
+            return self._items[name]
+        if name in self._lazy:
+            module_name, _, attr = self._lazy[name].partition(":")
+            item = self._checked(name, getattr(importlib.import_module(module_name, self._package), attr))
+            self._items[name] = item  # imported once
+            del self._lazy[name]
+            return item
+        for point in self._points():
+            if point.name == name:
+                # not kept: the import system keeps the module, and a package installed meanwhile is seen
+                return self._checked(name, point.load())
+        raise ValueError(self.unknown(name))
+
+    def unknown(self, name: str) -> str:
+        """Why ``name`` is not an item of this registry: the closest name and the available ones."""
+        known = sorted(self.names())
+        where = f" (a package adds one through the entry point group {self.group})" if self.group else ""
+        return f"unknown {self.kind} {name!r}{did_you_mean(name, known)}; available: {', '.join(known)}{where}"
+
+    def names(self) -> list[str]:
+        """The built-in names in their order, then the installed plugins' sorted (a plugin cannot hide a built-in)."""
+        plugins = {point.name for point in self._points()} - set(self._order)
+        return [*self._order, *sorted(plugins)]
+
+    def builtins(self) -> list[str]:
+        """The built-in names, in their order."""
+        return list(self._order)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._order or any(point.name == name for point in self._points())
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(list(self._order))
+
+    def __len__(self) -> int:
+        return len(self._order)
+
+    def __repr__(self) -> str:
+        return f"Registry({self.kind!r}, {self.group!r}: {', '.join(self._order)})"
+
+    def _claim(self, name: str) -> None:
+        if name in self._order:
+            raise ValueError(f"the {self.kind} {name!r} is registered twice; give one of them another name")
+        self._order.append(name)
+
+    def _checked(self, name: str, item: Any) -> T:
+        if self._check is None:
+            typed: T = item
+            return typed
+        return self._check(name, item)
+
+    def _points(self) -> list[Any]:
+        # read on every call (about 6 ms): a registry must see what is installed now, and tests install fakes
+        return list(entry_points(group=self.group)) if self.group else []
