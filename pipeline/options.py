@@ -189,14 +189,12 @@ def matcher_flags(spec: MatcherSpec) -> str:
 
 
 def matcher_of(argv: list[str]) -> str:
-    """The matcher ``argv`` names (``--matcher NAME`` or ``--matcher=NAME``), else the default: the parser is built
-    with that matcher's options. An unknown name gives the default's, and argparse refuses the name."""
-    name = DEFAULT_MATCHER
-    for i, word in enumerate(argv):
-        if word == MATCHER and i + 1 < len(argv):
-            name = argv[i + 1]
-        elif word.startswith(MATCHER + "="):
-            name = word.partition("=")[2]
+    """The matcher ``argv`` names (``--matcher NAME`` or ``--matcher=NAME``, argparse's first pass of the command
+    line), else the default: the parser is built with that matcher's options. An unknown name gives the default's,
+    and ``read_matcher`` refuses the name listing the available ones."""
+    first = argparse.ArgumentParser(add_help=False, allow_abbrev=False)
+    first.add_argument(MATCHER, default=DEFAULT_MATCHER)
+    name: str = first.parse_known_args(argv)[0].matcher
     return name if name in MATCHERS or name in available_matchers() else DEFAULT_MATCHER
 
 
