@@ -101,7 +101,7 @@ def test_the_expected_queries_are_those_the_matcher_evaluates(toy, tmp_path, mon
     import vpr_smr.eval.matching.matchers as matchers
 
     point = SimpleNamespace(name="centred", load=lambda: Centred)
-    monkeypatch.setattr(matchers, "entry_points", lambda group: [point] if group == matchers.ENTRY_POINT_GROUP else [])
+    monkeypatch.setattr("vpr_smr.core.registry.entry_points", lambda group: [point] if group == matchers.ENTRY_POINT_GROUP else [])
     inspector._check_rows(rows[:-1], tmp_path / "q.csv", "test", L, 0, 10, MatcherSpec.of("centred"))  # 2 .. 8
     with pytest.raises(ValueError, match=r"split 'test' has queries 2..9, but .* has the evaluated queries 2..8"):
         inspector._check_rows(rows, tmp_path / "q.csv", "test", L, 0, 10, MatcherSpec.of("centred"))

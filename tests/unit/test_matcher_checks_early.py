@@ -65,7 +65,7 @@ def centred(monkeypatch):
     import vpr_smr.eval.matching.matchers as matchers
 
     point = SimpleNamespace(name="centred", load=lambda: Centred)
-    monkeypatch.setattr(matchers, "entry_points", lambda group: [point] if group == ENTRY_POINT_GROUP else [])
+    monkeypatch.setattr("vpr_smr.core.registry.entry_points", lambda group: [point] if group == ENTRY_POINT_GROUP else [])
 
 
 @dataclass(frozen=True)

@@ -1,23 +1,21 @@
 """Sequence matchers, selected by name: the one seam every stage builds its matcher through.
 
-Built-in matchers are listed in ``MATCHERS``; third-party ones register through the entry point group
-``vpr_smr.matchers`` (``name = "package.module:Class"``, a subclass of ``Matcher``). A stage never reads a
-matcher's settings: it holds a ``MatcherSpec`` (the name and the settings, validated, defaults filled), records it
-in its files' provenance (``MatcherSpec.provenance``), compares it (``==``) and builds the matcher from it
+Built-in matchers are registered in ``MATCHERS`` (a ``core.registry.Registry``); third-party ones register through
+the entry point group ``vpr_smr.matchers`` (``name = "package.module:Class"``, a subclass of ``Matcher``). A stage
+never reads a matcher's settings: it holds a ``MatcherSpec`` (the name and the settings, validated, defaults filled),
+records it in its files' provenance (``MatcherSpec.provenance``), compares it (``==``) and builds the matcher from it
 (``MatcherSpec.build``).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import importlib
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass
-from importlib.metadata import entry_points
 from typing import TYPE_CHECKING, Any
 
-from vpr_smr.core.suggest import did_you_mean
+from vpr_smr.core.registry import Registry
 
 if TYPE_CHECKING:
     from vpr_smr.eval.matching.matchers.base import Matcher
@@ -27,38 +25,11 @@ __all__ = ["DEFAULT_MATCHER", "ENTRY_POINT_GROUP", "MATCHERS", "MatcherSpec", "a
 ENTRY_POINT_GROUP = "vpr_smr.matchers"
 DEFAULT_MATCHER = "seqslam"
 
-# name -> "module:Class" within this package, imported on first use
-MATCHERS: dict[str, str] = {
-    "seqslam": "seqslam:SeqSLAM",
-    "bayes_filter": "bayes_filter:BayesFilter",
-    "monotone": "monotone:Monotone",
-    "openseqslam": "openseqslam:OpenSeqSLAM",
-}
 
-
-def available_matchers() -> list[str]:
-    """The built-in matchers and those installed packages register, sorted."""
-    return sorted(set(MATCHERS) | {ep.name for ep in entry_points(group=ENTRY_POINT_GROUP)})
-
-
-def matcher_class(name: str) -> type[Matcher]:
-    """The matcher class of ``name`` (built in, or an entry point of ``ENTRY_POINT_GROUP``); ValueError listing the
-    available ones."""
+def _matcher(name: str, cls: Any) -> type[Matcher]:
+    """``cls`` if it is the ``Matcher`` subclass that calls itself ``name``; ValueError otherwise."""
     from vpr_smr.eval.matching.matchers.base import Matcher
 
-    cls: Any = None
-    if name in MATCHERS:
-        module_name, _, class_name = MATCHERS[name].partition(":")
-        cls = getattr(importlib.import_module(f".{module_name}", __name__), class_name)
-    else:
-        for ep in entry_points(group=ENTRY_POINT_GROUP):
-            if ep.name == name:
-                cls = ep.load()
-                break
-    if cls is None:
-        known = available_matchers()
-        raise ValueError(f"unknown sequence matcher {name!r}{did_you_mean(name, known)}; available: {', '.join(known)} "
-                         f"(a package adds one through the entry point group {ENTRY_POINT_GROUP})")
     if not (isinstance(cls, type) and issubclass(cls, Matcher)):
         raise ValueError(f"the sequence matcher {name!r} ({cls!r}) is not a subclass of "
                          "vpr_smr.eval.matching.matchers.Matcher")
@@ -66,6 +37,24 @@ def matcher_class(name: str) -> type[Matcher]:
     if matcher.name != name:
         raise ValueError(f"the sequence matcher registered as {name!r} calls itself {matcher.name!r}")
     return matcher
+
+
+MATCHERS: Registry[type[Matcher]] = Registry("sequence matcher", ENTRY_POINT_GROUP, _matcher, package=__name__)
+MATCHERS.add_lazy("seqslam", ".seqslam:SeqSLAM")  # imported on first use
+MATCHERS.add_lazy("bayes_filter", ".bayes_filter:BayesFilter")
+MATCHERS.add_lazy("monotone", ".monotone:Monotone")
+MATCHERS.add_lazy("openseqslam", ".openseqslam:OpenSeqSLAM")
+
+
+def available_matchers() -> list[str]:
+    """The built-in matchers and those installed packages register, sorted."""
+    return sorted(MATCHERS.names())
+
+
+def matcher_class(name: str) -> type[Matcher]:
+    """The matcher class of ``name`` (built in, or an entry point of ``ENTRY_POINT_GROUP``); ValueError listing the
+    available ones."""
+    return MATCHERS.get(name)
 
 
 NAME_KEY = "matcher"  # the key of the matcher's name among its settings (a configuration's sequence_matching too)
