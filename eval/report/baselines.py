@@ -65,7 +65,7 @@ def _sorted(records: Iterable[Baselines], order: Order | None) -> list[Baselines
 def headline(row: dict[str, Any]) -> float | None:
     """The number a scorer's table cell shows: its reduction at the seed-0 predictor's budget; random's mean over the
     seeds (beside its spread). Comparisons take every scorer's seed-0 number instead (like with like)."""
-    value: float | None = row.get("reduction_pct_mean" if row["scorer"] == RANDOM else names.REDUCTION)
+    value: float | None = row.get(names.REDUCTION_MEAN if row["scorer"] == RANDOM else names.REDUCTION)
     return value
 
 

@@ -302,7 +302,7 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
         values, below, above = [], [], []
         for method in methods:
             row = by.get((method, scorer), {})
-            value = row.get("reduction_pct_mean" if scorer == "random" else names.REDUCTION)
+            value = row.get(names.REDUCTION_MEAN if scorer == "random" else names.REDUCTION)
             values.append(np.nan if value is None else float(value))
             low, high = _whisker(row, scorer, value)
             below.append(low)

@@ -50,7 +50,7 @@ def listed(items: Sequence[str]) -> str:
 def _seed_part(row: dict[str, Any]) -> str | None:
     """``method mean ± std %`` over the seeds (and how many, with the seeds left out and why, when only some are
     defined); None when undefined."""
-    mean, std = row.get("reduction_pct_mean"), row.get("reduction_pct_std")
+    mean, std = row.get(names.REDUCTION_MEAN), row.get("reduction_pct_std")
     if mean is None:
         return None
     n_seeds = row["n_seeds"]

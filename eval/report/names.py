@@ -2,6 +2,7 @@
 once; the row records of ``rows`` declare the columns themselves, as fields of these names."""
 
 REDUCTION = "reduction_pct"  # the AOC reduction (%) of a removal against VPR+SM
+REDUCTION_MEAN = "reduction_pct_mean"  # its mean over the seeds (the random scorer: over its own seeds)
 AOC_VPR_SM = "aoc_vpr_sm"  # the area over VPR+SM's PR curve
 AOC_VPR_SM_PRED = "aoc_vpr_sm_pred"  # the area over VPR+SM+Pred's
 AOC = "aoc"  # a row's own AOC at its own maximum recall (the experiment adaptive_seq_len's rows)

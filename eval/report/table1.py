@@ -144,7 +144,7 @@ def _has_seeds(rows: list[dict[str, Any]]) -> bool:
 
 def _every_seed(row: dict[str, Any]) -> bool:
     """Every seed's reduction is defined: the row's mean is a mean of all ``n_seeds`` seeds."""
-    return row.get("reduction_pct_mean") is not None and row.get("n_seeds_defined", row["n_seeds"]) == row["n_seeds"]
+    return row.get(names.REDUCTION_MEAN) is not None and row.get("n_seeds_defined", row["n_seeds"]) == row["n_seeds"]
 
 
 def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
@@ -157,7 +157,7 @@ def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
     texts = []
     for r in rows:
         left_out = r.get("seeds_left_out", "")
-        if r.get("reduction_pct_mean") is None:
+        if r.get(names.REDUCTION_MEAN) is None:
             texts.append(f"{UNDEFINED}: {left_out}" if left_out else UNDEFINED)
             continue
         defined = r.get("n_seeds_defined", r["n_seeds"])
@@ -167,10 +167,10 @@ def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
         texts.append(f"{r['reduction_pct_mean']:.2f}{PLUS_MINUS}{UNDEFINED if std is None else f'{std:.2f}'}{part}")
     n_seeds = rows[0].get("n_seeds", "")
     full = [r for r in rows if _every_seed(r)]
-    mean = float(np.mean([r["reduction_pct_mean"] for r in full])) if full else None
+    mean = float(np.mean([r[names.REDUCTION_MEAN] for r in full])) if full else None
     if mean is None:
         note = f" (no method has all {n_seeds} seeds' reductions defined)" if any(
-            r.get("reduction_pct_mean") is not None for r in rows) else ""
+            r.get(names.REDUCTION_MEAN) is not None for r in rows) else ""
     else:
         parts = [] if len(full) == len(rows) else [
             f"mean over {len(full)} of {len(rows)} methods, those with all {n_seeds} seeds: {_names(full)}"]

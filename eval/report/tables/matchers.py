@@ -25,7 +25,7 @@ __all__ = ["FAR_BELOW", "TABLE", "MatchersRow", "comparison_sentence", "make_mat
            "matcher_sentences"]
 
 PAGE = ("method", "matcher", "n_evaluated", names.RECALL_SEQUENCE, names.AOC_VPR_SM, names.AOC_VPR_SM_PRED,
-        names.REDUCTION, "outcome", "reduction_pct_mean", "reduction_pct_std", "best_scorer", "native_reduction_pct",
+        names.REDUCTION, "outcome", names.REDUCTION_MEAN, "reduction_pct_std", "best_scorer", "native_reduction_pct",
         "ap_predictor", "ap_native", "warning")
 
 
