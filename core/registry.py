@@ -7,7 +7,7 @@ packages add through an entry point group (``name = "package.module:attr"`` unde
 use (``add_lazy``), so that a heavy module (PyTorch) costs nothing until its item is asked for.
 
 Iterating a registry gives its built-in names (what the package itself ships: the reference pages, the default list
-of a comparison); ``names()`` and ``in`` include the installed plugins too.
+of a comparison); ``names()``, ``in`` and ``get`` (``[]``) include the installed plugins too.
 """
 
 from __future__ import annotations
@@ -92,6 +92,15 @@ class Registry(Generic[T]):
 
     def __contains__(self, name: object) -> bool:
         return name in self._order or any(point.name == name for point in self._points())
+
+    def __getitem__(self, name: str) -> T:
+        """``get``, with KeyError for an unknown name (a registry reads as the mapping of names it replaces)."""
+        try:
+            return self.get(name)
+        except ValueError as error:
+            if name in self:
+                raise  # a plugin that does not pass ``check``
+            raise KeyError(str(error)) from None
 
     def __iter__(self) -> Iterator[str]:
         return iter(list(self._order))

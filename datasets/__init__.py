@@ -7,6 +7,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
+from vpr_smr.core.registry import Registry
 from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.datasets.base import (
     DatasetError,
@@ -28,13 +29,12 @@ from vpr_smr.datasets.settings import SPLIT_SETTINGS, DatasetEntry
 from vpr_smr.datasets.sfu_mountain import SPLITS as SFU_MOUNTAIN_SPLITS
 from vpr_smr.datasets.sfu_mountain import sfu_mountain
 
-LOADERS: dict[str, Callable[..., TraversePair]] = {
-    "folders": folder_pair,
-    "nordland_sample": nordland_sample,
-    "nordland": nordland,
-    "robotcar": robotcar,
-    "sfu_mountain": sfu_mountain,
-}
+LOADERS: Registry[Callable[..., TraversePair]] = Registry("dataset loader")
+LOADERS.add("folders", folder_pair)
+LOADERS.add("nordland_sample", nordland_sample)
+LOADERS.add("nordland", nordland)
+LOADERS.add("robotcar", robotcar)
+LOADERS.add("sfu_mountain", sfu_mountain)
 # The published splits of the benchmarks (method §1); a `folders` dataset has none until the configuration names them.
 DEFAULT_SPLITS: dict[str, dict[str, tuple[int, int]]] = {
     "nordland_sample": NORDLAND_SAMPLE_SPLITS,

@@ -1,15 +1,16 @@
 """Descriptor backends, selected by name.
 
-Built-in backends are listed in ``BACKENDS``. Third-party backends register through the entry point group
-``vpr_smr.descriptors`` (``name = "package.module:Class"``) or are named in the configuration by a dotted
-path ``package.module:Class``.
+Built-in backends are registered in ``BACKENDS`` (a ``core.registry.Registry``). Third-party backends register
+through the entry point group ``vpr_smr.descriptors`` (``name = "package.module:Class"``) or are named in the
+configuration by a dotted path ``package.module:Class``.
 """
 
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import entry_points
 from typing import TYPE_CHECKING, Any
+
+from vpr_smr.core.registry import Registry
 
 if TYPE_CHECKING:
     from vpr_smr.descriptors.base import Backend
@@ -17,21 +18,30 @@ if TYPE_CHECKING:
 
 ENTRY_POINT_GROUP = "vpr_smr.descriptors"
 
-# name -> "module:Class" within this package; imported lazily so that a backend's imports cost nothing until used.
-BACKENDS: dict[str, str] = {
-    "sad": "sad:SAD",
-    "hog": "hog:HOG",
-    "efficientnet_lite0_gem": "efficientnet_lite:EfficientNetLite0GeM",
-    "netvlad": "netvlad:NetVLAD",
-    "apgem": "apgem:APGeM",
-    "cosplace": "cosplace:CosPlace",
-    "eigenplaces": "cosplace:EigenPlaces",
-    "mixvpr": "mixvpr:MixVPR",
-    "salad": "salad:SALAD",
-    "boq": "boq:BoQ",
-    "megaloc": "megaloc:MegaLoc",
-    "precomputed": "precomputed:Precomputed",
-}
+
+def _backend(name: str, cls: Any) -> type[Backend]:
+    """``cls`` if it is a ``Backend`` subclass; ValueError otherwise."""
+    from vpr_smr.descriptors.base import Backend
+
+    if not (isinstance(cls, type) and issubclass(cls, Backend)):
+        raise ValueError(f"{name!r} is not a subclass of vpr_smr.descriptors.Backend")
+    return cls
+
+
+# Imported on first use, so that a backend's imports cost nothing until used.
+BACKENDS: Registry[type[Backend]] = Registry("descriptor backend", ENTRY_POINT_GROUP, _backend, package=__name__)
+BACKENDS.add_lazy("sad", ".sad:SAD")
+BACKENDS.add_lazy("hog", ".hog:HOG")
+BACKENDS.add_lazy("efficientnet_lite0_gem", ".efficientnet_lite:EfficientNetLite0GeM")
+BACKENDS.add_lazy("netvlad", ".netvlad:NetVLAD")
+BACKENDS.add_lazy("apgem", ".apgem:APGeM")
+BACKENDS.add_lazy("cosplace", ".cosplace:CosPlace")
+BACKENDS.add_lazy("eigenplaces", ".cosplace:EigenPlaces")
+BACKENDS.add_lazy("mixvpr", ".mixvpr:MixVPR")
+BACKENDS.add_lazy("salad", ".salad:SALAD")
+BACKENDS.add_lazy("boq", ".boq:BoQ")
+BACKENDS.add_lazy("megaloc", ".megaloc:MegaLoc")
+BACKENDS.add_lazy("precomputed", ".precomputed:Precomputed")
 
 # A method's settings that do not change its descriptors: the distance reaches only its distance matrices.
 DISTANCE_SETTING = "distance"
@@ -67,37 +77,24 @@ def __getattr__(name: str) -> Any:
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
-def _import(target: str, package: str | None = None) -> type[Backend]:
-    module_name, _, class_name = target.partition(":")
-    module = importlib.import_module(module_name, package)
-    cls: type[Backend] = getattr(module, class_name)  # backend_class checks what a dotted path names
-    return cls
-
-
 def available_backends() -> list[str]:
-    names = set(BACKENDS) | {ep.name for ep in entry_points(group=ENTRY_POINT_GROUP)}
-    return sorted(names)
+    """The built-in backends and those installed packages register, sorted."""
+    return sorted(BACKENDS.names())
 
 
 def backend_class(name: str) -> type[Backend]:
     """Resolve a backend by built-in name, entry point name, or dotted path ``package.module:Class``."""
-    if name in BACKENDS:
-        return _import("." + BACKENDS[name], __name__)
-    for ep in entry_points(group=ENTRY_POINT_GROUP):
-        if ep.name == name:
-            loaded: type[Backend] = ep.load()
-            return loaded
-    if ":" in name:
+    if name in BACKENDS or ":" not in name:
         try:
-            cls = _import(name)
-        except (ImportError, AttributeError) as error:
-            raise ValueError(f"cannot import descriptor backend {name!r}: {error}") from None
-        from vpr_smr.descriptors.base import Backend
-
-        if not (isinstance(cls, type) and issubclass(cls, Backend)):
-            raise ValueError(f"{name!r} is not a subclass of vpr_smr.descriptors.Backend")
-        return cls
-    raise ValueError(
-        f"unknown descriptor backend {name!r}; available: {', '.join(available_backends())}, "
-        "or a dotted path package.module:Class (`vpr-smr backends` lists each with its settings)"
-    )
+            return BACKENDS.get(name)
+        except ValueError as error:
+            if name in BACKENDS:
+                raise  # a plugin that is no backend
+            raise ValueError(f"{error}, or a dotted path package.module:Class (`vpr-smr backends` lists each with "
+                             "its settings)") from None
+    module_name, _, class_name = name.partition(":")
+    try:
+        cls = getattr(importlib.import_module(module_name), class_name)
+    except (ImportError, AttributeError) as error:
+        raise ValueError(f"cannot import descriptor backend {name!r}: {error}") from None
+    return _backend(name, cls)

@@ -96,3 +96,11 @@ def test_a_real_entry_point_is_found(tmp_path, monkeypatch):
     widgets = _widgets()
     assert "answer" in widgets and widgets.names() == ["zeta", "alpha", "answer"]
     assert widgets.get("answer") == 42
+
+
+def test_a_registry_reads_as_a_mapping_of_its_names(monkeypatch):
+    _install(monkeypatch, beta=20)
+    widgets = _widgets()
+    assert widgets["zeta"] == 1 and widgets["beta"] == 20 and sorted(widgets) == ["alpha", "zeta"]
+    with pytest.raises(KeyError, match="unknown widget 'gamma'"):
+        widgets["gamma"]
