@@ -17,6 +17,7 @@ from vpr_smr.core.io import CSV_SUFFIXES, HDF5_SUFFIXES, JSON_SUFFIXES, check_su
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER
 from vpr_smr.pipeline.config import ConfigError, Extraction, load_config, schema_default
 from vpr_smr.pipeline.console import LOG_FORMAT
+from vpr_smr.pipeline.experiment import plugin_stages
 from vpr_smr.pipeline.options import add_matcher_options, add_options, matcher_of, read_matcher, read_options
 from vpr_smr.pipeline.stage import JOB, install
 from vpr_smr.pipeline.stages import STAGES
@@ -1066,7 +1067,8 @@ def build_parser(matcher: str = DEFAULT_MATCHER, job: bool = False) -> argparse.
     p.add_argument("--datasets", help="per dataset: traverses, frames, tolerance, splits, pairing, overlaps (JSON)")
     p.add_argument("--out", required=True, help="the run folder: tables/, figures/ and report.html go inside")
     p.set_defaults(func=cmd_report)
-    for stage in STAGES:  # the declared stages (``pipeline.stages``), each replacing its command of above
+    # the declared stages (``pipeline.stages``), each replacing its command of above, then the installed experiments'
+    for stage in (*STAGES, *plugin_stages()):
         install(sub, stage, matcher, job)
     _fill_help(parser)
     return parser

@@ -153,6 +153,12 @@ def _text(value: Any) -> str:
     return json.dumps(value)
 
 
+def _own(record: type, values: dict[str, Any]) -> dict[str, Any]:
+    """The settings of ``values`` that ``record`` declares."""
+    names = {item.name for item in declared(record)}
+    return {key: value for key, value in values.items() if key in names}
+
+
 @dataclass(frozen=True)
 class PredictorSection(PredictorSettings, Section):
     """``predictor``: ``SMRPredictor``'s arguments, every one (validation fills in the record's defaults), and the
@@ -279,7 +285,9 @@ class Config(Section):
                                           source=_text(d)) for name, d in conf["datasets"].items()}
         methods = {name: MethodSettings(name, str(m["backend"]), m.get("checkpoint"), m.get("distance"),
                                         source=_text(m)) for name, m in conf["methods"].items()}
-        sections: dict[str, Any] = {name: parse(record, conf[name], name) for name, record in RECORDS.items()}
+        # a record's own settings: ``experiments`` holds the installed packages' experiments too (``experiments``)
+        sections: dict[str, Any] = {name: parse(record, _own(record, conf[name]), name)
+                                    for name, record in RECORDS.items()}
         matching = {key: value for key, value in conf["sequence_matching"].items() if key != MATCHER_KEY}
         return cls(
             conf["run"], conf["output"], tuple(conf["seq_lens"]), tuple(conf["modes"]),
@@ -304,7 +312,7 @@ def validated_json(conf: dict[str, Any], source: str = "configuration") -> dict[
     """``validate``'s configuration as JSON: the mapping ``Config`` is read from (and ``Config.to_json`` gives)."""
     import jsonschema
 
-    schema = json.loads(SCHEMA_PATH.read_text())
+    schema = _with_plugin_experiments(json.loads(SCHEMA_PATH.read_text()))
     validator = jsonschema.Draft202012Validator(schema)
     errors = sorted(validator.iter_errors(conf), key=lambda e: list(e.absolute_path))
     if errors:
@@ -319,6 +327,18 @@ def validated_json(conf: dict[str, Any], source: str = "configuration") -> dict[
     _check_together(conf, source)
     _resolve_ground_truth_files(conf, source)
     return conf
+
+
+def _with_plugin_experiments(schema: dict[str, Any]) -> dict[str, Any]:
+    """``schema`` with each experiment an installed package registers (``pipeline.experiment``) as a key of
+    ``experiments`` (off unless given; no default, so that a configuration's JSON is the same with or without the
+    package installed): an unknown key's message lists them with the built-in ones."""
+    from vpr_smr.pipeline.experiment import plugin_experiments  # here: it loads the installed packages' modules
+
+    section = schema["properties"]["experiments"]["properties"]
+    for experiment in plugin_experiments():
+        section.setdefault(experiment.name, {"type": "boolean", "description": experiment.help})
+    return schema
 
 
 def _resolve_ground_truth_files(conf: dict[str, Any], source: str) -> None:
@@ -396,7 +416,8 @@ def _check_together(conf: dict[str, Any], source: str) -> None:
 
 
 def experiments(conf: Config) -> set[str]:
-    """The experiments a validated configuration runs, by the names of ``eval.report.registry.expected_outputs``."""
+    """The experiments a validated configuration runs, by the names of ``eval.report.registry.expected_outputs``,
+    and those of installed packages it turns on (``pipeline.experiment``), by theirs."""
     chosen = conf.experiments
     names = {"table1", "predictor", "baselines"}
     if chosen.trust_levels and conf.trust_levels:
@@ -417,6 +438,9 @@ def experiments(conf: Config) -> set[str]:
         names.add("matchers")
     if chosen.adaptive_seq_len and len(conf.seq_lens) > 1:
         names.add("adaptive_seq_len")
+    # the installed packages' experiments (``pipeline.experiment``) turned on by name: ``experiments: {NAME: true}``
+    names.update(key for key, value in conf.to_json()["experiments"].items()
+                 if value is True and key not in {item.name for item in declared(Experiments)})
     return names
 
 

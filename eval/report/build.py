@@ -20,7 +20,7 @@ from vpr_smr.core.io import atomic_path
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path, timing_path
 from vpr_smr.core.records import FormatError
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
-from vpr_smr.eval.report import bounds, registry
+from vpr_smr.eval.report import bounds, experiments, registry
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report.baselines import baseline_rows, comparisons
 from vpr_smr.eval.report.results import (
@@ -646,7 +646,7 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
         read_metrics, dict(datasets or {}), split,
         None if options.table_seq_lens is None else {int(s) for s in options.table_seq_lens},
         options.seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines,
-        read_matchers, read_adaptive)
+        read_matchers, read_adaptive, experiment_files(out_dir, options.config))
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]
@@ -659,6 +659,13 @@ def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = N
             provenance=options.provenance, descriptor_paths=files.descriptors, datasets=datasets, splits=splits,
             protocols=inputs.protocols, matchers=_matchers(read_evaluations)))
     return written
+
+
+def experiment_files(out_dir: Path, config: str | dict[str, Any] | None) -> dict[str, Sequence[Path]]:
+    """The files of the installed experiments the run's settings (``ReportOptions.config``) turn on, per experiment,
+    where the workflow wrote them under the run folder ``out_dir`` (``eval.report.experiments.files``): their tables
+    read them from ``Inputs.experiments``."""
+    return experiments.files(out_dir, config if isinstance(config, dict) else None)
 
 
 def read_adaptive_files(paths: Sequence[Path | str]) -> list[tuple[AdaptiveResult, AdaptiveTiming | None]]:

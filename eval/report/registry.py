@@ -11,7 +11,8 @@ of it the page's compact tables show (``page``, ``pivot``, ``caption``) and in w
 page's tables from them.
 
 A table is one declaration: the tables of ``TABLES`` below, then each module of the package
-``eval/report/tables/`` that declares a ``TABLE`` (a ``Table``), in the modules' names' order.
+``eval/report/tables/`` that declares a ``TABLE`` (a ``Table``), in the modules' names' order, then the tables of the
+experiments installed packages register (``eval.report.experiments``).
 """
 
 from __future__ import annotations
@@ -253,7 +254,15 @@ def collected(*tables: Table) -> tuple[Table, ...]:
     return tables
 
 
-TABLES = collected(*CORE_TABLES, *declared())
+def plugin_tables() -> tuple[Table, ...]:
+    """The tables of the experiments installed packages register (``eval.report.experiments``), each experiment's in
+    its declaration's order, the experiments by name."""
+    from vpr_smr.eval.report.experiments import installed  # its plugins import this module (its ``Table``)
+
+    return tuple(entry for experiment in installed() for entry in experiment.tables)
+
+
+TABLES = collected(*CORE_TABLES, *declared(), *plugin_tables())
 
 FIGURES = (
     Figure("pr", "PR curves", ("table1",), "pr_{dataset}_L{seq_len}_{mode}.png"),

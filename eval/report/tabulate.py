@@ -8,8 +8,9 @@ table is of (the table is then not written; an empty list writes its header alon
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Collection, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -67,6 +68,8 @@ class Inputs:
     matchers: list[MatcherComparison] = dataclasses.field(default_factory=list)  # the experiment matchers (§14)
     # the experiment adaptive_seq_len (§15): each result with the live timing file beside it (None without one)
     adaptive: list[tuple[AdaptiveResult, AdaptiveTiming | None]] = dataclasses.field(default_factory=list)
+    # the experiments installed packages register (``eval.report.experiments``): per name its jobs' files
+    experiments: Mapping[str, Sequence[Path]] = dataclasses.field(default_factory=dict)
 
     def correct(self, dataset: str) -> str:
         """``; correct: within 2 frames``: what a figure's title adds of its dataset's ground truth (empty if none)."""

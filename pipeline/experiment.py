@@ -1,0 +1,130 @@
+"""An experiment declared once, in one module: its jobs, its tables and its section of the report.
+
+An ``Experiment`` names itself (its key under the configuration's ``experiments:``), its jobs (``Job``: a declared
+``Stage``, the output path pattern each job writes, its inputs and its job record from the run's configuration and
+plan) and its tables (``registry.Table``s made from its jobs' files, each table's ``section`` its part of the page,
+with its sentences). An installed package registers it under its name in the entry point group
+``vpr_smr.experiments`` (``eval.report.experiments``); nothing else is edited:
+
+- the configuration accepts ``experiments: {NAME: true}`` (``pipeline.config``; an unknown name is refused with the
+  known ones listed);
+- the workflow makes one rule per job (``pipeline/rules/experiments.smk``) calling ``vpr-smr COMMAND --job JSON``,
+  and the report waits for their files;
+- ``vpr-smr COMMAND`` runs a job by hand (``pipeline.cli`` installs the jobs' stages);
+- the report reads the files (``eval.report.experiments.files``) and writes the tables and the section.
+"""
+
+from __future__ import annotations
+
+import itertools
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from vpr_smr.eval.report.experiments import installed
+from vpr_smr.pipeline.stage import Stage
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.report.registry import Table
+    from vpr_smr.pipeline.config import Config
+    from vpr_smr.pipeline.plan import Plan
+
+__all__ = ["WILDCARDS", "Experiment", "Job", "experiment", "plugin_experiments", "plugin_stages"]
+
+# the names a job's output pattern may hold: each ranges over the configuration's datasets, methods, and sequence
+# lengths (``Job.every_seq_len``: every L of seq_lens, else table_seq_len only)
+WILDCARDS = ("dataset", "method", "seq_len")
+NAME = re.compile(r"[a-z][a-z0-9_]*")
+
+
+@dataclass(frozen=True)
+class Job:
+    """One kind of job of an experiment: the ``stage`` it runs, the ``output`` it writes (a path relative to the
+    run folder with the wildcards of ``WILDCARDS`` it ranges over, e.g. ``recall_gain/{dataset}/{method}/
+    L{seq_len}.json``: one job per value of each), its ``inputs`` (the files it reads, by name, from the run folder,
+    the configuration, the plan and the job's wildcards) and its ``record`` (the stage's job record, from the
+    configuration, the plan, the wildcards, the inputs and the output path)."""
+
+    stage: Stage
+    output: str
+    inputs: Callable[[str, Config, Plan, Mapping[str, str]], Mapping[str, str | Sequence[str]]]
+    record: Callable[[Config, Plan, Mapping[str, str], Mapping[str, Any], str], Any]
+    every_seq_len: bool = False
+
+    @property
+    def wildcards(self) -> tuple[str, ...]:
+        """The wildcards of ``output``, in ``WILDCARDS``' order."""
+        found = set(re.findall(r"{(\w+)}", self.output))
+        unknown = sorted(found - set(WILDCARDS))
+        if unknown:
+            raise ValueError(f"job {self.stage.command!r}: its output {self.output!r} names {unknown}; an output "
+                             f"pattern may name {', '.join(WILDCARDS)}")
+        return tuple(name for name in WILDCARDS if name in found)
+
+    def values(self, settings: Mapping[str, Any]) -> dict[str, list[str]]:
+        """Each wildcard's values in a configuration's settings (its validated JSON)."""
+        lengths = settings["seq_lens"] if self.every_seq_len else [settings["table_seq_len"]]
+        every = {"dataset": list(settings["datasets"]), "method": list(settings["methods"]),
+                 "seq_len": [str(n) for n in lengths]}
+        return {name: every[name] for name in self.wildcards}
+
+    def outputs(self, settings: Mapping[str, Any]) -> list[str]:
+        """Every job's output, relative to the run folder, in the configuration's order."""
+        values = self.values(settings)
+        return [self.output.format(**dict(zip(values, chosen, strict=True)))
+                for chosen in itertools.product(*values.values())]
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """An experiment: its ``name`` (a key of ``experiments:``, lower case letters, digits and ``_``), ``help`` (one
+    line: the configuration reference's), its ``jobs`` and its ``tables`` (each with ``experiments=(name,)``:
+    written when the configuration turns it on; its ``make`` reads ``inputs.experiments[name]``, the jobs' files)."""
+
+    name: str
+    help: str
+    jobs: tuple[Job, ...]
+    tables: tuple[Table, ...]
+
+    def __post_init__(self) -> None:
+        if NAME.fullmatch(self.name) is None:
+            raise ValueError(f"experiment {self.name!r}: a name is lower case letters, digits and '_', starting with "
+                             "a letter")
+        for table in self.tables:
+            if table.experiments != (self.name,):
+                raise ValueError(f"experiment {self.name!r}: its table {table.name!r} must have "
+                                 f"experiments=({self.name!r},), so that it is written when the experiment runs")
+        for job in self.jobs:
+            job.wildcards  # noqa: B018 (refuses an unknown wildcard now, not in the workflow)
+
+    def outputs(self, settings: Mapping[str, Any]) -> list[str]:
+        """Every job's file, relative to the run folder, for a configuration's settings (its validated JSON)."""
+        return [path for job in self.jobs for path in job.outputs(settings)]
+
+    def rule_name(self, job: Job) -> str:
+        """The workflow's rule of ``job``: ``NAME_COMMAND`` (its words joined by ``_``)."""
+        return "_".join([self.name, *re.split(r"[\s-]+", job.stage.command)])
+
+
+def plugin_experiments() -> tuple[Experiment, ...]:
+    """The experiments installed packages register (``eval.report.experiments.installed``), by name."""
+    found = installed()
+    wrong = [one.name for one in found if not isinstance(one, Experiment)]
+    if wrong:
+        raise TypeError(f"experiments {wrong}: declare each as a vpr_smr.pipeline.experiment.Experiment")
+    return tuple(one for one in found if isinstance(one, Experiment))
+
+
+def experiment(name: str) -> Experiment:
+    """The installed experiment ``name``; KeyError listing the installed ones."""
+    for one in plugin_experiments():
+        if one.name == name:
+            return one
+    known = ", ".join(one.name for one in plugin_experiments()) or "none"
+    raise KeyError(f"no installed experiment {name!r}; installed: {known}")
+
+
+def plugin_stages() -> tuple[Stage, ...]:
+    """The stages of the installed experiments' jobs: ``vpr-smr COMMAND`` runs one by hand (``pipeline.cli``)."""
+    return tuple(job.stage for one in plugin_experiments() for job in one.jobs)
