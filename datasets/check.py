@@ -421,7 +421,7 @@ def main(settings: dict[str, Any], name: str | None = None, decode: bool = True,
     from vpr_smr.datasets import LOADERS, load_dataset, required_options, unknown_option
 
     loader_name = settings.get("loader")
-    if loader_name not in LOADERS:
+    if not isinstance(loader_name, str) or loader_name not in LOADERS:
         choices = ", ".join(sorted(LOADERS))
         print(f"error: unknown dataset loader {loader_name!r}; choose one of {choices}", file=sys.stderr)
         return 2
