@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -10,6 +11,7 @@ import numpy as np
 from vpr_smr.core import environment
 from vpr_smr.core.constants import METRICS
 from vpr_smr.core.io import HDF5_SUFFIXES, atomic_h5, check_suffix, open_h5
+from vpr_smr.core.settings import REQUIRED, setting
 
 # Chunks of the stored matrix: whole chunk columns are what the attributes stage reads (blocks of about 2^20 / R
 # query columns, all references). 4096 x 64 float32 is 1 MB, inside HDF5's advised range; a 27592-reference column
@@ -126,26 +128,40 @@ def _check_descriptors(f: Any, descriptors: Path, split: str, ranges: dict[str, 
                              f"{len(f[name])} frames; were these descriptors computed for this dataset?")
 
 
-def main(descriptors: Path | str, out: Path | str, split: str, split_range: tuple[int, int],
-         block_queries: int | None = None, metric: str | None = None,
-         reference_range: tuple[int, int] | None = None) -> Path:
+@dataclass(frozen=True)
+class DistancesJob:
+    """The ``distances`` stage's job: the distance matrix of one split of a descriptor file."""
+
+    descriptors: str = setting(REQUIRED, "the descriptor file (.h5) of vpr-smr descriptors")
+    split: str = setting(REQUIRED, "the split's name, e.g. test (written in the file)")
+    frames: tuple[int, ...] = setting(REQUIRED, "the split's frames lo..hi-1 of both traverses (its queries, with "
+                                                "--reference-frames): LO HI", min_items=2, max_items=2)
+    reference_frames: tuple[int, ...] | None = setting(
+        None, "the split's reference frames lo..hi-1, when they differ from --frames (traverses with positions): "
+              "LO HI", min_items=2, max_items=2)
+    metric: str | None = setting(None, "the distance (default: the descriptor file's, its backend's)",
+                                 choices=METRICS)
+    out: str = setting(REQUIRED, "the output file: the distance matrix (HDF5)")
+
+
+def main(job: DistancesJob, block_queries: int | None = None) -> Path:
     """The ``distances`` stage: the R x Q matrix of one split of a descriptor file, to chunked HDF5.
 
-    ``descriptors`` holds ``reference`` and ``query`` (frames x dimension) and the attributes ``distance``,
+    ``job.descriptors`` holds ``reference`` and ``query`` (frames x dimension) and the attributes ``distance``,
     ``dataset``, ``method``, ``checkpoint_sha256``, ``frames_sha256``; the split's queries are frames
-    ``split_range = (lo, hi)``, its references frames ``reference_range`` (default: the same range). Only the
-    split's references and one block of queries are in memory at a time.
-    ``metric`` (one of ``METRICS``) overrides the file's ``distance`` (its backend's default): the workflow passes
-    the method's ``distance`` setting here, so that changing it does not recompute the descriptors.
+    ``job.frames = (lo, hi)``, its references frames ``job.reference_frames`` (default: the same range). Only the
+    split's references and one block of queries (``block_queries`` columns; default: about 64 MB) are in memory at
+    a time. ``job.metric`` (one of ``METRICS``) overrides the file's ``distance`` (its backend's default): the
+    workflow passes the method's ``distance`` setting here, so that changing it does not recompute the descriptors.
 
     When the descriptor file holds ``reference_positions`` and ``query_positions`` (method §11), the split's slices
     of them are written beside the matrix under the same names: the ground truth of the later stages. The
     provenance's ``split_range`` is the query range; ``reference_range`` is added only when it differs.
     """
-    out = check_suffix(out, HDF5_SUFFIXES, "the distance matrix (HDF5)")
-    descriptors = Path(descriptors)
-    lo, hi = (int(v) for v in split_range)
-    ref_lo, ref_hi = (int(v) for v in (reference_range or (lo, hi)))
+    out = check_suffix(job.out, HDF5_SUFFIXES, "the distance matrix (HDF5)")
+    descriptors, split, metric = Path(job.descriptors), job.split, job.metric
+    lo, hi = (int(v) for v in job.frames)
+    ref_lo, ref_hi = (int(v) for v in (job.reference_frames or (lo, hi)))
     with open_h5(descriptors, "a descriptor file written by vpr-smr descriptors") as f:
         _check_descriptors(f, descriptors, split, {"reference": (ref_lo, ref_hi), "query": (lo, hi)})
         if (ref_lo, ref_hi) != (lo, hi) and not all(k in f for k in POSITIONS):

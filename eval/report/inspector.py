@@ -24,20 +24,21 @@ is ``lo`` unless the split has its own reference range).
 from __future__ import annotations
 
 import csv
+import json
 import math
 import textwrap
 from collections.abc import Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import cv2
 import h5py
 import numpy as np
 
 from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
-from vpr_smr.datasets import TraversePair, load_frames
+from vpr_smr.core.settings import REQUIRED, group, setting
+from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
 from vpr_smr.eval.matching.features import match_blocks
 from vpr_smr.eval.matching.ground_truth import POSITIONS, GroundTruth
@@ -45,8 +46,12 @@ from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, scored_shape, split_ground_truth
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.matchers.base import Matcher
+from vpr_smr.eval.matching.sources import MatrixFormat, TruthSource
 from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
 from vpr_smr.eval.scoring.queries import MATCHER_COLUMN, OLD_MATCHER_COLUMN, QUERY_COLUMNS, row_matcher
+
+if TYPE_CHECKING:  # the datasets (OpenCV) are imported when the stage runs, not when its command line is built
+    from vpr_smr.datasets import TraversePair
 
 # The columns of the queries CSV the inspector reads (by name; the attributes are not shown); a table of vpr-smr 0.9
 # names its matcher in OLD_MATCHER_COLUMN instead (queries.row_matcher).
@@ -201,6 +206,8 @@ def sample_queries(rows: Sequence[QueryRow], split: str, per_class: int = 2, mis
 
 def thumbnail(image: np.ndarray, height: int = THUMB_HEIGHT) -> np.ndarray:
     """``image`` downscaled (INTER_AREA) to ``height`` rows when taller, the aspect ratio kept; else unchanged."""
+    import cv2  # here: the stage's command line is built without OpenCV (about 0.15 s to import)
+
     if image.shape[0] <= height:
         return image
     width = max(1, round(image.shape[1] * height / image.shape[0]))
@@ -561,59 +568,105 @@ def _check_matcher(rows: Sequence[QueryRow], queries_csv: Path, matcher: Matcher
                          "name and settings), or the queries CSV of this matcher")
 
 
-def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | None,
-         dataset_settings: dict[str, Any] | None, frames_sha256: str | None, seq_len: int, split: str | None,
-         tolerance: int, match_figure: Path | str | None, matrix_figure: Path | str, per_class: int = 2,
-         mistakes: int = 4, seed: int = 0, split_range: tuple[int, int] | None = None, radius: float | None = None,
-         matcher: MatcherSpec | None = None, reference_positions: Path | str | None = None,
-         query_positions: Path | str | None = None, similarity: bool = False, key: str | None = None,
-         transpose: bool = False, ground_truth: Path | str | None = None,
-         ground_truth_key: str | None = None) -> tuple[Path | None, Path]:
-    """The ``inspect`` stage: the match figure (unless ``match_figure`` is None) and the distance-matrix figure of
-    ``split`` (PNG, all or none); returns their paths (the match figure's or None, the matrix figure's).
+@dataclass(frozen=True)
+class InspectJob:
+    """The ``inspect`` stage's job: the match figure and the distance-matrix figure of one split's queries."""
 
-    ``dataset_name`` and ``dataset_settings``: the dataset and its configuration entry (``load_frames``; split
+    queries: str = setting(REQUIRED, "the per-query table (.csv) of vpr-smr queries", metavar="PATH")
+    distances: str = setting(REQUIRED, "the distance matrix: our .h5, or a references x queries .npy, .npz or .mat",
+                             metavar="PATH")
+    match_figure: str | None = setting(None, "the match figure (PNG): thumbnails of the frames, so it needs "
+                                             "--dataset and --dataset-settings (a dataset with images)",
+                                       metavar="PATH")
+    matrix_figure: str = setting(REQUIRED, "where to write the distance-matrix figure (.png)", metavar="PATH")
+    dataset: str | None = setting(None, "the dataset's name (with --dataset-settings: for the match figure's "
+                                        "images)", metavar="NAME")
+    dataset_settings: str | None = setting(
+        None, "the dataset's configuration entry as a JSON object (or @file), e.g. {\"loader\": \"folders\", "
+              "\"reference\": DIR, \"query\": DIR}", metavar="JSON")
+    frames_sha256: str | None = setting(None, "fail unless the dataset's frame lists have this fingerprint "
+                                              "(default: the distances file's)", metavar="SHA256")
+    seq_len: int = sources.seq_len()
+    split: str | None = setting(None, "the queries CSV's split to show (default: its only split)", metavar="SPLIT")
+    # as the queries CSV was made: the matcher, the ground truth, how a user's matrix is read
+    truth: TruthSource = group(TruthSource, "the ground truth")
+    matcher: MatcherSpec = setting(MatcherSpec.of(), "the sequence matcher and its settings")
+    matrix: MatrixFormat = group(MatrixFormat, "how a user's matrix file is read")
+    frames: tuple[int, ...] | None = setting(
+        None, "the split's frames lo..hi-1: LO HI (default: the distances file's split_range; a .npy's queries count "
+              "from 0)", min_items=2, max_items=2)
+    per_class: int = setting(2, "queries sampled per true class", minimum=0)
+    mistakes: int = setting(4, "the predictor's most confident mistakes shown", minimum=0)
+    seed: int = setting(0, "seed of the sample")
+
+
+def _json_object(text: str, option: str) -> dict[str, Any]:
+    """A JSON object given on the command line, or ``@file`` holding one; ValueError naming ``option``."""
+    if text.startswith("@"):
+        text = Path(text[1:]).read_text()
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{option} is not valid JSON: {error}") from None
+    if not isinstance(value, dict):
+        raise ValueError(f"{option} must be a JSON object of settings")
+    return value
+
+
+def main(job: InspectJob) -> tuple[Path | None, Path]:
+    """The ``inspect`` stage: the match figure (unless ``job.match_figure`` is None) and the distance-matrix figure
+    of ``job.split`` (PNG, all or none); returns their paths (the match figure's or None, the matrix figure's).
+
+    ``dataset`` and ``dataset_settings``: the dataset and its configuration entry (``load_frames``; split
     settings are ignored), needed by the match figure only (its thumbnails); without them (a user's matrix) only
     the distance-matrix figure can be drawn. ``frames_sha256``: the fingerprint of the frames the run's
     descriptors were computed from (default: the distances file's); the images are refused when theirs differs.
-    ``split``: None is the queries CSV's only split. ``split_range``: the split's frames ``(lo, hi)`` (default: the
+    ``split``: None is the queries CSV's only split. ``frames``: the split's frames ``(lo, hi)`` (default: the
     distances file's ``split_range``; for a ``.npy``, ``0 .. Q``; its references: the file's ``reference_range``
-    when it has one, method §11). ``tolerance``: frames of the ground-truth band; ``radius``: the ground truth's with
-    positions (those the distances file holds, or ``reference_positions`` and ``query_positions`` of a user's
-    matrix, as ``vpr-smr metrics`` takes them); ``ground_truth``: a ground-truth file instead (its variable
-    ``ground_truth_key``), outlined. ``matcher``: the run's sequence matcher (default ``MatcherSpec.of()``, the
-    paper's). ``similarity``, ``key``, ``transpose``: how a user's matrix is read, as ``vpr-smr queries`` read it
-    (``io.open_distance_matrix``).
+    when it has one, method §11). ``truth``: the ground truth, as the queries CSV was scored (frames within
+    ``tolerance``, the band drawn; positions within ``radius``, those the distances file holds or the given
+    ``reference_positions`` and ``query_positions`` of a user's matrix, as ``vpr-smr metrics`` takes them; or a
+    ground-truth file, outlined). ``matcher``: the run's sequence matcher. ``matrix``: how a user's matrix is read,
+    as ``vpr-smr queries`` read it (``io.open_distance_matrix``). ``per_class``, ``mistakes``, ``seed``: the
+    sample (``sample_queries``).
     The queries CSV must be this matrix's at ``seq_len``: its rows of ``split`` are exactly the queries
     ``lo + L - 1 .. hi - 1``, and each sampled row's single-frame match and distance are its column's minimum.
     """
-    queries_csv, distances = Path(queries_csv), Path(distances)
-    match_figure = (None if match_figure is None
-                    else check_suffix(match_figure, (".png",), "the match figure (PNG)", "--match-figure"))
-    matrix_figure = check_suffix(matrix_figure, (".png",), "the distance-matrix figure (PNG)", "--matrix-figure")
-    _check_dataset(dataset_name, dataset_settings, match_figure)
+    queries_csv, distances, seq_len, truth_source = Path(job.queries), Path(job.distances), job.seq_len, job.truth
+    tolerance, matcher = truth_source.tolerance, job.matcher
+    similarity, key, transpose = job.matrix.similarity, job.matrix.key, job.matrix.transpose
+    per_class, mistakes, seed = job.per_class, job.mistakes, job.seed
+    split_range = None if job.frames is None else (job.frames[0], job.frames[1])
+    dataset_settings = (None if job.dataset_settings is None
+                        else _json_object(job.dataset_settings, "--dataset-settings"))
+    match_figure = (None if job.match_figure is None
+                    else check_suffix(job.match_figure, (".png",), "the match figure (PNG)", "--match-figure"))
+    matrix_figure = check_suffix(job.matrix_figure, (".png",), "the distance-matrix figure (PNG)", "--matrix-figure")
+    _check_dataset(job.dataset, dataset_settings, match_figure)
     if seq_len < 1:
         raise ValueError(f"the sequence length must be >= 1, got {seq_len}")
     if not distances.is_file():
         raise FileNotFoundError(f"distance matrix not found: {distances}")
     provenance = _distance_provenance(distances)
-    name = dataset_name or _text(provenance.get("dataset")) or distances.stem
+    name = job.dataset or _text(provenance.get("dataset")) or distances.stem
     stored_sha = _text(provenance.get("frames_sha256"))
-    if frames_sha256 and stored_sha and stored_sha != frames_sha256:
+    if job.frames_sha256 and stored_sha and stored_sha != job.frames_sha256:
         raise ValueError(f"{distances} was computed from other frames of dataset {name!r} than the run's "
                          "(its frames_sha256 differs): run the workflow again")
-    expected = frames_sha256 or stored_sha
+    expected = job.frames_sha256 or stored_sha
     pair = None
     if match_figure is not None and dataset_settings is not None:  # the images: for the match figure only
+        from vpr_smr.datasets import load_frames
+
         pair = load_frames(name, dataset_settings)
         if expected and pair.fingerprint() != expected:
             raise ValueError(f"dataset {name!r}: its frames changed on disk since the run computed its "
                              f"descriptors (the frame lists' SHA-256 is {pair.fingerprint()[:12]}..., the run's "
                              f"{expected[:12]}...); run the workflow again")
-    truth_file = None if ground_truth is None else read_ground_truth(
-        ground_truth, ground_truth_key, within=scored_shape([distances], key, transpose))
+    truth_file = None if truth_source.ground_truth is None else read_ground_truth(
+        truth_source.ground_truth, truth_source.ground_truth_key, within=scored_shape([distances], key, transpose))
     all_rows = read_queries(queries_csv)
-    split = _split_of(all_rows, queries_csv, split)
+    split = _split_of(all_rows, queries_csv, job.split)
     rows = [r for r in all_rows if r.split == split]
     with open_distance_matrix(distances, similarity, key, transpose) as matrix:
         lo, hi = _split_range(distances, provenance, split_range, int(matrix.shape[1]))
@@ -625,7 +678,6 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
         if pair is not None and not (0 <= lo < hi <= len(pair.query) and 0 <= ref_lo < ref_hi <= len(pair.reference)):
             raise ValueError(f"split {split!r} = frames {lo}..{hi - 1} is outside dataset {name!r}'s "
                              f"{len(pair.query)} frames: run the workflow again")
-        matcher = matcher or MatcherSpec.of()
         _check_rows(rows, queries_csv, split, seq_len, lo, hi, matcher)
         samples = sample_queries(rows, split, per_class, mistakes, seed)
         method = _text(provenance.get("method"))
@@ -636,8 +688,8 @@ def main(queries_csv: Path | str, distances: Path | str, dataset_name: str | Non
             raise ValueError(f"{distances}: the distance matrix is {matrix.shape[0]} x {matrix.shape[1]}, but split "
                              f"{split!r} has {ref_hi - ref_lo} reference frames ({ref_lo}..{ref_hi - 1}) and "
                              f"{hi - lo} query frames ({lo}..{hi - 1}): run the workflow again")
-        truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, radius, reference_positions,
-                                   query_positions, truth_file)
+        truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, truth_source.radius,
+                                   truth_source.reference_positions, truth_source.query_positions, truth_file)
         rule = f"|r - q| <= {tolerance}" if truth.is_aligned_band() else truth.describe()
         match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct ({rule}), "
                        "red = wrong; D = single-frame distance, "

@@ -13,19 +13,13 @@ rule inspect:
     log:
         log_path(OUT, match_figure_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     params:
-        # the images are read for the thumbnails: the frames' settings and fingerprint, as the descriptors job's
-        dataset=lambda wc: canonical(PLAN.datasets[wc.dataset].frames_settings),
-        frames_sha256=lambda wc: PLAN.datasets[wc.dataset].frames_sha256,
-        frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[conf.table_split]),
-        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
-        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
-        # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
-        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        matcher=MATCHER,
-        split=conf.table_split,
+        # the stage's job record: the images are read for the thumbnails (the frames' settings and fingerprint, as
+        # the descriptors job's); the table split's frames; the dataset's ground truth (method §13: a file is cut to
+        # the split by the stage) and the run's matcher, as its queries CSV was made
+        job=lambda wc, input, output: job_text(InspectJob(
+            input.queries, input.distances, output.matches, output.matrix, wc.dataset,
+            canonical(PLAN.datasets[wc.dataset].frames_settings), PLAN.datasets[wc.dataset].frames_sha256,
+            int(wc.seq_len), conf.table_split, PLAN.datasets[wc.dataset].truth, conf.sequence_matching,
+            frames=PLAN.datasets[wc.dataset].splits[conf.table_split])),
     shell:
-        "vpr-smr inspect --queries {input.queries:q} --distances {input.distances:q}"
-        " --dataset {wildcards.dataset:q} --dataset-settings {params.dataset:q}"
-        " --frames-sha256 {params.frames_sha256} --seq-len {wildcards.seq_len} --split {params.split:q}"
-        " --frames {params.frames} --tolerance {params.tolerance} {params.radius} {params.ground_truth} {params.matcher}"
-        " --match-figure {output.matches:q} --matrix-figure {output.matrix:q} > {log:q} 2>&1"
+        shell_command(INSPECT)

@@ -7,15 +7,13 @@ rule distances:
     log:
         log_path(OUT, distances_path(OUT, "{dataset}", "{method}", "{split}")),
     params:
-        frames=lambda wc: "{} {}".format(*PLAN.datasets[wc.dataset].splits[wc.split]),
-        # method §11: a split's reference range, only where it differs from its (query) range
-        reference_frames=lambda wc: "--reference-frames {} {}".format(*PLAN.datasets[wc.dataset].reference_splits[
-            wc.split]) if wc.split in PLAN.datasets[wc.dataset].reference_splits else "",
-        metric=lambda wc: PLAN.metrics[wc.method],  # the method's `distance`, or its backend's default
+        # the stage's job record: the split's frames (method §11: its reference range, only where it differs from
+        # its query range) and the method's `distance` (or its backend's default)
+        job=lambda wc, input, output: job_text(DistancesJob(
+            input[0], wc.split, PLAN.datasets[wc.dataset].splits[wc.split],
+            PLAN.datasets[wc.dataset].reference_splits.get(wc.split), PLAN.metrics[wc.method], out=output[0])),
     shell:
-        "vpr-smr distances --descriptors {input:q} --split {wildcards.split:q} --frames {params.frames}"
-        " {params.reference_frames} --metric {params.metric} --out {output:q} > {log:q} 2>&1"
-
+        shell_command(DISTANCES)
 
 rule attributes:
     input:

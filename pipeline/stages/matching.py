@@ -1,9 +1,15 @@
-"""The stages from descriptors to attributes: ``distances`` and ``attributes``."""
+"""The stages from a dataset's frames to the queries' attributes: ``descriptors``, ``distances``, ``attributes``, and
+the match inspector (``inspect``), which draws a split's matches."""
 
 from __future__ import annotations
 
-from vpr_smr.eval.matching import attributes
+from vpr_smr.eval.matching import attributes, distances
 from vpr_smr.eval.matching.attributes import AttributesJob, QueryFeatures
+from vpr_smr.eval.matching.distances import DistancesJob
+from vpr_smr.eval.report import inspector
+from vpr_smr.eval.report.inspector import InspectJob
+from vpr_smr.pipeline import descriptors
+from vpr_smr.pipeline.descriptors import DescriptorsJob
 from vpr_smr.pipeline.stage import Stage
 
 
@@ -13,7 +19,20 @@ def _attributes_summary(job: AttributesJob, found: QueryFeatures) -> str:
             f"({n_correct / max(n_queries, 1):.4f})")
 
 
+DESCRIPTORS = Stage("descriptors", "compute a method's descriptors of a dataset (HDF5)", DescriptorsJob,
+                    descriptors.main,
+                    summary=lambda job, out: f"the {job.method} descriptors of {job.dataset} to {out}")
+
+DISTANCES = Stage("distances", "reference x query distance matrix of one split (HDF5)", DistancesJob, distances.main,
+                  summary=lambda job, out: f"the {job.split} split's distance matrix to {out}")
+
 ATTRIBUTES = Stage("attributes", "sequence matching, SMR attributes and labels of a distance matrix",
                    AttributesJob, attributes.main, summary=_attributes_summary)
 
-STAGES: tuple[Stage, ...] = (ATTRIBUTES,)
+INSPECT = Stage("inspect", "the match inspector: sampled queries with their matches, and the distance matrix with the "
+                           "kept and removed sequence matches (two PNGs)", InspectJob, inspector.main,
+                summary=lambda job, written: " and ".join(str(path) for path in written if path is not None),
+                epilog="e.g. a user's matrix, the distance-matrix figure only (it needs no images): vpr-smr inspect "
+                       "--queries queries.csv --distances D.npy --seq-len 4 --matrix-figure d.png")
+
+STAGES: tuple[Stage, ...] = (DESCRIPTORS, DISTANCES, ATTRIBUTES, INSPECT)

@@ -10,8 +10,10 @@ from vpr_smr.core.constants import EPS
 from vpr_smr.core.io import read_provenance
 from vpr_smr.eval.matching import attributes as features
 from vpr_smr.eval.matching import distances
-from vpr_smr.eval.matching.attributes import query_features, read_features
+from vpr_smr.eval.matching.attributes import AttributesJob, query_features, read_features
+from vpr_smr.eval.matching.distances import DistancesJob
 from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.sources import TruthSource
 
 PROVENANCE = {"dataset": "toy", "method": "hog", "checkpoint_sha256": "none", "frames_sha256": "abc"}
 
@@ -30,7 +32,8 @@ def descriptor_file(path, metric, n=150, dim=24, seed=0):
 @pytest.mark.parametrize("metric", ["l2", "cosine", "mad"])
 def test_distances_stage_block_by_block(tmp_path, metric):
     reference, query = descriptor_file(tmp_path / "d.h5", metric)
-    out = distances.main(tmp_path / "d.h5", tmp_path / "D.h5", "test", (20, 130), block_queries=64)
+    out = distances.main(DistancesJob(str(tmp_path / "d.h5"), "test", (20, 130), out=str(tmp_path / "D.h5")),
+                         block_queries=64)
     # naive: every pair by its definition
     r, q = reference[20:130].astype(float), query[20:130].astype(float)
     if metric != "mad":
@@ -52,18 +55,18 @@ def test_distances_stage_block_by_block(tmp_path, metric):
 def test_distances_stage_errors(tmp_path):
     descriptor_file(tmp_path / "d.h5", "l2", n=30)
     with pytest.raises(ValueError, match="d.h5: split 'test' covers frames 10..39"):
-        distances.main(tmp_path / "d.h5", tmp_path / "D.h5", "test", (10, 40))
+        distances.main(DistancesJob(str(tmp_path / "d.h5"), "test", (10, 40), out=str(tmp_path / "D.h5")))
     with h5py.File(tmp_path / "e.h5", "w") as f:
         f["reference"] = np.zeros((3, 2))
     with pytest.raises(ValueError, match="e.h5 lacks query"):
-        distances.main(tmp_path / "e.h5", tmp_path / "D.h5", "test", (0, 3))
+        distances.main(DistancesJob(str(tmp_path / "e.h5"), "test", (0, 3), out=str(tmp_path / "D.h5")))
     assert not (tmp_path / "D.h5").exists()
 
 
 def test_features_stage_h5_and_csv(tmp_path):
     descriptor_file(tmp_path / "d.h5", "l2", n=120)
-    distances.main(tmp_path / "d.h5", tmp_path / "D.h5", "val", (0, 120))
-    result = features.main(tmp_path / "D.h5", tmp_path / "f.h5", 4, 2)
+    distances.main(DistancesJob(str(tmp_path / "d.h5"), "val", (0, 120), out=str(tmp_path / "D.h5")))
+    result = features.main(AttributesJob(str(tmp_path / "D.h5"), 4, TruthSource(2), out=str(tmp_path / "f.h5")))
     with h5py.File(tmp_path / "D.h5", "r") as f:
         expected = query_features(f["distance_matrix"][()].astype(np.float64), 4, 2)
     stored = read_features(tmp_path / "f.h5")
@@ -81,8 +84,9 @@ def test_features_stage_csv_by_hand(tmp_path):
     # 4 references, 3 queries, frame i of both one place: positions are the frame indices, the radius 2 frames
     np.save(tmp_path / "ref.npy", np.arange(4.0))
     np.save(tmp_path / "qry.npy", np.arange(3.0))
-    features.main(tmp_path / "D.npy", tmp_path / "a.csv", 2, 2, radius=2, reference_positions=tmp_path / "ref.npy",
-                  query_positions=tmp_path / "qry.npy")
+    features.main(AttributesJob(str(tmp_path / "D.npy"), 2, TruthSource(2, str(tmp_path / "ref.npy"),
+                                                            str(tmp_path / "qry.npy"), radius=2),
+                               out=str(tmp_path / "a.csv")))
     rows = list(csv.DictReader(open(tmp_path / "a.csv")))
     assert [r["query"] for r in rows] == ["1", "2"] and [r["label"] for r in rows] == ["0", "0"]
     # rank 0 of query 1, worked by hand in test_attributes.py
@@ -116,5 +120,5 @@ def test_features_stage_names_the_file(tmp_path):
     matrix[4, 7] = np.inf
     np.save(tmp_path / "D.npy", matrix)
     with pytest.raises(ValueError, match="D.npy: distance matrix has 1 non-finite"):
-        features.main(tmp_path / "D.npy", tmp_path / "a.csv", 3, 2)
+        features.main(AttributesJob(str(tmp_path / "D.npy"), 3, TruthSource(2), out=str(tmp_path / "a.csv")))
     assert not (tmp_path / "a.csv").exists()

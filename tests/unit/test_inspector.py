@@ -1,6 +1,7 @@
 """The match inspector (`vpr-smr inspect`): its seeded sample, and figures that show the right frames."""
 
 import csv
+import json
 from pathlib import Path
 
 import cv2
@@ -9,7 +10,9 @@ import pytest
 from helpers import COLOUR_FRAMES, query_colour, reference_colour, write_distance_matrix
 
 from vpr_smr.datasets import load_frames
+from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.report import inspector
+from vpr_smr.eval.report.inspector import InspectJob
 from vpr_smr.pipeline.cli import main as cli
 
 N_FRAMES, LO, HI, L, TOL = COLOUR_FRAMES, 8, 24, 3, 2
@@ -115,8 +118,11 @@ def colours_in(path):
 
 def test_figures_show_the_frames_and_the_decisions(tmp_path, dataset, files):
     queries, distances, _ = files
-    match, matrix = inspector.main(queries, distances, "toy", dataset, None, L, "test", TOL, tmp_path / "m.png",
-                                   tmp_path / "d.png", per_class=1, mistakes=2)
+    match, matrix = inspector.main(InspectJob(queries=str(queries), distances=str(distances),
+                                              match_figure=str(tmp_path / "m.png"),
+                                              matrix_figure=str(tmp_path / "d.png"), dataset="toy",
+                                              dataset_settings=json.dumps(dataset), seq_len=L, split="test",
+                                              truth=TruthSource(tolerance=TOL), per_class=1, mistakes=2))
     for path in (match, matrix):
         data = path.read_bytes()
         assert data.startswith(b"\x89PNG\r\n\x1a\n") and 20_000 < len(data) < 1_500_000
@@ -231,7 +237,9 @@ def test_changed_frames_are_refused(tmp_path, dataset, files):
     for side in ("reference", "query"):  # one more frame in both: another frame list than the distances'
         cv2.imwrite(str(Path(dataset[side]) / f"frame{N_FRAMES:03d}.png"), np.zeros((8, 16, 3), dtype=np.uint8))
     with pytest.raises(ValueError, match="dataset 'toy': its frames changed.*run the workflow again"):
-        inspector.main(queries, distances, "toy", dataset, None, L, "test", TOL, *out)
+        inspector.main(InspectJob(queries=str(queries), distances=str(distances), match_figure=str(out[0]),
+                                  matrix_figure=str(out[1]), dataset="toy", dataset_settings=json.dumps(dataset),
+                                  seq_len=L, split="test", truth=TruthSource(tolerance=TOL)))
     assert not any(p.exists() for p in out) and not list(tmp_path.glob("*.tmp"))
 
 
@@ -239,14 +247,20 @@ def test_a_given_fingerprint_must_match(tmp_path, dataset, files):
     queries, distances, _ = files
     fingerprint = load_frames("toy", dataset).fingerprint()
     with pytest.raises(ValueError, match="run the workflow again"):
-        inspector.main(queries, distances, "toy", dataset, "0" * 64, L, "test", TOL, tmp_path / "m.png",
-                       tmp_path / "d.png")
+        inspector.main(InspectJob(queries=str(queries), distances=str(distances), match_figure=str(tmp_path / "m.png"),
+                                  matrix_figure=str(tmp_path / "d.png"), dataset="toy",
+                                  dataset_settings=json.dumps(dataset), frames_sha256="0" * 64, seq_len=L, split="test",
+                                  truth=TruthSource(tolerance=TOL)))
     with pytest.raises(ValueError, match="holds frames 8..23, not the split's 0..15"):
-        inspector.main(queries, distances, "toy", dataset, fingerprint, L, "test", TOL, tmp_path / "m.png",
-                       tmp_path / "d.png", split_range=(0, 16))
+        inspector.main(InspectJob(queries=str(queries), distances=str(distances), match_figure=str(tmp_path / "m.png"),
+                                  matrix_figure=str(tmp_path / "d.png"), dataset="toy",
+                                  dataset_settings=json.dumps(dataset), frames_sha256=fingerprint, seq_len=L,
+                                  split="test", truth=TruthSource(tolerance=TOL), frames=(0, 16)))
     with pytest.raises(ValueError, match="another sequence length"):
-        inspector.main(queries, distances, "toy", dataset, fingerprint, 5, "test", TOL, tmp_path / "m.png",
-                       tmp_path / "d.png")
+        inspector.main(InspectJob(queries=str(queries), distances=str(distances), match_figure=str(tmp_path / "m.png"),
+                                  matrix_figure=str(tmp_path / "d.png"), dataset="toy",
+                                  dataset_settings=json.dumps(dataset), frames_sha256=fingerprint, seq_len=5,
+                                  split="test", truth=TruthSource(tolerance=TOL)))
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.tmp"))
 
 
@@ -258,14 +272,20 @@ def test_a_csv_of_a_longer_sequence_length_or_a_later_split_is_refused(tmp_path,
     with pytest.raises(ValueError, match=r"L5.csv: split 'test' has queries 12..23, but at L = 3 the distance "
                                          r"matrix of frames 8..23 has the evaluated queries 10..23.*another sequence "
                                          r"length or for another split.*--seq-len 3"):
-        inspector.main(longer, distances, "toy", dataset, None, L, "test", TOL, *out)
+        inspector.main(InspectJob(queries=str(longer), distances=str(distances), match_figure=str(out[0]),
+                                  matrix_figure=str(out[1]), dataset="toy", dataset_settings=json.dumps(dataset),
+                                  seq_len=L, split="test", truth=TruthSource(tolerance=TOL)))
     # a gap, or a query twice: not one row per evaluated query
     gap = write_queries(tmp_path / "gap.csv", query_rows(queries={q: v for q, v in PREDICTIONS.items() if q != 15}))
     with pytest.raises(ValueError, match="13 queries 10..23, not one per frame"):
-        inspector.main(gap, distances, "toy", dataset, None, L, "test", TOL, *out)
+        inspector.main(InspectJob(queries=str(gap), distances=str(distances), match_figure=str(out[0]),
+                                  matrix_figure=str(out[1]), dataset="toy", dataset_settings=json.dumps(dataset),
+                                  seq_len=L, split="test", truth=TruthSource(tolerance=TOL)))
     twice = write_queries(tmp_path / "twice.csv", query_rows() + query_rows()[:1])
     with pytest.raises(ValueError, match="15 queries 10..23, not one per frame"):
-        inspector.main(twice, distances, "toy", dataset, None, L, "test", TOL, *out)
+        inspector.main(InspectJob(queries=str(twice), distances=str(distances), match_figure=str(out[0]),
+                                  matrix_figure=str(out[1]), dataset="toy", dataset_settings=json.dumps(dataset),
+                                  seq_len=L, split="test", truth=TruthSource(tolerance=TOL)))
     assert not any(p.exists() for p in out) and not list(tmp_path.glob("*.tmp"))
 
 
@@ -283,14 +303,16 @@ def test_a_csv_of_another_distance_matrix_is_refused(tmp_path, dataset, files):
     with pytest.raises(ValueError, match=r"queries.csv: query \d+'s single-frame match is reference \d+, but the "
                                          r"nearest reference in .*other.h5 is \d+: the CSV was made from another "
                                          r"distance matrix.*vpr-smr queries"):
-        inspector.main(queries, tmp_path / "other.h5", "toy", dataset, None, L, "test", TOL, *out, per_class=1,
-                       mistakes=2)
+        inspector.main(InspectJob(queries=str(queries), distances=str(tmp_path / "other.h5"), match_figure=str(out[0]),
+                                  matrix_figure=str(out[1]), dataset="toy", dataset_settings=json.dumps(dataset),
+                                  seq_len=L, split="test", truth=TruthSource(tolerance=TOL), per_class=1, mistakes=2))
     # the same nearest references at other distances: still another matrix
     write_distance_matrix(tmp_path / "scaled.h5", matrix * 1.5, provenance)
     with pytest.raises(ValueError, match=r"single-frame distance is 0.\d+, but it is 0.\d+ in .*scaled.h5: the CSV "
                                          "was made from another distance matrix"):
-        inspector.main(queries, tmp_path / "scaled.h5", "toy", dataset, None, L, "test", TOL, *out, per_class=1,
-                       mistakes=2)
+        inspector.main(InspectJob(queries=str(queries), distances=str(tmp_path / "scaled.h5"), match_figure=str(out[0]),
+                                  matrix_figure=str(out[1]), dataset="toy", dataset_settings=json.dumps(dataset),
+                                  seq_len=L, split="test", truth=TruthSource(tolerance=TOL), per_class=1, mistakes=2))
     assert not any(p.exists() for p in out) and not list(tmp_path.glob("*.tmp"))
 
 
@@ -302,8 +324,10 @@ def test_both_figures_or_none(tmp_path, dataset, files, monkeypatch):
 
     monkeypatch.setattr(inspector, "draw_matrix", broken)
     with pytest.raises(RuntimeError):
-        inspector.main(queries, distances, "toy", dataset, None, L, "test", TOL, tmp_path / "m.png",
-                       tmp_path / "d.png", per_class=0, mistakes=1)
+        inspector.main(InspectJob(queries=str(queries), distances=str(distances), match_figure=str(tmp_path / "m.png"),
+                                  matrix_figure=str(tmp_path / "d.png"), dataset="toy",
+                                  dataset_settings=json.dumps(dataset), seq_len=L, split="test",
+                                  truth=TruthSource(tolerance=TOL), per_class=0, mistakes=1))
     assert not list(tmp_path.glob("*.png")) and not list(tmp_path.glob("*.tmp"))
 
 

@@ -5,6 +5,7 @@ plugin ``toy``'s naive rule (tests/toy_plugin.py)."""
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from types import SimpleNamespace
 
@@ -16,7 +17,9 @@ from toy_plugin import PLUGIN_SITE, toy_rule
 from vpr_smr.datasets import load_frames
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.matchers.base import Matcher
+from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.report import inspector
+from vpr_smr.eval.report.inspector import InspectJob
 from vpr_smr.pipeline.cli import main as cli
 
 LO, HI, L, TOL = 0, COLOUR_FRAMES, 3, 2
@@ -59,8 +62,11 @@ def test_a_filters_strip_is_its_own_scores_around_the_match(toy, tmp_path, colou
     fixed = inspector.draw_matches(tmp_path / "f.png", pair, samples, d, LO, L, "title")
     assert fixed.strips is None
     # the whole stage runs with the matcher it was given, both figures written
-    match, matrix = inspector.main(queries, distances, "frames", colour_frames, None, L, None, TOL,
-                                   tmp_path / "match.png", tmp_path / "matrix.png", matcher=spec)
+    match, matrix = inspector.main(InspectJob(queries=str(queries), distances=str(distances),
+                                              match_figure=str(tmp_path / "match.png"),
+                                              matrix_figure=str(tmp_path / "matrix.png"), dataset="frames",
+                                              dataset_settings=json.dumps(colour_frames), seq_len=L,
+                                              truth=TruthSource(tolerance=TOL), matcher=spec))
     assert match.is_file() and matrix.is_file()
 
 
@@ -101,7 +107,8 @@ def test_the_expected_queries_are_those_the_matcher_evaluates(toy, tmp_path, mon
     import vpr_smr.eval.matching.matchers as matchers
 
     point = SimpleNamespace(name="centred", load=lambda: Centred)
-    monkeypatch.setattr("vpr_smr.core.registry.entry_points", lambda group: [point] if group == matchers.ENTRY_POINT_GROUP else [])
+    monkeypatch.setattr("vpr_smr.core.registry.entry_points",
+                        lambda group: [point] if group == matchers.ENTRY_POINT_GROUP else [])
     inspector._check_rows(rows[:-1], tmp_path / "q.csv", "test", L, 0, 10, MatcherSpec.of("centred"))  # 2 .. 8
     with pytest.raises(ValueError, match=r"split 'test' has queries 2..9, but .* has the evaluated queries 2..8"):
         inspector._check_rows(rows, tmp_path / "q.csv", "test", L, 0, 10, MatcherSpec.of("centred"))

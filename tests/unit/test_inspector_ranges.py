@@ -2,6 +2,7 @@
 range, traverses with positions), and `vpr-smr inspect` on a user's matrix without a dataset of images."""
 
 import csv
+import json
 
 import cv2
 import h5py
@@ -12,8 +13,10 @@ from matplotlib.collections import PathCollection
 from matplotlib.contour import ContourSet
 
 from vpr_smr.datasets import load_frames
+from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.report import inspector
 from vpr_smr.eval.report.figures import _pyplot
+from vpr_smr.eval.report.inspector import InspectJob
 from vpr_smr.pipeline.cli import main as cli
 
 N_FRAMES, L = COLOUR_FRAMES, 3
@@ -95,8 +98,11 @@ def ranged_split(tmp_path, dataset):
 
 def test_each_axis_has_its_own_range(tmp_path, dataset, figures):
     queries, distances, rows = ranged_split(tmp_path, dataset)
-    match, matrix = inspector.main(queries, distances, "toy", dataset, None, L, "test", 2, tmp_path / "m.png",
-                                   tmp_path / "d.png", per_class=1, mistakes=1, radius=RADIUS)
+    match, matrix = inspector.main(InspectJob(queries=str(queries), distances=str(distances),
+                                              match_figure=str(tmp_path / "m.png"),
+                                              matrix_figure=str(tmp_path / "d.png"), dataset="toy",
+                                              dataset_settings=json.dumps(dataset), seq_len=L, split="test",
+                                              truth=TruthSource(tolerance=2, radius=RADIUS), per_class=1, mistakes=1))
     assert match is not None and match.is_file() and matrix.is_file()
     ax = matrix_axes(figures[-1])
     # by hand: queries 8..19 from x = 7.5 to 19.5; references 4..11 from y = 4 - 0.5 (top) to 11 + 0.5 (bottom)
@@ -179,10 +185,12 @@ def test_the_match_figure_needs_a_dataset_with_images(tmp_path, capsys):
 def test_the_split_is_the_csvs_only_one_or_named(tmp_path, dataset):
     distances, queries = user_matrix(tmp_path)
     with pytest.raises(ValueError, match=r"has no queries of split 'test' \(its splits: 'all'\).*--split"):
-        inspector.main(queries, distances, None, None, None, L, "test", 2, None, tmp_path / "d.png")
+        inspector.main(InspectJob(queries=str(queries), distances=str(distances), matrix_figure=str(tmp_path / "d.png"),
+                                  seq_len=L, split="test", truth=TruthSource(tolerance=2)))
     two = tmp_path / "two.csv"
     lines = queries.read_text().splitlines()
     two.write_text("\n".join([*lines, *(line.replace("all,", "val,", 1) for line in lines[1:])]) + "\n")
     with pytest.raises(ValueError, match=r"has the splits 'all', 'val': choose one with --split"):
-        inspector.main(two, distances, None, None, None, L, None, 2, None, tmp_path / "d.png")
+        inspector.main(InspectJob(queries=str(two), distances=str(distances), matrix_figure=str(tmp_path / "d.png"),
+                                  seq_len=L, truth=TruthSource(tolerance=2)))
     assert not (tmp_path / "d.png").exists()

@@ -30,7 +30,7 @@ from vpr_smr.datasets import check as check_module
 from vpr_smr.datasets.base import Traverse, TraversePair
 from vpr_smr.datasets.positions import median_spacing, positions_from_csv, positions_from_names
 from vpr_smr.eval.matching import distances
-from vpr_smr.eval.matching.distances import distance_matrix
+from vpr_smr.eval.matching.distances import DistancesJob, distance_matrix
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.predictor.leakage import FrameRange, SplitLeakError, check_disjoint, frame_range
 from vpr_smr.pipeline.plan import dataset_cards, plan_from_json, plan_to_json, split_overlaps
@@ -315,7 +315,8 @@ def test_distances_with_separate_ranges(tmp_path):
     rng = np.random.default_rng(0)
     reference, query = rng.normal(size=(30, 16)).astype(np.float32), rng.normal(size=(20, 16)).astype(np.float32)
     source = descriptor_file(tmp_path / "d.h5", reference, query)
-    out = distances.main(source, tmp_path / "test.h5", "test", (5, 12), reference_range=(3, 25), block_queries=64)
+    out = distances.main(DistancesJob(str(source), "test", (5, 12), (3, 25), out=str(tmp_path / "test.h5")),
+                         block_queries=64)
     with h5py.File(out) as f:
         matrix = f["distance_matrix"][()]
         np.testing.assert_array_equal(f["reference_positions"][()], np.arange(60.0).reshape(-1, 2)[3:25])
@@ -326,17 +327,17 @@ def test_distances_with_separate_ranges(tmp_path):
     assert provenance["split_range"] == [5, 12] and provenance["reference_range"] == [3, 25]
     assert frame_range(out) == FrameRange("street", "test", 5, 12, (3, 25))
     # the short form: one range, no reference_range attribute (as every file before the features of method §11)
-    out = distances.main(source, tmp_path / "short.h5", "test", (5, 12))
+    out = distances.main(DistancesJob(str(source), "test", (5, 12), out=str(tmp_path / "short.h5")))
     assert "reference_range" not in read_provenance(out) and frame_range(out) == FrameRange("street", "test", 5, 12)
     with pytest.raises(ValueError, match=r"split 'test' covers frames 3..30, but 'reference' has 30 frames"):
-        distances.main(source, tmp_path / "bad.h5", "test", (5, 12), reference_range=(3, 31))
+        distances.main(DistancesJob(str(source), "test", (5, 12), (3, 31), out=str(tmp_path / "bad.h5")))
     # a frame-aligned descriptor file: a matrix and nothing else
     plain = descriptor_file(tmp_path / "plain.h5", reference[:20], query, positions=False)
-    with h5py.File(distances.main(plain, tmp_path / "p.h5", "test", (0, 20))) as f:
+    with h5py.File(distances.main(DistancesJob(str(plain), "test", (0, 20), out=str(tmp_path / "p.h5")))) as f:
         assert set(f) == {"distance_matrix"}
     # and without positions the ranges may not differ: frame indices would be scored against other references
     with pytest.raises(ValueError, match=r"plain.h5 has no positions, so split 'test' must cover the same frames"):
-        distances.main(plain, tmp_path / "q.h5", "test", (5, 12), reference_range=(3, 20))
+        distances.main(DistancesJob(str(plain), "test", (5, 12), (3, 20), out=str(tmp_path / "q.h5")))
     assert not (tmp_path / "q.h5").exists()
 
 
