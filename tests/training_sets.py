@@ -54,5 +54,63 @@ def train_predictor(folder: Path) -> Path:
 
     features, provenance = features_with_range(48, 0, (0, 48))
     write_features(folder / "train.h5", features, provenance)
-    train.main([folder / "train.h5"], folder / "L3.h5", PARAMS, meta={"dataset": "d", "seq_len": 3})
+    train.main(train_job([folder / "train.h5"], folder / "L3.h5", PARAMS, seq_len=3))
     return folder / "L3.h5"
+
+
+# --- the predictor stages' job records, as the tests give them (paths as text, the others at their defaults) -------
+
+
+def _texts(paths):
+    return tuple(str(path) for path in paths)
+
+
+def train_job(train, out, params=None, evaluate=None, seeds=1, dataset="d", seq_len=4, validation=None,
+              allow_split_overlap=False):
+    """The ``train`` stage's job of these files (``evaluate``: split name -> files)."""
+    from vpr_smr.eval.predictor.defaults import PredictorParams, PredictorTraining
+    from vpr_smr.eval.predictor.jobs import TrainJob
+
+    return TrainJob(dataset, seq_len, _texts(train),
+                    None if evaluate is None else {name: _texts(files) for name, files in evaluate.items()},
+                    PredictorTraining(PredictorParams.of(params), validation, allow_split_overlap), seeds, str(out))
+
+
+def ablation_job(train, out, params=None, evaluate=None, dataset="d", seq_len=4, allow_split_overlap=False):
+    """The ``ablation attributes`` stage's job of these files (``evaluate``: split name -> files)."""
+    from vpr_smr.eval.predictor.defaults import PredictorParams
+    from vpr_smr.eval.predictor.jobs import AttributeAblationJob
+
+    return AttributeAblationJob(dataset, seq_len, PredictorParams.of(params), _texts(train),
+                                None if evaluate is None else {name: _texts(files) for name, files in evaluate.items()},
+                                allow_split_overlap, str(out))
+
+
+def without_job(train, method, out, params=None, evaluate=None, dataset="d", seq_len=4, validation=None):
+    """The ``ablation without`` stage's job: ``train`` method -> file, ``evaluate`` split -> (method -> file)."""
+    from vpr_smr.eval.predictor.defaults import PredictorParams, PredictorTraining
+    from vpr_smr.eval.predictor.jobs import WithoutJob
+
+    splits = None if evaluate is None else {name: tuple(f"{m}={path}" for m, path in files.items())
+                                            for name, files in evaluate.items()}
+    return WithoutJob(dataset, seq_len, method, {m: str(path) for m, path in train.items()}, splits,
+                      PredictorTraining(PredictorParams.of(params), validation), str(out))
+
+
+def evaluate_job(attributes, predictors, out, modes=("paper", "standard"), trust_levels=(0.0, 0.5, 0.7, 0.9, 1.0),
+                 restoration=True, allow_split_overlap=False, dataset="d", method="m", seq_len=4):
+    """The ``evaluate`` stage's job: ``attributes`` split -> file, the seeds' predictor files."""
+    from vpr_smr.eval.predictor.jobs import EvaluateJob
+
+    return EvaluateJob(dataset, method, seq_len, {name: str(path) for name, path in attributes.items()},
+                       _texts(predictors), tuple(modes), tuple(trust_levels), restoration, allow_split_overlap,
+                       str(out))
+
+
+def held_out_job(attributes, pooled, without, out, modes=("paper", "standard"), allow_split_overlap=False,
+                 dataset="d", method="m", seq_len=4):
+    """The ``ablation held-out`` stage's job."""
+    from vpr_smr.eval.predictor.jobs import HeldOutJob
+
+    return HeldOutJob(dataset, method, seq_len, str(attributes), str(pooled), str(without), tuple(modes),
+                      allow_split_overlap, str(out))

@@ -7,8 +7,8 @@ name (the workflow gives the validation split and the last evaluation split: ``d
 
 Leave-one-method-out (not in the paper): per dataset, for each method, a predictor trained on the train splits of
 the other methods only, named ``without_<method>``, evaluated on the held-out method's table split beside the
-pooled predictor (which saw that method's train split). Each function takes explicit paths so that a Snakemake rule
-can call it; nothing here knows the workflow.
+pooled predictor (which saw that method's train split). Each stage takes its job record (``AttributeAblationJob``,
+``WithoutJob``) of explicit paths, which a Snakemake rule gives; nothing here knows the workflow.
 """
 
 from __future__ import annotations
@@ -20,10 +20,17 @@ from typing import Any
 
 import numpy as np
 
-from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
+from vpr_smr.core.io import HDF5_SUFFIXES, JSON_SUFFIXES, check_suffix
 from vpr_smr.core.records import save
-from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES, common_matching, read_features, recorded_matching
+from vpr_smr.eval.matching.attributes import (
+    ATTRIBUTE_NAMES,
+    check_seq_len,
+    common_matching,
+    read_features,
+    recorded_matching,
+)
 from vpr_smr.eval.predictor.estimator import SMRPredictor, check_training_labels, cross_validated_f1, macro_f1
+from vpr_smr.eval.predictor.jobs import AttributeAblationJob, TrainJob, WithoutJob
 from vpr_smr.eval.predictor.leakage import check_disjoint, frame_ranges
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, AttributeSplit, PredictorReport
 from vpr_smr.eval.predictor.train import describe
@@ -91,63 +98,55 @@ def attribute_f1(
     return out
 
 
-def attributes_main(
-    train: Sequence[Path | str],
-    out: Path | str,
-    params: dict[str, Any] | None = None,
-    evaluate: Mapping[str, Sequence[Path | str]] | None = None,
-    meta: dict[str, Any] | None = None,
-    allow_split_overlap: bool = False,
-) -> AttributeAblation:
-    """Table II for one dataset and sequence length: write ``out`` (JSON) with the F1 of every attribute set.
+def attributes_main(job: AttributeAblationJob) -> AttributeAblation:
+    """Table II for one dataset and sequence length: write ``job.out`` (JSON) with the F1 of every attribute set.
 
-    ``train``: features files (one per method, the configuration's order) of the train split; ``evaluate``: each
-    evaluation split's files of every method, by the split's name (the configuration's; the workflow gives the
-    validation split and the last: ``defaults.ablation_splits``). Layout: ``{"meta", "params", "n_train",
-    "attributes": {"A1": {"columns", "f1_cv", "splits": {SPLIT: {"f1", "n", "f1_method_mean"}, ...}}, ...,
-    "all": {...}}}`` (``records.AttributeAblation``, returned).
+    ``job.train``: features files (one per method, the configuration's order) of the train split;
+    ``job.evaluate``: each evaluation split's files of every method, by the split's name (the configuration's; the
+    workflow gives the validation split and the last: ``defaults.ablation_splits``). Layout: ``{"meta", "params",
+    "n_train", "attributes": {"A1": {"columns", "f1_cv", "splits": {SPLIT: {"f1", "n", "f1_method_mean"}, ...}},
+    ..., "all": {...}}}`` (``records.AttributeAblation``, returned). The attributes files must be of
+    ``job.seq_len``.
     """
-    check_suffix(out, JSON_SUFFIXES, "the attribute ablation (JSON)")
-    scored = [path for paths in (evaluate or {}).values() for path in paths]
-    check_disjoint(frame_ranges(train), frame_ranges(scored), allow_split_overlap, "the per-attribute predictors")
+    check_suffix(job.out, JSON_SUFFIXES, "the attribute ablation (JSON)")
+    train, evaluate = list(job.train), {name: list(paths) for name, paths in (job.evaluate or {}).items()}
+    scored = [path for paths in evaluate.values() for path in paths]
+    check_seq_len([*train, *scored], job.seq_len)
+    check_disjoint(frame_ranges(train), frame_ranges(scored), job.allow_split_overlap, "the per-attribute predictors")
     common_matching([*train, *scored])  # one matcher's labels, as the pooled predictor's
     x_train, y_train = _stack(_features(train))
+    meta = {"dataset": job.dataset, "seq_len": job.seq_len}
+    params = job.predictor.values
     # attribute_f1 trains on the labels in this order (no shuffle): check them as they are, before any training
-    check_training_labels(y_train, describe(meta, len(train)), bool(dict(params or {}).get("smote", True)))
-    result = AttributeAblation({**recorded_matching(list(train)), **(meta or {})}, dict(params or {}),
-                               int(len(y_train)),
+    check_training_labels(y_train, describe(meta, len(train)), bool(params.get("smote", True)))
+    result = AttributeAblation({**recorded_matching(train), **meta}, params, int(len(y_train)),
                                attribute_f1((x_train, y_train), {name: _features(paths) for name, paths
-                                                                 in (evaluate or {}).items()}, params))
-    save(out, result)
+                                                                 in evaluate.items()}, params))
+    save(job.out, result)
     return result
 
 
-def train_without(
-    train: Mapping[str, Path | str],
-    held_out: str,
-    out: Path | str,
-    params: dict[str, Any] | None = None,
-    evaluate: Mapping[str, Mapping[str, Path | str]] | None = None,
-    meta: dict[str, Any] | None = None,
-    allow_split_overlap: bool = False,
-    validation: str | None = None,
-) -> PredictorReport:
-    """Train the ``without_<held_out>`` predictor on the train splits of every method but ``held_out``.
+def train_without(job: WithoutJob) -> PredictorReport:
+    """Train the ``without_<method>`` predictor on the train splits of every method but ``job.method``.
 
-    ``train`` maps method -> features file of the train split, in the configuration's order (the pooled order is
-    part of the recipe); ``evaluate`` maps each evaluation split's name (the configuration's; the workflow gives
-    the validation split) to such a mapping. The held-out method's files, if given, are never opened (the workflow
-    does not give them, so that they are not inputs of this predictor). Writes ``out`` (.h5) and its JSON report
-    through ``train.main`` (seed 0, ``validation`` its validation split, not cross-validated: the leave-one-out
-    table compares the two predictors on the held-out method's split alone), with ``held_out`` and ``trained_on``
-    in its ``meta``.
+    ``job.train`` maps method -> features file of the train split, in the configuration's order (the pooled order
+    is part of the recipe); ``job.evaluate`` gives each evaluation split's name (the configuration's; the workflow
+    gives the validation split) with such files. The held-out method's files, if given, are never opened (the
+    workflow does not give them, so that they are not inputs of this predictor). Writes ``job.out`` (.h5) and its
+    JSON report through ``train.fit`` (seed 0, ``training.validation`` its validation split, not cross-validated:
+    the leave-one-out table compares the two predictors on the held-out method's split alone), with ``held_out`` and
+    ``trained_on`` in its ``meta``.
     """
     from vpr_smr.eval.predictor import train as train_stage
 
-    others = [method for method in train if method != held_out]
+    check_suffix(job.out, HDF5_SUFFIXES, "the predictor (HDF5; its report goes beside it as .json)")
+    held_out = job.method
+    others = [method for method in job.train if method != held_out]
     if not others:
         raise ValueError(f"leave-one-method-out needs at least two methods; only {held_out!r} is configured")
-    meta = {**(meta or {}), "held_out": held_out, "trained_on": others}
-    scored = {split: [files[m] for m in others if m in files] for split, files in (evaluate or {}).items()}
-    return train_stage.main([train[m] for m in others], out, params, evaluate=scored, meta=meta,
-                            allow_split_overlap=allow_split_overlap, validation=validation, cross_validate=False)
+    scored = {split: tuple(files[m] for m in others if m in files) for split, files in job.splits.items()}
+    check_seq_len([*(job.train[m] for m in others), *(path for paths in scored.values() for path in paths)],
+                  job.seq_len)
+    pooled = TrainJob(job.dataset, job.seq_len, tuple(job.train[m] for m in others), scored,
+                                  job.training, seeds=1, out=job.out)
+    return train_stage.fit(pooled, {"held_out": held_out, "trained_on": others}, cross_validate=False)

@@ -1,16 +1,23 @@
 """The predictor's defaults (method §7) and what its training needs, in a module without scikit-learn so that
 validating and checking a configuration stays fast: ``SMRPredictor``'s keyword defaults are these values, a
-validated configuration carries all of them, and the check before the first job asks ``training_problems``."""
+validated configuration carries all of them, and the check before the first job asks ``training_problems``.
+
+The settings of the stages that train or score predictors are declared here once (``core.settings``):
+``PredictorParams`` (``--predictor``, the predictor's settings as given), ``allow_split_overlap()`` and the option
+group ``PredictorTraining`` (the predictor, the validation split, the overlap switch) that ``train`` and ``ablation
+without`` share."""
 
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-from vpr_smr.core.settings import setting
+from vpr_smr.core.settings import parse, setting
 
 PAPER_PARAMS = {"alpha": 1e-4, "learning_rate_init": 1e-3}  # the authors' code (the paper's text says 1e-3 / 1e-4)
 CODE_COLUMN_ORDER = (0, 1, 3, 2)  # A1..A4 -> the authors' input [A1, A2, A4, A3] (min sum, min value, group, block)
@@ -41,6 +48,75 @@ class PredictorSettings:
 
 # SMRPredictor's keyword defaults, by name
 DEFAULTS: dict[str, Any] = dataclasses.asdict(PredictorSettings())
+
+
+@dataclass(frozen=True)
+class PredictorParams:
+    """The predictor's settings as a stage is given them (``--predictor``): a JSON object of some of
+    ``PredictorSettings``'s settings, each checked, the others at the predictor's defaults. Those given are kept as
+    given (Table II records them), as canonical JSON text so that the record stays frozen and comparable."""
+
+    text: str = "{}"
+
+    @classmethod
+    def of(cls, settings: Mapping[str, Any] | None = None, where: str = "--predictor") -> PredictorParams:
+        """The params of ``settings``, each checked against its declaration before any file is read; ValueError
+        naming ``where`` and the setting."""
+        given = dict(settings or {})
+        parse(PredictorSettings, given, where)
+        return cls(json.dumps(given, sort_keys=True, separators=(",", ":")))
+
+    @classmethod
+    def from_setting(cls, data: Any, where: str) -> PredictorParams:
+        """The ``predictor`` setting: a JSON object (``--job``), or on the command line its JSON text or ``@file``
+        holding it (``core.settings``' value classes)."""
+        if isinstance(data, str):
+            text = Path(data[1:]).read_text() if data.startswith("@") else data
+            try:
+                data = json.loads(text)
+            except json.JSONDecodeError as error:
+                raise ValueError(f"{where} is not valid JSON: {error}") from None
+        if not isinstance(data, Mapping):
+            raise ValueError(f"{where} must be a JSON object of settings")
+        return cls.of(data, where)
+
+    def to_setting(self) -> dict[str, Any]:
+        """The JSON object ``from_setting`` reads: the settings given."""
+        return self.values
+
+    @property
+    def values(self) -> dict[str, Any]:
+        """The settings given, as JSON data (lists for tuples)."""
+        data: dict[str, Any] = json.loads(self.text)
+        return data
+
+    def __str__(self) -> str:
+        return self.text
+
+
+def predictor_setting() -> Any:
+    """The field of a job's predictor settings (the one declaration of ``--predictor``)."""
+    return setting(PredictorParams(), "the predictor's settings as a JSON object (or @file holding one), e.g. "
+                                      "{\"max_iter\": 500}; those not given keep their defaults", metavar="JSON")
+
+
+def allow_split_overlap() -> Any:
+    """The field of a job's switch that lets a predictor score what it was trained on (the one declaration of
+    ``--allow-split-overlap``)."""
+    return setting(False, "let a predictor score frames or matrices it was trained on, or blocks overlapping them (a "
+                          "deliberate experiment)")
+
+
+@dataclass(frozen=True)
+class PredictorTraining:
+    """How a predictor is trained and judged (method §7): its settings, the evaluation split whose macro F1 decides
+    whether it can be trusted, and whether it may be scored on what it was trained on."""
+
+    predictor: PredictorParams = predictor_setting()
+    validation: str | None = setting(None, "the evaluation split whose F1 decides whether a predictor can be trusted "
+                                           "(a warning otherwise; default: the first --evaluate split)",
+                                     metavar="SPLIT")
+    allow_split_overlap: bool = allow_split_overlap()
 
 CV_FOLDS = 5  # method §7: 5-fold StratifiedKFold
 # MLPClassifier's default validation_fraction: early_stopping holds out ceil(10 %) of the (resampled) training

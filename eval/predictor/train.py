@@ -27,7 +27,13 @@ from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix, read_provenance
 from vpr_smr.core.paths import predictor_report_path, seed_predictor_path
 from vpr_smr.core.progress import write_progress
 from vpr_smr.core.records import save
-from vpr_smr.eval.matching.attributes import QueryFeatures, common_matching, read_features, recorded_matching
+from vpr_smr.eval.matching.attributes import (
+    QueryFeatures,
+    check_seq_len,
+    common_matching,
+    read_features,
+    recorded_matching,
+)
 from vpr_smr.eval.predictor.estimator import (
     SMRPredictor,
     check_training_labels,
@@ -35,6 +41,7 @@ from vpr_smr.eval.predictor.estimator import (
     fit_warning,
     macro_f1,
 )
+from vpr_smr.eval.predictor.jobs import TrainJob as TrainJob  # the stage's job, named here too
 from vpr_smr.eval.predictor.leakage import (
     FrameRange,
     Training,
@@ -203,41 +210,43 @@ def check_validation(evaluate: Mapping[str, Sequence[Path | str]], validation: s
     return validation
 
 
-def main(
-    train: Sequence[Path | str],
-    out: Path | str,
-    params: dict[str, Any] | None = None,
-    evaluate: Mapping[str, Sequence[Path | str]] | None = None,
-    meta: dict[str, Any] | None = None,
-    seeds: int | Sequence[int] = (0,),
-    allow_split_overlap: bool = False,
-    validation: str | None = None,
-    cross_validate: bool = True,
-) -> PredictorReport:
-    """Train one predictor per seed on the pooled ``train`` files (the configuration's method order) and report.
+def main(job: TrainJob) -> PredictorReport:
+    """The ``train`` stage: its output's suffix and its attributes files' sequence length checked first (files of
+    another ``seq_len`` would label its outputs wrongly), then ``fit``."""
+    check_suffix(job.out, HDF5_SUFFIXES, "the predictor (HDF5; its report goes beside it as .json)")
+    check_seq_len([*job.train, *(path for paths in job.splits.values() for path in paths)], job.seq_len)
+    return fit(job)
 
-    ``evaluate``: the evaluation splits by their names (the configuration's, e.g. ``{"val": [...], "test": [...]}``
-    or ``{"check": [...], "final": [...]}``), each split's files of every method, pooled in the given order: the
-    predictors' macro F1 on each. ``validation``: the split whose F1 decides whether a predictor can be trusted
-    (the warning; default: the first of ``evaluate``, none when it is empty).
 
-    ``seeds``: a list (seed 0 first: the authors' recipe), or a count ``n`` for seeds ``0..n-1``. Only the first
-    seed is cross-validated (when ``cross_validate``; the others' ``f1_cv`` is None): its numbers are the ones every
-    table shows, and the cross-validation was three quarters of a training job's time. The first seed's
-    predictor is written to ``out`` (.h5), the others to ``<out stem>.seed<s>.h5`` beside it, and the report to
-    ``out`` with suffix ``.json``: meta, n_train, per seed (``seeds``: params, f1_cv, n_iter, train_class_counts and
-    per evaluation split by its name f1, n, class_counts and the confusion matrix over labels 0..3) and
-    ``seed_models`` (when several seeds): ``records.PredictorReport``, which is returned. The first predictor file
-    holds it as its ``report``, the others a report of their own seed alone. Nothing is written until every seed has
-    finished, so an interrupted training leaves no file. The evaluation splits may not share frames with ``train``
-    (``allow_split_overlap``: a deliberate experiment); each predictor file records its sequence length, methods,
-    the frame ranges and the matrices it was trained on (``training_record``), which every later stage checks.
+def fit(job: TrainJob, meta: Mapping[str, Any] | None = None, cross_validate: bool = True) -> PredictorReport:
+    """Train one predictor per seed on the pooled ``job.train`` files (the configuration's method order) and report;
+    ``meta``: what the report records besides the dataset and the sequence length (the leave-one-method-out
+    predictor's held-out method).
+
+    ``job.evaluate``: the evaluation splits by their names (the configuration's, e.g. ``{"val": [...], "test":
+    [...]}`` or ``{"check": [...], "final": [...]}``), each split's files of every method, pooled in the given order:
+    the predictors' macro F1 on each. ``job.training.validation``: the split whose F1 decides whether a predictor can
+    be trusted (the warning; default: the first of ``evaluate``, none when it is empty).
+
+    Seeds ``0..job.seeds-1`` (seed 0: the authors' recipe). Only the first seed is cross-validated (when
+    ``cross_validate``; the others' ``f1_cv`` is None): its numbers are the ones every table shows, and the
+    cross-validation was three quarters of a training job's time. The first seed's predictor is written to ``out``
+    (.h5), the others to ``<out stem>.seed<s>.h5`` beside it, and the report to ``out`` with suffix ``.json``: meta,
+    n_train, per seed (``seeds``: params, f1_cv, n_iter, train_class_counts and per evaluation split by its name f1,
+    n, class_counts and the confusion matrix over labels 0..3) and ``seed_models`` (when several seeds):
+    ``records.PredictorReport``, which is returned. The first predictor file holds it as its ``report``, the others
+    a report of their own seed alone. Nothing is written until every seed has finished, so an interrupted training
+    leaves no file. The evaluation splits may not share frames with ``train`` (``allow_split_overlap``: a deliberate
+    experiment); each predictor file records its sequence length, methods, the frame ranges and the matrices it was
+    trained on (``training_record``), which every later stage checks.
     """
-    out = check_suffix(out, HDF5_SUFFIXES, "the predictor (HDF5; its report goes beside it as .json)")
-    seeds = _seeds(seeds)
-    params = predictor_params(params)
-    evaluate = {name: list(paths) for name, paths in (evaluate or {}).items() if paths}
-    validation = check_validation(evaluate, validation)
+    out_path = check_suffix(job.out, HDF5_SUFFIXES, "the predictor (HDF5; its report goes beside it as .json)")
+    meta = {"dataset": job.dataset, "seq_len": job.seq_len, **(meta or {})}
+    train, seeds = list(job.train), _seeds(job.seeds)
+    params = predictor_params(job.training.predictor.values)
+    allow_split_overlap = job.training.allow_split_overlap
+    evaluate = {name: list(paths) for name, paths in job.splits.items() if paths}
+    validation = check_validation(evaluate, job.training.validation)
     scored = [path for paths in evaluate.values() for path in paths]
     trained = frame_ranges(train)
     check_disjoint(trained, frame_ranges(scored), allow_split_overlap, "the predictor")
@@ -245,7 +254,7 @@ def main(
     # files record for every stage that applies it
     matching = common_matching([*train, *scored])
     train_features = read_all(train)
-    training = training_record(train, train_features, meta or {}, trained)
+    training = training_record(train, train_features, meta, trained)
     x_train, y_train = rank0(train_features)
     check_trainable(y_train, params, seeds, describe(meta, len(train)))
     scored_features = {name: read_all(paths) for name, paths in evaluate.items()}
@@ -267,9 +276,9 @@ def main(
         if several:
             write_progress(len(fitted), len(seeds), "seeds", time.monotonic() - started)
 
-    paths = [out] + [Path(seed_predictor_path(out, seed)) for seed in seeds[1:]]
+    paths = [out_path] + [Path(seed_predictor_path(out_path, seed)) for seed in seeds[1:]]
     # the numeric environment (BLAS kernel and threads) is information for the reader, never compared as a setting
-    report = PredictorReport({**recorded_matching(list(train)), **(meta or {}), **environment.recorded()},
+    report = PredictorReport({**recorded_matching(list(train)), **meta, **environment.recorded()},
                              int(len(y_train)),
                              tuple(numbers for _, numbers in fitted),
                              tuple(str(p) for p in paths) if len(seeds) > 1 else None)
@@ -280,5 +289,5 @@ def main(
         # the first predictor keeps the whole report, the others a report of their own seed alone
         own = report if i == 0 else PredictorReport(report.meta, report.n_train, (numbers,))
         predictor.save(path, matching, training, report=own.to_json())
-    save(predictor_report_path(out), report)
+    save(predictor_report_path(out_path), report)
     return report

@@ -24,11 +24,13 @@ from vpr_smr.core.records import save
 from vpr_smr.eval.matching.attributes import (
     QueryFeatures,
     check_matching,
+    check_seq_len,
     common_matching,
     read_features,
     recorded_matching,
 )
 from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
+from vpr_smr.eval.predictor.jobs import EvaluateJob as EvaluateJob  # the stage's job, named here too
 from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
 from vpr_smr.eval.scoring.curves import (
     Comparison,
@@ -259,24 +261,17 @@ def evaluate_split(
     return split, predict_seconds
 
 
-def main(
-    features_paths: Mapping[str, Path | str],
-    predictor_paths: Sequence[Path | str] | Path | str,
-    out: Path | str,
-    modes: tuple[str, ...] = MODES,
-    trust_levels: tuple[float, ...] = DEFAULT_TRUST_LEVELS,
-    meta: dict[str, Any] | None = None,
-    restoration: bool = True,
-    seeds: Sequence[int] | None = None,
-    allow_split_overlap: bool = False,
-) -> tuple[Evaluation, Timing]:
-    """Evaluate every split in ``features_paths`` (e.g. val and test) with the predictors of ``predictor_paths``
-    (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write the evaluation to ``out``
-    and its timings per split (``attributes_seconds`` from the features file, ``predict_seconds``, their sum per
-    query ``seconds_per_query``) to ``core.paths.timing_path(out)``; return both."""
+def main(job: EvaluateJob, seeds: Sequence[int] | None = None) -> tuple[Evaluation, Timing]:
+    """Evaluate every split of ``job.attributes`` (e.g. val and test; files of ``job.seq_len``) with the predictors
+    of ``job.predictors`` (seed order, seed 0 first; seeds numbered 0.. unless ``seeds`` is given) and write the
+    evaluation to ``out`` and its timings per split (``attributes_seconds`` from the features file,
+    ``predict_seconds``, their sum per query ``seconds_per_query``) to ``core.paths.timing_path(out)``; return
+    both."""
+    features_paths, predictor_paths, out = job.attributes, job.predictors, job.out
+    modes, trust_levels, allow_split_overlap = job.modes, job.trust_levels, job.allow_split_overlap
+    meta = {"dataset": job.dataset, "method": job.method, "seq_len": job.seq_len}
     check_suffix(out, JSON_SUFFIXES, "the evaluation (JSON; its timings go beside it)")
-    if isinstance(predictor_paths, str | Path):
-        predictor_paths = [predictor_paths]
+    check_seq_len(list(features_paths.values()), job.seq_len)
     if not predictor_paths:
         raise ValueError("evaluate needs at least one predictor file (seed 0 first)")
     predictors = []
@@ -299,11 +294,11 @@ def main(
     for split, path in features_paths.items():
         features = read[split]
         splits[split], predict_seconds = evaluate_split(features, predictors, tuple(modes), tuple(trust_levels),
-                                                        restoration, seeds)
+                                                        job.restoration, seeds)
         # Timings change from run to run: they go in their own file, so that two runs give identical results.
         attributes_seconds = float(read_provenance(path).get("attributes_seconds", 0.0))
         timings[split] = SplitTiming.of(attributes_seconds, predict_seconds, splits[split].n_queries)
-    meta = {**recorded_matching(list(features_paths.values())), **(meta or {}), **environment.recorded()}
+    meta = {**recorded_matching(list(features_paths.values())), **meta, **environment.recorded()}
     evaluation = Evaluation(meta, tuple(str(p) for p in predictor_paths), splits)
     timing = Timing(dict(evaluation.meta), timings)
     save(timing_path(out), timing)

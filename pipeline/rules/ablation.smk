@@ -10,15 +10,13 @@ rule attribute_ablation:
     log:
         log_path(OUT, attribute_ablation_path(OUT, "{dataset}", "{seq_len}")),
     params:
-        overlap=ALLOW_OVERLAP,
         layout=RESULTS_LAYOUT,  # its file's layout: a run of an earlier one computes it again
-        predictor=canonical(conf.predictor.to_json()),
-        # --evaluate SPLIT PATH... per split, each word quoted already: the shell command uses them unquoted
-        evaluate=lambda wc, input: split_option("--evaluate", TABLE2_SPLITS, input.evaluate),
+        # the stage's job record: the predictor's settings, Table II's splits by name with every method's attributes
+        job=lambda wc, input, output: job_text(AttributeAblationJob(
+            wc.dataset, int(wc.seq_len), training(conf).predictor, tuple(input.train),
+            split_files(TABLE2_SPLITS, input.evaluate), conf.allow_split_overlap, output[0])),
     shell:
-        "vpr-smr ablation attributes --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
-        " --predictor {params.predictor:q} --train {input.train:q} {params.evaluate}"
-        " --out {output:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(ABLATION_ATTRIBUTES)
 
 
 rule predictor_without:
@@ -32,17 +30,16 @@ rule predictor_without:
     log:
         log_path(OUT, without_predictor_path(OUT, "{dataset}", "{seq_len}", "{method}")),
     params:
-        overlap=ALLOW_OVERLAP,
-        predictor=canonical(conf.predictor.to_json()),
-        # METHOD=PATH items, each quoted already: the shell command uses them unquoted
-        train=lambda wc, input: method_pairs(METHODS, wc.method, input.train),
-        evaluate=lambda wc, input: split_option("--evaluate", [VALIDATION] if VALIDATION else [],
-                                                method_items(METHODS, wc.method, input.validation)),
         layout=RESULTS_LAYOUT,  # its file's layout, as the pooled predictor's
+        # the stage's job record: the other methods' train files by method, the validation split's METHOD=PATH
+        # items, the predictor's settings (its validation split: the first evaluation split given, the only one)
+        job=lambda wc, input, output: job_text(WithoutJob(
+            wc.dataset, int(wc.seq_len), wc.method,
+            dict(zip([m for m in METHODS if m != wc.method], input.train, strict=True)),
+            split_files([VALIDATION] if VALIDATION else [], method_items(METHODS, wc.method, input.validation)),
+            training(conf, validation=False), output[0])),
     shell:
-        "vpr-smr ablation without --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
-        " --method {wildcards.method:q} --predictor {params.predictor:q} --train {params.train}"
-        " {params.evaluate} --out {output:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(ABLATION_WITHOUT)
 
 
 rule held_out:
@@ -55,9 +52,9 @@ rule held_out:
     log:
         log_path(OUT, held_out_path(OUT, "{dataset}", "{seq_len}", "{method}")),
     params:
-        overlap=ALLOW_OVERLAP,
-        modes=" ".join(conf.modes),
+        # the stage's job record: the held-out method's table split under the pooled and the without predictor
+        job=lambda wc, input, output: job_text(HeldOutJob(
+            wc.dataset, wc.method, int(wc.seq_len), input.attributes, input.pooled, input.without, tuple(conf.modes),
+            conf.allow_split_overlap, output[0])),
     shell:
-        "vpr-smr ablation held-out --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len} --attributes {input.attributes:q} --pooled {input.pooled:q}"
-        " --without {input.without:q} --modes {params.modes} --out {output:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(ABLATION_HELD_OUT)

@@ -10,17 +10,14 @@ rule train:
     log:
         log_path(OUT, predictor_path(OUT, "{dataset}", "{seq_len}")),
     params:
-        overlap=ALLOW_OVERLAP,
-        predictor=canonical(conf.predictor.to_json()),
-        seeds=conf.seeds,
         layout=RESULTS_LAYOUT,  # its files' layout: a run of an earlier one trains again, and scores again below
-        # --evaluate SPLIT PATH... per evaluation split, each word quoted already: the shell command uses them unquoted
-        evaluate=lambda wc, input: split_option("--evaluate", conf.eval_splits, input.evaluate),
-        validation=VALIDATION_OPTION,
+        # the stage's job record (method §7): the predictor's settings, the validation split, the seeds, every
+        # evaluation split by its name with every method's attributes of it
+        job=lambda wc, input, output: job_text(TrainJob(
+            wc.dataset, int(wc.seq_len), tuple(input.train), split_files(conf.eval_splits, input.evaluate),
+            training(conf), conf.seeds, output.models[0])),
     shell:
-        "vpr-smr train --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
-        " --predictor {params.predictor:q} --seeds {params.seeds} --train {input.train:q} {params.evaluate}"
-        " {params.validation} --out {output.models[0]:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(TRAIN)
 
 
 rule evaluate:
@@ -34,14 +31,12 @@ rule evaluate:
     log:
         log_path(OUT, evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     params:
-        overlap=ALLOW_OVERLAP,
-        # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
-        attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
-        modes=" ".join(conf.modes),
-        trust_levels=" ".join(str(level) for level in conf.trust_levels) if "trust" in EXPERIMENTS else "",
-        restoration="" if "restoration" in EXPERIMENTS else "--no-restoration",
+        # the stage's job record (method §§7-9): each evaluation split's attributes by its name, the seeds'
+        # predictors, the modes, and the trust levels and restoration where the configuration's experiments ask them
+        job=lambda wc, input, output: job_text(EvaluateJob(
+            wc.dataset, wc.method, int(wc.seq_len), dict(zip(conf.eval_splits, input.attributes, strict=True)),
+            tuple(input.predictors), tuple(conf.modes),
+            tuple(conf.trust_levels) if "trust" in EXPERIMENTS else (), "restoration" in EXPERIMENTS,
+            conf.allow_split_overlap, output.evaluation)),
     shell:
-        "vpr-smr evaluate --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len} --attributes {params.attributes} --predictors {input.predictors:q}"
-        " --modes {params.modes} --trust-levels {params.trust_levels} {params.restoration}"
-        " --out {output.evaluation:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(EVALUATE)

@@ -1,7 +1,209 @@
-"""The stages of predictor (``pipeline.stage.Stage``)."""
+"""The stages of the predictor (``pipeline.stage.Stage``): ``train``, ``evaluate`` and the ablations ``ablation
+attributes``, ``ablation without`` and ``ablation held-out``; their summary lines, and what their rules need to build
+their jobs (``split_files``)."""
 
 from __future__ import annotations
 
-from vpr_smr.pipeline.stage import Stage
+import argparse
+from collections.abc import Sequence
+from typing import Any
 
-STAGES: tuple[Stage, ...] = ()
+from vpr_smr.eval.predictor.defaults import PredictorParams, PredictorTraining, validation_split
+from vpr_smr.eval.predictor.jobs import AttributeAblationJob, EvaluateJob, HeldOutJob, TrainJob, WithoutJob
+from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
+from vpr_smr.eval.scoring.records import Evaluation, HeldOut, Reduction, Timing
+from vpr_smr.pipeline.config import Config, ConfigError
+from vpr_smr.pipeline.stage import GROUP, Stage
+
+__all__ = ["ABLATION_ATTRIBUTES", "ABLATION_HELD_OUT", "ABLATION_WITHOUT", "EVALUATE", "STAGES", "TRAIN",
+           "ablation_headline", "held_out_headline", "reduction_text", "split_files", "training"]
+
+
+def _wrote(what: str, out: str, headline: str = "") -> str:
+    """The summary line after "wrote": what, where, and its headline number."""
+    return f"{what} to {out}{f': {headline}' if headline else ''}"
+
+
+def reduction_text(reduction: Reduction) -> str:
+    """A ``records.Reduction`` as a summary line says it: ``40.00 % [20.00, 55.00] improved``, the word earned by
+    its interval (``curves.earned``); an undefined one with its reason."""
+    from vpr_smr.eval.report import outcome_words as words
+    from vpr_smr.eval.report.bounds import bracket
+    from vpr_smr.eval.scoring.curves import earned
+
+    word = words.said(earned(reduction.outcome, reduction.reduction_pct_ci))
+    if reduction.reduction_pct is None:
+        return f"n/a ({word})"
+    return f"{reduction.reduction_pct:.2f} % {bracket(reduction.reduction_pct_ci, '.2f')} {word}"
+
+
+def ablation_headline(table: AttributeAblation) -> str:
+    """Table II's headline (``records.AttributeAblation``): the macro F1 of the predictor on all four attributes,
+    cross-validated and on each evaluation split."""
+    from vpr_smr.eval.predictor.ablation import ALL_ATTRIBUTES
+
+    every = table.attributes[ALL_ATTRIBUTES]
+    return "; ".join([f"macro F1 with all four attributes: cross-validated {every.f1_cv:.3f}",
+                      *(f"{name} {split.f1:.3f}" for name, split in every.splits.items())])
+
+
+def held_out_headline(result: HeldOut, method: str) -> str:
+    """The held-out headline (``records.HeldOut``): per mode the AOC reduction of the predictor trained without
+    ``method``, then the pooled one's, each with its interval and earned word (``reduction_text``)."""
+    return "; ".join(f"{mode} mode: AOC reduction without {method} {reduction_text(without.reduction)}, pooled "
+                     f"{reduction_text(result.pooled.modes[mode].reduction)}"
+                     for mode, without in result.without.modes.items())
+
+
+def _macro_f1(report: PredictorReport) -> str:
+    from vpr_smr.eval.predictor.train import cv_text, split_f1s
+
+    first = report.seeds[0]  # the predictor file's seed
+    return f"macro F1: {cv_text(first)}{split_f1s(first)}"
+
+
+def _train_summary(job: TrainJob, report: PredictorReport) -> str:
+    return _wrote("the predictor", job.out, _macro_f1(report))
+
+
+def _evaluate_summary(job: EvaluateJob, result: tuple[Evaluation, Timing]) -> str:
+    evaluation, _ = result
+    return _wrote(f"the evaluation of {job.method}", job.out, "; ".join(
+        f"{name}: the seed-{split.seed} predictor removes {split.removed} of {split.n_queries} matches, macro F1 "
+        f"{split.f1_macro:.3f}" for name, split in evaluation.splits.items()))
+
+
+def _attributes_summary(job: AttributeAblationJob, table: AttributeAblation) -> str:
+    return _wrote("the attribute ablation (Table II)", job.out, ablation_headline(table))
+
+
+def _without_summary(job: WithoutJob, report: PredictorReport) -> str:
+    return _wrote(f"the predictor without {job.method}", job.out, _macro_f1(report))
+
+
+def _held_out_summary(job: HeldOutJob, result: HeldOut) -> str:
+    return _wrote(f"{job.method}'s test split under the pooled and the without predictor", job.out,
+                  held_out_headline(result, job.method))
+
+
+# --- the options of an earlier version, and the items' messages --------------------------------------------------
+
+# ``--val`` and ``--test`` of train and the ablations, before the splits took the configuration's names
+OLD_SPLIT_OPTIONS = ("--val", "--test")
+
+
+def _old_split_options(parser: argparse.ArgumentParser) -> None:
+    """``--val``/``--test``, hidden: given, they fail with what replaced them (``_check_splits``)."""
+    for option in OLD_SPLIT_OPTIONS:
+        parser.add_argument(option, nargs="*", dest=f"old_{option[2:]}", help=argparse.SUPPRESS)
+
+
+def _given(args: argparse.Namespace, name: str) -> Any:
+    """The words of the job record's setting ``name`` on the command line (``pipeline.options``' dest), or None."""
+    return vars(args).get(f"{GROUP}:{name}")
+
+
+def _check_pairs(args: argparse.Namespace, name: str, item: str) -> None:
+    """The ``item`` (e.g. ``SPLIT=PATH``) words of the setting ``name``, each with its ``=``."""
+    words = _given(args, name) or []
+    bad = [word for word in words if "=" not in word]
+    if bad:
+        raise ValueError(f"--{name} takes {item} items, got {', '.join(bad)}")
+
+
+def _check_splits(args: argparse.Namespace) -> None:
+    """The removed ``--val``/``--test`` fail with what replaced them; each ``--evaluate SPLIT ITEM...`` names its
+    split once, with its items."""
+    old = [option for option in OLD_SPLIT_OPTIONS if getattr(args, f"old_{option[2:]}", None) is not None]
+    if old:
+        raise ConfigError(f"{' and '.join(old)}: removed; the splits take the configuration's names now: give each "
+                          "evaluation split as --evaluate SPLIT FILE..., e.g. --evaluate val a.h5 b.h5 --evaluate "
+                          "test c.h5 d.h5 (or --evaluate check ... --evaluate final ...)")
+    seen: set[str] = set()
+    for name, *items in _given(args, "evaluate") or []:
+        if not items:
+            raise ConfigError(f"--evaluate {name}: give the split's name, then its files")
+        if name in seen:
+            raise ConfigError(f"--evaluate {name}: the split is given twice; give all its files after one --evaluate")
+        seen.add(name)
+
+
+def _check_without(args: argparse.Namespace) -> None:
+    _check_splits(args)
+    _check_pairs(args, "train", "METHOD=PATH")
+
+
+def _skippable_trust_levels(parser: argparse.ArgumentParser) -> None:
+    """``--trust-levels`` with no level skips the trust-level ablation, as before (the workflow gives it so)."""
+    for action in parser._actions:
+        if "--trust-levels" in action.option_strings:
+            action.nargs = "*"
+
+
+def training(conf: Config, validation: bool = True) -> PredictorTraining:
+    """How the workflow of ``conf`` trains its predictors (the rules' ``training`` group): the configuration's
+    predictor settings, its validation split (``validation``; else the first evaluation split a job is given) and
+    its ``allow_split_overlap``."""
+    return PredictorTraining(PredictorParams.of(conf.predictor.to_json(), "predictor"),
+                             validation_split(conf.eval_splits) if validation else None, conf.allow_split_overlap)
+
+
+def split_files(splits: Sequence[str], items: Sequence[str]) -> dict[str, tuple[str, ...]]:
+    """Each split's items, by its name (a rule's ``evaluate`` setting): ``items`` holds each split's items in turn,
+    as many for every split (``rule_helpers.evaluation_attributes``); empty without splits or items."""
+    if not splits or not items:
+        return {}
+    per_split, rest = divmod(len(items), len(splits))
+    if rest:
+        raise ValueError(f"{len(items)} files for {len(splits)} splits: not as many for each")
+    return {split: tuple(items[i * per_split:(i + 1) * per_split]) for i, split in enumerate(splits)}
+
+
+# The work of each stage, imported when it runs: scikit-learn is no import of the command line's.
+
+
+def _train(job: TrainJob) -> PredictorReport:
+    from vpr_smr.eval.predictor import train
+
+    return train.main(job)
+
+
+def _evaluate(job: EvaluateJob) -> tuple[Evaluation, Timing]:
+    from vpr_smr.eval.scoring import evaluate
+
+    return evaluate.main(job)
+
+
+def _ablation_attributes(job: AttributeAblationJob) -> AttributeAblation:
+    from vpr_smr.eval.predictor import ablation
+
+    return ablation.attributes_main(job)
+
+
+def _ablation_without(job: WithoutJob) -> PredictorReport:
+    from vpr_smr.eval.predictor import ablation
+
+    return ablation.train_without(job)
+
+
+def _held_out(job: HeldOutJob) -> HeldOut:
+    from vpr_smr.eval.scoring import held_out
+
+    return held_out.main(job)
+
+
+TRAIN = Stage("train", "train the predictor on the pooled train attributes of every method", TrainJob, _train,
+              summary=_train_summary, legacy=_old_split_options, check=_check_splits)
+EVALUATE = Stage("evaluate", "match removal and precision-recall of one method", EvaluateJob, _evaluate,
+                 summary=_evaluate_summary, legacy=_skippable_trust_levels,
+                 check=lambda args: _check_pairs(args, "attributes", "SPLIT=PATH"))
+ABLATION_ATTRIBUTES = Stage("ablation attributes", "Table II: a predictor on each attribute alone and on all four",
+                            AttributeAblationJob, _ablation_attributes, summary=_attributes_summary,
+                            legacy=_old_split_options, check=_check_splits)
+ABLATION_WITHOUT = Stage("ablation without", "train a predictor on every method's train split but one", WithoutJob,
+                         _ablation_without, summary=_without_summary, legacy=_old_split_options,
+                         check=_check_without)
+ABLATION_HELD_OUT = Stage("ablation held-out", "a method's test split under the pooled and the without_ predictor",
+                          HeldOutJob, _held_out, summary=_held_out_summary)
+
+STAGES: tuple[Stage, ...] = (TRAIN, EVALUATE, ABLATION_ATTRIBUTES, ABLATION_WITHOUT, ABLATION_HELD_OUT)

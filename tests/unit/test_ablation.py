@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from helpers import make_features
 from sklearn.metrics import f1_score
+from training_sets import ablation_job, held_out_job, train_job, without_job
 
 from vpr_smr.eval.matching.attributes import write_features
 from vpr_smr.eval.predictor.ablation import attribute_f1, attributes_main, train_without
@@ -59,8 +60,7 @@ def _write(path, x, y):
 def test_attributes_main_writes_every_attribute_set(tmp_path):
     train = _write(tmp_path / "train.h5", *separable_by_a2(80, 0))
     test = _write(tmp_path / "test.h5", *separable_by_a2(40, 1))
-    result = attributes_main([train], tmp_path / "t2.json", PARAMS, evaluate={"test": [test]},
-                             meta={"dataset": "d", "seq_len": 4})
+    result = attributes_main(ablation_job([train], tmp_path / "t2.json", PARAMS, evaluate={"test": [test]}))
     written = json.loads((tmp_path / "t2.json").read_text())
     assert written["n_train"] == 80 and set(written["attributes"]) == {"A1", "A2", "A3", "A4", "all"}
     assert written["attributes"]["A2"]["splits"]["test"]["f1"] == result.attributes["A2"].splits["test"].f1 >= 0.98
@@ -72,7 +72,7 @@ def test_leave_one_method_out_never_reads_the_held_out_method(tmp_path):
     b = _write(tmp_path / "b.h5", *separable_by_a2(40, 1))
     missing = tmp_path / "held_out_train_does_not_exist.h5"  # reading it would fail
     out = tmp_path / "without_c.h5"
-    report = train_without({"a": a, "c": missing, "b": b}, "c", out, PARAMS, meta={"dataset": "d"})
+    report = train_without(without_job({"a": a, "c": missing, "b": b}, "c", out, PARAMS))
     assert report.n_train == 80 and report.meta["trained_on"] == ["a", "b"]
     assert report.meta["held_out"] == "c"
     # the same predictor as one trained on a then b directly
@@ -81,15 +81,15 @@ def test_leave_one_method_out_never_reads_the_held_out_method(tmp_path):
     direct_path = tmp_path / "direct.h5"
     from vpr_smr.eval.predictor import train
 
-    train.main([a, b], direct_path, PARAMS)
+    train.main(train_job([a, b], direct_path, PARAMS))
     probe = np.random.default_rng(5).normal(size=(30, 4))
     np.testing.assert_array_equal(SMRPredictor.load(out).predict_proba(probe),
                                   SMRPredictor.load(direct_path).predict_proba(probe))
     assert len(y) == len(x) == 80
 
     test_c = _write(tmp_path / "test_c.h5", *separable_by_a2(40, 2))
-    result = held_out_main(test_c, direct_path, out, tmp_path / "lomo.json", modes=("standard",),
-                                    meta={"dataset": "d", "seq_len": 4, "held_out": "c"})
+    result = held_out_main(held_out_job(test_c, direct_path, out, tmp_path / "lomo.json", modes=("standard",),
+                                        method="c"))
     assert result.without.f1_macro == result.pooled.f1_macro
     assert set(json.loads((tmp_path / "lomo.json").read_text())["predictors"]) == {"pooled", "without"}
     assert json.loads((tmp_path / "lomo.json").read_text())["n_queries"] == 40

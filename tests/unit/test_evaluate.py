@@ -5,6 +5,7 @@ import json
 import numpy as np
 import pytest
 from helpers import make_features
+from training_sets import evaluate_job
 
 from vpr_smr.eval.matching.attributes import Matching, write_features
 from vpr_smr.eval.predictor.estimator import SMRPredictor
@@ -96,8 +97,8 @@ def test_main_writes_every_split_and_seed(tmp_path):
         predictor = SMRPredictor(hidden_layer_sizes=(8,), max_iter=50, random_state=seed)
         predictor.fit(features.attributes[:, 0], features.labels).save(tmp_path / f"p{seed}.h5", Matching())
         paths.append(tmp_path / f"p{seed}.h5")
-    main({"test": tmp_path / "test.h5"}, paths, tmp_path / "e.json", modes=("paper",), trust_levels=(0.0,),
-         meta={"dataset": "d", "method": "m", "seq_len": 4})
+    main(evaluate_job({"test": tmp_path / "test.h5"}, paths, tmp_path / "e.json", modes=("paper",),
+                      trust_levels=(0.0,)))
     result = json.loads((tmp_path / "e.json").read_text())
     split = result["splits"]["test"]
     assert len(split["other_seeds"]) == 1 and not any(key.endswith("seconds") for key in split)
@@ -107,4 +108,4 @@ def test_main_writes_every_split_and_seed(tmp_path):
     assert timing["seconds_per_query"] == pytest.approx((0.5 + timing["predict_seconds"]) / 57)
     assert set(split["restoration"]["modes"]) == {"paper"}
     with pytest.raises(FileNotFoundError, match="missing.h5"):
-        main({"test": tmp_path / "test.h5"}, [tmp_path / "missing.h5"], tmp_path / "f.json")
+        main(evaluate_job({"test": tmp_path / "test.h5"}, [tmp_path / "missing.h5"], tmp_path / "f.json"))

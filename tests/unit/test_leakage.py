@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from training_sets import PARAMS, method_samples
+from training_sets import PARAMS, ablation_job, evaluate_job, held_out_job, method_samples, train_job, without_job
 from training_sets import write_samples as write_plain
 
 from vpr_smr.eval.matching.attributes import read_features, write_features
@@ -51,55 +51,57 @@ def test_pooled_predictor(files, tmp_path):
     out = tmp_path / "L4.h5"
     train_files = [files["a", "train"], files["b", "train"]]
     with pytest.raises(SplitLeakError, match="split 'leaky_test' \\[40, 130\\)"):
-        train.main(train_files, out, PARAMS, evaluate={"test": [files["a", "leaky_test"]]})
+        train.main(train_job(train_files, out, PARAMS, evaluate={"test": [files["a", "leaky_test"]]}))
     assert not out.exists()
-    train.main(train_files, out, PARAMS, evaluate={"val": [files["a", "val"]], "test": [files["a", "test"]]}, seeds=2)
+    train.main(train_job(train_files, out, PARAMS, evaluate={"val": [files["a", "val"]], "test": [files["a", "test"]]},
+                         seeds=2))
     for path in (out, tmp_path / "L4.seed1.h5"):
         assert trained_on(path) == [FrameRange("d", "train", 0, 60)]
     result = tmp_path / "eval.json"
     with pytest.raises(SplitLeakError, match="was trained on 'd' split 'train'"):
-        evaluate.main({"test": files["a", "leaky_test"]}, [out], result, modes=("standard",), trust_levels=())
+        evaluate.main(evaluate_job({"test": files["a", "leaky_test"]}, [out], result, modes=("standard",),
+                                   trust_levels=()))
     assert not result.exists()
-    evaluate.main({"val": files["a", "val"], "test": files["a", "test"]}, [out, tmp_path / "L4.seed1.h5"], result,
-                  modes=("standard",), trust_levels=())
+    evaluate.main(evaluate_job({"val": files["a", "val"], "test": files["a", "test"]}, [out, tmp_path / "L4.seed1.h5"],
+                               result, modes=("standard",), trust_levels=()))
     assert set(json.loads(result.read_text())["splits"]) == {"val", "test"}
     # allowed explicitly: it runs
-    evaluate.main({"test": files["a", "leaky_test"]}, [out], result, modes=("standard",), trust_levels=(),
-                  allow_split_overlap=True)
+    evaluate.main(evaluate_job({"test": files["a", "leaky_test"]}, [out], result, modes=("standard",), trust_levels=(),
+                               allow_split_overlap=True))
 
 
 def test_per_attribute_predictors(files, tmp_path):
     out = tmp_path / "table2.json"
     with pytest.raises(SplitLeakError, match="the per-attribute predictors was trained on"):
-        ablation.attributes_main([files["a", "train"], files["b", "train"]], out, PARAMS,
-                                 evaluate={"test": [files["a", "leaky_test"], files["b", "leaky_test"]]})
+        ablation.attributes_main(ablation_job([files["a", "train"], files["b", "train"]], out, PARAMS,
+                                              evaluate={"test": [files["a", "leaky_test"], files["b", "leaky_test"]]}))
     assert not out.exists()
-    ablation.attributes_main([files["a", "train"], files["b", "train"]], out, PARAMS,
-                             evaluate={"test": [files["a", "test"], files["b", "test"]]})
+    ablation.attributes_main(ablation_job([files["a", "train"], files["b", "train"]], out, PARAMS,
+                                          evaluate={"test": [files["a", "test"], files["b", "test"]]}))
     assert out.is_file()
 
 
 def test_leave_one_method_out_predictors(files, tmp_path):
     without = tmp_path / "without_b.h5"
     with pytest.raises(SplitLeakError):
-        ablation.train_without({"a": files["a", "train"]}, "b", without, PARAMS,
-                                     evaluate={"val": {"a": files["a", "leaky_test"]}})
-    ablation.train_without({"a": files["a", "train"], "b": files["b", "train"]}, "b", without, PARAMS)
+        ablation.train_without(without_job({"a": files["a", "train"]}, "b", without, PARAMS,
+                                           evaluate={"val": {"a": files["a", "leaky_test"]}}))
+    ablation.train_without(without_job({"a": files["a", "train"], "b": files["b", "train"]}, "b", without, PARAMS))
     assert trained_on(without) == [FrameRange("d", "train", 0, 60)]
     pooled = tmp_path / "L4.h5"
-    train.main([files["a", "train"], files["b", "train"]], pooled, PARAMS)
+    train.main(train_job([files["a", "train"], files["b", "train"]], pooled, PARAMS))
     out = tmp_path / "held_out.json"
     with pytest.raises(SplitLeakError, match="L4.h5 was trained on"):
-        held_out.main(files["b", "leaky_test"], pooled, without, out, ("standard",))
+        held_out.main(held_out_job(files["b", "leaky_test"], pooled, without, out, ("standard",)))
     # each of the two predictors is checked: a pooled one with no recorded ranges leaves the without_ one
     x, y = method_samples(60, 3)
     unrecorded = tmp_path / "unrecorded.h5"
-    train.main([write_plain(tmp_path / "plain.h5", x, y)], unrecorded, PARAMS)
+    train.main(train_job([write_plain(tmp_path / "plain.h5", x, y)], unrecorded, PARAMS))
     assert trained_on(unrecorded) == []
     with pytest.raises(SplitLeakError, match="without_b.h5 was trained on"):
-        held_out.main(files["b", "leaky_test"], unrecorded, without, out, ("standard",))
+        held_out.main(held_out_job(files["b", "leaky_test"], unrecorded, without, out, ("standard",)))
     assert not out.exists()
-    held_out.main(files["b", "test"], pooled, without, out, ("standard",))
+    held_out.main(held_out_job(files["b", "test"], pooled, without, out, ("standard",)))
     assert json.loads(out.read_text())["n_queries"] == 40
 
 

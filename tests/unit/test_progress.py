@@ -78,6 +78,7 @@ def test_descriptors_count_images_by_batch(pair, tmp_path, monkeypatch, capsys):
 
 def test_training_several_seeds_writes_a_line_per_seed(tmp_path, capsys):
     import numpy as np
+    from training_sets import train_job
 
     from vpr_smr.eval.matching.attributes import query_features, write_features
     from vpr_smr.eval.predictor import train
@@ -88,7 +89,7 @@ def test_training_several_seeds_writes_a_line_per_seed(tmp_path, capsys):
         paths.append(tmp_path / f"{name}.h5")
         write_features(paths[-1], query_features(rng.random((40, 40)) + 0.6 * (1 - np.eye(40)), 3), {})
     params = {"hidden_layer_sizes": [8], "max_iter": 20}
-    train.main(paths, tmp_path / "p.h5", params, seeds=3)
+    train.main(train_job(paths, tmp_path / "p.h5", params, seeds=3, seq_len=3))
     assert states(capsys.readouterr().err) == [("", n, 3, "seeds") for n in range(4)]
-    train.main(paths[:1], tmp_path / "q.h5", params, seeds=1)  # one seed: no fraction worth showing
+    train.main(train_job(paths[:1], tmp_path / "q.h5", params, seq_len=3))  # one seed: no fraction worth showing
     assert states(capsys.readouterr().err) == []

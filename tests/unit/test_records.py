@@ -5,6 +5,7 @@ import warnings
 
 import numpy as np
 import pytest
+from training_sets import evaluate_job, held_out_job
 
 from vpr_smr.core.io import read_provenance, write_json
 from vpr_smr.core.records import FORMAT
@@ -51,11 +52,10 @@ def stage_files(tmp_path_factory):
             predictors.append(tmp / f"p{seed}.h5")
             SMRPredictor(hidden_layer_sizes=(8,), max_iter=30, random_state=seed).fit(
                 features.attributes[:, 0], features.labels).save(predictors[-1], Matching())
-    meta = {"dataset": "d", "method": "m", "seq_len": 4}
-    evaluation, timing = evaluate.main(paths, predictors, tmp / "e.json", trust_levels=(0.0, 0.9), meta=meta,
-                                       allow_split_overlap=True)
-    scores = held_out.main(paths["test"], predictors[0], predictors[1], tmp / "h.json", meta=meta,
-                           allow_split_overlap=True)
+    evaluation, timing = evaluate.main(evaluate_job(paths, predictors, tmp / "e.json", trust_levels=(0.0, 0.9),
+                                                    allow_split_overlap=True))
+    scores = held_out.main(held_out_job(paths["test"], predictors[0], predictors[1], tmp / "h.json",
+                                        allow_split_overlap=True))
     return tmp, evaluation, timing, scores
 
 
@@ -139,7 +139,7 @@ def test_timings_are_matched_to_their_evaluation_by_meta(stage_files):
 @pytest.fixture(scope="module")
 def predictor_files(tmp_path_factory):
     """A two-seed predictor report (val and test given) and an attribute ablation, as the stages write them."""
-    from training_sets import PARAMS, method_samples, write_samples
+    from training_sets import PARAMS, ablation_job, method_samples, train_job, write_samples
 
     tmp = tmp_path_factory.mktemp("predictor_records")
     paths = {name: write_samples(tmp / f"{name}.h5", *method_samples(n, seed))
@@ -147,10 +147,9 @@ def predictor_files(tmp_path_factory):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         scored = {"val": [paths["val"]], "test": [paths["test"]]}
-        report = train.main([paths["a"], paths["b"]], tmp / "L4.h5", PARAMS, evaluate=scored,
-                            meta={"dataset": "d", "seq_len": 4}, seeds=2)
-        table2 = ablation.attributes_main([paths["a"], paths["b"]], tmp / "t2.json", PARAMS, evaluate=scored,
-                                          meta={"dataset": "d", "seq_len": 4})
+        report = train.main(train_job([paths["a"], paths["b"]], tmp / "L4.h5", PARAMS, evaluate=scored, seeds=2))
+        table2 = ablation.attributes_main(ablation_job([paths["a"], paths["b"]], tmp / "t2.json", PARAMS,
+                                                       evaluate=scored))
     return tmp, report, table2
 
 

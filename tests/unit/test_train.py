@@ -13,7 +13,7 @@ from sklearn.model_selection import StratifiedKFold
 from sklearn.neural_network import MLPClassifier
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils import shuffle
-from training_sets import PARAMS, method_samples, write_samples
+from training_sets import PARAMS, method_samples, train_job, write_samples
 
 from vpr_smr.eval.predictor import train
 from vpr_smr.eval.predictor.estimator import SMRPredictor
@@ -62,7 +62,7 @@ def test_seed_zero_is_the_authors_recipe_and_the_shuffle_and_order_matter(files,
     parts, paths = files
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        report = train.main([paths["a"], paths["b"]], tmp_path / "p.h5", PARAMS, seeds=2)
+        report = train.main(train_job([paths["a"], paths["b"]], tmp_path / "p.h5", PARAMS, seeds=2))
     x = np.concatenate([parts["a"][0], parts["b"][0]])
     y = np.concatenate([parts["a"][1], parts["b"][1]])
     ours = SMRPredictor.load(tmp_path / "p.h5")
@@ -86,15 +86,14 @@ def test_report_per_seed_and_files(files, tmp_path):
     out = tmp_path / "pred" / "L4.h5"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        report = train.main([paths["a"], paths["b"]], out, PARAMS,
-                            evaluate={"val": [paths["val"]], "test": [paths["test"]]},
-                            meta={"dataset": "d", "seq_len": 4}, seeds=[0, 2])
-    assert sorted(p.name for p in out.parent.iterdir()) == ["L4.h5", "L4.json", "L4.seed2.h5"]
+        report = train.main(train_job([paths["a"], paths["b"]], out, PARAMS,
+                                      evaluate={"val": [paths["val"]], "test": [paths["test"]]}, seeds=3))
+    assert sorted(p.name for p in out.parent.iterdir()) == ["L4.h5", "L4.json", "L4.seed1.h5", "L4.seed2.h5"]
     written = json.loads(out.with_suffix(".json").read_text())
     assert written == json.loads(json.dumps(report.to_json()))
-    assert written["seed_models"] == [str(out), str(out.with_name("L4.seed2.h5"))]
-    assert [s["seed"] for s in written["seeds"]] == [0, 2]
-    seed2 = written["seeds"][1]["params"]
+    assert written["seed_models"] == [str(out), str(out.with_name("L4.seed1.h5")), str(out.with_name("L4.seed2.h5"))]
+    assert [s["seed"] for s in written["seeds"]] == [0, 1, 2]
+    seed2 = written["seeds"][2]["params"]
     assert seed2["random_state"] == 2 and seed2["smote_random_state"] == 44
     # every seed once: no top-level copy of seed 0's numbers (PredictorReport.first_seed gives them)
     assert set(written) == {"format", "meta", "n_train", "seeds", "seed_models"}
@@ -109,10 +108,11 @@ def test_report_per_seed_and_files(files, tmp_path):
     assert written["n_train"] == 84 and first["splits"]["val"]["n"] == 30 and first["splits"]["test"]["n"] == 24
     # class counts worked out from method_samples: n//2 zeros, n//6 ones and twos, the rest threes
     assert first["train_class_counts"] == [24 + 18, 8 + 6, 8 + 6, 8 + 6]
-    assert written["seeds"][1]["train_class_counts"] == [42, 14, 14, 14]
-    assert {name: s["class_counts"] for name, s in written["seeds"][1]["splits"].items()} == {
+    assert written["seeds"][2]["train_class_counts"] == [42, 14, 14, 14]
+    assert {name: s["class_counts"] for name, s in written["seeds"][2]["splits"].items()} == {
         "val": [15, 5, 5, 5], "test": [12, 4, 4, 4]}
-    for seed_report, path in zip(written["seeds"], (out, out.with_name("L4.seed2.h5")), strict=True):
+    seed_files = (out, out.with_name("L4.seed1.h5"), out.with_name("L4.seed2.h5"))
+    for seed_report, path in zip(written["seeds"], seed_files, strict=True):
         predictor = SMRPredictor.load(path)
         for split in ("val", "test"):
             x, y = parts[split]
@@ -126,15 +126,16 @@ def test_report_per_seed_and_files(files, tmp_path):
     with h5py.File(out, "r") as f:  # the predictor files hold the report; the other seed's a report of its seed
         assert json.loads(f.attrs["report"]) == written
     with h5py.File(out.with_name("L4.seed2.h5"), "r") as f:
-        assert json.loads(f.attrs["report"])["seeds"] == written["seeds"][1:]
+        assert json.loads(f.attrs["report"])["seeds"] == written["seeds"][2:]
 
 
 def test_only_the_first_seed_is_cross_validated_and_the_fit_does_not_depend_on_it(files, tmp_path):
     parts, paths = files
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        report = train.main([paths["a"], paths["b"]], tmp_path / "p.h5", PARAMS, seeds=2)
-        unchecked = train.main([paths["a"], paths["b"]], tmp_path / "q.h5", PARAMS, seeds=2, cross_validate=False)
+        report = train.main(train_job([paths["a"], paths["b"]], tmp_path / "p.h5", PARAMS, seeds=2))
+        unchecked = train.fit(train_job([paths["a"], paths["b"]], tmp_path / "q.h5", PARAMS, seeds=2),
+                              cross_validate=False)
         # seed 0's cross-validation written out: 5 stratified folds (seeded 0) of the shuffled pooled samples, SMOTE
         # fitted on each training fold only (the predictor's pipeline), the mean macro F1 of the held-out folds
         x, y = shuffle(*(np.concatenate(a) for a in zip(parts["a"], parts["b"], strict=True)), random_state=0)
@@ -155,7 +156,7 @@ def test_single_seed_report_has_no_seed_models(files, tmp_path):
     _, paths = files
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        report = train.main([paths["a"]], tmp_path / "p.h5", PARAMS)
+        report = train.main(train_job([paths["a"]], tmp_path / "p.h5", PARAMS))
     assert report.seed_models is None and len(report.seeds) == 1 and report.n_train == 48
     assert "seed_models" not in json.loads((tmp_path / "p.json").read_text())
     assert sorted(p.name for p in tmp_path.iterdir() if p.name.startswith("p.")) == ["p.h5", "p.json"]
@@ -179,14 +180,22 @@ def test_interrupted_training_writes_nothing(files, tmp_path, monkeypatch):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         with pytest.raises(KeyboardInterrupt):
-            train.main([paths["a"], paths["b"]], out / "p.h5", {**PARAMS, "max_iter": 2}, seeds=2)
+            train.main(train_job([paths["a"], paths["b"]], out / "p.h5", {**PARAMS, "max_iter": 2}, seeds=2))
     assert len(calls) == 13
     assert not out.exists() or list(out.iterdir()) == []
 
 
 def test_bad_settings_are_named(files, tmp_path):
+    from vpr_smr.core.settings import parse
+    from vpr_smr.eval.predictor.jobs import TrainJob
+
     _, paths = files
     with pytest.raises(ValueError, match="unknown predictor settings.*'layers'"):
-        train.main([paths["a"]], tmp_path / "p.h5", {"layers": [3]})
-    with pytest.raises(ValueError, match="seeds"):
-        train.main([paths["a"]], tmp_path / "p.h5", PARAMS, seeds=[0, 0])
+        train.predictor_params({"layers": [3]})
+    with pytest.raises(ValueError, match=r"--predictor\.layers: unexpected setting 'layers'"):
+        train_job([paths["a"]], tmp_path / "p.h5", {"layers": [3]})
+    job = {"dataset": "d", "seq_len": 4, "train": [str(paths["a"])], "out": str(tmp_path / "p.h5")}
+    with pytest.raises(ValueError, match=r"job\.seeds: .*must be >= 1, got 0"):
+        parse(TrainJob, {**job, "seeds": 0}, "job")
+    with pytest.raises(ValueError, match=r"job\.train: .*give at least 1"):
+        parse(TrainJob, {**job, "train": []}, "job")
