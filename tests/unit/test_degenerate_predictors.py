@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from training_sets import evaluate_job, train_job
 
 from vpr_smr.core.io import write_json
 from vpr_smr.eval.matching.attributes import Matching, query_features, write_features
@@ -98,9 +99,8 @@ def removed_all(tmp_path):
     features = query_features(matrix, 4)
     write_features(tmp_path / "test.h5", features, {})
     predictor = constant_predictor(tmp_path / "p.h5", features, label=1)  # class 1: remove
-    meta = {"dataset": "corridor", "method": "sad", "seq_len": 4}
-    evaluate.main({"test": tmp_path / "test.h5"}, [predictor, predictor], tmp_path / "e.json", meta=meta,
-                  seeds=[0, 3], allow_split_overlap=True)
+    evaluate.main(evaluate_job({"test": tmp_path / "test.h5"}, [predictor, predictor], tmp_path / "e.json",
+                               allow_split_overlap=True, dataset="corridor", method="sad"), seeds=[0, 3])
     return tmp_path, features
 
 
@@ -197,9 +197,9 @@ def test_training_warns_and_the_tables_say_so(tmp_path, caplog):
         write_features(paths[split], features, {})
     with caplog.at_level(logging.WARNING, logger="vpr_smr"), warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        report = train.main([paths["train"]], tmp_path / "L3.h5", {"hidden_layer_sizes": [8], "max_iter": 30},
-                            evaluate={"val": [paths["val"]]}, meta={"dataset": "noise", "seq_len": 3}, seeds=(0,),
-                            allow_split_overlap=True)
+        report = train.main(train_job([paths["train"]], tmp_path / "L3.h5", {"hidden_layer_sizes": [8], "max_iter": 30},
+                                      evaluate={"val": [paths["val"]]}, dataset="noise", seq_len=3,
+                                      allow_split_overlap=True))
     scores = report.seeds[0].splits["val"]
     present = len(np.unique(query_features_labels(paths["val"])))  # the classes the val split holds
     assert scores.f1 <= 1 / present  # noise: at or below chance (1 / K), as the warning says

@@ -173,7 +173,7 @@ def test_every_stage_that_writes_a_file_says_what_where_and_its_headline(tmp_pat
 def test_scikit_learns_fold_warning_is_said_in_our_words_naming_the_dataset(tmp_path, caplog):
     import warnings
 
-    from training_sets import write_samples
+    from training_sets import train_job, write_samples
 
     from vpr_smr.eval.predictor import train
 
@@ -184,8 +184,8 @@ def test_scikit_learns_fold_warning_is_said_in_our_words_naming_the_dataset(tmp_
     caplog.set_level("INFO")
     with warnings.catch_warnings(record=True) as escaped:
         warnings.simplefilter("always")
-        train.main([tmp_path / "few.h5"], tmp_path / "p.h5", {"hidden_layer_sizes": [6], "max_iter": 30},
-                   meta={"dataset": "tiny_route", "seq_len": 3})
+        train.main(train_job([tmp_path / "few.h5"], tmp_path / "p.h5", {"hidden_layer_sizes": [6], "max_iter": 30},
+                             dataset="tiny_route", seq_len=3))
     assert [str(w.message) for w in escaped if "sklearn" in w.filename] == []
     [line] = [r.getMessage() for r in caplog.records if "cross-validated on class counts" in r.getMessage()]
     assert line.startswith("dataset 'tiny_route', sequence length 3, train split of 1 method(s) pooled, "

@@ -95,7 +95,7 @@ def test_held_out_gives_both_reductions_with_their_intervals_and_words(held_out_
 
 def test_a_held_out_reduction_whose_interval_holds_0_names_no_direction():
     from vpr_smr.eval.scoring.records import Interval, Reduction
-    from vpr_smr.pipeline.cli import _reduction
+    from vpr_smr.pipeline.stages.predictor import reduction_text as _reduction
 
     # 57.04 by its estimate, [-7.47, 91.65] by its interval (the numbers): no direction
     found = Reduction(0.9, 0.7, 0.8, 0.16, 0.07, 57.04, 0.9, 0.16, "improved", Interval(-7.47, 91.65))

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from helpers import SEQSLAM_PROVENANCE, write_distance_matrix
 from oracles import naive_recalls, sequence_matrix, stable_top
-from training_sets import PARAMS
+from training_sets import PARAMS, train_job
 from worked_matrix import DECISION, SEQ_LEN, TOLERANCE, D, FixedPredictor
 
 from vpr_smr.core.constants import KEPT_CLASSES, MATCHERS, MODES, RECALL_AT
@@ -171,7 +171,7 @@ def matrix_predictor(tmp_path_factory):
     rng = np.random.default_rng(21)
     features = query_features(np.abs(rng.normal(size=(160, 160))) + 0.5 * (1 - np.eye(160)), 3, 2)
     write_features(folder / "train.h5", features, {"dataset": "d", "split": "train", "split_range": [0, 160]})
-    train.main([folder / "train.h5"], folder / "L3.h5", PARAMS, meta={"dataset": "d", "seq_len": 3})
+    train.main(train_job([folder / "train.h5"], folder / "L3.h5", PARAMS, seq_len=3))
     return folder / "L3.h5"
 
 
