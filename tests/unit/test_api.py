@@ -1,23 +1,32 @@
-"""The Python API (``vpr_smr.pipeline.api``): each function against values worked out by hand or by a naive
-implementation written here; the CLI stage's numbers for the same matrix only as a wiring check beside them; bad
-arguments give errors naming the argument and the fix; ``__all__`` is documented."""
+"""The Python API (``vpr_smr.api``): each function against values worked out by hand or by a naive implementation
+written here; the CLI stage's numbers for the same matrix only as a wiring check beside them; bad arguments give
+errors naming the argument and the fix; ``__all__`` is documented; ``import vpr_smr`` gives the version and the API;
+the records the API returns are all in ``vpr_smr.records``; the old ``vpr_smr.pipeline.api`` still works and warns."""
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import inspect
 import json
+import subprocess
+import sys
+import tomllib
+import types
+import typing
 
 import numpy as np
 import pytest
-from helpers import make_features
+from helpers import REPO, make_features
 from sample_matrix import sample_distances as naive_sample_distances
 from scipy.io import savemat
 from sklearn.metrics import average_precision_score, f1_score
 from sklearn.utils import shuffle
 
+from vpr_smr import api as smr
+from vpr_smr import records
+from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.predictor.estimator import SMRPredictor
-from vpr_smr.pipeline import api as smr
 from vpr_smr.pipeline.cli import main as cli
 
 # A hand-worked matrix (references x queries), tolerance 0: the single-frame matches are r0, r1, r1 (q2 wrong);
@@ -318,6 +327,99 @@ def test_every_public_name_exists_and_is_documented():
         assert callable(item) and item.__module__ == smr.__name__
         doc = inspect.getdoc(item) or ""
         returns_nothing = inspect.signature(item).return_annotation in (None, "None")
-        assert "Args:" in doc and ("Returns:" in doc or returns_nothing), name
+        takes_nothing = not inspect.signature(item).parameters
+        assert ("Args:" in doc or takes_nothing) and ("Returns:" in doc or returns_nothing), name
         for parameter in inspect.signature(item).parameters:
             assert f"{parameter}:" in doc, f"{name}: {parameter} is not documented"
+
+
+def _our_classes(hint, found):
+    """The classes of this package in a type hint, and in the fields of those that are dataclasses (the records
+    inside a record), into ``found``."""
+    if typing.get_origin(hint) is not None or isinstance(hint, types.UnionType):
+        for argument in typing.get_args(hint):
+            _our_classes(argument, found)
+        return
+    if not isinstance(hint, type) or not hint.__module__.startswith("vpr_smr.") or hint in found:
+        return
+    found.add(hint)
+    if dataclasses.is_dataclass(hint):
+        for field_hint in typing.get_type_hints(hint).values():
+            _our_classes(field_hint, found)
+
+
+def test_every_record_the_api_takes_or_returns_is_in_records():
+    found = set()
+    for name in smr.__all__:
+        for hint in typing.get_type_hints(getattr(smr, name)).values():
+            _our_classes(hint, found)
+    exported = {getattr(records, name) for name in records.__all__}
+    assert records.QueryFeatures in found and records.MatcherMetrics in found  # returned, and inside a returned one
+    assert {cls.__qualname__ for cls in found - exported} == set(), "add them to vpr_smr/records.py"
+    assert len(set(records.__all__)) == len(records.__all__)
+
+
+# --- the workflow's stages from Python -------------------------------------------------------------------------
+
+
+def test_run_stage_writes_what_the_command_writes(tmp_path):
+    np.save(tmp_path / "d.npy", D)
+    cli(["attributes", "--distances", str(tmp_path / "d.npy"), "--seq-len", "2", "--tolerance", "0",
+         "--out", str(tmp_path / "cli.csv")])
+    assert "attributes" in smr.stage_commands()
+    found = smr.run_stage("attributes", distances=tmp_path / "d.npy", seq_len=2, truth={"tolerance": 0},
+                          out=tmp_path / "api.csv")
+    assert list(found.labels) == [0, 2]  # by hand, as in test_attributes_labels_by_hand
+    assert (tmp_path / "api.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    # the group as its record, the matcher as its setting: the same file
+    again = smr.run_stage("attributes", distances=str(tmp_path / "d.npy"), seq_len=2, truth=TruthSource(tolerance=0),
+                          matcher={"matcher": "seqslam", "velocities": [1.0]}, out=str(tmp_path / "again.csv"))
+    assert (tmp_path / "again.csv").read_bytes() == (tmp_path / "cli.csv").read_bytes()
+    assert list(again.sequence_match) == [1, 2]
+
+
+@pytest.mark.parametrize(("call", "message"), [
+    (lambda: smr.run_stage("atributes"), "command: no stage 'atributes'; the stages: descriptors"),
+    (lambda: smr.run_stage("attributes", seq_len=2, out="a.csv"), "attributes.distances: the distance matrix"),
+    (lambda: smr.run_stage("attributes", distances="d.npy", seq_len=2, out="a.csv", tolerance=0),
+     "attributes.tolerance: unexpected setting"),
+])
+def test_run_stage_names_what_is_wrong(call, message):
+    with pytest.raises(ValueError) as raised:
+        call()
+    assert message in str(raised.value)
+
+
+# --- the package's face ----------------------------------------------------------------------------------------
+
+
+def python(code):
+    """``code`` run by this Python outside the checkout (the installed package, as a notebook imports it)."""
+    result = subprocess.run([sys.executable, "-c", code], cwd=REPO.parent, capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr[-3000:]
+    return result.stdout
+
+
+def test_import_vpr_smr_gives_the_version_and_the_api_on_first_use():
+    version = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["version"]
+    printed = python("import sys, vpr_smr; print(vpr_smr.__version__); print('vpr_smr.api' in sys.modules); "
+                     "import vpr_smr.api; print(vpr_smr.api.metrics.__module__); "
+                     "print(vpr_smr.records.QueryFeatures.__module__)")
+    assert printed.split() == [version, "False", "vpr_smr.api", "vpr_smr.eval.matching.attributes"]
+
+
+def test_the_old_import_still_works_and_warns_once_naming_the_new_one():
+    printed = python("import warnings\n"
+                     "with warnings.catch_warnings(record=True) as caught:\n"
+                     "    warnings.simplefilter('always')\n"
+                     "    from vpr_smr.pipeline import api as old\n"
+                     "    import vpr_smr.pipeline.api\n"
+                     "import vpr_smr.api as new\n"
+                     "print(len(caught), caught[0].category.__name__, caught[0].filename, caught[0].lineno)\n"
+                     "print(old.__all__ == new.__all__\n"
+                     "      and all(getattr(old, name) is getattr(new, name) for name in new.__all__))\n"
+                     "print(caught[0].message)\n")
+    first, same, message = printed.splitlines()
+    assert first.split() == ["1", "DeprecationWarning", "<string>", "4"]  # once, at the importing line
+    assert same == "True"
+    assert "write `from vpr_smr import api as smr`" in message
