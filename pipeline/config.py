@@ -208,14 +208,6 @@ MATCHER_KEY = NAME_KEY  # the matcher's name among its settings
 
 
 @dataclass(frozen=True)
-class SpeedSettings(Section):
-    """``speed``: the speed experiment's profiles (a constant speed or ``varying``) and velocity search set."""
-
-    profiles: tuple[float | str, ...]
-    velocities: tuple[float, ...]
-
-
-@dataclass(frozen=True)
 class DatasetSettings(Section):
     """A dataset of ``datasets``: its name, loader and the settings every loader shares; ``to_json`` is the whole
     entry as given, which the loader reads (each loader has its own keys and checks them)."""
@@ -262,7 +254,7 @@ class Config(Section):
     methods: Mapping[str, MethodSettings]
     table_seq_len: int
     experiments: Experiments
-    speed: SpeedSettings
+    speed: SpeedExperiment  # the speed experiment's profiles and velocity search set
     matchers: tuple[MatcherSpec, ...]  # the experiment ``matchers``' compared matchers (its default: every built-in)
 
     @property
@@ -280,7 +272,6 @@ class Config(Section):
     @classmethod
     def from_json(cls, conf: dict[str, Any]) -> Config:
         """The record of a validated configuration (``validate``'s JSON, every default filled in)."""
-        speed = conf["speed"]
         datasets = {name: DatasetSettings(name, str(d["loader"]), d.get("root"), d.get("tolerance"), d.get("radius"),
                                           source=_text(d)) for name, d in conf["datasets"].items()}
         methods = {name: MethodSettings(name, str(m["backend"]), m.get("checkpoint"), m.get("distance"),
@@ -296,7 +287,8 @@ class Config(Section):
             tuple(conf["trust_levels"]), conf["seeds"], sections["extraction"],
             PredictorSection(**dataclasses.asdict(sections["predictor"]), source=_text(conf["predictor"])),
             MappingProxyType(datasets), MappingProxyType(methods), conf["table_seq_len"], sections["experiments"],
-            SpeedSettings(tuple(speed["profiles"]), tuple(speed["velocities"]), source=_text(speed)),
+            # profiles: its schema fragment keeps the JSON list; a tuple in the frozen record
+            dataclasses.replace(sections["speed"], profiles=tuple(sections["speed"].profiles)),
             tuple(_experiment_matchers(conf["matchers"])),
             source=_text(conf))
 

@@ -17,6 +17,7 @@ from vpr_smr.core.paths import (
 
 if TYPE_CHECKING:
     from vpr_smr.eval.matching.matchers import MatcherSpec
+    from vpr_smr.eval.report.job import RunFiles
     from vpr_smr.pipeline.config import Config
     from vpr_smr.pipeline.plan import Plan
 
@@ -99,6 +100,14 @@ def report_outputs(conf: Config, experiments: set[str], speed_datasets: list[str
                             sweep_datasets=sweep_datasets)
 
 
+def report_files(given: Any) -> RunFiles:
+    """The report rule's inputs, named as the settings of ``RunFiles`` (each a list of paths), as its record."""
+    from vpr_smr.core.settings import declared
+    from vpr_smr.eval.report.job import RunFiles
+
+    return RunFiles(**{item.name: tuple(getattr(given, item.name)) for item in declared(RunFiles)})
+
+
 def report_settings(settings: Mapping[str, Any]) -> str:
     """The configuration's settings (``Config.to_json``) minus what changes speed only (``extraction``) as JSON text:
     its sections in the schema's order, so that writing out a section at its defaults (``sequence_matching:
@@ -137,6 +146,16 @@ def ground_truth_option(plan: Plan, dataset: str) -> str:
         return ""
     key = ["--ground-truth-key", given.key] if given.key is not None else []
     return shlex.join(["--ground-truth", given.path, *key])
+
+
+def length_files(splits: Sequence[tuple[str | None, Sequence[str]]]) -> dict[str, tuple[str, ...]]:
+    """Each split's files (one per sequence length), the splits in the given order: a split named twice gets its
+    files one after the other, a split of None (no validation split) or without files none."""
+    out: dict[str, tuple[str, ...]] = {}
+    for split, paths in splits:
+        if split is not None and paths:
+            out[split] = (*out.get(split, ()), *paths)
+    return out
 
 
 # --- the experiment ``matchers`` (method §14) ------------------------------------------------------------------

@@ -93,12 +93,12 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
     """Every experiment's JSON for the ``methods`` (in that configuration order) on one dataset ``d``, the
     training-free baselines of every L (computed from the same features and predictors), the standard VPR metrics
     and match-inspector figures at L = 4, then report.main; returns (run folder, files). ``options`` go to
-    report.main's ReportOptions, but ``speed``, ``matchers`` and ``adaptive`` (those experiments' files) to its
+    report.write's ReportOptions, but ``speed``, ``matchers`` and ``adaptive`` (those experiments' files) to its
     RunFiles."""
     from vpr_smr.core.paths import match_figure_path, matrix_figure_path, queries_path
     from vpr_smr.eval.matching.attributes import query_features
     from vpr_smr.eval.predictor.estimator import SMRPredictor
-    from vpr_smr.eval.report.build import ReportOptions, RunFiles, main
+    from vpr_smr.eval.report.build import ReportOptions, RunFiles, write
     from vpr_smr.eval.scoring.baselines import DEFAULT_SETTINGS, Prediction, split_baselines
     from vpr_smr.eval.scoring.evaluate import evaluate_split
     from vpr_smr.eval.scoring.records import (
@@ -168,7 +168,7 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
     files = RunFiles(evaluations, predictors, [ablation] if ablations else [], [lomo] if ablations else [],
                      timings=timings, metrics=metric_files, match_figures=match_figures, matrix_figures=matrix_figures,
                      baselines=baseline_files, speed=speed, matchers=matchers, adaptive=adaptive)
-    written = main(run, files, ReportOptions(
+    written = write(run, files, ReportOptions(
         table_seq_lens=[4], seq_len_ablation=len(seq_lens) > 1, config="run: demo\nseq_lens: [2, 4]\n",
         provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}},
         datasets={"d": DATASET_CARD}, **options))

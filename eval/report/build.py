@@ -16,13 +16,14 @@ from typing import Any, Protocol, TypeVar
 
 import numpy as np
 
-from vpr_smr.core.io import atomic_path
+from vpr_smr.core.io import atomic_path, package_version
 from vpr_smr.core.paths import match_figure_path, matrix_figure_path, timing_path
 from vpr_smr.core.records import FormatError
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.report import bounds, experiments, registry
 from vpr_smr.eval.report import figures as fig
 from vpr_smr.eval.report.baselines import baseline_rows, comparisons
+from vpr_smr.eval.report.job import ReportJob, RunFiles
 from vpr_smr.eval.report.results import (
     Order,
     Splits,
@@ -547,41 +548,6 @@ def _read(paths: Sequence[Path | str], what: str, from_json: Callable[[dict[str,
 
 
 @dataclass(frozen=True)
-class RunFiles:
-    """The stages' files a report reads, each list optional: the run's paths, resolved in one place (the
-    workflow's rule and ``vpr-smr report`` fill it).
-
-    ``evaluations`` (``evaluate.main``, one per dataset, method and L), ``predictors`` (``train.main`` reports),
-    ``attribute_ablations`` (``ablation.attributes_main``), ``leave_one_out`` (``scoring.held_out.main``),
-    ``timings`` (the ``.timing.json`` files ``evaluate.main`` writes, each matched to its evaluation by dataset,
-    method and L; the timing table leaves out evaluations without one), ``metrics`` (``scoring.vpr_metrics``'
-    files: the standard VPR metrics of the table split). ``match_figures`` and ``matrix_figures``: the match
-    inspector's PNGs (``core.paths.match_figure_path`` and ``matrix_figure_path``), shown in the page, placed by
-    their file names. ``speed``: the speed experiment's files (``scoring.speed.main``, one per dataset and profile,
-    in the configuration's order of profiles). ``baselines``: the training-free baselines (``vpr-smr baselines``,
-    one per dataset, method and L): their tables, figures and findings, and the best of them in the
-    sequence-length ablation. ``descriptors``: descriptor files whose provenance attributes the page lists.
-    ``matchers``: the experiment matchers' files (``scoring.matcher_comparison.main``, one per dataset).
-    ``adaptive``: the experiment adaptive_seq_len's files (``scoring.adaptive.main``, one per dataset, matcher and
-    method), each with its live timing (``core.paths.timing_path``) read where that file is beside it.
-    """
-
-    evaluations: Sequence[Path | str] = ()
-    predictors: Sequence[Path | str] = ()
-    attribute_ablations: Sequence[Path | str] = ()
-    leave_one_out: Sequence[Path | str] = ()
-    timings: Sequence[Path | str] = ()
-    metrics: Sequence[Path | str] = ()
-    match_figures: Sequence[Path | str] = ()
-    matrix_figures: Sequence[Path | str] = ()
-    speed: Sequence[Path | str] = ()
-    baselines: Sequence[Path | str] = ()
-    descriptors: Sequence[Path | str] = ()
-    matchers: Sequence[Path | str] = ()
-    adaptive: Sequence[Path | str] = ()
-
-
-@dataclass(frozen=True)
 class ReportOptions:
     """How the report shows the run: the configuration's choices.
 
@@ -609,7 +575,18 @@ class ReportOptions:
     datasets: dict[str, dict[str, Any]] | None = None
 
 
-def main(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = None) -> list[Path]:
+def main(job: ReportJob) -> list[Path]:
+    """The ``report`` stage: ``write`` of the job's files under ``job.out``, with this package's version as the
+    page's provenance; return the files written."""
+    datasets = job.datasets.to_dict()
+    options = ReportOptions(split=job.split, eval_splits=job.eval_splits, train_split=job.train_split,
+                            table_seq_lens=job.table_seq_lens, seq_len_ablation=job.seq_len_ablation,
+                            config=job.settings.to_dict(), provenance={"vpr_smr_version": package_version()},
+                            datasets=datasets)
+    return write(job.out, job.files, options)
+
+
+def write(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = None) -> list[Path]:
     """Write ``tables/``, ``figures/`` and ``report.html`` under the run folder ``out_dir`` from the stages'
     ``files``, shown as ``options`` say (default: ``ReportOptions()``); return the files written."""
     from vpr_smr.eval.report import html as html_report

@@ -25,15 +25,17 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
 from vpr_smr.core.paths import timing_path
 from vpr_smr.core.records import save
+from vpr_smr.core.settings import REQUIRED, group, setting
 from vpr_smr.eval.matching.adaptive import NONE, first_accepted, used_lengths
 from vpr_smr.eval.matching.attributes import QueryFeatures
+from vpr_smr.eval.predictor.defaults import allow_split_overlap
 from vpr_smr.eval.scoring.adaptive_records import (
     ADAPTIVE,
     ADAPTIVE_FALLBACK,
@@ -50,12 +52,11 @@ from vpr_smr.eval.scoring.adaptive_records import (
     fixed_name,
 )
 from vpr_smr.eval.scoring.curves import AT_RECALL_ZERO
+from vpr_smr.eval.scoring.matcher_comparison import modes
 from vpr_smr.eval.scoring.records import Reduction
+from vpr_smr.eval.scoring.scorers import BaselineSettings
 
-if TYPE_CHECKING:
-    from vpr_smr.eval.scoring.scorers import BaselineSettings
-
-__all__ = ["Length", "choose", "compute", "main", "uniqueness_threshold"]
+__all__ = ["AdaptiveJob", "Length", "choose", "compute", "main", "uniqueness_threshold"]
 
 log = logging.getLogger(__name__)
 
@@ -371,22 +372,36 @@ def live_timing(matrix: Any, lengths: Sequence[int], predictors: Sequence[Any], 
     return AdaptiveTiming(dict(meta), n_query, len(chosen), seconds_adaptive, seconds_longest)
 
 
-def main(
-    dataset: str,
-    method: str,
-    attributes: Mapping[str, Sequence[Path | str]],
-    predictors: Sequence[Path | str],
-    table_split: str,
-    out: Path | str,
-    validation_split: str | None = None,
-    distances: Path | str | None = None,
-    seeds: int | None = None,
-    settings: BaselineSettings | None = None,
-    modes: Sequence[str] = ("paper", "standard"),
-    matcher_tag: str | None = None,
-    allow_split_overlap: bool = False,
-) -> AdaptiveResult:
-    """The experiment ``adaptive_seq_len`` of one dataset, ``method`` and matcher, written to ``out`` (JSON,
+@dataclass(frozen=True)
+class AdaptiveJob:
+    """The ``adaptive`` stage's job: the experiment adaptive_seq_len of one dataset, matcher and method (``main``)."""
+
+    attributes: dict[str, tuple[str, ...]] = setting(
+        REQUIRED, "the attributes files (vpr-smr attributes) of every sequence length, per split: the table "
+                  "split's, and the validation split's for adaptive_uniqueness; each file records its length. "
+                  "--attributes SPLIT PATH... per split, or SPLIT=PATH items", metavar="SPLIT PATH")
+    predictors: tuple[str, ...] = setting(
+        REQUIRED, "one predictor per length, its seed-0 file (vpr-smr train); the other seeds' files beside it "
+                  "(L4.seed1.h5, ...) are read too", metavar="PATH", min_items=1)
+    seeds: int | None = setting(None, "the seeds to read per length; none: every seed file found", minimum=1)
+    split: str = setting(REQUIRED, "the split to score (the table split)", metavar="SPLIT")
+    validation: str | None = setting(None, "the validation split: adaptive_uniqueness's threshold is chosen there",
+                                     metavar="SPLIT")
+    distances: str | None = setting(None, "the table split's distance file: the live matcher's time per query "
+                                          "(none without it)", metavar="PATH")
+    dataset: str = setting("dataset", "the dataset's name in the result", metavar="NAME")
+    method: str = setting("method", "the method's name in the result", metavar="NAME")
+    matcher_tag: str | None = setting(None, "the matcher's name in the result; none: its registry name",
+                                      metavar="TAG")
+    baselines: BaselineSettings = group(BaselineSettings, "the training-free scorers (method §12)")
+    modes: tuple[str, ...] = modes()
+    allow_split_overlap: bool = allow_split_overlap()
+    out: str = setting(REQUIRED, "the output file: the adaptive sequence length's result (JSON; its timing goes "
+                                 "beside it)", metavar="PATH")
+
+
+def main(job: AdaptiveJob) -> AdaptiveResult:
+    """The experiment ``adaptive_seq_len`` of one dataset, ``job.method`` and matcher, written to ``job.out`` (JSON,
     ``AdaptiveResult``) and the live timing beside it (``core.paths.timing_path``).
 
     ``attributes``: per split (the table split, and the validation split for ``adaptive_uniqueness``) one attributes
@@ -400,13 +415,16 @@ def main(
     from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
     from vpr_smr.eval.scoring.baselines import check_candidates
     from vpr_smr.eval.scoring.matcher_comparison import shared_queries
-    from vpr_smr.eval.scoring.scorers import DEFAULT_SETTINGS
 
-    out = check_suffix(out, JSON_SUFFIXES, "the adaptive sequence length's result (JSON; its timing goes beside it)")
-    settings = settings or DEFAULT_SETTINGS
+    dataset, method, attributes, predictors, seeds = job.dataset, job.method, job.attributes, job.predictors, job.seeds
+    table_split, validation_split, distances = job.split, job.validation, job.distances
+    settings, modes = job.baselines, job.modes
+    matcher_tag, allow_split_overlap = job.matcher_tag, job.allow_split_overlap
+    out = check_suffix(job.out, JSON_SUFFIXES,
+                       "the adaptive sequence length's result (JSON; its timing goes beside it)")
     if table_split not in attributes:
-        raise ValueError(f"no attributes of the table split {table_split!r}: give --attributes {table_split}=PATH "
-                         "per sequence length")
+        raise ValueError(f"no attributes of the table split {table_split!r}: give --attributes {table_split} PATH... "
+                         "(one file per sequence length)")
     splits = [table_split] + ([validation_split] if validation_split else [])
     files = {split: _grouped(attributes.get(split, ()), split) for split in splits}
     lengths = list(files[table_split])

@@ -27,25 +27,30 @@ import logging
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields, replace
 from functools import reduce
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from vpr_smr.core.constants import MODES
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
+from vpr_smr.core.json_objects import json_object
 from vpr_smr.core.records import FileRecord, Record, save
+from vpr_smr.core.settings import REQUIRED, group, setting
+from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec, matcher_class
+from vpr_smr.eval.matching.sources import TruthSource
+from vpr_smr.eval.predictor.defaults import allow_split_overlap
 from vpr_smr.eval.scoring.records import Detection, Interval, Reduction, SeedSummary
-from vpr_smr.eval.scoring.scorers import NATIVE  # the scorer that is each matcher's own confidence
+from vpr_smr.eval.scoring.scorers import NATIVE, BaselineSettings  # NATIVE: each matcher's own confidence
 
 if TYPE_CHECKING:
     from vpr_smr.eval.predictor.estimator import SMRPredictor
-    from vpr_smr.eval.scoring.scorers import BaselineSettings
 
 __all__ = [
-    "FAR_BELOW", "MatcherComparison", "MatcherMode", "MatcherScores", "compare", "experiment_matchers",
-    "far_below", "fixed_matcher", "main", "matcher_tag", "restricted", "shared_queries", "validation_warning",
+    "FAR_BELOW", "ComparedInputs", "MatcherComparison", "MatcherInputs", "MatcherMode", "MatcherScores", "MatchersJob",
+    "compare", "experiment_matchers", "far_below", "fixed_matcher", "main", "matcher_tag", "modes", "read_inputs",
+    "restricted", "shared_queries", "validation_warning",
 ]
 
 log = logging.getLogger(__name__)
@@ -306,6 +311,12 @@ class MatcherInputs:
     attributes: dict[str, dict[str, str]]  # split -> method -> path
     predictors: tuple[str, ...]
 
+    def to_json(self) -> Json:
+        """The entry as ``read_inputs`` reads it back (no ``predictors`` where there are none: the fixed one's)."""
+        return {"matcher": self.spec.provenance(),
+                "attributes": {split: dict(paths) for split, paths in self.attributes.items()},
+                **({"predictors": list(self.predictors)} if self.predictors else {})}
+
 
 def read_inputs(data: Mapping[str, Any]) -> tuple[list[MatcherInputs], MatcherInputs | None]:
     """The stage's ``--inputs`` JSON: ``{"matchers": [{"matcher": {...provenance}, "attributes": {split: {method:
@@ -327,42 +338,76 @@ def read_inputs(data: Mapping[str, Any]) -> tuple[list[MatcherInputs], MatcherIn
             None if fixed is None else one(fixed, "fixed"))
 
 
-def main(
-    dataset: str,
-    method: str,
-    seq_len: int,
-    inputs: Mapping[str, Any],
-    distances: Mapping[str, Path | str],
-    table_split: str,
-    tolerance: int,
-    out: Path | str,
-    settings: BaselineSettings | None = None,
-    modes: Sequence[str] = ("paper", "standard"),
-    validation_split: str | None = None,
-    radius: float | None = None,
-    ground_truth: Path | str | None = None,
-    ground_truth_key: str | None = None,
-    allow_split_overlap: bool = False,
-) -> MatcherComparison:
-    """The experiment ``matchers`` of one dataset and ``method`` at ``seq_len``, written to ``out`` (JSON,
+@dataclass(frozen=True)
+class ComparedInputs:
+    """The stage's ``inputs`` setting (a value class of ``core.settings``): the compared matchers' files and the
+    fixed matcher's validation attributes (None: no validation warning), as ``read_inputs`` reads them; on the
+    command line its JSON text (or ``@file``)."""
+
+    matchers: tuple[MatcherInputs, ...]
+    fixed: MatcherInputs | None = None
+
+    @classmethod
+    def from_setting(cls, value: Any, where: str) -> ComparedInputs:
+        compared, fixed = read_inputs(json_object(value, where))
+        return cls(tuple(compared), fixed)
+
+    def to_setting(self) -> Json:
+        return {"matchers": [entry.to_json() for entry in self.matchers],
+                "fixed": None if self.fixed is None else self.fixed.to_json()}
+
+
+def modes() -> Any:
+    """The field of a job's metric modes (``core.constants.MODES``), the configuration's ``modes``."""
+    return setting(MODES, "the metric modes: paper (the authors' rules) and/or standard", choices=MODES,
+                   min_items=1)
+
+
+@dataclass(frozen=True)
+class MatchersJob:
+    """The ``compare-matchers`` stage's job: the experiment ``matchers`` of one dataset and method (``main``)."""
+
+    dataset: str = setting(REQUIRED, "the dataset's name (a key of the configuration's datasets)", metavar="NAME")
+    method: str = setting(REQUIRED, "the method's name (a key of the configuration's methods)", metavar="NAME")
+    seq_len: int = sources.seq_len()
+    inputs: ComparedInputs = setting(
+        REQUIRED, "the compared matchers' files as a JSON object (or @file): {\"matchers\": [{\"matcher\": "
+                  "{\"name\": ..., \"settings\": {...}}, \"attributes\": {SPLIT: {METHOD: PATH}}, "
+                  "\"predictors\": [seed 0 first]}, ...], \"fixed\": the fixed matcher's validation attributes or "
+                  "null}", metavar="JSON")
+    distances: dict[str, str] = setting(REQUIRED, "the method's table split distances (.h5): the ground truth's "
+                                                  "reference positions", metavar="METHOD=PATH")
+    split: str = setting(REQUIRED, "the table split (a split of --inputs' attributes)", metavar="SPLIT")
+    validation: str | None = setting(None, "the validation split: the warning of a matcher far below the fixed one",
+                                     metavar="SPLIT")
+    truth: TruthSource = group(TruthSource, "the ground truth, as the attributes were computed")
+    baselines: BaselineSettings = group(BaselineSettings, "the training-free scorers (method §12)")
+    modes: tuple[str, ...] = modes()
+    allow_split_overlap: bool = allow_split_overlap()
+    out: str = setting(REQUIRED, "the output file: the matchers experiment's result (JSON)", metavar="PATH")
+
+
+def main(job: MatchersJob) -> MatcherComparison:
+    """The experiment ``matchers`` of one dataset and ``job.method`` at ``seq_len``, written to ``out`` (JSON,
     ``MatcherComparison``).
 
     ``inputs``: the compared matchers' files (``read_inputs``), each with the table split's (and the validation
     split's) attributes of ``method`` and its predictors; ``fixed``: the fixed matcher's validation attributes (the
     warning's reference; None leaves the warning out). ``distances``: ``{method: the table split's distance
-    file}`` (the ground truth's reference positions, as ``vpr-smr baselines`` reads them: ``tolerance``,
-    ``radius``, ``ground_truth``). Every input is checked before any scoring."""
+    file}`` (the ground truth's reference positions, as ``vpr-smr baselines`` reads them: ``truth``). Every input
+    is checked before any scoring."""
     from vpr_smr.eval.matching.attributes import Matching, check_matching, common_matching, read_features
     from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
     from vpr_smr.eval.matching.io import open_distance_matrix, scored_shape, split_ground_truth
     from vpr_smr.eval.predictor.estimator import SMRPredictor
     from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
     from vpr_smr.eval.scoring.baselines import check_candidates, spread_positions
-    from vpr_smr.eval.scoring.scorers import DEFAULT_SETTINGS
 
-    out = check_suffix(out, JSON_SUFFIXES, "the matchers experiment's result (JSON)")
-    settings = settings or DEFAULT_SETTINGS
-    compared, fixed = read_inputs(inputs)
+    dataset, method, seq_len, distances, table_split = job.dataset, job.method, job.seq_len, job.distances, job.split
+    validation_split, settings, modes, truth = job.validation, job.baselines, job.modes, job.truth
+    allow_split_overlap = job.allow_split_overlap
+    out = check_suffix(job.out, JSON_SUFFIXES, "the matchers experiment's result (JSON)")
+    compared, fixed = list(job.inputs.matchers), job.inputs.fixed
     tags = [matcher_tag(entry.spec) for entry in compared]
     methods = list(distances)
     if methods != [method]:
@@ -402,14 +447,15 @@ def main(
     fixed_features = None
     if fixed is not None and validation_split:
         fixed_features = {method: read_features(path) for method, path in fixed.attributes[validation_split].items()}
-    file_truth = None if ground_truth is None else read_ground_truth(ground_truth, ground_truth_key,
-                                                                      within=scored_shape(distances.values()))
+    file_truth = None if truth.ground_truth is None else read_ground_truth(
+        truth.ground_truth, truth.ground_truth_key, within=scored_shape(distances.values()))
     positions = {}
     for method, distance_path in distances.items():
         with open_distance_matrix(distance_path) as matrix:
             shape = tuple(int(n) for n in matrix.shape)
-        positions[method] = spread_positions(split_ground_truth(distance_path, shape, tolerance, radius, None, None,
-                                                                file_truth))
+        positions[method] = spread_positions(split_ground_truth(
+            distance_path, shape, truth.tolerance, truth.radius, truth.reference_positions, truth.query_positions,
+            file_truth))
     n_queries, n_validation, scores, fixed_recall, warnings = compare(
         features[table_split], predictors, positions, settings, modes,
         features.get(validation_split or "") if fixed_features is not None else None, fixed_features)

@@ -28,14 +28,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vpr_smr.core.constants import DEFAULT_VELOCITIES, N_LABELS
+from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, N_LABELS
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance
 from vpr_smr.core.records import FileRecord, Record, save
-from vpr_smr.core.settings import setting
+from vpr_smr.core.settings import REQUIRED, setting
+from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, stored_positions
 from vpr_smr.eval.matching.matchers import MatcherSpec
+from vpr_smr.eval.predictor.defaults import PredictorParams, allow_split_overlap, predictor_setting
 from vpr_smr.eval.predictor.leakage import FrameRange, check_disjoint, frame_ranges
 from vpr_smr.eval.scoring.records import Reduction
 
@@ -43,8 +45,8 @@ if TYPE_CHECKING:
     from vpr_smr.eval.predictor.estimator import SMRPredictor
 
 __all__ = [
-    "MATCHERS", "MODE", "SEED", "VARYING", "SpeedExperiment", "SpeedMatcher", "SpeedProfile", "SpeedResult",
-    "SpeedScores", "profile_names", "simulate", "main", "speed_matchers",
+    "MATCHERS", "MODE", "SEED", "VARYING", "SpeedExperiment", "SpeedJob", "SpeedMatcher", "SpeedProfile", "SpeedResult",
+    "SpeedScores", "profile_names", "simulate", "main", "speed_matchers", "velocities",
 ]
 
 # This module is imported by the workflow (profile_names) each time Snakemake reads the Snakefile: what needs
@@ -63,6 +65,19 @@ MODE = "paper"  # Table I's numbers, paper mode (method §8)
 SEED = 0  # the predictor's seed: the authors' recipe (see main)
 PROFILE_HELP = "a constant speed such as 0.5x, 1x or 2x (places per query frame, > 0), or 'varying'"
 
+
+def velocities() -> Any:
+    """The field of the velocity matcher's search set: the one declaration of the configuration's
+    ``speed.velocities`` and of the stage's ``--velocities``."""
+    return setting(
+        (0.5, 0.595, 0.707, 0.841, 1.0, 1.189, 1.414, 1.682, 2.0),
+        "the velocity matcher's search set (reference frames per query frame; the fixed matcher is [1.0]): 2**(k/4) "
+        "for k = -4..4, rounded to 3 decimals. Log-spaced, so it covers the profiles' range 0.5x-2x evenly in ratio, "
+        "and it holds 0.5, 1, 2 but not 0.75, 1.25 or 1.5, nor the varying profile's speeds: most profiles are "
+        "matched by a nearby slope, not an exact one, as a real robot's speed would be",
+        exclusive_minimum=0, min_items=1, unique=True, metavar="V")
+
+
 @dataclass(frozen=True)
 class SpeedExperiment:
     """The speed experiment (method §11, eval/scoring/speed.py): each dataset's train and table splits re-driven at
@@ -75,13 +90,26 @@ class SpeedExperiment:
         f"between {1 - VARYING_AMPLITUDE:g}x and {1 + VARYING_AMPLITUDE:g}x)",
         schema={"type": "array", "items": {"anyOf": [{"type": "number", "exclusiveMinimum": 0}, {"const": VARYING}]},
                 "minItems": 1, "uniqueItems": True})
-    velocities: tuple[float, ...] = setting(
-        (0.5, 0.595, 0.707, 0.841, 1.0, 1.189, 1.414, 1.682, 2.0),
-        "the velocity matcher's search set (reference frames per query frame; the fixed matcher is [1.0]): 2**(k/4) "
-        "for k = -4..4, rounded to 3 decimals. Log-spaced, so it covers the profiles' range 0.5x-2x evenly in ratio, "
-        "and it holds 0.5, 1, 2 but not 0.75, 1.25 or 1.5, nor the varying profile's speeds: most profiles are "
-        "matched by a nearby slope, not an exact one, as a real robot's speed would be",
-        exclusive_minimum=0, min_items=1, unique=True)
+    velocities: tuple[float, ...] = velocities()
+
+
+@dataclass(frozen=True)
+class SpeedJob:
+    """The ``speed`` stage's job: one dataset under one speed profile (``main``)."""
+
+    dataset: str = setting(REQUIRED, "the dataset's name (a key of the configuration's datasets)", metavar="NAME")
+    seq_len: int = sources.seq_len()
+    profile: str = setting(REQUIRED, PROFILE_HELP, metavar="PROFILE")
+    velocities: tuple[float, ...] = velocities()
+    tolerance: int = setting(DEFAULT_TOLERANCE, "a match within this many places of the simulated query's position "
+                                                "is correct", minimum=0)
+    train: dict[str, str] = setting(REQUIRED, "each method's train split distances (.h5), in the pooled training "
+                                              "order", metavar="METHOD=PATH")
+    table: dict[str, str] = setting(REQUIRED, "each method's table split distances (.h5), the same methods in the "
+                                              "same order (--test: the same option)", metavar="METHOD=PATH")
+    predictor: PredictorParams = predictor_setting()
+    allow_split_overlap: bool = allow_split_overlap()
+    out: str = setting(REQUIRED, "the output file: the speed experiment's result (JSON)", metavar="PATH")
 
 
 def speed_matchers(velocities: Sequence[float]) -> dict[str, MatcherSpec]:
@@ -330,34 +358,25 @@ def _check_methods(train: Mapping[str, Path | str], test: Mapping[str, Path | st
     return list(train)
 
 
-def main(
-    dataset: str,
-    seq_len: int,
-    profile: str | float | SpeedProfile,
-    train: Mapping[str, Path | str],
-    test: Mapping[str, Path | str],
-    out: Path | str,
-    velocities: Sequence[float],
-    tolerance: int,
-    params: dict[str, Any] | None = None,
-    allow_split_overlap: bool = False,
-) -> SpeedResult:
-    """The speed experiment of one dataset under one profile, written to ``out`` (JSON, ``SpeedResult``).
+def main(job: SpeedJob) -> SpeedResult:
+    """The speed experiment of one dataset under one profile, written to ``job.out`` (JSON, ``SpeedResult``).
 
-    ``train`` and ``test``: per method (the configuration's order, the pooled training order of method §7) its train
+    ``train`` and ``table``: per method (the configuration's order, the pooled training order of method §7) its train
     and table split's distance file (square, frame-aligned; the file's ``split_range`` gives ``lo``).
     ``velocities``: the velocity matcher's search set (``speed_matchers``); the fixed matcher is ``(1.0,)``.
-    ``params``: the predictor's settings. The meta records both matchers (``MatcherSpec.provenance``).
+    ``predictor``: the predictor's settings. The meta records both matchers (``MatcherSpec.provenance``).
 
     One predictor seed (0, the authors' recipe) per matcher, not the run's seeds: the experiment trains two
     predictors per profile and dataset, and the demo's time budget holds that; the spread over seeds is Table I's
     job, this experiment compares matchers and speeds under one recipe.
     """
-    out = check_suffix(out, JSON_SUFFIXES, "the speed experiment's result (JSON)")
-    profile = profile if isinstance(profile, SpeedProfile) else SpeedProfile.parse(profile)
-    matchers = speed_matchers(velocities)
+    dataset, seq_len, tolerance, train, test = job.dataset, job.seq_len, job.tolerance, job.train, job.table
+    params = job.predictor.values
+    out = check_suffix(job.out, JSON_SUFFIXES, "the speed experiment's result (JSON)")
+    profile = SpeedProfile.parse(job.profile)
+    matchers = speed_matchers(job.velocities)
     methods = _check_methods(train, test)
-    check_disjoint(_frame_ranges(train.values()), _frame_ranges(test.values()), allow_split_overlap,
+    check_disjoint(_frame_ranges(train.values()), _frame_ranges(test.values()), job.allow_split_overlap,
                    "the speed experiment's predictor")
     begin = time.perf_counter()
     seconds = dict.fromkeys(matchers, 0.0)

@@ -20,20 +20,13 @@ rule adaptive:
     wildcard_constraints:
         tag="|".join(map(re.escape, ADAPTIVE_TAGS)) or "(?!)",  # the experiment off: the rule matches nothing
     params:
-        overlap=ALLOW_OVERLAP,
-        # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
-        attributes=lambda wc, input: " ".join([name_pairs([conf.table_split] * len(input.table), input.table),
-                                               name_pairs([VALIDATION] * len(input.validation), input.validation)]),
-        # each length's seed-0 file: the command reads the other seeds beside it
-        predictors=lambda wc, input: " ".join(shlex.quote(path) for path in input.predictors[:: conf.seeds]),
-        seeds=conf.seeds,
-        split=conf.table_split,
-        validation=VALIDATION_OPTION,
-        baselines=BASELINES,
-        modes=" ".join(conf.modes),
+        # the stage's job record: per split every length's attributes, each length's seed-0 predictor (the command
+        # reads the other seeds beside it), the table split's matrix (the live timing), the scorers' settings
+        job=lambda wc, input, output: job_text(AdaptiveJob(
+            length_files([(conf.table_split, input.table), (VALIDATION, input.validation)]),
+            tuple(input.predictors[:: conf.seeds]), conf.seeds, conf.table_split, VALIDATION, input.distances,
+            wc.dataset, wc.method, wc.tag, conf.baselines, tuple(conf.modes), conf.allow_split_overlap,
+            output.result)),
         layout=RESULTS_LAYOUT,  # its file's layout: a run of an earlier one computes it again
     shell:
-        "vpr-smr adaptive --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --matcher-tag {wildcards.tag:q} --attributes {params.attributes} --predictors {params.predictors}"
-        " --seeds {params.seeds} --split {params.split:q} {params.validation} --distances {input.distances:q}"
-        " {params.baselines} --modes {params.modes} --out {output.result:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(studies.ADAPTIVE)

@@ -41,22 +41,13 @@ rule matchers:
     log:
         log_path(OUT, matchers_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     params:
-        overlap=ALLOW_OVERLAP,
-        inputs=lambda wc: json.dumps(experiment_inputs(OUT, conf, wc.dataset, wc.method, wc.seq_len),
-                                     separators=(",", ":")),
-        # METHOD=PATH, quoted already: the shell command uses it unquoted
-        distances=lambda wc, input: name_pairs([wc.method], [input.distances]),
-        split=conf.table_split,
-        validation=VALIDATION_OPTION,
-        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
-        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
-        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        baselines=BASELINES,
-        modes=" ".join(conf.modes),
+        # the stage's job record: the compared matchers' files, the table split's distances (the ground truth's
+        # reference positions), the dataset's ground truth (method §§11, 13), the scorers' settings, the modes
+        job=lambda wc, input, output: job_text(MatchersJob(
+            wc.dataset, wc.method, int(wc.seq_len), ComparedInputs.from_setting(
+                experiment_inputs(OUT, conf, wc.dataset, wc.method, wc.seq_len), "inputs"),
+            {wc.method: input.distances}, conf.table_split, VALIDATION, PLAN.datasets[wc.dataset].truth,
+            conf.baselines, tuple(conf.modes), conf.allow_split_overlap, output[0])),
         layout=RESULTS_LAYOUT,  # its file's layout: a run of an earlier one computes it again
     shell:
-        "vpr-smr compare-matchers --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len}"
-        " --inputs {params.inputs:q} --distances {params.distances} --split {params.split:q} {params.validation}"
-        " --tolerance {params.tolerance} {params.radius} {params.ground_truth} {params.baselines}"
-        " --modes {params.modes} --out {output:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(studies.COMPARE_MATCHERS)

@@ -37,21 +37,13 @@ rule report:
     log:
         report_log_path(OUT),
     params:
-        split=conf.table_split,
-        # the configuration's split names: the tables' columns and headings name them
-        eval_splits=" ".join(map(shlex.quote, conf.eval_splits)),
-        train_split=conf.train_split,
-        table_seq_len=TABLE_L,
-        seq_len_ablation="--seq-len-ablation" if "seq_len" in EXPERIMENTS else "",
-        # what the report shows as the run's configuration: every setting that changes a number
-        settings=report_settings(conf.to_json()),
-        datasets=report_datasets(PLAN),  # the configuration's order of datasets and splits
+        # the stage's job record: every file above; the configuration's split names (the tables' columns and
+        # headings name them), Table I's L; what the report shows as the run's configuration (every setting that
+        # changes a number) and the dataset cards, in the configuration's order of datasets and splits
+        job=lambda wc, input: job_text(ReportJob(
+            report_files(input), conf.table_split, tuple(conf.eval_splits),
+            conf.train_split, (int(TABLE_L),), "seq_len" in EXPERIMENTS,
+            JsonObject(json.loads(report_settings(conf.to_json()))), JsonObject(json.loads(report_datasets(PLAN))),
+            OUT)),
     shell:
-        "vpr-smr report --evaluations {input.evaluations:q} --baselines {input.baselines:q} --timings {input.timings:q}"
-        " --predictors {input.predictors:q} --attribute-ablations {input.attribute_ablations:q}"
-        " --leave-one-out {input.leave_one_out:q} --metrics {input.metrics:q}"
-        " --match-figures {input.match_figures:q} --matrix-figures {input.matrix_figures:q} --speed {input.speed:q}"
-        " --matchers {input.matchers:q} --adaptive {input.adaptive:q} --descriptors {input.descriptors:q} --split {params.split:q} --eval-splits {params.eval_splits}"
-        " --train-split {params.train_split:q} --table-seq-lens {params.table_seq_len}"
-        " {params.seq_len_ablation} --settings {params.settings:q} --datasets {params.datasets:q}"
-        " --out {OUT:q} > {log:q} 2>&1"
+        shell_command(reporting.REPORT)

@@ -15,19 +15,15 @@ rule speed:
     wildcard_constraints:
         profile="|".join(map(re.escape, SPEED_PROFILES)) or "(?!)",  # no profile: the rule matches nothing
     params:
-        overlap=ALLOW_OVERLAP,
-        predictor=canonical(conf.predictor.to_json()),
-        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
-        velocities=" ".join(str(float(v)) for v in conf.speed.velocities),  # 1 and 1.0 alike
-        # METHOD=PATH items, each quoted already: the shell command uses them unquoted
-        train=lambda wc, input: name_pairs(METHODS, input.train),
-        table=lambda wc, input: name_pairs(METHODS, input.table),
+        # the stage's job record: the profile, the velocity search set, the dataset's tolerance, every method's train
+        # and table split in the configuration's order (the pooled training order), the predictor's settings
+        job=lambda wc, input, output: job_text(SpeedJob(
+            wc.dataset, int(wc.seq_len), wc.profile, tuple(conf.speed.velocities), PLAN.datasets[wc.dataset].tolerance,
+            dict(zip(METHODS, input.train, strict=True)), dict(zip(METHODS, input.table, strict=True)),
+            PredictorParams.of(conf.predictor.to_json()), conf.allow_split_overlap, output[0])),
         layout=RESULTS_LAYOUT,  # its file's layout: a run of an earlier one computes it again
     # One BLAS thread per job: OpenBLAS's default (a thread per core) makes two jobs side by side on 2 cores fight
     # over them, measured 3 to 7 times slower than one thread each; the numbers are the same (checked on the demo).
     threads: 1
     shell:
-        "OMP_NUM_THREADS={threads} vpr-smr speed --dataset {wildcards.dataset:q} --seq-len {wildcards.seq_len}"
-        " --profile {wildcards.profile:q} --velocities {params.velocities} --tolerance {params.tolerance}"
-        " --train {params.train} --table {params.table} --predictor {params.predictor:q} --out {output:q}"
-        " {params.overlap} > {log:q} 2>&1"
+        "OMP_NUM_THREADS={threads} " + shell_command(studies.SPEED)

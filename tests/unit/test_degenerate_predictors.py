@@ -110,7 +110,7 @@ def test_table1_names_a_predictor_that_removed_every_match(removed_all):
     aoc, recall = naive_standard_aoc(features.sequence_distance.tolist(), features.sequence_correct.tolist())
     seed = SeedReport(0, {}, 0.5, 10, (30, 10, 10, 7), {})
     write_json(tmp_path / "p.json", PredictorReport({"dataset": "corridor", "seq_len": 4}, 57, (seed,)).to_json())
-    build.main(tmp_path / "run", build.RunFiles([tmp_path / "e.json"], [tmp_path / "p.json"]))
+    build.write(tmp_path / "run", build.RunFiles([tmp_path / "e.json"], [tmp_path / "p.json"]))
     md = (tmp_path / "run" / "tables" / "table1.md").read_text()
     standard = md.split("## standard mode")[1]
     # cut at the predictor's maximum recall 0, VPR+SM's AOC is 0 on every draw of the queries too
@@ -233,7 +233,7 @@ def test_the_findings_lead_with_the_predictors_warning(removed_all):
         "all 21 val samples."]
     assert predictor_warnings(table, "corridor", 6) == []
     write_json(tmp_path / "p.json", report.to_json())
-    build.main(tmp_path / "run", build.RunFiles([tmp_path / "e.json"], [tmp_path / "p.json"]))
+    build.write(tmp_path / "run", build.RunFiles([tmp_path / "e.json"], [tmp_path / "p.json"]))
     findings = (tmp_path / "run" / "report.html").read_text().split('id="findings"')[1].split("</section>")[0]
     assert findings.count("Warning: the predictor of corridor at L = 4 cannot be trusted") == 2  # both modes
     assert "| corridor | 4 |" in (tmp_path / "run" / "tables" / "predictor.md").read_text()

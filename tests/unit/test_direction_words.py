@@ -44,7 +44,7 @@ from vpr_smr.eval.scoring.records import (
 )
 from vpr_smr.eval.scoring.speed import SpeedResult, SpeedScores
 from vpr_smr.eval.scoring.vpr_metrics import format_baselines
-from vpr_smr.pipeline.cli import adaptive_text
+from vpr_smr.pipeline.stages.studies import adaptive_text
 
 # The words that name a direction; lower case, so that a column headed "Improved" (a count) is not one
 DIRECTION = re.compile(r"\b(improved|worse|helps|hurts|better)\b")

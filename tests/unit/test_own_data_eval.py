@@ -162,7 +162,7 @@ def hand_run(tmp_path):
 def test_table1_shows_na_and_averages_the_defined_reductions_only(hand_run):
     tmp_path, evaluations, predictors = hand_run
     run = tmp_path / "run"
-    report.main(run, report.RunFiles(evaluations, [predictors]))
+    report.write(run, report.RunFiles(evaluations, [predictors]))
     md = (run / "tables" / "table1.md").read_text()
     # AOCs: every method, (0.2 + 0 + 0.4) / 3; these hand-made files have no intervals: [n/a]
     assert "| d | VPR+SM | 0.2000 [n/a] | 0.0000 [n/a] | 0.4000 [n/a] | 0.2000 |  |" in md

@@ -359,13 +359,13 @@ def test_every_file_record_checks_its_format(record):
 
 
 def test_the_report_names_a_file_of_another_format(tmp_path):
-    from vpr_smr.eval.report.build import ReportOptions, RunFiles, main
+    from vpr_smr.eval.report.build import ReportOptions, RunFiles, write
 
     old = tmp_path / "e.json"
     write_json(old, {**EVALUATION.to_json(), "format": FORMAT - 1})
     with pytest.raises(FormatError, match=f"{old}: an evaluation file written in results format {FORMAT - 1}.*"
                                           "compute it again"):
-        main(tmp_path / "run", RunFiles([old]), ReportOptions(html=False))
+        write(tmp_path / "run", RunFiles([old]), ReportOptions(html=False))
 
 
 def test_a_predictor_of_another_format_says_to_train_it_again(tmp_path):

@@ -202,7 +202,7 @@ def test_tables_and_figures_with_standard_mode_only(tmp_path):
     from vpr_smr.core.io import write_json
     from vpr_smr.eval.matching.attributes import query_features
     from vpr_smr.eval.predictor.estimator import SMRPredictor
-    from vpr_smr.eval.report.build import ReportOptions, RunFiles, main
+    from vpr_smr.eval.report.build import ReportOptions, RunFiles, write
     from vpr_smr.eval.scoring.evaluate import evaluate_split
     from vpr_smr.eval.scoring.records import Evaluation
 
@@ -214,7 +214,7 @@ def test_tables_and_figures_with_standard_mode_only(tmp_path):
     evaluation = Evaluation({"dataset": "d", "method": "m", "seq_len": 4}, ("p.h5",), {"test": result})
     write_json(tmp_path / "e.json", evaluation.to_json())
     write_json(tmp_path / "p.json", predictor_report(4).to_json())
-    main(tmp_path / "out", RunFiles([tmp_path / "e.json"], [tmp_path / "p.json"]), ReportOptions(html=False))
+    write(tmp_path / "out", RunFiles([tmp_path / "e.json"], [tmp_path / "p.json"]), ReportOptions(html=False))
     assert (tmp_path / "out" / "tables" / "table1.csv").read_text().splitlines()[1].startswith("d,m,4,standard,")
     assert sorted(p.name for p in (tmp_path / "out" / "figures").iterdir()) == [
         "confusion_d_L4.png", "pr_d_L4_standard.png", "trust_d_L4_standard.png"]
@@ -496,7 +496,7 @@ def test_inspector_figures_are_placed_by_their_names(tmp_path):
 
 
 def test_a_wrong_file_given_to_the_report_is_named(tmp_path):
-    from vpr_smr.eval.report.build import RunFiles, main
+    from vpr_smr.eval.report.build import RunFiles, write
     from vpr_smr.eval.scoring import vpr_metrics
     from vpr_smr.eval.scoring.records import meta_key
 
@@ -506,7 +506,7 @@ def test_a_wrong_file_given_to_the_report_is_named(tmp_path):
     out = tmp_path / "run"
 
     def report(**inputs):
-        main(out, RunFiles(**{"evaluations": [evaluation], "predictors": [made / "p_L4.json"], **inputs}))
+        write(out, RunFiles(**{"evaluations": [evaluation], "predictors": [made / "p_L4.json"], **inputs}))
 
     not_json = tmp_path / "notes.json"
     not_json.write_text("dataset: d\n")
@@ -556,7 +556,7 @@ def test_the_report_command_names_a_wrong_file(tmp_path, capsys):
 def test_datasets_and_splits_keep_the_configurations_order(tmp_path):
     import html
 
-    from vpr_smr.eval.report.build import ReportOptions, RunFiles, main
+    from vpr_smr.eval.report.build import ReportOptions, RunFiles, write
 
     def card(overlap: str) -> dict:  # splits as configured: train, val, test (alphabetically test, train, val)
         return {**DATASET_CARD, "n_frames": 120, "splits": {"train": [0, 60], "val": [60, 90], "test": [80, 120]},
@@ -566,7 +566,7 @@ def test_datasets_and_splits_keep_the_configurations_order(tmp_path):
     cards = json.loads(json.dumps({"zeta": card("'val' and 'test' share [80, 90)"),
                                    "alpha": card("'val' and 'test' share frames [85, 90)")}))
     run = tmp_path / "run"
-    main(run, RunFiles(), ReportOptions(config={"run": "toy"}, datasets=cards))
+    write(run, RunFiles(), ReportOptions(config={"run": "toy"}, datasets=cards))
     rows = list(csv.DictReader(open(run / "tables" / "datasets.csv")))
     splits = "train [0, 60): 60 frames; val [60, 90): 30 frames; test [80, 120): 40 frames"
     assert [(r["dataset"], r["splits"]) for r in rows] == [("zeta", splits), ("alpha", splits)]

@@ -6,13 +6,13 @@ import html
 
 def test_provenance_of_descriptor_files_in_the_page(tmp_path):
     from vpr_smr.core.io import atomic_h5
-    from vpr_smr.eval.report.build import ReportOptions, RunFiles, main
+    from vpr_smr.eval.report.build import ReportOptions, RunFiles, write
 
     descriptors = tmp_path / "hog.h5"
     with atomic_h5(descriptors, {"dataset": "toy", "method": "hog", "checkpoint_sha256": "11" * 32,
                                  "frames_sha256": "22" * 32}):
         pass
-    main(tmp_path / "run", RunFiles(descriptors=[descriptors]),
+    write(tmp_path / "run", RunFiles(descriptors=[descriptors]),
          ReportOptions(config={"run": "toy", "seq_lens": [4]}, provenance={"vpr_smr_version": "9.9"}))
     page = (tmp_path / "run" / "report.html").read_text()
     assert "11" * 32 in page and "22" * 32 in page and str(descriptors) in page
@@ -29,9 +29,9 @@ def test_provenance_of_descriptor_files_in_the_page(tmp_path):
 
 
 def test_the_template_escapes_what_it_is_given(tmp_path):
-    from vpr_smr.eval.report.build import ReportOptions, RunFiles, main
+    from vpr_smr.eval.report.build import ReportOptions, RunFiles, write
 
-    main(tmp_path / "run", RunFiles(),
+    write(tmp_path / "run", RunFiles(),
          ReportOptions(config="note: <script>alert(1)</script> & more", provenance={"by": "<b>x</b>"}))
     page = (tmp_path / "run" / "report.html").read_text()
     assert "<script>alert(1)</script>" not in page and "&lt;script&gt;alert(1)&lt;/script&gt; &amp; more" in page

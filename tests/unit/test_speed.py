@@ -16,6 +16,7 @@ from helpers import write_distance_matrix
 from vpr_smr.core.records import load
 from vpr_smr.eval.matching.attributes import query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
+from vpr_smr.eval.predictor.defaults import PredictorParams
 from vpr_smr.eval.scoring import speed
 from vpr_smr.eval.scoring.speed import SpeedProfile, simulate, simulated_split
 from vpr_smr.pipeline.cli import main as cli
@@ -136,9 +137,15 @@ def dataset(tmp_path_factory):
     return files
 
 
+def job(train, test, out, profile="1x", velocities=(1.0, 2.0)):
+    """The stage's job record: the dataset d at L = 4, tolerance 2, the test predictor's settings."""
+    return speed.SpeedJob("d", 4, profile, tuple(velocities), 2, {m: str(p) for m, p in train.items()},
+                          {m: str(p) for m, p in test.items()}, PredictorParams.of(PARAMS), out=str(out))
+
+
 def run_stage(dataset, profile, tmp_path, velocities=(0.5, 1.0, 2.0)):
     out = tmp_path / f"{profile}.json"
-    speed.main("d", 4, profile, dataset["train"], dataset["test"], out, velocities, 2, PARAMS)
+    speed.main(job(dataset["train"], dataset["test"], out, profile, velocities))
     return load(out, speed.SpeedResult)
 
 
@@ -191,10 +198,9 @@ def test_velocity_search_finds_a_query_driven_twice_as_fast(dataset, tmp_path):
 
 def test_the_stage_refuses_mismatched_inputs(dataset, tmp_path):
     with pytest.raises(ValueError, match="same methods"):
-        speed.main("d", 4, "1x", dataset["train"], {"b": dataset["test"]["b"], "a": dataset["test"]["a"]},
-                   tmp_path / "x.json", (1.0, 2.0), 2, PARAMS)
+        speed.main(job(dataset["train"], {"b": dataset["test"]["b"], "a": dataset["test"]["a"]}, tmp_path / "x.json"))
     with pytest.raises(ValueError, match="shares frames"):  # a predictor scored on its own training frames
-        speed.main("d", 4, "1x", dataset["train"], dataset["train"], tmp_path / "x.json", (1.0, 2.0), 2, PARAMS)
+        speed.main(job(dataset["train"], dataset["train"], tmp_path / "x.json"))
     assert not (tmp_path / "x.json").exists()
 
 
@@ -204,8 +210,9 @@ def test_the_stage_refuses_mismatched_inputs(dataset, tmp_path):
 @pytest.mark.parametrize(("options", "message"), [
     (["--profile", "fast"], "vpr-smr speed: error: speed profile 'fast' is not a constant speed such as 0.5x"),
     (["--profile=-2x"], "speed profile '-2x': a speed must be a finite number > 0"),
-    (["--profile", "2x", "--velocities", "1", "0"], "speed.velocities: velocities searched, in reference frames per "
-                                                    "query frame ([1.0]: the fixed matcher); must be > 0, got 0.0"),
+    (["--profile", "2x", "--velocities", "1", "0"], "vpr-smr speed: error: --velocities: the velocity matcher's search "
+                                                    "set (reference frames per query frame"),
+    (["--profile", "2x", "--velocities", "1", "0"], "must be > 0, got 0.0"),
     (["--profile", "2x", "--velocities", "1", "-0.5"], "must be > 0, got -0.5"),
 ])
 def test_the_command_refuses_a_bad_profile_or_velocity(dataset, tmp_path, capsys, options, message):

@@ -15,7 +15,8 @@ from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.records import AttributeAblation
 from vpr_smr.eval.scoring.records import HeldOut
 from vpr_smr.eval.scoring.speed import SpeedResult
-from vpr_smr.pipeline.cli import lowest_rule, main, matchers_headline
+from vpr_smr.pipeline.cli import main
+from vpr_smr.pipeline.stages.studies import lowest_rule, matchers_headline
 
 
 def _wrote(caplog, out):
