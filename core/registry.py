@@ -15,13 +15,15 @@ from __future__ import annotations
 import importlib
 from collections.abc import Callable, Iterator
 from importlib.metadata import entry_points
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, TypeVar, overload
 
 from vpr_smr.core.suggest import did_you_mean
 
 __all__ = ["Registry"]
 
 T = TypeVar("T")
+D = TypeVar("D")
+_RAISE = object()  # ``get`` without a default
 
 
 class Registry(Generic[T]):
@@ -58,9 +60,16 @@ class Registry(Generic[T]):
         self._claim(name)
         self._lazy[name] = target
 
-    def get(self, name: str) -> T:
-        """The item of ``name``: built in, or the installed entry point of that name; ValueError naming the kind,
-        the closest name, the available ones and the entry point group."""
+    @overload
+    def get(self, name: str) -> T: ...
+
+    @overload
+    def get(self, name: str, default: D) -> T | D: ...
+
+    def get(self, name: str, default: Any = _RAISE) -> Any:
+        """The item of ``name``: built in, or the installed entry point of that name; for another name ``default``
+        where given (as a mapping's ``get``), else ValueError naming the kind, the closest name, the available ones
+        and the entry point group."""
         if name in self._items:
             return self._items[name]
         if name in self._lazy:
@@ -73,6 +82,8 @@ class Registry(Generic[T]):
             if point.name == name:
                 # not kept: the import system keeps the module, and a package installed meanwhile is seen
                 return self._checked(name, point.load())
+        if default is not _RAISE:
+            return default
         raise ValueError(self.unknown(name))
 
     def unknown(self, name: str) -> str:
@@ -101,6 +112,21 @@ class Registry(Generic[T]):
             if name in self:
                 raise  # a plugin that does not pass ``check``
             raise KeyError(str(error)) from None
+
+    def __setitem__(self, name: str, item: T) -> None:
+        """Set ``name`` to ``item`` whatever was there (a test's stand-in; ``add`` refuses a name already taken)."""
+        if name not in self._order:
+            self._order.append(name)
+        self._lazy.pop(name, None)
+        self._items[name] = item
+
+    def __delitem__(self, name: str) -> None:
+        """Remove the built-in ``name`` (what ``monkeypatch.setitem`` undoes); KeyError for another."""
+        if name not in self._order:
+            raise KeyError(name)
+        self._order.remove(name)
+        self._lazy.pop(name, None)
+        self._items.pop(name, None)
 
     def __iter__(self) -> Iterator[str]:
         return iter(list(self._order))

@@ -22,6 +22,7 @@ unwhitened 2048-d descriptor. VPR-methods-evaluation does the same (full size, L
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -30,6 +31,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import IMAGENET_MEAN, IMAGENET_STD, CheckpointError, TorchBackend, to_tensor
 
 EXPECTED_FILE = ("Resnet-101-AP-GeM.pt converted once with `vpr-smr convert-checkpoint apgem IN OUT` "
@@ -101,34 +103,34 @@ class APGeMNet(nn.Module):
         return x
 
 
+@dataclass(frozen=True)
+class APGeMSettings:
+    """The settings of ``apgem``."""
+
+    # null keeps the full image, as the official evaluation does
+    max_size: int | None = setting(None, "integer or null: the longest image side in pixels; a larger image is shrunk "
+                                         "to it, keeping its aspect ratio; null: full size, as the official evaluation")
+    # "auto": the release's "Landmarks_clean", which the official test_dir.py (and VPR-methods-evaluation) applies,
+    # when the converted file holds it
+    whiten: str | None = setting("auto", "text, auto or null: the name of a whitening stored in the converted "
+                                         f"checkpoint; auto: {OFFICIAL_WHITENING} (the official evaluation's) when the "
+                                         "file holds it, else none; null: no whitening")
+    # official test_dir.py default (the sklearn-style whitening would be 0.5)
+    whitenp: float = setting(0.25, "the power of the explained variance that divides each whitened component "
+                                   "(official test_dir.py: 0.25; 0.5 is scikit-learn's PCA whitening); used when the "
+                                   "whitening was fitted with whiten=True")
+    whitenv: int | None = setting(None, "integer or null: the number of whitening components kept, i.e. the whitened "
+                                        "descriptor's size; null: all")
+    whitenm: float = setting(1.0, "a factor of the divisor of each whitened component (whitenm x variance ^ "
+                                  "whitenp); used when the whitening was fitted with whiten=True")
+
+
 class APGeM(TorchBackend):
     """ResNet-101 AP-GeM, 2048-d descriptors (fewer with ``whitenv``)."""
 
     name: ClassVar[str] = "apgem"
     model: APGeMNet  # what build_model returns
-    default_conf: ClassVar[dict[str, Any]] = {
-        # Longest image side in pixels; null keeps the full image, as the official evaluation does.
-        "max_size": None,
-        # Name of a whitening stored in the file; "auto": the release's "Landmarks_clean", which the official
-        # test_dir.py (and VPR-methods-evaluation) applies, when the converted file holds it; null: none.
-        "whiten": "auto",
-        "whitenp": 0.25,  # official test_dir.py default (the sklearn-style whitening would be 0.5)
-        "whitenv": None,  # number of components kept; null: all
-        "whitenm": 1.0,
-    }
-    settings_help: ClassVar[dict[str, str]] = {
-        "max_size": "integer or null: the longest image side in pixels; a larger image is shrunk to it, keeping its "
-                    "aspect ratio; null: full size, as the official evaluation",
-        "whiten": "text, auto or null: the name of a whitening stored in the converted checkpoint; auto: "
-                  f"{OFFICIAL_WHITENING} (the official evaluation's) when the file holds it, else none; null: no "
-                  "whitening",
-        "whitenp": "the power of the explained variance that divides each whitened component (official test_dir.py: "
-                   "0.25; 0.5 is scikit-learn's PCA whitening); used when the whitening was fitted with whiten=True",
-        "whitenv": "integer or null: the number of whitening components kept, i.e. the whitened descriptor's size; "
-                   "null: all",
-        "whitenm": "a factor of the divisor of each whitened component (whitenm x variance ^ whitenp); used when the "
-                   "whitening was fitted with whiten=True",
-    }
+    Settings: ClassVar[type | None] = APGeMSettings
     input_summary: ClassVar[str] = "full size (max_size caps the longest side)"
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:

@@ -3,7 +3,9 @@
 A backend maps one RGB image (``H x W x 3`` uint8) to one global descriptor. It is a small class:
 ``preprocess(image)`` runs in DataLoader worker processes and returns a tensor or array, ``forward(batch)``
 returns ``(B, dim)`` float32 descriptors, and learned backends ``load(checkpoint)`` from a local file.
-Parameters come from ``default_conf`` updated with the configuration entry, as in hloc.
+A backend declares its own settings as its ``Settings`` record (``core.settings.setting`` fields: default and one
+line of help each, as a matcher does); ``conf`` is their defaults (``default_conf``) updated with the configuration
+entry, as in hloc.
 
 Checkpoint loading lives here, in ``TorchBackend.load``, for every learned backend: read the file with
 ``weights_only=True`` (``read_file``; a backend released as a safetensors file reads it with ``safetensors``),
@@ -23,6 +25,7 @@ import pickletools
 import re
 import shlex
 import tarfile
+import warnings
 import zipfile
 from collections.abc import Sequence
 from pathlib import Path
@@ -33,8 +36,9 @@ import torch
 
 from vpr_smr.core.constants import METRICS
 from vpr_smr.core.files import EMPTY, GZIP, HDF5, KINDS, MAT, NPY, PICKLE, TAR, ZIP, file_kind, read_head, text_start
+from vpr_smr.core.settings import declared, json_default
 
-# Accepted by every backend, next to the backend's own ``default_conf``.
+# Accepted by every backend, next to the backend's own settings (its ``Settings``).
 COMMON_SETTINGS = ("checkpoint", "device", "half", "distance", "preprocessing")
 
 # Values of the ``preprocessing`` setting. "official": what each method's own evaluation code does with the
@@ -66,12 +70,15 @@ class CheckpointError(ValueError):
 
 
 class Backend:
-    """Base class: subclasses set ``name`` and ``default_conf`` and implement ``preprocess`` and ``forward``."""
+    """Base class: subclasses set ``name`` and ``Settings`` and implement ``preprocess`` and ``forward``."""
 
     name: ClassVar[str] = ""
+    # The backend's own settings: a frozen dataclass of ``core.settings.setting(default, help)`` fields, the help
+    # saying what the setting means, its unit or choices, and what null or auto does (with the accepted types where
+    # the default does not show them); the configuration reference and `vpr-smr backends` show them.
+    Settings: ClassVar[type | None] = None
+    # What ``Settings`` declares, as JSON (``__init_subclass__`` derives them): the defaults, and the help by name.
     default_conf: ClassVar[dict[str, Any]] = {}
-    # One line per key of ``default_conf``: what the setting means, its unit or choices, and what null or auto
-    # does (with the accepted types where the default does not show them), for the configuration reference.
     settings_help: ClassVar[dict[str, str]] = {}
     # "l2": squared Euclidean on L2-normalised descriptors; "cosine": 1 - cos; "mad": mean absolute difference
     # (SAD). The class sets the method's own metric; the setting ``distance`` overrides it per method.
@@ -83,6 +90,19 @@ class Backend:
     input_summary: ClassVar[str] = "not stated"
     # The file the weights came from, once loaded (its SHA-256 goes into the provenance).
     checkpoint_file: Path | None = None
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if "Settings" in vars(cls) and cls.Settings is not None:
+            settings = declared(cls.Settings)
+            cls.default_conf = {item.name: json_default(item) for item in settings}
+            cls.settings_help = {item.name: item.help for item in settings}
+        elif "default_conf" in vars(cls) or "settings_help" in vars(cls):
+            # a plugin written for 0.15: its dicts still work
+            warnings.warn(f"descriptor backend {cls.__module__}.{cls.__qualname__} declares its settings as "
+                          "default_conf and settings_help dicts, which a later release will not read: declare them "
+                          "as a Settings record of core.settings.setting(default, help) fields (docs/extending.md, "
+                          "'A descriptor backend')", DeprecationWarning, stacklevel=2)
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
         conf = dict(conf or {})

@@ -45,6 +45,7 @@ harness's ``vpr_models/boq.py`` (bbf910b) copies the ResNet layout of BoQ before
 from __future__ import annotations
 
 import re
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -54,6 +55,7 @@ import torch.nn.functional as F
 import torchvision
 from torch import nn
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import CheckpointError, TorchBackend, resize_tensor, to_tensor
 from vpr_smr.descriptors.dinov2 import DinoVisionTransformer
 
@@ -265,6 +267,24 @@ def file_sizes(state_dict: dict[str, Any]) -> dict[str, int]:
     return sizes
 
 
+@dataclass(frozen=True)
+class BoQSettings:
+    """The settings of ``boq``."""
+
+    backbone: str | None = setting(
+        None, f"{', '.join(BACKBONES)} or null: the variant; null: read from the checkpoint's keys "
+              f"({', '.join(f'{prefix}* for {kind}' for kind, prefix in BACKBONE_PREFIXES.items())}), which must "
+              "match when set")
+    # 16384 / 12288 for the releases
+    output_dim: int | None = setting(
+        None, "integer or null: the descriptor size ({}); null: read from the checkpoint, which must match when "
+              "set".format(", ".join(f"{dim} for {kind}" for kind, (_, dim) in RELEASED.items())))
+    image_size: str | tuple[int, ...] = setting(
+        "auto", "auto or [H, W] in pixels: auto: {}, under either preset; [H, W] overrides it (multiples of {} for "
+                "dinov2)".format(" or ".join("{} x {} for {}".format(*size, kind)
+                                             for kind, size in OFFICIAL_SIZE.items()), PATCH_SIZE))
+
+
 class BoQ(TorchBackend):
     """BoQ global descriptor (ResNet-50 16384-d or DINOv2 12288-d). Checkpoint: a file of release v1.0.
 
@@ -277,21 +297,7 @@ class BoQ(TorchBackend):
 
     name: ClassVar[str] = "boq"
     model: BoQNet  # what build_model returns
-    default_conf: ClassVar[dict[str, Any]] = {
-        "backbone": None,  # "resnet50" | "dinov2"; None: from the checkpoint's keys
-        "output_dim": None,  # None: from the checkpoint (proj_c and fc shapes); 16384 / 12288 for the releases
-        "image_size": "auto",  # 384 x 384 (resnet50) or 322 x 322 (dinov2), or [H, W]
-    }
-    settings_help: ClassVar[dict[str, str]] = {
-        "backbone": f"{', '.join(BACKBONES)} or null: the variant; null: read from the checkpoint's keys "
-                    f"({', '.join(f'{prefix}* for {kind}' for kind, prefix in BACKBONE_PREFIXES.items())}), which "
-                    "must match when set",
-        "output_dim": "integer or null: the descriptor size ({}); null: read from the checkpoint, which must match "
-                      "when set".format(", ".join(f"{dim} for {kind}" for kind, (_, dim) in RELEASED.items())),
-        "image_size": "auto or [H, W] in pixels: auto: {}, under either preset; [H, W] overrides it (multiples of "
-                      "{} for dinov2)".format(" or ".join("{} x {} for {}".format(*size, kind)
-                                                          for kind, size in OFFICIAL_SIZE.items()), PATCH_SIZE),
-    }
+    Settings: ClassVar[type | None] = BoQSettings
     input_summary: ClassVar[str] = ", ".join("{}x{} ({})".format(*size, backbone)
                                              for backbone, size in OFFICIAL_SIZE.items())
 

@@ -15,6 +15,7 @@ image as well, so ``preprocessing`` changes nothing here.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, cast
 
@@ -24,6 +25,7 @@ import torch.nn.functional as F
 import torchvision
 from torch import nn
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import CheckpointError, TorchBackend, to_tensor
 from vpr_smr.descriptors.layers import PIL_FILTERS, L2Norm, pil_resize, resized_size, vgg16_conv5_3
 
@@ -98,35 +100,59 @@ def detect_backbone(state_dict: dict[str, Any]) -> str | None:
     return name
 
 
+# Released files per backbone (hubconf.py AVAILABLE_TRAINED_MODELS) and where to get them.
+COSPLACE_RELEASED: dict[str, list[int]] = {
+    "VGG16": [64, 128, 256, 512],
+    "ResNet18": [32, 64, 128, 256, 512],
+    "ResNet50": [32, 64, 128, 256, 512, 1024, 2048],
+    "ResNet101": [32, 64, 128, 256, 512, 1024, 2048],
+    "ResNet152": [32, 64, 128, 256, 512, 1024, 2048],
+}
+EIGENPLACES_RELEASED: dict[str, list[int]] = {
+    "VGG16": [512],
+    "ResNet18": [256, 512],
+    "ResNet50": [128, 256, 512, 1024, 2048],
+    "ResNet101": [128, 256, 512, 1024, 2048],
+}
+
+
+@dataclass(frozen=True)
+class CosPlaceSettings:
+    """The settings of ``cosplace``."""
+
+    backbone: str = setting("ResNet50", f"the checkpoint's trunk, one of {', '.join(COSPLACE_RELEASED)}; a file with "
+                                        "another one is refused")
+    # null: read from the checkpoint's aggregation.3.weight
+    fc_output_dim: int | None = setting(None, "integer or null: the descriptor size (the output of the Linear layer "
+                                              "aggregation.3); null: read from the checkpoint, which must match when "
+                                              "set")
+    resize: int | tuple[int, ...] | None = setting(
+        None, "null, integer or [H, W] in pixels: null: full size, as the official evaluation; integer: the shorter "
+              "side, keeping the aspect ratio (CosPlace's --resize_test_imgs --image_size); [H, W]: that size")
+    interpolation: str = setting("bilinear", f"the PIL filter of resize, one of {', '.join(PIL_FILTERS)}")
+
+
+@dataclass(frozen=True)
+class EigenPlacesSettings(CosPlaceSettings):
+    """The settings of ``eigenplaces``: CosPlace's, its own trunks; EigenPlaces evaluates full-size images only (its
+    test_dataset.py has no resize option): resize is kept for symmetry with CosPlace."""
+
+    backbone: str = setting("ResNet50", f"the checkpoint's trunk, one of {', '.join(EIGENPLACES_RELEASED)}; a file "
+                                        "with another one is refused")
+    resize: int | tuple[int, ...] | None = setting(
+        None, "null, integer or [H, W] in pixels: null: full size, as the official evaluation (which has no other); "
+              "integer: the shorter side, keeping the aspect ratio; [H, W]: that size")
+
+
 class CosPlace(TorchBackend):
     """CosPlace global descriptor; ``fc_output_dim: null`` takes the dimension from the checkpoint."""
 
     name: ClassVar[str] = "cosplace"
     model: GeoLocalizationNet  # what build_model returns
-    default_conf: ClassVar[dict[str, Any]] = {
-        "backbone": "ResNet50",
-        "fc_output_dim": None,  # None: read from the checkpoint's aggregation.3.weight
-        "resize": None,  # None: full size (official eval); int: shorter side; [H, W]: fixed size
-        "interpolation": "bilinear",
-    }
+    Settings: ClassVar[type | None] = CosPlaceSettings
     input_summary: ClassVar[str] = "full size (resize: optional)"
     # Released files per backbone (hubconf.py AVAILABLE_TRAINED_MODELS) and where to get them.
-    released: ClassVar[dict[str, list[int]]] = {
-        "VGG16": [64, 128, 256, 512],
-        "ResNet18": [32, 64, 128, 256, 512],
-        "ResNet50": [32, 64, 128, 256, 512, 1024, 2048],
-        "ResNet101": [32, 64, 128, 256, 512, 1024, 2048],
-        "ResNet152": [32, 64, 128, 256, 512, 1024, 2048],
-    }
-    settings_help: ClassVar[dict[str, str]] = {
-        "backbone": f"the checkpoint's trunk, one of {', '.join(released)}; a file with another one is refused",
-        "fc_output_dim": "integer or null: the descriptor size (the output of the Linear layer aggregation.3); null: "
-                         "read from the checkpoint, which must match when set",
-        "resize": "null, integer or [H, W] in pixels: null: full size, as the official evaluation; integer: the "
-                  "shorter side, keeping the aspect ratio (CosPlace's --resize_test_imgs --image_size); [H, W]: "
-                  "that size",
-        "interpolation": f"the PIL filter of resize, one of {', '.join(PIL_FILTERS)}",
-    }
+    released: ClassVar[dict[str, list[int]]] = COSPLACE_RELEASED
     file_suffix: ClassVar[str] = "cosplace"
     release_url: ClassVar[str] = "https://github.com/gmberton/CosPlace/releases/download/v1.0/"
 
@@ -197,20 +223,7 @@ class EigenPlaces(CosPlace):
     """EigenPlaces: the CosPlace network trained with a different objective; its own released files."""
 
     name: ClassVar[str] = "eigenplaces"
-    # EigenPlaces evaluates full-size images only (its test_dataset.py has no resize option); kept for
-    # symmetry with CosPlace.
-    default_conf: ClassVar[dict[str, Any]] = dict(CosPlace.default_conf)
-    released: ClassVar[dict[str, list[int]]] = {
-        "VGG16": [512],
-        "ResNet18": [256, 512],
-        "ResNet50": [128, 256, 512, 1024, 2048],
-        "ResNet101": [128, 256, 512, 1024, 2048],
-    }
-    settings_help: ClassVar[dict[str, str]] = {
-        **CosPlace.settings_help,
-        "backbone": f"the checkpoint's trunk, one of {', '.join(released)}; a file with another one is refused",
-        "resize": "null, integer or [H, W] in pixels: null: full size, as the official evaluation (which has no "
-                  "other); integer: the shorter side, keeping the aspect ratio; [H, W]: that size",
-    }
+    Settings: ClassVar[type | None] = EigenPlacesSettings
+    released: ClassVar[dict[str, list[int]]] = EIGENPLACES_RELEASED
     file_suffix: ClassVar[str] = "eigenplaces"
     release_url: ClassVar[str] = "https://github.com/gmberton/EigenPlaces/releases/download/v1.0/"

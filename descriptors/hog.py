@@ -2,31 +2,38 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 import torch
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import Backend
 from vpr_smr.descriptors.classic import grey as to_grey
 from vpr_smr.descriptors.classic import hog, l2_normalised, resize_area
+
+
+@dataclass(frozen=True)
+class HOGSettings:
+    """The settings of ``hog``."""
+
+    width: int = setting(128, "pixels: the width the grey image is resized to (OpenCV's area interpolation); a "
+                              "multiple of cell")
+    height: int = setting(64, "pixels: the height the grey image is resized to; a multiple of cell")
+    cell: int = setting(8, "pixels: the side of a cell, the area of one orientation histogram; also the block stride")
+    block: int = setting(16, "pixels: the side of a block, whose cells' histograms are normalised together; a "
+                             "multiple of cell, at most the smaller image side")
+    bins: int = setting(9, "the number of orientation bins per cell histogram, over unsigned gradients (0 to 180 "
+                           "degrees); at least 2")
 
 
 class HOG(Backend):
     """Grey image resized to ``width x height``, OpenCV's ``HOGDescriptor`` (block stride = cell), L2-normalised."""
 
     name: ClassVar[str] = "hog"
-    default_conf: ClassVar[dict[str, Any]] = {"width": 128, "height": 64, "cell": 8, "block": 16, "bins": 9}
-    settings_help: ClassVar[dict[str, str]] = {
-        "width": "pixels: the width the grey image is resized to (OpenCV's area interpolation); a multiple of cell",
-        "height": "pixels: the height the grey image is resized to; a multiple of cell",
-        "cell": "pixels: the side of a cell, the area of one orientation histogram; also the block stride",
-        "block": "pixels: the side of a block, whose cells' histograms are normalised together; a multiple of cell, "
-                 "at most the smaller image side",
-        "bins": "the number of orientation bins per cell histogram, over unsigned gradients (0 to 180 degrees); "
-                "at least 2",
-    }
-    input_summary: ClassVar[str] = f"any; grey, resized to {default_conf['width']}x{default_conf['height']} (W x H)"
+    Settings: ClassVar[type | None] = HOGSettings
+    input_summary: ClassVar[str] = f"any; grey, resized to {HOGSettings.width}x{HOGSettings.height} (W x H)"
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
         super().__init__(conf)

@@ -45,6 +45,7 @@ key and shape is checked strictly. No conversion command is needed.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar, TypeVar
 
@@ -53,6 +54,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import (
     CheckpointError,
     TorchBackend,
@@ -130,40 +132,36 @@ class MegaLocNet(nn.Module):
         return F.normalize(self.aggregator(features, token), p=2, dim=-1)
 
 
+@dataclass(frozen=True)
+class MegaLocSettings:
+    """The settings of ``megaloc``."""
+
+    # "auto": 322 x 322 (official) or the harness's rounding to multiples of 14; or [H, W]
+    image_size: str | tuple[int, ...] = setting(
+        "auto", "auto or [H, W] in pixels: auto: {} x {} (official), or under preprocessing vpr-methods-evaluation "
+                "the full image with each side resized to the nearest multiple of 14; [H, W]: that size under either "
+                "preset (the network rounds sides that are not multiples of 14)".format(*OFFICIAL_SIZE))
+    feat_dim: int = setting(8448, "the descriptor size, the output of the final linear map (aggregator.linear); must "
+                                  "match the checkpoint")
+    num_clusters: int = setting(64, "the number of clusters the patch tokens are assigned to (plus a dustbin); must "
+                                    "match the checkpoint")
+    cluster_dim: int = setting(256, "the size of each cluster's aggregated feature (token_dim + num_clusters x "
+                                    "cluster_dim values enter the linear map); must match the checkpoint")
+    token_dim: int = setting(256, "the size of the global token made from the class token; must match the checkpoint")
+    mlp_dim: int = setting(512, "the hidden size of the aggregation's token, cluster-feature and score layers; must "
+                                "match the checkpoint")
+    # ViT-B/14; change only for checkpoints trained with another DINOv2 size (without registers)
+    embed_dim: int = setting(768, VIT_SETTINGS_HELP["embed_dim"])
+    depth: int = setting(12, VIT_SETTINGS_HELP["depth"])
+    num_heads: int = setting(12, VIT_SETTINGS_HELP["num_heads"])
+
+
 class MegaLoc(TorchBackend):
     """DINOv2 + SALAD + linear, 8448-d descriptors. Checkpoint: the official ``model.safetensors`` (or the
     earlier ``megaloc.torch``). Presets: see the module docstring."""
 
     name: ClassVar[str] = "megaloc"
-    default_conf: ClassVar[dict[str, Any]] = {
-        # "auto": 322 x 322 (official) or the harness's rounding to multiples of 14; or [H, W].
-        "image_size": "auto",
-        "feat_dim": 8448,
-        "num_clusters": 64,
-        "cluster_dim": 256,
-        "token_dim": 256,
-        "mlp_dim": 512,
-        # ViT-B/14; change only for checkpoints trained with another DINOv2 size (without registers).
-        "embed_dim": 768,
-        "depth": 12,
-        "num_heads": 12,
-    }
-    settings_help: ClassVar[dict[str, str]] = {
-        "image_size": "auto or [H, W] in pixels: auto: {} x {} (official), or under preprocessing "
-                      "vpr-methods-evaluation the full image with each side resized to the nearest multiple of 14; "
-                      "[H, W]: that size under either preset (the network rounds sides that are not multiples of 14)"
-                      .format(*OFFICIAL_SIZE),
-        "feat_dim": "the descriptor size, the output of the final linear map (aggregator.linear); must match the "
-                    "checkpoint",
-        "num_clusters": "the number of clusters the patch tokens are assigned to (plus a dustbin); must match the "
-                        "checkpoint",
-        "cluster_dim": "the size of each cluster's aggregated feature (token_dim + num_clusters x cluster_dim values "
-                       "enter the linear map); must match the checkpoint",
-        "token_dim": "the size of the global token made from the class token; must match the checkpoint",
-        "mlp_dim": "the hidden size of the aggregation's token, cluster-feature and score layers; must match the "
-                   "checkpoint",
-        **VIT_SETTINGS_HELP,
-    }
+    Settings: ClassVar[type | None] = MegaLocSettings
     input_summary: ClassVar[str] = "{}x{} (H x W)".format(*OFFICIAL_SIZE)
     patch_size: ClassVar[int] = 14
     # Set by ``adapt_state_dict``: whether the file read last had megaloc.torch's keys (for messages).

@@ -23,6 +23,7 @@ then ``transforms.Resize([320, 320], antialias=True)`` on the normalised float t
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -32,6 +33,7 @@ import torch.nn.functional as F
 import torchvision
 from torch import nn
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import CheckpointError, TorchBackend, resize_tensor, to_tensor
 from vpr_smr.descriptors.layers import PIL_FILTERS, pil_resize
 
@@ -127,30 +129,34 @@ def released_file(dim: int | None = None) -> str:
     return " or ".join(names)
 
 
+@dataclass(frozen=True)
+class MixVPRSettings:
+    """The settings of ``mixvpr``."""
+
+    # (H, W); the released models were trained and evaluated at 320 x 320
+    image_size: tuple[int, ...] = setting((320, 320), "[H, W] in pixels: the input size; it sizes the aggregator, so "
+                                                      "it must be the checkpoint's training size (320 x 320 for the "
+                                                      "released models)")
+    # official validation transform; demo.py uses "bicubic"
+    interpolation: str = setting("bilinear", f"the resize filter, one of {', '.join(PIL_FILTERS)}: bilinear as the "
+                                             "official validation, bicubic as the README's demo.py")
+    out_channels: int | None = setting(
+        None, "integer or null: the channel projection's output size ({}); null: read from the checkpoint's "
+              "aggregator.channel_proj.weight, which must match when set".format(
+                  ", ".join(f"{c} for {d}-d" for d, (c, _) in RELEASED.items())))
+    out_rows: int | None = setting(
+        None, "integer or null: the row projection's output size ({}); null: read from the checkpoint's "
+              "aggregator.row_proj.weight, which must match when set".format(
+                  ", ".join(f"{r} for {d}-d" for d, (_, r) in RELEASED.items())))
+
+
 class MixVPR(TorchBackend):
     """MixVPR global descriptor; ``out_channels``/``out_rows`` of ``null`` are read from the checkpoint."""
 
     name: ClassVar[str] = "mixvpr"
     model: MixVPRNet  # what build_model returns
-    default_conf: ClassVar[dict[str, Any]] = {
-        "image_size": [320, 320],  # (H, W); the released models were trained and evaluated at 320 x 320
-        "interpolation": "bilinear",  # official validation transform; demo.py uses "bicubic"
-        "out_channels": None,  # None: from the checkpoint's aggregator.channel_proj.weight (1024 for 4096-d)
-        "out_rows": None,  # None: from the checkpoint's aggregator.row_proj.weight (4 for 4096-d)
-    }
-    settings_help: ClassVar[dict[str, str]] = {
-        "image_size": "[H, W] in pixels: the input size; it sizes the aggregator, so it must be the checkpoint's "
-                      "training size (320 x 320 for the released models)",
-        "interpolation": f"the resize filter, one of {', '.join(PIL_FILTERS)}: bilinear as the official validation, "
-                         "bicubic as the README's demo.py",
-        "out_channels": "integer or null: the channel projection's output size ({}); null: read from the "
-                        "checkpoint's aggregator.channel_proj.weight, which must match when set".format(
-                            ", ".join(f"{c} for {d}-d" for d, (c, _) in RELEASED.items())),
-        "out_rows": "integer or null: the row projection's output size ({}); null: read from the checkpoint's "
-                    "aggregator.row_proj.weight, which must match when set".format(
-                        ", ".join(f"{r} for {d}-d" for d, (_, r) in RELEASED.items())),
-    }
-    input_summary: ClassVar[str] = "{}x{} (H x W, image_size)".format(*default_conf["image_size"])
+    Settings: ClassVar[type | None] = MixVPRSettings
+    input_summary: ClassVar[str] = "{}x{} (H x W, image_size)".format(*MixVPRSettings.image_size)
     source: ClassVar[str] = "https://github.com/amaralibey/MixVPR (README, Google Drive links)"
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
@@ -204,12 +210,12 @@ class MixVPR(TorchBackend):
             "out_channels": shapes["aggregator.channel_proj.weight"][0],
             "out_rows": shapes["aggregator.row_proj.weight"][0],
         }
-        for setting, value in found.items():
-            wanted = self.conf[setting]
+        for name, value in found.items():
+            wanted = self.conf[name]
             if wanted is not None and int(wanted) != value:
                 raise CheckpointError(
-                    f"checkpoint {path} has {setting} = {value} but the setting is {wanted}; "
-                    f"set `{setting}: {value}` or null (expected {self.expected_file()})"
+                    f"checkpoint {path} has {name} = {value} but the setting is {wanted}; "
+                    f"set `{name}: {value}` or null (expected {self.expected_file()})"
                 )
         agg = self.model.aggregator
         if (agg.channel_proj.out_features, agg.row_proj.out_features) != (found["out_channels"], found["out_rows"]):

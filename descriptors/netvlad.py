@@ -19,6 +19,7 @@ and a final L2.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -27,6 +28,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import TorchBackend, to_tensor
 from vpr_smr.descriptors.layers import L2Norm, pil_resize, vgg16_conv5_3
 
@@ -96,6 +98,22 @@ def _numpy_scalar_globals() -> list[Any]:
     ]
 
 
+@dataclass(frozen=True)
+class NetVLADSettings:
+    """The settings of ``netvlad``."""
+
+    # "auto": 480 x 640 with a Patch-NetVLAD (WPCA) file, full size with Nanne's; [H, W]; null: full size.
+    image_size: str | tuple[int, ...] | None = setting(
+        "auto", "auto, null or [H, W] in pixels: the size images are resized to (PIL bilinear); auto: {} x {} for a "
+                "Patch-NetVLAD file (with WPCA), full size for Nanne's and under preprocessing vpr-methods-evaluation; "
+                "null: full size".format(*PATCH_NETVLAD_SIZE))
+    # Model sizes before a checkpoint is loaded; load() reads both from the file's shapes and rebuilds.
+    num_clusters: int = setting(64, "the number of NetVLAD clusters K (512 K values before WPCA); sizes the model "
+                                    "before loading only: the checkpoint's pool.centroids sets it")
+    num_pcs: int = setting(4096, "the WPCA output size, 0 for no WPCA; sizes the model before loading only: the "
+                                 "checkpoint's WPCA.0.bias sets it (0 for a file without WPCA)")
+
+
 class NetVLAD(TorchBackend):
     """VGG16 + NetVLAD (+ WPCA); 32768-d (64 clusters) or ``num_pcs``-d descriptors.
 
@@ -108,22 +126,7 @@ class NetVLAD(TorchBackend):
     """
 
     name: ClassVar[str] = "netvlad"
-    default_conf: ClassVar[dict[str, Any]] = {
-        # "auto": 480 x 640 with a Patch-NetVLAD (WPCA) file, full size with Nanne's; [H, W]; null: full size.
-        "image_size": "auto",
-        # Model sizes before a checkpoint is loaded; load() reads both from the file's shapes and rebuilds.
-        "num_clusters": 64,
-        "num_pcs": 4096,  # 0: no WPCA (Nanne's files)
-    }
-    settings_help: ClassVar[dict[str, str]] = {
-        "image_size": "auto, null or [H, W] in pixels: the size images are resized to (PIL bilinear); auto: "
-                      "{} x {} for a Patch-NetVLAD file (with WPCA), full size for Nanne's and under preprocessing "
-                      "vpr-methods-evaluation; null: full size".format(*PATCH_NETVLAD_SIZE),
-        "num_clusters": "the number of NetVLAD clusters K (512 K values before WPCA); sizes the model before "
-                        "loading only: the checkpoint's pool.centroids sets it",
-        "num_pcs": "the WPCA output size, 0 for no WPCA; sizes the model before loading only: the checkpoint's "
-                   "WPCA.0.bias sets it (0 for a file without WPCA)",
-    }
+    Settings: ClassVar[type | None] = NetVLADSettings
     input_summary: ClassVar[str] = ("{}x{} (H x W) with a Patch-NetVLAD file, full size with Nanne's"
                                  .format(*PATCH_NETVLAD_SIZE))
     # Nanne's main.py wraps encoder and pool separately in nn.DataParallel: "encoder.module.0.weight".

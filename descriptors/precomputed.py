@@ -7,12 +7,14 @@ per image in the sorted order of each folder. Point ``folder`` at the directory 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from vpr_smr.core.files import load_npy
+from vpr_smr.core.settings import setting
 from vpr_smr.datasets import TraversePair
 from vpr_smr.descriptors.base import Backend, CheckpointError
 
@@ -20,17 +22,22 @@ DATABASE_FILE = "database_descriptors.npy"
 QUERIES_FILE = "queries_descriptors.npy"
 
 
+@dataclass(frozen=True)
+class PrecomputedSettings:
+    """The settings of ``precomputed``."""
+
+    folder: str | None = setting(None, f"text or null: the folder holding {DATABASE_FILE} and {QUERIES_FILE} "
+                                       "(VPR-methods-evaluation's --save_descriptors); null: database and queries name "
+                                       "the files")
+    database: str | None = setting(None, "text or null: the .npy file of the reference descriptors, one row per "
+                                         f"frame in frame order; null: {DATABASE_FILE} in folder")
+    queries: str | None = setting(None, "text or null: the .npy file of the query descriptors, one row per frame in "
+                                        f"frame order; null: {QUERIES_FILE} in folder")
+
+
 class Precomputed(Backend):
     name: ClassVar[str] = "precomputed"
-    default_conf: ClassVar[dict[str, Any]] = {"folder": None, "database": None, "queries": None}
-    settings_help: ClassVar[dict[str, str]] = {
-        "folder": f"text or null: the folder holding {DATABASE_FILE} and {QUERIES_FILE} (VPR-methods-evaluation's "
-                  "--save_descriptors); null: database and queries name the files",
-        "database": "text or null: the .npy file of the reference descriptors, one row per frame in frame order; "
-                    f"null: {DATABASE_FILE} in folder",
-        "queries": "text or null: the .npy file of the query descriptors, one row per frame in frame order; "
-                   f"null: {QUERIES_FILE} in folder",
-    }
+    Settings: ClassVar[type | None] = PrecomputedSettings
     input_summary: ClassVar[str] = "no images: descriptors read from files"
 
     def paths(self) -> tuple[Path, Path]:

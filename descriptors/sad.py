@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 import torch
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import Backend
 from vpr_smr.descriptors.classic import grey as to_grey
 from vpr_smr.descriptors.classic import resize_area, row_sums
@@ -30,18 +32,23 @@ def patch_normalise(grey: np.ndarray, patch: int) -> np.ndarray:
     return result
 
 
+@dataclass(frozen=True)
+class SADSettings:
+    """The settings of ``sad``."""
+
+    width: int = setting(64, "pixels: the width the grey image is resized to (OpenCV's area interpolation); a multiple "
+                             "of patch")
+    height: int = setting(32, "pixels: the height the grey image is resized to; a multiple of patch")
+    patch: int = setting(8, "pixels: the side of the square blocks that patch normalisation brings each to zero mean "
+                            "and unit standard deviation (a constant block becomes 0)")
+
+
 class SAD(Backend):
     """Grey, resized to 64x32 (W x H), 8x8 patch normalisation: 2048 values."""
 
     name: ClassVar[str] = "sad"
-    default_conf: ClassVar[dict[str, Any]] = {"width": 64, "height": 32, "patch": 8}
-    settings_help: ClassVar[dict[str, str]] = {
-        "width": "pixels: the width the grey image is resized to (OpenCV's area interpolation); a multiple of patch",
-        "height": "pixels: the height the grey image is resized to; a multiple of patch",
-        "patch": "pixels: the side of the square blocks that patch normalisation brings each to zero mean and unit "
-                 "standard deviation (a constant block becomes 0)",
-    }
-    input_summary: ClassVar[str] = f"any; grey, resized to {default_conf['width']}x{default_conf['height']} (W x H)"
+    Settings: ClassVar[type | None] = SADSettings
+    input_summary: ClassVar[str] = f"any; grey, resized to {SADSettings.width}x{SADSettings.height} (W x H)"
     distance = "mad"
 
     def preprocess(self, image: np.ndarray) -> torch.Tensor:

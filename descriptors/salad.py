@@ -16,6 +16,7 @@ gives that harness's full-size input instead (see ``SALAD``).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -23,6 +24,7 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import TorchBackend, resize_tensor, to_tensor
 from vpr_smr.descriptors.dinov2 import VIT_SETTINGS_HELP, DinoVisionTransformer
 from vpr_smr.descriptors.layers import pil_resize
@@ -126,6 +128,26 @@ def harness_size(height: int, width: int, patch: int = 14, method: str = "salad"
     return size
 
 
+@dataclass(frozen=True)
+class SALADSettings:
+    """The settings of ``salad``."""
+
+    # "auto": 322 x 322 (official; 23 x 23 patches), or the harness's rounding (see SALAD's docstring)
+    image_size: str | tuple[int, ...] = setting(
+        "auto", "auto or [H, W] in pixels, multiples of 14: auto: {} x {} (PIL bilinear) as the official eval.py, or "
+                "under preprocessing vpr-methods-evaluation the full image with each side resized to the nearest "
+                "multiple of 14; [H, W]: that size (PIL bilinear) under either preset".format(*OFFICIAL_SIZE))
+    num_clusters: int = setting(64, "the number of clusters the patch tokens are assigned to (plus a dustbin); must "
+                                    "match the checkpoint")
+    cluster_dim: int = setting(128, "the size of each cluster's aggregated feature (descriptor: token_dim + "
+                                    "num_clusters x cluster_dim values); must match the checkpoint")
+    token_dim: int = setting(256, "the size of the global token made from the class token; must match the checkpoint")
+    # ViT-B/14; change only for checkpoints trained with another DINOv2 size (without registers)
+    embed_dim: int = setting(768, VIT_SETTINGS_HELP["embed_dim"])
+    depth: int = setting(12, VIT_SETTINGS_HELP["depth"])
+    num_heads: int = setting(12, VIT_SETTINGS_HELP["num_heads"])
+
+
 class SALAD(TorchBackend):
     """DINOv2 + SALAD, 8448-d descriptors. Checkpoint: the official ``dino_salad.ckpt``.
 
@@ -136,29 +158,7 @@ class SALAD(TorchBackend):
     """
 
     name: ClassVar[str] = "salad"
-    default_conf: ClassVar[dict[str, Any]] = {
-        # "auto": 322 x 322 (official; 23 x 23 patches), or the harness's rounding (see the class docstring).
-        "image_size": "auto",
-        "num_clusters": 64,
-        "cluster_dim": 128,
-        "token_dim": 256,
-        # ViT-B/14; change only for checkpoints trained with another DINOv2 size (without registers).
-        "embed_dim": 768,
-        "depth": 12,
-        "num_heads": 12,
-    }
-    settings_help: ClassVar[dict[str, str]] = {
-        "image_size": "auto or [H, W] in pixels, multiples of 14: auto: {} x {} (PIL bilinear) as the official "
-                      "eval.py, or under preprocessing vpr-methods-evaluation the full image with each side resized "
-                      "to the nearest multiple of 14; [H, W]: that size (PIL bilinear) under either preset"
-                      .format(*OFFICIAL_SIZE),
-        "num_clusters": "the number of clusters the patch tokens are assigned to (plus a dustbin); must match the "
-                        "checkpoint",
-        "cluster_dim": "the size of each cluster's aggregated feature (descriptor: token_dim + num_clusters x "
-                       "cluster_dim values); must match the checkpoint",
-        "token_dim": "the size of the global token made from the class token; must match the checkpoint",
-        **VIT_SETTINGS_HELP,
-    }
+    Settings: ClassVar[type | None] = SALADSettings
     input_summary: ClassVar[str] = "{}x{} (H x W)".format(*OFFICIAL_SIZE)
     patch_size: ClassVar[int] = 14
 

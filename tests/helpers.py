@@ -43,15 +43,24 @@ def read_distance_matrix(path: Path | str) -> np.ndarray:
 # --- a tiny learned backend, written as a plugin module (``module:TinyNet``) that tests and jobs import ---
 
 TINY_NET = '''
+from dataclasses import dataclass
+
 import torch
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors.base import TorchBackend, to_tensor
+
+
+@dataclass(frozen=True)
+class TinyNetSettings:
+    channels: int = setting(8, "the convolution's output channels")
+    kernel: int = setting(3, "the convolution's kernel size")
 
 
 class TinyNet(TorchBackend):
     """A convolution and global average pooling: a learned backend whose weights come from a file."""
 
     name = "tiny_net"
-    default_conf = {"channels": 8, "kernel": 3}
+    Settings = TinyNetSettings
 
     def build_model(self):
         conv = torch.nn.Conv2d(3, self.conf["channels"], self.conf["kernel"])

@@ -15,13 +15,20 @@ from vpr_smr.descriptors.efficientnet_lite import package_weights_path
 from vpr_smr.pipeline.cli import main
 
 PLUGIN = '''
+from dataclasses import dataclass
+
 import numpy as np
 import torch
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors import Backend
+
+@dataclass(frozen=True)
+class MeanColourSettings:
+    scale: float = setting(1.0, "a factor of the mean colour")
 
 class MeanColour(Backend):
     name = "mean_colour"
-    default_conf = {"scale": 1.0}
+    Settings = MeanColourSettings
 
     def preprocess(self, image):
         return torch.tensor(image.reshape(-1, 3).mean(0) * self.conf["scale"], dtype=torch.float32)

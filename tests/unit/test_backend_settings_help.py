@@ -4,12 +4,14 @@ to what the code does with that setting, so a text written for another setting f
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
 import pytest
 import torch
 
+from vpr_smr.core.settings import setting
 from vpr_smr.descriptors import BACKENDS, backend_class
 from vpr_smr.descriptors.base import COMMON_SETTINGS, COMMON_SETTINGS_HELP, Backend
 
@@ -61,19 +63,69 @@ def test_the_common_defaults_are_what_the_help_says():
     assert backend_class("sad")({"half": True, "device": "cpu"}).half is False  # "ignored on the CPU"
 
 
-def test_a_plugin_backend_without_settings_help_still_works():
-    class Plain(Backend):
-        name: ClassVar[str] = "plain_plugin"
-        default_conf: ClassVar[dict[str, Any]] = {"k": 2}
+def test_a_backend_declares_its_settings_as_a_record():
+    """``Settings`` (``core.settings.setting`` fields) gives ``default_conf`` as JSON (a list for a tuple), in
+    declaration order, and ``settings_help``; a subclass inherits them, or overrides a field in its place."""
+
+    @dataclass(frozen=True)
+    class SizeSettings:
+        size: tuple[int, ...] = setting((2, 3), "[H, W]: the size")
+        scale: float = setting(1.0, "a factor")
+
+    class Sized(Backend):
+        name: ClassVar[str] = "sized_plugin"
+        Settings: ClassVar[type | None] = SizeSettings
 
         def preprocess(self, image: np.ndarray) -> torch.Tensor:
-            return torch.full((self.conf["k"],), float(image.mean()))
+            return torch.full(tuple(self.conf["size"]), float(image.mean()) * self.conf["scale"])
 
         def forward(self, batch: torch.Tensor) -> np.ndarray:
-            return batch.numpy()
+            return batch.flatten(1).numpy()
+
+    @dataclass(frozen=True)
+    class LargerSettings(SizeSettings):
+        size: tuple[int, ...] = setting((1, 1), "[H, W]: one pixel")
+
+    class Larger(Sized):
+        Settings: ClassVar[type | None] = LargerSettings
+
+    class Same(Sized):
+        pass
+
+    assert Sized.default_conf == {"size": [2, 3], "scale": 1.0} and list(Sized.default_conf) == ["size", "scale"]
+    assert Sized.settings_help == {"size": "[H, W]: the size", "scale": "a factor"}
+    assert Same.default_conf == Sized.default_conf and Same.settings_help == Sized.settings_help
+    assert Larger.default_conf == {"size": [1, 1], "scale": 1.0} and Larger.settings_help["size"] == "[H, W]: one pixel"
+    assert Sized({"scale": 2.0}).describe(np.full((2, 2, 3), 6, np.uint8)).tolist() == [12.0] * 6
+    with pytest.raises(ValueError, match="backend 'sized_plugin' has no setting scael; its settings are scale, size"):
+        Sized({"scael": 2.0})
+
+
+def test_a_plugin_backend_of_0_15_with_dicts_still_works_and_is_told_the_new_way():
+    with pytest.warns(DeprecationWarning, match=r"descriptor backend .*Plain declares its settings as default_conf "
+                                                r"and settings_help dicts.*a Settings record of "
+                                                r"core.settings.setting\(default, help\) fields"):
+        class Plain(Backend):
+            name: ClassVar[str] = "plain_plugin"
+            default_conf: ClassVar[dict[str, Any]] = {"k": 2}
+
+            def preprocess(self, image: np.ndarray) -> torch.Tensor:
+                return torch.full((self.conf["k"],), float(image.mean()))
+
+            def forward(self, batch: torch.Tensor) -> np.ndarray:
+                return batch.numpy()
 
     assert Plain.settings_help == {} and Backend.settings_help == {}
     assert Plain({"k": 3}).describe(np.full((2, 2, 3), 6, np.uint8)).tolist() == [6.0, 6.0, 6.0]
+
+
+def test_no_builtin_backend_declares_dicts():
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DeprecationWarning)
+        for name in BACKENDS:
+            assert backend_class(name).Settings is not None, name
 
 
 def test_sad_patch_is_the_side_of_the_normalised_blocks():

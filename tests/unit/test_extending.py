@@ -21,6 +21,7 @@ from report_runs import build_run
 from vpr_smr.datasets import DEFAULT_SPLITS, LOADERS, DatasetError, load_dataset, loader_options, required_options
 from vpr_smr.descriptors import available_backends, backend_class
 from vpr_smr.eval.matching.matchers import MatcherSpec, available_matchers, matcher_class
+from vpr_smr.eval.report import registry  # at collection: its tables are the package's, before a recipe's plugin
 from vpr_smr.eval.scoring import scorers
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "extending.md"
@@ -68,9 +69,9 @@ def my_vpr(tmp_path, monkeypatch):
         del sys.modules[module]
 
 
-def test_the_recipes_are_the_five_named():
+def test_the_recipes_are_the_six_named():
     assert list(sections()) == ["A descriptor backend", "A dataset loader", "A sequence matcher",
-                                "A training-free scorer", "A table"]
+                                "A training-free scorer", "A table", "An experiment"]
     assert "docs/extending.md" in (DOC.parents[1] / "README.md").read_text()
 
 
@@ -79,7 +80,8 @@ def test_the_backend_recipe(my_vpr):
     assert "cell_colour" in available_backends()
     assert backend_class("cell_colour") is module.CellColour
     assert backend_class("my_vpr.backend:CellColour") is module.CellColour
-    assert set(module.CellColour.settings_help) == set(module.CellColour.default_conf)
+    assert module.CellColour.default_conf == {"grid": 2}  # from its Settings record
+    assert module.CellColour.settings_help == {"grid": "the number of cells per side: grid x grid cells, 3 values each"}
     image = np.zeros((5, 4, 3), np.uint8)  # 5 rows: the last one drops out of a 2 x 2 grid
     image[:, :2] = (10, 20, 30)
     image[:, 2:] = (50, 60, 70)
@@ -234,3 +236,57 @@ def test_the_table_recipe(recall_gain, tmp_path):
     assert "gain_<wbr>pct" in section and 'data-sort="100.0">100.0<' in section and ">14.3<" in section
     markdown = (run / "tables" / "recall_gain.md").read_text().splitlines()
     assert markdown[-1] == "| d | m2 | 4 | standard | 57 | 66.6667 |"  # 100 * (0.25 / 0.15 - 1), 4 decimals
+
+
+def test_the_experiment_recipe(my_vpr, tmp_path, monkeypatch):
+    """The recipe's experiment ``fixes``, registered by its entry point: the configuration turns it on by name, its
+    job counts the fixed and broken queries of a hand-made attributes file, and the report writes its table from the
+    jobs' files and shows its section."""
+    import h5py
+    import yaml
+
+    from vpr_smr.eval.report import build
+    from vpr_smr.eval.report.experiments import files as experiments_files
+    from vpr_smr.pipeline.config import ConfigError, experiments, validate
+    from vpr_smr.pipeline.experiment import experiment, plugin_experiments
+
+    declared = experiment("fixes")
+    assert declared is importlib.import_module("my_vpr.experiment").EXPERIMENT
+    assert "fixes" in [one.name for one in plugin_experiments()]
+    demo = yaml.safe_load((DOC.parents[1] / "configs" / "demo.yaml").read_text())
+    assert "fixes" in experiments(validate({**demo, "experiments": {"fixes": True}}))
+    assert "fixes" not in experiments(validate(demo))
+    with pytest.raises(ConfigError, match=r"experiments.fixs: unexpected key 'fixs' \(did you mean 'fixes'\?\)"):
+        validate({**demo, "experiments": {"fixs": True}})
+    # the job: of 5 evaluated queries, query 1 and 4 made right (2 / 5), query 3 made wrong (1 / 5)
+    attributes = tmp_path / "test.h5"
+    with h5py.File(attributes, "w") as f:
+        f["single_correct"] = np.array([1, 0, 0, 1, 0], dtype=bool)
+        f["sequence_correct"] = np.array([1, 1, 0, 0, 1], dtype=bool)
+        f.attrs["seq_len"] = 4
+    settings = {"datasets": {"d": {}}, "methods": {"m1": {}, "m2": {}}, "seq_lens": [2, 4], "table_seq_len": 4,
+                "experiments": {"fixes": True}}
+    assert declared.outputs(settings) == ["fixes/d/m1/L4.json", "fixes/d/m2/L4.json"]
+    run = tmp_path / "run"  # report_runs.build_run's run folder: the jobs write into it
+    stage = declared.jobs[0].stage
+    found = stage(attributes=str(attributes), dataset="d", method="m1", out=str(run / "fixes/d/m1/L4.json"))
+    assert (found["n_queries"], found["fixed"], found["broken"]) == (5, 0.4, 0.2)
+    stage(attributes=str(attributes), dataset="d", method="m2", out=str(run / "fixes/d/m2/L4.json"))
+    # the report: the registry collects the installed experiments' tables when it is imported (here before the
+    # recipe's package was installed), so this process adds them as a new one would
+    assert "fixes" not in [entry.name for entry in registry.TABLES]
+    monkeypatch.setattr(registry, "TABLES", registry.collected(*registry.TABLES, *registry.plugin_tables()))
+    assert "tables/fixes.csv" in registry.expected_outputs(["d"], [4], ["paper"], {"table1", "fixes"})
+    # the files of the experiments the run's settings turn on, where its jobs wrote them (build_run's report shows
+    # settings of its own, without ``experiments``)
+    assert experiments_files(run, settings) == {"fixes": [run / "fixes/d/m1/L4.json", run / "fixes/d/m2/L4.json"]}
+    monkeypatch.setattr(build, "experiment_files", lambda out_dir, config: experiments_files(out_dir, settings))
+    _, written = build_run(tmp_path, seq_lens=(4,), baselines=False, inspector=False)
+    assert run / "tables" / "fixes.csv" in written
+    with open(run / "tables" / "fixes.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert [(r["method"], r["n_queries"], r["fixed"], r["broken"]) for r in rows] == [
+        ("m1", "5", "0.4", "0.2"), ("m2", "5", "0.4", "0.2")]
+    section = (run / "report.html").read_text().split('<section id="fixes">')[1].split("</section>")[0]
+    assert "<h2>Fixed and broken matches</h2>" in section
+    assert "The share of queries whose match sequence matching makes right, and wrong." in section

@@ -104,3 +104,14 @@ def test_a_registry_reads_as_a_mapping_of_its_names(monkeypatch):
     assert widgets["zeta"] == 1 and widgets["beta"] == 20 and sorted(widgets) == ["alpha", "zeta"]
     with pytest.raises(KeyError, match="unknown widget 'gamma'"):
         widgets["gamma"]
+
+
+def test_a_stand_in_is_set_and_removed_as_in_a_mapping(monkeypatch):
+    widgets = _widgets()
+    with monkeypatch.context() as patch:
+        patch.setitem(widgets, "alpha", 5)  # replaces the built-in, in its place
+        patch.setitem(widgets, "new", 6)
+        assert widgets.builtins() == ["zeta", "alpha", "new"] and widgets.get("alpha") == 5 and widgets["new"] == 6
+    assert widgets.builtins() == ["zeta", "alpha"] and widgets.get("alpha") == 2 and "new" not in widgets
+    with pytest.raises(KeyError):
+        del widgets["new"]
