@@ -103,8 +103,10 @@ class Experiment:
         return [path for job in self.jobs for path in job.outputs(settings)]
 
     def rule_name(self, job: Job) -> str:
-        """The workflow's rule of ``job``: ``NAME_COMMAND`` (its words joined by ``_``)."""
-        return "_".join([self.name, *re.split(r"[\s-]+", job.stage.command)])
+        """The workflow's rule of ``job``: its command's words joined by ``_``, after the experiment's name where
+        they are not that name (``recall-gain`` of ``recall_gain``: ``recall_gain``)."""
+        words = "_".join(re.split(r"[\s-]+", job.stage.command))
+        return words if words == self.name else f"{self.name}_{words}"
 
 
 def plugin_experiments() -> tuple[Experiment, ...]:
