@@ -44,7 +44,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping, Sequence
 from contextlib import ExitStack
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -89,6 +89,7 @@ from vpr_smr.eval.matching.io import (
 from vpr_smr.eval.matching.matcher import as_matrix, read_columns
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.matchers.base import Matcher
+from vpr_smr.eval.matching.sources import MatrixFormat, TruthSource
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import (
     check_disjoint,
@@ -100,50 +101,33 @@ from vpr_smr.eval.predictor.leakage import (
 )
 from vpr_smr.eval.scoring import baselines as scorers
 from vpr_smr.eval.scoring.baselines import (
-    DEFAULT_SETTINGS,
     BaselineSettings,
     check_candidates,
     split_baselines,
     spread_positions,
 )
 from vpr_smr.eval.scoring.curves import Curve, area, curve, earned, keep_mask, recall_at_full_precision
+from vpr_smr.eval.scoring.matrix_jobs import ALL_SPLIT, MetricsJob, QueriesJob, distance_splits
 from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
 from vpr_smr.eval.scoring.records import Interval, MatcherMetrics, SplitMetrics, VPRMetrics
 from vpr_smr.eval.scoring.sweep import protocol_sweep, within
 
 __all__ = [
-    "ALL_SPLIT", "MatcherSettings", "Retrieval", "ScoredSplit", "check_inputs", "extended_precision",
-    "format_baselines", "format_metrics", "main", "matcher_metrics", "precision_at_strictest", "recall_at",
-    "retrieval", "score_all", "score_split",
+    "ALL_SPLIT", "MetricsJob", "Retrieval", "ScoredSplit", "check_inputs", "extended_precision", "format_baselines",
+    "format_metrics", "load_predictor", "main", "matcher_metrics", "precision_at_strictest", "recall_at",
+    "retrieval", "score_all", "score_split", "truth_kind",
 ]
 
 log = logging.getLogger("vpr_smr")
 
-ALL_SPLIT = "all"  # the split's name when ``distances`` is one file
 NOT_RETRIEVED = np.iinfo(np.int64).max  # the rank of a query without any correct candidate
 DISTANCE_SUFFIXES = (*ARRAY_SUFFIXES, *HDF5_SUFFIXES)
 
 
-@dataclass(frozen=True)
-class MatcherSettings:
-    """The sequence matcher of a metrics or queries stage and where its ground truth comes from (method §11):
-    ``spec``, the matcher (default ``MatcherSpec.of()``: method §4's fixed matcher); a ground-truth
-    file (``ground_truth``, its
-    variable ``ground_truth_key``: a boolean matrix or per-query lists, ``ground_truth_files.read_ground_truth``);
-    else positions files (one matrix only) or the positions a distance file holds, within ``radius``; without
-    positions, frame indices within the stage's tolerance."""
-
-    spec: MatcherSpec = field(default_factory=MatcherSpec.of)
-    radius: float | None = None
-    reference_positions: Path | str | None = None
-    query_positions: Path | str | None = None
-    ground_truth: Path | str | None = None
-    ground_truth_key: str | None = None
-
-    @property
-    def kind(self) -> str:
-        """The kind of ground truth these settings give (``GroundTruth.kind``)."""
-        return MATRIX if self.ground_truth is not None else FRAMES if self.radius is None else POSITIONS
+def truth_kind(truth: TruthSource) -> str:
+    """The kind of ground truth ``truth`` gives (``GroundTruth.kind``): a file, else positions within a radius, else
+    frames within the tolerance (method §11)."""
+    return MATRIX if truth.ground_truth is not None else FRAMES if truth.radius is None else POSITIONS
 
 
 @dataclass(frozen=True)
@@ -406,11 +390,12 @@ def _reference_first_frame(*paths: Path | str | None) -> int | None:
     return None
 
 
-def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], predictor: Path | None,
-                  seq_len: int, tolerance: int, matcher: MatcherSettings,
-                  file_truth: GroundTruth | None = None) -> SMRPredictor | None:
-    """Check every input file before any work; return the predictor, loaded (None without one)."""
-    if matcher.reference_positions is not None and len(distances) > 1:
+def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], seq_len: int, truth: TruthSource,
+                 matcher: MatcherSpec, file_truth: GroundTruth | None = None) -> None:
+    """Check every matrix and attributes file before any work: their suffixes, that they exist, that the attributes
+    name only these splits and were computed at ``seq_len`` with this ground truth (``truth``; ``file_truth``, a
+    ground-truth file read) and ``matcher``."""
+    if truth.reference_positions is not None and len(distances) > 1:
         raise ValueError("--reference-positions and --query-positions give the positions of one matrix: give one "
                          "--distances file with them (the distance files of a dataset with positions hold their own)")
     for split, path in distances.items():
@@ -423,6 +408,7 @@ def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], 
     if extra:
         raise ValueError(f"--attributes names splits {extra} that --distances does not give; splits: "
                          f"{', '.join(distances)}")
+    tolerance = truth.tolerance
     for split, path in attributes.items():
         check_suffix(path, HDF5_SUFFIXES, f"split {split!r}'s attributes (HDF5)", "--attributes")
         if not path.is_file():
@@ -430,13 +416,15 @@ def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], 
                                     "or leave --attributes out to compute them)")
         stored = read_provenance(path).get("tolerance")
         # with positions or a ground-truth file, the tolerance plays no part (check_matcher compares them)
-        if matcher.kind == FRAMES and stored is not None and int(stored) != int(tolerance):
+        if truth_kind(truth) == FRAMES and stored is not None and int(stored) != int(tolerance):
             raise ValueError(f"{path} holds attributes at tolerance {int(stored)}, but --tolerance is {tolerance}: "
                              f"give --tolerance {int(stored)}, or attributes computed at {tolerance}")
     check_seq_len(list(attributes.values()), seq_len)
-    check_matcher(list(attributes.values()), matcher.spec, matcher.radius, file_truth)
-    if predictor is None:
-        return None
+    check_matcher(list(attributes.values()), matcher, truth.radius, file_truth)
+
+
+def load_predictor(predictor: Path, seq_len: int) -> SMRPredictor:
+    """The predictor file ``predictor``, checked (an HDF5 file that exists, trained at ``seq_len``) and loaded."""
     check_suffix(predictor, HDF5_SUFFIXES, "the predictor (HDF5)", "--predictor")
     if not predictor.is_file():
         raise FileNotFoundError(f"predictor file not found: {predictor} (train it first: vpr-smr train)")
@@ -445,8 +433,8 @@ def check_inputs(distances: Mapping[str, Path], attributes: Mapping[str, Path], 
     return model
 
 
-def _check_matrices(model: SMRPredictor, splits: Mapping[str, Path], allow_split_overlap: bool, similarity: bool,
-                    key: str | None, transpose: bool) -> None:
+def _check_matrices(model: SMRPredictor, splits: Mapping[str, Path], allow_split_overlap: bool,
+                    matrix_format: MatrixFormat) -> None:
     """Refuse to score a matrix that shares entries with one the predictor was trained on (``check_matrices``:
     every patch of each matrix looked up among its training matrices' fingerprints), unless allowed; a warning
     where the predictor records none and the frame ranges cannot tell either (``matrix_overlaps``)."""
@@ -456,9 +444,14 @@ def _check_matrices(model: SMRPredictor, splits: Mapping[str, Path], allow_split
         if not model.training_.matrices:  # nothing to look the patches up in: the matrix need not be read
             matrix_overlaps(model.training_, str(path), predictor=name, ranged=_ours(path) and has_frames(path))
             continue
-        with open_distance_matrix(path, similarity, key, transpose) as matrix:
+        with _open(path, matrix_format) as matrix:
             found += matrix_overlaps(model.training_, str(path), matrix=matrix, predictor=name)
     check_matrices(found, allow_split_overlap)
+
+
+def _open(path: Path | str, matrix_format: MatrixFormat) -> Any:
+    """The matrix file ``path`` opened as ``matrix_format`` says (``io.open_distance_matrix``)."""
+    return open_distance_matrix(path, matrix_format.similarity, matrix_format.key, matrix_format.transpose)
 
 
 @dataclass(frozen=True)
@@ -471,64 +464,55 @@ class Scored:
     ground_truth: dict[str, Any]
 
 
-def score_all(
-    distances: Mapping[str, Path | str] | Path | str,
-    seq_len: int,
-    tolerance: int,
-    predictor: Path | str | None,
-    attributes: Mapping[str, Path | str] | None,
-    modes: Sequence[str],
-    allow_split_overlap: bool,
-    matcher: MatcherSettings,
-    similarity: bool = False,
-    key: str | None = None,
-    transpose: bool = False,
-    sweep: bool = False,
-    baselines: BaselineSettings | None = None,
-) -> Scored:
-    """Every split of ``distances`` scored (``score_split``) in the given order, after every input is checked.
-    What ``main`` and ``queries_main`` share: one implementation of the per-query table."""
-    splits = {ALL_SPLIT: Path(distances)} if isinstance(distances, str | Path) else {
-        str(name): Path(path) for name, path in distances.items()}
+def score_all(job: MetricsJob | QueriesJob) -> Scored:
+    """Every split of ``job.distances`` scored (``score_split``) in the given order, after every input is checked:
+    what ``main`` and the ``queries`` stage share (one implementation of the per-query table; a ``QueriesJob``
+    scores no metric mode and no sweep)."""
+    modes, sweep = (job.modes, job.sweep) if isinstance(job, MetricsJob) else ((), False)
+    seq_len, truth_source, matcher, matrix_format = job.seq_len, job.truth, job.matcher, job.matrix
+    baselines = job.scorer_settings
+    splits = {name: Path(path) for name, path in distance_splits(job.distances).items()}
     if not splits:
         raise ValueError("no distance matrix given (--distances PATH, or SPLIT=PATH items)")
-    attribute_paths = {str(name): Path(path) for name, path in (attributes or {}).items()}
+    attribute_paths = {str(name): Path(path) for name, path in (job.attributes or {}).items()}
     unknown = [mode for mode in modes if mode not in MODES]
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
-    predictor_file = Path(predictor) if predictor is not None else None
-    if sweep and matcher.ground_truth is not None:  # before any file is read
+    predictor_file = Path(job.predictor) if job.predictor is not None else None
+    if sweep and truth_source.ground_truth is not None:  # before any file is read
         raise ValueError(f"--sweep varies a tolerance (frames) or a radius (positions), but --ground-truth "
-                         f"{matcher.ground_truth} says which references are correct, with nothing to vary: leave out "
-                         "--sweep, or score with --tolerance (or positions and --radius) instead")
-    file_truth = (None if matcher.ground_truth is None
-                  else read_ground_truth(matcher.ground_truth, matcher.ground_truth_key,
-                                         within=scored_shape(splits.values(), key, transpose)))
-    model = check_inputs(splits, attribute_paths, predictor_file, seq_len, tolerance, matcher, file_truth)
+                         f"{truth_source.ground_truth} says which references are correct, with nothing to vary: "
+                         "leave out --sweep, or score with --tolerance (or positions and --radius) instead")
+    file_truth = (None if truth_source.ground_truth is None
+                  else read_ground_truth(truth_source.ground_truth, truth_source.ground_truth_key,
+                                         within=scored_shape(splits.values(), matrix_format.key,
+                                                             matrix_format.transpose)))
+    check_inputs(splits, attribute_paths, seq_len, truth_source, matcher, file_truth)
+    model = None if predictor_file is None else load_predictor(predictor_file, seq_len)
     if model is not None:
         scored = [p for p in (*splits.values(), *attribute_paths.values()) if _ours(p)]
-        check_disjoint(model.training_.frames, frame_ranges(scored), allow_split_overlap,
+        check_disjoint(model.training_.frames, frame_ranges(scored), job.allow_split_overlap,
                        f"predictor {predictor_file}")
-        check_matching(model, Matching.of(matcher.spec, matcher.kind), "these matrices (--matcher, --radius)")
-        _check_matrices(model, splits, allow_split_overlap, similarity, key, transpose)
+        check_matching(model, Matching.of(matcher, truth_kind(truth_source)), "these matrices (--matcher, --radius)")
+        _check_matrices(model, splits, job.allow_split_overlap, matrix_format)
     results: dict[str, ScoredSplit] = {}
     recorded: dict[str, Any] | None = None if file_truth is None else file_truth.provenance()
     for split, path in splits.items():
         attributes_file = attribute_paths.get(split)
-        with open_distance_matrix(path, similarity, key, transpose) as matrix:
-            check_size(stage_check(matcher.spec.build, tuple(matrix.shape), str(path)), seq_len)
+        with _open(path, matrix_format) as matrix:
+            check_size(stage_check(matcher.build, tuple(matrix.shape), str(path)), seq_len)
             features = read_features(attributes_file) if attributes_file is not None else None
             if features is not None and baselines is not None:
                 check_candidates(features, baselines, str(attributes_file),
                                  "leave --attributes out (they are computed here), or give --no-baselines")
-            truth = split_ground_truth(path, tuple(matrix.shape), tolerance, matcher.radius,
-                                       matcher.reference_positions, matcher.query_positions, file_truth)
+            truth = split_ground_truth(path, tuple(matrix.shape), truth_source.tolerance, truth_source.radius,
+                                       truth_source.reference_positions, truth_source.query_positions, file_truth)
             recorded = truth.provenance() if recorded is None else recorded
-            warn_if_similar(path, matrix, truth, similarity)
+            warn_if_similar(path, matrix, truth, matrix_format.similarity)
             warn_if_tied(str(path), matrix)
             try:
-                results[split] = score_split(matrix, seq_len, tolerance, model, tuple(modes), features, split,
-                                             _first_frame(attributes_file, path), matcher=matcher.spec,
+                results[split] = score_split(matrix, seq_len, truth_source.tolerance, model, tuple(modes), features,
+                                             split, _first_frame(attributes_file, path), matcher=matcher,
                                              ground_truth=truth,
                                              reference_first_frame=_reference_first_frame(attributes_file, path),
                                              sweep=sweep, baselines=baselines)
@@ -547,50 +531,34 @@ def score_all(
     return Scored(results, predictor_file, recorded)
 
 
-def main(
-    distances: Mapping[str, Path | str] | Path | str,
-    seq_len: int,
-    tolerance: int,
-    out: Path | str,
-    predictor: Path | str | None = None,
-    attributes: Mapping[str, Path | str] | None = None,
-    modes: Sequence[str] = MODES,
-    queries: Path | str | None = None,
-    meta: Mapping[str, Any] | None = None,
-    allow_split_overlap: bool = False,
-    matcher: MatcherSettings = MatcherSettings(),
-    similarity: bool = False,
-    key: str | None = None,
-    transpose: bool = False,
-    sweep: bool = False,
-    baselines: BaselineSettings | None = DEFAULT_SETTINGS,
-) -> VPRMetrics:
-    """The standard VPR metrics of every split of ``distances`` (split -> ``.npy``, ``.npz``, ``.mat`` or our
-    HDF5; one path: one split named ``"all"``), written to ``out`` (JSON, ``records.VPRMetrics``) and, with
-    ``queries``, the per-query table (``queries.QUERY_COLUMNS``) of every split in the given order, as
-    ``queries_main`` writes it. Both files are written to temporary names and renamed into place only when both are
-    written.
+def main(job: MetricsJob) -> VPRMetrics:
+    """The standard VPR metrics of every split of ``job.distances`` (one ``.npy``, ``.npz``, ``.mat`` or our HDF5:
+    one split named ``"all"``; or ``SPLIT=PATH`` items), written to ``job.out`` (JSON, ``records.VPRMetrics``) and,
+    with ``job.queries``, the per-query table (``queries.QUERY_COLUMNS``) of every split in the given order, as the
+    ``queries`` stage writes it. Both files are written to temporary names and renamed into place only when both
+    are written.
 
     ``attributes`` (split -> our features ``.h5``) spares recomputing a split's attributes; they must come from the
     same matrix, ``seq_len`` and ground truth. ``predictor``: the seed-0 predictor file; it may not score frames it
-    was trained on (``allow_split_overlap``: a deliberate experiment). ``key``, ``transpose``, ``similarity``: how a
-    user's matrix is read (``io.open_distance_matrix``). ``meta`` (dataset, method) is written with ``seq_len``,
+    was trained on (``allow_split_overlap``: a deliberate experiment). ``matrix``: how a user's matrix is read
+    (``io.open_distance_matrix``). The meta holds ``dataset`` and ``method`` (those given), ``seq_len``,
     ``tolerance``, the ground truth (``ground_truth``: ``GroundTruth.provenance``), how the matrices were read and
     the predictor's path; each split records its queries without a correct reference. ``sweep``: each split
     also records recall@1 and the predictor's reduction over the tolerances or radii of ``sweep.protocol_sweep``
-    (``records.ProtocolSweep``). ``baselines`` (default: the default settings; None: none): each split also
-    records the training-free scorers of method §12 (``records.SplitBaselines``: their detection of wrong matches
-    and, with ``predictor``, their removal at its budget), the per-query table their confidences, and the meta the
-    settings (``r_window``, ``spread_k``). Every input is checked before any work.
+    (``records.ProtocolSweep``). ``baselines`` (default on; ``scorers`` their settings): each split also records
+    the training-free scorers of method §12 (``records.SplitBaselines``: their detection of wrong matches and, with
+    ``predictor``, their removal at its budget), the per-query table their confidences, and the meta the settings
+    (``r_window``, ``spread_k``). Every input is checked before any work.
     """
-    out = check_suffix(out, JSON_SUFFIXES, "the VPR metrics (JSON)")
-    queries = check_suffix(queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if queries else None
-    scored = score_all(distances, seq_len, tolerance, predictor, attributes, modes, allow_split_overlap, matcher,
-                        similarity, key, transpose, sweep, baselines)
-    info = {**dict(meta or {}), "seq_len": int(seq_len), "tolerance": int(tolerance),
-            **matcher_provenance(matcher.spec, matcher.radius),
-            **reading_provenance(similarity, key, transpose), "ground_truth": scored.ground_truth,
-            **(baselines.meta() if baselines is not None else {})}
+    out = check_suffix(job.out, JSON_SUFFIXES, "the VPR metrics (JSON)")
+    queries = check_suffix(job.queries, CSV_SUFFIXES, "the per-query table (CSV)", "--queries") if job.queries else None
+    scored = score_all(job)
+    baselines, matrix_format = job.scorer_settings, job.matrix
+    meta = {key: value for key, value in (("dataset", job.dataset), ("method", job.method)) if value is not None}
+    info = {**meta, "seq_len": int(job.seq_len), "tolerance": int(job.truth.tolerance),
+            **matcher_provenance(job.matcher, job.truth.radius),
+            **reading_provenance(matrix_format.similarity, matrix_format.key, matrix_format.transpose),
+            "ground_truth": scored.ground_truth, **(baselines.meta() if baselines is not None else {})}
     if scored.predictor is not None:
         info["predictor"] = str(scored.predictor)
     result = VPRMetrics(info, {split: scored_split.metrics for split, scored_split in scored.splits.items()})

@@ -12,23 +12,15 @@ rule baselines:
     log:
         log_path(OUT, baselines_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     params:
-        overlap=ALLOW_OVERLAP,
-        # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
-        distances=lambda wc, input: name_pairs(conf.eval_splits, input.distances),
-        attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
-        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
-        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
-        # method §13: a dataset's ground-truth file (its input above), cut to each split by the stage
-        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        matcher=MATCHER,
-        baselines=BASELINES,
-        modes=" ".join(conf.modes),
+        # the stage's job record: the splits' files by name, the dataset's ground truth (method §§11, 13: a file is
+        # its input above, cut to each split by the stage), the run's matcher and the scorers' settings (method §12)
+        job=lambda wc, input, output: job_text(BaselinesJob(
+            wc.dataset, wc.method, int(wc.seq_len), dict(zip(conf.eval_splits, input.distances, strict=True)),
+            dict(zip(conf.eval_splits, input.attributes, strict=True)), tuple(input.predictors),
+            PLAN.datasets[wc.dataset].truth, conf.sequence_matching, scorers=conf.baselines, modes=tuple(conf.modes),
+            allow_split_overlap=conf.allow_split_overlap, out=output[0])),
     shell:
-        "vpr-smr baselines --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
-        " {params.matcher} --distances {params.distances} --attributes {params.attributes}"
-        " --predictors {input.predictors:q} {params.baselines} --modes {params.modes}"
-        " --out {output:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(BASELINES_STAGE)
 
 
 rule vpr_metrics:
@@ -43,25 +35,17 @@ rule vpr_metrics:
     log:
         log_path(OUT, vpr_metrics_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     params:
-        overlap=ALLOW_OVERLAP,
-        # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
-        distances=lambda wc, input: name_pairs(conf.eval_splits, input.distances),
-        attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
-        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
-        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
-        # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
-        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        matcher=MATCHER,
-        baselines=BASELINES,
-        modes=" ".join(conf.modes),
-        sweep=lambda wc: "--sweep" if "protocol_sweep" in EXPERIMENTS and wc.dataset in SWEEP_DATASETS else "",
+        # the stage's job record: SPLIT=PATH items, the dataset's ground truth (method §§11, 13: a file is its input
+        # above, cut to each split by the stage), the run's matcher, the scorers' settings (method §12), the modes, and
+        # the protocol sweep where the experiment runs on a dataset with a tolerance or a radius
+        job=lambda wc, input, output: job_text(MetricsJob(
+            tuple(f"{split}={path}" for split, path in zip(conf.eval_splits, input.distances, strict=True)),
+            int(wc.seq_len), PLAN.datasets[wc.dataset].truth, conf.sequence_matching, predictor=input.predictor,
+            attributes=dict(zip(conf.eval_splits, input.attributes, strict=True)), modes=tuple(conf.modes),
+            sweep="protocol_sweep" in EXPERIMENTS and wc.dataset in SWEEP_DATASETS, dataset=wc.dataset,
+            method=wc.method, scorers=conf.baselines, allow_split_overlap=conf.allow_split_overlap, out=output[0])),
     shell:
-        "vpr-smr metrics --dataset {wildcards.dataset:q} --method {wildcards.method:q}"
-        " --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
-        " {params.matcher} --distances {params.distances}"
-        " --attributes {params.attributes} --predictor {input.predictor:q} {params.baselines} --modes {params.modes}"
-        " {params.sweep}"
-        " --out {output:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(METRICS)
 
 
 # The per-query table of the same scoring, its own job: it does not depend on the metric modes, so a change of them
@@ -78,17 +62,11 @@ rule queries:
     log:
         log_path(OUT, queries_path(OUT, "{dataset}", "{method}", "{seq_len}")),
     params:
-        overlap=ALLOW_OVERLAP,
-        # SPLIT=PATH items, each quoted already: the shell command uses them unquoted
-        distances=lambda wc, input: name_pairs(conf.eval_splits, input.distances),
-        attributes=lambda wc, input: name_pairs(conf.eval_splits, input.attributes),
-        tolerance=lambda wc: PLAN.datasets[wc.dataset].tolerance,
-        radius=lambda wc: f"--radius {r}" if (r := PLAN.datasets[wc.dataset].radius) is not None else "",
-        # method §13: a dataset's ground-truth file (its input below), cut to each split by the stage
-        ground_truth=lambda wc: ground_truth_option(PLAN, wc.dataset),
-        matcher=MATCHER,
-        baselines=BASELINES,
+        # the stage's job record: as the metrics' above, without the modes and the sweep
+        job=lambda wc, input, output: job_text(QueriesJob(
+            tuple(f"{split}={path}" for split, path in zip(conf.eval_splits, input.distances, strict=True)),
+            int(wc.seq_len), PLAN.datasets[wc.dataset].truth, conf.sequence_matching, predictor=input.predictor,
+            attributes=dict(zip(conf.eval_splits, input.attributes, strict=True)), scorers=conf.baselines,
+            allow_split_overlap=conf.allow_split_overlap, out=output[0])),
     shell:
-        "vpr-smr queries --seq-len {wildcards.seq_len} --tolerance {params.tolerance} {params.radius} {params.ground_truth}"
-        " {params.matcher} --distances {params.distances} --attributes {params.attributes} --predictor {input.predictor:q}"
-        " {params.baselines} --out {output:q} {params.overlap} > {log:q} 2>&1"
+        shell_command(QUERIES)

@@ -5,6 +5,8 @@ The scorers read the candidates the sequence matcher keeps (the n smallest S and
 also checks that those candidates are enough: ties, a window that covers every reference, m_a = 0, positions in one
 and two dimensions, velocity search, a split with fewer end references than candidates, both implementations."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from helpers import make_features, seqslam
@@ -305,6 +307,7 @@ def split_files(tmp_path):
     the default candidates), and the same matrices."""
     from helpers import write_distance_matrix
 
+    from vpr_smr.eval.matching.attributes import AttributesJob
     from vpr_smr.eval.matching.attributes import main as attributes_main
 
     rng = np.random.default_rng(17)
@@ -315,7 +318,7 @@ def split_files(tmp_path):
         write_distance_matrix(distances[split], d, {"dataset": "d", "method": "m", "split": split,
                                                     "split_range": [lo, lo + n]})
         attributes[split] = tmp_path / f"{split}_L3.h5"
-        attributes_main(distances[split], attributes[split], 3, 2)
+        attributes_main(AttributesJob(str(distances[split]), 3, out=str(attributes[split])))  # tolerance 2
         matrices[split] = d
     return distances, attributes
 
@@ -353,11 +356,15 @@ def test_the_baselines_command(split_files, predictor_file, tmp_path):
                 "--attributes", *(f"{s}={p}" for s, p in attributes.items()),
                 "--predictors", str(predictor_file), "--r-window", "30", "--out", str(tmp_path / "c.json")]) == 2
     with pytest.raises(ValueError, match=r"val_L3.h5 holds 12 candidates .* --candidates 32"):
+        from vpr_smr.eval.scoring.baselines_stage import BaselinesJob
         from vpr_smr.eval.scoring.baselines_stage import main as baselines_main
 
-        baselines_main(distances, attributes, [predictor_file], 3, 2, tmp_path / "c.json", BaselineSettings(30, 10))
+        job = BaselinesJob("d", "m", 3, {s: str(p) for s, p in distances.items()},
+                           {s: str(p) for s, p in attributes.items()}, (str(predictor_file),),
+                           scorers=BaselineSettings(30, 10), out=str(tmp_path / "c.json"))
+        baselines_main(job)
     with pytest.raises(ValueError, match="give every split's attributes and distances"):
-        baselines_main({"val": distances["val"]}, attributes, [predictor_file], 3, 2, tmp_path / "c.json")
+        baselines_main(replace(job, distances={"val": str(distances["val"])}, scorers=BaselineSettings()))
 
 
 def test_metrics_reports_the_scorers_with_and_without_a_predictor(split_files, predictor_file, tmp_path, capsys):

@@ -10,11 +10,13 @@ from helpers import read_distance_matrix, seqslam, write_distance_matrix
 from worked_matrix import DECISION, SEQ_LEN, TOLERANCE, D, FixedPredictor
 
 from vpr_smr.core.constants import EPS, GROUP_HALF_WIDTH, KEPT_CLASSES
+from vpr_smr.eval.matching.attributes import AttributesJob
 from vpr_smr.eval.matching.attributes import main as attributes_main
+from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.scoring.baselines import BaselineSettings
 from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, SCORE_COLUMNS, write_queries
-from vpr_smr.eval.scoring.vpr_metrics import main, score_split
+from vpr_smr.eval.scoring.vpr_metrics import MetricsJob, main, score_split
 
 COLUMNS = ["split", "query", "single_match", "single_distance", "single_correct", "sequence_match",
            "sequence_distance", "sequence_correct", "true_reference", "A1", "A2", "A3", "A4", "label",
@@ -115,6 +117,16 @@ def test_without_a_predictor_its_columns_are_empty(tmp_path):
     assert [r["label"] for r in rows] == ["2", "0", "2", "3", "1"]
 
 
+def _items(paths):
+    """A metrics job's ``distances``: SPLIT=PATH items of split -> path, in order."""
+    return tuple(f"{split}={path}" for split, path in paths.items())
+
+
+def _named(paths):
+    """A job's split -> path as text."""
+    return {split: str(path) for split, path in paths.items()}
+
+
 @pytest.fixture
 def splits(tmp_path):
     """Two splits of dataset "d" in our HDF5 layout, frames 100..111 (test) and 60..71 (val), with attributes
@@ -126,14 +138,14 @@ def splits(tmp_path):
         path = tmp_path / f"{split}.h5"
         write_distance_matrix(path, d, {"dataset": "d", "method": "m", "split": split, "split_range": [lo, lo + 12]})
         paths[split] = path
-    attributes_main(paths["test"], tmp_path / "test_L3.h5", 3, 2)
+    attributes_main(AttributesJob(str(paths["test"]), 3, TruthSource(tolerance=2), out=str(tmp_path / "test_L3.h5")))
     return paths, {"test": tmp_path / "test_L3.h5"}
 
 
 def test_frames_attributes_and_prediction(splits, predictor_file, tmp_path):
     distances, attributes = splits
-    main(distances, 3, 2, tmp_path / "m.json", predictor=predictor_file, attributes=attributes,
-         queries=tmp_path / "q.csv")
+    main(MetricsJob(_items(distances), 3, TruthSource(tolerance=2), predictor=str(predictor_file),
+                    attributes=_named(attributes), queries=str(tmp_path / "q.csv"), out=str(tmp_path / "m.json")))
     header, rows = read(tmp_path / "q.csv")
     assert header == COLUMNS + SCORES
     # splits in the given order (test, then val); frames: the split's first frame plus the index in the split,
@@ -167,7 +179,8 @@ def test_frames_attributes_and_prediction(splits, predictor_file, tmp_path):
 
 def test_a_users_npy_starts_at_frame_zero(tmp_path):
     np.save(tmp_path / "D.npy", D)
-    main(tmp_path / "D.npy", SEQ_LEN, TOLERANCE, tmp_path / "m.json", queries=tmp_path / "q.csv")
+    main(MetricsJob((str(tmp_path / "D.npy"),), SEQ_LEN, TruthSource(tolerance=TOLERANCE),
+                    queries=str(tmp_path / "q.csv"), out=str(tmp_path / "m.json")))
     _, rows = read(tmp_path / "q.csv")
     assert [r["query"] for r in rows] == ["1", "2", "3", "4", "5"] and {r["split"] for r in rows} == {"all"}
 
@@ -176,8 +189,9 @@ def test_the_queries_command_writes_the_metrics_commands_table(splits, predictor
     from vpr_smr.pipeline.cli import main as cli
 
     distances, attributes = splits
-    main(distances, 3, 2, tmp_path / "m.json", predictor=predictor_file, attributes=attributes,
-         modes=("standard",), queries=tmp_path / "from_metrics.csv")
+    main(MetricsJob(_items(distances), 3, TruthSource(tolerance=2), predictor=str(predictor_file),
+                    attributes=_named(attributes), modes=("standard",), queries=str(tmp_path / "from_metrics.csv"),
+                    out=str(tmp_path / "m.json")))
     pairs = [f"{split}={path}" for split, path in distances.items()]
     assert cli(["queries", "--distances", *pairs, "--attributes", f"test={attributes['test']}", "--seq-len", "3",
                 "--tolerance", "2", "--predictor", str(predictor_file), "--out", str(tmp_path / "q.csv")]) == 0
@@ -209,7 +223,8 @@ def test_metrics_and_queries_are_written_both_or_neither(tmp_path, monkeypatch):
 
     np.save(tmp_path / "D.npy", D)
     out, queries = tmp_path / "m.json", tmp_path / "q.csv"
-    main(tmp_path / "D.npy", SEQ_LEN, TOLERANCE, out, queries=queries)
+    matrix = (str(tmp_path / "D.npy"),)
+    main(MetricsJob(matrix, SEQ_LEN, TruthSource(tolerance=TOLERANCE), queries=str(queries), out=str(out)))
     before = out.read_bytes(), queries.read_bytes()
 
     def broken(*args, **kwargs):
@@ -218,15 +233,16 @@ def test_metrics_and_queries_are_written_both_or_neither(tmp_path, monkeypatch):
     # at tolerance 1 both files would change; the JSON cannot be written: neither changes
     monkeypatch.setattr(vpr_metrics, "write_json", broken)
     with pytest.raises(OSError, match="disk full"):
-        main(tmp_path / "D.npy", SEQ_LEN, 1, out, queries=queries)
+        main(MetricsJob(matrix, SEQ_LEN, TruthSource(tolerance=1), queries=str(queries), out=str(out)))
     assert (out.read_bytes(), queries.read_bytes()) == before
     with pytest.raises(OSError, match="disk full"):  # a first run: neither file appears
-        main(tmp_path / "D.npy", SEQ_LEN, 1, tmp_path / "new.json", queries=tmp_path / "new.csv")
+        main(MetricsJob(matrix, SEQ_LEN, TruthSource(tolerance=1), queries=str(tmp_path / "new.csv"),
+                        out=str(tmp_path / "new.json")))
     assert not (tmp_path / "new.json").exists() and not (tmp_path / "new.csv").exists()
     # the table cannot be written: the JSON is not replaced either
     monkeypatch.undo()
     monkeypatch.setattr(vpr_metrics, "write_queries", broken)
     with pytest.raises(OSError, match="disk full"):
-        main(tmp_path / "D.npy", SEQ_LEN, 1, out, queries=queries)
+        main(MetricsJob(matrix, SEQ_LEN, TruthSource(tolerance=1), queries=str(queries), out=str(out)))
     assert (out.read_bytes(), queries.read_bytes()) == before
     assert not list(tmp_path.glob("*.tmp"))

@@ -532,7 +532,7 @@ def test_a_wrong_file_given_to_the_report_is_named(tmp_path):
     matrix = tmp_path / "D.npy"
     np.save(matrix, np.random.default_rng(0).random((30, 30)) + 1 - np.eye(30))
     anonymous = tmp_path / "anonymous.json"
-    vpr_metrics.main(matrix, 4, 2, anonymous, modes=("paper",))
+    vpr_metrics.main(vpr_metrics.MetricsJob((str(matrix),), 4, modes=("paper",), out=str(anonymous)))
     with pytest.raises(ValueError, match=r"anonymous.json: a VPR metrics file without dataset, method in its meta, "
                                          r"which the report needs: rerun vpr-smr metrics with --dataset and "
                                          r"--method"):

@@ -12,7 +12,7 @@ from vpr_smr.eval.matching.checks import check_size, tie_warning
 from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec
 from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.scoring import vpr_metrics
-from vpr_smr.eval.scoring.vpr_metrics import MatcherSettings
+from vpr_smr.eval.scoring.vpr_metrics import MetricsJob
 
 
 def _refuse_above(longest):
@@ -46,8 +46,8 @@ def _stages(tmp_path, matcher):
     return {
         "attributes": lambda path, seq_len: attributes.main(attributes.AttributesJob(
             str(path), seq_len, TruthSource(tolerance=0), spec, out=str(tmp_path / "a.csv"))),
-        "metrics": lambda path, seq_len: vpr_metrics.main({"s": path}, seq_len, 0, tmp_path / "m.json",
-                                                          matcher=MatcherSettings(spec), baselines=None),
+        "metrics": lambda path, seq_len: vpr_metrics.main(MetricsJob(
+            (f"s={path}",), seq_len, TruthSource(tolerance=0), spec, baselines=False, out=str(tmp_path / "m.json"))),
     }
 
 

@@ -13,13 +13,14 @@ from training_sets import PARAMS, train_job
 from worked_matrix import DECISION, SEQ_LEN, TOLERANCE, D, FixedPredictor
 
 from vpr_smr.core.constants import KEPT_CLASSES, MATCHERS, MODES, RECALL_AT
+from vpr_smr.eval.matching.attributes import AttributesJob, query_features, write_features
 from vpr_smr.eval.matching.attributes import main as attributes_main
-from vpr_smr.eval.matching.attributes import query_features, write_features
+from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.predictor import train
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import SplitLeakError
 from vpr_smr.eval.scoring.evaluate import recall_at_1
-from vpr_smr.eval.scoring.vpr_metrics import main, retrieval, score_split
+from vpr_smr.eval.scoring.vpr_metrics import MetricsJob, main, retrieval, score_split
 from vpr_smr.pipeline.cli import main as cli
 
 EXPECTED = {
@@ -245,10 +246,11 @@ def test_predictor_never_scores_its_training_frames(predictor_file, tmp_path):
     rng = np.random.default_rng(0)
     provenance = {"dataset": "d", "split": "val", "split_range": [40, 70], "method": "m"}
     write_distance_matrix(tmp_path / "val.h5", rng.random((30, 30)), provenance)
+    matrix = (f"val={tmp_path / 'val.h5'}",)  # a split of frames 40..69 of dataset "d"
     with pytest.raises(SplitLeakError, match="shares frames"):
-        main({"val": tmp_path / "val.h5"}, 3, 2, tmp_path / "m.json", predictor=predictor_file)
-    result = main({"val": tmp_path / "val.h5"}, 3, 2, tmp_path / "m.json", predictor=predictor_file,
-                  allow_split_overlap=True)
+        main(MetricsJob(matrix, 3, predictor=str(predictor_file), out=str(tmp_path / "m.json")))
+    result = main(MetricsJob(matrix, 3, predictor=str(predictor_file), allow_split_overlap=True,
+                             out=str(tmp_path / "m.json")))
     assert "sequence_predictor" in result.splits["val"].modes["paper"]
 
 
@@ -287,11 +289,12 @@ def test_attributes_files_are_used_and_checked(tmp_path):
     rng = np.random.default_rng(5)
     d = rng.random((30, 30))
     np.save(tmp_path / "D.npy", d)
-    attributes_main(tmp_path / "D.npy", tmp_path / "a3.h5", 3, 2)
-    with_file = main(tmp_path / "D.npy", 3, 2, tmp_path / "m1.json", attributes={"all": tmp_path / "a3.h5"})
-    computed = main(tmp_path / "D.npy", 3, 2, tmp_path / "m2.json")
+    attributes_main(AttributesJob(str(tmp_path / "D.npy"), 3, TruthSource(tolerance=2), out=str(tmp_path / "a3.h5")))
+    matrix, given = (str(tmp_path / "D.npy"),), {"all": str(tmp_path / "a3.h5")}
+    with_file = main(MetricsJob(matrix, 3, TruthSource(tolerance=2), attributes=given, out=str(tmp_path / "m1.json")))
+    computed = main(MetricsJob(matrix, 3, TruthSource(tolerance=2), out=str(tmp_path / "m2.json")))
     assert with_file == computed
     with pytest.raises(ValueError, match="sequence length 3, but --seq-len is 4"):
-        main(tmp_path / "D.npy", 4, 2, tmp_path / "m.json", attributes={"all": tmp_path / "a3.h5"})
+        main(MetricsJob(matrix, 4, TruthSource(tolerance=2), attributes=given, out=str(tmp_path / "m.json")))
     with pytest.raises(ValueError, match="at tolerance 2, but --tolerance is 1"):
-        main(tmp_path / "D.npy", 3, 1, tmp_path / "m.json", attributes={"all": tmp_path / "a3.h5"})
+        main(MetricsJob(matrix, 3, TruthSource(tolerance=1), attributes=given, out=str(tmp_path / "m.json")))

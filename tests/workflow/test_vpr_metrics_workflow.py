@@ -11,7 +11,8 @@ import pytest
 import yaml
 from oracles import naive_recalls
 
-from vpr_smr.eval.scoring.vpr_metrics import main
+from vpr_smr.eval.matching.sources import TruthSource
+from vpr_smr.eval.scoring.vpr_metrics import MetricsJob, main
 
 
 @pytest.mark.slow
@@ -50,10 +51,10 @@ def test_workflow_rule(tmp_path):
         assert [int(r["query"]) for r in rows if r["split"] == split] == list(range(lo + 2, hi))
     # the queries job (vpr-smr queries) writes the table `vpr-smr metrics --queries` writes of the same files
     splits = ("val", "test")
-    main({s: run / f"distances/sample/sad/{s}.h5" for s in splits}, 3, 2, tmp_path / "m.json",
-         predictor=run / "predictors/sample/L3.h5", attributes={s: run / f"attributes/sample/sad/L3/{s}.h5"
-                                                                 for s in splits},
-         queries=tmp_path / "q.csv")
+    main(MetricsJob(tuple(f"{s}={run}/distances/sample/sad/{s}.h5" for s in splits), 3, TruthSource(tolerance=2),
+                    predictor=str(run / "predictors/sample/L3.h5"),
+                    attributes={s: str(run / f"attributes/sample/sad/L3/{s}.h5") for s in splits},
+                    queries=str(tmp_path / "q.csv"), out=str(tmp_path / "m.json")))
     assert (tmp_path / "q.csv").read_bytes() == (run / "queries/sample/sad/L3.csv").read_bytes()
     logs = sorted(str(p.relative_to(run / "logs")) for p in (run / "logs").rglob("L3.log"))
     assert "metrics/sample/sad/L3.log" in logs and "queries/sample/sad/L3.log" in logs  # two jobs
