@@ -1,8 +1,10 @@
 """A wheel built from the repository runs the workflow with no checkout: Snakefile, rules, schema, profiles and
-the shipped data are package data, and the results equal those of the checkout's install."""
+the shipped data are package data, and the results equal those of the checkout's install. It holds every module of
+the checkout (the package's own, vpr_smr/, and the stage folders'), as files, never links."""
 
 import csv
 import email
+import stat
 import subprocess
 import sys
 import sysconfig
@@ -74,6 +76,21 @@ def test_wheel_metadata_names_licences_classifiers_and_urls(wheel):
     assert "Paper, https://arxiv.org/abs/2503.06840" in message.get_all("Project-URL")
 
 
+def test_wheel_holds_every_module_of_the_checkout_as_files(wheel):
+    listed = run(["git", "ls-files", "*.py", "*py.typed"], cwd=REPO).stdout.split()
+    stages = ("core/", "datasets/", "descriptors/", "eval/", "pipeline/")
+    expected = {path if path.startswith("vpr_smr/") else f"vpr_smr/{path}" for path in listed
+                if path.startswith(("vpr_smr/", *stages))}
+    with zipfile.ZipFile(wheel) as archive:
+        entries = archive.infolist()
+    names = {entry.filename for entry in entries}
+    assert {"vpr_smr/__init__.py", "vpr_smr/api.py", "vpr_smr/records.py", "vpr_smr/pipeline/stages/__init__.py",
+            "vpr_smr/core/paths.py"} <= expected
+    assert expected - names == set(), "a package missing from pyproject's [tool.setuptools] packages"
+    links = [entry.filename for entry in entries if stat.S_ISLNK(entry.external_attr >> 16)]
+    assert links == [] and len(names) == len(entries)
+
+
 def test_installed_wheel_runs_a_configuration_outside_the_repository(wheel, tmp_path):
     venv = tmp_path / "venv"
     run([sys.executable, "-m", "venv", str(venv)], cwd=tmp_path)
@@ -92,6 +109,10 @@ def test_installed_wheel_runs_a_configuration_outside_the_repository(wheel, tmp_
         wheel_version = email.message_from_bytes(archive.read(metadata))["Version"]
     printed = run([str(venv / "bin" / "vpr-smr"), "--version"], cwd=tmp_path).stdout
     assert printed == f"vpr-smr {wheel_version}\n"
+    printed = run([str(venv / "bin" / "python"), "-c", "import vpr_smr; print(vpr_smr.__version__, "
+                   "vpr_smr.api.__file__.startswith(vpr_smr.__path__[0]), len(vpr_smr.records.__all__) > 20)"],
+                  cwd=tmp_path).stdout
+    assert printed == f"{wheel_version} True True\n"
 
     user = tmp_path / "user"
     user.mkdir()
