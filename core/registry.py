@@ -128,6 +128,10 @@ class Registry(Generic[T]):
         self._lazy.pop(name, None)
         self._items.pop(name, None)
 
+    def items(self) -> list[tuple[str, T]]:
+        """The built-ins' names and items, in their order (each imported)."""
+        return [(name, self.get(name)) for name in self._order]
+
     def __iter__(self) -> Iterator[str]:
         return iter(list(self._order))
 

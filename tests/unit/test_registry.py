@@ -102,6 +102,7 @@ def test_a_registry_reads_as_a_mapping_of_its_names(monkeypatch):
     _install(monkeypatch, beta=20)
     widgets = _widgets()
     assert widgets["zeta"] == 1 and widgets["beta"] == 20 and sorted(widgets) == ["alpha", "zeta"]
+    assert widgets.items() == [("zeta", 1), ("alpha", 2)]  # the built-ins, as iterating gives them
     with pytest.raises(KeyError, match="unknown widget 'gamma'"):
         widgets["gamma"]
 
