@@ -16,6 +16,7 @@ import base64
 import json
 from collections.abc import Iterable, Mapping, Sequence
 from datetime import UTC, datetime
+from functools import cache
 from pathlib import Path
 from typing import Any
 
@@ -79,6 +80,7 @@ from vpr_smr.eval.report.view import (
 from vpr_smr.eval.scoring import scorers as scorer_registry
 
 TEMPLATES = Path(__file__).resolve().parent / "templates"
+PROSE = "sections.yaml"  # the sections' intros (``prose``), beside the page's template
 TEMPLATE = "report.html.j2"
 DESCRIPTOR_KEYS = ("dataset", "method", "checkpoint_sha256", "frames_sha256", "vpr_smr_version")
 # What another machine may change, measured on the demo (docs/method.md §7.5); shown in the provenance section
@@ -569,94 +571,67 @@ def _adaptive_headline(rows: Rows) -> str:
     return adaptive_table.adaptive_sentence(rows) if any(r["best_fixed"] for r in rows) else ""
 
 
+@cache
+def _prose() -> dict[str, str]:
+    """``templates/sections.yaml``: each section's intro by its id, read once."""
+    import yaml
+
+    found = yaml.safe_load((TEMPLATES / PROSE).read_text(encoding="utf-8"))
+    if not isinstance(found, dict) or not all(isinstance(text, str) for text in found.values()):
+        raise ValueError(f"{TEMPLATES / PROSE} must map each section's id to its intro (a text)")
+    return found
+
+
+def prose(section: str, **values: str) -> str:
+    """The intro of ``section`` (its id) from ``templates/sections.yaml``, its ``{name}`` fields filled by
+    ``values``; KeyError naming the file for an id it lacks."""
+    texts = _prose()
+    if section not in texts:
+        raise KeyError(f"{TEMPLATES / PROSE} has no intro of the section {section!r}; it has {', '.join(texts)}")
+    return texts[section].format(**values) if values else texts[section]
+
+
 SECTIONS = (
     # right after Table I: is the predictor better than a simple rule?
     Declared("baselines", "Is the predictor better than a simple rule?", ("baselines", "wrong_match_detection"),
              _baseline_intro, blocks=_baseline_blocks, headlines=_baseline_headlines),
     # right after the baselines: the same question for each sequence matcher (method §14)
-    Declared("matchers", "Does SMR help each sequence matcher?", ("matchers",), (
-        "Each matcher (method §14) with its own labels and its own predictor (the authors' recipe, every seed), "
-        "scored as Table I on the queries every matcher evaluates. Bars: the seed-0 predictor's AOC reduction "
-        "(its 95 % interval as a whisker) and, hatched, the matcher's native confidence removing as many matches. "
-        "The table also gives the best training-free scorer at that budget and the average precision of detecting "
-        "the wrong matches. A matcher whose recall@1 on the validation split is under "
-        f"{matcher_table.FAR_BELOW:g} of the fixed matcher's is flagged: its settings (a filter's transition "
-        "window) likely do not fit the traverses' speed ratio."), "matchers",
+    Declared("matchers", "Does SMR help each sequence matcher?", ("matchers",),
+        prose("matchers", far_below=f"{matcher_table.FAR_BELOW:g}"), "matchers",
         view=lambda b, f, shown: (b.compact("matchers", b.anchor("matchers", f), shown,
                                             registry.table("matchers").caption),),
         sentences=lambda b, shown: matcher_table.matcher_sentences(shown), headline=matcher_table.comparison_sentence),
-    Declared("pr-curves", "Precision-recall curves", ("table1",), (
-        "Sequence matching without (VPR+SM) and with the predictor's match removal (VPR+SM+Pred, the seed-0 "
-        "predictor), one panel per method. The area over the curve (AOC) is measured up to VPR+SM+Pred's "
-        "maximum recall (dotted line); VPR+SM's curve is cut there. Table I above reports it."), "pr",
+    Declared("pr-curves", "Precision-recall curves", ("table1",), prose("pr-curves"), "pr",
         view=lambda b, f, shown: (b.compact("table1", b.anchor("pr", f), shown),)),
-    Declared("trust-levels", "Trust levels", ("trust_levels",), (
-        "A match the predictor marks wrong is removed only when its confidence is at least the trust level; "
-        "the curves and the reductions show each level against VPR+SM."), "trust",
+    Declared("trust-levels", "Trust levels", ("trust_levels",), prose("trust-levels"), "trust",
         view=lambda b, f, shown: (pivot(b.anchor("trust", f), shown, registry.table("trust_levels")),)),
-    Declared("restoration", "Match restoration", ("restoration",), (
-        "The second filter: a removed match is replaced by the next candidate the predictor trusts. PR AUC of "
-        "restoration against removal alone, per method."), "restoration",
+    Declared("restoration", "Match restoration", ("restoration",), prose("restoration"), "restoration",
         view=lambda b, f, shown: (b.compact("restoration", b.anchor("restoration", f), shown),),
         aside="restoration_auc"),
-    Declared("sequence-length", "Sequence-length ablation", ("ablation_seq_len",), (
-        "PR AUC of every method at every sequence length L, a bar from VPR+SM (bottom) to VPR+SM+Pred (top): "
-        "green where the top is higher, red where lower (the estimates: the table gives their intervals); a cross "
-        "marks the PR AUC of the best training-free scorer removing as many matches as the predictor (method §12): "
-        "compare it with the "
-        "bar's top, each over its own curve; the second table gives its name and AOC reduction beside the "
-        "predictor's."), "seq_len", view=_seq_len_view),
+    Declared("sequence-length", "Sequence-length ablation", ("ablation_seq_len",), prose("sequence-length"), "seq_len",
+             view=_seq_len_view),
     # right after the sequence-length ablation: choosing the length per query instead (method §15)
-    Declared("adaptive-seq-len", "Choosing the sequence length per query", ("adaptive_seq_len",), (
-        "The paper's future work (method §15): with the run's lengths and each length's predictor, adaptive takes "
-        "per query the shortest length whose predictor keeps its match and removes the match when none does; "
-        "adaptive_fallback keeps the longest length's match then; adaptive_uniqueness (training-free) takes the "
-        "shortest length whose uniqueness reaches a threshold, chosen on the validation split to remove as many "
-        "matches there as adaptive. Every row is scored as Table I on the queries every length evaluates (seed 0; "
-        "the spread over the seeds in the whole table), its AOC at its own maximum recall and its reduction against "
-        "the longest length without predictor. How to read the figure: a panel per matcher and method; a point is "
-        "a row's AOC (lower is better, its 95 % interval as a whisker) against the mean sequence length it used (a "
-        "query no length accepts counts the longest, which the live matcher computed); circles joined: the fixed "
-        "lengths without their predictor, squares joined: with it, the other markers: the rules; the ring: the "
-        "best fixed row in standard mode (among the fixed rows that keep a correct match, the one that loses the "
-        "least precision over its recall: AOC over maximum recall, one minus its mean precision). Read a "
-        "point's AOC with its maximum recall (the table): a row that removes more matches reaches a smaller recall, "
-        "where its AOC is taken. A rule left of the ring used fewer frames on average; whether its AOC differs from "
-        "the ring's, both taken at the recall both reach, is what the paired intervals in the sentence say, not "
-        "the distance between the points; the sentence takes for each matcher and method the best rule by the same "
-        "measure. Rows are compared in standard mode only: in paper "
-        "mode a row's recall divides by its own correct matches, which differ from row to row. The live "
-        "time per query (this machine's; it does not repeat exactly) is the adaptive live matcher's, computing "
-        "the lengths shortest first and stopping at the first kept, beside the longest length's with its "
-        "predictor."), "adaptive_seq_len",
+    Declared("adaptive-seq-len", "Choosing the sequence length per query", ("adaptive_seq_len",),
+        prose("adaptive-seq-len"), "adaptive_seq_len",
         view=lambda b, f, shown: (b.compact("adaptive_seq_len", b.anchor("adaptive-seq-len", f), shown,
                                             registry.table("adaptive_seq_len").caption),),
         sentences=lambda b, shown: adaptive_table.adaptive_sentences(shown), headline=_adaptive_headline),
     Declared("speed", "Speed profiles", ("speed",), _speed_intro, "speed",
              view=lambda b, f, shown: (speed_table(b.anchor("speed", f), shown),),
              sentences=lambda b, shown: speed_sentences(shown, b.split)),
-    Declared("predictor", "The predictor alone", ("predictor", "predictor_methods", "predictor_confusion"), (
-        "Classes (method §6): 0 correct before and after sequence matching, 1 correct before only, 2 correct after "
-        "only, 3 wrong both; the predictor keeps the matches of classes 0 and 2. Cross-validation uses SMOTE "
-        "inside the folds. The confusion matrix sums every method."), blocks=_predictor_blocks),
-    Declared("table-ii", "Table II: attribute ablation", ("table2",), (
-        "Macro F1 of a predictor trained on each attribute alone and on all four: A1 minimum sum rate, A2 "
-        "minimum value rate, A3 block sum rate, A4 group sum rate."), blocks=_table2_blocks),
+    Declared("predictor", "The predictor alone", ("predictor", "predictor_methods", "predictor_confusion"),
+             prose("predictor"), blocks=_predictor_blocks),
+    Declared("table-ii", "Table II: attribute ablation", ("table2",), prose("table-ii"), blocks=_table2_blocks),
     Declared("leave-one-method-out", "Leave one method out", ("leave_one_method_out",), lambda b: (
         f"Each method's {b.split} split under the pooled predictor and under one trained on every other "
         "method: how well the predictor carries over to a method it has not seen.",), blocks=_lomo_blocks),
-    Declared("timing", "Inference time", ("timing",), (
-        "Time per query of the attributes and of the prediction (this machine; every other number of the report "
-        "repeats exactly, this one does not)."), blocks=_timing_blocks),
+    Declared("timing", "Inference time", ("timing",), prose("timing"), blocks=_timing_blocks),
     Declared("vpr-metrics", "Standard VPR metrics", ("vpr_metrics",), lambda b: (
         "Recall@N (a query counts when a correct reference is among its N best matches), recall at 100 % "
         "precision (R@100P), the area under the PR curve (PR-AUC) and extended precision (EP), for single-frame "
         "matching, sequence matching, and sequence matching with the predictor (a removed match counts as not "
         f"retrieved). The whole table has every mode ({', '.join(_metrics_mode(b)[1])}).",), blocks=_metrics_blocks),
-    Declared("protocol-sweep", "Protocol sweep", ("protocol_sweep",), (
-        "How the conclusions depend on the ground truth (method §13): the same sequence matches and the same "
-        "seed-0 predictor's decisions, scored as correct within other tolerances (frames) or radii (positions). "
-        "Nothing is matched or predicted again; only which matches count as correct changes."), "protocol_sweep",
+    Declared("protocol-sweep", "Protocol sweep", ("protocol_sweep",), prose("protocol-sweep"), "protocol_sweep",
         view=lambda b, f, shown: (pivot(b.anchor("protocol-sweep", f), shown, registry.table("protocol_sweep")),),
         sentences=lambda b, shown: sweep_sentences(shown), headline=sweep_headline),
     Declared("match-inspector", "Match inspector", (), lambda b: (
