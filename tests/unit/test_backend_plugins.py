@@ -209,3 +209,40 @@ def test_check_checkpoint_of_released_layouts(tmp_path):
     conf = {"backend": "cosplace", "backbone": "ResNet18", "checkpoint": str(tmp_path / "ResNet18_32_cosplace.pth")}
     with pytest.raises(CheckpointError, match=r"1 missing keys:\n    backbone\.4\.0\.bn1\.running_var"):
         extract.check_checkpoint(conf)
+
+
+LEGACY_PLUGIN = '''
+import numpy as np
+import torch
+from vpr_smr.descriptors import Backend
+
+class OldColour(Backend):
+    name = "old_colour"
+    default_conf = {"scale": 1.0}
+    settings_help = {"scale": "a factor of the mean colour"}
+
+    def preprocess(self, image):
+        return torch.tensor(image.reshape(-1, 3).mean(0) * self.conf["scale"], dtype=torch.float32)
+
+    def forward(self, batch):
+        return batch.numpy()
+'''
+
+
+def test_a_plugin_written_for_0_15_still_loads_and_is_told_the_new_way(tmp_path, monkeypatch):
+    (tmp_path / "old_plugin.py").write_text(LEGACY_PLUGIN)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    dist = tmp_path / "old_plugin-1.0.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: old-plugin\nVersion: 1.0\n")
+    (dist / "entry_points.txt").write_text("[vpr_smr.descriptors]\nold_colour = old_plugin:OldColour\n")
+    try:
+        with pytest.warns(DeprecationWarning, match=r"old_plugin.OldColour declares its settings as default_conf and "
+                                                    r"settings_help dicts.*Settings record"):
+            cls = backend_class("old_colour")
+        assert cls.default_conf == {"scale": 1.0} and cls.settings_help == {"scale": "a factor of the mean colour"}
+        image = np.zeros((2, 2, 3), dtype=np.uint8)
+        image[..., 0] = 30
+        np.testing.assert_array_equal(cls({"scale": 2.0}).describe(image), [60, 0, 0])
+    finally:
+        sys.modules.pop("old_plugin", None)
