@@ -4,16 +4,14 @@
 (``from vpr_smr import api as smr``) and ``vpr_smr.records`` the records its functions return. The stages live in
 ``vpr_smr.core``, ``datasets``, ``descriptors``, ``eval`` and ``pipeline`` (the ``vpr-smr`` command line).
 
-``api`` and ``records`` are imported on first use (PEP 562), so that the command line and the workflow's jobs, which
-import a stage, do not load the whole API.
+``__version__``, ``api`` and ``records`` are looked up on first use (PEP 562): every import of a stage's module runs
+this file first, and the command line and the workflow's jobs should not pay for the API or the metadata lookup.
 """
 
 from __future__ import annotations
 
 import importlib
-from importlib.metadata import PackageNotFoundError, version
-from types import ModuleType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from vpr_smr import api as api
@@ -21,19 +19,23 @@ if TYPE_CHECKING:
 
 __all__ = ["__version__", "api", "records"]
 
-try:
-    __version__ = version("vpr-smr")  # the package metadata's, as `vpr-smr --version` prints it
-except PackageNotFoundError:  # the checkout on sys.path without an install (pip install -e . gives one)
-    __version__ = "unknown"
-
-_LAZY = ("api", "records")
+__version__: str  # set on first use, below
 
 
-def __getattr__(name: str) -> ModuleType:
-    if name in _LAZY:
-        return importlib.import_module(f"{__name__}.{name}")
+def __getattr__(name: str) -> Any:
+    if name == "__version__":
+        from importlib.metadata import PackageNotFoundError, version
+
+        try:
+            found = version("vpr-smr")  # the package metadata's, as `vpr-smr --version` prints it
+        except PackageNotFoundError:  # the checkout on sys.path without an install (pip install -e . gives one)
+            found = "unknown"
+        globals()["__version__"] = found
+        return found
+    if name in ("api", "records"):
+        return importlib.import_module(f"{__name__}.{name}")  # which binds it here too
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def __dir__() -> list[str]:
-    return sorted({*globals(), *_LAZY})
+    return sorted({*globals(), *__all__})
