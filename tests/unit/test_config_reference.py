@@ -21,6 +21,7 @@ from vpr_smr.pipeline.cli import build_parser
 from vpr_smr.pipeline.config import SCHEMA_PATH, ConfigError, Extraction, validate
 from vpr_smr.pipeline.options import add_options, flags, matcher_flags, matcher_of, read_matcher, read_options
 from vpr_smr.pipeline.reference import REFERENCE_PATH, config_schema, configuration_reference
+from vpr_smr.pipeline.stage import job_of
 
 STAGES = ("attributes", "metrics", "queries", "baselines", "inspect")
 MINIMAL = {"run": "r", "datasets": {"d": {"loader": "nordland_sample"}}, "methods": {"m": {"backend": "sad"}}}
@@ -86,19 +87,25 @@ def _subparsers():
     return list(action.choices.items())
 
 
+def _scorers(args: SimpleNamespace) -> BaselineSettings:
+    """The training-free scorers' settings of a scoring stage's parsed options (its job record's group)."""
+    scorers: BaselineSettings = job_of(args.stage, args).scorers
+    return scorers
+
+
 def test_options_read_back_as_the_records():
     args = _parse("metrics", "--distances", "D.npy", "--seq-len", "4", "--out", "m.json", "--r-window", "6",
                   "--velocities", "2", "1")
-    assert read_options(args, BaselineSettings, "baselines") == BaselineSettings(6, 10)  # spread_k: its default
+    assert _scorers(args) == BaselineSettings(6, 10)  # spread_k: its default
     assert read_matcher(args) == MatcherSpec("seqslam", '{"velocities": [1.0, 2.0]}')  # sorted: one matcher
     default = _parse("metrics", "--distances", "D.npy", "--seq-len", "4", "--out", "m.json")
-    assert read_options(default, BaselineSettings, "baselines") == BaselineSettings(10, 10)
+    assert _scorers(default) == BaselineSettings(10, 10)
     assert read_matcher(default).values == {"velocities": [1.0]}
     bad = _parse("queries", "--distances", "D.npy", "--seq-len", "4", "--out", "q.csv", "--r-window", "-1")
     with pytest.raises(ValueError, match=re.escape("--r-window: uniqueness (SeqSLAM's")):
-        read_options(bad, BaselineSettings, "baselines")
+        _scorers(bad)
     with pytest.raises(ValueError, match=re.escape("must be >= 0, got -1")):
-        read_options(bad, BaselineSettings, "baselines")
+        _scorers(bad)
     zero = _parse("attributes", "--distances", "D.npy", "--seq-len", "4", "--out", "a.h5", "--velocities", "0")
     with pytest.raises(ValueError, match=r"--velocities: velocities searched, .*; must be > 0, got 0.0"):
         read_matcher(zero)
@@ -116,7 +123,7 @@ def test_flags_give_the_records_back():
     args = _parse("baselines", "--dataset", "d", "--method", "m", "--seq-len", "4", "--distances", "v=v.h5",
                   "--attributes", "v=a.h5", "--predictors", "p.h5", "--out", "b.json",
                   *shlex.split(matcher_flags(spec)), *shlex.split(flags(BaselineSettings(6, 3))))
-    assert read_matcher(args) == spec and read_options(args, BaselineSettings, "baselines") == BaselineSettings(6, 3)
+    assert read_matcher(args) == spec and _scorers(args) == BaselineSettings(6, 3)
 
 
 def test_the_rules_spell_no_setting():
