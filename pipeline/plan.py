@@ -425,7 +425,7 @@ def _method_key(method: dict[str, Any]) -> str | None:
     from vpr_smr.core.io import package_version
     from vpr_smr.descriptors import BACKENDS
 
-    if method["backend"] not in BACKENDS:
+    if method["backend"] not in BACKENDS.builtins():
         return None
     package = Path(__file__).resolve().parents[1] / "descriptors"
     sources = [_file_stamp(path) for path in sorted(package.glob("*.py"))]
