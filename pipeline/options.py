@@ -105,6 +105,8 @@ def _mapping(item: Declared, value: Any) -> Any:
     """A mapping setting's words as JSON: NAME=VALUE items, or a repeated option's NAME ITEM... lists."""
     kind = item.type.removesuffix(OPTIONAL)
     name = option(item.name)
+    if value == [None]:  # the word for null (``NULL``) of an optional one
+        return value
     if kind == MAPPING:
         pairs = [word.split("=", 1) for word in value]
         bad = [word for word, pair in zip(value, pairs, strict=True) if len(pair) != 2]
