@@ -107,6 +107,22 @@ class Sampled:
 
 
 @dataclass(frozen=True)
+class SplitMatrix:
+    """A split's distance matrix as the figures place it: ``matrix`` (references x queries, split-local), its query
+    frame ``f`` in column ``f - lo``, its reference frame ``f`` in row ``f - reference_lo`` (None: ``lo``, one range
+    of frames for both traverses; method §11 gives a split a reference range of its own)."""
+
+    matrix: Any
+    lo: int
+    reference_lo: int | None = None
+
+    @property
+    def ref_lo(self) -> int:
+        """The dataset frame of the matrix's first row."""
+        return self.lo if self.reference_lo is None else self.reference_lo
+
+
+@dataclass(frozen=True)
 class MatchRecord:
     """What the match figure shows: per row, the query and the dataset frames of its thumbnails in order
     (``L`` query frames, then the single-frame match, the sequence match and the true reference)."""
@@ -272,18 +288,16 @@ def _decision_lines(row: QueryRow) -> list[tuple[str, str]]:
     return lines
 
 
-def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled], matrix: Any, lo: int,
-                 seq_len: int, title: str, reference_lo: int | None = None,
-                 matcher: MatcherSpec | None = None) -> MatchRecord:
+def draw_matches(path: Path | str, pair: TraversePair, samples: Sequence[Sampled], split: SplitMatrix,
+                 matcher: Matcher, title: str) -> MatchRecord:
     """The match figure of ``samples`` (see the module's docstring) to ``path`` (PNG, written as given).
 
-    ``matrix`` is the split's distance matrix (references x queries, split-local: query frame ``f`` is ``f - lo``,
-    reference frame ``f`` is ``f - reference_lo``, default ``lo``), read for the true reference's distances (``S``:
-    ``s_a`` of the run's ``matcher``, default ``MatcherSpec.of()``, the paper's); the thumbnails are ``pair``'s
-    images.
+    ``split`` is the split's distance matrix, read for the true reference's distances (``S``: ``s_a`` of the run's
+    ``matcher``, built at the sequence length ``L``: ``MatcherSpec.of().build(L)`` is the paper's); the thumbnails
+    are ``pair``'s images.
     """
-    reference_lo = lo if reference_lo is None else reference_lo
-    built = (matcher or MatcherSpec.of()).build(seq_len)
+    matrix, lo, reference_lo = split.matrix, split.lo, split.ref_lo
+    built, seq_len = matcher, matcher.seq_len
     if not samples:
         raise ValueError("no queries to show: the sample is empty")
     # a matcher other than seqslam: its own scores, from one pass over the split (a filter's state included)
@@ -395,15 +409,15 @@ def block_means(matrix: Any, block: int) -> np.ndarray:
     return out
 
 
-def draw_matrix(path: Path | str, matrix: Any, lo: int, rows: Sequence[QueryRow], tolerance: int,
-                title: str, reference_lo: int | None = None, ground_truth: GroundTruth | None = None) -> MatrixRecord:
-    """The distance-matrix figure to ``path`` (PNG, written as given): ``matrix`` (split-local, references x
-    queries) in dataset frame indices, the queries (x) from ``lo``, the references (y) from ``reference_lo``
-    (default ``lo``); the ground truth (the band ``|r - q| <= tolerance``, or the outline of ``ground_truth``'s
-    correct matches when it is not that band or the two ranges differ) and the sequence matches of ``rows``."""
+def draw_matrix(path: Path | str, split: SplitMatrix, rows: Sequence[QueryRow], tolerance: int, title: str,
+                ground_truth: GroundTruth | None = None) -> MatrixRecord:
+    """The distance-matrix figure to ``path`` (PNG, written as given): the ``split``'s matrix in dataset frame
+    indices, the queries (x) from its ``lo``, the references (y) from its ``ref_lo``; the ground truth (the band
+    ``|r - q| <= tolerance``, or the outline of ``ground_truth``'s correct matches when it is not that band or the
+    two ranges differ) and the sequence matches of ``rows``."""
     plt = _pyplot()
+    matrix, lo, ref_lo = split.matrix, split.lo, split.ref_lo
     n_refs, n_queries = matrix.shape
-    ref_lo = lo if reference_lo is None else reference_lo
     # scoring counts indices from each range's first frame: the same ground truth, placed by those offsets
     truth = GroundTruth.aligned(n_refs, n_queries, tolerance) if ground_truth is None else ground_truth
     block = max(1, math.ceil(max(n_refs, n_queries) / MAX_DISPLAY))
@@ -691,9 +705,10 @@ def main(job: InspectJob) -> tuple[Path | None, Path]:
         truth = split_ground_truth(distances, tuple(matrix.shape), tolerance, truth_source.radius,
                                    truth_source.reference_positions, truth_source.query_positions, truth_file)
         rule = f"|r - q| <= {tolerance}" if truth.is_aligned_band() else truth.describe()
+        built, split_matrix = matcher.build(seq_len), SplitMatrix(matrix, lo, ref_lo)
         match_title = (f"Match inspector: {what}. {sample_text}. Frames: green = correct ({rule}), "
                        "red = wrong; D = single-frame distance, "
-                       + ("S = sequence distance" if matcher.build(seq_len).scores_are_attribute_sums
+                       + ("S = sequence distance" if built.scores_are_attribute_sums
                           else f"s = the matcher {matcher.name}'s score"))
         _check_matches(samples, matrix, queries_csv, distances, lo, ref_lo)
         _check_matcher(rows, queries_csv, matcher)
@@ -701,7 +716,7 @@ def main(job: InspectJob) -> tuple[Path | None, Path]:
             matrix_tmp = stack.enter_context(atomic_path(matrix_figure))
             if match_figure is not None and pair is not None:
                 match_tmp = stack.enter_context(atomic_path(match_figure))
-                draw_matches(match_tmp, pair, samples, matrix, lo, seq_len, match_title, ref_lo, matcher)
-            draw_matrix(matrix_tmp, matrix, lo, rows, tolerance,
-                        f"Distance matrix: {what}, sequence matches kept or removed by the predictor", ref_lo, truth)
+                draw_matches(match_tmp, pair, samples, split_matrix, built, match_title)
+            draw_matrix(matrix_tmp, split_matrix, rows, tolerance,
+                        f"Distance matrix: {what}, sequence matches kept or removed by the predictor", truth)
     return match_figure, matrix_figure

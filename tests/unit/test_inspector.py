@@ -10,6 +10,7 @@ import pytest
 from helpers import COLOUR_FRAMES, query_colour, reference_colour, write_distance_matrix
 
 from vpr_smr.datasets import load_frames
+from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.report import inspector
 from vpr_smr.eval.report.inspector import InspectJob
@@ -201,7 +202,8 @@ def test_match_record_and_thumbnail_size(tmp_path, dataset, files):
     pair = load_frames("toy", dataset)
     rows = [r for r in inspector.read_queries(queries) if r.split == "test"]
     sample = inspector.sample_queries(rows, "test", per_class=0, mistakes=1)
-    record = inspector.draw_matches(tmp_path / "m.png", pair, sample, matrix, LO, L, "title")
+    record = inspector.draw_matches(tmp_path / "m.png", pair, sample, inspector.SplitMatrix(matrix, LO),
+                                    MatcherSpec.of().build(L), "title")
     assert record.queries == (22,) and record.reasons == ("confident mistake",)
     assert record.frames == ((20, 21, 22, _wrong(22), 22, 22),)  # L query frames, single (wrong), sequence, true
     assert inspector.thumbnail(np.zeros((300, 600, 3), np.uint8)).shape == (96, 192, 3)
@@ -211,14 +213,15 @@ def test_match_record_and_thumbnail_size(tmp_path, dataset, files):
 def test_matrix_figure_marks_kept_and_removed(tmp_path, files):
     queries, _, matrix = files
     rows = [r for r in inspector.read_queries(queries) if r.split == "test"]
-    record = inspector.draw_matrix(tmp_path / "d.png", matrix, LO, rows, TOL, "title")
+    record = inspector.draw_matrix(tmp_path / "d.png", inspector.SplitMatrix(matrix, LO), rows, TOL, "title")
     kept = [q for q, (_, predicted, _) in PREDICTIONS.items() if predicted in (0, 2)]
     assert record == inspector.MatrixRecord((16, 16), 1, len(kept), len(PREDICTIONS) - len(kept), 0)
     assert (record.kept, record.removed) == (8, 6)  # by hand: predicted 0 or 2 for 10, 11, 16, 17, 18, 20, 21, 23
     colours = colours_in(tmp_path / "d.png")
     assert colours.get((44, 160, 44), 0) > 20 and colours.get((214, 39, 40), 0) > 0  # green dots, red crosses
     unpredicted = inspector.read_queries(write_queries(tmp_path / "q.csv", query_rows(predictor=False)))
-    assert inspector.draw_matrix(tmp_path / "d2.png", matrix, LO, unpredicted, TOL, "t").unpredicted == 14
+    assert inspector.draw_matrix(tmp_path / "d2.png", inspector.SplitMatrix(matrix, LO), unpredicted, TOL,
+                                 "t").unpredicted == 14
 
 
 def test_large_matrices_are_shown_as_block_means(monkeypatch):

@@ -50,7 +50,8 @@ def test_a_filters_strip_is_its_own_scores_around_the_match(toy, tmp_path, colou
     spec = MatcherSpec.of("toy")
     rows = inspector.read_queries(queries)
     samples = inspector.sample_queries(rows, "all", per_class=2, mistakes=0)  # a single file: split "all"
-    record = inspector.draw_matches(tmp_path / "m.png", pair, samples, d, LO, L, "title", matcher=spec)
+    record = inspector.draw_matches(tmp_path / "m.png", pair, samples, inspector.SplitMatrix(d, LO), spec.build(L),
+                                    "title")
     scores, matches, _ = toy_rule(d.astype(np.float64), 0.5, 1)  # every query from the split's first
     assert record.strips is not None and len(record.strips) == len(samples) > 0
     for sample, (first, values) in zip(samples, record.strips, strict=True):
@@ -59,7 +60,8 @@ def test_a_filters_strip_is_its_own_scores_around_the_match(toy, tmp_path, colou
         assert first == LO + max(0, m - inspector.STRIP_HALF)
         np.testing.assert_allclose(values, scores[a][first - LO : m + inspector.STRIP_HALF + 1], rtol=0, atol=1e-12)
     # seqslam's figure has no strip: its captions give S (only the frames of these rows matter to it)
-    fixed = inspector.draw_matches(tmp_path / "f.png", pair, samples, d, LO, L, "title")
+    fixed = inspector.draw_matches(tmp_path / "f.png", pair, samples, inspector.SplitMatrix(d, LO),
+                                   MatcherSpec.of().build(L), "title")
     assert fixed.strips is None
     # the whole stage runs with the matcher it was given, both figures written
     match, matrix = inspector.main(InspectJob(queries=str(queries), distances=str(distances),

@@ -129,7 +129,7 @@ def test_each_axis_has_its_own_range(tmp_path, dataset, figures):
 def test_the_frame_band_follows_each_range(tmp_path, figures):
     """Without positions the band counts frames from each range's first frame, as scoring does."""
     matrix = np.random.default_rng(0).uniform(0.5, 1.0, (8, 12))
-    inspector.draw_matrix(tmp_path / "d.png", matrix, 8, [], 1, "t", reference_lo=4)
+    inspector.draw_matrix(tmp_path / "d.png", inspector.SplitMatrix(matrix, 8, reference_lo=4), [], 1, "t")
     ax = matrix_axes(figures[-1])
     assert ax.get_xlim() == pytest.approx((7.5, 19.5)) and ax.get_ylim() == pytest.approx((11.5, 3.5))
     # by hand: correct where |(r - 4) - (q - 8)| <= 1, so the outline lies at |y - x + 4| = 1.5

@@ -20,6 +20,7 @@ from vpr_smr.datasets import load_frames
 from vpr_smr.eval.matching.attributes import Matching, QueryFeatures, read_features
 from vpr_smr.eval.matching.ground_truth_files import file_sha256
 from vpr_smr.eval.matching.io import open_distance_matrix
+from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.report import inspector
 from vpr_smr.pipeline.cli import main as cli
 
@@ -192,7 +193,8 @@ def test_queries_without_a_correct_reference_are_counted_and_never_correct(tmp_p
     rows = [r for r in inspector.read_queries(queries) if r.query in (5, 7)]
     assert [r.true_reference for r in rows] == [None, 7]
     samples = [inspector.Sampled(row, "chosen") for row in rows]
-    record = inspector.draw_matches(tmp_path / "m.png", load_frames("toy", colour_frames), samples, d, 0, L, "t")
+    record = inspector.draw_matches(tmp_path / "m.png", load_frames("toy", colour_frames), samples,
+                                    inspector.SplitMatrix(d, 0), MatcherSpec.of().build(L), "t")
     assert [frames[-1] for frames in record.frames] == [None, 7]
     assert cli(["inspect", "--queries", str(queries), "--distances", str(tmp_path / "D.npy"), "--seq-len", str(L),
                 "--ground-truth", str(tmp_path / "G.npy"), "--matrix-figure", str(tmp_path / "d.png")]) == 0
