@@ -113,9 +113,8 @@ class PredictorTraining:
     whether it can be trusted, and whether it may be scored on what it was trained on."""
 
     predictor: PredictorParams = predictor_setting()
-    validation: str | None = setting(None, "the evaluation split whose F1 decides whether a predictor can be trusted "
-                                           "(a warning otherwise; default: the first --evaluate split)",
-                                     metavar="SPLIT")
+    validation: str | None = setting(None, "the evaluation split whose F1 decides whether a predictor can be trusted, "
+                                           "a warning otherwise (none: the first --evaluate split)", metavar="SPLIT")
     allow_split_overlap: bool = allow_split_overlap()
 
 CV_FOLDS = 5  # method §7: 5-fold StratifiedKFold
