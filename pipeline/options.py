@@ -93,8 +93,9 @@ def add_options(parser: argparse.ArgumentParser, cls: type, group: str, matcher:
             continue
         choices = item.constraints.get("choices")
         metavar = item.metavar or (None if choices else METAVARS.get(_element(kind), "TEXT"))
-        if kind == LISTS:
-            parser.add_argument(option(item.name), nargs="+", action="append", metavar=metavar, **common)
+        if kind == LISTS:  # "SPLIT PATH": argparse shows SPLIT [PATH ...]
+            shown = tuple(metavar.split()) if metavar and " " in metavar else metavar
+            parser.add_argument(option(item.name), nargs="+", action="append", metavar=shown, **common)
             continue
         many = kind.startswith("tuple[") or kind == MAPPING
         parser.add_argument(option(item.name), type=_converter(item.type), choices=choices,
