@@ -12,7 +12,10 @@ use rule attributes as matcher_attributes with:
     wildcard_constraints:
         tag="|".join(map(re.escape, MATCHER_TAGS)) or "(?!)",  # no other matcher: the rule matches nothing
     params:
-        matcher=lambda wc: matcher_flags(COMPARED[wc.tag]),
+        # the attributes stage's job with the compared matcher instead of the run's (sequence_matching)
+        job=lambda wc, input, output: job_text(AttributesJob(
+            input.distances, int(wc.seq_len), PLAN.datasets[wc.dataset].truth, COMPARED[wc.tag],
+            candidates=conf.baselines.candidates, out=output[0])),
 
 
 use rule train as matcher_train with:
