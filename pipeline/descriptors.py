@@ -8,17 +8,17 @@ frames that the layers below can call.
 
 from __future__ import annotations
 
-import json
 import logging
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from vpr_smr.core.io import HDF5_SUFFIXES, check_suffix
+from vpr_smr.core.json_objects import json_object
 from vpr_smr.core.settings import REQUIRED, group, setting
 from vpr_smr.pipeline.config import ConfigError, Extraction, load_config
 
-__all__ = ["DescriptorsJob", "json_object", "main", "settings_of"]
+__all__ = ["DescriptorsJob", "main", "settings_of"]
 
 log = logging.getLogger("vpr_smr")
 
@@ -32,6 +32,7 @@ class DescriptorsJob:
     method: str = setting(REQUIRED, "the method's name (a key of the configuration's methods)", metavar="NAME")
     config: str | None = setting(None, "take the dataset's and method's settings from this configuration file",
                                  metavar="PATH")
+    # JSON text, as the inspector's: an empty object given is not one left out
     dataset_settings: str | None = setting(None, "the dataset's settings as a JSON object (or @file)",
                                            metavar="JSON")
     method_settings: str | None = setting(None, "the method's settings as a JSON object (or @file)", metavar="JSON")
@@ -40,19 +41,6 @@ class DescriptorsJob:
     extraction: Extraction = group(Extraction, "how fast the descriptors are computed")
     threads: int | None = setting(None, "CPU threads of the network (none or 0: PyTorch's default)", minimum=0)
     out: str = setting(REQUIRED, "the output file: the descriptors (HDF5)", metavar="PATH")
-
-
-def json_object(text: str, option: str) -> dict[str, Any]:
-    """A JSON object given on the command line, or ``@file`` holding one; ValueError naming ``option``."""
-    if text.startswith("@"):
-        text = Path(text[1:]).read_text()
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{option} is not valid JSON: {error}") from None
-    if not isinstance(value, dict):
-        raise ValueError(f"{option} must be a JSON object of settings")
-    return value
 
 
 def settings_of(job: DescriptorsJob) -> tuple[dict[str, Any], dict[str, Any]]:
@@ -64,7 +52,7 @@ def settings_of(job: DescriptorsJob) -> tuple[dict[str, Any], dict[str, Any]]:
             if name not in entries:
                 raise ConfigError(f"{job.config}: {section} has no {name!r}; it has {', '.join(entries)}")
         return conf.datasets[job.dataset].to_json(), conf.methods[job.method].to_json()
-    if not (job.dataset_settings and job.method_settings):
+    if job.dataset_settings is None or job.method_settings is None:
         raise ConfigError("give --config, or both --dataset-settings and --method-settings")
     return (json_object(job.dataset_settings, "--dataset-settings"),
             json_object(job.method_settings, "--method-settings"))

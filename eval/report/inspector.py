@@ -24,7 +24,6 @@ is ``lo`` unless the split has its own reference range).
 from __future__ import annotations
 
 import csv
-import json
 import math
 import textwrap
 from collections.abc import Sequence
@@ -37,6 +36,7 @@ import h5py
 import numpy as np
 
 from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
+from vpr_smr.core.json_objects import json_object
 from vpr_smr.core.settings import REQUIRED, group, setting
 from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
@@ -595,6 +595,7 @@ class InspectJob:
     matrix_figure: str = setting(REQUIRED, "where to write the distance-matrix figure (.png)", metavar="PATH")
     dataset: str | None = setting(None, "the dataset's name (with --dataset-settings: for the match figure's "
                                         "images)", metavar="NAME")
+    # JSON text, not a JsonObject: an empty object given (an entry without a loader) is not one left out
     dataset_settings: str | None = setting(
         None, "the dataset's configuration entry as a JSON object (or @file), e.g. {\"loader\": \"folders\", "
               "\"reference\": DIR, \"query\": DIR}", metavar="JSON")
@@ -612,19 +613,6 @@ class InspectJob:
     per_class: int = setting(2, "queries sampled per true class", minimum=0)
     mistakes: int = setting(4, "the predictor's most confident mistakes shown", minimum=0)
     seed: int = setting(0, "seed of the sample")
-
-
-def _json_object(text: str, option: str) -> dict[str, Any]:
-    """A JSON object given on the command line, or ``@file`` holding one; ValueError naming ``option``."""
-    if text.startswith("@"):
-        text = Path(text[1:]).read_text()
-    try:
-        value = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{option} is not valid JSON: {error}") from None
-    if not isinstance(value, dict):
-        raise ValueError(f"{option} must be a JSON object of settings")
-    return value
 
 
 def main(job: InspectJob) -> tuple[Path | None, Path]:
@@ -652,7 +640,7 @@ def main(job: InspectJob) -> tuple[Path | None, Path]:
     per_class, mistakes, seed = job.per_class, job.mistakes, job.seed
     split_range = None if job.frames is None else (job.frames[0], job.frames[1])
     dataset_settings = (None if job.dataset_settings is None
-                        else _json_object(job.dataset_settings, "--dataset-settings"))
+                        else json_object(job.dataset_settings, "--dataset-settings"))
     match_figure = (None if job.match_figure is None
                     else check_suffix(job.match_figure, (".png",), "the match figure (PNG)", "--match-figure"))
     matrix_figure = check_suffix(job.matrix_figure, (".png",), "the distance-matrix figure (PNG)", "--matrix-figure")

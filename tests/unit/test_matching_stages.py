@@ -100,7 +100,7 @@ def test_descriptors_needs_its_settings(tmp_path, capsys):
     assert "give --config, or both --dataset-settings and --method-settings" in capsys.readouterr().err
     assert cli(["descriptors", "--dataset", "d", "--method", "sad", "--dataset-settings", "[1]", "--method-settings",
                 METHOD, "--out", str(tmp_path / "sad.h5")]) == 2
-    assert "--dataset-settings must be a JSON object of settings" in capsys.readouterr().err
+    assert "--dataset-settings must be a JSON object, got [1]" in capsys.readouterr().err
     assert cli(["descriptors", "--dataset", "d", "--method", "sad", "--dataset-settings", DATASET, "--method-settings",
                 METHOD, "--out", str(tmp_path / "sad.npy")]) == 2
     assert "sad.npy" in capsys.readouterr().err and not list(tmp_path.iterdir())
