@@ -39,7 +39,7 @@ class DescriptorsJob:
     frames_sha256: str | None = setting(None, "fail unless the dataset's frame lists have this fingerprint",
                                         metavar="SHA256")
     extraction: Extraction = group(Extraction, "how fast the descriptors are computed")
-    threads: int | None = setting(None, "CPU threads of the network (none or 0: PyTorch's default)", minimum=0)
+    threads: int | None = setting(None, "CPU threads of the network (none or 0: PyTorch's own number)", minimum=0)
     out: str = setting(REQUIRED, "the output file: the descriptors (HDF5)", metavar="PATH")
 
 

@@ -132,8 +132,8 @@ def _check_descriptors(f: Any, descriptors: Path, split: str, ranges: dict[str, 
 class DistancesJob:
     """The ``distances`` stage's job: the distance matrix of one split of a descriptor file."""
 
-    descriptors: str = setting(REQUIRED, "the descriptor file (.h5) of vpr-smr descriptors")
-    split: str = setting(REQUIRED, "the split's name, e.g. test (written in the file)")
+    descriptors: str = setting(REQUIRED, "the descriptor file (.h5) of vpr-smr descriptors", metavar="PATH")
+    split: str = setting(REQUIRED, "the split's name, e.g. test (written in the file)", metavar="NAME")
     frames: tuple[int, ...] = setting(REQUIRED, "the split's frames lo..hi-1 of both traverses (its queries, with "
                                                 "--reference-frames): LO HI", min_items=2, max_items=2)
     reference_frames: tuple[int, ...] | None = setting(
@@ -141,7 +141,7 @@ class DistancesJob:
               "LO HI", min_items=2, max_items=2)
     metric: str | None = setting(None, "the distance (default: the descriptor file's, its backend's)",
                                  choices=METRICS)
-    out: str = setting(REQUIRED, "the output file: the distance matrix (HDF5)")
+    out: str = setting(REQUIRED, "the output file: the distance matrix (HDF5)", metavar="PATH")
 
 
 def main(job: DistancesJob, block_queries: int | None = None) -> Path:
