@@ -19,7 +19,7 @@ from vpr_smr.eval.matching.fingerprint import PATCH, matrix_print, patch_hashes
 from vpr_smr.eval.matching.live import LiveMatcher
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import MATRICES, TRAINED_ON, FrameRange, SplitLeakError
-from vpr_smr.pipeline import api as smr
+from vpr_smr import api as smr
 from vpr_smr.pipeline.cli import main as cli
 
 MASK = 2**64 - 1
