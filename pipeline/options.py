@@ -15,8 +15,8 @@ from typing import Any, TypeVar
 from vpr_smr.core.settings import OPTIONAL, REQUIRED, Declared, Marker, declared, parse, read
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MATCHERS, MatcherSpec, available_matchers, matcher_class
 
-__all__ = ["add_matcher_options", "add_options", "flags", "matcher_flags", "matcher_of", "option", "read_matcher",
-           "read_options"]
+__all__ = ["add_matcher_options", "add_options", "flags", "given_options", "matcher_flags", "matcher_of", "option",
+           "read_matcher", "read_options"]
 
 T = TypeVar("T")
 MATCHER = "--matcher"
@@ -139,6 +139,12 @@ def _given(args: argparse.Namespace, cls: type, group: str) -> dict[str, Any]:
             value = _mapping(item, getattr(args, _dest(group, item.name)))
             values[item.name] = read(item, None if value == [None] else value, option(item.name))
     return values
+
+
+def given_options(args: argparse.Namespace, cls: type, group: str) -> dict[str, Any]:
+    """The settings of ``cls`` given as options, checked (a group's as an object of those of its settings given;
+    a matcher's as its ``MatcherSpec``, given or not)."""
+    return _given(args, cls, group)
 
 
 def read_options(args: argparse.Namespace, cls: type[T], group: str) -> T:

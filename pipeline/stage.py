@@ -24,7 +24,7 @@ from typing import Any
 
 from vpr_smr.core.settings import parse, to_json
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER
-from vpr_smr.pipeline.options import add_options, read_options
+from vpr_smr.pipeline.options import add_options, given_options, read_options
 
 __all__ = ["JOB", "Stage", "install", "job_of", "job_text", "shell_command"]
 
@@ -41,7 +41,9 @@ class Stage:
     from the job and the result: what, where, the headline number), ``show`` (text it prints to the terminal from
     the job and the result, e.g. a table), ``description`` and ``epilog`` (its ``--help``), ``legacy`` (options of
     an earlier version that fail naming what replaced them: adds them to the parser) and ``check`` (refuses those
-    given, from the parsed options)."""
+    given, from the parsed options), ``speed`` (the names of the job's settings or groups that change how fast it
+    runs, not what it computes: options read beside ``--job`` too, so that a rule gives them from its threads and
+    resources, not its params, and changing them reruns nothing)."""
 
     command: str
     help: str
@@ -53,6 +55,7 @@ class Stage:
     epilog: str = ""
     legacy: Callable[[argparse.ArgumentParser], None] | None = None
     check: Callable[[argparse.Namespace], None] | None = None
+    speed: tuple[str, ...] = ()
 
     @property
     def words(self) -> tuple[str, ...]:
@@ -81,8 +84,9 @@ class Stage:
 
 
 def job_of(stage: Stage, args: argparse.Namespace) -> Any:
-    """The job record of a stage's parsed options: ``--job``'s JSON object (``@file``: a file holding it), or the
-    options (those not given at their defaults); ValueError naming the option or the setting that is wrong."""
+    """The job record of a stage's parsed options: ``--job``'s JSON object (``@file``: a file holding it), its
+    ``speed`` settings replaced by those given as options; or the options (those not given at their defaults);
+    ValueError naming the option or the setting that is wrong."""
     text = getattr(args, "job", None)
     if text is None:
         return read_options(args, stage.job, GROUP)
@@ -94,6 +98,13 @@ def job_of(stage: Stage, args: argparse.Namespace) -> Any:
         raise ValueError(f"{JOB} is not valid JSON: {error}") from None
     if not isinstance(data, Mapping):
         raise ValueError(f"{JOB} must be a JSON object of the stage's settings")
+    given = given_options(args, stage.job, GROUP) if stage.speed else {}
+    for name in stage.speed:  # a group's options replace its settings one by one
+        value = given.get(name)
+        if isinstance(value, Mapping) and value:
+            data = {**data, name: {**data.get(name, {}), **value}}
+        elif name in given and not isinstance(value, Mapping):
+            data = {**data, name: value}
     return parse(stage.job, data, JOB)
 
 
@@ -103,9 +114,11 @@ def job_text(job: Any) -> str:
     return json.dumps(to_json(job), separators=(",", ":"), allow_nan=False)
 
 
-def shell_command(stage: Stage) -> str:
-    """A rule's shell command calling ``stage`` with its ``job`` param, its output to the rule's log."""
-    return f"vpr-smr {stage.command} {JOB} {{params.job:q}} > {{log:q}} 2>&1"
+def shell_command(stage: Stage, speed: str = "") -> str:
+    """A rule's shell command calling ``stage`` with its ``job`` param, its output to the rule's log; ``speed``: the
+    options of its ``speed`` settings (from the rule's threads and resources, e.g. ``--threads {threads}``)."""
+    beside = f" {speed}" if speed else ""
+    return f"vpr-smr {stage.command} {JOB} {{params.job:q}}{beside} > {{log:q}} 2>&1"
 
 
 def _subparsers(parser: argparse.ArgumentParser) -> Any:

@@ -8,20 +8,19 @@ rule descriptors:
     log:
         log_path(OUT, descriptors_path(OUT, "{dataset}", "{method}")),
     params:
-        dataset=lambda wc: canonical(PLAN.datasets[wc.dataset].frames_settings),
-        frames_sha256=lambda wc: PLAN.datasets[wc.dataset].frames_sha256,
-        # without `distance`: it changes the distance matrices, not the descriptors
-        method=lambda wc: canonical(descriptor_settings(conf.methods[wc.method].to_json())),
+        # the stage's job record: the frames' settings and fingerprint; the method's settings without `distance`
+        # (it changes the distance matrices, not the descriptors)
+        job=lambda wc, output: job_text(DescriptorsJob(
+            wc.dataset, wc.method, dataset_settings=canonical(PLAN.datasets[wc.dataset].frames_settings),
+            method_settings=canonical(descriptor_settings(conf.methods[wc.method].to_json())),
+            frames_sha256=PLAN.datasets[wc.dataset].frames_sha256, out=output[0])),
         # what the backend's code computes: a new revision computes the descriptors again
         revision=lambda wc: descriptor_revision(conf.methods[wc.method].backend),
     threads: 2
     resources:
         gpu=1,
         # Batch size and decoding workers change how fast a job runs, not what it computes: a resource, not a
-        # param, so that changing them reruns nothing.
+        # param, so that changing them reruns nothing (the stage's speed settings, given beside its job)
         extraction=extraction_options(conf),
-    # Every name and path is quoted (`:q`): an output or dataset folder may hold spaces, quotes or `;`.
     shell:
-        "vpr-smr descriptors --dataset {wildcards.dataset:q} --dataset-settings {params.dataset:q}"
-        " --frames-sha256 {params.frames_sha256} --method {wildcards.method:q} --method-settings {params.method:q}"
-        " --threads {threads} {resources.extraction} --out {output:q} > {log:q} 2>&1"
+        shell_command(DESCRIPTORS, "--threads {threads} {resources.extraction}")

@@ -21,7 +21,8 @@ def _attributes_summary(job: AttributesJob, found: QueryFeatures) -> str:
 
 DESCRIPTORS = Stage("descriptors", "compute a method's descriptors of a dataset (HDF5)", DescriptorsJob,
                     descriptors.main,
-                    summary=lambda job, out: f"the {job.method} descriptors of {job.dataset} to {out}")
+                    summary=lambda job, out: f"the {job.method} descriptors of {job.dataset} to {out}",
+                    speed=("threads", "extraction"))
 
 DISTANCES = Stage("distances", "reference x query distance matrix of one split (HDF5)", DistancesJob, distances.main,
                   summary=lambda job, out: f"the {job.split} split's distance matrix to {out}")

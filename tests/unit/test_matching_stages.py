@@ -124,3 +124,16 @@ def test_distances_says_what_it_wrote(tmp_path, caplog):
         reference, query = np.eye(6, 4)[1:5], np.eye(6, 4)[::-1][1:5]
         expected = np.abs(reference[:, None, :] - query[None, :, :]).mean(axis=2)
         np.testing.assert_allclose(f["distance_matrix"][()], expected, rtol=1e-6)
+
+
+def test_the_speed_comes_beside_the_job():
+    """The descriptors rule gives its job as a param and its threads, batch size and workers as options beside it
+    (a resource: changing them reruns nothing); those given replace the job's, one by one within a group."""
+    job = DescriptorsJob("route", "sad", None, DATASET, METHOD, "f" * 64, Extraction(8, None), None, "sad.h5")
+    args = build_parser(job=True).parse_args(["descriptors", "--job", job_text(job), "--threads", "2",
+                                              "--num-workers", "1"])
+    assert job_of(matching.DESCRIPTORS, args) == DescriptorsJob("route", "sad", None, DATASET, METHOD, "f" * 64,
+                                                                Extraction(8, 1), 2, "sad.h5")
+    # the other settings are the job's alone
+    args = build_parser(job=True).parse_args(["descriptors", "--job", job_text(job), "--out", "other.h5"])
+    assert job_of(matching.DESCRIPTORS, args) == job
