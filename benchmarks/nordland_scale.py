@@ -27,7 +27,7 @@ from vpr_smr.eval.matching import distances
 from vpr_smr.eval.matching import attributes
 folder = sys.argv[1]
 start = time.perf_counter()
-distances.main(folder + "/descriptors.h5", folder + "/D.h5", "test", (0, int(sys.argv[2])))
+distances.main(distances.DistancesJob(folder + "/descriptors.h5", "test", (0, int(sys.argv[2])), out=folder + "/D.h5"))
 middle = time.perf_counter()
 result = attributes.main(attributes.AttributesJob(folder + "/D.h5", int(sys.argv[3]), out=folder + "/attributes.h5"))
 end = time.perf_counter()
