@@ -36,6 +36,7 @@ from vpr_smr.core.settings import REQUIRED, group, setting
 from vpr_smr.eval.matching.adaptive import NONE, first_accepted, used_lengths
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.predictor.defaults import allow_split_overlap
+from vpr_smr.eval.predictor.jobs import metric_modes
 from vpr_smr.eval.scoring.adaptive_records import (
     ADAPTIVE,
     ADAPTIVE_FALLBACK,
@@ -52,7 +53,6 @@ from vpr_smr.eval.scoring.adaptive_records import (
     fixed_name,
 )
 from vpr_smr.eval.scoring.curves import AT_RECALL_ZERO
-from vpr_smr.eval.scoring.matcher_comparison import modes
 from vpr_smr.eval.scoring.records import Reduction
 from vpr_smr.eval.scoring.scorers import BaselineSettings
 
@@ -394,7 +394,7 @@ class AdaptiveJob:
     matcher_tag: str | None = setting(None, "the matcher's name in the result; none: its registry name",
                                       metavar="TAG")
     baselines: BaselineSettings = group(BaselineSettings, "the training-free scorers (method §12)")
-    modes: tuple[str, ...] = modes()
+    modes: tuple[str, ...] = metric_modes()
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the adaptive sequence length's result (JSON; its timing goes "
                                  "beside it)", metavar="PATH")

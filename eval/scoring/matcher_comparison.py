@@ -31,7 +31,6 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vpr_smr.core.constants import MODES
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
 from vpr_smr.core.json_objects import json_object
 from vpr_smr.core.records import FileRecord, Record, save
@@ -41,6 +40,7 @@ from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec, matcher_class
 from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.predictor.defaults import allow_split_overlap
+from vpr_smr.eval.predictor.jobs import dataset_name, metric_modes
 from vpr_smr.eval.scoring.records import Detection, Interval, Reduction, SeedSummary
 from vpr_smr.eval.scoring.scorers import NATIVE, BaselineSettings  # NATIVE: each matcher's own confidence
 
@@ -49,7 +49,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "FAR_BELOW", "ComparedInputs", "MatcherComparison", "MatcherInputs", "MatcherMode", "MatcherScores", "MatchersJob",
-    "compare", "experiment_matchers", "far_below", "fixed_matcher", "main", "matcher_tag", "modes", "read_inputs",
+    "compare", "experiment_matchers", "far_below", "fixed_matcher", "main", "matcher_tag", "read_inputs",
     "restricted", "shared_queries", "validation_warning",
 ]
 
@@ -357,17 +357,11 @@ class ComparedInputs:
                 "fixed": None if self.fixed is None else self.fixed.to_json()}
 
 
-def modes() -> Any:
-    """The field of a job's metric modes (``core.constants.MODES``), the configuration's ``modes``."""
-    return setting(MODES, "the metric modes: paper (the authors' rules) and/or standard", choices=MODES,
-                   min_items=1)
-
-
 @dataclass(frozen=True)
 class MatchersJob:
     """The ``compare-matchers`` stage's job: the experiment ``matchers`` of one dataset and method (``main``)."""
 
-    dataset: str = setting(REQUIRED, "the dataset's name (a key of the configuration's datasets)", metavar="NAME")
+    dataset: str = dataset_name()
     method: str = setting(REQUIRED, "the method's name (a key of the configuration's methods)", metavar="NAME")
     seq_len: int = sources.seq_len()
     inputs: ComparedInputs = setting(
@@ -382,7 +376,7 @@ class MatchersJob:
                                      metavar="SPLIT")
     truth: TruthSource = group(TruthSource, "the ground truth, as the attributes were computed")
     baselines: BaselineSettings = group(BaselineSettings, "the training-free scorers (method §12)")
-    modes: tuple[str, ...] = modes()
+    modes: tuple[str, ...] = metric_modes()
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the matchers experiment's result (JSON)", metavar="PATH")
 

@@ -38,6 +38,7 @@ from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, stored_positions
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.predictor.defaults import PredictorParams, allow_split_overlap, predictor_setting
+from vpr_smr.eval.predictor.jobs import dataset_name
 from vpr_smr.eval.predictor.leakage import FrameRange, check_disjoint, frame_ranges
 from vpr_smr.eval.scoring.records import Reduction
 
@@ -97,7 +98,7 @@ class SpeedExperiment:
 class SpeedJob:
     """The ``speed`` stage's job: one dataset under one speed profile (``main``)."""
 
-    dataset: str = setting(REQUIRED, "the dataset's name (a key of the configuration's datasets)", metavar="NAME")
+    dataset: str = dataset_name()
     seq_len: int = sources.seq_len()
     profile: str = setting(REQUIRED, PROFILE_HELP, metavar="PROFILE")
     velocities: tuple[float, ...] = velocities()
