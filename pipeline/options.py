@@ -84,7 +84,9 @@ def add_options(parser: argparse.ArgumentParser, cls: type, group: str, matcher:
             continue
         kind = item.type.removesuffix(OPTIONAL)
         extra = f"; {NULL}: null" if item.type.endswith(OPTIONAL) and item.default is not None else ""
-        default = "" if isinstance(item.default, Marker) else f" (default: {_shown(item.default)}{extra})"
+        # no default shown: none to show, an empty list, or the help says it in words
+        said = isinstance(item.default, Marker) or item.default == () or "(default" in item.help
+        default = "" if said else f" (default: {_shown(item.default)}{extra})"
         text = f"{item.help}{default}".replace("%", "%%")
         common: dict[str, Any] = {"dest": _dest(group, item.name), "default": argparse.SUPPRESS, "help": text,
                                   "required": required and item.default is REQUIRED}

@@ -357,7 +357,11 @@ def cli_reference() -> str:
              "Every command and option of `vpr-smr`, as its argument parser defines them (`vpr-smr COMMAND --help` "
              f"prints the same). Generated from the parser by `{WRITE_COMMAND}`: do not edit it by hand. The "
              "options of the stage commands that are settings of a run's configuration are listed with their "
-             "settings in the [configuration reference](configuration.md).", ""]
+             "settings in the [configuration reference](configuration.md). A stage command's options are the "
+             "settings of its job record, declared once with the stage (`vpr_smr.pipeline.stages`): `--job` gives "
+             "them all as one JSON object instead (`{\"seq_len\": 4, \"truth\": {\"tolerance\": 2}, ...}`, "
+             "groups of options as objects), as the workflow's rules do, and `vpr_smr.api.run_stage` runs the same "
+             "stage from Python.", ""]
     for words, parser in found.items():
         parent = found[words.rpartition(" ")[0]] if words else None
         text = parser.description or (_helps(parent).get(words.rpartition(" ")[2], "") if parent else "")

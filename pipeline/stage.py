@@ -128,13 +128,15 @@ def _subparsers(parser: argparse.ArgumentParser) -> Any:
     return parser.add_subparsers(dest=f"{parser.prog.split()[-1]}_command", required=True, metavar="COMMAND")
 
 
-def install(sub: Any, stage: Stage, matcher: str = DEFAULT_MATCHER, job: bool = False) -> argparse.ArgumentParser:
+def install(sub: Any, stage: Stage, matcher: str = DEFAULT_MATCHER, job: bool = False,
+            groups: Mapping[str, str] | None = None) -> argparse.ArgumentParser:
     """``stage``'s command under the subcommands ``sub`` (a two-word command under its first word's, made if
-    missing), replacing one of the same name: its job record's settings as options, ``--job``, and the function
-    that runs it. ``job``: the command line gives ``--job`` (then no other option is required)."""
+    missing with its help from ``groups``), replacing one of the same name: its job record's settings as options,
+    ``--job``, and the function that runs it. ``job``: the command line gives ``--job`` (then no other option is
+    required)."""
     *outer, name = stage.words
     for word in outer:
-        parent = sub.choices.get(word) or sub.add_parser(word, help=f"{word} commands")
+        parent = sub.choices.get(word) or sub.add_parser(word, help=(groups or {}).get(word, f"{word} commands"))
         sub = _subparsers(parent)
     names = list(sub.choices)
     place = names.index(name) if name in names else len(names)  # a command of the same name: replaced in its place

@@ -6,10 +6,13 @@ from __future__ import annotations
 from vpr_smr.pipeline.stage import Stage
 from vpr_smr.pipeline.stages import matching, predictor, reporting, scoring, studies
 
-__all__ = ["STAGES", "stage"]
+__all__ = ["COMMAND_GROUPS", "STAGES", "stage"]
 
 STAGES: tuple[Stage, ...] = (*matching.STAGES, *predictor.STAGES, *scoring.STAGES, *studies.STAGES,
                              *reporting.STAGES)
+
+# the help of a command whose stages are its subcommands (``ablation attributes``, ...)
+COMMAND_GROUPS = {"ablation": "the predictor's ablations"}
 
 
 def stage(command: str) -> Stage:

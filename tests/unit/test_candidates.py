@@ -14,12 +14,14 @@ from vpr_smr.eval.matching import matcher
 from vpr_smr.eval.matching.attributes import (
     CANDIDATE_FIELDS,
     DEFAULT_CANDIDATES,
+    AttributesJob,
     QueryFeatures,
     query_features,
     read_features,
 )
 from vpr_smr.eval.matching.attributes import main as attributes_main
 from vpr_smr.eval.matching.matcher import SequenceMatcher
+from vpr_smr.pipeline.stages.matching import ATTRIBUTES
 
 pytest.importorskip("numba")
 
@@ -104,8 +106,8 @@ def test_a_lazy_matrix_gives_the_same_candidates(tmp_path):
 def test_the_attributes_file_keeps_the_candidates_and_every_array_it_held(tmp_path):
     d = np.random.default_rng(7).random((50, 50)).astype(np.float32)
     np.save(tmp_path / "D.npy", d)
-    attributes_main(tmp_path / "D.npy", tmp_path / "none.h5", 3, 2, n_candidates=0)
-    attributes_main(tmp_path / "D.npy", tmp_path / "kept.h5", 3, 2)
+    attributes_main(AttributesJob(str(tmp_path / "D.npy"), 3, candidates=0, out=str(tmp_path / "none.h5")))
+    attributes_main(AttributesJob(str(tmp_path / "D.npy"), 3, out=str(tmp_path / "kept.h5")))
     with h5py.File(tmp_path / "none.h5") as before, h5py.File(tmp_path / "kept.h5") as after:
         assert set(after) == set(before) | set(CANDIDATE_FIELDS)
         for name in before:  # every array a file held before the candidates existed, byte for byte
@@ -117,5 +119,5 @@ def test_the_attributes_file_keeps_the_candidates_and_every_array_it_held(tmp_pa
     expected = query_features(d, 3, n_candidates=12, fingerprint=True)
     for field in fields(QueryFeatures):
         assert np.array_equal(getattr(new, field.name), getattr(expected, field.name)), field.name
-    with pytest.raises(ValueError, match="--candidates is a number of candidates per query >= 0"):
-        attributes_main(tmp_path / "D.npy", tmp_path / "bad.h5", 3, 2, n_candidates=-1)
+    with pytest.raises(ValueError, match=r"attributes\.candidates: .*must be >= 0, got -1"):
+        ATTRIBUTES(distances=str(tmp_path / "D.npy"), seq_len=3, candidates=-1, out=str(tmp_path / "bad.h5"))

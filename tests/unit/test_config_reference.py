@@ -187,7 +187,8 @@ def toy(monkeypatch):
     import vpr_smr.eval.matching.matchers as matchers
 
     point = SimpleNamespace(name="toy", load=lambda: Toy)
-    monkeypatch.setattr("vpr_smr.core.registry.entry_points", lambda group: [point] if group == matchers.ENTRY_POINT_GROUP else [])
+    monkeypatch.setattr("vpr_smr.core.registry.entry_points",
+                        lambda group: [point] if group == matchers.ENTRY_POINT_GROUP else [])
 
 
 def test_a_plugin_matchers_settings_are_checked_and_given_as_options(toy):

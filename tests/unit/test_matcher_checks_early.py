@@ -62,10 +62,10 @@ def test_a_bad_setting_stops_the_configuration(toy, tmp_path, settings):
 @pytest.fixture
 def centred(monkeypatch):
     """``centred`` registered as an installed package's entry point would register it."""
-    import vpr_smr.eval.matching.matchers as matchers
 
     point = SimpleNamespace(name="centred", load=lambda: Centred)
-    monkeypatch.setattr("vpr_smr.core.registry.entry_points", lambda group: [point] if group == ENTRY_POINT_GROUP else [])
+    monkeypatch.setattr("vpr_smr.core.registry.entry_points",
+                        lambda group: [point] if group == ENTRY_POINT_GROUP else [])
 
 
 @dataclass(frozen=True)

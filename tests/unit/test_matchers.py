@@ -236,7 +236,8 @@ def test_seqslams_scores_are_the_trajectory_sums_with_inf_where_none_ends():
 def installed(monkeypatch):
     """``centred_toy`` and ``smoothing_toy`` registered as an installed package's entry points would register them."""
     points = [SimpleNamespace(name=cls.name, load=lambda cls=cls: cls) for cls in (Centred, Smoothing)]
-    monkeypatch.setattr("vpr_smr.core.registry.entry_points", lambda group: points if group == registry.ENTRY_POINT_GROUP else [])
+    monkeypatch.setattr("vpr_smr.core.registry.entry_points",
+                        lambda group: points if group == registry.ENTRY_POINT_GROUP else [])
 
 
 def test_an_unknown_matcher_is_refused_listing_the_available_ones(installed):

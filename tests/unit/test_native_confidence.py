@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from toy_plugin import PLUGIN_SITE, toy_rule
 
+from vpr_smr.eval.matching.attributes import AttributesJob, query_features, read_features
 from vpr_smr.eval.matching.attributes import main as attributes_main
-from vpr_smr.eval.matching.attributes import query_features, read_features
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 from vpr_smr.eval.scoring import scorers
@@ -124,8 +124,9 @@ def test_the_native_scorer_is_the_toys_margin_higher_is_more_confident(toy):
 def test_the_attributes_file_stores_it_and_an_old_file_reads(toy, tmp_path):
     d = np.random.default_rng(3).random((15, 15))
     np.save(tmp_path / "D.npy", d)
-    attributes_main(tmp_path / "D.npy", tmp_path / "toy.h5", L, 2, matcher=MatcherSpec.of("toy"))
-    attributes_main(tmp_path / "D.npy", tmp_path / "seqslam.h5", L, 2)
+    toy = MatcherSpec.of("toy")
+    attributes_main(AttributesJob(str(tmp_path / "D.npy"), L, matcher=toy, out=str(tmp_path / "toy.h5")))
+    attributes_main(AttributesJob(str(tmp_path / "D.npy"), L, out=str(tmp_path / "seqslam.h5")))
     stored = read_features(tmp_path / "toy.h5")
     assert stored.native_scorer is None
     np.testing.assert_allclose(stored.sequence_native, naive_toy(d)[2], rtol=0, atol=1e-12)

@@ -13,13 +13,13 @@ import h5py
 import numpy as np
 import pytest
 
+from vpr_smr import api as smr
 from vpr_smr.eval.matching import fingerprint
 from vpr_smr.eval.matching.attributes import MATRIX_PRINT
 from vpr_smr.eval.matching.fingerprint import PATCH, matrix_print, patch_hashes
 from vpr_smr.eval.matching.live import LiveMatcher
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import MATRICES, TRAINED_ON, FrameRange, SplitLeakError
-from vpr_smr import api as smr
 from vpr_smr.pipeline.cli import main as cli
 
 MASK = 2**64 - 1

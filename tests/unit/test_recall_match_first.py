@@ -11,9 +11,9 @@ import json
 import numpy as np
 import pytest
 
+from vpr_smr import api as smr
 from vpr_smr.core.constants import RECALL_AT
 from vpr_smr.eval.scoring.vpr_metrics import NOT_RETRIEVED, _best_correct_rank
-from vpr_smr import api as smr
 from vpr_smr.pipeline.cli import main
 
 SEQ_LEN, TOLERANCE = 4, 2
