@@ -1,8 +1,8 @@
 """A settings record (``core.settings``) on the command line: its fields as options (``add_options``: ``max_iter``
 is ``--max-iter``, with the field's type, default and help), the options read back as the record (``read_options``),
-and a record as the options that give it (``flags``: the Snakemake rules' params). The sequence matcher is
-``--matcher NAME`` plus the options of that matcher's own ``Settings`` (``add_matcher_options``, ``read_matcher``,
-``matcher_flags``), one ``MatcherSpec``."""
+and a record as the options that give it (``flags``: the descriptors rule's speed settings). A group of settings
+(``core.settings.group``) gives its options too; the sequence matcher is ``--matcher NAME`` plus the options of
+that matcher's own ``Settings`` (``add_matcher_options``, ``read_matcher``), one ``MatcherSpec``."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from typing import Any, TypeVar
 from vpr_smr.core.settings import OPTIONAL, REQUIRED, Declared, Marker, declared, parse, read
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER, MATCHERS, MatcherSpec, available_matchers, matcher_class
 
-__all__ = ["add_matcher_options", "add_options", "flags", "given_options", "matcher_flags", "matcher_of", "option",
+__all__ = ["add_matcher_options", "add_options", "flags", "given_options", "matcher_of", "option",
            "read_matcher", "read_options"]
 
 T = TypeVar("T")
@@ -194,9 +194,6 @@ def read_matcher(args: argparse.Namespace) -> MatcherSpec:
     return MatcherSpec.of(name, _given(args, settings, "matcher"), f"{MATCHER} {name}")
 
 
-def matcher_flags(spec: MatcherSpec) -> str:
-    """``--matcher NAME`` and every setting of ``spec`` as its options: the rules' param."""
-    return shlex.join([MATCHER, spec.name]) + (f" {flags(spec.record())}" if spec.values else "")
 
 
 def matcher_of(argv: list[str]) -> str:

@@ -4,7 +4,6 @@ Snakemake's lint asks); every path itself comes from ``core.paths``."""
 from __future__ import annotations
 
 import json
-import shlex
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
@@ -33,16 +32,6 @@ def evaluation_attributes(out: str, methods: Sequence[str], splits: Sequence[str
                        for method in methods]
 
 
-def split_option(option: str, splits: Sequence[str], items: Sequence[str]) -> str:
-    """``OPTION SPLIT ITEM...`` once per split, every word quoted on its own (used unquoted in a rule): ``items``
-    holds each split's items in turn, as many for every split (``evaluation_attributes``); empty without items."""
-    if not splits or not items:
-        return ""
-    per_split, rest = divmod(len(items), len(splits))
-    if rest:
-        raise ValueError(f"{len(items)} files for {len(splits)} splits: not as many for each")
-    return " ".join(shlex.join([option, split, *items[i * per_split:(i + 1) * per_split]])
-                    for i, split in enumerate(splits))
 
 
 def extraction_options(conf: Config) -> str:
@@ -57,16 +46,8 @@ def other_attributes(out: str, methods: Sequence[str], wc: Any, split: str) -> l
     return [attributes_path(out, wc.dataset, method, wc.seq_len, split) for method in methods if method != wc.method]
 
 
-def name_pairs(names: Sequence[str], paths: Sequence[str]) -> str:
-    """``NAME=PATH`` shell arguments, each quoted on its own (a path may hold spaces): used unquoted in a rule."""
-    return " ".join(shlex.quote(f"{name}={path}") for name, path in zip(names, paths, strict=True))
 
 
-def method_pairs(methods: Sequence[str], held_out: str, paths: Sequence[str]) -> str:
-    """``METHOD=PATH`` arguments for the methods but ``held_out``, in the configuration's order."""
-    if not paths:
-        return ""
-    return " ".join(shlex.quote(item) for item in method_items(methods, held_out, paths))
 
 
 def method_items(methods: Sequence[str], held_out: str, paths: Sequence[str]) -> list[str]:
@@ -138,14 +119,6 @@ def ground_truth_input(plan: Plan, dataset: str) -> list[str]:
     return [given.path] if given is not None else []
 
 
-def ground_truth_option(plan: Plan, dataset: str) -> str:
-    """``--ground-truth FILE [--ground-truth-key NAME]`` of a dataset whose ground truth is a file, quoted (used
-    unquoted in a rule); empty for a tolerance or a radius (their own options say them)."""
-    given = plan.datasets[dataset].ground_truth
-    if given is None:
-        return ""
-    key = ["--ground-truth-key", given.key] if given.key is not None else []
-    return shlex.join(["--ground-truth", given.path, *key])
 
 
 def length_files(splits: Sequence[tuple[str | None, Sequence[str]]]) -> dict[str, tuple[str, ...]]:

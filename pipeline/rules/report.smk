@@ -1,6 +1,8 @@
 # The report that gathers every result of the run.
 rule report:
     input:
+        # the files of the experiments installed packages register (pipeline.experiment), which the report reads
+        experiments=PLUGIN_FILES,
         evaluations=expand(evaluation_path(OUT, "{dataset}", "{method}", "{seq_len}"),
                            dataset=DATASETS, method=METHODS, seq_len=SEQ_LENS),
         # the training-free baselines (method §12), every L: their table, figures and the sequence-length ablation

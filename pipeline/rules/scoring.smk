@@ -20,7 +20,7 @@ rule baselines:
             PLAN.datasets[wc.dataset].truth, conf.sequence_matching, scorers=conf.baselines, modes=tuple(conf.modes),
             allow_split_overlap=conf.allow_split_overlap, out=output[0])),
     shell:
-        shell_command(BASELINES_STAGE)
+        shell_command(BASELINES)
 
 
 rule vpr_metrics:

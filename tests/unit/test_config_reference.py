@@ -19,7 +19,7 @@ from vpr_smr.eval.predictor.defaults import PredictorSettings
 from vpr_smr.eval.scoring.scorers import BaselineSettings
 from vpr_smr.pipeline.cli import build_parser
 from vpr_smr.pipeline.config import SCHEMA_PATH, ConfigError, Extraction, validate
-from vpr_smr.pipeline.options import add_options, flags, matcher_flags, matcher_of, read_matcher, read_options
+from vpr_smr.pipeline.options import add_options, flags, matcher_of, read_matcher, read_options
 from vpr_smr.pipeline.reference import REFERENCE_PATH, config_schema, configuration_reference
 from vpr_smr.pipeline.stage import job_of
 
@@ -119,21 +119,19 @@ def test_flags_give_the_records_back():
         "--hidden-layer-sizes 128 128 128 --alpha 0.0001 --learning-rate-init 0.001 --max-iter 10000 --no-smote "
         "--random-state 0 --smote-random-state 42 --column-order none")
     spec = MatcherSpec.of("seqslam", {"velocities": [2, 0.5]})
-    assert matcher_flags(spec) == "--matcher seqslam --velocities 0.5 2.0"
     args = _parse("baselines", "--dataset", "d", "--method", "m", "--seq-len", "4", "--distances", "v=v.h5",
                   "--attributes", "v=a.h5", "--predictors", "p.h5", "--out", "b.json",
-                  *shlex.split(matcher_flags(spec)), *shlex.split(flags(BaselineSettings(6, 3))))
+                  "--matcher", "seqslam", "--velocities", "0.5", "2.0", *shlex.split(flags(BaselineSettings(6, 3))))
     assert read_matcher(args) == spec and _scorers(args) == BaselineSettings(6, 3)
 
 
 def test_the_rules_spell_no_setting():
-    # the jobs' matcher and scorer settings come from the records (pipeline.options.flags), not hand-spelt flags
+    # every rule calls its stage with the job record (pipeline.stage.shell_command, a job_text param): no rule
+    # spells an option of a setting, nor the command line of a stage
     for path in (REPO / "pipeline" / "rules").glob("*.smk"):
         text = path.read_text()
-        assert "--velocities" not in text and "--r-window" not in text and "--spread-k" not in text
-    snakefile = (REPO / "pipeline" / "Snakefile").read_text()
-    assert "MATCHER = matcher_flags(conf.sequence_matching)" in snakefile
-    assert "BASELINES = flags(conf.baselines)" in snakefile
+        assert "--velocities" not in text and "--r-window" not in text and "--spread-k" not in text, path.name
+        assert '"vpr-smr ' not in text and text.count("shell:") == text.count("shell_command("), path.name
 
 
 def test_sequence_matching_is_the_matchers_spec():
@@ -203,7 +201,6 @@ def test_a_plugin_matchers_settings_are_checked_and_given_as_options(toy):
     args = build_parser("toy").parse_args(["queries", "--distances", "D.npy", "--seq-len", "4", "--out", "q.csv",
                                            "--matcher", "toy", "--width", "7"])
     assert read_matcher(args) == MatcherSpec("toy", '{"width": 7}')
-    assert matcher_flags(read_matcher(args)) == "--matcher toy --width 7"
     with pytest.raises(SystemExit):  # seqslam's option is not toy's
         build_parser("toy").parse_args(["queries", "--distances", "D.npy", "--seq-len", "4", "--out", "q.csv",
                                         "--matcher", "toy", "--velocities", "1"])

@@ -11,10 +11,11 @@ import pytest
 import yaml
 from field_files import band, lists_of, write_json_lists, write_vpr_bench
 
+from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.pipeline import plan as plan_module
 from vpr_smr.pipeline.config import ConfigError, load_config
 from vpr_smr.pipeline.plan import dataset_cards, plan_from_json, plan_to_json, preflight
-from vpr_smr.pipeline.rule_helpers import ground_truth_input, ground_truth_option
+from vpr_smr.pipeline.rule_helpers import ground_truth_input
 
 SPLITS = {"train": [0, 40], "val": [40, 60], "test": [60, 100]}
 
@@ -42,8 +43,10 @@ def test_a_relative_file_is_found_from_the_configurations_folder_and_reaches_the
     assert not plan.datasets["sample"].has_tolerance
     assert dataset_cards(plan)["sample"]["ground_truth"] == "GT.npz:GThard (a matrix)"
     assert ground_truth_input(plan, "sample") == [str(tmp_path / "cfg" / "GT.npz")]
-    option = f"--ground-truth {tmp_path / 'cfg' / 'GT.npz'} --ground-truth-key GThard"
-    assert ground_truth_option(plan, "sample") == option
+    # the jobs' ground truth group: the file and its variable (the tolerance beside them is not used then)
+    assert plan.datasets["sample"].truth == TruthSource(tolerance=plan.datasets["sample"].tolerance,
+                                                        ground_truth=str(tmp_path / "cfg" / "GT.npz"),
+                                                        ground_truth_key="GThard")
     # the plan handed to Snakemake and its jobs reads back the same
     assert plan_from_json(json.loads(json.dumps(plan_to_json(plan, conf))), conf) == plan
     assert plan.warnings == ()  # every query of every split has a correct reference in the band

@@ -33,13 +33,14 @@ def test_the_configuration_takes_any_split_names_but_the_reserved_ones(tmp_path)
 
 
 def test_the_rules_give_each_split_by_its_name():
-    from vpr_smr.pipeline.rule_helpers import method_items, split_option
+    from vpr_smr.pipeline.rule_helpers import method_items
+    from vpr_smr.pipeline.stages.predictor import split_files
 
-    assert split_option("--evaluate", ["check", "final"], ["a c.h5", "b.h5", "c.h5", "d.h5"]) == (
-        "--evaluate check 'a c.h5' b.h5 --evaluate final c.h5 d.h5")
-    assert split_option("--evaluate", [], []) == "" and split_option("--evaluate", ["check"], []) == ""
+    assert split_files(["check", "final"], ["a c.h5", "b.h5", "c.h5", "d.h5"]) == {
+        "check": ("a c.h5", "b.h5"), "final": ("c.h5", "d.h5")}
+    assert split_files([], []) == {} and split_files(["check"], []) == {}
     with pytest.raises(ValueError, match="3 files for 2 splits"):
-        split_option("--evaluate", ["check", "final"], ["a", "b", "c"])
+        split_files(["check", "final"], ["a", "b", "c"])
     assert method_items(["sad", "hog", "cnn"], "hog", ["s.h5", "c.h5"]) == ["sad=s.h5", "cnn=c.h5"]
 
 
