@@ -19,9 +19,9 @@ import json
 import logging
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
+from vpr_smr.core.json_objects import json_object
 from vpr_smr.core.settings import parse, to_json
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER
 from vpr_smr.pipeline.options import add_options, given_options, read_options
@@ -90,14 +90,7 @@ def job_of(stage: Stage, args: argparse.Namespace) -> Any:
     text = getattr(args, "job", None)
     if text is None:
         return read_options(args, stage.job, GROUP)
-    if text.startswith("@"):
-        text = Path(text[1:]).read_text()
-    try:
-        data = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{JOB} is not valid JSON: {error}") from None
-    if not isinstance(data, Mapping):
-        raise ValueError(f"{JOB} must be a JSON object of the stage's settings")
+    data = json_object(text, JOB)
     given = given_options(args, stage.job, GROUP) if stage.speed else {}
     for name in stage.speed:  # a group's options replace its settings one by one
         value = given.get(name)

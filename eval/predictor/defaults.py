@@ -14,9 +14,9 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
+from vpr_smr.core.json_objects import json_object
 from vpr_smr.core.settings import parse, setting
 
 PAPER_PARAMS = {"alpha": 1e-4, "learning_rate_init": 1e-3}  # the authors' code (the paper's text says 1e-3 / 1e-4)
@@ -70,15 +70,7 @@ class PredictorParams:
     def from_setting(cls, data: Any, where: str) -> PredictorParams:
         """The ``predictor`` setting: a JSON object (``--job``), or on the command line its JSON text or ``@file``
         holding it (``core.settings``' value classes)."""
-        if isinstance(data, str):
-            text = Path(data[1:]).read_text() if data.startswith("@") else data
-            try:
-                data = json.loads(text)
-            except json.JSONDecodeError as error:
-                raise ValueError(f"{where} is not valid JSON: {error}") from None
-        if not isinstance(data, Mapping):
-            raise ValueError(f"{where} must be a JSON object of settings")
-        return cls.of(data, where)
+        return cls.of(json_object(data, where), where)
 
     def to_setting(self) -> dict[str, Any]:
         """The JSON object ``from_setting`` reads: the settings given."""

@@ -90,7 +90,7 @@ def test_the_job_json_holds_the_groups_and_the_given_predictor_settings():
     (["train", "--dataset", "d", "--seq-len", "4", "--train", "a.h5", "--predictor", "{\"layers\": [3]}", "--out",
       "p.h5"], "--predictor.layers: unexpected setting 'layers'"),
     (["train", "--dataset", "d", "--seq-len", "4", "--train", "a.h5", "--predictor", "[1]", "--out", "p.h5"],
-     "--predictor must be a JSON object of settings"),
+     "--predictor must be a JSON object, got [1]"),
     (["train", "--dataset", "d", "--seq-len", "4", "--train", "a.h5", "--predictor", "{", "--out", "p.h5"],
      "--predictor is not valid JSON"),
     (["ablation", "without", "--dataset", "d", "--seq-len", "4", "--method", "m", "--train", "a.h5", "--out",
