@@ -18,7 +18,7 @@ from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.eval.matching.matchers import NAME_KEY, MatcherSpec, matcher_class
 from vpr_smr.eval.predictor.defaults import PredictorSettings
 from vpr_smr.eval.scoring.scorers import BaselineSettings
-from vpr_smr.eval.scoring.speed import SpeedExperiment
+from vpr_smr.eval.scoring.study_jobs import SpeedExperiment
 
 SCHEMA_PATH = Path(__file__).with_name("config_schema.json")
 

@@ -37,8 +37,6 @@ import numpy as np
 
 from vpr_smr.core.io import atomic_path, check_suffix, read_provenance
 from vpr_smr.core.json_objects import json_object
-from vpr_smr.core.settings import REQUIRED, group, setting
-from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.attributes import ATTRIBUTE_NAMES
 from vpr_smr.eval.matching.features import match_blocks
 from vpr_smr.eval.matching.ground_truth import POSITIONS, GroundTruth
@@ -46,8 +44,8 @@ from vpr_smr.eval.matching.ground_truth_files import read_ground_truth
 from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, scored_shape, split_ground_truth
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.matchers.base import Matcher
-from vpr_smr.eval.matching.sources import MatrixFormat, TruthSource
 from vpr_smr.eval.report.figures import DOWN, UP, _pyplot
+from vpr_smr.eval.report.job import InspectJob as InspectJob  # the job record, re-exported: a light module's
 from vpr_smr.eval.scoring.queries import MATCHER_COLUMN, OLD_MATCHER_COLUMN, QUERY_COLUMNS, row_matcher
 
 if TYPE_CHECKING:  # the datasets (OpenCV) are imported when the stage runs, not when its command line is built
@@ -580,39 +578,6 @@ def _check_matcher(rows: Sequence[QueryRow], queries_csv: Path, matcher: Matcher
         raise ValueError(f"{queries_csv} holds the sequence matches of the matcher {' and '.join(found)}, but this "
                          f"stage was given the matcher {expected}: give the matcher of the run that made it (its "
                          "name and settings), or the queries CSV of this matcher")
-
-
-@dataclass(frozen=True)
-class InspectJob:
-    """The ``inspect`` stage's job: the match figure and the distance-matrix figure of one split's queries."""
-
-    queries: str = setting(REQUIRED, "the per-query table (.csv) of vpr-smr queries", metavar="PATH")
-    distances: str = setting(REQUIRED, "the distance matrix: our .h5, or a references x queries .npy, .npz or .mat",
-                             metavar="PATH")
-    match_figure: str | None = setting(None, "the match figure (PNG): thumbnails of the frames, so it needs "
-                                             "--dataset and --dataset-settings (a dataset with images)",
-                                       metavar="PATH")
-    matrix_figure: str = setting(REQUIRED, "where to write the distance-matrix figure (.png)", metavar="PATH")
-    dataset: str | None = setting(None, "the dataset's name (with --dataset-settings: for the match figure's "
-                                        "images)", metavar="NAME")
-    # JSON text, not a JsonObject: an empty object given (an entry without a loader) is not one left out
-    dataset_settings: str | None = setting(
-        None, "the dataset's configuration entry as a JSON object (or @file), e.g. {\"loader\": \"folders\", "
-              "\"reference\": DIR, \"query\": DIR}", metavar="JSON")
-    frames_sha256: str | None = setting(None, "fail unless the dataset's frame lists have this fingerprint "
-                                              "(default: the distances file's)", metavar="SHA256")
-    seq_len: int = sources.seq_len()
-    split: str | None = setting(None, "the queries CSV's split to show (default: its only split)", metavar="SPLIT")
-    # as the queries CSV was made: the matcher, the ground truth, how a user's matrix is read
-    truth: TruthSource = group(TruthSource, "the ground truth")
-    matcher: MatcherSpec = setting(MatcherSpec.of(), "the sequence matcher and its settings")
-    matrix: MatrixFormat = group(MatrixFormat, "how a user's matrix file is read")
-    frames: tuple[int, ...] | None = setting(
-        None, "the split's frames lo..hi-1: LO HI (default: the distances file's split_range; a .npy's queries count "
-              "from 0)", min_items=2, max_items=2)
-    per_class: int = setting(2, "queries sampled per true class", minimum=0)
-    mistakes: int = setting(4, "the predictor's most confident mistakes shown", minimum=0)
-    seed: int = setting(0, "seed of the sample")
 
 
 def main(job: InspectJob) -> tuple[Path | None, Path]:

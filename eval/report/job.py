@@ -1,6 +1,7 @@
-"""The ``report`` stage's job (``ReportJob``): the run's files the report reads (``RunFiles``), how it shows them
-and the run folder. A module of its own, light to import: the command line and the workflow's rules build the job
-without the report's tables and figures (``eval.report.build`` does the work)."""
+"""The jobs of the report's stages: ``report`` (``ReportJob``: the run's files the report reads, ``RunFiles``, how
+it shows them and the run folder) and the match inspector's ``inspect`` (``InspectJob``). A module of its own, light
+to import: the command line and the workflow's rules build the jobs without the report's tables and figures
+(``eval.report.build`` and ``eval.report.inspector`` do the work, and import Matplotlib's helpers)."""
 
 from __future__ import annotations
 
@@ -8,8 +9,11 @@ from dataclasses import dataclass
 
 from vpr_smr.core.json_objects import JsonObject
 from vpr_smr.core.settings import REQUIRED, group, setting
+from vpr_smr.eval.matching import sources
+from vpr_smr.eval.matching.matchers import MatcherSpec
+from vpr_smr.eval.matching.sources import MatrixFormat, TruthSource
 
-__all__ = ["ReportJob", "RunFiles"]
+__all__ = ["InspectJob", "ReportJob", "RunFiles"]
 
 
 @dataclass(frozen=True)
@@ -80,3 +84,36 @@ class ReportJob:
     datasets: JsonObject = setting(JsonObject(), "per dataset: traverses, frames, tolerance, splits, pairing, "
                                                  "overlaps (JSON, or @file)", metavar="JSON")
     out: str = setting(REQUIRED, "the run folder: tables/, figures/ and report.html go inside", metavar="PATH")
+
+
+@dataclass(frozen=True)
+class InspectJob:
+    """The ``inspect`` stage's job: the match figure and the distance-matrix figure of one split's queries."""
+
+    queries: str = setting(REQUIRED, "the per-query table (.csv) of vpr-smr queries", metavar="PATH")
+    distances: str = setting(REQUIRED, "the distance matrix: our .h5, or a references x queries .npy, .npz or .mat",
+                             metavar="PATH")
+    match_figure: str | None = setting(None, "the match figure (PNG): thumbnails of the frames, so it needs "
+                                             "--dataset and --dataset-settings (a dataset with images)",
+                                       metavar="PATH")
+    matrix_figure: str = setting(REQUIRED, "where to write the distance-matrix figure (.png)", metavar="PATH")
+    dataset: str | None = setting(None, "the dataset's name (with --dataset-settings: for the match figure's "
+                                        "images)", metavar="NAME")
+    # JSON text, not a JsonObject: an empty object given (an entry without a loader) is not one left out
+    dataset_settings: str | None = setting(
+        None, "the dataset's configuration entry as a JSON object (or @file), e.g. {\"loader\": \"folders\", "
+              "\"reference\": DIR, \"query\": DIR}", metavar="JSON")
+    frames_sha256: str | None = setting(None, "fail unless the dataset's frame lists have this fingerprint "
+                                              "(default: the distances file's)", metavar="SHA256")
+    seq_len: int = sources.seq_len()
+    split: str | None = setting(None, "the queries CSV's split to show (default: its only split)", metavar="SPLIT")
+    # as the queries CSV was made: the matcher, the ground truth, how a user's matrix is read
+    truth: TruthSource = group(TruthSource, "the ground truth")
+    matcher: MatcherSpec = setting(MatcherSpec.of(), "the sequence matcher and its settings")
+    matrix: MatrixFormat = group(MatrixFormat, "how a user's matrix file is read")
+    frames: tuple[int, ...] | None = setting(
+        None, "the split's frames lo..hi-1: LO HI (default: the distances file's split_range; a .npy's queries count "
+              "from 0)", min_items=2, max_items=2)
+    per_class: int = setting(2, "queries sampled per true class", minimum=0)
+    mistakes: int = setting(4, "the predictor's most confident mistakes shown", minimum=0)
+    seed: int = setting(0, "seed of the sample")

@@ -32,11 +32,8 @@ import numpy as np
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
 from vpr_smr.core.paths import timing_path
 from vpr_smr.core.records import save
-from vpr_smr.core.settings import REQUIRED, group, setting
 from vpr_smr.eval.matching.adaptive import NONE, first_accepted, used_lengths
 from vpr_smr.eval.matching.attributes import QueryFeatures
-from vpr_smr.eval.predictor.defaults import allow_split_overlap
-from vpr_smr.eval.predictor.jobs import metric_modes
 from vpr_smr.eval.scoring.adaptive_records import (
     ADAPTIVE,
     ADAPTIVE_FALLBACK,
@@ -55,6 +52,7 @@ from vpr_smr.eval.scoring.adaptive_records import (
 from vpr_smr.eval.scoring.curves import AT_RECALL_ZERO
 from vpr_smr.eval.scoring.records import Reduction
 from vpr_smr.eval.scoring.scorers import BaselineSettings
+from vpr_smr.eval.scoring.study_jobs import AdaptiveJob  # the job record, re-exported: a light module's
 
 __all__ = ["AdaptiveJob", "Length", "choose", "compute", "main", "uniqueness_threshold"]
 
@@ -372,32 +370,6 @@ def live_timing(matrix: Any, lengths: Sequence[int], predictors: Sequence[Any], 
     return AdaptiveTiming(dict(meta), n_query, len(chosen), seconds_adaptive, seconds_longest)
 
 
-@dataclass(frozen=True)
-class AdaptiveJob:
-    """The ``adaptive`` stage's job: the experiment adaptive_seq_len of one dataset, matcher and method (``main``)."""
-
-    attributes: dict[str, tuple[str, ...]] = setting(
-        REQUIRED, "the attributes files (vpr-smr attributes) of every sequence length, per split: the table "
-                  "split's, and the validation split's for adaptive_uniqueness; each file records its length. "
-                  "--attributes SPLIT PATH... per split, or SPLIT=PATH items", metavar="SPLIT PATH")
-    predictors: tuple[str, ...] = setting(
-        REQUIRED, "one predictor per length, its seed-0 file (vpr-smr train); the other seeds' files beside it "
-                  "(L4.seed1.h5, ...) are read too", metavar="PATH", min_items=1)
-    seeds: int | None = setting(None, "the seeds to read per length; none: every seed file found", minimum=1)
-    split: str = setting(REQUIRED, "the split to score (the table split)", metavar="SPLIT")
-    validation: str | None = setting(None, "the validation split: adaptive_uniqueness's threshold is chosen there",
-                                     metavar="SPLIT")
-    distances: str | None = setting(None, "the table split's distance file: the live matcher's time per query "
-                                          "(none without it)", metavar="PATH")
-    dataset: str = setting("dataset", "the dataset's name in the result", metavar="NAME")
-    method: str = setting("method", "the method's name in the result", metavar="NAME")
-    matcher_tag: str | None = setting(None, "the matcher's name in the result; none: its registry name",
-                                      metavar="TAG")
-    baselines: BaselineSettings = group(BaselineSettings, "the training-free scorers (method §12)")
-    modes: tuple[str, ...] = metric_modes()
-    allow_split_overlap: bool = allow_split_overlap()
-    out: str = setting(REQUIRED, "the output file: the adaptive sequence length's result (JSON; its timing goes "
-                                 "beside it)", metavar="PATH")
 
 
 def main(job: AdaptiveJob) -> AdaptiveResult:

@@ -32,17 +32,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix
-from vpr_smr.core.json_objects import json_object
 from vpr_smr.core.records import FileRecord, Record, save
-from vpr_smr.core.settings import REQUIRED, group, setting
-from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec, matcher_class
-from vpr_smr.eval.matching.sources import TruthSource
-from vpr_smr.eval.predictor.defaults import allow_split_overlap
-from vpr_smr.eval.predictor.jobs import dataset_name, metric_modes
 from vpr_smr.eval.scoring.records import Detection, Interval, Reduction, SeedSummary
 from vpr_smr.eval.scoring.scorers import NATIVE, BaselineSettings  # NATIVE: each matcher's own confidence
+from vpr_smr.eval.scoring.study_jobs import (  # the job records, re-exported: they live in a light module
+    ComparedInputs,
+    MatcherInputs,
+    MatchersJob,
+    read_inputs,
+)
 
 if TYPE_CHECKING:
     from vpr_smr.eval.predictor.estimator import SMRPredictor
@@ -302,83 +302,6 @@ def compare(
 # --- the stage --------------------------------------------------------------------------------------------------
 
 
-@dataclass(frozen=True)
-class MatcherInputs:
-    """One compared matcher's files: its spec, its attributes per split and method, its predictors (seed 0
-    first)."""
-
-    spec: MatcherSpec
-    attributes: dict[str, dict[str, str]]  # split -> method -> path
-    predictors: tuple[str, ...]
-
-    def to_json(self) -> Json:
-        """The entry as ``read_inputs`` reads it back (no ``predictors`` where there are none: the fixed one's)."""
-        return {"matcher": self.spec.provenance(),
-                "attributes": {split: dict(paths) for split, paths in self.attributes.items()},
-                **({"predictors": list(self.predictors)} if self.predictors else {})}
-
-
-def read_inputs(data: Mapping[str, Any]) -> tuple[list[MatcherInputs], MatcherInputs | None]:
-    """The stage's ``--inputs`` JSON: ``{"matchers": [{"matcher": {...provenance}, "attributes": {split: {method:
-    path}}, "predictors": [...]}, ...], "fixed": {...the same, no predictors} or null}``; ValueError naming the
-    entry."""
-    def one(entry: Any, where: str) -> MatcherInputs:
-        if not isinstance(entry, Mapping) or not isinstance(entry.get("attributes"), Mapping):
-            raise ValueError(f"--inputs {where}: {entry!r} has no \"attributes\" object")
-        spec = MatcherSpec.from_provenance(entry.get("matcher"), f"--inputs {where}")
-        attributes = {str(split): {str(m): str(p) for m, p in paths.items()}
-                      for split, paths in entry["attributes"].items()}
-        return MatcherInputs(spec, attributes, tuple(str(p) for p in entry.get("predictors", ())))
-
-    found = data.get("matchers")
-    if not isinstance(found, list) or not found:
-        raise ValueError("--inputs: \"matchers\" must be a non-empty list of the compared matchers' files")
-    fixed = data.get("fixed")
-    return ([one(entry, f"matchers[{i}]") for i, entry in enumerate(found)],
-            None if fixed is None else one(fixed, "fixed"))
-
-
-@dataclass(frozen=True)
-class ComparedInputs:
-    """The stage's ``inputs`` setting (a value class of ``core.settings``): the compared matchers' files and the
-    fixed matcher's validation attributes (None: no validation warning), as ``read_inputs`` reads them; on the
-    command line its JSON text (or ``@file``)."""
-
-    matchers: tuple[MatcherInputs, ...]
-    fixed: MatcherInputs | None = None
-
-    @classmethod
-    def from_setting(cls, value: Any, where: str) -> ComparedInputs:
-        compared, fixed = read_inputs(json_object(value, where))
-        return cls(tuple(compared), fixed)
-
-    def to_setting(self) -> Json:
-        return {"matchers": [entry.to_json() for entry in self.matchers],
-                "fixed": None if self.fixed is None else self.fixed.to_json()}
-
-
-@dataclass(frozen=True)
-class MatchersJob:
-    """The ``compare-matchers`` stage's job: the experiment ``matchers`` of one dataset and method (``main``)."""
-
-    dataset: str = dataset_name()
-    method: str = setting(REQUIRED, "the method's name (a key of the configuration's methods)", metavar="NAME")
-    seq_len: int = sources.seq_len()
-    inputs: ComparedInputs = setting(
-        REQUIRED, "the compared matchers' files as a JSON object (or @file): {\"matchers\": [{\"matcher\": "
-                  "{\"name\": ..., \"settings\": {...}}, \"attributes\": {SPLIT: {METHOD: PATH}}, "
-                  "\"predictors\": [seed 0 first]}, ...], \"fixed\": the fixed matcher's validation attributes or "
-                  "null}", metavar="JSON")
-    distances: dict[str, str] = setting(REQUIRED, "the method's table split distances (.h5): the ground truth's "
-                                                  "reference positions", metavar="METHOD=PATH")
-    split: str = setting(REQUIRED, "the table split (a split of --inputs' attributes)", metavar="SPLIT")
-    validation: str | None = setting(None, "the validation split: the warning of a matcher far below the fixed one",
-                                     metavar="SPLIT")
-    truth: TruthSource = group(TruthSource, "the ground truth, as the attributes were computed")
-    baselines: BaselineSettings = group(BaselineSettings, "the training-free scorers (method §12)")
-    modes: tuple[str, ...] = metric_modes()
-    allow_split_overlap: bool = allow_split_overlap()
-    out: str = setting(REQUIRED, "the output file: the matchers experiment's result (JSON)", metavar="PATH")
 
 
 def main(job: MatchersJob) -> MatcherComparison:

@@ -28,19 +28,24 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from vpr_smr.core.constants import DEFAULT_TOLERANCE, DEFAULT_VELOCITIES, N_LABELS
+from vpr_smr.core.constants import DEFAULT_VELOCITIES, N_LABELS
 from vpr_smr.core.io import JSON_SUFFIXES, check_suffix, read_provenance
 from vpr_smr.core.records import FileRecord, Record, save
-from vpr_smr.core.settings import REQUIRED, setting
-from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.attributes import QueryFeatures, query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.matching.io import is_user_matrix, open_distance_matrix, stored_positions
 from vpr_smr.eval.matching.matchers import MatcherSpec
-from vpr_smr.eval.predictor.defaults import PredictorParams, allow_split_overlap, predictor_setting
-from vpr_smr.eval.predictor.jobs import dataset_name
 from vpr_smr.eval.predictor.leakage import FrameRange, check_disjoint, frame_ranges
 from vpr_smr.eval.scoring.records import Reduction
+from vpr_smr.eval.scoring.study_jobs import (  # the job records, re-exported: they live in a light module
+    PROFILE_HELP,
+    VARYING,
+    VARYING_AMPLITUDE,
+    VARYING_PERIOD,
+    SpeedExperiment,
+    SpeedJob,
+    velocities,
+)
 
 if TYPE_CHECKING:
     from vpr_smr.eval.predictor.estimator import SMRPredictor
@@ -58,59 +63,11 @@ log = logging.getLogger(__name__)
 
 Json = dict[str, Any]
 
-VARYING = "varying"
-VARYING_AMPLITUDE = 0.5  # s(t) = 1 + 0.5 sin(2 pi t / 200): between 0.5x and 1.5x, mean 1 over whole periods
-VARYING_PERIOD = 200  # query frames per period
 MATCHERS = ("fixed", "velocity")  # the paper's slope-1 matcher, SeqSLAM's velocity search (speed_matchers)
 MODE = "paper"  # Table I's numbers, paper mode (method §8)
 SEED = 0  # the predictor's seed: the authors' recipe (see main)
-PROFILE_HELP = "a constant speed such as 0.5x, 1x or 2x (places per query frame, > 0), or 'varying'"
 
 
-def velocities() -> Any:
-    """The field of the velocity matcher's search set: the one declaration of the configuration's
-    ``speed.velocities`` and of the stage's ``--velocities``."""
-    return setting(
-        (0.5, 0.595, 0.707, 0.841, 1.0, 1.189, 1.414, 1.682, 2.0),
-        "the velocity matcher's search set (reference frames per query frame; the fixed matcher is [1.0]): 2**(k/4) "
-        "for k = -4..4, rounded to 3 decimals. Log-spaced, so it covers the profiles' range 0.5x-2x evenly in ratio, "
-        "and it holds 0.5, 1, 2 but not 0.75, 1.25 or 1.5, nor the varying profile's speeds: most profiles are "
-        "matched by a nearby slope, not an exact one, as a real robot's speed would be",
-        exclusive_minimum=0, min_items=1, unique=True, metavar="V")
-
-
-@dataclass(frozen=True)
-class SpeedExperiment:
-    """The speed experiment (method §11, eval/scoring/speed.py): each dataset's train and table splits re-driven at
-    other speeds, scored with the fixed matcher and with velocity search, a seed-0 predictor per matcher."""
-
-    profiles: tuple[float | str, ...] = setting(
-        (0.5, 0.75, 1.0, 1.25, 1.5, 2.0, VARYING),
-        f"query speeds: a constant c (places per query frame: the query driven c times as fast; 1.0 is the aligned "
-        f"pair, the reference point) or \"{VARYING}\" (1 + {VARYING_AMPLITUDE:g} sin(2 pi t / {VARYING_PERIOD}), "
-        f"between {1 - VARYING_AMPLITUDE:g}x and {1 + VARYING_AMPLITUDE:g}x)",
-        schema={"type": "array", "items": {"anyOf": [{"type": "number", "exclusiveMinimum": 0}, {"const": VARYING}]},
-                "minItems": 1, "uniqueItems": True})
-    velocities: tuple[float, ...] = velocities()
-
-
-@dataclass(frozen=True)
-class SpeedJob:
-    """The ``speed`` stage's job: one dataset under one speed profile (``main``)."""
-
-    dataset: str = dataset_name()
-    seq_len: int = sources.seq_len()
-    profile: str = setting(REQUIRED, PROFILE_HELP, metavar="PROFILE")
-    velocities: tuple[float, ...] = velocities()
-    tolerance: int = setting(DEFAULT_TOLERANCE, "a match within this many places of the simulated query's position "
-                                                "is correct", minimum=0)
-    train: dict[str, str] = setting(REQUIRED, "each method's train split distances (.h5), in the pooled training "
-                                              "order", metavar="METHOD=PATH")
-    table: dict[str, str] = setting(REQUIRED, "each method's table split distances (.h5), the same methods in the "
-                                              "same order (--test: the same option)", metavar="METHOD=PATH")
-    predictor: PredictorParams = predictor_setting()
-    allow_split_overlap: bool = allow_split_overlap()
-    out: str = setting(REQUIRED, "the output file: the speed experiment's result (JSON)", metavar="PATH")
 
 
 def speed_matchers(velocities: Sequence[float]) -> dict[str, MatcherSpec]:

@@ -1,13 +1,16 @@
 """The stages from a dataset's frames to the queries' attributes: ``descriptors``, ``distances``, ``attributes``, and
-the match inspector (``inspect``), which draws a split's matches."""
+the match inspector (``inspect``), which draws a split's matches. The inspector's module (its figures) is imported
+when its stage runs; the other stages' modules hold their job records and are light to import (their heavy work,
+PyTorch and the datasets, is imported inside their functions)."""
 
 from __future__ import annotations
+
+from pathlib import Path
 
 from vpr_smr.eval.matching import attributes, distances
 from vpr_smr.eval.matching.attributes import AttributesJob, QueryFeatures
 from vpr_smr.eval.matching.distances import DistancesJob
-from vpr_smr.eval.report import inspector
-from vpr_smr.eval.report.inspector import InspectJob
+from vpr_smr.eval.report.job import InspectJob
 from vpr_smr.pipeline import descriptors
 from vpr_smr.pipeline.descriptors import DescriptorsJob
 from vpr_smr.pipeline.stage import Stage
@@ -30,8 +33,14 @@ DISTANCES = Stage("distances", "reference x query distance matrix of one split (
 ATTRIBUTES = Stage("attributes", "sequence matching, SMR attributes and labels of a distance matrix",
                    AttributesJob, attributes.main, summary=_attributes_summary)
 
+def _inspect(job: InspectJob) -> tuple[Path | None, Path]:
+    from vpr_smr.eval.report import inspector
+
+    return inspector.main(job)
+
+
 INSPECT = Stage("inspect", "the match inspector: sampled queries with their matches, and the distance matrix with the "
-                           "kept and removed sequence matches (two PNGs)", InspectJob, inspector.main,
+                           "kept and removed sequence matches (two PNGs)", InspectJob, _inspect,
                 summary=lambda job, written: " and ".join(str(path) for path in written if path is not None),
                 epilog="e.g. a user's matrix, the distance-matrix figure only (it needs no images): vpr-smr inspect "
                        "--queries queries.csv --distances D.npy --seq-len 4 --matrix-figure d.png")

@@ -1,18 +1,22 @@
 """The stages of the studies beyond Table I: ``speed`` (method §11), ``compare-matchers`` (method §14) and
-``adaptive`` (method §15), with the summary lines and the text they print."""
+``adaptive`` (method §15), with the summary lines and the text they print. Their job records are
+``eval.scoring.study_jobs``'; the work's modules are imported when a stage runs (the command line declares every
+stage when it starts, and a command that runs no study must not import them)."""
 
 from __future__ import annotations
 
 import argparse
 from collections.abc import Iterable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from vpr_smr.eval.scoring import adaptive, matcher_comparison, speed
-from vpr_smr.eval.scoring.adaptive import AdaptiveJob
-from vpr_smr.eval.scoring.matcher_comparison import MatchersJob
-from vpr_smr.eval.scoring.speed import SpeedJob
+from vpr_smr.eval.scoring.study_jobs import AdaptiveJob, MatchersJob, SpeedJob
 from vpr_smr.pipeline.options import _dest
 from vpr_smr.pipeline.stage import GROUP, Stage
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult
+    from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
+    from vpr_smr.eval.scoring.speed import SpeedResult
 
 __all__ = ["ADAPTIVE", "COMPARE_MATCHERS", "SPEED", "STAGES", "adaptive_text", "lowest_rule", "matchers_headline",
            "speed_headline"]
@@ -41,8 +45,14 @@ def _test_option(parser: argparse.ArgumentParser) -> None:
     parser._option_string_actions["--test"] = table
 
 
+def _speed(job: SpeedJob) -> SpeedResult:
+    from vpr_smr.eval.scoring import speed
+
+    return speed.main(job)
+
+
 SPEED = Stage("speed", "one simulated speed profile: Table I's numbers of the fixed matcher and of velocity search, "
-              "each with its own seed-0 predictor", SpeedJob, speed.main,
+              "each with its own seed-0 predictor", SpeedJob, _speed,
               summary=lambda job, result: _wrote(f"the speed profile {job.profile}", job.out, speed_headline(result)),
               epilog="e.g. vpr-smr speed --dataset d --seq-len 4 --profile 2x --velocities 0.5 1 2 --train "
                      "sad=train.h5 --table sad=test.h5 --out speed/2x.json",
@@ -66,9 +76,15 @@ def matchers_headline(result: Any, modes: Iterable[str]) -> str:
     return "the seed-0 predictor reduces the AOC, its interval above 0, for " + ", ".join(counts)
 
 
+def _compare_matchers(job: MatchersJob) -> MatcherComparison:
+    from vpr_smr.eval.scoring import matcher_comparison
+
+    return matcher_comparison.main(job)
+
+
 COMPARE_MATCHERS = Stage(
     "compare-matchers", "the experiment matchers (method §14): each matcher with its own predictor, on the queries "
-    "every matcher evaluates", MatchersJob, matcher_comparison.main,
+    "every matcher evaluates", MatchersJob, _compare_matchers,
     summary=lambda job, result: _wrote(f"the matchers compared on {job.method}", job.out,
                                        matchers_headline(result, job.modes)),
     epilog="e.g. vpr-smr compare-matchers --dataset d --method sad --seq-len 4 --inputs @inputs.json --distances "
@@ -135,11 +151,24 @@ def _split_items(args: argparse.Namespace) -> None:
     setattr(args, dest, [*kept, *([split, *paths] for split, paths in by_split.items())])
 
 
+def _adaptive(job: AdaptiveJob) -> AdaptiveResult:
+    from vpr_smr.eval.scoring import adaptive
+
+    return adaptive.main(job)
+
+
+def _adaptive_show(job: AdaptiveJob, result: AdaptiveResult) -> str:
+    """The table of ``adaptive_text``, with the live timing written beside the result."""
+    from vpr_smr.eval.scoring.adaptive import read_timing
+
+    return adaptive_text(result, read_timing(job.out))
+
+
 ADAPTIVE = Stage(
     "adaptive", "the sequence length chosen per query (method §15): each rule against every fixed length with and "
-    "without its predictor; prints the table", AdaptiveJob, adaptive.main,
+    "without its predictor; prints the table", AdaptiveJob, _adaptive,
     summary=lambda job, result: _wrote(f"the adaptive sequence length of {job.method}", job.out, lowest_rule(result)),
-    show=lambda job, result: adaptive_text(result, adaptive.read_timing(job.out)),
+    show=_adaptive_show,
     epilog="e.g. vpr-smr adaptive --attributes test=L2/test.h5 test=L4/test.h5 val=L2/val.h5 val=L4/val.h5 "
            "--predictors L2.h5 L4.h5 --split test --validation val --distances test.h5 --out adaptive.json",
     check=_split_items)
