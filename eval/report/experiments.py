@@ -58,10 +58,13 @@ EXPERIMENTS: Registry[Reported] = Registry("experiment", ENTRY_POINT_GROUP, chec
 def installed() -> tuple[Reported, ...]:
     """The experiments installed packages register, by name; ValueError naming an entry point whose object is not
     an experiment or names another."""
+    names = EXPERIMENTS.names()
+    if not names:  # none installed: the report's registry (about 70 ms of imports) is not needed by every command
+        return ()
     # the registry first: an experiment's module imports it (its ``Table``), and it collects the experiments' tables
     from vpr_smr.eval.report import registry  # noqa: F401
 
-    return tuple(EXPERIMENTS.get(name) for name in EXPERIMENTS.names())
+    return tuple(EXPERIMENTS.get(name) for name in names)
 
 
 def chosen(settings: Mapping[str, Any]) -> list[Reported]:
