@@ -26,7 +26,7 @@ from vpr_smr.core.settings import parse, to_json
 from vpr_smr.eval.matching.matchers import DEFAULT_MATCHER
 from vpr_smr.pipeline.options import add_options, given_options, read_options
 
-__all__ = ["JOB", "Stage", "install", "job_of", "job_text", "shell_command"]
+__all__ = ["JOB", "Stage", "install", "job_of", "job_text", "shell_command", "wrote"]
 
 log = logging.getLogger("vpr_smr")
 
@@ -81,6 +81,11 @@ class Stage:
         if self.summary is not None:
             log.info("wrote %s", self.summary(job, result))
         return 0
+
+
+def wrote(what: str, out: str, headline: str = "") -> str:
+    """A stage's summary after "wrote": what, where, and its headline number (``Stage.summary``)."""
+    return f"{what} to {out}{f': {headline}' if headline else ''}"
 
 
 def job_of(stage: Stage, args: argparse.Namespace) -> Any:

@@ -13,25 +13,26 @@ from vpr_smr.eval.matching.distances import DistancesJob
 from vpr_smr.eval.report.job import InspectJob
 from vpr_smr.pipeline import descriptors
 from vpr_smr.pipeline.descriptors import DescriptorsJob
-from vpr_smr.pipeline.stage import Stage
+from vpr_smr.pipeline.stage import Stage, wrote
 
 
 def _attributes_summary(job: AttributesJob, found: QueryFeatures) -> str:
     n_queries, n_correct = len(found.queries), int(found.sequence_correct.sum())
-    return (f"the attributes of {n_queries} queries to {job.out}: {n_correct} sequence matches correct "
-            f"({n_correct / max(n_queries, 1):.4f})")
+    return wrote(f"the attributes of {n_queries} queries", job.out,
+                 f"{n_correct} sequence matches correct ({n_correct / max(n_queries, 1):.4f})")
 
 
 DESCRIPTORS = Stage("descriptors", "compute a method's descriptors of a dataset (HDF5)", DescriptorsJob,
                     descriptors.main,
-                    summary=lambda job, out: f"the {job.method} descriptors of {job.dataset} to {out}",
+                    summary=lambda job, out: wrote(f"the {job.method} descriptors of {job.dataset}", out),
                     speed=("threads", "extraction"))
 
 DISTANCES = Stage("distances", "reference x query distance matrix of one split (HDF5)", DistancesJob, distances.main,
-                  summary=lambda job, out: f"the {job.split} split's distance matrix to {out}")
+                  summary=lambda job, out: wrote(f"the {job.split} split's distance matrix", out))
 
 ATTRIBUTES = Stage("attributes", "sequence matching, SMR attributes and labels of a distance matrix",
                    AttributesJob, attributes.main, summary=_attributes_summary)
+
 
 def _inspect(job: InspectJob) -> tuple[Path | None, Path]:
     from vpr_smr.eval.report import inspector

@@ -13,15 +13,11 @@ from vpr_smr.eval.predictor.jobs import AttributeAblationJob, EvaluateJob, HeldO
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.scoring.records import Evaluation, HeldOut, Reduction, Timing
 from vpr_smr.pipeline.config import Config, ConfigError
-from vpr_smr.pipeline.stage import GROUP, Stage
+from vpr_smr.pipeline.stage import GROUP, Stage, wrote
 
 __all__ = ["ABLATION_ATTRIBUTES", "ABLATION_HELD_OUT", "ABLATION_WITHOUT", "EVALUATE", "STAGES", "TRAIN",
            "ablation_headline", "held_out_headline", "reduction_text", "split_files", "training"]
 
-
-def _wrote(what: str, out: str, headline: str = "") -> str:
-    """The summary line after "wrote": what, where, and its headline number."""
-    return f"{what} to {out}{f': {headline}' if headline else ''}"
 
 
 def reduction_text(reduction: Reduction) -> str:
@@ -63,26 +59,26 @@ def _macro_f1(report: PredictorReport) -> str:
 
 
 def _train_summary(job: TrainJob, report: PredictorReport) -> str:
-    return _wrote("the predictor", job.out, _macro_f1(report))
+    return wrote("the predictor", job.out, _macro_f1(report))
 
 
 def _evaluate_summary(job: EvaluateJob, result: tuple[Evaluation, Timing]) -> str:
     evaluation, _ = result
-    return _wrote(f"the evaluation of {job.method}", job.out, "; ".join(
+    return wrote(f"the evaluation of {job.method}", job.out, "; ".join(
         f"{name}: the seed-{split.seed} predictor removes {split.removed} of {split.n_queries} matches, macro F1 "
         f"{split.f1_macro:.3f}" for name, split in evaluation.splits.items()))
 
 
 def _attributes_summary(job: AttributeAblationJob, table: AttributeAblation) -> str:
-    return _wrote("the attribute ablation (Table II)", job.out, ablation_headline(table))
+    return wrote("the attribute ablation (Table II)", job.out, ablation_headline(table))
 
 
 def _without_summary(job: WithoutJob, report: PredictorReport) -> str:
-    return _wrote(f"the predictor without {job.method}", job.out, _macro_f1(report))
+    return wrote(f"the predictor without {job.method}", job.out, _macro_f1(report))
 
 
 def _held_out_summary(job: HeldOutJob, result: HeldOut) -> str:
-    return _wrote(f"{job.method}'s test split under the pooled and the without predictor", job.out,
+    return wrote(f"{job.method}'s test split under the pooled and the without predictor", job.out,
                   held_out_headline(result, job.method))
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from vpr_smr.eval.scoring.matrix_jobs import BaselinesJob, MetricsJob, QueriesJob
-from vpr_smr.pipeline.stage import Stage
+from vpr_smr.pipeline.stage import Stage, wrote
 
 if TYPE_CHECKING:
     from vpr_smr.eval.scoring.records import Baselines, VPRMetrics
@@ -39,7 +39,7 @@ def _metrics_summary(job: MetricsJob, result: VPRMetrics) -> str:
     mode = job.modes[0] if job.modes else None
     headline = "; ".join(f"{name}: sequence recall@1 {split.modes[mode]['sequence'].recall_at[1]:.4f} ({mode} mode)"
                          for name, split in result.splits.items() if mode in split.modes)
-    return f"the metrics to {job.out}" + (f": {headline}" if headline else "")
+    return wrote("the metrics", job.out, headline)
 
 
 def _queries(job: QueriesJob) -> Path:
@@ -60,7 +60,7 @@ def _baselines_summary(job: BaselinesJob, found: Baselines) -> str:
         + ", ".join(f"{scorer} {detection.average_precision:.4f}" for scorer, detection in split.detection.items()
                     if detection.average_precision is not None)
         for name, split in found.splits.items())
-    return f"the training-free scorers of {job.method} to {job.out}" + (f": {headline}" if headline else "")
+    return wrote(f"the training-free scorers of {job.method}", job.out, headline)
 
 
 METRICS = Stage(

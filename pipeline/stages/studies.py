@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 from vpr_smr.eval.scoring.study_jobs import AdaptiveJob, MatchersJob, SpeedJob
 from vpr_smr.pipeline.options import _dest
-from vpr_smr.pipeline.stage import GROUP, Stage
+from vpr_smr.pipeline.stage import GROUP, Stage, wrote
 
 if TYPE_CHECKING:
     from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult
@@ -21,9 +21,6 @@ if TYPE_CHECKING:
 __all__ = ["ADAPTIVE", "COMPARE_MATCHERS", "SPEED", "STAGES", "adaptive_text", "lowest_rule", "matchers_headline",
            "speed_headline"]
 
-def _wrote(what: str, out: str, headline: str = "") -> str:
-    """The summary after "wrote": what, where, and its headline number."""
-    return f"{what} to {out}{f': {headline}' if headline else ''}"
 
 
 # --- speed ---------------------------------------------------------------------------------------------------------
@@ -53,7 +50,7 @@ def _speed(job: SpeedJob) -> SpeedResult:
 
 SPEED = Stage("speed", "one simulated speed profile: Table I's numbers of the fixed matcher and of velocity search, "
               "each with its own seed-0 predictor", SpeedJob, _speed,
-              summary=lambda job, result: _wrote(f"the speed profile {job.profile}", job.out, speed_headline(result)),
+              summary=lambda job, result: wrote(f"the speed profile {job.profile}", job.out, speed_headline(result)),
               epilog="e.g. vpr-smr speed --dataset d --seq-len 4 --profile 2x --velocities 0.5 1 2 --train "
                      "sad=train.h5 --table sad=test.h5 --out speed/2x.json",
               legacy=_test_option)
@@ -85,7 +82,7 @@ def _compare_matchers(job: MatchersJob) -> MatcherComparison:
 COMPARE_MATCHERS = Stage(
     "compare-matchers", "the experiment matchers (method §14): each matcher with its own predictor, on the queries "
     "every matcher evaluates", MatchersJob, _compare_matchers,
-    summary=lambda job, result: _wrote(f"the matchers compared on {job.method}", job.out,
+    summary=lambda job, result: wrote(f"the matchers compared on {job.method}", job.out,
                                        matchers_headline(result, job.modes)),
     epilog="e.g. vpr-smr compare-matchers --dataset d --method sad --seq-len 4 --inputs @inputs.json --distances "
            "sad=test.h5 --split test --validation val --out matchers/d/sad/L4.json")
@@ -167,7 +164,7 @@ def _adaptive_show(job: AdaptiveJob, result: AdaptiveResult) -> str:
 ADAPTIVE = Stage(
     "adaptive", "the sequence length chosen per query (method §15): each rule against every fixed length with and "
     "without its predictor; prints the table", AdaptiveJob, _adaptive,
-    summary=lambda job, result: _wrote(f"the adaptive sequence length of {job.method}", job.out, lowest_rule(result)),
+    summary=lambda job, result: wrote(f"the adaptive sequence length of {job.method}", job.out, lowest_rule(result)),
     show=_adaptive_show,
     epilog="e.g. vpr-smr adaptive --attributes test=L2/test.h5 test=L4/test.h5 val=L2/val.h5 val=L4/val.h5 "
            "--predictors L2.h5 L4.h5 --split test --validation val --distances test.h5 --out adaptive.json",
