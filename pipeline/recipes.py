@@ -24,6 +24,7 @@ from typing import Any
 
 from vpr_smr.core.paths import recipes_path
 from vpr_smr.core.records import FORMAT, FileRecord, FormatError, Record, load, save
+from vpr_smr.pipeline.stage import PARAM
 
 RUN = "{run}"  # the run folder in a recorded recipe
 
@@ -124,7 +125,7 @@ def _changes(name: str, old: Any, new: Any) -> list[str]:
     if isinstance(old, dict) and isinstance(new, dict):
         found = []
         for key in [*old, *(k for k in new if k not in old)]:
-            where = f"{name}.{key}"
+            where = f"{name}.{key}" if name else key
             if key not in new:
                 found.append(f"made with {where} {_shown(old[key])}, the configuration now has none")
             elif key not in old:
@@ -156,7 +157,8 @@ def differences(recorded: Recipe, now: Recipe) -> list[str]:
         elif name not in recorded.params:
             found.append(f"made without {name}, the configuration now says {_shown(now.params[name])}")
         else:
-            found += _changes(name, _json(recorded.params[name]), _json(now.params[name]))
+            # a job record's settings by their own names (``predictor.max_iter``), as the configuration says them
+            found += _changes("" if name == PARAM else name, _json(recorded.params[name]), _json(now.params[name]))
     for path in [*recorded.inputs, *(k for k in now.inputs if k not in recorded.inputs)]:
         if path not in now.inputs:
             found.append(f"made from {path}, which it no longer reads")

@@ -31,6 +31,7 @@ __all__ = ["JOB", "Stage", "install", "job_of", "job_text", "shell_command", "wr
 log = logging.getLogger("vpr_smr")
 
 JOB = "--job"
+PARAM = "job"  # the rules' param holding a job record (``job_text``), which ``shell_command`` passes
 GROUP = "job"  # the options' group name (``pipeline.options``): the job record's settings
 
 
@@ -116,7 +117,7 @@ def shell_command(stage: Stage, speed: str = "") -> str:
     """A rule's shell command calling ``stage`` with its ``job`` param, its output to the rule's log; ``speed``: the
     options of its ``speed`` settings (from the rule's threads and resources, e.g. ``--threads {threads}``)."""
     beside = f" {speed}" if speed else ""
-    return f"vpr-smr {stage.command} {JOB} {{params.job:q}}{beside} > {{log:q}} 2>&1"
+    return f"vpr-smr {stage.command} {JOB} {{params.{PARAM}:q}}{beside} > {{log:q}} 2>&1"
 
 
 def _subparsers(parser: argparse.ArgumentParser) -> Any:

@@ -71,6 +71,6 @@ def test_dry_run_plans_every_job(tmp_path):
     # the report is given the dataset cards in the configuration's order: the splits train, val, test (not sorted)
     (report,) = re.findall(r"^Shell command: (vpr-smr report .*)$", result.stdout, flags=re.MULTILINE)
     words = shlex.split(report)
-    cards = json.loads(words[words.index("--datasets") + 1])
+    cards = json.loads(words[words.index("--job") + 1])["datasets"]  # the report's job record
     assert list(cards) == list(conf["datasets"]) == ["nordland", "robotcar", "sfu_mountain"]
     assert all(list(card["splits"]) == ["train", "val", "test"] for card in cards.values())
