@@ -7,12 +7,14 @@ from __future__ import annotations
 import json
 
 import pytest
+from stage_jobs import check_old_command, parsed
 
 from vpr_smr.core.settings import parse, to_json
 from vpr_smr.eval.predictor.defaults import PredictorParams, PredictorTraining
 from vpr_smr.eval.predictor.jobs import AttributeAblationJob, EvaluateJob, HeldOutJob, TrainJob, WithoutJob
-from vpr_smr.pipeline.cli import build_parser, main
-from vpr_smr.pipeline.stage import job_of, job_text
+from vpr_smr.pipeline.cli import main
+from vpr_smr.pipeline.stage import job_text
+from vpr_smr.pipeline.stages import stage
 from vpr_smr.pipeline.stages.predictor import split_files
 
 PREDICTOR = '{"max_iter": 500, "hidden_layer_sizes": [8, 8]}'
@@ -50,19 +52,13 @@ OLD_COMMANDS = {
 }
 
 
-def _parsed(argv):
-    args = build_parser().parse_args(argv)
-    return args.stage, job_of(args.stage, args)
+_parsed = parsed
 
 
 @pytest.mark.parametrize("command", list(OLD_COMMANDS))
 def test_the_earlier_command_lines_give_their_records_and_job_gives_them_back(command):
     argv, expected = OLD_COMMANDS[command]
-    stage, job = _parsed(argv)
-    assert stage.command == command and job == expected
-    words = argv[:2] if command.startswith("ablation") else argv[:1]
-    again = build_parser(job=True).parse_args([*words, "--job", job_text(expected)])
-    assert job_of(again.stage, again) == expected
+    check_old_command(stage(command), argv, expected)
 
 
 def test_the_defaults_are_the_earlier_commands():
