@@ -120,18 +120,42 @@ def _shown(value: Any) -> str:
     return json.dumps(value) if not isinstance(value, str) else (value if value and " " not in value else repr(value))
 
 
-def _changes(name: str, old: Any, new: Any) -> list[str]:
-    """Each setting that differs between two values of a param (JSON objects key by key), as text."""
+def _groups() -> frozenset[str]:
+    """The names of the declared stages' option groups (``core.settings.group``): a job record's structure, not
+    names of settings."""
+    from vpr_smr.core.settings import declared
+    from vpr_smr.pipeline.stages import STAGES
+
+    found: set[str] = set()
+
+    def walk(cls: type) -> None:
+        for item in declared(cls):
+            if item.group is not None:
+                found.add(item.name)
+                walk(item.group)
+
+    for stage in STAGES:
+        walk(stage.job)
+    return frozenset(found)
+
+
+def _changes(name: str, old: Any, new: Any, groups: frozenset[str] = frozenset()) -> list[str]:
+    """Each setting that differs between two values of a param (JSON objects key by key), as text; a key of
+    ``groups`` is left out of the names (a job record's group: its settings are named as the configuration names
+    them, ``predictor.max_iter``)."""
     if isinstance(old, dict) and isinstance(new, dict):
         found = []
         for key in [*old, *(k for k in new if k not in old)]:
+            if key in groups and isinstance(old.get(key), dict) and isinstance(new.get(key), dict):
+                found += _changes(name, old[key], new[key], groups)
+                continue
             where = f"{name}.{key}" if name else key
             if key not in new:
                 found.append(f"made with {where} {_shown(old[key])}, the configuration now has none")
             elif key not in old:
                 found.append(f"made without {where}, the configuration now says {_shown(new[key])}")
             else:
-                found += _changes(where, old[key], new[key])
+                found += _changes(where, old[key], new[key], groups)
         return found
     if old == new:
         return []
@@ -158,7 +182,9 @@ def differences(recorded: Recipe, now: Recipe) -> list[str]:
             found.append(f"made without {name}, the configuration now says {_shown(now.params[name])}")
         else:
             # a job record's settings by their own names (``predictor.max_iter``), as the configuration says them
-            found += _changes("" if name == PARAM else name, _json(recorded.params[name]), _json(now.params[name]))
+            job = name == PARAM
+            found += _changes("" if job else name, _json(recorded.params[name]), _json(now.params[name]),
+                              _groups() if job else frozenset())
     for path in [*recorded.inputs, *(k for k in now.inputs if k not in recorded.inputs)]:
         if path not in now.inputs:
             found.append(f"made from {path}, which it no longer reads")
