@@ -31,7 +31,7 @@ from vpr_smr.core.io import (
     read_provenance,
 )
 from vpr_smr.core.records import Record
-from vpr_smr.core.settings import REQUIRED, group, setting
+from vpr_smr.core.settings import REQUIRED, setting
 from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.checks import check_size, stage_check, warn_if_tied
 from vpr_smr.eval.matching.features import split_features
@@ -261,9 +261,9 @@ class AttributesJob:
     distances: str = setting(REQUIRED, "the distance matrix: our .h5, or a references x queries .npy, .npz or .mat",
                              metavar="PATH")
     seq_len: int = sources.seq_len()
-    truth: TruthSource = group(TruthSource, "the ground truth")
-    matcher: MatcherSpec = setting(MatcherSpec.of(), "the sequence matcher and its settings")
-    matrix: MatrixFormat = group(MatrixFormat, "how a user's matrix file is read")
+    truth: TruthSource = sources.truth()
+    matcher: MatcherSpec = sources.matcher()
+    matrix: MatrixFormat = sources.matrix()
     candidates: int = setting(DEFAULT_CANDIDATES, "the smallest S and D values per query kept for the training-free "
                                                   "scorers (method §12); 0 keeps none", minimum=0)
     out: str = setting(REQUIRED, "the output file: the attributes (.csv table or HDF5)", metavar="PATH")

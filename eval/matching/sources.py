@@ -1,6 +1,7 @@
 """The option groups that several stages share, each declared once (``core.settings.group``): how a matrix file is
 read (``MatrixFormat``) and where the ground truth comes from (``TruthSource``), plus the sequence length
-(``seq_len``). A stage's job record holds them as fields; their settings are the stage's options and keys of its
+(``seq_len``), each with the one declaration of its field in a job record (``truth``, ``matrix``, ``matcher``,
+``seq_len``). A stage's job record holds them as fields; their settings are the stage's options and keys of its
 ``--job`` object."""
 
 from __future__ import annotations
@@ -9,9 +10,10 @@ from dataclasses import dataclass
 from typing import Any
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
-from vpr_smr.core.settings import REQUIRED, setting
+from vpr_smr.core.settings import REQUIRED, group, setting
+from vpr_smr.eval.matching.matchers import MatcherSpec
 
-__all__ = ["MatrixFormat", "TruthSource", "seq_len"]
+__all__ = ["MatrixFormat", "TruthSource", "matcher", "matrix", "seq_len", "truth"]
 
 
 def seq_len() -> Any:
@@ -50,3 +52,18 @@ class TruthSource:
               "whole dataset is cut to the split of an .h5 of vpr-smr distances", metavar="FILE")
     ground_truth_key: str | None = setting(None, "the variable of a --ground-truth .npz or .mat holding several "
                                                  "(e.g. GThard)", metavar="NAME")
+
+
+def truth() -> Any:
+    """The field of a job's ground truth (``TruthSource``)."""
+    return group(TruthSource, "the ground truth")
+
+
+def matrix() -> Any:
+    """The field of how a job reads a user's matrix file (``MatrixFormat``)."""
+    return group(MatrixFormat, "how a user's matrix file is read")
+
+
+def matcher() -> Any:
+    """The field of a job's sequence matcher (``MatcherSpec``, ``seqslam`` by default)."""
+    return setting(MatcherSpec.of(), "the sequence matcher and its settings")

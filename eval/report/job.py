@@ -108,9 +108,9 @@ class InspectJob:
     seq_len: int = sources.seq_len()
     split: str | None = setting(None, "the queries CSV's split to show (default: its only split)", metavar="SPLIT")
     # as the queries CSV was made: the matcher, the ground truth, how a user's matrix is read
-    truth: TruthSource = group(TruthSource, "the ground truth")
-    matcher: MatcherSpec = setting(MatcherSpec.of(), "the sequence matcher and its settings")
-    matrix: MatrixFormat = group(MatrixFormat, "how a user's matrix file is read")
+    truth: TruthSource = sources.truth()
+    matcher: MatcherSpec = sources.matcher()
+    matrix: MatrixFormat = sources.matrix()
     frames: tuple[int, ...] | None = setting(
         None, "the split's frames lo..hi-1: LO HI (default: the distances file's split_range; a .npy's queries count "
               "from 0)", min_items=2, max_items=2)

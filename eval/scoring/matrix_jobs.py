@@ -15,13 +15,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vpr_smr.core.settings import REQUIRED, group, setting
+from vpr_smr.core.settings import REQUIRED, setting
 from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.sources import MatrixFormat, TruthSource
 from vpr_smr.eval.predictor.defaults import allow_split_overlap
 from vpr_smr.eval.predictor.jobs import dataset_name, metric_modes
-from vpr_smr.eval.scoring.scorers import BaselineSettings
+from vpr_smr.eval.scoring.scorers import BaselineSettings, baseline_settings
 
 __all__ = ["ALL_SPLIT", "BaselinesJob", "MetricsJob", "QueriesJob", "distance_splits"]
 
@@ -42,22 +42,6 @@ def distance_splits(items: tuple[str, ...]) -> dict[str, str]:
 
 
 # --- the settings these jobs declare alike ----------------------------------------------------------------------
-
-
-def _truth() -> Any:
-    return group(TruthSource, "the ground truth")
-
-
-def _matcher() -> Any:
-    return setting(MatcherSpec.of(), "the sequence matcher and its settings")
-
-
-def _matrix() -> Any:
-    return group(MatrixFormat, "how a user's matrix file is read")
-
-
-def _scorers() -> Any:
-    return group(BaselineSettings, "the training-free scorers' settings (method §12)")
 
 
 def _user_distances() -> Any:
@@ -81,9 +65,9 @@ class MetricsJob:
 
     distances: tuple[str, ...] = _user_distances()
     seq_len: int = sources.seq_len()
-    truth: TruthSource = _truth()
-    matcher: MatcherSpec = _matcher()
-    matrix: MatrixFormat = _matrix()
+    truth: TruthSource = sources.truth()
+    matcher: MatcherSpec = sources.matcher()
+    matrix: MatrixFormat = sources.matrix()
     predictor: str | None = setting(None, "the seed-0 predictor (.h5): adds the sequence_predictor matcher",
                                     metavar="PATH")
     attributes: dict[str, str] | None = _user_attributes()
@@ -96,7 +80,7 @@ class MetricsJob:
     dataset: str | None = setting(None, "the dataset's name, written in the metrics' meta", metavar="NAME")
     method: str | None = setting(None, "the method's name, written in the metrics' meta", metavar="NAME")
     baselines: bool = _baselines_switch()
-    scorers: BaselineSettings = _scorers()
+    scorers: BaselineSettings = baseline_settings()
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the VPR metrics (JSON)", metavar="PATH")
 
@@ -113,14 +97,14 @@ class QueriesJob:
 
     distances: tuple[str, ...] = _user_distances()
     seq_len: int = sources.seq_len()
-    truth: TruthSource = _truth()
-    matcher: MatcherSpec = _matcher()
-    matrix: MatrixFormat = _matrix()
+    truth: TruthSource = sources.truth()
+    matcher: MatcherSpec = sources.matcher()
+    matrix: MatrixFormat = sources.matrix()
     predictor: str | None = setting(None, "the seed-0 predictor (.h5): fills predicted_class, probability and kept",
                                     metavar="PATH")
     attributes: dict[str, str] | None = _user_attributes()
     baselines: bool = _baselines_switch()
-    scorers: BaselineSettings = _scorers()
+    scorers: BaselineSettings = baseline_settings()
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the per-query table (CSV)", metavar="PATH")
 
@@ -143,10 +127,10 @@ class BaselinesJob:
     attributes: dict[str, str] = setting(REQUIRED, "each split's attributes (.h5) with the scorers' candidates "
                                                    "(vpr-smr attributes)", metavar="SPLIT=PATH")
     predictors: tuple[str, ...] = setting(REQUIRED, "one per seed, seed 0 first: their budgets", metavar="PATH")
-    truth: TruthSource = _truth()
-    matcher: MatcherSpec = _matcher()
-    matrix: MatrixFormat = _matrix()
-    scorers: BaselineSettings = _scorers()
+    truth: TruthSource = sources.truth()
+    matcher: MatcherSpec = sources.matcher()
+    matrix: MatrixFormat = sources.matrix()
+    scorers: BaselineSettings = baseline_settings()
     modes: tuple[str, ...] = metric_modes()
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the training-free baselines (JSON)", metavar="PATH")

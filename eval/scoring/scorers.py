@@ -11,12 +11,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, candidates_needed, half_window
-from vpr_smr.core.settings import setting
+from vpr_smr.core.settings import group, setting
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.confidence import uniqueness
 
@@ -64,6 +64,11 @@ class BaselineSettings:
     def meta(self) -> dict[str, int]:
         """What an output records of the settings."""
         return {"r_window": int(self.r_window), "spread_k": int(self.spread_k)}
+
+
+def baseline_settings() -> Any:
+    """The field of a job's training-free scorers' settings (``BaselineSettings``)."""
+    return group(BaselineSettings, "the training-free scorers' settings (method §12)")
 
 
 DEFAULT_SETTINGS = BaselineSettings()  # the configuration's defaults (method §12: r_window 10, K 10)

@@ -17,13 +17,13 @@ from typing import Any
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
 from vpr_smr.core.json_objects import json_object
-from vpr_smr.core.settings import REQUIRED, group, setting
+from vpr_smr.core.settings import REQUIRED, setting
 from vpr_smr.eval.matching import sources
 from vpr_smr.eval.matching.matchers import MatcherSpec
 from vpr_smr.eval.matching.sources import TruthSource
 from vpr_smr.eval.predictor.defaults import PredictorParams, allow_split_overlap, predictor_setting
 from vpr_smr.eval.predictor.jobs import dataset_name, metric_modes
-from vpr_smr.eval.scoring.scorers import BaselineSettings
+from vpr_smr.eval.scoring.scorers import BaselineSettings, baseline_settings
 
 __all__ = ["PROFILE_HELP", "VARYING", "VARYING_AMPLITUDE", "VARYING_PERIOD", "AdaptiveJob", "ComparedInputs",
            "MatcherInputs", "MatchersJob", "SpeedExperiment", "SpeedJob", "read_inputs", "velocities"]
@@ -159,8 +159,8 @@ class MatchersJob:
     split: str = setting(REQUIRED, "the table split (a split of --inputs' attributes)", metavar="SPLIT")
     validation: str | None = setting(None, "the validation split: the warning of a matcher far below the fixed one",
                                      metavar="SPLIT")
-    truth: TruthSource = group(TruthSource, "the ground truth, as the attributes were computed")
-    baselines: BaselineSettings = group(BaselineSettings, "the training-free scorers (method §12)")
+    truth: TruthSource = sources.truth()  # as the attributes were computed
+    baselines: BaselineSettings = baseline_settings()
     modes: tuple[str, ...] = metric_modes()
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the matchers experiment's result (JSON)", metavar="PATH")
@@ -190,7 +190,7 @@ class AdaptiveJob:
     method: str = setting("method", "the method's name in the result", metavar="NAME")
     matcher_tag: str | None = setting(None, "the matcher's name in the result; none: its registry name",
                                       metavar="TAG")
-    baselines: BaselineSettings = group(BaselineSettings, "the training-free scorers (method §12)")
+    baselines: BaselineSettings = baseline_settings()
     modes: tuple[str, ...] = metric_modes()
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the adaptive sequence length's result (JSON; its timing goes "
