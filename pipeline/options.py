@@ -100,8 +100,10 @@ def add_options(parser: argparse.ArgumentParser, cls: type, group: str, matcher:
             parser.add_argument(option(item.name), nargs="+", action="append", metavar=shown, **common)
             continue
         many = kind.startswith("tuple[") or kind == MAPPING
+        # a list whose default is empty, or that declares it may be, may be given with no items (the value ())
+        empty = kind.startswith("tuple[") and (item.default == () or item.constraints.get("min_items") == 0)
         parser.add_argument(option(item.name), type=_converter(item.type), choices=choices,
-                            nargs="+" if many else None, metavar=metavar, **common)
+                            nargs=("*" if empty else "+") if many else None, metavar=metavar, **common)
 
 
 def _mapping(item: Declared, value: Any) -> Any:

@@ -112,7 +112,7 @@ class EvaluateJob:
     predictors: tuple[str, ...] = setting(REQUIRED, "one per seed, seed 0 first", min_items=1, metavar="PATH")
     modes: tuple[str, ...] = metric_modes()
     trust_levels: tuple[float, ...] = setting(DEFAULT_TRUST_LEVELS, "trust levels of the trust-level ablation (none: "
-                                                                    "skip it)")
+                                                                    "skip it)", min_items=0)
     restoration: bool = setting(True, "match restoration (--no-restoration skips it)")
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the evaluation (JSON; its timings go beside it)", metavar="PATH")

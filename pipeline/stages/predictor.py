@@ -129,13 +129,6 @@ def _check_without(args: argparse.Namespace) -> None:
     _check_pairs(args, "train", "METHOD=PATH")
 
 
-def _skippable_trust_levels(parser: argparse.ArgumentParser) -> None:
-    """``--trust-levels`` with no level skips the trust-level ablation, as before (the workflow gives it so)."""
-    for action in parser._actions:
-        if "--trust-levels" in action.option_strings:
-            action.nargs = "*"
-
-
 def training(conf: Config, validation: bool = True) -> PredictorTraining:
     """How the workflow of ``conf`` trains its predictors (the rules' ``training`` group): the configuration's
     predictor settings, its validation split (``validation``; else the first evaluation split a job is given) and
@@ -191,7 +184,7 @@ def _held_out(job: HeldOutJob) -> HeldOut:
 TRAIN = Stage("train", "train the predictor on the pooled train attributes of every method", TrainJob, _train,
               summary=_train_summary, legacy=_old_split_options, check=_check_splits)
 EVALUATE = Stage("evaluate", "match removal and precision-recall of one method", EvaluateJob, _evaluate,
-                 summary=_evaluate_summary, legacy=_skippable_trust_levels,
+                 summary=_evaluate_summary,
                  check=lambda args: _check_pairs(args, "attributes", "SPLIT=PATH"))
 ABLATION_ATTRIBUTES = Stage("ablation attributes", "Table II: a predictor on each attribute alone and on all four",
                             AttributeAblationJob, _ablation_attributes, summary=_attributes_summary,
