@@ -40,6 +40,7 @@ CONSTRAINTS = ("minimum", "exclusive_minimum", "maximum", "choices", "min_items"
 SCHEMA = "schema"  # the metadata key of a setting's explicit JSON-schema fragment
 GROUP = "group"  # the metadata key of a group's record class (``group``)
 METAVAR = "metavar"  # the metadata key of the word the command line's help shows for a value
+ALIASES = "aliases"  # the metadata key of a setting's further option names (an earlier version's)
 
 
 class Marker:
@@ -57,17 +58,20 @@ UNSET = Marker("UNSET")
 
 
 def setting(default: Any, help: str, *, schema: dict[str, Any] | None = None, metavar: str | None = None,
-            **constraints: Any) -> Any:
+            aliases: tuple[str, ...] = (), **constraints: Any) -> Any:
     """A field of a settings record: ``default`` (a tuple for a list of values: records are frozen; or ``REQUIRED``,
     ``UNSET``), one line of ``help``, and constraints of ``CONSTRAINTS``, or instead the JSON-schema fragment
     ``schema`` of a shape the annotation cannot say; ``metavar``: the word the command line's help shows for its
-    value (e.g. ``SPLIT=PATH``)."""
+    value (e.g. ``SPLIT=PATH``); ``aliases``: further names of its option, each the same option (an earlier
+    version's name, e.g. ``test`` for ``table``: ``--test``)."""
     unknown = set(constraints) - set(CONSTRAINTS)
     if unknown:
         raise TypeError(f"setting: unknown constraints {sorted(unknown)}; known: {', '.join(CONSTRAINTS)}")
     if schema is not None and constraints:
         raise TypeError("setting: give constraints or a schema fragment, not both (the fragment says them)")
     extra = ({} if schema is None else {SCHEMA: schema}) | ({} if metavar is None else {METAVAR: metavar})
+    if aliases:
+        extra[ALIASES] = tuple(aliases)
     return dataclasses.field(default=default, metadata={HELP: help, **constraints, **extra})
 
 
@@ -90,6 +94,7 @@ class Declared:
     group: builtins.type | None = None  # a group's settings record (``group``)
     value_class: builtins.type | None = None  # a class building the value itself (``from_setting``, ``to_setting``)
     metavar: str | None = None  # the command line's word for its value
+    aliases: tuple[str, ...] = ()  # further names of its option (``setting``'s ``aliases``)
 
     def is_group(self) -> bool:
         return self.group is not None
@@ -110,7 +115,8 @@ def declared(cls: type) -> tuple[Declared, ...]:
             default = f.default_factory()
         out.append(Declared(f.name, kind, default, f.metadata[HELP],
                             {k: f.metadata[k] for k in CONSTRAINTS if k in f.metadata}, f.metadata.get(SCHEMA),
-                            f.metadata.get(GROUP), value_class, f.metadata.get(METAVAR)))
+                            f.metadata.get(GROUP), value_class, f.metadata.get(METAVAR),
+                            f.metadata.get(ALIASES, ())))
     return tuple(out)
 
 

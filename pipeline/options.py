@@ -88,21 +88,22 @@ def add_options(parser: argparse.ArgumentParser, cls: type, group: str, matcher:
         said = isinstance(item.default, Marker) or item.default == () or "(default" in item.help
         default = "" if said else f" (default: {_shown(item.default)}{extra})"
         text = f"{item.help}{default}".replace("%", "%%")
+        names = (option(item.name), *map(option, item.aliases))  # an alias: the same option, another name
         common: dict[str, Any] = {"dest": _dest(group, item.name), "default": argparse.SUPPRESS, "help": text,
                                   "required": required and item.default is REQUIRED}
         if kind == "bool":
-            parser.add_argument(option(item.name), action=argparse.BooleanOptionalAction, **common)
+            parser.add_argument(*names, action=argparse.BooleanOptionalAction, **common)
             continue
         choices = item.constraints.get("choices")
         metavar = item.metavar or (None if choices else METAVARS.get(_element(kind), "TEXT"))
         if kind == LISTS:  # "SPLIT PATH": argparse shows SPLIT [PATH ...]
             shown = tuple(metavar.split()) if metavar and " " in metavar else metavar
-            parser.add_argument(option(item.name), nargs="+", action="append", metavar=shown, **common)
+            parser.add_argument(*names, nargs="+", action="append", metavar=shown, **common)
             continue
         many = kind.startswith("tuple[") or kind == MAPPING
         # a list whose default is empty, or that declares it may be, may be given with no items (the value ())
         empty = kind.startswith("tuple[") and (item.default == () or item.constraints.get("min_items") == 0)
-        parser.add_argument(option(item.name), type=_converter(item.type), choices=choices,
+        parser.add_argument(*names, type=_converter(item.type), choices=choices,
                             nargs=("*" if empty else "+") if many else None, metavar=metavar, **common)
 
 

@@ -78,7 +78,8 @@ class SpeedJob:
     train: dict[str, str] = setting(REQUIRED, "each method's train split distances (.h5), in the pooled training "
                                               "order", metavar="METHOD=PATH")
     table: dict[str, str] = setting(REQUIRED, "each method's table split distances (.h5), the same methods in the "
-                                              "same order (--test: the same option)", metavar="METHOD=PATH")
+                                              "same order (--test: the same option)", metavar="METHOD=PATH",
+                                              aliases=("test",))
     predictor: PredictorParams = predictor_setting()
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the speed experiment's result (JSON)", metavar="PATH")

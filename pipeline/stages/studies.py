@@ -35,13 +35,6 @@ def speed_headline(result: Any) -> str:
             f"{n_methods} methods ({result.meta['mode']} mode, seed 0)")
 
 
-def _test_option(parser: argparse.ArgumentParser) -> None:
-    """``--test``: the same option as ``--table`` (its name in earlier versions)."""
-    table = parser._option_string_actions["--table"]
-    table.option_strings = [*table.option_strings, "--test"]
-    parser._option_string_actions["--test"] = table
-
-
 def _speed(job: SpeedJob) -> SpeedResult:
     from vpr_smr.eval.scoring import speed
 
@@ -52,8 +45,7 @@ SPEED = Stage("speed", "one simulated speed profile: Table I's numbers of the fi
               "each with its own seed-0 predictor", SpeedJob, _speed,
               summary=lambda job, result: wrote(f"the speed profile {job.profile}", job.out, speed_headline(result)),
               epilog="e.g. vpr-smr speed --dataset d --seq-len 4 --profile 2x --velocities 0.5 1 2 --train "
-                     "sad=train.h5 --table sad=test.h5 --out speed/2x.json",
-              legacy=_test_option)
+                     "sad=train.h5 --table sad=test.h5 --out speed/2x.json")
 
 
 # --- compare-matchers ----------------------------------------------------------------------------------------------
