@@ -1,9 +1,11 @@
-"""Datasets: a loader per layout on disk, selected by name in the configuration."""
+"""Datasets: a loader per layout on disk, selected by name in the configuration.
+
+A loader is a ``loaders.Loader``: its function and the record of its settings. ``LOADERS`` holds the built-in ones
+and finds those an installed package registers through the entry point group ``vpr_smr.loaders``.
+"""
 
 from __future__ import annotations
 
-import inspect
-from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
 
@@ -18,23 +20,25 @@ from vpr_smr.datasets.base import (
     read_image,
     slice_traverse,
 )
-from vpr_smr.datasets.folders import folder_pair
+from vpr_smr.datasets.folders import FoldersSettings, folder_pair
+from vpr_smr.datasets.loaders import ENTRY_POINT_GROUP, Loader, as_loader
 from vpr_smr.datasets.nordland import SPLITS as NORDLAND_SPLITS
-from vpr_smr.datasets.nordland import nordland
+from vpr_smr.datasets.nordland import NordlandSettings, nordland
 from vpr_smr.datasets.nordland_sample import SPLITS as NORDLAND_SAMPLE_SPLITS
-from vpr_smr.datasets.nordland_sample import nordland_sample
+from vpr_smr.datasets.nordland_sample import NordlandSampleSettings, nordland_sample
 from vpr_smr.datasets.robotcar import SPLITS as ROBOTCAR_SPLITS
-from vpr_smr.datasets.robotcar import robotcar
+from vpr_smr.datasets.robotcar import RobotCarSettings, robotcar
 from vpr_smr.datasets.settings import SPLIT_SETTINGS, DatasetEntry
 from vpr_smr.datasets.sfu_mountain import SPLITS as SFU_MOUNTAIN_SPLITS
-from vpr_smr.datasets.sfu_mountain import sfu_mountain
+from vpr_smr.datasets.sfu_mountain import SFUMountainSettings, sfu_mountain
 
-LOADERS: Registry[Callable[..., TraversePair]] = Registry("dataset loader")
-LOADERS.add("folders", folder_pair)
-LOADERS.add("nordland_sample", nordland_sample)
-LOADERS.add("nordland", nordland)
-LOADERS.add("robotcar", robotcar)
-LOADERS.add("sfu_mountain", sfu_mountain)
+# a bare function (a test's stand-in, a plugin of 0.16) is read through ``as_loader``: ``loader`` gives every item so
+LOADERS: Registry[Loader] = Registry("dataset loader", ENTRY_POINT_GROUP, check=as_loader)
+LOADERS.add("folders", Loader(folder_pair, FoldersSettings, ("name", "check_files", "splits")))
+LOADERS.add("nordland_sample", Loader(nordland_sample, NordlandSampleSettings))
+LOADERS.add("nordland", Loader(nordland, NordlandSettings, ("check_files", "splits")))
+LOADERS.add("robotcar", Loader(robotcar, RobotCarSettings, ("check_files", "splits")))
+LOADERS.add("sfu_mountain", Loader(sfu_mountain, SFUMountainSettings, ("check_files", "splits")))
 # The published splits of the benchmarks (method §1); a `folders` dataset has none until the configuration names them.
 DEFAULT_SPLITS: dict[str, dict[str, tuple[int, int]]] = {
     "nordland_sample": NORDLAND_SAMPLE_SPLITS,
@@ -44,14 +48,10 @@ DEFAULT_SPLITS: dict[str, dict[str, tuple[int, int]]] = {
 }
 
 __all__ = [
-    "LOADERS", "SPLIT_SETTINGS", "DatasetEntry", "DatasetError", "Traverse", "TraversePair", "frames_settings",
-    "load_dataset", "load_frames", "loader_option_help", "loader_options", "read_image", "required_options",
-    "unknown_option",
+    "LOADERS", "SPLIT_SETTINGS", "DatasetEntry", "DatasetError", "Loader", "Traverse", "TraversePair",
+    "frames_settings", "load_dataset", "load_frames", "loader", "loader_option_help", "loader_options", "read_image",
+    "required_options", "unknown_option",
 ]
-
-
-# Loader arguments that are not settings: the workflow fills them in.
-_INTERNAL = ("name", "check_files")
 
 
 def frames_settings(conf: dict[str, Any]) -> dict[str, Any]:
@@ -59,31 +59,24 @@ def frames_settings(conf: dict[str, Any]) -> dict[str, Any]:
     return {key: value for key, value in conf.items() if key not in SPLIT_SETTINGS}
 
 
+def loader(loader_name: str) -> Loader:
+    """The registered loader ``loader_name`` (KeyError naming the available ones for another name)."""
+    return as_loader(loader_name, LOADERS[loader_name])
+
+
 def loader_options(loader_name: str) -> list[str]:
     """The settings a loader takes in the configuration (besides ``loader``, ``frames`` and the split settings)."""
-    parameters = inspect.signature(LOADERS[loader_name]).parameters
-    return [p for p in parameters if p not in _INTERNAL and p not in SPLIT_SETTINGS]
+    return loader(loader_name).options()
 
 
 def loader_option_help(loader_name: str) -> dict[str, str]:
-    """What each of a loader's settings means: the ``Args:`` section of its docstring (Google style), one line per
-    setting; the configuration reference shows them."""
-    doc = inspect.getdoc(LOADERS[loader_name]) or ""
-    section = doc.partition("\nArgs:\n")[2].split("\n\n")[0]
-    found: dict[str, str] = {}
-    for line in section.splitlines():
-        name, colon, text = line.strip().partition(": ")
-        if not line.startswith(" " * 8) and colon:  # a setting's first line; its continuation is indented further
-            found[name] = text
-        elif found:
-            found[next(reversed(found))] += " " + line.strip()
-    return {name: found[name] for name in loader_options(loader_name) if name in found}
+    """What each of a loader's settings means (its record's help); the configuration reference shows them."""
+    return loader(loader_name).help()
 
 
 def required_options(loader_name: str) -> list[str]:
     """The settings a loader cannot do without (``reference`` and ``query`` of ``folders``, a benchmark's root)."""
-    parameters = inspect.signature(LOADERS[loader_name]).parameters
-    return [p for p in loader_options(loader_name) if parameters[p].default is inspect.Parameter.empty]
+    return loader(loader_name).required()
 
 
 def unknown_option(loader_name: str, key: str) -> str | None:
@@ -136,15 +129,8 @@ def load_frames(name: str, conf: dict[str, Any], check_files: bool = True) -> Tr
         )
     frames = conf.pop("frames", None)
     _check_options(name, loader_name, conf)
-    parameters = inspect.signature(LOADERS[loader_name]).parameters
-    if "name" in parameters:
-        conf["name"] = name
-    if "check_files" in parameters:
-        conf["check_files"] = check_files
-    if "splits" in parameters:
-        conf["splits"] = {}  # load_dataset applies them, after the frames are sliced
     try:
-        pair = LOADERS[loader_name](**conf)
+        pair = loader(loader_name).load(name, conf, check_files)  # splits: {}: load_dataset applies them
     except TypeError as error:  # a setting of the wrong kind (a number or list where a path is wanted)
         raise DatasetError(f"datasets.{name}: bad settings for loader {loader_name!r}: {error}") from None
     if frames is not None:

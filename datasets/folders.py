@@ -4,12 +4,13 @@
 from __future__ import annotations
 
 import re
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
+from vpr_smr.core.settings import REQUIRED, setting
 from vpr_smr.datasets.base import (
     DatasetError,
     Traverse,
@@ -129,6 +130,26 @@ def _positions(reference: Path | str, query: Path | str, ref_images: tuple[Path,
             METRES, source)
 
 
+@dataclass(frozen=True)
+class FoldersSettings:
+    """The settings of the ``folders`` loader (``folder_pair``)."""
+
+    reference: Path | str = setting(
+        REQUIRED, "the reference traverse's image folder (relative: from the working folder, where vpr-smr runs)")
+    query: Path | str = setting(REQUIRED, "the query traverse's image folder")
+    reference_list: Path | str | None = setting(
+        None, "a text file naming the reference images in order, one per line (null: every image of the folder, in "
+              "natural name order)")
+    query_list: Path | str | None = setting(None, "the same for the query images")
+    pairing: str = setting(
+        "by_name", "how frame i of both folders is paired without lists: by_name (their names must say they are one "
+                   "place) or by_order (the i-th image of each, whatever the names)")
+    reference_positions: Path | str | None = setting(
+        None, "a CSV name,x,y or name,lat,lon of the reference images' positions (method §11); with query_positions")
+    query_positions: Path | str | None = setting(None, "the same for the query images")
+    positions: str | None = setting(None, "file_names: the positions are the @UTM_east@UTM_north@ names (method §11)")
+
+
 def folder_pair(
     name: str,
     reference: Path | str,
@@ -153,16 +174,7 @@ def folder_pair(
     ``positions="file_names"`` (the ``@UTM_east@UTM_north@`` names) give each frame a position: the folders may
     then hold different numbers of frames, each in natural name order (or its list's order), and a match is
     correct within ``radius``. ``check_files=False`` leaves files named by the lists but missing, and images
-    without a position, to ``dataset check``.
-
-    Args:
-        reference: the reference traverse's image folder (relative: from the working folder, where vpr-smr runs).
-        query: the query traverse's image folder.
-        reference_list: a text file naming the reference images in order, one per line (null: every image of the
-            folder, in natural name order).
-        query_list: the same for the query images.
-        pairing: how frame i of both folders is paired without lists: by_name (their names must say they are one
-            place) or by_order (the i-th image of each, whatever the names).
+    without a position, to ``dataset check``. ``FoldersSettings`` says what each setting means.
     """
     _check_choices(name, pairing, positions, reference_list, query_list, reference_positions, query_positions)
     if positions is None and not reference_positions:

@@ -7,9 +7,11 @@ are aligned by file name: line i of both lists names the same ``images-NNNNN.png
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
+from vpr_smr.core.settings import REQUIRED, setting
 from vpr_smr.datasets.base import SHIPPED_DATA, DatasetError, Traverse, TraversePair, resolved
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
@@ -28,6 +30,19 @@ def _fix(reference: str, query: str) -> str:
     return f"set datasets.nordland.root (or --root) to the folder that holds {reference}/ and {query}/"
 
 
+@dataclass(frozen=True)
+class NordlandSettings:
+    """The settings of the ``nordland`` loader."""
+
+    root: Path | str = setting(REQUIRED, "the folder that holds the seasons' folders (summer/, winter/, ...)")
+    reference_list: Path | str = setting(
+        REFERENCE_LIST, "the file naming the reference frames in order (default: Patch-NetVLAD's list, shipped)")
+    query_list: Path | str = setting(
+        QUERY_LIST, "the file naming the query frames in order (default: Patch-NetVLAD's list, shipped)")
+    reference: str = setting("summer", "the reference season's folder under root")
+    query: str = setting("winter", "the query season's folder under root")
+
+
 def nordland(
     root: Path | str,
     reference_list: Path | str = REFERENCE_LIST,
@@ -43,12 +58,6 @@ def nordland(
     Only the file name of each list line is used (the lists say ``./nordland/summer/...``); it is looked up in
     ``<root>/<reference>`` and ``<root>/<query>``, so other seasons (spring, fall) work with the same lists.
     ``check_files=False`` skips the missing-file check (``dataset check`` reports them instead).
-
-    Args:
-        reference_list: the file naming the reference frames in order (default: Patch-NetVLAD's list, shipped).
-        query_list: the file naming the query frames in order (default: Patch-NetVLAD's list, shipped).
-        reference: the reference season's folder under root.
-        query: the query season's folder under root.
     """
     fix = _fix(reference, query)
     root = require_root("nordland", root, fix)

@@ -6,10 +6,11 @@ dataset, see the PROVENANCE.md beside the images).
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
+from vpr_smr.core.settings import setting
 from vpr_smr.datasets.base import SHIPPED_DATA, TraversePair, resolved
 from vpr_smr.datasets.folders import folder_pair
 
@@ -28,6 +29,14 @@ def source(root: Path | str) -> str:
     provenance = Path(root) / "PROVENANCE.md"
     note = f"; its provenance: {resolved(provenance)}" if provenance.is_file() else ""
     return f"a folder of the Nordland 64x32 sample's layout: {folders}, paired by file name{note}"
+
+
+@dataclass(frozen=True)
+class NordlandSampleSettings:
+    """The settings of the ``nordland_sample`` loader."""
+
+    root: Path | str = setting(DEFAULT_ROOT, "a folder of the sample's layout (summer/, winter/; default: the "
+                                             "vendored sample)")
 
 
 def nordland_sample(

@@ -24,6 +24,7 @@ import cv2
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
+from vpr_smr.core.settings import REQUIRED, setting
 from vpr_smr.datasets.base import (
     SHIPPED_DATA,
     DatasetError,
@@ -128,6 +129,22 @@ def read_timestamps(list_file: Path | str, option: str) -> list[str]:
     return names
 
 
+@dataclass(frozen=True)
+class RobotCarSettings:
+    """The settings of the ``robotcar`` loader."""
+
+    root: Path | str = setting(REQUIRED, "the folder that holds the run folders")
+    reference_list: Path | str | None = setting(
+        None, "the timestamps of the reference images in order (null: VPRSNN's place-aligned list, shipped); not "
+              "with positions: ins")
+    query_list: Path | str | None = setting(None, "the same for the query images")
+    reference_run: str = setting(
+        REFERENCE_RUN, "the reference run's folder under root (default: Rain, 2015-10-29-12-18-17)")
+    query_run: str = setting(QUERY_RUN, "the query run's folder under root (default: Dusk, 2014-11-21-16-07-03)")
+    positions: str | None = setting(None, "ins: the raw runs, positioned by gps/ins.csv (method §11)")
+    every: int = setting(1, "with positions: ins: keep one image in every N of the raw runs")
+
+
 def robotcar(
     root: Path | str,
     reference_list: Path | str | None = None,
@@ -147,13 +164,6 @@ def robotcar(
 
     ``reference_list`` and ``query_list`` default to VPRSNN's place-aligned lists (``data/lists``).
     ``check_files=False`` skips the missing-file check (``dataset check`` reports them instead).
-
-    Args:
-        reference_list: the timestamps of the reference images in order (null: VPRSNN's place-aligned list,
-            shipped); not with positions: ins.
-        query_list: the same for the query images.
-        reference_run: the reference run's folder under root (default: Rain, 2015-10-29-12-18-17).
-        query_run: the query run's folder under root (default: Dusk, 2014-11-21-16-07-03).
     """
     fix = (
         "set datasets.robotcar.root (or --root) to the folder that holds the run folders "

@@ -4,7 +4,7 @@ schema's dataset entry and its part of ``docs/configuration.md`` from ``DatasetE
 The entry reaches the loader as the configuration gives it: nothing is filled in (the descriptors job's params hash
 the entry, so a default written into it would rerun every dataset's descriptors), and a setting that is not given
 takes the loader's own default (``UNSET``). Beside these keys an entry holds its loader's own (``reference``,
-``query_list``, ...), which the loader's signature declares and ``datasets.unknown_option`` checks.
+``query_list``, ...), which the loader's ``Settings`` record declares and ``datasets.unknown_option`` checks.
 """
 
 from __future__ import annotations

@@ -8,9 +8,11 @@ frames: line i of both lists shows the same place.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from vpr_smr.core.constants import DEFAULT_TOLERANCE
+from vpr_smr.core.settings import REQUIRED, setting
 from vpr_smr.datasets.base import SHIPPED_DATA, DatasetError, Traverse, TraversePair, resolved
 from vpr_smr.datasets.check import checked_pair, read_list, require_root
 
@@ -42,6 +44,17 @@ def list_paths(root: Path, list_file: Path | str, option: str) -> tuple[Path, ..
     return tuple(paths)
 
 
+@dataclass(frozen=True)
+class SFUMountainSettings:
+    """The settings of the ``sfu_mountain`` loader."""
+
+    root: Path | str = setting(REQUIRED, "the folder that holds part_a/ and part_b/")
+    reference_list: Path | str = setting(
+        REFERENCE_LIST, "the file naming the reference (dry) frames in order (default: VPRSNN's list, shipped)")
+    query_list: Path | str = setting(
+        QUERY_LIST, "the file naming the query (dusk) frames in order (default: VPRSNN's list, shipped)")
+
+
 def sfu_mountain(
     root: Path | str,
     reference_list: Path | str = REFERENCE_LIST,
@@ -53,10 +66,6 @@ def sfu_mountain(
     """Dry (reference) against dusk (query), in list order.
 
     ``check_files=False`` skips the missing-file check (``dataset check`` reports them instead).
-
-    Args:
-        reference_list: the file naming the reference (dry) frames in order (default: VPRSNN's list, shipped).
-        query_list: the file naming the query (dusk) frames in order (default: VPRSNN's list, shipped).
     """
     root = require_root("sfu_mountain", root, FIX)
     ref_images = list_paths(root, reference_list, "reference_list")

@@ -315,18 +315,15 @@ def test_a_dataset_entry_as_its_record():
 
 
 def test_every_loader_setting_is_in_the_reference_with_a_meaning():
-    """Each built-in loader's parameters (its signature, less what the workflow fills in and the entry's own keys)
-    each have a row with a description, and a shipped default list shows as its checkout path."""
-    import inspect
-
-    from vpr_smr.datasets import LOADERS
+    """Each built-in loader's settings (its ``Settings`` record, less the entry's own keys) each have a row with a
+    description, and a shipped default list shows as its checkout path."""
+    from vpr_smr.datasets import LOADERS, loader_options
     from vpr_smr.datasets.settings import DatasetEntry
 
     text = REFERENCE_PATH.read_text()
     entry = {f.name for f in fields(DatasetEntry)}
-    for name, loader in LOADERS.items():
-        own = [p for p in inspect.signature(loader).parameters
-               if p not in ("name", "check_files", "splits", "tolerance", "radius") and p not in entry]
+    for name in LOADERS:
+        own = [option for option in loader_options(name) if option not in entry]
         section = text.split(f"### loader `{name}`")[1].split("\n### ")[0]
         for option in own:
             row = next((line for line in section.splitlines() if line.startswith(f"| `datasets.NAME.{option}` |")),
