@@ -13,14 +13,13 @@ them from there.
 from __future__ import annotations
 
 import argparse
-import inspect
 import json
 import re
 from pathlib import Path
 from typing import Any
 
-from vpr_smr.core.settings import json_schema
-from vpr_smr.datasets import LOADERS, loader_option_help, loader_options
+from vpr_smr.core.settings import REQUIRED, json_schema
+from vpr_smr.datasets import LOADERS, loader
 from vpr_smr.datasets.base import SHIPPED_DATA
 from vpr_smr.datasets.settings import DatasetEntry
 from vpr_smr.descriptors import BACKENDS, backend_class
@@ -207,7 +206,7 @@ def _python_type(annotation: str) -> str:
 
 def _shown_default(value: Any) -> str:
     """A default as the reference shows it: a shipped file by its path in a checkout (``data/lists/...``)."""
-    if value is inspect.Parameter.empty:
+    if value is REQUIRED:
         return "required"
     if isinstance(value, Path):
         return f"`{value.relative_to(SHIPPED_DATA.parent).as_posix()}`" if value.is_relative_to(SHIPPED_DATA) else \
@@ -216,22 +215,19 @@ def _shown_default(value: Any) -> str:
 
 
 def _loaders(key: str, entry_keys: set[str]) -> list[str]:
-    """Each built-in loader's own settings (those not among the entry's keys above): type and default from its
-    signature, meaning from its docstring."""
+    """Each built-in loader's own settings (those not among the entry's keys above), as its ``Settings`` record
+    declares them."""
     lines: list[str] = []
     for name in sorted(LOADERS):
-        parameters = inspect.signature(LOADERS[name]).parameters
-        helps = loader_option_help(name)
-        own = [setting for setting in loader_options(name) if setting not in entry_keys]
+        own = [item for item in loader(name).settings() if item.name not in entry_keys]
         lines += ["", f"### loader `{name}`", ""]
         if not own:
             lines += [f"No settings of its own: `{key}.NAME.loader: {name}` and the entry's keys above."]
             continue
         lines += [f"With `{key}.NAME.loader: {name}`, besides the entry's keys above:", "",
                   *_head("setting", "type", "default", "description")]
-        lines += [_row((f"`{key}.NAME.{setting}`", _python_type(str(parameters[setting].annotation)),
-                        _shown_default(parameters[setting].default), helps.get(setting, "").rstrip(".")))
-                  for setting in own]
+        lines += [_row((f"`{key}.NAME.{item.name}`", _python_type(item.type), _shown_default(item.default),
+                        item.help.rstrip("."))) for item in own]
     return lines
 
 
