@@ -69,7 +69,8 @@ def setting(default: Any, help: str, *, schema: dict[str, Any] | None = None, me
         raise TypeError(f"setting: unknown constraints {sorted(unknown)}; known: {', '.join(CONSTRAINTS)}")
     if schema is not None and constraints:
         raise TypeError("setting: give constraints or a schema fragment, not both (the fragment says them)")
-    extra = ({} if schema is None else {SCHEMA: schema}) | ({} if metavar is None else {METAVAR: metavar})
+    extra: dict[str, Any] = ({} if schema is None else {SCHEMA: schema}) | ({} if metavar is None else
+                                                                            {METAVAR: metavar})
     if aliases:
         extra[ALIASES] = tuple(aliases)
     return dataclasses.field(default=default, metadata={HELP: help, **constraints, **extra})

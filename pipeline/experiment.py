@@ -18,11 +18,11 @@ from __future__ import annotations
 
 import itertools
 import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from vpr_smr.eval.report.experiments import installed
+from vpr_smr.eval.report.experiments import builtin, installed
 from vpr_smr.pipeline.stage import Stage
 
 if TYPE_CHECKING:
@@ -30,7 +30,8 @@ if TYPE_CHECKING:
     from vpr_smr.pipeline.config import Config
     from vpr_smr.pipeline.plan import Plan
 
-__all__ = ["WILDCARDS", "Experiment", "Job", "experiment", "plugin_experiments", "plugin_stages"]
+__all__ = ["WILDCARDS", "Experiment", "Job", "Wildcard", "builtin_experiments", "experiment", "plugin_experiments",
+           "plugin_stages", "relative", "running"]
 
 # the names a job's output pattern may hold: each ranges over the configuration's datasets, methods, and sequence
 # lengths (``Job.every_seq_len``: every L of seq_lens, else table_seq_len only)
@@ -39,31 +40,70 @@ NAME = re.compile(r"[a-z][a-z0-9_]*")
 
 
 @dataclass(frozen=True)
+class Wildcard:
+    """A wildcard of a job's output beyond ``WILDCARDS``: its ``name`` and its ``values`` from the run's
+    configuration and plan (speed's ``profile``: the configured profiles). The workflow's rule matches those values
+    only (none: the rule matches nothing)."""
+
+    name: str
+    values: Callable[[Config, Plan], Sequence[str]]
+
+
+@dataclass(frozen=True)
 class Job:
     """One kind of job of an experiment: the ``stage`` it runs, the ``output`` it writes (a path relative to the
     run folder with the wildcards of ``WILDCARDS`` it ranges over, e.g. ``recall_gain/{dataset}/{method}/
     L{seq_len}.json``: one job per value of each), its ``inputs`` (the files it reads, by name, from the run folder,
     the configuration, the plan and the job's wildcards) and its ``record`` (the stage's job record, from the
-    configuration, the plan, the wildcards, the inputs and the output path)."""
+    configuration, the plan, the wildcards, the inputs and the output path: the workflow computes it from those
+    alone, so that Snakemake compares it with the last run's and reruns the job when it changed).
+
+    Optional: ``wildcards_from`` (further wildcards of ``output``, their values from the configuration),
+    ``also`` (further outputs, e.g. a timing file beside the result), ``threads`` (the rule's threads, each job's
+    BLAS threads too: ``OMP_NUM_THREADS``), ``layout`` (the rule's param ``layout``: the results' layout version, so
+    that a run of an earlier layout computes its file again) and ``rule`` (the rule's name, where it is not
+    ``Experiment.rule_name``'s)."""
 
     stage: Stage
     output: str
     inputs: Callable[[str, Config, Plan, Mapping[str, str]], Mapping[str, str | Sequence[str]]]
     record: Callable[[Config, Plan, Mapping[str, str], Mapping[str, Any], str], Any]
     every_seq_len: bool = False
+    wildcards_from: tuple[Wildcard, ...] = ()
+    also: tuple[str, ...] = ()
+    threads: int | None = None
+    layout: bool = False
+    rule: str = ""
 
     @property
     def wildcards(self) -> tuple[str, ...]:
-        """The wildcards of ``output``, in ``WILDCARDS``' order."""
+        """The wildcards of ``output``: those of ``WILDCARDS`` in its order, then ``wildcards_from``'s."""
         found = set(re.findall(r"{(\w+)}", self.output))
-        unknown = sorted(found - set(WILDCARDS))
+        own = [wildcard.name for wildcard in self.wildcards_from]
+        unknown = sorted(found - set(WILDCARDS) - set(own))
         if unknown:
             raise ValueError(f"job {self.stage.command!r}: its output {self.output!r} names {unknown}; an output "
-                             f"pattern may name {', '.join(WILDCARDS)}")
-        return tuple(name for name in WILDCARDS if name in found)
+                             f"pattern may name {', '.join(WILDCARDS)} and the job's wildcards_from")
+        return (*(name for name in WILDCARDS if name in found), *(name for name in own if name in found))
+
+    @property
+    def patterns(self) -> tuple[str, ...]:
+        """Its outputs' patterns, relative to the run folder: ``output``, then ``also``."""
+        return (self.output, *self.also)
+
+    def constraints(self, conf: Config, plan: Plan) -> dict[str, str]:
+        """The rule's wildcard constraints: each of ``wildcards_from`` matches its values only."""
+        return {wildcard.name: "|".join(map(re.escape, wildcard.values(conf, plan))) or "(?!)"
+                for wildcard in self.wildcards_from}
 
     def values(self, settings: Mapping[str, Any]) -> dict[str, list[str]]:
-        """Each wildcard's values in a configuration's settings (its validated JSON)."""
+        """Each wildcard's values in a configuration's settings (its validated JSON); ValueError for a job with
+        ``wildcards_from`` (their values need the configuration record: ``Experiment.outputs`` lists the files of
+        an experiment the report reads itself)."""
+        if self.wildcards_from:
+            raise ValueError(f"job {self.stage.command!r}: its wildcards "
+                             f"{[wildcard.name for wildcard in self.wildcards_from]} take their values from the "
+                             "configuration record, not its settings")
         lengths = settings["seq_lens"] if self.every_seq_len else [settings["table_seq_len"]]
         every = {"dataset": list(settings["datasets"]), "method": list(settings["methods"]),
                  "seq_len": [str(n) for n in lengths]}
@@ -74,6 +114,27 @@ class Job:
         values = self.values(settings)
         return [self.output.format(**dict(zip(values, chosen, strict=True)))
                 for chosen in itertools.product(*values.values())]
+
+    def job_record(self, out: str, conf: Config, plan: Plan, wildcards: Mapping[str, str]) -> Any:
+        """The job record of the job of ``wildcards`` in the run folder ``out``: ``record`` of its inputs and its
+        output (the rule's param, from the wildcards only: Snakemake leaves a param made from a rule's input or
+        output out of what it compares with the last run's)."""
+        return self.record(conf, plan, wildcards, self.inputs(out, conf, plan, wildcards),
+                           f"{out}/{self.output.format(**wildcards)}")
+
+    @property
+    def shell_prefix(self) -> str:
+        """What the rule's shell line starts with: the BLAS threads of a job with ``threads`` (OpenBLAS's default,
+        a thread per core, makes jobs side by side fight over the cores)."""
+        return "OMP_NUM_THREADS={threads} " if self.threads is not None else ""
+
+
+def relative(path: str) -> str:
+    """A ``core.paths`` pattern made with the run folder ``""`` (``speed_path("", "{dataset}", ...)``), relative to
+    the run folder: a job's ``output``."""
+    if not path.startswith("/"):
+        raise ValueError(f"{path!r}: make the pattern with the run folder '' (it starts with '/')")
+    return path[1:]
 
 
 @dataclass(frozen=True)
@@ -103,28 +164,45 @@ class Experiment:
         return [path for job in self.jobs for path in job.outputs(settings)]
 
     def rule_name(self, job: Job) -> str:
-        """The workflow's rule of ``job``: its command's words joined by ``_``, after the experiment's name where
-        they are not that name (``recall-gain`` of ``recall_gain``: ``recall_gain``)."""
+        """The workflow's rule of ``job``: its ``rule``, else its command's words joined by ``_``, after the
+        experiment's name where they are not that name (``recall-gain`` of ``recall_gain``: ``recall_gain``)."""
+        if job.rule:
+            return job.rule
         words = "_".join(re.split(r"[\s-]+", job.stage.command))
         return words if words == self.name else f"{self.name}_{words}"
 
 
-def plugin_experiments() -> tuple[Experiment, ...]:
-    """The experiments installed packages register (``eval.report.experiments.installed``), by name."""
-    found = installed()
+def _typed(found: Sequence[Any]) -> tuple[Experiment, ...]:
     wrong = [one.name for one in found if not isinstance(one, Experiment)]
     if wrong:
         raise TypeError(f"experiments {wrong}: declare each as a vpr_smr.pipeline.experiment.Experiment")
     return tuple(one for one in found if isinstance(one, Experiment))
 
 
+def plugin_experiments() -> tuple[Experiment, ...]:
+    """The experiments installed packages register (``eval.report.experiments.installed``), by name."""
+    return _typed(installed())
+
+
+def builtin_experiments() -> tuple[Experiment, ...]:
+    """The tool's own experiments (``pipeline.experiments``), in their registration's order."""
+    return _typed(builtin())
+
+
+def running(names: Collection[str]) -> tuple[Experiment, ...]:
+    """The built-in, then the installed experiments among ``names`` (``pipeline.config.experiments``: those the
+    configuration turns on): the workflow makes their jobs' rules (``rules/experiments.smk``)."""
+    return tuple(one for one in (*builtin_experiments(), *plugin_experiments()) if one.name in names)
+
+
 def experiment(name: str) -> Experiment:
-    """The installed experiment ``name``; KeyError listing the installed ones."""
-    for one in plugin_experiments():
+    """The experiment ``name``, built in or installed; KeyError listing them."""
+    every = (*builtin_experiments(), *plugin_experiments())
+    for one in every:
         if one.name == name:
             return one
-    known = ", ".join(one.name for one in plugin_experiments()) or "none"
-    raise KeyError(f"no installed experiment {name!r}; installed: {known}")
+    known = ", ".join(one.name for one in every) or "none"
+    raise KeyError(f"no experiment {name!r}; the experiments: {known}")
 
 
 def plugin_stages() -> tuple[Stage, ...]:

@@ -1,12 +1,16 @@
-"""Experiments that an installed package adds (entry point group ``vpr_smr.experiments``), as the report sees them.
+"""Experiments, the tool's own and those an installed package adds (entry point group ``vpr_smr.experiments``), as
+the report sees them.
 
-A plugin experiment is one module: a ``pipeline.experiment.Experiment`` declaring its jobs, its tables (each a
+An experiment is one module: a ``pipeline.experiment.Experiment`` declaring its jobs, its tables (each a
 ``registry.Table`` whose ``section`` is its part of the page) and where its jobs write. The workflow runs its jobs
 (``pipeline/rules/experiments.smk``) when the configuration turns it on (``experiments: {NAME: true}``); the report
 reads its jobs' files (``files``), and its tables make their rows from them (``tabulate.Inputs.experiments``).
 
 This module sees only what the report needs of an experiment (``Reported``): the report is below the workflow, and
-an experiment's jobs are the workflow's.
+an experiment's jobs are the workflow's. The tool's own experiments register here too, one line each, by the name of
+the module that declares them (``add_lazy``: imported when first asked for, never by this module's import); the
+configuration switches each by its own key (``pipeline.config.Experiments``), and the report reads their files
+through its job's own inputs (``ReportJob``), not ``files``.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ from vpr_smr.core.registry import Registry
 if TYPE_CHECKING:
     from vpr_smr.eval.report.registry import Table
 
-__all__ = ["ENTRY_POINT_GROUP", "EXPERIMENTS", "Reported", "chosen", "files", "installed"]
+__all__ = ["ENTRY_POINT_GROUP", "EXPERIMENTS", "Reported", "builtin", "chosen", "files", "installed"]
 
 ENTRY_POINT_GROUP = "vpr_smr.experiments"
 
@@ -51,14 +55,22 @@ def _experiment(name: str, item: Any) -> Reported:
     return item
 
 
-# no built-in ones: the run's own experiments are pipeline.config.Experiments' switches
 EXPERIMENTS: Registry[Reported] = Registry("experiment", ENTRY_POINT_GROUP, check=_experiment)
+# the tool's own experiments, each declared in its module as a plugin's is
+EXPERIMENTS.add_lazy("speed", "vpr_smr.pipeline.experiments.speed:EXPERIMENT")
+
+
+def builtin() -> tuple[Reported, ...]:
+    """The tool's own experiments, in their registration's order (each module imported on first call)."""
+    from vpr_smr.eval.report import registry  # noqa: F401 (first: an experiment's module imports its ``Table``)
+
+    return tuple(EXPERIMENTS.get(name) for name in EXPERIMENTS.builtins())
 
 
 def installed() -> tuple[Reported, ...]:
     """The experiments installed packages register, by name; ValueError naming an entry point whose object is not
     an experiment or names another."""
-    names = EXPERIMENTS.names()
+    names = [name for name in EXPERIMENTS.names() if name not in EXPERIMENTS.builtins()]
     if not names:  # none installed: the report's registry (about 70 ms of imports) is not needed by every command
         return ()
     # the registry first: an experiment's module imports it (its ``Table``), and it collects the experiments' tables

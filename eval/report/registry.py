@@ -19,103 +19,22 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
-from collections.abc import Callable, Collection, Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.constants import RECALL_AT
 from vpr_smr.eval.report import names, rows
 from vpr_smr.eval.report import tabulate as make
-from vpr_smr.eval.report.results import Splits, split_word
+from vpr_smr.eval.report.results import split_word
 from vpr_smr.eval.report.rows import Column
+from vpr_smr.eval.report.table_spec import TABLES_DIR as TABLES_DIR
+from vpr_smr.eval.report.table_spec import Pivot as Pivot
+from vpr_smr.eval.report.table_spec import Table as Table
+from vpr_smr.eval.report.table_spec import expand as expand
 from vpr_smr.eval.report.tabulate import Inputs
 
-if TYPE_CHECKING:
-    from vpr_smr.eval.report.sections import Declared
-
-TABLES_DIR = "tables"
 FIGURES_DIR = "figures"
 HTML = "report.html"
-
-
-@dataclass(frozen=True)
-class Pivot:
-    """A compact table with a row per value of the column ``rows`` and a column per value of ``columns`` (method,
-    or method and matcher), showing ``values``."""
-
-    rows: str
-    columns: tuple[str, ...]
-    values: tuple[str, ...]
-
-
-@dataclass(frozen=True)
-class Table:
-    """A table of the report: its files (``name``, ``title``), when it is written (``experiments``), its ``row``
-    record (``rows``: its fields are the columns, in the files' order), how its rows are made (``make``: a function
-    of the run's ``tabulate.Inputs`` returning the row records, or None when the run has not what the table is of:
-    then no file), and what of it the page's compact tables show: ``page`` (the columns by name, in their order) or
-    ``pivot``, under ``caption`` (``{split}``: the table split, ``{seq_len}``: the L), in its own ``section`` (a
-    ``sections.Declared``, after ``html.SECTIONS``) where none of those shows it.
-
-    ``markdown`` and ``latex``: a layout of its own for those files (Table I's and Table II's, the paper's), from
-    the rows and the inputs; ``run_title``: a title naming the run's choices (its splits); ``protocol``: whether the
-    Markdown and LaTeX files say each dataset's ground truth under the title and the CSV in a column of its own
-    (``CORRECT_MATCHES``)."""
-
-    name: str  # the file stem under tables/
-    title: str  # the heading of its Markdown and LaTeX files and of the HTML page
-    experiments: tuple[str, ...]  # written when every one of these is run (``expected_outputs``' names)
-    row: Any  # the row record (a dataclass declared with ``rows``)
-    make: Callable[[Inputs], Sequence[Any] | None]
-    suffixes: tuple[str, ...] = (".csv", ".md", ".tex")  # the CSV first: the HTML page shows it
-    page: tuple[str, ...] = ()
-    pivot: Pivot | None = None
-    caption: str = ""
-    markdown: Callable[[Sequence[Any], Inputs], str] | None = None
-    latex: Callable[[Sequence[Any], Inputs], str] | None = None
-    run_title: Callable[[Inputs], str] | None = None
-    protocol: bool = True
-    section: Declared | None = None
-
-    def __post_init__(self) -> None:
-        shown = (*self.page, *((self.pivot.rows, *self.pivot.values) if self.pivot else ()))
-        unknown = [name for name in shown if name not in {column.name for column in self.columns}]
-        if unknown:
-            raise ValueError(f"table {self.name!r} shows undeclared columns {unknown}")
-
-    @property
-    def columns(self) -> tuple[Column, ...]:
-        """Its row record's columns (``rows.columns``), a split role's still one."""
-        return rows.columns(self.row)
-
-    def enabled(self, experiments: Collection[str]) -> bool:
-        return all(name in experiments for name in self.experiments)
-
-    def files(self) -> list[str]:
-        """The table's files, relative to the run folder."""
-        return [f"{TABLES_DIR}/{self.name}{suffix}" for suffix in self.suffixes]
-
-    def column(self, name: str) -> Column:
-        """The declared column ``name`` (a KeyError for another)."""
-        for column in self.columns:
-            if column.name == name:
-                return column
-        raise KeyError(f"table {self.name!r} declares no column {name!r}")
-
-    def expanded(self, splits: Splits | None = None) -> tuple[Column, ...]:
-        """The columns of a run with ``splits`` (one per split where a column is), in the files' order."""
-        return expand(self.columns, splits)
-
-    def names(self, splits: Splits | None = None) -> tuple[str, ...]:
-        return tuple(column.name for column in self.expanded(splits))
-
-    def shown(self, splits: Splits | None = None) -> tuple[Column, ...]:
-        """The columns of ``page``, in its order, of a run with ``splits``."""
-        return expand([self.column(name) for name in self.page], splits)
-
-
-def expand(columns: Sequence[Column], splits: Splits | None = None) -> tuple[Column, ...]:
-    return tuple(one for column in columns for one in column.expand(splits))
 
 
 @dataclass(frozen=True)
@@ -155,6 +74,14 @@ SPLIT_OVERLAP = Column("split_overlap")
 # the column the report adds to every table's CSV whose datasets' ground truth is known: each row's dataset's, as
 # the Markdown and LaTeX files' "Correct matches:" line under the title says it ("within 2 frames", "gt.npy (a matrix)")
 CORRECT_MATCHES = Column("correct_matches")
+
+def own_tables(name: str) -> tuple[Table, ...]:
+    """The tables of the tool's own experiment ``name`` (``eval.report.experiments``: its module is imported here,
+    by its registered name; the report does not import the workflow's modules itself)."""
+    from vpr_smr.eval.report.experiments import EXPERIMENTS
+
+    return EXPERIMENTS.get(name).tables
+
 
 CORE_TABLES = (
     Table("table1", "Table I: area over the PR curve at max recall", ("table1",),
@@ -199,13 +126,8 @@ CORE_TABLES = (
           row=rows.SeqLenRow, make=make.make_seq_len,
           pivot=Pivot("seq_len", ("method",), (names.REDUCTION,)),
           caption="AOC reduction (%) per sequence length (columns: methods)"),
-    Table("speed", "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search "
-          "on simulated queries driven at other speeds (method §11), per dataset, method, profile and matcher",
-          ("speed",),
-          row=rows.SpeedRow, make=make.make_speed,
-          pivot=Pivot("profile", ("method", "matcher"), (names.RECALL_SEQUENCE, names.REDUCTION)),
-          caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and method · matcher "
-                  "(columns); single-frame recall@1 and the AOCs: the whole table below"),
+    # the tool's own experiments' tables (pipeline.experiments), here in the report's order
+    *own_tables("speed"),
     Table("predictor", PREDICTOR_TITLE.format(splits="validation, test"), ("predictor",),
           row=rows.PredictorRow, make=make.make_predictor, run_title=_predictor_title,
           page=("seq_len", "n_train", "f1_cv", "f1_{evaluation}", "n_{evaluation}", "warning"),

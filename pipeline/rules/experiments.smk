@@ -1,7 +1,11 @@
-# The experiments installed packages register (pipeline.experiment): a rule per job of each one the configuration
-# turns on, calling its stage with its job record (`vpr-smr COMMAND --job JSON`); the report waits for their files
-# (the Snakefile adds them to its input).
-for _experiment in PLUGIN_EXPERIMENTS:
+# The experiments, the tool's own (pipeline/experiments/) and those installed packages register (pipeline.experiment),
+# that the configuration turns on: a rule per job of each, calling its stage with its job record (`vpr-smr COMMAND
+# --job JSON`); the report waits for their files. The record is computed from the wildcards alone (Job.job_record:
+# the job's inputs and output from its declaration), so that Snakemake compares it with the last run's: a param
+# made from a rule's input or output is left out of that check.
+from vpr_smr.pipeline.experiment import running
+
+for _experiment in running(EXPERIMENTS):
     for _job in _experiment.jobs:
 
         rule:
@@ -10,11 +14,15 @@ for _experiment in PLUGIN_EXPERIMENTS:
             input:
                 unpack(lambda wc, job=_job: dict(job.inputs(OUT, conf, PLAN, dict(wc.items())))),
             output:
-                f"{OUT}/{_job.output}",
+                *(f"{OUT}/{pattern}" for pattern in _job.patterns),
             log:
                 log_path(OUT, f"{OUT}/{_job.output}"),
+            wildcard_constraints:
+                **_job.constraints(conf, PLAN),
+            threads: _job.threads or 1
             params:
-                job=lambda wc, input, output, job=_job: job_text(job.record(conf, PLAN, dict(wc.items()),
-                                                                            dict(input.items()), output[0])),
+                job=lambda wc, job=_job: job_text(job.job_record(OUT, conf, PLAN, dict(wc.items()))),
+                # its file's layout: a run of an earlier one computes it again
+                **({"layout": RESULTS_LAYOUT} if _job.layout else {}),
             shell:
-                shell_command(_job.stage)
+                _job.shell_prefix + shell_command(_job.stage)

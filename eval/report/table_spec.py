@@ -1,0 +1,103 @@
+"""A table of the report, declared (``Table``, with its compact ``Pivot``): the record ``registry`` collects.
+
+Apart from ``registry`` so that a module declaring a table (an experiment's: ``pipeline.experiments``) imports it
+without importing the registry, which collects the experiments' tables when it is imported.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Collection, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+from vpr_smr.eval.report import rows
+from vpr_smr.eval.report.results import Splits
+from vpr_smr.eval.report.rows import Column
+from vpr_smr.eval.report.tabulate import Inputs
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.report.sections import Declared
+
+__all__ = ["TABLES_DIR", "Pivot", "Table", "expand"]
+
+TABLES_DIR = "tables"
+
+
+@dataclass(frozen=True)
+class Pivot:
+    """A compact table with a row per value of the column ``rows`` and a column per value of ``columns`` (method,
+    or method and matcher), showing ``values``."""
+
+    rows: str
+    columns: tuple[str, ...]
+    values: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class Table:
+    """A table of the report: its files (``name``, ``title``), when it is written (``experiments``), its ``row``
+    record (``rows``: its fields are the columns, in the files' order), how its rows are made (``make``: a function
+    of the run's ``tabulate.Inputs`` returning the row records, or None when the run has not what the table is of:
+    then no file), and what of it the page's compact tables show: ``page`` (the columns by name, in their order) or
+    ``pivot``, under ``caption`` (``{split}``: the table split, ``{seq_len}``: the L), in its own ``section`` (a
+    ``sections.Declared``, after ``html.SECTIONS``) where none of those shows it.
+
+    ``markdown`` and ``latex``: a layout of its own for those files (Table I's and Table II's, the paper's), from
+    the rows and the inputs; ``run_title``: a title naming the run's choices (its splits); ``protocol``: whether the
+    Markdown and LaTeX files say each dataset's ground truth under the title and the CSV in a column of its own
+    (``CORRECT_MATCHES``)."""
+
+    name: str  # the file stem under tables/
+    title: str  # the heading of its Markdown and LaTeX files and of the HTML page
+    experiments: tuple[str, ...]  # written when every one of these is run (``expected_outputs``' names)
+    row: Any  # the row record (a dataclass declared with ``rows``)
+    make: Callable[[Inputs], Sequence[Any] | None]
+    suffixes: tuple[str, ...] = (".csv", ".md", ".tex")  # the CSV first: the HTML page shows it
+    page: tuple[str, ...] = ()
+    pivot: Pivot | None = None
+    caption: str = ""
+    markdown: Callable[[Sequence[Any], Inputs], str] | None = None
+    latex: Callable[[Sequence[Any], Inputs], str] | None = None
+    run_title: Callable[[Inputs], str] | None = None
+    protocol: bool = True
+    section: Declared | None = None
+
+    def __post_init__(self) -> None:
+        shown = (*self.page, *((self.pivot.rows, *self.pivot.values) if self.pivot else ()))
+        unknown = [name for name in shown if name not in {column.name for column in self.columns}]
+        if unknown:
+            raise ValueError(f"table {self.name!r} shows undeclared columns {unknown}")
+
+    @property
+    def columns(self) -> tuple[Column, ...]:
+        """Its row record's columns (``rows.columns``), a split role's still one."""
+        return rows.columns(self.row)
+
+    def enabled(self, experiments: Collection[str]) -> bool:
+        return all(name in experiments for name in self.experiments)
+
+    def files(self) -> list[str]:
+        """The table's files, relative to the run folder."""
+        return [f"{TABLES_DIR}/{self.name}{suffix}" for suffix in self.suffixes]
+
+    def column(self, name: str) -> Column:
+        """The declared column ``name`` (a KeyError for another)."""
+        for column in self.columns:
+            if column.name == name:
+                return column
+        raise KeyError(f"table {self.name!r} declares no column {name!r}")
+
+    def expanded(self, splits: Splits | None = None) -> tuple[Column, ...]:
+        """The columns of a run with ``splits`` (one per split where a column is), in the files' order."""
+        return expand(self.columns, splits)
+
+    def names(self, splits: Splits | None = None) -> tuple[str, ...]:
+        return tuple(column.name for column in self.expanded(splits))
+
+    def shown(self, splits: Splits | None = None) -> tuple[Column, ...]:
+        """The columns of ``page``, in its order, of a run with ``splits``."""
+        return expand([self.column(name) for name in self.page], splits)
+
+
+def expand(columns: Sequence[Column], splits: Splits | None = None) -> tuple[Column, ...]:
+    return tuple(one for column in columns for one in column.expand(splits))

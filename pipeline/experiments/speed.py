@@ -1,0 +1,69 @@
+"""The experiment ``speed`` (method §11): each dataset's train and table splits re-driven at simulated speeds, the
+fixed matcher against velocity search, at Table I's sequence length.
+
+One job per dataset and profile, so that the profiles run side by side; each reads the distance matrices only (the
+simulated queries are their columns). The stage is ``pipeline.stages.studies.SPEED`` (``vpr-smr speed``); its
+figure is ``registry.FIGURES``' ``speed`` and its section ``html.SECTIONS``' ``speed``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+from vpr_smr.core.paths import distances_path, speed_path
+from vpr_smr.eval.predictor.defaults import PredictorParams
+from vpr_smr.eval.report import names, rows
+from vpr_smr.eval.report import tabulate as make
+from vpr_smr.eval.report.table_spec import Pivot, Table
+from vpr_smr.eval.scoring.study_jobs import SpeedJob
+from vpr_smr.pipeline.experiment import Experiment, Job, Wildcard, relative
+from vpr_smr.pipeline.stages.studies import SPEED
+
+if TYPE_CHECKING:
+    from vpr_smr.pipeline.config import Config
+    from vpr_smr.pipeline.plan import Plan
+
+NAME = "speed"
+
+
+def profiles(conf: Config, plan: Plan) -> list[str]:
+    """The profiles by name (``eval.scoring.speed``: ``0.5x``, ``varying``), in the configuration's order."""
+    from vpr_smr.eval.scoring.speed import profile_names  # the work's module: imported when a run asks
+
+    return profile_names(conf.speed.profiles)
+
+
+def inputs(out: str, conf: Config, plan: Plan, wildcards: Mapping[str, str]) -> dict[str, Sequence[str]]:
+    """Every method's train and table split distances, in the configuration's order (the pooled training order,
+    method §7)."""
+    return {"train": [distances_path(out, wildcards["dataset"], method, conf.train_split) for method in conf.methods],
+            "table": [distances_path(out, wildcards["dataset"], method, conf.table_split) for method in conf.methods]}
+
+
+def record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str) -> SpeedJob:
+    """The profile, the velocity search set, the dataset's tolerance, every method's train and table split, the
+    predictor's settings."""
+    dataset = wildcards["dataset"]
+    return SpeedJob(dataset, int(wildcards["seq_len"]), wildcards["profile"], tuple(conf.speed.velocities),
+                    plan.datasets[dataset].tolerance, dict(zip(conf.methods, files["train"], strict=True)),
+                    dict(zip(conf.methods, files["table"], strict=True)), PredictorParams.of(conf.predictor.to_json()),
+                    conf.allow_split_overlap, out)
+
+
+JOB = Job(SPEED, relative(speed_path("", "{dataset}", "{seq_len}", "{profile}")), inputs, record,
+          wildcards_from=(Wildcard("profile", profiles),),
+          # one BLAS thread per job: OpenBLAS's default (a thread per core) makes two jobs side by side on 2 cores
+          # fight over them, measured 3 to 7 times slower than one thread each; the numbers are the same (the demo)
+          threads=1, layout=True)
+
+TABLE = Table(
+    NAME, "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search on "
+    "simulated queries driven at other speeds (method §11), per dataset, method, profile and matcher", (NAME,),
+    row=rows.SpeedRow, make=make.make_speed,
+    pivot=Pivot("profile", ("method", "matcher"), (names.RECALL_SEQUENCE, names.REDUCTION)),
+    caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and method · matcher "
+            "(columns); single-frame recall@1 and the AOCs: the whole table below")
+
+EXPERIMENT = Experiment(NAME, "simulated speed profiles (method §11) at table_seq_len: the fixed matcher against "
+                        "velocity search", (JOB,), (TABLE,))
