@@ -18,6 +18,8 @@ from __future__ import annotations
 import json
 import logging
 import os
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -77,18 +79,14 @@ def portable(text: str, run_dir: Path, cwd: Path) -> str:
     return text.replace(str(cwd) + os.sep, "")
 
 
-def workflow_jobs(snakefile: Path, configfiles: list[str], run_dir: Path) -> list[Job]:
-    """Every job of the workflow of ``configfiles`` with its recipe now, from Snakemake's graph of jobs (built as
-    if every job had to run, without looking at any output)."""
+@contextmanager
+def loaded_workflow(snakefile: Path, configfiles: list[str], forceall: bool = True) -> Iterator[Any]:
+    """Snakemake's workflow of ``configfiles`` with its graph of jobs built as if every job had to run, without
+    looking at any output (``forceall=False``: the jobs Snakemake's own checks find to run, and why), taking no lock:
+    its ``dag`` the jobs, its ``rules`` the rules, its ``persistence`` its own record in ``.snakemake``."""
     from snakemake.api import SnakemakeApi
     from snakemake.settings.types import ConfigSettings, DAGSettings, OutputSettings, Quietness, ResourceSettings
 
-    from vpr_smr.eval.matching.ground_truth_files import file_sha256
-
-    cwd = Path.cwd()
-    hashes: dict[str, str] = {}
-    run = str(run_dir) + "/"
-    jobs = []
     # its notes ("Building DAG of jobs...") are not ours to show; no log file of its own either
     settings = OutputSettings(quiet={Quietness.ALL}, log_level_override=logging.WARNING, enable_file_logging=False)
     with SnakemakeApi(settings) as api:
@@ -97,8 +95,21 @@ def workflow_jobs(snakefile: Path, configfiles: list[str], run_dir: Path) -> lis
         workflow_api.dag(DAGSettings())
         # Snakemake's API runs or prints a graph of jobs but does not return one: its own two steps build it
         workflow = workflow_api._workflow
-        workflow._prepare_dag(forceall=True, ignore_incomplete=True, lock_warn_only=True, nolock=True)
+        workflow._prepare_dag(forceall=forceall, ignore_incomplete=True, lock_warn_only=True, nolock=True)
         workflow._build_dag()
+        yield workflow
+
+
+def workflow_jobs(snakefile: Path, configfiles: list[str], run_dir: Path) -> list[Job]:
+    """Every job of the workflow of ``configfiles`` with its recipe now, from Snakemake's graph of jobs (built as
+    if every job had to run, without looking at any output)."""
+    from vpr_smr.eval.matching.ground_truth_files import file_sha256
+
+    cwd = Path.cwd()
+    hashes: dict[str, str] = {}
+    run = str(run_dir) + "/"
+    jobs = []
+    with loaded_workflow(snakefile, configfiles) as workflow:
         for job in workflow.dag.jobs:
             outputs = tuple(str(f) for f in job.output)
             if not outputs:  # the target rule
