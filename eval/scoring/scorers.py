@@ -1,10 +1,12 @@
-"""The scorers of method §12, one registry entry each: ``REGISTRY``, in the order of the tables and figures.
+"""The scorers of method §12, one entry each of the registry ``SCORERS``, in the order of the tables and figures.
 
 A scorer is a ``Scorer`` record: its name, its kind (training-free, the oracle or the predictor), its colour in the
-figures, its description in the report, the baselines settings it reads, and, for all but the predictor, the function
-computing its confidence ``c_a`` of a split's evaluated queries from one signature (``Confidence``). Everything that
-lists scorers (``baselines.query_scores``, the per-query table's ``c_<name>`` columns, the report's tables, figures
-and description) reads ``REGISTRY`` when it runs, so a new scorer is one more entry here.
+figures, its description in the report, the record of the baselines settings it reads (``Settings``: declared once,
+as a matcher's or a backend's, ``core.settings``), and, for all but the predictor, the function computing its
+confidence ``c_a`` of a split's evaluated queries from one signature (``Confidence``). Everything that lists scorers
+(``baselines.query_scores``, the per-query table's ``c_<name>`` columns, the report's tables, figures and description)
+reads the registry when it runs (``names``, ``entries``), so a new scorer is one more entry here, or one an installed
+package registers through the entry point group ``vpr_smr.scorers`` (placed before ``random``).
 """
 
 from __future__ import annotations
@@ -16,15 +18,18 @@ from typing import Any, Literal
 import numpy as np
 
 from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, candidates_needed, half_window
-from vpr_smr.core.settings import group, setting
+from vpr_smr.core.registry import Registry
+from vpr_smr.core.settings import declared, group, setting
 from vpr_smr.eval.matching.attributes import QueryFeatures
 from vpr_smr.eval.matching.confidence import uniqueness
 
 __all__ = [
-    "DEFAULT_SETTINGS", "KINDS", "NATIVE", "NO_NATIVE", "ORACLE", "PREDICTOR", "RANDOM", "REGISTRY",
-    "BaselineSettings", "Confidence", "Scorer", "colour", "names", "predictor_confidence", "random_scores", "scorer",
-    "spread", "training_free", "uniqueness",
+    "DEFAULT_SETTINGS", "ENTRY_POINT_GROUP", "KINDS", "NATIVE", "NO_NATIVE", "ORACLE", "PREDICTOR", "RANDOM", "SCORERS",
+    "BaselineSettings", "Confidence", "Scorer", "SpreadSettings", "UniquenessSettings", "colour", "entries", "names",
+    "predictor_confidence", "random_scores", "scorer", "spread", "training_free", "uniqueness",
 ]
+
+ENTRY_POINT_GROUP = "vpr_smr.scorers"
 
 RANDOM, ORACLE, PREDICTOR, NATIVE = "random", "oracle", "predictor", "native"
 # the one sentence for features that hold neither the matcher's native confidence nor the name of its scorer
@@ -32,22 +37,37 @@ NO_NATIVE = ("the attributes hold no native confidence of their matcher (sequenc
              "was stored, by a matcher that names no native_scorer)")
 Kind = Literal["training-free", "oracle", "predictor"]
 KINDS: tuple[Kind, ...] = ("training-free", "oracle", "predictor")
-Setting = Literal["r_window", "spread_k"]
 
 
 @dataclass(frozen=True)
-class BaselineSettings:
-    """Method §12: the scorers set beside the predictor (the training-free uniqueness, single_uniqueness, spread,
-    distance, native and random, and the oracle); params of the attributes jobs (how many candidates each query
-    keeps, ``candidates``: max(2 floor(r_window / 2) + 2, spread_k)) and of the baselines, metrics and queries jobs."""
+class UniquenessSettings:
+    """The settings of ``uniqueness``, ``single_uniqueness`` and ``native`` (which may be seqslam's uniqueness)."""
 
     r_window: int = setting(
         DEFAULT_R_WINDOW, "uniqueness (SeqSLAM's, OpenSeqSLAM2's rWindow): the smallest sequence distance outside "
         "|r - r*| <= r_window / 2 of the sequence match r*, over the match's; single_uniqueness the same on the "
         "query's own distance column (reference frames)", minimum=0)
+
+
+@dataclass(frozen=True)
+class SpreadSettings:
+    """The settings of ``spread``."""
+
     spread_k: int = setting(
         DEFAULT_SPREAD_K, "spread: minus the standard deviation of the positions (frame indices, or the dataset's "
         "positions) of the spread_k end references of smallest sequence distance", minimum=1)
+
+
+# the records the scorers declare, in the order of the configuration's `baselines` (dataclass fields of the bases
+# come last base first)
+SETTINGS_RECORDS = (UniquenessSettings, SpreadSettings)
+
+
+@dataclass(frozen=True)
+class BaselineSettings(SpreadSettings, UniquenessSettings):
+    """Method §12: the scorers set beside the predictor (the training-free uniqueness, single_uniqueness, spread,
+    distance, native and random, and the oracle); params of the attributes jobs (how many candidates each query
+    keeps, ``candidates``: max(2 floor(r_window / 2) + 2, spread_k)) and of the baselines, metrics and queries jobs."""
 
     def __post_init__(self) -> None:
         candidates_needed(self.r_window, self.spread_k)  # a ValueError naming the bad setting
@@ -80,14 +100,16 @@ Confidence = Callable[[QueryFeatures, BaselineSettings, np.ndarray, int], np.nda
 
 @dataclass(frozen=True)
 class Scorer:
-    """One scorer of method §12. ``confidence`` is None for the predictor only (its ``c_a`` comes from a trained
-    model's probabilities, ``predictor_confidence``); ``description`` is the report's clause after ``name:``."""
+    """One scorer of method §12. ``Settings`` is the record of the baselines settings it reads (one of
+    ``SETTINGS_RECORDS``: the configuration's ``baselines`` holds their settings), None for none; ``confidence`` is
+    None for the predictor only (its ``c_a`` comes from a trained model's probabilities, ``predictor_confidence``);
+    ``description`` is the report's clause after ``name:``."""
 
     name: str
     kind: Kind
     colour: str  # a Matplotlib colour, the same in both baseline figures
     description: str
-    settings: tuple[Setting, ...]  # the baselines settings it reads
+    Settings: type | None
     confidence: Confidence | None
 
     def __post_init__(self) -> None:
@@ -97,6 +119,16 @@ class Scorer:
             raise ValueError(f"scorer {self.name!r}: every scorer but the predictor computes its own confidence")
         if not self.colour or not self.description:
             raise ValueError(f"scorer {self.name!r} needs a colour and a description")
+        if self.Settings is not None and self.Settings not in SETTINGS_RECORDS:
+            raise ValueError(f"scorer {self.name!r}: its Settings {self.Settings!r} is none of the baselines' "
+                             f"records ({', '.join(r.__name__ for r in SETTINGS_RECORDS)}, in "
+                             "vpr_smr.eval.scoring.scorers), whose settings the configuration's baselines holds; "
+                             "declare one of them, or None")
+
+    @property
+    def settings(self) -> tuple[str, ...]:
+        """The names of the baselines settings it reads."""
+        return () if self.Settings is None else tuple(item.name for item in declared(self.Settings))
 
 
 # --- the computations ------------------------------------------------------------------------------------------
@@ -185,36 +217,65 @@ def _oracle(features: QueryFeatures, settings: BaselineSettings, positions: np.n
 
 # --- the registry ----------------------------------------------------------------------------------------------
 
+def _plugin(name: str, item: object) -> Scorer:
+    """An installed package's scorer: a training-free ``Scorer`` of its entry point's name."""
+    if not isinstance(item, Scorer) or item.name != name or item.kind != "training-free":
+        given = f"the {item.kind} scorer {item.name!r}" if isinstance(item, Scorer) else repr(item)
+        raise ValueError(f"the scorer entry point {name!r} (group {ENTRY_POINT_GROUP}) gives {given}: give a "
+                         f"Scorer named {name!r} of kind training-free (vpr_smr.eval.scoring.scorers.Scorer)")
+    return item
+
+
 # every scorer, in the order of the tables; the predictor stands out in the figures, the oracle is a ceiling
-REGISTRY: tuple[Scorer, ...] = (
-    Scorer("uniqueness", "training-free", "tab:blue",
-           "SeqSLAM's, the smallest sequence distance outside a window around the match over the match's",
-           ("r_window",), _sequence_uniqueness),
-    Scorer("single_uniqueness", "training-free", "tab:cyan", "the same on the query's own distances",
-           ("r_window",), _single_uniqueness),
-    Scorer("spread", "training-free", "tab:olive", "minus the spread of the best end references", ("spread_k",),
-           _spread),
-    Scorer("distance", "training-free", "tab:gray",
-           "minus the sequence distance (a threshold on it, which is what VPR+SM's curve already sweeps: about 0 by "
-           "construction)", (), _distance),
-    Scorer(NATIVE, "training-free", "tab:purple",
-           "the matcher's own confidence, the rule its authors accept a match by (seqslam: the uniqueness above)",
-           ("r_window",), _native),
-    Scorer(RANDOM, "training-free", "tab:pink", "a random order", (), _random),
-    Scorer(ORACLE, "oracle", "black", "the ground truth", (), _oracle),
-    Scorer(PREDICTOR, "predictor", "tab:orange", "one minus the predictor's probabilities of classes 1 and 3", (),
-           None),
-)
+SCORERS: Registry[Scorer] = Registry("scorer", ENTRY_POINT_GROUP, check=_plugin)
+SCORERS.add("uniqueness", Scorer(
+    "uniqueness", "training-free", "tab:blue",
+    "SeqSLAM's, the smallest sequence distance outside a window around the match over the match's", UniquenessSettings,
+    _sequence_uniqueness))
+SCORERS.add("single_uniqueness", Scorer(
+    "single_uniqueness", "training-free", "tab:cyan", "the same on the query's own distances", UniquenessSettings,
+    _single_uniqueness))
+SCORERS.add("spread", Scorer(
+    "spread", "training-free", "tab:olive", "minus the spread of the best end references", SpreadSettings, _spread))
+SCORERS.add("distance", Scorer(
+    "distance", "training-free", "tab:gray",
+    "minus the sequence distance (a threshold on it, which is what VPR+SM's curve already sweeps: about 0 by "
+    "construction)", None, _distance))
+SCORERS.add(NATIVE, Scorer(
+    NATIVE, "training-free", "tab:purple",
+    "the matcher's own confidence, the rule its authors accept a match by (seqslam: the uniqueness above)",
+    UniquenessSettings, _native))
+SCORERS.add(RANDOM, Scorer(RANDOM, "training-free", "tab:pink", "a random order", None, _random))
+SCORERS.add(ORACLE, Scorer(ORACLE, "oracle", "black", "the ground truth", None, _oracle))
+SCORERS.add(PREDICTOR, Scorer(PREDICTOR, "predictor", "tab:orange",
+                              "one minus the predictor's probabilities of classes 1 and 3", None, None))
 
 
 def names() -> tuple[str, ...]:
-    """Every registered scorer's name, in the registry's order."""
-    return tuple(s.name for s in REGISTRY)
+    """Every registered scorer's name: the built-ins in their order, the installed packages' (sorted) before
+    ``random``."""
+    built_in = SCORERS.builtins()
+    plugins = [name for name in SCORERS.names() if name not in built_in]
+    at = built_in.index(RANDOM)
+    return (*built_in[:at], *plugins, *built_in[at:])
+
+
+def entries() -> tuple[Scorer, ...]:
+    """Every registered scorer, in ``names``' order."""
+    return tuple(SCORERS[name] for name in names())
+
+
+def __getattr__(attribute: str) -> tuple[Scorer, ...]:
+    # ``REGISTRY``, the tuple of every scorer that this module held before ``SCORERS``: its readers (the baselines'
+    # scores, the report's description) get ``entries()``, plugins included
+    if attribute == "REGISTRY":
+        return entries()
+    raise AttributeError(f"module {__name__!r} has no attribute {attribute!r}")
 
 
 def training_free() -> tuple[str, ...]:
     """The names of the training-free scorers (kind ``training-free``), in the registry's order."""
-    return tuple(s.name for s in REGISTRY if s.kind == "training-free")
+    return tuple(s.name for s in entries() if s.kind == "training-free")
 
 
 def best_training_free(values: Mapping[str, float | None]) -> str | None:
@@ -226,10 +287,11 @@ def best_training_free(values: Mapping[str, float | None]) -> str | None:
 
 def scorer(name: str) -> Scorer:
     """The registered scorer ``name``; a ValueError naming the registered ones when there is none."""
-    for s in REGISTRY:
-        if s.name == name:
-            return s
-    raise ValueError(f"no scorer {name!r} is registered (eval/scoring/scorers.py REGISTRY has {', '.join(names())})")
+    found = SCORERS.get(name, None)
+    if found is None:
+        raise ValueError(f"no scorer {name!r} is registered (eval/scoring/scorers.py SCORERS has {', '.join(names())}"
+                         f"; a package adds one through the entry point group {ENTRY_POINT_GROUP})")
+    return found
 
 
 def colour(name: str) -> str:

@@ -1,9 +1,11 @@
-"""The scorers' registry (eval/scoring/scorers.py): every entry declares its colour and description, and one more
-training-free entry reaches the scores, both protocols, the per-query table and the figure with no other edit."""
+"""The scorers' registry (eval/scoring/scorers.py): every entry declares its colour, description and settings record,
+and one more training-free entry, registered by an installed package, reaches the scores, both protocols, the
+per-query table and the figure with no other edit."""
 
 from __future__ import annotations
 
 import csv
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -29,10 +31,15 @@ def test_every_scorer_declares_its_colour_description_and_settings():
                                           "random", "oracle", "predictor")
     assert TRAINING_FREE == ("uniqueness", "single_uniqueness", "spread", "distance", "native", "random")  # by kind
     fields = set(BaselineSettings().meta())
-    for one in scorers.REGISTRY:
+    for one in scorers.entries():
         assert is_color_like(one.colour) and one.description.strip(), one.name
         assert set(one.settings) <= fields, one.name
-    assert len({one.colour for one in scorers.REGISTRY}) == len(scorers.REGISTRY)  # told apart in a figure
+    assert len({one.colour for one in scorers.entries()}) == len(scorers.entries()) == 8  # told apart in a figure
+    # what each reads of the configuration's baselines, by its record
+    assert {one.name: one.settings for one in scorers.entries() if one.settings} == {
+        "uniqueness": ("r_window",), "single_uniqueness": ("r_window",), "spread": ("spread_k",),
+        "native": ("r_window",)}
+    assert scorers.REGISTRY == scorers.entries()  # the name its readers of 0.16 use
     assert scorers.colour("oracle") == "black"
     with pytest.raises(ValueError, match=r"no scorer 'nope' is registered .* uniqueness, single_uniqueness"):
         scorers.scorer("nope")
@@ -40,22 +47,42 @@ def test_every_scorer_declares_its_colour_description_and_settings():
 
 def test_a_scorer_without_its_confidence_or_colour_is_refused():
     with pytest.raises(ValueError, match="every scorer but the predictor computes its own confidence"):
-        scorers.Scorer("x", "training-free", "tab:red", "an x", (), None)
+        scorers.Scorer("x", "training-free", "tab:red", "an x", None, None)
     with pytest.raises(ValueError, match="'x' needs a colour and a description"):
-        scorers.Scorer("x", "training-free", "", "an x", (), lambda f, s, p, seed: f.sequence_distance)
+        scorers.Scorer("x", "training-free", "", "an x", None, lambda f, s, p, seed: f.sequence_distance)
+    with pytest.raises(ValueError, match="'x': its Settings .* is none of the baselines' records \\(Uniqueness"):
+        scorers.Scorer("x", "training-free", "tab:red", "an x", BaselineSettings, lambda f, s, p, seed: f.queries)
 
 
 def _single_distance(features, settings, positions, seed):
     return -features.single_candidates[:, 0]
 
 
-NEW = scorers.Scorer("single_distance", "training-free", "tab:red", "minus the single-frame distance", (),
+NEW = scorers.Scorer("single_distance", "training-free", "tab:red", "minus the single-frame distance", None,
                      _single_distance)
 
 
+def _install(monkeypatch, **points):
+    """Entry points of the group ``vpr_smr.scorers`` an installed package would declare."""
+    found = [SimpleNamespace(name=name, load=lambda item=item: item) for name, item in points.items()]
+    monkeypatch.setattr("vpr_smr.core.registry.entry_points",
+                        lambda group: found if group == scorers.ENTRY_POINT_GROUP else [])
+
+
+def test_a_plugin_scorer_that_is_no_training_free_scorer_of_its_name_is_refused(monkeypatch):
+    _install(monkeypatch, other=NEW)
+    with pytest.raises(ValueError, match="entry point 'other' .* gives the training-free scorer 'single_distance': "
+                                         "give a Scorer named 'other' of kind training-free"):
+        scorers.entries()
+    _install(monkeypatch, ceiling=scorers.scorer("oracle"))
+    with pytest.raises(ValueError, match="'ceiling' .* gives the oracle scorer 'oracle'"):
+        scorers.scorer("ceiling")
+    with pytest.raises(ValueError, match="no scorer 'nope' is registered .* group vpr_smr.scorers"):
+        scorers.scorer("nope")
+
+
 def test_one_more_entry_reaches_everything(monkeypatch, tmp_path):
-    registry = (*scorers.REGISTRY[:4], NEW, *scorers.REGISTRY[4:])
-    monkeypatch.setattr(scorers, "REGISTRY", registry)
+    _install(monkeypatch, single_distance=NEW)
     d = np.random.default_rng(11).random((40, 30))
     settings = BaselineSettings()
     features = query_features(d, 3, n_candidates=settings.candidates)
@@ -64,7 +91,8 @@ def test_one_more_entry_reaches_everything(monkeypatch, tmp_path):
     prediction = Prediction(0, rng.dirichlet(np.ones(4), len(features.queries)), np.arange(4))
 
     scores = query_scores(features, settings, positions, 0, prediction)
-    assert list(scores) == ["uniqueness", "single_uniqueness", "spread", "distance", "single_distance", "native",
+    # an installed package's scorer comes before random
+    assert list(scores) == ["uniqueness", "single_uniqueness", "spread", "distance", "native", "single_distance",
                             "random", "oracle", "predictor"]
     np.testing.assert_array_equal(scores["single_distance"], -d.min(axis=0)[features.queries])  # -D[single, a]
 
