@@ -1,0 +1,75 @@
+"""The experiment ``adaptive_seq_len`` (method §15): per dataset, matcher and method, the sequence length chosen per
+query by each length's predictor (or uniqueness) against every fixed length, with the live matcher's time.
+
+A matcher of the experiment ``matchers`` other than the run's own reads the attributes and predictors that
+experiment's rules compute under ``matchers/<dataset>/<tag>/``, here at every L of seq_lens. The stage is
+``pipeline.stages.studies.ADAPTIVE`` (``vpr-smr adaptive``); its table is declared with its rows and sentences in
+``eval.report.tables.adaptive`` (the report's page and ``vpr-smr adaptive``'s printout read them too), its figure is
+``registry.FIGURES``' ``adaptive_seq_len`` and its section ``html.SECTIONS``' ``adaptive_seq_len``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+from vpr_smr.core.paths import adaptive_path, distances_path, timing_path
+from vpr_smr.eval.predictor.defaults import validation_split
+from vpr_smr.eval.report.tables.adaptive import TABLE
+from vpr_smr.eval.scoring.study_jobs import AdaptiveJob
+from vpr_smr.pipeline.experiment import Experiment, Job, Wildcard, relative
+from vpr_smr.pipeline.rule_helpers import adaptive_files, adaptive_matchers, adaptive_predictors, length_files
+from vpr_smr.pipeline.stages.studies import ADAPTIVE
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.matching.matchers import MatcherSpec
+    from vpr_smr.pipeline.config import Config
+    from vpr_smr.pipeline.plan import Plan
+
+NAME = "adaptive_seq_len"
+
+
+def matchers(conf: Config) -> dict[str, MatcherSpec]:
+    """Its matchers by tag: the run's own, then each matcher the experiment ``matchers`` compares where it is on."""
+    from vpr_smr.pipeline.config import experiments
+
+    return adaptive_matchers(conf, experiments(conf))
+
+
+def tags(conf: Config, plan: Plan) -> list[str]:
+    """The ``tag`` wildcard's values: its matchers' tags, the run's own first."""
+    return list(matchers(conf))
+
+
+def inputs(out: str, conf: Config, plan: Plan, wildcards: Mapping[str, str]) -> dict[str, str | Sequence[str]]:
+    """Per split every length's attributes of the job's matcher, each length's predictors (every seed), and the
+    table split's matrix (fed frame by frame to the live matcher: its time per query)."""
+    dataset, tag, method = wildcards["dataset"], wildcards["tag"], wildcards["method"]
+    spec = matchers(conf)[tag]
+    validation = validation_split(conf.eval_splits)
+    return {"table": adaptive_files(out, conf, spec, tag, dataset, method, conf.table_split),
+            "validation": adaptive_files(out, conf, spec, tag, dataset, method, validation) if validation else [],
+            "predictors": adaptive_predictors(out, conf, spec, tag, dataset),
+            "distances": distances_path(out, dataset, method, conf.table_split)}
+
+
+def record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
+           ) -> AdaptiveJob:
+    """Per split every length's attributes, each length's seed-0 predictor (the stage reads the other seeds beside
+    it), the table split's matrix (the live timing), the scorers' settings."""
+    validation = validation_split(conf.eval_splits)
+    return AdaptiveJob(
+        length_files([(conf.table_split, files["table"]), (validation, files["validation"])]),
+        tuple(files["predictors"][:: conf.seeds]), conf.seeds, conf.table_split, validation, files["distances"],
+        wildcards["dataset"], wildcards["method"], wildcards["tag"], conf.baselines, tuple(conf.modes),
+        conf.allow_split_overlap, out)
+
+
+OUTPUT = relative(adaptive_path("", "{dataset}", "{tag}", "{method}"))
+
+JOB = Job(ADAPTIVE, OUTPUT, inputs, record, wildcards_from=(Wildcard("tag", tags),),
+          also=(timing_path(OUTPUT),),  # the live timings beside the result (apart, so results repeat exactly)
+          layout=True, rule="adaptive")
+
+EXPERIMENT = Experiment(NAME, "the sequence length chosen per query by each length's predictor (or uniqueness) "
+                        "against every fixed length, for every matcher of the run", (JOB,), (TABLE,))
