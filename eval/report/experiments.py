@@ -58,6 +58,7 @@ def _experiment(name: str, item: Any) -> Reported:
 EXPERIMENTS: Registry[Reported] = Registry("experiment", ENTRY_POINT_GROUP, check=_experiment)
 # the tool's own experiments, each declared in its module as a plugin's is
 EXPERIMENTS.add_lazy("speed", "vpr_smr.pipeline.experiments.speed:EXPERIMENT")
+EXPERIMENTS.add_lazy("matchers", "vpr_smr.pipeline.experiments.matchers:EXPERIMENT")
 EXPERIMENTS.add_lazy("adaptive_seq_len", "vpr_smr.pipeline.experiments.adaptive_seq_len:EXPERIMENT")
 
 
