@@ -11,13 +11,15 @@ reads a row, or a hand-made dict of one, by the same rule. ``UNEARNED`` is the o
 in place of a direction (the files keep the codes) in the page's and the tables' words.
 
 The other functions read a Table I row (``table1.table1_rows``): ``outcome``, ``removed``, ``n_queries``, the AOCs
-and maximum recalls of ``Reduction``.
+and maximum recalls of ``Reduction``. A ``WORSE_FROM_ZERO`` whose interval of the AOC difference did not earn it
+(``curves.from_zero``) keeps ``earned``'s code as its outcome and its reduction undefined: its words say both
+(``from_zero_words``).
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
-from typing import Any
+from collections.abc import Collection, Mapping
+from typing import TYPE_CHECKING, Any
 
 from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.scoring.curves import (
@@ -36,7 +38,12 @@ from vpr_smr.eval.scoring.curves import (
     WORSE,
     WORSE_FROM_ZERO,
     earned,
+    is_from_zero,
+    reduction_undefined,
 )
+
+if TYPE_CHECKING:
+    from vpr_smr.eval.scoring.records import EvaluationSplit
 
 # A seed's outcome where the spread leaves it out (its reduction undefined), or a table cell's short word for it
 SHORT = {
@@ -55,6 +62,23 @@ UNEARNED = {
 }
 
 
+def from_zero_words(outcome: str) -> str:
+    """A perfect baseline made worse by an AOC whose interval did not earn the word (``outcome``: ``earned``'s code):
+    ``perfect baseline, holds 0``."""
+    return f"perfect baseline, {UNEARNED[outcome]}"
+
+
+def undefined_words(row: Mapping[str, Any], name: str = names.REDUCTION) -> str | None:
+    """Why the reduction ``name`` of ``row`` is undefined, in a cell's short words; None where it is defined or the
+    row says no why."""
+    outcome = str(row.get(name.replace(names.REDUCTION, "outcome")))
+    if row.get(name) is not None:
+        return None
+    if outcome in SHORT:
+        return SHORT[outcome]
+    return from_zero_words(outcome) if is_from_zero(outcome, None) else None
+
+
 def said(outcome: str) -> str:
     """An outcome (``earned``'s, or a degenerate one) in the words a page or the console says: ``improved``,
     ``holds 0``, ``removed every match``; any other (``unchanged``) as it is."""
@@ -63,7 +87,8 @@ def said(outcome: str) -> str:
 
 def is_degenerate(row: Mapping[str, Any]) -> bool:
     """The reduction alone would mislead: it is undefined, or 0 because the predictor changed nothing."""
-    return str(row.get("outcome")) in SHORT
+    outcome = str(row.get("outcome"))
+    return outcome in SHORT or is_from_zero(outcome, row.get(names.REDUCTION))
 
 
 def at_recall_zero(row: Mapping[str, Any]) -> bool:
@@ -114,6 +139,13 @@ def note(row: Mapping[str, Any]) -> str:
         return (f"the predictor made the AOC worse, from 0 to {row[names.AOC_VPR_SM_PRED]:.4f} up to its maximum "
                 f"recall {row['max_recall']:.4f}: worse, by a percentage that is undefined (the baseline's AOC "
                 "being 0)")
+    if is_from_zero(str(outcome), row.get(names.REDUCTION)):
+        interval = ("there is no interval of the difference" if outcome == NO_INTERVAL else
+                    "the interval over queries of the difference holds 0" if outcome == HOLDS_ZERO else
+                    "the interval over queries of the difference lies below 0")
+        return (f"the baseline's AOC is 0 up to the predictor's maximum recall {row['max_recall']:.4f} and the "
+                f"predictor's {row[names.AOC_VPR_SM_PRED]:.4f}, but {interval}: no direction, and the reduction is "
+                "undefined (the baseline's AOC being 0)")
     return ""
 
 
@@ -122,7 +154,8 @@ def reduction_cell(row: Mapping[str, Any], number: str) -> str:
     a 0 of a predictor that removed nothing says so."""
     outcome = row.get("outcome")
     if row.get(names.REDUCTION) is None:
-        return f"n/a: {SHORT[str(outcome)]}" if outcome in SHORT else "n/a"
+        why = undefined_words(row)
+        return "n/a" if why is None else f"n/a: {why}"
     return f"{number} ({SHORT[KEPT_ALL]})" if outcome == KEPT_ALL else number
 
 
@@ -135,20 +168,30 @@ def predictor_cell(row: Mapping[str, Any], number: str) -> str:
 def baseline_cell(row: Mapping[str, Any], number: str) -> str:
     """Table I's VPR+SM cell: the AOC at the predictor's maximum recall, and the baseline's own beside it where
     the predictor was degenerate and lowered the maximum recall (a cut curve alone would hide what was lost)."""
-    if row.get("outcome") in UNDEFINED and lowered_recall(row):
+    if reduction_undefined(str(row.get("outcome")), row.get(names.REDUCTION)) and lowered_recall(row):
         return f"{number} (own: {row['aoc_vpr_sm_own']:.4f})"
     return number
 
 
-def seeds_left_out(outcomes: Mapping[int, str]) -> str:
+def seeds_left_out(outcomes: Mapping[int, str], undefined: Collection[int] = ()) -> str:
     """The seeds whose reduction is undefined and why, grouped by outcome: ``seed 3: removed every match``,
-    ``seeds 1, 4: nothing to reduce``; empty when none."""
+    ``seeds 1, 4: nothing to reduce``; empty when none. ``undefined``: the seeds whose reduction is None, which names
+    those left out for a perfect baseline made worse without an interval to earn the word (``seeds 2, 5: perfect
+    baseline, no interval``): their outcome is ``earned``'s code, the same as a defined reduction's without one."""
     groups: dict[str, list[int]] = {}
     for seed, outcome in outcomes.items():
         if outcome in UNDEFINED:
-            groups.setdefault(outcome, []).append(int(seed))
+            groups.setdefault(SHORT[outcome], []).append(int(seed))
+        elif int(seed) in undefined and is_from_zero(outcome, None):
+            groups.setdefault(from_zero_words(outcome), []).append(int(seed))
     parts = []
-    for outcome, seeds in groups.items():
+    for why, seeds in groups.items():
         label = "seed" if len(seeds) == 1 else "seeds"
-        parts.append(f"{label} {', '.join(map(str, seeds))}: {SHORT[outcome]}")
+        parts.append(f"{label} {', '.join(map(str, seeds))}: {why}")
     return "; ".join(parts)
+
+
+def seeds_left_out_of(split: EvaluationSplit, mode: str) -> str:
+    """``seeds_left_out`` of one split's seeds in ``mode``."""
+    return seeds_left_out(split.seed_summary[mode].outcomes,
+                          [numbers.seed for numbers in split.seeds if numbers.modes[mode].reduction_pct is None])

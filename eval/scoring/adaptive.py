@@ -23,7 +23,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -219,7 +219,7 @@ def compute(lengths: Sequence[Length], validation: Sequence[Length] | None, mode
     """Every row of the experiment on the shared queries (``lengths``: the table split's, shortest first;
     ``validation``: the validation split's, None leaves ``adaptive_uniqueness`` out) and the best fixed row's name
     (``best_fixed``) in ``COMPARED_MODE``, against which each rule's AOC is compared at the recall both reach."""
-    from vpr_smr.eval.scoring.evaluate import summarise_seeds
+    from vpr_smr.eval.scoring.evaluate import summarise_seeds, with_intervals
     from vpr_smr.eval.scoring.intervals import common_recall_difference, paired_draws, percentile_interval
 
     n_seeds = len(lengths[0].keeps)
@@ -253,10 +253,7 @@ def compute(lengths: Sequence[Length], validation: Sequence[Length] | None, mode
                                   for seed in range(len(row.removals))}) if row.kind != FIXED else None
         modes_out = {}
         for mode in modes:
-            found = draws[mode][i]
-            reduction = replace(numbers[mode][i][0], reduction_pct_ci=percentile_interval(found.reduction_pct),
-                                aoc_vpr_sm_ci=percentile_interval(found.aoc_baseline),
-                                aoc_vpr_sm_pred_ci=percentile_interval(found.aoc_predictor))
+            reduction = with_intervals(numbers[mode][i][0], draws[mode][i])
             versus = versus_ci = None
             if row.kind == RULE and mode in best:
                 pair = (scored[i][0], scored[[r.name for r in rows].index(best[mode])][0])

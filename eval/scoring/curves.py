@@ -162,15 +162,19 @@ REMOVED_ALL = "removed_all"  # every match removed: recall 0, nothing left to sc
 KEPT_NONE_CORRECT = "kept_none_correct"  # some matches kept, none of them correct: recall 0
 KEPT_ALL = "kept_all"  # nothing removed: both curves are the baseline's, the reduction 0
 NOTHING_TO_REDUCE = "nothing_to_reduce"  # both AOCs 0 up to the predictor's maximum recall
-WORSE_FROM_ZERO = "worse_from_zero"  # the baseline's AOC 0 there and the predictor's larger: worse by an undefined %
+# the baseline's AOC 0 there and the predictor's larger: worse by an undefined %, a direction said only where the
+# interval of the AOC difference earns it (``from_zero``)
+WORSE_FROM_ZERO = "worse_from_zero"
 IMPROVED, WORSE, UNCHANGED = "improved", "worse", "unchanged"
 # A removal that lost every correct match: the reduction cannot show it (both AOCs are 0 at recall 0)
 LOST_ALL = (REMOVED_ALL, KEPT_NONE_CORRECT)
-UNDEFINED = (NO_CORRECT_MATCH, *LOST_ALL, NOTHING_TO_REDUCE, WORSE_FROM_ZERO)  # reduction_pct None
+# reduction_pct None; so is it for a WORSE_FROM_ZERO whose interval did not earn it (``from_zero``: ``is_from_zero``)
+UNDEFINED = (NO_CORRECT_MATCH, *LOST_ALL, NOTHING_TO_REDUCE, WORSE_FROM_ZERO)
 # Both AOCs are taken at recall 0 (no correct match left, or none to begin with): an AOC of 0 there says nothing
 AT_RECALL_ZERO = (*LOST_ALL, NO_CORRECT_MATCH)
 # Outcomes that count against a predictor wherever methods or seeds are counted as improved: the reduction is
-# undefined there, but the predictor did harm
+# undefined there, but the predictor did harm. WORSE_FROM_ZERO is one only as ``from_zero`` gives it, its interval
+# above 0; one whose interval holds 0 (or that has none) is no harm earned, only a comparison without a %.
 HARMFUL = (*LOST_ALL, WORSE_FROM_ZERO)
 
 
@@ -179,7 +183,9 @@ def outcome(n_queries: int, removed: int, comparison: Comparison, same_matches: 
     begin with; every match removed; none correct kept (maximum recall 0); both AOCs 0 (nothing to reduce); the
     baseline's AOC 0 and the predictor's not (worse, the percentage undefined); nothing removed (a reduction of 0);
     else improved or worse by the sign of the reduction, unchanged when its magnitude is below ``UNCHANGED_PCT``.
-    The reduction is undefined (None) exactly for the outcomes of ``UNDEFINED``. ``same_matches`` False: the
+    The reduction is undefined (None) exactly for the outcomes of ``UNDEFINED``. Improved, worse and
+    ``WORSE_FROM_ZERO`` are a point estimate's direction: a record or table says them only as ``earned`` (the
+    reduction's interval) or ``from_zero`` (the AOC difference's interval) judge them. ``same_matches`` False: the
     compared curve's matches are not the baseline's (another sequence length's, method §15), so keeping every one of
     them still changes the curve: never ``KEPT_ALL``."""
     if comparison.max_recall_baseline <= 0:
@@ -206,22 +212,47 @@ def by_sign(reduction_pct: float) -> str:
 HOLDS_ZERO = "interval_holds_0"  # the interval holds 0
 NO_INTERVAL = "no_interval"  # none: too few draws define it, or none is computed (the speed experiment, other seeds)
 AGAINST_SIGN = "interval_against_sign"  # it excludes 0, on the other side from the estimate
+NOT_EARNED = (HOLDS_ZERO, NO_INTERVAL, AGAINST_SIGN)  # what earned or from_zero says in place of a direction
 # The outcomes of an estimate with a direction: improved or worse by its sign, and what ``earned`` says of them
-DIRECTED = (IMPROVED, WORSE, HOLDS_ZERO, NO_INTERVAL, AGAINST_SIGN)
+DIRECTED = (IMPROVED, WORSE, *NOT_EARNED)
 
 
 def earned(outcome: str, interval: Interval | None) -> str:
     """The one rule for a direction word: ``outcome`` (``outcome``'s, by the sign of a point estimate) as a table,
     the console or a sentence may say it beside ``interval``, the estimate's interval over queries: improved or
     worse only where the interval excludes 0 on the estimate's side, else ``HOLDS_ZERO``, ``NO_INTERVAL`` or
-    ``AGAINST_SIGN``; any other outcome (a degenerate one, unchanged, or one this function gave) as it is."""
+    ``AGAINST_SIGN``; any other outcome (a degenerate one, unchanged, ``WORSE_FROM_ZERO`` as ``from_zero`` gave it,
+    or one this function gave) as it is."""
     wanted = {IMPROVED: 1, WORSE: -1}.get(outcome)
-    if wanted is None:
-        return outcome
+    return outcome if wanted is None else _judged(outcome, wanted, interval)
+
+
+def from_zero(difference: Interval | None) -> str:
+    """The same rule for ``WORSE_FROM_ZERO`` (the baseline's AOC 0, the predictor's larger: no reduction in per cent
+    to take an interval of): ``difference`` is the interval over queries of the predictor's AOC minus the baseline's
+    (``intervals.aoc_difference``), and the word is said only where it lies wholly above 0, else ``HOLDS_ZERO``,
+    ``NO_INTERVAL`` (None: e.g. a seed other than 0, whose intervals are not computed) or ``AGAINST_SIGN``."""
+    return _judged(WORSE_FROM_ZERO, 1, difference)
+
+
+def _judged(outcome: str, wanted: int, interval: Interval | None) -> str:
+    """``outcome`` where ``interval`` lies wholly on the side ``wanted`` (+1 above 0, -1 below) of 0."""
     if interval is None:
         return NO_INTERVAL
     found = interval.sign()
     return HOLDS_ZERO if found == 0 else outcome if found == wanted else AGAINST_SIGN
+
+
+def is_from_zero(outcome: str, reduction_pct: float | None) -> bool:
+    """The comparison's baseline AOC is 0 and the predictor's larger, whether or not an interval earned the word:
+    ``WORSE_FROM_ZERO``, or the word ``from_zero`` said in its place (the other directions have a reduction)."""
+    return outcome == WORSE_FROM_ZERO or (outcome in NOT_EARNED and reduction_pct is None)
+
+
+def reduction_undefined(outcome: str, reduction_pct: float | None) -> bool:
+    """The reduction in per cent is undefined (None): a degenerate outcome of ``UNDEFINED``, or a ``WORSE_FROM_ZERO``
+    whose interval did not earn it (``is_from_zero``): left out of every mean of reductions, and named where it is."""
+    return outcome in UNDEFINED or is_from_zero(outcome, reduction_pct)
 
 
 def recall_at_full_precision(curve_: Curve) -> float:

@@ -33,15 +33,18 @@ from vpr_smr.eval.predictor.estimator import SMRPredictor, macro_f1
 from vpr_smr.eval.predictor.jobs import EvaluateJob as EvaluateJob  # the stage's job, named here too
 from vpr_smr.eval.predictor.leakage import check_disjoint, check_scored, frame_ranges, trained_on
 from vpr_smr.eval.scoring.curves import (
+    WORSE_FROM_ZERO,
     Comparison,
     Curve,
     compare_curves,
     curve,
+    from_zero,
+    is_from_zero,
     keep_mask,
     outcome,
     recall_at_full_precision,
 )
-from vpr_smr.eval.scoring.intervals import WeightedComparison, comparison_draws, percentile_interval
+from vpr_smr.eval.scoring.intervals import WeightedComparison, aoc_difference, comparison_draws, percentile_interval
 from vpr_smr.eval.scoring.records import (
     Evaluation,
     EvaluationSplit,
@@ -95,11 +98,19 @@ def compare_removal(features: QueryFeatures, mode: str, keep: np.ndarray, interv
 
 def reduction_of(comparison: Comparison, n_queries: int, removed: int, same_matches: bool = True) -> Reduction:
     """Table I's numbers of one comparison of curves (``curves.compare_curves``), with the removal's ``outcome``
-    (``same_matches``: as ``curves.outcome`` takes it)."""
+    (``same_matches``: as ``curves.outcome`` takes it) as a record says it without intervals (``judged``);
+    ``with_intervals`` judges it again by its intervals."""
     return Reduction(comparison.max_recall, comparison.auc_baseline, comparison.auc_predictor,
                      comparison.aoc_baseline, comparison.aoc_predictor, comparison.reduction_pct,
                      comparison.max_recall_baseline, comparison.aoc_baseline_own,
-                     outcome(n_queries, removed, comparison, same_matches))
+                     judged(outcome(n_queries, removed, comparison, same_matches), None))
+
+
+def judged(found: str, draws: WeightedComparison | None) -> str:
+    """``curves.outcome``'s ``found`` as a record keeps it: a ``WORSE_FROM_ZERO`` by the interval of its AOC
+    difference over ``draws`` (``curves.from_zero``; None: no interval, ``NO_INTERVAL``), any other as it is (the
+    records judge improved and worse by the reduction's interval, ``curves.earned``)."""
+    return from_zero(None if draws is None else aoc_difference(draws)) if found == WORSE_FROM_ZERO else found
 
 
 def removal_draws(features: QueryFeatures, mode: str, keeps: Sequence[np.ndarray]) -> list[WeightedComparison]:
@@ -110,10 +121,13 @@ def removal_draws(features: QueryFeatures, mode: str, keeps: Sequence[np.ndarray
 
 
 def with_intervals(reduction: Reduction, draws: WeightedComparison) -> Reduction:
-    """``reduction`` with the percentile intervals of its reduction and AOCs over ``draws`` (of the same removal)."""
+    """``reduction`` with the percentile intervals of its reduction and AOCs over ``draws`` (of the same removal),
+    and its outcome judged by them: improved or worse by the reduction's (the record's own rule), worse from a
+    perfect baseline by the AOC difference's (``judged``)."""
+    found = WORSE_FROM_ZERO if is_from_zero(reduction.outcome, reduction.reduction_pct) else reduction.outcome
     return replace(reduction, reduction_pct_ci=percentile_interval(draws.reduction_pct),
                    aoc_vpr_sm_ci=percentile_interval(draws.aoc_baseline),
-                   aoc_vpr_sm_pred_ci=percentile_interval(draws.aoc_predictor))
+                   aoc_vpr_sm_pred_ci=percentile_interval(draws.aoc_predictor), outcome=judged(found, draws))
 
 
 def _mode_removal(
@@ -147,7 +161,8 @@ def _mode_removal(
         trust_numbers[str(level)] = TrustNumbers(
             removed, level_comparison.max_recall, level_comparison.auc_predictor,
             level_comparison.aoc_predictor, level_comparison.auc_baseline, level_comparison.aoc_baseline,
-            level_comparison.reduction_pct, outcome(n, removed, level_comparison),
+            level_comparison.reduction_pct,
+            judged(outcome(n, removed, level_comparison), None if draws is None else draws[1 + index]),
             percentile_interval(draws[1 + index].reduction_pct) if draws is not None else None)
     return ModeRemoval(*recall_at_1(features, mode), reduction, removal_curves,
                        trust_numbers if trust_levels else None, trust if trust_levels and curves else None)

@@ -179,6 +179,12 @@ class WeightedComparison:
     reduction_pct: np.ndarray
 
 
+def aoc_difference(draws: WeightedComparison) -> Interval | None:
+    """The paired interval of the predictor's AOC minus the baseline's over ``draws`` (in recall units): what
+    earns ``curves.WORSE_FROM_ZERO`` (``curves.from_zero``), where the reduction in per cent is undefined."""
+    return percentile_interval(draws.aoc_predictor - draws.aoc_baseline)
+
+
 def _compared(base: tuple[np.ndarray, np.ndarray], kept: tuple[np.ndarray, np.ndarray]) -> WeightedComparison:
     """``curves.compare_curves`` of two weighted curves of the same draws."""
     max_recall = kept[0][:, -1]
