@@ -59,8 +59,22 @@ def _baselines_switch() -> Any:
                          "--attributes files computed with --candidates 0)")
 
 
+class _ScoresMatrices:
+    """What the jobs that score a matrix and may leave the training-free scorers out (``metrics``, ``queries``)
+    share besides their fields: ``baselines`` (the switch) and ``scorers`` (their settings) are each job's own
+    settings, declared in its record so that its options keep their order."""
+
+    baselines: bool
+    scorers: BaselineSettings
+
+    @property
+    def scorer_settings(self) -> BaselineSettings | None:
+        """The training-free scorers' settings, None when they are left out."""
+        return self.scorers if self.baselines else None
+
+
 @dataclass(frozen=True)
-class MetricsJob:
+class MetricsJob(_ScoresMatrices):
     """The ``metrics`` stage's job: the standard VPR metrics of every split's matrix (``vpr_metrics.main``)."""
 
     distances: tuple[str, ...] = _user_distances()
@@ -84,14 +98,9 @@ class MetricsJob:
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the VPR metrics (JSON)", metavar="PATH")
 
-    @property
-    def scorer_settings(self) -> BaselineSettings | None:
-        """The training-free scorers' settings, None when they are left out."""
-        return self.scorers if self.baselines else None
-
 
 @dataclass(frozen=True)
-class QueriesJob:
+class QueriesJob(_ScoresMatrices):
     """The ``queries`` stage's job: the per-query table of every split's matrix (``queries_stage.main``), scored as
     ``metrics`` scores it."""
 
@@ -107,11 +116,6 @@ class QueriesJob:
     scorers: BaselineSettings = baseline_settings()
     allow_split_overlap: bool = allow_split_overlap()
     out: str = setting(REQUIRED, "the output file: the per-query table (CSV)", metavar="PATH")
-
-    @property
-    def scorer_settings(self) -> BaselineSettings | None:
-        """The training-free scorers' settings, None when they are left out."""
-        return self.scorers if self.baselines else None
 
 
 @dataclass(frozen=True)
