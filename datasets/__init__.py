@@ -35,17 +35,11 @@ from vpr_smr.datasets.sfu_mountain import SFUMountainSettings, sfu_mountain
 # a bare function (a test's stand-in, a plugin of 0.16) is read through ``as_loader``: ``loader`` gives every item so
 LOADERS: Registry[Loader] = Registry("dataset loader", ENTRY_POINT_GROUP, check=as_loader)
 LOADERS.add("folders", Loader(folder_pair, FoldersSettings, ("name", "check_files", "splits")))
-LOADERS.add("nordland_sample", Loader(nordland_sample, NordlandSampleSettings))
-LOADERS.add("nordland", Loader(nordland, NordlandSettings, ("check_files", "splits")))
-LOADERS.add("robotcar", Loader(robotcar, RobotCarSettings, ("check_files", "splits")))
-LOADERS.add("sfu_mountain", Loader(sfu_mountain, SFUMountainSettings, ("check_files", "splits")))
-# The published splits of the benchmarks (method §1); a `folders` dataset has none until the configuration names them.
-DEFAULT_SPLITS: dict[str, dict[str, tuple[int, int]]] = {
-    "nordland_sample": NORDLAND_SAMPLE_SPLITS,
-    "nordland": NORDLAND_SPLITS,
-    "robotcar": ROBOTCAR_SPLITS,
-    "sfu_mountain": SFU_MOUNTAIN_SPLITS,
-}
+# the benchmarks' published splits (method §1); a `folders` dataset has none until the configuration names them
+LOADERS.add("nordland_sample", Loader(nordland_sample, NordlandSampleSettings, splits=NORDLAND_SAMPLE_SPLITS))
+LOADERS.add("nordland", Loader(nordland, NordlandSettings, ("check_files", "splits"), NORDLAND_SPLITS))
+LOADERS.add("robotcar", Loader(robotcar, RobotCarSettings, ("check_files", "splits"), ROBOTCAR_SPLITS))
+LOADERS.add("sfu_mountain", Loader(sfu_mountain, SFUMountainSettings, ("check_files", "splits"), SFU_MOUNTAIN_SPLITS))
 
 __all__ = [
     "LOADERS", "SPLIT_SETTINGS", "DatasetEntry", "DatasetError", "Loader", "Traverse", "TraversePair",
@@ -226,5 +220,4 @@ def _default_splits(conf: dict[str, Any], pair: TraversePair) -> dict[str, tuple
         return {"all": (0, len(pair))}
     if pair.has_positions:
         return {}
-    loader: str = conf["loader"]  # load_frames has checked that it names a loader
-    return DEFAULT_SPLITS.get(loader, {})
+    return dict(loader(conf["loader"]).splits)  # load_frames has checked that it names a loader

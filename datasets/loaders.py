@@ -12,8 +12,8 @@ from __future__ import annotations
 import dataclasses
 import inspect
 import warnings
-from collections.abc import Callable
-from dataclasses import dataclass
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
 from typing import Any
 
 from vpr_smr.core.settings import REQUIRED, Declared, declared, setting
@@ -34,11 +34,13 @@ _SPLIT_ARGUMENTS = ("splits", "tolerance", "radius", "ground_truth")
 @dataclass(frozen=True)
 class Loader:
     """``function(**settings, **workflow arguments)`` builds the pair; ``Settings`` is the frozen dataclass of its
-    settings; ``takes`` names which of ``WORKFLOW_ARGUMENTS`` the function takes."""
+    settings; ``takes`` names which of ``WORKFLOW_ARGUMENTS`` the function takes; ``splits`` are the published splits
+    of its dataset (``[lo, hi)`` frame ranges by name), an entry's splits where it names none."""
 
     function: Callable[..., TraversePair]
     Settings: type
     takes: tuple[str, ...] = ("splits",)
+    splits: Mapping[str, tuple[int, int]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         unknown = [argument for argument in self.takes if argument not in WORKFLOW_ARGUMENTS]

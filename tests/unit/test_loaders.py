@@ -53,6 +53,12 @@ def test_every_built_in_loader_keeps_its_settings_and_the_defaults_of_its_functi
         assert set(found.takes) <= set(parameters), name
         assert (set(WORKFLOW_ARGUMENTS) - set(found.takes)).isdisjoint(parameters), name
     assert loader_option_help("folders")["pairing"].startswith("how frame i of both folders is paired")
+    # the published splits (method §1)
+    assert {name: dict(loader(name).splits) for name in LOADERS} == {
+        "folders": {}, "nordland_sample": {"train": (0, 500), "val": (500, 1000), "test": (1000, 3576)},
+        "nordland": {"train": (0, 500), "val": (500, 1000), "test": (1000, 10000)},
+        "robotcar": {"train": (0, 500), "val": (500, 1000), "test": (1000, 2000)},
+        "sfu_mountain": {"train": (0, 100), "val": (100, 200), "test": (200, 375)}}
 
 
 def _frames(folder: Path, n: int) -> None:
@@ -81,13 +87,15 @@ def _install(monkeypatch, **points):
 
 
 def test_a_plugin_loader_declares_its_settings_record(tmp_path, monkeypatch):
-    _install(monkeypatch, route=Loader(_route, RouteSettings))
+    _install(monkeypatch, route=Loader(_route, RouteSettings, splits={"early": (0, 3), "late": (3, 5)}))
     _frames(tmp_path / "day", 5)
     _frames(tmp_path / "dusk", 5)
     assert "route" in LOADERS and LOADERS.names()[-1] == "route" and "route" not in list(LOADERS)
     assert (loader_options("route"), required_options("route")) == (["root", "night"], ["root"])
     pair = load_dataset("r", {"loader": "route", "root": str(tmp_path), "night": "dusk", "splits": {"a": [0, 5]}})
     assert (pair.name, len(pair), pair.query.name, pair.splits) == ("r", 5, "dusk", {"a": (0, 5)})
+    pair = load_dataset("r", {"loader": "route", "root": str(tmp_path), "night": "dusk"})  # its published splits
+    assert pair.splits == {"early": (0, 3), "late": (3, 5)}
     with pytest.raises(DatasetError, match=r"datasets\.r: loader 'route' needs root"):
         load_dataset("r", {"loader": "route"})
     with pytest.raises(DatasetError, match=r"datasets\.r\.nigth: .*did you mean 'night'"):

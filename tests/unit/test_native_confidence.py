@@ -118,7 +118,7 @@ def test_the_native_scorer_is_the_toys_margin_higher_is_more_confident(toy):
     assert scores["native"].tolist() != scores["uniqueness"].tolist()  # its own, not the default's
     native = scorers.scorer("native")
     assert native.kind == "training-free" and native.colour == "tab:purple"
-    assert native.colour not in {s.colour for s in scorers.REGISTRY if s.name != "native"}
+    assert native.colour not in {s.colour for s in scorers.entries() if s.name != "native"}
 
 
 def test_the_attributes_file_stores_it_and_an_old_file_reads(toy, tmp_path):
