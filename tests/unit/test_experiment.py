@@ -1,0 +1,131 @@
+"""The tool's own experiments are declared as a plugin's are (pipeline.experiment): registered by name in the one
+registry, their tables at their place in the report, their jobs' wildcards, outputs and records from the
+configuration (the workflow's dry run: the same jobs as the .smk rules they replace, checked by hand on the demo)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import dataclass
+
+import pytest
+from run_configs import plan_once_config
+
+from vpr_smr.core.settings import REQUIRED, setting
+from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
+from vpr_smr.eval.report import experiments as reported
+from vpr_smr.pipeline.config import validate
+from vpr_smr.pipeline.experiment import Experiment, Job, Wildcard, experiment, plugin_stages, relative, running
+from vpr_smr.pipeline.options import add_options, read_options
+from vpr_smr.pipeline.plan import preflight
+from vpr_smr.pipeline.stage import Stage, job_text
+from vpr_smr.pipeline.stages.studies import ADAPTIVE, COMPARE_MATCHERS, SPEED
+
+
+def test_the_built_in_experiments_are_registered_by_name_and_are_no_plugins():
+    assert reported.EXPERIMENTS.builtins() == ["speed", "matchers", "adaptive_seq_len"]
+    assert [one.name for one in reported.builtin()] == ["speed", "matchers", "adaptive_seq_len"]
+    assert not {"speed", "matchers", "adaptive_seq_len"} & {one.name for one in reported.installed()}
+    # their stages are the command line's own (pipeline.stages): not installed a second time as a plugin's
+    assert not {SPEED, COMPARE_MATCHERS, ADAPTIVE} & set(plugin_stages())
+    assert [(job.stage, experiment(name).rule_name(job)) for name in ("speed", "matchers", "adaptive_seq_len")
+            for job in experiment(name).jobs] == [(SPEED, "speed"), (COMPARE_MATCHERS, "matchers"),
+                                                  (ADAPTIVE, "adaptive")]
+
+
+def test_the_report_keeps_its_tables_and_their_order():
+    from vpr_smr.eval.report import registry
+
+    # the order of the report before the experiments were modules (speed was in CORE_TABLES after ablation_seq_len)
+    assert [entry.name for entry in registry.TABLES] == [
+        "table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing", "vpr_metrics",
+        "baselines", "wrong_match_detection", "ablation_seq_len", "speed", "predictor", "table2",
+        "leave_one_method_out", "protocol_sweep", "adaptive_seq_len", "datasets", "matchers"]
+    assert registry.table("speed") is experiment("speed").tables[0]
+    assert registry.table("speed").names()[:4] == ("dataset", "method", "seq_len", "profile")
+
+
+def test_the_configuration_switches_a_built_in_experiment_by_its_key():
+    from vpr_smr.pipeline.config import experiments
+
+    conf = validate(plan_once_config(DEFAULT_ROOT))  # one seq_len: no adaptive_seq_len; matchers off
+    assert [one.name for one in running(experiments(conf))] == ["speed"]
+    conf = validate({**plan_once_config(DEFAULT_ROOT), "seq_lens": [2, 3], "experiments": {"speed": False}})
+    assert [one.name for one in running(experiments(conf))] == ["matchers", "adaptive_seq_len"]
+
+
+def test_a_job_record_is_made_from_the_wildcards_alone():
+    conf = validate(plan_once_config(DEFAULT_ROOT))
+    plan = preflight(conf)
+    job = experiment("speed").jobs[0]
+    assert job.wildcards == ("dataset", "seq_len", "profile")
+    assert job.output == "speed/{dataset}/L{seq_len}/{profile}.json"
+    # the configuration's default profiles, by name
+    assert job.constraints(conf, plan) == {"profile": r"0\.5x|0\.75x|1x|1\.25x|1\.5x|2x|varying"}
+    record = json.loads(job_text(job.job_record("out/r", conf, plan, {"dataset": "sample", "seq_len": "3",
+                                                                      "profile": "2x"})))
+    assert record["out"] == "out/r/speed/sample/L3/2x.json"
+    assert (record["profile"], record["seq_len"], record["tolerance"]) == ("2x", 3, 2)  # the sample's tolerance
+    assert record["train"] == {"sad": "out/r/distances/sample/sad/train.h5",
+                               "hog": "out/r/distances/sample/hog/train.h5"}
+    assert record["table"] == {"sad": "out/r/distances/sample/sad/test.h5", "hog": "out/r/distances/sample/hog/test.h5"}
+    assert job.shell_prefix == "OMP_NUM_THREADS={threads} " and job.layout
+
+
+def test_adaptive_writes_its_timing_beside_its_result_for_each_matcher_tag():
+    conf = validate({**plan_once_config(DEFAULT_ROOT), "seq_lens": [2, 3]})
+    plan = preflight(conf)
+    job = experiment("adaptive_seq_len").jobs[0]
+    assert job.patterns == ("adaptive/{dataset}/{tag}/{method}.json", "adaptive/{dataset}/{tag}/{method}.timing.json")
+    assert job.constraints(conf, plan) == {"tag": "seqslam"}  # the run's own matcher only: matchers is off
+    record = json.loads(job_text(job.job_record("o", conf, plan, {"dataset": "sample", "tag": "seqslam",
+                                                                  "method": "hog"})))
+    # per split every length's attributes, seed 0's predictor of each length (5 seeds, the default)
+    assert record["attributes"] == {split: [f"o/attributes/sample/hog/L{n}/{split}.h5" for n in (2, 3)]
+                                    for split in ("test", "val")}
+    assert record["predictors"] == ["o/predictors/sample/L2.h5", "o/predictors/sample/L3.h5"]
+
+
+@dataclass(frozen=True)
+class _Toy:
+    """A toy stage's record."""
+
+    out: str = setting(REQUIRED, "the output")
+
+
+def _toy(job: _Toy) -> None:
+    return None
+
+
+def _record(conf, plan, wildcards, files, out):
+    return _Toy(out)
+
+
+def test_an_output_names_only_known_wildcards_and_a_wildcard_without_values_matches_nothing():
+    stage = Stage("toy", "a toy", _Toy, _toy)
+    with pytest.raises(ValueError, match=r"names \['tag'\]; an output pattern may name dataset, method, seq_len"):
+        Experiment("toy", "a toy", (Job(stage, "toy/{dataset}/{tag}.json", lambda *a: {}, _record),), ())
+    job = Job(stage, "toy/{dataset}/{tag}.json", lambda *a: {}, _record,
+              wildcards_from=(Wildcard("tag", lambda conf, plan: []),))
+    assert job.wildcards == ("dataset", "tag") and job.constraints(None, None) == {"tag": "(?!)"}
+    with pytest.raises(ValueError, match="take their values from the configuration record"):
+        job.outputs({"datasets": {"d": {}}, "methods": {}, "table_seq_len": 4, "seq_lens": [4]})
+    assert Experiment("toy", "a toy", (job,), ()).rule_name(job) == "toy"
+    assert relative("/speed/{dataset}.json") == "speed/{dataset}.json"
+    with pytest.raises(ValueError, match="with the run folder ''"):
+        relative("run/speed.json")
+
+
+@dataclass(frozen=True)
+class _Aliased:
+    """A record with an option of two names."""
+
+    table: str = setting(REQUIRED, "the table split", aliases=("test",))
+
+
+def test_an_alias_is_the_same_option():
+    parser = argparse.ArgumentParser()
+    add_options(parser, _Aliased, "g")
+    for name in ("--table", "--test"):
+        assert read_options(parser.parse_args([name, "a.h5"]), _Aliased, "g") == _Aliased("a.h5")
+    assert "--table TEXT, --test TEXT" in parser.format_help()
