@@ -60,6 +60,7 @@ EXPERIMENTS: Registry[Reported] = Registry("experiment", ENTRY_POINT_GROUP, chec
 EXPERIMENTS.add_lazy("speed", "vpr_smr.pipeline.experiments.speed:EXPERIMENT")
 EXPERIMENTS.add_lazy("matchers", "vpr_smr.pipeline.experiments.matchers:EXPERIMENT")
 EXPERIMENTS.add_lazy("adaptive_seq_len", "vpr_smr.pipeline.experiments.adaptive_seq_len:EXPERIMENT")
+EXPERIMENTS.add_lazy("protocol_sweep", "vpr_smr.pipeline.experiments.protocol_sweep:EXPERIMENT")
 
 
 def builtin() -> tuple[Reported, ...]:

@@ -140,13 +140,7 @@ CORE_TABLES = (
           row=rows.HeldOutRow, make=make.make_lomo,
           page=("held_out", "seq_len", "mode", "f1_pooled", "f1_without", "removed_pooled", "removed_without",
                 names.AOC_VPR_SM, "aoc_pooled", "aoc_without", "reduction_pct_pooled", "reduction_pct_without")),
-    Table("protocol_sweep", "Protocol sweep: recall@1 and the AOC reduction of the predictor under other ground-truth "
-          "tolerances (frames) or radii (positions), from the same matches and the same seed-0 predictor (method §13)",
-          ("protocol_sweep",),
-          row=rows.SweepRow, make=make.make_sweep,
-          pivot=Pivot("threshold", ("method",), (names.REDUCTION,)),
-          caption="AOC reduction (%) per tolerance or radius (rows) and method (columns); recall@1: the figure and "
-                  "the whole table below"),
+    *own_tables("protocol_sweep"),
 )
 
 TABLES_PACKAGE = "vpr_smr.eval.report.tables"  # each of its modules declares one table (its ``TABLE``)

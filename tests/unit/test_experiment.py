@@ -23,8 +23,8 @@ from vpr_smr.pipeline.stages.studies import ADAPTIVE, COMPARE_MATCHERS, SPEED
 
 
 def test_the_built_in_experiments_are_registered_by_name_and_are_no_plugins():
-    assert reported.EXPERIMENTS.builtins() == ["speed", "matchers", "adaptive_seq_len"]
-    assert [one.name for one in reported.builtin()] == ["speed", "matchers", "adaptive_seq_len"]
+    assert reported.EXPERIMENTS.builtins() == ["speed", "matchers", "adaptive_seq_len", "protocol_sweep"]
+    assert [one.name for one in reported.builtin()] == ["speed", "matchers", "adaptive_seq_len", "protocol_sweep"]
     assert not {"speed", "matchers", "adaptive_seq_len"} & {one.name for one in reported.installed()}
     # their stages are the command line's own (pipeline.stages): not installed a second time as a plugin's
     assert not {SPEED, COMPARE_MATCHERS, ADAPTIVE} & set(plugin_stages())
@@ -49,9 +49,11 @@ def test_the_configuration_switches_a_built_in_experiment_by_its_key():
     from vpr_smr.pipeline.config import experiments
 
     conf = validate(plan_once_config(DEFAULT_ROOT))  # one seq_len: no adaptive_seq_len; matchers off
-    assert [one.name for one in running(experiments(conf))] == ["speed"]
-    conf = validate({**plan_once_config(DEFAULT_ROOT), "seq_lens": [2, 3], "experiments": {"speed": False}})
+    assert [one.name for one in running(experiments(conf))] == ["speed", "protocol_sweep"]
+    conf = validate({**plan_once_config(DEFAULT_ROOT), "seq_lens": [2, 3],
+                     "experiments": {"speed": False, "protocol_sweep": False}})
     assert [one.name for one in running(experiments(conf))] == ["matchers", "adaptive_seq_len"]
+    assert experiment("protocol_sweep").jobs == ()  # its table's rows are the VPR metrics jobs' (no rule of its own)
 
 
 def test_a_job_record_is_made_from_the_wildcards_alone():
