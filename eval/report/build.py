@@ -241,7 +241,7 @@ def _tables(out_dir: Path, inputs: Inputs, notes: dict[str, str]) -> list[Writte
                              spec.suffixes, notes=notes, protocols=inputs.protocols if spec.protocol else {},
                              markdown=spec.markdown(made, inputs) if spec.markdown is not None else None,
                              latex=spec.latex(made, inputs) if spec.latex is not None else None)
-        written.append(WrittenTable(spec.name, columns, tuple(rows), tuple(files),
+        written.append(WrittenTable(spec.name, columns, tuple(made), tuple(files),
                                     None if title == spec.title else title))
     return written
 

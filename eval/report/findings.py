@@ -16,6 +16,7 @@ import numpy as np
 from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import Comparison, DetectionComparison
+from vpr_smr.eval.report.rows import Table1Row, cells
 from vpr_smr.eval.report.table1 import UNDEFINED, Table1Block
 from vpr_smr.eval.scoring.curves import AGAINST_SIGN, HOLDS_ZERO, NO_INTERVAL, NOTHING_TO_REDUCE, UNCHANGED
 from vpr_smr.eval.scoring.intervals import Interval
@@ -47,27 +48,23 @@ def listed(items: Sequence[str]) -> str:
     return ", ".join(items[:-1]) + " and " + items[-1]
 
 
-def _seed_part(row: dict[str, Any]) -> str | None:
+def _seed_part(row: Table1Row) -> str | None:
     """``method mean ± std %`` over the seeds (and how many, with the seeds left out and why, when only some are
     defined); None when undefined."""
-    mean, std = row.get(names.REDUCTION_MEAN), row.get("reduction_pct_std")
+    mean, std = row.reduction_pct_mean, row.reduction_pct_std
     if mean is None:
         return None
-    n_seeds = row["n_seeds"]
-    defined = row.get("n_seeds_defined", n_seeds)
     spread = "" if std is None else f" ± {std:.1f}"
-    part = f"{row['method']} {mean:.1f}{spread} %"
-    if defined == n_seeds:
+    part = f"{row.method} {mean:.1f}{spread} %"
+    if row.n_seeds_defined == row.n_seeds:
         return part
-    left_out = row.get("seeds_left_out", "")
-    return f"{part} ({defined} of {n_seeds} seeds{'; ' + left_out if left_out else ''})"
+    left_out = row.seeds_left_out
+    return f"{part} ({row.n_seeds_defined} of {row.n_seeds} seeds{'; ' + left_out if left_out else ''})"
 
 
 def _seed_sentences(block: Table1Block) -> list[str]:
-    if not block.has_seeds:
-        return []
     rows = block.rows
-    n_seeds = int(rows[0]["n_seeds"])
+    n_seeds = rows[0].n_seeds
     if n_seeds == 1:
         return ["One predictor seed was run, so there is no spread over seeds."]
     parts = [(row, _seed_part(row)) for row in rows]
@@ -79,53 +76,60 @@ def _seed_sentences(block: Table1Block) -> list[str]:
     # numbers only: the seeds' spread measures training, not the queries, so no direction is claimed from it
     text = f"Over {n_seeds} predictor seeds (mean ± sample standard deviation) the reduction is {listed(shown)}"
     if undefined:
-        text += f"; it is undefined for {listed([str(r['method']) for r in undefined])}" + _why_undefined(undefined)
+        text += f"; it is undefined for {listed([r.method for r in undefined])}" + _why_undefined(undefined)
     return [text + "."]
 
 
-def _why_undefined(rows: Sequence[dict[str, Any]]) -> str:
+def _why_undefined(rows: Sequence[Table1Row]) -> str:
     """`` (a: seeds 0, 1: removed every match)``: which seeds are left out and why, per method."""
-    reasons = [f"{r['method']}: {r['seeds_left_out']}" for r in rows if r.get("seeds_left_out")]
+    reasons = [f"{r.method}: {r.seeds_left_out}" for r in rows if r.seeds_left_out]
     return f" ({'; '.join(reasons)})" if reasons else ""
 
 
-def _verdict(row: dict[str, Any]) -> str:
+def _verdict(row: Table1Row) -> str:
     """What a method's seed-0 reduction says, by its interval (``outcome_words.direction``): ``better``,
     ``worse``, ``same`` (unchanged), or ``earned``'s code for no direction: ``HOLDS_ZERO``, ``AGAINST_SIGN``
     (the interval points against the estimate) or ``NO_INTERVAL``."""
-    found = words.direction(row)
+    found = words.direction(cells(row))
     if found is None:
         return NO_INTERVAL
     if found:
         return "better" if found > 0 else "worse"
-    if row.get("outcome") == UNCHANGED:
+    if row.outcome == UNCHANGED:
         return "same"
-    return HOLDS_ZERO if bounds.sign(row, names.REDUCTION) == 0 else AGAINST_SIGN
+    return HOLDS_ZERO if row.reduction_pct_ci is not None and row.reduction_pct_ci.sign() == 0 else AGAINST_SIGN
 
 
-def _queries(rows: Sequence[dict[str, Any]]) -> str:
+def _queries(rows: Sequence[Table1Row]) -> str:
     """The queries the rows' numbers are over: ``28``, or ``28-31`` where the methods differ."""
-    return _span_of([r.get("n_queries") for r in rows])
+    return _span_of([r.n_queries for r in rows])
 
 
-def no_direction(row: dict[str, Any], split: str) -> str:
+def _reduction(row: Table1Row) -> float:
+    """The seed-0 reduction of a row that is not degenerate (``outcome_words.is_degenerate``): defined."""
+    if row.reduction_pct is None:
+        raise ValueError(f"{row.method}: its reduction is undefined ({row.outcome}) but its outcome says not")
+    return row.reduction_pct
+
+
+def no_direction(row: Table1Row, split: str) -> str:
     """The sentence of a method whose reduction's interval earns no direction: the fact (it holds 0, with the
     queries it is over; there is none; it lies against the estimate's sign), never a guess at why."""
     n = _queries([row])
-    interval = bounds.of(row, names.REDUCTION)
-    of = f"{row['method']}'s reduction"
+    interval = row.reduction_pct_ci
+    of = f"{row.method}'s reduction"
     if interval is None:
         on = f"On the {split} split's {n} queries" if n else f"On the {split} split"
-        return f"{on} {of} of {signed(float(row[names.REDUCTION]))} has no interval, so it names no direction."
+        return f"{on} {of} of {signed(_reduction(row))} has no interval, so it names no direction."
     if interval.sign() == 0:
         return f"On the {split} split, {bounds.holds_zero(interval, of, n)}, so it names no direction."
     return (f"On the {split} split, the {bounds.LEVEL} interval of {of} {bounds.bracket(interval, '.1f')} lies on "
-            f"the other side of 0 from its estimate {signed(float(row[names.REDUCTION]))}"
+            f"the other side of 0 from its estimate {signed(_reduction(row))}"
             f"{f' ({n} queries)' if n else ''}, so it names no direction.")
 
 
-def _with_span(row: dict[str, Any], text: str) -> str:
-    interval = bounds.of(row, names.REDUCTION)
+def _with_span(row: Table1Row, text: str) -> str:
+    interval = row.reduction_pct_ci
     return text if interval is None else f"{text} (interval {bounds.span(interval)})"
 
 
@@ -137,22 +141,22 @@ def sentences(block: Table1Block, split: str) -> list[str]:
     every match) gets its own sentence saying what happened (``outcome_words``) and counts as not improved."""
     rows = block.rows
     where = f"On {block.dataset} ({split} split, L = {block.seq_len}, {block.mode} mode, seed-0 predictor)"
-    plain = [r for r in rows if not words.is_degenerate(r)]
-    degenerate = [r for r in rows if words.is_degenerate(r)]
-    verdicts = {str(r["method"]): _verdict(r) for r in plain}
-    better = sorted((r for r in plain if verdicts[str(r["method"])] == "better"), key=lambda r: -r[names.REDUCTION])
-    worse = sorted((r for r in plain if verdicts[str(r["method"])] == "worse"), key=lambda r: r[names.REDUCTION])
-    same = [str(r["method"]) for r in plain if verdicts[str(r["method"])] == "same"]
-    untold = [r for r in plain if verdicts[str(r["method"])] in words.UNEARNED]
+    plain = [r for r in rows if not words.is_degenerate(cells(r))]
+    degenerate = [r for r in rows if words.is_degenerate(cells(r))]
+    verdicts = {r.method: _verdict(r) for r in plain}
+    better = sorted((r for r in plain if verdicts[r.method] == "better"), key=lambda r: -_reduction(r))
+    worse = sorted((r for r in plain if verdicts[r.method] == "worse"), key=_reduction)
+    same = [r.method for r in plain if verdicts[r.method] == "same"]
+    untold = [r for r in plain if verdicts[r.method] in words.UNEARNED]
     out = []
-    if degenerate and all(r.get("outcome") == NOTHING_TO_REDUCE and not words.lowered_recall(r) for r in rows):
-        whose = f"{rows[0]['method']}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
+    if degenerate and all(r.outcome == NOTHING_TO_REDUCE and not words.lowered_recall(cells(r)) for r in rows):
+        whose = f"{rows[0].method}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
         out.append(f"{where} {whose} {AOC} is already 0 without the predictor: there is nothing to reduce, so the "
                    "reduction is undefined.")
         return out + _seed_sentences(block)
     if len(rows) == 1 and plain:
         row = rows[0]
-        method, value = str(row["method"]), float(row[names.REDUCTION])
+        method, value = row.method, _reduction(row)
         verdict = verdicts[method]
         if verdict == "better":
             out.append(_with_span(row, f"{where} the predictor reduced {method}'s {AOC} by {size(value)}") + ".")
@@ -164,24 +168,24 @@ def sentences(block: Table1Block, split: str) -> list[str]:
         else:
             out += [f"{where} {method}'s reduction is {signed(value)}.", no_direction(row, split)]
     elif len(rows) == 1:
-        out.append(f"{where}, for {rows[0]['method']}, {words.note(rows[0])}.")
+        out.append(f"{where}, for {rows[0].method}, {words.note(cells(rows[0]))}.")
     else:
         if better:
             clauses = [f"reduced the {AOC} for {len(better)} of {methods(len(rows))}: "
-                       + ", ".join(_with_span(r, f"{r['method']} by {size(r[names.REDUCTION])}") for r in better)]
+                       + ", ".join(_with_span(r, f"{r.method} by {size(_reduction(r))}") for r in better)]
         else:
             clauses = [f"reduced the {AOC} for none of the {len(rows)} methods"]
         if worse:
-            clauses.append("it made " + listed([_with_span(r, f"{r['method']}'s {size(r[names.REDUCTION])}")
+            clauses.append("it made " + listed([_with_span(r, f"{r.method}'s {size(_reduction(r))}")
                                                 for r in worse]) + " worse")
         if same:
             clauses.append("it left " + listed([f"{m}'s" for m in same]) + " unchanged")
         if untold:
-            clauses.append("no direction for " + listed([str(r["method"]) for r in untold]) + " (below)")
+            clauses.append("no direction for " + listed([r.method for r in untold]) + " (below)")
         out.append(f"{where} the predictor " + "; ".join(clauses) + ".")
         out += [no_direction(r, split) for r in untold]
-        out += [f"For {r['method']}, {words.note(r)}." for r in degenerate]
-        defined = [float(r[names.REDUCTION]) for r in rows if r[names.REDUCTION] is not None]
+        out += [f"For {r.method}, {words.note(cells(r))}." for r in degenerate]
+        defined = [r.reduction_pct for r in rows if r.reduction_pct is not None]
         if len(defined) > 1:
             these = "these" if len(defined) < len(rows) else "the"
             out.append(f"The mean reduction over {these} {len(defined)} methods is {signed(float(np.mean(defined)))} "
@@ -200,13 +204,12 @@ def headline(block: Table1Block, split: str) -> str:
     they say (a direction only where the interval excludes 0)."""
     parts = []
     for row in block.rows:
-        method = str(row["method"])
-        if words.is_degenerate(row):
-            parts.append(f"{method} {UNDEFINED if row.get(names.REDUCTION) is None else signed(row[names.REDUCTION])}"
-                         f", {words.SHORT[str(row['outcome'])]}")
+        if words.is_degenerate(cells(row)):
+            parts.append(f"{row.method} {UNDEFINED if row.reduction_pct is None else signed(row.reduction_pct)}"
+                         f", {words.SHORT[row.outcome]}")
             continue
-        interval = bounds.bracket(bounds.of(row, names.REDUCTION), ".1f")
-        parts.append(f"{method} {signed(float(row[names.REDUCTION]))} {interval}, {VERDICT[_verdict(row)]}")
+        interval = bounds.bracket(row.reduction_pct_ci, ".1f")
+        parts.append(f"{row.method} {signed(_reduction(row))} {interval}, {VERDICT[_verdict(row)]}")
     n = _queries(block.rows)
     queries = f"{n} {split} queries" if n else f"{split} split"
     return (f"{block.dataset} ({queries}, L = {block.seq_len}, {block.mode} mode): the seed-0 predictor's AOC "
@@ -325,7 +328,7 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
     if changes:
         return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}.", *untold]
     if not _any_sign(rows):
-        n = _queries(rows)
+        n = _span_of([r.get("n_queries") for r in rows])
         return [f"{where}, every {bounds.LEVEL} interval of the predictor's AOC reduction and of sequence matching's "
                 f"change of recall@1 holds 0 or is missing{f' ({n} queries)' if n else ''}: no sign is named at any "
                 "tolerance, so whether a conclusion depends on the ground truth is not told."]
@@ -397,7 +400,7 @@ def _untold(rows: Sequence[dict[str, Any]]) -> list[str]:
                 parts.append(f"{name}, {what} at {where}{' frames' if kind == 'frames' else ''}")
     if not parts:
         return []
-    n = _queries(rows)
+    n = _span_of([r.get("n_queries") for r in rows])
     over = f" ({n} queries)" if n else ""
     return [f"No sign is named where the {bounds.LEVEL} interval holds 0 or is missing{over}: {'; '.join(parts)}."]
 # --- the training-free baselines (method §12) -------------------------------------------------------------------

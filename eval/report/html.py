@@ -18,7 +18,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from datetime import UTC, datetime
 from functools import cache
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from vpr_smr.core.citation import how_to_cite
 from vpr_smr.core.io import atomic_path, package_version, read_provenance
@@ -47,6 +47,8 @@ from vpr_smr.eval.report.results import (
     unique,
 )
 from vpr_smr.eval.report.rows import Column as TableColumn
+from vpr_smr.eval.report.rows import PredictorRow, Table1Row
+from vpr_smr.eval.report.rows import cells as row_cells
 from vpr_smr.eval.report.sections import INSPECTOR_FIGURES, Declared, Rows
 from vpr_smr.eval.report.table1 import (
     ROW_NAMES,
@@ -82,6 +84,7 @@ from vpr_smr.eval.scoring import scorers as scorer_registry
 TEMPLATES = Path(__file__).resolve().parent / "templates"
 PROSE = "sections.yaml"  # the sections' intros (``prose``), beside the page's template
 TEMPLATE = "report.html.j2"
+R = TypeVar("R")  # a table's row record (``_Builder.records``)
 DESCRIPTOR_KEYS = ("dataset", "method", "checkpoint_sha256", "frames_sha256", "vpr_smr_version")
 # What another machine may change, measured on the demo (docs/method.md §7.5); shown in the provenance section
 ACROSS_MACHINES = ("SAD's and HOG's descriptors are the same bytes on every CPU, and the predictor's training "
@@ -263,29 +266,28 @@ def table1_view(block: Table1Block, table_id: str) -> TableView:
         if i == 2 and note:
             row[-1] = Cell(row[-1].text + note, row[-1].sort, row[-1].kind)
         rows.append((text_cell(name, header=True), *row, text_cell(improved if i == 2 else "")))
-    if block.has_seeds:
-        texts, last = block.seed_cells()
-        # the seeds' spread is no interval over queries: the means are not coloured
-        kinds = ["na" if r.get("reduction_pct_mean") is None else "num" for r in block.rows] + ["num"]
-        rows.append((text_cell(SEED_ROW_NAME, header=True),
-                     *(Cell(t, kind=k) for t, k in zip(texts, kinds, strict=True)), text_cell(last)))
+    texts, last = block.seed_cells()
+    # the seeds' spread is no interval over queries: the means are not coloured
+    kinds = ["na" if r.reduction_pct_mean is None else "num" for r in block.rows] + ["num"]
+    rows.append((text_cell(SEED_ROW_NAME, header=True),
+                 *(Cell(t, kind=k) for t, k in zip(texts, kinds, strict=True)), text_cell(last)))
     undefined = any(c.text.startswith(UNDEFINED) for row in rows for c in row)
     below = [*notes(block.rows), *([UNDEFINED_NOTE] if undefined else [])]
     return TableView(table_id, head, tuple(rows), note=" ".join(below), sortable=False, css="paper table1")
 
 
-def _reduction_kind(row: dict[str, Any], kind: str) -> str:
+def _reduction_kind(row: Table1Row, kind: str) -> str:
     """A reduction cell's class: ``up``/``down`` only where ``outcome_words.direction`` says so, else neutral."""
     if kind not in ("up", "down"):
         return kind
-    return {1: "up", -1: "down"}.get(words.direction(row) or 0, "num")
+    return {1: "up", -1: "down"}.get(words.direction(row_cells(row)) or 0, "num")
 
 
 def predictor_warnings(predictor: WrittenTable | None, dataset: str, seq_len: int) -> list[str]:
     """The warning of the predictor table's row of ``dataset`` at ``seq_len`` as a sentence (none without one)."""
-    rows = _where(predictor.rows if predictor is not None else (), dataset=dataset, seq_len=seq_len)
-    return [f"Warning: the predictor of {dataset} at L = {seq_len} cannot be trusted: {row['warning']}."
-            for row in rows if row.get("warning")]
+    rows = predictor.of(PredictorRow) if predictor is not None else ()
+    return [f"Warning: the predictor of {dataset} at L = {seq_len} cannot be trusted: {row.warning}."
+            for row in rows if (row.dataset, row.seq_len) == (dataset, seq_len) and row.warning]
 
 
 def findings(table1: WrittenTable | None, split: str, predictor: WrittenTable | None = None) -> tuple[Finding, ...]:
@@ -293,7 +295,7 @@ def findings(table1: WrittenTable | None, split: str, predictor: WrittenTable | 
     if table1 is None:
         return ()
     out = []
-    for block in table1_blocks(table1.rows):
+    for block in table1_blocks(table1.of(Table1Row)):
         title = f"Table I: {block.dataset} · {split} split · L = {block.seq_len} · {block.mode} mode"
         warned = predictor_warnings(predictor, block.dataset, block.seq_len)
         out.append(Finding(title, (*warned, *sentences(block, split)),
@@ -326,6 +328,12 @@ class _Builder:
         table = self.tables.get(name)
         return table.rows if table else ()
 
+    def records(self, name: str, row_type: type[R]) -> tuple[R, ...]:
+        """The rows of the registered table ``name`` as its records (``row_type``: its row record); none when the
+        run did not write it."""
+        table = self.tables.get(name)
+        return table.of(row_type) if table else ()
+
     def folded(self, *names: str) -> tuple[Folded, ...]:
         return tuple(folded(self.tables[n], self.run_dir) for n in names if n in self.tables)
 
@@ -352,7 +360,7 @@ class _Builder:
 
     def table_lens(self) -> set[int]:
         """Table I's sequence lengths (the per-L figures'); every L when there is no Table I."""
-        return {int(r["seq_len"]) for r in self.rows("table1")}
+        return {r.seq_len for r in self.records("table1", Table1Row)}
 
     def keys(self, rows: Iterable[dict[str, Any]]) -> list[tuple[str, int]]:
         """The (dataset, L) of ``rows``, in the configuration's order."""
@@ -743,7 +751,7 @@ def build_page(
     by_name = {t.name: t for t in tables}
     general, files = provenance_rows(provenance, descriptor_paths)
     version = str(general["vpr_smr_version"])
-    lens = sorted({int(r["seq_len"]) for r in by_name["table1"].rows}) if "table1" in by_name else []
+    lens = sorted({r.seq_len for r in by_name["table1"].of(Table1Row)}) if "table1" in by_name else []
     run = config.get("run") if isinstance(config, dict) else None
     subtitle = " · ".join([
         *([f"run {run}"] if run else []), f"vpr-smr {version}", *([f"{split} split"] if split else []),

@@ -7,13 +7,15 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from vpr_smr.core.constants import MODES
 from vpr_smr.eval.predictor.defaults import validation_split
 
 if TYPE_CHECKING:  # the rows module imports this module
-    from vpr_smr.eval.report.rows import Column
+    from vpr_smr.eval.report.rows import Column, Row
+
+R = TypeVar("R")
 
 
 def unique(values: Iterable[str]) -> tuple[str, ...]:
@@ -113,14 +115,28 @@ class Order:
 @dataclass(frozen=True)
 class WrittenTable:
     """A registered table as written: its columns (the registry's, one per split where it declares so), its rows
-    (the CSV's, unrounded), its files (CSV first) and its title where it is not the registry's (one naming the run's
-    splits)."""
+    as made (``records``: its row records, ``rows``), its files (CSV first) and its title where it is not the
+    registry's (one naming the run's splits)."""
 
     name: str
     columns: tuple[Column, ...]
-    rows: tuple[dict[str, Any], ...]
+    records: tuple[Row, ...]
     files: tuple[Path, ...]
     title: str | None = None
+
+    @property
+    def rows(self) -> tuple[dict[str, Any], ...]:
+        """The rows as the CSV holds them (unrounded): each column's value by name (``rows.cells``)."""
+        from vpr_smr.eval.report.rows import cells  # the rows module imports this module
+
+        return tuple(cells(row) for row in self.records)
+
+    def of(self, row_type: type[R]) -> tuple[R, ...]:
+        """The rows as their records, typed: ``row_type`` is the table's (``registry.Table.row``)."""
+        found = tuple(row for row in self.records if isinstance(row, row_type))
+        if len(found) != len(self.records):
+            raise TypeError(f"table {self.name!r}: its rows are not {row_type.__name__} records")
+        return found
 
 
 @dataclass(frozen=True)

@@ -1,9 +1,8 @@
 """Table I (method §10): the area over the PR curve at max recall per dataset and method, with and without the
 predictor, in the paper's layout (methods as columns, then Mean and Improved) for Markdown, LaTeX and the HTML page.
 
-The rows are the CSV's (``table1_rows``: one per dataset, method, L and mode, in the configuration's order; its
-columns are declared in ``registry``); ``table1_blocks`` groups them into the paper's tables, one per dataset, mode
-and L.
+The rows are the CSV's records (``table1_rows``: ``rows.Table1Row``, one per dataset, method, L and mode, in the
+configuration's order); ``table1_blocks`` groups them into the paper's tables, one per dataset, mode and L.
 """
 
 from __future__ import annotations
@@ -18,7 +17,9 @@ from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.results import Order, Splits
 from vpr_smr.eval.report.rows import Table1Row
+from vpr_smr.eval.report.rows import cells as row_cells
 from vpr_smr.eval.scoring.curves import NO_INTERVAL
+from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.records import Evaluation
 
 UNDEFINED = "n/a"  # a reduction whose baseline AOC is 0: JSON null, an empty CSV cell
@@ -35,10 +36,6 @@ IMPROVED_NOTE = f"Improved: the methods whose seed-0 reduction has its {bounds.L
 def is_reduction(column: str) -> bool:
     """A column of AOC reductions, undefined where the AOC reduced is 0."""
     return names.REDUCTION in column
-
-
-# the numbers of the three rows, with their intervals
-INTERVALS = (names.AOC_VPR_SM, names.AOC_VPR_SM_PRED, names.REDUCTION)
 
 
 def table1_rows(evaluations: Sequence[Evaluation], split: str | None = None,
@@ -61,11 +58,11 @@ def evaluation_order(evaluations: Sequence[Evaluation], methods: Sequence[str] =
     return Order.of((e.meta for e in evaluations), modes, methods)
 
 
-def _groups(rows: list[dict[str, Any]]) -> dict[tuple[str, int], dict[str, list[dict[str, Any]]]]:
+def _groups(rows: Sequence[Table1Row]) -> dict[tuple[str, int], dict[str, list[Table1Row]]]:
     """(mode, seq_len) -> dataset -> rows (one per method), each in the order of ``rows``."""
-    groups: dict[tuple[str, int], dict[str, list[dict[str, Any]]]] = {}
+    groups: dict[tuple[str, int], dict[str, list[Table1Row]]] = {}
     for row in rows:
-        groups.setdefault((row["mode"], row["seq_len"]), {}).setdefault(row["dataset"], []).append(row)
+        groups.setdefault((row.mode, row.seq_len), {}).setdefault(row.dataset, []).append(row)
     return groups
 
 
@@ -73,81 +70,78 @@ def _defined(values: Iterable[float | None]) -> list[float]:
     return [v for v in values if v is not None]
 
 
-def _reduction_mean(rows: Sequence[dict[str, Any]], key: str = names.REDUCTION) -> tuple[float | None, str]:
-    """The mean of the rows' defined ``key`` (the seed-0 reductions) and, when some are undefined, the methods it
-    is over, named."""
-    over = [r for r in rows if r.get(key) is not None]
-    mean = float(np.mean([r[key] for r in over])) if over else None
+def _reduction_mean(rows: Sequence[Table1Row]) -> tuple[float | None, str]:
+    """The mean of the rows' defined seed-0 reductions and, when some are undefined, the methods it is over,
+    named."""
+    over = [r for r in rows if r.reduction_pct is not None]
+    mean = float(np.mean([r.reduction_pct for r in over])) if over else None
     # over some of the methods: name them; over none there is no mean, and n/a says so
     note = "" if len(over) in (0, len(rows)) else f" (mean over {len(over)} of {len(rows)} methods: {_names(over)})"
     return mean, note
 
 
-def _names(rows: Iterable[dict[str, Any]]) -> str:
-    return ", ".join(str(r["method"]) for r in rows)
+def _names(rows: Iterable[Table1Row]) -> str:
+    return ", ".join(r.method for r in rows)
 
 
-def _improved(rows: Sequence[dict[str, Any]]) -> str:
+def _improved(rows: Sequence[Table1Row]) -> str:
     """How many of all the methods improve: a method whose seed-0 reduction's interval lies above 0
     (``outcome_words.direction``); one whose reduction is undefined, or whose interval holds 0, counts as not
     improved, and those with an estimate but no interval are counted beside (``k / n (m without an interval)``)."""
-    directions = [words.direction(r) for r in rows]
+    directions = [words.direction(row_cells(r)) for r in rows]
     missing = directions.count(None)
     return f"{directions.count(1)} / {len(rows)}" + (f" ({missing} without an interval)" if missing else "")
 
 
-def _summary(rows: list[dict[str, Any]]) -> tuple[list[list[float | None]], str, str]:
+def _summary(rows: Sequence[Table1Row]) -> tuple[list[list[float | None]], str, str]:
     """Per-method values of the three table rows with their mean appended, the note saying how many methods the
     means are over (empty when all), and the methods improved. The reduction's mean is over the methods where it is
     defined; the AOCs' over those whose AOCs are taken at a recall above 0 (``outcome_words.at_recall_zero``: both
     are 0 there, which is no AOC to average)."""
-    reductions = [r[names.REDUCTION] for r in rows]
+    reductions = [r.reduction_pct for r in rows]
     mean, note = _reduction_mean(rows)
-    counted = [not words.at_recall_zero(r) for r in rows]
-    values = [[r[names.AOC_VPR_SM] for r in rows], [r[names.AOC_VPR_SM_PRED] for r in rows]]
+    counted = [not words.at_recall_zero(row_cells(r)) for r in rows]
+    values: list[list[float | None]] = [[r.aoc_vpr_sm for r in rows], [r.aoc_vpr_sm_pred for r in rows]]
     means = [float(np.mean([v for v, c in zip(row, counted, strict=True) if c])) if any(counted) else None
              for row in values]
     return ([row + [m] for row, m in zip(values, means, strict=True)] + [reductions + [mean]], note,
             _improved(rows))
 
 
-def cells(rows: Sequence[dict[str, Any]], summary: list[list[float | None]], row: int, fmt: str) -> list[str]:
+def cells(rows: Sequence[Table1Row], summary: list[list[float | None]], row: int, fmt: str) -> list[str]:
     """The texts of one of Table I's three rows (``row`` 0, 1, 2: VPR+SM, VPR+SM+Pred, Reduction) per method and
     Mean, numbers formatted with ``fmt`` (a format spec), each method's number with its interval (``bounds``) and
     its cell saying in words where a number would mislead (``outcome_words``)."""
     method_cell = (words.baseline_cell, words.predictor_cell, words.reduction_cell)[row]
-    texts = [method_cell(r, _with_interval(v, r, INTERVALS[row], fmt))
-             for r, v in zip(rows, summary[row][:-1], strict=True)]
+    intervals = [(r.aoc_vpr_sm_ci, r.aoc_vpr_sm_pred_ci, r.reduction_pct_ci)[row] for r in rows]
+    texts = [method_cell(row_cells(r), _with_interval(v, interval, fmt))
+             for r, v, interval in zip(rows, summary[row][:-1], intervals, strict=True)]
     return texts + [_number(summary[row][-1], fmt) + (_aoc_mean_note(rows) if row < 2 else "")]
 
 
-def _with_interval(value: float | None, row: dict[str, Any], name: str, fmt: str) -> str:
-    """A method's number and its interval; ``n/a`` alone where the number is undefined."""
-    return UNDEFINED if value is None else bounds.with_interval(_number(value, fmt), row, name, fmt)
+def _with_interval(value: float | None, interval: Interval | None, fmt: str) -> str:
+    """A method's number and its interval (``[n/a]`` without one); ``n/a`` alone where the number is undefined."""
+    return UNDEFINED if value is None else f"{_number(value, fmt)} {bounds.bracket(interval, fmt)}"
 
 
-def _aoc_mean_note(rows: Sequence[dict[str, Any]]) -> str:
+def _aoc_mean_note(rows: Sequence[Table1Row]) -> str:
     """`` (mean over k of n methods: a, b)`` when some methods' AOCs are left out of the AOC rows' Mean."""
-    counted = [r for r in rows if not words.at_recall_zero(r)]
+    counted = [r for r in rows if not words.at_recall_zero(row_cells(r))]
     return "" if len(counted) in (0, len(rows)) else (
         f" (mean over {len(counted)} of {len(rows)} methods: {_names(counted)})")
 
 
-def notes(rows: Sequence[dict[str, Any]]) -> list[str]:
+def notes(rows: Sequence[Table1Row]) -> list[str]:
     """One sentence per method whose seed-0 predictor was degenerate (``outcome_words.note``)."""
-    return [f"{r['method']}: {words.note(r)}." for r in rows if words.is_degenerate(r)]
+    return [f"{r.method}: {words.note(row_cells(r))}." for r in rows if words.is_degenerate(row_cells(r))]
 
 
-def _has_seeds(rows: list[dict[str, Any]]) -> bool:
-    return all(r.get("n_seeds") is not None for r in rows)
-
-
-def _every_seed(row: dict[str, Any]) -> bool:
+def _every_seed(row: Table1Row) -> bool:
     """Every seed's reduction is defined: the row's mean is a mean of all ``n_seeds`` seeds."""
-    return row.get(names.REDUCTION_MEAN) is not None and row.get("n_seeds_defined", row["n_seeds"]) == row["n_seeds"]
+    return row.reduction_pct_mean is not None and row.n_seeds_defined == row.n_seeds
 
 
-def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
+def _seed_cells(rows: Sequence[Table1Row]) -> tuple[list[str], str]:
     """``mean ± std`` per method (``n/a`` where no seed's reduction is defined, the std ``n/a`` over fewer than two
     seeds, the seeds counted, and those left out named with the reason, where only some are), their Mean, and in
     the Improved column ``no interval (n seeds)``: the spread over seeds has no interval, so it names no direction.
@@ -156,27 +150,26 @@ def _seed_cells(rows: list[dict[str, Any]]) -> tuple[list[str], str]:
     (named where some are left out); where it and the seed-0 Mean above differ in sign, it says why."""
     texts = []
     for r in rows:
-        left_out = r.get("seeds_left_out", "")
-        if r.get(names.REDUCTION_MEAN) is None:
+        left_out = r.seeds_left_out
+        if r.reduction_pct_mean is None:
             texts.append(f"{UNDEFINED}: {left_out}" if left_out else UNDEFINED)
             continue
-        defined = r.get("n_seeds_defined", r["n_seeds"])
         why = f"; {left_out}" if left_out else ""
-        part = "" if defined == r["n_seeds"] else f" ({defined} of {r['n_seeds']} seeds{why})"
-        std = r.get("reduction_pct_std")  # None under two defined seeds (evaluate.seed_summary), shown n/a
-        texts.append(f"{r['reduction_pct_mean']:.2f}{PLUS_MINUS}{UNDEFINED if std is None else f'{std:.2f}'}{part}")
-    n_seeds = rows[0].get("n_seeds", "")
+        part = "" if r.n_seeds_defined == r.n_seeds else f" ({r.n_seeds_defined} of {r.n_seeds} seeds{why})"
+        std = r.reduction_pct_std  # None under two defined seeds (evaluate.seed_summary), shown n/a
+        texts.append(f"{r.reduction_pct_mean:.2f}{PLUS_MINUS}{UNDEFINED if std is None else f'{std:.2f}'}{part}")
+    n_seeds = rows[0].n_seeds
     full = [r for r in rows if _every_seed(r)]
-    mean = float(np.mean([r[names.REDUCTION_MEAN] for r in full])) if full else None
+    mean = float(np.mean([r.reduction_pct_mean for r in full])) if full else None
     if mean is None:
         note = f" (no method has all {n_seeds} seeds' reductions defined)" if any(
-            r.get(names.REDUCTION_MEAN) is not None for r in rows) else ""
+            r.reduction_pct_mean is not None for r in rows) else ""
     else:
         parts = [] if len(full) == len(rows) else [
             f"mean over {len(full)} of {len(rows)} methods, those with all {n_seeds} seeds: {_names(full)}"]
         seed0, _ = _reduction_mean(rows)
         if seed0 is not None and seed0 * mean < 0:
-            over = [r for r in rows if r.get(names.REDUCTION) is not None]
+            over = [r for r in rows if r.reduction_pct is not None]
             parts.append(f"opposite in sign to the seed-0 Mean {seed0:.2f}, which is seed 0's predictor alone over "
                          f"{_names(over)}, this one every seed's over {_names(full)}")
         note = f" ({'; '.join(parts)})" if parts else ""
@@ -187,14 +180,14 @@ def _number(value: float | None, fmt: str) -> str:
     return UNDEFINED if value is None else f"{value:{fmt}}"
 
 
-def _query_note(datasets: dict[str, list[dict[str, Any]]], split: str | None, mode: str) -> str:
+def _query_note(datasets: dict[str, list[Table1Row]], split: str | None, mode: str) -> str:
     """Per dataset: the queries the table is over (those with a sequence match) and, in paper mode, the split's
     every query, which single-frame recall@1 is over."""
     parts = []
     for dataset, rows in datasets.items():
-        n = _span(r.get("n_queries") for r in rows)
-        single = _span(r.get("n_queries_single") for r in rows)
-        if n:  # files written before the counts were recorded have none
+        n = _span(r.n_queries for r in rows)
+        single = _span(r.n_queries_single for r in rows)
+        if n:
             text = f"{dataset}: {n} queries with a sequence match"
             if single and single != n:
                 text += f" (single-frame recall@1 over all {single} of the split)"
@@ -203,15 +196,15 @@ def _query_note(datasets: dict[str, list[dict[str, Any]]], split: str | None, mo
     return f"{named}{mode} mode: " + "; ".join(parts) if parts else ""
 
 
-def _span(values: Iterable[Any]) -> str:
-    """One value, ``lo-hi`` when the methods differ, or empty for files without the count."""
-    known = sorted({int(v) for v in values if v is not None})
+def _span(values: Iterable[int]) -> str:
+    """One value, ``lo-hi`` when the methods differ; empty for no row."""
+    known = sorted(set(values))
     if not known:
         return ""
     return str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
 
 
-def table1_markdown(rows: list[dict[str, Any]], split: str | None = None) -> str:
+def table1_markdown(rows: Sequence[Table1Row], split: str | None = None) -> str:
     """Table I as markdown; ``split``: the table split the rows are of, named in the title and notes."""
     named = f" ({split} split)" if split else ""
     out = [f"# Table I: area over the precision-recall curve at max recall{named}", "",
@@ -219,7 +212,7 @@ def table1_markdown(rows: list[dict[str, Any]], split: str | None = None) -> str
            "Reduction over seeds: mean ± sample standard deviation over the predictor seeds. " + IMPROVED_NOTE, ""]
     undefined = False
     for (mode, seq_len), datasets in _groups(rows).items():
-        methods = [r["method"] for r in next(iter(datasets.values()))]
+        methods = [r.method for r in next(iter(datasets.values()))]
         note = _query_note(datasets, split, mode)
         out += [f"## {mode} mode, sequence length {seq_len}", ""] + ([note, ""] if note else [])
         out.append("| dataset | | " + " | ".join(methods) + " | Mean | Improved |")
@@ -234,10 +227,9 @@ def table1_markdown(rows: list[dict[str, Any]], split: str | None = None) -> str
                 last = improved if i == 2 else ""
                 label = dataset if i == 0 else ""
                 out.append(f"| {label} | {name} | " + " | ".join(texts) + f" | {last} |")
-            if _has_seeds(dataset_rows):
-                texts, last = _seed_cells(dataset_rows)
-                out.append(f"|  | {SEED_ROW_NAME} | " + " | ".join(texts) + f" | {last} |")
-                undefined |= any(t.startswith(UNDEFINED) for t in texts)
+            texts, last = _seed_cells(dataset_rows)
+            out.append(f"|  | {SEED_ROW_NAME} | " + " | ".join(texts) + f" | {last} |")
+            undefined |= any(t.startswith(UNDEFINED) for t in texts)
             undefined |= None in summary[2]
             degenerate += [f"{dataset}, {n}" if len(datasets) > 1 else n for n in notes(dataset_rows)]
         out.append("")
@@ -252,25 +244,26 @@ def tex_escape(text: Any) -> str:
         "&", r"\&").replace("#", r"\#")
 
 
-def _tex_reduction(row: dict[str, Any] | None, value: float | None) -> str:
+def _tex_reduction(row: Table1Row | None, value: float | None) -> str:
     """A method's reduction and its interval, in colour only where the interval says a direction (green better, red
     worse; black where it contains 0, where there is none, and for the Mean); a method's ``row`` says in words
     where it is undefined."""
+    found = None if row is None else row_cells(row)
     if value is None:
-        return tex_escape(words.reduction_cell(row, UNDEFINED)) if row is not None else UNDEFINED
-    if row is None:
+        return tex_escape(words.reduction_cell(found, UNDEFINED)) if found is not None else UNDEFINED
+    if row is None or found is None:
         return f"{value:.2f}"
-    colour = {1: "green", -1: "red"}.get(words.direction(row) or 0, "black")
-    text = rf"\textcolor{{{colour}}}{{{value:.2f}}} {bounds.bracket(bounds.of(row, names.REDUCTION), '.2f')}"
-    return tex_escape(words.reduction_cell(row, "@@")).replace("@@", text)
+    colour = {1: "green", -1: "red"}.get(words.direction(found) or 0, "black")
+    text = rf"\textcolor{{{colour}}}{{{value:.2f}}} {bounds.bracket(row.reduction_pct_ci, '.2f')}"
+    return tex_escape(words.reduction_cell(found, "@@")).replace("@@", text)
 
 
-def table1_latex(rows: list[dict[str, Any]], split: str | None = None) -> str:
+def table1_latex(rows: Sequence[Table1Row], split: str | None = None) -> str:
     """Table I as LaTeX tabulars; ``split``: the table split the rows are of, named in the first comment."""
     out = [f"% Table I ({tex_escape(split)} split)" if split else "% Table I"]
     for (mode, seq_len), datasets in _groups(rows).items():
         undefined = False  # each tabular has its own footnote: only where one of its cells is n/a
-        methods = [r["method"] for r in next(iter(datasets.values()))]
+        methods = [r.method for r in next(iter(datasets.values()))]
         n_columns = len(methods) + 4
         out += [
             f"% {mode} mode, sequence length {seq_len}",
@@ -290,11 +283,10 @@ def table1_latex(rows: list[dict[str, Any]], split: str | None = None) -> str:
                     texts, last = [tex_escape(t) for t in cells(dataset_rows, summary, i, ".4f")], ""
                 label = tex_escape(dataset) if i == 0 else ""
                 out.append(f"{label} & {tex_escape(name)} & " + " & ".join(texts) + f" & {last}" + r"\\")
-            if _has_seeds(dataset_rows):
-                texts, last = _seed_cells(dataset_rows)
-                texts = [tex_escape(t).replace(PLUS_MINUS, r" $\pm$ ") for t in texts]
-                out.append(f" & {tex_escape(SEED_ROW_NAME)} & " + " & ".join(texts) + f" & {last}" + r"\\")
-                undefined |= any(t.startswith(UNDEFINED) for t in texts)
+            texts, last = _seed_cells(dataset_rows)
+            texts = [tex_escape(t).replace(PLUS_MINUS, r" $\pm$ ") for t in texts]
+            out.append(f" & {tex_escape(SEED_ROW_NAME)} & " + " & ".join(texts) + f" & {last}" + r"\\")
+            undefined |= any(t.startswith(UNDEFINED) for t in texts)
             undefined |= None in summary[2]
             degenerate += [f"{dataset}, {n}" if len(datasets) > 1 else n for n in notes(dataset_rows)]
             out.append(r"\hline")
@@ -319,31 +311,27 @@ class Table1Block:
     dataset: str
     mode: str
     seq_len: int
-    rows: tuple[dict[str, Any], ...]
+    rows: tuple[Table1Row, ...]
 
     @property
     def methods(self) -> tuple[str, ...]:
-        return tuple(str(r["method"]) for r in self.rows)
+        return tuple(r.method for r in self.rows)
 
     def summary(self) -> tuple[list[list[float | None]], str, str]:
         """The three rows' values per method and their Mean, the note on the reduction's Mean (empty when every
         reduction is defined) and Improved, as the Markdown and LaTeX tables show them."""
-        return _summary(list(self.rows))
-
-    @property
-    def has_seeds(self) -> bool:
-        return _has_seeds(list(self.rows))
+        return _summary(self.rows)
 
     def seed_cells(self) -> tuple[list[str], str]:
         """The row "Reduction over seeds": mean ± std per method, their mean, and how many improve on average."""
-        return _seed_cells(list(self.rows))
+        return _seed_cells(self.rows)
 
     def query_note(self, split: str) -> str:
         """The queries the numbers are over."""
         return _query_note({self.dataset: list(self.rows)}, split, self.mode)
 
 
-def table1_blocks(rows: Sequence[dict[str, Any]]) -> list[Table1Block]:
+def table1_blocks(rows: Sequence[Table1Row]) -> list[Table1Block]:
     """Table I's rows as the paper's tables: per mode and L (in the order of ``rows``), one per dataset."""
-    return [Table1Block(dataset, mode, int(seq_len), tuple(dataset_rows))
-            for (mode, seq_len), datasets in _groups(list(rows)).items() for dataset, dataset_rows in datasets.items()]
+    return [Table1Block(dataset, mode, seq_len, tuple(dataset_rows))
+            for (mode, seq_len), datasets in _groups(rows).items() for dataset, dataset_rows in datasets.items()]

@@ -356,11 +356,11 @@ def make_table1(inputs: Inputs) -> list[Table1Row] | None:
 
 
 def table1_md(rows: Sequence[Row], inputs: Inputs) -> str:
-    return table1_markdown([cells(row) for row in rows], inputs.split)
+    return table1_markdown([row for row in rows if isinstance(row, Table1Row)], inputs.split)
 
 
 def table1_tex(rows: Sequence[Row], inputs: Inputs) -> str:
-    return table1_latex([cells(row) for row in rows], inputs.split)
+    return table1_latex([row for row in rows if isinstance(row, Table1Row)], inputs.split)
 
 
 def make_predictor_methods(inputs: Inputs) -> list[PredictorMethodRow] | None:

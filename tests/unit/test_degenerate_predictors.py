@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from row_records import record, records
 from training_sets import evaluate_job, train_job
 
 from vpr_smr.core.io import write_json
@@ -17,6 +18,7 @@ from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.records import PredictorReport, SeedReport, SplitScores, chance_f1, seed_problems
 from vpr_smr.eval.report import build, tabulate
 from vpr_smr.eval.report.figures import pr_title
+from vpr_smr.eval.report.rows import Table1Row
 from vpr_smr.eval.scoring import curves, evaluate
 
 # --- the outcome of one comparison, on four queries worked out by hand ---------------------------------------------
@@ -140,19 +142,22 @@ def test_the_pr_panel_title_says_what_happened():
     assert pr_title("sad", worse) == "sad\nAOC 0.000 -> 0.024 (worse than a perfect baseline)"
 
 
+ONE_SEED = "One predictor seed was run, so there is no spread over seeds."
+
+
 def test_a_worse_result_from_a_perfect_baseline_is_not_improved():
     from vpr_smr.eval.report.findings import sentences
     from vpr_smr.eval.report.table1 import Table1Block, table1_markdown
 
     row = {"dataset": "corridor", "method": "sad", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.0,
            "aoc_vpr_sm_pred": 0.0238, "reduction_pct": None, "outcome": curves.WORSE_FROM_ZERO, "max_recall": 0.8,
-           "max_recall_vpr_sm": 1.0, "aoc_vpr_sm_own": 0.05, "n_queries": 108, "removed": 9}
-    text = table1_markdown([row])
+           "max_recall_vpr_sm": 1.0, "aoc_vpr_sm_own": 0.05, "n_queries": 108, "removed": 9, "n_seeds": 1}
+    text = table1_markdown(records(Table1Row, [row]))
     assert "| n/a: worse than a perfect baseline | n/a | 0 / 1 |" in text
-    assert sentences(Table1Block("corridor", "paper", 4, (row,)), "test") == [
+    assert sentences(Table1Block("corridor", "paper", 4, (record(Table1Row, row),)), "test") == [
         "On corridor (test split, L = 4, paper mode, seed-0 predictor), for sad, the predictor made the AOC worse, "
         "from 0 to 0.0238 up to its maximum recall 0.8000: worse, by a percentage that is undefined (the "
-        "baseline's AOC being 0)."]
+        "baseline's AOC being 0).", ONE_SEED]
 
 
 # --- a predictor at chance ----------------------------------------------------------------------------------------
@@ -218,15 +223,13 @@ def test_the_findings_lead_with_the_predictors_warning(removed_all):
     from vpr_smr.eval.report import registry
     from vpr_smr.eval.report.html import predictor_warnings
     from vpr_smr.eval.report.results import Splits, WrittenTable
-    from vpr_smr.eval.report.rows import cells
-
     tmp_path, _ = removed_all
     one_class = SplitScores(0.3, 21, (12, 9, 0, 0), ((0, 12, 0, 0), (0, 9, 0, 0), (0, 0, 0, 0), (0, 0, 0, 0)))
     report = PredictorReport({"dataset": "corridor", "seq_len": 4}, 57,
                              (SeedReport(0, {}, 0.4, 10, (30, 10, 10, 7), {"val": one_class}),))
     rows = tabulate.predictor_rows([report])
     columns = registry.table("predictor").expanded(Splits("test", ("val", "test")))
-    table = WrittenTable("predictor", columns, tuple(map(cells, rows)), ())
+    table = WrittenTable("predictor", columns, tuple(rows), ())
     assert predictor_warnings(table, "corridor", 4) == [
         "Warning: the predictor of corridor at L = 4 cannot be trusted: seed 0: its val macro F1 0.30 is at or "
         "below chance (0.50: guessing each of the 2 classes present at its own frequency); it predicts class 1 for "
@@ -247,28 +250,29 @@ def test_a_lowered_recall_is_said_and_the_baseline_keeps_its_own_aoc():
     # kept a third of the correct matches, all of them correct: nothing to reduce up to recall 1/3
     row = {"dataset": "corridor", "method": "sad", "seq_len": 4, "mode": "paper", "aoc_vpr_sm": 0.0,
            "aoc_vpr_sm_pred": 0.0, "reduction_pct": None, "outcome": curves.NOTHING_TO_REDUCE,
-           "max_recall": 1 / 3, "max_recall_vpr_sm": 1.0, "aoc_vpr_sm_own": 0.4, "n_queries": 130, "removed": 90}
-    text = table1_markdown([row])
+           "max_recall": 1 / 3, "max_recall_vpr_sm": 1.0, "aoc_vpr_sm_own": 0.4, "n_queries": 130, "removed": 90,
+           "n_seeds": 1}
+    text = table1_markdown(records(Table1Row, [row]))
     assert "| corridor | VPR+SM | 0.0000 [n/a] (own: 0.4000) | 0.0000 |  |" in text
     note = ("baseline AOC 0 up to the predictor's maximum recall 0.3333: nothing to reduce, the reduction is "
             "undefined (the predictor lowered the maximum recall from 1.0000; VPR+SM's own AOC is 0.4000 at its own "
             "maximum recall 1.0000)")
     assert f"sad: {note}." in text
     # not "already 0 without the predictor": its own AOC is 0.4
-    assert sentences(Table1Block("corridor", "paper", 4, (row,)), "test") == [
-        f"On corridor (test split, L = 4, paper mode, seed-0 predictor), for sad, {note}."]
+    assert sentences(Table1Block("corridor", "paper", 4, (record(Table1Row, row),)), "test") == [
+        f"On corridor (test split, L = 4, paper mode, seed-0 predictor), for sad, {note}.", ONE_SEED]
 
 
 def test_the_aoc_means_leave_out_a_method_whose_aocs_are_at_recall_zero():
     from vpr_smr.eval.report.table1 import table1_markdown
 
-    common = {"dataset": "d", "seq_len": 4, "mode": "paper", "n_queries": 21}
+    common = {"dataset": "d", "seq_len": 4, "mode": "paper", "n_queries": 21, "n_seeds": 1}
     rows = [{**common, "method": "a", "aoc_vpr_sm": 0.2, "aoc_vpr_sm_pred": 0.1, "reduction_pct": 50.0,
              "outcome": curves.IMPROVED, "max_recall": 0.9, "max_recall_vpr_sm": 0.9, "removed": 3},
             {**common, "method": "b", "aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": 0.0, "reduction_pct": None,
              "outcome": curves.REMOVED_ALL, "max_recall": 0.0, "max_recall_vpr_sm": 0.6, "aoc_vpr_sm_own": 0.3,
              "removed": 21}]
-    text = table1_markdown(rows)
+    text = table1_markdown(records(Table1Row, rows))
     # b's AOCs are taken at recall 0: the means are a's alone, 0.2 and 0.1, not (0.2 + 0) / 2
     # (the methods a Mean is over are named; no interval: [n/a] beside each method's number)
     assert ("| d | VPR+SM | 0.2000 [n/a] | 0.0000 [n/a] (own: 0.3000) | 0.2000 (mean over 1 of 2 methods: a) |  |"

@@ -11,6 +11,7 @@ from collections.abc import Callable
 
 import pytest
 from report_runs import matcher_reduction
+from row_records import record
 
 from vpr_smr.eval.report import rows as report_rows
 from vpr_smr.eval.report.baselines import baseline_rows
@@ -91,9 +92,9 @@ def table1(r: Reduction) -> tuple[str, list[str]]:
                             {"paper": ModeRemoval(0.5, 0.6, r)}, 0, (),
                             {"paper": SeedSummary(1, 1, r.reduction_pct, None, r.reduction_pct, r.reduction_pct,
                                                   {0: r.outcome})})
-    row = cells(Table1Row.of(KEY, "paper", split))
-    block = Table1Block("d", "paper", 4, (row,))
-    return row["outcome"], [*_written(Table1Row, [row]), table1_markdown([row]), table1_latex([row]),
+    found = Table1Row.of(KEY, "paper", split)
+    row, block = cells(found), Table1Block("d", "paper", 4, (found,))
+    return row["outcome"], [*_written(Table1Row, [row]), table1_markdown([found]), table1_latex([found]),
                             *sentences(block, "test"), headline(block, "test")]
 
 
@@ -184,7 +185,7 @@ def test_table1_counts_improved_by_the_interval():
         split = EvaluationSplit(40, 43, 0.5, 0.5, 0.6, 0.5, ((1, 0), (0, 1)), (20, 10, 5, 5), (20, 10, 5, 5), 6,
                                 {"paper": ModeRemoval(0.5, 0.6, reduction(3.2, interval))}, 0, (),
                                 {"paper": SeedSummary(1, 1, 3.2, None, 3.2, 3.2, {0: "improved"})})
-        rows.append(cells(Table1Row.of(("d", method, 4), "paper", split)))
+        rows.append(Table1Row.of(("d", method, 4), "paper", split))
     assert "| 1 / 3 (1 without an interval) |" in table1_markdown(rows)
 
 
@@ -193,10 +194,11 @@ def test_a_finding_states_the_fact_and_the_queries_never_a_cause():
     row = {"dataset": "nordland", "method": "sad", "seq_len": 4, "mode": "paper", "reduction_pct": -0.9,
            "reduction_pct_ci_low": -3.3, "reduction_pct_ci_high": 0.3, "outcome": "worse", "n_queries": 2573,
            "aoc_vpr_sm": 0.2, "aoc_vpr_sm_pred": 0.2018, "max_recall": 0.9, "max_recall_vpr_sm": 0.9}
-    said = sentences(Table1Block("nordland", "paper", 4, (row,)), "test")
+    block = Table1Block("nordland", "paper", 4, (record(Table1Row, row),))
+    said = sentences(block, "test")
     assert said[1] == ("On the test split, the 95 % interval of sad's reduction [-3.3, 0.3] holds 0 (2573 queries), "
                        "so it names no direction.")
-    first = headline(Table1Block("nordland", "paper", 4, (row,)), "test")
+    first = headline(block, "test")
     assert "sad -0.9 % [-3.3, 0.3], no direction (interval holds 0)" in first and "2573" in first
     for text in (*said, first):
         assert "too few" not in text and not DIRECTION.search(text)

@@ -7,8 +7,10 @@ import json
 import numpy as np
 import pytest
 from report_runs import DATASET_CARD, RUN_EXPERIMENTS, build_run, metrics_record, predictor_report, small_png
+from row_records import records
 
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, AttributeSplit
+from vpr_smr.eval.report.rows import Table1Row
 from vpr_smr.eval.report.table1 import table1_latex, table1_markdown, tex_escape
 from vpr_smr.eval.report.tabulate import table2_latex, table2_markdown, table2_rows
 
@@ -32,14 +34,16 @@ def rows():
     return [
         {"dataset": dataset, "method": method, "seq_len": 4, "mode": "paper", "aoc_vpr_sm": base[i],
          "aoc_vpr_sm_pred": pred[i], "reduction_pct": reduction[i],
-         "outcome": "improved" if reduction[i] > 0 else "worse"}
+         "outcome": "improved" if reduction[i] > 0 else "worse",
+         # three seeds, their mean seed 0's (the paper ran one): every Table I row has its seeds
+         "reduction_pct_mean": reduction[i], "reduction_pct_std": 1.0, "n_seeds": 3, "n_seeds_defined": 3}
         for dataset, (base, pred, reduction) in PAPER.items()
         for i, method in enumerate(METHODS)
     ]
 
 
 def test_markdown_means_and_improved_match_the_paper(rows):
-    text = table1_markdown(rows)
+    text = table1_markdown(records(Table1Row, rows))
     assert "| dataset | | AP-GeM | CosPlace | EigenPlaces | MixVPR | NetVLAD | SAD | SALAD | Mean | Improved |" in text
     # The paper's Mean column: 0.1660, 0.1069, 37.79 (Nordland); 0.0827, 0.0679 (RobotCar). The paper's numbers
     # have no interval over queries: each method's cell says [n/a]; a Mean over methods has none to say.
@@ -67,8 +71,8 @@ def with_intervals(rows, half=5.0):
 
 def test_latex_colours_reductions(rows):
     # without intervals nothing has a direction: no colour
-    assert r"\textcolor{black}{-14.22} [n/a]" in table1_latex(rows)
-    text = table1_latex(with_intervals(rows))
+    assert r"\textcolor{black}{-14.22} [n/a]" in table1_latex(records(Table1Row, rows))
+    text = table1_latex(records(Table1Row, with_intervals(rows)))
     # -14.22 [-19.22, -9.22] below 0: red; 25.46 [20.46, 30.46] above: green; -4.45 [-9.45, 0.55] contains 0
     assert r"\textcolor{red}{-14.22} [-19.22, -9.22]" in text and r"\textcolor{green}{25.46} [20.46, 30.46]" in text
     assert r"\textcolor{black}{-4.45} [-9.45, 0.55]" in text
@@ -83,31 +87,30 @@ def test_latex_footnotes_an_undefined_reduction_in_its_own_tabular_only(rows):
     first = with_intervals(rows)
     first[0].update(reduction_pct=None, outcome="nothing_to_reduce", max_recall=0.5, max_recall_vpr_sm=0.5)
     second = [{**row, "seq_len": 8} for row in with_intervals(rows)]
-    text = table1_latex(first + second)
+    text = table1_latex(records(Table1Row, first + second))
     tabulars = text.split(r"\end{tabular}")[:-1]
     assert len(tabulars) == 2 and "sequence length 4" in tabulars[0] and "sequence length 8" in tabulars[1]
     note = tex_escape(UNDEFINED_NOTE)
     assert UNDEFINED in tabulars[0].replace(note, "") and note in tabulars[0]
     assert UNDEFINED not in tabulars[1] and note not in tabulars[1]
     # the other way round: the footnote goes with the second tabular only
-    tabulars = table1_latex(second + first).split(r"\end{tabular}")[:-1]
+    tabulars = table1_latex(records(Table1Row, second + first)).split(r"\end{tabular}")[:-1]
     assert note not in tabulars[0] and note in tabulars[1]
 
 
 def test_seed_row_shows_mean_and_sample_std(rows):
     for row, values in zip(rows[:7], ((10, 20, 30), (1, 1, 1), (-5, 5, 0), (0, 0, 0), (2, 4, 6), (1, 2, 3),
                                       (3, 3, 3)), strict=True):
-        row.update(reduction_pct_mean=float(np.mean(values)), reduction_pct_std=float(np.std(values, ddof=1)),
-                   n_seeds=3)
+        row.update(reduction_pct_mean=float(np.mean(values)), reduction_pct_std=float(np.std(values, ddof=1)))
     for row in rows[7:]:
-        row.update(reduction_pct_mean=1.0, reduction_pct_std=0.0, n_seeds=3)
-    text = table1_markdown(rows)
+        row.update(reduction_pct_mean=1.0, reduction_pct_std=0.0)
+    text = table1_markdown(records(Table1Row, rows))
     # AP-GeM 10, 20, 30: mean 20, std 10; CosPlace 1, 1, 1: 1 ± 0; EigenPlaces -5, 5, 0: 0 ± 5;
     # the mean of the seven means (20 + 1 + 0 + 0 + 4 + 2 + 3) / 7 = 4.29; the spread over seeds has no interval,
     # so Improved names no direction there
     assert ("|  | Reduction over seeds (%) | 20.00 ± 10.00 | 1.00 ± 0.00 | 0.00 ± 5.00 | 0.00 ± 0.00 | "
             "4.00 ± 2.00 | 2.00 ± 1.00 | 3.00 ± 0.00 | 4.29 | no interval (3 seeds) |") in text
-    assert r"20.00 $\pm$ 10.00" in table1_latex(rows)
+    assert r"20.00 $\pm$ 10.00" in table1_latex(records(Table1Row, rows))
 
 
 def test_a_seed_row_of_one_defined_seed_says_n_a_and_its_mean_is_like_with_like():
@@ -122,7 +125,7 @@ def test_a_seed_row_of_one_defined_seed_says_n_a_and_its_mean_is_like_with_like(
            "reduction_pct": 3.2, "outcome": "improved", "max_recall": 0.9, "max_recall_vpr_sm": 0.9,
            "reduction_pct_ci_low": -40.0, "reduction_pct_ci_high": 35.0, "reduction_pct_mean": 4.0,
            "reduction_pct_std": 1.5, "n_seeds": 5, "n_seeds_defined": 5, "n_queries": 28}
-    text = table1_markdown([hog, sad])
+    text = table1_markdown(records(Table1Row, [hog, sad]))
     # seed 0: the Mean over sad alone (3.20), named; sad's estimate is above 0 but its interval holds 0: not
     # improved
     assert ("|  | Reduction (%) | n/a: nothing to reduce | 3.20 [-40.00, 35.00] | 3.20 (mean over 1 of 2 methods: "
@@ -137,8 +140,8 @@ def test_a_seed_row_of_one_defined_seed_says_n_a_and_its_mean_is_like_with_like(
     sad_worse = {**sad, "reduction_pct_mean": -2.0}
     assert ("| -2.00 (mean over 1 of 2 methods, those with all 5 seeds: sad; opposite in sign to the seed-0 Mean "
             "3.20, which is seed 0's predictor alone over sad, this one every seed's over sad) |"
-            ) in table1_markdown([hog, sad_worse])
-    assert r"-88.19 $\pm$ n/a" in table1_latex([hog, sad])
+            ) in table1_markdown(records(Table1Row, [hog, sad_worse]))
+    assert r"-88.19 $\pm$ n/a" in table1_latex(records(Table1Row, [hog, sad]))
 
 
 def test_an_unchanged_reduction_is_neutral():
@@ -150,10 +153,10 @@ def test_an_unchanged_reduction_is_neutral():
     row = {"dataset": "d", "method": "uniqueness", "seq_len": 4, "mode": "standard", "aoc_vpr_sm": 0.2,
            "aoc_vpr_sm_pred": 0.2, "reduction_pct": 2.1e-14, "outcome": "unchanged", "max_recall": 0.9,
            "max_recall_vpr_sm": 0.9, "reduction_pct_ci_low": 1e-14, "reduction_pct_ci_high": 3e-14}
-    (block,) = table1_blocks([row])
+    (block,) = table1_blocks(records(Table1Row, [row]))
     assert html.table1_view(block, "t").rows[2][1].kind == "num"  # not "up" (green)
     assert html.row_cell(row, Column("reduction_pct", fmt=".2f")).kind == "num"
-    assert r"\textcolor{black}{0.00} [0.00, 0.00]" in table1_latex([row])
+    assert r"\textcolor{black}{0.00} [0.00, 0.00]" in table1_latex(records(Table1Row, [row]))
 
 
 def test_table2_marks_the_attributes_used():
@@ -243,16 +246,17 @@ def test_table1_in_the_page_has_the_papers_layout_and_numbers(rows, tmp_path):
     from vpr_smr.eval.report.results import WrittenTable
     from vpr_smr.eval.report.table1 import table1_blocks
 
-    blocks = table1_blocks(rows)
+    blocks = table1_blocks(records(Table1Row, rows))
     assert [(b.dataset, b.methods) for b in blocks] == [("Nordland", METHODS), ("Oxford RobotCar", METHODS)]
     view = html.table1_view(blocks[1], "t")
     # without intervals no reduction has a direction: none coloured
     assert {c.kind for c in view.rows[2][1:]} == {"num", "text"}
     # with them: -14.22 [-19.22, -9.22] worse, -4.45 [-9.45, 0.55] no direction, 21.31 [16.31, 26.31] better
-    view = html.table1_view(table1_blocks(with_intervals(rows))[1], "t")
+    view = html.table1_view(table1_blocks(records(Table1Row, with_intervals(rows)))[1], "t")
     assert [c.kind for c in view.rows[2][1:4]] == ["down", "num", "up"]
     assert view.rows[2][1].text == "-14.22 [-19.22, -9.22]"
-    table = WrittenTable("table1", registry.table("table1").columns, tuple(rows), (tmp_path / "tables" / "table1.csv",))
+    table = WrittenTable("table1", registry.table("table1").columns, tuple(records(Table1Row, rows)),
+                         (tmp_path / "tables" / "table1.csv",))
     page = html.main(tmp_path / "report.html", [table], [], split="test").read_text()
     nordland = _table_texts(page, "table1-nordland-paper-4")
     assert nordland[0] == ["", *METHODS, "Mean", "Improved"]  # methods as columns, in the rows' order
@@ -289,15 +293,19 @@ def finding_block(reductions, seeds=None, mode="paper", seq_len=4, dataset="nord
         row = {"dataset": dataset, "method": method, "seq_len": seq_len, "mode": mode, "aoc_vpr_sm": 0.5,
                "aoc_vpr_sm_pred": 0.4, "reduction_pct": reduction, "outcome": outcome, "max_recall": 0.9,
                "max_recall_vpr_sm": 0.9}
-        if seeds is not None:
-            mean, std, n_seeds, defined = seeds[i]
-            row.update(reduction_pct_mean=mean, reduction_pct_std=std, n_seeds=n_seeds, n_seeds_defined=defined)
+        # without ``seeds``: one seed, seed 0
+        one = (reduction, None, 1, int(reduction is not None))
+        mean, std, n_seeds, defined = seeds[i] if seeds is not None else one
+        row.update(reduction_pct_mean=mean, reduction_pct_std=std, n_seeds=n_seeds, n_seeds_defined=defined)
         if intervals is not None and intervals[i] is not None:
             row.update(reduction_pct_ci_low=intervals[i][0], reduction_pct_ci_high=intervals[i][1])
         if n_queries is not None:
             row["n_queries"] = n_queries
         rows.append(row)
-    return Table1Block(dataset, mode, seq_len, tuple(rows))
+    return Table1Block(dataset, mode, seq_len, tuple(records(Table1Row, rows)))
+
+
+ONE_SEED = "One predictor seed was run, so there is no spread over seeds."
 
 
 def test_the_findings_in_words():
@@ -335,22 +343,22 @@ def test_the_findings_in_words():
     assert sentences(sad, "test") == [
         "On corridor (test split, L = 4, paper mode, seed-0 predictor) sad's reduction is 3.2 %.",
         "On the test split, the 95 % interval of sad's reduction [-40.0, 35.0] holds 0 (28 queries), so it names no "
-        "direction."]
+        "direction.", ONE_SEED]
     # the same number with an interval excluding 0: the direction
     assert sentences(finding_block([("sad", 3.2)], intervals=[(0.5, 6.0)], n_queries=28, dataset="corridor"),
                      "test") == ["On corridor (test split, L = 4, paper mode, seed-0 predictor) the predictor reduced "
-                                 "sad's area over the PR curve by 3.2 % (interval 0.5 % to 6.0 %)."]
+                                 "sad's area over the PR curve by 3.2 % (interval 0.5 % to 6.0 %).", ONE_SEED]
     # a file without intervals: no direction, the "no interval" wording
     assert sentences(finding_block([("sad", -2.04)], n_queries=28), "test") == [
         "On nordland_sample (test split, L = 4, paper mode, seed-0 predictor) sad's reduction is -2.0 %.",
-        "On the test split's 28 queries sad's reduction of -2.0 % has no interval, so it names no direction."]
+        "On the test split's 28 queries sad's reduction of -2.0 % has no interval, so it names no direction.",
+        ONE_SEED]
     # one method, one seed; its interval below 0
     one = finding_block([("hog", -5.0)], [(5.0, None, 1, 1)], mode="standard", seq_len=2, dataset="d",
                         intervals=[(-9.0, -1.0)])
     assert sentences(one, "val") == [
         "On d (val split, L = 2, standard mode, seed-0 predictor) the predictor made hog's area over the PR curve "
-        "5.0 % worse (larger) (interval -9.0 % to -1.0 %).", "One predictor seed was run, so there is no spread "
-        "over seeds."]
+        "5.0 % worse (larger) (interval -9.0 % to -1.0 %).", ONE_SEED]
     # nothing to reduce anywhere; none improved, one unchanged; only some seeds defined
     nothing = finding_block([("a", None), ("b", None)], [(None, None, 3, 0), (None, None, 3, 0)])
     assert sentences(nothing, "test") == [

@@ -3,6 +3,10 @@ template escaping what it is given (the page in a real browser: test_html_report
 
 import html
 
+from row_records import records
+
+from vpr_smr.eval.report.rows import BaselineRow, Table1Row
+
 
 def test_provenance_of_descriptor_files_in_the_page(tmp_path):
     from vpr_smr.core.io import atomic_h5
@@ -78,7 +82,7 @@ def test_the_first_screen_answers_each_question_in_a_verdict_table(tmp_path):
     from vpr_smr.eval.report import registry
     from vpr_smr.eval.report.results import WrittenTable
 
-    table = WrittenTable("table1", registry.table("table1").columns, tuple(_table1_rows()),
+    table = WrittenTable("table1", registry.table("table1").columns, tuple(records(Table1Row, _table1_rows())),
                          (tmp_path / "tables" / "t.csv",))
     page = report_html.main(tmp_path / "report.html", [table], [], split="test",
                             protocols={"corridor": "within 2 frames"}).read_text()
@@ -111,7 +115,7 @@ def test_the_first_screen_answers_each_question_in_a_verdict_table(tmp_path):
                                    if scorer != "predictor" else {})}
               for method, low, high in (("sad", -30.0, -2.0), ("hog", -5.0, 9.0))
               for scorer, value in (("uniqueness", 1.0), ("predictor", 20.0))]
-    baselines = WrittenTable("baselines", registry.table("baselines").columns, tuple(scored),
+    baselines = WrittenTable("baselines", registry.table("baselines").columns, tuple(records(BaselineRow, scored)),
                              (tmp_path / "tables" / "b.csv",))
     page_with = report_html.main(tmp_path / "with.html", [table, baselines], [], split="test").read_text()
     columns, rows = _verdict_rows(page_with, "verdicts-corridor-paper")
