@@ -13,7 +13,9 @@ of a comparison); ``names()``, ``in`` and ``get`` (``[]``) include the installed
 from __future__ import annotations
 
 import importlib
-from collections.abc import Callable, Iterator
+import os
+import sys
+from collections.abc import Callable, Hashable, Iterator
 from importlib.metadata import entry_points
 from typing import Any, Generic, TypeVar, overload
 
@@ -43,6 +45,7 @@ class Registry(Generic[T]):
         self._items: dict[str, T] = {}
         self._lazy: dict[str, str] = {}  # name -> "module:attr", until first asked for
         self._order: list[str] = []
+        self._found: tuple[Hashable, list[Any]] | None = None  # the installed entry points, and what they were read of
 
     def add(self, name: str, item: T) -> T:
         """Register ``item`` as ``name``; a name already taken is a ValueError."""
@@ -153,5 +156,19 @@ class Registry(Generic[T]):
         return self._check(name, item)
 
     def _points(self) -> list[Any]:
-        # read on every call (about 6 ms): a registry must see what is installed now, and tests install fakes
-        return list(entry_points(group=self.group)) if self.group else []
+        # a registry must see what is installed now, and tests install fakes: read again (about 6 ms) whenever the
+        # reader, the path or a folder on it changed (installing a package changes its site-packages folder), not on
+        # every call (the scorers' names are asked for per table row)
+        if not self.group:
+            return []
+        seen = (entry_points, tuple(sys.path), tuple(_modified(folder) for folder in sys.path))
+        if self._found is None or self._found[0] != seen:
+            self._found = (seen, list(entry_points(group=self.group)))
+        return self._found[1]
+
+
+def _modified(folder: str) -> int:
+    try:
+        return os.stat(folder or ".").st_mtime_ns
+    except OSError:
+        return 0

@@ -228,27 +228,26 @@ def _plugin(name: str, item: object) -> Scorer:
 
 # every scorer, in the order of the tables; the predictor stands out in the figures, the oracle is a ceiling
 SCORERS: Registry[Scorer] = Registry("scorer", ENTRY_POINT_GROUP, check=_plugin)
-SCORERS.add("uniqueness", Scorer(
-    "uniqueness", "training-free", "tab:blue",
-    "SeqSLAM's, the smallest sequence distance outside a window around the match over the match's", UniquenessSettings,
-    _sequence_uniqueness))
-SCORERS.add("single_uniqueness", Scorer(
-    "single_uniqueness", "training-free", "tab:cyan", "the same on the query's own distances", UniquenessSettings,
-    _single_uniqueness))
-SCORERS.add("spread", Scorer(
-    "spread", "training-free", "tab:olive", "minus the spread of the best end references", SpreadSettings, _spread))
-SCORERS.add("distance", Scorer(
-    "distance", "training-free", "tab:gray",
-    "minus the sequence distance (a threshold on it, which is what VPR+SM's curve already sweeps: about 0 by "
-    "construction)", None, _distance))
-SCORERS.add(NATIVE, Scorer(
-    NATIVE, "training-free", "tab:purple",
-    "the matcher's own confidence, the rule its authors accept a match by (seqslam: the uniqueness above)",
-    UniquenessSettings, _native))
-SCORERS.add(RANDOM, Scorer(RANDOM, "training-free", "tab:pink", "a random order", None, _random))
-SCORERS.add(ORACLE, Scorer(ORACLE, "oracle", "black", "the ground truth", None, _oracle))
-SCORERS.add(PREDICTOR, Scorer(PREDICTOR, "predictor", "tab:orange",
-                              "one minus the predictor's probabilities of classes 1 and 3", None, None))
+for _scorer in (
+    Scorer("uniqueness", "training-free", "tab:blue",
+           "SeqSLAM's, the smallest sequence distance outside a window around the match over the match's",
+           UniquenessSettings, _sequence_uniqueness),
+    Scorer("single_uniqueness", "training-free", "tab:cyan", "the same on the query's own distances",
+           UniquenessSettings, _single_uniqueness),
+    Scorer("spread", "training-free", "tab:olive", "minus the spread of the best end references", SpreadSettings,
+           _spread),
+    Scorer("distance", "training-free", "tab:gray",
+           "minus the sequence distance (a threshold on it, which is what VPR+SM's curve already sweeps: about 0 by "
+           "construction)", None, _distance),
+    Scorer(NATIVE, "training-free", "tab:purple",
+           "the matcher's own confidence, the rule its authors accept a match by (seqslam: the uniqueness above)",
+           UniquenessSettings, _native),
+    Scorer(RANDOM, "training-free", "tab:pink", "a random order", None, _random),
+    Scorer(ORACLE, "oracle", "black", "the ground truth", None, _oracle),
+    Scorer(PREDICTOR, "predictor", "tab:orange", "one minus the predictor's probabilities of classes 1 and 3", None,
+           None),
+):
+    SCORERS.add(_scorer.name, _scorer)
 
 
 def names() -> tuple[str, ...]:
