@@ -44,9 +44,9 @@ from __future__ import annotations
 import logging
 from collections.abc import Mapping, Sequence
 from contextlib import ExitStack
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from pathlib import Path
-from typing import Any
+from typing import Any, TypedDict, Unpack
 
 import h5py
 import numpy as np
@@ -115,7 +115,7 @@ from vpr_smr.eval.scoring.sweep import protocol_sweep, within
 __all__ = [
     "ALL_SPLIT", "MetricsJob", "Retrieval", "ScoredSplit", "check_inputs", "extended_precision", "format_baselines",
     "format_metrics", "load_predictor", "main", "matcher_metrics", "precision_at_strictest", "recall_at",
-    "retrieval", "score_all", "score_split", "truth_kind",
+    "retrieval", "score", "score_all", "score_split", "SplitInputs", "SplitSettings", "truth_kind",
 ]
 
 log = logging.getLogger("vpr_smr")
@@ -303,38 +303,80 @@ class ScoredSplit:
     queries: SplitQueries
 
 
-def score_split(
-    distance_matrix: Any,
-    seq_len: int,
-    tolerance: int,
-    predictor: Any | None = None,
-    modes: Sequence[str] = MODES,
-    features: QueryFeatures | None = None,
-    split: str = ALL_SPLIT,
-    first_frame: int = 0,
-    block_queries: int | None = None,
-    matcher: MatcherSpec | None = None,
-    reference_first_frame: int | None = None,
-    ground_truth: GroundTruth | None = None,
-    sweep: bool = False,
-    baselines: BaselineSettings | None = None,
-) -> ScoredSplit:
+@dataclass(frozen=True)
+class SplitSettings:
+    """What every split of a job is scored with (``score``): the sequence length; the tolerance in frames (of the
+    aligned ground truth, where a split gives none); the metric modes; the matcher (None: ``MatcherSpec.of()``);
+    ``sweep``: also recall@1 and the predictor's reduction over the tolerances or radii of ``sweep.protocol_sweep``
+    (a ground truth of frames or positions only); ``baselines``: also the training-free scorers of method §12 with
+    these settings (their detection of wrong matches, and with a predictor their removal at its budget;
+    ``SplitMetrics.baselines``) and their confidences in the per-query table (None: left out); the queries
+    retrieved per block (None: ``retrieval``'s)."""
+
+    seq_len: int
+    tolerance: int
+    modes: tuple[str, ...] = MODES
+    matcher: MatcherSpec | None = None
+    sweep: bool = False
+    baselines: BaselineSettings | None = None
+    block_queries: int | None = None
+
+
+@dataclass(frozen=True)
+class SplitInputs:
+    """One split's inputs beside its matrix (``score``): its attributes (``query_features`` of the same matrix;
+    None: computed from it; read from a file they must hold the candidates ``SplitSettings.baselines`` needs), its
+    ground truth (None: the aligned band of the tolerance), its name and the first query and reference frames of its
+    matrix (the per-query table's frame numbers)."""
+
+    features: QueryFeatures | None = None
+    ground_truth: GroundTruth | None = None
+    split: str = ALL_SPLIT
+    first_frame: int = 0
+    reference_first_frame: int | None = None
+
+
+class SplitOptions(TypedDict, total=False):
+    """``score_split``'s keywords: the fields of ``SplitSettings`` and ``SplitInputs`` it does not take by place."""
+
+    features: QueryFeatures | None
+    ground_truth: GroundTruth | None
+    split: str
+    first_frame: int
+    reference_first_frame: int | None
+    matcher: MatcherSpec | None
+    sweep: bool
+    baselines: BaselineSettings | None
+    block_queries: int | None
+
+
+def score_split(distance_matrix: Any, seq_len: int, tolerance: int, predictor: Any | None = None,
+                modes: Sequence[str] = MODES, **options: Unpack[SplitOptions]) -> ScoredSplit:
+    """``score`` with its settings and inputs by name (the Python API's form): ``score_split(D, 4, 2, predictor,
+    matcher=spec, ground_truth=truth)``."""
+    names = {field.name for field in fields(SplitSettings)}
+    # each value typed by SplitOptions; a name of neither record is the records' TypeError
+    settings: dict[str, Any] = {name: value for name, value in options.items() if name in names}
+    inputs: dict[str, Any] = {name: value for name, value in options.items() if name not in names}
+    return score(distance_matrix, SplitSettings(seq_len, tolerance, tuple(modes), **settings), SplitInputs(**inputs),
+                 predictor)
+
+
+def score(distance_matrix: Any, settings: SplitSettings, inputs: SplitInputs = SplitInputs(),
+          predictor: Any | None = None) -> ScoredSplit:
     """The metrics of one split's matrix per mode and matcher (``sequence_predictor`` only with ``predictor``: an
-    object with ``predict_proba`` and ``classes_``, e.g. ``SMRPredictor``). ``features``: the split's attributes
-    (``query_features`` of the same matrix; computed when None). ``matcher`` and ``ground_truth`` as
-    ``query_features`` takes them. ``sweep``: also recall@1 and the predictor's reduction over the tolerances or
-    radii of ``sweep.protocol_sweep`` (a ground truth of frames or positions only). ``baselines``: also the
-    training-free scorers of method §12 with these settings (their detection of wrong matches, and with
-    ``predictor`` their removal at its budget; ``SplitMetrics.baselines``) and their confidences in the per-query
-    table; ``features`` read from a file must then hold the candidates the settings need."""
+    object with ``predict_proba`` and ``classes_``, e.g. ``SMRPredictor``), and the rows of its per-query table."""
+    seq_len, tolerance, modes, baselines = settings.seq_len, settings.tolerance, settings.modes, settings.baselines
+    features, split = inputs.features, inputs.split
     unknown = [mode for mode in modes if mode not in MODES]
     if unknown:
         raise ValueError(f"unknown metric modes {unknown}; choose from {', '.join(MODES)}")
     shape = tuple(int(n) for n in distance_matrix.shape)
-    truth = GroundTruth.aligned(shape[0], shape[1], tolerance) if ground_truth is None else ground_truth
-    matcher = matcher or MatcherSpec.of()
+    truth = (GroundTruth.aligned(shape[0], shape[1], tolerance) if inputs.ground_truth is None
+             else inputs.ground_truth)
+    matcher = settings.matcher or MatcherSpec.of()
     built = matcher.build(seq_len)
-    found = retrieval(distance_matrix, seq_len, tolerance, block_queries, built, truth)
+    found = retrieval(distance_matrix, seq_len, tolerance, settings.block_queries, built, truth)
     if features is None:
         features = query_features(distance_matrix, seq_len, tolerance, matcher=built, ground_truth=truth,
                                   n_candidates=baselines.candidates if baselines is not None else 0)
@@ -342,7 +384,7 @@ def score_split(
     prediction = Prediction.of(predictor, features) if predictor is not None else None
     without = truth.without_correct()
     swept = protocol_sweep(features, found.single_match, truth, modes,
-                           prediction.kept if prediction is not None else None) if sweep else None
+                           prediction.kept if prediction is not None else None) if settings.sweep else None
     found_baselines, scores = None, None
     if baselines is not None:
         check_candidates(features, baselines, "the attributes")
@@ -355,8 +397,8 @@ def score_split(
                             for mode in modes}, int(without.sum()), int(without[features.queries].sum()), swept,
                            found_baselines)
     true_reference = None if truth.is_aligned_band() else truth.true_references(features.queries)
-    queries = SplitQueries(split, first_frame, features, found.single_distance[features.queries], prediction,
-                           reference_first_frame, true_reference, matcher, scores)
+    queries = SplitQueries(split, inputs.first_frame, features, found.single_distance[features.queries], prediction,
+                           inputs.reference_first_frame, true_reference, matcher, scores)
     return ScoredSplit(metrics, queries)
 
 
@@ -495,6 +537,7 @@ def score_all(job: MetricsJob | QueriesJob) -> Scored:
                        f"predictor {predictor_file}")
         check_matching(model, Matching.of(matcher, truth_kind(truth_source)), "these matrices (--matcher, --radius)")
         _check_matrices(model, splits, job.allow_split_overlap, matrix_format)
+    settings = SplitSettings(seq_len, truth_source.tolerance, tuple(modes), matcher, sweep, baselines)
     results: dict[str, ScoredSplit] = {}
     recorded: dict[str, Any] | None = None if file_truth is None else file_truth.provenance()
     for split, path in splits.items():
@@ -511,11 +554,9 @@ def score_all(job: MetricsJob | QueriesJob) -> Scored:
             warn_if_similar(path, matrix, truth, matrix_format.similarity)
             warn_if_tied(str(path), matrix)
             try:
-                results[split] = score_split(matrix, seq_len, truth_source.tolerance, model, tuple(modes), features,
-                                             split, _first_frame(attributes_file, path), matcher=matcher,
-                                             ground_truth=truth,
-                                             reference_first_frame=_reference_first_frame(attributes_file, path),
-                                             sweep=sweep, baselines=baselines)
+                results[split] = score(matrix, settings, SplitInputs(
+                    features, truth, split, _first_frame(attributes_file, path),
+                    _reference_first_frame(attributes_file, path)), model)
             except ValueError as error:
                 given = f" and {attributes_file}" if attributes_file is not None else ""
                 raise ValueError(f"{path}{given}: {error}") from None
