@@ -116,3 +116,17 @@ def test_a_stand_in_is_set_and_removed_as_in_a_mapping(monkeypatch):
     assert widgets.builtins() == ["zeta", "alpha"] and widgets.get("alpha") == 2 and "new" not in widgets
     with pytest.raises(KeyError):
         del widgets["new"]
+
+
+def test_a_package_installed_into_a_folder_on_the_path_is_seen_at_once(tmp_path, monkeypatch):
+    """The entry points are kept between calls, but installing a package (its dist-info appears in a folder on the
+    path, changing the folder) is seen by the next call."""
+    monkeypatch.syspath_prepend(str(tmp_path))
+    widgets = _widgets()
+    assert widgets.names() == ["zeta", "alpha"]
+    (tmp_path / "late_widgets.py").write_text("WIDGET = 7\n")
+    info = tmp_path / "late_widgets-1.0.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: late-widgets\nVersion: 1.0\n")
+    (info / "entry_points.txt").write_text(f"[{GROUP}]\nlate = late_widgets:WIDGET\n")
+    assert widgets.names() == ["zeta", "alpha", "late"] and widgets.get("late") == 7
