@@ -10,10 +10,10 @@ rule descriptors:
     params:
         # the stage's job record: the frames' settings and fingerprint; the method's settings without `distance`
         # (it changes the distance matrices, not the descriptors)
-        job=lambda wc, output: job_text(DescriptorsJob(
+        job=lambda wc: job_text(DescriptorsJob(
             wc.dataset, wc.method, dataset_settings=canonical(PLAN.datasets[wc.dataset].frames_settings),
             method_settings=canonical(descriptor_settings(conf.methods[wc.method].to_json())),
-            frames_sha256=PLAN.datasets[wc.dataset].frames_sha256, out=output[0])),
+            frames_sha256=PLAN.datasets[wc.dataset].frames_sha256, out=descriptors_path(OUT, wc.dataset, wc.method))),
         # what the backend's code computes: a new revision computes the descriptors again
         revision=lambda wc: descriptor_revision(conf.methods[wc.method].backend),
     threads: 2

@@ -39,17 +39,14 @@ rule report:
     log:
         report_log_path(OUT),
     params:
-        # the stage's job record: every file above; the configuration's split names (the tables' columns and
-        # headings name them), Table I's L; what the report shows as the run's configuration (every setting that
-        # changes a number) and the dataset cards, in the configuration's order of datasets and splits
-        job=lambda wc, input: job_text(ReportJob(
-            report_files(input), conf.table_split, tuple(conf.eval_splits),
+        # the stage's job record: every file above (the rule's own input: it has no wildcards, so its one job's
+        # files are the rule's); the configuration's split names (the tables' columns and headings name them),
+        # Table I's L; what the report shows as the run's configuration (every setting that changes a number) and
+        # the dataset cards, in the configuration's order of datasets and splits
+        job=lambda wc: job_text(ReportJob(
+            report_files(rules.report.input), conf.table_split, tuple(conf.eval_splits),
             conf.train_split, (int(TABLE_L),), "seq_len" in EXPERIMENTS,
             JsonObject(json.loads(report_settings(conf.to_json()))), JsonObject(json.loads(report_datasets(PLAN))),
             OUT)),
-        # the dataset cards again, as a param of their own that Snakemake compares: a param made from a rule's input
-        # (the job above) is one it leaves out of its rerun check, and a run folder moved beside other images must
-        # write its cards again (vpr-smr run's own recipes compare the job, with paths relative to the run)
-        datasets=report_datasets(PLAN),
     shell:
         shell_command(reporting.REPORT)
