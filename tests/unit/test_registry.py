@@ -1,5 +1,6 @@
 """``core.registry.Registry``: built-ins in order, plugins found through a (fake) entry point group, the messages."""
 
+import os
 import re
 from types import SimpleNamespace
 
@@ -122,6 +123,7 @@ def test_a_package_installed_into_a_folder_on_the_path_is_seen_at_once(tmp_path,
     """The entry points are kept between calls, but installing a package (its dist-info appears in a folder on the
     path, changing the folder) is seen by the next call."""
     monkeypatch.syspath_prepend(str(tmp_path))
+    os.utime(tmp_path, ns=(0, 0))  # long ago: the folder changes below whatever the clock's resolution
     widgets = _widgets()
     assert widgets.names() == ["zeta", "alpha"]
     (tmp_path / "late_widgets.py").write_text("WIDGET = 7\n")
