@@ -8,7 +8,6 @@ import csv
 import importlib
 import re
 import sys
-import textwrap
 import tomllib
 from pathlib import Path
 
@@ -18,7 +17,7 @@ import pytest
 from helpers import make_features
 from report_runs import build_run
 
-from vpr_smr.datasets import DEFAULT_SPLITS, LOADERS, DatasetError, load_dataset, loader_options, required_options
+from vpr_smr.datasets import DatasetError, load_dataset, loader, loader_options, required_options
 from vpr_smr.descriptors import available_backends, backend_class
 from vpr_smr.eval.matching.matchers import MatcherSpec, available_matchers, matcher_class
 from vpr_smr.eval.report import registry  # at collection: its tables are the package's, before a recipe's plugin
@@ -103,11 +102,8 @@ def _frames(folder: Path, n: int) -> None:
         cv2.imwrite(str(folder / f"f{i + 1}.png"), np.full((8, 8, 3), 20 * i, np.uint8))
 
 
-def test_the_dataset_loader_recipe(tmp_path, monkeypatch, capsys):
-    namespace: dict = {"__name__": "my_route"}
-    exec(python("A dataset loader")["datasets/my_route.py"], namespace)
-    monkeypatch.setitem(LOADERS, "my_route", namespace["my_route"])
-    monkeypatch.setitem(DEFAULT_SPLITS, "my_route", namespace["SPLITS"])
+def test_the_dataset_loader_recipe(my_vpr, tmp_path, capsys):
+    assert loader("my_route") is importlib.import_module("my_vpr.route").MY_ROUTE
     assert loader_options("my_route") == ["root"] == required_options("my_route")  # splits, tolerance: every loader's
     root = tmp_path / "route"
     _frames(root / "day", 12)
@@ -175,19 +171,13 @@ def test_the_matcher_recipe(my_vpr):
     np.testing.assert_array_equal(np.concatenate([p.match for p in parts]), whole.match)
 
 
-def test_the_scorer_recipe(monkeypatch):
-    blocks = python("A training-free scorer")
-    namespace = dict(vars(scorers))
-    exec(blocks["eval/scoring/scorers.py: the confidence"], namespace)
-    entry_text = blocks["eval/scoring/scorers.py: its entry in REGISTRY"].split("\n", 1)[1]  # below its name
-    (entry,) = eval(textwrap.dedent(entry_text).strip(), namespace)  # a tuple's item: "Scorer(...),"
-    assert (entry.name, entry.kind, entry.settings) == ("margin", "training-free", ())
-    at = scorers.names().index(scorers.RANDOM)
-    monkeypatch.setattr(scorers, "REGISTRY", (*scorers.REGISTRY[:at], entry, *scorers.REGISTRY[at:]))
+def test_the_scorer_recipe(my_vpr):
+    entry = importlib.import_module("my_vpr.scorer").MARGIN
+    assert scorers.scorer("margin") is entry and (entry.kind, entry.settings) == ("training-free", ())
     assert scorers.training_free() == ("uniqueness", "single_uniqueness", "spread", "distance", "native", "margin",
                                        "random")
     assert scorers.colour("margin") == "tab:red"
-    assert len({s.colour for s in scorers.REGISTRY}) == len(scorers.REGISTRY)
+    assert len({s.colour for s in scorers.entries()}) == len(scorers.entries()) == 9
     candidates = np.array([[0.5, 0.75, 2.0], [1.0, 1.0, 3.0], [0.25, 2.0, np.inf]])
     features = make_features([True, False, True], np.ones((3, 2), bool), sequence_candidates=candidates,
                              sequence_distance=np.array([0.5, 1.0, 0.25]))
