@@ -12,13 +12,12 @@ each with its interval over queries and the paired interval of its difference fr
 
 from __future__ import annotations
 
-from collections.abc import Collection, Iterable, Mapping, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass, fields, replace
-from typing import Any
+from typing import TypeVar
 
 import numpy as np
 
-from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report.results import Order
 from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, SeqLenRow, Table1Row
 from vpr_smr.eval.scoring import scorers
@@ -26,6 +25,8 @@ from vpr_smr.eval.scoring.curves import earned
 from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.records import Baselines, SplitBaselines, Versus
 from vpr_smr.eval.scoring.scorers import ORACLE, PREDICTOR, RANDOM
+
+Scored = TypeVar("Scored", BaselineRow, DetectionRow)  # a row of one scorer
 
 
 def _split(record: Baselines, split: str) -> SplitBaselines:
@@ -62,11 +63,10 @@ def _sorted(records: Iterable[Baselines], order: Order | None) -> list[Baselines
     return sorted(records, key=lambda r: (order.dataset(r.key[0]), r.key[2], order.method(r.key[1])))
 
 
-def headline(row: dict[str, Any]) -> float | None:
+def headline(row: BaselineRow) -> float | None:
     """The number a scorer's table cell shows: its reduction at the seed-0 predictor's budget; random's mean over the
     seeds (beside its spread). Comparisons take every scorer's seed-0 number instead (like with like)."""
-    value: float | None = row.get(names.REDUCTION_MEAN if row["scorer"] == RANDOM else names.REDUCTION)
-    return value
+    return row.reduction_pct_mean if row.scorer == RANDOM else row.reduction_pct
 
 
 def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection[int] | None = None,
@@ -135,23 +135,23 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
     return rows
 
 
-def best_scorer(rows: Iterable[Mapping[str, Any]], key: str = names.REDUCTION) -> Mapping[str, Any] | None:
-    """The row of the training-free scorer with the largest seed-0 ``key`` among ``rows`` (one method's, one
+def best_scorer(rows: Iterable[Scored], value: Callable[[Scored], float | None]) -> Scored | None:
+    """The row of the training-free scorer with the largest seed-0 ``value`` among ``rows`` (one method's, one
     mode's: as the seed-0 predictor's), the first in the registry's order on a tie; None when none is defined."""
-    by_scorer = {r["scorer"]: r for r in rows}
-    best = scorers.best_training_free({name: row.get(key) for name, row in by_scorer.items()})
+    by_scorer = {r.scorer: r for r in rows}
+    best = scorers.best_training_free({name: value(row) for name, row in by_scorer.items()})
     return None if best is None else by_scorer[best]
 
 
-def _groups(rows: Sequence[Mapping[str, Any]]) -> dict[tuple[str, str, int, str], list[Mapping[str, Any]]]:
+def _groups(rows: Sequence[BaselineRow]) -> dict[tuple[str, str, int, str], list[BaselineRow]]:
     """``baseline_rows`` by (dataset, method, L, mode)."""
-    groups: dict[tuple[str, str, int, str], list[Mapping[str, Any]]] = {}
+    groups: dict[tuple[str, str, int, str], list[BaselineRow]] = {}
     for row in rows:
-        groups.setdefault((row["dataset"], row["method"], int(row["seq_len"]), row["mode"]), []).append(row)
+        groups.setdefault((row.dataset, row.method, row.seq_len, row.mode), []).append(row)
     return groups
 
 
-def with_best(table_rows: Sequence[Table1Row], rows: Sequence[Mapping[str, Any]]) -> list[SeqLenRow]:
+def with_best(table_rows: Sequence[Table1Row], rows: Sequence[BaselineRow]) -> list[SeqLenRow]:
     """The sequence-length ablation's rows (Table I's) with the best training-free scorer of each (dataset,
     method, L, mode) of ``baseline_rows``' ``rows`` beside the predictor: its name, reduction, PR AUC at the seed-0
     budget (which the sequence-length figure marks) and outcome; where no training-free reduction is defined, the
@@ -161,13 +161,12 @@ def with_best(table_rows: Sequence[Table1Row], rows: Sequence[Mapping[str, Any]]
     for row in table_rows:
         group = groups.get((row.dataset, row.method, row.seq_len, row.mode), [])
         numbers = {field.name: getattr(row, field.name) for field in fields(row)}
-        found = best_scorer(group)
+        found = best_scorer(group, lambda r: r.reduction_pct)
         if found is not None:
-            out.append(SeqLenRow(**numbers, best_scorer=found["scorer"],
-                                 best_scorer_reduction_pct=found[names.REDUCTION], best_scorer_outcome=found["outcome"],
-                                 best_scorer_auc=found.get("auc")))
+            out.append(SeqLenRow(**numbers, best_scorer=found.scorer, best_scorer_reduction_pct=found.reduction_pct,
+                                 best_scorer_outcome=found.outcome, best_scorer_auc=found.auc))
             continue
-        outcomes = {r["outcome"] for r in group if r["scorer"] in scorers.training_free()}
+        outcomes = {r.outcome for r in group if r.scorer in scorers.training_free()}
         out.append(SeqLenRow(**numbers, best_scorer_outcome=outcomes.pop() if len(outcomes) == 1 else None))
     return out
 
@@ -212,16 +211,16 @@ class Comparison:
         return _spread(self.oracle)[0]
 
 
-def comparisons(rows: Sequence[dict[str, Any]]) -> list[Comparison]:
+def comparisons(rows: Sequence[BaselineRow]) -> list[Comparison]:
     """``baseline_rows`` grouped by dataset, mode and L (in the rows' order), each a ``Comparison``."""
-    groups: dict[tuple[str, str, int], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, str, int], list[BaselineRow]] = {}
     for row in rows:
-        groups.setdefault((row["dataset"], row["mode"], int(row["seq_len"])), []).append(row)
+        groups.setdefault((row.dataset, row.mode, row.seq_len), []).append(row)
     out = []
     for (dataset, mode, seq_len), group in groups.items():
-        methods = tuple(dict.fromkeys(str(r["method"]) for r in group))
-        by = {(str(r["method"]), str(r["scorer"])): r for r in group}
-        values = {name: tuple(by[(m, name)][names.REDUCTION] if (m, name) in by else None for m in methods)
+        methods = tuple(dict.fromkeys(r.method for r in group))
+        by = {(r.method, r.scorer): r for r in group}
+        values = {name: tuple(by[(m, name)].reduction_pct if (m, name) in by else None for m in methods)
                   for name in scorers.names()}
         # like with like: the scorers are ranked by their means over the methods where every one of them is
         # defined (each over its own only where no method is); the ranking picks whom to compare, the paired
@@ -231,12 +230,12 @@ def comparisons(rows: Sequence[dict[str, Any]]) -> list[Comparison]:
         means = {name: _spread([values[name][i] for i in common] if common else values[name])[0] for name in free}
         defined = [name for name in free if means[name] is not None]
         best = max(defined, key=lambda name: (means[name] or 0.0, -scorers.names().index(name))) if defined else None
-        differences = tuple(bounds.of(by[(m, best)], "reduction_pct_difference") if (m, best) in by else None
+        differences = tuple(by[(m, best)].reduction_pct_difference_ci if (m, best) in by else None
                             for m in methods) if best is not None else tuple(None for _ in methods)
         out.append(Comparison(dataset, mode, seq_len, methods, best, values[PREDICTOR],
                               values[best] if best is not None else tuple(None for _ in methods), values[ORACLE],
-                              tuple(int(by[(m, PREDICTOR)]["budget"]) for m in methods if (m, PREDICTOR) in by),
-                              differences, tuple(by[(m, PREDICTOR)].get("n_queries") if (m, PREDICTOR) in by
+                              tuple(by[(m, PREDICTOR)].budget for m in methods if (m, PREDICTOR) in by),
+                              differences, tuple(by[(m, PREDICTOR)].n_queries if (m, PREDICTOR) in by
                                                  else None for m in methods)))
     return out
 
@@ -257,18 +256,18 @@ class DetectionComparison:
     n_queries: int
 
 
-def detection_comparisons(rows: Sequence[dict[str, Any]]) -> list[DetectionComparison]:
+def detection_comparisons(rows: Sequence[DetectionRow]) -> list[DetectionComparison]:
     """``detection_rows`` per dataset, L and method (in the rows' order), each a ``DetectionComparison``."""
-    groups: dict[tuple[str, int, str], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, int, str], list[DetectionRow]] = {}
     for row in rows:
-        groups.setdefault((str(row["dataset"]), int(row["seq_len"]), str(row["method"])), []).append(row)
+        groups.setdefault((row.dataset, row.seq_len, row.method), []).append(row)
     out = []
     for (dataset, seq_len, method), group in groups.items():
-        best = best_scorer(group, "average_precision")
-        predictor = next((r for r in group if r["scorer"] == PREDICTOR), None)
+        best = best_scorer(group, lambda r: r.average_precision)
+        predictor = next((r for r in group if r.scorer == PREDICTOR), None)
         out.append(DetectionComparison(
-            dataset, seq_len, method, None if best is None else str(best["scorer"]),
-            None if best is None else best["average_precision"],
-            None if predictor is None else predictor["average_precision"],
-            None if best is None else bounds.of(best, "average_precision_difference"), int(group[0]["n_queries"])))
+            dataset, seq_len, method, None if best is None else best.scorer,
+            None if best is None else best.average_precision,
+            None if predictor is None else predictor.average_precision,
+            None if best is None else best.average_precision_difference_ci, group[0].n_queries))
     return out

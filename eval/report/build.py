@@ -319,10 +319,10 @@ def _baseline_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     (``detection``)."""
     split, order = inputs.split, inputs.order
     out = []
-    rows = [cells(row) for row in baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order)]
+    rows = baseline_rows(inputs.baselines, split, inputs.table_seq_lens, order)
     spec = registry.figure("baselines")
     for comparison in comparisons(rows):
-        shown = [r for r in rows if (r["dataset"], r["mode"], r["seq_len"]) ==
+        shown = [r for r in rows if (r.dataset, r.mode, r.seq_len) ==
                  (comparison.dataset, comparison.mode, comparison.seq_len)]
         title = (f"{comparison.dataset}, L={comparison.seq_len}, {comparison.mode} mode ({split}): AOC reduction at "
                  "the seed-0 predictor's budget")

@@ -24,7 +24,9 @@ import numpy as np
 
 from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.report import names
+from vpr_smr.eval.report.baselines import Comparison, headline
 from vpr_smr.eval.report.outcome_words import SHORT, at_recall_zero
+from vpr_smr.eval.report.rows import BaselineRow
 from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.adaptive_records import FIXED, FIXED_PREDICTOR, RULE, RULES
 from vpr_smr.eval.scoring.curves import LOST_ALL, REMOVED_ALL
@@ -281,7 +283,7 @@ def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
 
 # --- the training-free baselines (method §12) -------------------------------------------------------------------
 
-def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any, title: str) -> Path:
+def baselines_figure(path: Path, rows: Sequence[BaselineRow], comparison: Comparison, title: str) -> Path:
     """Each scorer's AOC reduction per method at the seed-0 predictor's budget (``report.baselines.baseline_rows``
     of one dataset, mode and L): a group of bars per method, the training-free scorers first, the best of them
     (``comparison.best``, edged) just before the predictor's bar, each with its 95 % interval over the queries as an
@@ -293,7 +295,7 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
     best = comparison.best
     order = [name for name in scorers.names() if name not in ("oracle", "predictor", best)]
     order += ([best] if best is not None else []) + ["predictor"]
-    by = {(r["method"], r["scorer"]): r for r in rows}
+    by = {(r.method, r.scorer): r for r in rows}
     fig, ax = plt.subplots(figsize=(max(5.0, min(14.0, 0.55 * len(order) * len(methods) + 2.5)), 4.2))
     width = 0.8 / len(order)
     missing = []
@@ -301,20 +303,21 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
         x = np.arange(len(methods)) - 0.4 + width * (s + 0.5)
         values, below, above = [], [], []
         for method in methods:
-            row = by.get((method, scorer), {})
-            value = row.get(names.REDUCTION_MEAN if scorer == "random" else names.REDUCTION)
-            values.append(np.nan if value is None else float(value))
-            low, high = _whisker(row, scorer, value)
+            row = by.get((method, scorer))
+            value = None if row is None else headline(row)
+            values.append(np.nan if value is None else value)
+            low, high = (0.0, 0.0) if row is None or value is None else _whisker(row, value)
             below.append(low)
             above.append(high)
-            if value is None and row:
-                missing.append(f"{method}: {scorer} ({SHORT.get(str(row.get('outcome')), 'undefined')})")
+            if value is None and row is not None:
+                missing.append(f"{method}: {scorer} ({SHORT.get(row.outcome, 'undefined')})")
         label = scorer + (" (best training-free)" if scorer == best else "")
         ax.bar(x, values, width=width * 0.92, color=scorers.colour(scorer), label=label,
                edgecolor="black", lw=1.2 if scorer in (best, "predictor") else 0.3,
                yerr=np.array([below, above]), capsize=2)
     for m, method in enumerate(methods):
-        ceiling = by.get((method, "oracle"), {}).get(names.REDUCTION)
+        oracle = by.get((method, "oracle"))
+        ceiling = None if oracle is None else oracle.reduction_pct
         if ceiling is not None:
             ax.hlines(ceiling, m - 0.42, m + 0.42, colors="black", linestyles="--", lw=1.0,
                       label="oracle (ceiling)" if m == 0 else None)
@@ -332,19 +335,17 @@ def baselines_figure(path: Path, rows: Sequence[dict[str, Any]], comparison: Any
     return save(fig, path)
 
 
-def _whisker(row: dict[str, Any], scorer: str, value: Any) -> tuple[float, float]:
-    """How far an error bar reaches below and above a bar: random's seed standard deviation each way, any other
-    scorer's 95 % interval over the queries (``<name>_ci_low/high``; a percentile interval may leave out its own
-    point, then the bar's side is 0); none without a value or an interval."""
-    if value is None:
-        return 0.0, 0.0
-    if scorer == "random":
-        spread = float(row.get("reduction_pct_std") or 0.0)
+def _whisker(row: BaselineRow, value: float) -> tuple[float, float]:
+    """How far the error bar of ``value`` reaches below and above its bar: random's seed standard deviation each
+    way, any other scorer's 95 % interval over the queries (a percentile interval may leave out its own point, then
+    the bar's side is 0); none without an interval."""
+    if row.scorer == "random":
+        spread = row.reduction_pct_std or 0.0
         return spread, spread
-    low, high = row.get("reduction_pct_ci_low"), row.get("reduction_pct_ci_high")
-    if low is None or high is None:
+    interval = row.reduction_pct_ci
+    if interval is None:
         return 0.0, 0.0
-    return max(0.0, float(value) - float(low)), max(0.0, float(high) - float(value))
+    return max(0.0, value - interval.low), max(0.0, interval.high - value)
 
 
 def detection_figure(path: Path, panels: Sequence[tuple[str, Any]], title: str) -> Path:

@@ -46,8 +46,8 @@ from vpr_smr.eval.report.results import (
     split_text,
     unique,
 )
+from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, PredictorRow, Table1Row
 from vpr_smr.eval.report.rows import Column as TableColumn
-from vpr_smr.eval.report.rows import PredictorRow, Table1Row
 from vpr_smr.eval.report.rows import cells as row_cells
 from vpr_smr.eval.report.sections import INSPECTOR_FIGURES, Declared, Rows
 from vpr_smr.eval.report.table1 import (
@@ -63,7 +63,7 @@ from vpr_smr.eval.report.table1 import (
 )
 from vpr_smr.eval.report.tables import adaptive as adaptive_table
 from vpr_smr.eval.report.tables import matchers as matcher_table
-from vpr_smr.eval.report.verdicts import verdicts
+from vpr_smr.eval.report.verdicts import Answers, verdicts
 from vpr_smr.eval.report.view import (
     Block,
     Card,
@@ -80,6 +80,7 @@ from vpr_smr.eval.report.view import (
     text_cell,
 )
 from vpr_smr.eval.scoring import scorers as scorer_registry
+from vpr_smr.eval.scoring.scorers import RANDOM
 
 TEMPLATES = Path(__file__).resolve().parent / "templates"
 PROSE = "sections.yaml"  # the sections' intros (``prose``), beside the page's template
@@ -192,33 +193,38 @@ def speed_table(table_id: str, rows: Sequence[dict[str, Any]]) -> TableView:
     return TableView(table_id, head, tuple(body), caption=spec.caption)
 
 
-def scorer_table(table_id: str, rows: Sequence[dict[str, Any]], value: str, caption: str) -> TableView:
+def scorer_table(table_id: str, rows: Sequence[BaselineRow] | Sequence[DetectionRow], caption: str) -> TableView:
     """A compact table of the baselines (``baselines`` or ``wrong_match_detection`` rows of one dataset, L and
-    mode): a row per scorer, a column per method, ``value`` in each cell; ``random``'s reduction as its mean ±
-    sample standard deviation over the seeds (``baselines.headline``), its average precision as the mean over its
-    seeds; the detection table ends with the fraction of wrong matches."""
-    methods = unique(str(r["method"]) for r in rows)
-    scorers = unique(str(r["scorer"]) for r in rows)
-    by = {(str(r["method"]), str(r["scorer"])): r for r in rows}
+    mode): a row per scorer, a column per method, the reduction (the average precision) in each cell; ``random``'s
+    reduction as its mean ± sample standard deviation over the seeds (``baselines.headline``), its average precision
+    as the mean over its seeds; the detection table ends with the fraction of wrong matches."""
+    methods = unique(r.method for r in rows)
+    scorers = unique(r.scorer for r in rows)
+    by: dict[tuple[str, str], BaselineRow | DetectionRow] = {(r.method, r.scorer): r for r in rows}
+    number = names.REDUCTION if any(isinstance(r, BaselineRow) for r in rows) else "average_precision"
     head = (Column("scorer", "text"), *(Column(m) for m in methods))
     body = []
     for scorer in scorers:
         cells = []
         for method in methods:
-            row = by.get((method, scorer), {})
-            if scorer == "random" and value == names.REDUCTION and row:
-                mean, std = headline(row), row.get("reduction_pct_std")
+            row = by.get((method, scorer))
+            if row is None:
+                cells.append(cell(None, number))
+            elif isinstance(row, BaselineRow) and row.scorer == RANDOM:
+                mean, std = headline(row), row.reduction_pct_std
                 text = UNDEFINED if mean is None else f"{mean:.2f}" + ("" if std is None else f" ± {std:.2f}")
                 # the seeds' spread, not an interval over queries: not coloured
                 cells.append(Cell(text, "" if mean is None else repr(mean), "na" if mean is None else "num"))
-            elif scorer == "random" and row.get(f"{value}_mean") is not None:
-                cells.append(cell(row[f"{value}_mean"], value, fmt=".4f"))
+            elif isinstance(row, DetectionRow) and row.scorer == RANDOM and row.average_precision_mean is not None:
+                cells.append(cell(row.average_precision_mean, number))
+            elif isinstance(row, BaselineRow):
+                cells.append(row_cell(row_cells(row), TableColumn(number, fmt=".2f")))
             else:
-                cells.append(row_cell(row, TableColumn(value, fmt=".2f" if value == names.REDUCTION else ".4f")))
+                cells.append(cell(row.average_precision, number))
         body.append((text_cell(scorer, header=True), *cells))
-    if value == "average_precision" and rows:
-        body.append((text_cell("wrong fraction", header=True),
-                     *(cell(by[(m, scorers[0])]["wrong_fraction"], fmt=".4f") for m in methods)))
+    detection = [r for r in rows if isinstance(r, DetectionRow) and r.scorer == scorers[0]]
+    if detection:
+        body.append((text_cell("wrong fraction", header=True), *(cell(r.wrong_fraction, fmt=".4f") for r in detection)))
     return TableView(table_id, head, tuple(body), caption=caption)
 
 
@@ -412,14 +418,16 @@ class _Builder:
 def _baseline_blocks(b: _Builder) -> list[Block]:
     """Per dataset, L and mode each scorer's reduction at the predictor's budget, and per dataset and L the
     detection of wrong matches."""
-    rows, detection = b.rows("baselines"), b.rows("wrong_match_detection")
+    rows, detection = b.records("baselines", BaselineRow), b.records("wrong_match_detection", DetectionRow)
     blocks = []
     for f in b.named("baselines"):
-        table = scorer_table(anchor("baselines", f.dataset, f.seq_len, f.mode), b.of(f, rows), names.REDUCTION,
+        shown = [r for r in rows if (r.dataset, r.seq_len, r.mode) == (f.dataset, f.seq_len, f.mode)]
+        table = scorer_table(anchor("baselines", f.dataset, f.seq_len, f.mode), shown,
                              registry.table("baselines").caption)
         blocks.append(Block(b.block_title(f), (b.figure(f),), (table,)))
     for f in b.named("detection"):
-        table = scorer_table(anchor("detection", f.dataset, f.seq_len), b.of(f, detection), "average_precision",
+        found = [r for r in detection if (r.dataset, r.seq_len) == (f.dataset, f.seq_len)]
+        table = scorer_table(anchor("detection", f.dataset, f.seq_len), found,
                              registry.table("wrong_match_detection").caption)
         blocks.append(Block(f"{b.block_title(f)}: detecting wrong matches", (b.figure(f),), (table,)))
     return blocks
@@ -427,7 +435,7 @@ def _baseline_blocks(b: _Builder) -> list[Block]:
 
 def _detection_groups(b: _Builder) -> list[list[Any]]:
     by_key: dict[tuple[str, int], list[Any]] = {}
-    for one in detection_comparisons(b.rows("wrong_match_detection")):
+    for one in detection_comparisons(b.records("wrong_match_detection", DetectionRow)):
         by_key.setdefault((one.dataset, one.seq_len), []).append(one)
     return list(by_key.values())
 
@@ -447,12 +455,13 @@ def _baseline_intro(b: _Builder) -> tuple[str, ...]:
                     "of each confidence against the wrong matches (a random ranking's average precision is the "
                     "fraction of wrong matches).")
     detected = tuple(detection_sentence(group, b.split) for group in _detection_groups(b))
-    return (*(baseline_sentence(c, b.split) for c in comparisons(b.rows("baselines"))), *detected, BUDGET,
+    return (*(baseline_sentence(c, b.split) for c in comparisons(b.records("baselines", BaselineRow))), *detected,
+            BUDGET,
             scorers_text)
 
 
 def _baseline_headlines(b: _Builder) -> tuple[str, ...]:
-    return (*(baseline_headline(c) for c in comparisons(b.rows("baselines"))),
+    return (*(baseline_headline(c) for c in comparisons(b.records("baselines", BaselineRow))),
             *(detection_headline(g) for g in _detection_groups(b)))
 
 
@@ -770,7 +779,7 @@ def build_page(
     descriptor_table = data_table("provenance-files", [TableColumn(key) for key in ("file", *DESCRIPTOR_KEYS)],
                                   files, short=False) if files else None
     page_cards = cards(datasets, order)
-    answers = verdicts({t.name: t.rows for t in tables}, order, split, protocols)
+    answers = verdicts(Answers.of(tables), order, split, protocols)
     nav = [*([("findings", "Findings")] if found or answers else []), *((s.id, s.title) for s in sections),
            *([("datasets", "Datasets")] if page_cards or dataset_table else []),
            ("provenance", "Provenance"), ("configuration", "Configuration")]

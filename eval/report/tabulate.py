@@ -80,7 +80,7 @@ class Inputs:
 def seq_len_rows(inputs: Inputs) -> list[SeqLenRow]:
     """The sequence-length ablation: Table I's rows of every L, with the best training-free scorer of each."""
     best = baseline_rows(inputs.baselines, inputs.split, order=inputs.order) if inputs.baselines else []
-    return with_best(table1_rows(inputs.evaluations, inputs.split, order=inputs.order), [cells(r) for r in best])
+    return with_best(table1_rows(inputs.evaluations, inputs.split, order=inputs.order), best)
 
 
 

@@ -16,18 +16,23 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Protocol, TypeVar
 
-from vpr_smr.eval.report import bounds, names
+from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import Comparison, DetectionComparison, comparisons, detection_comparisons
-from vpr_smr.eval.report.results import Order, unique
+from vpr_smr.eval.report.results import Order, WrittenTable, unique
+from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, Row, Table1Row, cells
+from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow
+from vpr_smr.eval.report.tables.matchers import MatchersRow
 from vpr_smr.eval.report.view import Cell, Column, TableView, VerdictBlock, VerdictMode, anchor, text_cell
 from vpr_smr.eval.scoring.adaptive_records import COMPARED_MODE, RULE, RULES
 from vpr_smr.eval.scoring.curves import AGAINST_SIGN, HOLDS_ZERO, NO_INTERVAL, UNCHANGED
 from vpr_smr.eval.scoring.records import Interval
 
-Rows = Sequence[Mapping[str, Any]]
+Answer = Table1Row | BaselineRow | DetectionRow | MatchersRow | AdaptiveSeqLenRow  # a row of an answering table
+R = TypeVar("R")
+A = TypeVar("A", Table1Row, BaselineRow, DetectionRow, MatchersRow, AdaptiveSeqLenRow)
 # The mode shown first: every row's recall over the same denominator (the split's queries), so rows compare; the
 # other modes are folded below it
 SHOWN_MODE = COMPARED_MODE
@@ -75,16 +80,27 @@ def _by_sign(sign: int | None, said: Words, number: str, interval: Interval | No
     return _cell(word, number, interval, "up" if sign > 0 else "down", fmt)
 
 
-def reduction_cell(row: Mapping[str, Any]) -> Cell:
+class Reduced(Row, Protocol):
+    """A row of a seed-0 reduction: Table I's (``rows.Table1Row``), the matchers' (``MatchersRow``)."""
+
+    @property
+    def reduction_pct(self) -> float | None: ...
+    @property
+    def reduction_pct_ci(self) -> Interval | None: ...
+    @property
+    def outcome(self) -> str: ...
+
+
+def reduction_cell(row: Reduced) -> Cell:
     """Does the predictor reduce the AOC: a Table I (or matchers) row's seed-0 reduction in per cent, its word from
     ``outcome_words.direction``; a degenerate removal named."""
-    value = row.get(names.REDUCTION)
-    if words.is_degenerate(row) or value is None:
-        return _na(words.SHORT.get(str(row.get("outcome")), "no reduction"))
-    if row.get("outcome") == UNCHANGED:
-        return Cell(f"unchanged: {float(value):.1f} %", kind="hold")
-    sign, interval = words.direction(row), bounds.of(row, names.REDUCTION)
-    number = f"{float(value):.1f} %"
+    value = row.reduction_pct
+    if words.is_degenerate(cells(row)) or value is None:
+        return _na(words.SHORT.get(row.outcome, "no reduction"))
+    if row.outcome == UNCHANGED:
+        return Cell(f"unchanged: {value:.1f} %", kind="hold")
+    sign, interval = words.direction(cells(row)), row.reduction_pct_ci
+    number = f"{value:.1f} %"
     if sign == 0 and interval is not None and interval.sign():  # the interval and the outcome disagree
         return _cell(words.UNEARNED[AGAINST_SIGN], number, interval, "hold", ".1f")
     return _by_sign(sign, REDUCES, number, interval, ".1f")
@@ -129,32 +145,28 @@ def detection_cell(found: DetectionComparison) -> Cell:
                        against=f"than {found.best}")
 
 
-def native_cell(row: Mapping[str, Any]) -> Cell:
+def native_cell(row: MatchersRow) -> Cell:
     """Does a matcher's predictor beat the matcher's own confidence removing as many matches (points)."""
-    return paired_cell(row.get(names.REDUCTION), row.get("native_reduction_pct"),
-                       bounds.of(row, "native_minus_predictor"), BEATS, ".1f")
+    return paired_cell(row.reduction_pct, row.native_reduction_pct, row.native_minus_predictor_ci, BEATS, ".1f")
 
 
-def native_detection_cell(row: Mapping[str, Any]) -> Cell:
+def native_detection_cell(row: MatchersRow) -> Cell:
     """Does a matcher's predictor detect its wrong matches better than the matcher's own confidence."""
-    if row.get("ap_predictor") is None:
+    if row.ap_predictor is None:
         return _na("no wrong match")
-    return paired_cell(row.get("ap_predictor"), row.get("ap_native"), bounds.of(row, "ap_native_minus_predictor"),
-                       DETECTS, ".3f")
+    return paired_cell(row.ap_predictor, row.ap_native, row.ap_native_minus_predictor_ci, DETECTS, ".3f")
 
 
-def rule_cell(row: Mapping[str, Any]) -> Cell:
+def rule_cell(row: AdaptiveSeqLenRow) -> Cell:
     """Is a length rule's AOC below the best fixed row's, both at the recall both reach (the paired interval of the
     difference); a rule that keeps no correct match named."""
-    if words.at_recall_zero(row):
-        return _na(words.SHORT.get(str(row.get("outcome")), "no correct match kept"))
-    value = row.get("minus_best_fixed")
+    if words.at_recall_zero(cells(row)):
+        return _na(words.SHORT.get(row.outcome, "no correct match kept"))
+    value, interval = row.minus_best_fixed, row.minus_best_fixed_ci
     if value is None:
         return _na("no difference")
-    sign = bounds.sign(row, "minus_best_fixed")
     # a lower AOC is the rule's gain: the word follows the opposite of the difference's sign
-    return _by_sign(None if sign is None else -sign, RULE_AOC, f"{float(value):+.3f}",
-                    bounds.of(row, "minus_best_fixed"), ".3f")
+    return _by_sign(None if interval is None else -interval.sign(), RULE_AOC, f"{value:+.3f}", interval, ".3f")
 
 
 # --- tables -----------------------------------------------------------------------------------------------------
@@ -199,33 +211,29 @@ def _table(table_id: str, keys: Sequence[tuple[str, ...]], labels: Sequence[str]
                      groups=tuple(groups) if any(label for label, _ in groups) else ())
 
 
-def _where(rows: Rows, **match: Any) -> list[Mapping[str, Any]]:
-    return [r for r in rows if all(str(r.get(k)) == str(v) for k, v in match.items())]
-
-
-def _methods(order: Order, rows: Rows) -> list[str]:
+def _methods(order: Order, rows: Sequence[Answer]) -> list[str]:
     """The rows' methods in the configuration's order, those it does not know as the rows first name them."""
-    return sorted(unique(str(r["method"]) for r in rows), key=lambda m: order.method(m)[0])
+    return sorted(unique(r.method for r in rows), key=lambda m: order.method(m)[0])
 
 
-def _span(values: Sequence[Any]) -> str:
-    """``2573``, or ``2562-2567`` where they differ."""
-    known = sorted({int(v) for v in values if v is not None})
+def _span(rows: Sequence[Answer]) -> str:
+    """The rows' queries: ``2573``, or ``2562-2567`` where they differ."""
+    known = sorted({r.n_queries for r in rows})
     return "" if not known else str(known[0]) if len(known) == 1 else f"{known[0]}-{known[-1]}"
 
 
-def predictor_table(table_id: str, mode: str, table1: Rows, baselines: Rows, detection: Rows, order: Order
-                    ) -> TableView | None:
+def predictor_table(table_id: str, mode: str, table1: Sequence[Table1Row], baselines: Sequence[BaselineRow],
+                    detection: Sequence[DetectionRow], order: Order) -> TableView | None:
     """One dataset's pooled predictor per method (and L, where Table I has several): reduces the AOC, beats the
     best training-free rule, detects wrong matches better."""
     # Table I's lengths (the baselines and the detection may span the sequence-length ablation's too)
-    lens = sorted({int(r["seq_len"]) for r in table1} or {int(r["seq_len"]) for r in baselines})
+    lens = sorted({r.seq_len for r in table1} or {r.seq_len for r in baselines})
     methods = _methods(order, [*table1, *baselines, *detection])
     keys = [(m, str(n)) for n in lens for m in methods]
-    by_table1 = {(str(r["method"]), str(r["seq_len"])): r for r in _where(table1, mode=mode)}
-    by_baseline = {(m, str(c.seq_len)): c for c in comparisons([dict(r) for r in _where(baselines, mode=mode)])
+    by_table1 = {(r.method, str(r.seq_len)): r for r in table1 if r.mode == mode}
+    by_baseline = {(m, str(c.seq_len)): c for c in comparisons([r for r in baselines if r.mode == mode])
                    for m in c.methods}
-    by_detection = {(d.method, str(d.seq_len)): d for d in detection_comparisons([dict(r) for r in detection])}
+    by_detection = {(d.method, str(d.seq_len)): d for d in detection_comparisons(detection)}
     several = len(lens) > 1
     return _table(table_id, keys, ("method", *(["L"] if several else [])), lambda k: k if several else k[:1], (
         Question("reduces the AOC?", "the seed-0 predictor's AOC reduction (%) with its 95 % interval (Table I)",
@@ -239,19 +247,19 @@ def predictor_table(table_id: str, mode: str, table1: Rows, baselines: Rows, det
     ))
 
 
-def matcher_table(table_id: str, mode: str, matchers: Rows, adaptive: Rows, order: Order) -> TableView | None:
+def matcher_table(table_id: str, mode: str, matchers: Sequence[MatchersRow], adaptive: Sequence[AdaptiveSeqLenRow],
+                  order: Order) -> TableView | None:
     """One dataset per method and sequence matcher: its own predictor's answers (``matchers``) and each length
     rule's (``adaptive_seq_len``, where the mode compares them)."""
     # a rule is compared with the best fixed row only in a mode that has one (``best_fixed``; standard mode)
-    mine = _where(matchers, mode=mode)
-    ruled = [r for r in _where(adaptive, mode=mode) if r.get("kind") == RULE and r.get("best_fixed")]
-    tags = unique([*(str(r["matcher"]) for r in mine), *(str(r["matcher"]) for r in ruled)])
+    mine = [r for r in matchers if r.mode == mode]
+    ruled = [r for r in adaptive if r.mode == mode and r.kind == RULE and r.best_fixed]
+    tags = unique([*(r.matcher for r in mine), *(r.matcher for r in ruled)])
     methods = _methods(order, [*mine, *ruled])
     keys = [(m, t) for m in methods for t in tags]
-    by_matcher = {(str(r["method"]), str(r["matcher"])): r for r in mine}
-    by_rule: dict[tuple[str, ...], Mapping[str, Any]] = {
-        (str(r["method"]), str(r["matcher"]), str(r["name"])): r for r in ruled}
-    rules = [name for name in unique([*RULES, *(str(r["name"]) for r in ruled)])
+    by_matcher = {(r.method, r.matcher): r for r in mine}
+    by_rule: dict[tuple[str, ...], AdaptiveSeqLenRow] = {(r.method, r.matcher, r.name): r for r in ruled}
+    rules = [name for name in unique([*RULES, *(r.name for r in ruled)])
              if any(key[2] == name for key in by_rule)]
 
     def rule(name: str) -> Question:
@@ -273,48 +281,77 @@ def matcher_table(table_id: str, mode: str, matchers: Rows, adaptive: Rows, orde
     ))
 
 
-def _queries(dataset: str, mode: str, split: str, tables: Mapping[str, Rows]) -> str:
-    """The queries the block's numbers are over, said once: the table split's, and the shared ones of the matchers
-    and of the length rules where they differ."""
+@dataclass(frozen=True)
+class Answers:
+    """The rows of the tables that answer the first screen's questions (each none where the run did not write it):
+    Table I, the baselines, the wrong-match detection, the matchers and the length rules."""
+
+    table1: tuple[Table1Row, ...] = ()
+    baselines: tuple[BaselineRow, ...] = ()
+    detection: tuple[DetectionRow, ...] = ()
+    matchers: tuple[MatchersRow, ...] = ()
+    adaptive: tuple[AdaptiveSeqLenRow, ...] = ()
+
+    @classmethod
+    def of(cls, tables: Sequence[WrittenTable]) -> Answers:
+        """The answering tables among a run's written ``tables``, by their registered names."""
+        by = {table.name: table for table in tables}
+
+        def rows(name: str, row_type: type[R]) -> tuple[R, ...]:
+            return by[name].of(row_type) if name in by else ()
+
+        return cls(rows("table1", Table1Row), rows("baselines", BaselineRow),
+                   rows("wrong_match_detection", DetectionRow), rows("matchers", MatchersRow),
+                   rows("adaptive_seq_len", AdaptiveSeqLenRow))
+
+    def of_dataset(self, dataset: str) -> Answers:
+        return Answers(_of(dataset, self.table1), _of(dataset, self.baselines), _of(dataset, self.detection),
+                       _of(dataset, self.matchers), _of(dataset, self.adaptive))
+
+
+def _of(dataset: str, rows: tuple[A, ...]) -> tuple[A, ...]:
+    return tuple(r for r in rows if r.dataset == dataset)
+
+
+def _queries(mode: str, split: str, mine: Answers) -> str:
+    """The queries the block's numbers are over (``mine``: its dataset's rows), said once: the table split's, and
+    the shared ones of the matchers and of the length rules where they differ."""
     parts = []
-    table1 = _where(tables.get("table1", ()), dataset=dataset, mode=mode) or _where(
-        tables.get("baselines", ()), dataset=dataset, mode=mode)
-    n = _span([r.get("n_queries") for r in table1])
+    n = _span([r for r in mine.table1 if r.mode == mode] or [r for r in mine.baselines if r.mode == mode])
     if n:
         parts.append(f"{n} {split} queries")
-    shared = _span([r.get("n_queries") for r in _where(tables.get("matchers", ()), dataset=dataset, mode=mode)])
+    shared = _span([r for r in mine.matchers if r.mode == mode])
     if shared and shared != n:
         parts.append(f"{shared} that every matcher evaluates")
-    lengths = _span([r.get("n_queries") for r in _where(tables.get("adaptive_seq_len", ()), dataset=dataset,
-                                                          mode=mode)])
+    lengths = _span([r for r in mine.adaptive if r.mode == mode])
     if lengths and lengths not in (n, shared):
         parts.append(f"{lengths} that every length evaluates")
     return "; ".join(parts)
 
 
-def verdicts(tables: Mapping[str, Rows], order: Order, split: str, protocols: Mapping[str, str] | None = None
+def verdicts(answers: Answers, order: Order, split: str, protocols: Mapping[str, str] | None = None
              ) -> tuple[VerdictMode, ...]:
-    """The first screen's verdict tables of the run's ``tables`` (rows by registered name), per mode (``SHOWN_MODE``
-    first, where the run has it) and dataset (in ``order``); none where no table answers a question."""
-    answering = ("table1", "baselines", "wrong_match_detection", "matchers", "adaptive_seq_len")
-    rows = {name: tuple(tables.get(name, ())) for name in answering}
-    modes = sorted(unique(str(r["mode"]) for name in answering for r in rows[name] if "mode" in r),
-                   key=lambda m: (m != SHOWN_MODE, order.mode(m)))
-    datasets = sorted(unique(str(r["dataset"]) for name in answering for r in rows[name]), key=order.dataset)
+    """The first screen's verdict tables of the run's answering tables, per mode (``SHOWN_MODE`` first, where the
+    run has it) and dataset (in ``order``); none where no table answers a question."""
+    moded: list[Table1Row | BaselineRow | MatchersRow | AdaptiveSeqLenRow] = [
+        *answers.table1, *answers.baselines, *answers.matchers, *answers.adaptive]
+    modes = sorted(unique(r.mode for r in moded), key=lambda m: (m != SHOWN_MODE, order.mode(m)))
+    datasets = sorted(unique([*(r.dataset for r in moded), *(r.dataset for r in answers.detection)]),
+                      key=order.dataset)
     out = []
     for mode in modes:
         blocks = []
         for dataset in datasets:
-            mine = {name: _where(found, dataset=dataset) for name, found in rows.items()}
+            mine = answers.of_dataset(dataset)
             found = [t for t in (
-                predictor_table(anchor("verdicts", dataset, mode), mode, mine["table1"], mine["baselines"],
-                                mine["wrong_match_detection"], order),
-                matcher_table(anchor("verdicts-matchers", dataset, mode), mode, mine["matchers"],
-                              mine["adaptive_seq_len"], order)) if t is not None]
+                predictor_table(anchor("verdicts", dataset, mode), mode, mine.table1, mine.baselines, mine.detection,
+                                order),
+                matcher_table(anchor("verdicts-matchers", dataset, mode), mode, mine.matchers, mine.adaptive,
+                              order)) if t is not None]
             if found:
                 correct = (protocols or {}).get(dataset)
                 blocks.append(VerdictBlock(dataset, "; ".join(filter(None, [
-                    _queries(dataset, mode, split, mine), f"correct {correct}" if correct else ""])), tuple(found)))
+                    _queries(mode, split, mine), f"correct {correct}" if correct else ""])), tuple(found)))
         if blocks:
             out.append(VerdictMode(mode, tuple(blocks)))
     return tuple(out)

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from row_records import records
 
 from vpr_smr.eval.report import figures
 from vpr_smr.eval.report.baselines import Comparison
+from vpr_smr.eval.report.rows import BaselineRow
 
 METHODS = ("hog", "sad", "netvlad")
 VALUES = {"uniqueness": 12.0, "single_uniqueness": 8.0, "spread": -3.0, "distance": 5.0, "random": 2.0,
@@ -50,7 +52,8 @@ def drawn(monkeypatch):
 def test_the_note_is_covered_by_nothing(tmp_path, drawn):
     comparison = Comparison("corridor", "paper", 5, METHODS, "uniqueness", (20.0, None, 18.0), (12.0, 12.0, None),
                             (60.0, 60.0, 60.0), (3, 4, 5))
-    figures.baselines_figure(tmp_path / "b.png", rows(), comparison, "corridor, L=5, paper mode: AOC reduction")
+    figures.baselines_figure(tmp_path / "b.png", records(BaselineRow, rows()), comparison,
+                             "corridor, L=5, paper mode: AOC reduction")
     fig = drawn["fig"]
     renderer = fig.canvas.get_renderer()
     (ax,) = fig.axes
@@ -75,7 +78,7 @@ def test_without_an_undefined_reduction_there_is_no_note(tmp_path, monkeypatch):
     defined = [r for r in rows() if r.get("reduction_pct", 0.0) is not None]
     comparison = Comparison("corridor", "paper", 5, METHODS, "uniqueness", (20.0, 20.0, 20.0), (12.0, 12.0, 12.0),
                             (60.0, 60.0, 60.0), (3, 4, 5))
-    figures.baselines_figure(tmp_path / "b.png", defined, comparison, "corridor")
+    figures.baselines_figure(tmp_path / "b.png", records(BaselineRow, defined), comparison, "corridor")
     assert drawn["fig"].texts == []
     figures._pyplot().close(drawn["fig"])
 
@@ -89,7 +92,7 @@ def test_each_bar_carries_its_interval_and_random_its_seed_spread(tmp_path, draw
         with_intervals.append(row)
     comparison = Comparison("corridor", "paper", 5, METHODS, "uniqueness", (20.0, None, 18.0), (12.0, 12.0, None),
                             (60.0, 60.0, 60.0), (3, 4, 5))
-    figures.baselines_figure(tmp_path / "b.png", with_intervals, comparison, "corridor")
+    figures.baselines_figure(tmp_path / "b.png", records(BaselineRow, with_intervals), comparison, "corridor")
     (ax,) = drawn["fig"].axes
     # every error bar's vertical segments: the predictor's hog bar (20) reaches 16 to 26, random's (2 ± 1.5) 0.5 to 3.5
     spans = {tuple(np.round(np.asarray(segment)[:, 1], 6)) for collection in ax.collections

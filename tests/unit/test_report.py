@@ -10,7 +10,7 @@ from report_runs import DATASET_CARD, RUN_EXPERIMENTS, build_run, metrics_record
 from row_records import records
 
 from vpr_smr.eval.predictor.records import AttributeAblation, AttributeScores, AttributeSplit
-from vpr_smr.eval.report.rows import Table1Row
+from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, Table1Row
 from vpr_smr.eval.report.table1 import table1_latex, table1_markdown, tex_escape
 from vpr_smr.eval.report.tabulate import table2_latex, table2_markdown, table2_rows
 
@@ -699,7 +699,6 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
         detection_headline,
         detection_sentence,
     )
-    from vpr_smr.eval.report.rows import Table1Row
 
     # reductions at the seed-0 budget per method (a, b, c); random's mean over its seeds is 60, its seed 0 1, 2, 3
     numbers = {"uniqueness": (30.0, 10.0, 2.0), "single_uniqueness": (5.0, 40.0, -1.0), "spread": (-3.0, -2.0, -9.0),
@@ -715,7 +714,7 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
              **({"reduction_pct_difference_ci_low": differences[method][0],
                  "reduction_pct_difference_ci_high": differences[method][1]} if scorer == "single_uniqueness" else {})}
             for scorer, values in numbers.items() for i, method in enumerate("abc")]
-    (found,) = comparisons(rows)
+    (found,) = comparisons(records(BaselineRow, rows))
     # like with like: seed 0 against seed 0 (random's 60 over its seeds is not set against seed-0 numbers); means
     # over the methods: uniqueness 14.0, single_uniqueness 14.67, spread -4.67, distance 0, random 2.0
     assert found.best == "single_uniqueness" and found.best_values == (5.0, 40.0, -1.0)
@@ -730,7 +729,7 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
     # a scorer defined for one method only is ranked on the methods every scorer has: spread's 20 on b alone is
     # not set against single_uniqueness's 14.67 over three methods (on b, single_uniqueness has 40)
     partial = [{**r, "reduction_pct": {"b": 20.0}.get(r["method"])} if r["scorer"] == "spread" else r for r in rows]
-    assert comparisons(partial)[0].best == "single_uniqueness"
+    assert comparisons(records(BaselineRow, partial))[0].best == "single_uniqueness"
     # the first screen's sentence: the methods by what the paired interval says
     assert baseline_headline(found) == (
         "d (L = 4, paper mode), the predictor against the best training-free scorer (single_uniqueness) at its "
@@ -740,19 +739,22 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
     # neither a direction nor an interval that holds 0
     same = [{**r, "reduction_pct_difference_ci_low": 0.0, "reduction_pct_difference_ci_high": 0.0}
             if r["method"] == "c" and r["scorer"] == "single_uniqueness" else r for r in rows]
-    (tied,) = comparisons(same)
+    (tied,) = comparisons(records(BaselineRow, same))
     assert "; for c the two reductions are equal on every draw of the queries (the same matches removed);" in (
         baseline_sentence(tied, "test")) and "holds 0" not in baseline_sentence(tied, "test")
     # a file without the paired intervals: no direction for any method
-    (bare,) = comparisons([{k: v for k, v in r.items() if "difference" not in k} for r in rows])
+    (bare,) = comparisons(records(BaselineRow, [{k: v for k, v in r.items() if "difference" not in k}
+                                                for r in rows]))
     assert bare.beaten == 0 and "for 0 of 3 methods; no interval of the difference for a, b and c;" in (
         baseline_sentence(bare, "test"))
     # per row of the sequence-length ablation: the best training-free scorer of that method, by seed 0
-    assert best_scorer([r for r in rows if r["method"] == "a"])["scorer"] == "uniqueness"
-    assert best_scorer([r for r in rows if r["method"] == "b"])["scorer"] == "single_uniqueness"
+    scored = records(BaselineRow, rows)
+    for method, best in (("a", "uniqueness"), ("b", "single_uniqueness")):
+        found_best = best_scorer([r for r in scored if r.method == method], lambda r: r.reduction_pct)
+        assert found_best is not None and found_best.scorer == best
     table_row = Table1Row(**{field.name: None for field in dataclasses.fields(Table1Row)}  # only its key matters
                           | {"dataset": "d", "method": "c", "seq_len": 4, "mode": "paper"})
-    (row,) = with_best([table_row], rows)
+    (row,) = with_best([table_row], scored)
     assert (row.best_scorer, row.best_scorer_reduction_pct) == ("random", 3.0)
     # wrong-match detection (the numbers): the highest seed-0 AP and the paired interval against the
     # predictor's; random's mean over seeds (0.9) is not what it is compared by
@@ -765,14 +767,14 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
                       "average_precision_difference_ci_high": ap_differences[method][1]} if scorer == "uniqueness"
                      else {})}
                  for method, scores in aps.items() for scorer, ap in scores.items()]
-    assert detection_sentence(detection_comparisons(detection), "test") == (
+    assert detection_sentence(detection_comparisons(records(DetectionRow, detection)), "test") == (
         "Detecting wrong matches on d (test split, L = 4), average precision among the training-free scorers "
         "(seed 0): for a uniqueness has the highest, 0.787 against the predictor's 0.714, and beats the predictor "
         "(difference interval 0.020 to 0.130); for b uniqueness has the highest, 0.570 against the predictor's "
         "0.490; the 95 % interval of the difference [-0.050, 0.200] holds 0 (28 queries), so no direction is "
         "named.")
     # uniqueness's AP minus the predictor's is above 0 for a (the predictor worse), contains 0 for b
-    assert detection_headline(detection_comparisons(detection)) == (
+    assert detection_headline(detection_comparisons(records(DetectionRow, detection))) == (
         "d (L = 4), detecting wrong matches, the predictor against the best training-free scorer (the 95 % interval "
         "of its average precision minus the predictor's): worse for a [0.020, 0.130]; holds 0 for b "
         "[-0.050, 0.200].")
@@ -781,6 +783,6 @@ def test_the_baselines_sentence_is_computed_from_the_numbers():
                if r["method"] == "b" and r["scorer"] == "uniqueness" else
                {**r, "average_precision": 0.570} if r["method"] == "b" and r["scorer"] == "predictor" else r
                for r in detection]
-    assert detection_sentence(detection_comparisons(tied_ap), "test").endswith(
+    assert detection_sentence(detection_comparisons(records(DetectionRow, tied_ap)), "test").endswith(
         "for b uniqueness has the highest, 0.570 against the predictor's 0.570, the same on every draw of the "
         "queries (the same ranking of the wrong matches).")

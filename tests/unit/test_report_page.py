@@ -3,7 +3,7 @@ template escaping what it is given (the page in a real browser: test_html_report
 
 import html
 
-from row_records import records
+from row_records import record, records
 
 from vpr_smr.eval.report.rows import BaselineRow, Table1Row
 
@@ -160,7 +160,9 @@ def _rule_row(method: str, mode: str, name: str, minus: float | None, ci: tuple[
 
 def test_the_verdicts_per_matcher_and_length_rule_follow_their_intervals():
     from vpr_smr.eval.report.results import Order
-    from vpr_smr.eval.report.verdicts import verdicts
+    from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow
+    from vpr_smr.eval.report.tables.matchers import MatchersRow
+    from vpr_smr.eval.report.verdicts import Answers, verdicts
 
     matchers = [
         # reduces (interval above 0); beats its native confidence (native - predictor [-6, -1]: [1, 6] for the
@@ -178,7 +180,8 @@ def test_the_verdicts_per_matcher_and_length_rule_follow_their_intervals():
              _rule_row("sad", "standard", "adaptive_fallback", -0.01, (-0.03, 0.01)),
              _rule_row("sad", "standard", "adaptive_uniqueness", 0.2, (0.1, 0.3)),
              *(_rule_row("sad", "paper", name, None, None) for name in ("adaptive", "adaptive_fallback"))]
-    found = verdicts({"matchers": matchers, "adaptive_seq_len": rules}, Order(("corridor",), ("sad", "hog")), "test")
+    answers = Answers(matchers=tuple(records(MatchersRow, matchers)), adaptive=tuple(records(AdaptiveSeqLenRow, rules)))
+    found = verdicts(answers, Order(("corridor",), ("sad", "hog")), "test")
     # standard mode first, paper mode after it
     assert [mode.mode for mode in found] == ["standard", "paper"]
     standard = found[0].blocks[0]
@@ -216,12 +219,12 @@ def test_the_verdicts_per_matcher_and_length_rule_follow_their_intervals():
 def test_a_verdict_names_a_degenerate_removal_and_an_equal_comparison():
     from vpr_smr.eval.report.verdicts import paired_cell, reduction_cell
 
-    removed = {"reduction_pct": None, "outcome": "removed_all", "reduction_pct_ci_low": None,
-               "reduction_pct_ci_high": None}
+    removed = record(Table1Row, {"reduction_pct": None, "outcome": "removed_all", "reduction_pct_ci_low": None,
+                                 "reduction_pct_ci_high": None})
     assert (reduction_cell(removed).text, reduction_cell(removed).kind) == ("n/a: removed every match", "na")
-    unchanged = {"reduction_pct": 0.0, "outcome": "kept_all"}
+    unchanged = record(Table1Row, {"reduction_pct": 0.0, "outcome": "kept_all"})
     assert reduction_cell(unchanged).text == "n/a: kept every match"
-    no_interval = {"reduction_pct": 12.5, "outcome": "improved"}
+    no_interval = record(Table1Row, {"reduction_pct": 12.5, "outcome": "improved"})
     assert (reduction_cell(no_interval).text, reduction_cell(no_interval).kind) == ("no interval: 12.5 %", "hold")
     from vpr_smr.eval.report.verdicts import BEATS
     from vpr_smr.eval.scoring.records import Interval
@@ -230,5 +233,6 @@ def test_a_verdict_names_a_degenerate_removal_and_an_equal_comparison():
     assert (same.text, same.kind) == ("equal on every draw", "hold")
     assert paired_cell(None, 4.0, Interval(-1.0, 1.0), BEATS, ".1f").kind == "na"
     # an interval wholly below 0 beside an outcome of improved: no word of direction, and not "holds 0" either
-    odd = {"reduction_pct": 2.0, "outcome": "improved", "reduction_pct_ci_low": -5.0, "reduction_pct_ci_high": -1.0}
+    odd = record(Table1Row, {"reduction_pct": 2.0, "outcome": "improved", "reduction_pct_ci_low": -5.0,
+                             "reduction_pct_ci_high": -1.0})
     assert (reduction_cell(odd).text, reduction_cell(odd).detail) == ("no direction: 2.0 %", "[-5.0, -1.0]")

@@ -10,10 +10,12 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 from matplotlib.colors import is_color_like, to_rgba
+from row_records import records
 
 from vpr_smr.eval.matching.attributes import query_features
 from vpr_smr.eval.report import figures
 from vpr_smr.eval.report.baselines import Comparison
+from vpr_smr.eval.report.rows import BaselineRow
 from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.baselines import (
     SCORERS,
@@ -118,7 +120,7 @@ def test_one_more_entry_reaches_everything(monkeypatch, tmp_path):
              "reduction_pct_std": 1.0} for m in methods for s in scorers.names()]
     comparison = Comparison("corridor", "paper", 5, methods, "uniqueness", (20.0, 18.0), (12.0, 12.0),
                             (60.0, 60.0), (3, 4))
-    figures.baselines_figure(tmp_path / "b.png", rows, comparison, "corridor")
+    figures.baselines_figure(tmp_path / "b.png", records(BaselineRow, rows), comparison, "corridor")
     (ax,) = drawn["fig"].axes
     labels = [text.get_text() for text in ax.get_legend().get_texts()]
     assert "single_distance" in labels and "native" in labels  # the matcher's own confidence, a bar of its own
