@@ -139,7 +139,7 @@ def training(conf: Config, validation: bool = True) -> PredictorTraining:
 
 def split_files(splits: Sequence[str], items: Sequence[str]) -> dict[str, tuple[str, ...]]:
     """Each split's items, by its name (a rule's ``evaluate`` setting): ``items`` holds each split's items in turn,
-    as many for every split (``rule_helpers.evaluation_attributes``); empty without splits or items."""
+    as many for every split (``rule_helpers.RuleFiles.train``); empty without splits or items."""
     if not splits or not items:
         return {}
     per_split, rest = divmod(len(items), len(splits))
