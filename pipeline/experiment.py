@@ -140,8 +140,11 @@ def relative(path: str) -> str:
 @dataclass(frozen=True)
 class Experiment:
     """An experiment: its ``name`` (a key of ``experiments:``, lower case letters, digits and ``_``), ``help`` (one
-    line: the configuration reference's), its ``jobs`` and its ``tables`` (each with ``experiments=(name,)``:
-    written when the configuration turns it on; its ``make`` reads ``inputs.experiments[name]``, the jobs' files)."""
+    line: the configuration reference's), its ``jobs`` and its ``tables``. A table's ``experiments`` names the
+    experiment (``experiments=(name,)``), so that it is written only when the configuration turns the experiment on;
+    further names are further conditions (``("table1", name)``: only in a run with Table I's evaluations). Its
+    ``make`` reads ``inputs.experiments[name]``, the jobs' files, or, for a table-only experiment (no jobs), the
+    core jobs' files (``trust_levels``: the evaluations')."""
 
     name: str
     help: str
@@ -152,12 +155,24 @@ class Experiment:
         if NAME.fullmatch(self.name) is None:
             raise ValueError(f"experiment {self.name!r}: a name is lower case letters, digits and '_', starting with "
                              "a letter")
+        switch = self.switch
         for table in self.tables:
-            if table.experiments != (self.name,):
-                raise ValueError(f"experiment {self.name!r}: its table {table.name!r} must have "
-                                 f"experiments=({self.name!r},), so that it is written when the experiment runs")
+            if switch not in table.experiments:
+                raise ValueError(f"experiment {self.name!r}: its table {table.name!r} has experiments="
+                                 f"{table.experiments!r}, without {switch!r}; name the experiment there "
+                                 f"(experiments=({switch!r},), or with further conditions, e.g. ('table1', "
+                                 f"{switch!r})), so that the table is written only when the experiment runs")
         for job in self.jobs:
             job.wildcards  # noqa: B018 (refuses an unknown wildcard now, not in the workflow)
+
+    @property
+    def switch(self) -> str:
+        """Its name among the experiments a configuration runs (``pipeline.config.experiments``: the names its tables'
+        ``experiments`` and ``registry.expected_outputs`` take): its ``name``, but where ``config.REPORT_NAMES`` maps
+        a built-in experiment's key to the report's older name (``trust_levels``: ``trust``)."""
+        from vpr_smr.pipeline.config import REPORT_NAMES  # here: the configuration imports this module (its plugins)
+
+        return REPORT_NAMES.get(self.name, self.name)
 
     def outputs(self, settings: Mapping[str, Any]) -> list[str]:
         """Every job's file, relative to the run folder, for a configuration's settings (its validated JSON)."""
@@ -192,7 +207,7 @@ def builtin_experiments() -> tuple[Experiment, ...]:
 def running(names: Collection[str]) -> tuple[Experiment, ...]:
     """The built-in, then the installed experiments among ``names`` (``pipeline.config.experiments``: those the
     configuration turns on): the workflow makes their jobs' rules (``rules/experiments.smk``)."""
-    return tuple(one for one in (*builtin_experiments(), *plugin_experiments()) if one.name in names)
+    return tuple(one for one in (*builtin_experiments(), *plugin_experiments()) if one.switch in names)
 
 
 def experiment(name: str) -> Experiment:

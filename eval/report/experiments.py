@@ -61,6 +61,8 @@ EXPERIMENTS.add_lazy("speed", "vpr_smr.pipeline.experiments.speed:EXPERIMENT")
 EXPERIMENTS.add_lazy("matchers", "vpr_smr.pipeline.experiments.matchers:EXPERIMENT")
 EXPERIMENTS.add_lazy("adaptive_seq_len", "vpr_smr.pipeline.experiments.adaptive_seq_len:EXPERIMENT")
 EXPERIMENTS.add_lazy("protocol_sweep", "vpr_smr.pipeline.experiments.protocol_sweep:EXPERIMENT")
+EXPERIMENTS.add_lazy("trust_levels", "vpr_smr.pipeline.experiments.trust_levels:EXPERIMENT")
+EXPERIMENTS.add_lazy("restoration", "vpr_smr.pipeline.experiments.restoration:EXPERIMENT")
 
 
 def builtin() -> tuple[Reported, ...]:

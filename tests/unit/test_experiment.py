@@ -23,8 +23,9 @@ from vpr_smr.pipeline.stages.studies import ADAPTIVE, COMPARE_MATCHERS, SPEED
 
 
 def test_the_built_in_experiments_are_registered_by_name_and_are_no_plugins():
-    assert reported.EXPERIMENTS.builtins() == ["speed", "matchers", "adaptive_seq_len", "protocol_sweep"]
-    assert [one.name for one in reported.builtin()] == ["speed", "matchers", "adaptive_seq_len", "protocol_sweep"]
+    built_in = ["speed", "matchers", "adaptive_seq_len", "protocol_sweep", "trust_levels", "restoration"]
+    assert reported.EXPERIMENTS.builtins() == built_in
+    assert [one.name for one in reported.builtin()] == built_in
     assert not {"speed", "matchers", "adaptive_seq_len"} & {one.name for one in reported.installed()}
     # their stages are the command line's own (pipeline.stages): not installed a second time as a plugin's
     assert not {SPEED, COMPARE_MATCHERS, ADAPTIVE} & set(plugin_stages())
@@ -43,17 +44,29 @@ def test_the_report_keeps_its_tables_and_their_order():
         "leave_one_method_out", "protocol_sweep", "adaptive_seq_len", "datasets", "matchers"]
     assert registry.table("speed") is experiment("speed").tables[0]
     assert registry.table("speed").names()[:4] == ("dataset", "method", "seq_len", "profile")
+    # the table-only experiments' tables keep their files' names and are written with Table I only
+    assert registry.table("trust_levels") is experiment("trust_levels").tables[0]
+    assert registry.table("restoration") is experiment("restoration").tables[0]
+    assert registry.table("trust_levels").experiments == ("table1", "trust")  # the report's name (REPORT_NAMES)
+    assert registry.table("restoration").experiments == ("table1", "restoration")
 
 
 def test_the_configuration_switches_a_built_in_experiment_by_its_key():
     from vpr_smr.pipeline.config import experiments
 
     conf = validate(plan_once_config(DEFAULT_ROOT))  # one seq_len: no adaptive_seq_len; matchers off
-    assert [one.name for one in running(experiments(conf))] == ["speed", "protocol_sweep"]
+    assert [one.name for one in running(experiments(conf))] == ["speed", "protocol_sweep", "trust_levels",
+                                                                  "restoration"]
     conf = validate({**plan_once_config(DEFAULT_ROOT), "seq_lens": [2, 3],
-                     "experiments": {"speed": False, "protocol_sweep": False}})
-    assert [one.name for one in running(experiments(conf))] == ["matchers", "adaptive_seq_len"]
-    assert experiment("protocol_sweep").jobs == ()  # its table's rows are the VPR metrics jobs' (no rule of its own)
+                     "experiments": {"speed": False, "protocol_sweep": False, "restoration": False}})
+    assert [one.name for one in running(experiments(conf))] == ["matchers", "adaptive_seq_len", "trust_levels"]
+    # trust_levels is off by its key, and without levels to score
+    conf = validate({**plan_once_config(DEFAULT_ROOT), "experiments": {"trust_levels": False}})
+    assert "trust_levels" not in [one.name for one in running(experiments(conf))]
+    conf = validate({**plan_once_config(DEFAULT_ROOT), "trust_levels": []})
+    assert "trust_levels" not in [one.name for one in running(experiments(conf))]
+    # their tables' rows are the core jobs' (VPR metrics, evaluations): no rule of their own
+    assert [experiment(name).jobs for name in ("protocol_sweep", "trust_levels", "restoration")] == [(), (), ()]
 
 
 def test_a_job_record_is_made_from_the_wildcards_alone():
@@ -116,6 +129,22 @@ def test_an_output_names_only_known_wildcards_and_a_wildcard_without_values_matc
     assert relative("/speed/{dataset}.json") == "speed/{dataset}.json"
     with pytest.raises(ValueError, match="with the run folder ''"):
         relative("run/speed.json")
+
+
+def _toy_table(experiments):
+    from vpr_smr.eval.report import rows
+    from vpr_smr.eval.report.table_spec import Table
+
+    return Table("toy", "a toy", experiments, row=rows.TrustRow, make=lambda inputs: None)
+
+
+def test_an_experiment_s_table_is_written_only_when_the_experiment_runs():
+    with pytest.raises(ValueError, match=r"its table 'toy' has experiments=\('table1',\), without 'toy'; name the "
+                                         r"experiment there \(experiments=\('toy',\)"):
+        Experiment("toy", "a toy", (), (_toy_table(("table1",)),))
+    # its name, then a further condition: written in a run with Table I's evaluations only
+    assert Experiment("toy", "a toy", (), (_toy_table(("table1", "toy")),)).tables[0].experiments == ("table1", "toy")
+    assert Experiment("toy", "a toy", (), (_toy_table(("toy",)),)).switch == "toy"
 
 
 @dataclass(frozen=True)

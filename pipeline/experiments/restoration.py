@@ -1,0 +1,23 @@
+"""The experiment ``restoration`` (method §9): the second filter, a removed match replaced by the next candidate the
+predictor trusts, against removal alone.
+
+A table-only experiment: no job of its own, the evaluation jobs compute it (``eval.scoring.restoration``, in the
+``evaluate`` rule's files of a run with restoration); its figures are ``registry.FIGURES``' ``restoration`` and
+``restoration_auc`` and its section ``html.SECTIONS``' ``restoration``.
+"""
+
+from __future__ import annotations
+
+from vpr_smr.eval.report import rows
+from vpr_smr.eval.report import tabulate as make
+from vpr_smr.eval.report.table_spec import Table
+from vpr_smr.pipeline.experiment import Experiment
+
+NAME = "restoration"
+
+TABLE = Table(
+    NAME, "Match restoration (second filter): removal against restoration", ("table1", NAME),
+    row=rows.RestorationRow, make=make.make_restoration,
+    page=("method", "removed", "restored", "wrong_to_right", "right_to_wrong", "auc_difference"))
+
+EXPERIMENT = Experiment(NAME, "match restoration (method §9)", (), (TABLE,))
