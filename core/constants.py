@@ -66,5 +66,7 @@ def candidates_needed(r_window: int = DEFAULT_R_WINDOW, spread_k: int = DEFAULT_
 # predictor seed is cross-validated (the others' f1_cv is null). 5: bootstrap intervals over queries beside the
 # numbers the tables show, the scorers against the predictor paired, a standard deviation of one seed null.
 # 6: an outcome names a direction only where its interval earns it, sequence recall@N ranks the matcher's match
-# first, predictor files record their sequence length, methods and training matrices (0.15.0).
-RESULTS_LAYOUT = 6
+# first, predictor files record their sequence length, methods and training matrices (0.15.0). 7: a
+# worse_from_zero outcome (the baseline's AOC 0) is said only where the interval of the AOC difference earns it,
+# else the word that interval gives (0.17.0).
+RESULTS_LAYOUT = 7
