@@ -1,5 +1,6 @@
 """Row records for the report's tests: a test names the cells it is about (as the CSV names them: an interval as its
-two bound columns), every other field of the record takes a neutral value (0, an empty text, None, no keys)."""
+two bound columns), every other field of the record takes a neutral value (0, an empty text, None, no keys), and
+``rows.parse`` makes the record."""
 
 from __future__ import annotations
 
@@ -7,8 +8,7 @@ import dataclasses
 from collections.abc import Iterable, Mapping
 from typing import Any, TypeVar
 
-from vpr_smr.eval.report.bounds import HIGH, LOW
-from vpr_smr.eval.scoring.intervals import Interval
+from vpr_smr.eval.report import rows
 
 R = TypeVar("R")
 
@@ -23,20 +23,16 @@ def _neutral(annotation: str) -> Any:
 
 
 def record(row_type: type[R], cells: Mapping[str, Any]) -> R:
-    """A ``row_type`` record of ``cells``; a cell the record has no column of is refused (a misspelt name)."""
-    left = dict(cells)
-    values = {}
-    for field in dataclasses.fields(row_type):  # type: ignore[arg-type]
-        base = field.name.removesuffix("_ci")
-        if field.name.endswith("_ci") and f"{base}{LOW}" in left:
-            low, high = left.pop(f"{base}{LOW}"), left.pop(f"{base}{HIGH}")
-            values[field.name] = None if low is None else Interval(float(low), float(high))
-        else:
-            values[field.name] = left.pop(field.name) if field.name in left else _neutral(str(field.type))
-    if left:
-        raise KeyError(f"{row_type.__name__} has no column {sorted(left)}")
-    return row_type(**values)
+    """A ``row_type`` record of ``cells``; a cell the record has no column or field of is refused (a misspelt
+    name)."""
+    fields = {field.name: field for field in dataclasses.fields(row_type)}  # type: ignore[arg-type]
+    columns = {column.name for column in rows.columns(row_type)}  # type: ignore[arg-type]
+    unknown = set(cells) - columns - set(fields)
+    if unknown:
+        raise KeyError(f"{row_type.__name__} has no column {sorted(unknown)}")
+    neutral = {name: _neutral(str(field.type)) for name, field in fields.items()}
+    return rows.parse(row_type, {**neutral, **dict.fromkeys(columns - set(fields)), **cells})
 
 
-def records(row_type: type[R], rows: Iterable[Mapping[str, Any]]) -> list[R]:
-    return [record(row_type, row) for row in rows]
+def records(row_type: type[R], found: Iterable[Mapping[str, Any]]) -> list[R]:
+    return [record(row_type, row) for row in found]

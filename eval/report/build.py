@@ -33,7 +33,7 @@ from vpr_smr.eval.report.results import (
     provenance_text,
     unique,
 )
-from vpr_smr.eval.report.rows import cells
+from vpr_smr.eval.report.rows import SeqLenRow, SpeedRow, SweepRow, cells
 from vpr_smr.eval.report.table1 import UNDEFINED, evaluation_order, is_reduction, tex_escape
 from vpr_smr.eval.report.tabulate import Inputs, by_key, seq_len_rows, speed_rows, sweep_rows
 from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult, AdaptiveTiming
@@ -283,7 +283,7 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
                                     f"{dataset}, L={seq_len}: all methods ({split}{inputs.correct(dataset)})")
         keep("confusion", f"{dataset}, L={seq_len}", path, dataset, seq_len)
     if inputs.seq_len_ablation and inputs.evaluations:  # the best training-free scorer's PR AUC marked beside
-        figures += _seq_len_figures(out_dir, [cells(row) for row in seq_len_rows(inputs)], order, inputs)
+        figures += _seq_len_figures(out_dir, seq_len_rows(inputs), order, inputs)
     if inputs.baselines:
         figures += _baseline_figures(out_dir, inputs)
     if inputs.matchers:
@@ -291,23 +291,22 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     if inputs.adaptive:
         figures += _adaptive_figures(out_dir, inputs)
     if inputs.speed:
-        figures += _speed_figures(out_dir, [cells(row) for row in speed_rows(inputs.speed, order)], order, split,
-                                  inputs)
-    figures += _sweep_figures(out_dir, [cells(row) for row in sweep_rows(inputs.metrics, split, order)], order, split)
+        figures += _speed_figures(out_dir, speed_rows(inputs.speed, order), order, split, inputs)
+    figures += _sweep_figures(out_dir, sweep_rows(inputs.metrics, split, order), order, split)
     return figures
 
 
-def _sweep_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, split: str) -> list[WrittenFigure]:
+def _sweep_figures(out_dir: Path, rows: Sequence[SweepRow], order: Order, split: str) -> list[WrittenFigure]:
     """One protocol-sweep figure per dataset, L and mode of the sweep's rows."""
     out = []
-    groups: dict[tuple[str, int, str], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, int, str], list[SweepRow]] = {}
     for row in rows:
-        groups.setdefault((row["dataset"], row["seq_len"], row["mode"]), []).append(row)
+        groups.setdefault((row.dataset, row.seq_len, row.mode), []).append(row)
     spec = registry.figure("protocol_sweep")
     for (dataset, seq_len, mode), group in groups.items():
         title = f"{dataset}, L={seq_len}, {mode} mode ({split}): the same matches under other ground truths"
         path = fig.sweep_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len, mode=mode), group,
-                                order.sorted_methods(r["method"] for r in group), title)
+                                order.sorted_methods(r.method for r in group), title)
         out.append(WrittenFigure("protocol_sweep", f"{spec.title}: {dataset}, L={seq_len}, {mode} mode", path, dataset,
                                  seq_len, mode))
     return out
@@ -393,40 +392,40 @@ def _adaptive_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     return out
 
 
-def _speed_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, split: str,
+def _speed_figures(out_dir: Path, rows: Sequence[SpeedRow], order: Order, split: str,
                    inputs: Inputs) -> list[WrittenFigure]:
     """One speed figure per dataset and L of the speed experiment's rows."""
     out = []
-    groups: dict[tuple[str, int], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, int], list[SpeedRow]] = {}
     for row in rows:
-        groups.setdefault((row["dataset"], row["seq_len"]), []).append(row)
+        groups.setdefault((row.dataset, row.seq_len), []).append(row)
     spec = registry.figure("speed")
     for (dataset, seq_len), group in groups.items():
         title = (f"{dataset}, L={seq_len}, paper mode ({split}{inputs.correct(dataset)}): simulated query speeds, "
                  "fixed matcher against velocity search")
         path = fig.speed_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len), group,
-                                order.sorted_methods(r["method"] for r in group), title)
+                                order.sorted_methods(r.method for r in group), title)
         out.append(WrittenFigure("speed", f"{spec.title}: {dataset}, L={seq_len}", path, dataset, seq_len))
     return out
 
 
-def _seq_len_figures(out_dir: Path, rows: list[dict[str, Any]], order: Order, inputs: Inputs) -> list[WrittenFigure]:
+def _seq_len_figures(out_dir: Path, rows: Sequence[SeqLenRow], order: Order, inputs: Inputs) -> list[WrittenFigure]:
     out = []
-    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    groups: dict[tuple[str, str], list[SeqLenRow]] = {}
     for row in rows:
-        groups.setdefault((row["dataset"], row["mode"]), []).append(row)
+        groups.setdefault((row.dataset, row.mode), []).append(row)
     for (dataset, mode), group in sorted(groups.items(), key=lambda item: (order.dataset(item[0][0]),
                                                                            order.mode(item[0][1]))):
-        methods = order.sorted_methods(r["method"] for r in group)
-        seq_lens = sorted({int(r["seq_len"]) for r in group})
+        methods = order.sorted_methods(r.method for r in group)
+        seq_lens = sorted({r.seq_len for r in group})
         bottoms = np.full((len(methods), len(seq_lens)), np.nan)
         tops = np.full_like(bottoms, np.nan)
         best = np.full_like(bottoms, np.nan)
         for r in group:
-            i, j = methods.index(r["method"]), seq_lens.index(int(r["seq_len"]))
-            bottoms[i, j], tops[i, j] = r["auc_vpr_sm"], r["auc_vpr_sm_pred"]
-            if r.get("best_scorer_auc") is not None:
-                best[i, j] = r["best_scorer_auc"]
+            i, j = methods.index(r.method), seq_lens.index(r.seq_len)
+            bottoms[i, j], tops[i, j] = r.auc_vpr_sm, r.auc_vpr_sm_pred
+            if r.best_scorer_auc is not None:
+                best[i, j] = r.best_scorer_auc
         title = f"{dataset}, {mode} mode{inputs.correct(dataset)}\nPR AUC, VPR+SM (bar bottom) -> VPR+SM+Pred (top)"
         spec = registry.figure("seq_len")
         path = fig.change_bars(out_dir / spec.file(dataset=dataset, mode=mode), methods, [f"L{s}" for s in seq_lens],

@@ -16,7 +16,7 @@ Names (``<d>`` dataset, ``<L>`` sequence length, ``<mode>`` paper or standard):
 from __future__ import annotations
 
 import textwrap
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +26,7 @@ from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.report import names
 from vpr_smr.eval.report.baselines import Comparison, headline
 from vpr_smr.eval.report.outcome_words import SHORT, at_recall_zero
-from vpr_smr.eval.report.rows import BaselineRow
+from vpr_smr.eval.report.rows import BaselineRow, SpeedRow, SweepRow
 from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.adaptive_records import FIXED, FIXED_PREDICTOR, RULE, RULES
 from vpr_smr.eval.scoring.curves import LOST_ALL, REMOVED_ALL
@@ -190,7 +190,7 @@ def restoration_figure(path: Path, panels: Sequence[tuple[str, dict[str, Any]]],
     return save(fig, path)
 
 
-def sweep_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], title: str) -> Path:
+def sweep_figure(path: Path, rows: Sequence[SweepRow], methods: Sequence[str], title: str) -> Path:
     """The protocol sweep of one dataset, L and mode (``build.sweep_rows``' rows): recall@1 (left; sequence solid,
     single frame dotted) and the predictor's AOC reduction (right) against the ground truth's tolerance (frames) or
     radius (positions); one colour per method. An undefined reduction is a gap."""
@@ -199,15 +199,15 @@ def sweep_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
     plt = _pyplot()
     fig, axes = plt.subplots(1, 2, figsize=(9.6, 3.8))
     colours = {method: f"C{i % 10}" for i, method in enumerate(methods)}
-    kind = rows[0]["ground_truth"] if rows else "frames"
+    kind = rows[0].ground_truth if rows else "frames"
     xlabel = "tolerance (frames)" if kind == "frames" else "radius (the positions' unit)"
-    thresholds = sorted({float(r["threshold"]) for r in rows})
+    thresholds = sorted({r.threshold for r in rows})
     for method in methods:
-        mine = sorted((r for r in rows if r["method"] == method), key=lambda r: r["threshold"])
-        x = [r["threshold"] for r in mine]
-        axes[0].plot(x, [r[names.RECALL_SEQUENCE] for r in mine], "-", marker="o", ms=3, color=colours[method])
-        axes[0].plot(x, [r[names.RECALL_SINGLE] for r in mine], ":", lw=0.9, color=colours[method])
-        reductions = [np.nan if r.get(names.REDUCTION) is None else r[names.REDUCTION] for r in mine]
+        mine = sorted((r for r in rows if r.method == method), key=lambda r: r.threshold)
+        x = [r.threshold for r in mine]
+        axes[0].plot(x, [r.recall_at_1_sequence for r in mine], "-", marker="o", ms=3, color=colours[method])
+        axes[0].plot(x, [r.recall_at_1_single for r in mine], ":", lw=0.9, color=colours[method])
+        reductions = [np.nan if r.reduction_pct is None else r.reduction_pct for r in mine]
         axes[1].plot(x, reductions, "-", marker="o", ms=3, color=colours[method])
     axes[0].set(xlabel=xlabel, ylabel="recall@1", ylim=(0, 1.02))
     axes[1].axhline(0, color="black", lw=0.6)
@@ -223,7 +223,7 @@ def sweep_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
     return save(fig, path)
 
 
-def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], title: str) -> Path:
+def speed_figure(path: Path, rows: Sequence[SpeedRow], methods: Sequence[str], title: str) -> Path:
     """The speed experiment of one dataset (``build.speed_rows``' rows): sequence recall@1 (left) and the
     predictor's AOC reduction (right) against the query's speed ratio, log scale. One colour per method; the fixed
     matcher dashed, velocity search solid; single-frame recall@1 a thin dotted line (it does not depend on the
@@ -234,39 +234,41 @@ def speed_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[s
     fig, axes = plt.subplots(1, 2, figsize=(9.6, 3.8))
     colours = {method: f"C{i % 10}" for i, method in enumerate(methods)}
     styles = {"fixed": "--", "velocity": "-"}
-    constant = [r for r in rows if r["speed"] is not None]
-    speeds = sorted({float(r["speed"]) for r in constant})
-    varying = [r for r in rows if r["speed"] is None]
-    for ax, key, ylabel in ((axes[0], names.RECALL_SEQUENCE, "sequence recall@1"),
-                            (axes[1], names.REDUCTION, "AOC reduction by the predictor (%)")):
+    constant = [r for r in rows if r.speed is not None]
+    speeds = sorted({r.speed for r in constant if r.speed is not None})
+    varying = [r for r in rows if r.speed is None]
+    panels: tuple[tuple[Any, Callable[[SpeedRow], float | None], str], ...] = (
+        (axes[0], lambda r: r.recall_at_1_sequence, "sequence recall@1"),
+        (axes[1], lambda r: r.reduction_pct, "AOC reduction by the predictor (%)"))
+    for i, (ax, of, ylabel) in enumerate(panels):
         for method in methods:
             for matcher, style in styles.items():
-                line = sorted((float(r["speed"]), r[key]) for r in constant
-                              if r["method"] == method and r["matcher"] == matcher)
+                line = sorted((r.speed, of(r)) for r in constant
+                              if r.speed is not None and r.method == method and r.matcher == matcher)
                 if line:
                     ax.plot([x for x, _ in line], [np.nan if y is None else y for _, y in line], style,
                             color=colours[method], marker="o", ms=3)
-            for r in (r for r in varying if r["method"] == method):
-                value = r[key]
-                ax.plot([r["mean_speed"]], [np.nan if value is None else value], "D", ms=6, color=colours[method],
-                        mfc=colours[method] if r["matcher"] == "velocity" else "none")
-            if key == names.RECALL_SEQUENCE:
-                single = sorted({(float(r["speed"]), r[names.RECALL_SINGLE]) for r in constant
-                                 if r["method"] == method})
+            for r in (r for r in varying if r.method == method):
+                value = of(r)
+                ax.plot([r.mean_speed], [np.nan if value is None else value], "D", ms=6, color=colours[method],
+                        mfc=colours[method] if r.matcher == "velocity" else "none")
+            if i == 0:
+                single = sorted({(r.speed, r.recall_at_1_single) for r in constant
+                                 if r.speed is not None and r.method == method})
                 ax.plot([x for x, _ in single], [y for _, y in single], ":", lw=0.8, color=colours[method])
         if varying:  # name the markers once, above the highest
-            values = [r[key] for r in varying if r[key] is not None]
+            values = [v for v in map(of, varying) if v is not None]
             if values:
-                ax.annotate("varying", (varying[0]["mean_speed"], max(values)), textcoords="offset points",
+                ax.annotate("varying", (varying[0].mean_speed, max(values)), textcoords="offset points",
                             xytext=(6, 6), ha="left", fontsize=7)
-        if key == names.REDUCTION:
+        if i == 1:
             ax.axhline(0, color="black", lw=0.6)
         ax.set_xscale("log")
         if speeds:
             ax.set_xticks(speeds, [f"{s:g}x" for s in speeds])
             ax.minorticks_off()
         ax.set(xlabel="query speed / reference speed", ylabel=ylabel)
-        if key == names.RECALL_SEQUENCE:
+        if i == 0:
             ax.set_ylim(0, 1.02)
     handles = [Line2D([], [], color=colours[m], lw=2, label=m) for m in methods]
     handles += [Line2D([], [], color="black", ls="--", label="fixed matcher"),

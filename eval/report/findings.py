@@ -9,14 +9,13 @@ exact values.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 
-from vpr_smr.eval.report import bounds, names
+from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import Comparison, DetectionComparison
-from vpr_smr.eval.report.rows import Table1Row, cells
+from vpr_smr.eval.report.rows import SpeedRow, SweepRow, Table1Row, cells
 from vpr_smr.eval.report.table1 import UNDEFINED, Table1Block
 from vpr_smr.eval.scoring.curves import AGAINST_SIGN, HOLDS_ZERO, NO_INTERVAL, NOTHING_TO_REDUCE, UNCHANGED
 from vpr_smr.eval.scoring.intervals import Interval
@@ -233,13 +232,13 @@ def ratio(speed: float) -> str:
     return f"{speed:g}x"
 
 
-def _mean(rows: Sequence[dict[str, Any]], key: str) -> tuple[float | None, int]:
-    """The mean of ``key`` over ``rows`` where it is defined, and over how many."""
-    values = [float(r[key]) for r in rows if r.get(key) is not None]
-    return (float(np.mean(values)) if values else None), len(values)
+def _mean(values: Sequence[float | None]) -> tuple[float | None, int]:
+    """The mean of ``values`` where defined, and over how many."""
+    defined = [v for v in values if v is not None]
+    return (float(np.mean(defined)) if defined else None), len(defined)
 
 
-def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
+def speed_sentences(rows: Sequence[SpeedRow], split: str) -> list[str]:
     """What the speed experiment shows on one dataset at one L (the rows of ``build.speed_rows``: one per method,
     profile and matcher): the fixed matcher's sequence recall@1 at the constant speed farthest from 1 (the faster
     on a tie) against the speed closest to 1, velocity search's there, and the predictor's AOC reduction under
@@ -247,22 +246,24 @@ def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
     if not rows:
         return []
     first = rows[0]
-    n_methods = len({r["method"] for r in rows})
-    where = (f"On {first['dataset']} ({split} split, L = {first['seq_len']}, paper mode, one seed-0 predictor per "
+    n_methods = len({r.method for r in rows})
+    where = (f"On {first.dataset} ({split} split, L = {first.seq_len}, paper mode, one seed-0 predictor per "
              "matcher and profile)")
 
-    def at(speed: float | None, matcher: str) -> list[dict[str, Any]]:
-        return [r for r in rows if r["matcher"] == matcher and r["speed"] == speed]
+    def at(speed: float | None, matcher: str) -> list[SpeedRow]:
+        return [r for r in rows if r.matcher == matcher and r.speed == speed]
 
-    speeds = sorted({float(r["speed"]) for r in rows if r["speed"] is not None})
+    def recall_at(speed: float | None, matcher: str) -> float | None:
+        """The mean sequence recall@1 over the methods."""
+        return _mean([r.recall_at_1_sequence for r in at(speed, matcher)])[0]
+
+    speeds = sorted({r.speed for r in rows if r.speed is not None})
     out = []
     if speeds:
         base = min(speeds, key=lambda s: (abs(np.log(s)), s))
         far = max(speeds, key=lambda s: (abs(np.log(s)), s))
-        fixed_base, _ = _mean(at(base, "fixed"), names.RECALL_SEQUENCE)
-        fixed_far, _ = _mean(at(far, "fixed"), names.RECALL_SEQUENCE)
-        velocity_base, _ = _mean(at(base, "velocity"), names.RECALL_SEQUENCE)
-        velocity_far, _ = _mean(at(far, "velocity"), names.RECALL_SEQUENCE)
+        fixed_base, fixed_far = recall_at(base, "fixed"), recall_at(far, "fixed")
+        velocity_base, velocity_far = recall_at(base, "velocity"), recall_at(far, "velocity")
         over = f"mean over {methods(n_methods)}"
         if (far != base and fixed_base is not None and fixed_far is not None and velocity_base is not None
                 and velocity_far is not None):
@@ -277,23 +278,22 @@ def speed_sentences(rows: Sequence[dict[str, Any]], split: str) -> list[str]:
                     f"{recall(fixed_far)} and velocity search's {recall(velocity_far)} ({over})")
         parts = []
         for matcher, name in (("fixed", "the fixed matcher"), ("velocity", "velocity search")):
-            mean, n = _mean(at(far, matcher), names.REDUCTION)
+            mean, n = _mean([r.reduction_pct for r in at(far, matcher)])
             if mean is not None:
-                undefined = [f"{r['method']}: {words.SHORT.get(str(r.get('outcome')), 'undefined')}"
-                             for r in at(far, matcher) if r.get(names.REDUCTION) is None]
+                undefined = [f"{r.method}: {words.SHORT.get(r.outcome, 'undefined')}"
+                             for r in at(far, matcher) if r.reduction_pct is None]
                 why = f" ({'; '.join(undefined)})" if undefined else ""
                 note = "" if n == n_methods else f" over the {n} methods where it is defined{why}"
                 parts.append(f"{signed(mean)} with {name}{note}")
         if parts:
             text += f"; the predictor's AOC reduction at {ratio(far)} is " + " and ".join(parts)
         out.append(text + ".")
-    varying = [r for r in rows if r["speed"] is None]
+    varying = [r for r in rows if r.speed is None]
     if varying:
-        fixed, _ = _mean([r for r in varying if r["matcher"] == "fixed"], names.RECALL_SEQUENCE)
-        velocity, _ = _mean([r for r in varying if r["matcher"] == "velocity"], names.RECALL_SEQUENCE)
+        fixed, velocity = recall_at(None, "fixed"), recall_at(None, "velocity")
         if fixed is not None and velocity is not None:
             lead = "Under" if out else f"{where}, under"
-            out.append(f"{lead} the varying speed (mean {varying[0]['mean_speed']:.2f}x) the sequence recall@1 is "
+            out.append(f"{lead} the varying speed (mean {varying[0].mean_speed:.2f}x) the sequence recall@1 is "
                        f"{percent(100 * fixed)} with the fixed matcher and {percent(100 * velocity)} with velocity "
                        "search.")
     return out
@@ -310,7 +310,7 @@ def _flip(values: dict[str, list[tuple[float, float | None]]]) -> tuple[str, flo
     return None
 
 
-def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
+def sweep_sentences(rows: Sequence[SweepRow]) -> list[str]:
     """One sentence on the protocol sweep of one dataset, L and mode (``build.sweep_rows``' rows): every conclusion
     that changes with the ground truth's tolerance or radius (the predictor's reduction changing sign for a method,
     sequence matching's gain over single frames changing sign), or that none does. Which of two methods is ahead by
@@ -319,16 +319,16 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
         return []
     first = rows[0]
     changes = _sweep_changes(rows)
-    thresholds = sorted({float(r["threshold"]) for r in rows})
+    thresholds = sorted({r.threshold for r in rows})
     low, high = thresholds[0], thresholds[-1]
-    span = f"{low:g} to {high:g} frames" if first["ground_truth"] == "frames" else f"a radius of {low:g} to {high:g}"
-    where = (f"With matches counted correct within {span} ({first['dataset']}, {first['split']} split, "
-             f"L = {first['seq_len']}, {first['mode']} mode)")
+    span = f"{low:g} to {high:g} frames" if first.ground_truth == "frames" else f"a radius of {low:g} to {high:g}"
+    where = (f"With matches counted correct within {span} ({first.dataset}, {first.split} split, "
+             f"L = {first.seq_len}, {first.mode} mode)")
     untold = _untold(rows)
     if changes:
         return [f"{where}, a conclusion depends on the ground truth: {'; '.join(changes)}.", *untold]
     if not _any_sign(rows):
-        n = _span_of([r.get("n_queries") for r in rows])
+        n = _span_of([r.n_queries for r in rows])
         return [f"{where}, every {bounds.LEVEL} interval of the predictor's AOC reduction and of sequence matching's "
                 f"change of recall@1 holds 0 or is missing{f' ({n} queries)' if n else ''}: no sign is named at any "
                 "tolerance, so whether a conclusion depends on the ground truth is not told."]
@@ -337,31 +337,30 @@ def sweep_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
             "0).", *untold]
 
 
-def sweep_headline(rows: Sequence[dict[str, Any]]) -> str:
+def sweep_headline(rows: Sequence[SweepRow]) -> str:
     """The first screen's one sentence on the protocol sweep of one dataset, L and mode: whether a conclusion
     depends on the ground truth (``sweep_sentences`` has which)."""
     first = rows[0]
     said = ("a conclusion depends on" if _sweep_changes(rows) else "no conclusion depends on" if _any_sign(rows)
             else "every interval holds 0 or is missing, so nothing tells whether a conclusion depends on")
-    return (f"{first['dataset']} (L = {first['seq_len']}, {first['mode']} mode), scored again under other "
-            f"{'tolerances' if first['ground_truth'] == 'frames' else 'radii'}: {said} the ground truth.")
+    return (f"{first.dataset} (L = {first.seq_len}, {first.mode} mode), scored again under other "
+            f"{'tolerances' if first.ground_truth == 'frames' else 'radii'}: {said} the ground truth.")
 
 
-def _sweep_changes(rows: Sequence[dict[str, Any]]) -> list[str]:
+def _sweep_changes(rows: Sequence[SweepRow]) -> list[str]:
     """The conclusions that change across the sweep, in words (a sign only where its interval excludes 0)."""
-    kind = str(rows[0]["ground_truth"])
-    methods = list(dict.fromkeys(str(r["method"]) for r in rows))
-    by_method = {name: sorted((r for r in rows if r["method"] == name), key=lambda r: r["threshold"])
-                 for name in methods}
+    kind = rows[0].ground_truth
+    methods = list(dict.fromkeys(r.method for r in rows))
+    by_method = {name: sorted((r for r in rows if r.method == name), key=lambda r: r.threshold) for name in methods}
     changes = []
     # a sign counts only where the interval earns it (``outcome_words.direction``): elsewhere no sign is named
-    flipped = _flip({name: [(r["threshold"], r.get(names.REDUCTION) if words.direction(r) else None) for r in mine]
+    flipped = _flip({name: [(r.threshold, r.reduction_pct if words.direction(cells(r)) else None) for r in mine]
                      for name, mine in by_method.items()})
     if flipped:
         name, t_up, up, t_down, down = flipped
         changes.append(f"the predictor's AOC reduction for {name} changes sign ({signed(up)} "
                        f"{within(kind, t_up)}, {signed(down)} {within(kind, t_down)})")
-    flipped = _flip({name: [(r["threshold"], _gain(r)) for r in mine] for name, mine in by_method.items()})
+    flipped = _flip({name: [(r.threshold, _gain(r)) for r in mine] for name, mine in by_method.items()})
     if flipped:
         name, t_up, up, t_down, down = flipped
         changes.append(f"sequence matching changes {name}'s recall@1 over the same queries by {100 * up:+.1f} "
@@ -369,38 +368,38 @@ def _sweep_changes(rows: Sequence[dict[str, Any]]) -> list[str]:
     return changes
 
 
-def _gain(row: dict[str, Any]) -> float | None:
+def _gain(row: SweepRow) -> float | None:
     """Sequence matching's change of recall@1 over single frames on the same queries (``recall_at_1_single_
     evaluated``), where its paired interval (``recall_change``) excludes 0; None elsewhere: no direction. Never
     the single-frame recall over another denominator."""
-    single = row.get("recall_at_1_single_evaluated")
-    if single is None or not (bounds.sign(row, "recall_change") or 0):
+    single, interval = row.recall_at_1_single_evaluated, row.recall_change_ci
+    if single is None or interval is None or not interval.sign():
         return None
-    return float(row[names.RECALL_SEQUENCE]) - float(single)
+    return row.recall_at_1_sequence - single
 
 
-def _any_sign(rows: Sequence[dict[str, Any]]) -> bool:
+def _any_sign(rows: Sequence[SweepRow]) -> bool:
     """Whether some reduction or change of recall@1 of the sweep has a direction (its interval excludes 0)."""
-    return any(words.direction(r) in (1, -1) or _gain(r) is not None for r in rows)
+    return any(words.direction(cells(r)) in (1, -1) or _gain(r) is not None for r in rows)
 
 
-def _untold(rows: Sequence[dict[str, Any]]) -> list[str]:
+def _untold(rows: Sequence[SweepRow]) -> list[str]:
     """A sentence naming the thresholds (per method) where the sweep's intervals hold 0 or are missing: there no
     sign of the reduction or of sequence matching's change is named."""
-    kind = str(rows[0]["ground_truth"])
+    kind = rows[0].ground_truth
     parts = []
-    for name in dict.fromkeys(str(r["method"]) for r in rows):
-        mine = [r for r in rows if r["method"] == name]
-        reduction = [r for r in mine if r.get(names.REDUCTION) is not None and words.direction(r) in (0, None)
-                     and r.get("outcome") != UNCHANGED]
+    for name in dict.fromkeys(r.method for r in rows):
+        mine = [r for r in rows if r.method == name]
+        reduction = [r for r in mine if r.reduction_pct is not None and words.direction(cells(r)) in (0, None)
+                     and r.outcome != UNCHANGED]
         change = [r for r in mine if _gain(r) is None]
         for what, found in (("its AOC reduction", reduction), ("sequence matching's change of recall@1", change)):
             if found:
-                where = ", ".join(f"{r['threshold']:g}" for r in found)
+                where = ", ".join(f"{r.threshold:g}" for r in found)
                 parts.append(f"{name}, {what} at {where}{' frames' if kind == 'frames' else ''}")
     if not parts:
         return []
-    n = _span_of([r.get("n_queries") for r in rows])
+    n = _span_of([r.n_queries for r in rows])
     over = f" ({n} queries)" if n else ""
     return [f"No sign is named where the {bounds.LEVEL} interval holds 0 or is missing{over}: {'; '.join(parts)}."]
 # --- the training-free baselines (method §12) -------------------------------------------------------------------

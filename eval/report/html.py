@@ -46,7 +46,16 @@ from vpr_smr.eval.report.results import (
     split_text,
     unique,
 )
-from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, PredictorRow, Table1Row
+from vpr_smr.eval.report.rows import (
+    BaselineRow,
+    DetectionRow,
+    PredictorRow,
+    SeqLenRow,
+    SpeedRow,
+    SweepRow,
+    Table1Row,
+    parse,
+)
 from vpr_smr.eval.report.rows import Column as TableColumn
 from vpr_smr.eval.report.rows import cells as row_cells
 from vpr_smr.eval.report.sections import INSPECTOR_FIGURES, Declared, Rows
@@ -228,23 +237,23 @@ def scorer_table(table_id: str, rows: Sequence[BaselineRow] | Sequence[Detection
     return TableView(table_id, head, tuple(body), caption=caption)
 
 
-def best_scorer_table(table_id: str, rows: Sequence[dict[str, Any]]) -> TableView:
+def best_scorer_table(table_id: str, rows: Sequence[SeqLenRow]) -> TableView:
     """The sequence-length ablation's best training-free scorer beside the predictor: a row per L, a column per
     method, each cell the scorer and its reduction (%), then the predictor's."""
-    methods = unique(str(r["method"]) for r in rows)
-    lens = sorted({int(r["seq_len"]) for r in rows})
-    by = {(int(r["seq_len"]), str(r["method"])): r for r in rows}
+    methods = unique(r.method for r in rows)
+    lens = sorted({r.seq_len for r in rows})
+    by = {(r.seq_len, r.method): r for r in rows}
     head = (Column("L"), *(Column(m, "text") for m in methods))
     body = []
     for seq_len in lens:
         cells = []
         for method in methods:
-            row = by.get((seq_len, method), {})
-            value = row.get("best_scorer_reduction_pct")
-            best = (f"{row['best_scorer']} {value:.2f}" if value is not None and row.get("best_scorer")
-                    else f"{UNDEFINED}: {words.SHORT[row['best_scorer_outcome']]}"
-                    if row.get("best_scorer_outcome") in words.SHORT else UNDEFINED)
-            predictor = row.get(names.REDUCTION)
+            row = by.get((seq_len, method))
+            value = None if row is None else row.best_scorer_reduction_pct
+            outcome = None if row is None else row.best_scorer_outcome
+            best = (f"{row.best_scorer} {value:.2f}" if row is not None and value is not None and row.best_scorer
+                    else f"{UNDEFINED}: {words.SHORT[outcome]}" if outcome in words.SHORT else UNDEFINED)
+            predictor = None if row is None else row.reduction_pct
             cells.append(text_cell(f"{best} · predictor {UNDEFINED if predictor is None else f'{predictor:.2f}'}"))
         body.append((cell(seq_len, "seq_len"), *cells))
     return TableView(table_id, head, tuple(body), caption="The best training-free scorer's AOC reduction (%) beside "
@@ -467,13 +476,15 @@ def _baseline_headlines(b: _Builder) -> tuple[str, ...]:
 
 def _seq_len_view(b: _Builder, f: WrittenFigure, shown: Rows) -> tuple[TableView, ...]:
     tables = [pivot(b.anchor("seq-len", f), shown, registry.table("ablation_seq_len"))]
-    if any(r.get("best_scorer") for r in shown):
-        tables.append(best_scorer_table(b.anchor("seq-len-best", f), shown))
+    found = [parse(SeqLenRow, r) for r in shown]
+    if any(r.best_scorer for r in found):
+        tables.append(best_scorer_table(b.anchor("seq-len-best", f), found))
     return tuple(tables)
 
 
 def _speed_intro(b: _Builder) -> tuple[str, ...]:
-    velocities = unique(str(r["velocities"]).replace(" ", ", ") for r in b.rows("speed") if r["matcher"] == "velocity")
+    velocities = unique(r.velocities.replace(" ", ", ") for r in b.records("speed", SpeedRow)
+                        if r.matcher == "velocity")
     return (
         "The table split's query re-driven at other speeds (method §11): a constant profile c advances c places "
         "per query frame (the query driven c times as fast; 1x is the aligned pair), the varying one "
@@ -635,7 +646,7 @@ SECTIONS = (
         sentences=lambda b, shown: adaptive_table.adaptive_sentences(shown), headline=_adaptive_headline),
     Declared("speed", "Speed profiles", ("speed",), _speed_intro, "speed",
              view=lambda b, f, shown: (speed_table(b.anchor("speed", f), shown),),
-             sentences=lambda b, shown: speed_sentences(shown, b.split)),
+             sentences=lambda b, shown: speed_sentences([parse(SpeedRow, r) for r in shown], b.split)),
     Declared("predictor", "The predictor alone", ("predictor", "predictor_methods", "predictor_confusion"),
              prose("predictor"), blocks=_predictor_blocks),
     Declared("table-ii", "Table II: attribute ablation", ("table2",), prose("table-ii"), blocks=_table2_blocks),
@@ -650,7 +661,8 @@ SECTIONS = (
         f"retrieved). The whole table has every mode ({', '.join(_metrics_mode(b)[1])}).",), blocks=_metrics_blocks),
     Declared("protocol-sweep", "Protocol sweep", ("protocol_sweep",), prose("protocol-sweep"), "protocol_sweep",
         view=lambda b, f, shown: (pivot(b.anchor("protocol-sweep", f), shown, registry.table("protocol_sweep")),),
-        sentences=lambda b, shown: sweep_sentences(shown), headline=sweep_headline),
+        sentences=lambda b, shown: sweep_sentences([parse(SweepRow, r) for r in shown]),
+        headline=lambda shown: sweep_headline([parse(SweepRow, r) for r in shown])),
     Declared("match-inspector", "Match inspector", (), lambda b: (
         f"Query by query, where sequence matching and the predictor go right or wrong on the {b.split} "
         "split. The per-query CSV files (matches, distances, attributes, true class, prediction) are in the run "

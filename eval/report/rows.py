@@ -14,7 +14,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any, ClassVar, Protocol
+from typing import Any, ClassVar, Protocol, TypeVar
 
 from vpr_smr.core.constants import RECALL_AT
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
@@ -23,6 +23,7 @@ from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.bounds import HIGH, LOW
 from vpr_smr.eval.report.results import Splits, split_word
 from vpr_smr.eval.scoring.curves import earned
+from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.records import (
     EvaluationSplit,
     HeldOut,
@@ -34,9 +35,7 @@ from vpr_smr.eval.scoring.records import (
 )
 from vpr_smr.eval.scoring.speed import SpeedResult, SpeedScores
 
-if TYPE_CHECKING:
-    from vpr_smr.eval.scoring.intervals import Interval
-
+R = TypeVar("R")
 SPLIT_ROLES = ("evaluation", "validation", "last")  # ``results.Splits``' roles a column can be one per split of
 
 
@@ -70,11 +69,16 @@ class Column:
             return (self,)
         if splits is None:
             raise ValueError(f"column {self.name!r} is one per split: name the run's splits")
-        names: Sequence[str | None] = splits.evaluation if role == "evaluation" else (
-            [splits.validation] if role == "validation" else [splits.last])
         return tuple(replace(self, name=self.name.format(**{role: name}),
                              label=self.label.format(split=name, word=split_word(name)))
-                     for name in names if name is not None)
+                     for name in _split_names(role, splits))
+
+
+def _split_names(role: str, splits: Splits) -> list[str]:
+    """The splits of ``role`` (``SPLIT_ROLES``) in ``splits``."""
+    names: Sequence[str | None] = splits.evaluation if role == "evaluation" else (
+        [splits.validation] if role == "validation" else [splits.last])
+    return [name for name in names if name is not None]
 
 
 class Row(Protocol):
@@ -194,6 +198,39 @@ def cells(row: Row) -> dict[str, Any]:
             for key, one in items.items():
                 out[declared.name.format(**{role: key}) if role else declared.name.format(key)] = one
     return out
+
+
+def parse(row_type: type[R], found: Mapping[str, Any], splits: Splits | None = None) -> R:
+    """A row record of ``row_type`` from its cells (``cells``' mapping: each column's value by name, an interval as
+    its two bounds, a mapping as one column per key, the extras beside; ``splits``: the run's, where a field is a
+    column per split): the one way back from a table's cells to its typed row. A column the cells lack is refused,
+    naming it."""
+    values: dict[str, Any] = {}
+    for field in dataclasses.fields(row_type):  # type: ignore[arg-type]
+        kind, *rest = _declared(field)
+        if kind == "interval":
+            low, high = (_cell(found, f"{_base(field)}{end}", row_type) for end in (LOW, HIGH))
+            values[field.name] = None if low is None or high is None else Interval(float(low), float(high))
+        elif kind == "each":
+            declared, keys = rest
+            role = next((role for role in SPLIT_ROLES if f"{{{role}}}" in declared.name), None)
+            if role is None:  # one column per given key; a key without a cell is one the mapping lacked
+                values[field.name] = {key: found[declared.name.format(key)] for key in keys
+                                      if declared.name.format(key) in found}
+            elif splits is None:
+                raise ValueError(f"{row_type.__name__}.{field.name} is a column per split: name the run's splits")
+            else:  # one column per split of the role that the cells hold
+                columns = {name: declared.name.format(**{role: name}) for name in _split_names(role, splits)}
+                values[field.name] = {name: found[column] for name, column in columns.items() if column in found}
+        else:
+            values[field.name] = _cell(found, field.name, row_type)
+    return row_type(**values)
+
+
+def _cell(found: Mapping[str, Any], name: str, row_type: type[Any]) -> Any:
+    if name not in found:
+        raise KeyError(f"a {row_type.__name__} row has a column {name!r}: these cells have none")
+    return found[name]
 
 
 # --- the row records of the tables ``build`` computes -------------------------------------------------------------

@@ -5,10 +5,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from row_records import records
 
 from vpr_smr.eval.matching.attributes import query_features
 from vpr_smr.eval.matching.ground_truth import GroundTruth
 from vpr_smr.eval.report.findings import sweep_headline, sweep_sentences
+from vpr_smr.eval.report.rows import SweepRow
 from vpr_smr.eval.report.tabulate import sweep_rows
 from vpr_smr.eval.scoring.evaluate import compare_removal, recall_at_1
 from vpr_smr.eval.scoring.records import SplitMetrics, VPRMetrics
@@ -63,18 +65,18 @@ def _rows(reductions: dict[str, list[float | None]], recalls: dict[str, list[flo
 
 def test_the_sentence_names_a_sign_change_and_never_a_swap_without_an_interval():
     rows = _rows({"a": [12.5, 3.0, -4.25], "b": [20.0, 30.0, None]}, {"a": [0.2, 0.5, 0.9], "b": [0.3, 0.4, 0.8]})
-    (sentence,) = sweep_sentences(rows)
+    (sentence,) = sweep_sentences(records(SweepRow, rows))
     assert sentence.startswith("With matches counted correct within 0 to 10 frames (d, test split, L = 4, paper mode), "
                                "a conclusion depends on the ground truth:")
     assert "the predictor's AOC reduction for a changes sign (12.5 % within 0 frames, -4.2 % within 10 frames)" \
         in sentence
     # a is behind b within 0 frames and ahead within 2, but no interval of their difference says so
     assert "swap" not in sentence
-    assert sweep_headline(rows) == ("d (L = 4, paper mode), scored again under other tolerances: a conclusion "
-                                    "depends on the ground truth.")
+    assert sweep_headline(records(SweepRow, rows)) == (
+        "d (L = 4, paper mode), scored again under other tolerances: a conclusion depends on the ground truth.")
     # the same numbers with a's interval at 10 frames containing 0: no sign change, and a sentence says why
     rows[2].update(reduction_pct_ci_low=-9.0, reduction_pct_ci_high=1.0)
-    first, untold = sweep_sentences(rows)
+    first, untold = sweep_sentences(records(SweepRow, rows))
     assert "changes sign" not in first
     assert untold == ("No sign is named where the 95 % interval holds 0 or is missing (28 queries): a, its AOC "
                       "reduction at 10 frames.")
@@ -91,21 +93,21 @@ def test_sequence_matching_is_compared_over_the_same_queries():
                    recall_change_ci_high=high)
     # over all queries the gain is +15.0, -0.2, +10.0 points (no sign change, though -0.2 at 2 frames is one of
     # denominators); over the same queries +15.5 (interval above 0), +3.6 (contains 0), -15.0 (below 0)
-    first, untold = sweep_sentences(rows)
+    first, untold = sweep_sentences(records(SweepRow, rows))
     assert ("sequence matching changes hog's recall@1 over the same queries by +15.5 points within 0 frames but "
             "-15.0 within 10 frames") in first
     assert untold == ("No sign is named where the 95 % interval holds 0 or is missing (28 queries): hog, sequence "
                       "matching's change of recall@1 at 2 frames.")
     # without intervals: no direction at all, so nothing is said to keep its sign either
     bare = [{k: v for k, v in row.items() if not k.startswith("recall_change")} for row in rows]
-    (first,) = sweep_sentences(bare)
+    (first,) = sweep_sentences(records(SweepRow, bare))
     assert "no conclusion depends" not in first and first.endswith(
         "whether a conclusion depends on the ground truth is not told.")
 
 
 def test_the_sentence_says_when_nothing_changes():
     rows = _rows({"a": [1.0, 2.0, 3.0], "b": [None, 0.0, 5.0]}, {"a": [0.2, 0.5, 0.9], "b": [0.1, 0.4, 0.8]})
-    sentence, untold = sweep_sentences(rows)
+    sentence, untold = sweep_sentences(records(SweepRow, rows))
     assert "no conclusion depends on the ground truth" in sentence
     # a's 1.0 [0.0, 2.0] and b's change of recall 0.1 - 0.1 = 0 [-0.05, 0.05] at 0 frames contain 0
     assert untold == ("No sign is named where the 95 % interval holds 0 or is missing (28 queries): a, its AOC "
@@ -127,11 +129,11 @@ def test_a_sweep_where_no_interval_excludes_0_says_nothing_can_be_told():
     rows = _rows({"a": [2.0, 1.0, -0.5]}, {"a": [0.12, 0.11, 0.09]})
     for row in rows:
         row.update(reduction_pct_ci_low=-5.0, reduction_pct_ci_high=5.0)
-    assert sweep_sentences(rows) == [
+    assert sweep_sentences(records(SweepRow, rows)) == [
         "With matches counted correct within 0 to 10 frames (d, test split, L = 4, paper mode), every 95 % interval "
         "of the predictor's AOC reduction and of sequence matching's change of recall@1 holds 0 or is missing (28 "
         "queries): no sign is named at any tolerance, so whether a conclusion depends on the ground truth is not "
         "told."]
-    assert sweep_headline(rows) == ("d (L = 4, paper mode), scored again under other tolerances: every interval "
-                                    "holds 0 or is missing, so nothing tells whether a conclusion depends on the "
-                                    "ground truth.")
+    assert sweep_headline(records(SweepRow, rows)) == (
+        "d (L = 4, paper mode), scored again under other tolerances: every interval holds 0 or is missing, so "
+        "nothing tells whether a conclusion depends on the ground truth.")

@@ -57,6 +57,21 @@ def test_a_rows_cells_are_its_columns_by_name_and_its_extras():
         "recall_at_1": 0.5, "recall_at_5": 0.75, "f1_test": 0.6, "note": "x"}  # f1_val: the row has none
 
 
+def test_a_row_parses_back_from_its_cells():
+    row = Toy(4, None, None, 0.25, Interval(0.1, 0.4), Interval(-1.0, 2.0), {1: 0.5, 5: 0.75}, {"test": 0.6}, "x")
+    splits = Splits("test", ("val", "test"))
+    assert rows.parse(Toy, cells(row), splits) == row
+    # the cells of a CSV row, which name its columns only: the extra is missing, and said
+    found = {**cells(row), "f1_val": 0.3}
+    del found["note"]
+    with pytest.raises(KeyError, match="a Toy row has a column 'note'"):
+        rows.parse(Toy, found, splits)
+    # a split's column parses as that split's value, a column per split needs the splits
+    assert rows.parse(Toy, {**found, "note": ""}, splits).f1 == {"val": 0.3, "test": 0.6}
+    with pytest.raises(ValueError, match="Toy.f1 is a column per split"):
+        rows.parse(Toy, cells(row))
+
+
 def test_a_field_not_declared_as_a_column_is_refused_naming_it():
     @dataclasses.dataclass(frozen=True)
     class Plain:
