@@ -137,7 +137,10 @@ def extraction_options(conf: Config) -> str:
 
 
 def method_items(methods: Sequence[str], held_out: str, paths: Sequence[str]) -> list[str]:
-    """``METHOD=PATH`` items (unquoted) for the methods but ``held_out``, in the configuration's order."""
+    """``METHOD=PATH`` items (unquoted) for the methods but ``held_out``, in the configuration's order; none without
+    ``paths`` (a run without a validation split: the predictor trained without a method scores none)."""
+    if not paths:
+        return []
     others = [method for method in methods if method != held_out]
     return [f"{method}={path}" for method, path in zip(others, paths, strict=True)]
 
