@@ -407,20 +407,14 @@ def _check_together(conf: dict[str, Any], source: str) -> None:
         raise ConfigError(f"{source}: table_seq_len {conf['table_seq_len']} is not among seq_lens {conf['seq_lens']}")
 
 
-# The report's name of a built-in experiment whose key of ``experiments:`` differs (the names ``experiments`` gives,
-# ``registry.expected_outputs`` and its tables' and figures' ``experiments`` take, ``rules/predictor.smk`` tests):
-# the one place the two are mapped (``pipeline.experiment.Experiment.switch``)
-REPORT_NAMES = {"trust_levels": "trust"}
-
-
 def experiments(conf: Config) -> set[str]:
     """The experiments a validated configuration runs, by the names of ``eval.report.registry.expected_outputs``
-    (a key of ``experiments:``, or its ``REPORT_NAMES``), and those of installed packages it turns on
+    (a built-in experiment's: its key of ``experiments:``), and those of installed packages it turns on
     (``pipeline.experiment``), by theirs."""
     chosen = conf.experiments
     names = {"table1", "predictor", "baselines"}
     if chosen.trust_levels and conf.trust_levels:
-        names.add(REPORT_NAMES["trust_levels"])
+        names.add("trust_levels")
     if chosen.restoration:
         names.add("restoration")
     if chosen.attribute_ablation:

@@ -155,24 +155,14 @@ class Experiment:
         if NAME.fullmatch(self.name) is None:
             raise ValueError(f"experiment {self.name!r}: a name is lower case letters, digits and '_', starting with "
                              "a letter")
-        switch = self.switch
         for table in self.tables:
-            if switch not in table.experiments:
+            if self.name not in table.experiments:
                 raise ValueError(f"experiment {self.name!r}: its table {table.name!r} has experiments="
-                                 f"{table.experiments!r}, without {switch!r}; name the experiment there "
-                                 f"(experiments=({switch!r},), or with further conditions, e.g. ('table1', "
-                                 f"{switch!r})), so that the table is written only when the experiment runs")
+                                 f"{table.experiments!r}, without {self.name!r}; name the experiment there "
+                                 f"(experiments=({self.name!r},), or with further conditions, e.g. ('table1', "
+                                 f"{self.name!r})), so that the table is written only when the experiment runs")
         for job in self.jobs:
             job.wildcards  # noqa: B018 (refuses an unknown wildcard now, not in the workflow)
-
-    @property
-    def switch(self) -> str:
-        """Its name among the experiments a configuration runs (``pipeline.config.experiments``: the names its tables'
-        ``experiments`` and ``registry.expected_outputs`` take): its ``name``, but where ``config.REPORT_NAMES`` maps
-        a built-in experiment's key to the report's older name (``trust_levels``: ``trust``)."""
-        from vpr_smr.pipeline.config import REPORT_NAMES  # here: the configuration imports this module (its plugins)
-
-        return REPORT_NAMES.get(self.name, self.name)
 
     def outputs(self, settings: Mapping[str, Any]) -> list[str]:
         """Every job's file, relative to the run folder, for a configuration's settings (its validated JSON)."""
@@ -207,7 +197,7 @@ def builtin_experiments() -> tuple[Experiment, ...]:
 def running(names: Collection[str]) -> tuple[Experiment, ...]:
     """The built-in, then the installed experiments among ``names`` (``pipeline.config.experiments``: those the
     configuration turns on): the workflow makes their jobs' rules (``rules/experiments.smk``)."""
-    return tuple(one for one in (*builtin_experiments(), *plugin_experiments()) if one.switch in names)
+    return tuple(one for one in (*builtin_experiments(), *plugin_experiments()) if one.name in names)
 
 
 def experiment(name: str) -> Experiment:

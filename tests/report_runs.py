@@ -38,8 +38,8 @@ DATASET_CARD = {  # as pipeline.plan.dataset_cards gives it
     "source": "folders loader: image folders /data/route/summer (reference) and /data/route/winter (query): every "
               "image in them, in natural file-name order",
 }
-RUN_EXPERIMENTS = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out",
-                   "metrics", "datasets", "baselines"}
+RUN_EXPERIMENTS = {"table1", "predictor", "trust_levels", "restoration", "seq_len", "attributes",
+                   "leave_one_method_out", "metrics", "datasets", "baselines"}
 
 
 def metrics_record(method: str, seq_len: int, modes=("paper", "standard"), dataset: str = "d", sweep: bool = False):

@@ -177,7 +177,7 @@ TABLES = collected(*CORE_TABLES, *declared(), *plugin_tables())
 
 FIGURES = (
     Figure("pr", "PR curves", ("table1",), "pr_{dataset}_L{seq_len}_{mode}.png"),
-    Figure("trust", "Trust levels", ("table1", "trust"), "trust_{dataset}_L{seq_len}_{mode}.png"),
+    Figure("trust", "Trust levels", ("table1", "trust_levels"), "trust_{dataset}_L{seq_len}_{mode}.png"),
     Figure("restoration", "Restoration", ("table1", "restoration"), "restoration_{dataset}_L{seq_len}_{mode}.png"),
     Figure("restoration_auc", "Restoration PR AUC difference", ("table1", "restoration"),
            "restoration_auc_{dataset}_L{seq_len}_{mode}.png"),
@@ -223,8 +223,8 @@ def expected_outputs(
     """Paths (relative to the run folder) that ``main`` writes, from the configuration alone.
 
     ``experiments``: any of ``"table1"`` (evaluations given: Table I, predictor_methods, predictor_confusion,
-    timing, PR and confusion figures), ``"predictor"`` (predictor reports given), ``"trust"`` (trust levels
-    configured), ``"restoration"``, ``"seq_len"`` (the sequence-length ablation), ``"attributes"`` (Table II),
+    timing, PR and confusion figures), ``"predictor"`` (predictor reports given), ``"trust_levels"`` (trust
+    levels configured), ``"restoration"``, ``"seq_len"`` (the sequence-length ablation), ``"attributes"`` (Table II),
     ``"leave_one_method_out"``, ``"metrics"`` (the standard VPR metrics given), ``"datasets"`` (dataset cards
     given), ``"baselines"`` (the training-free baselines given), ``"speed"`` (the speed experiment, at
     ``table_seq_lens``, for ``speed_datasets``: default every dataset; those with positions have none),

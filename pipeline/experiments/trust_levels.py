@@ -3,8 +3,7 @@
 
 A table-only experiment: no job of its own, the evaluation jobs compute it (``eval.scoring.evaluate``, in the
 ``evaluate`` rule's files of a run with trust levels); its figure is ``registry.FIGURES``' ``trust`` and its
-section ``html.SECTIONS``' ``trust-levels``. The report knows it as ``trust`` (``pipeline.config.REPORT_NAMES``),
-the name its table and figure are switched by.
+section ``html.SECTIONS``' ``trust-levels``.
 """
 
 from __future__ import annotations
@@ -12,13 +11,12 @@ from __future__ import annotations
 from vpr_smr.eval.report import names, rows
 from vpr_smr.eval.report import tabulate as make
 from vpr_smr.eval.report.table_spec import Pivot, Table
-from vpr_smr.pipeline.config import REPORT_NAMES
 from vpr_smr.pipeline.experiment import Experiment
 
 NAME = "trust_levels"
 
 TABLE = Table(
-    "trust_levels", "Trust-level ablation: PR AUC per trust level", ("table1", REPORT_NAMES[NAME]),
+    NAME, "Trust-level ablation: PR AUC per trust level", ("table1", NAME),
     row=rows.TrustRow, make=make.make_trust, pivot=Pivot("trust", ("method",), (names.REDUCTION,)),
     caption="AOC reduction (%) per trust level (columns: methods)")
 

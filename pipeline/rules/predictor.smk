@@ -34,7 +34,7 @@ rule evaluate:
         job=job_param(FILES.evaluate, lambda wc, files: EvaluateJob(
             wc.dataset, wc.method, int(wc.seq_len), dict(zip(conf.eval_splits, files.attributes, strict=True)),
             tuple(files.predictors), tuple(conf.modes),
-            tuple(conf.trust_levels) if "trust" in EXPERIMENTS else (), "restoration" in EXPERIMENTS,
+            tuple(conf.trust_levels) if "trust_levels" in EXPERIMENTS else (), "restoration" in EXPERIMENTS,
             conf.allow_split_overlap, evaluation_path(OUT, wc.dataset, wc.method, wc.seq_len))),
     shell:
         shell_command(EVALUATE)

@@ -22,7 +22,7 @@ def test_demo_config_is_valid_and_gets_defaults():
     assert conf.seq_lens == (2, 4, 6, 8, 10) and conf.modes == ("paper", "standard")
     assert conf.eval_splits == ("val", "test") and conf.output == "results"
     assert conf.table_seq_len == 4 and conf.seeds == 5
-    assert experiments(conf) == {"table1", "predictor", "baselines", "trust", "restoration", "attributes",
+    assert experiments(conf) == {"table1", "predictor", "baselines", "trust_levels", "restoration", "attributes",
                                  "leave_one_method_out", "seq_len", "speed", "protocol_sweep", "matchers",
                                  "adaptive_seq_len"}
     assert (conf.baselines.r_window, conf.baselines.spread_k, conf.baselines.candidates) == (10, 10, 12)
@@ -66,10 +66,10 @@ def test_experiments_follow_the_settings(tmp_path):
         experiments: {restoration: false}
     """)
     # one method: no leave-one-method-out; one L: no sequence-length ablation; restoration switched off
-    assert experiments(load_config(path)) == {"table1", "predictor", "baselines", "trust", "attributes", "speed",
+    assert experiments(load_config(path)) == {"table1", "predictor", "baselines", "trust_levels", "attributes", "speed",
                                               "protocol_sweep", "matchers"}
     assert "matchers" not in experiments(load_config(path, {"experiments": {"matchers": False}}))
-    assert "trust" not in experiments(load_config(path, {"trust_levels": []}))
+    assert "trust_levels" not in experiments(load_config(path, {"trust_levels": []}))
 
 
 def test_the_compared_matchers_default_to_every_built_in_one_and_bad_ones_are_refused(tmp_path):

@@ -12,8 +12,8 @@ from vpr_smr.eval.report.registry import expected_outputs
 
 RUN = "results/demo run"  # a space, as a user's output folder may hold
 
-ALL_EXPERIMENTS = {"table1", "predictor", "trust", "restoration", "seq_len", "attributes", "leave_one_method_out",
-                   "speed", "protocol_sweep", "matchers", "adaptive_seq_len"}
+ALL_EXPERIMENTS = {"table1", "predictor", "trust_levels", "restoration", "seq_len", "attributes",
+                   "leave_one_method_out", "speed", "protocol_sweep", "matchers", "adaptive_seq_len"}
 
 
 def test_each_output_kind_has_its_file_name():
