@@ -349,21 +349,20 @@ def _baseline_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
 def _matchers_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     """One figure per dataset, L and mode of the experiment matchers: each matcher's reduction per method, the native
     confidence's beside it."""
-    from vpr_smr.eval.report.tables.matchers import matcher_rows
+    from vpr_smr.eval.report.tables.matchers import MatchersRow, matcher_rows
 
-    rows = [cells(row) for row in matcher_rows(inputs.matchers, inputs.order)]
-    groups: dict[tuple[str, int, str], list[dict[str, Any]]] = {}
-    for row in rows:
-        groups.setdefault((row["dataset"], row["seq_len"], row["mode"]), []).append(row)
+    groups: dict[tuple[str, int, str], list[MatchersRow]] = {}
+    for row in matcher_rows(inputs.matchers, inputs.order):
+        groups.setdefault((row.dataset, row.seq_len, row.mode), []).append(row)
     spec = registry.figure("matchers")
     out = []
     for (dataset, seq_len, mode), group in groups.items():
         title = (f"{dataset}, L={seq_len}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC reduction of "
                  f"each matcher's predictor and, hatched, of its native confidence at the same budget, on the "
-                 f"{group[0]['n_queries']} queries every matcher evaluates")
+                 f"{group[0].n_queries} queries every matcher evaluates")
         path = fig.matchers_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len, mode=mode), group,
-                                   list(dict.fromkeys(r["method"] for r in group)),
-                                   list(dict.fromkeys(r["matcher"] for r in group)), title)
+                                   list(dict.fromkeys(r.method for r in group)),
+                                   list(dict.fromkeys(r.matcher for r in group)), title)
         out.append(WrittenFigure("matchers", f"{spec.title}: {dataset}, L={seq_len}, {mode} mode", path, dataset,
                                  seq_len, mode))
     return out
@@ -373,20 +372,20 @@ def _adaptive_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     """One figure per dataset and mode of the experiment adaptive_seq_len: a panel per matcher and method, the AOC
     at maximum recall against the mean length used of every fixed length, with and without its predictor, and of
     every rule."""
-    from vpr_smr.eval.report.tables.adaptive import adaptive_rows, query_counts
+    from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow, adaptive_rows, query_counts
 
-    rows = [cells(row) for row in adaptive_rows(inputs.adaptive, inputs.order)]
-    groups: dict[tuple[str, str], list[dict[str, Any]]] = {}
-    for row in rows:
-        groups.setdefault((row["dataset"], row["mode"]), []).append(row)
+    groups: dict[tuple[str, str], list[AdaptiveSeqLenRow]] = {}
+    for row in adaptive_rows(inputs.adaptive, inputs.order):
+        groups.setdefault((row.dataset, row.mode), []).append(row)
     spec = registry.figure("adaptive_seq_len")
     out = []
     for (dataset, mode), group in groups.items():
         title = (f"{dataset}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC at maximum recall against "
-                 f"the mean sequence length used, on {query_counts(group)} every length evaluates")
+                 f"the mean sequence length used, on {query_counts([cells(r) for r in group])} every length "
+                 "evaluates")
         path = fig.adaptive_figure(out_dir / spec.file(dataset=dataset, mode=mode), group,
-                                   list(dict.fromkeys(r["method"] for r in group)),
-                                   list(dict.fromkeys(r["matcher"] for r in group)), title)
+                                   list(dict.fromkeys(r.method for r in group)),
+                                   list(dict.fromkeys(r.matcher for r in group)), title)
         out.append(WrittenFigure("adaptive_seq_len", f"{spec.title}: {dataset}, {mode} mode", path, dataset,
                                  mode=mode))
     return out

@@ -26,7 +26,9 @@ from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.report import names
 from vpr_smr.eval.report.baselines import Comparison, headline
 from vpr_smr.eval.report.outcome_words import SHORT, at_recall_zero
-from vpr_smr.eval.report.rows import BaselineRow, SpeedRow, SweepRow
+from vpr_smr.eval.report.rows import BaselineRow, SpeedRow, SweepRow, cells
+from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow
+from vpr_smr.eval.report.tables.matchers import MatchersRow
 from vpr_smr.eval.scoring import scorers
 from vpr_smr.eval.scoring.adaptive_records import FIXED, FIXED_PREDICTOR, RULE, RULES
 from vpr_smr.eval.scoring.curves import LOST_ALL, REMOVED_ALL
@@ -371,7 +373,7 @@ def detection_figure(path: Path, panels: Sequence[tuple[str, Any]], title: str) 
     return save(fig, path)
 
 
-def matchers_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], matchers: Sequence[str],
+def matchers_figure(path: Path, rows: Sequence[MatchersRow], methods: Sequence[str], matchers: Sequence[str],
                     title: str) -> Path:
     """The experiment matchers of one dataset, L and mode (``tables.matchers``' rows): one panel per method, per
     matcher the seed-0 predictor's AOC reduction (its 95 % interval as a whisker) and the native confidence's at the
@@ -382,21 +384,23 @@ def matchers_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequenc
     fig, axes = _panels(len(methods))
     width = 0.38
     x = np.arange(len(matchers))
-    series = ((-width / 2, names.REDUCTION, "predictor (seed 0)", "tab:blue", ""),
-              (width / 2, "native_reduction_pct", "native confidence, same budget", "tab:orange", "//"))
+    series: tuple[tuple[float, Callable[[MatchersRow], float | None], str, str, str], ...] = (
+        (-width / 2, lambda r: r.reduction_pct, "predictor (seed 0)", "tab:blue", ""),
+        (width / 2, lambda r: r.native_reduction_pct, "native confidence, same budget", "tab:orange", "//"))
     for ax, method in zip(axes, methods, strict=True):
-        by = {r["matcher"]: r for r in rows if r["method"] == method}
-        for offset, key, label, colour, hatch in series:
-            values = np.array([by.get(m, {}).get(key) or 0.0 for m in matchers], dtype=float)
+        by = {r.matcher: r for r in rows if r.method == method}
+        for offset, of, label, colour, hatch in series:
+            values = np.array([(of(by[m]) if m in by else None) or 0.0 for m in matchers], dtype=float)
             ax.bar(x + offset, np.maximum(values, floor), width, color=colour, hatch=hatch, edgecolor="black", lw=0.4,
                    label=label)
             for cut in np.flatnonzero(values < floor):
                 ax.annotate(f"{values[cut]:.0f}", (x[cut] + offset, floor), xytext=(0, 2), textcoords="offset points",
                             ha="center", va="bottom", fontsize=7, rotation=90)
         for i, matcher in enumerate(matchers):
-            low, high = (by.get(matcher, {}).get(f"{names.REDUCTION}_ci_{side}") for side in ("low", "high"))
-            if low is not None and high is not None:
-                ax.plot([x[i] - width / 2] * 2, [max(low, floor), max(high, floor)], color="black", lw=0.8)
+            interval = by[matcher].reduction_pct_ci if matcher in by else None
+            if interval is not None:
+                ax.plot([x[i] - width / 2] * 2, [max(interval.low, floor), max(interval.high, floor)], color="black",
+                        lw=0.8)
         ax.axhline(0, color="black", lw=0.6)
         ax.set_xticks(x, list(matchers), rotation=30, ha="right")
         ax.set(title=method)
@@ -408,7 +412,7 @@ def matchers_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequenc
 RULE_STYLE = dict(zip(RULES, (("^", "tab:red"), ("v", "tab:purple"), ("D", "tab:green")), strict=True))
 
 
-def adaptive_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequence[str], matchers: Sequence[str],
+def adaptive_figure(path: Path, rows: Sequence[AdaptiveSeqLenRow], methods: Sequence[str], matchers: Sequence[str],
                     title: str) -> Path:
     """The experiment adaptive_seq_len of one dataset and mode (``tables.adaptive``' rows): a panel per matcher
     (rows of panels) and method (columns), the seed-0 AOC at each row's own maximum recall (y, its 95 % interval as
@@ -423,26 +427,25 @@ def adaptive_figure(path: Path, rows: Sequence[dict[str, Any]], methods: Sequenc
     for i, matcher in enumerate(matchers):
         for j, method in enumerate(methods):
             ax = grid[i][j]
-            found = [r for r in rows if r["matcher"] == matcher and r["method"] == method]
-            shown = [r for r in found if not at_recall_zero(r)]
+            found = [r for r in rows if r.matcher == matcher and r.method == method]
+            shown = [r for r in found if not at_recall_zero(cells(r))]
             for kind, marker, style, colour, label in series:
-                line = sorted((r for r in shown if r["kind"] == kind), key=lambda r: float(r["mean_length"]))
-                ax.plot([r["mean_length"] for r in line], [r[names.AOC] for r in line], marker=marker, ls=style,
+                line = sorted((r for r in shown if r.kind == kind), key=lambda r: r.mean_length)
+                ax.plot([r.mean_length for r in line], [r.aoc for r in line], marker=marker, ls=style,
                         color=colour, label=label)
                 for r in line:
-                    ax.annotate(f"L{r['seq_len']}", (r["mean_length"], r[names.AOC]), xytext=(3, 3),
+                    ax.annotate(f"L{r.seq_len}", (r.mean_length, r.aoc), xytext=(3, 3),
                                 textcoords="offset points", fontsize=7, color=colour)
-            for r in (r for r in shown if r["kind"] == RULE):
-                marker, colour = RULE_STYLE.get(r["name"], ("*", "black"))
-                ax.plot([r["mean_length"]], [r[names.AOC]], marker=marker, ls="", ms=8, color=colour, label=r["name"])
+            for r in (r for r in shown if r.kind == RULE):
+                marker, colour = RULE_STYLE.get(r.name, ("*", "black"))
+                ax.plot([r.mean_length], [r.aoc], marker=marker, ls="", ms=8, color=colour, label=r.name)
             for r in shown:
-                low, high = r.get(f"{names.AOC}_ci_low"), r.get(f"{names.AOC}_ci_high")
-                if low is not None and high is not None:
-                    ax.plot([r["mean_length"]] * 2, [low, high], color="grey", lw=0.7)
-            best = [r for r in shown if r["name"] == r["best_fixed"]]
-            ax.plot([r["mean_length"] for r in best], [r[names.AOC] for r in best], marker="o", ms=15, ls="",
+                if r.aoc_ci is not None:
+                    ax.plot([r.mean_length] * 2, [r.aoc_ci.low, r.aoc_ci.high], color="grey", lw=0.7)
+            best = [r for r in shown if r.name == r.best_fixed]
+            ax.plot([r.mean_length for r in best], [r.aoc for r in best], marker="o", ms=15, ls="",
                     mfc="none", mec="black", label="best fixed row (least precision lost: AOC / max recall)")
-            left = [str(r["name"]) for r in found if r not in shown]
+            left = [r.name for r in found if r not in shown]
             note = f"\nno correct match kept: {', '.join(left)}" if left else ""
             ax.margins(x=0.15)  # room for the lengths' labels at the ends
             ax.set(title=wrapped(f"{method} · {matcher}{note}", 3.2, 9), xlabel="mean sequence length used")

@@ -113,10 +113,13 @@ def test_the_sentence_counts_the_pairs_by_the_best_rules_interval():
 
 
 def test_the_figure_is_written_with_a_row_that_keeps_no_correct_match(tmp_path):
-    from vpr_smr.eval.report.figures import adaptive_figure
+    from row_records import records
 
-    rows = [*_pair("m1", adaptive=(0.0, 2.0, "removed_all", None)),
-            *_pair("m2", "bayes_filter", adaptive=(0.05, 2.5, "improved", (-0.05, -0.01)))]
+    from vpr_smr.eval.report.figures import adaptive_figure
+    from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow
+
+    rows = records(AdaptiveSeqLenRow, [*_pair("m1", adaptive=(0.0, 2.0, "removed_all", None)),
+                                       *_pair("m2", "bayes_filter", adaptive=(0.05, 2.5, "improved", (-0.05, -0.01)))])
     path = adaptive_figure(tmp_path / "a.png", rows, ["m1", "m2"], ["seqslam", "bayes_filter"], "d, paper mode")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
