@@ -59,10 +59,15 @@ class Job:
     alone, so that Snakemake compares it with the last run's and reruns the job when it changed).
 
     Optional: ``wildcards_from`` (further wildcards of ``output``, their values from the configuration),
-    ``also`` (further outputs, e.g. a timing file beside the result), ``threads`` (the rule's threads, each job's
-    BLAS threads too: ``OMP_NUM_THREADS``), ``layout`` (the rule's param ``layout``: the results' layout version, so
-    that a run of an earlier layout computes its file again) and ``rule`` (the rule's name, where it is not
-    ``Experiment.rule_name``'s)."""
+    ``also`` (further outputs, e.g. a timing file beside the result), ``named`` (the rule's outputs by name, from
+    the run folder and the configuration, in place of ``output`` and ``also``, where the rule names them or their
+    number depends on the configuration: ``train``'s every seed's predictor; ``output`` stays its first file, its
+    log's and its record's), ``threads`` (the rule's threads, each job's BLAS threads too: ``OMP_NUM_THREADS``),
+    ``layout`` (the rule's param ``layout``: the results' layout version, so that a run of an earlier layout
+    computes its file again) and ``rule`` (the rule's name, where it is not ``Experiment.rule_name``'s; a job of the
+    core workflow, ``pipeline.core_jobs.JOBS``, always names it).
+
+    The workflow makes one rule of each (``pipeline/rules/jobs.smk``), the core workflow's and the experiments'."""
 
     stage: Stage
     output: str
@@ -71,6 +76,7 @@ class Job:
     every_seq_len: bool = False
     wildcards_from: tuple[Wildcard, ...] = ()
     also: tuple[str, ...] = ()
+    named: Callable[[str, Config], Mapping[str, str | Sequence[str]]] | None = None
     threads: int | None = None
     layout: bool = False
     rule: str = ""
@@ -90,6 +96,14 @@ class Job:
     def patterns(self) -> tuple[str, ...]:
         """Its outputs' patterns, relative to the run folder: ``output``, then ``also``."""
         return (self.output, *self.also)
+
+    def listed_outputs(self, out: str) -> list[str]:
+        """The rule's unnamed outputs in the run folder ``out``: ``patterns`` (none where ``named`` names them)."""
+        return [] if self.named is not None else [f"{out}/{pattern}" for pattern in self.patterns]
+
+    def named_outputs(self, out: str, conf: Config) -> dict[str, str | Sequence[str]]:
+        """The rule's named outputs in the run folder ``out``: ``named``'s (none without it)."""
+        return {} if self.named is None else dict(self.named(out, conf))
 
     def constraints(self, conf: Config, plan: Plan) -> dict[str, str]:
         """The rule's wildcard constraints: each of ``wildcards_from`` matches its values only."""
