@@ -15,6 +15,7 @@ from __future__ import annotations
 import base64
 import json
 from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import replace
 from datetime import UTC, datetime
 from functools import cache
 from pathlib import Path
@@ -49,11 +50,15 @@ from vpr_smr.eval.report.results import (
 from vpr_smr.eval.report.rows import (
     BaselineRow,
     DetectionRow,
+    HeldOutRow,
     PredictorRow,
     SeqLenRow,
     SpeedRow,
     SweepRow,
     Table1Row,
+    Table2Row,
+    TimingRow,
+    VPRMetricsRow,
     parse,
 )
 from vpr_smr.eval.report.rows import Column as TableColumn
@@ -377,10 +382,9 @@ class _Builder:
         """Table I's sequence lengths (the per-L figures'); every L when there is no Table I."""
         return {r.seq_len for r in self.records("table1", Table1Row)}
 
-    def keys(self, rows: Iterable[dict[str, Any]]) -> list[tuple[str, int]]:
+    def keys(self, rows: Iterable[Table2Row | VPRMetricsRow]) -> list[tuple[str, int]]:
         """The (dataset, L) of ``rows``, in the configuration's order."""
-        return sorted({(str(r["dataset"]), int(r["seq_len"])) for r in rows},
-                      key=lambda key: (self.order.dataset(key[0]), key[1]))
+        return sorted({(r.dataset, r.seq_len) for r in rows}, key=lambda key: (self.order.dataset(key[0]), key[1]))
 
     def block_title(self, figure: WrittenFigure) -> str:
         parts = [figure.dataset] + ([f"L = {figure.seq_len}"] if figure.seq_len is not None else [])
@@ -497,17 +501,17 @@ def _speed_intro(b: _Builder) -> tuple[str, ...]:
 
 def _predictor_blocks(b: _Builder) -> list[Block]:
     """Per dataset: per L its methods' compact table, the pooled predictor's table, and the confusion figures."""
-    methods, pooled = b.rows("predictor_methods"), b.rows("predictor")
+    methods, pooled = b.rows("predictor_methods"), b.records("predictor", PredictorRow)
     blocks = []
     confusion = b.named("confusion")
-    datasets = unique([*(f.dataset for f in confusion), *(str(r["dataset"]) for r in pooled)])
+    datasets = unique([*(f.dataset for f in confusion), *(r.dataset for r in pooled)])
     for dataset in sorted(datasets, key=b.order.dataset):
         tables = []
         for f in (c for c in confusion if c.dataset == dataset):
             caption = registry.table("predictor_methods").caption.format(split=b.split, seq_len=f.seq_len)
             tables.append(b.compact("predictor_methods", anchor("predictor", dataset, f.seq_len), b.of(f, methods),
                                     caption))
-        shown = _where(pooled, dataset=dataset)
+        shown = [row_cells(r) for r in pooled if r.dataset == dataset]
         if shown:
             columns = b.columns("predictor", shown)
             caption = registry.table("predictor").caption
@@ -523,17 +527,17 @@ def _predictor_blocks(b: _Builder) -> list[Block]:
 
 def _table2_blocks(b: _Builder) -> list[Block]:
     """Per dataset and L: a row per attribute set, its attributes marked, the F1 columns; the samples in a note."""
-    rows = b.rows("table2")
+    rows = b.records("table2", Table2Row)
     blocks = []
-    shown_columns = b.columns("table2", rows)
+    shown_columns = b.columns("table2", [row_cells(r) for r in rows])
     f1 = [column for column in shown_columns if not column.note]  # the rest: the samples, said in the note
     for dataset, seq_len in b.keys(rows):
-        shown = _where(rows, dataset=dataset, seq_len=seq_len)
+        shown = [r for r in rows if (r.dataset, r.seq_len) == (dataset, seq_len)]
         head = (*(Column(a, "text") for a in ATTRIBUTES), *(Column(c.header) for c in f1))
-        body = tuple((*(text_cell("✓" if r["attributes"] in (a, "all") else "×") for a in ATTRIBUTES),
-                      *(row_cell(r, c) for c in f1))
+        body = tuple((*(text_cell("✓" if r.attributes in (a, "all") else "×") for a in ATTRIBUTES),
+                      *(row_cell(row_cells(r), c) for c in f1))
                      for r in shown)
-        first = shown[0]
+        first = row_cells(shown[0])
         counts = [f"{first[c.name]} {c.header}" for c in shown_columns if c.note and first.get(c.name) is not None]
         note = "Macro F1 over " + ", ".join(counts) + ", every method pooled." if counts else ""
         table = TableView(anchor("table2", dataset, seq_len), head, body, note=note)
@@ -542,18 +546,19 @@ def _table2_blocks(b: _Builder) -> list[Block]:
 
 
 def _lomo_blocks(b: _Builder) -> list[Block]:
-    rows = b.rows("leave_one_method_out")
+    rows = b.records("leave_one_method_out", HeldOutRow)
     return [Block(dataset, (), (b.compact("leave_one_method_out", anchor("lomo", dataset),
-                                          _where(rows, dataset=dataset)),))
-            for dataset in sorted(unique(str(r["dataset"]) for r in rows), key=b.order.dataset)]
+                                          [row_cells(r) for r in rows if r.dataset == dataset]),))
+            for dataset in sorted(unique(r.dataset for r in rows), key=b.order.dataset)]
 
 
 def _timing_blocks(b: _Builder) -> list[Block]:
     """Per dataset, the table split's timings at Table I's sequence lengths."""
-    rows, lens = b.rows("timing"), b.table_lens()
+    rows, lens = b.records("timing", TimingRow), b.table_lens()
     blocks = []
-    for dataset in sorted(unique(str(r["dataset"]) for r in rows), key=b.order.dataset):
-        shown = [r for r in _where(rows, dataset=dataset, split=b.split) if not lens or int(r["seq_len"]) in lens]
+    for dataset in sorted(unique(r.dataset for r in rows), key=b.order.dataset):
+        shown = [row_cells(r) for r in rows
+                 if (r.dataset, r.split) == (dataset, b.split) and (not lens or r.seq_len in lens)]
         if shown:
             table = b.compact("timing", anchor("timing", dataset), shown)
             blocks.append(Block(f"{dataset}, {b.split} split", (), (table,)))
@@ -562,16 +567,16 @@ def _timing_blocks(b: _Builder) -> list[Block]:
 
 def _metrics_mode(b: _Builder) -> tuple[str, tuple[str, ...]]:
     """The mode the compact tables show (paper, if the run has it) and every mode of the table."""
-    modes = unique(str(r["mode"]) for r in b.rows("vpr_metrics"))
+    modes = unique(r.mode for r in b.records("vpr_metrics", VPRMetricsRow))
     return ("paper" if "paper" in modes else modes[0]) if modes else "", modes
 
 
 def _metrics_blocks(b: _Builder) -> list[Block]:
-    rows, (mode, _) = b.rows("vpr_metrics"), _metrics_mode(b)
+    rows, (mode, _) = b.records("vpr_metrics", VPRMetricsRow), _metrics_mode(b)
     blocks = []
     for dataset, seq_len in b.keys(rows):
-        shown = [{**r, "matcher": MATCHER_TEXT.get(str(r["matcher"]), r["matcher"])}
-                 for r in _where(rows, dataset=dataset, seq_len=seq_len, mode=mode)]
+        shown = [row_cells(replace(r, matcher=MATCHER_TEXT.get(r.matcher, r.matcher))) for r in rows
+                 if (r.dataset, r.seq_len, r.mode) == (dataset, seq_len, mode)]
         table = b.compact("vpr_metrics", anchor("metrics", dataset, seq_len, mode), shown)
         blocks.append(Block(f"{dataset}, L = {seq_len}, {b.split} split, {mode} mode{b.correct(dataset)}", (),
                             (table,)))
