@@ -16,13 +16,13 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol, TypeVar
+from typing import TypeVar
 
 from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import Comparison, DetectionComparison, comparisons, detection_comparisons
 from vpr_smr.eval.report.results import Order, WrittenTable, unique
-from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, Row, Table1Row, cells
+from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, Table1Row, cells
 from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow
 from vpr_smr.eval.report.tables.matchers import MatchersRow
 from vpr_smr.eval.report.view import Cell, Column, TableView, VerdictBlock, VerdictMode, anchor, text_cell
@@ -80,18 +80,7 @@ def _by_sign(sign: int | None, said: Words, number: str, interval: Interval | No
     return _cell(word, number, interval, "up" if sign > 0 else "down", fmt)
 
 
-class Reduced(Row, Protocol):
-    """A row of a seed-0 reduction: Table I's (``rows.Table1Row``), the matchers' (``MatchersRow``)."""
-
-    @property
-    def reduction_pct(self) -> float | None: ...
-    @property
-    def reduction_pct_ci(self) -> Interval | None: ...
-    @property
-    def outcome(self) -> str: ...
-
-
-def reduction_cell(row: Reduced) -> Cell:
+def reduction_cell(row: Table1Row | MatchersRow) -> Cell:
     """Does the predictor reduce the AOC: a Table I (or matchers) row's seed-0 reduction in per cent, its word from
     ``outcome_words.direction``; a degenerate removal named."""
     value = row.reduction_pct
