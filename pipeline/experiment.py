@@ -8,8 +8,8 @@ with its sentences). An installed package registers it under its name in the ent
 
 - the configuration accepts ``experiments: {NAME: true}`` (``pipeline.config``; an unknown name is refused with the
   known ones listed);
-- the workflow makes one rule per job (``pipeline/rules/experiments.smk``) calling ``vpr-smr COMMAND --job JSON``,
-  and the report waits for their files;
+- the workflow makes one rule per job (``pipeline/rules/jobs.smk``, as it does of the core workflow's jobs) calling
+  ``vpr-smr COMMAND --job JSON``, and the report waits for their files;
 - ``vpr-smr COMMAND`` runs a job by hand (``pipeline.cli`` installs the jobs' stages);
 - the report reads the files (``eval.report.experiments.files``) and writes the tables and the section.
 """
@@ -210,7 +210,7 @@ def builtin_experiments() -> tuple[Experiment, ...]:
 
 def running(names: Collection[str]) -> tuple[Experiment, ...]:
     """The built-in, then the installed experiments among ``names`` (``pipeline.config.experiments``: those the
-    configuration turns on): the workflow makes their jobs' rules (``rules/experiments.smk``)."""
+    configuration turns on): the workflow makes their jobs' rules (``rules/jobs.smk``)."""
     return tuple(one for one in (*builtin_experiments(), *plugin_experiments()) if one.name in names)
 
 
