@@ -27,106 +27,94 @@ if TYPE_CHECKING:
     from vpr_smr.pipeline.plan import Plan
 
 
-class Named(dict[str, Any]):
-    """A rule's named input files (name -> a path or a list of paths), also by attribute as Snakemake's ``input``:
-    what ``input: unpack(...)`` takes, and what a job record reads."""
-
-    def __getattr__(self, name: str) -> Any:
-        try:
-            return self[name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-
-def job_param(files: Callable[[Any], Named], make: Callable[[Any, Named], Any]) -> Callable[[Any], str]:
-    """A rule's ``job`` param: its job record ``make(wildcards, files(wildcards))`` as text (``job_text``), computed
-    from the wildcards alone. ``files`` is the function the rule's ``input: unpack(...)`` calls, so that each path
-    is written once; a param function that takes the job's ``input`` or ``output`` instead is one Snakemake leaves
-    out of its rerun check (``Rule._is_deriving_function``), so that a changed setting would rerun nothing."""
-    from vpr_smr.pipeline.stage import job_text
-
-    return lambda wc: job_text(make(wc, files(wc)))
-
-
 @dataclass(frozen=True)
 class RuleFiles:
-    """Each rule's named input files for its wildcards (``dataset``, ``method``, ``seq_len``, ``split``), from
-    ``core.paths``: what the rule's ``input: unpack(FILES.<rule>)`` lists and its job record (``job_param``) names."""
+    """Each core job's named input files for its wildcards (``dataset``, ``method``, ``seq_len``, ``split``), from
+    ``core.paths``: its ``Job.inputs`` (``rule_files``), which its rule's ``input:`` lists and its job record reads,
+    so that each path is written once and the record is computed from the wildcards alone."""
 
     out: str
     conf: Config
     plan: Plan
 
-    def _attributes(self, wc: Any, split: str, methods: Sequence[str] | None = None) -> list[str]:
-        """Every method's (or ``methods``') attributes of one split at ``wc.seq_len``, the configuration's order
+    def _attributes(self, wc: Mapping[str, str], split: str, methods: Sequence[str] | None = None) -> list[str]:
+        """Every method's (or ``methods``') attributes of one split at ``wc["seq_len"]``, the configuration's order
         (the pooled training order)."""
-        return [attributes_path(self.out, wc.dataset, method, wc.seq_len, split)
+        return [attributes_path(self.out, wc["dataset"], method, wc["seq_len"], split)
                 for method in (list(self.conf.methods) if methods is None else methods)]
 
-    def _method_attributes(self, wc: Any, splits: Sequence[str]) -> list[str]:
-        """``wc.method``'s attributes of each of ``splits`` at ``wc.seq_len``."""
-        return [attributes_path(self.out, wc.dataset, wc.method, wc.seq_len, split) for split in splits]
+    def _method_attributes(self, wc: Mapping[str, str], splits: Sequence[str]) -> list[str]:
+        """``wc["method"]``'s attributes of each of ``splits`` at ``wc["seq_len"]``."""
+        return [attributes_path(self.out, wc["dataset"], wc["method"], wc["seq_len"], split) for split in splits]
 
-    def _distances(self, wc: Any) -> list[str]:
-        """``wc.method``'s distances of each evaluation split."""
-        return [distances_path(self.out, wc.dataset, wc.method, split) for split in self.conf.eval_splits]
+    def _distances(self, wc: Mapping[str, str]) -> list[str]:
+        """``wc["method"]``'s distances of each evaluation split."""
+        return [distances_path(self.out, wc["dataset"], wc["method"], split) for split in self.conf.eval_splits]
 
-    def distances(self, wc: Any) -> Named:
-        return Named(descriptors=descriptors_path(self.out, wc.dataset, wc.method))
+    def distances(self, wc: Mapping[str, str]) -> dict[str, Any]:
+        return dict(descriptors=descriptors_path(self.out, wc["dataset"], wc["method"]))
 
-    def attributes(self, wc: Any) -> Named:
-        return Named(distances=distances_path(self.out, wc.dataset, wc.method, wc.split),
-                     truth=ground_truth_input(self.plan, wc.dataset))
+    def attributes(self, wc: Mapping[str, str]) -> dict[str, Any]:
+        return dict(distances=distances_path(self.out, wc["dataset"], wc["method"], wc["split"]),
+                    truth=ground_truth_input(self.plan, wc["dataset"]))
 
-    def train(self, wc: Any) -> Named:
+    def train(self, wc: Mapping[str, str]) -> dict[str, Any]:
         """The train split's attributes of every method, then those of each evaluation split, split by split."""
-        return Named(train=self._attributes(wc, self.conf.train_split),
-                     evaluate=[path for split in self.conf.eval_splits for path in self._attributes(wc, split)])
+        return dict(train=self._attributes(wc, self.conf.train_split),
+                    evaluate=[path for split in self.conf.eval_splits for path in self._attributes(wc, split)])
 
-    def evaluate(self, wc: Any) -> Named:
-        return Named(attributes=self._method_attributes(wc, self.conf.eval_splits),
-                     predictors=predictor_paths(self.out, wc.dataset, wc.seq_len, self.conf.seeds))
+    def evaluate(self, wc: Mapping[str, str]) -> dict[str, Any]:
+        return dict(attributes=self._method_attributes(wc, self.conf.eval_splits),
+                    predictors=predictor_paths(self.out, wc["dataset"], wc["seq_len"], self.conf.seeds))
 
-    def baselines(self, wc: Any) -> Named:
-        return Named(distances=self._distances(wc), attributes=self._method_attributes(wc, self.conf.eval_splits),
-                     predictors=predictor_paths(self.out, wc.dataset, wc.seq_len, self.conf.seeds),
-                     truth=ground_truth_input(self.plan, wc.dataset))
+    def baselines(self, wc: Mapping[str, str]) -> dict[str, Any]:
+        return dict(distances=self._distances(wc), attributes=self._method_attributes(wc, self.conf.eval_splits),
+                    predictors=predictor_paths(self.out, wc["dataset"], wc["seq_len"], self.conf.seeds),
+                    truth=ground_truth_input(self.plan, wc["dataset"]))
 
-    def metrics(self, wc: Any) -> Named:
+    def metrics(self, wc: Mapping[str, str]) -> dict[str, Any]:
         """The VPR metrics' and the per-query table's: as the baselines', with the seed-0 predictor only (the
         authors' recipe)."""
-        return Named(distances=self._distances(wc), attributes=self._method_attributes(wc, self.conf.eval_splits),
-                     predictor=predictor_path(self.out, wc.dataset, wc.seq_len),
-                     truth=ground_truth_input(self.plan, wc.dataset))
+        return dict(distances=self._distances(wc), attributes=self._method_attributes(wc, self.conf.eval_splits),
+                    predictor=predictor_path(self.out, wc["dataset"], wc["seq_len"]),
+                    truth=ground_truth_input(self.plan, wc["dataset"]))
 
-    def inspect(self, wc: Any) -> Named:
-        return Named(queries=queries_path(self.out, wc.dataset, wc.method, wc.seq_len),
-                     distances=distances_path(self.out, wc.dataset, wc.method, self.conf.table_split),
-                     truth=ground_truth_input(self.plan, wc.dataset))
+    def inspect(self, wc: Mapping[str, str]) -> dict[str, Any]:
+        return dict(queries=queries_path(self.out, wc["dataset"], wc["method"], wc["seq_len"]),
+                    distances=distances_path(self.out, wc["dataset"], wc["method"], self.conf.table_split),
+                    truth=ground_truth_input(self.plan, wc["dataset"]))
 
-    def attribute_ablation(self, wc: Any) -> Named:
+    def attribute_ablation(self, wc: Mapping[str, str]) -> dict[str, Any]:
         """The train split's attributes of every method, then those of Table II's splits (the validation split and
         the last evaluation split), split by split."""
         from vpr_smr.eval.predictor.defaults import ablation_splits
 
-        return Named(train=self._attributes(wc, self.conf.train_split),
-                     evaluate=[path for split in ablation_splits(self.conf.eval_splits)
-                               for path in self._attributes(wc, split)])
+        return dict(train=self._attributes(wc, self.conf.train_split),
+                    evaluate=[path for split in ablation_splits(self.conf.eval_splits)
+                              for path in self._attributes(wc, split)])
 
-    def predictor_without(self, wc: Any) -> Named:
+    def predictor_without(self, wc: Mapping[str, str]) -> dict[str, Any]:
         """The other methods' train split's attributes and their validation split's (none without one); the
         held-out method's files are not inputs, so that a change of them does not retrain this predictor."""
         from vpr_smr.eval.predictor.defaults import validation_split
 
-        others = [method for method in self.conf.methods if method != wc.method]
+        others = [method for method in self.conf.methods if method != wc["method"]]
         validation = validation_split(self.conf.eval_splits)
-        return Named(train=self._attributes(wc, self.conf.train_split, others),
-                     validation=self._attributes(wc, validation, others) if validation else [])
+        return dict(train=self._attributes(wc, self.conf.train_split, others),
+                    validation=self._attributes(wc, validation, others) if validation else [])
 
-    def held_out(self, wc: Any) -> Named:
-        return Named(attributes=attributes_path(self.out, wc.dataset, wc.method, wc.seq_len, self.conf.table_split),
-                     pooled=predictor_path(self.out, wc.dataset, wc.seq_len),
-                     without=without_predictor_path(self.out, wc.dataset, wc.seq_len, wc.method))
+    def held_out(self, wc: Mapping[str, str]) -> dict[str, Any]:
+        table = self.conf.table_split
+        return dict(attributes=attributes_path(self.out, wc["dataset"], wc["method"], wc["seq_len"], table),
+                    pooled=predictor_path(self.out, wc["dataset"], wc["seq_len"]),
+                    without=without_predictor_path(self.out, wc["dataset"], wc["seq_len"], wc["method"]))
+
+
+def rule_files(files: Callable[[RuleFiles, Mapping[str, str]], dict[str, Any]]
+               ) -> Callable[[str, Config, Plan, Mapping[str, str]], dict[str, Any]]:
+    """A job's ``inputs`` (``pipeline.experiment.Job``: of the run folder, the configuration, the plan and the
+    wildcards) from a ``RuleFiles`` method: ``rule_files(RuleFiles.train)``."""
+    return lambda out, conf, plan, wildcards: files(RuleFiles(out, conf, plan), wildcards)
 
 
 def extraction_options(conf: Config) -> str:

@@ -3,7 +3,7 @@ the report sees them.
 
 An experiment is one module: a ``pipeline.experiment.Experiment`` declaring its jobs, its tables (each a
 ``registry.Table`` whose ``section`` is its part of the page) and where its jobs write. The workflow runs its jobs
-(``pipeline/rules/experiments.smk``) when the configuration turns it on (``experiments: {NAME: true}``); the report
+(``pipeline/rules/jobs.smk``) when the configuration turns it on (``experiments: {NAME: true}``); the report
 reads its jobs' files (``files``), and its tables make their rows from them (``tabulate.Inputs.experiments``).
 
 This module sees only what the report needs of an experiment (``Reported``): the report is below the workflow, and

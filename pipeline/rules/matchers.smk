@@ -1,5 +1,5 @@
 # The experiment `matchers` (method §14, pipeline/experiments/matchers.py; its comparison job's rule is made by
-# rules/experiments.smk): here the compared matchers' own attributes and predictors under matchers/<dataset>/<tag>/,
+# rules/jobs.smk): here the compared matchers' own attributes and predictors under matchers/<dataset>/<tag>/,
 # the core rules `attributes` and `train` taken as they are (`use rule`: their shell line and settings declared once)
 # with the experiment's paths and job records. Both records are computed from the wildcards alone, so that Snakemake
 # compares them with the last run's (a param made from a rule's input or output is left out of that check).

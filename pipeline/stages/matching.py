@@ -1,19 +1,30 @@
 """The stages from a dataset's frames to the queries' attributes: ``descriptors``, ``distances``, ``attributes``, and
 the match inspector (``inspect``), which draws a split's matches. The inspector's module (its figures) is imported
 when its stage runs; the other stages' modules hold their job records and are light to import (their heavy work,
-PyTorch and the datasets, is imported inside their functions)."""
+PyTorch and the datasets, is imported inside their functions). Their workflow jobs: ``JOBS`` (each one's output,
+inputs and record, of which ``pipeline/rules/jobs.smk`` makes its rule; the descriptors' rule is written in
+``pipeline/rules/descriptors.smk``)."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
+from vpr_smr.core.paths import attributes_path, distances_path, match_figure_path, matrix_figure_path
 from vpr_smr.eval.matching import attributes, distances
 from vpr_smr.eval.matching.attributes import AttributesJob, QueryFeatures
 from vpr_smr.eval.matching.distances import DistancesJob
 from vpr_smr.eval.report.job import InspectJob
 from vpr_smr.pipeline import descriptors
 from vpr_smr.pipeline.descriptors import DescriptorsJob
+from vpr_smr.pipeline.experiment import Job, Wildcard, relative
+from vpr_smr.pipeline.rule_helpers import RuleFiles, rule_files
 from vpr_smr.pipeline.stage import Stage, wrote
+
+if TYPE_CHECKING:
+    from vpr_smr.pipeline.config import Config
+    from vpr_smr.pipeline.plan import Plan
 
 
 def _attributes_summary(job: AttributesJob, found: QueryFeatures) -> str:
@@ -47,3 +58,62 @@ INSPECT = Stage("inspect", "the match inspector: sampled queries with their matc
                        "--queries queries.csv --distances D.npy --seq-len 4 --matrix-figure d.png")
 
 STAGES: tuple[Stage, ...] = (DESCRIPTORS, DISTANCES, ATTRIBUTES, INSPECT)
+
+
+# --- the workflow's jobs of these stages (``pipeline/rules/jobs.smk`` makes a rule of each) --------------------------
+
+
+def splits(conf: Config, plan: Plan) -> list[str]:
+    """The ``split`` wildcard's values: the train split and every evaluation split (the table split among them)."""
+    return [conf.train_split, *conf.eval_splits]
+
+
+def _distances_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
+                      ) -> DistancesJob:
+    """The split's frames (method §11: its reference range, only where it differs from its query range) and the
+    method's ``distance`` (or its backend's default)."""
+    dataset, split = plan.datasets[wildcards["dataset"]], wildcards["split"]
+    return DistancesJob(files["descriptors"], split, dataset.splits[split], dataset.reference_splits.get(split),
+                        plan.metrics[wildcards["method"]], out=out)
+
+
+def _attributes_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
+                       ) -> AttributesJob:
+    """Method §§5, 11, 13: the matcher, the dataset's ground truth, and the candidates the training-free scorers need
+    (method §12: only a change of their number recomputes these)."""
+    return AttributesJob(files["distances"], int(wildcards["seq_len"]), plan.datasets[wildcards["dataset"]].truth,
+                         conf.sequence_matching, candidates=conf.baselines.candidates, out=out)
+
+
+def _inspect_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
+                    ) -> InspectJob:
+    """The images are read for the thumbnails (the frames' settings and fingerprint, as the descriptors job's); the
+    table split's frames; the dataset's ground truth (method §13: a file is cut to the split by the stage) and the
+    run's matcher, as its queries CSV was made."""
+    from vpr_smr.pipeline.plan import canonical
+
+    dataset = plan.datasets[wildcards["dataset"]]
+    matrix = matrix_figure_path(str(conf.run_dir), wildcards["dataset"], wildcards["method"], wildcards["seq_len"])
+    return InspectJob(files["queries"], files["distances"], out, matrix, wildcards["dataset"],
+                      canonical(dataset.frames_settings), dataset.frames_sha256, int(wildcards["seq_len"]),
+                      conf.table_split, dataset.truth, conf.sequence_matching,
+                      frames=dataset.splits[conf.table_split])
+
+
+# From descriptors to attributes: the distance matrix of a split, and its queries' attributes (the split's distances,
+# the dataset's ground-truth file: method §13, or none).
+DISTANCES_JOB = Job(DISTANCES, relative(distances_path("", "{dataset}", "{method}", "{split}")),
+                    rule_files(RuleFiles.distances), _distances_record, wildcards_from=(Wildcard("split", splits),),
+                    rule="distances")
+ATTRIBUTES_JOB = Job(ATTRIBUTES, relative(attributes_path("", "{dataset}", "{method}", "{seq_len}", "{split}")),
+                     rule_files(RuleFiles.attributes), _attributes_record,
+                     wildcards_from=(Wildcard("split", splits),), rule="attributes")
+# The match inspector: thumbnails of a fixed sample of the table split's queries with their matches, and the split's
+# distance matrix with the sequence matches the predictor keeps or removes (the report shows both); it reads the
+# per-query table, the table split's distances and the ground-truth file (or none).
+INSPECT_JOB = Job(INSPECT, relative(match_figure_path("", "{dataset}", "{method}", "{seq_len}")),
+                  rule_files(RuleFiles.inspect), _inspect_record, rule="inspect",
+                  named=lambda out, conf: {"matches": match_figure_path(out, "{dataset}", "{method}", "{seq_len}"),
+                                           "matrix": matrix_figure_path(out, "{dataset}", "{method}", "{seq_len}")})
+
+JOBS: tuple[Job, ...] = (DISTANCES_JOB, ATTRIBUTES_JOB, INSPECT_JOB)

@@ -1,21 +1,36 @@
 """The stages of the predictor (``pipeline.stage.Stage``): ``train``, ``evaluate`` and the ablations ``ablation
-attributes``, ``ablation without`` and ``ablation held-out``; their summary lines, and what their rules need to build
-their jobs (``split_files``)."""
+attributes``, ``ablation without`` and ``ablation held-out``; their summary lines, and their workflow jobs (``JOBS``:
+each one's output, inputs and record, of which ``pipeline/rules/jobs.smk`` makes its rule)."""
 
 from __future__ import annotations
 
 import argparse
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
 
-from vpr_smr.eval.predictor.defaults import PredictorParams, PredictorTraining, validation_split
+from vpr_smr.core.paths import (
+    attribute_ablation_path,
+    evaluation_path,
+    held_out_path,
+    predictor_path,
+    predictor_paths,
+    predictor_report_path,
+    timing_path,
+    without_predictor_path,
+)
+from vpr_smr.eval.predictor.defaults import PredictorParams, PredictorTraining, ablation_splits, validation_split
 from vpr_smr.eval.predictor.jobs import AttributeAblationJob, EvaluateJob, HeldOutJob, TrainJob, WithoutJob
 from vpr_smr.eval.predictor.records import AttributeAblation, PredictorReport
 from vpr_smr.eval.scoring.records import Evaluation, HeldOut, Reduction, Timing
-from vpr_smr.pipeline.config import Config, ConfigError
+from vpr_smr.pipeline.config import Config, ConfigError, experiments
+from vpr_smr.pipeline.experiment import Job, relative
+from vpr_smr.pipeline.rule_helpers import RuleFiles, method_items, rule_files
 from vpr_smr.pipeline.stage import GROUP, Stage, wrote
 
-__all__ = ["ABLATION_ATTRIBUTES", "ABLATION_HELD_OUT", "ABLATION_WITHOUT", "EVALUATE", "STAGES", "TRAIN",
+if TYPE_CHECKING:
+    from vpr_smr.pipeline.plan import Plan
+
+__all__ = ["ABLATION_ATTRIBUTES", "ABLATION_HELD_OUT", "ABLATION_WITHOUT", "EVALUATE", "JOBS", "STAGES", "TRAIN",
            "ablation_headline", "held_out_headline", "reduction_text", "split_files", "training"]
 
 
@@ -196,3 +211,88 @@ ABLATION_HELD_OUT = Stage("ablation held-out", "a method's test split under the 
                           HeldOutJob, _held_out, summary=_held_out_summary)
 
 STAGES: tuple[Stage, ...] = (TRAIN, EVALUATE, ABLATION_ATTRIBUTES, ABLATION_WITHOUT, ABLATION_HELD_OUT)
+
+
+# --- the workflow's jobs of these stages (``pipeline/rules/jobs.smk`` makes a rule of each) --------------------------
+
+
+def _train_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
+                  ) -> TrainJob:
+    """Method §7: the predictor's settings, the validation split, the seeds, every evaluation split by its name with
+    every method's attributes of it."""
+    return TrainJob(wildcards["dataset"], int(wildcards["seq_len"]), tuple(files["train"]),
+                    split_files(conf.eval_splits, files["evaluate"]), training(conf), conf.seeds, out)
+
+
+def _train_outputs(out: str, conf: Config) -> dict[str, str | Sequence[str]]:
+    """Every seed's predictor (seed 0's first: the job's output) and the training report beside the first."""
+    return {"models": predictor_paths(out, "{dataset}", "{seq_len}", conf.seeds),
+            "report": predictor_report_path(predictor_path(out, "{dataset}", "{seq_len}"))}
+
+
+def _evaluate_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
+                     ) -> EvaluateJob:
+    """Methods §§7-9: each evaluation split's attributes by its name, the seeds' predictors, the modes, and the trust
+    levels and restoration where the configuration's experiments ask them."""
+    chosen = experiments(conf)
+    return EvaluateJob(wildcards["dataset"], wildcards["method"], int(wildcards["seq_len"]),
+                       dict(zip(conf.eval_splits, files["attributes"], strict=True)), tuple(files["predictors"]),
+                       tuple(conf.modes), tuple(conf.trust_levels) if "trust_levels" in chosen else (),
+                       "restoration" in chosen, conf.allow_split_overlap, out)
+
+
+def _evaluate_outputs(out: str, conf: Config) -> dict[str, str | Sequence[str]]:
+    """The evaluation and its timings beside it."""
+    evaluation = evaluation_path(out, "{dataset}", "{method}", "{seq_len}")
+    return {"evaluation": evaluation, "timing": timing_path(evaluation)}
+
+
+def _attribute_ablation_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any],
+                               out: str) -> AttributeAblationJob:
+    """The predictor's settings, Table II's splits (the validation split, then the last evaluation split) by name
+    with every method's attributes."""
+    return AttributeAblationJob(wildcards["dataset"], int(wildcards["seq_len"]), training(conf).predictor,
+                                tuple(files["train"]), split_files(ablation_splits(conf.eval_splits),
+                                                                   files["evaluate"]),
+                                conf.allow_split_overlap, out)
+
+
+def _without_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
+                    ) -> WithoutJob:
+    """The other methods' train files by method, the validation split's METHOD=PATH items, the predictor's settings
+    (its validation split: the first evaluation split given, the only one)."""
+    method, validation = wildcards["method"], validation_split(conf.eval_splits)
+    return WithoutJob(wildcards["dataset"], int(wildcards["seq_len"]), method,
+                      dict(zip([m for m in conf.methods if m != method], files["train"], strict=True)),
+                      split_files([validation] if validation else [],
+                                  method_items(list(conf.methods), method, files["validation"])),
+                      training(conf, validation=False), out)
+
+
+def _held_out_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
+                     ) -> HeldOutJob:
+    """The held-out method's table split under the pooled and the without predictor."""
+    return HeldOutJob(wildcards["dataset"], wildcards["method"], int(wildcards["seq_len"]), files["attributes"],
+                      files["pooled"], files["without"], tuple(conf.modes), conf.allow_split_overlap, out)
+
+
+# The predictor: trained on the pooled train split of every method (the train split's attributes of every method in
+# the configuration's order, then every evaluation split's), and scored per method (its attributes of every
+# evaluation split, every seed's predictor); their files' layout: a run of an earlier one trains and scores again.
+TRAIN_JOB = Job(TRAIN, relative(predictor_path("", "{dataset}", "{seq_len}")), rule_files(RuleFiles.train),
+                _train_record, named=_train_outputs, layout=True, rule="train")
+EVALUATE_JOB = Job(EVALUATE, relative(evaluation_path("", "{dataset}", "{method}", "{seq_len}")),
+                   rule_files(RuleFiles.evaluate), _evaluate_record, named=_evaluate_outputs, rule="evaluate")
+# The paper's ablations (at the Table I sequence length): Table II (every method's train split, Table II's two
+# splits), the predictor trained without a method (the other methods' train and validation splits: the held-out
+# method's files are no inputs, so that a change of them does not retrain it), and the held-out method's table split
+# under the pooled predictor and that one.
+ATTRIBUTE_ABLATION_JOB = Job(ABLATION_ATTRIBUTES, relative(attribute_ablation_path("", "{dataset}", "{seq_len}")),
+                             rule_files(RuleFiles.attribute_ablation), _attribute_ablation_record, layout=True,
+                             rule="attribute_ablation")
+WITHOUT_JOB = Job(ABLATION_WITHOUT, relative(without_predictor_path("", "{dataset}", "{seq_len}", "{method}")),
+                  rule_files(RuleFiles.predictor_without), _without_record, layout=True, rule="predictor_without")
+HELD_OUT_JOB = Job(ABLATION_HELD_OUT, relative(held_out_path("", "{dataset}", "{seq_len}", "{method}")),
+                   rule_files(RuleFiles.held_out), _held_out_record, rule="held_out")
+
+JOBS: tuple[Job, ...] = (TRAIN_JOB, EVALUATE_JOB, ATTRIBUTE_ABLATION_JOB, WITHOUT_JOB, HELD_OUT_JOB)
