@@ -64,8 +64,13 @@ class Job:
     number depends on the configuration: ``train``'s every seed's predictor; ``output`` stays its first file, its
     log's and its record's), ``threads`` (the rule's threads, each job's BLAS threads too: ``OMP_NUM_THREADS``),
     ``layout`` (the rule's param ``layout``: the results' layout version, so that a run of an earlier layout
-    computes its file again) and ``rule`` (the rule's name, where it is not ``Experiment.rule_name``'s; a job of the
-    core workflow, ``pipeline.core_jobs.JOBS``, always names it).
+    computes its file again), ``revision`` (the rule's param ``revision`` from the configuration, the plan and the
+    wildcards: the revision of the code that computes the file, e.g. a descriptor backend's, so that a new one
+    computes it again), ``resources`` (the rule's resources from the configuration), ``speed`` (the stage's
+    ``Stage.speed`` options from the rule's threads and resources, after its ``--job``: they change how fast it
+    runs, not what it computes, so that changing them reruns nothing; a stage given ``{threads}`` there sets its
+    threads itself, without ``OMP_NUM_THREADS``) and ``rule`` (the rule's name, where it is not
+    ``Experiment.rule_name``'s; a job of the core workflow, ``pipeline.core_jobs.JOBS``, always names it).
 
     The workflow makes one rule of each (``pipeline/rules/jobs.smk``), the core workflow's and the experiments'."""
 
@@ -79,6 +84,9 @@ class Job:
     named: Callable[[str, Config], Mapping[str, str | Sequence[str]]] | None = None
     threads: int | None = None
     layout: bool = False
+    revision: Callable[[Config, Plan, Mapping[str, str]], str] | None = None
+    resources: Callable[[Config], Mapping[str, Any]] | None = None
+    speed: str = ""
     rule: str = ""
 
     @property
@@ -136,11 +144,35 @@ class Job:
         return self.record(conf, plan, wildcards, self.inputs(out, conf, plan, wildcards),
                            f"{out}/{self.output.format(**wildcards)}")
 
+    def rule_params(self, out: str, conf: Config, plan: Plan) -> dict[str, Any]:
+        """The rule's params: ``layout`` (with ``layout``), ``job`` (its record as text, from the wildcards:
+        ``job_record``), ``revision`` (with ``revision``); each a function of the wildcards alone."""
+        from vpr_smr.core.constants import RESULTS_LAYOUT  # here: the results' layout is the workflow's concern
+        from vpr_smr.pipeline.stage import job_text
+
+        revision = self.revision
+        return {**({"layout": RESULTS_LAYOUT} if self.layout else {}),
+                "job": lambda wildcards: job_text(self.job_record(out, conf, plan, dict(wildcards.items()))),
+                **({"revision": lambda wildcards: revision(conf, plan, dict(wildcards.items()))}
+                   if revision is not None else {})}
+
+    def rule_resources(self, conf: Config) -> dict[str, Any]:
+        """The rule's resources: ``resources``' (none without it)."""
+        return {} if self.resources is None else dict(self.resources(conf))
+
     @property
     def shell_prefix(self) -> str:
         """What the rule's shell line starts with: the BLAS threads of a job with ``threads`` (OpenBLAS's default,
-        a thread per core, makes jobs side by side fight over the cores)."""
-        return "OMP_NUM_THREADS={threads} " if self.threads is not None else ""
+        a thread per core, makes jobs side by side fight over the cores), unless its ``speed`` options give the
+        stage its threads."""
+        return "OMP_NUM_THREADS={threads} " if self.threads is not None and "{threads}" not in self.speed else ""
+
+    @property
+    def shell(self) -> str:
+        """The rule's shell line: ``shell_prefix``, then the stage with its ``--job`` and its ``speed`` options."""
+        from vpr_smr.pipeline.stage import shell_command
+
+        return self.shell_prefix + shell_command(self.stage, self.speed)
 
 
 def relative(path: str) -> str:
