@@ -84,7 +84,7 @@ class Job:
     named: Callable[[str, Config], Mapping[str, str | Sequence[str]]] | None = None
     threads: int | None = None
     layout: bool = False
-    revision: Callable[[Config, Plan, Mapping[str, str]], str] | None = None
+    revision: Callable[[Config, Plan, Mapping[str, str]], int] | None = None
     resources: Callable[[Config], Mapping[str, Any]] | None = None
     speed: str = ""
     rule: str = ""
