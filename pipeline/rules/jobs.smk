@@ -1,10 +1,10 @@
 # Every declared job a rule, calling its stage with its job record (`vpr-smr COMMAND --job JSON`): the core
-# workflow's (pipeline.core_jobs: distances, attributes, train, evaluate, the ablations, the scorers, the inspector)
-# and those of the experiments the configuration turns on, the tool's own (pipeline/experiments/) and those installed
-# packages register (pipeline.experiment); the report waits for their files. Each job's inputs, outputs and record
-# come from its declaration (pipeline.experiment.Job); the record is computed from the wildcards alone
-# (Job.job_record), so that Snakemake compares it with the last run's: a param made from a rule's input or output is
-# left out of that check.
+# workflow's (pipeline.core_jobs: descriptors, distances, attributes, train, evaluate, the ablations, the scorers, the
+# inspector) and those of the experiments the configuration turns on, the tool's own (pipeline/experiments/) and those
+# installed packages register (pipeline.experiment); the report waits for their files. Each rule comes from its job's
+# declaration (pipeline.experiment.Job): its inputs, outputs, log, threads, resources and params; the job record is
+# computed from the wildcards alone (Job.job_record), so that Snakemake compares it with the last run's: a param made
+# from a rule's input or output is left out of that check.
 from vpr_smr.pipeline.core_jobs import JOBS as CORE_JOBS
 from vpr_smr.pipeline.experiment import running
 
@@ -26,9 +26,9 @@ for _name, _job in DECLARED:
         wildcard_constraints:
             **_job.constraints(conf, PLAN),
         threads: _job.threads or 1
+        resources:
+            **_job.rule_resources(conf),
         params:
-            # its files' layout: a run of an earlier one computes them again
-            **({"layout": RESULTS_LAYOUT} if _job.layout else {}),
-            job=lambda wc, job=_job: job_text(job.job_record(OUT, conf, PLAN, dict(wc.items()))),
+            **_job.rule_params(OUT, conf, PLAN),
         shell:
-            _job.shell_prefix + shell_command(_job.stage)
+            _job.shell

@@ -2,8 +2,7 @@
 the match inspector (``inspect``), which draws a split's matches. The inspector's module (its figures) is imported
 when its stage runs; the other stages' modules hold their job records and are light to import (their heavy work,
 PyTorch and the datasets, is imported inside their functions). Their workflow jobs: ``JOBS`` (each one's output,
-inputs and record, of which ``pipeline/rules/jobs.smk`` makes its rule; the descriptors' rule is written in
-``pipeline/rules/descriptors.smk``)."""
+inputs and record, of which ``pipeline/rules/jobs.smk`` makes its rule)."""
 
 from __future__ import annotations
 
@@ -11,7 +10,13 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from vpr_smr.core.paths import attributes_path, distances_path, match_figure_path, matrix_figure_path
+from vpr_smr.core.paths import (
+    attributes_path,
+    descriptors_path,
+    distances_path,
+    match_figure_path,
+    matrix_figure_path,
+)
 from vpr_smr.eval.matching import attributes, distances
 from vpr_smr.eval.matching.attributes import AttributesJob, QueryFeatures
 from vpr_smr.eval.matching.distances import DistancesJob
@@ -68,6 +73,43 @@ def splits(conf: Config, plan: Plan) -> list[str]:
     return [conf.train_split, *conf.eval_splits]
 
 
+def _descriptors_inputs(out: str, conf: Config, plan: Plan, wildcards: Mapping[str, str]) -> dict[str, list[str]]:
+    """The method's checkpoint (none for a backend without one), the dataset's frame lists and (method §11) its
+    positions CSVs."""
+    checkpoint, dataset = plan.checkpoints[wildcards["method"]], plan.datasets[wildcards["dataset"]]
+    return {"checkpoint": [checkpoint] if checkpoint else [], "lists": list(dataset.list_files),
+            "positions": list(dataset.positions_files)}
+
+
+def _descriptors_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
+                        ) -> DescriptorsJob:
+    """The frames' settings and fingerprint; the method's settings without ``distance`` (it changes the distance
+    matrices, not the descriptors)."""
+    from vpr_smr.descriptors import descriptor_settings
+    from vpr_smr.pipeline.plan import canonical
+
+    dataset, method = plan.datasets[wildcards["dataset"]], wildcards["method"]
+    return DescriptorsJob(wildcards["dataset"], method, dataset_settings=canonical(dataset.frames_settings),
+                          method_settings=canonical(descriptor_settings(conf.methods[method].to_json())),
+                          frames_sha256=dataset.frames_sha256, out=out)
+
+
+def _descriptors_revision(conf: Config, plan: Plan, wildcards: Mapping[str, str]) -> int:
+    """What the backend's code computes: a new revision computes the descriptors again."""
+    from vpr_smr.descriptors import descriptor_revision
+
+    return descriptor_revision(conf.methods[wildcards["method"]].backend)
+
+
+def _descriptors_resources(conf: Config) -> dict[str, Any]:
+    """A GPU, and the batch size and decoding workers: they change how fast a job runs, not what it computes (a
+    resource, not a param, so that changing them reruns nothing; the stage's ``speed`` settings, given beside its
+    job)."""
+    from vpr_smr.pipeline.rule_helpers import extraction_options
+
+    return {"gpu": 1, "extraction": extraction_options(conf)}
+
+
 def _distances_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mapping[str, Any], out: str
                       ) -> DistancesJob:
     """The split's frames (method §11: its reference range, only where it differs from its query range) and the
@@ -100,6 +142,10 @@ def _inspect_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], file
                       frames=dataset.splits[conf.table_split])
 
 
+DESCRIPTORS_JOB = Job(DESCRIPTORS, relative(descriptors_path("", "{dataset}", "{method}")), _descriptors_inputs,
+                      _descriptors_record, threads=2, revision=_descriptors_revision,
+                      resources=_descriptors_resources, speed="--threads {threads} {resources.extraction}",
+                      rule="descriptors")
 # From descriptors to attributes: the distance matrix of a split, and its queries' attributes (the split's distances,
 # the dataset's ground-truth file: method §13, or none).
 DISTANCES_JOB = Job(DISTANCES, relative(distances_path("", "{dataset}", "{method}", "{split}")),
@@ -116,4 +162,4 @@ INSPECT_JOB = Job(INSPECT, relative(match_figure_path("", "{dataset}", "{method}
                   named=lambda out, conf: {"matches": match_figure_path(out, "{dataset}", "{method}", "{seq_len}"),
                                            "matrix": matrix_figure_path(out, "{dataset}", "{method}", "{seq_len}")})
 
-JOBS: tuple[Job, ...] = (DISTANCES_JOB, ATTRIBUTES_JOB, INSPECT_JOB)
+JOBS: tuple[Job, ...] = (DESCRIPTORS_JOB, DISTANCES_JOB, ATTRIBUTES_JOB, INSPECT_JOB)
