@@ -167,13 +167,6 @@ class Job:
         stage its threads."""
         return "OMP_NUM_THREADS={threads} " if self.threads is not None and "{threads}" not in self.speed else ""
 
-    @property
-    def shell(self) -> str:
-        """The rule's shell line: ``shell_prefix``, then the stage with its ``--job`` and its ``speed`` options."""
-        from vpr_smr.pipeline.stage import shell_command
-
-        return self.shell_prefix + shell_command(self.stage, self.speed)
-
 
 def relative(path: str) -> str:
     """A ``core.paths`` pattern made with the run folder ``""`` (``speed_path("", "{dataset}", ...)``), relative to

@@ -31,4 +31,4 @@ for _name, _job in DECLARED:
         params:
             **_job.rule_params(OUT, conf, PLAN),
         shell:
-            _job.shell
+            _job.shell_prefix + shell_command(_job.stage, _job.speed)

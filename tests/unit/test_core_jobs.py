@@ -64,9 +64,8 @@ def test_the_params_and_shell_line_of_a_rule():
     assert list(params) == ["job", "revision"]
     assert params["revision"]({"dataset": "sample", "method": "sad"}) == descriptor_revision("sad")
     # the descriptors stage takes its threads itself; a job with threads and no such option gets its BLAS threads
-    assert DESCRIPTORS_JOB.shell == ("vpr-smr descriptors --job {params.job:q} --threads {threads} "
-                                     "{resources.extraction} > {log:q} 2>&1")
-    assert SPEED_JOB.shell == "OMP_NUM_THREADS={threads} vpr-smr speed --job {params.job:q} > {log:q} 2>&1"
+    assert DESCRIPTORS_JOB.shell_prefix == "" and DESCRIPTORS_JOB.speed == "--threads {threads} {resources.extraction}"
+    assert SPEED_JOB.shell_prefix == "OMP_NUM_THREADS={threads} "
     assert DESCRIPTORS_JOB.rule_resources(conf) == {"gpu": 1, "extraction": ""}
     assert TRAIN_JOB.rule_resources(conf) == {}
 
