@@ -142,6 +142,7 @@ def _inspect_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], file
                       frames=dataset.splits[conf.table_split])
 
 
+# A method's descriptors of a dataset's frames: two threads, the stage's own (--threads), and a GPU where there is one.
 DESCRIPTORS_JOB = Job(DESCRIPTORS, relative(descriptors_path("", "{dataset}", "{method}")), _descriptors_inputs,
                       _descriptors_record, threads=2, revision=_descriptors_revision,
                       resources=_descriptors_resources, speed="--threads {threads} {resources.extraction}",
