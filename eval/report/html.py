@@ -145,9 +145,9 @@ def row_cell(row: dict[str, Any], column: TableColumn) -> Cell:
     """``cell`` of a row's value; an undefined reduction says why, from the row's outcome of that reduction
     (``names.REDUCTION`` -> ``outcome``, its ``_pooled`` column -> ``outcome_pooled``)."""
     value = row.get(column.name)
-    outcome = row.get(column.name.replace(names.REDUCTION, "outcome")) if is_reduction(column.name) else None
-    if value is None and outcome in words.SHORT:
-        return Cell(f"{UNDEFINED}: {words.SHORT[outcome]}", kind="na")
+    why = words.undefined_words(row, column.name) if is_reduction(column.name) else None
+    if why is not None:
+        return Cell(f"{UNDEFINED}: {why}", kind="na")
     found = cell(value, column.name, fmt=column.fmt)
     if is_reduction(column.name) and found.kind in ("up", "down"):  # coloured only where its interval says so
         return Cell(found.text, found.sort, {1: "up", -1: "down"}.get(words.direction(row, column.name) or 0, "num"))

@@ -528,7 +528,7 @@ class Table1Row:
                    n_seeds_defined=summary.n_seeds_defined, outcome=earned(r.outcome, r.reduction_pct_ci),
                    removed=result.removed,
                    max_recall_vpr_sm=r.max_recall_vpr_sm, aoc_vpr_sm_own=r.aoc_vpr_sm_own,
-                   seeds_left_out=words.seeds_left_out(summary.outcomes), seed_outcomes=summary.outcomes)
+                   seeds_left_out=words.seeds_left_out_of(result, mode), seed_outcomes=summary.outcomes)
 
 
 @dataclass(frozen=True, kw_only=True)

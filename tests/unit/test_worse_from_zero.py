@@ -11,14 +11,16 @@ bootstrap; one whose AOC is 1.65e-4 from a single wrong match, which many draws 
 import numpy as np
 import pytest
 
+from vpr_smr.eval.report import html
 from vpr_smr.eval.report import outcome_words as words
+from vpr_smr.eval.report.rows import Column, Table1Row, cells
 from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow
 from vpr_smr.eval.scoring import curves
 from vpr_smr.eval.scoring.adaptive import Length, compute
 from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult
 from vpr_smr.eval.scoring.evaluate import reduction_of, summarise_seeds, with_intervals
 from vpr_smr.eval.scoring.intervals import comparison_draws, query_weights
-from vpr_smr.eval.scoring.records import Interval, Reduction
+from vpr_smr.eval.scoring.records import EvaluationSplit, Interval, ModeRemoval, Reduction, SeedNumbers
 
 N = 100
 DISTANCES = np.arange(1.0, N + 1)
@@ -120,6 +122,27 @@ def test_an_unearned_worse_from_zero_is_no_harm_and_stays_out_of_the_means():
         "seed 0: worse than a perfect baseline; seed 2: perfect baseline, no interval; "
         "seed 4: perfect baseline, holds 0")
     assert words.seeds_left_out(summary.outcomes) == "seed 0: worse than a perfect baseline"
+
+
+def test_table1_and_the_page_say_why_a_perfect_baseline_made_worse_is_left_out():
+    # seed 0 (Table I's) made worse from 0 with an interval that holds 0 (B), seed 1 improved by 10 % without an
+    # interval, seed 2 made worse from 0 without an interval, seed 3 earned worse from 0 (A)
+    without, a = _with_intervals(CORRECT, KEEP_A)
+    b = _with_intervals(CORRECT, KEEP_B)[1]
+    improved = Reduction(0.8, 0.6, 0.7, 0.2, 0.18, 10.0, 0.8, 0.2, curves.IMPROVED)
+    seeds = {0: b, 1: improved, 2: without, 3: a}
+    summary = summarise_seeds({seed: {"standard": r} for seed, r in seeds.items()})["standard"]
+    split = EvaluationSplit(N, N, 0.5, 0.5, 0.6, 0.5, ((1, 0), (0, 1)), (20, 10, 5, 5), (20, 10, 5, 5), 1,
+                            {"standard": ModeRemoval(0.5, 0.6, b)}, 0,
+                            tuple(SeedNumbers(seed, 0.5, 1, {"standard": r}) for seed, r in seeds.items() if seed),
+                            {"standard": summary})
+    row = Table1Row.of(("d", "sad", 4), "standard", split)
+    # seed 1's reduction is defined (no interval, no direction): it is in the spread, not left out
+    assert row.seeds_left_out == ("seed 0: perfect baseline, holds 0; seed 2: perfect baseline, no interval; "
+                                  "seed 3: worse than a perfect baseline")
+    found = html.row_cell(cells(row), Column("reduction_pct"))
+    assert (found.text, found.kind) == ("n/a: perfect baseline, holds 0", "na")
+    assert html.row_cell(cells(row), Column("reduction_pct_mean")).text == "10.0000"  # defined: its number
 
 
 def test_the_words_of_a_table_row_say_no_direction_for_an_unearned_one():
