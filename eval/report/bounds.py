@@ -69,11 +69,6 @@ def bracket(interval: Interval | None, fmt: str) -> str:
     return f"[{UNDEFINED}]" if interval is None else f"[{interval.low:{fmt}}, {interval.high:{fmt}}]"
 
 
-def with_interval(text: str, row: Mapping[str, Any], name: str, fmt: str) -> str:
-    """A table cell: the number's ``text`` and its interval, ``78.20 [70.10, 85.00]`` (``[n/a]`` without one)."""
-    return f"{text} {bracket(of(row, name), fmt)}"
-
-
 def number(value: float) -> str:
     """A bound as a sentence says it: one decimal, two significant digits below 0.05 in magnitude."""
     return f"{value:.1f}" if abs(value) >= 0.05 or value == 0 else f"{value:.2g}"
