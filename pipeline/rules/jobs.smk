@@ -8,27 +8,35 @@
 from vpr_smr.pipeline.core_jobs import JOBS as CORE_JOBS
 from vpr_smr.pipeline.experiment import running
 
-DECLARED = [(job.rule, job) for job in CORE_JOBS] + [
-    (experiment.rule_name(job), job) for experiment in running(EXPERIMENTS) for job in experiment.jobs]
 
-for _name, _job in DECLARED:
+# A function, not a loop's body: Snakemake evaluates a rule's `shell:` again when the job runs, in the scope the
+# rule was written in; a loop's variable is then its last value (every rule would run the last job's stage), a
+# call's argument is its own.
+def declare(name, job):
 
     rule:
         name:
-            _name
+            name
         input:
-            unpack(lambda wc, job=_job: dict(job.inputs(OUT, conf, PLAN, dict(wc.items())))),
+            unpack(lambda wc: dict(job.inputs(OUT, conf, PLAN, dict(wc.items())))),
         output:
-            *_job.listed_outputs(OUT),
-            **_job.named_outputs(OUT, conf),
+            *job.listed_outputs(OUT),
+            **job.named_outputs(OUT, conf),
         log:
-            log_path(OUT, f"{OUT}/{_job.output}"),
+            log_path(OUT, f"{OUT}/{job.output}"),
         wildcard_constraints:
-            **_job.constraints(conf, PLAN),
-        threads: _job.threads or 1
+            **job.constraints(conf, PLAN),
+        threads: job.threads or 1
         resources:
-            **_job.rule_resources(conf),
+            **job.rule_resources(conf),
         params:
-            **_job.rule_params(OUT, conf, PLAN),
+            **job.rule_params(OUT, conf, PLAN),
         shell:
-            _job.shell_prefix + shell_command(_job.stage, _job.speed)
+            job.shell_prefix + shell_command(job.stage, job.speed)
+
+
+for _job in CORE_JOBS:
+    declare(_job.rule, _job)
+for _experiment in running(EXPERIMENTS):
+    for _job in _experiment.jobs:
+        declare(_experiment.rule_name(_job), _job)

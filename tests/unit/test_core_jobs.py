@@ -77,3 +77,31 @@ def test_the_predictor_without_a_method_scores_the_validation_split_where_there_
     assert record.train == {"hog": "R/attributes/sample/hog/L3/train.h5"}
     assert record.evaluate == ({"val": ("hog=R/attributes/sample/hog/L3/val.h5",)} if "val" in splits else {})
     assert method_items(["sad", "hog"], "sad", []) == []
+
+
+def test_each_rule_runs_its_own_shell_line(tmp_path, monkeypatch):
+    """Snakemake evaluates a rule's ``shell:`` again when its job runs (its run function calls ``shell(...)``): each
+    rule of the declared jobs runs its own stage, not the last declared one's."""
+    import inspect
+
+    import yaml
+
+    from vpr_smr.pipeline.recipes import loaded_workflow
+    from vpr_smr.pipeline.workflow import SNAKEFILE
+
+    monkeypatch.chdir(tmp_path)
+    conf = {"run": "r", "output": "results", "seq_lens": [3, 4], "table_seq_len": 3, "seeds": 1,
+            "datasets": {"sample": {"loader": "nordland_sample", "root": str(DEFAULT_ROOT), "frames": [1000, 1060],
+                                    "splits": {"train": [0, 20], "val": [20, 40], "test": [40, 60]}}},
+            "methods": {"sad": {"backend": "sad"}, "hog": {"backend": "hog"}}}
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(conf))
+    with loaded_workflow(SNAKEFILE, [str(tmp_path / "c.yaml")]) as workflow:
+        ran: dict[str, str] = {}
+        for rule in workflow.rules:
+            if not rule.shellcmd:
+                continue
+            run = rule.run_func
+            monkeypatch.setitem(run.__globals__, "shell", lambda cmd, name=rule.name, **_: ran.__setitem__(name, cmd))
+            run(**{name: None for name in inspect.signature(run).parameters if not name.startswith("__")})
+            assert ran[rule.name] == rule.shellcmd, rule.name
+        assert {"descriptors", "train", "speed", "adaptive", "matchers", "report"} <= set(ran)
