@@ -57,10 +57,8 @@ def of(row: Mapping[str, Any], name: str) -> Interval | None:
     return None if low is None or high is None else Interval(float(low), float(high))
 
 
-def sign(row: Mapping[str, Any], name: str) -> int | None:
-    """+1 or -1 when the interval of ``name`` lies wholly above or below 0, 0 when it contains 0, None without an
-    interval."""
-    interval = of(row, name)
+def sign(interval: Interval | None) -> int | None:
+    """+1 or -1 when ``interval`` lies wholly above or below 0, 0 when it contains 0, None without one."""
     return None if interval is None else interval.sign()
 
 

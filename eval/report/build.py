@@ -381,7 +381,7 @@ def _adaptive_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     out = []
     for (dataset, mode), group in groups.items():
         title = (f"{dataset}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC at maximum recall against "
-                 f"the mean sequence length used, on {query_counts([cells(r) for r in group])} every length "
+                 f"the mean sequence length used, on {query_counts(group)} every length "
                  "evaluates")
         path = fig.adaptive_figure(out_dir / spec.file(dataset=dataset, mode=mode), group,
                                    list(dict.fromkeys(r.method for r in group)),

@@ -26,7 +26,7 @@ from vpr_smr.core.io import atomic_path
 from vpr_smr.eval.report import names
 from vpr_smr.eval.report.baselines import Comparison, headline
 from vpr_smr.eval.report.outcome_words import SHORT, at_recall_zero
-from vpr_smr.eval.report.rows import BaselineRow, SpeedRow, SweepRow, cells
+from vpr_smr.eval.report.rows import BaselineRow, SpeedRow, SweepRow
 from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow
 from vpr_smr.eval.report.tables.matchers import MatchersRow
 from vpr_smr.eval.scoring import scorers
@@ -428,7 +428,7 @@ def adaptive_figure(path: Path, rows: Sequence[AdaptiveSeqLenRow], methods: Sequ
         for j, method in enumerate(methods):
             ax = grid[i][j]
             found = [r for r in rows if r.matcher == matcher and r.method == method]
-            shown = [r for r in found if not at_recall_zero(cells(r))]
+            shown = [r for r in found if not at_recall_zero(r.outcome)]
             for kind, marker, style, colour, label in series:
                 line = sorted((r for r in shown if r.kind == kind), key=lambda r: r.mean_length)
                 ax.plot([r.mean_length for r in line], [r.aoc for r in line], marker=marker, ls=style,

@@ -15,7 +15,7 @@ import numpy as np
 from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import Comparison, DetectionComparison
-from vpr_smr.eval.report.rows import SpeedRow, SweepRow, Table1Row, cells
+from vpr_smr.eval.report.rows import SpeedRow, SweepRow, Table1Row
 from vpr_smr.eval.report.table1 import UNDEFINED, Table1Block
 from vpr_smr.eval.scoring.curves import AGAINST_SIGN, HOLDS_ZERO, NO_INTERVAL, NOTHING_TO_REDUCE, UNCHANGED
 from vpr_smr.eval.scoring.intervals import Interval
@@ -89,7 +89,7 @@ def _verdict(row: Table1Row) -> str:
     """What a method's seed-0 reduction says, by its interval (``outcome_words.direction``): ``better``,
     ``worse``, ``same`` (unchanged), or ``earned``'s code for no direction: ``HOLDS_ZERO``, ``AGAINST_SIGN``
     (the interval points against the estimate) or ``NO_INTERVAL``."""
-    found = words.direction(cells(row))
+    found = words.direction(row.outcome, row.reduction_pct_ci)
     if found is None:
         return NO_INTERVAL
     if found:
@@ -140,15 +140,15 @@ def sentences(block: Table1Block, split: str) -> list[str]:
     every match) gets its own sentence saying what happened (``outcome_words``) and counts as not improved."""
     rows = block.rows
     where = f"On {block.dataset} ({split} split, L = {block.seq_len}, {block.mode} mode, seed-0 predictor)"
-    plain = [r for r in rows if not words.is_degenerate(cells(r))]
-    degenerate = [r for r in rows if words.is_degenerate(cells(r))]
+    plain = [r for r in rows if not words.is_degenerate(r.outcome, r.reduction_pct)]
+    degenerate = [r for r in rows if words.is_degenerate(r.outcome, r.reduction_pct)]
     verdicts = {r.method: _verdict(r) for r in plain}
     better = sorted((r for r in plain if verdicts[r.method] == "better"), key=lambda r: -_reduction(r))
     worse = sorted((r for r in plain if verdicts[r.method] == "worse"), key=_reduction)
     same = [r.method for r in plain if verdicts[r.method] == "same"]
     untold = [r for r in plain if verdicts[r.method] in words.UNEARNED]
     out = []
-    if degenerate and all(r.outcome == NOTHING_TO_REDUCE and not words.lowered_recall(cells(r)) for r in rows):
+    if degenerate and all(r.outcome == NOTHING_TO_REDUCE and not words.lowered_recall(r) for r in rows):
         whose = f"{rows[0].method}'s" if len(rows) == 1 else f"each of the {len(rows)} methods'"
         out.append(f"{where} {whose} {AOC} is already 0 without the predictor: there is nothing to reduce, so the "
                    "reduction is undefined.")
@@ -167,7 +167,7 @@ def sentences(block: Table1Block, split: str) -> list[str]:
         else:
             out += [f"{where} {method}'s reduction is {signed(value)}.", no_direction(row, split)]
     elif len(rows) == 1:
-        out.append(f"{where}, for {rows[0].method}, {words.note(cells(rows[0]))}.")
+        out.append(f"{where}, for {rows[0].method}, {words.note(rows[0])}.")
     else:
         if better:
             clauses = [f"reduced the {AOC} for {len(better)} of {methods(len(rows))}: "
@@ -183,7 +183,7 @@ def sentences(block: Table1Block, split: str) -> list[str]:
             clauses.append("no direction for " + listed([r.method for r in untold]) + " (below)")
         out.append(f"{where} the predictor " + "; ".join(clauses) + ".")
         out += [no_direction(r, split) for r in untold]
-        out += [f"For {r.method}, {words.note(cells(r))}." for r in degenerate]
+        out += [f"For {r.method}, {words.note(r)}." for r in degenerate]
         defined = [r.reduction_pct for r in rows if r.reduction_pct is not None]
         if len(defined) > 1:
             these = "these" if len(defined) < len(rows) else "the"
@@ -203,7 +203,7 @@ def headline(block: Table1Block, split: str) -> str:
     they say (a direction only where the interval excludes 0)."""
     parts = []
     for row in block.rows:
-        if words.is_degenerate(cells(row)):
+        if words.is_degenerate(row.outcome, row.reduction_pct):
             parts.append(f"{row.method} {UNDEFINED if row.reduction_pct is None else signed(row.reduction_pct)}"
                          f", {words.SHORT[row.outcome]}")
             continue
@@ -354,7 +354,7 @@ def _sweep_changes(rows: Sequence[SweepRow]) -> list[str]:
     by_method = {name: sorted((r for r in rows if r.method == name), key=lambda r: r.threshold) for name in methods}
     changes = []
     # a sign counts only where the interval earns it (``outcome_words.direction``): elsewhere no sign is named
-    flipped = _flip({name: [(r.threshold, r.reduction_pct if words.direction(cells(r)) else None) for r in mine]
+    flipped = _flip({name: [(r.threshold, r.reduction_pct if _sign(r) else None) for r in mine]
                      for name, mine in by_method.items()})
     if flipped:
         name, t_up, up, t_down, down = flipped
@@ -366,6 +366,11 @@ def _sweep_changes(rows: Sequence[SweepRow]) -> list[str]:
         changes.append(f"sequence matching changes {name}'s recall@1 over the same queries by {100 * up:+.1f} "
                        f"points {within(kind, t_up)} but {100 * down:+.1f} {within(kind, t_down)}")
     return changes
+
+
+def _sign(row: SweepRow) -> int | None:
+    """The direction a sweep point's reduction says (``outcome_words.direction``)."""
+    return words.direction(row.outcome, row.reduction_pct_ci)
 
 
 def _gain(row: SweepRow) -> float | None:
@@ -380,7 +385,7 @@ def _gain(row: SweepRow) -> float | None:
 
 def _any_sign(rows: Sequence[SweepRow]) -> bool:
     """Whether some reduction or change of recall@1 of the sweep has a direction (its interval excludes 0)."""
-    return any(words.direction(cells(r)) in (1, -1) or _gain(r) is not None for r in rows)
+    return any(_sign(r) in (1, -1) or _gain(r) is not None for r in rows)
 
 
 def _untold(rows: Sequence[SweepRow]) -> list[str]:
@@ -390,7 +395,7 @@ def _untold(rows: Sequence[SweepRow]) -> list[str]:
     parts = []
     for name in dict.fromkeys(r.method for r in rows):
         mine = [r for r in rows if r.method == name]
-        reduction = [r for r in mine if r.reduction_pct is not None and words.direction(cells(r)) in (0, None)
+        reduction = [r for r in mine if r.reduction_pct is not None and _sign(r) in (0, None)
                      and r.outcome != UNCHANGED]
         change = [r for r in mine if _gain(r) is None]
         for what, found in (("its AOC reduction", reduction), ("sequence matching's change of recall@1", change)):

@@ -24,7 +24,7 @@ from typing import Any, TypeVar
 from vpr_smr.core.citation import how_to_cite
 from vpr_smr.core.io import atomic_path, package_version, read_provenance
 from vpr_smr.core.paths import queries_path
-from vpr_smr.eval.report import names, registry
+from vpr_smr.eval.report import bounds, names, registry
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import comparisons, detection_comparisons, headline
 from vpr_smr.eval.report.findings import (
@@ -51,15 +51,14 @@ from vpr_smr.eval.report.rows import (
     BaselineRow,
     DetectionRow,
     HeldOutRow,
+    PredictorMethodRow,
     PredictorRow,
     SeqLenRow,
     SpeedRow,
-    SweepRow,
     Table1Row,
     Table2Row,
     TimingRow,
     VPRMetricsRow,
-    parse,
 )
 from vpr_smr.eval.report.rows import Column as TableColumn
 from vpr_smr.eval.report.rows import cells as row_cells
@@ -145,12 +144,14 @@ def row_cell(row: dict[str, Any], column: TableColumn) -> Cell:
     """``cell`` of a row's value; an undefined reduction says why, from the row's outcome of that reduction
     (``names.REDUCTION`` -> ``outcome``, its ``_pooled`` column -> ``outcome_pooled``)."""
     value = row.get(column.name)
-    why = words.undefined_words(row, column.name) if is_reduction(column.name) else None
+    outcome = row.get(column.name.replace(names.REDUCTION, "outcome")) if is_reduction(column.name) else None
+    why = words.undefined_words(outcome, value)
     if why is not None:
         return Cell(f"{UNDEFINED}: {why}", kind="na")
     found = cell(value, column.name, fmt=column.fmt)
     if is_reduction(column.name) and found.kind in ("up", "down"):  # coloured only where its interval says so
-        return Cell(found.text, found.sort, {1: "up", -1: "down"}.get(words.direction(row, column.name) or 0, "num"))
+        sign = words.direction(outcome, bounds.of(row, column.name))
+        return Cell(found.text, found.sort, {1: "up", -1: "down"}.get(sign or 0, "num"))
     return found
 
 
@@ -160,11 +161,11 @@ def _pivot(spec: registry.Table) -> registry.Pivot:
     return spec.pivot
 
 
-def pivot(table_id: str, rows: Sequence[dict[str, Any]], spec: registry.Table) -> TableView:
-    """The registered table ``spec``'s pivot of ``rows``: its value with one row per value of its rows' column
-    (sorted) and one column per value of its columns' (in first-seen order), e.g. the reduction per trust level
-    (rows) and method (columns)."""
-    layout = _pivot(spec)
+def pivot(table_id: str, records: Rows, spec: registry.Table) -> TableView:
+    """The registered table ``spec``'s pivot of ``records`` (its rows): its value with one row per value of its
+    rows' column (sorted) and one column per value of its columns' (in first-seen order), e.g. the reduction per
+    trust level (rows) and method (columns)."""
+    layout, rows = _pivot(spec), [row_cells(r) for r in records]
     row, value, key = spec.column(layout.rows), spec.column(layout.values[0]), layout.columns[0]
     row_values = sorted(set(r[row.name] for r in rows))
     column_values = unique(str(r[key]) for r in rows)
@@ -184,15 +185,11 @@ def folded(table: WrittenTable, run_dir: Path) -> Folded:
     return Folded(f"{table.title or spec.title}: the whole table, {rows} ({files})", view)
 
 
-def _where(rows: Iterable[dict[str, Any]], **match: Any) -> list[dict[str, Any]]:
-    return [r for r in rows if all(str(r.get(k)) == str(v) for k, v in match.items())]
-
-
-def speed_table(table_id: str, rows: Sequence[dict[str, Any]]) -> TableView:
+def speed_table(table_id: str, records: Sequence[SpeedRow]) -> TableView:
     """The speed table's pivot: sequence recall@1, then the AOC reduction, per profile (rows, in the order given)
     and method and matcher (columns)."""
     spec = registry.table("speed")
-    layout = _pivot(spec)
+    layout, rows = _pivot(spec), [row_cells(r) for r in records]
     profile = spec.column(layout.rows)
     profiles = unique(str(r[profile.name]) for r in rows)
     columns = list(dict.fromkeys(tuple(str(r[key]) for key in layout.columns) for r in rows))
@@ -300,7 +297,7 @@ def _reduction_kind(row: Table1Row, kind: str) -> str:
     """A reduction cell's class: ``up``/``down`` only where ``outcome_words.direction`` says so, else neutral."""
     if kind not in ("up", "down"):
         return kind
-    return {1: "up", -1: "down"}.get(words.direction(row_cells(row)) or 0, "num")
+    return {1: "up", -1: "down"}.get(words.direction(row.outcome, row.reduction_pct_ci) or 0, "num")
 
 
 def predictor_warnings(predictor: WrittenTable | None, dataset: str, seq_len: int) -> list[str]:
@@ -344,9 +341,11 @@ class _Builder:
         text = self.protocols.get(dataset)
         return f" · correct: {text}" if text else ""
 
-    def rows(self, name: str) -> tuple[dict[str, Any], ...]:
+    def rows(self, name: str) -> Rows:
+        """The row records of the registered table ``name`` (``records``: typed); none when the run did not write
+        it."""
         table = self.tables.get(name)
-        return table.rows if table else ()
+        return table.records if table else ()
 
     def records(self, name: str, row_type: type[R]) -> tuple[R, ...]:
         """The rows of the registered table ``name`` as its records (``row_type``: its row record); none when the
@@ -364,19 +363,22 @@ class _Builder:
         return [f for f in self.figures if f.name == name]
 
     @staticmethod
-    def of(figure: WrittenFigure, rows: Iterable[dict[str, Any]]) -> list[dict[str, Any]]:
-        """The rows of ``figure``'s dataset, L and mode (those it is of)."""
+    def of(figure: WrittenFigure, rows: Iterable[R]) -> list[R]:
+        """The row records of ``figure``'s dataset, L and mode (those it is of)."""
         keys = {"dataset": figure.dataset, "seq_len": figure.seq_len, "mode": figure.mode}
-        return _where(rows, **{key: value for key, value in keys.items() if value is not None})
+        match = {key: str(value) for key, value in keys.items() if value is not None}
+        return [r for r in rows if all(str(getattr(r, key, None)) == value for key, value in match.items())]
 
-    def columns(self, name: str, rows: Sequence[dict[str, Any]]) -> list[TableColumn]:
-        """What the compact tables of the registered table ``name`` show of ``rows``: its ``page`` columns, an
-        ``if_any`` one only where a row has a value in it."""
-        return [c for c in registry.table(name).shown(self.splits) if not c.if_any or any(r.get(c.name) for r in rows)]
+    def columns(self, name: str, rows: Rows) -> list[TableColumn]:
+        """What the compact tables of the registered table ``name`` show of ``rows`` (its records): its ``page``
+        columns, an ``if_any`` one only where a row has a value in it."""
+        found = [row_cells(r) for r in rows]
+        return [c for c in registry.table(name).shown(self.splits) if not c.if_any or any(r.get(c.name) for r in found)]
 
-    def compact(self, name: str, table_id: str, rows: Sequence[dict[str, Any]], caption: str = "") -> TableView:
-        """The compact table of the registered table ``name``: its page columns of ``rows``, headed by labels."""
-        return data_table(table_id, self.columns(name, rows), rows, caption=caption)
+    def compact(self, name: str, table_id: str, rows: Rows, caption: str = "") -> TableView:
+        """The compact table of the registered table ``name``: its page columns of ``rows`` (its records), headed
+        by labels."""
+        return data_table(table_id, self.columns(name, rows), [row_cells(r) for r in rows], caption=caption)
 
     def table_lens(self) -> set[int]:
         """Table I's sequence lengths (the per-L figures'); every L when there is no Table I."""
@@ -480,9 +482,8 @@ def _baseline_headlines(b: _Builder) -> tuple[str, ...]:
 
 def _seq_len_view(b: _Builder, f: WrittenFigure, shown: Rows) -> tuple[TableView, ...]:
     tables = [pivot(b.anchor("seq-len", f), shown, registry.table("ablation_seq_len"))]
-    found = [parse(SeqLenRow, r) for r in shown]
-    if any(r.best_scorer for r in found):
-        tables.append(best_scorer_table(b.anchor("seq-len-best", f), found))
+    if any(r.best_scorer for r in shown):
+        tables.append(best_scorer_table(b.anchor("seq-len-best", f), shown))
     return tuple(tables)
 
 
@@ -501,7 +502,7 @@ def _speed_intro(b: _Builder) -> tuple[str, ...]:
 
 def _predictor_blocks(b: _Builder) -> list[Block]:
     """Per dataset: per L its methods' compact table, the pooled predictor's table, and the confusion figures."""
-    methods, pooled = b.rows("predictor_methods"), b.records("predictor", PredictorRow)
+    methods, pooled = b.records("predictor_methods", PredictorMethodRow), b.records("predictor", PredictorRow)
     blocks = []
     confusion = b.named("confusion")
     datasets = unique([*(f.dataset for f in confusion), *(r.dataset for r in pooled)])
@@ -511,7 +512,7 @@ def _predictor_blocks(b: _Builder) -> list[Block]:
             caption = registry.table("predictor_methods").caption.format(split=b.split, seq_len=f.seq_len)
             tables.append(b.compact("predictor_methods", anchor("predictor", dataset, f.seq_len), b.of(f, methods),
                                     caption))
-        shown = [row_cells(r) for r in pooled if r.dataset == dataset]
+        shown = [r for r in pooled if r.dataset == dataset]
         if shown:
             columns = b.columns("predictor", shown)
             caption = registry.table("predictor").caption
@@ -519,7 +520,8 @@ def _predictor_blocks(b: _Builder) -> list[Block]:
                 validation = b.splits.validation
                 caption += ("; warning: the seeds whose predictor cannot be trusted on the "
                             f"{'validation' if validation in (None, 'val') else validation} split")
-            tables.append(data_table(anchor("predictor-pooled", dataset), columns, shown, caption=caption))
+            tables.append(data_table(anchor("predictor-pooled", dataset), columns, [row_cells(r) for r in shown],
+                                     caption=caption))
         figures = tuple(b.figure(c) for c in confusion if c.dataset == dataset)
         blocks.append(Block(dataset, figures, tuple(tables)))
     return blocks
@@ -529,7 +531,7 @@ def _table2_blocks(b: _Builder) -> list[Block]:
     """Per dataset and L: a row per attribute set, its attributes marked, the F1 columns; the samples in a note."""
     rows = b.records("table2", Table2Row)
     blocks = []
-    shown_columns = b.columns("table2", [row_cells(r) for r in rows])
+    shown_columns = b.columns("table2", rows)
     f1 = [column for column in shown_columns if not column.note]  # the rest: the samples, said in the note
     for dataset, seq_len in b.keys(rows):
         shown = [r for r in rows if (r.dataset, r.seq_len) == (dataset, seq_len)]
@@ -548,7 +550,7 @@ def _table2_blocks(b: _Builder) -> list[Block]:
 def _lomo_blocks(b: _Builder) -> list[Block]:
     rows = b.records("leave_one_method_out", HeldOutRow)
     return [Block(dataset, (), (b.compact("leave_one_method_out", anchor("lomo", dataset),
-                                          [row_cells(r) for r in rows if r.dataset == dataset]),))
+                                          [r for r in rows if r.dataset == dataset]),))
             for dataset in sorted(unique(r.dataset for r in rows), key=b.order.dataset)]
 
 
@@ -557,8 +559,7 @@ def _timing_blocks(b: _Builder) -> list[Block]:
     rows, lens = b.records("timing", TimingRow), b.table_lens()
     blocks = []
     for dataset in sorted(unique(r.dataset for r in rows), key=b.order.dataset):
-        shown = [row_cells(r) for r in rows
-                 if (r.dataset, r.split) == (dataset, b.split) and (not lens or r.seq_len in lens)]
+        shown = [r for r in rows if (r.dataset, r.split) == (dataset, b.split) and (not lens or r.seq_len in lens)]
         if shown:
             table = b.compact("timing", anchor("timing", dataset), shown)
             blocks.append(Block(f"{dataset}, {b.split} split", (), (table,)))
@@ -575,7 +576,7 @@ def _metrics_blocks(b: _Builder) -> list[Block]:
     rows, (mode, _) = b.records("vpr_metrics", VPRMetricsRow), _metrics_mode(b)
     blocks = []
     for dataset, seq_len in b.keys(rows):
-        shown = [row_cells(replace(r, matcher=MATCHER_TEXT.get(r.matcher, r.matcher))) for r in rows
+        shown = [replace(r, matcher=MATCHER_TEXT.get(r.matcher, r.matcher)) for r in rows
                  if (r.dataset, r.seq_len, r.mode) == (dataset, seq_len, mode)]
         table = b.compact("vpr_metrics", anchor("metrics", dataset, seq_len, mode), shown)
         blocks.append(Block(f"{dataset}, L = {seq_len}, {b.split} split, {mode} mode{b.correct(dataset)}", (),
@@ -601,7 +602,7 @@ def _inspector_blocks(b: _Builder) -> list[Block]:
 
 def _adaptive_headline(rows: Rows) -> str:
     """The first screen's line of the length rules in one mode, where the mode compares them (``best_fixed``)."""
-    return adaptive_table.adaptive_sentence(rows) if any(r["best_fixed"] for r in rows) else ""
+    return adaptive_table.adaptive_sentence(rows) if any(r.best_fixed for r in rows) else ""
 
 
 @cache
@@ -651,7 +652,7 @@ SECTIONS = (
         sentences=lambda b, shown: adaptive_table.adaptive_sentences(shown), headline=_adaptive_headline),
     Declared("speed", "Speed profiles", ("speed",), _speed_intro, "speed",
              view=lambda b, f, shown: (speed_table(b.anchor("speed", f), shown),),
-             sentences=lambda b, shown: speed_sentences([parse(SpeedRow, r) for r in shown], b.split)),
+             sentences=lambda b, shown: speed_sentences(shown, b.split)),
     Declared("predictor", "The predictor alone", ("predictor", "predictor_methods", "predictor_confusion"),
              prose("predictor"), blocks=_predictor_blocks),
     Declared("table-ii", "Table II: attribute ablation", ("table2",), prose("table-ii"), blocks=_table2_blocks),
@@ -666,8 +667,7 @@ SECTIONS = (
         f"retrieved). The whole table has every mode ({', '.join(_metrics_mode(b)[1])}).",), blocks=_metrics_blocks),
     Declared("protocol-sweep", "Protocol sweep", ("protocol_sweep",), prose("protocol-sweep"), "protocol_sweep",
         view=lambda b, f, shown: (pivot(b.anchor("protocol-sweep", f), shown, registry.table("protocol_sweep")),),
-        sentences=lambda b, shown: sweep_sentences([parse(SweepRow, r) for r in shown]),
-        headline=lambda shown: sweep_headline([parse(SweepRow, r) for r in shown])),
+        sentences=lambda b, shown: sweep_sentences(shown), headline=sweep_headline),
     Declared("match-inspector", "Match inspector", (), lambda b: (
         f"Query by query, where sequence matching and the predictor go right or wrong on the {b.split} "
         "split. The per-query CSV files (matches, distances, attributes, true class, prediction) are in the run "

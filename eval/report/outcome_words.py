@@ -7,21 +7,20 @@ it too): ``curves.outcome`` names improved or worse by the sign of a point estim
 names that direction only where the estimate's interval over queries excludes 0 on the same side. The records
 (``records.Reduction``, ``TrustNumbers``: the JSON files) and every row record take their ``outcome`` through
 ``earned``, so every writer (CSV, Markdown, LaTeX, the page, the console) shows the same word, and ``direction``
-reads a row, or a hand-made dict of one, by the same rule. ``UNEARNED`` is the one place that says ``earned``'s codes
+reads an outcome and its interval by the same rule. ``UNEARNED`` is the one place that says ``earned``'s codes
 in place of a direction (the files keep the codes) in the page's and the tables' words.
 
-The other functions read a Table I row (``table1.table1_rows``): ``outcome``, ``removed``, ``n_queries``, the AOCs
-and maximum recalls of ``Reduction``. A ``WORSE_FROM_ZERO`` whose interval of the AOC difference did not earn it
-(``curves.from_zero``) keeps ``earned``'s code as its outcome and its reduction undefined: its words say both
-(``from_zero_words``).
+The functions of a reduction take its outcome (and its number, or its interval); those of Table I's cells and notes
+its record (``rows.Table1Row``: ``outcome``, ``removed``, ``n_queries``, the AOCs and maximum recalls). A
+``WORSE_FROM_ZERO`` whose interval of the AOC difference did not earn it (``curves.from_zero``) keeps ``earned``'s
+code as its outcome and its reduction undefined: its words say both (``from_zero_words``).
 """
 
 from __future__ import annotations
 
 from collections.abc import Collection, Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
-from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.scoring.curves import (
     AGAINST_SIGN,
     AT_RECALL_ZERO,
@@ -43,6 +42,8 @@ from vpr_smr.eval.scoring.curves import (
 )
 
 if TYPE_CHECKING:
+    from vpr_smr.eval.report.rows import Table1Row
+    from vpr_smr.eval.scoring.intervals import Interval
     from vpr_smr.eval.scoring.records import EvaluationSplit
 
 # A seed's outcome where the spread leaves it out (its reduction undefined), or a table cell's short word for it
@@ -68,11 +69,10 @@ def from_zero_words(outcome: str) -> str:
     return f"perfect baseline, {UNEARNED[outcome]}"
 
 
-def undefined_words(row: Mapping[str, Any], name: str = names.REDUCTION) -> str | None:
-    """Why the reduction ``name`` of ``row`` is undefined, in a cell's short words; None where it is defined or the
-    row says no why."""
-    outcome = str(row.get(name.replace(names.REDUCTION, "outcome")))
-    if row.get(name) is not None:
+def undefined_words(outcome: str | None, reduction: float | None) -> str | None:
+    """Why a reduction (``reduction``, of the outcome ``outcome``) is undefined, in a cell's short words; None where
+    it is defined or the outcome says no why."""
+    if reduction is not None or outcome is None:
         return None
     if outcome in SHORT:
         return SHORT[outcome]
@@ -85,40 +85,38 @@ def said(outcome: str) -> str:
     return UNEARNED.get(outcome) or SHORT.get(outcome) or outcome
 
 
-def is_degenerate(row: Mapping[str, Any]) -> bool:
+def is_degenerate(outcome: str, reduction: float | None) -> bool:
     """The reduction alone would mislead: it is undefined, or 0 because the predictor changed nothing."""
-    outcome = str(row.get("outcome"))
-    return outcome in SHORT or is_from_zero(outcome, row.get(names.REDUCTION))
+    return outcome in SHORT or is_from_zero(outcome, reduction)
 
 
-def at_recall_zero(row: Mapping[str, Any]) -> bool:
+def at_recall_zero(outcome: str) -> bool:
     """Both AOCs are taken at recall 0 (no correct match left, or none to begin with): 0 there says nothing."""
-    return row.get("outcome") in AT_RECALL_ZERO
+    return outcome in AT_RECALL_ZERO
 
 
-def lowered_recall(row: Mapping[str, Any]) -> bool:
+def lowered_recall(row: Table1Row) -> bool:
     """The predictor's maximum recall is below the baseline's own: the AOCs are taken on part of the curve."""
-    return "max_recall_vpr_sm" in row and row["max_recall"] < row["max_recall_vpr_sm"]
+    return row.max_recall < row.max_recall_vpr_sm
 
 
-def direction(row: Mapping[str, Any], name: str = names.REDUCTION) -> int | None:
-    """What the reduction ``name`` of ``row`` says by ``earned``: +1 (improved, its interval above 0), -1 (worse,
-    below 0), 0 (no direction: the interval holds 0 or points against the estimate, or the outcome is neither
-    improved nor worse, e.g. ``unchanged``), None (an improved or worse estimate without an interval: nothing to
-    tell it by)."""
-    said = earned(str(row.get(name.replace(names.REDUCTION, "outcome"))), bounds.of(row, name))
-    return None if said == NO_INTERVAL else {IMPROVED: 1, WORSE: -1}.get(said, 0)
+def direction(outcome: str | None, interval: Interval | None) -> int | None:
+    """What a reduction of the outcome ``outcome`` with the interval ``interval`` says by ``earned``: +1 (improved,
+    its interval above 0), -1 (worse, below 0), 0 (no direction: the interval holds 0 or points against the
+    estimate, or the outcome is neither improved nor worse, e.g. ``unchanged``), None (an improved or worse
+    estimate without an interval: nothing to tell it by)."""
+    found = earned(str(outcome), interval)
+    return None if found == NO_INTERVAL else {IMPROVED: 1, WORSE: -1}.get(found, 0)
 
 
-def own_baseline(row: Mapping[str, Any]) -> str:
+def own_baseline(row: Table1Row) -> str:
     """The baseline's own AOC at its own maximum recall."""
-    return (f"VPR+SM's own AOC is {row['aoc_vpr_sm_own']:.4f} at its own maximum recall "
-            f"{row['max_recall_vpr_sm']:.4f}")
+    return f"VPR+SM's own AOC is {row.aoc_vpr_sm_own:.4f} at its own maximum recall {row.max_recall_vpr_sm:.4f}"
 
 
-def note(row: Mapping[str, Any]) -> str:
+def note(row: Table1Row) -> str:
     """What the seed-0 predictor did to one method, in a clause (empty when its reduction says it all)."""
-    outcome, n, removed = row.get("outcome"), int(row.get("n_queries", 0)), int(row.get("removed", 0))
+    outcome, n, removed = row.outcome, row.n_queries, row.removed
     if outcome == NO_CORRECT_MATCH:
         return f"none of its {n} sequence matches is correct: there is nothing to score"
     if outcome == REMOVED_ALL:
@@ -129,47 +127,45 @@ def note(row: Mapping[str, Any]) -> str:
     if outcome == KEPT_ALL:
         return f"the predictor kept all {n} matches: nothing changed, a reduction of 0"
     if outcome == NOTHING_TO_REDUCE:
-        text = (f"baseline AOC 0 up to the predictor's maximum recall {row['max_recall']:.4f}: nothing to reduce, "
+        text = (f"baseline AOC 0 up to the predictor's maximum recall {row.max_recall:.4f}: nothing to reduce, "
                 "the reduction is undefined")
         if lowered_recall(row):
-            text += (f" (the predictor lowered the maximum recall from {row['max_recall_vpr_sm']:.4f}; "
+            text += (f" (the predictor lowered the maximum recall from {row.max_recall_vpr_sm:.4f}; "
                      f"{own_baseline(row)})")
         return text
     if outcome == WORSE_FROM_ZERO:
-        return (f"the predictor made the AOC worse, from 0 to {row[names.AOC_VPR_SM_PRED]:.4f} up to its maximum "
-                f"recall {row['max_recall']:.4f}: worse, by a percentage that is undefined (the baseline's AOC "
+        return (f"the predictor made the AOC worse, from 0 to {row.aoc_vpr_sm_pred:.4f} up to its maximum "
+                f"recall {row.max_recall:.4f}: worse, by a percentage that is undefined (the baseline's AOC "
                 "being 0)")
-    if is_from_zero(str(outcome), row.get(names.REDUCTION)):
+    if is_from_zero(outcome, row.reduction_pct):
         interval = ("there is no interval of the difference" if outcome == NO_INTERVAL else
                     "the interval over queries of the difference holds 0" if outcome == HOLDS_ZERO else
                     "the interval over queries of the difference lies below 0")
-        return (f"the baseline's AOC is 0 up to the predictor's maximum recall {row['max_recall']:.4f} and the "
-                f"predictor's {row[names.AOC_VPR_SM_PRED]:.4f}, but {interval}: no direction, and the reduction is "
+        return (f"the baseline's AOC is 0 up to the predictor's maximum recall {row.max_recall:.4f} and the "
+                f"predictor's {row.aoc_vpr_sm_pred:.4f}, but {interval}: no direction, and the reduction is "
                 "undefined (the baseline's AOC being 0)")
     return ""
 
 
-def reduction_cell(row: Mapping[str, Any], number: str) -> str:
+def reduction_cell(row: Table1Row, number: str) -> str:
     """Table I's reduction cell: the number (``number``, formatted), or the outcome's word where it is undefined;
     a 0 of a predictor that removed nothing says so."""
-    outcome = row.get("outcome")
-    if row.get(names.REDUCTION) is None:
-        why = undefined_words(row)
+    if row.reduction_pct is None:
+        why = undefined_words(row.outcome, None)
         return "n/a" if why is None else f"n/a: {why}"
-    return f"{number} ({SHORT[KEPT_ALL]})" if outcome == KEPT_ALL else number
+    return f"{number} ({SHORT[KEPT_ALL]})" if row.outcome == KEPT_ALL else number
 
 
-def predictor_cell(row: Mapping[str, Any], number: str) -> str:
+def predictor_cell(row: Table1Row, number: str) -> str:
     """Table I's VPR+SM+Pred cell: the AOC, or the removal that left no recall to take it at."""
-    outcome = row.get("outcome")
-    return SHORT[str(outcome)] if outcome in LOST_ALL else number
+    return SHORT[row.outcome] if row.outcome in LOST_ALL else number
 
 
-def baseline_cell(row: Mapping[str, Any], number: str) -> str:
+def baseline_cell(row: Table1Row, number: str) -> str:
     """Table I's VPR+SM cell: the AOC at the predictor's maximum recall, and the baseline's own beside it where
     the predictor was degenerate and lowered the maximum recall (a cut curve alone would hide what was lost)."""
-    if reduction_undefined(str(row.get("outcome")), row.get(names.REDUCTION)) and lowered_recall(row):
-        return f"{number} (own: {row['aoc_vpr_sm_own']:.4f})"
+    if reduction_undefined(row.outcome, row.reduction_pct) and lowered_recall(row):
+        return f"{number} (own: {row.aoc_vpr_sm_own:.4f})"
     return number
 
 

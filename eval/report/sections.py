@@ -16,7 +16,7 @@ from vpr_smr.eval.report.view import Block, TableView
 if TYPE_CHECKING:
     from vpr_smr.eval.report.html import _Builder
 
-Rows = Sequence[dict[str, Any]]
+Rows = Sequence[Any]  # the row records (``registry.Table.row``) of a section's first table
 INSPECTOR_FIGURES = ("matches", "distance_matrix")  # the match inspector's figures (``build.INSPECTOR``)
 
 

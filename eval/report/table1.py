@@ -17,7 +17,6 @@ from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.results import Order, Splits
 from vpr_smr.eval.report.rows import Table1Row
-from vpr_smr.eval.report.rows import cells as row_cells
 from vpr_smr.eval.scoring.curves import NO_INTERVAL
 from vpr_smr.eval.scoring.intervals import Interval
 from vpr_smr.eval.scoring.records import Evaluation
@@ -88,7 +87,7 @@ def _improved(rows: Sequence[Table1Row]) -> str:
     """How many of all the methods improve: a method whose seed-0 reduction's interval lies above 0
     (``outcome_words.direction``); one whose reduction is undefined, or whose interval holds 0, counts as not
     improved, and those with an estimate but no interval are counted beside (``k / n (m without an interval)``)."""
-    directions = [words.direction(row_cells(r)) for r in rows]
+    directions = [words.direction(r.outcome, r.reduction_pct_ci) for r in rows]
     missing = directions.count(None)
     return f"{directions.count(1)} / {len(rows)}" + (f" ({missing} without an interval)" if missing else "")
 
@@ -100,7 +99,7 @@ def _summary(rows: Sequence[Table1Row]) -> tuple[list[list[float | None]], str, 
     are 0 there, which is no AOC to average)."""
     reductions = [r.reduction_pct for r in rows]
     mean, note = _reduction_mean(rows)
-    counted = [not words.at_recall_zero(row_cells(r)) for r in rows]
+    counted = [not words.at_recall_zero(r.outcome) for r in rows]
     values: list[list[float | None]] = [[r.aoc_vpr_sm for r in rows], [r.aoc_vpr_sm_pred for r in rows]]
     means = [float(np.mean([v for v, c in zip(row, counted, strict=True) if c])) if any(counted) else None
              for row in values]
@@ -114,7 +113,7 @@ def cells(rows: Sequence[Table1Row], summary: list[list[float | None]], row: int
     its cell saying in words where a number would mislead (``outcome_words``)."""
     method_cell = (words.baseline_cell, words.predictor_cell, words.reduction_cell)[row]
     intervals = [(r.aoc_vpr_sm_ci, r.aoc_vpr_sm_pred_ci, r.reduction_pct_ci)[row] for r in rows]
-    texts = [method_cell(row_cells(r), _with_interval(v, interval, fmt))
+    texts = [method_cell(r, _with_interval(v, interval, fmt))
              for r, v, interval in zip(rows, summary[row][:-1], intervals, strict=True)]
     return texts + [_number(summary[row][-1], fmt) + (_aoc_mean_note(rows) if row < 2 else "")]
 
@@ -126,14 +125,14 @@ def _with_interval(value: float | None, interval: Interval | None, fmt: str) -> 
 
 def _aoc_mean_note(rows: Sequence[Table1Row]) -> str:
     """`` (mean over k of n methods: a, b)`` when some methods' AOCs are left out of the AOC rows' Mean."""
-    counted = [r for r in rows if not words.at_recall_zero(row_cells(r))]
+    counted = [r for r in rows if not words.at_recall_zero(r.outcome)]
     return "" if len(counted) in (0, len(rows)) else (
         f" (mean over {len(counted)} of {len(rows)} methods: {_names(counted)})")
 
 
 def notes(rows: Sequence[Table1Row]) -> list[str]:
     """One sentence per method whose seed-0 predictor was degenerate (``outcome_words.note``)."""
-    return [f"{r.method}: {words.note(row_cells(r))}." for r in rows if words.is_degenerate(row_cells(r))]
+    return [f"{r.method}: {words.note(r)}." for r in rows if words.is_degenerate(r.outcome, r.reduction_pct)]
 
 
 def _every_seed(row: Table1Row) -> bool:
@@ -248,14 +247,13 @@ def _tex_reduction(row: Table1Row | None, value: float | None) -> str:
     """A method's reduction and its interval, in colour only where the interval says a direction (green better, red
     worse; black where it contains 0, where there is none, and for the Mean); a method's ``row`` says in words
     where it is undefined."""
-    found = None if row is None else row_cells(row)
     if value is None:
-        return tex_escape(words.reduction_cell(found, UNDEFINED)) if found is not None else UNDEFINED
-    if row is None or found is None:
+        return tex_escape(words.reduction_cell(row, UNDEFINED)) if row is not None else UNDEFINED
+    if row is None:
         return f"{value:.2f}"
-    colour = {1: "green", -1: "red"}.get(words.direction(found) or 0, "black")
+    colour = {1: "green", -1: "red"}.get(words.direction(row.outcome, row.reduction_pct_ci) or 0, "black")
     text = rf"\textcolor{{{colour}}}{{{value:.2f}}} {bounds.bracket(row.reduction_pct_ci, '.2f')}"
-    return tex_escape(words.reduction_cell(found, "@@")).replace("@@", text)
+    return tex_escape(words.reduction_cell(row, "@@")).replace("@@", text)
 
 
 def table1_latex(rows: Sequence[Table1Row], split: str | None = None) -> str:

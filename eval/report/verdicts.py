@@ -22,7 +22,7 @@ from vpr_smr.eval.report import bounds
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.baselines import Comparison, DetectionComparison, comparisons, detection_comparisons
 from vpr_smr.eval.report.results import Order, WrittenTable, unique
-from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, Table1Row, cells
+from vpr_smr.eval.report.rows import BaselineRow, DetectionRow, Table1Row
 from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow
 from vpr_smr.eval.report.tables.matchers import MatchersRow
 from vpr_smr.eval.report.view import Cell, Column, TableView, VerdictBlock, VerdictMode, anchor, text_cell
@@ -84,11 +84,11 @@ def reduction_cell(row: Table1Row | MatchersRow) -> Cell:
     """Does the predictor reduce the AOC: a Table I (or matchers) row's seed-0 reduction in per cent, its word from
     ``outcome_words.direction``; a degenerate removal named."""
     value = row.reduction_pct
-    if words.is_degenerate(cells(row)) or value is None:
+    if words.is_degenerate(row.outcome, value) or value is None:
         return _na(words.SHORT.get(row.outcome, "no reduction"))
     if row.outcome == UNCHANGED:
         return Cell(f"unchanged: {value:.1f} %", kind="hold")
-    sign, interval = words.direction(cells(row)), row.reduction_pct_ci
+    sign, interval = words.direction(row.outcome, row.reduction_pct_ci), row.reduction_pct_ci
     number = f"{value:.1f} %"
     if sign == 0 and interval is not None and interval.sign():  # the interval and the outcome disagree
         return _cell(words.UNEARNED[AGAINST_SIGN], number, interval, "hold", ".1f")
@@ -149,7 +149,7 @@ def native_detection_cell(row: MatchersRow) -> Cell:
 def rule_cell(row: AdaptiveSeqLenRow) -> Cell:
     """Is a length rule's AOC below the best fixed row's, both at the recall both reach (the paired interval of the
     difference); a rule that keeps no correct match named."""
-    if words.at_recall_zero(cells(row)):
+    if words.at_recall_zero(row.outcome):
         return _na(words.SHORT.get(row.outcome, "no correct match kept"))
     value, interval = row.minus_best_fixed, row.minus_best_fixed_ci
     if value is None:

@@ -138,8 +138,9 @@ def matchers(r: Reduction) -> tuple[str, list[str]]:
     scores = MatcherScores(40, 8, 6, {"paper": mode}, Detection(0.6, 0.8), Detection(0.4, 0.7), None, 0.6)
     result = MatcherComparison({"dataset": "d", "method": "m", "seq_len": 4, "modes": ["paper"]}, ("seqslam",), 40,
                                None, {"seqslam": {"m": scores}}, None, ())
-    row = cells(MatchersRow.of(result, "seqslam", "m", "paper", scores))
-    return row["outcome"], [*_written(MatchersRow, [row]), comparison_sentence([row])]
+    found = MatchersRow.of(result, "seqslam", "m", "paper", scores)
+    row = cells(found)
+    return row["outcome"], [*_written(MatchersRow, [row]), comparison_sentence([found])]
 
 
 def adaptive(r: Reduction) -> tuple[str, list[str]]:

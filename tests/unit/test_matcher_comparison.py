@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 from helpers import make_features
 from report_runs import matchers_records
+from row_records import records
 
 from vpr_smr.core.records import load, save
 from vpr_smr.eval.matching.matchers import MATCHERS, MatcherSpec
 from vpr_smr.eval.report.rows import cells
-from vpr_smr.eval.report.tables.matchers import comparison_sentence, matcher_rows, matcher_sentences
+from vpr_smr.eval.report.tables.matchers import MatchersRow, comparison_sentence, matcher_rows, matcher_sentences
 from vpr_smr.eval.scoring.matcher_comparison import (
     MatcherComparison,
     experiment_matchers,
@@ -95,7 +96,8 @@ def test_the_rows_follow_the_record_and_the_sentence_counts_the_intervals(tmp_pa
     results = matchers_records()
     save(tmp_path / "L4.json", results[0])
     assert load(tmp_path / "L4.json", MatcherComparison) == results[0]  # the record's codec, both ways
-    rows = [cells(row) for row in matcher_rows(results)]
+    records = matcher_rows(results)
+    rows = [cells(row) for row in records]
     assert [(r["method"], r["matcher"]) for r in rows] == [
         ("sad", "seqslam"), ("sad", "bayes_filter"), ("hog", "seqslam"), ("hog", "bayes_filter")]
     first = rows[0]
@@ -107,12 +109,12 @@ def test_the_rows_follow_the_record_and_the_sentence_counts_the_intervals(tmp_pa
     assert [r["warning"] for r in rows] == ["", "", "", "validation R@1 under 0.5 of the fixed matcher's"]
     # reduced: seqslam on sad and hog (lows 5, 2); raised: bayes_filter on hog (high -1); beats: seqslam on sad
     # (native - predictor high -1); seqslam on hog (high 4) and bayes_filter (3, none) do not
-    assert comparison_sentence(rows) == (
+    assert comparison_sentence(records) == (
         "On d (L = 4, paper mode, the 25 queries every matcher evaluates), SMR reduces the AOC for 2 of 4 "
         "matcher-method pairs (the seed-0 predictor's reduction, its 95 % interval above 0); it raises it for 1 "
         "(the interval below 0); it beats the matcher's own confidence for 1 (the paired 95 % interval of the "
         "native confidence's reduction minus the predictor's, removing as many matches, below 0).")
-    sentences = matcher_sentences(rows)
+    sentences = matcher_sentences(records)
     assert sentences[1] == (
         "Warning: bayes_filter on hog has a validation recall@1 of 0.200, under 0.5 of the fixed matcher's (0.600): "
         "its settings may not fit the traverses (a filter's transition window must fit their speed ratio).")
@@ -184,7 +186,7 @@ def test_a_degenerate_removal_counts_neither_way_whatever_its_interval():
              "native_minus_predictor_ci_low": -3.0, "native_minus_predictor_ci_high": 2.0},
             {**base, "outcome": "worse", "reduction_pct_ci_low": 1.0, "reduction_pct_ci_high": 2.0,
              "native_minus_predictor_ci_low": -3.0, "native_minus_predictor_ci_high": -2.0}]
-    assert comparison_sentence(rows) == (
+    assert comparison_sentence(records(MatchersRow, rows)) == (
         "On d (L = 4, paper mode, the 30 queries every matcher evaluates), SMR reduces the AOC for 0 of 4 "
         "matcher-method pairs (the seed-0 predictor's reduction, its 95 % interval above 0); it beats the matcher's "
         "own confidence for 1 (the paired 95 % interval of the native confidence's reduction minus the predictor's, "

@@ -71,7 +71,7 @@ def test_the_rows_run_by_dataset_matcher_mode_and_method_in_the_configurations_o
 def _pair(method, tag="seqslam", best_fixed="L4+pred", **rules):
     result = adaptive_result(method, tag, rules=rules)
     result = dataclasses.replace(result, best_fixed={"paper": best_fixed})
-    return [cells(row) for row in adaptive_rows([(result, None)])]
+    return adaptive_rows([(result, None)])
 
 
 def test_the_sentence_counts_the_pairs_by_the_best_rules_interval():
@@ -101,25 +101,22 @@ def test_the_sentence_counts_the_pairs_by_the_best_rules_interval():
                                              "method-matcher pair), the best rule's AOC, at the recall both reach, "
                                              "is below the best fixed row's for 1 ")
     # without a best fixed row in paper mode (the experiment compares rows in standard mode only): said in words
-    unpaired = [{**r, "best_fixed": ""} for r in one]
+    unpaired = [dataclasses.replace(r, best_fixed="") for r in one]
     assert adaptive_sentence(unpaired) == (
         "On d (paper mode), the rows are not compared: a row's recall divides by its own correct matches, which "
         "differ from row to row; the standard mode's sentence compares them.")
     # queries counted per matcher where they differ (a centred window evaluates fewer)
-    mixed = [*one, *({**r, "matcher": "openseqslam", "n_queries": 55}
+    mixed = [*one, *(dataclasses.replace(r, matcher="openseqslam", n_queries=55)
                      for r in _pair("m1", "openseqslam", adaptive=(0.05, 2.5, "improved", (-0.05, -0.01))))]
     assert "the 57 (seqslam) to 55 (openseqslam) queries every length evaluates, 2 method-matcher pairs" in (
         adaptive_sentence(mixed))
 
 
 def test_the_figure_is_written_with_a_row_that_keeps_no_correct_match(tmp_path):
-    from row_records import records
-
     from vpr_smr.eval.report.figures import adaptive_figure
-    from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow
 
-    rows = records(AdaptiveSeqLenRow, [*_pair("m1", adaptive=(0.0, 2.0, "removed_all", None)),
-                                       *_pair("m2", "bayes_filter", adaptive=(0.05, 2.5, "improved", (-0.05, -0.01)))])
+    rows = [*_pair("m1", adaptive=(0.0, 2.0, "removed_all", None)),
+            *_pair("m2", "bayes_filter", adaptive=(0.05, 2.5, "improved", (-0.05, -0.01)))]
     path = adaptive_figure(tmp_path / "a.png", rows, ["m1", "m2"], ["seqslam", "bayes_filter"], "d, paper mode")
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -8,8 +8,11 @@ Two removals from one split of 100 queries, worked out by hand (queries in dista
 standard mode): one that keeps wrong matches early, its AOC clearly above the baseline's 0 on every draw of the
 bootstrap; one whose AOC is 1.65e-4 from a single wrong match, which many draws leave out."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
+from row_records import record
 
 from vpr_smr.eval.report import html
 from vpr_smr.eval.report import outcome_words as words
@@ -146,17 +149,18 @@ def test_table1_and_the_page_say_why_a_perfect_baseline_made_worse_is_left_out()
 
 
 def test_the_words_of_a_table_row_say_no_direction_for_an_unearned_one():
-    row = {"aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": AOC_B, "reduction_pct": None, "outcome": curves.HOLDS_ZERO,
-           "max_recall": 0.6, "max_recall_vpr_sm": 0.62, "aoc_vpr_sm_own": 0.0002, "n_queries": N, "removed": 1}
+    row = record(Table1Row, {"aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": AOC_B, "reduction_pct": None,
+                             "outcome": curves.HOLDS_ZERO, "max_recall": 0.6, "max_recall_vpr_sm": 0.62,
+                             "aoc_vpr_sm_own": 0.0002, "n_queries": N, "removed": 1})
     assert words.reduction_cell(row, "n/a") == "n/a: perfect baseline, holds 0"
-    assert words.is_degenerate(row)
+    assert words.is_degenerate(row.outcome, row.reduction_pct)
     assert words.baseline_cell(row, "0.0000") == "0.0000 (own: 0.0002)"  # lowered recall, an undefined reduction
     assert words.note(row) == (
         "the baseline's AOC is 0 up to the predictor's maximum recall 0.6000 and the predictor's 0.0002, but the "
         "interval over queries of the difference holds 0: no direction, and the reduction is undefined (the "
         "baseline's AOC being 0)")
     assert "worse" not in words.note(row) + words.reduction_cell(row, "n/a")
-    earned = {**row, "outcome": curves.WORSE_FROM_ZERO}
+    earned = replace(row, outcome=curves.WORSE_FROM_ZERO)
     assert words.reduction_cell(earned, "n/a") == "n/a: worse than a perfect baseline"
 
 

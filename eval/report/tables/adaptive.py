@@ -5,7 +5,7 @@ Its section follows the sequence-length ablation's on the page (``html.SECTIONS`
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -13,7 +13,7 @@ from vpr_smr.eval.matching.adaptive import NONE
 from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.registry import Table
-from vpr_smr.eval.report.rows import column, interval
+from vpr_smr.eval.report.rows import column, interval, parse
 from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.eval.scoring.adaptive_records import (
     ADAPTIVE,
@@ -153,57 +153,58 @@ def make_adaptive(inputs: Inputs) -> list[AdaptiveSeqLenRow] | None:
     return adaptive_rows(inputs.adaptive, inputs.order) if inputs.adaptive else None
 
 
-def _best_rule(rows: Sequence[dict[str, Any]]) -> dict[str, Any] | None:
+def _best_rule(rows: Sequence[AdaptiveSeqLenRow]) -> AdaptiveSeqLenRow | None:
     """The best rule among those that keep a correct match, by the best fixed row's measure (``best_key``: the least
     precision lost over its recall; a tie: the larger recall, then ``RULES``' order); None if none keeps one."""
-    kept = [r for r in rows if r["kind"] == RULE and not words.at_recall_zero(r)]
-    return min(kept, key=lambda r: best_key(float(r[names.AOC]), float(r["max_recall"]),
-                                            RULES.index(r["name"]) if r["name"] in RULES else len(RULES)),
-               default=None)
+    kept = [r for r in rows if r.kind == RULE and not words.at_recall_zero(r.outcome)]
+    return min(kept, default=None,
+               key=lambda r: best_key(r.aoc, r.max_recall, RULES.index(r.name) if r.name in RULES else len(RULES)))
 
 
 def _count(n: int, what: str = "pair") -> str:
     return f"{n} {what}" + ("" if n == 1 else "s")
 
 
-def query_counts(rows: Sequence[dict[str, Any]]) -> str:
+def query_counts(rows: Sequence[AdaptiveSeqLenRow]) -> str:
     """The queries every length evaluates, as a sentence names them: ``the 2567 queries``, or per matcher when they
     differ (a centred window evaluates fewer): ``the 2567 (seqslam) to 2563 (openseqslam) queries``."""
-    counts = {str(r["matcher"]): int(r["n_queries"]) for r in rows}
+    counts = {r.matcher: r.n_queries for r in rows}
     if len(set(counts.values())) == 1:
         return f"the {next(iter(counts.values()))} queries"
     high, low = max(counts, key=counts.__getitem__), min(counts, key=counts.__getitem__)
     return f"the {counts[high]} ({high}) to {counts[low]} ({low}) queries"
 
 
-def adaptive_sentence(rows: Sequence[dict[str, Any]]) -> str:
-    """The experiment's one sentence of one dataset and mode (its rows' cells): over the method-matcher pairs, for
+def adaptive_sentence(found: Sequence[AdaptiveSeqLenRow] | Sequence[Mapping[str, Any]]) -> str:
+    """The experiment's one sentence of one dataset and mode (its rows): over the method-matcher pairs, for
     how many the best rule (``_best_rule``: by the best fixed row's measure) has an AOC below the best
     fixed row's (the paired 95 % interval of the difference below 0), for how many the interval holds 0 (and for how
     many of those its mean length is shorter than the best fixed row's length), for how many it lies above 0; the
     pairs without an interval named (no interval), and those without a rule or a fixed row that keeps a
     correct match. Nothing beyond the intervals. The rows are compared in standard mode only (``best_fixed``): in
     paper mode each row's recall divides by its own correct matches, and the sentence says so."""
+    # the console's adaptive_text (pipeline/stages/studies.py) passes the rows' cells: parsed back
+    rows = [r if isinstance(r, AdaptiveSeqLenRow) else parse(AdaptiveSeqLenRow, r) for r in found]
     if not rows:
         return ""
     first = rows[0]
-    if not any(r["best_fixed"] for r in rows) and first["mode"] != COMPARED_MODE:
-        return (f"On {first['dataset']} ({first['mode']} mode), the rows are not compared: a row's recall divides by "
+    if not any(r.best_fixed for r in rows) and first.mode != COMPARED_MODE:
+        return (f"On {first.dataset} ({first.mode} mode), the rows are not compared: a row's recall divides by "
                 f"its own correct matches, which differ from row to row; the {COMPARED_MODE} mode's sentence "
                 "compares them.")
-    pairs: dict[tuple[str, str], list[dict[str, Any]]] = {}
+    pairs: dict[tuple[str, str], list[AdaptiveSeqLenRow]] = {}
     for row in rows:
-        pairs.setdefault((str(row["method"]), str(row["matcher"])), []).append(row)
+        pairs.setdefault((row.method, row.matcher), []).append(row)
     better, same, shorter, shorter_better, worse = 0, 0, 0, 0, 0
     untold, unscored = [], []
     for (method, matcher), found in pairs.items():
         best = _best_rule(found)
-        fixed = next((r for r in found if r["name"] == found[0]["best_fixed"]), None)
+        fixed = next((r for r in found if r.name == found[0].best_fixed), None)
         if best is None or fixed is None:
             unscored.append(f"{method} · {matcher}")
             continue
-        sign = bounds.sign(best, "minus_best_fixed")
-        is_shorter = float(best["mean_length"]) < float(fixed["seq_len"])
+        sign = bounds.sign(best.minus_best_fixed_ci)
+        is_shorter = fixed.seq_len is not None and best.mean_length < fixed.seq_len
         if sign is None:
             untold.append(f"{method} · {matcher}")
         elif sign < 0:
@@ -214,7 +215,7 @@ def adaptive_sentence(rows: Sequence[dict[str, Any]]) -> str:
         else:
             same += 1
             shorter += is_shorter
-    text = (f"On {first['dataset']} ({first['mode']} mode, {query_counts(rows)} every length evaluates, "
+    text = (f"On {first.dataset} ({first.mode} mode, {query_counts(rows)} every length evaluates, "
             f"{_count(len(pairs), 'method-matcher pair')}), the best rule's AOC, at the recall both reach, is below "
             f"the best fixed row's for {better} (the paired {bounds.LEVEL} interval of the difference below 0; "
             f"{shorter_better} of them with a shorter mean length used than the best fixed row's length), cannot be "
@@ -236,7 +237,7 @@ TABLE = Table("adaptive_seq_len", "Adaptive sequence length: each fixed length w
                       "time per query")
 
 
-def adaptive_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
+def adaptive_sentences(rows: Sequence[AdaptiveSeqLenRow]) -> list[str]:
     """What the section says under a figure: the sentence of its dataset and mode."""
     return [adaptive_sentence(rows)] if rows else []
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
@@ -112,8 +112,8 @@ def make_matchers(inputs: Inputs) -> list[MatchersRow] | None:
     return matcher_rows(inputs.matchers, inputs.order) if inputs.matchers else None
 
 
-def comparison_sentence(rows: Sequence[dict[str, Any]]) -> str:
-    """The experiment's one sentence of one dataset, L and mode (its rows' cells): for how many matcher-method
+def comparison_sentence(rows: Sequence[MatchersRow]) -> str:
+    """The experiment's one sentence of one dataset, L and mode (its rows): for how many matcher-method
     pairs SMR reduces the AOC (the seed-0 reduction's 95 % interval above 0), and for how many it beats the
     matcher's own confidence (the paired interval of the native confidence's reduction minus the predictor's, at
     the same budget, below 0). A pair whose interval is undefined or holds 0, or whose removal is degenerate (every
@@ -121,11 +121,11 @@ def comparison_sentence(rows: Sequence[dict[str, Any]]) -> str:
     if not rows:
         return ""
     first = rows[0]
-    directions = [words.direction(r) for r in rows]
+    directions = [words.direction(r.outcome, r.reduction_pct_ci) for r in rows]
     reduced, hurts = directions.count(1), directions.count(-1)
-    beats = sum(1 for r in rows if bounds.sign(r, "native_minus_predictor") == -1)
+    beats = sum(1 for r in rows if bounds.sign(r.native_minus_predictor_ci) == -1)
     harm = f"; it raises it for {hurts} (the interval below 0)" if hurts else ""
-    return (f"On {first['dataset']} (L = {first['seq_len']}, {first['mode']} mode, the {first['n_queries']} queries "
+    return (f"On {first.dataset} (L = {first.seq_len}, {first.mode} mode, the {first.n_queries} queries "
             f"every matcher evaluates), SMR reduces the AOC for {reduced} of {len(rows)} matcher-method pairs (the "
             f"seed-0 predictor's reduction, its 95 % interval above 0){harm}; it beats the matcher's own "
             f"confidence for {beats} (the paired 95 % interval of the native confidence's reduction minus the "
@@ -141,12 +141,11 @@ TABLE = Table("matchers", "Matchers: the Table I numbers of each sequence matche
                       "same budget, and the average precision of detecting the wrong matches")
 
 
-def matcher_sentences(rows: Sequence[dict[str, Any]]) -> list[str]:
+def matcher_sentences(rows: Sequence[MatchersRow]) -> list[str]:
     """What the section says under a figure: the comparison's sentence, then each pair flagged by the validation
     warning."""
-    flagged = [r for r in rows if r.get("warning")]
-    warned = [f"Warning: {r['matcher']} on {r['method']} has a validation recall@1 of "
-              f"{float(r['validation_recall_at_1']):.3f}, under {FAR_BELOW:g} of the fixed matcher's "
-              f"({float(r['fixed_validation_recall_at_1']):.3f}): its settings may not fit the traverses (a filter's "
-              "transition window must fit their speed ratio)." for r in flagged]
+    warned = [f"Warning: {r.matcher} on {r.method} has a validation recall@1 of "
+              f"{r.validation_recall_at_1:.3f}, under {FAR_BELOW:g} of the fixed matcher's "
+              f"({r.fixed_validation_recall_at_1:.3f}): its settings may not fit the traverses (a filter's "
+              "transition window must fit their speed ratio)." for r in rows if r.warning]
     return [comparison_sentence(rows), *warned] if rows else []
