@@ -1,9 +1,9 @@
 """The core workflow's jobs, each declared once beside its stage (``pipeline.stages``' ``matching``, ``predictor``
 and ``scoring``: a ``pipeline.experiment.Job`` of the stage, its output path, its inputs and its record from the
 wildcards): ``pipeline/rules/jobs.smk`` makes one rule of each, named by its ``rule``, as it does of the
-experiments' jobs. The rules not made so are written in ``pipeline/rules/``: ``descriptors`` (a GPU resource and the
-speed options given as a resource), ``report`` (the gathering rule: every file of the run as its input) and the
-experiment ``matchers``' ``use rule`` of ``attributes`` and ``train``."""
+experiments' jobs. Two rule files are written by hand: ``rules/report.smk`` (the report: no wildcards, every file of
+the run its input, the registry's files its outputs) and ``rules/matchers.smk`` (the experiment ``matchers`` takes
+the rules ``attributes`` and ``train`` as they are, with its own paths and records: ``use rule``)."""
 
 from __future__ import annotations
 
