@@ -17,7 +17,6 @@ import json
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import replace
 from datetime import UTC, datetime
-from functools import cache
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -33,9 +32,6 @@ from vpr_smr.eval.report.findings import (
     detection_headline,
     detection_sentence,
     sentences,
-    speed_sentences,
-    sweep_headline,
-    sweep_sentences,
 )
 from vpr_smr.eval.report.findings import headline as finding_headline
 from vpr_smr.eval.report.results import (
@@ -62,7 +58,7 @@ from vpr_smr.eval.report.rows import (
 )
 from vpr_smr.eval.report.rows import Column as TableColumn
 from vpr_smr.eval.report.rows import cells as row_cells
-from vpr_smr.eval.report.sections import INSPECTOR_FIGURES, Declared, Rows
+from vpr_smr.eval.report.sections import INSPECTOR_FIGURES, Declared, Rows, placed, prose
 from vpr_smr.eval.report.table1 import (
     ROW_NAMES,
     SEED_ROW_NAME,
@@ -74,8 +70,6 @@ from vpr_smr.eval.report.table1 import (
     notes,
     table1_blocks,
 )
-from vpr_smr.eval.report.tables import adaptive as adaptive_table
-from vpr_smr.eval.report.tables import matchers as matcher_table
 from vpr_smr.eval.report.verdicts import Answers, verdicts
 from vpr_smr.eval.report.view import (
     Block,
@@ -96,7 +90,6 @@ from vpr_smr.eval.scoring import scorers as scorer_registry
 from vpr_smr.eval.scoring.scorers import RANDOM
 
 TEMPLATES = Path(__file__).resolve().parent / "templates"
-PROSE = "sections.yaml"  # the sections' intros (``prose``), beside the page's template
 TEMPLATE = "report.html.j2"
 R = TypeVar("R")  # a table's row record (``_Builder.records``)
 DESCRIPTOR_KEYS = ("dataset", "method", "checkpoint_sha256", "frames_sha256", "vpr_smr_version")
@@ -375,6 +368,10 @@ class _Builder:
         found = [row_cells(r) for r in rows]
         return [c for c in registry.table(name).shown(self.splits) if not c.if_any or any(r.get(c.name) for r in found)]
 
+    def pivot(self, name: str, table_id: str, rows: Rows) -> TableView:
+        """The registered table ``name``'s pivot of ``rows`` (``pivot``)."""
+        return pivot(table_id, rows, registry.table(name))
+
     def compact(self, name: str, table_id: str, rows: Rows, caption: str = "") -> TableView:
         """The compact table of the registered table ``name``: its page columns of ``rows`` (its records), headed
         by labels."""
@@ -487,19 +484,6 @@ def _seq_len_view(b: _Builder, f: WrittenFigure, shown: Rows) -> tuple[TableView
     return tuple(tables)
 
 
-def _speed_intro(b: _Builder) -> tuple[str, ...]:
-    velocities = unique(r.velocities.replace(" ", ", ") for r in b.records("speed", SpeedRow)
-                        if r.matcher == "velocity")
-    return (
-        "The table split's query re-driven at other speeds (method §11): a constant profile c advances c places "
-        "per query frame (the query driven c times as fast; 1x is the aligned pair), the varying one "
-        "1 + 0.5 sin(2 pi t / 200) places; the query's frames are the nearest to its positions, its distance "
-        "matrix the aligned one's columns, and a match is correct within the tolerance of its position. The "
-        "fixed matcher is the paper's (slope 1); velocity search tries the slopes "
-        f"{'; '.join(velocities)} reference frames per query frame. Each matcher has its own seed-0 predictor, "
-        "trained on its own features of the same profile's train split; the numbers are Table I's, paper mode.",)
-
-
 def _predictor_blocks(b: _Builder) -> list[Block]:
     """Per dataset: per L its methods' compact table, the pooled predictor's table, and the confusion figures."""
     methods, pooled = b.records("predictor_methods", PredictorMethodRow), b.records("predictor", PredictorRow)
@@ -600,59 +584,14 @@ def _inspector_blocks(b: _Builder) -> list[Block]:
     return blocks
 
 
-def _adaptive_headline(rows: Rows) -> str:
-    """The first screen's line of the length rules in one mode, where the mode compares them (``best_fixed``)."""
-    return adaptive_table.adaptive_sentence(rows) if any(r.best_fixed for r in rows) else ""
-
-
-@cache
-def _prose() -> dict[str, str]:
-    """``templates/sections.yaml``: each section's intro by its id, read once."""
-    import yaml
-
-    found = yaml.safe_load((TEMPLATES / PROSE).read_text(encoding="utf-8"))
-    if not isinstance(found, dict) or not all(isinstance(text, str) for text in found.values()):
-        raise ValueError(f"{TEMPLATES / PROSE} must map each section's id to its intro (a text)")
-    return found
-
-
-def prose(section: str, **values: str) -> str:
-    """The intro of ``section`` (its id) from ``templates/sections.yaml``, its ``{name}`` fields filled by
-    ``values``; KeyError naming the file for an id it lacks."""
-    texts = _prose()
-    if section not in texts:
-        raise KeyError(f"{TEMPLATES / PROSE} has no intro of the section {section!r}; it has {', '.join(texts)}")
-    return texts[section].format(**values) if values else texts[section]
-
-
 SECTIONS = (
     # right after Table I: is the predictor better than a simple rule?
     Declared("baselines", "Is the predictor better than a simple rule?", ("baselines", "wrong_match_detection"),
              _baseline_intro, blocks=_baseline_blocks, headlines=_baseline_headlines),
-    # right after the baselines: the same question for each sequence matcher (method §14)
-    Declared("matchers", "Does SMR help each sequence matcher?", ("matchers",),
-        prose("matchers", far_below=f"{matcher_table.FAR_BELOW:g}"), "matchers",
-        view=lambda b, f, shown: (b.compact("matchers", b.anchor("matchers", f), shown,
-                                            registry.table("matchers").caption),),
-        sentences=lambda b, shown: matcher_table.matcher_sentences(shown), headline=matcher_table.comparison_sentence),
     Declared("pr-curves", "Precision-recall curves", ("table1",), prose("pr-curves"), "pr",
         view=lambda b, f, shown: (b.compact("table1", b.anchor("pr", f), shown),)),
-    Declared("trust-levels", "Trust levels", ("trust_levels",), prose("trust-levels"), "trust",
-        view=lambda b, f, shown: (pivot(b.anchor("trust", f), shown, registry.table("trust_levels")),)),
-    Declared("restoration", "Match restoration", ("restoration",), prose("restoration"), "restoration",
-        view=lambda b, f, shown: (b.compact("restoration", b.anchor("restoration", f), shown),),
-        aside="restoration_auc"),
     Declared("sequence-length", "Sequence-length ablation", ("ablation_seq_len",), prose("sequence-length"), "seq_len",
              view=_seq_len_view),
-    # right after the sequence-length ablation: choosing the length per query instead (method §15)
-    Declared("adaptive-seq-len", "Choosing the sequence length per query", ("adaptive_seq_len",),
-        prose("adaptive-seq-len"), "adaptive_seq_len",
-        view=lambda b, f, shown: (b.compact("adaptive_seq_len", b.anchor("adaptive-seq-len", f), shown,
-                                            registry.table("adaptive_seq_len").caption),),
-        sentences=lambda b, shown: adaptive_table.adaptive_sentences(shown), headline=_adaptive_headline),
-    Declared("speed", "Speed profiles", ("speed",), _speed_intro, "speed",
-             view=lambda b, f, shown: (speed_table(b.anchor("speed", f), shown),),
-             sentences=lambda b, shown: speed_sentences(shown, b.split)),
     Declared("predictor", "The predictor alone", ("predictor", "predictor_methods", "predictor_confusion"),
              prose("predictor"), blocks=_predictor_blocks),
     Declared("table-ii", "Table II: attribute ablation", ("table2",), prose("table-ii"), blocks=_table2_blocks),
@@ -665,9 +604,6 @@ SECTIONS = (
         "precision (R@100P), the area under the PR curve (PR-AUC) and extended precision (EP), for single-frame "
         "matching, sequence matching, and sequence matching with the predictor (a removed match counts as not "
         f"retrieved). The whole table has every mode ({', '.join(_metrics_mode(b)[1])}).",), blocks=_metrics_blocks),
-    Declared("protocol-sweep", "Protocol sweep", ("protocol_sweep",), prose("protocol-sweep"), "protocol_sweep",
-        view=lambda b, f, shown: (pivot(b.anchor("protocol-sweep", f), shown, registry.table("protocol_sweep")),),
-        sentences=lambda b, shown: sweep_sentences(shown), headline=sweep_headline),
     Declared("match-inspector", "Match inspector", (), lambda b: (
         f"Query by query, where sequence matching and the predictor go right or wrong on the {b.split} "
         "split. The per-query CSV files (matches, distances, attributes, true class, prediction) are in the run "
@@ -678,9 +614,15 @@ SECTIONS = (
 
 
 def declared_sections() -> tuple[Declared, ...]:
-    """``SECTIONS``, then the ``section`` of each registered table that declares one; each checked (its tables and
-    figures registered) and its id once."""
-    found = (*SECTIONS, *(spec.section for spec in registry.TABLES if spec.section is not None))
+    """``SECTIONS``, and the ``section`` of each registered table that declares one (an experiment's: the tool's own
+    and installed ones), in the page's order (``sections.placed``); each checked (its tables and figures
+    registered) and its id once."""
+    from vpr_smr.eval.report.experiments import builtin
+
+    # the tables' sections: the tool's own experiments' (in their modules: those of ``matchers`` and
+    # ``adaptive_seq_len`` on their tables of eval/report/tables/) and installed ones', each once
+    tables = (*registry.TABLES, *(entry for experiment in builtin() for entry in experiment.tables))
+    found = placed(SECTIONS, list(dict.fromkeys(entry.section for entry in tables if entry.section is not None)))
     for spec in found:
         spec.check()
     ids = [spec.id for spec in found]

@@ -10,9 +10,11 @@ of it the page's compact tables show (``page``, ``pivot``, ``caption``) and in w
 ``html.SECTIONS``): ``build`` writes the CSV, Markdown and LaTeX files of the records' cells and ``html`` builds the
 page's tables from them.
 
-A table is one declaration: the tables of ``TABLES`` below, then each module of the package
-``eval/report/tables/`` that declares a ``TABLE`` (a ``Table``), in the modules' names' order, then the tables of the
-experiments installed packages register (``eval.report.experiments``).
+A table is one declaration: the tables of ``CORE_TABLES`` below (the tool's own experiments' among them, from their
+modules), then each module of the package ``eval/report/tables/`` that declares a ``TABLE`` (a ``Table``), in the
+modules' names' order, then the tables of the experiments installed packages register (``eval.report.experiments``).
+The experiments ``matchers`` and ``adaptive_seq_len`` declare their tables in such a module and their sections on
+them in their own modules (``html.declared_sections`` reads them there).
 """
 
 from __future__ import annotations

@@ -40,7 +40,8 @@ class Table:
     of the run's ``tabulate.Inputs`` returning the row records, or None when the run has not what the table is of:
     then no file), and what of it the page's compact tables show: ``page`` (the columns by name, in their order) or
     ``pivot``, under ``caption`` (``{split}``: the table split, ``{seq_len}``: the L), in its own ``section`` (a
-    ``sections.Declared``, after ``html.SECTIONS``) where none of those shows it.
+    ``sections.Declared``, placed after the section its ``after`` names, else after ``html.SECTIONS``) where none of
+    those shows it.
 
     ``markdown`` and ``latex``: a layout of its own for those files (Table I's and Table II's, the paper's), from
     the rows and the inputs; ``run_title``: a title naming the run's choices (its splits); ``protocol``: whether the

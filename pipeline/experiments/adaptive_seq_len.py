@@ -5,17 +5,20 @@ A matcher of the experiment ``matchers`` other than the run's own reads the attr
 experiment's rules compute under ``matchers/<dataset>/<tag>/``, here at every L of seq_lens. The stage is
 ``pipeline.stages.studies.ADAPTIVE`` (``vpr-smr adaptive``); its table is declared with its rows and sentences in
 ``eval.report.tables.adaptive`` (the report's page and ``vpr-smr adaptive``'s printout read them too), its figure is
-``registry.FIGURES``' ``adaptive_seq_len`` and its section ``html.SECTIONS``' ``adaptive_seq_len``.
+``registry.FIGURES``' ``adaptive_seq_len``, and its section, declared here on that table (the experiment's tables
+carry it; ``html.declared_sections`` reads it there), follows the sequence-length ablation's on the page.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.paths import adaptive_path, distances_path, timing_path
 from vpr_smr.eval.predictor.defaults import validation_split
-from vpr_smr.eval.report.tables.adaptive import TABLE
+from vpr_smr.eval.report.sections import Declared, Rows, prose
+from vpr_smr.eval.report.tables.adaptive import TABLE, adaptive_sentence, adaptive_sentences
 from vpr_smr.eval.scoring.study_jobs import AdaptiveJob
 from vpr_smr.pipeline.experiment import Experiment, Job, Wildcard, relative
 from vpr_smr.pipeline.rule_helpers import adaptive_files, adaptive_matchers, adaptive_predictors, length_files
@@ -71,5 +74,17 @@ JOB = Job(ADAPTIVE, OUTPUT, inputs, record, wildcards_from=(Wildcard("tag", tags
           also=(timing_path(OUTPUT),),  # the live timings beside the result (apart, so results repeat exactly)
           layout=True, rule="adaptive")
 
+
+def _headline(rows: Rows) -> str:
+    """The first screen's line of the length rules in one mode, where the mode compares them (``best_fixed``)."""
+    return adaptive_sentence(rows) if any(r.best_fixed for r in rows) else ""
+
+
+SECTION = Declared("adaptive-seq-len", "Choosing the sequence length per query", (NAME,), prose("adaptive-seq-len"),
+                   NAME, view=lambda b, f, shown: (b.compact(NAME, b.anchor("adaptive-seq-len", f), shown,
+                                                             TABLE.caption),),
+                   sentences=lambda b, shown: adaptive_sentences(shown), headline=_headline, after="sequence-length")
+
 EXPERIMENT = Experiment(NAME, "the sequence length chosen per query by each length's predictor (or uniqueness) "
-                        "against every fixed length, for every matcher of the run", (JOB,), (TABLE,))
+                        "against every fixed length, for every matcher of the run", (JOB,),
+                        (replace(TABLE, section=SECTION),))

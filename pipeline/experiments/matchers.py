@@ -7,19 +7,22 @@ predictors under ``matchers/<dataset>/<tag>/`` from the same stages as the run's
 and ``matcher_train`` of ``rules/matchers.smk``, which take the core rules ``attributes`` and ``train`` as they are
 (``use rule``) with this module's paths and records. The stage is ``pipeline.stages.studies.COMPARE_MATCHERS``
 (``vpr-smr compare-matchers``); its table is declared with its rows and sentences in ``eval.report.tables.matchers``,
-its figure is ``registry.FIGURES``' ``matchers`` and its section ``html.SECTIONS``' ``matchers``.
+its figure is ``registry.FIGURES``' ``matchers``, and its section, declared here on that table (the experiment's
+tables carry it; ``html.declared_sections`` reads it there), follows the baselines' on the page.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.paths import distances_path, matcher_attributes_path, matcher_predictor_paths, matchers_path
 from vpr_smr.eval.matching.attributes import AttributesJob
 from vpr_smr.eval.predictor.defaults import validation_split
 from vpr_smr.eval.predictor.jobs import TrainJob
-from vpr_smr.eval.report.tables.matchers import TABLE
+from vpr_smr.eval.report.sections import Declared, prose
+from vpr_smr.eval.report.tables.matchers import FAR_BELOW, TABLE, comparison_sentence, matcher_sentences
 from vpr_smr.eval.scoring.study_jobs import ComparedInputs, MatchersJob
 from vpr_smr.pipeline.experiment import Experiment, Job, relative
 from vpr_smr.pipeline.rule_helpers import compared_matchers, experiment_files, experiment_inputs, ground_truth_input
@@ -57,9 +60,14 @@ def record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mappin
 JOB = Job(COMPARE_MATCHERS, relative(matchers_path("", "{dataset}", "{method}", "{seq_len}")), inputs, record,
           layout=True, rule="matchers")
 
+SECTION = Declared(NAME, "Does SMR help each sequence matcher?", (NAME,), prose(NAME, far_below=f"{FAR_BELOW:g}"),
+                   NAME, view=lambda b, f, shown: (b.compact(NAME, b.anchor(NAME, f), shown, TABLE.caption),),
+                   sentences=lambda b, shown: matcher_sentences(shown), headline=comparison_sentence,
+                   after="baselines")
+
 EXPERIMENT = Experiment(NAME, "each matcher of `matchers` with its own predictor at table_seq_len: Table I's "
                         "numbers, the best training-free scorer and the matcher's own confidence, on the queries "
-                        "every matcher evaluates", (JOB,), (TABLE,))
+                        "every matcher evaluates", (JOB,), (replace(TABLE, section=SECTION),))
 
 
 # --- the compared matchers' own attributes and predictors (rules/matchers.smk) -------------------------------------

@@ -3,7 +3,8 @@ fixed matcher against velocity search, at Table I's sequence length.
 
 One job per dataset and profile, so that the profiles run side by side; each reads the distance matrices only (the
 simulated queries are their columns). The stage is ``pipeline.stages.studies.SPEED`` (``vpr-smr speed``); its
-figure is ``registry.FIGURES``' ``speed`` and its section ``html.SECTIONS``' ``speed``.
+figure is ``registry.FIGURES``' ``speed``, and its section, declared on its table here, follows the adaptive sequence
+length's on the page.
 """
 
 from __future__ import annotations
@@ -15,12 +16,16 @@ from vpr_smr.core.paths import distances_path, speed_path
 from vpr_smr.eval.predictor.defaults import PredictorParams
 from vpr_smr.eval.report import names, rows
 from vpr_smr.eval.report import tabulate as make
+from vpr_smr.eval.report.results import WrittenFigure, unique
+from vpr_smr.eval.report.sections import Declared, Rows
 from vpr_smr.eval.report.table_spec import Pivot, Table
 from vpr_smr.eval.scoring.study_jobs import SpeedJob
 from vpr_smr.pipeline.experiment import Experiment, Job, Wildcard, relative
 from vpr_smr.pipeline.stages.studies import SPEED
 
 if TYPE_CHECKING:
+    from vpr_smr.eval.report.html import _Builder
+    from vpr_smr.eval.report.view import TableView
     from vpr_smr.pipeline.config import Config
     from vpr_smr.pipeline.plan import Plan
 
@@ -57,13 +62,42 @@ JOB = Job(SPEED, relative(speed_path("", "{dataset}", "{seq_len}", "{profile}"))
           # fight over them, measured 3 to 7 times slower than one thread each; the numbers are the same (the demo)
           threads=1, layout=True)
 
+def _intro(b: _Builder) -> tuple[str, ...]:
+    velocities = unique(r.velocities.replace(" ", ", ") for r in b.records(NAME, rows.SpeedRow)
+                        if r.matcher == "velocity")
+    return (
+        "The table split's query re-driven at other speeds (method §11): a constant profile c advances c places "
+        "per query frame (the query driven c times as fast; 1x is the aligned pair), the varying one "
+        "1 + 0.5 sin(2 pi t / 200) places; the query's frames are the nearest to its positions, its distance "
+        "matrix the aligned one's columns, and a match is correct within the tolerance of its position. The "
+        "fixed matcher is the paper's (slope 1); velocity search tries the slopes "
+        f"{'; '.join(velocities)} reference frames per query frame. Each matcher has its own seed-0 predictor, "
+        "trained on its own features of the same profile's train split; the numbers are Table I's, paper mode.",)
+
+
+def _view(b: _Builder, figure: WrittenFigure, shown: Rows) -> tuple[TableView, ...]:
+    from vpr_smr.eval.report.html import speed_table  # the page's module: it imports the registry, which this one
+
+    return (speed_table(b.anchor("speed", figure), shown),)
+
+
+def _sentences(b: _Builder, shown: Rows) -> list[str]:
+    # the findings' module imports the scoring's (scikit-learn); the workflow's parsing imports this one
+    from vpr_smr.eval.report.findings import speed_sentences
+
+    return speed_sentences(shown, b.split)
+
+
+SECTION = Declared(NAME, "Speed profiles", (NAME,), _intro, NAME, view=_view, sentences=_sentences,
+                   after="adaptive-seq-len")
+
 TABLE = Table(
     NAME, "Speed profiles: recall@1 and the Table I AOC numbers of the fixed matcher and of velocity search on "
     "simulated queries driven at other speeds (method §11), per dataset, method, profile and matcher", (NAME,),
     row=rows.SpeedRow, make=make.make_speed,
     pivot=Pivot("profile", ("method", "matcher"), (names.RECALL_SEQUENCE, names.REDUCTION)),
     caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and method · matcher "
-            "(columns); single-frame recall@1 and the AOCs: the whole table below")
+            "(columns); single-frame recall@1 and the AOCs: the whole table below", section=SECTION)
 
 EXPERIMENT = Experiment(NAME, "simulated speed profiles (method §11) at table_seq_len: the fixed matcher against "
                         "velocity search", (JOB,), (TABLE,))

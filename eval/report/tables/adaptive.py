@@ -1,7 +1,8 @@
 """The experiment ``adaptive_seq_len`` (method §15): per dataset, matcher, mode and method, each fixed length with
 and without its predictor and each rule choosing the length per query (``eval.scoring.adaptive_records``), on the
 queries every length evaluates, with the live matcher's time per query where its timing file is beside the result.
-Its section follows the sequence-length ablation's on the page (``html.SECTIONS``)."""
+Its section, declared on this table by the experiment's module (``pipeline/experiments/adaptive_seq_len.py``), follows
+the sequence-length ablation's on the page."""
 
 from __future__ import annotations
 

@@ -1,7 +1,8 @@
 """The experiment ``matchers`` (method §14): per dataset, L, mode, method and matcher, Table I's numbers with the
 matcher's own predictor, the best training-free scorer and the matcher's native confidence at the predictor's
 budget, and the wrong-match average precision of both, on the queries every matcher evaluates
-(``scoring.matcher_comparison``). Its section follows the baselines' on the page (``html.SECTIONS``)."""
+(``scoring.matcher_comparison``). Its section, declared on this table by the experiment's module
+(``pipeline/experiments/matchers.py``), follows the baselines' on the page."""
 
 from __future__ import annotations
 
