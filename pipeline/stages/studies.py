@@ -111,11 +111,12 @@ def adaptive_text(result: Any, timing: Any) -> str:
     from vpr_smr.eval.report.rows import cells
     from vpr_smr.eval.report.tables.adaptive import TABLE, adaptive_rows, adaptive_sentence
 
-    rows = [cells(row) for row in adaptive_rows([(result, timing)])]
+    rows = adaptive_rows([(result, timing)])
     out = []
-    for mode in dict.fromkeys(row["mode"] for row in rows):
-        shown = [row for row in rows if row["mode"] == mode]
-        out += [markdown_table(TABLE.page, shown, f"{mode} mode, {result.n_queries} queries every length evaluates"),
+    for mode in dict.fromkeys(row.mode for row in rows):
+        shown = [row for row in rows if row.mode == mode]
+        out += [markdown_table(TABLE.page, [cells(row) for row in shown],
+                               f"{mode} mode, {result.n_queries} queries every length evaluates"),
                 adaptive_sentence(shown), ""]
     return "\n".join([*out, *(f"Note: {note}" for note in result.notes)]).rstrip()
 

@@ -6,15 +6,15 @@ the sequence-length ablation's on the page."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from vpr_smr.eval.matching.adaptive import NONE
 from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.registry import Table
-from vpr_smr.eval.report.rows import column, interval, parse
+from vpr_smr.eval.report.rows import column, interval
 from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.eval.scoring.adaptive_records import (
     ADAPTIVE,
@@ -176,7 +176,7 @@ def query_counts(rows: Sequence[AdaptiveSeqLenRow]) -> str:
     return f"the {counts[high]} ({high}) to {counts[low]} ({low}) queries"
 
 
-def adaptive_sentence(found: Sequence[AdaptiveSeqLenRow] | Sequence[Mapping[str, Any]]) -> str:
+def adaptive_sentence(rows: Sequence[AdaptiveSeqLenRow]) -> str:
     """The experiment's one sentence of one dataset and mode (its rows): over the method-matcher pairs, for
     how many the best rule (``_best_rule``: by the best fixed row's measure) has an AOC below the best
     fixed row's (the paired 95 % interval of the difference below 0), for how many the interval holds 0 (and for how
@@ -184,8 +184,6 @@ def adaptive_sentence(found: Sequence[AdaptiveSeqLenRow] | Sequence[Mapping[str,
     pairs without an interval named (no interval), and those without a rule or a fixed row that keeps a
     correct match. Nothing beyond the intervals. The rows are compared in standard mode only (``best_fixed``): in
     paper mode each row's recall divides by its own correct matches, and the sentence says so."""
-    # the console's adaptive_text (pipeline/stages/studies.py) passes the rows' cells: parsed back
-    rows = [r if isinstance(r, AdaptiveSeqLenRow) else parse(AdaptiveSeqLenRow, r) for r in found]
     if not rows:
         return ""
     first = rows[0]
