@@ -9,7 +9,7 @@ from vpr_smr.pipeline.core_jobs import JOBS as CORE_JOBS
 from vpr_smr.pipeline.experiment import running
 
 
-# A function, not a loop's body: Snakemake evaluates a rule's `shell:` again when the job runs, in the scope the
+# A function, not a loop's body: Snakemake evaluates a rule's shell command again when the job runs, in the scope the
 # rule was written in; a loop's variable is then its last value (every rule would run the last job's stage), a
 # call's argument is its own.
 def declare(name, job):
