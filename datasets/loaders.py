@@ -11,11 +11,11 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from vpr_smr.core.deprecation import deprecated
 from vpr_smr.core.settings import REQUIRED, Declared, declared, setting
 from vpr_smr.datasets.base import TraversePair
 
@@ -84,12 +84,12 @@ def as_loader(name: str, item: Any) -> Loader:
     if not callable(item):
         raise ValueError(f"dataset loader {name!r} is {item!r}, not a Loader(function, Settings)")
     if item not in _LEGACY:
-        warnings.warn(
+        deprecated(
             f"dataset loader {name!r} ({getattr(item, '__module__', '?')}.{getattr(item, '__qualname__', item)}) is a "
             "bare function whose parameters are its settings, which a later release will not read: register "
             "Loader(function, Settings) (vpr_smr.datasets.loaders), Settings a frozen dataclass of "
             "core.settings.setting(default, help) fields (docs/extending.md, 'A dataset loader')",
-            DeprecationWarning, stacklevel=3)
+            stacklevel=2)
         parameters = [p for p in inspect.signature(item).parameters.values()
                       if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)]
         fields = [(p.name, p.annotation if p.annotation is not p.empty else Any,

@@ -25,7 +25,6 @@ import pickletools
 import re
 import shlex
 import tarfile
-import warnings
 import zipfile
 from collections.abc import Sequence
 from pathlib import Path
@@ -35,6 +34,7 @@ import numpy as np
 import torch
 
 from vpr_smr.core.constants import METRICS
+from vpr_smr.core.deprecation import deprecated
 from vpr_smr.core.files import EMPTY, GZIP, HDF5, KINDS, MAT, NPY, PICKLE, TAR, ZIP, file_kind, read_head, text_start
 from vpr_smr.core.settings import declared, json_default
 
@@ -99,10 +99,10 @@ class Backend:
             cls.settings_help = {item.name: item.help for item in settings}
         elif "default_conf" in vars(cls) or "settings_help" in vars(cls):
             # a plugin written for 0.15: its dicts still work
-            warnings.warn(f"descriptor backend {cls.__module__}.{cls.__qualname__} declares its settings as "
+            deprecated(f"descriptor backend {cls.__module__}.{cls.__qualname__} declares its settings as "
                           "default_conf and settings_help dicts, which a later release will not read: declare them "
                           "as a Settings record of core.settings.setting(default, help) fields (docs/extending.md, "
-                          "'A descriptor backend')", DeprecationWarning, stacklevel=2)
+                          "'A descriptor backend')")
 
     def __init__(self, conf: dict[str, Any] | None = None) -> None:
         conf = dict(conf or {})

@@ -86,9 +86,10 @@ def _names(rows: Iterable[Table1Row]) -> str:
 def _improved(rows: Sequence[Table1Row]) -> str:
     """How many of all the methods improve: a method whose seed-0 reduction's interval lies above 0
     (``outcome_words.direction``); one whose reduction is undefined, or whose interval holds 0, counts as not
-    improved, and those with an estimate but no interval are counted beside (``k / n (m without an interval)``)."""
+    improved, and those with an estimate but no interval are counted beside (``k / n (m without an interval)``): a
+    perfect baseline made worse without an interval has no estimate, so it is not one of them."""
     directions = [words.direction(r.outcome, r.reduction_pct_ci) for r in rows]
-    missing = directions.count(None)
+    missing = sum(d is None and r.reduction_pct is not None for d, r in zip(directions, rows, strict=True))
     return f"{directions.count(1)} / {len(rows)}" + (f" ({missing} without an interval)" if missing else "")
 
 

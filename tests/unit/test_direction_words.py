@@ -203,3 +203,26 @@ def test_a_finding_states_the_fact_and_the_queries_never_a_cause():
     assert "sad -0.9 % [-3.3, 0.3], no direction (interval holds 0)" in first and "2573" in first
     for text in (*said, first):
         assert "too few" not in text and not DIRECTION.search(text)
+
+
+def test_the_headline_names_a_perfect_baseline_made_worse_without_an_earned_word():
+    # the baseline's AOC 0, the predictor's 0.002, the interval of their difference holding 0: no reduction in %, and
+    # the first screen's sentence says why in words (it raised KeyError: no short word for interval_holds_0)
+    row = {"dataset": "d", "method": "sad", "seq_len": 4, "mode": "paper", "reduction_pct": None,
+           "outcome": "interval_holds_0", "n_queries": 100, "aoc_vpr_sm": 0.0, "aoc_vpr_sm_pred": 0.002,
+           "max_recall": 0.9, "max_recall_vpr_sm": 0.9}
+    block = Table1Block("d", "paper", 4, (record(Table1Row, row),))
+    assert headline(block, "test") == ("d (100 test queries, L = 4, paper mode): the seed-0 predictor's AOC reduction "
+                                       "with its 95 % interval is sad n/a, perfect baseline, holds 0.")
+
+
+def test_a_perfect_baseline_made_worse_without_an_interval_is_no_estimate_without_an_interval():
+    # Table I's Improved column counts "without an interval" the estimates that have none; a perfect baseline made
+    # worse (no reduction in %) whose seed had no interval (no_interval) is not an estimate: 0 / 2, nothing beside
+    rows = [record(Table1Row, {"dataset": "d", "method": method, "seq_len": 4, "mode": "paper", "reduction_pct": pct,
+                               "outcome": outcome, "n_queries": 100, "aoc_vpr_sm": aoc, "aoc_vpr_sm_pred": 0.002,
+                               "max_recall": 0.9, "max_recall_vpr_sm": 0.9, "reduction_pct_ci_low": low,
+                               "reduction_pct_ci_high": high})
+            for method, pct, outcome, aoc, low, high in (("a", None, "no_interval", 0.0, None, None),
+                                                         ("b", -5.0, "worse", 0.1, -9.0, 2.0))]
+    assert "| 0 / 2 |" in table1_markdown(rows)
