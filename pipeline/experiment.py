@@ -66,7 +66,10 @@ class Job:
     ``layout`` (the rule's param ``layout``: the results' layout version, so that a run of an earlier layout
     computes its file again), ``revision`` (the rule's param ``revision`` from the configuration, the plan and the
     wildcards: the revision of the code that computes the file, e.g. a descriptor backend's, so that a new one
-    computes it again), ``resources`` (the rule's resources from the configuration), ``speed`` (the stage's
+    computes it again), ``params`` (further rule params, each a name and its value from the configuration, the
+    plan and the wildcards: what else the file depends on that neither its record nor its inputs hold, e.g. the
+    baselines' ``scorers``, the registered scorers and their plugins' versions, so that installing one computes
+    the file again), ``resources`` (the rule's resources from the configuration), ``speed`` (the stage's
     ``Stage.speed`` options from the rule's threads and resources, after its ``--job``: they change how fast it
     runs, not what it computes, so that changing them reruns nothing; a stage given ``{threads}`` there sets its
     threads itself, without ``OMP_NUM_THREADS``) and ``rule`` (the rule's name, where it is not
@@ -85,6 +88,7 @@ class Job:
     threads: int | None = None
     layout: bool = False
     revision: Callable[[Config, Plan, Mapping[str, str]], int] | None = None
+    params: tuple[tuple[str, Callable[[Config, Plan, Mapping[str, str]], str]], ...] = ()
     resources: Callable[[Config], Mapping[str, Any]] | None = None
     speed: str = ""
     rule: str = ""
@@ -146,15 +150,23 @@ class Job:
 
     def rule_params(self, out: str, conf: Config, plan: Plan) -> dict[str, Any]:
         """The rule's params: ``layout`` (with ``layout``), ``job`` (its record as text, from the wildcards:
-        ``job_record``), ``revision`` (with ``revision``); each a function of the wildcards alone."""
+        ``job_record``), ``revision`` (with ``revision``), then ``params``'; each a function of the wildcards
+        alone."""
         from vpr_smr.core.constants import RESULTS_LAYOUT  # here: the results' layout is the workflow's concern
         from vpr_smr.pipeline.stage import job_text
 
         revision = self.revision
-        return {**({"layout": RESULTS_LAYOUT} if self.layout else {}),
-                "job": lambda wildcards: job_text(self.job_record(out, conf, plan, dict(wildcards.items()))),
-                **({"revision": lambda wildcards: revision(conf, plan, dict(wildcards.items()))}
-                   if revision is not None else {})}
+        found: dict[str, Any] = {
+            **({"layout": RESULTS_LAYOUT} if self.layout else {}),
+            "job": lambda wildcards: job_text(self.job_record(out, conf, plan, dict(wildcards.items()))),
+            **({"revision": lambda wildcards: revision(conf, plan, dict(wildcards.items()))}
+               if revision is not None else {})}
+        for name, value in self.params:
+            if name in found:
+                raise ValueError(f"job {self.stage.command!r}: its params name {name!r}, a param the rule has "
+                                 f"already ({', '.join(found)}); give it another name")
+            found[name] = _param(value, conf, plan)
+        return found
 
     def rule_resources(self, conf: Config) -> dict[str, Any]:
         """The rule's resources: ``resources``' (none without it)."""
@@ -166,6 +178,13 @@ class Job:
         a thread per core, makes jobs side by side fight over the cores), unless its ``speed`` options give the
         stage its threads."""
         return "OMP_NUM_THREADS={threads} " if self.threads is not None and "{threads}" not in self.speed else ""
+
+
+def _param(value: Callable[[Config, Plan, Mapping[str, str]], str], conf: Config, plan: Plan
+           ) -> Callable[[Any], str]:
+    """A rule's param of ``Job.params``: a function of the wildcards alone (one of its own, not a loop's lambda,
+    whose variable would be the loop's last)."""
+    return lambda wildcards: value(conf, plan, dict(wildcards.items()))
 
 
 def relative(path: str) -> str:

@@ -37,6 +37,22 @@ def _split(record: Baselines, split: str) -> SplitBaselines:
     return record.splits[split]
 
 
+def _complete(record: Baselines, held: Collection[str]) -> None:
+    """ValueError when ``held`` (the scorers of one of the record's splits) lacks an installed package's scorer: the
+    file was computed before that plugin was installed, a stale result that would leave the scorer out of the tables
+    and of the best training-free scorer. (Every file of this version holds every built-in scorer.)"""
+    built_in = set(scorers.SCORERS.builtins())
+    missing = [name for name in scorers.names() if name not in built_in and name not in held]
+    if missing:
+        dataset, method, seq_len = record.key
+        many = len(missing) > 1
+        raise ValueError(f"the baselines of {dataset}, {method}, L{seq_len} lack the installed scorer"
+                         f"{'s' if many else ''} {', '.join(missing)}: they were computed before "
+                         f"{'those plugins were' if many else 'its plugin was'} installed (a stale result); compute "
+                         "them again: vpr-smr run reruns the baselines, metrics and queries jobs when the registered "
+                         "scorers change (vpr-smr baselines for a file of your own)")
+
+
 def _spread(values: Sequence[float | None]) -> tuple[float | None, float | None, int]:
     """Mean and sample standard deviation (ddof 1) of the defined values, and how many are defined; the standard
     deviation is undefined (None) with fewer than two."""
@@ -82,6 +98,7 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
         if (seq_lens is not None and seq_len not in seq_lens) or not found.removal:
             continue
         first = found.removal[0]
+        _complete(record, first.scorers)
         versus: dict[str, Versus] = found.versus_predictor or {}
         modes = sorted({mode for removal in first.scorers.values() for mode in removal.modes}, key=order.mode)
         for mode in modes:
@@ -118,6 +135,7 @@ def detection_rows(records: Sequence[Baselines], split: str, seq_lens: Collectio
             continue
         found = _split(record, split)
         versus = found.versus_predictor or {}
+        _complete(record, found.detection)
         for scorer in (name for name in scorers.names() if name in found.detection):
             numbers = found.detection[scorer]
             row = DetectionRow(

@@ -17,6 +17,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from vpr_smr.core import registry
 from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, candidates_needed, half_window
 from vpr_smr.core.registry import Registry
 from vpr_smr.core.settings import declared, group, setting
@@ -26,7 +27,7 @@ from vpr_smr.eval.matching.confidence import uniqueness
 __all__ = [
     "DEFAULT_SETTINGS", "ENTRY_POINT_GROUP", "KINDS", "NATIVE", "NO_NATIVE", "ORACLE", "PREDICTOR", "RANDOM", "SCORERS",
     "BaselineSettings", "Confidence", "Scorer", "SpreadSettings", "UniquenessSettings", "colour", "entries", "names",
-    "predictor_confidence", "random_scores", "scorer", "spread", "training_free", "uniqueness",
+    "predictor_confidence", "random_scores", "registered", "scorer", "spread", "training_free", "uniqueness",
 ]
 
 ENTRY_POINT_GROUP = "vpr_smr.scorers"
@@ -270,6 +271,25 @@ def __getattr__(attribute: str) -> tuple[Scorer, ...]:
     if attribute == "REGISTRY":
         return entries()
     raise AttributeError(f"module {__name__!r} has no attribute {attribute!r}")
+
+
+def registered() -> str:
+    """What the jobs that compute every scorer depend on beyond their records (their rule param ``scorers``): the
+    registered scorers' names in ``names``' order, an installed package's as ``name==version`` of the distribution
+    that declares its entry point, e.g. ``uniqueness,...,native,my_scorer==1.2,random,oracle,predictor``. The same
+    for every run of this version without plugins; installing, upgrading or removing a scorer plugin changes it, so
+    that the workflow computes those jobs again (a file written before lacks the new scorer: a stale result)."""
+    built_in = set(SCORERS.builtins())
+    versions = {point.name: _version(point) for point in registry.entry_points(group=ENTRY_POINT_GROUP)}
+    return ",".join(name if name in built_in else f"{name}=={versions.get(name, '?')}" for name in names())
+
+
+def _version(point: Any) -> str:
+    # an entry point read from an installed distribution knows it (importlib.metadata.EntryPoint.dist); one made by
+    # hand (a test's) may not: "?"
+    dist = getattr(point, "dist", None)
+    version = getattr(dist, "version", None)
+    return str(version) if version else "?"
 
 
 def training_free() -> tuple[str, ...]:

@@ -21,7 +21,7 @@ if TYPE_CHECKING:
     from vpr_smr.pipeline.config import Config
     from vpr_smr.pipeline.plan import Plan
 
-__all__ = ["BASELINES", "JOBS", "METRICS", "QUERIES", "STAGES"]
+__all__ = ["BASELINES", "JOBS", "METRICS", "QUERIES", "SCORERS_PARAM", "STAGES"]
 
 
 def _metrics(job: MetricsJob) -> VPRMetrics:
@@ -140,6 +140,19 @@ def _queries_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], file
                       scorers=conf.baselines, allow_split_overlap=conf.allow_split_overlap, out=out)
 
 
+def _scorers(conf: Config, plan: Plan, wildcards: Mapping[str, str]) -> str:
+    """The rule param ``scorers``: the registered scorers, each plugin's with its version (``scorers.registered``).
+    These jobs compute every one of them, and no setting names them: installing, upgrading or removing a scorer
+    plugin changes this param, so that Snakemake and ``vpr-smr run`` compute these files again (and the report
+    after them), where a file written before would lack the new scorer."""
+    from vpr_smr.eval.scoring.scorers import registered
+
+    return registered()
+
+
+SCORERS_PARAM = (("scorers", _scorers),)  # the param of each job that computes every registered scorer
+
+
 # The training-free scorers against the predictor (method §12), at every predictor seed's budget: every L, so that the
 # sequence-length ablation shows the best of them beside the predictor. They read the method's distances and
 # attributes of every evaluation split, every seed's predictor and the dataset's ground-truth file (or none); the
@@ -147,10 +160,10 @@ def _queries_record(conf: Config, plan: Plan, wildcards: Mapping[str, str], file
 # is a job of its own: it does not depend on the metric modes, so a change of them reruns the metrics and the report,
 # not this table and the match inspector that reads it.
 BASELINES_JOB = Job(BASELINES, relative(baselines_path("", "{dataset}", "{method}", "{seq_len}")),
-                    rule_files(RuleFiles.baselines), _baselines_record, rule="baselines")
+                    rule_files(RuleFiles.baselines), _baselines_record, params=SCORERS_PARAM, rule="baselines")
 METRICS_JOB = Job(METRICS, relative(vpr_metrics_path("", "{dataset}", "{method}", "{seq_len}")),
-                  rule_files(RuleFiles.metrics), _metrics_record, rule="vpr_metrics")
+                  rule_files(RuleFiles.metrics), _metrics_record, params=SCORERS_PARAM, rule="vpr_metrics")
 QUERIES_JOB = Job(QUERIES, relative(queries_path("", "{dataset}", "{method}", "{seq_len}")),
-                  rule_files(RuleFiles.metrics), _queries_record, rule="queries")
+                  rule_files(RuleFiles.metrics), _queries_record, params=SCORERS_PARAM, rule="queries")
 
 JOBS: tuple[Job, ...] = (BASELINES_JOB, METRICS_JOB, QUERIES_JOB)

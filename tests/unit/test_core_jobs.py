@@ -3,6 +3,8 @@ params and shell line come from its ``Job``, its record from the wildcards alone
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import pytest
 
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
@@ -14,6 +16,7 @@ from vpr_smr.pipeline.plan import planned
 from vpr_smr.pipeline.rule_helpers import method_items
 from vpr_smr.pipeline.stages.matching import DESCRIPTORS_JOB, DISTANCES_JOB
 from vpr_smr.pipeline.stages.predictor import EVALUATE_JOB, TRAIN_JOB, WITHOUT_JOB
+from vpr_smr.pipeline.stages.scoring import BASELINES_JOB
 
 
 def config(**changes: object):
@@ -68,6 +71,36 @@ def test_the_params_and_shell_line_of_a_rule():
     assert SPEED_JOB.shell_prefix == "OMP_NUM_THREADS={threads} "
     assert DESCRIPTORS_JOB.rule_resources(conf) == {"gpu": 1, "extraction": ""}
     assert TRAIN_JOB.rule_resources(conf) == {}
+
+
+def test_the_jobs_that_compute_every_scorer_depend_on_the_registered_scorers(monkeypatch):
+    """An installed scorer plugin changes the param ``scorers`` of the baselines, metrics and queries jobs (which
+    compute every registered scorer) and of no other job, so that Snakemake and vpr-smr run compute them again."""
+    conf, plan = config()
+    wildcards = {"dataset": "sample", "method": "sad", "seq_len": "3", "split": "val"}
+
+    def scorer_params():
+        return {job.rule: params["scorers"](wildcards) for job in JOBS
+                for params in [job.rule_params("R", conf, plan)] if "scorers" in params}
+
+    built_in = "uniqueness,single_uniqueness,spread,distance,native,random,oracle,predictor"
+    assert scorer_params() == dict.fromkeys(["baselines", "vpr_metrics", "queries"], built_in)
+    assert list(BASELINES_JOB.rule_params("R", conf, plan)) == ["job", "scorers"]
+    plugin = SimpleNamespace(name="mine", load=lambda: None, dist=SimpleNamespace(version="1.2"))
+    monkeypatch.setattr("vpr_smr.core.registry.entry_points",
+                        lambda group: [plugin] if group == "vpr_smr.scorers" else [])
+    assert scorer_params() == dict.fromkeys(
+        ["baselines", "vpr_metrics", "queries"],
+        "uniqueness,single_uniqueness,spread,distance,native,mine==1.2,random,oracle,predictor")
+
+
+def test_a_job_s_own_param_may_not_take_a_name_the_rule_has():
+    from dataclasses import replace
+
+    conf, plan = config()
+    clash = replace(BASELINES_JOB, params=(("job", lambda conf, plan, wildcards: "x"),))
+    with pytest.raises(ValueError, match="its params name 'job', a param the rule has already \\(job\\)"):
+        clash.rule_params("R", conf, plan)
 
 
 @pytest.mark.parametrize("splits", [["val", "test"], ["test"]])

@@ -64,9 +64,11 @@ NEW = scorers.Scorer("single_distance", "training-free", "tab:red", "minus the s
                      _single_distance)
 
 
-def _install(monkeypatch, **points):
-    """Entry points of the group ``vpr_smr.scorers`` an installed package would declare."""
-    found = [SimpleNamespace(name=name, load=lambda item=item: item) for name, item in points.items()]
+def _install(monkeypatch, version="1.2", **points):
+    """Entry points of the group ``vpr_smr.scorers`` an installed package (its distribution of ``version``) would
+    declare."""
+    found = [SimpleNamespace(name=name, load=lambda item=item: item, dist=SimpleNamespace(version=version))
+             for name, item in points.items()]
     monkeypatch.setattr("vpr_smr.core.registry.entry_points",
                         lambda group: found if group == scorers.ENTRY_POINT_GROUP else [])
 
@@ -139,3 +141,43 @@ def test_the_best_training_free_scorer_by_hand():
     assert best_training_free(values) == "spread"
     assert best_training_free({"distance": -2.0, "uniqueness": None}) == "distance"  # a negative one is the best
     assert best_training_free({"oracle": 1.0, "uniqueness": None}) is None
+
+
+BUILT_IN = "uniqueness,single_uniqueness,spread,distance,native,random,oracle,predictor"
+
+
+def test_the_registered_scorers_name_each_plugin_s_version(monkeypatch):
+    # the same for every run of this version without plugins: nothing reruns for them
+    assert scorers.registered() == BUILT_IN
+    _install(monkeypatch, single_distance=NEW)
+    assert scorers.registered() == ("uniqueness,single_uniqueness,spread,distance,native,single_distance==1.2,random,"
+                                    "oracle,predictor")
+    _install(monkeypatch, version="1.3", single_distance=NEW)  # an upgrade
+    assert scorers.registered() == ("uniqueness,single_uniqueness,spread,distance,native,single_distance==1.3,random,"
+                                    "oracle,predictor")
+    _install(monkeypatch)  # removed
+    assert scorers.registered() == BUILT_IN
+
+
+def test_a_file_without_an_installed_scorer_is_named_stale(monkeypatch):
+    from vpr_smr.eval.report.baselines import baseline_rows, detection_rows
+    from vpr_smr.eval.scoring.records import Baselines
+
+    d = np.random.default_rng(11).random((40, 30))
+    settings = BaselineSettings()
+    features = query_features(d, 3, n_candidates=settings.candidates)
+    positions = np.arange(40.0)
+    rng = np.random.default_rng(2)
+    prediction = Prediction(0, rng.dirichlet(np.ones(4), len(features.queries)), np.arange(4))
+    meta = {"dataset": "corridor", "method": "hog", "seq_len": 3}
+    before = Baselines(meta, {"test": split_baselines(features, settings, positions, [prediction])})
+    assert {row.scorer for row in baseline_rows([before], "test")} == set(BUILT_IN.split(","))
+
+    _install(monkeypatch, single_distance=NEW)
+    for rows in (baseline_rows, detection_rows):
+        with pytest.raises(ValueError, match="the baselines of corridor, hog, L3 lack the installed scorer "
+                                             "single_distance: they were computed before its plugin was installed"):
+            rows([before], "test")
+    after = Baselines(meta, {"test": split_baselines(features, settings, positions, [prediction])})
+    assert "single_distance" in {row.scorer for row in baseline_rows([after], "test")}
+    assert "single_distance" in {row.scorer for row in detection_rows([after], "test")}
