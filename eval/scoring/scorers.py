@@ -13,11 +13,11 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from importlib.metadata import entry_points
 from typing import Any, Literal
 
 import numpy as np
 
-from vpr_smr.core import registry
 from vpr_smr.core.constants import DEFAULT_R_WINDOW, DEFAULT_SPREAD_K, candidates_needed, half_window
 from vpr_smr.core.registry import Registry
 from vpr_smr.core.settings import declared, group, setting
@@ -280,7 +280,8 @@ def registered() -> str:
     for every run of this version without plugins; installing, upgrading or removing a scorer plugin changes it, so
     that the workflow computes those jobs again (a file written before lacks the new scorer: a stale result)."""
     built_in = set(SCORERS.builtins())
-    versions = {point.name: _version(point) for point in registry.entry_points(group=ENTRY_POINT_GROUP)}
+    # the installed entry points as SCORERS reads them (the registry keeps their distributions to itself)
+    versions = {point.name: _version(point) for point in entry_points(group=ENTRY_POINT_GROUP)}
     return ",".join(name if name in built_in else f"{name}=={versions.get(name, '?')}" for name in names())
 
 

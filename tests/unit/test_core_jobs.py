@@ -87,8 +87,8 @@ def test_the_jobs_that_compute_every_scorer_depend_on_the_registered_scorers(mon
     assert scorer_params() == dict.fromkeys(["baselines", "vpr_metrics", "queries"], built_in)
     assert list(BASELINES_JOB.rule_params("R", conf, plan)) == ["job", "scorers"]
     plugin = SimpleNamespace(name="mine", load=lambda: None, dist=SimpleNamespace(version="1.2"))
-    monkeypatch.setattr("vpr_smr.core.registry.entry_points",
-                        lambda group: [plugin] if group == "vpr_smr.scorers" else [])
+    for where in ("vpr_smr.core.registry", "vpr_smr.eval.scoring.scorers"):  # the registry's, and the versions'
+        monkeypatch.setattr(f"{where}.entry_points", lambda group: [plugin] if group == "vpr_smr.scorers" else [])
     assert scorer_params() == dict.fromkeys(
         ["baselines", "vpr_metrics", "queries"],
         "uniqueness,single_uniqueness,spread,distance,native,mine==1.2,random,oracle,predictor")

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import logging
 from pathlib import Path
+from types import SimpleNamespace
 
 import yaml
 from snakemake.api import SnakemakeApi
@@ -67,6 +68,16 @@ def test_a_setting_that_reaches_a_job_only_through_its_record_reruns_it_under_sn
     marks up to date), then the configuration's predictor.max_iter changed: Snakemake itself names the jobs that
     hand it to their stage (the two that train a predictor, and the report, which shows the configuration),
     and plans them."""
+    recorded(tmp_path, monkeypatch)
+    assert snakemake_sees(tmp_path, tiny()) == (set(), set())  # up to date: nothing to do
+
+    planned, changed = snakemake_sees(tmp_path, tiny(max_iter=61))
+    assert changed == {"predictors/sample/L3.h5", "ablation/attributes/sample/L3.json", "tables/table1.csv"}
+    assert changed <= planned
+
+
+def recorded(tmp_path: Path, monkeypatch) -> None:
+    """Every job of ``tiny()`` in ``tmp_path`` recorded by Snakemake as after a run."""
     monkeypatch.chdir(tmp_path)
     with loaded_workflow(SNAKEFILE, write(tmp_path, tiny())) as workflow:
         outputs = [Path(str(f)) for job in workflow.dag.jobs for f in job.output]
@@ -78,8 +89,16 @@ def test_a_setting_that_reaches_a_job_only_through_its_record_reruns_it_under_sn
         api.workflow(resource_settings=ResourceSettings(cores=1), snakefile=SNAKEFILE,
                      config_settings=ConfigSettings(configfiles=[Path("c.yaml")])).dag(
             DAGSettings(forceall=True)).execute_workflow(executor="touch", execution_settings=ExecutionSettings())
-    assert snakemake_sees(tmp_path, tiny()) == (set(), set())  # up to date: nothing to do
 
-    planned, changed = snakemake_sees(tmp_path, tiny(max_iter=61))
-    assert changed == {"predictors/sample/L3.h5", "ablation/attributes/sample/L3.json", "tables/table1.csv"}
-    assert changed <= planned
+
+def test_an_installed_scorer_plugin_reruns_the_jobs_that_compute_every_scorer(tmp_path, monkeypatch) -> None:
+    """The baselines, metrics and queries jobs compute every registered scorer: installing a scorer plugin changes
+    their param ``scorers`` and no other job's; Snakemake plans them and what reads their files (the report)."""
+    recorded(tmp_path, monkeypatch)
+    plugin = SimpleNamespace(name="mine", load=lambda: None, dist=SimpleNamespace(version="1.2"))
+    for where in ("vpr_smr.core.registry", "vpr_smr.eval.scoring.scorers"):  # the registry's, and the versions'
+        monkeypatch.setattr(f"{where}.entry_points", lambda group: [plugin] if group == "vpr_smr.scorers" else [])
+    planned, changed = snakemake_sees(tmp_path, tiny())
+    assert changed == {"baselines/sample/sad/L3.json", "metrics/sample/sad/L3.json",
+                       "queries/sample/sad/L3.csv"}
+    assert changed <= planned and "tables/table1.csv" in planned

@@ -69,8 +69,8 @@ def _install(monkeypatch, version="1.2", **points):
     declare."""
     found = [SimpleNamespace(name=name, load=lambda item=item: item, dist=SimpleNamespace(version=version))
              for name, item in points.items()]
-    monkeypatch.setattr("vpr_smr.core.registry.entry_points",
-                        lambda group: found if group == scorers.ENTRY_POINT_GROUP else [])
+    for where in ("vpr_smr.core.registry", "vpr_smr.eval.scoring.scorers"):  # the registry's, and the versions'
+        monkeypatch.setattr(f"{where}.entry_points", lambda group: found if group == scorers.ENTRY_POINT_GROUP else [])
 
 
 def test_a_plugin_scorer_that_is_no_training_free_scorer_of_its_name_is_refused(monkeypatch):
