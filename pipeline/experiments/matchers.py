@@ -27,6 +27,7 @@ from vpr_smr.eval.scoring.study_jobs import ComparedInputs, MatchersJob
 from vpr_smr.pipeline.experiment import Experiment, Job, relative
 from vpr_smr.pipeline.rule_helpers import compared_matchers, experiment_files, experiment_inputs, ground_truth_input
 from vpr_smr.pipeline.stages.predictor import split_files, training
+from vpr_smr.pipeline.stages.scoring import SCORERS_PARAM
 from vpr_smr.pipeline.stages.studies import COMPARE_MATCHERS
 
 if TYPE_CHECKING:
@@ -57,8 +58,9 @@ def record(conf: Config, plan: Plan, wildcards: Mapping[str, str], files: Mappin
         tuple(conf.modes), conf.allow_split_overlap, out)
 
 
+# its comparison picks the best training-free scorer of every registered one: a scorer plugin installed reruns it
 JOB = Job(COMPARE_MATCHERS, relative(matchers_path("", "{dataset}", "{method}", "{seq_len}")), inputs, record,
-          layout=True, rule="matchers")
+          layout=True, params=SCORERS_PARAM, rule="matchers")
 
 SECTION = Declared(NAME, "Does SMR help each sequence matcher?", (NAME,), prose(NAME, far_below=f"{FAR_BELOW:g}"),
                    NAME, view=lambda b, f, shown: (b.compact(NAME, b.anchor(NAME, f), shown, TABLE.caption),),

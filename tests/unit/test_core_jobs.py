@@ -138,3 +138,11 @@ def test_each_rule_runs_its_own_shell_line(tmp_path, monkeypatch):
             run(**{name: None for name in inspect.signature(run).parameters if not name.startswith("__")})
             assert ran[rule.name] == rule.shellcmd, rule.name
         assert {"descriptors", "train", "speed", "adaptive", "matchers", "report"} <= set(ran)
+
+
+def test_the_matchers_comparison_depends_on_the_registered_scorers_too():
+    # it picks the best training-free scorer among every registered one, as the baselines job does
+    from vpr_smr.pipeline.experiments import matchers
+    from vpr_smr.pipeline.stages.scoring import SCORERS_PARAM
+
+    assert matchers.JOB.params == SCORERS_PARAM
