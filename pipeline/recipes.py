@@ -9,6 +9,11 @@ reruns what depends on it too), whatever Snakemake's own state in ``.snakemake``
 output made before vpr-smr recorded recipes is left to Snakemake's own record where one is there, and recorded once
 a run has brought every output up to date.
 
+An output made by a version whose params Snakemake did not store (0.16.0: each job's ``job`` param was a function of
+its input or output, which Snakemake leaves out of its record) would be rerun by Snakemake's params trigger for the
+param it now finds, though nothing changed: where its recorded recipe (of this or an earlier results format) equals
+its recipe now, ``carry_over`` records it in this format and clears Snakemake's record of it (see there).
+
 Paths in a recipe are portable: the run folder is written ``{run}`` and the working folder's prefix is dropped, so
 that moving the project folder changes no recipe by itself.
 """
@@ -18,7 +23,7 @@ from __future__ import annotations
 import json
 import logging
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -57,6 +62,9 @@ class Job:
     outputs: tuple[str, ...]
     recipe: Recipe
     snakemake_record: bool = False
+    # Snakemake's record of every output lacks params that the job has now and holds no other change (the record of
+    # a version whose params Snakemake did not store): by itself, Snakemake would run it again
+    params_unrecorded: bool = False
 
 
 @dataclass(frozen=True)
@@ -80,10 +88,13 @@ def portable(text: str, run_dir: Path, cwd: Path) -> str:
 
 
 @contextmanager
-def loaded_workflow(snakefile: Path, configfiles: list[str], forceall: bool = True) -> Iterator[Any]:
+def loaded_workflow(snakefile: Path, configfiles: list[str], forceall: bool = True, forcerun: Iterable[str] = (),
+                    forget: Iterable[str] = ()) -> Iterator[Any]:
     """Snakemake's workflow of ``configfiles`` with its graph of jobs built as if every job had to run, without
-    looking at any output (``forceall=False``: the jobs Snakemake's own checks find to run, and why), taking no lock:
-    its ``dag`` the jobs, its ``rules`` the rules, its ``persistence`` its own record in ``.snakemake``."""
+    looking at any output (``forceall=False``: the jobs Snakemake's own checks find to run, and why, with the outputs
+    ``forcerun`` forced as ``--forcerun`` does), taking no lock: its ``dag`` the jobs, its ``rules`` the rules, its
+    ``persistence`` its own record in ``.snakemake``. Snakemake's record of each output of ``forget`` is cleared
+    first (``carry_over``)."""
     from snakemake.api import SnakemakeApi
     from snakemake.settings.types import ConfigSettings, DAGSettings, OutputSettings, Quietness, ResourceSettings
 
@@ -92,10 +103,15 @@ def loaded_workflow(snakefile: Path, configfiles: list[str], forceall: bool = Tr
     with SnakemakeApi(settings) as api:
         workflow_api = api.workflow(resource_settings=ResourceSettings(cores=1), snakefile=snakefile,
                                     config_settings=ConfigSettings(configfiles=[Path(f) for f in configfiles]))
-        workflow_api.dag(DAGSettings())
+        workflow_api.dag(DAGSettings(forcerun=frozenset(forcerun)))
         # Snakemake's API runs or prints a graph of jobs but does not return one: its own two steps build it
         workflow = workflow_api._workflow
         workflow._prepare_dag(forceall=forceall, ignore_incomplete=True, lock_warn_only=True, nolock=True)
+        if forget:
+            from snakemake.io import IOFile
+
+            for output in forget:  # what `snakemake --cleanup-metadata FILES` does for each file
+                workflow.persistence.cleanup_metadata(IOFile(output))
         workflow._build_dag()
         yield workflow
 
@@ -123,8 +139,18 @@ def workflow_jobs(snakefile: Path, configfiles: list[str], run_dir: Path) -> lis
                     inputs[portable(given, run_dir, cwd)] = hashes[given]
             persistence = workflow.persistence
             known = persistence.has_metadata(job) and not persistence.has_outdated_metadata(job)
-            jobs.append(Job(outputs, Recipe(job.rule.name, params, inputs), bool(known)))
+            jobs.append(Job(outputs, Recipe(job.rule.name, params, inputs), bool(known),
+                            bool(known) and all(_params_unrecorded(persistence, job, f) for f in job.output)))
     return jobs
+
+
+def _params_unrecorded(persistence: Any, job: Any, output: Any) -> bool:
+    """Whether Snakemake's record of ``output`` lacks params ``job`` has now, holds none it no longer has, and
+    records no other change (its code, its set of input files, its software stack) that would rerun it."""
+    change = persistence.params_changed(job, file=output)
+    return bool(change.only_new and not change.only_old and not persistence.code_changed(job, file=output)
+                and not persistence.input_changed(job, file=output)
+                and not persistence.software_stack_changed(job, file=output))
 
 
 def _shown(value: Any) -> str:
@@ -224,6 +250,50 @@ def load_recipes(run_dir: Path) -> tuple[dict[str, Recipe], str | None]:
                     f"{found}, this vpr-smr writes results format {FORMAT})")
     except ValueError as error:
         return {}, f"its record is unreadable ({error})"
+
+
+def earlier_recipes(run_dir: Path) -> dict[str, Recipe]:
+    """The recorded recipes of a run folder whatever results format its record is in (empty when it has none or it
+    cannot be read): to recognise an output that an earlier version made just as this one would."""
+    try:
+        outputs = json.loads(Path(recipes_path(run_dir)).read_text())["outputs"]
+        return {output: Recipe.from_json(recipe) for output, recipe in outputs.items()}
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):  # none, or not a record of recipes
+        return {}
+
+
+def carried_over(jobs: list[Job], run_dir: Path) -> list[Job]:
+    """The jobs whose every output exists, is lacking params in Snakemake's record (``Job.params_unrecorded``) and
+    is recorded as made by the recipe the job has now, in this or an earlier results format: made by an earlier
+    version exactly as this one would make it. A results format that changes a job's files changes its recipe (the
+    ``layout`` param of the jobs whose files it changes), so those are not among them."""
+    recorded = earlier_recipes(run_dir)
+    return [job for job in jobs if job.params_unrecorded and all(
+        os.path.exists(output) and recorded.get(_relative(output, run_dir)) == job.recipe for output in job.outputs)]
+
+
+def carry_over(jobs: list[Job], run_dir: Path, snakefile: Path, configfiles: list[str],
+               forcerun: Iterable[str] = ()) -> int:
+    """Keep the outputs of ``jobs`` (``carried_over``) from being made again for a param that Snakemake did not
+    store: record their recipes in this results format, then clear Snakemake's record of them. The number of them
+    that the run will not make again (Snakemake, with ``forcerun`` forced, still makes those below a job it runs).
+
+    Clearing it is what Snakemake's own ``--cleanup-metadata FILES`` does, the way Snakemake itself names to ignore a
+    provenance change. Snakemake 9 checks its params, code, input and software-stack triggers only for an output
+    whose record it holds; an output without one is judged by its file times and existence alone (as one made
+    before Snakemake kept records), it is never rerun for lacking it. Touching or rewriting the record instead would
+    also need a record of the code and input files that Snakemake writes only when it runs a job, and ``--touch``
+    changes the files' times. Until a job runs again, Snakemake's own params, code and input triggers (a bare
+    ``snakemake`` call) do not see its outputs; ``vpr-smr run`` judges them by their recipes. The recipes are
+    written first: stopped between the two steps, the next run finds the same outputs and does the same.
+    """
+    recorded, _ = load_recipes(run_dir)
+    outputs = [output for job in jobs for output in job.outputs]
+    save(recipes_path(run_dir), Recipes({**recorded, **{_relative(output, run_dir): job.recipe
+                                                         for job in jobs for output in job.outputs}}))
+    with loaded_workflow(snakefile, configfiles, forceall=False, forcerun=forcerun, forget=outputs) as workflow:
+        made = {str(output) for job in workflow.dag.needrun_jobs() for output in job.output}
+    return sum(output not in made for output in outputs)
 
 
 def stale(jobs: list[Job], run_dir: Path) -> list[Stale]:

@@ -151,6 +151,7 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
         print(f"warning: the outputs' recorded settings were not compared: {error}", file=sys.stderr)
         jobs = []
     rerun = recipes.stale(jobs, conf.run_dir)
+    _carry_over(jobs, conf.run_dir, configfiles(config, parsed), [item.output for item in rerun])
     if rerun:
         print(f"{len(rerun)} job{'s' if len(rerun) > 1 else ''} made {'their' if len(rerun) > 1 else 'its'} outputs "
               f"with other settings or files than the configuration's now; {'would run' if dry_run else 'runs'} "
@@ -177,6 +178,24 @@ def run(config: Path | str, cores: int | None = None, dry_run: bool = False, ext
         if (out / "report.html").is_file():
             print(f"report:  {out / 'report.html'}")
     return status
+
+
+def _carry_over(jobs: list[recipes.Job], run_dir: Path, files: list[str], forcerun: list[str]) -> None:
+    """Keep Snakemake from making again the outputs that an earlier version made exactly as this one would but whose
+    params Snakemake did not store (``recipes.carry_over``; ``forcerun``: the outputs run again for their recipes);
+    said in one line. A dry run does it too, so that it shows what the run will do; while another run holds the run
+    folder, that run does it instead."""
+    carried = recipes.carried_over(jobs, run_dir)
+    if not carried:
+        return
+    try:
+        with run_lock(run_dir):
+            kept = recipes.carry_over(carried, run_dir, SNAKEFILE, files, forcerun)
+    except ConfigError:  # the run folder is in use: that run carries them over
+        return
+    print(f"{kept} output{'' if kept == 1 else 's'} made by an earlier version of vpr-smr with the settings and files "
+          "of now: carried over, not computed again")
+    sys.stdout.flush()
 
 
 def _descendants(pid: int) -> list[int]:

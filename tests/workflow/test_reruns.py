@@ -11,7 +11,9 @@ the table split's distances; the speed experiment per profile at the table's L f
 distances, the tolerance and the predictor's settings -> report), not from the workflow's own output.
 """
 
+import base64
 import csv
+import json
 import re
 import shutil
 import subprocess
@@ -23,6 +25,7 @@ import torch
 import yaml
 from helpers import TINY_NET, tiny_net_model
 
+from vpr_smr.core.records import FORMAT
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 
 pytestmark = pytest.mark.slow
@@ -313,3 +316,60 @@ def test_outputs_know_their_settings_without_snakemake_state(copy, tmp_path):
     result = vpr_smr(moved, "run", "c.yaml", "-n")
     assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
     assert "Nothing to be done" in result.stdout and "results/" not in result.stdout, result.stdout
+
+
+def as_0_16_left_it(folder):
+    """The run folder as 0.16.0 (results format 6) left it: Snakemake's record of each output holds no ``job`` param
+    (a function of the job's input or output then, which Snakemake does not store; a str param is stored as its
+    repr, a job record's text starts ``'{``), the recipes are in the earlier results format, and the layout param of
+    the jobs that have one (in their recipes and in Snakemake's record) names it."""
+    earlier = FORMAT - 1
+    path = folder / "results" / "r" / "recipes.json"
+    recorded = json.loads(path.read_text())
+    recorded["format"] = earlier
+    laid_out = set()
+    for output, recipe in recorded["outputs"].items():
+        if "layout" in recipe["params"]:
+            assert recipe["params"]["layout"] == str(FORMAT)
+            recipe["params"]["layout"] = str(earlier)
+            laid_out.add(output.replace("{run}", "results/r"))
+    path.write_text(json.dumps(recorded))
+    for path in (folder / ".snakemake" / "metadata").iterdir():
+        record = json.loads(path.read_text())
+        assert sum(p.startswith("'{") for p in record["params"]) == 1, record["params"]
+        params = [p for p in record["params"] if not p.startswith("'{")]
+        if base64.b64decode(path.name).decode() in laid_out:
+            params = [str(earlier) if p == str(FORMAT) else p for p in params]
+        path.write_text(json.dumps({**record, "params": params}))
+    return laid_out
+
+
+# a new results format: the jobs whose files it changes (their layout param) and all below them; every other output
+# of the earlier version is kept (two descriptors, six distance and six attribute files)
+NEW_FORMAT = attribute_ablation() | without() | PREDICTOR_ON | speed()
+
+
+def test_an_upgrade_from_0_16_computes_again_only_what_changed(copy):
+    laid_out = as_0_16_left_it(copy)
+    assert {path.removeprefix("results/r/") for path in laid_out} == {
+        "predictors/sample/L3.h5", "predictors/sample/L3.seed1.h5", "predictors/sample/L3.json",
+        "ablation/attributes/sample/L3.json", "predictors/sample/L3/without_sad.h5",
+        "predictors/sample/L3/without_tiny.h5", "speed/sample/L3/0.5x.json", "speed/sample/L3/varying.json"}
+    result = vpr_smr(copy, "run", "c.yaml", "-n")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    carried = "14 outputs made by an earlier version of vpr-smr with the settings and files of now: carried over"
+    assert carried in result.stdout, result.stdout
+    assert planned(copy) == NEW_FORMAT
+    kept = sorted((copy / "results" / "r" / "descriptors").rglob("*.h5"))
+    times = [p.stat().st_mtime_ns for p in kept]
+    result = vpr_smr(copy, "run", "c.yaml")
+    assert result.returncode == 0, result.stdout[-3000:] + result.stderr[-3000:]
+    assert "carried over" not in result.stdout  # once only
+    assert [p.stat().st_mtime_ns for p in kept] == times
+    assert planned(copy) == set()
+
+
+def test_an_upgrade_from_0_16_still_runs_a_changed_setting(copy):
+    as_0_16_left_it(copy)
+    change(copy, lambda c: c["methods"]["sad"].update(distance="l2"))
+    assert planned(copy) == distances(["sad"]) | attributes(["sad"]) | NEW_FORMAT
