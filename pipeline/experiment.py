@@ -1,17 +1,19 @@
-"""An experiment declared once, in one module: its jobs, its tables and its section of the report.
+"""An experiment declared once, in one module: its jobs, its tables, its figures and its section of the report.
 
 An ``Experiment`` names itself (its key under the configuration's ``experiments:``), its jobs (``Job``: a declared
 ``Stage``, the output path pattern each job writes, its inputs and its job record from the run's configuration and
-plan) and its tables (``registry.Table``s made from its jobs' files, each table's ``section`` its part of the page,
-with its sentences). An installed package registers it under its name in the entry point group
-``vpr_smr.experiments`` (``eval.report.experiments``); nothing else is edited:
+plan), its tables (``registry.Table``s made from its jobs' files, each table's ``section`` its part of the page,
+with its sentences) and its figures (``registry.Figure``s, each with the function that draws it). An installed
+package registers it under its name in the entry point group ``vpr_smr.experiments`` (``eval.report.experiments``);
+nothing else is edited:
 
 - the configuration accepts ``experiments: {NAME: true}`` (``pipeline.config``; an unknown name is refused with the
   known ones listed);
 - the workflow makes one rule per job (``pipeline/rules/jobs.smk``, as it does of the core workflow's jobs) calling
   ``vpr-smr COMMAND --job JSON``, and the report waits for their files;
 - ``vpr-smr COMMAND`` runs a job by hand (``pipeline.cli`` installs the jobs' stages);
-- the report reads the files (``eval.report.experiments.files``) and writes the tables and the section.
+- the report reads the files (``eval.report.experiments.files``) and writes the tables, the figures and the section
+  (the report rule declares the figures' files, ``registry.expected_outputs``).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from vpr_smr.eval.report.experiments import builtin, installed
 from vpr_smr.pipeline.stage import Stage
 
 if TYPE_CHECKING:
-    from vpr_smr.eval.report.registry import Table
+    from vpr_smr.eval.report.table_spec import Figure, Table
     from vpr_smr.pipeline.config import Config
     from vpr_smr.pipeline.plan import Plan
 
@@ -198,16 +200,18 @@ def relative(path: str) -> str:
 @dataclass(frozen=True)
 class Experiment:
     """An experiment: its ``name`` (a key of ``experiments:``, lower case letters, digits and ``_``), ``help`` (one
-    line: the configuration reference's), its ``jobs`` and its ``tables``. A table's ``experiments`` names the
-    experiment (``experiments=(name,)``), so that it is written only when the configuration turns the experiment on;
-    further names are further conditions (``("table1", name)``: only in a run with Table I's evaluations). Its
-    ``make`` reads ``inputs.experiments[name]``, the jobs' files, or, for a table-only experiment (no jobs), the
-    core jobs' files (``trust_levels``: the evaluations')."""
+    line: the configuration reference's), its ``jobs``, its ``tables`` and its ``figures`` (optional). A table's
+    ``experiments`` names the experiment (``experiments=(name,)``), so that it is written only when the
+    configuration turns the experiment on; further names are further conditions (``("table1", name)``: only in a
+    run with Table I's evaluations). Its ``make`` reads ``inputs.experiments[name]``, the jobs' files, or, for a
+    table-only experiment (no jobs), the core jobs' files (``trust_levels``: the evaluations'). A figure's
+    ``experiments`` names it likewise, and its ``draw`` reads the same inputs."""
 
     name: str
     help: str
     jobs: tuple[Job, ...]
     tables: tuple[Table, ...]
+    figures: tuple[Figure, ...] = ()
 
     def __post_init__(self) -> None:
         if NAME.fullmatch(self.name) is None:
@@ -219,6 +223,11 @@ class Experiment:
                                  f"{table.experiments!r}, without {self.name!r}; name the experiment there "
                                  f"(experiments=({self.name!r},), or with further conditions, e.g. ('table1', "
                                  f"{self.name!r})), so that the table is written only when the experiment runs")
+        for figure in self.figures:
+            if self.name not in figure.experiments:
+                raise ValueError(f"experiment {self.name!r}: its figure {figure.name!r} has experiments="
+                                 f"{figure.experiments!r}, without {self.name!r}; name the experiment there, so that "
+                                 "the figure is drawn and declared to the workflow only when the experiment runs")
         for job in self.jobs:
             job.wildcards  # noqa: B018 (refuses an unknown wildcard now, not in the workflow)
 

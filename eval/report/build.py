@@ -33,9 +33,9 @@ from vpr_smr.eval.report.results import (
     provenance_text,
     unique,
 )
-from vpr_smr.eval.report.rows import SeqLenRow, SpeedRow, SweepRow, cells
+from vpr_smr.eval.report.rows import SeqLenRow, cells
 from vpr_smr.eval.report.table1 import UNDEFINED, evaluation_order, is_reduction, tex_escape
-from vpr_smr.eval.report.tabulate import Inputs, by_key, seq_len_rows, speed_rows, sweep_rows
+from vpr_smr.eval.report.tabulate import Inputs, by_key, seq_len_rows
 from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult, AdaptiveTiming
 from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
 from vpr_smr.eval.scoring.records import (
@@ -286,30 +286,10 @@ def _figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
         figures += _seq_len_figures(out_dir, seq_len_rows(inputs), order, inputs)
     if inputs.baselines:
         figures += _baseline_figures(out_dir, inputs)
-    if inputs.matchers:
-        figures += _matchers_figures(out_dir, inputs)
-    if inputs.adaptive:
-        figures += _adaptive_figures(out_dir, inputs)
-    if inputs.speed:
-        figures += _speed_figures(out_dir, speed_rows(inputs.speed, order), order, split, inputs)
-    figures += _sweep_figures(out_dir, sweep_rows(inputs.metrics, split, order), order, split)
+    for spec in registry.FIGURES:  # the experiments' figures, each drawn by its experiment's module (``draw``)
+        if spec.draw is not None:
+            figures += spec.draw(spec, out_dir, inputs)
     return figures
-
-
-def _sweep_figures(out_dir: Path, rows: Sequence[SweepRow], order: Order, split: str) -> list[WrittenFigure]:
-    """One protocol-sweep figure per dataset, L and mode of the sweep's rows."""
-    out = []
-    groups: dict[tuple[str, int, str], list[SweepRow]] = {}
-    for row in rows:
-        groups.setdefault((row.dataset, row.seq_len, row.mode), []).append(row)
-    spec = registry.figure("protocol_sweep")
-    for (dataset, seq_len, mode), group in groups.items():
-        title = f"{dataset}, L={seq_len}, {mode} mode ({split}): the same matches under other ground truths"
-        path = fig.sweep_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len, mode=mode), group,
-                                order.sorted_methods(r.method for r in group), title)
-        out.append(WrittenFigure("protocol_sweep", f"{spec.title}: {dataset}, L={seq_len}, {mode} mode", path, dataset,
-                                 seq_len, mode))
-    return out
 
 
 def _baseline_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
@@ -343,68 +323,6 @@ def _baseline_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
         path = fig.detection_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len),
                                     [(r.key[1], r.splits[split]) for r in records], title)
         out.append(WrittenFigure("detection", f"{spec.title}: {dataset}, L={seq_len}", path, dataset, seq_len))
-    return out
-
-
-def _matchers_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
-    """One figure per dataset, L and mode of the experiment matchers: each matcher's reduction per method, the native
-    confidence's beside it."""
-    from vpr_smr.eval.report.tables.matchers import MatchersRow, matcher_rows
-
-    groups: dict[tuple[str, int, str], list[MatchersRow]] = {}
-    for row in matcher_rows(inputs.matchers, inputs.order):
-        groups.setdefault((row.dataset, row.seq_len, row.mode), []).append(row)
-    spec = registry.figure("matchers")
-    out = []
-    for (dataset, seq_len, mode), group in groups.items():
-        title = (f"{dataset}, L={seq_len}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC reduction of "
-                 f"each matcher's predictor and, hatched, of its native confidence at the same budget, on the "
-                 f"{group[0].n_queries} queries every matcher evaluates")
-        path = fig.matchers_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len, mode=mode), group,
-                                   list(dict.fromkeys(r.method for r in group)),
-                                   list(dict.fromkeys(r.matcher for r in group)), title)
-        out.append(WrittenFigure("matchers", f"{spec.title}: {dataset}, L={seq_len}, {mode} mode", path, dataset,
-                                 seq_len, mode))
-    return out
-
-
-def _adaptive_figures(out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
-    """One figure per dataset and mode of the experiment adaptive_seq_len: a panel per matcher and method, the AOC
-    at maximum recall against the mean length used of every fixed length, with and without its predictor, and of
-    every rule."""
-    from vpr_smr.eval.report.tables.adaptive import AdaptiveSeqLenRow, adaptive_rows, query_counts
-
-    groups: dict[tuple[str, str], list[AdaptiveSeqLenRow]] = {}
-    for row in adaptive_rows(inputs.adaptive, inputs.order):
-        groups.setdefault((row.dataset, row.mode), []).append(row)
-    spec = registry.figure("adaptive_seq_len")
-    out = []
-    for (dataset, mode), group in groups.items():
-        title = (f"{dataset}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC at maximum recall against "
-                 f"the mean sequence length used, on {query_counts(group)} every length "
-                 "evaluates")
-        path = fig.adaptive_figure(out_dir / spec.file(dataset=dataset, mode=mode), group,
-                                   list(dict.fromkeys(r.method for r in group)),
-                                   list(dict.fromkeys(r.matcher for r in group)), title)
-        out.append(WrittenFigure("adaptive_seq_len", f"{spec.title}: {dataset}, {mode} mode", path, dataset,
-                                 mode=mode))
-    return out
-
-
-def _speed_figures(out_dir: Path, rows: Sequence[SpeedRow], order: Order, split: str,
-                   inputs: Inputs) -> list[WrittenFigure]:
-    """One speed figure per dataset and L of the speed experiment's rows."""
-    out = []
-    groups: dict[tuple[str, int], list[SpeedRow]] = {}
-    for row in rows:
-        groups.setdefault((row.dataset, row.seq_len), []).append(row)
-    spec = registry.figure("speed")
-    for (dataset, seq_len), group in groups.items():
-        title = (f"{dataset}, L={seq_len}, paper mode ({split}{inputs.correct(dataset)}): simulated query speeds, "
-                 "fixed matcher against velocity search")
-        path = fig.speed_figure(out_dir / spec.file(dataset=dataset, seq_len=seq_len), group,
-                                order.sorted_methods(r.method for r in group), title)
-        out.append(WrittenFigure("speed", f"{spec.title}: {dataset}, L={seq_len}", path, dataset, seq_len))
     return out
 
 

@@ -2,9 +2,10 @@
 the report sees them.
 
 An experiment is one module: a ``pipeline.experiment.Experiment`` declaring its jobs, its tables (each a
-``registry.Table`` whose ``section`` is its part of the page) and where its jobs write. The workflow runs its jobs
-(``pipeline/rules/jobs.smk``) when the configuration turns it on (``experiments: {NAME: true}``); the report
-reads its jobs' files (``files``), and its tables make their rows from them (``tabulate.Inputs.experiments``).
+``registry.Table`` whose ``section`` is its part of the page), its figures (each a ``registry.Figure`` with how it
+is drawn) and where its jobs write. The workflow runs its jobs (``pipeline/rules/jobs.smk``) when the configuration
+turns it on (``experiments: {NAME: true}``); the report reads its jobs' files (``files``), and its tables make their
+rows from them, its figures are drawn from them (``tabulate.Inputs.experiments``).
 
 This module sees only what the report needs of an experiment (``Reported``): the report is below the workflow, and
 an experiment's jobs are the workflow's. The tool's own experiments register here too, one line each, by the name of
@@ -22,7 +23,7 @@ from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 from vpr_smr.core.registry import Registry
 
 if TYPE_CHECKING:
-    from vpr_smr.eval.report.registry import Table
+    from vpr_smr.eval.report.table_spec import Figure, Table
 
 __all__ = ["ENTRY_POINT_GROUP", "EXPERIMENTS", "Reported", "builtin", "chosen", "files", "installed"]
 
@@ -31,15 +32,18 @@ ENTRY_POINT_GROUP = "vpr_smr.experiments"
 
 @runtime_checkable
 class Reported(Protocol):
-    """What the report reads of an experiment: its ``name`` (its key under ``experiments:``), its ``tables`` and
-    ``outputs(settings)``: its jobs' files, relative to the run folder, for a configuration's settings (its
-    validated JSON, as ``vpr-smr report --settings`` gives it)."""
+    """What the report reads of an experiment: its ``name`` (its key under ``experiments:``), its ``tables``, its
+    ``figures`` and ``outputs(settings)``: its jobs' files, relative to the run folder, for a configuration's
+    settings (its validated JSON, as ``vpr-smr report --settings`` gives it)."""
 
     @property
     def name(self) -> str: ...
 
     @property
     def tables(self) -> tuple[Table, ...]: ...
+
+    @property
+    def figures(self) -> tuple[Figure, ...]: ...
 
     def outputs(self, settings: Mapping[str, Any]) -> list[str]: ...
 

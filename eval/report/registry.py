@@ -15,6 +15,10 @@ modules), then each module of the package ``eval/report/tables/`` that declares 
 modules' names' order, then the tables of the experiments installed packages register (``eval.report.experiments``).
 The experiments ``matchers`` and ``adaptive_seq_len`` declare their tables in such a module and their sections on
 them in their own modules (``html.declared_sections`` reads them there).
+
+A figure is one declaration too (``Figure``): the core figures of ``FIGURES`` below, the tool's own experiments'
+from their modules (each with the function that draws it, ``Figure.draw``), each at its place in the report's order,
+then those of the experiments installed packages register.
 """
 
 from __future__ import annotations
@@ -22,45 +26,21 @@ from __future__ import annotations
 import importlib
 import pkgutil
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass
 
 from vpr_smr.core.constants import RECALL_AT
 from vpr_smr.eval.report import names, rows
 from vpr_smr.eval.report import tabulate as make
 from vpr_smr.eval.report.results import split_word
 from vpr_smr.eval.report.rows import Column
+from vpr_smr.eval.report.table_spec import FIGURES_DIR as FIGURES_DIR
 from vpr_smr.eval.report.table_spec import TABLES_DIR as TABLES_DIR
+from vpr_smr.eval.report.table_spec import Figure as Figure
 from vpr_smr.eval.report.table_spec import Pivot as Pivot
 from vpr_smr.eval.report.table_spec import Table as Table
 from vpr_smr.eval.report.table_spec import expand as expand
 from vpr_smr.eval.report.tabulate import Inputs
 
-FIGURES_DIR = "figures"
 HTML = "report.html"
-
-
-@dataclass(frozen=True)
-class Figure:
-    name: str
-    title: str  # the start of its caption in the HTML page ("<title>: <dataset, L, mode>")
-    experiments: tuple[str, ...]
-    # the file name under figures/: {dataset} and {mode}, and {seq_len} for one figure per sequence length
-    pattern: str
-
-    def enabled(self, experiments: Collection[str]) -> bool:
-        return all(name in experiments for name in self.experiments)
-
-    @property
-    def per_seq_len(self) -> bool:
-        return "{seq_len}" in self.pattern
-
-    @property
-    def per_mode(self) -> bool:
-        return "{mode}" in self.pattern
-
-    def file(self, **names: object) -> str:
-        """The figure's file, relative to the run folder, for the ``dataset``, ``seq_len`` and ``mode`` given."""
-        return f"{FIGURES_DIR}/{self.pattern.format(**names)}"
 
 
 # The predictor table's title names the run's evaluation splits (``results.split_word``); registered with the
@@ -83,6 +63,13 @@ def own_tables(name: str) -> tuple[Table, ...]:
     from vpr_smr.eval.report.experiments import EXPERIMENTS
 
     return EXPERIMENTS.get(name).tables
+
+
+def own_figures(name: str) -> tuple[Figure, ...]:
+    """The figures of the tool's own experiment ``name``, as ``own_tables``."""
+    from vpr_smr.eval.report.experiments import EXPERIMENTS
+
+    return EXPERIMENTS.get(name).figures
 
 
 CORE_TABLES = (
@@ -177,21 +164,38 @@ def plugin_tables() -> tuple[Table, ...]:
 
 TABLES = collected(*CORE_TABLES, *declared(), *plugin_tables())
 
-FIGURES = (
+def plugin_figures() -> tuple[Figure, ...]:
+    """The figures of the experiments installed packages register, as ``plugin_tables``."""
+    from vpr_smr.eval.report.experiments import installed
+
+    return tuple(entry for experiment in installed() for entry in experiment.figures)
+
+
+def collected_figures(*figures: Figure) -> tuple[Figure, ...]:
+    """``figures``, each name once (a second figure of a name would overwrite the first one's files)."""
+    named = [entry.name for entry in figures]
+    twice = sorted({name for name in named if named.count(name) > 1})
+    if twice:
+        raise ValueError(f"figures declared twice: {', '.join(twice)} (eval/report/registry.py FIGURES and the "
+                         "experiments name each figure once)")
+    return figures
+
+
+# the report's figures, in its order: the core ones here, the tool's own experiments' from their modules
+# (pipeline.experiments), each at its place, then the installed experiments'
+FIGURES = collected_figures(
     Figure("pr", "PR curves", ("table1",), "pr_{dataset}_L{seq_len}_{mode}.png"),
-    Figure("trust", "Trust levels", ("table1", "trust_levels"), "trust_{dataset}_L{seq_len}_{mode}.png"),
-    Figure("restoration", "Restoration", ("table1", "restoration"), "restoration_{dataset}_L{seq_len}_{mode}.png"),
-    Figure("restoration_auc", "Restoration PR AUC difference", ("table1", "restoration"),
-           "restoration_auc_{dataset}_L{seq_len}_{mode}.png"),
+    *own_figures("trust_levels"),
+    *own_figures("restoration"),
     Figure("confusion", "Confusion matrix", ("table1",), "confusion_{dataset}_L{seq_len}.png"),
     Figure("seq_len", "Sequence-length ablation", ("table1", "seq_len"), "seq_len_{dataset}_{mode}.png"),
-    # every matcher and method of the run in one figure (a panel each): the report's outputs need no matcher tags
-    Figure("adaptive_seq_len", "Adaptive sequence length", ("adaptive_seq_len",), "adaptive_{dataset}_{mode}.png"),
+    *own_figures("adaptive_seq_len"),
     Figure("baselines", "Training-free baselines", ("baselines",), "baselines_{dataset}_L{seq_len}_{mode}.png"),
     Figure("detection", "Detecting wrong matches", ("baselines",), "detection_{dataset}_L{seq_len}.png"),
-    Figure("matchers", "Matchers", ("matchers",), "matchers_{dataset}_L{seq_len}_{mode}.png"),
-    Figure("speed", "Speed profiles", ("speed",), "speed_{dataset}_L{seq_len}.png"),
-    Figure("protocol_sweep", "Protocol sweep", ("protocol_sweep",), "protocol_sweep_{dataset}_L{seq_len}_{mode}.png"),
+    *own_figures("matchers"),
+    *own_figures("speed"),
+    *own_figures("protocol_sweep"),
+    *plugin_figures(),
 )
 
 
@@ -209,7 +213,7 @@ def figure(name: str) -> Figure:
     for entry in FIGURES:
         if entry.name == name:
             return entry
-    raise KeyError(f"figure {name!r} is not in eval/report/registry.py FIGURES")
+    raise KeyError(f"figure {name!r} is not in eval/report/registry.py FIGURES nor declared by an experiment")
 
 
 def expected_outputs(

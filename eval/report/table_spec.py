@@ -1,26 +1,29 @@
-"""A table of the report, declared (``Table``, with its compact ``Pivot``): the record ``registry`` collects.
+"""A table and a figure of the report, declared (``Table``, with its compact ``Pivot``, and ``Figure``): the records
+``registry`` collects.
 
-Apart from ``registry`` so that a module declaring a table (an experiment's: ``pipeline.experiments``) imports it
-without importing the registry, which collects the experiments' tables when it is imported.
+Apart from ``registry`` so that a module declaring a table or a figure (an experiment's: ``pipeline.experiments``)
+imports them without importing the registry, which collects the experiments' tables and figures when it is imported.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vpr_smr.eval.report import rows
-from vpr_smr.eval.report.results import Splits
+from vpr_smr.eval.report.results import Splits, WrittenFigure
 from vpr_smr.eval.report.rows import Column
 from vpr_smr.eval.report.tabulate import Inputs
 
 if TYPE_CHECKING:
     from vpr_smr.eval.report.sections import Declared
 
-__all__ = ["TABLES_DIR", "Pivot", "Table", "expand"]
+__all__ = ["FIGURES_DIR", "TABLES_DIR", "Figure", "Pivot", "Table", "expand"]
 
 TABLES_DIR = "tables"
+FIGURES_DIR = "figures"
 
 
 @dataclass(frozen=True)
@@ -102,3 +105,37 @@ class Table:
 
 def expand(columns: Sequence[Column], splits: Splits | None = None) -> tuple[Column, ...]:
     return tuple(one for column in columns for one in column.expand(splits))
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A figure of the report: its files (``name``, ``pattern``: the file name under figures/, with ``{dataset}``,
+    and ``{seq_len}`` for one figure per sequence length, ``{mode}`` for one per mode), the start of its caption
+    (``title``), when it is drawn (``experiments``, as a table's) and how (``draw``).
+
+    ``draw``: a function of the figure, the run folder and the run's ``tabulate.Inputs`` that draws its files
+    (``file``) and returns them (``results.WrittenFigure``, named ``name``; none when the run has not what the figure
+    is of), so that an experiment's module, a plugin's too, declares its figure and how it is drawn; None for a
+    figure the report draws itself (``build``: the evaluations' figures, which share their panels with the PR
+    curves, trust levels' and restoration's among them)."""
+
+    name: str
+    title: str  # the start of its caption in the HTML page ("<title>: <dataset, L, mode>")
+    experiments: tuple[str, ...]  # drawn when every one of these is run (``expected_outputs``' names)
+    pattern: str
+    draw: Callable[[Figure, Path, Inputs], Sequence[WrittenFigure]] | None = None
+
+    def enabled(self, experiments: Collection[str]) -> bool:
+        return all(name in experiments for name in self.experiments)
+
+    @property
+    def per_seq_len(self) -> bool:
+        return "{seq_len}" in self.pattern
+
+    @property
+    def per_mode(self) -> bool:
+        return "{mode}" in self.pattern
+
+    def file(self, **names: object) -> str:
+        """The figure's file, relative to the run folder, for the ``dataset``, ``seq_len`` and ``mode`` given."""
+        return f"{FIGURES_DIR}/{self.pattern.format(**names)}"

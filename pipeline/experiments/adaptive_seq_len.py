@@ -4,8 +4,8 @@ query by each length's predictor (or uniqueness) against every fixed length, wit
 A matcher of the experiment ``matchers`` other than the run's own reads the attributes and predictors that
 experiment's rules compute under ``matchers/<dataset>/<tag>/``, here at every L of seq_lens. The stage is
 ``pipeline.stages.studies.ADAPTIVE`` (``vpr-smr adaptive``); its table is declared with its rows and sentences in
-``eval.report.tables.adaptive`` (the report's page and ``vpr-smr adaptive``'s printout read them too), its figure is
-``registry.FIGURES``' ``adaptive_seq_len``, and its section, declared here on that table (the experiment's tables
+``eval.report.tables.adaptive`` (the report's page and ``vpr-smr adaptive``'s printout read them too), its figure
+``adaptive_seq_len`` is declared and drawn here, and its section, declared here on that table (the experiment's tables
 carry it; ``html.declared_sections`` reads it there), follows the sequence-length ablation's on the page.
 """
 
@@ -13,12 +13,23 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.paths import adaptive_path, distances_path, timing_path
 from vpr_smr.eval.predictor.defaults import validation_split
+from vpr_smr.eval.report.results import WrittenFigure
 from vpr_smr.eval.report.sections import Declared, Rows, prose
-from vpr_smr.eval.report.tables.adaptive import TABLE, adaptive_sentence, adaptive_sentences
+from vpr_smr.eval.report.table_spec import Figure
+from vpr_smr.eval.report.tables.adaptive import (
+    TABLE,
+    AdaptiveSeqLenRow,
+    adaptive_rows,
+    adaptive_sentence,
+    adaptive_sentences,
+    query_counts,
+)
+from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.eval.scoring.study_jobs import AdaptiveJob
 from vpr_smr.pipeline.experiment import Experiment, Job, Wildcard, relative
 from vpr_smr.pipeline.rule_helpers import adaptive_files, adaptive_matchers, adaptive_predictors, length_files
@@ -85,6 +96,31 @@ SECTION = Declared("adaptive-seq-len", "Choosing the sequence length per query",
                                                              TABLE.caption),),
                    sentences=lambda b, shown: adaptive_sentences(shown), headline=_headline, after="sequence-length")
 
+
+def draw(figure: Figure, out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
+    """One figure per dataset and mode: a panel per matcher and method, the AOC at maximum recall against the mean
+    length used of every fixed length, with and without its predictor, and of every rule."""
+    # the drawing's module (matplotlib): imported when the report draws, not when the workflow imports this one
+    from vpr_smr.eval.report import figures as fig
+
+    groups: dict[tuple[str, str], list[AdaptiveSeqLenRow]] = {}
+    for row in adaptive_rows(inputs.adaptive, inputs.order):
+        groups.setdefault((row.dataset, row.mode), []).append(row)
+    out = []
+    for (dataset, mode), group in groups.items():
+        title = (f"{dataset}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC at maximum recall against "
+                 f"the mean sequence length used, on {query_counts(group)} every length "
+                 "evaluates")
+        path = fig.adaptive_figure(out_dir / figure.file(dataset=dataset, mode=mode), group,
+                                   list(dict.fromkeys(r.method for r in group)),
+                                   list(dict.fromkeys(r.matcher for r in group)), title)
+        out.append(WrittenFigure(figure.name, f"{figure.title}: {dataset}, {mode} mode", path, dataset, mode=mode))
+    return out
+
+
+# every matcher and method of the run in one figure (a panel each): the report's outputs need no matcher tags
+FIGURE = Figure(NAME, "Adaptive sequence length", (NAME,), "adaptive_{dataset}_{mode}.png", draw=draw)
+
 EXPERIMENT = Experiment(NAME, "the sequence length chosen per query by each length's predictor (or uniqueness) "
                         "against every fixed length, for every matcher of the run", (JOB,),
-                        (replace(TABLE, section=SECTION),))
+                        (replace(TABLE, section=SECTION),), (FIGURE,))

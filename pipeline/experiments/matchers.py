@@ -7,7 +7,7 @@ predictors under ``matchers/<dataset>/<tag>/`` from the same stages as the run's
 and ``matcher_train`` of ``rules/matchers.smk``, which take the core rules ``attributes`` and ``train`` as they are
 (``use rule``) with this module's paths and records. The stage is ``pipeline.stages.studies.COMPARE_MATCHERS``
 (``vpr-smr compare-matchers``); its table is declared with its rows and sentences in ``eval.report.tables.matchers``,
-its figure is ``registry.FIGURES``' ``matchers``, and its section, declared here on that table (the experiment's
+its figure ``matchers`` is declared and drawn here, and its section, declared here on that table (the experiment's
 tables carry it; ``html.declared_sections`` reads it there), follows the baselines' on the page.
 """
 
@@ -15,14 +15,25 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.paths import distances_path, matcher_attributes_path, matcher_predictor_paths, matchers_path
 from vpr_smr.eval.matching.attributes import AttributesJob
 from vpr_smr.eval.predictor.defaults import validation_split
 from vpr_smr.eval.predictor.jobs import TrainJob
+from vpr_smr.eval.report.results import WrittenFigure
 from vpr_smr.eval.report.sections import Declared, prose
-from vpr_smr.eval.report.tables.matchers import FAR_BELOW, TABLE, comparison_sentence, matcher_sentences
+from vpr_smr.eval.report.table_spec import Figure
+from vpr_smr.eval.report.tables.matchers import (
+    FAR_BELOW,
+    TABLE,
+    MatchersRow,
+    comparison_sentence,
+    matcher_rows,
+    matcher_sentences,
+)
+from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.eval.scoring.study_jobs import ComparedInputs, MatchersJob
 from vpr_smr.pipeline.experiment import Experiment, Job, relative
 from vpr_smr.pipeline.rule_helpers import compared_matchers, experiment_files, experiment_inputs, ground_truth_input
@@ -67,9 +78,34 @@ SECTION = Declared(NAME, "Does SMR help each sequence matcher?", (NAME,), prose(
                    sentences=lambda b, shown: matcher_sentences(shown), headline=comparison_sentence,
                    after="baselines")
 
+
+def draw(figure: Figure, out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
+    """One figure per dataset, L and mode of the experiment: each matcher's reduction per method, the native
+    confidence's beside it."""
+    # the drawing's module (matplotlib): imported when the report draws, not when the workflow imports this one
+    from vpr_smr.eval.report import figures as fig
+
+    groups: dict[tuple[str, int, str], list[MatchersRow]] = {}
+    for row in matcher_rows(inputs.matchers, inputs.order):
+        groups.setdefault((row.dataset, row.seq_len, row.mode), []).append(row)
+    out = []
+    for (dataset, seq_len, mode), group in groups.items():
+        title = (f"{dataset}, L={seq_len}, {mode} mode ({inputs.split}{inputs.correct(dataset)}): AOC reduction of "
+                 f"each matcher's predictor and, hatched, of its native confidence at the same budget, on the "
+                 f"{group[0].n_queries} queries every matcher evaluates")
+        path = fig.matchers_figure(out_dir / figure.file(dataset=dataset, seq_len=seq_len, mode=mode), group,
+                                   list(dict.fromkeys(r.method for r in group)),
+                                   list(dict.fromkeys(r.matcher for r in group)), title)
+        out.append(WrittenFigure(figure.name, f"{figure.title}: {dataset}, L={seq_len}, {mode} mode", path,
+                                 dataset, seq_len, mode))
+    return out
+
+
+FIGURE = Figure(NAME, "Matchers", (NAME,), "matchers_{dataset}_L{seq_len}_{mode}.png", draw=draw)
+
 EXPERIMENT = Experiment(NAME, "each matcher of `matchers` with its own predictor at table_seq_len: Table I's "
                         "numbers, the best training-free scorer and the matcher's own confidence, on the queries "
-                        "every matcher evaluates", (JOB,), (replace(TABLE, section=SECTION),))
+                        "every matcher evaluates", (JOB,), (replace(TABLE, section=SECTION),), (FIGURE,))
 
 
 # --- the compared matchers' own attributes and predictors (rules/matchers.smk) -------------------------------------

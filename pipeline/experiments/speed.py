@@ -3,13 +3,14 @@ fixed matcher against velocity search, at Table I's sequence length.
 
 One job per dataset and profile, so that the profiles run side by side; each reads the distance matrices only (the
 simulated queries are their columns). The stage is ``pipeline.stages.studies.SPEED`` (``vpr-smr speed``); its
-figure is ``registry.FIGURES``' ``speed``, and its section, declared on its table here, follows the adaptive sequence
+figure ``speed``, declared and drawn here, and its section, declared on its table here, follow the adaptive sequence
 length's on the page.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from vpr_smr.core.paths import distances_path, speed_path
@@ -18,7 +19,8 @@ from vpr_smr.eval.report import names, rows
 from vpr_smr.eval.report import tabulate as make
 from vpr_smr.eval.report.results import WrittenFigure, unique
 from vpr_smr.eval.report.sections import Declared, Rows
-from vpr_smr.eval.report.table_spec import Pivot, Table
+from vpr_smr.eval.report.table_spec import Figure, Pivot, Table
+from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.eval.scoring.study_jobs import SpeedJob
 from vpr_smr.pipeline.experiment import Experiment, Job, Wildcard, relative
 from vpr_smr.pipeline.stages.studies import SPEED
@@ -99,5 +101,26 @@ TABLE = Table(
     caption="Sequence recall@1, then the predictor's AOC reduction (%), per profile (rows) and method · matcher "
             "(columns); single-frame recall@1 and the AOCs: the whole table below", section=SECTION)
 
+
+def draw(figure: Figure, out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
+    """One speed figure per dataset and L of the speed experiment's rows."""
+    # the drawing's module (matplotlib): imported when the report draws, not when the workflow imports this one
+    from vpr_smr.eval.report import figures as fig
+
+    out = []
+    groups: dict[tuple[str, int], list[rows.SpeedRow]] = {}
+    for row in make.speed_rows(inputs.speed, inputs.order):
+        groups.setdefault((row.dataset, row.seq_len), []).append(row)
+    for (dataset, seq_len), group in groups.items():
+        title = (f"{dataset}, L={seq_len}, paper mode ({inputs.split}{inputs.correct(dataset)}): simulated query "
+                 "speeds, fixed matcher against velocity search")
+        path = fig.speed_figure(out_dir / figure.file(dataset=dataset, seq_len=seq_len), group,
+                                inputs.order.sorted_methods(r.method for r in group), title)
+        out.append(WrittenFigure(figure.name, f"{figure.title}: {dataset}, L={seq_len}", path, dataset, seq_len))
+    return out
+
+
+FIGURE = Figure(NAME, "Speed profiles", (NAME,), "speed_{dataset}_L{seq_len}.png", draw=draw)
+
 EXPERIMENT = Experiment(NAME, "simulated speed profiles (method §11) at table_seq_len: the fixed matcher against "
-                        "velocity search", (JOB,), (TABLE,))
+                        "velocity search", (JOB,), (TABLE,), (FIGURE,))

@@ -2,8 +2,9 @@
 (a match the predictor marks wrong is removed only when its confidence is at least the level).
 
 A table-only experiment: no job of its own, the evaluation jobs compute it (``eval.scoring.evaluate``, in the
-``evaluate`` rule's files of a run with trust levels); its figure is ``registry.FIGURES``' ``trust``, and its
-section, declared on its table here, follows the PR curves' on the page.
+``evaluate`` rule's files of a run with trust levels); its figure ``trust`` is declared here and drawn by the report
+beside the PR curves, from the same panels (``build``), and its section, declared on its table here, follows the PR
+curves' on the page.
 """
 
 from __future__ import annotations
@@ -11,7 +12,7 @@ from __future__ import annotations
 from vpr_smr.eval.report import names, rows
 from vpr_smr.eval.report import tabulate as make
 from vpr_smr.eval.report.sections import Declared, prose
-from vpr_smr.eval.report.table_spec import Pivot, Table
+from vpr_smr.eval.report.table_spec import Figure, Pivot, Table
 from vpr_smr.pipeline.experiment import Experiment
 
 NAME = "trust_levels"
@@ -24,4 +25,7 @@ TABLE = Table(
     row=rows.TrustRow, make=make.make_trust, pivot=Pivot("trust", ("method",), (names.REDUCTION,)),
     caption="AOC reduction (%) per trust level (columns: methods)", section=SECTION)
 
-EXPERIMENT = Experiment(NAME, "PR curves and AUC at every trust level", (), (TABLE,))
+# drawn by the report with the PR curves, per dataset, L and mode (``draw`` None: ``build``'s evaluation figures)
+FIGURE = Figure("trust", "Trust levels", ("table1", NAME), "trust_{dataset}_L{seq_len}_{mode}.png")
+
+EXPERIMENT = Experiment(NAME, "PR curves and AUC at every trust level", (), (TABLE,), (FIGURE,))
