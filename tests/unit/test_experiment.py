@@ -7,13 +7,18 @@ from __future__ import annotations
 import argparse
 import json
 from dataclasses import dataclass
+from pathlib import Path
 
 import pytest
+from report_runs import build_run, small_png
 from run_configs import plan_once_config
 
 from vpr_smr.core.settings import REQUIRED, setting
 from vpr_smr.datasets.nordland_sample import DEFAULT_ROOT
 from vpr_smr.eval.report import experiments as reported
+from vpr_smr.eval.report.results import WrittenFigure
+from vpr_smr.eval.report.table_spec import Figure
+from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.pipeline.config import validate
 from vpr_smr.pipeline.experiment import Experiment, Job, Wildcard, experiment, plugin_stages, relative, running
 from vpr_smr.pipeline.options import add_options, read_options
@@ -49,6 +54,77 @@ def test_the_report_keeps_its_tables_and_their_order():
     assert registry.table("restoration") is experiment("restoration").tables[0]
     assert registry.table("trust_levels").experiments == ("table1", "trust_levels")
     assert registry.table("restoration").experiments == ("table1", "restoration")
+
+
+def test_the_report_keeps_its_figures_and_their_order():
+    from vpr_smr.eval.report import registry
+
+    # the order of the report before the experiments declared their figures (registry.FIGURES named them all)
+    assert [(entry.name, entry.pattern) for entry in registry.FIGURES] == [
+        ("pr", "pr_{dataset}_L{seq_len}_{mode}.png"), ("trust", "trust_{dataset}_L{seq_len}_{mode}.png"),
+        ("restoration", "restoration_{dataset}_L{seq_len}_{mode}.png"),
+        ("restoration_auc", "restoration_auc_{dataset}_L{seq_len}_{mode}.png"),
+        ("confusion", "confusion_{dataset}_L{seq_len}.png"), ("seq_len", "seq_len_{dataset}_{mode}.png"),
+        ("adaptive_seq_len", "adaptive_{dataset}_{mode}.png"),
+        ("baselines", "baselines_{dataset}_L{seq_len}_{mode}.png"), ("detection", "detection_{dataset}_L{seq_len}.png"),
+        ("matchers", "matchers_{dataset}_L{seq_len}_{mode}.png"), ("speed", "speed_{dataset}_L{seq_len}.png"),
+        ("protocol_sweep", "protocol_sweep_{dataset}_L{seq_len}_{mode}.png")]
+    # each experiment's, declared in its module: those with jobs drawn there, the table-only ones' with the PR curves
+    owned = {"trust_levels": ["trust"], "restoration": ["restoration", "restoration_auc"],
+             "adaptive_seq_len": ["adaptive_seq_len"], "matchers": ["matchers"], "speed": ["speed"],
+             "protocol_sweep": ["protocol_sweep"]}
+    for name, figures in owned.items():
+        assert [entry.name for entry in experiment(name).figures] == figures
+        assert all(registry.figure(entry.name) is entry for entry in experiment(name).figures)
+    assert [entry.name for entry in registry.FIGURES if entry.draw is not None] == [
+        "adaptive_seq_len", "matchers", "speed", "protocol_sweep"]
+    assert registry.figure("trust").experiments == ("table1", "trust_levels")
+    assert registry.figure("restoration_auc").experiments == ("table1", "restoration")
+
+
+def _glow_draw(figure: Figure, out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
+    """The test plugin's figure: one file per file of its job (a JSON naming the dataset and L)."""
+    out = []
+    for path in inputs.experiments.get("glow", ()):
+        found = json.loads(Path(path).read_text())
+        drawn = small_png(out_dir / figure.file(dataset=found["dataset"], seq_len=found["seq_len"]))
+        out.append(WrittenFigure(figure.name, f"{figure.title}: {found['dataset']}", drawn, found["dataset"],
+                                 found["seq_len"]))
+    return out
+
+
+GLOW = Figure("glow", "Glow", ("glow",), "glow_{dataset}_L{seq_len}.png", draw=_glow_draw)
+GLOW_EXPERIMENT = Experiment("glow", "a plugin's figure", (), (), (GLOW,))
+
+
+def test_an_experiment_declares_its_figures_and_a_plugins_is_listed_and_drawn(tmp_path, monkeypatch):
+    from vpr_smr.eval.report import build, registry
+
+    # a plugin of four arguments declares none; a figure is drawn only with its experiment
+    assert Experiment("plain", "no figures", (), ()).figures == ()
+    with pytest.raises(ValueError, match="its figure 'glow' has experiments=\\('other',\\), without 'glow'"):
+        Experiment("glow", "a plugin's figure", (), (), (Figure("glow", "Glow", ("other",), "glow_{dataset}.png"),))
+    with monkeypatch.context() as installed:
+        installed.setattr(reported, "installed", lambda: (GLOW_EXPERIMENT,))
+        assert registry.plugin_figures() == (GLOW,)
+    with pytest.raises(ValueError, match="figures declared twice: glow"):
+        registry.collected_figures(GLOW, GLOW)
+    # the report's figures: the registry collects the installed experiments' when it is imported, here added
+    monkeypatch.setattr(registry, "FIGURES", registry.collected_figures(*registry.FIGURES, GLOW))
+    assert registry.figure("glow") is GLOW and registry.FIGURES[-1] is GLOW
+    on = registry.expected_outputs(["b", "a"], [2, 4], ["paper"], {"table1", "glow"}, table_seq_lens=[4])
+    off = registry.expected_outputs(["b", "a"], [2, 4], ["paper"], {"table1"}, table_seq_lens=[4])
+    assert [path for path in on if path not in off] == ["figures/glow_a_L4.png", "figures/glow_b_L4.png"]
+    assert [path for path in off if path not in on] == []
+    # drawn from the files of the experiment when the run's settings turn it on (build.experiment_files), else not
+    job_file = tmp_path / "glow_d.json"
+    job_file.write_text(json.dumps({"dataset": "d", "seq_len": 4}))
+    monkeypatch.setattr(build, "experiment_files", lambda out_dir, config: {"glow": [job_file]})
+    run, written = build_run(tmp_path / "on", seq_lens=(4,), baselines=False, inspector=False, restoration=False)
+    assert run / "figures" / "glow_d_L4.png" in written and (run / "figures" / "glow_d_L4.png").is_file()
+    monkeypatch.setattr(build, "experiment_files", lambda out_dir, config: {})
+    run, written = build_run(tmp_path / "off", seq_lens=(4,), baselines=False, inspector=False, restoration=False)
+    assert not [path for path in written if "glow" in str(path)] and not (run / "figures" / "glow_d_L4.png").exists()
 
 
 def test_the_configuration_switches_a_built_in_experiment_by_its_key():
