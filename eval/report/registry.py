@@ -26,6 +26,7 @@ from __future__ import annotations
 import importlib
 import pkgutil
 from collections.abc import Collection, Sequence
+from typing import TypeVar
 
 from vpr_smr.core.constants import RECALL_AT
 from vpr_smr.eval.report import names, rows
@@ -41,6 +42,7 @@ from vpr_smr.eval.report.table_spec import expand as expand
 from vpr_smr.eval.report.tabulate import Inputs
 
 HTML = "report.html"
+_Named = TypeVar("_Named", Table, Figure)  # an entry of the report's files, by its name
 
 
 # The predictor table's title names the run's evaluation splits (``results.split_word``); registered with the
@@ -144,14 +146,19 @@ def declared(package: str = TABLES_PACKAGE) -> tuple[Table, ...]:
     return tuple(out)
 
 
-def collected(*tables: Table) -> tuple[Table, ...]:
-    """``tables``, each name once (a second table of a name would overwrite the first one's files)."""
-    named = [entry.name for entry in tables]
+def _once(kind: str, entries: tuple[_Named, ...]) -> tuple[_Named, ...]:
+    """``entries`` (tables or figures), each name once: a second of a name would overwrite the first one's files."""
+    named = [entry.name for entry in entries]
     twice = sorted({name for name in named if named.count(name) > 1})
     if twice:
-        raise ValueError(f"tables declared twice: {', '.join(twice)} (eval/report/registry.py CORE_TABLES and the "
-                         "modules of eval/report/tables/ name each table once)")
-    return tables
+        raise ValueError(f"{kind}s declared twice: {', '.join(twice)} (the report's own {kind}s, the modules of "
+                         f"eval/report/tables/ and the experiments name each {kind} once)")
+    return entries
+
+
+def collected(*tables: Table) -> tuple[Table, ...]:
+    """``tables``, each name once."""
+    return _once("table", tables)
 
 
 def plugin_tables() -> tuple[Table, ...]:
@@ -164,6 +171,7 @@ def plugin_tables() -> tuple[Table, ...]:
 
 TABLES = collected(*CORE_TABLES, *declared(), *plugin_tables())
 
+
 def plugin_figures() -> tuple[Figure, ...]:
     """The figures of the experiments installed packages register, as ``plugin_tables``."""
     from vpr_smr.eval.report.experiments import installed
@@ -172,13 +180,8 @@ def plugin_figures() -> tuple[Figure, ...]:
 
 
 def collected_figures(*figures: Figure) -> tuple[Figure, ...]:
-    """``figures``, each name once (a second figure of a name would overwrite the first one's files)."""
-    named = [entry.name for entry in figures]
-    twice = sorted({name for name in named if named.count(name) > 1})
-    if twice:
-        raise ValueError(f"figures declared twice: {', '.join(twice)} (eval/report/registry.py FIGURES and the "
-                         "experiments name each figure once)")
-    return figures
+    """``figures``, each name once."""
+    return _once("figure", figures)
 
 
 # the report's figures, in its order: the core ones here, the tool's own experiments' from their modules
