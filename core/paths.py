@@ -131,6 +131,11 @@ def matchers_path(run: Path | str, dataset: str, method: str, seq_len: int | str
     return f"{run}/matchers/{dataset}/{method}/L{seq_len}.json"
 
 
+def deployment_path(run: Path | str, dataset: str, method: str, seq_len: int | str) -> str:
+    """The experiment deployment's result of one dataset and method at one L (method §16), every matcher's."""
+    return f"{run}/deployment/{dataset}/{method}/L{seq_len}.json"
+
+
 def adaptive_path(run: Path | str, dataset: str, tag: str, method: str) -> str:
     """The experiment ``adaptive_seq_len`` of one dataset, matcher (its tag, as the experiment ``matchers`` names
     it) and method (``eval.scoring.adaptive``), every length of the run, e.g. ``adaptive/nordland/seqslam/sad.json``;

@@ -17,6 +17,7 @@ from vpr_smr.core.settings import declared, parse, setting
 from vpr_smr.core.suggest import did_you_mean
 from vpr_smr.eval.matching.matchers import NAME_KEY, MatcherSpec, matcher_class
 from vpr_smr.eval.predictor.defaults import PredictorSettings
+from vpr_smr.eval.scoring.deployment_jobs import DeploymentSettings
 from vpr_smr.eval.scoring.scorers import BaselineSettings
 from vpr_smr.eval.scoring.study_jobs import SpeedExperiment
 
@@ -196,13 +197,19 @@ class Experiments:
     adaptive_seq_len: bool = setting(True, "method §15: the sequence length chosen per query by each length's "
                                            "predictor (or uniqueness) against every fixed length, for every "
                                            "matcher of the run (needs two or more seq_lens)")
+    deployment: bool = setting(True, "method §16: thresholds calibrated on the calibration split by each rule "
+                                     "(empirical, guaranteed, same_fraction) for every confidence source and "
+                                     "scored on the other evaluation splits and datasets, at table_seq_len, for "
+                                     "every matcher of the run (needs a second evaluation split or dataset), see "
+                                     "`deployment`")
 
 
 # The sections of a configuration that are settings records (core.settings): their part of config_schema.json (the
 # record's docstring its description), of docs/configuration.md and of ``Config`` follows from the record
 # (pipeline.reference).
 RECORDS: dict[str, type] = {"baselines": BaselineSettings, "extraction": Extraction, "predictor": PredictorSettings,
-                            "experiments": Experiments, "speed": SpeedExperiment}
+                            "experiments": Experiments, "speed": SpeedExperiment,
+                            "deployment": DeploymentSettings}
 # ``sequence_matching``: {matcher: NAME, ...that matcher's settings}, validated by the matcher's own record
 MATCHER_KEY = NAME_KEY  # the matcher's name among its settings
 
@@ -256,6 +263,13 @@ class Config(Section):
     experiments: Experiments
     speed: SpeedExperiment  # the speed experiment's profiles and velocity search set
     matchers: tuple[MatcherSpec, ...]  # the experiment ``matchers``' compared matchers (its default: every built-in)
+    deployment: DeploymentSettings  # the experiment deployment's targets, risk, segment and calibration split
+
+    @property
+    def calibration_split(self) -> str:
+        """The experiment deployment's calibration split (method §16): ``deployment.calibration``, else the
+        validation split (the first of eval_splits)."""
+        return self.deployment.calibration or self.eval_splits[0]
 
     @property
     def run_dir(self) -> Path:
@@ -290,6 +304,7 @@ class Config(Section):
             # profiles: its schema fragment keeps the JSON list; a tuple in the frozen record
             dataclasses.replace(sections["speed"], profiles=tuple(sections["speed"].profiles)),
             tuple(_experiment_matchers(conf["matchers"])),
+            dataclasses.replace(sections["deployment"], precisions=tuple(sections["deployment"].precisions)),
             source=_text(conf))
 
 
@@ -396,6 +411,10 @@ def _check_together(conf: dict[str, Any], source: str) -> None:
         raise ConfigError(f"{source}: eval_splits may not name a split {reserved[0]!r}: the predictor's numbers "
                           f"use the names {', '.join(map(repr, RESERVED_SPLIT_NAMES))} for its training split and "
                           "cross-validation; rename that split")
+    calibration = conf["deployment"].get("calibration")
+    if calibration is not None and calibration not in conf["eval_splits"]:
+        raise ConfigError(f"{source}: deployment.calibration {calibration!r} is not among eval_splits "
+                          f"{conf['eval_splits']}; choose one of them (or leave it out: the validation split)")
     if len(set(conf["seq_lens"])) != len(conf["seq_lens"]):
         raise ConfigError(f"{source}: seq_lens {conf['seq_lens']} repeats a length")
     # the speed experiment's velocities are numbers of reference frames per query frame: 1 and 1.0 are one setting
@@ -431,6 +450,8 @@ def experiments(conf: Config) -> set[str]:
         names.add("matchers")
     if chosen.adaptive_seq_len and len(conf.seq_lens) > 1:
         names.add("adaptive_seq_len")
+    if chosen.deployment and (len(conf.eval_splits) > 1 or len(conf.datasets) > 1):
+        names.add("deployment")
     # the installed packages' experiments (``pipeline.experiment``) turned on by name: ``experiments: {NAME: true}``
     names.update(key for key, value in conf.to_json()["experiments"].items()
                  if value is True and key not in {item.name for item in declared(Experiments)})

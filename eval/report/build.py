@@ -37,6 +37,7 @@ from vpr_smr.eval.report.rows import SeqLenRow, cells
 from vpr_smr.eval.report.table1 import UNDEFINED, evaluation_order, is_reduction, tex_escape
 from vpr_smr.eval.report.tabulate import Inputs, by_key, seq_len_rows
 from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult, AdaptiveTiming
+from vpr_smr.eval.scoring.deployment_records import DeploymentResult
 from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
 from vpr_smr.eval.scoring.records import (
     KEY_META,
@@ -517,6 +518,7 @@ def write(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = 
     read_baselines = _read(files.baselines, "baselines", Baselines.from_json, KEY_META)
     read_matchers = _read(files.matchers, "matchers experiment", MatcherComparison.from_json, KEY_META)
     read_adaptive = read_adaptive_files(files.adaptive)
+    read_deployment = _read(files.deployment, "deployment experiment", DeploymentResult.from_json, KEY_META)
 
     splits = Splits.resolve(split, options.eval_splits, options.train_split,
                             [*(list(e.splits) for e in read_evaluations), *(list(m.splits) for m in read_metrics),
@@ -539,7 +541,7 @@ def write(out_dir: Path | str, files: RunFiles, options: ReportOptions | None = 
         read_metrics, dict(datasets or {}), split,
         None if options.table_seq_lens is None else {int(s) for s in options.table_seq_lens},
         options.seq_len_ablation, order, read_speed, splits, protocols(datasets, read_metrics), read_baselines,
-        read_matchers, read_adaptive, experiment_files(out_dir, options.config))
+        read_matchers, read_adaptive, experiment_files(out_dir, options.config), deployment=read_deployment)
     tables = _tables(out_dir, inputs, overlap_notes(datasets, order))
     figures = _figures(out_dir, inputs)
     written = [path for table in tables for path in table.files] + [figure.path for figure in figures]

@@ -45,8 +45,8 @@ def deployment_figure(path: Path, results: Sequence[DeploymentResult], title: st
                 if r.precision != target or r.realised.precision is None:
                     continue
                 found = r.realised.precision_ci
-                low, high = (found.low, found.high) if found is not None else (np.nan, np.nan)
-                yerr = None if found is None else [[r.realised.precision - low], [high - r.realised.precision]]
+                point = r.realised.precision
+                yerr = None if found is None else [[point - found.low], [found.high - point]]
                 ax.errorbar(r.realised.recall, r.realised.precision, yerr=yerr,
                             fmt=MARKERS.get(r.rule, "x"), color=_colour(r.source), ms=5, lw=0.7, alpha=0.85)
             ax.axhline(target, color="black", ls="--", lw=0.8)

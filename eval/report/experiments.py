@@ -67,6 +67,7 @@ EXPERIMENTS.add_lazy("adaptive_seq_len", "vpr_smr.pipeline.experiments.adaptive_
 EXPERIMENTS.add_lazy("protocol_sweep", "vpr_smr.pipeline.experiments.protocol_sweep:EXPERIMENT")
 EXPERIMENTS.add_lazy("trust_levels", "vpr_smr.pipeline.experiments.trust_levels:EXPERIMENT")
 EXPERIMENTS.add_lazy("restoration", "vpr_smr.pipeline.experiments.restoration:EXPERIMENT")
+EXPERIMENTS.add_lazy("deployment", "vpr_smr.pipeline.experiments.deployment:EXPERIMENT")
 
 
 def builtin() -> tuple[Reported, ...]:

@@ -32,6 +32,7 @@ class RunFiles:
     one per dataset, method and L): their tables, figures and findings, and the best of them in the
     sequence-length ablation. ``descriptors``: descriptor files whose provenance attributes the page lists.
     ``matchers``: the experiment matchers' files (``scoring.matcher_comparison.main``, one per dataset).
+    ``deployment``: the experiment deployment's files (``scoring.deployment.main``, one per dataset and method).
     ``adaptive``: the experiment adaptive_seq_len's files (``scoring.adaptive.main``, one per dataset, matcher and
     method), each with its live timing (``core.paths.timing_path``) read where that file is beside it.
     """
@@ -61,6 +62,8 @@ class RunFiles:
     adaptive: tuple[str, ...] = setting((), "the experiment adaptive_seq_len's files (vpr-smr adaptive), one per "
                                             "dataset, matcher and method; each one's .timing.json beside it gives "
                                             "the live time per query", metavar="PATH")
+    deployment: tuple[str, ...] = setting((), "the experiment deployment's files (vpr-smr deployment), one per "
+                                              "dataset and method", metavar="PATH")
 
 
 @dataclass(frozen=True)

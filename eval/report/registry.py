@@ -196,6 +196,7 @@ FIGURES = collected_figures(
     Figure("baselines", "Training-free baselines", ("baselines",), "baselines_{dataset}_L{seq_len}_{mode}.png"),
     Figure("detection", "Detecting wrong matches", ("baselines",), "detection_{dataset}_L{seq_len}.png"),
     *own_figures("matchers"),
+    *own_figures("deployment"),
     *own_figures("speed"),
     *own_figures("protocol_sweep"),
     *plugin_figures(),

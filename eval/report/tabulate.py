@@ -40,6 +40,7 @@ from vpr_smr.eval.report.rows import (
 )
 from vpr_smr.eval.report.table1 import evaluation_order, table1_latex, table1_markdown, table1_rows, tex_escape
 from vpr_smr.eval.scoring.adaptive_records import AdaptiveResult, AdaptiveTiming
+from vpr_smr.eval.scoring.deployment_records import DeploymentResult
 from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
 from vpr_smr.eval.scoring.records import Baselines, Evaluation, HeldOut, Timing, VPRMetrics
 from vpr_smr.eval.scoring.speed import MATCHERS as SPEED_MATCHERS
@@ -70,6 +71,8 @@ class Inputs:
     adaptive: list[tuple[AdaptiveResult, AdaptiveTiming | None]] = dataclasses.field(default_factory=list)
     # the experiments installed packages register (``eval.report.experiments``): per name its jobs' files
     experiments: Mapping[str, Sequence[Path]] = dataclasses.field(default_factory=dict)
+    # the experiment deployment (§16): one result per dataset and method at the table's L
+    deployment: list[DeploymentResult] = dataclasses.field(default_factory=list)
 
     def correct(self, dataset: str) -> str:
         """``; correct: within 2 frames``: what a figure's title adds of its dataset's ground truth (empty if none)."""

@@ -28,17 +28,18 @@ from dataclasses import dataclass
 from functools import partial
 
 import numpy as np
-from scipy.stats import beta
 
 from vpr_smr.core.records import Record
-from vpr_smr.eval.scoring.intervals import draws, percentile_interval
+from vpr_smr.eval.scoring.intervals import draws, percentile_interval, query_weights
 from vpr_smr.eval.scoring.records import Interval
 
 __all__ = [
     "ABSTAINED", "DEFAULT_PRECISIONS", "DEFAULT_RISK", "DEFAULT_SEGMENT", "EMPIRICAL", "GUARANTEED", "HELD",
     "ORACLE_THRESHOLD", "RULES", "SAME_FRACTION", "VIOLATED",
-    "Calibration", "Realised", "Segments", "accept", "calibrate", "check_precision", "check_risk", "empirical",
-    "guaranteed", "outcome", "realise", "risk_coverage", "segments", "smallest_calibration", "steps",
+    "Calibration", "Realised", "Segments", "accept", "bootstrap_weights", "calibrate", "check_precision", "check_risk",
+    "empirical",
+    "guaranteed", "outcome", "realise", "risk_coverage", "segment_bounds", "segments", "smallest_calibration",
+    "steps",
 ]
 
 EMPIRICAL, GUARANTEED, SAME_FRACTION, ORACLE_THRESHOLD = "empirical", "guaranteed", "same_fraction", "oracle_threshold"
@@ -128,6 +129,8 @@ def steps(m: int) -> int:
 
 def _bound(n: int, k: int, risk: float, n_steps: int) -> float:
     """The Clopper-Pearson upper bound of the risk of ``k`` wrong among ``n``, at ``1 - risk / n_steps``."""
+    from scipy.stats import beta  # here: the configuration imports this module's settings, not SciPy's statistics
+
     return 1.0 if k >= n else float(beta.ppf(1 - risk / n_steps, k + 1, n - k))
 
 
@@ -248,8 +251,9 @@ def accept(confidence: np.ndarray, calibration: Calibration) -> np.ndarray:
     wanted = -(-accepted * len(values) // n_queries)
     if wanted == 0:
         return np.zeros(len(values), dtype=bool)
-    cut = np.sort(values)[::-1][wanted - 1]
-    return values >= cut
+    cut = float(np.sort(values)[::-1][wanted - 1])
+    taken: np.ndarray = values >= cut
+    return taken
 
 
 # --- what a threshold does on a split ------------------------------------------------------------------------
@@ -282,10 +286,18 @@ def _weighted_recall(hits: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return out
 
 
-def realise(accepted: np.ndarray, correct: np.ndarray, intervals: bool = True) -> Realised:
+def bootstrap_weights(n_queries: int) -> np.ndarray:
+    """Every draw's per-query multiplicities of a split (``intervals.query_weights``, all chunks at once): the
+    draws of every interval of the split, computed once for the many thresholds scored on it."""
+    return np.concatenate(list(query_weights(n_queries))).astype(np.float64)
+
+
+def realise(accepted: np.ndarray, correct: np.ndarray, intervals: bool = True,
+            weights: np.ndarray | None = None) -> Realised:
     """Precision, recall and accepted fraction of ``accepted`` on a split, with their bootstrap intervals over the
     split's queries when ``intervals``: on every draw the same acceptances (the threshold was set before this split),
-    each query counted as often as drawn. ValueError for an empty split."""
+    each query counted as often as drawn (``weights``: the split's ``bootstrap_weights``, when the caller scores
+    many thresholds on it; else drawn here). ValueError for an empty split."""
     taken = np.asarray(accepted, dtype=bool).ravel()
     labels = np.asarray(correct, dtype=bool).ravel()
     if len(taken) != len(labels):
@@ -298,9 +310,13 @@ def realise(accepted: np.ndarray, correct: np.ndarray, intervals: bool = True) -
     precision_ci = recall_ci = None
     if intervals:
         as_float = hits.astype(np.float64)
-        precision_ci = percentile_interval(draws(partial(_weighted_precision, as_float, taken.astype(np.float64)),
-                                                 n_queries))
-        recall_ci = percentile_interval(draws(partial(_weighted_recall, as_float), n_queries))
+        if weights is None:
+            precision_ci = percentile_interval(draws(partial(_weighted_precision, as_float,
+                                                             taken.astype(np.float64)), n_queries))
+            recall_ci = percentile_interval(draws(partial(_weighted_recall, as_float), n_queries))
+        else:
+            precision_ci = percentile_interval(_weighted_precision(as_float, taken.astype(np.float64), weights))
+            recall_ci = percentile_interval(_weighted_recall(as_float, weights))
     return Realised(n_queries, n, k, (n - k) / n if n else None, (n - k) / n_queries, n / n_queries,
                     precision_ci, recall_ci)
 

@@ -32,6 +32,9 @@ rule report:
         # the experiment adaptive_seq_len (method §15): every length, each matcher's tag; the live timings beside
         adaptive=expand(adaptive_path(OUT, "{dataset}", "{tag}", "{method}"), dataset=DATASETS, tag=ADAPTIVE_TAGS,
                         method=METHODS) if "adaptive_seq_len" in EXPERIMENTS else [],
+        # the experiment deployment (method §16), at the table's L
+        deployment=expand(deployment_path(OUT, "{dataset}", "{method}", TABLE_L), dataset=DATASETS, method=METHODS)
+        if "deployment" in EXPERIMENTS else [],
         # read for their provenance (checkpoint and frame-list hashes) only
         descriptors=expand(descriptors_path(OUT, "{dataset}", "{method}"), dataset=DATASETS, method=METHODS),
     output:

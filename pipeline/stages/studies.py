@@ -1,7 +1,7 @@
-"""The stages of the studies beyond Table I: ``speed`` (method §11), ``compare-matchers`` (method §14) and
-``adaptive`` (method §15), with the summary lines and the text they print. Their job records are
-``eval.scoring.study_jobs``'; the work's modules are imported when a stage runs (the command line declares every
-stage when it starts, and a command that runs no study must not import them)."""
+"""The stages of the studies beyond Table I: ``speed`` (method §11), ``compare-matchers`` (method §14),
+``adaptive`` (method §15) and ``deployment`` (method §16), with the summary lines and the text they print. Their job
+records are ``eval.scoring.study_jobs``' and ``deployment_jobs``'; the work's modules are imported when a stage runs
+(the command line declares every stage when it starts, and a command that runs no study must not import them)."""
 
 from __future__ import annotations
 
@@ -9,6 +9,7 @@ import argparse
 from collections.abc import Iterable
 from typing import TYPE_CHECKING, Any
 
+from vpr_smr.eval.scoring.deployment_jobs import DeploymentJob
 from vpr_smr.eval.scoring.study_jobs import AdaptiveJob, MatchersJob, SpeedJob
 from vpr_smr.pipeline.options import _dest
 from vpr_smr.pipeline.stage import GROUP, Stage, wrote
@@ -18,8 +19,8 @@ if TYPE_CHECKING:
     from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison
     from vpr_smr.eval.scoring.speed import SpeedResult
 
-__all__ = ["ADAPTIVE", "COMPARE_MATCHERS", "SPEED", "STAGES", "adaptive_text", "lowest_rule", "matchers_headline",
-           "speed_headline"]
+__all__ = ["ADAPTIVE", "COMPARE_MATCHERS", "DEPLOYMENT", "SPEED", "STAGES", "adaptive_text", "deployment_headline",
+           "lowest_rule", "matchers_headline", "speed_headline"]
 
 
 
@@ -163,4 +164,33 @@ ADAPTIVE = Stage(
            "--predictors L2.h5 L4.h5 --split test --validation val --distances test.h5 --out adaptive.json",
     check=_split_items)
 
-STAGES: tuple[Stage, ...] = (SPEED, COMPARE_MATCHERS, ADAPTIVE)
+# --- deployment (method §16) ------------------------------------------------------------------------------------
+
+
+def deployment_headline(result: Any) -> str:
+    """How many of the result's seed-0 rows held their target, per target (the first matcher's)."""
+    first = result.rows[0].matcher if result.rows else None
+    rows = [r for r in result.rows if r.seed in (None, 0) and r.matcher == first]
+    parts = []
+    for precision in result.meta["precisions"]:
+        at = [r for r in rows if r.precision == precision]
+        held = sum(1 for r in at if r.outcome == "held")
+        parts.append(f"p = {precision:g}: {held} of {len(at)} source-rule-deployment rows held")
+    return f"{rows[0].matcher}: " + "; ".join(parts) if rows else "no rows"
+
+
+def _deployment(job: DeploymentJob) -> Any:
+    from vpr_smr.eval.scoring import deployment
+
+    return deployment.main(job)
+
+
+DEPLOYMENT = Stage(
+    "deployment", "the experiment deployment (method §16): thresholds calibrated on one split by each rule, for "
+    "every confidence source, scored on the other splits and datasets", DeploymentJob, _deployment,
+    summary=lambda job, result: wrote(f"the deployment of {job.method}'s thresholds", job.out,
+                                       deployment_headline(result)),
+    epilog="e.g. vpr-smr deployment --dataset d --method sad --seq-len 4 --inputs @inputs.json --out "
+           "deployment/d/sad/L4.json (vpr-smr calibrate and vpr-smr deploy do the same for one source and rule)")
+
+STAGES: tuple[Stage, ...] = (SPEED, COMPARE_MATCHERS, ADAPTIVE, DEPLOYMENT)

@@ -203,6 +203,7 @@ def test_realise_by_hand_and_its_intervals() -> None:
             recalls.append(hit / row.sum())
     assert found.precision_ci == intervals.percentile_interval(np.array(precisions))
     assert found.recall_ci == intervals.percentile_interval(np.array(recalls))
+    assert th.realise(accepted, GOOD, weights=th.bootstrap_weights(10)) == found  # the draws computed once
     assert found.precision_ci is not None and found.precision_ci.low <= 5 / 6 <= found.precision_ci.high
     nothing = th.realise(np.zeros(10, dtype=bool), GOOD)
     assert nothing.precision is None and nothing.recall == 0.0 and th.outcome(nothing, 0.9) == th.ABSTAINED
