@@ -2,8 +2,9 @@
 of each result).
 
 Per target one panel: each source and rule's realised precision (its 95 % interval as a whisker) against its
-recall on the deployments, the source by colour (``scorers.colour``), the rule by marker, the target dashed; a rule
-that accepts nothing is left out (it has no precision). Last, the calibration split's risk-coverage curve of each
+recall on the deployments, the source by colour (``scorers.colour``), the rule by marker, filled on the dataset's own
+splits and hollow on another dataset's (``<dataset>/<split>``: the larger shift), the target dashed; a rule that
+accepts nothing is left out (it has no precision). Last, the calibration split's risk-coverage curve of each
 source (seed 0 of the predictor's), the thresholds the rules chose marked on it.
 """
 
@@ -41,14 +42,19 @@ def deployment_figure(path: Path, results: Sequence[DeploymentResult], title: st
         own = result.rows[0].matcher if result.rows else ""
         rows = [r for r in result.rows if r.matcher == own and r.seed in (None, 0)]
         for ax, target in zip(row, targets, strict=False):
+            drawn = 0
             for r in rows:
                 if r.precision != target or r.realised.precision is None:
                     continue
                 found = r.realised.precision_ci
                 point = r.realised.precision
                 yerr = None if found is None else [[point - found.low], [found.high - point]]
-                ax.errorbar(r.realised.recall, r.realised.precision, yerr=yerr,
-                            fmt=MARKERS.get(r.rule, "x"), color=_colour(r.source), ms=5, lw=0.7, alpha=0.85)
+                colour = _colour(r.source)
+                ax.errorbar(r.realised.recall, point, yerr=yerr, fmt=MARKERS.get(r.rule, "x"), color=colour,
+                            mfc="none" if "/" in r.deployment else colour, ms=5, lw=0.7, alpha=0.85)
+                drawn += 1
+            if not drawn:  # every rule abstained (or no row at this target): say so rather than an empty frame
+                ax.text(0.5, 0.5, "nothing accepted", ha="center", va="center", transform=ax.transAxes)
             ax.axhline(target, color="black", ls="--", lw=0.8)
             ax.set(title=f"{result.meta['method']}: p = {target:g}", xlabel="recall on the deployments",
                    ylabel="realised precision")
@@ -66,10 +72,17 @@ def deployment_figure(path: Path, results: Sequence[DeploymentResult], title: st
                         mfc="none")
         ax.set(title=f"{result.meta['method']}: risk-coverage on {result.meta['calibration']}",
                xlabel="coverage (accepted fraction)", ylabel="risk (1 - precision)")
-    handles = [plt.Line2D([], [], color=_colour(c.source), lw=1.5, label=c.source)
-               for c in results[0].curves if c.matcher == (results[0].rows[0].matcher if results[0].rows else "")]
+    own = results[0].rows[0].matcher if results[0].rows else ""
+    sources = dict.fromkeys([*(r.source for result in results for r in result.rows if r.matcher == own),
+                             *(c.source for result in results for c in result.curves if c.matcher == own)])
+    handles = [plt.Line2D([], [], color=_colour(source), lw=1.5, label=source) for source in sources]
     handles += [plt.Line2D([], [], color="black", marker=MARKERS[rule], ls="none", label=rule) for rule in RULES]
-    fig.legend(handles=handles, loc="lower center", ncol=min(len(handles), 6), fontsize=8)
+    if any("/" in name for result in results for name in result.meta["deployments"]):
+        handles.append(plt.Line2D([], [], color="black", marker="o", mfc="none", ls="none",
+                                  label="hollow: another dataset"))
+    ncol = min(len(handles), 6)
+    fig.legend(handles=handles, loc="lower center", ncol=ncol, fontsize=8)
+    legend = 0.3 * -(-len(handles) // ncol) / fig.get_figheight()  # its rows' height, as a fraction of the figure
     fig.suptitle(wrapped(title, fig.get_figwidth()))
-    fig.tight_layout(rect=(0, 0.08, 1, 1))
+    fig.tight_layout(rect=(0, legend, 1, 1))
     return save(fig, path)

@@ -17,14 +17,14 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from vpr_smr.eval.report.results import Order, WrittenFigure
-from vpr_smr.eval.report.rows import column, interval
+from vpr_smr.eval.report.rows import column, extra, interval
 from vpr_smr.eval.report.sections import Declared, prose
 from vpr_smr.eval.report.table_spec import Figure, Table
 from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.eval.scoring.deployment_records import PREDICTOR_SOURCE, DeploymentResult, DeploymentRow
 from vpr_smr.eval.scoring.records import Interval
 from vpr_smr.eval.scoring.scorers import ORACLE
-from vpr_smr.eval.scoring.thresholds import ABSTAINED, HELD, RULES, VIOLATED
+from vpr_smr.eval.scoring.thresholds import ABSTAINED, HELD, VIOLATED
 
 __all__ = ["FIGURES", "NAME", "TABLES", "DeploymentTableRow", "against_target", "deployment_rows", "headline",
            "target_sentences"]
@@ -76,6 +76,9 @@ class DeploymentTableRow:
     recall_lost: float = column("recall lost")
     segments_violated: str = column("segments below p")
     seeds_violated: str = column("seeds violated", if_any=True)
+    # what the result says its numbers cannot (a calibration split too small for guaranteed at a target, one
+    # without a correct match, an empty deployment): the matcher's notes, said under the sentences
+    notes: tuple[str, ...] = extra(default=())
 
     @classmethod
     def of(cls, result: DeploymentResult, row: DeploymentRow, seeds: Sequence[DeploymentRow]) -> DeploymentTableRow:
@@ -88,7 +91,8 @@ class DeploymentTableRow:
             realised.precision, realised.precision_ci, realised.recall, realised.recall_ci, row.outcome,
             against_target(realised.precision_ci, row.precision), row.ceiling.recall,
             row.recall_lost, f"{row.segments.violated} of {row.segments.with_acceptance}",
-            f"{violated} of {len(seeds)}" if row.source == PREDICTOR_SOURCE else "")
+            f"{violated} of {len(seeds)}" if row.source == PREDICTOR_SOURCE else "",
+            tuple(note for note in result.notes if note.startswith(f"{row.matcher}: ")))
 
 
 def deployment_rows(results: Sequence[DeploymentResult], order: Order | None = None) -> list[DeploymentTableRow]:
@@ -116,91 +120,116 @@ def make_deployment(inputs: Inputs) -> list[DeploymentTableRow] | None:
 
 # --- the sentences ---------------------------------------------------------------------------------------------
 
+SHOWN = 5  # source-rule pairs a sentence names per kind (the rest counted)
+
 
 def _own(rows: Sequence[DeploymentTableRow]) -> list[DeploymentTableRow]:
     """The rows of the run's matcher (each result lists it first)."""
     return [r for r in rows if r.matcher == rows[0].matcher] if rows else []
 
 
-def _sources(rows: Sequence[DeploymentTableRow]) -> list[DeploymentTableRow]:
-    """The rows of real confidence sources: the oracle is a check (its calibrated precision is 1), said apart."""
-    return [r for r in rows if r.source != ORACLE]
-
-
-def _oracle_note(rows: Sequence[DeploymentTableRow]) -> str:
-    """The check: the oracle held wherever it accepted; a word where it did not (it cannot, unless the labels of
-    the two splits disagree in kind)."""
-    missed = [r for r in rows if r.source == ORACLE and r.outcome == VIOLATED]
-    return f" The oracle (a check) fell below p in {len(missed)} cells." if missed else ""
-
-
-def target_sentences(rows: Sequence[DeploymentTableRow]) -> list[str]:
-    """One sentence per target of a block's rows (the run's matcher): per rule, in how many of its cells (source,
-    method, deployment) the threshold held, was violated (and how many of those with the interval wholly below the
-    target) or abstained; the source-rule pairs that held in every cell, with their mean recall against the
-    ceiling's. It counts deployments and says that one deployment is no evidence beyond its route."""
-    own = _own(rows)
-    if not own:
-        return []
-    deployments = sorted({r.deployment for r in own})
-    methods = list(dict.fromkeys(r.method for r in own))
-    n_cells = len(deployments) * len(methods)
-    out = []
-    for target in dict.fromkeys(r.precision_target for r in own):
-        checks = [r for r in own if r.precision_target == target]
-        at = _sources(checks)
-        parts = []
-        for rule in RULES:
-            found = [r for r in at if r.rule == rule]
-            if not found:
-                continue
-            held = sum(1 for r in found if r.outcome == HELD)
-            violated = [r for r in found if r.outcome == VIOLATED]
-            beyond = sum(1 for r in violated if r.against_target == BELOW)
-            abstained = sum(1 for r in found if r.outcome == ABSTAINED)
-            parts.append(f"{rule} held in {held}, fell below p in {len(violated)} ({beyond} with the interval wholly "
-                         f"below p) and abstained in {abstained} of {len(found)}")
-        pairs: dict[tuple[str, str], list[DeploymentTableRow]] = {}
-        for r in at:
-            pairs.setdefault((r.source, r.rule), []).append(r)
-        kept = [(key, found) for key, found in pairs.items()
-                if len(found) == n_cells and all(r.outcome == HELD for r in found)]
-        kept.sort(key=lambda item: -sum(r.recall for r in item[1]))
-        if kept:
-            shown = "; ".join(
-                f"{source}/{rule} (recall {_mean([r.recall for r in found]):.3f} against the ceiling's "
-                f"{_mean([r.ceiling_recall for r in found]):.3f})" for (source, rule), found in kept[:4])
-            more = f" and {len(kept) - 4} more" if len(kept) > 4 else ""
-            every = (f"Held in every cell: {shown}{more}" if n_cells > 1 else f"Held on it: {shown}{more}")
-        else:
-            every = "No source-rule pair held in every cell"
-        where = ("on the one deployment split of each method (one stretch of one route: holding there does not show "
-                 "that a rule holds on another)" if len(deployments) == 1 else
-                 f"on {len(deployments)} deployments ({', '.join(deployments)}) of each method")
-        out.append(f"Precision {target:g} ({own[0].matcher}, calibrated on {own[0].calibration}, {where}): of the "
-                   f"cells of a source (the oracle apart), method and deployment, {'; '.join(parts)}. {every}."
-                   + _oracle_note(checks))
-    return out
-
-
 def _mean(values: Sequence[float]) -> float:
     return sum(values) / len(values)
 
 
+def _pairs(rows: Sequence[DeploymentTableRow]) -> dict[tuple[str, str], list[DeploymentTableRow]]:
+    """A target's rows per source and rule (the cells: one per method and deployment)."""
+    out: dict[tuple[str, str], list[DeploymentTableRow]] = {}
+    for r in rows:
+        out.setdefault((r.source, r.rule), []).append(r)
+    return out
+
+
+def _held(pairs: dict[tuple[str, str], list[DeploymentTableRow]]) -> list[tuple[str, str]]:
+    """The source-rule pairs that held on every one of their cells, the highest mean recall first, the oracle (the
+    check, whose recall is the ceiling's) last."""
+    kept = [key for key, found in pairs.items() if all(r.outcome == HELD for r in found)]
+    return sorted(kept, key=lambda key: (key[0] == ORACLE, -_mean([r.recall for r in pairs[key]])))
+
+
+def _recall(found: Sequence[DeploymentTableRow]) -> str:
+    """The recall against the ceiling's: of the one cell, or the mean over the cells."""
+    mean = "" if len(found) == 1 else "mean "
+    return (f"{mean}recall {_mean([r.recall for r in found]):.3f} of the ceiling's "
+            f"{_mean([r.ceiling_recall for r in found]):.3f}")
+
+
+def _named(items: Sequence[str]) -> str:
+    more = f" and {len(items) - SHOWN} more" if len(items) > SHOWN else ""
+    return ", ".join(items[:SHOWN]) + more
+
+
+def _scope(own: Sequence[DeploymentTableRow]) -> tuple[str, str]:
+    """Where the thresholds were deployed, in words, and what holding on all of it is called: one deployment split
+    is one stretch of one route, so the words count deployments and claim nothing beyond them."""
+    deployments = list(dict.fromkeys(r.deployment for r in own))
+    methods = list(dict.fromkeys(r.method for r in own))
+    each = f" of each of the {len(methods)} methods" if len(methods) > 1 else ""
+    if len(deployments) == 1:
+        return (f"the one deployment split {deployments[0]}{each} (one route; not evidence that a threshold holds "
+                "elsewhere)", "held on the one deployment split" + (" of every method" if each else ""))
+    return (f"{len(deployments)} deployments{each} ({', '.join(deployments)})",
+            f"held on {len(deployments)} of {len(deployments)} deployments" + (" of every method" if each else ""))
+
+
+def _violations(found: Sequence[DeploymentTableRow]) -> str:
+    """How often a pair fell below the target, and what the precision's interval says of each time."""
+    violated = [r for r in found if r.outcome == VIOLATED]
+    beyond = sum(1 for r in violated if r.against_target == BELOW)
+    without = sum(1 for r in violated if r.against_target == NO_INTERVAL)
+    words = [f"{beyond} below p beyond its interval"] if beyond else []
+    if len(violated) - beyond - without:
+        words.append(f"{len(violated) - beyond - without} below p, interval includes p")
+    if without:
+        words.append(f"{without} without an interval")
+    return f"in {len(violated)} of {len(found)} ({'; '.join(words)})"
+
+
+def target_sentences(rows: Sequence[DeploymentTableRow]) -> list[str]:
+    """One sentence per target of a block's rows (one dataset and L; the run's matcher): which source-rule pairs
+    held (precision at least p) on every deployment of every method, at what recall against the ceiling; which fell
+    below p and in how many cells (a cell: a method's deployment), whether the interval lies wholly below p there;
+    which abstained (accepted nothing: never a success). Deployments are counted, and one deployment split is said to
+    be one route: holding there is no evidence that a threshold holds elsewhere."""
+    own = _own(rows)
+    if not own:
+        return []
+    scope, held_words = _scope(own)
+    out = []
+    for target in dict.fromkeys(r.precision_target for r in own):
+        pairs = _pairs([r for r in own if r.precision_target == target])
+        held = _held(pairs)
+        violated = [key for key, found in pairs.items() if any(r.outcome == VIOLATED for r in found)]
+        abstained = [key for key, found in pairs.items() if any(r.outcome == ABSTAINED for r in found)]
+        parts = [f"{len(held)} of {len(pairs)} source-rule pairs {held_words}"
+                 + (f": {_named([f'{s}/{rule} ({_recall(pairs[s, rule])})' for s, rule in held])}" if held else "")]
+        if violated:
+            parts.append(f"{len(violated)} fell below p: "
+                         + _named([f"{s}/{rule} {_violations(pairs[s, rule])}" for s, rule in violated]))
+        if abstained:
+            parts.append(f"{len(abstained)} abstained (accepted nothing): " + _named(
+                [f"{s}/{rule} in {sum(1 for r in pairs[s, rule] if r.outcome == ABSTAINED)} of "
+                 f"{len(pairs[s, rule])}" for s, rule in abstained]))
+        out.append(f"Precision {target:g} ({own[0].matcher}, thresholds set on {own[0].calibration}, deployed on "
+                   f"{scope}): {'; '.join(parts)}.")
+    return out + [f"Note: {note}." for note in dict.fromkeys(note for r in own for note in r.notes)]
+
+
 def headline(rows: Sequence[DeploymentTableRow]) -> str:
-    """The first screen's sentence of a block: at the first target, how many cells each rule held in."""
+    """The first screen's sentence of a block: at the first target, how many source-rule pairs held on every
+    deployment, and which of them (the oracle, the check, aside) kept the highest recall."""
     own = _own(rows)
     if not own:
         return ""
     target = own[0].precision_target
-    at = _sources([r for r in own if r.precision_target == target])
-    counts = ", ".join(f"{rule} {sum(1 for r in at if r.rule == rule and r.outcome == HELD)} of "
-                       f"{sum(1 for r in at if r.rule == rule)}" for rule in RULES if any(r.rule == rule for r in at))
-    deployments = sorted({r.deployment for r in at})
+    pairs = _pairs([r for r in own if r.precision_target == target])
+    held = _held(pairs)
+    _, held_words = _scope(own)
+    best = next(((s, rule) for s, rule in held if s != ORACLE), None)
+    said = ("" if best is None else
+            f"; the highest recall: {best[0]}/{best[1]} ({_recall(pairs[best])})")
     return (f"On {own[0].dataset} ({own[0].matcher}, L = {own[0].seq_len}), thresholds set on {own[0].calibration} "
-            f"for precision {target:g} held on {', '.join(deployments)} in {counts} source-method cells (the oracle "
-            "apart) "
-            "(held: the realised precision at least the target; one route, so no rule is shown to hold elsewhere).")
+            f"for precision {target:g}: {len(held)} of {len(pairs)} source-rule pairs {held_words}{said}.")
 
 
 # --- the figure ------------------------------------------------------------------------------------------------
@@ -222,8 +251,10 @@ def draw(figure: Figure, out_dir: Path, inputs: Inputs) -> list[WrittenFigure]:
     out = []
     for (dataset, seq_len), group in groups.items():
         first = group[0]
-        title = (f"{dataset}, L={seq_len}{inputs.correct(dataset)}: thresholds set on {first.meta['calibration']} "
-                 f"for each target, realised on {', '.join(first.meta['deployments'])}")
+        matcher = first.rows[0].matcher if first.rows else ""
+        title = (f"{dataset}, L={seq_len}, {matcher}{inputs.correct(dataset)}: thresholds set on "
+                 f"{first.meta['calibration']} for each target, realised on {', '.join(first.meta['deployments'])} "
+                 "(a rule that accepts nothing is not drawn)")
         path = deployment_figures.deployment_figure(out_dir / figure.file(dataset=dataset, seq_len=seq_len), group,
                                                     title)
         out.append(WrittenFigure(figure.name, f"{figure.title}: {dataset}, L={seq_len}", path, dataset, seq_len))

@@ -1,0 +1,220 @@
+"""The experiment deployment's table, sentences, headline and figure (method §16), on hand-built records: every
+expected cell and count is worked out by hand from the records below."""
+
+from __future__ import annotations
+
+import csv
+import re
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any
+
+import pytest
+
+from vpr_smr.eval.report import registry
+from vpr_smr.eval.report.build import _write_table
+from vpr_smr.eval.report.rows import cells
+from vpr_smr.eval.report.tables import deployment as table
+from vpr_smr.eval.scoring.deployment_records import Chosen, DeploymentResult, DeploymentRow, RiskCoverage
+from vpr_smr.eval.scoring.records import Interval
+from vpr_smr.eval.scoring.thresholds import (
+    ABSTAINED,
+    EMPIRICAL,
+    GUARANTEED,
+    HELD,
+    SAME_FRACTION,
+    VIOLATED,
+    Calibration,
+    Realised,
+    Segments,
+)
+
+OWN, OTHER = "seqslam", "seqslam_v2"
+
+
+def realised(n: int, accepted: int, wrong: int, ci: Interval | None = None) -> Realised:
+    """A realised record from its counts (precision None when nothing is accepted, as the method says)."""
+    precision = None if accepted == 0 else (accepted - wrong) / accepted
+    return Realised(n, accepted, wrong, precision, (accepted - wrong) / n, accepted / n, ci, None)
+
+
+def row(source: str, rule: str, p: float, threshold: float | None, deployed: Realised, ceiling: Realised,
+        outcome: str, seed: int | None = None, matcher: str = OWN, deployment: str = "test",
+        segments: Segments = Segments(100, 2, 2, 0)) -> DeploymentRow:
+    risk = 0.1 if rule == GUARANTEED else None
+    calibration = Calibration(rule, p, risk, threshold, 100, 0 if threshold is None else 40, 0 if threshold is None
+                              else 4)
+    return DeploymentRow(matcher, source, seed, rule, p, risk, calibration, deployment, deployed, ceiling,
+                         ceiling.recall - deployed.recall, segments, outcome)
+
+
+def meta(method: str = "netvlad", deployments: tuple[str, ...] = ("test",)) -> dict[str, Any]:
+    return {"dataset": "nordland", "method": method, "seq_len": 4, "calibration": "val",
+            "deployments": list(deployments), "precisions": [0.9, 0.95]}
+
+
+def one_deployment() -> DeploymentResult:
+    """One method, one deployment split (200 queries). At p = 0.9: predictor/empirical falls to 40/50 = 0.8 with
+    its interval (0.72, 0.86) wholly below 0.9 (seeds 1 and 2: violated and held); distance/guaranteed abstains;
+    uniqueness/same_fraction holds at 38/40 = 0.95 (interval 0.88-0.99 holds 0.9) with recall 38/200 = 0.19
+    against the ceiling's 54/200 = 0.27; oracle/empirical holds at recall 80/200 = 0.4, the ceiling's too. At p =
+    0.95: uniqueness/same_fraction falls to 36/40 = 0.9 with an interval (0.85, 0.97) that holds 0.95."""
+    ceiling = realised(200, 30, 3)
+    rows = (
+        row("predictor", EMPIRICAL, 0.9, 0.7, realised(200, 50, 10, Interval(0.72, 0.86)), ceiling, VIOLATED, 0,
+            segments=Segments(100, 2, 2, 1)),
+        row("predictor", EMPIRICAL, 0.9, 0.6, realised(200, 50, 12), ceiling, VIOLATED, 1),
+        row("predictor", EMPIRICAL, 0.9, 0.8, realised(200, 20, 1), ceiling, HELD, 2),
+        row("distance", GUARANTEED, 0.9, None, realised(200, 0, 0), realised(200, 10, 1), ABSTAINED,
+            segments=Segments(100, 2, 0, 0)),
+        row("uniqueness", SAME_FRACTION, 0.9, 2.5, realised(200, 40, 2, Interval(0.88, 0.99)),
+            realised(200, 60, 6), HELD),
+        row("oracle", EMPIRICAL, 0.9, 1.0, realised(200, 80, 0, Interval(1.0, 1.0)), realised(200, 80, 0), HELD),
+        row("uniqueness", SAME_FRACTION, 0.95, 2.5, realised(200, 40, 4, Interval(0.85, 0.97)),
+            realised(200, 30, 1), VIOLATED),
+        row("oracle", EMPIRICAL, 0.95, 1.0, realised(200, 80, 0, Interval(1.0, 1.0)), realised(200, 80, 0), HELD),
+        # a compared matcher: in the table, not in the run's sentences
+        row("distance", EMPIRICAL, 0.9, 0.3, realised(200, 10, 5), realised(200, 10, 1), VIOLATED, matcher=OTHER),
+    )
+    curves = (RiskCoverage(OWN, "predictor", (0.1, 0.5, 1.0), (0.0, 0.05, 0.3), (0.9, 0.5, 0.1),
+                           (Chosen(EMPIRICAL, 0.9, 0.5), Chosen(GUARANTEED, 0.9, None))),
+              RiskCoverage(OWN, "distance", (0.2, 1.0), (0.1, 0.3), (2.0, 1.0), (Chosen(EMPIRICAL, 0.9, 2.0),)))
+    notes = (f"{OWN}: guaranteed needs at least 22 calibration queries for precision 0.99 at risk 0.1",
+             f"{OTHER}: the deployment test holds no evaluated query")
+    return DeploymentResult(meta(), rows, curves, notes)
+
+
+def test_rows_give_the_expected_cells(tmp_path: Path) -> None:
+    rows = table.deployment_rows([one_deployment()])
+    # seed 0 only for the predictor: 9 records less seeds 1 and 2
+    assert [(r.matcher, r.source, r.rule, r.precision_target) for r in rows] == [
+        (OWN, "predictor", EMPIRICAL, 0.9), (OWN, "distance", GUARANTEED, 0.9), (OWN, "uniqueness", SAME_FRACTION, 0.9),
+        (OWN, "oracle", EMPIRICAL, 0.9), (OWN, "uniqueness", SAME_FRACTION, 0.95), (OWN, "oracle", EMPIRICAL, 0.95),
+        (OTHER, "distance", EMPIRICAL, 0.9)]
+    predictor = cells(rows[0])
+    assert predictor["precision"] == pytest.approx(0.8)
+    assert (predictor["precision_ci_low"], predictor["precision_ci_high"]) == (0.72, 0.86)
+    assert predictor["recall"] == pytest.approx(0.2)
+    assert predictor["accepted_fraction"] == pytest.approx(0.25)
+    assert predictor["ceiling_recall"] == pytest.approx(0.135)
+    assert predictor["recall_lost"] == pytest.approx(-0.065)
+    assert predictor["threshold"] == 0.7 and predictor["n_calibration"] == 100 and predictor["n_deployment"] == 200
+    assert predictor["outcome"] == VIOLATED and predictor["against_target"] == table.BELOW
+    assert predictor["segments_violated"] == "1 of 2"
+    assert predictor["seeds_violated"] == "2 of 3"  # seeds 0 and 1 of 3
+    assert predictor["risk"] is None and predictor["calibration"] == "val" and predictor["deployment"] == "test"
+    abstained = cells(rows[1])
+    assert abstained["threshold"] is None and abstained["precision"] is None and abstained["recall"] == 0.0
+    assert abstained["outcome"] == ABSTAINED and abstained["against_target"] == table.NO_INTERVAL
+    assert abstained["risk"] == 0.1 and abstained["segments_violated"] == "0 of 0" and abstained["seeds_violated"] == ""
+    assert cells(rows[2])["against_target"] == table.HOLDS and cells(rows[3])["against_target"] == table.ABOVE
+    assert rows[0].notes == (f"{OWN}: guaranteed needs at least 22 calibration queries for precision 0.99 at risk 0.1",)
+    assert rows[-1].notes == (f"{OTHER}: the deployment test holds no evaluated query",)
+
+    # written: an undefined precision and an abstaining threshold are empty cells, never 0 or 1
+    spec = registry.table(table.NAME)
+    files = _write_table(tmp_path / table.NAME, spec.names(), [cells(r) for r in rows], spec.title)
+    with open(files[0], newline="") as stream:
+        written = list(csv.DictReader(stream))
+    assert len(written) == 7
+    assert (written[1]["precision"], written[1]["threshold"], written[1]["outcome"]) == ("", "", "abstained")
+    assert float(written[0]["precision"]) == pytest.approx(0.8)
+
+
+def test_sentences_of_one_deployment() -> None:
+    rows = table.deployment_rows([one_deployment()])
+    said = table.target_sentences(rows)
+    assert said == [
+        "Precision 0.9 (seqslam, thresholds set on val, deployed on the one deployment split test (one route; not "
+        "evidence that a threshold holds elsewhere)): 2 of 4 source-rule pairs held on the one deployment split: "
+        "uniqueness/same_fraction (recall 0.190 of the ceiling's 0.270), oracle/empirical (recall 0.400 of the "
+        "ceiling's 0.400); 1 fell below p: predictor/empirical in 1 of 1 (1 below p beyond its interval); "
+        "1 abstained (accepted nothing): distance/guaranteed in 1 of 1.",
+        "Precision 0.95 (seqslam, thresholds set on val, deployed on the one deployment split test (one route; not "
+        "evidence that a threshold holds elsewhere)): 1 of 2 source-rule pairs held on the one deployment split: "
+        "oracle/empirical (recall 0.400 of the ceiling's 0.400); 1 fell below p: uniqueness/same_fraction in 1 of "
+        "1 (1 below p, interval includes p).",
+        "Note: seqslam: guaranteed needs at least 22 calibration queries for precision 0.99 at risk 0.1."]
+    for sentence in said:
+        assert "safe" not in sentence and "guarantee" not in sentence.replace("guaranteed", "")
+    # the oracle (the check) is never the headline's best
+    assert table.headline(rows) == (
+        "On nordland (seqslam, L = 4), thresholds set on val for precision 0.9: 2 of 4 source-rule pairs held on "
+        "the one deployment split; the highest recall: uniqueness/same_fraction (recall 0.190 of the ceiling's "
+        "0.270).")
+
+
+def several() -> list[DeploymentResult]:
+    """Two methods, each deployed on two splits; seeded so that the outcomes vary over the cells."""
+    deployments = ("test", "oxford/test")
+    results = []
+    plan = {  # (method, deployment) -> per (source, rule): (accepted, wrong, outcome, interval)
+        ("netvlad", "test"): {("predictor", EMPIRICAL): (50, 4, HELD, None), ("distance", EMPIRICAL): (40, 8, VIOLATED,
+                              Interval(0.7, 0.85)), ("spread", GUARANTEED): (0, 0, ABSTAINED, None)},
+        ("netvlad", "oxford/test"): {("predictor", EMPIRICAL): (60, 3, HELD, None), ("distance", EMPIRICAL): (
+            40, 5, VIOLATED, Interval(0.8, 0.95)), ("spread", GUARANTEED): (10, 0, HELD, None)},
+        ("cosplace", "test"): {("predictor", EMPIRICAL): (70, 7, HELD, None), ("distance", EMPIRICAL): (40, 2, HELD,
+                               None), ("spread", GUARANTEED): (0, 0, ABSTAINED, None)},
+        ("cosplace", "oxford/test"): {("predictor", EMPIRICAL): (30, 0, HELD, None), ("distance", EMPIRICAL): (
+            40, 10, VIOLATED, None), ("spread", GUARANTEED): (20, 1, HELD, None)},
+    }
+    for method in ("netvlad", "cosplace"):
+        rows = []
+        for deployment in deployments:
+            for (source, rule), (accepted, wrong, outcome, ci) in plan[method, deployment].items():
+                rows.append(row(source, rule, 0.9, None if accepted == 0 else 0.5, realised(100, accepted, wrong, ci),
+                                realised(100, 80, 8), outcome, 0 if source == "predictor" else None,
+                                deployment=deployment))
+        results.append(DeploymentResult(meta(method, deployments), tuple(rows), (), ()))
+    return results
+
+
+def test_sentences_count_deployments() -> None:
+    rows = table.deployment_rows(several())
+    (said,) = [s for s in table.target_sentences(rows) if s.startswith("Precision 0.9")]
+    assert "deployed on 2 deployments of each of the 2 methods (test, oxford/test)" in said
+    assert "one route" not in said and "safe" not in said
+    # a naive count over the rows: the pairs held in all four cells, with their mean recalls
+    cells_of: dict[tuple[str, str], list[table.DeploymentTableRow]] = {}
+    for r in rows:
+        cells_of.setdefault((r.source, r.rule), []).append(r)
+    held = [key for key, found in cells_of.items() if all(r.outcome == HELD for r in found)]
+    assert held == [("predictor", EMPIRICAL)]
+    recall = sum(r.recall for r in cells_of["predictor", EMPIRICAL]) / 4
+    assert recall == pytest.approx((46 + 57 + 63 + 30) / 400)
+    assert (f"1 of 3 source-rule pairs held on 2 of 2 deployments of every method: predictor/empirical (mean recall "
+            f"{recall:.3f} of the ceiling's 0.720)") in said
+    # distance/empirical: 3 of 4 cells below 0.9: once beyond the interval, once with it holding 0.9, once without
+    assert ("1 fell below p: distance/empirical in 3 of 4 (1 below p beyond its interval; 1 below p, interval "
+            "includes p; 1 without an interval)") in said
+    assert "1 abstained (accepted nothing): spread/guaranteed in 2 of 4" in said
+    numbers = [int(n) for n in re.findall(r"(\d+) of 3 source-rule pairs", said)]
+    assert numbers == [len(held)]
+    assert table.headline(rows).endswith(f"held on 2 of 2 deployments of every method; the highest recall: "
+                                         f"predictor/empirical (mean recall {recall:.3f} of the ceiling's 0.720).")
+
+
+def test_nothing_held() -> None:
+    rows = [r for r in table.deployment_rows([one_deployment()]) if r.source == "predictor"]
+    assert table.headline(rows) == ("On nordland (seqslam, L = 4), thresholds set on val for precision 0.9: 0 of 1 "
+                                    "source-rule pairs held on the one deployment split.")
+
+
+def test_figure_draws(tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    results = [one_deployment(), replace_method(one_deployment(), "cosplace")]
+    inputs = SimpleNamespace(deployment=results, order=None, correct=lambda dataset: "")
+    written = table.draw(table.FIGURE, tmp_path, inputs)  # type: ignore[arg-type]
+    assert [(w.name, w.dataset, w.seq_len) for w in written] == [(table.NAME, "nordland", 4)]
+    assert written[0].path == tmp_path / table.FIGURE.file(dataset="nordland", seq_len=4)
+    assert written[0].path.is_file() and written[0].path.stat().st_size > 0
+
+
+def replace_method(result: DeploymentResult, method: str) -> DeploymentResult:
+    return DeploymentResult({**result.meta, "method": method}, result.rows, result.curves, result.notes)
+
+
+def test_experiment_exports_the_table_and_figure() -> None:
+    assert [t.name for t in table.TABLES] == [table.NAME] and [f.name for f in table.FIGURES] == [table.NAME]
+    section = table.TABLES[0].section
+    assert section is not None and section.after == "baselines" and section.figure == table.NAME
