@@ -44,16 +44,21 @@ from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import Training, check_matrices, check_scored, matrix_overlaps
 from vpr_smr.eval.predictor.train import check_trainable, predictor_params, rank0, train_seed
 from vpr_smr.eval.scoring import baselines as scoring
+from vpr_smr.eval.scoring.calibrate_stage import Deployed
+from vpr_smr.eval.scoring.calibrate_stage import calibrate as calibrate_checked
+from vpr_smr.eval.scoring.calibrate_stage import deploy as deploy_checked
 from vpr_smr.eval.scoring.evaluate import evaluate_split
 from vpr_smr.eval.scoring.queries import Prediction
 from vpr_smr.eval.scoring.records import EvaluationSplit, SplitBaselines, SplitMetrics
 from vpr_smr.eval.scoring.scorers import DEFAULT_SETTINGS, BaselineSettings
+from vpr_smr.eval.scoring.thresholds import DEFAULT_RISK, DEFAULT_SEGMENT, GUARANTEED, Calibration
 from vpr_smr.eval.scoring.vpr_metrics import score_split
 
 # in the order of a session (and of the reference page)
 __all__ = [
     "sample_distances", "read_distances", "read_ground_truth", "metrics", "match", "attributes", "train", "predict",
-    "save_predictor", "load_predictor", "evaluate", "scores", "baselines", "plain", "stage_commands", "run_stage",
+    "save_predictor", "load_predictor", "evaluate", "scores", "baselines", "calibrate", "deploy", "plain",
+    "stage_commands", "run_stage",
 ]
 
 Truth = GroundTruth | np.ndarray | None  # what a ``ground_truth`` argument takes
@@ -518,6 +523,58 @@ def baselines(features: QueryFeatures, *, predictors: Sequence[SMRPredictor] = (
     found = [scoring.Prediction(seed, predictor.predict_proba(rank0_attributes), predictor.classes_)
              for seed, predictor in enumerate(predictors)]
     return scoring.split_baselines(features, chosen, positions, found, tuple(modes))
+
+
+# --- thresholds for a robot (method §16) ------------------------------------------------------------------------
+
+
+def calibrate(confidences: Any, correct: Any, precision: float = 0.9, risk: float = DEFAULT_RISK,
+              rule: str = GUARANTEED) -> Calibration:
+    """A threshold on a calibration split's confidences for a target precision, as ``vpr-smr calibrate`` sets it.
+
+    Args:
+        confidences: one source's confidence per evaluated query of the calibration split (higher: more likely
+            correct), e.g. a column of :func:`scores` or ``vpr-smr queries``' ``c_<source>``.
+        correct: whether each query's sequence match is correct (``QueryFeatures.sequence_correct``).
+        precision: the target precision ``p``, in (0, 1].
+        risk: ``guaranteed``'s ``delta``, in (0, 1): the probability that its threshold misses ``p`` on new
+            exchangeable queries (a route's queries are not exchangeable: see the page on thresholds).
+        rule: ``empirical`` (the smallest threshold reaching ``p`` on the split), ``guaranteed`` (Selection with
+            Guaranteed Risk) or ``same_fraction`` (the fraction ``empirical`` accepts, applied to another split).
+
+    Returns:
+        The rule's record: ``threshold`` (None: it abstains, accepting nothing; else it accepts ``c >= threshold``)
+        and its counts on the split.
+
+    Raises:
+        ValueError: a target outside (0, 1], a risk outside (0, 1), an unknown rule, a split without any correct
+            match, and for ``guaranteed`` a target of 1 or fewer queries than it can use for the target (the message
+            says how many it needs).
+    """
+    return calibrate_checked(np.asarray(confidences), np.asarray(correct), precision, risk, rule, "confidences")
+
+
+def deploy(confidences: Any, calibration: Calibration, correct: Any = None,
+           segment: int = DEFAULT_SEGMENT) -> Deployed:
+    """A calibration applied to another split, as ``vpr-smr deploy`` applies a threshold file.
+
+    Args:
+        confidences: the same source's confidence per evaluated query of the split (``same_fraction`` needs these
+            only).
+        calibration: :func:`calibrate`'s record.
+        correct: the split's labels, one per query; None: the accepted queries only.
+        segment: queries per segment of the segments' count.
+
+    Returns:
+        The record: ``accepted`` (a boolean mask, in query order) and, with labels, ``realised`` (precision,
+        recall and accepted fraction with block-bootstrap intervals), ``outcome`` (``held``, ``violated`` or
+        ``abstained``) and ``segments``.
+
+    Raises:
+        ValueError: an empty split, labels of another length, or a segment below 1.
+    """
+    return deploy_checked(np.asarray(confidences), calibration, None if correct is None else np.asarray(correct),
+                          segment)
 
 
 # --- plain data -------------------------------------------------------------------------------------------------

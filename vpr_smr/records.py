@@ -18,6 +18,7 @@ from vpr_smr.eval.matching.matchers.base import MatchBlock
 from vpr_smr.eval.matching.sources import MatrixFormat, TruthSource
 from vpr_smr.eval.predictor.estimator import SMRPredictor
 from vpr_smr.eval.predictor.leakage import FrameRange, SplitLeakError, Training
+from vpr_smr.eval.scoring.calibrate_stage import Deployed, DeployedSplit
 from vpr_smr.eval.scoring.queries import Prediction
 from vpr_smr.eval.scoring.records import (
     Baselines,
@@ -49,6 +50,8 @@ from vpr_smr.eval.scoring.records import (
     Versus,
     VPRMetrics,
 )
+from vpr_smr.eval.scoring.threshold_file import ThresholdFile
+from vpr_smr.eval.scoring.thresholds import Calibration, Realised, Segments
 
 # by what gives them: the matching, the predictor, the scoring of a split, a results file, the shared settings
 __all__ = [
@@ -60,5 +63,6 @@ __all__ = [
     "SplitBaselines", "Detection", "Versus", "BudgetRemoval", "ScorerRemoval",
     "HeldOutScores", "HeldOutPredictors", "SplitTiming",
     "VPRMetrics", "Evaluation", "Baselines", "HeldOut", "Timing",
+    "Calibration", "Deployed", "Realised", "Segments", "ThresholdFile", "DeployedSplit",
     "TruthSource", "MatrixFormat",
 ]

@@ -21,6 +21,18 @@ and that distance from a descriptor file of the pipeline, so the live matches ar
         if result is not None and result.keep:
             use(result.sequence_match)
 
+A threshold file of ``vpr-smr calibrate`` (method §16; ``thresholds=``, read with
+``vpr_smr.eval.scoring.threshold_file.read_thresholds``) makes each result say whether the frame's match is accepted
+(``LiveResult.accepted``): the frame's confidence of the file's source (the predictor's, the native confidence,
+``uniqueness`` where it is the matcher's native scorer, or minus the sequence distance) against its threshold, the
+batch ``vpr-smr deploy``'s decision on the same query. A file of another matcher, method or length is refused.
+
+    matcher = LiveMatcher.from_descriptors("descriptors.h5", seq_len=4, thresholds=read_thresholds("thr.json"))
+    for descriptor in camera_descriptors:
+        result = matcher.step(descriptor)
+        if result is not None and result.accepted:
+            use(result.sequence_match)
+
 ``AdaptiveLiveMatcher`` chooses the sequence length per frame (method §15): every length's window takes every frame,
 then the lengths are asked shortest first and the first whose predictor keeps the match is chosen; the longer ones'
 attributes and predictions are not computed that frame (a filter's matching is: its belief advances every frame at
@@ -39,7 +51,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -56,6 +68,18 @@ from vpr_smr.eval.matching.matchers.base import MatchBlock, Matcher
 LIVE_NATIVE_SCORER = "uniqueness"  # the one §12 scorer a frame's own scores give (the others need more than them)
 
 
+class LiveThresholds(Protocol):
+    """What a live matcher needs of a threshold file (``eval.scoring.threshold_file.ThresholdFile``, which the
+    scoring layer above this one reads): a check that this matcher gives its source per frame, and its decision on
+    a frame from what the frame computes. The file's rule decides; this module only passes the frame's numbers."""
+
+    def check_live(self, matcher: str, native_scorer: str | None, method: str | None, seq_len: int,
+                   predictor_sha256: str | None, has_predictor: bool) -> None: ...
+
+    def frame_accepted(self, native: float | None, sequence_distance: float, probabilities: np.ndarray | None,
+                       classes: np.ndarray | None) -> bool: ...
+
+
 @dataclass(frozen=True)
 class LiveResult:
     """The current query's matches, its attributes and, with a predictor, its predicted label."""
@@ -69,6 +93,7 @@ class LiveResult:
     label: int | None = None  # predicted class 0..3 (method §6), with a predictor
     keep: bool | None = None  # the predictor keeps the sequence match (label 0 or 2)
     native: float | None = None  # the matcher's native confidence (method §14; higher = more confident)
+    accepted: bool | None = None  # the threshold file accepts the sequence match (None: no threshold file)
 
 
 class LiveMatcher:
@@ -80,12 +105,13 @@ class LiveMatcher:
     ``matcher``: the sequence matcher (default ``seqslam`` with velocities [1.0], the paper's fixed matcher), as the
     batch ``attributes`` stage takes it (a ``MatcherSpec``, or a ``Matcher`` built for ``seq_len``): each step equals
     the batch result of its query. ``r_window``: uniqueness's window, for a matcher whose native confidence it is
-    (method §12's ``baselines.r_window``).
+    (method §12's ``baselines.r_window``). ``thresholds``: a threshold file (``LiveThresholds``), whose decision
+    each result's ``accepted`` holds; it must be of this matcher, length and method (``from_descriptors``' file's).
     """
 
     def __init__(self, seq_len: int, references: np.ndarray | None = None, predictor: Any = None,
                  distance: str | None = None, n_ranks: int = 4, matcher: MatcherSpec | Matcher | None = None,
-                 r_window: int = DEFAULT_R_WINDOW) -> None:
+                 r_window: int = DEFAULT_R_WINDOW, thresholds: LiveThresholds | None = None) -> None:
         self.matcher = built_matcher(matcher, seq_len)
         # a built matcher's spec is made when a loaded predictor is compared with it (an unregistered one has none)
         self.spec = matcher if isinstance(matcher, MatcherSpec) else MatcherSpec.of() if matcher is None else None
@@ -105,6 +131,29 @@ class LiveMatcher:
         # set by from_descriptors: the file's method and its settings (to build the same backend for new frames)
         self.method: str | None = None
         self.method_settings: dict[str, Any] | None = None
+        self.thresholds = thresholds  # checked against the matcher, the length and the predictor (the setter)
+
+    @property
+    def thresholds(self) -> LiveThresholds | None:
+        return self._thresholds
+
+    @thresholds.setter
+    def thresholds(self, thresholds: LiveThresholds | None) -> None:
+        if thresholds is not None:
+            from vpr_smr.eval.matching.ground_truth_files import file_sha256
+
+            path = getattr(self.predictor, "path_", None)  # a loaded predictor's file
+            thresholds.check_live(str(self._spec()), self.matcher.native_scorer, self.method, self.seq_len,
+                                  None if path is None or not Path(path).is_file() else file_sha256(path),
+                                  self.predictor is not None)
+        self._thresholds = thresholds
+
+    def _spec(self) -> MatcherSpec:
+        """This matcher's spec (made from a built matcher's name and settings)."""
+        if self.spec is None:
+            self.spec = MatcherSpec.of(self.matcher.name, dataclasses.asdict(self.matcher.settings),
+                                       "LiveMatcher(matcher=)")
+        return self.spec
 
     @property
     def predictor(self) -> Any:
@@ -117,16 +166,14 @@ class LiveMatcher:
                          "a LiveMatcher of L =")
         if predictor is not None and hasattr(predictor, "path_"):  # its attributes must be this matcher's (live
             # frames have no ground truth); a predictor fitted in this process records no matcher to compare
-            if self.spec is None:
-                self.spec = MatcherSpec.of(self.matcher.name, dataclasses.asdict(self.matcher.settings),
-                                           "LiveMatcher(matcher=)")
-            check_matching(predictor, Matching.of(self.spec), "a LiveMatcher (matcher=)", ground_truth=False)
+            check_matching(predictor, Matching.of(self._spec()), "a LiveMatcher (matcher=)", ground_truth=False)
         self._predictor = predictor
 
     @classmethod
     def from_descriptors(cls, path: Path | str, seq_len: int, predictor: Any = None, distance: str | None = None,
                          n_ranks: int = 4, frames: tuple[int, int] | None = None,
-                         matcher: MatcherSpec | None = None) -> LiveMatcher:
+                         matcher: MatcherSpec | None = None, thresholds: LiveThresholds | None = None
+                         ) -> LiveMatcher:
         """A matcher whose references are the ``reference`` descriptors of ``path`` (a ``vpr-smr descriptors``
         file), compared with its backend's distance (the file's ``distance`` attribute), or with ``distance`` when
         given: a run whose method sets ``distance`` computes its matrices with it, while its descriptor file (which
@@ -135,12 +182,13 @@ class LiveMatcher:
         ``frames = (lo, hi)`` keeps reference frames ``lo .. hi-1`` only (a split, as the batch matrix of that split
         has them); match indices then count from ``lo``. ``method`` and ``method_settings`` of the matcher are the
         file's (``descriptors.extract.build_backend(matcher.method, matcher.method_settings)`` describes new frames
-        alike).
+        alike). ``thresholds``: as ``LiveMatcher``'s, its method compared with the file's too.
         """
         references, stored, method, settings = _read_references(path, frames)
         live = cls(seq_len, references=references, predictor=predictor, distance=distance or stored,
                    n_ranks=n_ranks, matcher=matcher)
         live.method, live.method_settings = method, settings
+        live.thresholds = thresholds  # after the method is known
         return live
 
     def step(self, query_descriptor: np.ndarray) -> LiveResult | None:
@@ -218,11 +266,17 @@ class LiveMatcher:
             native = float(uniqueness(out["sequence_candidates"], out["sequence_candidate_references"],
                                       self.window)[0])
         attributes = out["attributes"][0]
-        label = keep = None
+        label = keep = accepted = None
+        probabilities = classes = None
         if self.predictor is not None:
             probabilities = self.predictor.predict_proba(attributes[:1])
-            label = int(np.asarray(self.predictor.classes_)[np.argmax(probabilities[0])])
+            classes = np.asarray(self.predictor.classes_)
+            label = int(classes[np.argmax(probabilities[0])])
             keep = label in KEPT_CLASSES
+        if self.thresholds is not None:
+            accepted = self.thresholds.frame_accepted(native, float(out["sequence_distance"][0]),
+                                                      None if probabilities is None else np.asarray(probabilities)[0],
+                                                      classes)
         return LiveResult(
             query=self.frames - 1,
             single_match=int(out["single_match"][0]),
@@ -233,6 +287,7 @@ class LiveMatcher:
             label=label,
             keep=keep,
             native=native,
+            accepted=accepted,
         )
 
 

@@ -4,12 +4,12 @@ belongs to. The command line, the workflow's rules and the Python API take them 
 from __future__ import annotations
 
 from vpr_smr.pipeline.stage import Stage
-from vpr_smr.pipeline.stages import matching, predictor, reporting, scoring, studies
+from vpr_smr.pipeline.stages import matching, predictor, reporting, scoring, studies, thresholds
 
 __all__ = ["COMMAND_GROUPS", "STAGES", "stage"]
 
-STAGES: tuple[Stage, ...] = (*matching.STAGES, *predictor.STAGES, *scoring.STAGES, *studies.STAGES,
-                             *reporting.STAGES)
+STAGES: tuple[Stage, ...] = (*matching.STAGES, *predictor.STAGES, *scoring.STAGES, *thresholds.STAGES,
+                             *studies.STAGES, *reporting.STAGES)
 
 # the help of a command whose stages are its subcommands (``ablation attributes``, ...)
 COMMAND_GROUPS = {"ablation": "the predictor's ablations"}
