@@ -9,6 +9,7 @@ from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
+import numpy as np
 import pytest
 
 from vpr_smr.eval.report import registry
@@ -30,6 +31,7 @@ from vpr_smr.eval.scoring.thresholds import (
 )
 
 OWN, OTHER = "seqslam", "seqslam_v2"
+NONE_BELOW = Segments(100, 2, 2, 0)  # two segments with acceptance, none below the target
 
 
 def realised(n: int, accepted: int, wrong: int, ci: Interval | None = None) -> Realised:
@@ -40,7 +42,7 @@ def realised(n: int, accepted: int, wrong: int, ci: Interval | None = None) -> R
 
 def row(source: str, rule: str, p: float, threshold: float | None, deployed: Realised, ceiling: Realised,
         outcome: str, seed: int | None = None, matcher: str = OWN, deployment: str = "test",
-        segments: Segments = Segments(100, 2, 2, 0)) -> DeploymentRow:
+        segments: Segments = NONE_BELOW) -> DeploymentRow:
     risk = 0.1 if rule == GUARANTEED else None
     calibration = Calibration(rule, p, risk, threshold, 100, 0 if threshold is None else 40, 0 if threshold is None
                               else 4)
@@ -137,11 +139,12 @@ def test_sentences_of_one_deployment() -> None:
         "Note: seqslam: guaranteed needs at least 22 calibration queries for precision 0.99 at risk 0.1."]
     for sentence in said:
         assert "safe" not in sentence and "guarantee" not in sentence.replace("guaranteed", "")
-    # the oracle (the check) is never the headline's best
+    # the oracle (the check) is neither counted nor the best in the headline; the predictor's cells counted
     assert table.headline(rows) == (
-        "On nordland (seqslam, L = 4), thresholds set on val for precision 0.9: 2 of 4 source-rule pairs held on "
-        "the one deployment split; the highest recall: uniqueness/same_fraction (recall 0.190 of the ceiling's "
-        "0.270).")
+        "On nordland (seqslam, L = 4), thresholds set on val for precision 0.9: 1 of 3 source-rule pairs (the oracle "
+        "aside) held on the one deployment split; the highest recall: uniqueness/same_fraction (recall 0.190 of the "
+        "ceiling's 0.270); the predictor's thresholds held in 0, fell below p in 1 and abstained in 0 of its 1 "
+        "rule-deployment cell.")
 
 
 def several() -> list[DeploymentResult]:
@@ -190,14 +193,18 @@ def test_sentences_count_deployments() -> None:
     assert "1 abstained (accepted nothing): spread/guaranteed in 2 of 4" in said
     numbers = [int(n) for n in re.findall(r"(\d+) of 3 source-rule pairs", said)]
     assert numbers == [len(held)]
-    assert table.headline(rows).endswith(f"held on 2 of 2 deployments of every method; the highest recall: "
-                                         f"predictor/empirical (mean recall {recall:.3f} of the ceiling's 0.720).")
+    assert table.headline(rows).endswith(
+        f"1 of 3 source-rule pairs (the oracle aside) held on 2 of 2 deployments of every method; the highest recall: "
+        f"predictor/empirical (mean recall {recall:.3f} of the ceiling's 0.720); the predictor's thresholds held in "
+        "4, fell below p in 0 and abstained in 0 of its 4 rule-deployment cells.")
 
 
 def test_nothing_held() -> None:
     rows = [r for r in table.deployment_rows([one_deployment()]) if r.source == "predictor"]
-    assert table.headline(rows) == ("On nordland (seqslam, L = 4), thresholds set on val for precision 0.9: 0 of 1 "
-                                    "source-rule pairs held on the one deployment split.")
+    assert table.headline(rows) == (
+        "On nordland (seqslam, L = 4), thresholds set on val for precision 0.9: 0 of 1 source-rule pairs (the oracle "
+        "aside) held on the one deployment split; the predictor's thresholds held in 0, fell below p in 1 and "
+        "abstained in 0 of its 1 rule-deployment cell.")
 
 
 def test_figure_draws(tmp_path: Path) -> None:
@@ -218,3 +225,79 @@ def test_experiment_exports_the_table_and_figure() -> None:
     assert [t.name for t in table.TABLES] == [table.NAME] and [f.name for f in table.FIGURES] == [table.NAME]
     section = table.TABLES[0].section
     assert section is not None and section.after == "baselines" and section.figure == table.NAME
+
+
+def demo_like(seed: int) -> list[DeploymentResult]:
+    """As the demo: three methods, one deployment split, six sources and the predictor's three seeds, three rules,
+    three targets; counts drawn at random, the outcome the method's (precision against the target)."""
+    rng = np.random.default_rng(seed)
+    sources = [("uniqueness", None), ("single_uniqueness", None), ("spread", None), ("distance", None),
+               ("native", None), ("oracle", None), ("predictor", 0), ("predictor", 1), ("predictor", 2)]
+    results = []
+    for method in ("sad", "hog", "netvlad"):
+        rows = []
+        for p in (0.9, 0.95, 0.99):
+            for source, seed in sources:
+                for rule in (EMPIRICAL, GUARANTEED, SAME_FRACTION):
+                    accepted = int(rng.integers(0, 60)) * int(rng.random() > 0.2)
+                    wrong = int(rng.integers(0, 4)) if accepted and rng.random() > 0.3 else 0
+                    wrong = min(wrong, accepted)
+                    precision = None if accepted == 0 else (accepted - wrong) / accepted
+                    outcome = ABSTAINED if precision is None else HELD if precision >= p else VIOLATED
+                    ci = None if precision is None or rng.random() < 0.2 else Interval(
+                        precision - float(rng.random()) * 0.1, min(1.0, precision + 0.02))
+                    rows.append(row(source, rule, p, None if accepted == 0 else 0.5, realised(200, accepted, wrong, ci),
+                                    realised(200, int(rng.integers(accepted, 100)), 0), outcome, seed))
+        results.append(DeploymentResult(meta(method, ("test",)) | {"precisions": [0.9, 0.95, 0.99]}, tuple(rows),
+                                        (), ()))
+    return results
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_sentences_agree_with_demo_like_rows(seed: int) -> None:
+    rows = table.deployment_rows(demo_like(seed))
+    said = table.target_sentences(rows)
+    assert len(said) == 3
+    for target, sentence in zip((0.9, 0.95, 0.99), said, strict=True):
+        assert sentence.startswith(f"Precision {target:g} (seqslam, thresholds set on val, deployed on the one "
+                                   "deployment split test of each of the 3 methods (one route; not evidence that a "
+                                   "threshold holds elsewhere))")
+        assert "safe" not in sentence
+        pairs: dict[tuple[str, str], list[table.DeploymentTableRow]] = {}
+        for r in rows:
+            if r.precision_target == target:
+                pairs.setdefault((r.source, r.rule), []).append(r)
+        assert all(len(found) == 3 for found in pairs.values())  # seed 0 of the predictor only
+        held = {key for key, found in pairs.items() if all(r.outcome == HELD for r in found)}
+        violated = {key: sum(r.outcome == VIOLATED for r in found) for key, found in pairs.items()}
+        abstained = {key: sum(r.outcome == ABSTAINED for r in found) for key, found in pairs.items()}
+        assert f"{len(held)} of {len(pairs)} source-rule pairs held on the one deployment split of every method" \
+            in sentence
+        for source, rule, mean, recall, ceiling in re.findall(
+                r"(\w+)/(\w+) \((mean )?recall ([\d.]+) of the ceiling's ([\d.]+)\)", sentence):
+            found = pairs[source, rule]
+            assert (source, rule) in held and mean == "mean "
+            assert recall == f"{sum(r.recall for r in found) / 3:.3f}"
+            assert ceiling == f"{sum(r.ceiling_recall for r in found) / 3:.3f}"
+        below = sum(1 for n in violated.values() if n)
+        if below:
+            part = sentence.split(" fell below p: ")[1].split(" abstained (accepted nothing): ")[0]
+            assert f"; {below} fell below p: " in sentence
+            named = re.findall(r"(\w+)/(\w+) in (\d+) of 3 \(([^)]*)\)", part)
+            assert len(named) == min(below, table.SHOWN)
+            for source, rule, n, words in named:
+                assert int(n) == violated[source, rule]
+                beyond = sum(1 for r in pairs[source, rule] if r.outcome == VIOLATED and r.precision_ci is not None
+                             and r.precision_ci.high < target)
+                assert (f"{beyond} below p beyond its interval" in words) == (beyond > 0)
+        else:
+            assert "fell below p" not in sentence
+        none = sum(1 for n in abstained.values() if n)
+        if none:
+            part = sentence.split(" abstained (accepted nothing): ")[1]
+            assert f"; {none} abstained (accepted nothing): " in sentence
+            named = re.findall(r"(\w+)/(\w+) in (\d+) of 3", part)
+            assert len(named) == min(none, table.SHOWN)
+            assert all(int(n) == abstained[source, rule] for source, rule, n in named)
+        else:
+            assert "abstained" not in sentence

@@ -147,6 +147,14 @@ def _held(pairs: dict[tuple[str, str], list[DeploymentTableRow]]) -> list[tuple[
     return sorted(kept, key=lambda key: (key[0] == ORACLE, -_mean([r.recall for r in pairs[key]])))
 
 
+def _first(pairs: dict[tuple[str, str], list[DeploymentTableRow]], outcome: str) -> list[tuple[str, str]]:
+    """The source-rule pairs with ``outcome`` in any cell: the predictor's first (the method's subject), then the
+    most such cells first, ties as the rows come."""
+    found = [key for key, rows in pairs.items() if any(r.outcome == outcome for r in rows)]
+    return sorted(found, key=lambda key: (key[0] != PREDICTOR_SOURCE,
+                                          -sum(1 for r in pairs[key] if r.outcome == outcome)))
+
+
 def _recall(found: Sequence[DeploymentTableRow]) -> str:
     """The recall against the ceiling's: of the one cell, or the mean over the cells."""
     mean = "" if len(found) == 1 else "mean "
@@ -199,8 +207,8 @@ def target_sentences(rows: Sequence[DeploymentTableRow]) -> list[str]:
     for target in dict.fromkeys(r.precision_target for r in own):
         pairs = _pairs([r for r in own if r.precision_target == target])
         held = _held(pairs)
-        violated = [key for key, found in pairs.items() if any(r.outcome == VIOLATED for r in found)]
-        abstained = [key for key, found in pairs.items() if any(r.outcome == ABSTAINED for r in found)]
+        violated = _first(pairs, VIOLATED)
+        abstained = _first(pairs, ABSTAINED)
         parts = [f"{len(held)} of {len(pairs)} source-rule pairs {held_words}"
                  + (f": {_named([f'{s}/{rule} ({_recall(pairs[s, rule])})' for s, rule in held])}" if held else "")]
         if violated:
@@ -216,8 +224,9 @@ def target_sentences(rows: Sequence[DeploymentTableRow]) -> list[str]:
 
 
 def headline(rows: Sequence[DeploymentTableRow]) -> str:
-    """The first screen's sentence of a block: at the first target, how many source-rule pairs held on every
-    deployment, and which of them (the oracle, the check, aside) kept the highest recall."""
+    """The first screen's sentence of a block: at the first target, how many source-rule pairs (the oracle, the
+    check, aside) held on every deployment, which of them kept the highest recall, and how the predictor's
+    thresholds fared in their cells (a rule and a method's deployment each)."""
     own = _own(rows)
     if not own:
         return ""
@@ -225,11 +234,18 @@ def headline(rows: Sequence[DeploymentTableRow]) -> str:
     pairs = _pairs([r for r in own if r.precision_target == target])
     held = _held(pairs)
     _, held_words = _scope(own)
-    best = next(((s, rule) for s, rule in held if s != ORACLE), None)
-    said = ("" if best is None else
-            f"; the highest recall: {best[0]}/{best[1]} ({_recall(pairs[best])})")
+    checked = {key: found for key, found in pairs.items() if key[0] != ORACLE}  # the oracle is the check
+    kept = [key for key in held if key in checked]
+    said = "" if not kept else f"; the highest recall: {kept[0][0]}/{kept[0][1]} ({_recall(pairs[kept[0]])})"
+    predictor = [r for key, found in checked.items() if key[0] == PREDICTOR_SOURCE for r in found]
+    if predictor:
+        said += (f"; the predictor's thresholds held in {sum(1 for r in predictor if r.outcome == HELD)}, fell below p "
+                 f"in {sum(1 for r in predictor if r.outcome == VIOLATED)} and abstained in "
+                 f"{sum(1 for r in predictor if r.outcome == ABSTAINED)} of its {len(predictor)} rule-deployment "
+                 f"cell{'s' if len(predictor) > 1 else ''}")
     return (f"On {own[0].dataset} ({own[0].matcher}, L = {own[0].seq_len}), thresholds set on {own[0].calibration} "
-            f"for precision {target:g}: {len(held)} of {len(pairs)} source-rule pairs {held_words}{said}.")
+            f"for precision {target:g}: {len(kept)} of {len(checked)} source-rule pairs (the oracle aside) "
+            f"{held_words}{said}.")
 
 
 # --- the figure ------------------------------------------------------------------------------------------------
