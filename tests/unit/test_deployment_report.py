@@ -4,6 +4,8 @@ expected cell and count is worked out by hand from the records below."""
 from __future__ import annotations
 
 import csv
+import functools
+import html as escaping
 import re
 from pathlib import Path
 from types import SimpleNamespace
@@ -11,8 +13,10 @@ from typing import Any
 
 import numpy as np
 import pytest
+from report_runs import build_run
 
-from vpr_smr.eval.report import registry
+from vpr_smr.core.records import save
+from vpr_smr.eval.report import build, registry
 from vpr_smr.eval.report.build import _write_table
 from vpr_smr.eval.report.rows import cells
 from vpr_smr.eval.report.tables import deployment as table
@@ -301,3 +305,26 @@ def test_sentences_agree_with_demo_like_rows(seed: int) -> None:
             assert all(int(n) == abstained[source, rule] for source, rule, n in named)
         else:
             assert "abstained" not in sentence
+
+
+def test_the_page_shows_the_section_after_the_baselines_with_its_headline(tmp_path: Path,
+                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+    files = []
+    for method, result in zip(("m1", "m2"), several(), strict=True):  # the test run's dataset and methods
+        path = tmp_path / f"deployment_{method}.json"
+        save(path, DeploymentResult({**result.meta, "dataset": "d", "method": method}, result.rows, result.curves,
+                                    (f"{OWN}: a note",)))
+        files.append(str(path))
+    monkeypatch.setattr(build, "RunFiles", functools.partial(build.RunFiles, deployment=tuple(files)))
+    run, written = build_run(tmp_path, seq_lens=(4,), inspector=False, restoration=False)
+    assert {run / "tables" / f"deployment{suffix}" for suffix in (".csv", ".md", ".tex")} <= set(written)
+    assert run / table.FIGURE.file(dataset="d", seq_len=4) in written
+    page = escaping.unescape((run / "report.html").read_text())
+    baselines, section = page.index('id="baselines"'), page.index('id="deployment"')
+    assert baselines < section
+    rows = table.deployment_rows(several())  # the page's rows differ from these in the dataset and methods only
+    headline = table.headline(rows).replace("On nordland", "On d")
+    assert page.index(headline) < baselines  # on the first screen
+    for sentence in table.target_sentences(rows):
+        assert sentence in page[section:]
+    assert "Note: seqslam: a note." in page[section:]

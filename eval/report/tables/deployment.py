@@ -31,9 +31,9 @@ __all__ = ["FIGURES", "NAME", "TABLES", "DeploymentTableRow", "against_target", 
 
 NAME = "deployment"
 ABOVE, BELOW, HOLDS, NO_INTERVAL = "interval_above", "interval_below", "interval_holds_target", "no_interval"
-PAGE = ("method", "source", "rule", "precision_target", "threshold", "precision", "precision_ci_low",
-        "precision_ci_high", "recall",
-        "ceiling_recall", "outcome", "against_target", "segments_violated", "seeds_violated")
+PAGE = ("method", "deployment", "source", "rule", "precision_target", "threshold", "precision", "precision_ci_low",
+        "precision_ci_high", "recall", "ceiling_recall", "outcome", "against_target", "segments_violated",
+        "seeds_violated")
 
 
 def against_target(found: Interval | None, target: float) -> str:
@@ -282,8 +282,8 @@ FIGURE = Figure(NAME, "Deployment", (NAME,), "deployment_{dataset}_L{seq_len}.pn
 TABLE = Table(NAME, "Deployment: thresholds set on the calibration split by each rule for every confidence source, "
                     "and the precision and recall they give on each deployment, against the ceiling (method §16)",
               (NAME,), row=DeploymentTableRow, make=make_deployment, page=PAGE,
-              caption="The run's matcher at the first target: per method, source and rule the threshold, the "
-                      "realised precision with its interval, the recall against the ceiling's, and the outcome")
+              caption="The run's matcher at the first target: per method, deployment, source and rule the threshold, "
+                      "the realised precision with its interval, the recall against the ceiling's, and the outcome")
 
 
 def _page_rows(rows: Sequence[DeploymentTableRow]) -> list[DeploymentTableRow]:
