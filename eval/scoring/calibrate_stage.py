@@ -366,8 +366,8 @@ def calibrate_text(job: CalibrateJob, result: Calibrated) -> str:
     lines = [f"calibrated on split {file.split} ({file.n_queries} queries): {file.described()}",
              _numbers("on the calibration split", numbers)]
     if file.rule == thresholds.SAME_FRACTION:
-        lines.append(f"same_fraction accepts the {file.accepted} of {file.n_queries} most confident queries' share "
-                     "of another split")
+        lines.append(f"on another split: its most confident queries, {file.accepted} of every {file.n_queries} "
+                     "(rounded up, ties at the cut included)")
     if result.smallest is not None:
         lines.append(f"guaranteed needs at least {result.smallest} calibration queries for precision "
                      f"{file.precision:g} at risk {file.risk:g}")
@@ -439,7 +439,7 @@ def deploy_text(job: DeployJob, result: DeployedSplit) -> str:
     lines.append(f"target precision {file.precision:g}: {result.outcome}")
     if result.segments is not None:
         seg = result.segments
-        lines.append(f"segments of {seg.size} queries: {seg.n_segments}, {seg.with_acceptance} accept anything, "
-                     f"{seg.violated} of them below precision {file.precision:g}")
+        lines.append(f"segments of {seg.size} queries: {seg.n_segments}, of which {seg.with_acceptance} accept a "
+                     f"match and {seg.violated} of those fall below precision {file.precision:g}")
     return "\n".join(lines)
 

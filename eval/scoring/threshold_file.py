@@ -108,6 +108,8 @@ class ThresholdFile(Record):
     def described(self) -> str:
         """One line: the source, what it was set for and the threshold."""
         shown = "abstains (accepts nothing)" if self.threshold is None else f"t = {self.threshold!r}"
+        if self.rule == SAME_FRACTION and self.threshold is not None:
+            shown = f"the same fraction as {self.accepted} of {self.n_queries} (empirical's {shown})"
         risk = "" if self.risk is None else f", risk {self.risk:g}"
         return f"{self.source} {self.rule} at precision {self.precision:g}{risk}: {shown}"
 
