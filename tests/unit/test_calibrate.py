@@ -4,6 +4,7 @@ here, and every refusal of a bad input, each before anything is written."""
 from __future__ import annotations
 
 import csv
+import hashlib
 import json
 import math
 
@@ -256,3 +257,22 @@ def test_api_calibrate_and_deploy_against_loops():
         api.calibrate(np.arange(10.0), np.ones(10, bool), precision=0.95)
     assert api.deploy(np.arange(5.0), api.calibrate(np.arange(10.0), np.ones(10, bool), rule="empirical")
                       ).realised is None
+
+
+def test_the_predictor_file_is_compared_by_its_hash(tmp_path, capsys):
+    c, y = split_data(200, 5, 0.3)
+    path = tmp_path / "q.csv"
+    write_table(path, {"val": (c / 40, y), "test": (c / 40, y)}, source="predictor")
+    (tmp_path / "a.h5").write_bytes(b"predictor a")
+    (tmp_path / "b.h5").write_bytes(b"predictor b")
+    thr = tmp_path / "thr.json"
+    assert main(["calibrate", "--queries", str(path), "--source", "predictor", "--rule", "empirical", "--precision",
+                 "0.8", "--predictor", str(tmp_path / "a.h5"), "--out", str(thr)]) == 0
+    assert read_thresholds(thr).predictor_sha256 == hashlib.sha256(b"predictor a").hexdigest()
+    out = tmp_path / "d.json"
+    fails(capsys, ["deploy", "--thresholds", str(thr), "--queries", str(path), "--split", "test", "--predictor",
+                   str(tmp_path / "b.h5"), "--out", str(out)], "calibrated with the predictor of SHA-256",
+          "calibrate again with this predictor")
+    assert not out.exists()
+    assert main(["deploy", "--thresholds", str(thr), "--queries", str(path), "--split", "test", "--predictor",
+                 str(tmp_path / "a.h5"), "--out", str(out)]) == 0

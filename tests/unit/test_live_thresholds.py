@@ -104,3 +104,9 @@ def test_files_live_cannot_apply_are_refused(batch):
     predictor = ThresholdFile(**{**predictor.__dict__, "source": "predictor"}).seal()
     with pytest.raises(ValueError, match="give the LiveMatcher its predictor"):
         LiveMatcher(4, thresholds=predictor)
+
+    hashed = ThresholdFile(**{**predictor.__dict__, "predictor_sha256": "a" * 64}).seal()
+    with pytest.raises(ValueError, match="calibrated on the predictor file of SHA-256 aaaaaaaaaaaa..., the "
+                                         "LiveMatcher's predictor file has bbbbbbbbbbbb..."):
+        hashed.check_live(MATCHER, "uniqueness", None, 4, "b" * 64, True)
+    hashed.check_live(MATCHER, "uniqueness", None, 4, "a" * 64, True)  # the calibrated predictor: accepted
