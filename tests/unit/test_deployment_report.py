@@ -1,5 +1,6 @@
-"""The experiment deployment's table, sentences, headline and figure (method §16), on hand-built records: every
-expected cell and count is worked out by hand from the records below."""
+"""The experiment deployment's table, sentences, headline, figure and section (method §16), on hand-built records
+(here and in ``tests/deployment_results.py``): every expected cell and count is worked out by hand from them, or
+counted from the rows by a naive loop in the test."""
 
 from __future__ import annotations
 
@@ -9,18 +10,17 @@ import html as escaping
 import re
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any
 
 import numpy as np
 import pytest
+from deployment_results import OTHER, OWN, deployment_files, meta, realised, row, several
 from report_runs import build_run
 
-from vpr_smr.core.records import save
 from vpr_smr.eval.report import build, registry
 from vpr_smr.eval.report.build import _write_table
 from vpr_smr.eval.report.rows import cells
 from vpr_smr.eval.report.tables import deployment as table
-from vpr_smr.eval.scoring.deployment_records import Chosen, DeploymentResult, DeploymentRow, RiskCoverage
+from vpr_smr.eval.scoring.deployment_records import Chosen, DeploymentResult, RiskCoverage
 from vpr_smr.eval.scoring.records import Interval
 from vpr_smr.eval.scoring.thresholds import (
     ABSTAINED,
@@ -29,34 +29,8 @@ from vpr_smr.eval.scoring.thresholds import (
     HELD,
     SAME_FRACTION,
     VIOLATED,
-    Calibration,
-    Realised,
     Segments,
 )
-
-OWN, OTHER = "seqslam", "seqslam_v2"
-NONE_BELOW = Segments(100, 2, 2, 0)  # two segments with acceptance, none below the target
-
-
-def realised(n: int, accepted: int, wrong: int, ci: Interval | None = None) -> Realised:
-    """A realised record from its counts (precision None when nothing is accepted, as the method says)."""
-    precision = None if accepted == 0 else (accepted - wrong) / accepted
-    return Realised(n, accepted, wrong, precision, (accepted - wrong) / n, accepted / n, ci, None)
-
-
-def row(source: str, rule: str, p: float, threshold: float | None, deployed: Realised, ceiling: Realised,
-        outcome: str, seed: int | None = None, matcher: str = OWN, deployment: str = "test",
-        segments: Segments = NONE_BELOW) -> DeploymentRow:
-    risk = 0.1 if rule == GUARANTEED else None
-    calibration = Calibration(rule, p, risk, threshold, 100, 0 if threshold is None else 40, 0 if threshold is None
-                              else 4)
-    return DeploymentRow(matcher, source, seed, rule, p, risk, calibration, deployment, deployed, ceiling,
-                         ceiling.recall - deployed.recall, segments, outcome)
-
-
-def meta(method: str = "netvlad", deployments: tuple[str, ...] = ("test",)) -> dict[str, Any]:
-    return {"dataset": "nordland", "method": method, "seq_len": 4, "calibration": "val",
-            "deployments": list(deployments), "precisions": [0.9, 0.95]}
 
 
 def one_deployment() -> DeploymentResult:
@@ -149,31 +123,6 @@ def test_sentences_of_one_deployment() -> None:
         "aside) held on the one deployment split; the highest recall: uniqueness/same_fraction (recall 0.190 of the "
         "ceiling's 0.270); the predictor's thresholds held in 0, fell below p in 1 and abstained in 0 of its 1 "
         "rule-deployment cell.")
-
-
-def several() -> list[DeploymentResult]:
-    """Two methods, each deployed on two splits; seeded so that the outcomes vary over the cells."""
-    deployments = ("test", "oxford/test")
-    results = []
-    plan = {  # (method, deployment) -> per (source, rule): (accepted, wrong, outcome, interval)
-        ("netvlad", "test"): {("predictor", EMPIRICAL): (50, 4, HELD, None), ("distance", EMPIRICAL): (40, 8, VIOLATED,
-                              Interval(0.7, 0.85)), ("spread", GUARANTEED): (0, 0, ABSTAINED, None)},
-        ("netvlad", "oxford/test"): {("predictor", EMPIRICAL): (60, 3, HELD, None), ("distance", EMPIRICAL): (
-            40, 5, VIOLATED, Interval(0.8, 0.95)), ("spread", GUARANTEED): (10, 0, HELD, None)},
-        ("cosplace", "test"): {("predictor", EMPIRICAL): (70, 7, HELD, None), ("distance", EMPIRICAL): (40, 2, HELD,
-                               None), ("spread", GUARANTEED): (0, 0, ABSTAINED, None)},
-        ("cosplace", "oxford/test"): {("predictor", EMPIRICAL): (30, 0, HELD, None), ("distance", EMPIRICAL): (
-            40, 10, VIOLATED, None), ("spread", GUARANTEED): (20, 1, HELD, None)},
-    }
-    for method in ("netvlad", "cosplace"):
-        rows = []
-        for deployment in deployments:
-            for (source, rule), (accepted, wrong, outcome, ci) in plan[method, deployment].items():
-                rows.append(row(source, rule, 0.9, None if accepted == 0 else 0.5, realised(100, accepted, wrong, ci),
-                                realised(100, 80, 8), outcome, 0 if source == "predictor" else None,
-                                deployment=deployment))
-        results.append(DeploymentResult(meta(method, deployments), tuple(rows), (), ()))
-    return results
 
 
 def test_sentences_count_deployments() -> None:
@@ -309,12 +258,7 @@ def test_sentences_agree_with_demo_like_rows(seed: int) -> None:
 
 def test_the_page_shows_the_section_after_the_baselines_with_its_headline(tmp_path: Path,
                                                                          monkeypatch: pytest.MonkeyPatch) -> None:
-    files = []
-    for method, result in zip(("m1", "m2"), several(), strict=True):  # the test run's dataset and methods
-        path = tmp_path / f"deployment_{method}.json"
-        save(path, DeploymentResult({**result.meta, "dataset": "d", "method": method}, result.rows, result.curves,
-                                    (f"{OWN}: a note",)))
-        files.append(str(path))
+    files = deployment_files(tmp_path)  # the test run's dataset d and methods m1, m2
     monkeypatch.setattr(build, "RunFiles", functools.partial(build.RunFiles, deployment=tuple(files)))
     run, written = build_run(tmp_path, seq_lens=(4,), inspector=False, restoration=False)
     assert {run / "tables" / f"deployment{suffix}" for suffix in (".csv", ".md", ".tex")} <= set(written)
