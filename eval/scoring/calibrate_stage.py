@@ -397,9 +397,10 @@ def deploy_main(job: DeployJob) -> DeployedSplit:
     _where(job)
     if job.distances and seq_len is None:
         raise ValueError(f"--distances needs --seq-len L: the threshold file {where} does not record it")
-    check_same(file, "this input", method=job.method, seq_len=seq_len)
+    named = f"the threshold file {where}"
+    check_same(file, "this input (--method, --seq-len)", method=job.method, seq_len=seq_len, name=named)
     table = read_split(job, file.source, None, seq_len)
-    check_same(file, table.where, matcher=_input_matcher(job, table))  # the source is the file's column of it
+    check_same(file, table.where, matcher=_input_matcher(job, table), name=named)  # the source: the file's column
     mine, theirs = file.predictor_sha256, _predictor_sha256(job, file.source)
     if mine is not None and theirs is not None and mine != theirs:
         raise ValueError(f"the threshold file {where} was calibrated with the predictor of SHA-256 {mine[:12]}..., "

@@ -157,15 +157,16 @@ class ThresholdFile(Record):
 
 
 def check_same(file: ThresholdFile, where: str, *, source: str | None = None, matcher: str | None = None,
-               method: str | None = None, seq_len: int | None = None) -> None:
+               method: str | None = None, seq_len: int | None = None, name: str = "the threshold file") -> None:
     """ValueError naming both when ``where`` (the input a threshold file is applied to) has another source,
-    matcher, method or sequence length than the file; what either side does not say is not compared."""
-    for name, mine, theirs in (("source", file.source, source), ("matcher", file.matcher, matcher),
+    matcher, method or sequence length than the file (``name``: how messages call it); what either side does not
+    say is not compared."""
+    for what, mine, theirs in (("source", file.source, source), ("matcher", file.matcher, matcher),
                                ("method", file.method, method), ("sequence length", file.seq_len, seq_len)):
         if mine is not None and theirs is not None and mine != theirs:
-            raise ValueError(f"the threshold file is for the {name} {mine!r}, but {where} has the {name} "
-                             f"{theirs!r}: a threshold holds for the confidence it was calibrated on only; calibrate "
-                             f"again on a split of {theirs!r}")
+            raise ValueError(f"{name} is for the {what} {mine!r}, but {where} has the {what} {theirs!r}: a "
+                             f"threshold holds for the confidence it was calibrated on only; calibrate again on a "
+                             f"split of {theirs!r}")
 
 
 def write_thresholds(path: Path | str, file: ThresholdFile) -> None:
