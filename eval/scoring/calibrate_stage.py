@@ -198,10 +198,11 @@ def read_split(job: CalibrateJob | DeployJob, source: str, default_split: str | 
     where = _where(job)
     header, rows = _table_rows(job.queries) if job.queries is not None else _matrix_rows(job, seq_len)
     column = f"c_{source}"
-    sources_found = [name.removeprefix("c_") for name in header if name.startswith("c_")]
+    sources_found = [name.removeprefix("c_") for name in header
+                     if name.startswith("c_") and name.removeprefix("c_") not in REFUSED_SOURCES]
     if source in REFUSED_SOURCES:
         raise ValueError(f"--source {source}: a random order has nothing to calibrate; choose one of "
-                         f"{', '.join(s for s in sources_found if s not in REFUSED_SOURCES)}")
+                         f"{', '.join(sources_found)}")
     if column not in header:
         raise ValueError(f"--source {source}: {where} has no column {column}; its sources: "
                          f"{', '.join(sources_found) or 'none (a table of vpr-smr queries --no-baselines)'}")
