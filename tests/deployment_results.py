@@ -71,7 +71,8 @@ def several(dataset: str = "nordland", methods: tuple[str, str] = ("netvlad", "c
                 rows.append(row(source, rule, 0.9, None if accepted == 0 else 0.5, realised(100, accepted, wrong, ci),
                                 realised(100, 80, 8), outcome, 0 if source == "predictor" else None,
                                 deployment=deployment))
-        results.append(DeploymentResult(meta(method, deployments, dataset), tuple(rows), (), ()))
+        results.append(DeploymentResult(meta(method, deployments, dataset) | {"precisions": [0.9]}, tuple(rows), (),
+                                        ()))
     return results
 
 
