@@ -53,9 +53,18 @@ HELD, VIOLATED, ABSTAINED = "held", "violated", "abstained"  # a realised precis
 # --- checks ------------------------------------------------------------------------------------------------------
 
 
+def _number(value: object, setting: str, wanted: str) -> float:
+    """``value`` as a float (what ``float`` reads, as before), or a ValueError naming ``setting`` and the fix
+    rather than ``float``'s own message or a TypeError."""
+    try:
+        return float(value)  # type: ignore[arg-type]
+    except (TypeError, ValueError):
+        raise ValueError(f"{setting} {value!r} is not a number: give {wanted}") from None
+
+
 def check_precision(value: float, setting: str = "precision") -> float:
     """``value`` as a target precision: ValueError naming ``setting`` unless ``0 < value <= 1``."""
-    found = float(value)
+    found = _number(value, setting, "a target precision in (0, 1], e.g. 0.9")
     if not (math.isfinite(found) and 0 < found <= 1):
         raise ValueError(f"{setting} {value!r} is no target precision: give a number in (0, 1], e.g. 0.9")
     return found
@@ -63,7 +72,7 @@ def check_precision(value: float, setting: str = "precision") -> float:
 
 def check_risk(value: float, setting: str = "risk") -> float:
     """``value`` as the risk ``delta`` of ``guaranteed``: ValueError naming ``setting`` unless ``0 < value < 1``."""
-    found = float(value)
+    found = _number(value, setting, "a risk in (0, 1), e.g. 0.1")
     if not (math.isfinite(found) and 0 < found < 1):
         raise ValueError(f"{setting} {value!r} is no risk: give the probability in (0, 1) that the guaranteed "
                          "threshold misses its precision, e.g. 0.1")

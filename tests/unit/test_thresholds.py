@@ -153,10 +153,10 @@ def test_same_fraction_integer_ceil_and_ties_at_the_cut() -> None:
 
 def test_calibrate_checks_its_settings() -> None:
     conf, good = np.arange(5, dtype=float), np.ones(5, dtype=bool)
-    for bad in (0.0, 1.5, -0.1, float("nan")):
+    for bad in (0.0, 1.5, -0.1, float("nan"), "high", None):
         with pytest.raises(ValueError, match="precision"):
             th.calibrate(conf, good, bad, th.EMPIRICAL)
-    for bad in (0.0, 1.0):
+    for bad in (0.0, 1.0, float("inf"), "low"):
         with pytest.raises(ValueError, match="risk"):
             th.calibrate(conf, good, 0.9, th.GUARANTEED, bad)
     with pytest.raises(ValueError, match="unknown rule"):
@@ -181,7 +181,7 @@ def test_rules_against_naive_loops(seed: int) -> None:
                                                                                delta)
 
 
-def test_guaranteed_on_a_million_queries() -> None:
+def test_guaranteed_on_200000_queries() -> None:
     rng = np.random.default_rng(0)
     conf, good = rng.random(200_000), rng.random(200_000) < 0.95
     t = th.guaranteed(conf, good, 0.9, 0.1)
@@ -189,7 +189,7 @@ def test_guaranteed_on_a_million_queries() -> None:
 
 
 def test_realise_by_hand_and_its_intervals() -> None:
-    accepted = CONF >= 6  # five queries: 9, 8, 8, 8, 7, 6 -> six accepted, one wrong (a tied 8)
+    accepted = CONF >= 6  # 9, 8, 8, 8, 7, 6: six accepted, one wrong (a tied 8)
     found = th.realise(accepted, GOOD)
     assert (found.n_queries, found.accepted, found.wrong) == (10, 6, 1)
     assert found.precision == 5 / 6 and found.recall == 5 / 10 and found.accepted_fraction == 6 / 10
@@ -233,3 +233,19 @@ def test_risk_coverage_by_hand() -> None:
     assert t.tolist() == [9, 8, 7, 6, 5, 3, 1]
     assert coverage.tolist() == [0.1, 0.4, 0.5, 0.6, 0.8, 0.9, 1.0]
     assert risk.tolist() == pytest.approx([0, 1 / 4, 1 / 5, 1 / 6, 2 / 8, 3 / 9, 4 / 10])
+
+
+def test_precision_interval_without_enough_defined_draws() -> None:
+    # one accepted query of 200: a draw that misses it has no precision; counted by a loop over the draws
+    accepted = np.zeros(200, dtype=bool)
+    accepted[0] = True
+    good = np.ones(200, dtype=bool)
+    defined = total = 0
+    for weights in intervals.query_weights(200):
+        for row in weights:
+            total += 1
+            defined += row[0] > 0
+    assert defined < intervals.MIN_DEFINED * total  # the case this test is about
+    found = th.realise(accepted, good)
+    assert found.precision == 1.0 and found.precision_ci is None
+    assert found.recall_ci is not None and found.recall_ci.low <= 1 / 200 <= found.recall_ci.high
