@@ -68,5 +68,6 @@ def candidates_needed(r_window: int = DEFAULT_R_WINDOW, spread_k: int = DEFAULT_
 # 6: an outcome names a direction only where its interval earns it, sequence recall@N ranks the matcher's match
 # first, predictor files record their sequence length, methods and training matrices (0.15.0). 7: a
 # worse_from_zero outcome (the baseline's AOC 0) is said only where the interval of the AOC difference earns it,
-# else the word that interval gives (0.17.0).
-RESULTS_LAYOUT = 7
+# else the word that interval gives (0.17.0). 8: a from-zero outcome keeps the interval of the AOC difference that
+# judged it (``Reduction.aoc_difference_ci``), which the tables write beside it: a file of 7 lacks it.
+RESULTS_LAYOUT = 8

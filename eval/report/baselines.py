@@ -112,7 +112,7 @@ def baseline_rows(records: Sequence[Baselines], split: str, seq_lens: Collection
                     budget=first.budget, removed=first.scorers[scorer].removed, max_recall=numbers.max_recall,
                     aoc_vpr_sm=numbers.aoc_vpr_sm, aoc_vpr_sm_ci=numbers.aoc_vpr_sm_ci, aoc=numbers.aoc_vpr_sm_pred,
                     aoc_ci=numbers.aoc_vpr_sm_pred_ci, reduction_pct=numbers.reduction_pct,
-                    reduction_pct_ci=numbers.reduction_pct_ci,
+                    reduction_pct_ci=numbers.reduction_pct_ci, aoc_difference_ci=numbers.aoc_difference_ci,
                     outcome=earned(numbers.outcome, numbers.reduction_pct_ci),
                     reduction_pct_difference_ci=versus[scorer].reduction_pct_difference_ci.get(mode)
                     if scorer in versus else None, reduction_pct_mean=mean, reduction_pct_std=std,

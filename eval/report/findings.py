@@ -204,8 +204,9 @@ def headline(block: Table1Block, split: str) -> str:
     parts = []
     for row in block.rows:
         if words.is_degenerate(row.outcome, row.reduction_pct):
+            why = words.undefined_words(row.outcome, row.reduction_pct, row.aoc_difference_ci)
             parts.append(f"{row.method} {UNDEFINED if row.reduction_pct is None else signed(row.reduction_pct)}"
-                         f", {words.undefined_words(row.outcome, row.reduction_pct) or words.said(row.outcome)}")
+                         f", {why or words.said(row.outcome)}")
             continue
         interval = bounds.bracket(row.reduction_pct_ci, ".1f")
         parts.append(f"{row.method} {signed(_reduction(row))} {interval}, {VERDICT[_verdict(row)]}")

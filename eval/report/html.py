@@ -138,7 +138,8 @@ def row_cell(row: dict[str, Any], column: TableColumn) -> Cell:
     (``names.REDUCTION`` -> ``outcome``, its ``_pooled`` column -> ``outcome_pooled``)."""
     value = row.get(column.name)
     outcome = row.get(column.name.replace(names.REDUCTION, "outcome")) if is_reduction(column.name) else None
-    why = words.undefined_words(outcome, value)
+    difference = bounds.of(row, column.name.replace(names.REDUCTION, "aoc_difference")) if outcome else None
+    why = words.undefined_words(outcome, value, difference)
     if why is not None:
         return Cell(f"{UNDEFINED}: {why}", kind="na")
     found = cell(value, column.name, fmt=column.fmt)

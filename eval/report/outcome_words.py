@@ -69,14 +69,22 @@ def from_zero_words(outcome: str) -> str:
     return f"perfect baseline, {UNEARNED[outcome]}"
 
 
-def undefined_words(outcome: str | None, reduction: float | None) -> str | None:
+def undefined_words(outcome: str | None, reduction: float | None, difference: Interval | None = None) -> str | None:
     """Why a reduction (``reduction``, of the outcome ``outcome``) is undefined, in a cell's short words; None where
-    it is defined or the outcome says no why."""
+    it is defined or the outcome says no why. A from-zero outcome names the interval of the AOC difference that
+    judged it (``difference``, ``records.Reduction.aoc_difference_ci``) beside its word, where there is one:
+    ``worse than a perfect baseline (AOC difference [+0.0004, +0.0021])``."""
     if reduction is not None or outcome is None:
         return None
-    if outcome in SHORT:
-        return SHORT[outcome]
-    return from_zero_words(outcome) if is_from_zero(outcome, None) else None
+    if not is_from_zero(outcome, None):
+        return SHORT.get(outcome)
+    found = SHORT[outcome] if outcome in SHORT else from_zero_words(outcome)
+    return found if difference is None else f"{found} ({difference_words(difference)})"
+
+
+def difference_words(difference: Interval) -> str:
+    """The interval of a from-zero outcome's AOC difference (+Pred minus VPR+SM) as a cell names it."""
+    return f"AOC difference [{difference.low:+.4f}, {difference.high:+.4f}]"
 
 
 def said(outcome: str) -> str:
@@ -151,7 +159,7 @@ def reduction_cell(row: Table1Row, number: str) -> str:
     """Table I's reduction cell: the number (``number``, formatted), or the outcome's word where it is undefined;
     a 0 of a predictor that removed nothing says so."""
     if row.reduction_pct is None:
-        why = undefined_words(row.outcome, None)
+        why = undefined_words(row.outcome, None, row.aoc_difference_ci)
         return "n/a" if why is None else f"n/a: {why}"
     return f"{number} ({SHORT[KEPT_ALL]})" if row.outcome == KEPT_ALL else number
 

@@ -36,6 +36,9 @@ from vpr_smr.eval.scoring.records import (
 from vpr_smr.eval.scoring.speed import SpeedResult, SpeedScores
 
 R = TypeVar("R")
+# The label of a from-zero outcome's interval (``records.Reduction.aoc_difference_ci``): no reduction to show, the AOC
+# difference's interval judged the word
+AOC_DIFFERENCE = "AOC difference (+Pred - VPR+SM)"
 SPLIT_ROLES = ("evaluation", "validation", "last")  # ``results.Splits``' roles a column can be one per split of
 
 
@@ -349,6 +352,9 @@ class HeldOutRow:
     reduction_pct_pooled_ci: Interval | None = interval("reduction pooled (%)", ".2f")
     reduction_pct_without: float | None = column("reduction without (%)", ".2f")
     reduction_pct_without_ci: Interval | None = interval("reduction without (%)", ".2f")
+    # the interval that judged a from-zero outcome (VPR+SM's AOC 0: no reduction), empty for any other
+    aoc_difference_pooled_ci: Interval | None = interval("AOC difference pooled", ".4f")
+    aoc_difference_without_ci: Interval | None = interval("AOC difference without", ".4f")
     outcome_pooled: str = column()
     outcome_without: str = column()
 
@@ -359,8 +365,8 @@ class HeldOutRow:
         return cls(dataset, seq_len, method, mode, result.n_queries, result.pooled.f1_macro,
                    result.without.f1_macro, result.pooled.removed, result.without.removed, pooled.aoc_vpr_sm,
                    pooled.aoc_vpr_sm_pred, without.aoc_vpr_sm_pred, pooled.reduction_pct, pooled.reduction_pct_ci,
-                   without.reduction_pct, without.reduction_pct_ci,
-                   earned(pooled.outcome, pooled.reduction_pct_ci),
+                   without.reduction_pct, without.reduction_pct_ci, pooled.aoc_difference_ci,
+                   without.aoc_difference_ci, earned(pooled.outcome, pooled.reduction_pct_ci),
                    earned(without.outcome, without.reduction_pct_ci))
 
 
@@ -454,6 +460,7 @@ class SweepRow:
     aoc_vpr_sm_pred: float | None = column(default=None)
     reduction_pct: float | None = column(default=None)
     reduction_pct_ci: Interval | None = interval(default=None)
+    aoc_difference_ci: Interval | None = interval(AOC_DIFFERENCE, ".4f", default=None)  # as Table1Row's
     outcome: str | None = column(default=None)
     n_queries: int | None = column(default=None)  # the evaluated queries: the sequence recall@1's denominator
 
@@ -467,7 +474,7 @@ class SweepRow:
         r = point.reduction  # none without a predictor
         return row if r is None else replace(
             row, max_recall=r.max_recall, aoc_vpr_sm=r.aoc_vpr_sm, aoc_vpr_sm_pred=r.aoc_vpr_sm_pred,
-            reduction_pct=r.reduction_pct, reduction_pct_ci=r.reduction_pct_ci,
+            reduction_pct=r.reduction_pct, reduction_pct_ci=r.reduction_pct_ci, aoc_difference_ci=r.aoc_difference_ci,
             outcome=earned(r.outcome, r.reduction_pct_ci))
 
 
@@ -492,6 +499,9 @@ class Table1Row:
     aoc_vpr_sm_pred_ci: Interval | None = interval()
     reduction_pct: float | None = column()  # None where the baseline's AOC is 0
     reduction_pct_ci: Interval | None = interval()
+    # the interval over queries of the AOC difference (+Pred minus VPR+SM) that judged a from-zero outcome
+    # (``curves.is_from_zero``: VPR+SM's AOC 0, no reduction), shown beside its word; empty for any other
+    aoc_difference_ci: Interval | None = interval(AOC_DIFFERENCE, ".4f")
     # over the seeds whose reduction is defined (n_seeds_defined); the std None under two (``seed_summary``)
     reduction_pct_mean: float | None = column(fmt=".2f")
     reduction_pct_std: float | None = column(fmt=".2f")
@@ -520,7 +530,8 @@ class Table1Row:
                    max_recall=r.max_recall, aoc_vpr_sm=r.aoc_vpr_sm, aoc_vpr_sm_ci=r.aoc_vpr_sm_ci,
                    aoc_vpr_sm_pred=r.aoc_vpr_sm_pred, aoc_vpr_sm_pred_ci=r.aoc_vpr_sm_pred_ci,
                    reduction_pct=r.reduction_pct, reduction_pct_ci=r.reduction_pct_ci,
-                   reduction_pct_mean=summary.reduction_pct_mean, reduction_pct_std=summary.reduction_pct_std,
+                   aoc_difference_ci=r.aoc_difference_ci, reduction_pct_mean=summary.reduction_pct_mean,
+                   reduction_pct_std=summary.reduction_pct_std,
                    reduction_pct_min=summary.reduction_pct_min, reduction_pct_max=summary.reduction_pct_max,
                    n_seeds=summary.n_seeds, auc_vpr_sm=r.auc_vpr_sm, auc_vpr_sm_pred=r.auc_vpr_sm_pred,
                    n_queries=result.n_queries,
@@ -567,6 +578,7 @@ class BaselineRow:
     aoc_ci: Interval | None = interval()
     reduction_pct: float | None = column()
     reduction_pct_ci: Interval | None = interval()
+    aoc_difference_ci: Interval | None = interval(AOC_DIFFERENCE, ".4f")  # as Table1Row's (the scorer's AOC)
     outcome: str = column()
     reduction_pct_difference_ci: Interval | None = interval("reduction minus the predictor's (%)", ".2f")
     reduction_pct_mean: float | None = column(fmt=".2f")

@@ -85,7 +85,9 @@ def reduction_cell(row: Table1Row | MatchersRow) -> Cell:
     ``outcome_words.direction``; a degenerate removal named."""
     value = row.reduction_pct
     if words.is_degenerate(row.outcome, value) or value is None:
-        return _na(words.SHORT.get(row.outcome, "no reduction"))
+        # a from-zero outcome names the interval of the AOC difference that judged it
+        why = words.undefined_words(row.outcome, value, row.aoc_difference_ci)
+        return _na(why or words.SHORT.get(row.outcome, "no reduction"))
     if row.outcome == UNCHANGED:
         return Cell(f"unchanged: {value:.1f} %", kind="hold")
     sign, interval = words.direction(row.outcome, row.reduction_pct_ci), row.reduction_pct_ci

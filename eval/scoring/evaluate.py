@@ -123,11 +123,14 @@ def removal_draws(features: QueryFeatures, mode: str, keeps: Sequence[np.ndarray
 def with_intervals(reduction: Reduction, draws: WeightedComparison) -> Reduction:
     """``reduction`` with the percentile intervals of its reduction and AOCs over ``draws`` (of the same removal),
     and its outcome judged by them: improved or worse by the reduction's (the record's own rule), worse from a
-    perfect baseline by the AOC difference's (``judged``)."""
+    perfect baseline by the AOC difference's (``judged``), which the record keeps as ``aoc_difference_ci`` so that
+    the word is shown beside the interval that earned it (None for any other outcome)."""
     found = WORSE_FROM_ZERO if is_from_zero(reduction.outcome, reduction.reduction_pct) else reduction.outcome
+    difference = aoc_difference(draws) if found == WORSE_FROM_ZERO else None
     return replace(reduction, reduction_pct_ci=percentile_interval(draws.reduction_pct),
                    aoc_vpr_sm_ci=percentile_interval(draws.aoc_baseline),
-                   aoc_vpr_sm_pred_ci=percentile_interval(draws.aoc_predictor), outcome=judged(found, draws))
+                   aoc_vpr_sm_pred_ci=percentile_interval(draws.aoc_predictor),
+                   outcome=from_zero(difference) if found == WORSE_FROM_ZERO else found, aoc_difference_ci=difference)
 
 
 def _mode_removal(

@@ -69,7 +69,10 @@ class Reduction(Record):
     ``no_interval``, ``interval_against_sign``), however the record is made or read. The
     ``_ci`` fields are the bootstrap intervals over queries (method §8.7) of ``reduction_pct``, ``aoc_vpr_sm`` and
     ``aoc_vpr_sm_pred``, for the numbers a table shows (the first seed's, a scorer's at its budget, held out, the
-    sweep's); absent elsewhere, and None where too few draws define the number.
+    sweep's); absent elsewhere, and None where too few draws define the number. ``aoc_difference_ci`` is the
+    interval of the predictor's AOC minus the baseline's (``intervals.aoc_difference``) that judged a from-zero
+    outcome (``curves.is_from_zero``: the baseline's AOC 0, no reduction to take an interval of), so that its word
+    is shown beside it; None for any other outcome, and in a file written before it existed.
     """
 
     max_recall: float
@@ -84,6 +87,7 @@ class Reduction(Record):
     reduction_pct_ci: Interval | None = None
     aoc_vpr_sm_ci: Interval | None = None
     aoc_vpr_sm_pred_ci: Interval | None = None
+    aoc_difference_ci: Interval | None = None
 
     def __post_init__(self) -> None:
         _earn(self)

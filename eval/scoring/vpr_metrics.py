@@ -109,7 +109,7 @@ from vpr_smr.eval.scoring.baselines import (
 from vpr_smr.eval.scoring.curves import Curve, area, curve, earned, keep_mask, recall_at_full_precision
 from vpr_smr.eval.scoring.matrix_jobs import ALL_SPLIT, MetricsJob, QueriesJob, distance_splits
 from vpr_smr.eval.scoring.queries import Prediction, SplitQueries, write_queries
-from vpr_smr.eval.scoring.records import Interval, MatcherMetrics, SplitMetrics, VPRMetrics
+from vpr_smr.eval.scoring.records import Interval, MatcherMetrics, Reduction, SplitMetrics, VPRMetrics
 from vpr_smr.eval.scoring.sweep import protocol_sweep, within
 
 __all__ = [
@@ -659,6 +659,15 @@ def _bracket(interval: Interval | None) -> str:
     return "[n/a]" if interval is None else f"[{interval.low:.2f}, {interval.high:.2f}]"
 
 
+def _interval_of(numbers: Reduction) -> str:
+    """The interval a removal's row prints: its reduction's, or for a from-zero outcome (no reduction) that of the
+    AOC difference which judged it, named: ``AOC difference [+0.0004, +0.0021]``."""
+    difference = numbers.aoc_difference_ci
+    if numbers.reduction_pct is None and difference is not None:
+        return f"AOC difference [{difference.low:+.4f}, {difference.high:+.4f}]"
+    return _bracket(numbers.reduction_pct_ci)
+
+
 def format_baselines(result: VPRMetrics) -> str:
     """The training-free scorers of every split (method §12) as plain text: each scorer's average precision and ROC
     AUC of detecting wrong matches (with the fraction of wrong matches, a random ranking's average precision), and
@@ -686,7 +695,7 @@ def format_baselines(result: VPRMetrics) -> str:
                     rows.append([mode, name, str(removal.removed), f"{numbers.max_recall:.4f}",
                                  f"{numbers.aoc_vpr_sm:.4f}", f"{numbers.aoc_vpr_sm_pred:.4f}",
                                  "n/a" if numbers.reduction_pct is None else f"{numbers.reduction_pct:.2f}",
-                                 _bracket(numbers.reduction_pct_ci),
+                                 _interval_of(numbers),
                                  earned(numbers.outcome, numbers.reduction_pct_ci)])
             parts.append(_aligned(rows, 2))
     return "\n\n".join(parts)

@@ -37,14 +37,16 @@ __all__ = ["ABLATION_ATTRIBUTES", "ABLATION_HELD_OUT", "ABLATION_WITHOUT", "EVAL
 
 def reduction_text(reduction: Reduction) -> str:
     """A ``records.Reduction`` as a summary line says it: ``40.00 % [20.00, 55.00] improved``, the word earned by
-    its interval (``curves.earned``); an undefined one with its reason."""
+    its interval (``curves.earned``); an undefined one with its reason, and a from-zero one with the interval of the
+    AOC difference that judged it: ``n/a (worse than a perfect baseline, AOC difference [+0.0004, +0.0021])``."""
     from vpr_smr.eval.report import outcome_words as words
     from vpr_smr.eval.report.bounds import bracket
     from vpr_smr.eval.scoring.curves import earned
 
     word = words.said(earned(reduction.outcome, reduction.reduction_pct_ci))
     if reduction.reduction_pct is None:
-        return f"n/a ({word})"
+        difference = reduction.aoc_difference_ci
+        return f"n/a ({word})" if difference is None else f"n/a ({word}, {words.difference_words(difference)})"
     return f"{reduction.reduction_pct:.2f} % {bracket(reduction.reduction_pct_ci, '.2f')} {word}"
 
 

@@ -217,7 +217,8 @@ def test_leave_one_out_rows_show_na():
                                      HeldOutPredictors(numbers, numbers))])
     text = report.markdown_table(registry.table("leave_one_method_out").names(), map(cells, rows))
     assert text.splitlines()[-1] == ("| d | 4 | m | paper | 57 | 0.5000 | 0.5000 | 3 | 3 | 0.0000 | 0.0000 | 0.0000 "
-                                     "| n/a | n/a | nothing_to_reduce | nothing_to_reduce |")
+                                     "| n/a | n/a | [n/a] | [n/a] | nothing_to_reduce | nothing_to_reduce |")
+    # (the intervals of the AOC difference, pooled and without: none, the outcome is not from zero)
 
 
 # --- 2. every evaluation table gives the number of queries it is over ------------------------------------------
@@ -242,7 +243,7 @@ def test_query_counts_in_every_evaluation_table(tmp_path):
         assert {(r["seq_len"], r["n_queries"]) for r in rows(name)} <= {("2", "59"), ("4", "57")}, name
     # the existing columns keep their order, the counts come last
     assert list(rows("table1")[0])[:15] == list(registry.table("table1").names()[:15])
-    assert list(rows("ablation_seq_len")[0])[21:] == ["auc_vpr_sm", "auc_vpr_sm_pred", "n_queries",
+    assert list(rows("ablation_seq_len")[0])[23:] == ["auc_vpr_sm", "auc_vpr_sm_pred", "n_queries",
                                                      "n_queries_single", "n_seeds_defined", "outcome", "removed",
                                                      "max_recall_vpr_sm", "aoc_vpr_sm_own", "seeds_left_out",
                                                      "best_scorer", "best_scorer_reduction_pct",

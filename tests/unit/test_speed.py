@@ -179,7 +179,7 @@ def test_profile_1x_gives_table_1s_numbers(dataset, tmp_path):
                                                                  "interval_against_sign"):
             outcome = "no_interval"
         assert mine.reduction == dataclasses.replace(paper.reduction, reduction_pct_ci=None, aoc_vpr_sm_ci=None,
-                                                     aoc_vpr_sm_pred_ci=None, outcome=outcome)
+                                                     aoc_vpr_sm_pred_ci=None, aoc_difference_ci=None, outcome=outcome)
         assert mine.f1_macro == table1.f1_macro
     assert result.meta == {"dataset": "d", "seq_len": 4, "profile": "1x", "tolerance": 2, "mode": "paper", "seed": 0,
                            "train_split": ["train", 0, 160], "table_split": ["test", 160, 400],

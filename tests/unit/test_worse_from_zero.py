@@ -86,8 +86,15 @@ def test_worse_from_zero_is_said_only_where_the_aoc_difference_interval_lies_abo
     without, judged = _with_intervals(correct, keep)
     assert without.outcome == curves.NO_INTERVAL  # made without intervals: nothing earns the word yet
     assert judged.outcome == expected and judged.reduction_pct is None and judged.reduction_pct_ci is None
-    # the record read back keeps the word it was given, and earned (what every table applies) leaves it as it is
+    # the interval that judged it is kept beside the word: the naive loop's, over the same draws
+    assert without.aoc_difference_ci is None
+    assert judged.aoc_difference_ci is not None
+    assert (judged.aoc_difference_ci.low, judged.aoc_difference_ci.high) == pytest.approx((interval.low, interval.high),
+                                                                                          abs=1e-12)
+    # the record read back keeps the word it was given and its interval, and earned (what every table applies)
+    # leaves it as it is
     assert Reduction.from_json(judged.to_json()).outcome == expected
+    assert Reduction.from_json(judged.to_json()).aoc_difference_ci == judged.aoc_difference_ci
     assert curves.earned(judged.outcome, judged.reduction_pct_ci) == expected
 
 
@@ -144,7 +151,13 @@ def test_table1_and_the_page_say_why_a_perfect_baseline_made_worse_is_left_out()
     assert row.seeds_left_out == ("seed 0: perfect baseline, holds 0; seed 2: perfect baseline, no interval; "
                                   "seed 3: worse than a perfect baseline")
     found = html.row_cell(cells(row), Column("reduction_pct"))
-    assert (found.text, found.kind) == ("n/a: perfect baseline, holds 0", "na")
+    held = _difference_interval(CORRECT, KEEP_B)
+    shown = f"[{held.low:+.4f}, {held.high:+.4f}]"
+    assert (found.text, found.kind) == (f"n/a: perfect baseline, holds 0 (AOC difference {shown})", "na")
+    assert (cells(row)["aoc_difference_ci_low"], cells(row)["aoc_difference_ci_high"]) == pytest.approx(
+        (held.low, held.high), abs=1e-12)
+    # Table I's own cell (Markdown, LaTeX, the page's paper layout) names it too
+    assert words.reduction_cell(row, "n/a") == f"n/a: perfect baseline, holds 0 (AOC difference {shown})"
     assert html.row_cell(cells(row), Column("reduction_pct_mean")).text == "10.0000"  # defined: its number
 
 
@@ -175,6 +188,37 @@ def test_the_adaptive_tables_outcome_column_uses_the_rule():
     assert outcomes["L2"] == outcomes["L4"] == curves.KEPT_ALL
     assert outcomes["L2+pred"] == curves.WORSE_FROM_ZERO
     assert outcomes["L4+pred"] == curves.HOLDS_ZERO
+    said = {row.name: cells(AdaptiveSeqLenRow.of(result, row, "standard", None)) for row in rows}
+    for name in ("L2", "L4"):  # not from zero: no interval of the AOC difference, empty columns
+        assert said[name]["aoc_difference_ci_low"] is None and said[name]["aoc_difference_ci_high"] is None
+    for name, keep, word in (("L2+pred", KEEP_A, "worse than a perfect baseline"),
+                             ("L4+pred", KEEP_B, "perfect baseline, holds 0")):
+        naive = _difference_interval(CORRECT, keep)
+        assert (said[name]["aoc_difference_ci_low"], said[name]["aoc_difference_ci_high"]) == pytest.approx(
+            (naive.low, naive.high), abs=1e-12)
+        assert html.row_cell(said[name], Column("reduction_pct")).text == (
+            f"n/a: {word} (AOC difference [{naive.low:+.4f}, {naive.high:+.4f}])")
     for name, keep in (("L2+pred", KEEP_A), ("L4+pred", KEEP_B)):
         numbers = rows[[r.name for r in rows].index(name)].modes["standard"].reduction
         assert numbers.outcome == curves.from_zero(_difference_interval(CORRECT, keep)) == outcomes[name]
+
+
+def test_the_interval_is_kept_for_a_from_zero_outcome_only_and_an_older_file_reads_none():
+    # a removal whose baseline AOC is above 0 (the first 20 queries wrong) has a reduction: no AOC difference kept
+    correct = np.r_[np.zeros(5), np.ones(95)].astype(bool)
+    keep = np.r_[np.zeros(5, bool), np.ones(95, bool)]
+    _, judged = _with_intervals(correct, keep)
+    assert judged.reduction_pct is not None and judged.aoc_difference_ci is None
+    # a file written before the field existed has none: it reads back as None
+    _, earned_a = _with_intervals(CORRECT, KEEP_A)
+    older = {key: value for key, value in earned_a.to_json().items() if key != "aoc_difference_ci"}
+    assert Reduction.from_json(older).aoc_difference_ci is None
+
+
+def test_the_console_names_the_interval_of_a_from_zero_outcome():
+    from vpr_smr.pipeline.stages.predictor import reduction_text
+
+    _, a = _with_intervals(CORRECT, KEEP_A)
+    naive = _difference_interval(CORRECT, KEEP_A)
+    assert reduction_text(a) == (
+        f"n/a (worse than a perfect baseline, AOC difference [{naive.low:+.4f}, {naive.high:+.4f}])")

@@ -40,7 +40,8 @@ __all__ = ["TABLE", "AdaptiveSeqLenRow", "adaptive_rows", "adaptive_sentence", "
 # each number a word or a sentence reads is shown with its interval: the reduction's outcome names a direction only
 # where that interval excludes 0 (``curves.earned``)
 PAGE = ("matcher", "method", "name", "mean_length", "lengths", "removed", "max_recall", names.AOC, names.REDUCTION,
-        "reduction_pct_ci_low", "reduction_pct_ci_high", "outcome", "minus_best_fixed", "minus_best_fixed_ci_low",
+        "reduction_pct_ci_low", "reduction_pct_ci_high", "aoc_difference_ci_low", "aoc_difference_ci_high",
+        "outcome", "minus_best_fixed", "minus_best_fixed_ci_low",
         "minus_best_fixed_ci_high", "ms_per_query", "live_note")
 
 
@@ -94,6 +95,8 @@ class AdaptiveSeqLenRow:
     aoc_ci: Interval | None = interval()
     reduction_pct: float | None = column("AOC reduction vs longest (%)")  # None where the longest's AOC is 0
     reduction_pct_ci: Interval | None = interval()
+    # the interval that judged a from-zero outcome (the longest's AOC 0: no reduction), shown beside its word
+    aoc_difference_ci: Interval | None = interval("AOC difference vs longest", ".4f")
     outcome: str = column()  # ``curves.outcome`` by ``curves.earned``: a degenerate one named
     reduction_pct_mean: float | None = column("mean over seeds (%)", ".2f")
     reduction_pct_std: float | None = column("std over seeds", ".2f")
@@ -117,7 +120,8 @@ class AdaptiveSeqLenRow:
             str(result.meta["dataset"]), tag_of(result), mode, str(result.meta["method"]), row.name, row.kind,
             row.seq_len, result.n_queries, row.mean_length, histogram(row.lengths), row.removed,
             reduction.max_recall, reduction.aoc_vpr_sm_pred, reduction.aoc_vpr_sm_pred_ci, reduction.reduction_pct,
-            reduction.reduction_pct_ci, earned(reduction.outcome, reduction.reduction_pct_ci),
+            reduction.reduction_pct_ci, reduction.aoc_difference_ci,
+            earned(reduction.outcome, reduction.reduction_pct_ci),
             None if seeds is None else seeds.reduction_pct_mean,
             None if seeds is None else seeds.reduction_pct_std, result.best_fixed.get(mode, ""),
             numbers.minus_best_fixed, numbers.minus_best_fixed_ci, row.threshold, live_ms(result, row, timing),

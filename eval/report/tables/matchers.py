@@ -13,7 +13,7 @@ from typing import TYPE_CHECKING
 from vpr_smr.eval.report import bounds, names
 from vpr_smr.eval.report import outcome_words as words
 from vpr_smr.eval.report.registry import Table
-from vpr_smr.eval.report.rows import column, interval
+from vpr_smr.eval.report.rows import AOC_DIFFERENCE, column, interval
 from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.eval.scoring.curves import earned
 from vpr_smr.eval.scoring.matcher_comparison import FAR_BELOW, MatcherComparison, MatcherScores, validation_warning
@@ -48,6 +48,7 @@ class MatchersRow:
     aoc_vpr_sm_pred: float = column()
     reduction_pct: float | None = column()  # the seed-0 predictor's; None where VPR+SM's AOC is 0
     reduction_pct_ci: Interval | None = interval()
+    aoc_difference_ci: Interval | None = interval(AOC_DIFFERENCE, ".4f")  # as Table I's: a from-zero outcome's
     # what the seed-0 removal did, in a word (``curves.outcome``): a degenerate one named, e.g. an AOC near 0; a
     # direction only where the interval earns it (``curves.earned``)
     outcome: str = column()
@@ -78,7 +79,7 @@ class MatchersRow:
             str(result.meta["dataset"]), int(result.meta["seq_len"]), mode, method, tag, result.n_queries,
             scores.n_evaluated, numbers.recall_at_1_single, numbers.recall_at_1_sequence,
             numbers.reduction.aoc_vpr_sm, numbers.reduction.aoc_vpr_sm_pred, numbers.reduction.reduction_pct,
-            numbers.reduction.reduction_pct_ci,
+            numbers.reduction.reduction_pct_ci, numbers.reduction.aoc_difference_ci,
             earned(numbers.reduction.outcome, numbers.reduction.reduction_pct_ci),
             numbers.seeds.reduction_pct_mean, numbers.seeds.reduction_pct_std, numbers.seeds.n_seeds,
             scores.removed, numbers.best_scorer,
