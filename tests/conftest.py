@@ -62,8 +62,9 @@ def full_report_run(tmp_path_factory):
     """(run folder, files written) of ``report_runs.build_run`` with every experiment, the speed and matchers
     experiments' files, the experiment adaptive_seq_len's and a protocol sweep: dataset d, methods m1 and m2, L 2
     and 4, both modes; built once, tests only read it."""
+    from deployment_results import deployment_files
     from report_runs import adaptive_files, build_run, matchers_files, speed_files
 
     folder = tmp_path_factory.mktemp("full_report_run")
     return build_run(folder, speed=speed_files(folder), matchers=matchers_files(folder),
-                     adaptive=adaptive_files(folder), sweep=True)
+                     adaptive=adaptive_files(folder), deployment=deployment_files(folder), sweep=True)

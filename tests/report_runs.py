@@ -165,9 +165,11 @@ def build_run(tmp_path: Path, modes=("paper", "standard"), seq_lens=(2, 4), meth
     speed = options.pop("speed", ())  # file lists: the rest are ReportOptions
     matchers = options.pop("matchers", ())
     adaptive = options.pop("adaptive", ())
+    deployment = options.pop("deployment", ())
     files = RunFiles(evaluations, predictors, [ablation] if ablations else [], [lomo] if ablations else [],
                      timings=timings, metrics=metric_files, match_figures=match_figures, matrix_figures=matrix_figures,
-                     baselines=baseline_files, speed=speed, matchers=matchers, adaptive=adaptive)
+                     baselines=baseline_files, speed=speed, matchers=matchers, adaptive=adaptive,
+                     deployment=deployment)
     written = write(run, files, ReportOptions(
         table_seq_lens=[4], seq_len_ablation=len(seq_lens) > 1, config="run: demo\nseq_lens: [2, 4]\n",
         provenance={"checkpoint_sha256": {"m1": "ab" * 32}, "frames_sha256": {"d": "cd" * 32}},

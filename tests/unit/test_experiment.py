@@ -28,7 +28,8 @@ from vpr_smr.pipeline.stages.studies import ADAPTIVE, COMPARE_MATCHERS, SPEED
 
 
 def test_the_built_in_experiments_are_registered_by_name_and_are_no_plugins():
-    built_in = ["speed", "matchers", "adaptive_seq_len", "protocol_sweep", "trust_levels", "restoration"]
+    built_in = ["speed", "matchers", "adaptive_seq_len", "protocol_sweep", "trust_levels", "restoration",
+                "deployment"]
     assert reported.EXPERIMENTS.builtins() == built_in
     assert [one.name for one in reported.builtin()] == built_in
     assert not {"speed", "matchers", "adaptive_seq_len"} & {one.name for one in reported.installed()}
@@ -46,7 +47,7 @@ def test_the_report_keeps_its_tables_and_their_order():
     assert [entry.name for entry in registry.TABLES] == [
         "table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing", "vpr_metrics",
         "baselines", "wrong_match_detection", "ablation_seq_len", "speed", "predictor", "table2",
-        "leave_one_method_out", "protocol_sweep", "adaptive_seq_len", "datasets", "matchers"]
+        "leave_one_method_out", "protocol_sweep", "adaptive_seq_len", "datasets", "deployment", "matchers"]
     assert registry.table("speed") is experiment("speed").tables[0]
     assert registry.table("speed").names()[:4] == ("dataset", "method", "seq_len", "profile")
     # the table-only experiments' tables keep their files' names and are written with Table I only
@@ -67,17 +68,17 @@ def test_the_report_keeps_its_figures_and_their_order():
         ("confusion", "confusion_{dataset}_L{seq_len}.png"), ("seq_len", "seq_len_{dataset}_{mode}.png"),
         ("adaptive_seq_len", "adaptive_{dataset}_{mode}.png"),
         ("baselines", "baselines_{dataset}_L{seq_len}_{mode}.png"), ("detection", "detection_{dataset}_L{seq_len}.png"),
-        ("matchers", "matchers_{dataset}_L{seq_len}_{mode}.png"), ("speed", "speed_{dataset}_L{seq_len}.png"),
-        ("protocol_sweep", "protocol_sweep_{dataset}_L{seq_len}_{mode}.png")]
+        ("matchers", "matchers_{dataset}_L{seq_len}_{mode}.png"), ("deployment", "deployment_{dataset}_L{seq_len}.png"),
+        ("speed", "speed_{dataset}_L{seq_len}.png"), ("protocol_sweep", "protocol_sweep_{dataset}_L{seq_len}_{mode}.png")]
     # each experiment's, declared in its module: those with jobs drawn there, the table-only ones' with the PR curves
     owned = {"trust_levels": ["trust"], "restoration": ["restoration", "restoration_auc"],
              "adaptive_seq_len": ["adaptive_seq_len"], "matchers": ["matchers"], "speed": ["speed"],
-             "protocol_sweep": ["protocol_sweep"]}
+             "protocol_sweep": ["protocol_sweep"], "deployment": ["deployment"]}
     for name, figures in owned.items():
         assert [entry.name for entry in experiment(name).figures] == figures
         assert all(registry.figure(entry.name) is entry for entry in experiment(name).figures)
     assert [entry.name for entry in registry.FIGURES if entry.draw is not None] == [
-        "adaptive_seq_len", "matchers", "speed", "protocol_sweep"]
+        "adaptive_seq_len", "matchers", "deployment", "speed", "protocol_sweep"]
     assert registry.figure("trust").experiments == ("table1", "trust_levels")
     assert registry.figure("restoration_auc").experiments == ("table1", "restoration")
 
@@ -132,10 +133,11 @@ def test_the_configuration_switches_a_built_in_experiment_by_its_key():
 
     conf = validate(plan_once_config(DEFAULT_ROOT))  # one seq_len: no adaptive_seq_len; matchers off
     assert [one.name for one in running(experiments(conf))] == ["speed", "protocol_sweep", "trust_levels",
-                                                                  "restoration"]
+                                                                  "restoration", "deployment"]
     conf = validate({**plan_once_config(DEFAULT_ROOT), "seq_lens": [2, 3],
                      "experiments": {"speed": False, "protocol_sweep": False, "restoration": False}})
-    assert [one.name for one in running(experiments(conf))] == ["matchers", "adaptive_seq_len", "trust_levels"]
+    assert [one.name for one in running(experiments(conf))] == ["matchers", "adaptive_seq_len", "trust_levels",
+                                                                  "deployment"]
     # trust_levels is off by its key, and without levels to score
     conf = validate({**plan_once_config(DEFAULT_ROOT), "experiments": {"trust_levels": False}})
     assert "trust_levels" not in [one.name for one in running(experiments(conf))]

@@ -13,7 +13,7 @@ from vpr_smr.eval.report.registry import expected_outputs
 RUN = "results/demo run"  # a space, as a user's output folder may hold
 
 ALL_EXPERIMENTS = {"table1", "predictor", "trust_levels", "restoration", "seq_len", "attributes",
-                   "leave_one_method_out", "speed", "protocol_sweep", "matchers", "adaptive_seq_len"}
+                   "leave_one_method_out", "speed", "protocol_sweep", "matchers", "adaptive_seq_len", "deployment"}
 
 
 def test_each_output_kind_has_its_file_name():
@@ -98,7 +98,7 @@ def test_a_report_run_writes_exactly_the_registry(full_report_run):
     written = sorted(str(p.relative_to(run)) for p in written)
     tables = ("table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
               "vpr_metrics", "baselines", "wrong_match_detection", "ablation_seq_len", "speed", "predictor", "table2",
-              "leave_one_method_out", "protocol_sweep", "adaptive_seq_len", "datasets", "matchers")
+              "leave_one_method_out", "protocol_sweep", "adaptive_seq_len", "datasets", "deployment", "matchers")
     by_hand = (
         [f"tables/{name}.{ext}" for name in tables for ext in ("csv", "md", "tex")]
         + [f"figures/{kind}_d_L4_{mode}.png" for kind in ("pr", "trust", "restoration", "restoration_auc", "baselines",
@@ -106,7 +106,7 @@ def test_a_report_run_writes_exactly_the_registry(full_report_run):
            for mode in ("paper", "standard")]
         + ["figures/confusion_d_L4.png", "figures/seq_len_d_paper.png", "figures/seq_len_d_standard.png",
            "figures/adaptive_d_paper.png", "figures/adaptive_d_standard.png",
-           "figures/speed_d_L4.png", "figures/detection_d_L4.png", "report.html"]
+           "figures/speed_d_L4.png", "figures/detection_d_L4.png", "figures/deployment_d_L4.png", "report.html"]
     )
     assert written == sorted(by_hand)
     assert written == sorted(expected_outputs(["d"], [2, 4], ["paper", "standard"],

@@ -600,7 +600,8 @@ COMPACT = {"table1": "pr-d-4-paper", "restoration": "restoration-d-4-paper", "pr
            "vpr_metrics": "metrics-d-4-paper", "table2": "table2-d-4", "trust_levels": "trust-d-4-paper",
            "ablation_seq_len": "seq-len-d-paper", "speed": "speed-d-4", "baselines": "baselines-d-4-paper",
            "wrong_match_detection": "detection-d-4", "protocol_sweep": "protocol-sweep-d-4-paper",
-           "matchers": "matchers-d-4-paper", "adaptive_seq_len": "adaptive-seq-len-d-paper"}
+           "matchers": "matchers-d-4-paper", "adaptive_seq_len": "adaptive-seq-len-d-paper",
+           "deployment": "deployment-d-4"}
 PAPER_LAYOUT = ("table1", "table2")  # their Markdown and LaTeX files have the paper's layout, not the columns
 
 

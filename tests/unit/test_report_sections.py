@@ -9,7 +9,7 @@ from vpr_smr.eval.report import experiments, html
 from vpr_smr.eval.report.sections import Declared, placed
 
 # the page's order before the experiments declared their sections in their modules (html.SECTIONS held them all)
-PAGE = ("baselines", "matchers", "pr-curves", "trust-levels", "restoration", "sequence-length", "adaptive-seq-len",
+PAGE = ("baselines", "matchers", "deployment", "pr-curves", "trust-levels", "restoration", "sequence-length", "adaptive-seq-len",
         "speed", "predictor", "table-ii", "leave-one-method-out", "timing", "vpr-metrics", "protocol-sweep",
         "match-inspector")
 
@@ -32,5 +32,6 @@ def test_the_tool_s_own_experiments_declare_their_sections_in_the_page_s_order()
     assert tuple(spec.id for spec in sections) == PAGE
     own = {entry.section.id for experiment in experiments.builtin() for entry in experiment.tables
            if entry.section is not None}
-    assert own == {"matchers", "trust-levels", "restoration", "adaptive-seq-len", "speed", "protocol-sweep"}
+    assert own == {"matchers", "trust-levels", "restoration", "adaptive-seq-len", "speed", "protocol-sweep",
+                   "deployment"}
     assert not own & {spec.id for spec in html.SECTIONS}  # the page's module names none of them

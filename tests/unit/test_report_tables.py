@@ -22,9 +22,10 @@ def more_tables(tmp_path, monkeypatch):
 
 
 def test_the_datasets_table_is_one_module_collected_after_the_core_tables():
-    from vpr_smr.eval.report.tables import adaptive, datasets, matchers
+    from vpr_smr.eval.report.tables import adaptive, datasets, deployment, matchers
 
-    assert registry.TABLES == (*registry.CORE_TABLES, adaptive.TABLE, datasets.TABLE, matchers.TABLE)  # by name
+    assert registry.TABLES == (*registry.CORE_TABLES, adaptive.TABLE, datasets.TABLE, deployment.TABLE,
+                               matchers.TABLE)  # by name
     assert registry.table("datasets") is datasets.TABLE and not datasets.TABLE.protocol
 
 
