@@ -172,7 +172,7 @@ def test_report_files_take_the_rules_named_inputs():
 
 def test_the_stages_keep_their_commands():
     assert [stage.command for stage in studies.STAGES + reporting.STAGES] == [
-        "speed", "compare-matchers", "adaptive", "report"]
+        "speed", "compare-matchers", "adaptive", "deployment", "report"]
     summary = studies.SPEED.summary
     assert summary is not None
     result = SimpleNamespace(matchers={"fixed": SimpleNamespace(methods={"a": SimpleNamespace(
