@@ -543,7 +543,7 @@ def calibrate(confidences: Any, correct: Any, precision: float = 0.9, risk: floa
             Guaranteed Risk) or ``same_fraction`` (the fraction ``empirical`` accepts, applied to another split).
 
     Returns:
-        The rule's record: ``threshold`` (None: it abstains, accepting nothing; else it accepts ``c >= threshold``)
+        The rule's record, with its ``threshold`` (None: it abstains, accepting nothing; else it accepts ``c >= threshold``)
         and its counts on the split.
 
     Raises:
@@ -566,7 +566,7 @@ def deploy(confidences: Any, calibration: Calibration, correct: Any = None,
         segment: queries per segment of the segments' count.
 
     Returns:
-        The record: ``accepted`` (a boolean mask, in query order) and, with labels, ``realised`` (precision,
+        The record of the split, with ``accepted`` (a boolean mask, in query order) and, with labels, ``realised`` (precision,
         recall and accepted fraction with block-bootstrap intervals), ``outcome`` (``held``, ``violated`` or
         ``abstained``) and ``segments``.
 
