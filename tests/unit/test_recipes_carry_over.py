@@ -58,3 +58,21 @@ def test_no_record_or_an_unreadable_one_carries_nothing_over(tmp_path, monkeypat
         (run / "recipes.json").write_text(text)
         assert earlier_recipes(run) == {}, text
         assert carried_over([job], run) == []
+
+
+def test_the_jobs_that_write_a_reduction_rerun_for_a_new_results_format(tmp_path, monkeypatch):
+    # results format 8 added the interval of the AOC difference to a from-zero Reduction: a file of 7 lacks it, so the
+    # jobs that write Reductions (beside train's, whose evaluations and baselines depend on it) carry the layout, and
+    # one recorded in format 7 with a recipe otherwise equal is not carried over
+    from vpr_smr.pipeline.experiment import experiment
+
+    assert FORMAT == 8
+    assert all(job.layout for name in ("adaptive_seq_len", "matchers", "speed") for job in experiment(name).jobs)
+    job = '{"method":"sad"}'
+    before = Recipe("adaptive", {"layout": str(FORMAT - 1), "job": job}, {})
+    run = _setup(tmp_path, monkeypatch, {"a.json": before}, FORMAT - 1)
+    now = Job((f"{run}/a.json",), Recipe("adaptive", {"layout": str(FORMAT), "job": job}, {}), snakemake_record=True,
+              params_unrecorded=True)
+    assert carried_over([now], run) == []
+    same = Job((f"{run}/a.json",), before, snakemake_record=True, params_unrecorded=True)
+    assert carried_over([same], run) == [same]  # the same recipe would be: only the layout keeps it out
