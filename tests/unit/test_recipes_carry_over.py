@@ -70,9 +70,9 @@ def test_the_jobs_that_write_a_reduction_rerun_for_a_new_results_format(tmp_path
     assert all(job.layout for name in ("adaptive_seq_len", "matchers", "speed") for job in experiment(name).jobs)
     job = '{"method":"sad"}'
     before = Recipe("adaptive", {"layout": str(FORMAT - 1), "job": job}, {})
-    run = _setup(tmp_path, monkeypatch, {"a.json": before}, FORMAT - 1)
-    now = Job((f"{run}/a.json",), Recipe("adaptive", {"layout": str(FORMAT), "job": job}, {}), snakemake_record=True,
+    run = _setup(tmp_path, monkeypatch, {"t.h5": before}, FORMAT - 1)
+    now = Job((f"{run}/t.h5",), Recipe("adaptive", {"layout": str(FORMAT), "job": job}, {}), snakemake_record=True,
               params_unrecorded=True)
     assert carried_over([now], run) == []
-    same = Job((f"{run}/a.json",), before, snakemake_record=True, params_unrecorded=True)
+    same = Job((f"{run}/t.h5",), before, snakemake_record=True, params_unrecorded=True)
     assert carried_over([same], run) == [same]  # the same recipe would be: only the layout keeps it out
