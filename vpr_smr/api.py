@@ -543,8 +543,8 @@ def calibrate(confidences: Any, correct: Any, precision: float = 0.9, risk: floa
             Guaranteed Risk) or ``same_fraction`` (the fraction ``empirical`` accepts, applied to another split).
 
     Returns:
-        The rule's record, with its ``threshold`` (None: it abstains, accepting nothing; else it accepts ``c >= threshold``)
-        and its counts on the split.
+        The rule's record, with its ``threshold`` (None: it abstains, accepting nothing; else it accepts
+        ``c >= threshold``) and its counts on the split.
 
     Raises:
         ValueError: a target outside (0, 1], a risk outside (0, 1), an unknown rule, a split without any correct
@@ -566,8 +566,8 @@ def deploy(confidences: Any, calibration: Calibration, correct: Any = None,
         segment: queries per segment of the segments' count.
 
     Returns:
-        The record of the split, with ``accepted`` (a boolean mask, in query order) and, with labels, ``realised`` (precision,
-        recall and accepted fraction with block-bootstrap intervals), ``outcome`` (``held``, ``violated`` or
+        The record of the split, with ``accepted`` (a boolean mask, in query order) and, with labels, ``realised``
+        (precision, recall and accepted fraction with block-bootstrap intervals), ``outcome`` (``held``, ``violated`` or
         ``abstained``) and ``segments``.
 
     Raises:

@@ -74,7 +74,7 @@ class LiveThresholds(Protocol):
     a frame from what the frame computes. The file's rule decides; this module only passes the frame's numbers."""
 
     def check_live(self, matcher: str, native_scorer: str | None, method: str | None, seq_len: int,
-                   predictor_sha256: str | None, has_predictor: bool) -> None: ...
+                   predictor_sha256: str | None, has_predictor: bool, r_window: int | None = None) -> None: ...
 
     def frame_accepted(self, native: float | None, sequence_distance: float, probabilities: np.ndarray | None,
                        classes: np.ndarray | None) -> bool: ...
@@ -118,6 +118,7 @@ class LiveMatcher:
         check_live(self.matcher)
         self.n_native = 0 if self.matcher.native_scorer is None else candidates_needed(r_window, 1)
         self.window = half_window(r_window)
+        self.r_window = r_window
         self.engine = attribute_engine(self.matcher)  # the attributes' trajectories
         self._state = self.matcher.initial_state()
         self.references = _prepared_references(references, distance, "LiveMatcher", "path, seq_len")
@@ -145,7 +146,7 @@ class LiveMatcher:
             path = getattr(self.predictor, "path_", None)  # a loaded predictor's file
             thresholds.check_live(str(self._spec()), self.matcher.native_scorer, self.method, self.seq_len,
                                   None if path is None or not Path(path).is_file() else file_sha256(path),
-                                  self.predictor is not None)
+                                  self.predictor is not None, self.r_window)
         self._thresholds = thresholds
 
     def _spec(self) -> MatcherSpec:
@@ -167,7 +168,13 @@ class LiveMatcher:
         if predictor is not None and hasattr(predictor, "path_"):  # its attributes must be this matcher's (live
             # frames have no ground truth); a predictor fitted in this process records no matcher to compare
             check_matching(predictor, Matching.of(self._spec()), "a LiveMatcher (matcher=)", ground_truth=False)
-        self._predictor = predictor
+        before, self._predictor = getattr(self, "_predictor", None), predictor
+        if getattr(self, "_thresholds", None) is not None:  # a threshold file set before: checked against this one
+            try:
+                self.thresholds = self._thresholds
+            except ValueError:
+                self._predictor = before  # refused: the matcher keeps the predictor it had
+                raise
 
     @classmethod
     def from_descriptors(cls, path: Path | str, seq_len: int, predictor: Any = None, distance: str | None = None,

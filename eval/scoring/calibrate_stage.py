@@ -219,7 +219,15 @@ def read_split(job: CalibrateJob | DeployJob, source: str, default_split: str | 
     if any(cell == "" for cell in cells):
         fix = " (give --predictor to vpr-smr queries)" if source == PREDICTOR else ""
         raise ValueError(f"--source {source}: {where} split {split} has no {column} value for some queries{fix}")
+    try:
+        values = np.array([float(cell) for cell in cells], dtype=np.float64)
+    except ValueError:
+        raise ValueError(f"--source {source}: {where} split {split} has a {column} value that is no number: give "
+                         "the table vpr-smr queries wrote") from None
     labels = [row["sequence_correct"] for row in mine]
+    if any(cell not in ("", "0", "1") for cell in labels):
+        raise ValueError(f"{where} split {split}: sequence_correct holds values other than 0, 1 or empty: give the "
+                         "table vpr-smr queries wrote")
     if any(cell == "" for cell in labels) and not all(cell == "" for cell in labels):
         raise ValueError(f"{where} split {split}: sequence_correct is empty for some queries only; give a table "
                          "whose split is labelled throughout, or not at all")
@@ -229,7 +237,7 @@ def read_split(job: CalibrateJob | DeployJob, source: str, default_split: str | 
     return SplitTable(
         split, np.array([int(row["query"]) for row in mine], dtype=np.int64),
         np.array([int(row["sequence_match"]) for row in mine], dtype=np.int64),
-        np.array([float(cell) for cell in cells], dtype=np.float64),
+        values,
         None if all(cell == "" for cell in labels) else np.array([cell == "1" for cell in labels], dtype=bool),
         matchers.pop(), f"{where} split {split}")
 
@@ -259,8 +267,8 @@ def _predictor_sha256(job: CalibrateJob | DeployJob, source: str) -> str | None:
 def calibrate(confidence: np.ndarray, correct: np.ndarray, precision: float = 0.9, risk: float = DEFAULT_RISK,
               rule: str = GUARANTEED, where: str = "the calibration split") -> Calibration:
     """``thresholds.calibrate`` after the checks of method §16's inputs: a target in (0, 1], a risk in (0, 1), a
-    known rule, a split with a correct match, and for ``guaranteed`` a target below 1 and at least
-    ``smallest_calibration`` queries. ValueError naming the setting and the fix."""
+    known rule, a split with a correct match, and for ``guaranteed`` a target below 1 and, where it abstains, at
+    least ``smallest_calibration`` queries. ValueError naming the setting and the fix."""
     precision = thresholds.check_precision(precision, "--precision")
     risk = thresholds.check_risk(risk, "--risk")
     if rule not in RULES:
@@ -272,16 +280,20 @@ def calibrate(confidence: np.ndarray, correct: np.ndarray, precision: float = 0.
     if not np.asarray(labels, dtype=bool).any():
         raise ValueError(f"{where} has no correct sequence match among its {len(values)} queries: no threshold "
                          "reaches any precision there; calibrate on a split the method matches")
-    if rule == GUARANTEED:
-        if precision == 1:
-            raise ValueError("--precision 1 cannot be guaranteed from a finite calibration split (the bound is "
-                             "never 0): give a target below 1, or --rule empirical")
+    if rule == GUARANTEED and precision == 1:
+        raise ValueError("--precision 1 cannot be guaranteed from a finite calibration split (the bound is never "
+                         "0): give a target below 1, or --rule empirical")
+    found = thresholds.calibrate(values, labels, precision, rule, risk)
+    if rule == GUARANTEED and found.abstains:
+        # the size is what the search needs with distinct confidences; tied ones may let a smaller split through,
+        # so only a split that abstains is refused by it
         needed = thresholds.smallest_calibration(precision, risk)
         if len(values) < needed:
             raise ValueError(f"--rule guaranteed needs at least {needed} calibration queries for precision "
-                             f"{precision:g} at risk {risk:g}; you gave {len(values)}: calibrate on a longer split, "
-                             "lower the target or raise the risk")
-    return thresholds.calibrate(values, labels, precision, rule, risk)
+                             f"{precision:g} at risk {risk:g} (with distinct confidences, every one correct); you "
+                             f"gave {len(values)} and it sets no threshold: calibrate on a longer split, lower the "
+                             "target or raise the risk")
+    return found
 
 
 @dataclass(frozen=True)
@@ -349,12 +361,20 @@ def calibrate_main(job: CalibrateJob) -> Calibrated:
     out = check_suffix(job.out, JSON_SUFFIXES, "the threshold file (JSON)")
     thresholds.check_precision(job.precision, "--precision")
     thresholds.check_risk(job.risk, "--risk")
+    missing = [option for option, value in (("--method NAME", job.method), ("--seq-len L", job.seq_len))
+               if value is None]
+    if job.source == PREDICTOR and job.predictor is None:
+        missing.append("--predictor PATH (the predictor whose confidence it is)")
+    if missing:
+        raise ValueError(f"give {' and '.join(missing)}: the threshold file records them, so that deploy and the "
+                         "live matcher refuse a confidence of another method, length or predictor")
     table = read_split(job, job.source, CALIBRATION_SPLIT, job.seq_len)
     if table.correct is None:
         raise ValueError(f"{table.where} has no labels (sequence_correct is empty): calibrate on a labelled split")
     found = calibrate(table.confidence, table.correct, job.precision, job.risk, job.rule, table.where)
     file = ThresholdFile.of(found, job.source, _input_matcher(job, table), table.split, table.confidence,
-                            table.correct, job.method, job.seq_len, _predictor_sha256(job, job.source))
+                            table.correct, job.method, job.seq_len, _predictor_sha256(job, job.source),
+                            job.scorers.meta())
     on_calibration = thresholds.realise(thresholds.accept(table.confidence, found), table.correct, intervals=False)
     smallest = thresholds.smallest_calibration(job.precision, job.risk) if job.rule == GUARANTEED else None
     write_thresholds(out, file)
@@ -399,7 +419,8 @@ def deploy_main(job: DeployJob) -> DeployedSplit:
     if job.distances and seq_len is None:
         raise ValueError(f"--distances needs --seq-len L: the threshold file {where} does not record it")
     named = f"the threshold file {where}"
-    check_same(file, "this input (--method, --seq-len)", method=job.method, seq_len=seq_len, name=named)
+    check_same(file, "this input (--method, --seq-len, --r-window, --spread-k)", method=job.method, seq_len=seq_len,
+               scorers=job.scorers.meta(), name=named)
     table = read_split(job, file.source, None, seq_len)
     check_same(file, table.where, matcher=_input_matcher(job, table), name=named)  # the source: the file's column
     mine, theirs = file.predictor_sha256, _predictor_sha256(job, file.source)

@@ -33,7 +33,7 @@ from vpr_smr.eval.scoring.deployment_records import (
     DeploymentRow,
     RiskCoverage,
 )
-from vpr_smr.eval.scoring.thresholds import ORACLE_THRESHOLD, RULES, SAME_FRACTION
+from vpr_smr.eval.scoring.thresholds import GUARANTEED, ORACLE_THRESHOLD, RULES, SAME_FRACTION
 from vpr_smr.eval.scoring.vpr_metrics import check_inputs, load_predictor, truth_kind
 
 __all__ = ["CURVE_POINTS", "Sources", "deploy_sources", "main", "sources_of", "thin"]
@@ -118,21 +118,28 @@ def deploy_sources(tag: str, calibration: Sources, deployments: Sequence[Sources
 
 
 def notes_of(tag: str, calibration: Sources, precisions: Sequence[float], risk: float) -> list[str]:
-    """What the calibration split cannot give, in words: no correct match (every rule abstains), or too few
-    queries for ``guaranteed`` at a target (it abstains there)."""
+    """What the calibration split cannot give, in words: no correct match (every rule abstains), or, at a target
+    where ``guaranteed`` abstains for a source (seed 0 of the predictor's), a split smaller than the rule needs with
+    distinct confidences (tied ones may need fewer: the note counts the sources that did abstain)."""
     n = len(calibration.correct)
     if not calibration.correct.any():
         return [f"{tag}: the calibration split {calibration.name} holds no correct sequence match among its {n} "
                 "queries: every rule abstains"]
     found = []
+    keys = [key for key in calibration.confidence if key[1] in (None, 0)]
     for precision in precisions:
         if precision >= 1:
             found.append(f"{tag}: guaranteed cannot reach precision 1 from a finite calibration split: it abstains")
             continue
         needed = thresholds.smallest_calibration(precision, risk)
-        if n < needed:
+        if n >= needed:
+            continue
+        abstained = [key[0] for key in keys if thresholds.calibrate(
+            calibration.confidence[key], calibration.correct, precision, GUARANTEED, risk).abstains]
+        if abstained:
             found.append(f"{tag}: guaranteed needs at least {needed} calibration queries for precision {precision:g} "
-                         f"at risk {risk:g}; the calibration split {calibration.name} has {n}: it abstains there")
+                         f"at risk {risk:g} (with distinct confidences); the calibration split {calibration.name} has "
+                         f"{n}: it abstains there for {len(abstained)} of {len(keys)} sources")
     return found
 
 
@@ -210,6 +217,10 @@ def main(job: DeploymentJob) -> DeploymentResult:
     if not inputs.deployments:
         raise ValueError("--inputs: no deployment: give at least one (dataset, split) other than the calibration "
                          "split")
+    pairs = list(inputs.deployments)
+    if (job.dataset, inputs.calibration) in pairs or len(set(pairs)) != len(pairs):
+        raise ValueError(f"--inputs: the deployments {pairs} repeat one or hold the calibration split "
+                         f"({job.dataset}, {inputs.calibration}): give each other split once")
     splits = _read_splits(job)
     own_truth = inputs.datasets[job.dataset].truth
     rows: list[DeploymentRow] = []

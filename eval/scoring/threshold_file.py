@@ -74,16 +74,21 @@ class ThresholdFile(Record):
     wrong: int
     calibration_sha256: str
     version: str
+    scorers: dict[str, int]  # the training-free scorers' settings the confidences were computed with (r_window, ...)
     sha256: str = ""  # of every other entry (``seal``); "" only before it is sealed
 
     @classmethod
     def of(cls, calibration: Calibration, source: str, matcher: str, split: str, confidence: np.ndarray,
            correct: np.ndarray, method: str | None = None, seq_len: int | None = None,
-           predictor_sha256: str | None = None) -> ThresholdFile:
-        """The sealed file of ``calibration`` set on ``confidence`` and ``correct`` (the calibration split)."""
+           predictor_sha256: str | None = None, scorers: Mapping[str, int] | None = None) -> ThresholdFile:
+        """The sealed file of ``calibration`` set on ``confidence`` and ``correct`` (the calibration split);
+        ``scorers``: the scorers' settings (``BaselineSettings.meta``, the defaults' when not given)."""
+        from vpr_smr.eval.scoring.scorers import DEFAULT_SETTINGS
+
         return cls(source, method, matcher, seq_len, predictor_sha256, calibration.rule, calibration.precision,
                    calibration.risk, calibration.threshold, split, calibration.n_queries, calibration.accepted,
-                   calibration.wrong, calibration_sha256(confidence, correct), package_version()).seal()
+                   calibration.wrong, calibration_sha256(confidence, correct), package_version(),
+                   dict(scorers if scorers is not None else DEFAULT_SETTINGS.meta())).seal()
 
     @property
     def calibration(self) -> Calibration:
@@ -116,7 +121,7 @@ class ThresholdFile(Record):
     # --- live (``eval.matching.live.LiveMatcher``): the frame's confidence of this file's source ----------------
 
     def check_live(self, matcher: str, native_scorer: str | None, method: str | None, seq_len: int,
-                   predictor_sha256: str | None, has_predictor: bool) -> None:
+                   predictor_sha256: str | None, has_predictor: bool, r_window: int | None = None) -> None:
         """ValueError unless a live matcher of ``matcher`` (its ``str(MatcherSpec)``), ``method`` and ``seq_len``
         gives this file's source per frame: a source of ``LIVE_SOURCES`` (``uniqueness`` only where it is the
         matcher's native scorer; ``predictor`` with a predictor, whose file must be the calibrated one), a rule
@@ -130,6 +135,11 @@ class ThresholdFile(Record):
                              f"LiveMatcher of the matcher {matcher!r} gives {', '.join(usable)}: calibrate on one "
                              "of them")
         check_same(self, "the LiveMatcher", matcher=matcher, method=method, seq_len=seq_len)
+        window = self.scorers.get("r_window")
+        if self.source in ("uniqueness", NATIVE) and r_window is not None and window is not None and window != r_window:
+            raise ValueError(f"the threshold file's {self.source} was computed with r_window {window}, the "
+                             f"LiveMatcher's with r_window {r_window}: give LiveMatcher(r_window={window}) or "
+                             "calibrate again")
         if self.source == PREDICTOR:
             if not has_predictor:
                 raise ValueError("the threshold file's source is the predictor: give the LiveMatcher its predictor "
@@ -157,12 +167,16 @@ class ThresholdFile(Record):
 
 
 def check_same(file: ThresholdFile, where: str, *, source: str | None = None, matcher: str | None = None,
-               method: str | None = None, seq_len: int | None = None, name: str = "the threshold file") -> None:
+               method: str | None = None, seq_len: int | None = None, scorers: Mapping[str, int] | None = None,
+               name: str = "the threshold file") -> None:
     """ValueError naming both when ``where`` (the input a threshold file is applied to) has another source,
-    matcher, method or sequence length than the file (``name``: how messages call it); what either side does not
-    say is not compared."""
+    matcher, method, sequence length or scorers' settings than the file (``name``: how messages call it); what
+    either side does not say is not compared."""
+    settings = [(f"scorers' {key}", value, None if scorers is None else scorers.get(key))
+                for key, value in file.scorers.items()]
     for what, mine, theirs in (("source", file.source, source), ("matcher", file.matcher, matcher),
-                               ("method", file.method, method), ("sequence length", file.seq_len, seq_len)):
+                               ("method", file.method, method), ("sequence length", file.seq_len, seq_len),
+                               *settings):
         if mine is not None and theirs is not None and mine != theirs:
             raise ValueError(f"{name} is for the {what} {mine!r}, but {where} has the {what} {theirs!r}: a "
                              f"threshold holds for the confidence it was calibrated on only; calibrate again on a "

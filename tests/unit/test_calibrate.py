@@ -19,6 +19,8 @@ from vpr_smr.pipeline.cli import main
 
 MATCHER = "seqslam (velocities [1.0])"
 
+NAMED = ("--method", "sad", "--seq-len", "4")  # what every threshold file must say (deploy and live compare them)
+
 
 def naive_empirical(c, y, p):
     """The smallest distinct confidence whose accepted set reaches precision p, by a loop; None if none."""
@@ -110,8 +112,8 @@ def test_calibrate_writes_the_rules_threshold(tmp_path, table, rule, capsys):
 def test_a_hand_edited_file_is_refused(tmp_path, table, capsys):
     path, _, _ = table
     out = tmp_path / "thr.json"
-    assert main(["calibrate", "--queries", str(path), "--source", "uniqueness", "--rule", "empirical", "--out",
-                 str(out)]) == 0
+    assert main(["calibrate", "--queries", str(path), "--source", "uniqueness", "--rule", "empirical", *NAMED,
+                 "--out", str(out)]) == 0
     data = json.loads(out.read_text())
     data["threshold"] = data["threshold"] - 1
     out.write_text(json.dumps(data))
@@ -125,8 +127,8 @@ def test_a_hand_edited_file_is_refused(tmp_path, table, capsys):
 def test_deploy_numbers_and_accepted_table(tmp_path, table, capsys):
     path, _, (c, y) = table
     thr, out, accepted = tmp_path / "thr.json", tmp_path / "d.json", tmp_path / "accepted.csv"
-    assert main(["calibrate", "--queries", str(path), "--source", "uniqueness", "--rule", "empirical", "--out",
-                 str(thr)]) == 0
+    assert main(["calibrate", "--queries", str(path), "--source", "uniqueness", "--rule", "empirical", *NAMED,
+                 "--out", str(thr)]) == 0
     t = read_thresholds(thr).threshold
     assert main(["deploy", "--thresholds", str(thr), "--queries", str(path), "--split", "test", "--segment", "100",
                  "--accepted", str(accepted), "--out", str(out)]) == 0
@@ -154,7 +156,7 @@ def test_deploy_numbers_and_accepted_table(tmp_path, table, capsys):
 def test_deploy_without_labels_gives_the_accepted_only(tmp_path, table, capsys):
     path, val, test = table
     thr = tmp_path / "thr.json"
-    assert main(["calibrate", "--queries", str(path), "--source", "uniqueness", "--rule", "same_fraction",
+    assert main(["calibrate", "--queries", str(path), "--source", "uniqueness", "--rule", "same_fraction", *NAMED,
                  "--out", str(thr)]) == 0
     bare = tmp_path / "bare.csv"
     write_table(bare, {"drive": test}, labelled=False)
@@ -174,7 +176,8 @@ def test_the_table_and_its_matrices_give_the_same_file(tmp_path):
     np.save(tmp_path / "D.npy", matrix)
     table = tmp_path / "q.csv"
     assert main(["queries", "--distances", f"val={tmp_path / 'D.npy'}", "--seq-len", "3", "--out", str(table)]) == 0
-    common = ["--source", "uniqueness", "--rule", "empirical", "--precision", "0.8", "--seq-len", "3"]
+    common = ["--source", "uniqueness", "--rule", "empirical", "--precision", "0.8", "--seq-len", "3", "--method",
+              "sad"]
     assert main(["calibrate", "--queries", str(table), *common, "--out", str(tmp_path / "a.json")]) == 0
     assert main(["calibrate", "--distances", f"val={tmp_path / 'D.npy'}", *common,
                  "--out", str(tmp_path / "b.json")]) == 0
@@ -195,14 +198,15 @@ def fails(capsys, argv, *fragments):
     (["--precision", "0"], ["precision"]),
     (["--risk", "1"], ["risk 1.0 is no risk"]),
     (["--precision", "1"], ["precision 1 cannot be guaranteed"]),
-    (["--precision", "0.999"], ["needs at least", "calibration queries for precision 0.999 at risk 0.1; you gave 400",
+    (["--precision", "0.999"], ["needs at least", "calibration queries for precision 0.999 at risk 0.1 (with distinct",
+                                "confidences, every one correct); you gave 400 and it sets no threshold",
                                 "calibrate on a longer split, lower the target or raise the risk"]),
     (["--split", "train"], ["holds the splits val, test", "'train' is not one of them"]),
 ])
 def test_bad_calibrations_are_refused_before_writing(tmp_path, table, capsys, extra, fragments):
     path, _, _ = table
     out = tmp_path / "thr.json"
-    fails(capsys, ["calibrate", "--queries", str(path), "--source", "uniqueness", *extra, "--out", str(out)],
+    fails(capsys, ["calibrate", "--queries", str(path), "--source", "uniqueness", *NAMED, *extra, "--out", str(out)],
           *fragments)
     assert not out.exists() and not list(tmp_path.glob("*.tmp"))
 
@@ -210,14 +214,14 @@ def test_bad_calibrations_are_refused_before_writing(tmp_path, table, capsys, ex
 def test_unknown_and_random_sources_and_no_correct_match(tmp_path, table, capsys):
     path, _, _ = table
     out = tmp_path / "thr.json"
-    fails(capsys, ["calibrate", "--queries", str(path), "--source", "spreadd", "--out", str(out)],
+    fails(capsys, ["calibrate", "--queries", str(path), "--source", "spreadd", *NAMED, "--out", str(out)],
           "no column c_spreadd", "its sources: uniqueness, single_uniqueness")
-    fails(capsys, ["calibrate", "--queries", str(path), "--source", "random", "--out", str(out)],
+    fails(capsys, ["calibrate", "--queries", str(path), "--source", "random", *NAMED, "--out", str(out)],
           "a random order has nothing to calibrate")
     wrong = tmp_path / "wrong.csv"
     write_table(wrong, {"val": (np.arange(20.0), np.zeros(20, bool))})
-    fails(capsys, ["calibrate", "--queries", str(wrong), "--source", "uniqueness", "--rule", "empirical", "--out",
-                   str(out)], "has no correct sequence match among its 20 queries")
+    fails(capsys, ["calibrate", "--queries", str(wrong), "--source", "uniqueness", "--rule", "empirical", *NAMED,
+                   "--out", str(out)], "has no correct sequence match among its 20 queries")
     assert not out.exists()
 
 
@@ -267,7 +271,7 @@ def test_the_predictor_file_is_compared_by_its_hash(tmp_path, capsys):
     (tmp_path / "b.h5").write_bytes(b"predictor b")
     thr = tmp_path / "thr.json"
     assert main(["calibrate", "--queries", str(path), "--source", "predictor", "--rule", "empirical", "--precision",
-                 "0.8", "--predictor", str(tmp_path / "a.h5"), "--out", str(thr)]) == 0
+                 "0.8", "--predictor", str(tmp_path / "a.h5"), *NAMED, "--out", str(thr)]) == 0
     assert read_thresholds(thr).predictor_sha256 == hashlib.sha256(b"predictor a").hexdigest()
     out = tmp_path / "d.json"
     fails(capsys, ["deploy", "--thresholds", str(thr), "--queries", str(path), "--split", "test", "--predictor",
@@ -276,3 +280,30 @@ def test_the_predictor_file_is_compared_by_its_hash(tmp_path, capsys):
     assert not out.exists()
     assert main(["deploy", "--thresholds", str(thr), "--queries", str(path), "--split", "test", "--predictor",
                  str(tmp_path / "a.h5"), "--out", str(out)]) == 0
+
+
+def test_a_file_says_its_method_length_and_scorers_and_deploy_compares_them(tmp_path, table, capsys):
+    path, _, _ = table
+    thr = tmp_path / "thr.json"
+    fails(capsys, ["calibrate", "--queries", str(path), "--source", "uniqueness", "--out", str(thr)],
+          "give --method NAME and --seq-len L")
+    fails(capsys, ["calibrate", "--queries", str(path), "--source", "predictor", *NAMED, "--out", str(thr)],
+          "--predictor PATH")
+    assert not thr.exists()
+    assert main(["calibrate", "--queries", str(path), "--source", "uniqueness", "--rule", "empirical", *NAMED,
+                 "--out", str(thr)]) == 0
+    assert read_thresholds(thr).scorers == {"r_window": 10, "spread_k": 10}
+    out = tmp_path / "d.json"
+    fails(capsys, ["deploy", "--thresholds", str(thr), "--queries", str(path), "--split", "test", "--r-window", "4",
+                   "--out", str(out)], "is for the scorers' r_window 10", "has the scorers' r_window 4")
+    assert not out.exists()
+
+
+def test_tied_confidences_let_guaranteed_set_a_threshold_below_the_distinct_size():
+    # 600 correct queries tied at confidence 1 and 100 wrong below: the first step accepts all 600 tied ones,
+    # whose bound at p = 0.99 is 1 - (0.1 / 10)^(1/600) = 0.0076 <= 0.01, though 700 < 917 distinct ones
+    confidence = np.concatenate([np.ones(600), np.linspace(0.0, 0.5, 100)])
+    correct = np.concatenate([np.ones(600, bool), np.zeros(100, bool)])
+    assert 1 - (0.1 / 10) ** (1 / 600) <= 0.01
+    found = api.calibrate(confidence, correct, precision=0.99, risk=0.1, rule="guaranteed")
+    assert (found.threshold, found.accepted, found.wrong) == (1.0, 600, 0)

@@ -24,7 +24,7 @@ def test_demo_config_is_valid_and_gets_defaults():
     assert conf.table_seq_len == 4 and conf.seeds == 5
     assert experiments(conf) == {"table1", "predictor", "baselines", "trust_levels", "restoration", "attributes",
                                  "leave_one_method_out", "seq_len", "speed", "protocol_sweep", "matchers",
-                                 "adaptive_seq_len"}
+                                 "adaptive_seq_len", "deployment"}
     assert (conf.baselines.r_window, conf.baselines.spread_k, conf.baselines.candidates) == (10, 10, 12)
     preflight(conf)
 
@@ -67,7 +67,9 @@ def test_experiments_follow_the_settings(tmp_path):
     """)
     # one method: no leave-one-method-out; one L: no sequence-length ablation; restoration switched off
     assert experiments(load_config(path)) == {"table1", "predictor", "baselines", "trust_levels", "attributes", "speed",
-                                              "protocol_sweep", "matchers"}
+                                              "protocol_sweep", "matchers", "deployment"}
+    # deployment needs a second evaluation split or dataset to deploy on
+    assert "deployment" not in experiments(load_config(path, {"eval_splits": ["test"]}))
     assert "matchers" not in experiments(load_config(path, {"experiments": {"matchers": False}}))
     assert "trust_levels" not in experiments(load_config(path, {"trust_levels": []}))
 

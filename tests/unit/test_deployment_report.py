@@ -5,7 +5,6 @@ counted from the rows by a naive loop in the test."""
 from __future__ import annotations
 
 import csv
-import functools
 import html as escaping
 import re
 from pathlib import Path
@@ -16,7 +15,7 @@ import pytest
 from deployment_results import OTHER, OWN, deployment_files, meta, realised, row, several
 from report_runs import build_run
 
-from vpr_smr.eval.report import build, registry
+from vpr_smr.eval.report import registry
 from vpr_smr.eval.report.build import _write_table
 from vpr_smr.eval.report.rows import cells
 from vpr_smr.eval.report.tables import deployment as table
@@ -256,11 +255,9 @@ def test_sentences_agree_with_demo_like_rows(seed: int) -> None:
             assert "abstained" not in sentence
 
 
-def test_the_page_shows_the_section_after_the_baselines_with_its_headline(tmp_path: Path,
-                                                                         monkeypatch: pytest.MonkeyPatch) -> None:
+def test_the_page_shows_the_section_after_the_baselines_with_its_headline(tmp_path: Path) -> None:
     files = deployment_files(tmp_path)  # the test run's dataset d and methods m1, m2
-    monkeypatch.setattr(build, "RunFiles", functools.partial(build.RunFiles, deployment=tuple(files)))
-    run, written = build_run(tmp_path, seq_lens=(4,), inspector=False, restoration=False)
+    run, written = build_run(tmp_path, seq_lens=(4,), inspector=False, restoration=False, deployment=tuple(files))
     assert {run / "tables" / f"deployment{suffix}" for suffix in (".csv", ".md", ".tex")} <= set(written)
     assert run / table.FIGURE.file(dataset="d", seq_len=4) in written
     page = escaping.unescape((run / "report.html").read_text())

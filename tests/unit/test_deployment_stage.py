@@ -150,8 +150,10 @@ def test_notes_name_a_calibration_split_too_small(files, predictor_file):
     needed = naive_smallest(0.9, 0.1)
     n = result.meta["n_calibration"]["seqslam"]
     assert n < needed
+    sources = len([c for c in result.curves])  # one per source (seed 0 of the predictor's)
     assert result.notes == (f"seqslam: guaranteed needs at least {needed} calibration queries for precision 0.9 at "
-                            f"risk 0.1; the calibration split val has {n}: it abstains there",)
+                            f"risk 0.1 (with distinct confidences); the calibration split val has {n}: it abstains "
+                            f"there for {sources} of {sources} sources",)
     assert all(r.outcome == "abstained" and r.calibration.threshold is None for r in result.rows
                if r.rule == "guaranteed")
 

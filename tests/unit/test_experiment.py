@@ -68,8 +68,9 @@ def test_the_report_keeps_its_figures_and_their_order():
         ("confusion", "confusion_{dataset}_L{seq_len}.png"), ("seq_len", "seq_len_{dataset}_{mode}.png"),
         ("adaptive_seq_len", "adaptive_{dataset}_{mode}.png"),
         ("baselines", "baselines_{dataset}_L{seq_len}_{mode}.png"), ("detection", "detection_{dataset}_L{seq_len}.png"),
-        ("matchers", "matchers_{dataset}_L{seq_len}_{mode}.png"), ("deployment", "deployment_{dataset}_L{seq_len}.png"),
-        ("speed", "speed_{dataset}_L{seq_len}.png"), ("protocol_sweep", "protocol_sweep_{dataset}_L{seq_len}_{mode}.png")]
+        ("matchers", "matchers_{dataset}_L{seq_len}_{mode}.png"),
+        ("deployment", "deployment_{dataset}_L{seq_len}.png"), ("speed", "speed_{dataset}_L{seq_len}.png"),
+        ("protocol_sweep", "protocol_sweep_{dataset}_L{seq_len}_{mode}.png")]
     # each experiment's, declared in its module: those with jobs drawn there, the table-only ones' with the PR curves
     owned = {"trust_levels": ["trust"], "restoration": ["restoration", "restoration_auc"],
              "adaptive_seq_len": ["adaptive_seq_len"], "matchers": ["matchers"], "speed": ["speed"],

@@ -110,3 +110,12 @@ def test_files_live_cannot_apply_are_refused(batch):
                                          "LiveMatcher's predictor file has bbbbbbbbbbbb..."):
         hashed.check_live(MATCHER, "uniqueness", None, 4, "b" * 64, True)
     hashed.check_live(MATCHER, "uniqueness", None, 4, "a" * 64, True)  # the calibrated predictor: accepted
+
+
+def test_a_file_of_another_uniqueness_window_is_refused(batch):
+    _, rows = batch
+    file, _ = file_of(rows, "uniqueness", 1.0)
+    assert file.scorers["r_window"] == 10  # the defaults' settings, recorded
+    with pytest.raises(ValueError, match="computed with r_window 10, the LiveMatcher's with r_window 4"):
+        LiveMatcher(4, r_window=4, thresholds=file)
+    LiveMatcher(4, r_window=10, thresholds=file)  # the same window: taken

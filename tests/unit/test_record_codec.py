@@ -35,6 +35,8 @@ from vpr_smr.eval.predictor.records import (
     SplitScores,
 )
 from vpr_smr.eval.scoring.adaptive_records import AdaptiveMode, AdaptiveResult, AdaptiveRow, AdaptiveTiming
+from vpr_smr.eval.scoring.calibrate_stage import Deployed, DeployedSplit
+from vpr_smr.eval.scoring.deployment_records import Chosen, DeploymentResult, DeploymentRow, RiskCoverage
 from vpr_smr.eval.scoring.matcher_comparison import MatcherComparison, MatcherMode, MatcherScores
 from vpr_smr.eval.scoring.records import (
     Baselines,
@@ -67,6 +69,8 @@ from vpr_smr.eval.scoring.records import (
     VPRMetrics,
 )
 from vpr_smr.eval.scoring.speed import SpeedMatcher, SpeedResult, SpeedScores
+from vpr_smr.eval.scoring.threshold_file import ThresholdFile
+from vpr_smr.eval.scoring.thresholds import Calibration, Realised, Segments
 from vpr_smr.pipeline.recipes import Recipe, Recipes
 
 NAN, INF = float("nan"), float("inf")
@@ -180,6 +184,22 @@ REFUSED_TIMING = AdaptiveTiming(META, 60, 0, None, None, "openseqslam: its windo
 RECIPE = Recipe("train", {"settings": '{"max_iter": 10000}', "layout": "5"}, {"data/lists/a.txt": "ab" * 32})
 RECIPES = Recipes({"predictors/d/L4.h5": RECIPE, "tables/table1.csv": Recipe("report", {}, {})})
 
+# method §16: the rules' records, the deployment experiment's, the threshold file and what deploy writes
+CALIBRATION = Calibration("guaranteed", 0.9, 0.1, 1.25, 200, 90, 4)
+REALISED = Realised(300, 120, 10, 11 / 12, 110 / 300, 0.4, Interval(0.85, 0.97), Interval(0.3, 0.42))
+NOTHING_REALISED = Realised(300, 0, 0, None, 0.0, 0.0)
+SEGMENTS = Segments(100, 3, 2, 1)
+DEPLOYMENT_ROW = DeploymentRow("seqslam", "predictor", 0, "guaranteed", 0.9, 0.1, CALIBRATION, "test", REALISED,
+                               REALISED, 0.0, SEGMENTS, "held")
+DEPLOYMENT = DeploymentResult({"dataset": "d", "method": "sad", "seq_len": 4}, (DEPLOYMENT_ROW,),
+                              (RiskCoverage("seqslam", "uniqueness", (0.1, 1.0), (0.0, 0.2), (math.inf, 1.0),
+                                            (Chosen("empirical", 0.9, math.inf), Chosen("guaranteed", 0.95, None))),),
+                              ("seqslam: a note",))
+THRESHOLD_FILE = ThresholdFile("uniqueness", "sad", "seqslam (velocities [1.0])", 4, None, "guaranteed", 0.9, 0.1,
+                               1.25, "val", 200, 90, 4, "ab" * 32, "0.18.0", {"r_window": 10, "spread_k": 10}).seal()
+DEPLOYED = Deployed(np.array([True]), REALISED, "held", SEGMENTS)  # assert_same compares one-element arrays
+DEPLOYED_SPLIT = DeployedSplit(THRESHOLD_FILE, "test", 300, 120, True, REALISED, "held", SEGMENTS)
+
 SAMPLES = {
     "Recipe": RECIPE, "Recipes": RECIPES, "ThreadPool": POOL, "NumericEnvironment": ENVIRONMENT,
     "PRCurve": CURVE, "Reduction": REDUCTION, "RemovalCurves": CURVES, "TrustNumbers": TRUST, "ModeRemoval": MODE,
@@ -207,6 +227,11 @@ SAMPLES = {
     "MatcherScores": MATCHER_SCORES, "MatcherComparison": COMPARISON,
     "AdaptiveMode": ADAPTIVE_MODE, "AdaptiveRow": FIXED_ROW, "AdaptiveRow, rule": RULE_ROW, "AdaptiveResult": ADAPTIVE,
     "AdaptiveTiming": ADAPTIVE_TIMING, "AdaptiveTiming, refused": REFUSED_TIMING,
+    "Calibration": CALIBRATION, "Calibration, abstains": Calibration("empirical", 1.0, None, None, 5, 0, 0),
+    "Realised": REALISED, "Realised, nothing accepted": NOTHING_REALISED, "Segments": SEGMENTS,
+    "DeploymentRow": DEPLOYMENT_ROW, "DeploymentResult": DEPLOYMENT, "Chosen": DEPLOYMENT.curves[0].chosen[0],
+    "RiskCoverage": DEPLOYMENT.curves[0], "ThresholdFile": THRESHOLD_FILE, "Deployed": DEPLOYED,
+    "Deployed, unlabelled": Deployed(np.array([False])), "DeployedSplit": DEPLOYED_SPLIT,
 }
 
 

@@ -9,9 +9,9 @@ from vpr_smr.eval.report import experiments, html
 from vpr_smr.eval.report.sections import Declared, placed
 
 # the page's order before the experiments declared their sections in their modules (html.SECTIONS held them all)
-PAGE = ("baselines", "matchers", "deployment", "pr-curves", "trust-levels", "restoration", "sequence-length", "adaptive-seq-len",
-        "speed", "predictor", "table-ii", "leave-one-method-out", "timing", "vpr-metrics", "protocol-sweep",
-        "match-inspector")
+PAGE = ("baselines", "matchers", "deployment", "pr-curves", "trust-levels", "restoration", "sequence-length",
+        "adaptive-seq-len", "speed", "predictor", "table-ii", "leave-one-method-out", "timing", "vpr-metrics",
+        "protocol-sweep", "match-inspector")
 
 
 def _section(name: str, after: str = "") -> Declared:

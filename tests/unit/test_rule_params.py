@@ -92,14 +92,14 @@ def recorded(tmp_path: Path, monkeypatch) -> None:
 
 
 def test_an_installed_scorer_plugin_reruns_the_jobs_that_compute_every_scorer(tmp_path, monkeypatch) -> None:
-    """The baselines, metrics and queries jobs compute every registered scorer: installing a scorer plugin changes
-    their param ``scorers`` and no other job's; Snakemake plans them and what reads their files."""
+    """The baselines, metrics, queries and deployment jobs compute every registered scorer: installing a scorer
+    plugin changes their param ``scorers`` and no other job's; Snakemake plans them and what reads their files."""
     recorded(tmp_path, monkeypatch)
     plugin = SimpleNamespace(name="mine", load=lambda: None, dist=SimpleNamespace(version="1.2"))
     for where in ("vpr_smr.core.registry", "vpr_smr.eval.scoring.scorers"):  # the registry's, and the versions'
         monkeypatch.setattr(f"{where}.entry_points", lambda group: [plugin] if group == "vpr_smr.scorers" else [])
     planned, changed = snakemake_sees(tmp_path, tiny())
     assert changed == {"baselines/sample/sad/L3.json", "metrics/sample/sad/L3.json",
-                       "queries/sample/sad/L3.csv"}
+                       "queries/sample/sad/L3.csv", "deployment/sample/sad/L3.json"}
     # what reads their files: the match inspector (the per-query table) and the report
     assert planned == changed | {"figures/matches_sample_sad_L3.png", "tables/table1.csv"}

@@ -24,7 +24,7 @@ from vpr_smr.eval.report.tabulate import Inputs
 from vpr_smr.eval.scoring.deployment_records import PREDICTOR_SOURCE, DeploymentResult, DeploymentRow
 from vpr_smr.eval.scoring.records import Interval
 from vpr_smr.eval.scoring.scorers import ORACLE
-from vpr_smr.eval.scoring.thresholds import ABSTAINED, HELD, VIOLATED
+from vpr_smr.eval.scoring.thresholds import ABSTAINED, HELD, SAME_FRACTION, VIOLATED
 
 __all__ = ["FIGURES", "NAME", "TABLES", "DeploymentTableRow", "against_target", "deployment_rows", "headline",
            "target_sentences"]
@@ -61,7 +61,9 @@ class DeploymentTableRow:
     risk: float | None = column("risk delta", ".2f")
     calibration: str = column()
     n_calibration: int = column("calibration queries")
-    threshold: float | None = column("threshold t", ".6g")  # None: the rule abstains (accepts nothing)
+    # None: the rule abstains (accepts nothing), or same_fraction, which sets no threshold but a fraction of the
+    # deployment (calibration_accepted of n_calibration)
+    threshold: float | None = column("threshold t", ".6g")
     calibration_accepted: int = column("accepted on calibration")
     deployment: str = column()
     n_deployment: int = column("deployment queries")
@@ -86,7 +88,8 @@ class DeploymentTableRow:
         violated = sum(1 for r in seeds if r.outcome == VIOLATED)
         return cls(
             str(meta["dataset"]), int(meta["seq_len"]), str(meta["method"]), row.matcher, row.source, row.rule,
-            row.precision, row.risk, str(meta["calibration"]), row.calibration.n_queries, row.calibration.threshold,
+            row.precision, row.risk, str(meta["calibration"]), row.calibration.n_queries,
+            None if row.rule == SAME_FRACTION else row.calibration.threshold,
             row.calibration.accepted, row.deployment, realised.n_queries, realised.accepted_fraction,
             realised.precision, realised.precision_ci, realised.recall, realised.recall_ci, row.outcome,
             against_target(realised.precision_ci, row.precision), row.ceiling.recall,
