@@ -106,9 +106,9 @@ def test_sentences_of_one_deployment() -> None:
     assert said == [
         "Precision 0.9 (seqslam, thresholds set on val, deployed on the one deployment split test (one route; not "
         "evidence that a threshold holds elsewhere)): 2 of 4 source-rule pairs held on the one deployment split: "
-        "uniqueness/same_fraction (recall 0.190 of the ceiling's 0.270), oracle/empirical (recall 0.400 of the "
-        "ceiling's 0.400); 1 fell below p: predictor/empirical in 1 of 1 (1 below p beyond its interval); "
-        "1 abstained (accepted nothing): distance/guaranteed in 1 of 1.",
+        "uniqueness/same_fraction (recall 0.190 of the ceiling's 0.270; interval includes p in 1 of 1), "
+        "oracle/empirical (recall 0.400 of the ceiling's 0.400); 1 fell below p: predictor/empirical in 1 of 1 (1 "
+        "below p beyond its interval); 1 abstained (accepted nothing): distance/guaranteed in 1 of 1.",
         "Precision 0.95 (seqslam, thresholds set on val, deployed on the one deployment split test (one route; not "
         "evidence that a threshold holds elsewhere)): 1 of 2 source-rule pairs held on the one deployment split: "
         "oracle/empirical (recall 0.400 of the ceiling's 0.400); 1 fell below p: uniqueness/same_fraction in 1 of "
@@ -120,8 +120,8 @@ def test_sentences_of_one_deployment() -> None:
     assert table.headline(rows) == (
         "On nordland (seqslam, L = 4), thresholds set on val for precision 0.9: 1 of 3 source-rule pairs (the oracle "
         "aside) held on the one deployment split; the highest recall: uniqueness/same_fraction (recall 0.190 of the "
-        "ceiling's 0.270); the predictor's thresholds held in 0, fell below p in 1 and abstained in 0 of its 1 "
-        "rule-deployment cell.")
+        "ceiling's 0.270; interval includes p in 1 of 1); the predictor's thresholds held in 0, fell below p in 1 "
+        "and abstained in 0 of its 1 rule-deployment cell.")
 
 
 def test_sentences_count_deployments() -> None:
@@ -137,8 +137,10 @@ def test_sentences_count_deployments() -> None:
     assert held == [("predictor", EMPIRICAL)]
     recall = sum(r.recall for r in cells_of["predictor", EMPIRICAL]) / 4
     assert recall == pytest.approx((46 + 57 + 63 + 30) / 400)
+    # held as points only: the hand-built rows carry no intervals
+    assert all(r.against_target == "no_interval" for r in cells_of["predictor", EMPIRICAL])
     assert (f"1 of 3 source-rule pairs held on 2 of 2 deployments of every method: predictor/empirical (mean recall "
-            f"{recall:.3f} of the ceiling's 0.720)") in said
+            f"{recall:.3f} of the ceiling's 0.720; no interval in 4 of 4)") in said
     # distance/empirical: 3 of 4 cells below 0.9: once beyond the interval, once with it holding 0.9, once without
     assert ("1 fell below p: distance/empirical in 3 of 4 (1 below p beyond its interval; 1 below p, interval "
             "includes p; 1 without an interval)") in said
@@ -147,7 +149,8 @@ def test_sentences_count_deployments() -> None:
     assert numbers == [len(held)]
     assert table.headline(rows).endswith(
         f"1 of 3 source-rule pairs (the oracle aside) held on 2 of 2 deployments of every method; the highest recall: "
-        f"predictor/empirical (mean recall {recall:.3f} of the ceiling's 0.720); the predictor's thresholds held in "
+        f"predictor/empirical (mean recall {recall:.3f} of the ceiling's 0.720; no interval in 4 of 4); the "
+        "predictor's thresholds held in "
         "4, fell below p in 0 and abstained in 0 of its 4 rule-deployment cells.")
 
 
@@ -226,7 +229,7 @@ def test_sentences_agree_with_demo_like_rows(seed: int) -> None:
         assert f"{len(held)} of {len(pairs)} source-rule pairs held on the one deployment split of every method" \
             in sentence
         for source, rule, mean, recall, ceiling in re.findall(
-                r"(\w+)/(\w+) \((mean )?recall ([\d.]+) of the ceiling's ([\d.]+)\)", sentence):
+                r"(\w+)/(\w+) \((mean )?recall ([\d.]+) of the ceiling's ([\d.]+)[;)]", sentence):
             found = pairs[source, rule]
             assert (source, rule) in held and mean == "mean "
             assert recall == f"{sum(r.recall for r in found) / 3:.3f}"

@@ -159,10 +159,16 @@ def _first(pairs: dict[tuple[str, str], list[DeploymentTableRow]], outcome: str)
 
 
 def _recall(found: Sequence[DeploymentTableRow]) -> str:
-    """The recall against the ceiling's: of the one cell, or the mean over the cells."""
+    """The recall against the ceiling's: of the one cell, or the mean over the cells; and where a cell's precision
+    held only as a point (its interval includes p, or it has none), how often: held is what the split realised, not
+    what the route would give on other queries."""
     mean = "" if len(found) == 1 else "mean "
+    holds = sum(1 for r in found if r.outcome == HELD and r.against_target == HOLDS)
+    none = sum(1 for r in found if r.outcome == HELD and r.against_target == NO_INTERVAL)
+    words = ([f"interval includes p in {holds} of {len(found)}"] if holds else []) + (
+        [f"no interval in {none} of {len(found)}"] if none else [])
     return (f"{mean}recall {_mean([r.recall for r in found]):.3f} of the ceiling's "
-            f"{_mean([r.ceiling_recall for r in found]):.3f}")
+            f"{_mean([r.ceiling_recall for r in found]):.3f}" + "".join(f"; {w}" for w in words))
 
 
 def _named(items: Sequence[str]) -> str:
