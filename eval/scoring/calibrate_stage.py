@@ -395,6 +395,15 @@ def calibrate_text(job: CalibrateJob, result: Calibrated) -> str:
     return "\n".join(lines)
 
 
+def _against(interval: Any, target: float) -> str:
+    """What the precision's interval over the split's queries says of the target, beside the outcome (which is the
+    split's own precision against it)."""
+    if interval is None:
+        return ""
+    where = ("lies above" if interval.low >= target else "lies below" if interval.high < target else "includes")
+    return f" (its interval {where} {target:g})"
+
+
 def _numbers(what: str, numbers: Realised) -> str:
     def shown(value: float | None, interval: Any) -> str:
         if value is None:
@@ -458,7 +467,8 @@ def deploy_text(job: DeployJob, result: DeployedSplit) -> str:
         lines.append(f"split {result.split} has no labels: the accepted matches only (no precision to compare)")
         return "\n".join(lines)
     lines.append(_numbers("realised", result.realised))
-    lines.append(f"target precision {file.precision:g}: {result.outcome}")
+    lines.append(f"target precision {file.precision:g}: {result.outcome}"
+                 + _against(result.realised.precision_ci, file.precision))
     if result.segments is not None:
         seg = result.segments
         lines.append(f"segments of {seg.size} queries: {seg.n_segments}, of which {seg.with_acceptance} accept a "
