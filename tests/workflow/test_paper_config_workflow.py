@@ -57,14 +57,15 @@ def test_dry_run_plans_every_job(tmp_path):
     # standard VPR metrics, the per-query CSV and the match inspector of each method at the table's L; the speed
     # experiment per dataset and profile (6 profiles); the matchers experiment per dataset and method, and each built-in
     # matcher
-    # but the run's (seqslam) with its own attributes of every method and split and its own predictor per dataset
+    # but the run's (seqslam) with its own attributes of every method and split and its own predictor per dataset; the
+    # deployment experiment per dataset and method (deployed on the other datasets' test splits too)
     others = len(conf["matchers"]) - 1
     assert counts == {"all": "1", "descriptors": "21", "distances": "63", "attributes": "63", "train": "3",
                       "evaluate": "21", "attribute_ablation": "3", "predictor_without": "21", "held_out": "21",
                       "vpr_metrics": "21", "queries": "21", "inspect": "21", "speed": "18", "report": "1",
-                      "baselines": "21", "matchers": "21",
+                      "baselines": "21", "matchers": "21", "deployment": "21",
                       **({"matcher_attributes": str(63 * others), "matcher_train": str(3 * others)} if others else {}),
-                      "total": str(341 + 66 * others)}
+                      "total": str(362 + 66 * others)}
     for dataset in ("nordland", "robotcar", "sfu_mountain"):
         for method in METHODS:
             assert f"descriptors/{dataset}/{method}.h5" in result.stdout
