@@ -125,6 +125,12 @@ def speed(profiles=PROFILES, seq_len=3):
     return {("speed", f"speed/sample/L{seq_len}/{p}.json") for p in profiles}
 
 
+def deployment(methods=METHODS, seq_len=3):
+    """The experiment deployment of each method at the table's L (method §16): its attributes and distances of the
+    calibration and deployment splits, every predictor seed, the scorers' and its own settings."""
+    return {("deployment", f"deployment/sample/{m}/L{seq_len}.json") for m in methods}
+
+
 def adaptive(methods=METHODS):
     """The experiment adaptive_seq_len of each method (two or more seq_lens; the run's matcher, seqslam)."""
     return {("adaptive", f"adaptive/sample/seqslam/{m}.json") for m in methods}
@@ -172,7 +178,8 @@ def table1(folder):
 # Everything downstream of the pooled predictor of L = 3: every method's evaluation, baselines (every seed's budget),
 # held-out test, VPR metrics (the seed-0 predictor's matcher), per-query CSV (its decisions) and match inspector
 # (which reads that CSV)
-PREDICTOR_ON = train() | evaluate() | baselines() | held_out() | metrics() | queries() | inspect() | REPORT
+PREDICTOR_ON = (train() | evaluate() | baselines() | held_out() | metrics() | queries() | inspect() | deployment()
+                | REPORT)
 ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | without() | PREDICTOR_ON | speed()
 
 
@@ -198,7 +205,8 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
     pytest.param(lambda c: c.update(seq_lens=[3, 4]),
                  attributes(seq_len=4) | train(4) | evaluate(seq_len=4) | baselines(seq_len=4) | attribute_ablation(4)
                  | without(seq_len=4) | held_out(seq_len=4) | metrics(seq_len=4) | queries(seq_len=4)
-                 | inspect(seq_len=4) | speed(seq_len=4) | adaptive() | REPORT, id="seq-lens"),
+                 | inspect(seq_len=4) | speed(seq_len=4) | adaptive() | deployment(seq_len=4) | REPORT,
+                 id="seq-lens"),
     pytest.param(lambda c: c["predictor"].update(max_iter=61),
                  attribute_ablation() | without() | PREDICTOR_ON | speed(), id="predictor"),
     pytest.param(lambda c: c.update(seeds=3), PREDICTOR_ON, id="seeds"),
@@ -209,7 +217,11 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
     pytest.param(lambda c: c["experiments"].update(restoration=False), evaluate() | REPORT, id="restoration-off"),
     pytest.param(lambda c: c["experiments"].update(attribute_ablation=False), REPORT, id="table2-off"),
     # the inspector draws the table split; the metrics and the per-query CSV cover every evaluated split
+    # the deployment experiment calibrates on val and deploys on test either way: it stays as it is
     pytest.param(lambda c: c.update(table_split="val"), held_out() | inspect() | speed() | REPORT, id="table-split"),
+    # the deployment experiment's own settings (method §16): its jobs and the report
+    pytest.param(lambda c: c.update(deployment={"risk": 0.2}), deployment() | REPORT, id="deployment-risk"),
+    pytest.param(lambda c: c["experiments"].update(deployment=False), REPORT, id="deployment-off"),
     # the speed experiment's own settings: its jobs (a new profile: that one's) and the report
     pytest.param(lambda c: c["speed"].update(velocities=[1.0, 2.0]), speed() | REPORT, id="speed-velocities"),
     pytest.param(lambda c: c["speed"].update(profiles=[0.5, 1.5, "varying"]), speed(["1.5x"]) | REPORT,
@@ -227,7 +239,7 @@ ALL_BUT_DESCRIPTORS = distances() | attributes() | attribute_ablation() | withou
     # when the candidates they keep change in number: spread_k 12 keeps max(2 * 5 + 2, 12) = 12 as before,
     # r_window 14 needs 2 * 7 + 2 = 16
     pytest.param(lambda c: c.update(baselines={"spread_k": 12}), baselines() | metrics() | queries() | inspect()
-                 | REPORT, id="baselines-spread-k"),
+                 | deployment() | REPORT, id="baselines-spread-k"),
     pytest.param(lambda c: c.update(baselines={"r_window": 14}),
                  attributes() | attribute_ablation() | without() | PREDICTOR_ON, id="baselines-r-window"),
 ])
@@ -256,7 +268,7 @@ def test_command_line_override_reaches_the_jobs(copy):
     assert result.returncode == 0, result.stderr[-3000:]
     rules = set(re.findall(r"^rule (\w+):", result.stdout, flags=re.MULTILINE)) - {"all"}
     assert rules == {"train", "evaluate", "baselines", "attribute_ablation", "predictor_without", "held_out",
-                     "vpr_metrics", "queries", "inspect", "speed", "report"}
+                     "vpr_metrics", "queries", "inspect", "speed", "deployment", "report"}
 
 
 def test_tables_change_where_they_should(copy):
@@ -327,6 +339,14 @@ def as_0_16_left_it(folder):
     path = folder / "results" / "r" / "recipes.json"
     recorded = json.loads(path.read_text())
     recorded["format"] = earlier
+    # 0.16.0 had no deployment experiment: its files, recipes and Snakemake records are not there
+    for output in [o for o in recorded["outputs"] if o.startswith("{run}/deployment/")]:
+        del recorded["outputs"][output]
+        made = output.replace("{run}", "results/r")
+        (folder / made).unlink()
+        for record in (folder / ".snakemake" / "metadata").iterdir():
+            if base64.b64decode(record.name).decode() == made:
+                record.unlink()
     laid_out = set()
     for output, recipe in recorded["outputs"].items():
         if "layout" in recipe["params"]:

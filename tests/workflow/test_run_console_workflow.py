@@ -29,7 +29,7 @@ def config(output, root, methods=METHODS):
         "seq_lens": [3],
         "seeds": 1,
         "experiments": {"trust_levels": False, "restoration": False, "attribute_ablation": False,
-                        "leave_one_method_out": False, "speed": False, "matchers": False},
+                        "leave_one_method_out": False, "speed": False, "matchers": False, "deployment": False},
         "datasets": {"d": {"loader": "folders", "reference": str(root / "ref"), "query": str(root / "qry"),
                            "frames": [20, 140], "splits": {"train": [0, 50], "val": [50, 80], "test": [80, 120]}}},
         "methods": {name: {"backend": name} for name in methods},

@@ -72,7 +72,7 @@ def run(tmp_path_factory):
 
 TABLES = ["table1", "predictor_methods", "predictor_confusion", "trust_levels", "restoration", "timing",
           "ablation_seq_len", "vpr_metrics", "predictor", "table2", "leave_one_method_out", "datasets", "speed",
-          "baselines", "wrong_match_detection", "protocol_sweep", "adaptive_seq_len"]
+          "baselines", "wrong_match_detection", "protocol_sweep", "adaptive_seq_len", "deployment"]
 METHODS = ("sad", "hog", "effnet")
 
 
@@ -92,9 +92,9 @@ def test_every_table_and_figure(run):
     assert sorted(p.name for p in (out / "figures").iterdir()) == sorted(
         [*per_mode, "confusion_sample_L4.png", "seq_len_sample_paper.png", "seq_len_sample_standard.png",
          "speed_sample_L4.png", "detection_sample_L4.png", "adaptive_sample_paper.png",
-         "adaptive_sample_standard.png", *inspector])
+         "adaptive_sample_standard.png", "deployment_sample_L4.png", *inspector])
     html = (out / "report.html").read_text()  # the report's figures and the match inspector's, each once
-    assert html.count("<img") == 19 + len(inspector) and "http://" not in html and "https://" not in html
+    assert html.count("<img") == 20 + len(inspector) and "http://" not in html and "https://" not in html
 
 
 def test_table1_has_the_seed_spread(run):
