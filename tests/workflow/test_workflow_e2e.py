@@ -104,7 +104,8 @@ def test_table1_has_the_seed_spread(run):
     assert list(rows[0]) == ["dataset", "method", "seq_len", "mode", "recall_at_1_single", "recall_at_1_sequence",
                              "max_recall", "aoc_vpr_sm", "aoc_vpr_sm_ci_low", "aoc_vpr_sm_ci_high", "aoc_vpr_sm_pred",
                              "aoc_vpr_sm_pred_ci_low", "aoc_vpr_sm_pred_ci_high", "reduction_pct",
-                             "reduction_pct_ci_low", "reduction_pct_ci_high", "reduction_pct_mean",
+                             "reduction_pct_ci_low", "reduction_pct_ci_high", "aoc_difference_ci_low",
+                             "aoc_difference_ci_high", "reduction_pct_mean",
                              "reduction_pct_std", "reduction_pct_min", "reduction_pct_max", "n_seeds", "n_queries",
                              "n_queries_single", "n_seeds_defined", "outcome", "removed", "max_recall_vpr_sm",
                              "aoc_vpr_sm_own", "seeds_left_out", "correct_matches"]
