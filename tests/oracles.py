@@ -341,3 +341,50 @@ def naive_oracle_removed(distances, correct, budget):
     all of them."""
     wrong = [n for n in range(len(correct)) if not correct[n]]
     return set(sorted(wrong, key=lambda n: (distances[n], n))[:budget])
+
+
+# --- the threshold rules of method §16: counts by loops, SciPy's beta quantile per step of the search ---------
+
+
+def naive_counts(conf: list[float], correct: list[bool], t: float | None) -> tuple[int, int]:
+    n = k = 0
+    for c, y in zip(conf, correct, strict=True):
+        if t is not None and c >= t:
+            n += 1
+            k += not y
+    return n, k
+
+
+def naive_empirical(conf: list[float], correct: list[bool], p: float) -> float | None:
+    for t in sorted(set(conf)):  # ascending: the first that reaches p is the smallest
+        n, k = naive_counts(conf, correct, t)
+        if n and (n - k) / n >= p:
+            return t
+    return None
+
+
+def naive_guaranteed(conf: list[float], correct: list[bool], p: float, delta: float) -> float | None:
+    ordered = sorted(conf, reverse=True)
+    m = len(ordered)
+    if not m:
+        return None
+    n_steps = max(1, math.ceil(math.log2(m)))
+    lo, hi, kept = 0, m, None
+    for _ in range(n_steps):
+        if hi <= lo:
+            break
+        z = math.ceil((lo + hi) / 2)
+        t = ordered[z - 1]
+        n, k = naive_counts(conf, correct, t)
+        bound = 1.0 if k == n else _beta_ppf(1 - delta / n_steps, k + 1, n - k)
+        if bound <= 1 - p:
+            kept, lo = t, z
+        else:
+            hi = z
+    return kept
+
+
+def _beta_ppf(q: float, a: float, b: float) -> float:
+    from scipy.stats import beta  # here: the other oracles need no SciPy statistics
+
+    return float(beta.ppf(q, a, b))

@@ -6,11 +6,10 @@ from __future__ import annotations
 import csv
 import hashlib
 import json
-import math
 
 import numpy as np
 import pytest
-from scipy.stats import beta
+from oracles import naive_empirical, naive_guaranteed
 
 from vpr_smr import api
 from vpr_smr.eval.scoring.queries import QUERY_COLUMNS, score_columns
@@ -20,37 +19,6 @@ from vpr_smr.pipeline.cli import main
 MATCHER = "seqslam (velocities [1.0])"
 
 NAMED = ("--method", "sad", "--seq-len", "4")  # what every threshold file must say (deploy and live compare them)
-
-
-def naive_empirical(c, y, p):
-    """The smallest distinct confidence whose accepted set reaches precision p, by a loop; None if none."""
-    for t in sorted(set(c)):
-        n = sum(1 for v in c if v >= t)
-        right = sum(1 for v, ok in zip(c, y, strict=True) if v >= t and ok)
-        if right / n >= p:
-            return t
-    return None
-
-
-def naive_guaranteed(c, y, p, delta):
-    """The method's binary search written out, n and k counted by loops, SciPy's beta quantile per step."""
-    m = len(c)
-    order = sorted(c, reverse=True)
-    steps = max(1, math.ceil(math.log2(m))) if m > 1 else 1
-    lo, hi, kept = 0, m, None
-    for _ in range(steps):
-        if hi <= lo:
-            break
-        z = math.ceil((lo + hi) / 2)
-        t = order[z - 1]
-        n = sum(1 for v in c if v >= t)
-        k = sum(1 for v, ok in zip(c, y, strict=True) if v >= t and not ok)
-        b = 1.0 if k == n else beta.ppf(1 - delta / steps, k + 1, n - k)
-        if b <= 1 - p:
-            kept, lo = t, z
-        else:
-            hi = z
-    return kept
 
 
 def split_data(n, seed, quality):

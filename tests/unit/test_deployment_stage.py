@@ -4,14 +4,13 @@ of bad inputs (before anything is written); and the configuration's check of ``d
 
 from __future__ import annotations
 
-import math
 import textwrap
 from dataclasses import replace
 
 import numpy as np
 import pytest
 from helpers import seqslam, write_distance_matrix
-from scipy.stats import beta
+from oracles import naive_empirical, naive_guaranteed
 
 from vpr_smr.core.records import load
 from vpr_smr.eval.matching.attributes import read_features
@@ -56,37 +55,6 @@ def job_of(files, predictor_file, deployments=(("d", "test"),), precisions=(0.9,
         (DeployedMatcher("seqslam", seqslam(), attributes, (str(predictor_file), str(predictor_file))),))
     return DeploymentJob("d", "m", 3, inputs, tuple(precisions), 0.1, 10, BaselineSettings(6, 5), False,
                          str(folder / out))
-
-
-def naive_empirical(c, y, p):
-    """The smallest distinct confidence whose accepted set reaches precision p, by a loop; None if none."""
-    for t in sorted(set(c)):
-        n = sum(1 for v in c if v >= t)
-        right = sum(1 for v, ok in zip(c, y, strict=True) if v >= t and ok)
-        if right / n >= p:
-            return t
-    return None
-
-
-def naive_guaranteed(c, y, p, delta):
-    """The method's binary search written out, n and k counted by loops, SciPy's beta quantile per step."""
-    m = len(c)
-    order = sorted(c, reverse=True)
-    steps = max(1, math.ceil(math.log2(m)))
-    lo, hi, kept = 0, m, None
-    for _ in range(steps):
-        if hi <= lo:
-            break
-        z = math.ceil((lo + hi) / 2)
-        t = order[z - 1]
-        n = sum(1 for v in c if v >= t)
-        k = sum(1 for v, ok in zip(c, y, strict=True) if v >= t and not ok)
-        b = 1.0 if k == n else beta.ppf(1 - delta / steps, k + 1, n - k)
-        if b <= 1 - p:
-            kept, lo = t, z
-        else:
-            hi = z
-    return kept
 
 
 def naive_smallest(p, delta):
